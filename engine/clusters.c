@@ -1,0 +1,351 @@
+/* Particle-cluster statistics: union-find over a periodic cell grid, O(N) per call. */
+#include "clusters.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/*
+ * Method
+ * - Wrap every coordinate into [0, L), counting-sort the particles into a
+ *   grid of cells whose edge is at least the cutoff 2*radius + delta, and
+ *   keep the wrapped positions in cell order (neighbour scans then read
+ *   memory sequentially).
+ * - Test each pair in the same or in neighbouring cells once, joining the
+ *   two in a union-find (path halving, union by size) over the sorted slots.
+ * - Neighbour cells: per axis the distinct offsets among {-1, 0, +1} modulo
+ *   the number of cells m ({0} for m = 1, {0, 1} for m = 2), so that tiny
+ *   grids visit no cell pair twice; a pair of distinct cells is tested from
+ *   its lower index only.
+ * - The number of cells is capped at CELLS_PER_PARTICLE * N (+ a few): a
+ *   huge dilute box gets larger cells instead of O(volume) memory.
+ *
+ * Cutoff above half a box edge: the grid then has one cell on that axis,
+ * all pairs are tested, and the distance is that of the minimum image. A
+ * particle within the cutoff of two images of another still makes one
+ * bond, and a cluster joined to its own image is not told apart; such
+ * boxes are too small for cluster statistics to mean much anyway.
+ */
+
+#define CELLS_PER_PARTICLE 3
+#define CELLS_MIN 27
+#define NO_LABEL UINT32_MAX
+
+struct clusters {
+	int dim;
+	size_t n;
+	int valid;            /* labels belong to a successful compute */
+	double *spos;         /* n*dim wrapped positions in slot (cell) order */
+	uint32_t *cell_of;    /* particle -> cell; later root slot -> label */
+	uint32_t *slot_of;    /* particle -> slot */
+	uint32_t *parent;     /* union-find over slots */
+	uint32_t *size;       /* cluster size, valid at roots */
+	uint32_t *label;      /* particle -> label */
+	uint32_t *cell_start; /* cell_cap + 1 entries */
+	size_t cell_cap;
+};
+
+clusters_t *clusters_create(int dim, size_t n)
+{
+	if ((dim != 2 && dim != 3) || n >= NO_LABEL)
+		return NULL;
+	clusters_t *c = calloc(1, sizeof(*c));
+	if (c == NULL)
+		return NULL;
+	c->dim = dim;
+	c->n = n;
+	size_t m = n ? n : 1; /* malloc(0) may return NULL */
+	c->spos = malloc(m * dim * sizeof(double));
+	c->cell_of = malloc(m * sizeof(uint32_t));
+	c->slot_of = malloc(m * sizeof(uint32_t));
+	c->parent = malloc(m * sizeof(uint32_t));
+	c->size = malloc(m * sizeof(uint32_t));
+	c->label = malloc(m * sizeof(uint32_t));
+	/* Dense packings need about one cell per particle; more is grown. */
+	c->cell_cap = n + CELLS_MIN;
+	c->cell_start = malloc((c->cell_cap + 1) * sizeof(uint32_t));
+	if (!c->spos || !c->cell_of || !c->slot_of || !c->parent || !c->size ||
+	    !c->label || !c->cell_start) {
+		clusters_destroy(c);
+		return NULL;
+	}
+	return c;
+}
+
+void clusters_destroy(clusters_t *c)
+{
+	if (c == NULL)
+		return;
+	free(c->spos);
+	free(c->cell_of);
+	free(c->slot_of);
+	free(c->parent);
+	free(c->size);
+	free(c->label);
+	free(c->cell_start);
+	free(c);
+}
+
+/* Into [0, L). x - L*floor(x/L) can round up to L itself: that is 0. */
+static inline double wrap(double x, double L)
+{
+	if (x >= 0.0 && x < L)
+		return x;
+	x -= L * floor(x / L);
+	return (x >= 0.0 && x < L) ? x : 0.0;
+}
+
+/* Minimum-image component of a difference of two wrapped coordinates. */
+static inline double min_image(double d, double L)
+{
+	if (d > 0.5 * L)
+		return d - L;
+	if (d < -0.5 * L)
+		return d + L;
+	return d;
+}
+
+static inline uint32_t find(uint32_t *parent, uint32_t x)
+{
+	while (parent[x] != x) {
+		parent[x] = parent[parent[x]];
+		x = parent[x];
+	}
+	return x;
+}
+
+static inline void unite(clusters_t *c, uint32_t a, uint32_t b)
+{
+	a = find(c->parent, a);
+	b = find(c->parent, b);
+	if (a == b)
+		return;
+	if (c->size[a] < c->size[b]) {
+		uint32_t t = a;
+		a = b;
+		b = t;
+	}
+	c->parent[b] = a;
+	c->size[a] += c->size[b];
+}
+
+/* Cells per axis: edge >= cutoff, at most cap cells in all. */
+static void grid_shape(int dim, const double *box, double cutoff, double cap,
+                       size_t m[3])
+{
+	double md[3] = { 1.0, 1.0, 1.0 };
+	for (int a = 0; a < dim; a++) {
+		/* The margin keeps the edge strictly above the cutoff, so that a
+		 * rounded cell index never puts a bonded pair two cells apart. */
+		double q = floor(box[a] / cutoff * (1.0 - 1e-9));
+		md[a] = q < 1.0 ? 1.0 : (q > cap ? cap : q);
+	}
+	/* Too many cells: shrink the axes that still have more than one cell
+	 * by a common factor; an axis pinned at 1 drops out, so at most dim
+	 * rounds are needed. */
+	for (int round = 0; round < dim; round++) {
+		double prod = md[0] * md[1] * md[2];
+		if (prod <= cap)
+			break;
+		int k = 0;
+		for (int a = 0; a < dim; a++)
+			k += md[a] > 1.0;
+		double f = pow(prod / cap, 1.0 / k) * (1.0 + 1e-12);
+		for (int a = 0; a < dim; a++)
+			if (md[a] > 1.0)
+				md[a] = fmax(1.0, floor(md[a] / f));
+	}
+	if (md[0] * md[1] * md[2] > cap)
+		md[0] = md[1] = md[2] = 1.0;
+	for (int a = 0; a < 3; a++)
+		m[a] = (size_t)md[a];
+}
+
+/* Distinct neighbour offsets of one axis with m cells; returns their count. */
+static int axis_offsets(size_t m, int off[3])
+{
+	off[0] = 0;
+	if (m == 1)
+		return 1;
+	off[1] = 1;
+	if (m == 2)
+		return 2; /* -1 and +1 are the same cell */
+	off[2] = -1;
+	return 3;
+}
+
+/* Test all pairs between slots [a0, a1) and [b0, b1) (same cell: a0 == b0). */
+static void scan_pair(clusters_t *c, const double *box, double cut2,
+                      uint32_t a0, uint32_t a1, uint32_t b0, uint32_t b1)
+{
+	const int dim = c->dim;
+	const double *p = c->spos;
+	for (uint32_t i = a0; i < a1; i++) {
+		const double *pi = p + (size_t)i * dim;
+		for (uint32_t j = (a0 == b0 ? i + 1 : b0); j < b1; j++) {
+			const double *pj = p + (size_t)j * dim;
+			double dx = min_image(pi[0] - pj[0], box[0]);
+			double dy = min_image(pi[1] - pj[1], box[1]);
+			double r2 = dx * dx + dy * dy;
+			if (dim == 3) {
+				double dz = min_image(pi[2] - pj[2], box[2]);
+				r2 += dz * dz;
+			}
+			if (r2 < cut2)
+				unite(c, i, j);
+		}
+	}
+}
+
+static void fill_stats(clusters_t *c, clusters_stats_t *out)
+{
+	memset(out, 0, sizeof(*out));
+	out->n_particles = c->n;
+	uint64_t sum2 = 0; /* exact: sum s^2 <= N^2 < 2^64 */
+	for (size_t s = 0; s < c->n; s++) {
+		if (c->parent[s] != s)
+			continue;
+		uint64_t sz = c->size[s];
+		out->n_clusters++;
+		if (sz > out->largest)
+			out->largest = sz;
+		sum2 += sz * sz;
+		int k = 0;
+		while ((sz >> (k + 1)) != 0)
+			k++;
+		out->hist[k]++;
+		if (k + 1 > out->n_bins)
+			out->n_bins = k + 1;
+	}
+	if (out->n_clusters == 0)
+		return;
+	double nc = (double)out->n_clusters;
+	out->largest_fraction = (double)out->largest / (double)c->n;
+	out->mean_size = (double)c->n / nc;
+	out->m2 = (double)sum2 / nc;
+	out->m2_reduced = (double)(sum2 - out->largest * out->largest) / nc;
+}
+
+int clusters_compute(clusters_t *c, const double *pos, const double *box,
+                     double radius, double delta, clusters_stats_t *out)
+{
+	if (c == NULL || pos == NULL || box == NULL || out == NULL)
+		return -1;
+	c->valid = 0;
+	const int dim = c->dim;
+	const size_t n = c->n;
+	double cutoff = 2.0 * radius + delta;
+	if (!(radius >= 0.0) || !isfinite(cutoff) || !(cutoff > 0.0))
+		return -1;
+	double L[3] = { 1.0, 1.0, 1.0 };
+	for (int a = 0; a < dim; a++) {
+		if (!isfinite(box[a]) || !(box[a] > 0.0))
+			return -1;
+		L[a] = box[a];
+	}
+	for (size_t k = 0; k < n * dim; k++)
+		if (!isfinite(pos[k]))
+			return -1;
+
+	/* Cell ids are uint32_t. */
+	double cap = fmin((double)CELLS_PER_PARTICLE * n + CELLS_MIN, (double)NO_LABEL - 1);
+	size_t m[3];
+	grid_shape(dim, L, cutoff, cap, m);
+	size_t ncells = m[0] * m[1] * m[2];
+	if (ncells > c->cell_cap) {
+		uint32_t *cs = realloc(c->cell_start, (ncells + 1) * sizeof(uint32_t));
+		if (cs == NULL)
+			return -2;
+		c->cell_start = cs;
+		c->cell_cap = ncells;
+	}
+	uint32_t *start = c->cell_start;
+	double inv[3];
+	for (int a = 0; a < 3; a++)
+		inv[a] = (double)m[a] / L[a];
+
+	/* Counting sort by cell: count, exclusive prefix sum, place (which
+	 * advances start[] to each cell's end), shift back. */
+	memset(start, 0, (ncells + 1) * sizeof(uint32_t));
+	for (size_t i = 0; i < n; i++) {
+		size_t idx = 0;
+		for (int a = dim - 1; a >= 0; a--) {
+			size_t ci = (size_t)(wrap(pos[i * dim + a], L[a]) * inv[a]);
+			if (ci >= m[a])
+				ci = m[a] - 1;
+			idx = idx * m[a] + ci;
+		}
+		c->cell_of[i] = (uint32_t)idx;
+		start[idx]++;
+	}
+	uint32_t acc = 0;
+	for (size_t k = 0; k < ncells; k++) {
+		uint32_t cnt = start[k];
+		start[k] = acc;
+		acc += cnt;
+	}
+	for (size_t i = 0; i < n; i++) {
+		uint32_t s = start[c->cell_of[i]]++;
+		c->slot_of[i] = s;
+		for (int a = 0; a < dim; a++)
+			c->spos[(size_t)s * dim + a] = wrap(pos[i * dim + a], L[a]);
+	}
+	memmove(start + 1, start, ncells * sizeof(uint32_t));
+	start[0] = 0;
+
+	for (size_t s = 0; s < n; s++) {
+		c->parent[s] = (uint32_t)s;
+		c->size[s] = 1;
+	}
+
+	int off[3][3], noff[3];
+	for (int a = 0; a < 3; a++)
+		noff[a] = axis_offsets(m[a], off[a]);
+	const double cut2 = cutoff * cutoff;
+	size_t idx = 0;
+	for (size_t z = 0; z < m[2]; z++)
+	for (size_t y = 0; y < m[1]; y++)
+	for (size_t x = 0; x < m[0]; x++, idx++) {
+		uint32_t a0 = start[idx], a1 = start[idx + 1];
+		if (a0 == a1)
+			continue;
+		for (int oz = 0; oz < noff[2]; oz++)
+		for (int oy = 0; oy < noff[1]; oy++)
+		for (int ox = 0; ox < noff[0]; ox++) {
+			/* (x + m + o) % m: o in {-1, 0, 1}. */
+			size_t nx = (x + m[0] + off[0][ox]) % m[0];
+			size_t ny = (y + m[1] + off[1][oy]) % m[1];
+			size_t nz = (z + m[2] + off[2][oz]) % m[2];
+			size_t nb = (nz * m[1] + ny) * m[0] + nx;
+			if (nb < idx)
+				continue; /* visited from the other cell */
+			uint32_t b0 = start[nb], b1 = start[nb + 1];
+			if (b0 != b1)
+				scan_pair(c, L, cut2, a0, a1, b0, b1);
+		}
+	}
+
+	/* Labels in order of first particle; cell_of is free now and maps
+	 * a root slot to its label. */
+	uint32_t *root_label = c->cell_of;
+	for (size_t s = 0; s < n; s++)
+		root_label[s] = NO_LABEL;
+	uint32_t next = 0;
+	for (size_t i = 0; i < n; i++) {
+		uint32_t r = find(c->parent, c->slot_of[i]);
+		if (root_label[r] == NO_LABEL)
+			root_label[r] = next++;
+		c->label[i] = root_label[r];
+	}
+	fill_stats(c, out);
+	c->valid = 1;
+	return 0;
+}
+
+/* UINT32_MAX when i is out of range or the last compute failed. */
+uint32_t clusters_label(const clusters_t *c, size_t i)
+{
+	if (c == NULL || !c->valid || i >= c->n)
+		return NO_LABEL;
+	return c->label[i];
+}

@@ -1,0 +1,775 @@
+/* Event-driven hard-sphere dynamics: setup, event queue, clock and the dimension dispatch. */
+#include <math.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ed.h"
+#include "rng.h"
+
+/* Hot particle record: everything a neighbour scan touches, one cache line
+ * in 3D. Position r is valid at the particle's own time t (lazy update). */
+typedef struct { double r[2], v[2], t; int32_t next; uint32_t count; } p2_t;
+typedef struct { double r[3], v[3], t; int32_t next; uint32_t count; } p3_t;
+
+/* Cold per-particle event data: the next collision (partner and the
+ * partner's collision counter at prediction time, for lazy invalidation)
+ * and the next cell crossing; the particle's event is the earlier one. */
+typedef struct {
+	double t_coll, t_cross;
+	int32_t partner;   /* -1: no collision predicted */
+	uint32_t pcount;
+	int32_t cross;     /* 2*axis + (direction > 0) */
+	int32_t cc[3];     /* cell coordinates */
+} ev_t;
+
+typedef struct { double t; uint32_t i; } hent_t;
+
+struct ed {
+	int dim;
+	uint32_t n;
+	double L[3], halfL[3];
+	double sigma, sigma2, mass, e, tc;
+	int32_t nc[3];
+	double cw[3];
+	int no[3], off[3][3];     /* neighbour-cell offsets per axis (deduplicated when nc < 3) */
+	int minimg;               /* some axis has < 3 cells: neighbour images need minimum image */
+	size_t ncells;
+	int32_t *head;            /* first particle of each cell, -1 if empty */
+	/* Neighbour-list mode (dense systems): each particle lists the particles
+	 * whose build positions xn lie within nl_r of its own; a particle is
+	 * rebuilt when it drifts nl_d from xn, so a pair not listed stays apart
+	 * (nl_r - 2 nl_d >= sigma). Lists are symmetric. Cells then hold
+	 * particles by build position and there are no crossing events; ev.t_cross
+	 * is the rebuild time. */
+	int nl, nl_over;          /* mode on; some list overflowed (leave the mode) */
+	uint32_t nlk;             /* list capacity */
+	double nl_r2, nl_d2;
+	double *xn;               /* build positions, n*dim */
+	int32_t *nb;              /* lists, n*nlk */
+	uint8_t *nn;              /* list lengths */
+	void *p;                  /* p2_t[n] or p3_t[n] */
+	ev_t *ev;
+	double *tlast;            /* last collision time per particle; only with the TC model */
+	uint32_t *id;             /* scene index of each particle (storage is in cell order) */
+	/* buffers for the periodic renumbering in cell order */
+	uint32_t *scratch_idx, *scratch_cell;
+	/* Event calendar: a ring of cal_m buckets of width cal_w (bucket number
+	 * floor(t / cal_w)) holding unsorted lists, an overflow list for events
+	 * beyond the ring, and a binary min-heap on (time, particle) for the
+	 * current bucket cal_cur and earlier. Invariant: every event in the heap
+	 * has bucket <= cal_cur, every other one > cal_cur, so the heap's top is
+	 * the next event in (time, index) order. */
+	hent_t *heap;
+	uint32_t *hpos;           /* heap slot of each particle in the heap */
+	uint32_t hn;              /* events in the heap */
+	int32_t *cal_slot;        /* -1: in the heap; 0..cal_m-1: ring; cal_m: overflow */
+	int32_t *cal_next, *cal_prev, *cal_head;   /* lists (cal_head[cal_m + 1]) */
+	uint32_t cal_m, cal_ring; /* ring size; events in ring lists */
+	int64_t cal_cur;
+	double cal_w, cal_iw;
+	double t;                 /* clock since the last rebase */
+	double epoch, epoch_c;    /* absolute time of the last rebase (compensated sum) */
+	uint64_t events, collisions, tc_elastic, since_rebase, rebase_every;
+	/* interval accumulators for ed_sample() */
+	double ekin_cur, ekin_int, t_mark, t_int0, virial;
+	uint64_t coll_int0;
+};
+
+static inline bool hless(const hent_t *a, const hent_t *b)
+{
+	return a->t < b->t || (a->t == b->t && a->i < b->i);
+}
+
+static void heap_down(struct ed *ed, uint32_t k)
+{
+	hent_t *h = ed->heap, x = h[k];
+	uint32_t n = ed->hn;
+	for (;;) {
+		uint32_t c = 2 * k + 1;
+		if (c >= n)
+			break;
+		if (c + 1 < n && hless(&h[c + 1], &h[c]))
+			c++;
+		if (!hless(&h[c], &x))
+			break;
+		h[k] = h[c];
+		ed->hpos[h[k].i] = k;
+		k = c;
+	}
+	h[k] = x;
+	ed->hpos[x.i] = k;
+}
+
+static void heap_up(struct ed *ed, uint32_t k)
+{
+	hent_t *h = ed->heap, x = h[k];
+	while (k > 0) {
+		uint32_t p = (k - 1) / 2;
+		if (!hless(&x, &h[p]))
+			break;
+		h[k] = h[p];
+		ed->hpos[h[k].i] = k;
+		k = p;
+	}
+	h[k] = x;
+	ed->hpos[x.i] = k;
+}
+
+static inline double ev_time(const struct ed *ed, uint32_t i)
+{
+	return ed->ev[i].t_coll <= ed->ev[i].t_cross ? ed->ev[i].t_coll : ed->ev[i].t_cross;
+}
+
+static void heap_push(struct ed *ed, uint32_t i, double t)
+{
+	uint32_t k = ed->hn++;
+	ed->heap[k].t = t;
+	ed->heap[k].i = i;
+	ed->cal_slot[i] = -1;
+	heap_up(ed, k);
+}
+
+/* Bucket of time t if it is within the ring (bucket < cal_cur + cal_m),
+ * else -1 (overflow; also INFINITY). */
+static inline int64_t cal_bucket(const struct ed *ed, double t)
+{
+	double f = t * ed->cal_iw;
+	return f < (double)(ed->cal_cur + ed->cal_m) ? (int64_t)f : -1;
+}
+
+static void cal_insert(struct ed *ed, uint32_t i, double t)
+{
+	int64_t b = cal_bucket(ed, t);
+	if (b >= 0 && b <= ed->cal_cur) {
+		heap_push(ed, i, t);
+		return;
+	}
+	int32_t s = b < 0 ? (int32_t)ed->cal_m : (int32_t)(b % ed->cal_m), h = ed->cal_head[s];
+	ed->cal_slot[i] = s;
+	ed->cal_prev[i] = -1;
+	ed->cal_next[i] = h;
+	if (h >= 0)
+		ed->cal_prev[h] = (int32_t)i;
+	ed->cal_head[s] = (int32_t)i;
+	ed->cal_ring += b >= 0;
+}
+
+static void cal_remove(struct ed *ed, uint32_t i)
+{
+	int32_t s = ed->cal_slot[i];
+	if (s < 0) {
+		uint32_t k = ed->hpos[i];
+		hent_t last = ed->heap[--ed->hn];
+		if (k < ed->hn) {
+			double old = ed->heap[k].t;
+			ed->heap[k] = last;
+			ed->hpos[last.i] = k;
+			if (last.t < old || (last.t == old && last.i < i))
+				heap_up(ed, k);
+			else
+				heap_down(ed, k);
+		}
+		return;
+	}
+	int32_t p = ed->cal_prev[i], n = ed->cal_next[i];
+	if (p >= 0) ed->cal_next[p] = n; else ed->cal_head[s] = n;
+	if (n >= 0) ed->cal_prev[n] = p;
+	ed->cal_ring -= s < (int32_t)ed->cal_m;
+}
+
+/* New event time of particle i. */
+static inline void cal_update(struct ed *ed, uint32_t i, double t)
+{
+	if (ed->cal_slot[i] < 0) {
+		int64_t b = cal_bucket(ed, t);
+		if (b >= 0 && b <= ed->cal_cur) {
+			uint32_t k = ed->hpos[i];
+			double old = ed->heap[k].t;
+			ed->heap[k].t = t;
+			if (t < old)
+				heap_up(ed, k);
+			else if (t > old)
+				heap_down(ed, k);
+			return;
+		}
+	}
+	cal_remove(ed, i);
+	cal_insert(ed, i, t);
+}
+
+/* Make the heap's top the next event: walk the ring to the next non-empty
+ * bucket (pulling overflow events in at each lap); with nothing left in
+ * the ring, jump to the earliest overflow event. Returns its time
+ * (INFINITY: no event left). */
+static double cal_next_time(struct ed *ed)
+{
+	while (ed->hn == 0) {
+		if (ed->cal_ring == 0) {
+			double tmin = INFINITY;
+			for (int32_t j = ed->cal_head[ed->cal_m]; j >= 0; j = ed->cal_next[j]) {
+				double t = ev_time(ed, (uint32_t)j);
+				if (t < tmin) tmin = t;
+			}
+			if (tmin == INFINITY)
+				return INFINITY;
+			double f = tmin * ed->cal_iw;
+			/* beyond any bucket number: everything goes through the heap */
+			ed->cal_cur = f < 4e18 ? (int64_t)f : (int64_t)4e18;
+		} else {
+			ed->cal_cur++;
+			int32_t s = (int32_t)(ed->cal_cur % ed->cal_m);
+			int32_t j = ed->cal_head[s];
+			ed->cal_head[s] = -1;
+			while (j >= 0) {
+				int32_t nx = ed->cal_next[j];
+				ed->cal_ring--;
+				heap_push(ed, (uint32_t)j, ev_time(ed, (uint32_t)j));
+				j = nx;
+			}
+			if (s != 0)
+				continue;
+		}
+		/* a new lap (or a jump): overflow events now in reach move in */
+		int32_t j = ed->cal_head[ed->cal_m];
+		ed->cal_head[ed->cal_m] = -1;
+		while (j >= 0) {
+			int32_t nx = ed->cal_next[j];
+			cal_insert(ed, (uint32_t)j, ev_time(ed, (uint32_t)j));
+			j = nx;
+		}
+	}
+	return ed->heap[0].t;
+}
+
+/* Calendar from scratch at time 0 (after a rebase or a full prediction):
+ * buckets a few events wide, the ring spanning a few mean event delays. */
+static void cal_build(struct ed *ed)
+{
+	double sum = 0.0;
+	uint32_t fin = 0;
+	for (uint32_t i = 0; i < ed->n; i++) {
+		double t = ev_time(ed, i);
+		if (t < INFINITY) {
+			sum += t;
+			fin++;
+		}
+	}
+	double w = fin ? 4.0 * sum / fin / ed->n : 0.0;   /* ~4 events a bucket (2..8 measured alike) */
+	if (!(w > 0.0) || !isfinite(1.0 / w))
+		w = 1.0;
+	ed->cal_w = w;
+	ed->cal_iw = 1.0 / w;
+	ed->cal_cur = 0;
+	ed->cal_ring = 0;
+	ed->hn = 0;
+	for (uint32_t s = 0; s <= ed->cal_m; s++)
+		ed->cal_head[s] = -1;
+	for (uint32_t i = 0; i < ed->n; i++)
+		cal_insert(ed, i, ev_time(ed, i));
+}
+
+static void nl_abandon(struct ed *ed);
+
+/* Move row i of n rows of size bytes to row newidx[i], in place by
+ * following the permutation's cycles (the top bit of newidx marks rows done
+ * and is cleared again). */
+static void permute(void *base, size_t size, uint32_t *newidx, uint32_t n)
+{
+	const uint32_t done = 0x80000000u;
+	_Alignas(64) unsigned char a[1024], b[1024];
+	char *p = base;
+	for (uint32_t s = 0; s < n; s++) {
+		if (newidx[s] & done)
+			continue;
+		memcpy(a, p + s * size, size);
+		uint32_t cur = s;
+		do {
+			uint32_t dst = newidx[cur];
+			newidx[cur] |= done;
+			memcpy(b, p + dst * size, size);
+			memcpy(p + dst * size, a, size);
+			memcpy(a, b, size);
+			cur = dst;
+		} while (cur != s);
+	}
+	for (uint32_t s = 0; s < n; s++)
+		newidx[s] &= ~done;
+}
+
+static void epoch_add(struct ed *ed, double t)
+{
+	/* Kahan summation: the absolute clock keeps its digits over many rebases. */
+	double y = t - ed->epoch_c, s = ed->epoch + y;
+	ed->epoch_c = (s - ed->epoch) - y;
+	ed->epoch = s;
+}
+
+double ed_time(const ed_t *ed) { return ed->epoch + ed->t; }
+
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2d
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3d
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+
+#define DISPATCH(ed, fn, ...) ((ed)->dim == 2 ? fn##_2d(__VA_ARGS__) : fn##_3d(__VA_ARGS__))
+
+static void set_msg(char *msg, size_t len, const char *fmt, double a, double b)
+{
+	if (msg && len)
+		snprintf(msg, len, fmt, a, b);
+}
+
+/* Cell grid: edges of at least max(sigma, requested) so the 3^D stencil
+ * holds every possible partner. Dense systems want the smallest legal cells;
+ * dilute ones want fewer cells than that (crossings get too frequent): at
+ * most ~1.5 cells per particle in 2D and ~8 in 3D (seed 003, Fig. 2.3). */
+static void setup_cells(struct ed *ed, double min_edge)
+{
+	double vol = 1.0;
+	for (int a = 0; a < ed->dim; a++)
+		vol *= ed->L[a];
+	if (min_edge <= 0.0) {
+		double per = ed->dim == 2 ? 1.5 : 8.0;
+		double edge = pow(vol / (per * ed->n), 1.0 / ed->dim);
+		min_edge = edge > ed->sigma ? edge : ed->sigma;
+	}
+	/* A hair above sigma so that rounding of positions at cell faces can
+	 * never hide a partner two cells away. */
+	min_edge *= 1.0 + 1e-9;
+	ed->ncells = 1;
+	for (int a = 0; a < 3; a++) {
+		if (a >= ed->dim) {
+			ed->nc[a] = 1;
+			ed->cw[a] = 1.0;
+		} else {
+			double k = floor(ed->L[a] / min_edge);
+			ed->nc[a] = k < 1.0 ? 1 : (k > 1e6 ? 1000000 : (int32_t)k);
+			ed->cw[a] = ed->L[a] / ed->nc[a];
+		}
+		ed->ncells *= (size_t)ed->nc[a];
+		if (a < ed->dim && ed->nc[a] < 3)
+			ed->minimg = 1;
+		if (ed->nc[a] >= 3) {
+			ed->no[a] = 3;
+			ed->off[a][0] = -1, ed->off[a][1] = 0, ed->off[a][2] = 1;
+		} else {
+			ed->no[a] = ed->nc[a];
+			ed->off[a][0] = 0, ed->off[a][1] = 1, ed->off[a][2] = 0;
+		}
+	}
+}
+
+/* Neighbour-list shell (list radius (1 + shell) sigma) for a volume
+ * fraction, or 0 for cell mode: lists pay where particles meet their
+ * neighbours often before drifting far, i.e. in dense systems. */
+static double nl_shell(int dim, double phi)
+{
+	/* crossovers and shells measured at N ~ 10^4 (N = 10^5 alike) */
+	if (dim == 2)
+		return phi >= 0.6 ? 0.7 : 0.0;
+	return phi >= 0.33 ? 0.6 : 0.0;
+}
+
+/* Choose the mode and the cell grid. Lists need >= 3 cells of edge >= the
+ * list radius on every axis (one image per neighbour cell). */
+static void setup_mode(struct ed *ed, double min_edge)
+{
+	double vol = 1.0;
+	for (int a = 0; a < ed->dim; a++)
+		vol *= ed->L[a];
+	const double pi = 3.14159265358979323846;
+	double vp = ed->dim == 2 ? 0.25 * pi * ed->sigma2 : pi / 6.0 * ed->sigma2 * ed->sigma;
+	double shell = nl_shell(ed->dim, ed->n * vp / vol);
+	if (shell > 0.0) {
+		double rl = (1.0 + shell) * ed->sigma;
+		setup_cells(ed, rl > min_edge ? rl : min_edge);
+		if (!ed->minimg) {
+			ed->nl = 1;
+			/* a hair wider than needed: rounding in the drift test cannot
+			 * let an unlisted pair touch */
+			ed->nl_r2 = rl * rl * (1.0 + 1e-9);
+			ed->nl_d2 = 0.25 * shell * shell * ed->sigma2;
+			/* dense random packing holds ~1.3x the mean count within rl;
+			 * more than this capacity sends the run back to cell mode */
+			ed->nlk = ed->dim == 2 ? 24 : 32;
+			return;
+		}
+		ed->minimg = 0;
+	}
+	setup_cells(ed, min_edge);
+}
+
+/* Lattice start: a rectangular (2D, staggered rows ~ hexagonal) or FCC (3D)
+ * lattice chosen to maximise the nearest-neighbour distance for N sites in
+ * the box; the first N sites are used. */
+static double lattice_2d(const double *L, uint64_t n, int64_t *bx, int64_t *by)
+{
+	double best = -1.0;
+	for (int64_t nx = 1; nx <= (int64_t)n; nx++) {
+		int64_t ny = ((int64_t)n + nx - 1) / nx;
+		if (ny > 1 && (ny & 1))
+			ny++;          /* staggered rows need an even count to be periodic */
+		double ax = L[0] / nx, ay = L[1] / ny;
+		double d = ax;
+		if (ny > 1) {
+			double diag = sqrt(0.25 * ax * ax + ay * ay);
+			if (diag < d) d = diag;
+			if (2 * ay < d) d = 2 * ay;
+		}
+		if (d > best) {
+			best = d;
+			*bx = nx, *by = ny;
+		}
+		if (nx > 1 && ax < 0.25 * best)
+			break;
+	}
+	return best;
+}
+
+static double lattice_3d(const double *L, uint64_t n, int64_t *bn)
+{
+	double best = -1.0;
+	uint64_t cells = (n + 3) / 4;
+	for (int64_t nx = 1; nx <= (int64_t)cells; nx++) {
+		if (L[0] / nx < 0.25 * best)
+			break;
+		for (int64_t ny = 1; (uint64_t)(nx * ny) <= cells; ny++) {
+			if (L[1] / ny < 0.25 * best)
+				break;
+			int64_t nz = (int64_t)((cells + nx * ny - 1) / (nx * ny));
+			double ax = L[0] / nx, ay = L[1] / ny, az = L[2] / nz;
+			double d = fmin(fmin(ax, ay), az);
+			d = fmin(d, 0.5 * sqrt(ax * ax + ay * ay));
+			d = fmin(d, 0.5 * sqrt(ay * ay + az * az));
+			d = fmin(d, 0.5 * sqrt(ax * ax + az * az));
+			if (d > best) {
+				best = d;
+				bn[0] = nx, bn[1] = ny, bn[2] = nz;
+			}
+		}
+	}
+	return best;
+}
+
+static int place_lattice(struct ed *ed, char *msg, size_t msglen)
+{
+	double *r = NULL;
+	size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
+	double d;
+	if (ed->dim == 2) {
+		int64_t nx = 1, ny = 1;
+		d = lattice_2d(ed->L, ed->n, &nx, &ny);
+		double ax = ed->L[0] / nx, ay = ed->L[1] / ny;
+		for (uint32_t i = 0; i < ed->n; i++) {
+			int64_t ix = i % nx, iy = i / nx;
+			r = (double *)((char *)ed->p + i * stride);
+			r[0] = (ix + 0.25 + 0.5 * (iy & 1)) * ax;
+			r[1] = (iy + 0.5) * ay;
+		}
+	} else {
+		static const double site[4][3] = {{0, 0, 0}, {.5, .5, 0}, {.5, 0, .5}, {0, .5, .5}};
+		int64_t nn[3] = {1, 1, 1};
+		d = lattice_3d(ed->L, ed->n, nn);
+		double ax = ed->L[0] / nn[0], ay = ed->L[1] / nn[1], az = ed->L[2] / nn[2];
+		for (uint32_t i = 0; i < ed->n; i++) {
+			int64_t c = i / 4, s = i % 4;
+			int64_t ix = c % nn[0], iy = (c / nn[0]) % nn[1], iz = c / (nn[0] * nn[1]);
+			r = (double *)((char *)ed->p + i * stride);
+			r[0] = (ix + site[s][0] + 0.25) * ax;
+			r[1] = (iy + site[s][1] + 0.25) * ay;
+			r[2] = (iz + site[s][2] + 0.25) * az;
+		}
+	}
+	if (d < ed->sigma * (1.0 + 1e-12)) {
+		set_msg(msg, msglen, "particles.initial.positions: no lattice of this many particles fits the box "
+		        "(nearest distance %.6g < diameter %.6g); use fewer particles or a lower volume fraction", d, ed->sigma);
+		return ED_EPLACE;
+	}
+	for (uint32_t i = 0; i < ed->n; i++)
+		DISPATCH(ed, place, ed, i);
+	return ED_OK;
+}
+
+static void init_velocities(struct ed *ed, double temp, rng_t *rng)
+{
+	size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
+	size_t voff = ed->dim == 2 ? offsetof(p2_t, v) : offsetof(p3_t, v);
+	double mean[3] = {0, 0, 0}, s2 = 0.0;
+	for (uint32_t i = 0; i < ed->n; i++) {
+		double *v = (double *)((char *)ed->p + i * stride + voff);
+		for (int a = 0; a < ed->dim; a++) {
+			v[a] = rng_gauss(rng);
+			mean[a] += v[a];
+		}
+	}
+	for (int a = 0; a < ed->dim; a++)
+		mean[a] /= ed->n;
+	for (uint32_t i = 0; i < ed->n; i++) {
+		double *v = (double *)((char *)ed->p + i * stride + voff);
+		for (int a = 0; a < ed->dim; a++) {
+			v[a] -= mean[a];
+			s2 += v[a] * v[a];
+		}
+	}
+	/* Scale to exactly the requested temperature T = m sum v^2 / (D N). */
+	double scale = s2 > 0.0 ? sqrt(temp * ed->dim * ed->n / (ed->mass * s2)) : 0.0;
+	for (uint32_t i = 0; i < ed->n; i++) {
+		double *v = (double *)((char *)ed->p + i * stride + voff);
+		for (int a = 0; a < ed->dim; a++)
+			v[a] *= scale;
+	}
+}
+
+static void predict_all(struct ed *ed)
+{
+	for (uint32_t i = 0; i < ed->n; i++) {
+		ed->ev[i].t_coll = INFINITY;
+		ed->ev[i].partner = -1;
+	}
+	if (ed->nl)
+		DISPATCH(ed, nl_build_all, ed);
+	for (uint32_t i = 0; i < ed->n; i++) {
+		if (ed->nl && ed->dim == 2) { set_nl_2d(ed, i); scan_nl_2d(ed, i); }
+		else if (ed->nl) { set_nl_3d(ed, i); scan_nl_3d(ed, i); }
+		else if (ed->dim == 2) { set_cross_2d(ed, i); scan_full_2d(ed, i); }
+		else { set_cross_3d(ed, i); scan_full_3d(ed, i); }
+	}
+	cal_build(ed);
+}
+
+/* A neighbour list overflowed (denser locally than its capacity): go on in
+ * cell mode on the same grid, everything predicted afresh from the present
+ * state. Deterministic like any other event. */
+static void nl_abandon(struct ed *ed)
+{
+	ed->nl = ed->nl_over = 0;
+	DISPATCH(ed, resync, ed);
+	predict_all(ed);
+}
+
+/* Start the production run here: clock to zero, counters and interval
+ * statistics reset (used after the elastic pre-run). */
+static void reset_clock(struct ed *ed)
+{
+	if (ed->dim == 2) rebase_2d(ed); else rebase_3d(ed);
+	ed->epoch = ed->epoch_c = 0.0;
+	ed->events = ed->collisions = ed->tc_elastic = ed->since_rebase = 0;
+	double mom[3];
+	ed->ekin_cur = DISPATCH(ed, ekin, ed, mom);
+	ed->ekin_int = ed->virial = 0.0;
+	ed->t_mark = ed->t_int0 = 0.0;
+	ed->coll_int0 = 0;
+	if (ed->tlast)
+		for (uint32_t i = 0; i < ed->n; i++)
+			ed->tlast[i] = -INFINITY;
+}
+
+ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
+{
+	struct ed *ed = NULL;
+	int rc = ED_ENOMEM;
+	rng_t rng;
+
+	if (msg && msglen)
+		msg[0] = '\0';
+	if (s->dim != 2 && s->dim != 3) {
+		rc = ED_EINVAL;
+		set_msg(msg, msglen, "dimensions: must be 2 or 3%.0s%.0s", 0, 0);
+		goto fail;
+	}
+	if (s->count < 2 || s->count > INT32_MAX) {
+		rc = ED_EINVAL;
+		set_msg(msg, msglen, "particles.count: %.0f is outside 2..2^31-1%.0s", (double)s->count, 0);
+		goto fail;
+	}
+	ed = calloc(1, sizeof(*ed));
+	if (!ed)
+		goto fail;
+	ed->dim = s->dim;
+	ed->n = (uint32_t)s->count;
+	ed->sigma = 2.0 * s->radius;
+	ed->sigma2 = ed->sigma * ed->sigma;
+	ed->mass = s->mass;
+	ed->e = s->restitution;
+	ed->tc = s->tc;
+	for (int a = 0; a < 3; a++) {
+		ed->L[a] = a < s->dim ? s->box[a] : 1.0;
+		ed->halfL[a] = 0.5 * ed->L[a];
+	}
+	setup_mode(ed, s->ed_cell_size * ed->sigma);
+
+	size_t psz = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
+	ed->p = aligned_alloc(64, ((ed->n * psz + 63) / 64) * 64);
+	ed->ev = calloc(ed->n, sizeof(ev_t));
+	ed->heap = calloc(ed->n, sizeof(hent_t));
+	ed->hpos = calloc(ed->n, sizeof(uint32_t));
+	ed->cal_m = ed->n < 64 ? 64 : ed->n;
+	ed->cal_slot = malloc(ed->n * sizeof(int32_t));
+	ed->cal_next = malloc(ed->n * sizeof(int32_t));
+	ed->cal_prev = malloc(ed->n * sizeof(int32_t));
+	ed->cal_head = malloc((ed->cal_m + 1) * sizeof(int32_t));
+	ed->head = malloc(ed->ncells * sizeof(int32_t));
+	ed->id = malloc(ed->n * sizeof(uint32_t));
+	ed->scratch_idx = malloc(ed->n * sizeof(uint32_t));
+	ed->scratch_cell = malloc((ed->ncells + 1) * sizeof(uint32_t));
+	if (ed->nl) {
+		ed->xn = malloc(ed->n * ed->dim * sizeof(double));
+		ed->nb = malloc(ed->n * ed->nlk * sizeof(int32_t));
+		ed->nn = malloc(ed->n);
+		if (!ed->xn || !ed->nb || !ed->nn)
+			goto fail;
+	}
+	if (s->tc > 0.0) {
+		ed->tlast = malloc(ed->n * sizeof(double));
+	}
+	if (!ed->p || !ed->ev || !ed->heap || !ed->hpos || !ed->cal_slot || !ed->cal_next ||
+	    !ed->cal_prev || !ed->cal_head || !ed->head || !ed->id || !ed->scratch_idx || !ed->scratch_cell ||
+	    (s->tc > 0.0 && !ed->tlast))
+		goto fail;
+	for (uint32_t i = 0; i < ed->n; i++)
+		ed->id[i] = i;
+	memset(ed->p, 0, ed->n * psz);
+	for (size_t c = 0; c < ed->ncells; c++)
+		ed->head[c] = -1;
+	/* Rebase often enough to keep times small, rarely enough to cost nothing. */
+	ed->rebase_every = 8ull * ed->n < 4096 ? 4096 : 8ull * ed->n;
+
+	rng_init(&rng, s->seed, 0);
+	if (s->positions == SCENE_POS_RANDOM) {
+		rc = DISPATCH(ed, place_random, ed, &rng);
+		if (rc != ED_OK) {
+			set_msg(msg, msglen, "particles.initial.positions: random placement failed at volume fraction %.4g "
+			        "(random sequential addition jams near %.3g); use \"lattice\"",
+			        s->volume_fraction, ed->dim == 2 ? 0.547 : 0.38);
+			goto fail;
+		}
+	} else {
+		rc = place_lattice(ed, msg, msglen);
+		if (rc != ED_OK)
+			goto fail;
+	}
+	init_velocities(ed, s->temperature, &rng);
+	predict_all(ed);
+	reset_clock(ed);
+
+	if (s->relax_cpp > 0.0) {
+		/* Elastic pre-run to an equilibrium fluid structure (seed 003, ch. 4);
+		 * elastic, so the temperature is unchanged. */
+		double e = ed->e;
+		double *tl = ed->tlast;
+		ed->e = 1.0;
+		ed->tlast = NULL;
+		uint64_t target = (uint64_t)ceil(s->relax_cpp * ed->n / 2.0);
+		DISPATCH(ed, run, ed, INFINITY, target, UINT64_MAX);
+		ed->e = e;
+		ed->tlast = tl;
+		reset_clock(ed);
+	}
+	*err = ED_OK;
+	return ed;
+fail:
+	ed_destroy(ed);
+	*err = rc;
+	if (rc == ED_ENOMEM)
+		set_msg(msg, msglen, "out of memory for %.0f particles%.0s", (double)s->count, 0);
+	return NULL;
+}
+
+void ed_destroy(ed_t *ed)
+{
+	if (!ed)
+		return;
+	free(ed->p);
+	free(ed->ev);
+	free(ed->heap);
+	free(ed->hpos);
+	free(ed->cal_slot);
+	free(ed->cal_next);
+	free(ed->cal_prev);
+	free(ed->cal_head);
+	free(ed->head);
+	free(ed->tlast);
+	free(ed->id);
+	free(ed->scratch_idx);
+	free(ed->scratch_cell);
+	free(ed->xn);
+	free(ed->nb);
+	free(ed->nn);
+	free(ed);
+}
+
+int ed_advance(ed_t *ed, double t_stop, uint64_t max_collisions, uint64_t max_events)
+{
+	return DISPATCH(ed, run, ed, t_stop, max_collisions, max_events);
+}
+
+void ed_sample(ed_t *ed, ed_sample_t *out)
+{
+	memset(out, 0, sizeof(*out));
+	out->time = ed_time(ed);
+	out->interval = ed->t - ed->t_int0;
+	out->events = ed->events;
+	out->collisions = ed->collisions;
+	out->interval_collisions = ed->collisions - ed->coll_int0;
+	out->elastic_by_tc = ed->tc_elastic;
+	out->kinetic_energy = DISPATCH(ed, ekin, ed, out->momentum);
+	out->ekin_time_integral = ed->ekin_int + ed->ekin_cur * (ed->t - ed->t_mark);
+	out->virial = ed->virial;
+	/* New interval; the running energy is refreshed from the velocities so
+	 * that rounding in the incremental bookkeeping cannot accumulate. */
+	ed->ekin_cur = out->kinetic_energy;
+	ed->ekin_int = 0.0;
+	ed->virial = 0.0;
+	ed->t_mark = ed->t_int0 = ed->t;
+	ed->coll_int0 = ed->collisions;
+}
+
+void ed_state(const ed_t *ed, double *pos, double *vel)
+{
+	DISPATCH(ed, state, ed, pos, vel);
+}
+
+uint64_t ed_collisions(const ed_t *ed) { return ed->collisions; }
+uint64_t ed_events(const ed_t *ed) { return ed->events; }
+double ed_min_gap(const ed_t *ed) { return DISPATCH(ed, min_gap, ed); }
+
+void ed_cells(const ed_t *ed, int cells[3])
+{
+	for (int a = 0; a < 3; a++)
+		cells[a] = ed->nc[a];
+}
+
+size_t ed_memory(const ed_t *ed)
+{
+	size_t psz = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
+	/* per particle: record, event, heap entry and slot, calendar links and
+	 * slot, scene index, renumbering scratch; lists; TC times */
+	size_t nl = ed->xn ? ed->dim * sizeof(double) + ed->nlk * sizeof(int32_t) + 1 : 0;
+	return sizeof(*ed) + (ed->cal_m + 1) * sizeof(int32_t) + (2 * ed->ncells + 1) * sizeof(int32_t) +
+	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + 6 * sizeof(uint32_t) + nl +
+	                (ed->tlast ? sizeof(double) : 0));
+}
+
+const char *ed_strerror(int code)
+{
+	switch (code) {
+	case ED_OK: return "ok";
+	case ED_ENOMEM: return "out of memory";
+	case ED_EPLACE: return "initial positions could not be placed";
+	case ED_EINVAL: return "scene not usable by the event-driven method";
+	case ED_QUIESCENT: return "no further events";
+	default: return "unknown error";
+	}
+}

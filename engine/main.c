@@ -1,0 +1,235 @@
+/* granular-engine: command-line front end (MPI program; the serial method runs on rank 0). */
+#include <errno.h>
+#include <mpi.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "config.h"
+#include "report.h"
+#include "run.h"
+#include "scene.h"
+
+/* Exit codes (documented in docs/engine.md). */
+enum { EX_DONE = 0, EX_FAIL = 1, EX_INPUT = 2, EX_INTERRUPTED = 3 };
+
+static volatile sig_atomic_t stop_requested;
+
+static void on_signal(int sig)
+{
+	(void)sig;
+	stop_requested = 1;
+}
+
+typedef struct {
+	FILE *progress;     /* progress stream (stdout or --progress-fd) */
+	FILE *copy;         /* DIR/progress.jsonl with --out, or NULL */
+} sink_t;
+
+static int emit(const run_record_t *rec, void *ctx)
+{
+	sink_t *sk = ctx;
+	char line[REPORT_MAX];
+	int n = report_format(rec, line, sizeof(line));
+	if (n < 0)
+		return -1;
+	if (fwrite(line, 1, (size_t)n, sk->progress) != (size_t)n || fflush(sk->progress) != 0)
+		return -1;
+	if (sk->copy && (fwrite(line, 1, (size_t)n, sk->copy) != (size_t)n || fflush(sk->copy) != 0))
+		return -1;
+	return 0;
+}
+
+static char *read_file(const char *path, size_t *len, char *err, size_t errlen)
+{
+	FILE *f = fopen(path, "rb");
+	char *buf = NULL;
+	size_t cap = 0, n = 0;
+	if (!f) {
+		snprintf(err, errlen, "%s: cannot open: %s", path, strerror(errno));
+		return NULL;
+	}
+	for (;;) {
+		if (n + 4096 > cap) {
+			size_t ncap = cap ? 2 * cap : 8192;
+			char *nb = ncap > (64u << 20) ? NULL : realloc(buf, ncap);
+			if (!nb) {
+				snprintf(err, errlen, "%s: too large or out of memory", path);
+				free(buf);
+				fclose(f);
+				return NULL;
+			}
+			buf = nb, cap = ncap;
+		}
+		size_t k = fread(buf + n, 1, cap - n, f);
+		n += k;
+		if (k == 0)
+			break;
+	}
+	if (ferror(f)) {
+		snprintf(err, errlen, "%s: read error: %s", path, strerror(errno));
+		free(buf);
+		fclose(f);
+		return NULL;
+	}
+	fclose(f);
+	*len = n;
+	return buf;
+}
+
+static void usage(FILE *f)
+{
+	fprintf(f,
+	        "usage: granular-engine run SCENE.json [--out DIR] [--progress-fd N]\n"
+	        "       granular-engine validate SCENE.json\n"
+	        "       granular-engine --version | --help\n"
+	        "Runs a granular-gas scene (docs/scene.md) and writes one JSON progress\n"
+	        "line per output time and a summary line (docs/engine.md).\n"
+	        "Exit status: 0 done, 1 failure, 2 bad input or usage, 3 interrupted.\n");
+}
+
+/* Ranks other than 0 have nothing to do yet: wait for rank 0 without
+ * spinning a core (a blocking MPI_Barrier busy-polls in Open MPI). */
+static void idle_until_rank0(void)
+{
+	MPI_Request req;
+	int flag = 0;
+	MPI_Ibarrier(MPI_COMM_WORLD, &req);
+	while (!flag) {
+		MPI_Test(&req, &flag, MPI_STATUS_IGNORE);
+		if (!flag) {
+			struct timespec ts = {0, 20 * 1000 * 1000};
+			nanosleep(&ts, NULL);
+		}
+	}
+}
+
+static int run_rank0(int argc, char **argv)
+{
+	const char *cmd = argv[1], *scene_path = NULL, *outdir = NULL;
+	int progress_fd = 1, ret = EX_FAIL;
+	char err[512] = "", *text = NULL;
+	size_t len = 0;
+	scene_t scene;
+	sink_t sink = {NULL, NULL};
+
+	for (int i = 2; i < argc; i++) {
+		if (!strcmp(argv[i], "--out") && i + 1 < argc) {
+			outdir = argv[++i];
+		} else if (!strcmp(argv[i], "--progress-fd") && i + 1 < argc) {
+			char *end;
+			long v = strtol(argv[++i], &end, 10);
+			if (*end || v < 1 || v > 1 << 20) {
+				fprintf(stderr, "granular-engine: --progress-fd: not a file descriptor number: %s\n", argv[i]);
+				return EX_INPUT;
+			}
+			progress_fd = (int)v;
+		} else if (argv[i][0] == '-' || scene_path) {
+			fprintf(stderr, "granular-engine: unexpected argument: %s (see --help)\n", argv[i]);
+			return EX_INPUT;
+		} else {
+			scene_path = argv[i];
+		}
+	}
+	if (!scene_path) {
+		fprintf(stderr, "granular-engine: %s: missing SCENE.json (see --help)\n", cmd);
+		return EX_INPUT;
+	}
+	text = read_file(scene_path, &len, err, sizeof(err));
+	if (!text) {
+		fprintf(stderr, "granular-engine: %s\n", err);
+		return EX_INPUT;
+	}
+	int rc = scene_parse(text, len, &scene, err, sizeof(err));
+	free(text);
+	if (rc != SCENE_OK) {
+		/* One line, starting with the key path. */
+		fprintf(stderr, "%s\n", err);
+		return EX_INPUT;
+	}
+	if (!strcmp(cmd, "validate"))
+		return EX_DONE;
+
+	sink.progress = progress_fd == 1 ? stdout : fdopen(progress_fd, "w");
+	if (!sink.progress) {
+		fprintf(stderr, "granular-engine: --progress-fd %d: %s\n", progress_fd, strerror(errno));
+		return EX_INPUT;
+	}
+	if (outdir) {
+		char path[4096];
+		if (mkdir(outdir, 0777) != 0 && errno != EEXIST) {
+			fprintf(stderr, "granular-engine: --out %s: %s\n", outdir, strerror(errno));
+			ret = EX_INPUT;
+			goto cleanup;
+		}
+		snprintf(path, sizeof(path), "%s/progress.jsonl", outdir);
+		sink.copy = fopen(path, "w");
+		if (!sink.copy) {
+			fprintf(stderr, "granular-engine: %s: %s\n", path, strerror(errno));
+			ret = EX_INPUT;
+			goto cleanup;
+		}
+	}
+
+	struct sigaction sa;
+	memset(&sa, 0, sizeof(sa));
+	sa.sa_handler = on_signal;
+	sigaction(SIGTERM, &sa, NULL);
+	sigaction(SIGINT, &sa, NULL);
+	signal(SIGPIPE, SIG_IGN);   /* a closed progress pipe is an error return, not death */
+
+	rc = run_scene(&scene, emit, &sink, &stop_requested, err, sizeof(err));
+	if (rc == RUN_OK) {
+		ret = stop_requested ? EX_INTERRUPTED : EX_DONE;
+	} else if (rc == RUN_ESETUP || rc == RUN_EMETHOD) {
+		fprintf(stderr, "%s\n", err);
+		ret = EX_INPUT;
+	} else if (rc == RUN_EMIT) {
+		fprintf(stderr, "granular-engine: cannot write progress: %s\n", strerror(errno));
+		ret = stop_requested ? EX_INTERRUPTED : EX_FAIL;
+	} else {
+		fprintf(stderr, "granular-engine: %s\n", err[0] ? err : "run failed");
+		ret = EX_FAIL;
+	}
+cleanup:
+	if (sink.copy)
+		fclose(sink.copy);
+	if (sink.progress && sink.progress != stdout)
+		fclose(sink.progress);
+	return ret;
+}
+
+int main(int argc, char **argv)
+{
+	int rank = 0, ret;
+
+	if (argc >= 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
+		usage(stdout);
+		return EX_DONE;
+	}
+	if (argc >= 2 && !strcmp(argv[1], "--version")) {
+		printf("granular-engine %s\n", PACKAGE_VERSION);
+		return EX_DONE;
+	}
+	if (argc < 2 || (strcmp(argv[1], "run") && strcmp(argv[1], "validate"))) {
+		usage(stderr);
+		return EX_INPUT;
+	}
+	MPI_Init(&argc, &argv);
+	MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+	if (rank == 0) {
+		ret = run_rank0(argc, argv);
+		MPI_Request req;
+		MPI_Ibarrier(MPI_COMM_WORLD, &req);
+		MPI_Wait(&req, MPI_STATUS_IGNORE);
+	} else {
+		idle_until_rank0();
+		ret = EX_DONE;
+	}
+	MPI_Finalize();
+	return ret;
+}

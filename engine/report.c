@@ -1,0 +1,100 @@
+/* JSON-lines serialisation of run records: fixed key order, exact doubles, no allocation. */
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "report.h"
+
+typedef struct {
+	char *buf;
+	size_t len, pos;
+	int overflow;
+} out_t;
+
+static void put(out_t *o, const char *fmt, ...)
+{
+	va_list ap;
+	if (o->overflow)
+		return;
+	va_start(ap, fmt);
+	int k = vsnprintf(o->buf + o->pos, o->len - o->pos, fmt, ap);
+	va_end(ap);
+	if (k < 0 || (size_t)k >= o->len - o->pos)
+		o->overflow = 1;
+	else
+		o->pos += (size_t)k;
+}
+
+/* JSON has no NaN or infinity: those become null. */
+static void num(out_t *o, const char *key, double v)
+{
+	if (isfinite(v))
+		put(o, ",\"%s\":%.17g", key, v);
+	else
+		put(o, ",\"%s\":null", key);
+}
+
+static void u64(out_t *o, const char *key, uint64_t v)
+{
+	put(o, ",\"%s\":%llu", key, (unsigned long long)v);
+}
+
+int report_format(const run_record_t *r, char *buf, size_t len)
+{
+	out_t o = {.buf = buf, .len = len};
+	if (!buf || len == 0)
+		return -1;
+	put(&o, "{\"type\":\"%s\"", r->kind == RUN_SUMMARY ? "summary" : "progress");
+	if (r->kind == RUN_SUMMARY)
+		put(&o, ",\"status\":\"%s\"", run_status_name(r->status));
+	num(&o, "time", r->time);
+	u64(&o, "events", r->events);
+	u64(&o, "collisions", r->collisions);
+	num(&o, "collisions_per_particle", r->collisions_per_particle);
+	if (r->have & SCENE_OBS_ENERGY) {
+		num(&o, "kinetic_energy", r->kinetic_energy);
+		num(&o, "temperature", r->temperature);
+	}
+	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_PRESSURE)) {
+		num(&o, "pressure", r->have_interval ? r->pressure : NAN);
+		num(&o, "compressibility", r->have_interval ? r->compressibility : NAN);
+	}
+	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_COLLISION_RATE))
+		num(&o, "collision_rate", r->have_interval ? r->collision_rate : NAN);
+	if (r->have & SCENE_OBS_MOMENTUM) {
+		put(&o, ",\"momentum\":[");
+		for (int a = 0; a < r->dim; a++)
+			put(&o, isfinite(r->momentum[a]) ? "%s%.17g" : "%snull", a ? "," : "", r->momentum[a]);
+		put(&o, "]");
+	}
+	if (r->elastic_by_tc)
+		u64(&o, "elastic_by_tc", r->elastic_by_tc);
+	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_CLUSTERS)) {
+		const clusters_stats_t *c = &r->clusters;
+		put(&o, ",\"clusters\":{\"count\":%llu,\"largest\":%llu", (unsigned long long)c->n_clusters,
+		    (unsigned long long)c->largest);
+		num(&o, "largest_fraction", c->largest_fraction);
+		num(&o, "mean_size", c->mean_size);
+		num(&o, "m2", c->m2);
+		num(&o, "m2_reduced", c->m2_reduced);
+		/* histogram: bin k counts clusters of size in [2^k, 2^(k+1)) */
+		put(&o, ",\"histogram\":[");
+		for (int k = 0; k < c->n_bins && k < CLUSTERS_MAX_BINS; k++)
+			put(&o, "%s%llu", k ? "," : "", (unsigned long long)c->hist[k]);
+		put(&o, "]}");
+	}
+	num(&o, "wall_seconds", r->wall_seconds);
+	if (r->kind == RUN_SUMMARY) {
+		u64(&o, "particles", r->n);
+		num(&o, "events_per_second", r->events_per_second);
+		num(&o, "collisions_per_second", r->collisions_per_second);
+		u64(&o, "memory_bytes", r->memory_bytes);
+		put(&o, ",\"cells\":[%d,%d", r->cells[0], r->cells[1]);
+		if (r->dim == 3)
+			put(&o, ",%d", r->cells[2]);
+		put(&o, "]");
+	}
+	put(&o, "}\n");
+	return o.overflow ? -1 : (int)o.pos;
+}

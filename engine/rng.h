@@ -1,0 +1,18 @@
+/* Deterministic pseudo-random numbers (xoshiro256**, seeded by splitmix64) with portable deviates. */
+#pragma once
+
+#include <stdint.h>
+
+/* Caller-owned state; copyable (a checkpoint stores the four words). */
+typedef struct {
+	uint64_t s[4];
+} rng_t;
+
+/* Seed from a 64-bit seed and a stream number (independent replicas/ranks). */
+void rng_init(rng_t *r, uint64_t seed, uint64_t stream);
+uint64_t rng_u64(rng_t *r);
+/* Uniform in [0, 1) with 53 random bits. */
+double rng_uniform(rng_t *r);
+/* Standard normal deviate (polar Box-Muller without caching, so the state
+ * alone determines the sequence). */
+double rng_gauss(rng_t *r);

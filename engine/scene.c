@@ -1,0 +1,571 @@
+/* Scene parser: validates a scene JSON text (version 1) into a defaulted scene_t, or names the one key at fault. */
+#include <math.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <jansson.h>
+
+#include "scene.h"
+
+#define PI 3.14159265358979323846
+#define PATHLEN 256
+#define COUNT_MAX 2147483647LL          /* particle indices are 32-bit in the engines */
+#define SEED_MAX 9007199254740992LL     /* 2^53: exact in every JSON client (doubles) */
+
+typedef struct {
+	scene_t *s;
+	char *err;
+	size_t errlen;
+} ctx_t;
+
+/* dst points at the destination inside the scene (object base + field offset). */
+typedef int (*parse_fn)(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg);
+
+struct field {
+	const char *name;
+	parse_fn parse;
+	size_t off;        /* destination, relative to the enclosing object's base */
+	const void *arg;   /* struct range, struct irange or struct object */
+	bool required;
+};
+
+struct object {
+	const struct field *fields;   /* ends with a NULL name */
+	/* Rules across keys; runs after all keys parsed. */
+	int (*check)(ctx_t *c, const char *path, json_t *v, void *base);
+};
+
+struct range { double lo, hi; bool lo_open; };  /* hi inclusive, INFINITY = none */
+struct irange { long long lo, hi; };
+
+static const struct range R_POS = { 0, INFINITY, true };
+static const struct range R_NONNEG = { 0, INFINITY, false };
+static const struct range R_UNIT = { 0, 1, false };
+static const struct irange R_COUNT = { 2, COUNT_MAX };
+static const struct irange R_SEED = { 0, SEED_MAX };
+
+static const char *const method_names[] = {
+	[SCENE_METHOD_ED] = "ed", [SCENE_METHOD_DSMC] = "dsmc", [SCENE_METHOD_HSMC] = "hsmc",
+};
+static const char *const position_names[] = {
+	[SCENE_POS_LATTICE] = "lattice", [SCENE_POS_RANDOM] = "random",
+};
+static const struct { const char *name; unsigned bit; } observables[] = {
+	{ "kinetic_energy", SCENE_OBS_ENERGY },
+	{ "temperature", SCENE_OBS_ENERGY },
+	{ "pressure", SCENE_OBS_PRESSURE },
+	{ "compressibility", SCENE_OBS_PRESSURE },
+	{ "collision_rate", SCENE_OBS_COLLISION_RATE },
+	{ "clusters", SCENE_OBS_CLUSTERS },
+	{ "momentum", SCENE_OBS_MOMENTUM },
+};
+#define N_OBSERVABLES (sizeof observables / sizeof observables[0])
+
+static int fail(ctx_t *c, const char *path, const char *fmt, ...)
+{
+	if (c->err == NULL || c->errlen == 0)
+		return SCENE_EINVAL;
+	int n = snprintf(c->err, c->errlen, "%s: ", path);
+	if (n >= 0 && (size_t)n < c->errlen) {
+		va_list ap;
+		va_start(ap, fmt);
+		vsnprintf(c->err + n, c->errlen - n, fmt, ap);
+		va_end(ap);
+	}
+	/* Keys and strings come from the user: keep the message on one line. */
+	for (char *p = c->err; *p; p++)
+		if ((unsigned char)*p < 0x20 || *p == 0x7f)
+			*p = '?';
+	return SCENE_EINVAL;
+}
+
+/* A value for a message, in a buffer that lives to the end of the full expression. */
+typedef struct { char s[48]; } str_t;
+
+/* Shortest of %.15g / %.17g that reads back exactly. */
+static str_t num(double x)
+{
+	str_t r;
+	snprintf(r.s, sizeof r.s, "%.15g", x);
+	if (strtod(r.s, NULL) != x)
+		snprintf(r.s, sizeof r.s, "%.17g", x);
+	return r;
+}
+
+static const char *type_name(const json_t *v)
+{
+	static const char *const names[] = {
+		[JSON_OBJECT] = "object", [JSON_ARRAY] = "array", [JSON_STRING] = "string",
+		[JSON_INTEGER] = "number", [JSON_REAL] = "number", [JSON_TRUE] = "boolean",
+		[JSON_FALSE] = "boolean", [JSON_NULL] = "null",
+	};
+	return names[json_typeof(v)];
+}
+
+/* The offending value: numbers as written (a real keeps a ".0" so that 2.0 is
+ * visibly not an integer), strings quoted, anything else by type. */
+static str_t describe(const json_t *v)
+{
+	str_t r;
+	if (json_is_integer(v)) {
+		snprintf(r.s, sizeof r.s, "%" JSON_INTEGER_FORMAT, json_integer_value(v));
+	} else if (json_is_real(v)) {
+		r = num(json_real_value(v));
+		if (strpbrk(r.s, ".e") == NULL)
+			strncat(r.s, ".0", sizeof r.s - strlen(r.s) - 1);
+	} else if (json_is_string(v)) {
+		snprintf(r.s, sizeof r.s, "\"%.40s\"", json_string_value(v));
+	} else {
+		snprintf(r.s, sizeof r.s, "%s", type_name(v));
+	}
+	return r;
+}
+
+static void join(char *dst, const char *path, const char *key)
+{
+	snprintf(dst, PATHLEN, "%s%s%s", path, *path ? "." : "", key);
+}
+
+/* ---- value parsers --------------------------------------------------- */
+
+static int get_number(ctx_t *c, const char *path, const json_t *v, const struct range *r, double *out)
+{
+	if (!json_is_number(v))
+		return fail(c, path, "must be a number, got %s", type_name(v));
+	double x = json_number_value(v);
+	bool low = r->lo_open ? !(x > r->lo) : !(x >= r->lo);
+	if (low || x > r->hi) {
+		if (isinf(r->hi))
+			return fail(c, path, "must be a number %s %s, got %s",
+				    r->lo_open ? ">" : ">=", num(r->lo).s, num(x).s);
+		return fail(c, path, "must be between %s and %s, got %s",
+			    num(r->lo).s, num(r->hi).s, num(x).s);
+	}
+	*out = x;
+	return 0;
+}
+
+static int parse_number(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	return get_number(c, path, v, arg, dst);
+}
+
+/* JSON integers only: 1000.0 and 1e3 are reals and rejected, so that a count
+ * or seed is never silently rounded. */
+static int parse_integer(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	const struct irange *r = arg;
+	if (json_is_real(v)) {
+		double x = json_real_value(v);
+		return fail(c, path, "must be an integer >= %lld, got %s%s", r->lo, describe(v).s,
+			    x == floor(x) ? " (write integers without a decimal point or exponent)" : "");
+	}
+	if (!json_is_integer(v))
+		return fail(c, path, "must be an integer, got %s", type_name(v));
+	json_int_t i = json_integer_value(v);
+	if (i < r->lo)
+		return fail(c, path, "must be an integer >= %lld, got %s", r->lo, describe(v).s);
+	if (i > r->hi)
+		return fail(c, path, "must be an integer <= %lld, got %s", r->hi, describe(v).s);
+	*(uint64_t *)dst = (uint64_t)i;
+	return 0;
+}
+
+/* Index of string v in names[n]. */
+static int match(ctx_t *c, const char *path, const json_t *v, const char *const *names, size_t n, int *idx)
+{
+	if (!json_is_string(v))
+		return fail(c, path, "must be a string, got %s", type_name(v));
+	char known[PATHLEN] = "";
+	for (size_t i = 0; i < n; i++) {
+		if (strcmp(json_string_value(v), names[i]) == 0) {
+			*idx = (int)i;
+			return 0;
+		}
+		snprintf(known + strlen(known), sizeof known - strlen(known), "%s\"%s\"", i ? ", " : "", names[i]);
+	}
+	return fail(c, path, "must be one of %s, got %s", known, describe(v).s);
+}
+
+static int parse_method(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	int i, ret = match(c, path, v, method_names, 3, &i);
+	if (ret == 0)
+		*(scene_method_t *)dst = (scene_method_t)i;
+	return ret;
+}
+
+static int parse_positions(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	int i, ret = match(c, path, v, position_names, 2, &i);
+	if (ret == 0)
+		*(scene_positions_t *)dst = (scene_positions_t)i;
+	return ret;
+}
+
+static int parse_version(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	if (!json_is_integer(v) || json_integer_value(v) != 1)
+		return fail(c, path, "must be 1, got %s", describe(v).s);
+	return 0;
+}
+
+static int parse_dimensions(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	json_int_t d = json_is_integer(v) ? json_integer_value(v) : 0;
+	if (d != 2 && d != 3)
+		return fail(c, path, "must be 2 or 3, got %s", describe(v).s);
+	*(int *)dst = (int)d;
+	return 0;
+}
+
+/* Needs the dimension: the root table parses "dimensions" before "particles". */
+static int parse_box(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	double *box = dst;
+	if (!json_is_array(v))
+		return fail(c, path, "must be an array, got %s", type_name(v));
+	if (json_array_size(v) != (size_t)c->s->dim)
+		return fail(c, path, "must have %d edge lengths (one per dimension), got %zu",
+			    c->s->dim, json_array_size(v));
+	for (int i = 0; i < c->s->dim; i++) {
+		char sub[PATHLEN];
+		snprintf(sub, sizeof sub, "%s[%d]", path, i);
+		int ret = get_number(c, sub, json_array_get(v, i), &R_POS, &box[i]);
+		if (ret)
+			return ret;
+	}
+	return 0;
+}
+
+static int parse_observables(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	unsigned bits = 0, seen = 0;
+	size_t i;
+	json_t *o;
+	if (!json_is_array(v))
+		return fail(c, path, "must be an array, got %s", type_name(v));
+	json_array_foreach(v, i, o) {
+		char sub[PATHLEN];
+		snprintf(sub, sizeof sub, "%s[%zu]", path, i);
+		if (!json_is_string(o))
+			return fail(c, sub, "must be a string, got %s", type_name(o));
+		size_t k;
+		for (k = 0; k < N_OBSERVABLES; k++)
+			if (strcmp(json_string_value(o), observables[k].name) == 0)
+				break;
+		if (k == N_OBSERVABLES) {
+			char known[PATHLEN] = "";
+			for (size_t j = 0; j < N_OBSERVABLES; j++)
+				snprintf(known + strlen(known), sizeof known - strlen(known), "%s%s",
+					 j ? ", " : "", observables[j].name);
+			return fail(c, sub, "unknown observable %s (known: %s)", describe(o).s, known);
+		}
+		/* By name, not by bit: "temperature" after "kinetic_energy" is fine. */
+		if (seen & (1u << k))
+			return fail(c, sub, "duplicate observable %s", describe(o).s);
+		seen |= 1u << k;
+		bits |= observables[k].bit;
+	}
+	*(unsigned *)dst = bits;
+	return 0;
+}
+
+/* 0 means automatic; any explicit edge must hold at least one particle. */
+static int parse_cell_size(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	if (!json_is_number(v))
+		return fail(c, path, "must be a number, got %s", type_name(v));
+	double x = json_number_value(v);
+	if (x != 0 && !(x >= 1))
+		return fail(c, path, "must be 0 (automatic) or a number >= 1, got %s", num(x).s);
+	*(double *)dst = x;
+	return 0;
+}
+
+/* ---- objects --------------------------------------------------------- */
+
+static int walk(ctx_t *c, const char *path, json_t *v, void *base, const struct object *o)
+{
+	const char *key;
+	json_t *val;
+	char sub[PATHLEN];
+
+	if (!json_is_object(v))
+		return fail(c, path, "must be an object, got %s", type_name(v));
+	/* Unknown keys first, in document order: a typo explains a missing key. */
+	json_object_foreach(v, key, val) {
+		const struct field *f;
+		for (f = o->fields; f->name && strcmp(f->name, key) != 0; f++)
+			;
+		if (f->name)
+			continue;
+		char known[PATHLEN] = "";
+		for (f = o->fields; f->name; f++)
+			snprintf(known + strlen(known), sizeof known - strlen(known), "%s%s",
+				 f == o->fields ? "" : ", ", f->name);
+		join(sub, path, key);
+		return fail(c, sub, "unknown key (known: %s)", known);
+	}
+	/* Then in table order, so that later keys may depend on earlier ones. */
+	for (const struct field *f = o->fields; f->name; f++) {
+		json_t *x = json_object_get(v, f->name);
+		join(sub, path, f->name);
+		if (x == NULL) {
+			if (f->required)
+				return fail(c, sub, "required key missing");
+			continue;
+		}
+		int ret = f->parse(c, sub, x, (char *)base + f->off, f->arg);
+		if (ret)
+			return ret;
+	}
+	return o->check ? o->check(c, path, v, base) : 0;
+}
+
+static int parse_object(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	return walk(c, path, v, dst, arg);
+}
+
+static int check_when(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_when_t *w = base;
+	bool time = json_object_get(v, "time") != NULL;
+	bool cpp = json_object_get(v, "collisions_per_particle") != NULL;
+	if (time == cpp)
+		return fail(c, path, "must have exactly one of time or collisions_per_particle");
+	w->kind = time ? SCENE_CLOCK_TIME : SCENE_CLOCK_CPP;
+	return 0;
+}
+
+static int check_particles(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	if ((json_object_get(v, "volume_fraction") == NULL) == (json_object_get(v, "box") == NULL))
+		return fail(c, path, "exactly one of volume_fraction or box is required");
+	return 0;
+}
+
+/* Rules that span objects, and the derived fields. */
+static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_t *s = base;
+	bool box_given = json_object_get(json_object_get(v, "particles"), "box") != NULL;
+	double vp = scene_particle_volume(s);
+	const char *shape = s->dim == 2 ? "2D disks" : "3D spheres";
+
+	if (box_given) {
+		s->volume_fraction = (double)s->count * vp / scene_box_volume(s);
+	} else {
+		double edge = pow((double)s->count * vp / s->volume_fraction, 1.0 / s->dim);
+		for (int i = 0; i < s->dim; i++)
+			s->box[i] = edge;
+	}
+	/* Absurd radii or edges overflow; say so rather than divide by inf. */
+	if (!isfinite(vp) || !isfinite(s->volume_fraction) || !(s->volume_fraction > 0) ||
+	    !isfinite(s->box[0]) || !(s->box[0] > 0))
+		return fail(c, box_given ? "particles.box" : "particles.volume_fraction",
+			    "box volume or particle volume out of range (radius %s)", num(s->radius).s);
+
+	double cp = scene_close_packing(s->dim);
+	if (s->volume_fraction >= cp) {
+		const char *how = s->volume_fraction > cp ? "above" : "at";
+		if (box_given)
+			return fail(c, "particles.box", "gives volume fraction %.4g, %s the close-packing limit %.4f of %s",
+				    s->volume_fraction, how, cp, shape);
+		return fail(c, "particles.volume_fraction", "%s is %s the close-packing limit %.4f of %s",
+			    num(s->volume_fraction).s, how, cp, shape);
+	}
+
+	/* Minimum image: each pair has a single nearest image only if every edge
+	 * exceeds twice the interaction range (one diameter). */
+	for (int i = 0; i < s->dim; i++) {
+		if (s->box[i] > 4 * s->radius)
+			continue;
+		if (box_given) {
+			char sub[PATHLEN];
+			snprintf(sub, sizeof sub, "particles.box[%d]", i);
+			return fail(c, sub, "edge %s must be greater than 2 diameters (%s) for the minimum image convention",
+				    num(s->box[i]).s, num(4 * s->radius).s);
+		}
+		return fail(c, "particles.volume_fraction",
+			    "gives box edge %.4g, which must be greater than 2 diameters (%s) for the minimum image convention; "
+			    "use more particles or a lower volume_fraction", s->box[i], num(4 * s->radius).s);
+	}
+
+	/* Perfectly inelastic hard spheres collapse in finite time (infinitely many
+	 * collisions); the TC model makes close repeat collisions elastic. */
+	if (s->restitution == 0 && s->tc == 0)
+		return fail(c, "collisions.restitution", "0 leads to inelastic collapse unless collisions.tc > 0; set collisions.tc");
+
+	if (s->every.kind == SCENE_CLOCK_NONE)
+		s->every = (scene_when_t){ s->until.kind, s->until.value / 100 };
+	return 0;
+}
+
+static const struct object when_obj = {
+	.fields = (const struct field[]){
+		{ "time", parse_number, offsetof(scene_when_t, value), &R_POS, false },
+		{ "collisions_per_particle", parse_number, offsetof(scene_when_t, value), &R_POS, false },
+		{ .name = NULL },
+	},
+	.check = check_when,
+};
+
+static const struct object relax_obj = {
+	.fields = (const struct field[]){
+		{ "collisions_per_particle", parse_number, offsetof(scene_t, relax_cpp), &R_NONNEG, true },
+		{ .name = NULL },
+	},
+};
+
+static const struct object initial_obj = {
+	.fields = (const struct field[]){
+		{ "positions", parse_positions, offsetof(scene_t, positions), NULL, false },
+		{ "temperature", parse_number, offsetof(scene_t, temperature), &R_NONNEG, false },
+		{ "relax", parse_object, 0, &relax_obj, false },
+		{ .name = NULL },
+	},
+};
+
+static const struct object particles_obj = {
+	.fields = (const struct field[]){
+		{ "count", parse_integer, offsetof(scene_t, count), &R_COUNT, true },
+		{ "radius", parse_number, offsetof(scene_t, radius), &R_POS, false },
+		{ "mass", parse_number, offsetof(scene_t, mass), &R_POS, false },
+		{ "volume_fraction", parse_number, offsetof(scene_t, volume_fraction), &R_POS, false },
+		{ "box", parse_box, offsetof(scene_t, box), NULL, false },
+		{ "initial", parse_object, 0, &initial_obj, false },
+		{ .name = NULL },
+	},
+	.check = check_particles,
+};
+
+static const struct object collisions_obj = {
+	.fields = (const struct field[]){
+		{ "restitution", parse_number, offsetof(scene_t, restitution), &R_UNIT, false },
+		{ "tc", parse_number, offsetof(scene_t, tc), &R_NONNEG, false },
+		{ .name = NULL },
+	},
+};
+
+static const struct object run_obj = {
+	.fields = (const struct field[]){
+		{ "seed", parse_integer, offsetof(scene_t, seed), &R_SEED, false },
+		{ "until", parse_object, offsetof(scene_t, until), &when_obj, true },
+		{ .name = NULL },
+	},
+};
+
+static const struct object clusters_obj = {
+	.fields = (const struct field[]){
+		{ "delta", parse_number, offsetof(scene_t, cluster_delta), &R_POS, false },
+		{ .name = NULL },
+	},
+};
+
+static const struct object output_obj = {
+	.fields = (const struct field[]){
+		{ "every", parse_object, offsetof(scene_t, every), &when_obj, false },
+		{ "observables", parse_observables, offsetof(scene_t, observables), NULL, false },
+		{ "clusters", parse_object, 0, &clusters_obj, false },
+		{ .name = NULL },
+	},
+};
+
+static const struct object ed_obj = {
+	.fields = (const struct field[]){
+		{ "cell_size", parse_cell_size, offsetof(scene_t, ed_cell_size), NULL, false },
+		{ .name = NULL },
+	},
+};
+
+/* Table order is parse order: dimensions before particles (box length). */
+static const struct object scene_obj = {
+	.fields = (const struct field[]){
+		{ "version", parse_version, 0, NULL, false },
+		{ "method", parse_method, offsetof(scene_t, method), NULL, true },
+		{ "dimensions", parse_dimensions, offsetof(scene_t, dim), NULL, true },
+		{ "particles", parse_object, 0, &particles_obj, true },
+		{ "collisions", parse_object, 0, &collisions_obj, false },
+		{ "run", parse_object, 0, &run_obj, true },
+		{ "output", parse_object, 0, &output_obj, false },
+		{ "ed", parse_object, 0, &ed_obj, false },
+		{ .name = NULL },
+	},
+	.check = check_scene,
+};
+
+int scene_parse(const char *json, size_t len, scene_t *out, char *err, size_t errlen)
+{
+	scene_t s = {
+		.radius = 0.5,
+		.mass = 1,
+		.temperature = 1,
+		.restitution = 1,
+		.seed = 1,
+		.observables = SCENE_OBS_ENERGY | SCENE_OBS_PRESSURE | SCENE_OBS_COLLISION_RATE,
+		.cluster_delta = 0.1,
+	};
+	ctx_t c = { &s, err, errlen };
+	json_error_t jerr;
+
+	if (err && errlen)
+		err[0] = '\0';
+	json_t *root = json_loadb(json ? json : "", json ? len : 0, JSON_REJECT_DUPLICATES, &jerr);
+	if (root == NULL) {
+		if (json_error_code(&jerr) == json_error_out_of_memory) {
+			fail(&c, "(root)", "out of memory");
+			return SCENE_ENOMEM;
+		}
+		fail(&c, "(root)", "not valid JSON at line %d column %d: %s", jerr.line, jerr.column, jerr.text);
+		return SCENE_EJSON;
+	}
+	int ret;
+	if (!json_is_object(root)) {
+		fail(&c, "(root)", "must be a JSON object, got %s", type_name(root));
+		ret = SCENE_EJSON;
+	} else {
+		ret = walk(&c, "", root, &s, &scene_obj);
+	}
+	json_decref(root);
+	/* *out is left alone on error so that a caller's old scene survives. */
+	if (ret == 0 && out)
+		*out = s;
+	return ret;
+}
+
+double scene_close_packing(int dim)
+{
+	return dim == 2 ? PI / (2 * sqrt(3.0)) : dim == 3 ? PI / (3 * sqrt(2.0)) : 0;
+}
+
+double scene_box_volume(const scene_t *s)
+{
+	return s->box[0] * s->box[1] * (s->dim == 3 ? s->box[2] : 1);
+}
+
+double scene_particle_volume(const scene_t *s)
+{
+	double r = s->radius;
+	return s->dim == 3 ? 4.0 / 3.0 * PI * r * r * r : PI * r * r;
+}
+
+const char *scene_strerror(int code)
+{
+	switch (code) {
+	case SCENE_OK: return "success";
+	case SCENE_EJSON: return "not a JSON object";
+	case SCENE_EINVAL: return "invalid scene";
+	case SCENE_ENOMEM: return "out of memory";
+	default: return "unknown error";
+	}
+}
+
+const char *scene_method_name(scene_method_t m)
+{
+	return (unsigned)m < sizeof method_names / sizeof method_names[0] ? method_names[m] : "unknown";
+}

@@ -1,0 +1,88 @@
+/* Scene description: the parsed, validated, defaulted form of a scene JSON (version 1). */
+#pragma once
+
+#include <stddef.h>
+#include <stdint.h>
+
+/*
+ * Contract
+ * - scene_parse() is the single authority on what a valid scene is: the
+ *   engine and (later) the daemon both call it, so they cannot disagree.
+ * - It performs no I/O. On error it returns a negative SCENE_E* code and
+ *   writes one line "KEY.PATH: reason" (no newline) into err.
+ * - Units: lengths in particle diameters only when the scene says so; all
+ *   values are in the scene's own units (diameter = 2*radius, mass = mass),
+ *   k_B = 1, temperature T = 2 E_kin / (D N).
+ */
+
+enum {
+	SCENE_OK = 0,
+	SCENE_EJSON = -1,    /* not JSON, or not an object at the top */
+	SCENE_EINVAL = -2,   /* unknown key, wrong type, value out of range */
+	SCENE_ENOMEM = -3,
+};
+
+typedef enum { SCENE_METHOD_ED = 0, SCENE_METHOD_DSMC, SCENE_METHOD_HSMC } scene_method_t;
+typedef enum { SCENE_POS_LATTICE = 0, SCENE_POS_RANDOM } scene_positions_t;
+/* A stop or output condition: simulated time or collisions per particle. */
+typedef enum { SCENE_CLOCK_NONE = 0, SCENE_CLOCK_TIME, SCENE_CLOCK_CPP } scene_clock_t;
+
+/* Observables a scene may ask for; only those asked for are computed. */
+enum {
+	SCENE_OBS_ENERGY = 1u << 0,         /* kinetic_energy, temperature */
+	SCENE_OBS_PRESSURE = 1u << 1,       /* pressure, compressibility (collision virial) */
+	SCENE_OBS_COLLISION_RATE = 1u << 2, /* collision_rate */
+	SCENE_OBS_CLUSTERS = 1u << 3,       /* particle-cluster statistics */
+	SCENE_OBS_MOMENTUM = 1u << 4,       /* total momentum vector */
+};
+
+typedef struct {
+	scene_clock_t kind;
+	double value;        /* time, or collisions per particle (2C/N) */
+} scene_when_t;
+
+typedef struct scene {
+	scene_method_t method;
+	int dim;                       /* 2 or 3 */
+
+	/* particles */
+	uint64_t count;                /* N >= 2 */
+	double radius;                 /* > 0, default 0.5 */
+	double mass;                   /* > 0, default 1 */
+	double box[3];                 /* edge lengths; derived from volume_fraction if not given */
+	double volume_fraction;        /* always filled (derived from box if box given) */
+	scene_positions_t positions;   /* default lattice */
+	double temperature;            /* initial T >= 0, default 1 */
+	double relax_cpp;              /* elastic pre-run, collisions per particle (default 0) */
+
+	/* collisions */
+	double restitution;            /* 0..1, default 1 */
+	double tc;                     /* TC-model time >= 0, default 0 = off */
+
+	/* run */
+	uint64_t seed;                 /* default 1 */
+	scene_when_t until;            /* required */
+	double max_events;             /* safety bound on events, 0 = none */
+
+	/* output */
+	scene_when_t every;            /* default: until / 100 of the same kind */
+	unsigned observables;          /* SCENE_OBS_* bit set; default energy|pressure|collision_rate */
+	double cluster_delta;          /* gap in diameters, default 0.1 */
+
+	/* ed method tuning */
+	double ed_cell_size;           /* minimum cell edge in diameters, 0 = automatic */
+} scene_t;
+
+/* Parse and validate a scene from a JSON text of len bytes. Fills *out with
+ * defaults applied. err (errlen bytes, may be NULL) receives the message. */
+int scene_parse(const char *json, size_t len, scene_t *out, char *err, size_t errlen);
+
+/* Close-packing volume fraction of disks (dim 2) or spheres (dim 3). */
+double scene_close_packing(int dim);
+
+/* Volume of the box and of one particle (disk area in 2D). */
+double scene_box_volume(const scene_t *s);
+double scene_particle_volume(const scene_t *s);
+
+const char *scene_strerror(int code);
+const char *scene_method_name(scene_method_t m);

@@ -1,0 +1,110 @@
+#!/bin/sh
+# Integration test of the granular-engine program: bad scenes, progress protocol, exit codes, MPI launch.
+set -u
+: "${SRCDIR:=$(cd "$(dirname "$0")/.." && pwd)}"
+: "${ENGINE:=$SRCDIR/engine/granular-engine}"
+tmp=$(mktemp -d "${TMPDIR:-/tmp}/engine_cli.XXXXXX")
+trap 'rm -rf "$tmp"' EXIT
+n=0; failed=0
+ok() { n=$((n + 1)); if [ "$1" = 0 ]; then echo "ok $n - $2"; else echo "not ok $n - $2"; failed=$((failed + 1)); fi; }
+PY=/usr/bin/python3
+
+# 1. Every bad scene: exit 2, exactly one line on stderr, starting with the key path.
+while IFS="$(printf '\t')" read -r file key _rest; do
+	[ -n "$file" ] || continue
+	"$ENGINE" run "$SRCDIR/tests/scenes/bad/$file" >"$tmp/out" 2>"$tmp/err"
+	rc=$?
+	lines=$(wc -l <"$tmp/err")
+	case "$(head -n 1 "$tmp/err")" in
+	"$key"*) prefix=0 ;;
+	*) prefix=1 ;;
+	esac
+	[ $rc -eq 2 ] && [ "$lines" -eq 1 ] && [ $prefix -eq 0 ] && [ ! -s "$tmp/out" ]
+	ok $? "bad scene $file: exit $rc, $lines line(s): $(head -n 1 "$tmp/err")"
+done <"$SRCDIR/tests/scenes/bad/expected.tsv"
+
+"$ENGINE" run "$tmp/missing.json" >/dev/null 2>"$tmp/err"
+ok $(( $? == 2 ? 0 : 1 )) "missing scene file: exit 2 ($(cat "$tmp/err"))"
+"$ENGINE" frobnicate >/dev/null 2>&1
+ok $(( $? == 2 ? 0 : 1 )) "unknown command: exit 2"
+
+# 2. Good scenes run to completion; every line is JSON with the documented keys.
+for f in "$SRCDIR"/tests/scenes/good/*.json; do
+	name=$(basename "$f")
+	"$ENGINE" run "$f" >"$tmp/progress" 2>"$tmp/err"
+	rc=$?
+	"$PY" - "$tmp/progress" "$f" <<'PYEOF'
+import json, sys
+lines = [json.loads(l) for l in open(sys.argv[1])]
+scene = json.load(open(sys.argv[2]))
+prog = [l for l in lines if l["type"] == "progress"]
+summ = [l for l in lines if l["type"] == "summary"]
+assert len(summ) == 1 and lines[-1]["type"] == "summary", "one summary, last"
+assert summ[0]["status"] == "completed", summ[0]
+base = {"time", "events", "collisions", "collisions_per_particle", "wall_seconds"}
+obs = scene.get("output", {}).get("observables",
+      ["kinetic_energy", "temperature", "pressure", "compressibility", "collision_rate"])
+for p in prog:
+    missing = (base | {o for o in obs if o != "clusters"}) - set(p)
+    assert not missing, missing
+    if "clusters" in obs:
+        c = p["clusters"]
+        assert c["count"] >= 1 and 1 <= c["largest"] <= scene["particles"]["count"]
+        assert sum(c["histogram"]) == c["count"]
+times = [p["time"] for p in prog]
+assert times == sorted(times) and len(prog) >= 2
+n = scene["particles"]["count"]
+for p in prog:
+    assert abs(p["collisions_per_particle"] - 2 * p["collisions"] / n) < 1e-12
+    if "temperature" in p and "kinetic_energy" in p:
+        assert abs(p["temperature"] - 2 * p["kinetic_energy"] / (scene["dimensions"] * n)) < 1e-12 * p["temperature"] + 1e-300
+until = scene["run"]["until"]
+if "time" in until:
+    assert abs(prog[-1]["time"] - until["time"]) < 1e-9 * until["time"]
+else:
+    assert prog[-1]["collisions_per_particle"] >= until["collisions_per_particle"] - 1e-12
+PYEOF
+	ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "good scene $name: exit $rc, progress lines valid"
+done
+
+# 3. --progress-fd and --out.
+scene="$SRCDIR/tests/scenes/good/$(ls "$SRCDIR/tests/scenes/good" | head -n 1)"
+"$ENGINE" run "$scene" --progress-fd 3 --out "$tmp/out.d" 3>"$tmp/fd3" >"$tmp/stdout" 2>/dev/null
+rc=$?
+[ $rc -eq 0 ] && [ ! -s "$tmp/stdout" ] && [ -s "$tmp/fd3" ] && cmp -s "$tmp/fd3" "$tmp/out.d/progress.jsonl"
+ok $? "--progress-fd 3 carries the progress, --out DIR keeps a copy (exit $rc)"
+
+# 4. Same scene, same seed: identical physics (wall time aside).
+strip() { "$PY" -c 'import json,sys
+for l in open(sys.argv[1]):
+    d=json.loads(l); [d.pop(k,None) for k in ("wall_seconds","events_per_second","collisions_per_second")]; print(json.dumps(d,sort_keys=True))' "$1"; }
+"$ENGINE" run "$scene" >"$tmp/a" 2>/dev/null && "$ENGINE" run "$scene" >"$tmp/b" 2>/dev/null
+strip "$tmp/a" >"$tmp/a2"; strip "$tmp/b" >"$tmp/b2"
+cmp -s "$tmp/a2" "$tmp/b2"
+ok $? "two runs of the same scene print identical physics"
+
+# 5. SIGTERM: the engine stops cleanly with a summary of status interrupted, exit 3.
+cat >"$tmp/long.json" <<'JSON'
+{"method":"ed","dimensions":3,"particles":{"count":4000,"volume_fraction":0.3},
+ "run":{"until":{"collisions_per_particle":1e9}},"output":{"every":{"collisions_per_particle":10}}}
+JSON
+"$ENGINE" run "$tmp/long.json" >"$tmp/long.out" 2>/dev/null &
+pid=$!
+sleep 1
+kill -TERM $pid
+wait $pid
+rc=$?
+tail -n 1 "$tmp/long.out" | grep -q '"status":"interrupted"'
+ok $(( rc == 3 && $? == 0 ? 0 : 1 )) "SIGTERM: summary with status interrupted, exit $rc"
+
+# 6. Under mpirun with 2 ranks: rank 0 runs, the other idles; same physics.
+if command -v mpirun >/dev/null 2>&1; then
+	mpirun -np 2 "$ENGINE" run "$scene" >"$tmp/m" 2>"$tmp/merr"
+	rc=$?
+	strip "$tmp/m" >"$tmp/m2"
+	cmp -s "$tmp/a2" "$tmp/m2"
+	ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "mpirun -np 2: exit $rc, same output as the serial run"
+fi
+
+echo "1..$n"
+[ $failed -eq 0 ]

@@ -1,0 +1,332 @@
+/* Unit tests for scene_parse(): defaults, derived fields, and the one-line error for each kind of bad input. */
+#include <dirent.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "scene.h"
+#include "tap.h"
+
+#define PI 3.14159265358979323846
+
+/* Scenes are written with single quotes for legibility; none needs a real one. */
+static int parse(const char *text, scene_t *s, char *err, size_t errlen)
+{
+	char buf[4096];
+	size_t n = strlen(text);
+	if (n >= sizeof buf)
+		return -100;
+	for (size_t i = 0; i <= n; i++)
+		buf[i] = text[i] == '\'' ? '"' : text[i];
+	return scene_parse(buf, n, s, err, errlen);
+}
+
+static int near(double a, double b) { return fabs(a - b) <= 1e-12 * fmax(1, fabs(b)); }
+
+/* Message starts with "path: " and is one line. */
+static int has_path(const char *err, const char *path)
+{
+	size_t n = strlen(path);
+	return strncmp(err, path, n) == 0 && strncmp(err + n, ": ", 2) == 0 && strchr(err, '\n') == NULL;
+}
+
+#define HEAD "'method':'ed','dimensions':2"
+#define PART "'particles':{'count':100,'volume_fraction':0.3}"
+#define RUN "'run':{'until':{'collisions_per_particle':5}}"
+#define BASE HEAD "," PART "," RUN
+#define PART_WITH(x) "'particles':{'count':100,'volume_fraction':0.3," x "}"
+#define RUN_WITH(x) "'run':{'until':{'collisions_per_particle':5}," x "}"
+
+static const struct bad {
+	const char *name;
+	const char *json;
+	int code;
+	const char *path;   /* the message must start with "path: " */
+	const char *msg;    /* if set, the whole message */
+} bad[] = {
+	{ "not JSON", "{'method': 'ed',", SCENE_EJSON, "(root)", NULL },
+	{ "empty text", "", SCENE_EJSON, "(root)", NULL },
+	{ "top-level array", "[{" BASE "}]", SCENE_EJSON, "(root)", "(root): must be a JSON object, got array" },
+	{ "top-level number", "3", SCENE_EJSON, "(root)", NULL },
+	{ "duplicate key", "{'method':'ed'," BASE "}", SCENE_EJSON, "(root)", NULL },
+	{ "unknown key, root", "{" BASE ",'colour':'red'}", SCENE_EINVAL, "colour", NULL },
+	{ "unknown key, particles", "{" HEAD "," PART_WITH("'colour':'red'") "," RUN "}", SCENE_EINVAL,
+	  "particles.colour", NULL },
+	{ "unknown key, relax", "{" HEAD "," PART_WITH("'initial':{'relax':{'collisions_per_particle':1,'steps':3}}")
+	  "," RUN "}", SCENE_EINVAL, "particles.initial.relax.steps", NULL },
+	{ "unknown key, until", "{" HEAD "," PART ",'run':{'until':{'steps':10}}}", SCENE_EINVAL, "run.until.steps", NULL },
+	{ "unknown key, ed", "{" BASE ",'ed':{'cells':3}}", SCENE_EINVAL, "ed.cells", NULL },
+	{ "radius wrong type", "{" HEAD "," PART_WITH("'radius':'big'") "," RUN "}", SCENE_EINVAL, "particles.radius",
+	  "particles.radius: must be a number, got string" },
+	{ "radius 0", "{" HEAD "," PART_WITH("'radius':0") "," RUN "}", SCENE_EINVAL, "particles.radius",
+	  "particles.radius: must be a number > 0, got 0" },
+	{ "mass negative", "{" HEAD "," PART_WITH("'mass':-1") "," RUN "}", SCENE_EINVAL, "particles.mass", NULL },
+	{ "restitution 1.5", "{" BASE ",'collisions':{'restitution':1.5}}", SCENE_EINVAL, "collisions.restitution",
+	  "collisions.restitution: must be between 0 and 1, got 1.5" },
+	{ "restitution -0.1", "{" BASE ",'collisions':{'restitution':-0.1}}", SCENE_EINVAL, "collisions.restitution", NULL },
+	{ "restitution 0 without tc", "{" BASE ",'collisions':{'restitution':0}}", SCENE_EINVAL,
+	  "collisions.restitution", NULL },
+	{ "tc negative", "{" BASE ",'collisions':{'tc':-1}}", SCENE_EINVAL, "collisions.tc", NULL },
+	{ "collisions not object", "{" BASE ",'collisions':null}", SCENE_EINVAL, "collisions",
+	  "collisions: must be an object, got null" },
+	{ "count 0", "{" HEAD ",'particles':{'count':0,'volume_fraction':0.3}," RUN "}", SCENE_EINVAL, "particles.count",
+	  "particles.count: must be an integer >= 2, got 0" },
+	{ "count 1", "{" HEAD ",'particles':{'count':1,'volume_fraction':0.3}," RUN "}", SCENE_EINVAL, "particles.count", NULL },
+	{ "count 2.5", "{" HEAD ",'particles':{'count':2.5,'volume_fraction':0.3}," RUN "}", SCENE_EINVAL,
+	  "particles.count", "particles.count: must be an integer >= 2, got 2.5" },
+	{ "count 1000.0", "{" HEAD ",'particles':{'count':1000.0,'volume_fraction':0.3}," RUN "}", SCENE_EINVAL,
+	  "particles.count", NULL },
+	{ "count '10'", "{" HEAD ",'particles':{'count':'10','volume_fraction':0.3}," RUN "}", SCENE_EINVAL,
+	  "particles.count", "particles.count: must be an integer, got string" },
+	{ "count 2^31", "{" HEAD ",'particles':{'count':2147483648,'volume_fraction':0.3}," RUN "}", SCENE_EINVAL,
+	  "particles.count", NULL },
+	{ "count missing", "{" HEAD ",'particles':{'volume_fraction':0.3}," RUN "}", SCENE_EINVAL, "particles.count",
+	  "particles.count: required key missing" },
+	{ "volume fraction 0.95 in 2D", "{" HEAD ",'particles':{'count':100,'volume_fraction':0.95}," RUN "}",
+	  SCENE_EINVAL, "particles.volume_fraction",
+	  "particles.volume_fraction: 0.95 is above the close-packing limit 0.9069 of 2D disks" },
+	{ "volume fraction 0.75 in 3D", "{'method':'ed','dimensions':3,'particles':{'count':100,'volume_fraction':0.75},"
+	  RUN "}", SCENE_EINVAL, "particles.volume_fraction", NULL },
+	{ "volume fraction 0", "{" HEAD ",'particles':{'count':100,'volume_fraction':0}," RUN "}", SCENE_EINVAL,
+	  "particles.volume_fraction", NULL },
+	{ "box beyond close packing", "{" HEAD ",'particles':{'count':100,'box':[8,8]}," RUN "}", SCENE_EINVAL,
+	  "particles.box", NULL },
+	{ "box edge below 2 diameters", "{" HEAD ",'particles':{'count':2,'box':[1.5,10]}," RUN "}", SCENE_EINVAL,
+	  "particles.box[0]", NULL },
+	{ "box edge exactly 2 diameters", "{" HEAD ",'particles':{'count':2,'box':[10,2]}," RUN "}", SCENE_EINVAL,
+	  "particles.box[1]", NULL },
+	{ "derived edge below 2 diameters", "{" HEAD ",'particles':{'count':2,'volume_fraction':0.5}," RUN "}",
+	  SCENE_EINVAL, "particles.volume_fraction", NULL },
+	{ "box and volume fraction", "{" HEAD "," PART_WITH("'box':[20,20]") "," RUN "}", SCENE_EINVAL, "particles",
+	  "particles: exactly one of volume_fraction or box is required" },
+	{ "neither box nor volume fraction", "{" HEAD ",'particles':{'count':100}," RUN "}", SCENE_EINVAL, "particles", NULL },
+	{ "box of 2 in 3D", "{'method':'ed','dimensions':3,'particles':{'count':100,'box':[20,20]}," RUN "}",
+	  SCENE_EINVAL, "particles.box", NULL },
+	{ "box edge negative", "{" HEAD ",'particles':{'count':100,'box':[20,-1]}," RUN "}", SCENE_EINVAL,
+	  "particles.box[1]", "particles.box[1]: must be a number > 0, got -1" },
+	{ "box edge string", "{" HEAD ",'particles':{'count':100,'box':[20,'x']}," RUN "}", SCENE_EINVAL,
+	  "particles.box[1]", NULL },
+	{ "until missing", "{" HEAD "," PART ",'run':{}}", SCENE_EINVAL, "run.until", "run.until: required key missing" },
+	{ "run missing", "{" HEAD "," PART "}", SCENE_EINVAL, "run", NULL },
+	{ "until empty", "{" HEAD "," PART ",'run':{'until':{}}}", SCENE_EINVAL, "run.until", NULL },
+	{ "until both", "{" HEAD "," PART ",'run':{'until':{'time':1,'collisions_per_particle':5}}}", SCENE_EINVAL,
+	  "run.until", NULL },
+	{ "until time 0", "{" HEAD "," PART ",'run':{'until':{'time':0}}}", SCENE_EINVAL, "run.until.time", NULL },
+	{ "until number", "{" HEAD "," PART ",'run':{'until':5}}", SCENE_EINVAL, "run.until", NULL },
+	{ "every negative", "{" BASE ",'output':{'every':{'collisions_per_particle':-1}}}", SCENE_EINVAL,
+	  "output.every.collisions_per_particle", NULL },
+	{ "every time 0", "{" BASE ",'output':{'every':{'time':0}}}", SCENE_EINVAL, "output.every.time", NULL },
+	{ "every empty", "{" BASE ",'output':{'every':{}}}", SCENE_EINVAL, "output.every", NULL },
+	{ "duplicate observable", "{" BASE ",'output':{'observables':['pressure','temperature','pressure']}}",
+	  SCENE_EINVAL, "output.observables[2]", "output.observables[2]: duplicate observable \"pressure\"" },
+	{ "unknown observable", "{" BASE ",'output':{'observables':['pressure','temperature','foo']}}", SCENE_EINVAL,
+	  "output.observables[2]", NULL },
+	{ "observable not string", "{" BASE ",'output':{'observables':[1]}}", SCENE_EINVAL, "output.observables[0]", NULL },
+	{ "observables not array", "{" BASE ",'output':{'observables':'pressure'}}", SCENE_EINVAL, "output.observables",
+	  NULL },
+	{ "cluster delta 0", "{" BASE ",'output':{'clusters':{'delta':0}}}", SCENE_EINVAL, "output.clusters.delta", NULL },
+	{ "method md", "{'method':'md','dimensions':2," PART "," RUN "}", SCENE_EINVAL, "method",
+	  "method: must be one of \"ed\", \"dsmc\", \"hsmc\", got \"md\"" },
+	{ "method missing", "{'dimensions':2," PART "," RUN "}", SCENE_EINVAL, "method", NULL },
+	{ "dimensions 4", "{'method':'ed','dimensions':4," PART "," RUN "}", SCENE_EINVAL, "dimensions",
+	  "dimensions: must be 2 or 3, got 4" },
+	{ "dimensions '2'", "{'method':'ed','dimensions':'2'," PART "," RUN "}", SCENE_EINVAL, "dimensions", NULL },
+	{ "dimensions 2.0", "{'method':'ed','dimensions':2.0," PART "," RUN "}", SCENE_EINVAL, "dimensions",
+	  "dimensions: must be 2 or 3, got 2.0" },
+	{ "version 2", "{'version':2," BASE "}", SCENE_EINVAL, "version", NULL },
+	{ "particles not object", "{" HEAD ",'particles':[100]," RUN "}", SCENE_EINVAL, "particles", NULL },
+	{ "temperature negative", "{" HEAD "," PART_WITH("'initial':{'temperature':-1}") "," RUN "}", SCENE_EINVAL,
+	  "particles.initial.temperature", NULL },
+	{ "positions grid", "{" HEAD "," PART_WITH("'initial':{'positions':'grid'}") "," RUN "}", SCENE_EINVAL,
+	  "particles.initial.positions", NULL },
+	{ "relax without collisions_per_particle", "{" HEAD "," PART_WITH("'initial':{'relax':{}}") "," RUN "}",
+	  SCENE_EINVAL, "particles.initial.relax.collisions_per_particle", NULL },
+	{ "seed -1", "{" HEAD "," PART "," RUN_WITH("'seed':-1") "}", SCENE_EINVAL, "run.seed", NULL },
+	{ "seed 2^53+1", "{" HEAD "," PART "," RUN_WITH("'seed':9007199254740993") "}", SCENE_EINVAL, "run.seed", NULL },
+	{ "seed true", "{" HEAD "," PART "," RUN_WITH("'seed':true") "}", SCENE_EINVAL, "run.seed",
+	  "run.seed: must be an integer, got boolean" },
+	{ "cell size 0.5", "{" BASE ",'ed':{'cell_size':0.5}}", SCENE_EINVAL, "ed.cell_size", NULL },
+	{ "newline in key", "{" BASE ",'a\\nb':1}", SCENE_EINVAL, "a?b", NULL },
+};
+
+static void test_defaults(void)
+{
+	scene_t s;
+	char err[256] = "x";
+	int ret = parse("{" BASE "}", &s, err, sizeof err);
+	ok(ret == SCENE_OK && err[0] == '\0', "minimal scene parses (%d, %s)", ret, err);
+	double edge = sqrt(100 * PI * 0.25 / 0.3);
+	ok(s.method == SCENE_METHOD_ED && s.dim == 2 && s.count == 100, "method, dimensions, count");
+	ok(s.radius == 0.5 && s.mass == 1, "default radius 0.5, mass 1");
+	ok(s.volume_fraction == 0.3 && near(s.box[0], edge) && s.box[1] == s.box[0] && s.box[2] == 0,
+	   "box derived from volume fraction: %g x %g x %g", s.box[0], s.box[1], s.box[2]);
+	ok(s.positions == SCENE_POS_LATTICE && s.temperature == 1 && s.relax_cpp == 0,
+	   "default lattice, temperature 1, no relax");
+	ok(s.restitution == 1 && s.tc == 0, "default restitution 1, tc 0");
+	ok(s.seed == 1 && s.max_events == 0, "default seed 1, max_events 0");
+	ok(s.until.kind == SCENE_CLOCK_CPP && s.until.value == 5, "until 5 collisions per particle");
+	ok(s.every.kind == SCENE_CLOCK_CPP && near(s.every.value, 0.05), "every defaults to until/100, same kind");
+	ok(s.observables == (SCENE_OBS_ENERGY | SCENE_OBS_PRESSURE | SCENE_OBS_COLLISION_RATE),
+	   "default observables");
+	ok(s.cluster_delta == 0.1 && s.ed_cell_size == 0, "default cluster delta 0.1, automatic cells");
+	ok(near(scene_box_volume(&s) * s.volume_fraction, s.count * scene_particle_volume(&s)),
+	   "box volume and particle volume agree with the volume fraction");
+}
+
+static void test_derived(void)
+{
+	scene_t s;
+	char err[256];
+	int ret = parse("{" HEAD ",'particles':{'count':50,'box':[20,10]}," RUN "}", &s, err, sizeof err);
+	ok(ret == 0 && near(s.volume_fraction, 50 * PI * 0.25 / 200) && s.box[0] == 20 && s.box[1] == 10 &&
+	   s.box[2] == 0, "2D box given: volume fraction %g derived", s.volume_fraction);
+
+	ret = parse("{'method':'ed','dimensions':3,'particles':{'count':1000,'radius':1,'volume_fraction':0.2}," RUN "}",
+		    &s, err, sizeof err);
+	double edge = cbrt(1000 * 4.0 / 3.0 * PI / 0.2);
+	ok(ret == 0 && near(s.box[0], edge) && s.box[1] == s.box[0] && s.box[2] == s.box[0],
+	   "3D volume fraction given: cube edge %g derived", s.box[0]);
+
+	ret = parse("{'method':'ed','dimensions':3,'particles':{'count':128,'box':[8,8,8]}," RUN "}", &s, err, sizeof err);
+	ok(ret == 0 && near(s.volume_fraction, 128 * PI / 6 / 512), "3D box given: volume fraction %g derived",
+	   s.volume_fraction);
+}
+
+static void test_all_keys(void)
+{
+	scene_t s;
+	char err[256];
+	int ret = parse("{'version':1,'method':'dsmc','dimensions':3,"
+			"'particles':{'count':2000,'radius':0.25,'mass':3,'volume_fraction':0.1,"
+			"'initial':{'positions':'random','temperature':0,'relax':{'collisions_per_particle':2}}},"
+			"'collisions':{'restitution':0,'tc':0.001},"
+			"'run':{'seed':9007199254740992,'until':{'time':10}},"
+			"'output':{'every':{'collisions_per_particle':0.5},"
+			"'observables':['kinetic_energy','temperature','pressure','compressibility',"
+			"'collision_rate','clusters','momentum'],'clusters':{'delta':0.3}},"
+			"'ed':{'cell_size':1.5}}", &s, err, sizeof err);
+	ok(ret == 0, "scene with every key parses (%s)", err);
+	ok(s.method == SCENE_METHOD_DSMC && s.dim == 3 && s.count == 2000 && s.radius == 0.25 && s.mass == 3,
+	   "method, dimensions, particles");
+	ok(s.positions == SCENE_POS_RANDOM && s.temperature == 0 && s.relax_cpp == 2, "initial");
+	ok(s.restitution == 0 && s.tc == 0.001, "restitution 0 allowed with tc > 0");
+	ok(s.seed == 9007199254740992ULL, "seed 2^53");
+	ok(s.until.kind == SCENE_CLOCK_TIME && s.until.value == 10 && s.every.kind == SCENE_CLOCK_CPP &&
+	   s.every.value == 0.5, "until in time, every in collisions per particle");
+	ok(s.observables == (SCENE_OBS_ENERGY | SCENE_OBS_PRESSURE | SCENE_OBS_COLLISION_RATE | SCENE_OBS_CLUSTERS |
+			     SCENE_OBS_MOMENTUM), "all observables");
+	ok(s.cluster_delta == 0.3 && s.ed_cell_size == 1.5, "cluster delta and cell size");
+
+	ret = parse("{'method':'hsmc','dimensions':2," PART ",'run':{'seed':0,'until':{'time':4}},"
+		    "'output':{'observables':['temperature','clusters']},'ed':{'cell_size':0}}", &s, err, sizeof err);
+	ok(ret == 0 && s.method == SCENE_METHOD_HSMC && s.seed == 0 && s.ed_cell_size == 0,
+	   "hsmc, seed 0, explicit automatic cell size");
+	ok(s.observables == (SCENE_OBS_ENERGY | SCENE_OBS_CLUSTERS), "temperature maps to the energy bit");
+	ok(s.every.kind == SCENE_CLOCK_TIME && near(s.every.value, 0.04), "every defaults to until time / 100");
+
+	ret = parse("{" BASE ",'output':{'observables':[]}}", &s, err, sizeof err);
+	ok(ret == 0 && s.observables == 0, "empty observable list");
+}
+
+static void test_bad(void)
+{
+	for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+		const struct bad *b = &bad[i];
+		char err[512] = "";
+		scene_t s;
+		int ret = parse(b->json, &s, err, sizeof err);
+		int good = ret == b->code && has_path(err, b->path) && (b->msg == NULL || strcmp(err, b->msg) == 0);
+		ok(good, "%s: %s", b->name, err);
+		if (!good)
+			diag("expected code %d (got %d), path %s, message %s", b->code, ret, b->path, b->msg ? b->msg : "-");
+	}
+}
+
+static void test_api(void)
+{
+	scene_t s, keep;
+	memset(&keep, 0xab, sizeof keep);
+	s = keep;
+	char err[8];
+	ok(parse("{" BASE ",'colour':1}", &s, NULL, 0) == SCENE_EINVAL, "err NULL is safe");
+	ok(parse("{" BASE ",'colour':1}", &s, err, 0) == SCENE_EINVAL, "errlen 0 is safe");
+	ok(parse("{" BASE ",'colour':1}", &s, err, sizeof err) == SCENE_EINVAL && strlen(err) == sizeof err - 1,
+	   "message truncated to errlen: %s", err);
+	ok(parse("not json", &s, err, 1) == SCENE_EJSON && err[0] == '\0', "errlen 1 gives an empty string");
+	ok(memcmp(&s, &keep, sizeof s) == 0, "output untouched on error");
+	ok(scene_parse(NULL, 0, &s, NULL, 0) == SCENE_EJSON, "NULL text is not JSON");
+	ok(parse("{" BASE "}", NULL, NULL, 0) == SCENE_OK, "out NULL validates only");
+
+	ok(near(scene_close_packing(2), PI / (2 * sqrt(3))) && near(scene_close_packing(3), PI / (3 * sqrt(2))),
+	   "close packing 2D %.4f, 3D %.4f", scene_close_packing(2), scene_close_packing(3));
+	ok(strcmp(scene_method_name(SCENE_METHOD_ED), "ed") == 0 && strcmp(scene_method_name(SCENE_METHOD_DSMC), "dsmc") == 0 &&
+	   strcmp(scene_method_name(SCENE_METHOD_HSMC), "hsmc") == 0, "method names");
+	ok(strcmp(scene_strerror(SCENE_OK), scene_strerror(SCENE_EINVAL)) != 0 && scene_strerror(-99) != NULL &&
+	   scene_strerror(SCENE_EJSON) != NULL && scene_strerror(SCENE_ENOMEM) != NULL, "error strings");
+}
+
+static char *slurp(const char *path, size_t *len)
+{
+	FILE *f = fopen(path, "rb");
+	if (f == NULL)
+		return NULL;
+	char *buf = malloc(1 << 16);
+	*len = buf ? fread(buf, 1, 1 << 16, f) : 0;
+	fclose(f);
+	return buf;
+}
+
+/* The scene files shared with the CLI and schema tests, when SRCDIR says where they are. */
+static void test_files(const char *srcdir)
+{
+	char path[4096], line[1024], err[512];
+	size_t len;
+	scene_t s;
+
+	snprintf(path, sizeof path, "%s/tests/scenes/good", srcdir);
+	DIR *d = opendir(path);
+	ok(d != NULL, "open %s", path);
+	for (struct dirent *e; d && (e = readdir(d));) {
+		if (strstr(e->d_name, ".json") == NULL)
+			continue;
+		snprintf(path, sizeof path, "%s/tests/scenes/good/%s", srcdir, e->d_name);
+		char *text = slurp(path, &len);
+		ok(text && scene_parse(text, len, &s, err, sizeof err) == 0, "good/%s parses %s", e->d_name, err);
+		free(text);
+	}
+	if (d)
+		closedir(d);
+
+	snprintf(path, sizeof path, "%s/tests/scenes/bad/expected.tsv", srcdir);
+	FILE *tsv = fopen(path, "r");
+	ok(tsv != NULL, "open %s", path);
+	while (tsv && fgets(line, sizeof line, tsv)) {
+		char *file = strtok(line, "\t\n"), *prefix = strtok(NULL, "\t\n");
+		if (file == NULL || prefix == NULL)
+			continue;
+		snprintf(path, sizeof path, "%s/tests/scenes/bad/%s", srcdir, file);
+		char *text = slurp(path, &len);
+		int ret = text ? scene_parse(text, len, &s, err, sizeof err) : 0;
+		ok(ret < 0 && has_path(err, prefix), "bad/%s: %s", file, err);
+		free(text);
+	}
+	if (tsv)
+		fclose(tsv);
+}
+
+int main(void)
+{
+	test_defaults();
+	test_derived();
+	test_all_keys();
+	test_bad();
+	test_api();
+	const char *srcdir = getenv("SRCDIR");
+	if (srcdir && *srcdir)
+		test_files(srcdir);
+	else
+		skip("SRCDIR not set: scene files not checked");
+	plan(tap_n);
+	return done_testing();
+}
