@@ -15,25 +15,26 @@ static double now(void)
 	return ts.tv_sec + 1e-9 * ts.tv_nsec;
 }
 
-/* usage: ed_bench DIM N VOLUME_FRACTION RESTITUTION WARMUP_CPP MEASURE_CPP [TC]
+/* usage: ed_bench DIM N VOLUME_FRACTION RESTITUTION WARMUP_CPP MEASURE_CPP [TC [CELL_SIZE]]
  * Prints one JSON line. The warm-up (elastic relaxation from the lattice
  * for restitution 1) is not timed. */
 int main(int argc, char **argv)
 {
 	if (argc < 7) {
-		fprintf(stderr, "usage: ed_bench DIM N PHI RESTITUTION WARMUP_CPP MEASURE_CPP [TC]\n");
+		fprintf(stderr, "usage: ed_bench DIM N PHI RESTITUTION WARMUP_CPP MEASURE_CPP [TC [CELL_SIZE]]\n");
 		return 2;
 	}
 	int dim = atoi(argv[1]);
 	long n = atol(argv[2]);
 	double phi = atof(argv[3]), e = atof(argv[4]), warm = atof(argv[5]), meas = atof(argv[6]);
-	double tc = argc > 7 ? atof(argv[7]) : 0.0;
+	double tc = argc > 7 ? atof(argv[7]) : 0.0, cell = argc > 8 ? atof(argv[8]) : 0.0;
 	char json[512], err[512];
 	snprintf(json, sizeof(json),
 	         "{\"method\":\"ed\",\"dimensions\":%d,\"particles\":{\"count\":%ld,\"volume_fraction\":%g,"
 	         "\"initial\":{\"relax\":{\"collisions_per_particle\":%g}}},"
-	         "\"collisions\":{\"restitution\":%g,\"tc\":%g},\"run\":{\"until\":{\"time\":1}}}",
-	         dim, n, phi, warm, e, tc);
+	         "\"collisions\":{\"restitution\":%g,\"tc\":%g},\"run\":{\"until\":{\"time\":1}},"
+	         "\"ed\":{\"cell_size\":%g}}",
+	         dim, n, phi, warm, e, tc, cell);
 	scene_t sc;
 	int rc;
 	if (scene_parse(json, strlen(json), &sc, err, sizeof(err)) != SCENE_OK) {

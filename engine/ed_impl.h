@@ -217,10 +217,14 @@ static void FN(scan)(struct ed *ed, uint32_t i, const int *const offs[3], const 
 #if D == 3
 	}
 #endif
-	e->t_coll = best;
-	e->partner = bj;
-	if (bj >= 0)
+	/* Only a partner found by this scan gets its counter recorded: a kept
+	 * (possibly stale) prediction must keep the counter it was made with,
+	 * or a cancelled collision would be taken for a valid one. */
+	if (best < e->t_coll) {
+		e->t_coll = best;
+		e->partner = bj;
 		e->pcount = P[bj].count;
+	}
 }
 
 static void FN(scan_full)(struct ed *ed, uint32_t i)

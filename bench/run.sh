@@ -1,0 +1,61 @@
+#!/bin/sh
+# make bench: run the engine benchmarks and write docs/benchmarks.md (machine, N, density, command, result).
+set -eu
+build=${1:-.}
+src=${2:-.}
+bench="$build/bench/ed_bench"
+out="$src/docs/benchmarks.md"
+tmp=$(mktemp)
+trap 'rm -f "$tmp"' EXIT
+
+cpu=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')
+cores=$(nproc)
+mem=$(free -g | awk '/Mem:/ {print $2 " GiB"}')
+cc=$(${CC:-cc} --version | head -n 1)
+
+row() { # label dim n phi e warm meas [tc [cell]]
+	label=$1; shift
+	line=$("$bench" "$@")
+	echo "$line" >&2
+	echo "$line" | /usr/bin/python3 -c '
+import json, sys
+d = json.loads(sys.stdin.read())
+label, cmd = sys.argv[1], sys.argv[2]
+print("| %s | %d | %d | %g | %g | %.3g | %.3g | %.0f | %s | `%s` |" % (label, d["dim"], d["n"], d["phi"], d["restitution"],
+      d["collisions_per_second"], d["events_per_second"], d["bytes_per_particle"],
+      "x".join(str(c) for c in d["cells"][:d["dim"]]), cmd))' "$label" "bench/ed_bench $*" >>"$tmp"
+}
+
+# Peers (docs/peers.md, same machine class): EDMD 1.03e6 / 0.79e6 / 0.62e6 / 0.33e6 collisions/s.
+row "3D elastic (peer EDMD 1.03e6)" 3 10976 0.45 1 200 100
+row "3D elastic (peer EDMD 0.79e6)" 3 10976 0.1 1 50 100
+row "3D elastic (peer EDMD 0.62e6)" 3 108000 0.45 1 100 20
+row "3D elastic (peer EDMD 0.33e6)" 3 108000 0.1 1 30 20
+row "2D inelastic, TC" 2 10000 0.3 0.9 50 100 1e-4
+row "2D inelastic, TC" 2 100000 0.3 0.9 30 20 1e-4
+row "3D inelastic, TC" 3 10976 0.25 0.9 50 100 1e-4
+row "2D dense elastic" 2 10000 0.8 1 100 100
+row "2D very dilute" 2 10000 0.0001 1 5 100
+# cell size (in diameters) against the automatic choice, dilute 2D and 3D
+for c in 0 1 2 3; do row "cell size ${c} (0 = auto)" 2 10000 0.05 1 20 50 0 $c; done
+for c in 0 1.2 1.5; do row "cell size ${c} (0 = auto)" 3 10976 0.1 1 20 50 0 $c; done
+
+{
+	echo "# Benchmarks"
+	echo
+	echo "Written by \`make bench\` (bench/run.sh); numbers from the last run. Do not edit by hand."
+	echo
+	echo "- Machine: $cpu, $cores cores, $mem; $cc; one run at a time, single thread."
+	echo "- Date: $(date -u +%Y-%m-%d)."
+	echo "- Systems: lattice start, elastic relaxation of WARMUP collisions per particle (not timed), then MEASURE"
+	echo "  collisions per particle timed. Diameter 1, mass 1, T = 1. Columns: collisions per second, events per second"
+	echo "  (collisions + cell crossings + cancelled predictions + neighbour-list rebuilds), bytes held per particle"
+	echo "  (ed_memory()), cell grid, and the exact command (ed_bench DIM N PHI RESTITUTION WARMUP MEASURE [TC [CELL]])."
+	echo
+	echo "| case | D | N | volume fraction | restitution | collisions/s | events/s | bytes/particle | cells | command |"
+	echo "|---|---|---|---|---|---|---|---|---|---|"
+	cat "$tmp"
+	echo
+	if [ -f "$src/docs/benchmarks-notes.md" ]; then cat "$src/docs/benchmarks-notes.md"; fi
+} >"$out"
+echo "wrote $out"
