@@ -36,6 +36,7 @@ row "2D inelastic, TC" 2 100000 0.3 0.9 30 20 1e-4
 row "3D inelastic, TC" 3 10976 0.25 0.9 50 100 1e-4
 row "2D dense elastic" 2 10000 0.8 1 100 100
 row "2D very dilute" 2 10000 0.0001 1 5 100
+row "3D large (10^7), lattice start" 3 10000000 0.3 1 0 2
 # cell size (in diameters) against the automatic choice, dilute 2D and 3D
 for c in 0 1 2 3; do row "cell size ${c} (0 = auto)" 2 10000 0.05 1 20 50 0 $c; done
 for c in 0 1.2 1.5; do row "cell size ${c} (0 = auto)" 3 10976 0.1 1 20 50 0 $c; done
