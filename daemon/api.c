@@ -1,0 +1,424 @@
+/* REST API handlers and route table: each handler parses its request, calls the job queue, serialises the answer. */
+#include <config.h>
+#include <errno.h>
+#include <inttypes.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "api.h"
+#include "openapi_yaml.h"   /* generated from schema/openapi.yaml: openapi_yaml[] */
+#include "util.h"
+
+
+static const struct { int status; const char *code; } error_codes[] = {
+	{400, "bad_request"}, {401, "unauthorized"}, {403, "forbidden"}, {404, "not_found"},
+	{405, "method_not_allowed"}, {409, "conflict"}, {413, "payload_too_large"},
+	{415, "unsupported_media_type"}, {429, "too_many_requests"}, {500, "internal"}, {503, "unavailable"},
+};
+
+void api_error(api_resp_t *rs, int status, const char *message)
+{
+	const char *code = "error";
+	for (size_t i = 0; i < sizeof(error_codes) / sizeof(error_codes[0]); i++)
+		if (error_codes[i].status == status)
+			code = error_codes[i].code;
+	json_decref(rs->json);
+	rs->status = status;
+	rs->json = json_pack("{s:{s:s, s:s}}", "error", "code", code, "message", message);
+}
+
+/* Map a queue error to an HTTP answer. */
+static void queue_error(api_resp_t *rs, int code, const char *msg)
+{
+	static const struct { int code, status; } map[] = {
+		{JOBQ_EINVAL, 400}, {JOBQ_ENOTFOUND, 404}, {JOBQ_ECONFLICT, 409},
+		{JOBQ_ELIMIT, 429}, {JOBQ_EDB, 503}, {JOBQ_ENOMEM, 503},
+	};
+	int status = 500;
+	for (size_t i = 0; i < sizeof(map) / sizeof(map[0]); i++)
+		if (map[i].code == code)
+			status = map[i].status;
+	api_error(rs, status, msg);
+	if (status == 429 || status == 503)
+		rs->retry_after = 5;
+}
+
+/* Path parameter as a job id; 0 (and a 404 answer) when it is not one. */
+static int64_t job_id(const api_req_t *rq, api_resp_t *rs)
+{
+	char *end;
+	errno = 0;
+	long long v = strtoll(rq->params[0], &end, 10);
+	if (*end || errno || v <= 0) {
+		char m[200];
+		snprintf(m, sizeof(m), "job %.100s not found (ids are positive integers)", rq->params[0]);
+		api_error(rs, 404, m);
+		return 0;
+	}
+	return v;
+}
+
+/* Integer query parameter within [lo, hi]; returns 0 and answers 400 on error. */
+static int query_int(const api_req_t *rq, api_resp_t *rs, const char *key, long long lo, long long hi,
+                     long long *v)
+{
+	const char *s = rq->query(rq->conn, key);
+	char *end, m[200];
+	if (!s)
+		return 1;
+	errno = 0;
+	long long x = strtoll(s, &end, 10);
+	if (!*s || *end || errno || x < lo || x > hi) {
+		snprintf(m, sizeof(m), "%s: must be an integer in %lld..%lld", key, lo, hi);
+		api_error(rs, 400, m);
+		return 0;
+	}
+	*v = x;
+	return 1;
+}
+
+/* ---- jobs ------------------------------------------------------------------ */
+
+static void h_submit(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	char err[1024];
+	int created = 0;
+	int r = jobq_submit(gd->q, rq->body, rq->body_len, util_now(), &rs->json, &created, err, sizeof(err));
+	if (r) {
+		queue_error(rs, r, err);
+		return;
+	}
+	rs->status = created ? 201 : 200;
+	if (created) {
+		int64_t id = json_integer_value(json_object_get(rs->json, "id"));
+		sched_publish_state(gd->q, gd->hub, id);
+		sched_wake(gd->sched);
+	}
+}
+
+static void h_list(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	jobq_filter_t f = {.limit = 100};
+	long long limit = 100, cursor = 0;
+	char err[256];
+	const char *st = rq->query(rq->conn, "state"), *since = rq->query(rq->conn, "since");
+	if (!query_int(rq, rs, "limit", 1, 1000, &limit) || !query_int(rq, rs, "cursor", 1, INT64_MAX, &cursor))
+		return;
+	f.limit = (int)limit;
+	f.cursor = cursor;
+	if (st) {
+		char buf[256];
+		snprintf(buf, sizeof(buf), "%s", st);
+		for (char *sp = NULL, *t = strtok_r(buf, ",", &sp); t; t = strtok_r(NULL, ",", &sp)) {
+			int s = job_state_parse(t);
+			if (s < 0) {
+				snprintf(err, sizeof(err),
+				         "state: '%.64s' is not one of queued, running, succeeded, failed, cancelled", t);
+				api_error(rs, 400, err);
+				return;
+			}
+			f.states |= 1u << s;
+		}
+	}
+	if (since) {
+		char *end;
+		f.since = strtod(since, &end);
+		if (!*since || *end || f.since < 0) {
+			api_error(rs, 400, "since: must be a unix time in seconds");
+			return;
+		}
+	}
+	int r = jobq_list(gd->q, &f, &rs->json, err, sizeof(err));
+	if (r)
+		queue_error(rs, r, err);
+	else
+		rs->status = 200;
+}
+
+static void h_get(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	char err[256];
+	int64_t id = job_id(rq, rs);
+	if (!id)
+		return;
+	const char *ws = rq->query(rq->conn, "scene");
+	int r = jobq_get(gd->q, id, !ws || strcmp(ws, "0"), &rs->json, err, sizeof(err));
+	if (r)
+		queue_error(rs, r, err);
+	else
+		rs->status = 200;
+}
+
+static void h_cancel(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	char err[256];
+	int sig = 0;
+	int64_t id = job_id(rq, rs);
+	if (!id)
+		return;
+	int r = jobq_cancel(gd->q, id, util_now(), &sig, &rs->json, err, sizeof(err));
+	if (r) {
+		queue_error(rs, r, err);
+		return;
+	}
+	rs->status = 200;
+	if (sig)
+		sched_cancel(gd->sched, id);
+	sched_publish_state(gd->q, gd->hub, id);
+}
+
+static void h_delete(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	char err[256], dir[4200];
+	int64_t id = job_id(rq, rs);
+	if (!id)
+		return;
+	int r = jobq_delete(gd->q, id, err, sizeof(err));
+	if (r) {
+		queue_error(rs, r, err);
+		return;
+	}
+	/* The row is gone first: a crash here leaves an orphan directory, never a job without files. */
+	snprintf(dir, sizeof(dir), "%s/%" PRId64, gd->jobs_dir, id);
+	util_rmtree(dir);
+	rs->status = 200;
+	rs->json = json_pack("{s:I, s:b}", "id", (json_int_t)id, "deleted", 1);
+	hub_publish(gd->hub, id, "deleted", "{}");
+}
+
+static void series(gd_t *gd, const api_req_t *rq, api_resp_t *rs, int clusters)
+{
+	char err[256];
+	long long after = -1, limit = 100000;
+	int64_t id = job_id(rq, rs);
+	if (!id || !query_int(rq, rs, "after", -1, INT64_MAX, &after) ||
+	    !query_int(rq, rs, "limit", 1, 100000, &limit))
+		return;
+	int r = jobq_progress(gd->q, id, after, (int)limit, clusters, &rs->json, err, sizeof(err));
+	if (r)
+		queue_error(rs, r, err);
+	else
+		rs->status = 200;
+}
+
+static void h_progress(gd_t *gd, const api_req_t *rq, api_resp_t *rs) { series(gd, rq, rs, 0); }
+
+static void h_clusters(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	series(gd, rq, rs, 1);
+	if (rs->status != 200)
+		return;
+	/* Only the cluster statistics and the clock of each record. */
+	json_t *recs = json_object_get(rs->json, "records"), *out = json_array(), *r;
+	size_t i;
+	json_array_foreach(recs, i, r) {
+		json_t *o = json_object();
+		static const char *const keep[] = {"seq", "time", "collisions_per_particle", "clusters"};
+		for (size_t k = 0; k < 4; k++) {
+			json_t *v = json_object_get(r, keep[k]);
+			if (v)
+				json_object_set(o, keep[k], v);
+		}
+		json_array_append_new(out, o);
+	}
+	json_object_del(rs->json, "records");
+	json_object_set_new(rs->json, "series", out);
+}
+
+static void h_events_job(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	char err[256];
+	json_t *j = NULL;
+	int64_t id = job_id(rq, rs);
+	if (!id)
+		return;
+	int r = jobq_get(gd->q, id, 0, &j, err, sizeof(err));
+	json_decref(j);
+	if (r) {
+		queue_error(rs, r, err);
+		return;
+	}
+	rs->status = 200;
+	rs->sse = 1;
+	rs->sse_job = id;
+}
+
+static void h_events_all(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	rs->status = 200;
+	rs->sse = 1;
+	rs->sse_job = 0;
+}
+
+/* ---- service --------------------------------------------------------------- */
+
+static void h_cluster(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	char err[256];
+	sched_stats_t st;
+	double now = util_now();
+	int r = jobq_stats(gd->q, now, &rs->json, err, sizeof(err));
+	if (r) {
+		queue_error(rs, r, err);
+		return;
+	}
+	sched_stats(gd->sched, &st);
+	json_object_set_new(rs->json, "slots", json_pack("{s:i, s:i, s:i}", "total", st.slots, "used", st.used, "free",
+	                                                 st.slots - st.used));
+	json_object_set_new(rs->json, "events_per_second", json_real(st.events_per_second));
+	json_object_set_new(rs->json, "uptime_seconds", json_real(now - gd->started));
+	json_object_set_new(rs->json, "version", json_string(PACKAGE_VERSION));
+	rs->status = 200;
+}
+
+static void h_healthz(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	json_t *j = NULL;
+	char err[256];
+	/* Healthy = the database answers. */
+	int r = jobq_stats(gd->q, util_now(), &j, err, sizeof(err));
+	json_decref(j);
+	if (r) {
+		api_error(rs, 503, err);
+		return;
+	}
+	rs->status = 200;
+	rs->json = json_pack("{s:s, s:s}", "status", atomic_load(&gd->stopping) ? "stopping" : "ok", "version",
+	                     PACKAGE_VERSION);
+}
+
+static void h_metrics(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	json_t *j = NULL, *v;
+	char err[256];
+	const char *k;
+	sched_stats_t st;
+	size_t cap = 8192, o = 0;
+	char *b = malloc(cap);
+	if (!b || jobq_stats(gd->q, util_now(), &j, err, sizeof(err))) {
+		free(b);
+		api_error(rs, 503, "statistics unavailable");
+		return;
+	}
+	sched_stats(gd->sched, &st);
+#define P(...) o += (size_t)snprintf(b + o, o < cap ? cap - o : 0, __VA_ARGS__)
+	P("# HELP granulard_jobs Jobs by state.\n# TYPE granulard_jobs gauge\n");
+	json_object_foreach(json_object_get(j, "jobs"), k, v)
+		P("granulard_jobs{state=\"%s\"} %" JSON_INTEGER_FORMAT "\n", k, json_integer_value(v));
+	P("# HELP granulard_slots MPI ranks the daemon may run at once.\n# TYPE granulard_slots gauge\n"
+	  "granulard_slots %d\n", st.slots);
+	P("# HELP granulard_slots_used MPI ranks running.\n# TYPE granulard_slots_used gauge\n"
+	  "granulard_slots_used %d\n", st.used);
+	P("# HELP granulard_events_per_second Engine events per second, summed over running jobs.\n"
+	  "# TYPE granulard_events_per_second gauge\ngranulard_events_per_second %.6g\n", st.events_per_second);
+	P("# HELP granulard_jobs_finished_last_hour Jobs that ended in the last hour.\n"
+	  "# TYPE granulard_jobs_finished_last_hour gauge\ngranulard_jobs_finished_last_hour %" JSON_INTEGER_FORMAT "\n",
+	  json_integer_value(json_object_get(j, "finished_last_hour")));
+	P("# HELP granulard_http_requests_total HTTP requests answered, by status class.\n"
+	  "# TYPE granulard_http_requests_total counter\n");
+	for (int c = 1; c <= 5; c++)
+		P("granulard_http_requests_total{class=\"%dxx\"} %ld\n", c, atomic_load(&gd->responses_by_class[c]));
+	P("# HELP granulard_uptime_seconds Seconds since the daemon started.\n# TYPE granulard_uptime_seconds gauge\n"
+	  "granulard_uptime_seconds %.3f\n", util_now() - gd->started);
+#undef P
+	json_decref(j);
+	if (o >= cap) {
+		free(b);
+		api_error(rs, 500, "metrics too large");
+		return;
+	}
+	rs->status = 200;
+	rs->owned = b;
+	rs->raw_len = o;
+	rs->ctype = "text/plain; version=0.0.4; charset=utf-8";
+}
+
+static void h_openapi(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	rs->status = 200;
+	rs->raw = openapi_yaml;
+	rs->raw_len = sizeof(openapi_yaml) - 1;
+	rs->ctype = "application/yaml";
+}
+
+static const char index_html[] =
+	"<!doctype html><html><head><meta charset=utf-8><title>granulard</title></head><body>"
+	"<h1>granulard</h1><p>The job service is running. API: <a href=\"/api/v1/jobs\">/api/v1/jobs</a>, "
+	"<a href=\"/api/v1/cluster\">/api/v1/cluster</a>, <a href=\"/api/v1/openapi.yaml\">OpenAPI</a>, "
+	"<a href=\"/metrics\">metrics</a>.</p></body></html>\n";
+
+static void h_index(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	rs->status = 200;
+	rs->raw = index_html;
+	rs->raw_len = sizeof(index_html) - 1;
+	rs->ctype = "text/html; charset=utf-8";
+}
+
+/* ---- routes ---------------------------------------------------------------- */
+
+const api_route_t api_routes[] = {
+	{.method = "GET", .pattern = "/", .fn = h_index, .flags = API_OPEN},
+	{.method = "GET", .pattern = "/healthz", .fn = h_healthz, .flags = API_OPEN},
+	{.method = "GET", .pattern = "/metrics", .fn = h_metrics},
+	{.method = "GET", .pattern = "/api/v1/openapi.yaml", .fn = h_openapi, .flags = API_OPEN},
+	{.method = "POST", .pattern = "/api/v1/jobs", .fn = h_submit, .flags = API_MUTATES},
+	{.method = "GET", .pattern = "/api/v1/jobs", .fn = h_list},
+	{.method = "GET", .pattern = "/api/v1/jobs/{id}", .fn = h_get},
+	{.method = "DELETE", .pattern = "/api/v1/jobs/{id}", .fn = h_delete, .flags = API_MUTATES},
+	{.method = "POST", .pattern = "/api/v1/jobs/{id}/cancel", .fn = h_cancel, .flags = API_MUTATES},
+	{.method = "GET", .pattern = "/api/v1/jobs/{id}/progress", .fn = h_progress},
+	{.method = "GET", .pattern = "/api/v1/jobs/{id}/clusters", .fn = h_clusters},
+	{.method = "GET", .pattern = "/api/v1/jobs/{id}/events", .fn = h_events_job},
+	{.method = "GET", .pattern = "/api/v1/events", .fn = h_events_all},
+	{.method = "GET", .pattern = "/api/v1/cluster", .fn = h_cluster},
+};
+const size_t api_nroutes = sizeof(api_routes) / sizeof(api_routes[0]);
+
+/* Match one pattern; segments in {} take any non-empty segment. */
+static int match(const char *pat, const char *path, api_req_t *rq, char store[][128])
+{
+	int np = 0;
+	while (*pat && *path) {
+		if (*pat == '{') {
+			const char *pe = strchr(pat, '}');
+			size_t n = strcspn(path, "/");
+			if (!pe || n == 0 || n >= 128 || np >= 4)
+				return 0;
+			memcpy(store[np], path, n);
+			store[np][n] = '\0';
+			np++;
+			pat = pe + 1;
+			path += n;
+		} else if (*pat++ != *path++) {
+			return 0;
+		}
+	}
+	if (*pat || *path)
+		return 0;
+	for (int i = 0; i < np; i++)
+		rq->params[i] = store[i];
+	rq->nparams = np;
+	return 1;
+}
+
+const api_route_t *api_match(const char *method, const char *path, api_req_t *rq, char store[][128],
+                             int *path_known, char *allow, size_t allowlen)
+{
+	const api_route_t *hit = NULL;
+	size_t o = 0;
+	*path_known = 0;
+	allow[0] = '\0';
+	for (size_t i = 0; i < api_nroutes; i++) {
+		if (!match(api_routes[i].pattern, path, rq, store))
+			continue;
+		*path_known = 1;
+		o += (size_t)snprintf(allow + o, o < allowlen ? allowlen - o : 0, "%s%s", o ? ", " : "",
+		                      api_routes[i].method);
+		if (!strcmp(api_routes[i].method, method) || (!strcmp(method, "HEAD") && !strcmp(api_routes[i].method, "GET")))
+			hit = &api_routes[i];
+	}
+	if (hit)
+		match(hit->pattern, path, rq, store);
+	return hit;
+}

@@ -1,0 +1,250 @@
+/* Daemon configuration table and its readers (flags, `key = value` files). */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include "cfg.h"
+
+#ifndef GRANULARD_MPIRUN
+#define GRANULARD_MPIRUN "mpirun"
+#endif
+
+typedef enum { T_STR, T_INT, T_REAL } ktype_t;
+
+typedef struct {
+	const char *name;
+	ktype_t type;
+	size_t off;
+	double min, max;
+	const char *def;         /* NULL: computed in cfg_init */
+	const char *help;
+	const char *const *choices;  /* for T_STR enumerations */
+} key_t_;
+
+static const char *const read_auth_choices[] = {"auto", "open", "token", NULL};
+static const char *const log_choices[] = {"error", "warning", "info", "debug", NULL};
+
+#define K(n, t, mn, mx, d, h, ...) {.name = #n, .type = t, .off = offsetof(cfg_t, n), .min = mn, .max = mx, \
+	.def = d, .help = h, __VA_ARGS__}
+static const key_t_ keys[] = {
+	K(listen, T_STR, 0, 0, "127.0.0.1:8080", "address to serve on, HOST:PORT (port 0: any free port)"),
+	K(state_dir, T_STR, 0, 0, NULL, "state directory: database, job directories, token ($STATE_DIRECTORY or ./var)"),
+	K(config, T_STR, 0, 0, "", "config file of `key = value` lines (these keys)"),
+	K(slots, T_INT, 1, 4096, NULL, "MPI ranks that may run at once (default: online CPUs)"),
+	K(engine, T_STR, 0, 0, "", "granular-engine program (default: next to granulard, the install dir, then PATH)"),
+	K(mpirun, T_STR, 0, 0, GRANULARD_MPIRUN, "MPI launcher program"),
+	K(launch, T_STR, 0, 0, "{mpirun} --stdin none -np {ranks} {engine} run {scene} --out {dir}",
+	  "launch command template; placeholders {mpirun} {ranks} {engine} {scene} {dir}"),
+	K(token, T_STR, 0, 0, "", "bearer token for mutating requests (default: STATE_DIR/token, generated)"),
+	K(read_auth, T_STR, 0, 0, "auto", "read-only requests: open, token, or auto (open on loopback)",
+	  .choices = read_auth_choices),
+	K(allowed_hosts, T_STR, 0, 0, "", "extra Host names accepted on mutating requests, comma-separated"),
+	K(max_body, T_INT, 1024, 1 << 30, "4194304", "largest request body in bytes"),
+	K(max_json_depth, T_INT, 2, 1000, "32", "deepest JSON nesting accepted"),
+	K(max_connections, T_INT, 1, 100000, "512", "concurrent connections"),
+	K(per_ip_connections, T_INT, 0, 100000, "0", "concurrent connections per client address (0: no limit)"),
+	K(request_timeout, T_INT, 1, 3600, "60", "seconds of inactivity before a connection is closed"),
+	K(max_particles, T_INT, 2, 1e12, "100000000", "largest particles.count of a job"),
+	K(max_ranks, T_INT, 0, 4096, "0", "most ranks one job may ask for (0: slots)"),
+	K(max_wall_seconds, T_INT, 0, 1e9, "0", "wall-clock limit of one attempt in seconds (0: none)"),
+	K(max_queued, T_INT, 1, 1e9, "100000", "most jobs waiting in the queue"),
+	K(max_progress_records, T_INT, 16, 1e8, "10000", "stored progress records per job before downsampling"),
+	K(max_attempts, T_INT, 1, 1000, "3", "launches per job, counting retries"),
+	K(cancel_grace, T_REAL, 0, 3600, "10", "seconds from SIGTERM to SIGKILL when cancelling"),
+	K(shutdown_grace, T_REAL, 0, 3600, "30", "seconds running jobs get to checkpoint when the daemon stops"),
+	K(log_level, T_STR, 0, 0, "info", "error, warning, info or debug", .choices = log_choices),
+};
+#define NKEYS (sizeof(keys) / sizeof(keys[0]))
+
+static const key_t_ *find(const char *name)
+{
+	for (size_t i = 0; i < NKEYS; i++) {
+		const char *a = keys[i].name, *b = name;
+		while (*a && (*a == *b || (*a == '_' && *b == '-'))) {
+			a++;
+			b++;
+		}
+		if (!*a && !*b)
+			return &keys[i];
+	}
+	return NULL;
+}
+
+static int set(cfg_t *c, const key_t_ *k, const char *v, const char *where, char *err, size_t errlen)
+{
+	char *end;
+	void *p = (char *)c + k->off;
+	if (k->type == T_STR) {
+		if (k->choices) {
+			int ok = 0;
+			for (int i = 0; k->choices[i]; i++)
+				ok |= !strcmp(v, k->choices[i]);
+			if (!ok) {
+				snprintf(err, errlen, "%s%s: '%s' is not one of the allowed values (see --help)", where, k->name, v);
+				return CFG_EINVAL;
+			}
+		}
+		char *s = strdup(v);
+		if (!s) {
+			snprintf(err, errlen, "out of memory");
+			return CFG_EINVAL;
+		}
+		free(*(char **)p);
+		*(char **)p = s;
+		return CFG_OK;
+	}
+	errno = 0;
+	double x = strtod(v, &end);
+	if (!*v || *end || errno || !isfinite(x) || (k->type == T_INT && x != floor(x))) {
+		snprintf(err, errlen, "%s%s: '%s' is not %s", where, k->name, v, k->type == T_INT ? "an integer" : "a number");
+		return CFG_EINVAL;
+	}
+	if (x < k->min || x > k->max) {
+		snprintf(err, errlen, "%s%s: %s is out of range %g..%g", where, k->name, v, k->min, k->max);
+		return CFG_EINVAL;
+	}
+	if (k->type == T_INT)
+		*(long *)p = (long)x;
+	else
+		*(double *)p = x;
+	return CFG_OK;
+}
+
+int cfg_init(cfg_t *c)
+{
+	char err[256], buf[32];
+	memset(c, 0, sizeof(*c));
+	for (size_t i = 0; i < NKEYS; i++)
+		if (keys[i].def && set(c, &keys[i], keys[i].def, "", err, sizeof(err)))
+			return CFG_EINVAL;
+	const char *sd = getenv("STATE_DIRECTORY");  /* systemd StateDirectory= */
+	c->state_dir = strdup(sd && *sd ? sd : "./var");
+	long n = sysconf(_SC_NPROCESSORS_ONLN);
+	snprintf(buf, sizeof(buf), "%ld", n > 0 ? n : 1);
+	set(c, find("slots"), buf, "", err, sizeof(err));
+	return c->state_dir ? CFG_OK : CFG_EINVAL;
+}
+
+void cfg_deinit(cfg_t *c)
+{
+	for (size_t i = 0; i < NKEYS; i++)
+		if (keys[i].type == T_STR) {
+			free(*(char **)((char *)c + keys[i].off));
+			*(char **)((char *)c + keys[i].off) = NULL;
+		}
+}
+
+int cfg_set(cfg_t *c, const char *key, const char *value, char *err, size_t errlen)
+{
+	const key_t_ *k = find(key);
+	if (!k) {
+		snprintf(err, errlen, "%s: unknown configuration key", key);
+		return CFG_EINVAL;
+	}
+	return set(c, k, value, "", err, errlen);
+}
+
+int cfg_load_file(cfg_t *c, const char *path, char *err, size_t errlen)
+{
+	FILE *f = fopen(path, "r");
+	char line[4096], where[512];
+	int ln = 0, ret = CFG_OK;
+	if (!f) {
+		snprintf(err, errlen, "%s: %s", path, strerror(errno));
+		return CFG_EIO;
+	}
+	while (ret == CFG_OK && fgets(line, sizeof(line), f)) {
+		char *s = line, *eq, *e;
+		ln++;
+		snprintf(where, sizeof(where), "%s:%d: ", path, ln);
+		s[strcspn(s, "\r\n")] = '\0';
+		while (*s == ' ' || *s == '\t')
+			s++;
+		if (!*s || *s == '#')
+			continue;
+		eq = strchr(s, '=');
+		if (!eq) {
+			snprintf(err, errlen, "%sexpected `key = value`", where);
+			ret = CFG_EINVAL;
+			break;
+		}
+		for (e = eq; e > s && (e[-1] == ' ' || e[-1] == '\t'); e--)
+			;
+		*e = '\0';
+		char *v = eq + 1;
+		while (*v == ' ' || *v == '\t')
+			v++;
+		for (e = v + strlen(v); e > v && (e[-1] == ' ' || e[-1] == '\t'); e--)
+			;
+		*e = '\0';
+		const key_t_ *k = find(s);
+		if (!k || !strcmp(k->name, "config")) {
+			snprintf(err, errlen, "%s%s: unknown configuration key", where, s);
+			ret = CFG_EINVAL;
+		} else {
+			ret = set(c, k, v, where, err, errlen);
+		}
+	}
+	fclose(f);
+	return ret;
+}
+
+int cfg_from_args(cfg_t *c, int argc, char **argv, char *err, size_t errlen)
+{
+	/* The file first, so flags override it wherever they appear. */
+	for (int i = 1; i < argc; i++)
+		if (!strcmp(argv[i], "--config") && i + 1 < argc) {
+			int r = cfg_load_file(c, argv[i + 1], err, errlen);
+			if (r)
+				return r;
+		}
+	for (int i = 1; i < argc; i++) {
+		const char *a = argv[i], *v = NULL;
+		char name[64];
+		if (!strcmp(a, "--help") || !strcmp(a, "-h"))
+			return CFG_EHELP;
+		if (strncmp(a, "--", 2)) {
+			snprintf(err, errlen, "%s: unexpected argument (flags are --key value)", a);
+			return CFG_EINVAL;
+		}
+		a += 2;
+		const char *eq = strchr(a, '=');
+		size_t n = eq ? (size_t)(eq - a) : strlen(a);
+		if (n >= sizeof(name))
+			n = sizeof(name) - 1;
+		memcpy(name, a, n);
+		name[n] = '\0';
+		const key_t_ *k = find(name);
+		if (!k) {
+			snprintf(err, errlen, "--%s: unknown option (see --help)", name);
+			return CFG_EINVAL;
+		}
+		if (eq)
+			v = eq + 1;
+		else if (i + 1 < argc)
+			v = argv[++i];
+		else {
+			snprintf(err, errlen, "--%s: needs a value", name);
+			return CFG_EINVAL;
+		}
+		int r = set(c, k, v, "--", err, errlen);
+		if (r)
+			return r;
+	}
+	return CFG_OK;
+}
+
+void cfg_print_help(void *file)
+{
+	FILE *f = file;
+	for (size_t i = 0; i < NKEYS; i++) {
+		const key_t_ *k = &keys[i];
+		char range[64] = "";
+		if (k->type != T_STR)
+			snprintf(range, sizeof(range), " [%g..%g]", k->min, k->max);
+		fprintf(f, "  --%-22s %s%s%s%s%s\n", k->name, k->help, range, k->def ? " (default: " : "",
+		        k->def ? (*k->def ? k->def : "\"\"") : "", k->def ? ")" : "");
+	}
+}

@@ -1,0 +1,56 @@
+/* Daemon configuration: one table of keys (type, range, default) read from flags and a config file. */
+#pragma once
+
+#include <stddef.h>
+
+/*
+ * Contract
+ * - Every key is both a config-file line `key = value` and a flag
+ *   `--key value` (underscores may be written as dashes). Precedence:
+ *   defaults < config file < flags.
+ * - cfg_* return 0 or CFG_EINVAL with one line in err naming the key (and
+ *   FILE:LINE for files) and the reason.
+ * - Strings in cfg_t are owned by it (cfg_deinit frees them).
+ */
+
+enum { CFG_OK = 0, CFG_EINVAL = -1, CFG_EIO = -2, CFG_EHELP = -3 };
+
+typedef struct {
+	char *listen;            /* HOST:PORT (port 0 = ephemeral) */
+	char *state_dir;         /* database, jobs/, token */
+	char *config;            /* the file read, if any */
+	long slots;              /* MPI ranks that may run at once */
+	char *engine;            /* granular-engine path ("" = search) */
+	char *mpirun;            /* launcher program */
+	char *launch;            /* launch template, placeholders {mpirun} {ranks} {engine} {scene} {dir} */
+	char *token;             /* bearer token ("" = state_dir/token, generated) */
+	char *read_auth;         /* auto | open | token */
+	char *allowed_hosts;     /* extra Host names accepted on mutating requests */
+	long max_body;           /* bytes */
+	long max_json_depth;
+	long max_connections;
+	long per_ip_connections; /* 0 = unlimited */
+	long request_timeout;    /* seconds of inactivity */
+	long max_particles;
+	long max_ranks;          /* 0 = slots */
+	long max_wall_seconds;   /* per attempt, 0 = none */
+	long max_queued;
+	long max_progress_records;
+	long max_attempts;       /* launches per job (retries from checkpoints) */
+	double cancel_grace;     /* seconds between SIGTERM and SIGKILL */
+	double shutdown_grace;   /* seconds to let running jobs checkpoint at shutdown */
+	char *log_level;         /* error | warning | info | debug */
+} cfg_t;
+
+/* Defaults (slots = online CPUs; state_dir = $STATE_DIRECTORY or ./var). */
+int cfg_init(cfg_t *c);
+void cfg_deinit(cfg_t *c);
+
+/* Apply flags (argv[1..]); --config FILE is read first wherever it appears.
+ * CFG_EHELP for --help. */
+int cfg_from_args(cfg_t *c, int argc, char **argv, char *err, size_t errlen);
+int cfg_load_file(cfg_t *c, const char *path, char *err, size_t errlen);
+int cfg_set(cfg_t *c, const char *key, const char *value, char *err, size_t errlen);
+
+/* Table of keys as text (for --help and docs). */
+void cfg_print_help(void *file);

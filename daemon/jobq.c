@@ -1,0 +1,905 @@
+/* The durable job queue on SQLite: submission, listing, cancellation, claims, attempts, progress series. */
+#include <inttypes.h>
+#include <stdarg.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include "db.h"
+#include "jobq.h"
+#include "scene.h"
+
+struct jobq {
+	sqlite3 *db;
+	pthread_mutex_t lock;
+	jobq_limits_t lim;
+};
+
+static const char *const state_names[JOB_NSTATES] = {
+	[JOB_QUEUED] = "queued", [JOB_RUNNING] = "running", [JOB_SUCCEEDED] = "succeeded",
+	[JOB_FAILED] = "failed", [JOB_CANCELLED] = "cancelled",
+};
+
+const char *job_state_name(job_state_t s) { return (unsigned)s < JOB_NSTATES ? state_names[s] : "?"; }
+
+int job_state_parse(const char *name)
+{
+	for (int i = 0; i < JOB_NSTATES; i++)
+		if (!strcmp(name, state_names[i]))
+			return i;
+	return -1;
+}
+
+const char *jobq_strerror(int code)
+{
+	switch (code) {
+	case JOBQ_OK: return "ok";
+	case JOBQ_EINVAL: return "invalid request";
+	case JOBQ_ENOTFOUND: return "no such job";
+	case JOBQ_ECONFLICT: return "conflict with the job's state";
+	case JOBQ_ELIMIT: return "queue full";
+	case JOBQ_EDB: return "database error";
+	case JOBQ_ENOMEM: return "out of memory";
+	case JOBQ_EEMPTY: return "nothing to start";
+	default: return "unknown error";
+	}
+}
+
+jobq_t *jobq_open(const char *path, const jobq_limits_t *lim, char *err, size_t errlen)
+{
+	jobq_t *q = calloc(1, sizeof(*q));
+	if (!q) {
+		snprintf(err, errlen, "out of memory");
+		return NULL;
+	}
+	q->db = db_open(path, err, errlen);
+	if (!q->db) {
+		free(q);
+		return NULL;
+	}
+	pthread_mutex_init(&q->lock, NULL);
+	q->lim = *lim;
+	return q;
+}
+
+void jobq_close(jobq_t *q)
+{
+	if (!q)
+		return;
+	sqlite3_close_v2(q->db);
+	pthread_mutex_destroy(&q->lock);
+	free(q);
+}
+
+/* ---- helpers --------------------------------------------------------------- */
+
+#define DBERR(q, err, errlen) snprintf(err, errlen, "database: %s", sqlite3_errmsg((q)->db))
+
+static int begin(jobq_t *q) { return sqlite3_exec(q->db, "BEGIN IMMEDIATE", NULL, NULL, NULL); }
+static int commit(jobq_t *q) { return sqlite3_exec(q->db, "COMMIT", NULL, NULL, NULL); }
+static void rollback(jobq_t *q) { sqlite3_exec(q->db, "ROLLBACK", NULL, NULL, NULL); }
+
+static uint64_t fnv1a(const char *s, size_t n)
+{
+	uint64_t h = 1469598103934665603ull;
+	for (size_t i = 0; i < n; i++)
+		h = (h ^ (unsigned char)s[i]) * 1099511628211ull;
+	return h;
+}
+
+static int json_depth(const json_t *v)
+{
+	int d = 0;
+	if (json_is_object(v)) {
+		const char *k;
+		json_t *c;
+		json_object_foreach((json_t *)v, k, c) {
+			int cd = json_depth(c);
+			if (cd > d)
+				d = cd;
+		}
+		return d + 1;
+	}
+	if (json_is_array(v)) {
+		size_t i;
+		json_t *c;
+		json_array_foreach(v, i, c) {
+			int cd = json_depth(c);
+			if (cd > d)
+				d = cd;
+		}
+		return d + 1;
+	}
+	return 0;
+}
+
+static json_t *col_json(sqlite3_stmt *st, int i)
+{
+	switch (sqlite3_column_type(st, i)) {
+	case SQLITE_NULL: return json_null();
+	case SQLITE_INTEGER: return json_integer(sqlite3_column_int64(st, i));
+	case SQLITE_FLOAT: return json_real(sqlite3_column_double(st, i));
+	default: return json_string((const char *)sqlite3_column_text(st, i));
+	}
+}
+
+#define JOB_COLS "id, submission_id, state, priority, ranks, method, particles, reason, created_at, " \
+	"updated_at, started_at, finished_at, progress, sim_time, events, collisions, cancel_requested, scene"
+
+/* Job object from a row selected with JOB_COLS. */
+static json_t *job_from_row(sqlite3_stmt *st, int with_scene)
+{
+	static const char *const names[] = {"id", "submission_id", "state", "priority", "ranks", "method",
+	                                    "particles", "reason", "created_at", "updated_at", "started_at",
+	                                    "finished_at", "progress", "sim_time", "events", "collisions"};
+	json_t *j = json_object();
+	for (int i = 0; i < (int)(sizeof(names) / sizeof(names[0])); i++)
+		json_object_set_new(j, names[i], col_json(st, i));
+	json_object_set_new(j, "cancel_requested", json_boolean(sqlite3_column_int(st, 16)));
+	if (with_scene) {
+		json_t *sc = json_loads((const char *)sqlite3_column_text(st, 17), 0, NULL);
+		json_object_set_new(j, "scene", sc ? sc : json_null());
+	}
+	return j;
+}
+
+static json_t *attempts_of(jobq_t *q, int64_t id)
+{
+	sqlite3_stmt *st = NULL;
+	json_t *a = json_array();
+	if (sqlite3_prepare_v2(q->db,
+	                       "SELECT n, pid, started_at, ended_at, exit_status, signal, reason, checkpoint, "
+	                       "stderr_tail FROM attempts WHERE job_id=? ORDER BY n", -1, &st, NULL) != SQLITE_OK)
+		return a;
+	sqlite3_bind_int64(st, 1, id);
+	while (sqlite3_step(st) == SQLITE_ROW) {
+		static const char *const names[] = {"n", "pid", "started_at", "ended_at", "exit_status", "signal",
+		                                    "reason", "checkpoint", "stderr_tail"};
+		json_t *o = json_object();
+		for (int i = 0; i < 9; i++)
+			json_object_set_new(o, names[i], col_json(st, i));
+		json_array_append_new(a, o);
+	}
+	sqlite3_finalize(st);
+	return a;
+}
+
+/* Job by id, locked by the caller. JOBQ_ENOTFOUND when absent. */
+static int load_job(jobq_t *q, int64_t id, int with_scene, json_t **out)
+{
+	sqlite3_stmt *st = NULL;
+	int ret = JOBQ_ENOTFOUND, rc;
+	*out = NULL;
+	if (sqlite3_prepare_v2(q->db, "SELECT " JOB_COLS " FROM jobs WHERE id=?", -1, &st, NULL) != SQLITE_OK)
+		return JOBQ_EDB;
+	sqlite3_bind_int64(st, 1, id);
+	rc = sqlite3_step(st);
+	if (rc == SQLITE_ROW) {
+		*out = job_from_row(st, with_scene);
+		json_object_set_new(*out, "attempts", attempts_of(q, id));
+		ret = JOBQ_OK;
+	} else if (rc != SQLITE_DONE) {
+		ret = JOBQ_EDB;
+	}
+	sqlite3_finalize(st);
+	return ret;
+}
+
+/* ---- submission ------------------------------------------------------------ */
+
+static int valid_submission_id(const char *s)
+{
+	size_t n = strlen(s);
+	if (n < 1 || n > 128)
+		return 0;
+	for (size_t i = 0; i < n; i++) {
+		char c = s[i];
+		if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' ||
+		      c == '_' || c == '.' || c == ':'))
+			return 0;
+	}
+	return 1;
+}
+
+int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **out, int *created, char *err,
+                size_t errlen)
+{
+	json_error_t jerr;
+	json_t *doc = NULL, *scene_obj;
+	char *scene_txt = NULL, hash[17];
+	const char *sub_id = NULL;
+	json_int_t priority = 0, ranks = 1;
+	scene_t sc;
+	sqlite3_stmt *st = NULL;
+	int ret = JOBQ_EINVAL, locked = 0, rc;
+
+	*out = NULL;
+	*created = 0;
+	doc = json_loadb(body, len, JSON_REJECT_DUPLICATES, &jerr);
+	if (!doc) {
+		snprintf(err, errlen, "body: not valid JSON at line %d column %d: %s", jerr.line, jerr.column, jerr.text);
+		goto cleanup;
+	}
+	if (!json_is_object(doc)) {
+		snprintf(err, errlen, "body: must be a JSON object (a scene, or {\"scene\": ...})");
+		goto cleanup;
+	}
+	if (json_depth(doc) > q->lim.max_json_depth) {
+		snprintf(err, errlen, "body: JSON nested deeper than %d levels", q->lim.max_json_depth);
+		goto cleanup;
+	}
+	scene_obj = json_object_get(doc, "scene");
+	if (scene_obj) {
+		/* The wrapper form: only these keys, each checked. */
+		const char *k;
+		json_t *v;
+		json_object_foreach(doc, k, v) {
+			if (!strcmp(k, "scene")) {
+				if (!json_is_object(v)) {
+					snprintf(err, errlen, "scene: must be an object");
+					goto cleanup;
+				}
+			} else if (!strcmp(k, "priority")) {
+				if (!json_is_integer(v) || json_integer_value(v) < -1000 || json_integer_value(v) > 1000) {
+					snprintf(err, errlen, "priority: must be an integer in -1000..1000");
+					goto cleanup;
+				}
+				priority = json_integer_value(v);
+			} else if (!strcmp(k, "ranks")) {
+				if (!json_is_integer(v) || json_integer_value(v) < 1) {
+					snprintf(err, errlen, "ranks: must be an integer >= 1");
+					goto cleanup;
+				}
+				ranks = json_integer_value(v);
+				if (ranks > q->lim.max_ranks) {
+					snprintf(err, errlen, "ranks: %" JSON_INTEGER_FORMAT " exceeds the limit of %d", ranks,
+					         q->lim.max_ranks);
+					goto cleanup;
+				}
+			} else if (!strcmp(k, "submission_id")) {
+				if (!json_is_string(v) || !valid_submission_id(json_string_value(v))) {
+					snprintf(err, errlen,
+					         "submission_id: must be a string of 1..128 characters from A-Z a-z 0-9 . _ - :");
+					goto cleanup;
+				}
+				sub_id = json_string_value(v);
+			} else {
+				snprintf(err, errlen, "%s: unknown key (expected scene, priority, ranks, submission_id)", k);
+				goto cleanup;
+			}
+		}
+	} else {
+		scene_obj = doc;
+	}
+	scene_txt = json_dumps(scene_obj, JSON_COMPACT | JSON_PRESERVE_ORDER);
+	if (!scene_txt) {
+		ret = JOBQ_ENOMEM;
+		snprintf(err, errlen, "out of memory");
+		goto cleanup;
+	}
+	{
+		char msg[512];
+		if (scene_parse(scene_txt, strlen(scene_txt), &sc, msg, sizeof(msg)) != SCENE_OK) {
+			snprintf(err, errlen, "%s%s", scene_obj == doc ? "" : "scene.", msg);
+			goto cleanup;
+		}
+	}
+	if (sc.count > q->lim.max_particles) {
+		snprintf(err, errlen, "%sparticles.count: %" PRIu64 " exceeds this server's limit of %" PRIu64,
+		         scene_obj == doc ? "" : "scene.", sc.count, q->lim.max_particles);
+		goto cleanup;
+	}
+	snprintf(hash, sizeof(hash), "%016" PRIx64, fnv1a(scene_txt, strlen(scene_txt)));
+
+	pthread_mutex_lock(&q->lock);
+	locked = 1;
+	if (begin(q) != SQLITE_OK) {
+		ret = JOBQ_EDB;
+		DBERR(q, err, errlen);
+		goto cleanup;
+	}
+	if (sub_id) {
+		/* Idempotent retry: the same key and scene give the same job. */
+		sqlite3_prepare_v2(q->db, "SELECT id, scene_hash FROM jobs WHERE submission_id=?", -1, &st, NULL);
+		sqlite3_bind_text(st, 1, sub_id, -1, SQLITE_STATIC);
+		if (sqlite3_step(st) == SQLITE_ROW) {
+			int64_t id = sqlite3_column_int64(st, 0);
+			int same = !strcmp((const char *)sqlite3_column_text(st, 1), hash);
+			sqlite3_finalize(st);
+			st = NULL;
+			rollback(q);
+			if (!same) {
+				ret = JOBQ_ECONFLICT;
+				snprintf(err, errlen, "submission_id: already used by job %" PRId64 " with a different scene", id);
+				goto cleanup;
+			}
+			ret = load_job(q, id, 0, out);
+			goto cleanup;
+		}
+		sqlite3_finalize(st);
+		st = NULL;
+	}
+	{
+		sqlite3_stmt *cnt = NULL;
+		int64_t queued = 0;
+		sqlite3_prepare_v2(q->db, "SELECT count(*) FROM jobs WHERE state='queued'", -1, &cnt, NULL);
+		if (sqlite3_step(cnt) == SQLITE_ROW)
+			queued = sqlite3_column_int64(cnt, 0);
+		sqlite3_finalize(cnt);
+		if (queued >= q->lim.max_queued) {
+			rollback(q);
+			ret = JOBQ_ELIMIT;
+			snprintf(err, errlen, "queue full: %" PRId64 " jobs are waiting (limit %d); retry later", queued,
+			         q->lim.max_queued);
+			goto cleanup;
+		}
+	}
+	rc = sqlite3_prepare_v2(q->db,
+	                        "INSERT INTO jobs(submission_id, scene, scene_hash, method, particles, priority, ranks, "
+	                        "created_at, updated_at) VALUES (?,?,?,?,?,?,?,?,?)",
+	                        -1, &st, NULL);
+	if (rc == SQLITE_OK) {
+		if (sub_id)
+			sqlite3_bind_text(st, 1, sub_id, -1, SQLITE_STATIC);
+		sqlite3_bind_text(st, 2, scene_txt, -1, SQLITE_STATIC);
+		sqlite3_bind_text(st, 3, hash, -1, SQLITE_STATIC);
+		sqlite3_bind_text(st, 4, scene_method_name(sc.method), -1, SQLITE_STATIC);
+		sqlite3_bind_int64(st, 5, (sqlite3_int64)sc.count);
+		sqlite3_bind_int64(st, 6, priority);
+		sqlite3_bind_int64(st, 7, ranks);
+		sqlite3_bind_double(st, 8, now);
+		sqlite3_bind_double(st, 9, now);
+		rc = sqlite3_step(st);
+	}
+	if (rc != SQLITE_DONE || commit(q) != SQLITE_OK) {
+		ret = JOBQ_EDB;
+		DBERR(q, err, errlen);
+		rollback(q);
+		goto cleanup;
+	}
+	*created = 1;
+	ret = load_job(q, sqlite3_last_insert_rowid(q->db), 0, out);
+cleanup:
+	sqlite3_finalize(st);
+	if (locked)
+		pthread_mutex_unlock(&q->lock);
+	free(scene_txt);
+	json_decref(doc);
+	return ret;
+}
+
+/* ---- reads ----------------------------------------------------------------- */
+
+int jobq_get(jobq_t *q, int64_t id, int with_scene, json_t **out, char *err, size_t errlen)
+{
+	pthread_mutex_lock(&q->lock);
+	int ret = load_job(q, id, with_scene, out);
+	pthread_mutex_unlock(&q->lock);
+	if (ret == JOBQ_ENOTFOUND)
+		snprintf(err, errlen, "job %" PRId64 " not found", id);
+	else if (ret)
+		DBERR(q, err, errlen);
+	return ret;
+}
+
+int jobq_list(jobq_t *q, const jobq_filter_t *f, json_t **out, char *err, size_t errlen)
+{
+	char sql[512];
+	size_t o = 0;
+	sqlite3_stmt *st = NULL;
+	int rc, n = 0, ret = JOBQ_OK, bi = 1;
+	int64_t last = 0;
+	json_t *jobs = json_array();
+
+	o += (size_t)snprintf(sql + o, sizeof(sql) - o, "SELECT " JOB_COLS " FROM jobs WHERE 1");
+	if (f->states) {
+		o += (size_t)snprintf(sql + o, sizeof(sql) - o, " AND state IN (");
+		for (int s = 0, first = 1; s < JOB_NSTATES; s++)
+			if (f->states & (1u << s)) {
+				o += (size_t)snprintf(sql + o, sizeof(sql) - o, "%s'%s'", first ? "" : ",", state_names[s]);
+				first = 0;
+			}
+		o += (size_t)snprintf(sql + o, sizeof(sql) - o, ")");
+	}
+	if (f->since > 0)
+		o += (size_t)snprintf(sql + o, sizeof(sql) - o, " AND updated_at >= ?");
+	if (f->cursor > 0)
+		o += (size_t)snprintf(sql + o, sizeof(sql) - o, " AND id < ?");
+	snprintf(sql + o, sizeof(sql) - o, " ORDER BY id DESC LIMIT ?");
+
+	pthread_mutex_lock(&q->lock);
+	rc = sqlite3_prepare_v2(q->db, sql, -1, &st, NULL);
+	if (rc == SQLITE_OK) {
+		if (f->since > 0)
+			sqlite3_bind_double(st, bi++, f->since);
+		if (f->cursor > 0)
+			sqlite3_bind_int64(st, bi++, f->cursor);
+		sqlite3_bind_int(st, bi++, f->limit + 1);  /* one more tells whether a next page exists */
+		while ((rc = sqlite3_step(st)) == SQLITE_ROW) {
+			if (n == f->limit)
+				break;
+			json_t *j = job_from_row(st, 0);
+			last = sqlite3_column_int64(st, 0);
+			json_array_append_new(jobs, j);
+			n++;
+		}
+	}
+	if (rc != SQLITE_ROW && rc != SQLITE_DONE) {
+		ret = JOBQ_EDB;
+		DBERR(q, err, errlen);
+	}
+	sqlite3_finalize(st);
+	pthread_mutex_unlock(&q->lock);
+	if (ret) {
+		json_decref(jobs);
+		*out = NULL;
+		return ret;
+	}
+	*out = json_pack("{s:o, s:n}", "jobs", jobs, "next_cursor");
+	if (rc == SQLITE_ROW) {
+		char c[32];
+		snprintf(c, sizeof(c), "%" PRId64, last);
+		json_object_set_new(*out, "next_cursor", json_string(c));
+	}
+	return JOBQ_OK;
+}
+
+/* ---- state changes --------------------------------------------------------- */
+
+static int job_state(jobq_t *q, int64_t id, job_state_t *s)
+{
+	sqlite3_stmt *st = NULL;
+	int ret = JOBQ_ENOTFOUND, rc;
+	sqlite3_prepare_v2(q->db, "SELECT state FROM jobs WHERE id=?", -1, &st, NULL);
+	sqlite3_bind_int64(st, 1, id);
+	rc = sqlite3_step(st);
+	if (rc == SQLITE_ROW) {
+		*s = (job_state_t)job_state_parse((const char *)sqlite3_column_text(st, 0));
+		ret = JOBQ_OK;
+	} else if (rc != SQLITE_DONE) {
+		ret = JOBQ_EDB;
+	}
+	sqlite3_finalize(st);
+	return ret;
+}
+
+/* Run one statement with bound values: fmt chars i (int64), d (double), s (text or NULL),
+ * n (const int64_t *, NULL pointer binds NULL), D (const double *, likewise). */
+static int exec_bind(jobq_t *q, const char *sql, const char *fmt, ...)
+{
+	sqlite3_stmt *st = NULL;
+	va_list ap;
+	int rc = sqlite3_prepare_v2(q->db, sql, -1, &st, NULL);
+	if (rc != SQLITE_OK)
+		return rc;
+	va_start(ap, fmt);
+	for (int i = 0; fmt[i]; i++) {
+		switch (fmt[i]) {
+		case 'i': sqlite3_bind_int64(st, i + 1, va_arg(ap, int64_t)); break;
+		case 'd': sqlite3_bind_double(st, i + 1, va_arg(ap, double)); break;
+		case 'n': {
+			const int64_t *v = va_arg(ap, const int64_t *);
+			if (v)
+				sqlite3_bind_int64(st, i + 1, *v);
+			break;
+		}
+		case 'D': {
+			const double *v = va_arg(ap, const double *);
+			if (v)
+				sqlite3_bind_double(st, i + 1, *v);
+			break;
+		}
+		case 's': {
+			const char *s = va_arg(ap, const char *);
+			if (s)
+				sqlite3_bind_text(st, i + 1, s, -1, SQLITE_TRANSIENT);
+			break;
+		}
+		}
+	}
+	va_end(ap);
+	rc = sqlite3_step(st);
+	sqlite3_finalize(st);
+	return rc == SQLITE_DONE || rc == SQLITE_ROW ? SQLITE_OK : rc;
+}
+
+int jobq_cancel(jobq_t *q, int64_t id, double now, int *signal, json_t **out, char *err, size_t errlen)
+{
+	job_state_t s;
+	int ret, rc = SQLITE_OK;
+	*signal = 0;
+	*out = NULL;
+	pthread_mutex_lock(&q->lock);
+	if (begin(q) != SQLITE_OK) {
+		ret = JOBQ_EDB;
+		DBERR(q, err, errlen);
+		goto out;
+	}
+	ret = job_state(q, id, &s);
+	if (ret == JOBQ_OK) {
+		if (s == JOB_QUEUED)
+			rc = exec_bind(q, "UPDATE jobs SET state='cancelled', reason='cancelled by request', finished_at=?, "
+			                  "updated_at=? WHERE id=?", "ddi", now, now, id);
+		else if (s == JOB_RUNNING) {
+			rc = exec_bind(q, "UPDATE jobs SET cancel_requested=1, updated_at=? WHERE id=?", "di", now, id);
+			*signal = 1;
+		} else if (s != JOB_CANCELLED) {
+			ret = JOBQ_ECONFLICT;
+			snprintf(err, errlen, "job %" PRId64 " already %s", id, state_names[s]);
+		}
+	} else if (ret == JOBQ_ENOTFOUND) {
+		snprintf(err, errlen, "job %" PRId64 " not found", id);
+	}
+	if (ret == JOBQ_OK && (rc != SQLITE_OK || commit(q) != SQLITE_OK)) {
+		ret = JOBQ_EDB;
+		DBERR(q, err, errlen);
+	}
+	if (ret != JOBQ_OK)
+		rollback(q);
+	else
+		ret = load_job(q, id, 0, out);
+out:
+	pthread_mutex_unlock(&q->lock);
+	return ret;
+}
+
+int jobq_delete(jobq_t *q, int64_t id, char *err, size_t errlen)
+{
+	job_state_t s;
+	int ret;
+	pthread_mutex_lock(&q->lock);
+	if (begin(q) != SQLITE_OK) {
+		ret = JOBQ_EDB;
+		DBERR(q, err, errlen);
+		goto out;
+	}
+	ret = job_state(q, id, &s);
+	if (ret == JOBQ_ENOTFOUND)
+		snprintf(err, errlen, "job %" PRId64 " not found", id);
+	else if (ret == JOBQ_OK && (s == JOB_QUEUED || s == JOB_RUNNING)) {
+		ret = JOBQ_ECONFLICT;
+		snprintf(err, errlen, "job %" PRId64 " is %s; cancel it first", id, state_names[s]);
+	} else if (ret == JOBQ_OK &&
+	           (exec_bind(q, "DELETE FROM jobs WHERE id=?", "i", id) != SQLITE_OK || commit(q) != SQLITE_OK)) {
+		ret = JOBQ_EDB;
+		DBERR(q, err, errlen);
+	}
+	if (ret != JOBQ_OK)
+		rollback(q);
+out:
+	pthread_mutex_unlock(&q->lock);
+	return ret;
+}
+
+int jobq_progress(jobq_t *q, int64_t id, int64_t after, int limit, int clusters_only, json_t **out, char *err,
+                  size_t errlen)
+{
+	sqlite3_stmt *st = NULL;
+	json_t *recs = json_array();
+	int ret = JOBQ_OK, rc, n = 0;
+	int64_t stride = 1;
+	*out = NULL;
+	pthread_mutex_lock(&q->lock);
+	sqlite3_prepare_v2(q->db, "SELECT progress_stride FROM jobs WHERE id=?", -1, &st, NULL);
+	sqlite3_bind_int64(st, 1, id);
+	rc = sqlite3_step(st);
+	if (rc == SQLITE_ROW)
+		stride = sqlite3_column_int64(st, 0);
+	else
+		ret = rc == SQLITE_DONE ? JOBQ_ENOTFOUND : JOBQ_EDB;
+	sqlite3_finalize(st);
+	st = NULL;
+	if (ret == JOBQ_OK) {
+		sqlite3_prepare_v2(q->db, "SELECT seq, record FROM progress WHERE job_id=? AND seq>? ORDER BY seq", -1, &st,
+		                   NULL);
+		sqlite3_bind_int64(st, 1, id);
+		sqlite3_bind_int64(st, 2, after);
+		while (n < limit && (rc = sqlite3_step(st)) == SQLITE_ROW) {
+			json_t *r = json_loads((const char *)sqlite3_column_text(st, 1), 0, NULL);
+			if (!r)
+				continue;
+			if (clusters_only && !json_object_get(r, "clusters")) {
+				json_decref(r);
+				continue;
+			}
+			json_object_set_new(r, "seq", json_integer(sqlite3_column_int64(st, 0)));
+			json_array_append_new(recs, r);
+			n++;
+		}
+		sqlite3_finalize(st);
+	}
+	pthread_mutex_unlock(&q->lock);
+	if (ret) {
+		json_decref(recs);
+		if (ret == JOBQ_ENOTFOUND)
+			snprintf(err, errlen, "job %" PRId64 " not found", id);
+		else
+			DBERR(q, err, errlen);
+		return ret;
+	}
+	*out = json_pack("{s:I, s:I, s:o}", "job", (json_int_t)id, "stride", (json_int_t)stride, "records", recs);
+	return JOBQ_OK;
+}
+
+int jobq_stats(jobq_t *q, double now, json_t **out, char *err, size_t errlen)
+{
+	sqlite3_stmt *st = NULL;
+	json_t *by = json_object(), *running = json_array();
+	int64_t finished_hour = 0, ranks_used = 0;
+	for (int s = 0; s < JOB_NSTATES; s++)
+		json_object_set_new(by, state_names[s], json_integer(0));
+	pthread_mutex_lock(&q->lock);
+	sqlite3_prepare_v2(q->db, "SELECT state, count(*) FROM jobs GROUP BY state", -1, &st, NULL);
+	while (sqlite3_step(st) == SQLITE_ROW)
+		json_object_set_new(by, (const char *)sqlite3_column_text(st, 0), json_integer(sqlite3_column_int64(st, 1)));
+	sqlite3_finalize(st);
+	sqlite3_prepare_v2(q->db, "SELECT count(*) FROM jobs WHERE finished_at >= ?", -1, &st, NULL);
+	sqlite3_bind_double(st, 1, now - 3600.0);
+	if (sqlite3_step(st) == SQLITE_ROW)
+		finished_hour = sqlite3_column_int64(st, 0);
+	sqlite3_finalize(st);
+	sqlite3_prepare_v2(q->db, "SELECT id, ranks, progress, started_at FROM jobs WHERE state='running' ORDER BY id",
+	                   -1, &st, NULL);
+	while (sqlite3_step(st) == SQLITE_ROW) {
+		ranks_used += sqlite3_column_int64(st, 1);
+		json_array_append_new(running, json_pack("{s:I, s:I, s:f, s:o}", "id",
+		                                         (json_int_t)sqlite3_column_int64(st, 0), "ranks",
+		                                         (json_int_t)sqlite3_column_int64(st, 1), "progress",
+		                                         sqlite3_column_double(st, 2), "started_at", col_json(st, 3)));
+	}
+	sqlite3_finalize(st);
+	pthread_mutex_unlock(&q->lock);
+	(void)err;
+	(void)errlen;
+	*out = json_pack("{s:o, s:o, s:I, s:I}", "jobs", by, "running", running, "finished_last_hour",
+	                 (json_int_t)finished_hour, "ranks_running", (json_int_t)ranks_used);
+	return JOBQ_OK;
+}
+
+/* ---- supervisor side ------------------------------------------------------- */
+
+int jobq_claim(jobq_t *q, int free_slots, double now, jobq_claim_t *out, char *err, size_t errlen)
+{
+	sqlite3_stmt *st = NULL;
+	int ret = JOBQ_EEMPTY, rc;
+	memset(out, 0, sizeof(*out));
+	pthread_mutex_lock(&q->lock);
+	if (begin(q) != SQLITE_OK) {
+		ret = JOBQ_EDB;
+		DBERR(q, err, errlen);
+		goto out;
+	}
+	sqlite3_prepare_v2(q->db, "SELECT id, ranks, scene FROM jobs WHERE state='queued' ORDER BY priority DESC, id LIMIT 1",
+	                   -1, &st, NULL);
+	rc = sqlite3_step(st);
+	if (rc == SQLITE_ROW && sqlite3_column_int(st, 1) <= free_slots) {
+		out->id = sqlite3_column_int64(st, 0);
+		out->ranks = sqlite3_column_int(st, 1);
+		out->scene = strdup((const char *)sqlite3_column_text(st, 2));
+		ret = JOBQ_OK;
+	} else if (rc != SQLITE_ROW && rc != SQLITE_DONE) {
+		ret = JOBQ_EDB;
+		DBERR(q, err, errlen);
+	}
+	sqlite3_finalize(st);
+	st = NULL;
+	if (ret == JOBQ_OK) {
+		int64_t n = 1;
+		sqlite3_prepare_v2(q->db, "SELECT coalesce(max(n),0)+1 FROM attempts WHERE job_id=?", -1, &st, NULL);
+		sqlite3_bind_int64(st, 1, out->id);
+		if (sqlite3_step(st) == SQLITE_ROW)
+			n = sqlite3_column_int64(st, 0);
+		sqlite3_finalize(st);
+		out->attempt = (int)n;
+		if (exec_bind(q, "UPDATE jobs SET state='running', reason=NULL, updated_at=?, "
+		                 "started_at=coalesce(started_at, ?) WHERE id=?", "ddi", now, now, out->id) != SQLITE_OK ||
+		    exec_bind(q, "INSERT INTO attempts(job_id, n, started_at) VALUES (?,?,?)", "iid", out->id, n, now) !=
+		        SQLITE_OK ||
+		    commit(q) != SQLITE_OK) {
+			ret = JOBQ_EDB;
+			DBERR(q, err, errlen);
+		}
+	}
+	if (ret != JOBQ_OK) {
+		rollback(q);
+		free(out->scene);
+		out->scene = NULL;
+	} else {
+		scene_t sc;
+		if (scene_parse(out->scene, strlen(out->scene), &sc, NULL, 0) == SCENE_OK) {
+			out->until = sc.until.value;
+			out->until_cpp = sc.until.kind == SCENE_CLOCK_CPP;
+			out->particles = sc.count;
+		}
+	}
+out:
+	pthread_mutex_unlock(&q->lock);
+	return ret;
+}
+
+int jobq_attempt_launched(jobq_t *q, int64_t id, int attempt, int pid, uint64_t pid_start, const char *checkpoint)
+{
+	pthread_mutex_lock(&q->lock);
+	int rc = exec_bind(q, "UPDATE attempts SET pid=?, pid_start=?, checkpoint=? WHERE job_id=? AND n=?", "iisii",
+	                   (int64_t)pid, (int64_t)pid_start, checkpoint, id, (int64_t)attempt);
+	pthread_mutex_unlock(&q->lock);
+	return rc == SQLITE_OK ? JOBQ_OK : JOBQ_EDB;
+}
+
+int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, double now)
+{
+	json_t *r = json_loads(line, 0, NULL);
+	sqlite3_stmt *st = NULL;
+	int ret = JOBQ_OK, summary;
+	int64_t seq = 0, stride = 1, stored = 0;
+	double frac = -1.0, until = 0.0;
+	if (!json_is_object(r)) {
+		json_decref(r);
+		return JOBQ_EINVAL;
+	}
+	summary = json_is_string(json_object_get(r, "type")) &&
+	          !strcmp(json_string_value(json_object_get(r, "type")), "summary");
+	pthread_mutex_lock(&q->lock);
+	if (begin(q) != SQLITE_OK) {
+		ret = JOBQ_EDB;
+		goto out;
+	}
+	sqlite3_prepare_v2(q->db, "SELECT progress_seq, progress_stride, scene FROM jobs WHERE id=?", -1, &st, NULL);
+	sqlite3_bind_int64(st, 1, id);
+	if (sqlite3_step(st) == SQLITE_ROW) {
+		scene_t sc;
+		const char *txt = (const char *)sqlite3_column_text(st, 2);
+		seq = sqlite3_column_int64(st, 0);
+		stride = sqlite3_column_int64(st, 1);
+		/* Progress is the fraction of the stop condition reached. */
+		if (scene_parse(txt, strlen(txt), &sc, NULL, 0) == SCENE_OK) {
+			json_t *x = json_object_get(r, sc.until.kind == SCENE_CLOCK_CPP ? "collisions_per_particle" : "time");
+			until = sc.until.value;
+			if (json_is_number(x) && until > 0)
+				frac = json_number_value(x) / until;
+		}
+	} else {
+		ret = JOBQ_ENOTFOUND;
+	}
+	sqlite3_finalize(st);
+	st = NULL;
+	if (ret)
+		goto fail;
+	if (frac > 1.0)
+		frac = 1.0;
+	if (summary || seq % stride == 0) {
+		json_t *t = json_object_get(r, "time");
+		if (exec_bind(q, "INSERT OR REPLACE INTO progress(job_id, seq, attempt, time, record) VALUES (?,?,?,?,?)",
+		              "iiids", id, seq, (int64_t)attempt, json_is_number(t) ? json_number_value(t) : 0.0, line) !=
+		    SQLITE_OK) {
+			ret = JOBQ_EDB;
+			goto fail;
+		}
+		sqlite3_prepare_v2(q->db, "SELECT count(*) FROM progress WHERE job_id=?", -1, &st, NULL);
+		sqlite3_bind_int64(st, 1, id);
+		if (sqlite3_step(st) == SQLITE_ROW)
+			stored = sqlite3_column_int64(st, 0);
+		sqlite3_finalize(st);
+		st = NULL;
+		if (stored > q->lim.max_progress) {
+			/* Halve the series: keep multiples of the doubled stride, the
+			 * newest record and every summary. */
+			stride *= 2;
+			if (exec_bind(q, "DELETE FROM progress WHERE job_id=? AND seq % ? != 0 AND seq != ? AND "
+			                 "json_extract(record, '$.type') IS NOT 'summary'", "iii", id, stride, seq) != SQLITE_OK) {
+				ret = JOBQ_EDB;
+				goto fail;
+			}
+		}
+	}
+	{
+		json_t *t = json_object_get(r, "time"), *ev = json_object_get(r, "events"),
+		       *co = json_object_get(r, "collisions");
+		/* Absent fields keep the previous values (a summary may omit some). */
+		double tv = json_number_value(t);
+		int64_t evv = (int64_t)json_integer_value(ev), cov = (int64_t)json_integer_value(co);
+		if (exec_bind(q, "UPDATE jobs SET progress_seq=?, progress_stride=?, progress=max(progress, ?), "
+		                 "sim_time=coalesce(?, sim_time), events=coalesce(?, events), "
+		                 "collisions=coalesce(?, collisions), updated_at=? WHERE id=?", "iidDnndi",
+		              seq + 1, stride, frac < 0 ? 0.0 : frac, json_is_number(t) ? &tv : NULL,
+		              json_is_integer(ev) ? &evv : NULL, json_is_integer(co) ? &cov : NULL, now, id) != SQLITE_OK ||
+		    commit(q) != SQLITE_OK) {
+			ret = JOBQ_EDB;
+			goto fail;
+		}
+	}
+	goto out;
+fail:
+	rollback(q);
+out:
+	pthread_mutex_unlock(&q->lock);
+	json_decref(r);
+	return ret;
+}
+
+int jobq_attempt_finished(jobq_t *q, int64_t id, int attempt, double now, int exit_status, int signal,
+                          const char *reason, const char *stderr_tail, job_state_t next)
+{
+	int ret = JOBQ_OK;
+	pthread_mutex_lock(&q->lock);
+	if (begin(q) != SQLITE_OK) {
+		ret = JOBQ_EDB;
+		goto out;
+	}
+	if (exec_bind(q, "UPDATE attempts SET ended_at=?, exit_status=?, signal=?, reason=?, stderr_tail=? "
+	                 "WHERE job_id=? AND n=?", "diissii", now, (int64_t)exit_status, (int64_t)signal, reason,
+	              stderr_tail, id, (int64_t)attempt) != SQLITE_OK ||
+	    /* NULL for "none" keeps the columns honest. */
+	    exec_bind(q, "UPDATE attempts SET exit_status=CASE WHEN exit_status<0 THEN NULL ELSE exit_status END, "
+	                 "signal=CASE WHEN signal<=0 THEN NULL ELSE signal END WHERE job_id=? AND n=?", "ii", id,
+	              (int64_t)attempt) != SQLITE_OK ||
+	    (next == JOB_QUEUED
+	         ? exec_bind(q, "UPDATE jobs SET state='queued', reason=?, updated_at=? WHERE id=?", "sdi", reason, now, id)
+	         : exec_bind(q, "UPDATE jobs SET state=?, reason=?, updated_at=?, finished_at=? WHERE id=?", "ssddi",
+	                     state_names[next], reason, now, now, id)) != SQLITE_OK ||
+	    commit(q) != SQLITE_OK) {
+		ret = JOBQ_EDB;
+		rollback(q);
+	}
+out:
+	pthread_mutex_unlock(&q->lock);
+	return ret;
+}
+
+int jobq_list_running(jobq_t *q, jobq_running_t **out, size_t *n)
+{
+	sqlite3_stmt *st = NULL;
+	size_t cap = 0;
+	*out = NULL;
+	*n = 0;
+	pthread_mutex_lock(&q->lock);
+	sqlite3_prepare_v2(q->db,
+	                   "SELECT j.id, a.n, coalesce(a.pid,0), coalesce(a.pid_start,0) FROM jobs j "
+	                   "LEFT JOIN attempts a ON a.job_id=j.id AND a.n=(SELECT max(n) FROM attempts WHERE job_id=j.id) "
+	                   "WHERE j.state='running' ORDER BY j.id", -1, &st, NULL);
+	while (sqlite3_step(st) == SQLITE_ROW) {
+		if (*n == cap) {
+			cap = cap ? 2 * cap : 8;
+			jobq_running_t *p = realloc(*out, cap * sizeof(**out));
+			if (!p)
+				break;
+			*out = p;
+		}
+		(*out)[*n].id = sqlite3_column_int64(st, 0);
+		(*out)[*n].attempt = sqlite3_column_int(st, 1);
+		(*out)[*n].pid = sqlite3_column_int(st, 2);
+		(*out)[*n].pid_start = (uint64_t)sqlite3_column_int64(st, 3);
+		(*n)++;
+	}
+	sqlite3_finalize(st);
+	pthread_mutex_unlock(&q->lock);
+	return JOBQ_OK;
+}
+
+int jobq_cancel_requested(jobq_t *q, int64_t id)
+{
+	sqlite3_stmt *st = NULL;
+	int ret = JOBQ_ENOTFOUND;
+	pthread_mutex_lock(&q->lock);
+	sqlite3_prepare_v2(q->db, "SELECT cancel_requested FROM jobs WHERE id=?", -1, &st, NULL);
+	sqlite3_bind_int64(st, 1, id);
+	if (sqlite3_step(st) == SQLITE_ROW)
+		ret = sqlite3_column_int(st, 0);
+	sqlite3_finalize(st);
+	pthread_mutex_unlock(&q->lock);
+	return ret;
+}
+
+int jobq_attempts(jobq_t *q, int64_t id)
+{
+	sqlite3_stmt *st = NULL;
+	int ret = JOBQ_EDB;
+	pthread_mutex_lock(&q->lock);
+	sqlite3_prepare_v2(q->db, "SELECT count(*) FROM attempts WHERE job_id=?", -1, &st, NULL);
+	sqlite3_bind_int64(st, 1, id);
+	if (sqlite3_step(st) == SQLITE_ROW)
+		ret = sqlite3_column_int(st, 0);
+	sqlite3_finalize(st);
+	pthread_mutex_unlock(&q->lock);
+	return ret;
+}

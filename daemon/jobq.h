@@ -1,0 +1,140 @@
+/* The durable job queue: jobs, attempts and progress series in SQLite; pure logic, no sockets, no processes. */
+#pragma once
+
+#include <stddef.h>
+#include <stdint.h>
+#include <jansson.h>
+
+/*
+ * Contract
+ * - The SQLite row is the only truth about a job. Every change is one
+ *   BEGIN IMMEDIATE transaction; a call either happens completely or not at
+ *   all (on error nothing changed).
+ * - Thread-safe: one connection behind a mutex (the write rate is tiny; reads
+ *   are index lookups).
+ * - Calls that produce JSON return a new reference in *out (caller
+ *   json_decref()s it); on error *out is NULL and err holds one line.
+ * - Times are unix seconds (double) passed in by the caller, so tests
+ *   control the clock.
+ * - States: queued -> running -> {succeeded, failed, cancelled}; running ->
+ *   queued when an attempt is interrupted by the daemon (restart, drain);
+ *   queued -> cancelled.
+ */
+
+typedef struct jobq jobq_t;
+
+enum {
+	JOBQ_OK = 0,
+	JOBQ_EINVAL = -1,    /* bad request body (err names the field) */
+	JOBQ_ENOTFOUND = -2, /* no such job */
+	JOBQ_ECONFLICT = -3, /* state does not allow it, or submission_id reused with another scene */
+	JOBQ_ELIMIT = -4,    /* queue full (max_queued) */
+	JOBQ_EDB = -5,       /* SQLite failed (disk full, I/O): the request did not happen */
+	JOBQ_ENOMEM = -6,
+	JOBQ_EEMPTY = -7,    /* jobq_claim: nothing can start now */
+};
+
+typedef enum { JOB_QUEUED = 0, JOB_RUNNING, JOB_SUCCEEDED, JOB_FAILED, JOB_CANCELLED, JOB_NSTATES } job_state_t;
+
+typedef struct {
+	uint64_t max_particles;  /* per-job limit on particles.count */
+	int max_ranks;           /* per-job limit on ranks */
+	int max_queued;          /* jobs in state queued; more gives JOBQ_ELIMIT */
+	int max_json_depth;      /* nesting limit of the request body */
+	int max_progress;        /* stored progress records per job before downsampling */
+} jobq_limits_t;
+
+/* Open the queue on a database file (":memory:" for tests). NULL on error (err). */
+jobq_t *jobq_open(const char *path, const jobq_limits_t *lim, char *err, size_t errlen);
+void jobq_close(jobq_t *q);
+
+const char *jobq_strerror(int code);
+const char *job_state_name(job_state_t s);
+/* -1 when name is not a state. */
+int job_state_parse(const char *name);
+
+/* Submit: body is the scene JSON itself or {"scene": {...}, "priority": p,
+ * "ranks": r, "submission_id": "..."}. The scene is validated by the
+ * engine's own parser. A repeated submission_id with the same scene returns
+ * the existing job with *created = 0; with another scene JOBQ_ECONFLICT. */
+int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **out, int *created, char *err,
+                size_t errlen);
+
+/* One job (with its attempts; with the scene when with_scene). */
+int jobq_get(jobq_t *q, int64_t id, int with_scene, json_t **out, char *err, size_t errlen);
+
+typedef struct {
+	unsigned states;   /* bit set of 1u << job_state_t; 0 = all */
+	double since;      /* updated at or after (unix s); 0 = no filter */
+	int limit;         /* 1..1000 */
+	int64_t cursor;    /* return jobs with id < cursor; 0 = from the newest */
+} jobq_filter_t;
+
+/* {"jobs": [...], "next_cursor": id|null}: newest first. */
+int jobq_list(jobq_t *q, const jobq_filter_t *f, json_t **out, char *err, size_t errlen);
+
+/* Cancel: a queued job becomes cancelled at once (*signal = 0); a running
+ * one gets cancel_requested and *signal = 1 (the supervisor stops it and
+ * records the end). Cancelling a cancelled job is a no-op; a succeeded or
+ * failed one is JOBQ_ECONFLICT. *out is the job after the change. */
+int jobq_cancel(jobq_t *q, int64_t id, double now, int *signal, json_t **out, char *err, size_t errlen);
+
+/* Delete a finished job and its rows (not its files: the caller removes them). */
+int jobq_delete(jobq_t *q, int64_t id, char *err, size_t errlen);
+
+/* The stored progress records (engine JSON lines, parsed) with seq > after,
+ * at most limit: {"job": id, "stride": s, "records": [...]}. clusters_only
+ * keeps the records that carry cluster statistics. */
+int jobq_progress(jobq_t *q, int64_t id, int64_t after, int limit, int clusters_only, json_t **out, char *err,
+                  size_t errlen);
+
+/* Counts by state, jobs finished in the hour before now, running jobs with ranks. */
+int jobq_stats(jobq_t *q, double now, json_t **out, char *err, size_t errlen);
+
+/* ---- supervisor side ---------------------------------------------------- */
+
+typedef struct {
+	int64_t id;
+	int attempt;        /* number of the attempt just created */
+	int ranks;
+	char *scene;        /* malloc'd scene JSON; caller frees */
+	double until;       /* stop condition value, with until_cpp telling its kind */
+	int until_cpp;      /* 1: collisions per particle, 0: simulated time */
+	uint64_t particles;
+} jobq_claim_t;
+
+/* Claim the next queued job (priority, then submission order) if its ranks
+ * fit in free_slots: it becomes running with a new attempt row. Strict order
+ * (a big job at the head waits for slots instead of being overtaken forever).
+ * JOBQ_EEMPTY when nothing can start. */
+int jobq_claim(jobq_t *q, int free_slots, double now, jobq_claim_t *out, char *err, size_t errlen);
+
+/* Record the launch (pid of the process-group leader and its start time) and
+ * the checkpoint the attempt resumes from (NULL = fresh). */
+int jobq_attempt_launched(jobq_t *q, int64_t id, int attempt, int pid, uint64_t pid_start, const char *checkpoint);
+
+/* Store one progress record (a JSON line of the engine), with downsampling:
+ * when a job holds more than max_progress records, every other one is
+ * dropped and the stride doubles; summary records are always kept. */
+int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, double now);
+
+/* End an attempt. next is the job's new state: JOB_QUEUED requeues it (the
+ * attempt was interrupted), others are final. exit_status < 0 = none. */
+int jobq_attempt_finished(jobq_t *q, int64_t id, int attempt, double now, int exit_status, int signal,
+                          const char *reason, const char *stderr_tail, job_state_t next);
+
+/* Jobs the database says are running, for reconciliation at start-up. */
+typedef struct {
+	int64_t id;
+	int attempt;
+	int pid;
+	uint64_t pid_start;
+} jobq_running_t;
+/* *out malloc'd (caller frees), *n entries. */
+int jobq_list_running(jobq_t *q, jobq_running_t **out, size_t *n);
+
+/* Whether cancel was requested for a job (0/1), negative on error. */
+int jobq_cancel_requested(jobq_t *q, int64_t id);
+
+/* Attempts made so far (for retry limits); negative on error. */
+int jobq_attempts(jobq_t *q, int64_t id);

@@ -1,0 +1,692 @@
+/* Job supervisor thread: launch, follow, stop and reap engine runs; record every outcome in the job queue. */
+#define _GNU_SOURCE
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <poll.h>
+#include <pthread.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+#include "log.h"
+#include "sched.h"
+#include "util.h"
+
+#define MAX_CHILDREN 4096
+#define LINE_MAX_BYTES (1 << 16)
+#define TAIL_BYTES 2048
+
+typedef struct {
+	int64_t id;
+	int attempt, ranks;
+	pid_t pid;
+	int out, err;                /* pipe read ends, -1 at EOF */
+	int reaped, status;
+	char *line;                  /* partial stdout line */
+	size_t nline;
+	char tail[TAIL_BYTES];       /* last stderr bytes (ring) */
+	size_t ntail;
+	double started, term_at, kill_at;   /* monotonic seconds; 0 = not scheduled */
+	int cancel, walllimit, failed_start;
+	double last_wall, rate;      /* events/s from successive records */
+	int64_t last_events;
+	int summary_seen;
+	pid_t desc[16];              /* mpirun's ranks (own process groups): signalled one by one */
+	uint64_t desc_start[16];
+	int ndesc;
+	double desc_at;              /* when desc was refreshed */
+	char status_word[32];        /* summary status: completed, quiescent, interrupted */
+} child_t;
+
+struct sched {
+	sched_conf_t c;
+	pthread_t thread;
+	int started;
+	int wake[2];
+	pthread_mutex_t lock;        /* guards requests and stats below */
+	int64_t *cancels;
+	size_t ncancels, capcancels;
+	int stopping;
+	double stop_deadline;
+	sched_stats_t stats;
+	child_t *kids;
+	size_t nkids;
+};
+
+static double mono(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+void sched_publish_state(jobq_t *q, hub_t *hub, int64_t id)
+{
+	json_t *j = NULL;
+	char err[256];
+	if (jobq_get(q, id, 0, &j, err, sizeof(err)) == JOBQ_OK) {
+		char *s = json_dumps(j, JSON_COMPACT);
+		if (s)
+			hub_publish(hub, id, "state", s);
+		free(s);
+		json_decref(j);
+	}
+}
+
+sched_t *sched_create(const sched_conf_t *conf)
+{
+	sched_t *s = calloc(1, sizeof(*s));
+	if (!s)
+		return NULL;
+	s->c = *conf;
+	s->kids = calloc(MAX_CHILDREN, sizeof(child_t));
+	if (!s->kids || pipe2(s->wake, O_CLOEXEC | O_NONBLOCK)) {
+		free(s->kids);
+		free(s);
+		return NULL;
+	}
+	pthread_mutex_init(&s->lock, NULL);
+	s->stats.slots = (int)conf->cfg->slots;
+	return s;
+}
+
+void sched_destroy(sched_t *s)
+{
+	if (!s)
+		return;
+	close(s->wake[0]);
+	close(s->wake[1]);
+	pthread_mutex_destroy(&s->lock);
+	free(s->cancels);
+	free(s->kids);
+	free(s);
+}
+
+void sched_wake(sched_t *s)
+{
+	ssize_t r = write(s->wake[1], "w", 1);
+	(void)r;   /* a full pipe already means "wake up" */
+}
+
+void sched_cancel(sched_t *s, int64_t id)
+{
+	pthread_mutex_lock(&s->lock);
+	if (s->ncancels == s->capcancels) {
+		size_t cap = s->capcancels ? 2 * s->capcancels : 16;
+		int64_t *p = realloc(s->cancels, cap * sizeof(*p));
+		if (p) {
+			s->cancels = p;
+			s->capcancels = cap;
+		}
+	}
+	if (s->ncancels < s->capcancels)
+		s->cancels[s->ncancels++] = id;
+	pthread_mutex_unlock(&s->lock);
+	sched_wake(s);
+}
+
+void sched_stats(sched_t *s, sched_stats_t *out)
+{
+	pthread_mutex_lock(&s->lock);
+	*out = s->stats;
+	pthread_mutex_unlock(&s->lock);
+}
+
+/* ---- launching ------------------------------------------------------------- */
+
+/* Expand the launch template into argv (malloc'd strings, NULL-terminated). */
+static char **build_argv(const sched_t *s, const child_t *k, const char *scene, const char *dir, const char *resume)
+{
+	const char *tpl = s->c.cfg->launch;
+	size_t cap = 8, n = 0;
+	char **av = calloc(cap, sizeof(char *)), ranks[16];
+	snprintf(ranks, sizeof(ranks), "%d", k->ranks);
+	const char *ph[][2] = {{"{mpirun}", s->c.cfg->mpirun}, {"{ranks}", ranks}, {"{engine}", s->c.engine},
+	                       {"{scene}", scene}, {"{dir}", dir}};
+	const char *p = tpl;
+	while (av && *p) {
+		while (*p == ' ')
+			p++;
+		if (!*p)
+			break;
+		size_t len = strcspn(p, " ");
+		char tok[1024];
+		snprintf(tok, sizeof(tok), "%.*s", (int)len, p);
+		p += len;
+		char *val = NULL;
+		for (size_t i = 0; i < sizeof(ph) / sizeof(ph[0]) && !val; i++)
+			if (!strcmp(tok, ph[i][0]))
+				val = strdup(ph[i][1]);
+		if (!val)
+			val = strdup(tok);
+		if (n + 4 >= cap) {
+			cap *= 2;
+			char **q = realloc(av, cap * sizeof(char *));
+			if (!q)
+				break;
+			av = q;
+		}
+		av[n++] = val;
+	}
+	if (av && resume) {
+		av[n++] = strdup("--resume");
+		av[n++] = strdup(resume);
+	}
+	if (av)
+		av[n] = NULL;
+	return av;
+}
+
+static void free_argv(char **av)
+{
+	for (size_t i = 0; av && av[i]; i++)
+		free(av[i]);
+	free(av);
+}
+
+static void tail_add(child_t *k, const char *b, size_t n)
+{
+	for (size_t i = 0; i < n; i++) {
+		k->tail[k->ntail % TAIL_BYTES] = b[i];
+		k->ntail++;
+	}
+}
+
+/* The stderr tail as a string (last TAIL_BYTES, starting at a line break when possible). */
+static char *tail_str(const child_t *k)
+{
+	size_t n = k->ntail < TAIL_BYTES ? k->ntail : TAIL_BYTES, start = k->ntail - n;
+	char *s = malloc(n + 1);
+	if (!s)
+		return NULL;
+	for (size_t i = 0; i < n; i++)
+		s[i] = k->tail[(start + i) % TAIL_BYTES];
+	s[n] = '\0';
+	char *p = s;
+	if (k->ntail > TAIL_BYTES && (p = strchr(s, '\n')))
+		memmove(s, p + 1, strlen(p + 1) + 1);
+	return s;
+}
+
+/* Last non-empty line of the stderr tail, for reasons. */
+static void last_line(const char *tail, char *out, size_t n)
+{
+	size_t len = strlen(tail);
+	while (len && (tail[len - 1] == '\n' || tail[len - 1] == ' '))
+		len--;
+	size_t b = len;
+	while (b && tail[b - 1] != '\n')
+		b--;
+	snprintf(out, n, "%.*s", (int)(len - b), tail + b);
+}
+
+static int launch(sched_t *s, const jobq_claim_t *cl)
+{
+	char dir[4096], scene[4200], ckpt[4200], err[512];
+	child_t *k = NULL;
+	char **av = NULL;
+	int po[2] = {-1, -1}, pe[2] = {-1, -1};
+	const char *resume = NULL;
+	pid_t pid;
+
+	for (size_t i = 0; i < MAX_CHILDREN && !k; i++)
+		if (!s->kids[i].pid && !s->kids[i].id)
+			k = &s->kids[i];
+	snprintf(dir, sizeof(dir), "%s/%" PRId64, s->c.jobs_dir, cl->id);
+	snprintf(scene, sizeof(scene), "%s/scene.json", dir);
+	snprintf(ckpt, sizeof(ckpt), "%s/checkpoint.h5", dir);
+	if (!k) {
+		snprintf(err, sizeof(err), "too many running jobs in this daemon");
+		goto fail;
+	}
+	if (util_mkdirs(dir, 0750) || util_write_atomic(scene, cl->scene, strlen(cl->scene), err, sizeof(err))) {
+		if (!*err || util_mkdirs(dir, 0750))
+			snprintf(err, sizeof(err), "cannot create job directory %s: %s", dir, strerror(errno));
+		goto fail;
+	}
+	if (access(ckpt, R_OK) == 0)
+		resume = ckpt;   /* a previous attempt left a checkpoint: continue from it */
+	memset(k, 0, sizeof(*k));
+	k->id = cl->id;
+	k->attempt = cl->attempt;
+	k->ranks = cl->ranks;
+	av = build_argv(s, k, scene, dir, resume);
+	if (!av || pipe2(po, O_CLOEXEC) || pipe2(pe, O_CLOEXEC)) {
+		snprintf(err, sizeof(err), "cannot launch: %s", strerror(errno ? errno : ENOMEM));
+		goto fail;
+	}
+	pid = fork();
+	if (pid < 0) {
+		snprintf(err, sizeof(err), "fork: %s", strerror(errno));
+		goto fail;
+	}
+	if (pid == 0) {
+		/* Child of a multi-threaded process: async-signal-safe calls only. */
+		int nul = open("/dev/null", O_RDONLY);
+		sigset_t none;
+		sigemptyset(&none);
+		/* The daemon blocks SIGTERM for sigwait() and ignores SIGPIPE; both
+		 * would be inherited across exec and make the job unstoppable. */
+		sigprocmask(SIG_SETMASK, &none, NULL);
+		signal(SIGPIPE, SIG_DFL);
+		setsid();
+		if (nul >= 0)
+			dup2(nul, 0);
+		dup2(po[1], 1);
+		dup2(pe[1], 2);
+		close_range(3, ~0U, 0);
+		if (chdir(dir) == 0)
+			execvp(av[0], av);
+		const char *m = "granulard: cannot execute the launcher: ";
+		ssize_t w = write(2, m, strlen(m));
+		w = write(2, av[0], strlen(av[0]));
+		w = write(2, "\n", 1);
+		(void)w;
+		_exit(127);
+	}
+	close(po[1]);
+	close(pe[1]);
+	fcntl(po[0], F_SETFL, O_NONBLOCK);
+	fcntl(pe[0], F_SETFL, O_NONBLOCK);
+	k->pid = pid;
+	k->out = po[0];
+	k->err = pe[0];
+	k->started = mono();
+	k->last_wall = k->started;
+	if (s->c.cfg->max_wall_seconds > 0)
+		k->term_at = k->started + (double)s->c.cfg->max_wall_seconds;
+	if (s->nkids < (size_t)(k - s->kids) + 1)
+		s->nkids = (size_t)(k - s->kids) + 1;
+	jobq_attempt_launched(s->c.q, cl->id, cl->attempt, pid, util_pid_start(pid), resume ? "checkpoint.h5" : NULL);
+	log_info("job %" PRId64 " attempt %d: launched pid %d with %d rank(s)%s", cl->id, cl->attempt, (int)pid,
+	         cl->ranks, resume ? ", resuming from checkpoint.h5" : "");
+	free_argv(av);
+	return 0;
+fail:
+	if (po[0] >= 0) {
+		close(po[0]);
+		close(po[1]);
+	}
+	if (pe[0] >= 0) {
+		close(pe[0]);
+		close(pe[1]);
+	}
+	free_argv(av);
+	if (k)
+		memset(k, 0, sizeof(*k));
+	log_error("job %" PRId64 ": %s", cl->id, err);
+	jobq_attempt_finished(s->c.q, cl->id, cl->attempt, util_now(), -1, 0, err, NULL, JOB_FAILED);
+	sched_publish_state(s->c.q, s->c.hub, cl->id);
+	return -1;
+}
+
+/* ---- following ------------------------------------------------------------- */
+
+static void on_line(sched_t *s, child_t *k, char *line)
+{
+	json_t *r = json_loads(line, 0, NULL);
+	if (!json_is_object(r)) {
+		/* Launcher chatter on stdout: keep it with stderr for diagnosis. */
+		tail_add(k, line, strlen(line));
+		tail_add(k, "\n", 1);
+		json_decref(r);
+		return;
+	}
+	const char *kind = json_string_value(json_object_get(r, "type"));
+	json_t *ev = json_object_get(r, "events"), *wall = json_object_get(r, "wall_seconds");
+	if (kind && !strcmp(kind, "summary")) {
+		k->summary_seen = 1;
+		const char *st = json_string_value(json_object_get(r, "status"));
+		snprintf(k->status_word, sizeof(k->status_word), "%s", st ? st : "");
+	}
+	if (json_is_integer(ev) && json_is_number(wall)) {
+		double w = json_number_value(wall);
+		int64_t e = (int64_t)json_integer_value(ev);
+		if (w > k->last_wall - k->started + 1e-3 && k->last_events >= 0) {
+			double dw = w - (k->last_wall - k->started);
+			k->rate = (double)(e - k->last_events) / dw;
+		}
+		k->last_wall = k->started + w;
+		k->last_events = e;
+	}
+	json_decref(r);
+	if (jobq_attempt_progress(s->c.q, k->id, k->attempt, line, util_now()) != JOBQ_OK)
+		log_warning("job %" PRId64 ": could not store a progress record", k->id);
+	hub_publish(s->c.hub, k->id, "progress", line);
+}
+
+static void drain_fd(sched_t *s, child_t *k, int *fd, int is_out)
+{
+	char buf[65536];
+	for (;;) {
+		ssize_t n = read(*fd, buf, sizeof(buf));
+		if (n > 0) {
+			if (!is_out) {
+				tail_add(k, buf, (size_t)n);
+				continue;
+			}
+			for (ssize_t i = 0; i < n; i++) {
+				if (buf[i] == '\n') {
+					if (k->line) {
+						k->line[k->nline] = '\0';
+						on_line(s, k, k->line);
+					}
+					k->nline = 0;
+				} else if (k->nline + 1 < LINE_MAX_BYTES) {
+					if (!k->line && !(k->line = malloc(LINE_MAX_BYTES)))
+						continue;
+					k->line[k->nline++] = buf[i];
+				}
+			}
+			continue;
+		}
+		if (n == 0 || (errno != EAGAIN && errno != EINTR)) {
+			close(*fd);
+			*fd = -1;
+		}
+		return;
+	}
+}
+
+/* Decide the outcome of an ended attempt and record it. */
+static void finish(sched_t *s, child_t *k)
+{
+	char reason[1024], ll[512];
+	char *tail = tail_str(k);
+	int code = -1, sig = 0, stopping;
+	job_state_t next;
+	pthread_mutex_lock(&s->lock);
+	stopping = s->stopping;
+	pthread_mutex_unlock(&s->lock);
+	if (WIFEXITED(k->status))
+		code = WEXITSTATUS(k->status);
+	else if (WIFSIGNALED(k->status))
+		sig = WTERMSIG(k->status);
+	last_line(tail ? tail : "", ll, sizeof(ll));
+	int cancel = k->cancel || jobq_cancel_requested(s->c.q, k->id) == 1;
+	if (cancel) {
+		next = JOB_CANCELLED;
+		snprintf(reason, sizeof(reason), "cancelled by request");
+	} else if (stopping) {
+		next = JOB_QUEUED;
+		snprintf(reason, sizeof(reason), "interrupted by daemon shutdown; requeued");
+	} else if (k->walllimit) {
+		next = JOB_FAILED;
+		snprintf(reason, sizeof(reason), "wall-time limit of %ld s exceeded", s->c.cfg->max_wall_seconds);
+	} else if (code == 0) {
+		next = JOB_SUCCEEDED;
+		if (!strcmp(k->status_word, "quiescent"))
+			snprintf(reason, sizeof(reason), "quiescent: every particle at rest before the stop condition");
+		else
+			reason[0] = '\0';
+	} else {
+		next = JOB_FAILED;
+		if (sig)
+			snprintf(reason, sizeof(reason), "engine killed by signal %d (%s)%s%s", sig, strsignal(sig),
+			         *ll ? ": " : "", ll);
+		else if (code == 127)
+			snprintf(reason, sizeof(reason), "%s", *ll ? ll : "could not execute the launcher");
+		else
+			snprintf(reason, sizeof(reason), "engine exited with status %d%s%s", code, *ll ? ": " : "", ll);
+		/* A failed attempt that left a checkpoint is retried from it. */
+		char ckpt[4200];
+		snprintf(ckpt, sizeof(ckpt), "%s/%" PRId64 "/checkpoint.h5", s->c.jobs_dir, k->id);
+		if (access(ckpt, R_OK) == 0 && k->attempt < s->c.cfg->max_attempts) {
+			next = JOB_QUEUED;
+			size_t l = strlen(reason);
+			snprintf(reason + l, sizeof(reason) - l, "; retrying from checkpoint (attempt %d of %ld)",
+			         k->attempt + 1, s->c.cfg->max_attempts);
+		}
+	}
+	if (jobq_attempt_finished(s->c.q, k->id, k->attempt, util_now(), sig ? -1 : code, sig, *reason ? reason : NULL,
+	                          tail, next) != JOBQ_OK)
+		log_error("job %" PRId64 ": could not record the end of attempt %d", k->id, k->attempt);
+	log_info("job %" PRId64 " attempt %d: %s%s%s", k->id, k->attempt, job_state_name(next), *reason ? ": " : "",
+	         reason);
+	sched_publish_state(s->c.q, s->c.hub, k->id);
+	free(tail);
+	free(k->line);
+	memset(k, 0, sizeof(*k));
+}
+
+static void refresh_desc(child_t *k, double now)
+{
+	if (k->reaped || now - k->desc_at < 1.0)
+		return;
+	k->desc_at = now;
+	k->ndesc = util_descendants(k->pid, k->desc, k->desc_start, 16);
+}
+
+/* Signal mpirun's process group and every rank we have seen (they sit in
+ * groups of their own and would outlive a killed mpirun). */
+static void signal_child(child_t *k, int sig)
+{
+	if (k->pid > 0 && !k->reaped)
+		kill(-k->pid, sig);
+	for (int i = 0; i < k->ndesc; i++)
+		if (util_pid_alive(k->desc[i], k->desc_start[i]))
+			kill(k->desc[i], sig);
+}
+
+static void *loop(void *arg)
+{
+	sched_t *s = arg;
+	struct pollfd *pf = calloc(2 * MAX_CHILDREN + 1, sizeof(*pf));
+	if (!pf)
+		return NULL;
+	for (;;) {
+		double now = mono();
+		int stopping;
+		pthread_mutex_lock(&s->lock);
+		stopping = s->stopping;
+		int64_t *cancels = s->cancels;
+		size_t nc = s->ncancels;
+		s->cancels = NULL;
+		s->ncancels = s->capcancels = 0;
+		pthread_mutex_unlock(&s->lock);
+
+		/* Requests: cancellations, stop. */
+		for (size_t c = 0; c < nc; c++)
+			for (size_t i = 0; i < s->nkids; i++)
+				if (s->kids[i].id == cancels[c] && s->kids[i].pid && !s->kids[i].cancel) {
+					s->kids[i].cancel = 1;
+					s->kids[i].term_at = now;
+				}
+		free(cancels);
+		if (stopping == 1) {
+			for (size_t i = 0; i < s->nkids; i++)
+				if (s->kids[i].pid)
+					s->kids[i].term_at = now;
+			pthread_mutex_lock(&s->lock);
+			s->stopping = 2;
+			pthread_mutex_unlock(&s->lock);
+		}
+		/* Deadlines: SIGTERM (the engine checkpoints), then SIGKILL. */
+		for (size_t i = 0; i < s->nkids; i++) {
+			child_t *k = &s->kids[i];
+			if (!k->pid)
+				continue;
+			refresh_desc(k, now);
+			if (k->term_at > 0 && now >= k->term_at) {
+				if (!k->cancel && stopping == 0)
+					k->walllimit = 1;
+				signal_child(k, SIGTERM);
+				k->term_at = 0;
+				k->kill_at = now + (stopping ? s->stop_deadline - now : s->c.cfg->cancel_grace);
+			}
+			if (k->kill_at > 0 && now >= k->kill_at) {
+				signal_child(k, SIGKILL);
+				k->kill_at = 0;
+			}
+		}
+		/* Reap and finish. */
+		for (size_t i = 0; i < s->nkids; i++) {
+			child_t *k = &s->kids[i];
+			if (!k->pid)
+				continue;
+			if (!k->reaped && waitpid(k->pid, &k->status, WNOHANG) == k->pid)
+				k->reaped = 1;
+			if (k->reaped) {
+				/* Ranks that outlive mpirun would hold the pipes open: take what is there and stop. */
+				signal_child(k, SIGKILL);
+				if (k->out >= 0)
+					drain_fd(s, k, &k->out, 1);
+				if (k->err >= 0)
+					drain_fd(s, k, &k->err, 0);
+				if (k->out >= 0)
+					close(k->out);
+				if (k->err >= 0)
+					close(k->err);
+				finish(s, k);
+			}
+		}
+		/* Launch what fits. */
+		int used = 0, running = 0;
+		double rate = 0;
+		for (size_t i = 0; i < s->nkids; i++)
+			if (s->kids[i].pid) {
+				used += s->kids[i].ranks;
+				running++;
+				rate += s->kids[i].rate;
+			}
+		if (!stopping) {
+			for (;;) {
+				jobq_claim_t cl;
+				char err[256];
+				int r = jobq_claim(s->c.q, (int)s->c.cfg->slots - used, util_now(), &cl, err, sizeof(err));
+				if (r != JOBQ_OK) {
+					if (r != JOBQ_EEMPTY)
+						log_error("claiming a job: %s", err);
+					break;
+				}
+				sched_publish_state(s->c.q, s->c.hub, cl.id);
+				if (launch(s, &cl) == 0) {
+					used += cl.ranks;
+					running++;
+				}
+				free(cl.scene);
+			}
+		}
+		pthread_mutex_lock(&s->lock);
+		s->stats.used = used;
+		s->stats.running = running;
+		s->stats.events_per_second = rate;
+		pthread_mutex_unlock(&s->lock);
+		if (stopping && running == 0)
+			break;
+
+		/* Wait for output, a wake-up or the next tick. */
+		size_t np = 0;
+		pf[np++] = (struct pollfd){.fd = s->wake[0], .events = POLLIN};
+		for (size_t i = 0; i < s->nkids; i++) {
+			child_t *k = &s->kids[i];
+			if (!k->pid)
+				continue;
+			if (k->out >= 0)
+				pf[np++] = (struct pollfd){.fd = k->out, .events = POLLIN};
+			if (k->err >= 0)
+				pf[np++] = (struct pollfd){.fd = k->err, .events = POLLIN};
+		}
+		poll(pf, np, 200);
+		char buf[256];
+		while (read(s->wake[0], buf, sizeof(buf)) > 0)
+			;
+		for (size_t i = 0; i < s->nkids; i++) {
+			child_t *k = &s->kids[i];
+			if (!k->pid)
+				continue;
+			if (k->out >= 0)
+				drain_fd(s, k, &k->out, 1);
+			if (k->err >= 0)
+				drain_fd(s, k, &k->err, 0);
+		}
+	}
+	free(pf);
+	return NULL;
+}
+
+int sched_start(sched_t *s)
+{
+	if (pthread_create(&s->thread, NULL, loop, s))
+		return -1;
+	s->started = 1;
+	return 0;
+}
+
+void sched_stop(sched_t *s, double grace)
+{
+	if (!s || !s->started)
+		return;
+	pthread_mutex_lock(&s->lock);
+	s->stopping = 1;
+	s->stop_deadline = mono() + grace;
+	pthread_mutex_unlock(&s->lock);
+	sched_wake(s);
+	pthread_join(s->thread, NULL);
+	s->started = 0;
+}
+
+/* ---- start-up reconciliation --------------------------------------------- */
+
+int sched_recover(sched_t *s, char *log, size_t loglen)
+{
+	jobq_running_t *r = NULL;
+	size_t n = 0, o = 0;
+	jobq_list_running(s->c.q, &r, &n);
+	log[0] = '\0';
+	for (size_t i = 0; i < n; i++) {
+		const char *what = "its process was gone";
+		if (r[i].pid > 0 && util_pid_alive(r[i].pid, r[i].pid_start)) {
+			/* Still running from the previous daemon, but nobody reads its
+			 * output any more: stop it (it checkpoints on SIGTERM) before the
+			 * job may run again. */
+			what = "its process was stopped";
+			pid_t dp[16];
+			uint64_t ds[16];
+			int nd = util_descendants(r[i].pid, dp, ds, 16);
+			for (int round = 0; round < 2; round++) {
+				/* SIGTERM first (the engine checkpoints), SIGKILL after the grace. */
+				int sig = round ? SIGKILL : SIGTERM;
+				kill(-r[i].pid, sig);
+				for (int d = 0; d < nd; d++)
+					if (util_pid_alive(dp[d], ds[d]))
+						kill(dp[d], sig);
+				double dl = mono() + (round ? 10.0 : s->c.cfg->cancel_grace);
+				int any = 1;
+				while (any && mono() < dl) {
+					any = util_pid_alive(r[i].pid, r[i].pid_start);
+					for (int d = 0; d < nd; d++)
+						any |= util_pid_alive(dp[d], ds[d]);
+					if (any)
+						usleep(20000);
+				}
+				if (!any)
+					break;
+			}
+			int left = util_pid_alive(r[i].pid, r[i].pid_start);
+			for (int d = 0; d < nd; d++)
+				left |= util_pid_alive(dp[d], ds[d]);
+			if (left) {
+				/* Cannot prove it is gone: leave the job running in the
+				 * database rather than risk two copies. */
+				o += (size_t)snprintf(log + o, o < loglen ? loglen - o : 0,
+				                      "job %" PRId64 ": process %d survives SIGKILL; left as running. ", r[i].id,
+				                      r[i].pid);
+				continue;
+			}
+		}
+		char reason[256];
+		snprintf(reason, sizeof(reason), "daemon restarted while the job ran (%s); requeued", what);
+		job_state_t next = jobq_cancel_requested(s->c.q, r[i].id) == 1 ? JOB_CANCELLED : JOB_QUEUED;
+		jobq_attempt_finished(s->c.q, r[i].id, r[i].attempt, util_now(), -1, 0, reason, NULL, next);
+		o += (size_t)snprintf(log + o, o < loglen ? loglen - o : 0, "job %" PRId64 ": %s. ", r[i].id,
+		                      next == JOB_QUEUED ? reason : "cancelled while the daemon was down");
+	}
+	free(r);
+	return (int)n;
+}

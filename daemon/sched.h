@@ -1,0 +1,52 @@
+/* Job supervisor: claims queued jobs within the slot budget, launches the engine through MPI, follows it to its end. */
+#pragma once
+
+#include <stdint.h>
+#include "cfg.h"
+#include "hub.h"
+#include "jobq.h"
+
+/*
+ * Contract
+ * - One thread owns every child process: it launches, reads progress lines
+ *   (the engine's stdout through mpirun) and stderr, reaps, signals. Other
+ *   threads only ask (sched_wake, sched_cancel); nothing else touches pids.
+ * - Each launch is its own session and process group (setsid), so signals
+ *   reach mpirun and every rank.
+ * - Outcomes are written to the job queue first, then published on the hub.
+ * - sched_recover() runs before sched_start(): jobs the database calls
+ *   running belong to a previous daemon; a live process with the recorded
+ *   pid and start time is stopped (SIGTERM, then SIGKILL) and waited for,
+ *   then the job is requeued. So a job never runs twice at once.
+ */
+
+typedef struct sched sched_t;
+
+typedef struct {
+	jobq_t *q;
+	hub_t *hub;
+	const cfg_t *cfg;
+	const char *engine;      /* resolved granular-engine path */
+	const char *jobs_dir;    /* STATE/jobs */
+} sched_conf_t;
+
+sched_t *sched_create(const sched_conf_t *conf);
+void sched_destroy(sched_t *s);
+
+int sched_recover(sched_t *s, char *log, size_t loglen);
+int sched_start(sched_t *s);
+/* Stop launching, SIGTERM running jobs (they checkpoint), wait up to grace
+ * seconds, SIGKILL what is left, requeue them all, join the thread. */
+void sched_stop(sched_t *s, double grace);
+
+void sched_wake(sched_t *s);
+void sched_cancel(sched_t *s, int64_t id);
+
+typedef struct {
+	int slots, used, running;
+	double events_per_second;   /* summed over running jobs, from their progress */
+} sched_stats_t;
+void sched_stats(sched_t *s, sched_stats_t *out);
+
+/* Publish the job's current row as a "state" event (used by the API too). */
+void sched_publish_state(jobq_t *q, hub_t *hub, int64_t id);

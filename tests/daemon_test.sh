@@ -1,0 +1,180 @@
+#!/bin/sh
+# Integration test of granulard with the real engine: jobs end to end, cancel, crashes of engine and daemon, limits, auth.
+set -u
+. "$(dirname "$0")/daemon_lib.sh"
+
+# A short 2D run: until t=0.2, a record every 0.02 -> 11 progress records (t=0..0.2) and one summary.
+SHORT='{"method":"ed","dimensions":2,"particles":{"count":400,"volume_fraction":0.2},"collisions":{"restitution":0.9},"run":{"seed":3,"until":{"time":0.2}},"output":{"every":{"time":0.02},"observables":["kinetic_energy","clusters"]}}'
+# A run far longer than the test: it must be stopped.
+LONG='{"method":"ed","dimensions":3,"particles":{"count":4000,"volume_fraction":0.3},"run":{"seed":1,"until":{"time":1e9}},"output":{"every":{"time":0.05}}}'
+
+S=$tmp/state
+gd_start "$S" --slots 2 --cancel-grace 5 --shutdown-grace 5
+api GET /healthz >/dev/null
+ok $([ "$(code)" = 200 ]; echo $?) "healthz answers 200 on $URL"
+[ "$(stat -c %a "$S/token")" = 600 ]
+ok $? "token file generated with mode 0600"
+
+# 1. submit -> progress -> succeeded, with the expected number of records.
+body=$(post /api/v1/jobs -d "$SHORT")
+id=$(field "$body" 'd["id"]')
+ok $([ "$(code)" = 201 ] && [ "$(field "$body" 'd["state"]')" = queued ]; echo $?) "POST /jobs: 201, job $id queued"
+curl -sN -m 60 "$URL/api/v1/jobs/$id/events" >"$tmp/sse" &
+sse=$!
+wait_state "$id" succeeded 60
+ok $? "job $id succeeded"
+prog=$(api GET "/api/v1/jobs/$id/progress")
+ok $([ "$(field "$prog" 'len([r for r in d["records"] if r["type"]=="progress"])')" = 11 ] &&
+     [ "$(field "$prog" 'd["records"][-1]["type"]')" = summary ]; echo $?) "stored series: 11 progress records and the summary"
+cl=$(api GET "/api/v1/jobs/$id/clusters")
+ok $([ "$(field "$cl" 'len(d["series"])')" = 11 ] && [ "$(field "$cl" 'd["series"][0]["clusters"]["count"] > 0')" = True ]; echo $?) \
+	"clusters series: 11 entries with cluster statistics"
+wait $sse
+grep -q '^event: progress' "$tmp/sse" && grep -q '"state":"succeeded"' "$tmp/sse"
+ok $? "event stream carried progress and ended with the succeeded state"
+job=$(api GET "/api/v1/jobs/$id")
+ok $([ "$(field "$job" 'd["attempts"][0]["exit_status"]')" = 0 ] && [ "$(field "$job" 'd["progress"]')" = 1.0 ] &&
+     [ "$(field "$job" 'd["scene"]["particles"]["count"]')" = 400 ]; echo $?) "job record: attempt exit 0, progress 1.0, scene kept"
+[ -f "$S/jobs/$id/progress.jsonl" ] && [ -f "$S/jobs/$id/scene.json" ]
+ok $? "job directory holds scene.json and the engine's output"
+
+# 2. cancel a running job.
+id2=$(field "$(post /api/v1/jobs -d "$LONG")" 'd["id"]')
+wait_state "$id2" running 20
+sleep 1
+c=$(post "/api/v1/jobs/$id2/cancel")
+ok $([ "$(code)" = 200 ] && [ "$(field "$c" 'd["cancel_requested"]')" = True ]; echo $?) "POST /cancel on a running job: 200, cancel requested"
+wait_state "$id2" cancelled 20
+ok $? "the running job ends cancelled"
+post "/api/v1/jobs/$id2/cancel" >/dev/null
+ok $([ "$(code)" = 200 ]; echo $?) "cancelling it again: 200 (idempotent)"
+post "/api/v1/jobs/$id/cancel" >/dev/null
+ok $([ "$(code)" = 409 ]; echo $?) "cancelling a succeeded job: 409"
+
+# 3. kill -9 the engine: the job fails with a reason, the daemon keeps serving.
+id3=$(field "$(post /api/v1/jobs -d "$LONG")" 'd["id"]')
+wait_state "$id3" running 20
+i=0; until pkill -9 -f "^$ENGINE run $S/jobs/$id3/" || [ $i -ge 100 ]; do sleep 0.2; i=$((i + 1)); done
+wait_state "$id3" failed 20
+ok $? "engine killed with SIGKILL: job $id3 failed"
+r=$(field "$(api GET "/api/v1/jobs/$id3")" 'd["reason"]')
+case "$r" in *"signal"*|*"status"*) ok 0 "failure reason recorded: $r" ;; *) ok 1 "failure reason recorded: $r" ;; esac
+api GET /healthz >/dev/null
+ok $([ "$(code)" = 200 ]; echo $?) "daemon still healthy"
+
+# 4. kill -9 the daemon mid-run, restart: nothing lost, nothing duplicated, never two copies.
+id4=$(field "$(post /api/v1/jobs -d "$LONG")" 'd["id"]')
+wait_state "$id4" running 20
+q1=$(field "$(post /api/v1/jobs -d "{\"scene\": $LONG, \"priority\": -5}")" 'd["id"]')
+q2=$(field "$(post /api/v1/jobs -d "{\"scene\": $LONG, \"priority\": -5}")" 'd["id"]')
+sleep 0.5
+old=$(field "$(api GET "/api/v1/jobs/$id4")" 'd["attempts"][-1]["pid"]')
+i=0; until eng=$(pgrep -f "^$ENGINE run $S/jobs/$id4/") || [ $i -ge 100 ]; do sleep 0.2; i=$((i + 1)); done
+before=$(field "$(api GET '/api/v1/jobs?limit=1000')" 'len(d["jobs"])')
+kill -9 "$GD_PID"; wait "$GD_PID" 2>/dev/null; GD_PID=
+alive "$old" && alive "$eng"
+ok $? "after kill -9 of the daemon its launcher $old and engine $eng still run (orphaned)"
+gd_start "$S" --slots 2 --cancel-grace 5 --shutdown-grace 5
+! alive "$old" && ! alive "$eng"
+ok $? "restart stopped the orphans before serving"
+after=$(field "$(api GET '/api/v1/jobs?limit=1000')" 'len(d["jobs"])')
+ok $([ "$before" = "$after" ]; echo $?) "all $after jobs still there"
+wait_state "$id4" running 20
+j4=$(api GET "/api/v1/jobs/$id4")
+ok $([ "$(field "$j4" 'len(d["attempts"])')" = 2 ] && [ "$(field "$j4" 'd["attempts"][0]["reason"]')" != None ]; echo $?) \
+	"job $id4 requeued and relaunched as attempt 2; attempt 1 says why: $(field "$j4" 'd["attempts"][0]["reason"]')"
+ok $([ "$(pgrep -fc "^$ENGINE run $S/jobs/$id4/")" = 1 ]; echo $?) "exactly one engine runs job $id4"
+for j in $id4 $q1 $q2; do post "/api/v1/jobs/$j/cancel" >/dev/null; done
+wait_state "$id4" cancelled 20 && wait_state "$q1" cancelled 5 && wait_state "$q2" cancelled 5
+ok $? "jobs queued before the crash ($q1, $q2) were kept and can be cancelled"
+
+# 5. 200 concurrent submissions give 200 distinct jobs; retries with the same submission_id do not duplicate.
+ids=$tmp/ids
+seq 1 200 | xargs -P 32 -I{} curl -s -X POST -H "Authorization: Bearer $TOKEN" -H 'Content-Type: application/json' \
+	-d "{\"scene\": $SHORT, \"priority\": -10, \"submission_id\": \"c-{}\"}" "$URL/api/v1/jobs" >"$ids.raw"
+/usr/bin/python3 -c 'import json,sys; [print(json.loads(l)["id"]) for l in open(sys.argv[1])]' "$ids.raw" | sort -u >"$ids" 2>/dev/null
+ok $([ "$(wc -l <"$ids")" = 200 ]; echo $?) "200 concurrent submissions: $(wc -l <"$ids") distinct ids"
+seq 1 200 | xargs -P 32 -I{} curl -s -X POST -H "Authorization: Bearer $TOKEN" -H 'Content-Type: application/json' \
+	-d "{\"scene\": $SHORT, \"priority\": -10, \"submission_id\": \"c-{}\"}" "$URL/api/v1/jobs" >"$ids.raw2"
+/usr/bin/python3 -c 'import json,sys; [print(json.loads(l)["id"]) for l in open(sys.argv[1])]' "$ids.raw2" | sort -u >"$ids.2"
+cmp -s "$ids" "$ids.2"
+ok $? "the same 200 submissions retried return the same 200 jobs"
+for i in $(cat "$ids"); do post "/api/v1/jobs/$i/cancel" >/dev/null; done
+
+# 6. Bad requests: status and a JSON error body each.
+err_ok() { # err_ok CODE DESCRIPTION: checks CODE and the {"error":{"code","message"}} body
+	ok $([ "$(code)" = "$1" ] && [ -n "$(field "$(cat "$tmp/body")" 'd["error"]["message"]')" ]; echo $?) \
+		"$2: $CODE $(field "$(cat "$tmp/body")" 'd["error"]["message"]')"
+}
+post /api/v1/jobs -d '{"method":' >/dev/null; err_ok 400 "broken JSON"
+post /api/v1/jobs -d '{"method":"ed","dimensions":2,"particles":{"count":10,"volume_fraction":0.95},"run":{"until":{"time":1}}}' >/dev/null
+err_ok 400 "volume fraction above close packing"
+case "$(field "$(cat "$tmp/body")" 'd["error"]["message"]')" in particles.volume_fraction*) ok 0 "the message starts with the key path" ;; *) ok 1 "the message starts with the key path" ;; esac
+api POST /api/v1/jobs -H 'Content-Type: application/json' -d "$SHORT" >/dev/null; err_ok 401 "no token"
+api POST /api/v1/jobs -H 'Authorization: Bearer nope' -H 'Content-Type: application/json' -d "$SHORT" >/dev/null; err_ok 401 "wrong token"
+api DELETE "/api/v1/jobs/$id" -H 'Authorization: Bearer nope' >/dev/null; err_ok 401 "DELETE with a wrong token"
+post /api/v1/jobs -H 'Host: evil.example:80' -d "$SHORT" >/dev/null; err_ok 403 "foreign Host (DNS rebinding)"
+post /api/v1/jobs -H 'Origin: http://evil.example' -d "$SHORT" >/dev/null; err_ok 403 "cross-site Origin"
+api GET /api/v1/nothing >/dev/null; err_ok 404 "unknown path"
+api GET /api/v1/jobs/99999 >/dev/null; err_ok 404 "unknown job"
+api GET /api/v1/jobs/abc >/dev/null; err_ok 404 "malformed job id"
+api PUT /api/v1/jobs -H "Authorization: Bearer $TOKEN" >/dev/null; err_ok 405 "PUT on /jobs"
+allow=$(curl -s -D - -o /dev/null -X PUT "$URL/api/v1/jobs" | tr -d '\r' | sed -n 's/^Allow: //p')
+ok $([ "$allow" = "POST, GET" ]; echo $?) "405 lists Allow: $allow"
+id5=$(field "$(post /api/v1/jobs -d "$LONG")" 'd["id"]')
+api DELETE "/api/v1/jobs/$id5" -H "Authorization: Bearer $TOKEN" >/dev/null; err_ok 409 "DELETE of an unfinished job"
+post /api/v1/jobs -d "{\"scene\": $(echo "$SHORT" | sed 's/"seed":3/"seed":4/'), \"submission_id\": \"c-1\"}" >/dev/null
+err_ok 409 "a used submission_id with another scene"
+post "/api/v1/jobs/$id5/cancel" >/dev/null
+head -c 5000000 /dev/zero | tr '\0' ' ' >"$tmp/big"
+post /api/v1/jobs --data-binary @"$tmp/big" >/dev/null; err_ok 413 "5 MB body (Content-Length over max_body)"
+post /api/v1/jobs -H 'Transfer-Encoding: chunked' --data-binary @"$tmp/big" >/dev/null; err_ok 413 "5 MB chunked body"
+api POST /api/v1/jobs -H "Authorization: Bearer $TOKEN" -H 'Content-Type: text/plain' -d "$SHORT" >/dev/null; err_ok 415 "text/plain body"
+deep=$(/usr/bin/python3 -c 'print("["*100 + "]"*100)')
+post /api/v1/jobs -d "{\"scene\": $deep}" >/dev/null; err_ok 400 "JSON nested 100 deep"
+api GET '/api/v1/jobs?state=bogus' >/dev/null; err_ok 400 "bad state filter"
+api GET '/api/v1/jobs?limit=0' >/dev/null; err_ok 400 "bad limit"
+
+# 7. Listing: filters and cursor pagination.
+p1=$(api GET '/api/v1/jobs?limit=50&state=cancelled')
+cur=$(field "$p1" 'd["next_cursor"]')
+p2=$(api GET "/api/v1/jobs?limit=50&state=cancelled&cursor=$cur")
+ok $([ "$(field "$p1" 'len(d["jobs"])')" = 50 ] && [ "$(field "$p2" 'd["jobs"][0]["id"] < d["jobs"][-1]["id"] or len(d["jobs"])==1')" = False ] &&
+     [ "$(field "$p2" 'all(j["state"]=="cancelled" for j in d["jobs"])')" = True ]; echo $?) "state filter and cursor pages (next_cursor $cur)"
+cl=$(api GET /api/v1/cluster)
+ok $([ "$(field "$cl" 'd["slots"]["total"]')" = 2 ] && [ "$(field "$cl" '"finished_last_hour" in d and "events_per_second" in d and "uptime_seconds" in d')" = True ]; echo $?) \
+	"GET /cluster: slots, queue, throughput, uptime"
+api GET /metrics >/dev/null
+ok $([ "$(code)" = 200 ] && grep -q '^granulard_jobs{state="cancelled"} [1-9]' "$tmp/body"; echo $?) "GET /metrics in Prometheus text format"
+
+# 8. DELETE a finished job removes its row and files.
+api DELETE "/api/v1/jobs/$id" -H "Authorization: Bearer $TOKEN" >/dev/null
+ok $([ "$(code)" = 200 ] && [ ! -d "$S/jobs/$id" ]; echo $?) "DELETE a finished job: 200 and its directory is gone"
+api GET "/api/v1/jobs/$id" >/dev/null
+ok $([ "$(code)" = 404 ]; echo $?) "then it is 404"
+
+# 9. Graceful stop: SIGTERM interrupts running jobs and requeues them; mutations get 503 while draining.
+id6=$(field "$(post /api/v1/jobs -d "$LONG")" 'd["id"]')
+wait_state "$id6" running 30
+sleep 0.5
+gd_stop
+ok $([ "$GD_RC" = 0 ]; echo $?) "SIGTERM: the daemon exits 0"
+gd_start "$S" --slots 2 --cancel-grace 5
+r=$(field "$(api GET "/api/v1/jobs/$id6")" 'd["attempts"][0]["reason"]')
+case "$r" in *shutdown*) ok 0 "the running job was requeued: $r" ;; *) ok 1 "the running job was requeued: $r" ;; esac
+post "/api/v1/jobs/$id6/cancel" >/dev/null
+wait_state "$id6" cancelled 20
+gd_stop
+
+# 10. A second daemon on the same state directory is refused; bad flags exit 2 with one line.
+gd_start "$S" --slots 1
+"$GRANULARD" --state-dir "$S" --listen 127.0.0.1:0 2>"$tmp/err2"
+ok $([ $? -ne 0 ] && grep -q "another granulard" "$tmp/err2"; echo $?) "second daemon on the same state dir refused: $(cat "$tmp/err2")"
+gd_stop
+"$GRANULARD" --slots many 2>"$tmp/err3"
+ok $([ $? = 2 ] && [ "$(wc -l <"$tmp/err3")" = 1 ]; echo $?) "bad flag: exit 2, one line: $(cat "$tmp/err3")"
+printf 'slots = 4\nfrobs = 1\n' >"$tmp/conf"
+"$GRANULARD" --config "$tmp/conf" 2>"$tmp/err4"
+ok $([ $? = 2 ] && grep -q "conf:2: frobs" "$tmp/err4"; echo $?) "bad config key names file and line: $(cat "$tmp/err4")"
+
+finish

@@ -1,0 +1,242 @@
+/* Unit tests of the job queue logic (daemon/jobq.c) against an in-memory and a temporary SQLite database. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include "db.h"
+#include "jobq.h"
+#include "tap.h"
+
+static const char *SCENE =
+	"{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":100,\"volume_fraction\":0.2},"
+	"\"run\":{\"until\":{\"time\":1}}}";
+static const char *SCENE2 =
+	"{\"method\":\"ed\",\"dimensions\":3,\"particles\":{\"count\":108,\"volume_fraction\":0.2},"
+	"\"run\":{\"until\":{\"collisions_per_particle\":10}}}";
+
+static jobq_limits_t lim = {.max_particles = 1000000, .max_ranks = 4, .max_queued = 1000, .max_json_depth = 8,
+                            .max_progress = 16};
+
+static int64_t submit(jobq_t *q, const char *body, int *rc, int *created, char *err)
+{
+	json_t *j = NULL;
+	int c = 0;
+	*rc = jobq_submit(q, body, strlen(body), 100.0, &j, &c, err, 512);
+	if (created)
+		*created = c;
+	int64_t id = j ? json_integer_value(json_object_get(j, "id")) : 0;
+	json_decref(j);
+	return id;
+}
+
+static const char *state_of(jobq_t *q, int64_t id, char *buf)
+{
+	json_t *j = NULL;
+	char err[256];
+	if (jobq_get(q, id, 0, &j, err, sizeof(err)))
+		return "none";
+	snprintf(buf, 32, "%s", json_string_value(json_object_get(j, "state")));
+	json_decref(j);
+	return buf;
+}
+
+int main(void)
+{
+	char err[512], sb[32], body[1024];
+	int rc, created;
+	jobq_t *q = jobq_open(":memory:", &lim, err, sizeof(err));
+	if (!ok(q != NULL, "open an in-memory queue (%s)", q ? "ok" : err))
+		return 1;
+
+	/* Submission and validation by the engine's scene parser. */
+	int64_t a = submit(q, SCENE, &rc, &created, err);
+	ok(rc == 0 && a == 1 && created, "a bare scene is accepted as job 1");
+	ok(!strcmp(state_of(q, a, sb), "queued"), "a new job is queued");
+	submit(q, "{\"method\":\"ed\",\"dimensions\":4,\"particles\":{\"count\":10},\"run\":{\"until\":{\"time\":1}}}", &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && !strncmp(err, "dimensions", 10), "a bad scene is refused with its key path: %s", err);
+	submit(q, "{\"scene\":{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":0},\"run\":{\"until\":{\"time\":1}}}}", &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && !strncmp(err, "scene.particles.count", 21), "in the wrapper the path starts at scene.: %s", err);
+	submit(q, "{\"scene\":{}, \"colour\": 1}", &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && strstr(err, "colour"), "unknown wrapper key named: %s", err);
+	submit(q, "[1,2]", &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && !strncmp(err, "body", 4), "a non-object body is refused: %s", err);
+	submit(q, "{\"a\":", &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && strstr(err, "not valid JSON"), "broken JSON is refused: %s", err);
+	submit(q, "{\"a\":[[[[[[[[[[1]]]]]]]]]]}", &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && strstr(err, "nested"), "nesting beyond the limit is refused: %s", err);
+	snprintf(body, sizeof(body), "{\"scene\":%s,\"ranks\":5}", SCENE);
+	submit(q, body, &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && !strncmp(err, "ranks", 5), "ranks above max_ranks refused: %s", err);
+	submit(q, "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":2000000,\"volume_fraction\":0.1},\"run\":{\"until\":{\"time\":1}}}",
+	       &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && strstr(err, "particles.count"), "particles above max_particles refused: %s", err);
+	snprintf(body, sizeof(body), "{\"scene\":%s,\"priority\":5000}", SCENE);
+	submit(q, body, &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && !strncmp(err, "priority", 8), "priority out of range refused: %s", err);
+
+	/* Idempotent submission. */
+	snprintf(body, sizeof(body), "{\"scene\":%s,\"submission_id\":\"run-42\",\"priority\":3,\"ranks\":2}", SCENE2);
+	int64_t b = submit(q, body, &rc, &created, err);
+	ok(rc == 0 && b == 2 && created, "wrapper with submission_id creates job 2");
+	int64_t b2 = submit(q, body, &rc, &created, err);
+	ok(rc == 0 && b2 == b && !created, "the same submission_id and scene return job 2 again, not created");
+	snprintf(body, sizeof(body), "{\"scene\":%s,\"submission_id\":\"run-42\"}", SCENE);
+	submit(q, body, &rc, NULL, err);
+	ok(rc == JOBQ_ECONFLICT, "the same submission_id with another scene conflicts: %s", err);
+	snprintf(body, sizeof(body), "{\"scene\":%s,\"submission_id\":\"bad id!\"}", SCENE);
+	submit(q, body, &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && !strncmp(err, "submission_id", 13), "submission_id charset checked");
+
+	/* Claims: priority first, then submission order, strictly within slots. */
+	int64_t c = submit(q, SCENE, &rc, NULL, err);   /* job 3, priority 0 */
+	jobq_claim_t cl;
+	rc = jobq_claim(q, 1, 200.0, &cl, err, sizeof(err));
+	ok(rc == JOBQ_EEMPTY, "the head job (priority 3, 2 ranks) does not fit 1 slot and is not overtaken");
+	rc = jobq_claim(q, 2, 200.0, &cl, err, sizeof(err));
+	ok(rc == 0 && cl.id == b && cl.attempt == 1 && cl.ranks == 2 && cl.until_cpp && cl.until == 10,
+	   "priority 3 job claimed first with its stop condition");
+	free(cl.scene);
+	ok(!strcmp(state_of(q, b, sb), "running"), "claimed job is running");
+	rc = jobq_claim(q, 1, 201.0, &cl, err, sizeof(err));
+	ok(rc == 0 && cl.id == a, "then the oldest priority-0 job (1)");
+	free(cl.scene);
+	ok(jobq_attempt_launched(q, a, 1, 4242, 777, NULL) == 0, "launch recorded");
+
+	/* Progress storage with downsampling. */
+	for (int i = 0; i < 100; i++) {
+		char line[256];
+		snprintf(line, sizeof(line), "{\"type\":\"progress\",\"time\":%g,\"events\":%d,\"collisions\":%d}", 0.01 * i,
+		         10 * i, 5 * i);
+		jobq_attempt_progress(q, a, 1, line, 300.0 + i);
+	}
+	jobq_attempt_progress(q, a, 1, "{\"type\":\"summary\",\"status\":\"completed\",\"time\":1}", 400.0);
+	json_t *pr = NULL;
+	rc = jobq_progress(q, a, -1, 100000, 0, &pr, err, sizeof(err));
+	json_t *recs = json_object_get(pr, "records");
+	size_t nrec = json_array_size(recs);
+	int monotone = 1;
+	for (size_t i = 1; i < nrec; i++)
+		monotone &= json_integer_value(json_object_get(json_array_get(recs, i), "seq")) >
+		            json_integer_value(json_object_get(json_array_get(recs, i - 1), "seq"));
+	ok(rc == 0 && nrec <= 17 && nrec >= 8 && monotone, "101 records downsampled to %zu (limit 16), in order", nrec);
+	ok(json_integer_value(json_object_get(pr, "stride")) >= 8, "stride doubled to %lld",
+	   (long long)json_integer_value(json_object_get(pr, "stride")));
+	ok(!strcmp(json_string_value(json_object_get(json_array_get(recs, nrec - 1), "type")), "summary"),
+	   "the summary record is kept");
+	ok(json_integer_value(json_object_get(json_array_get(recs, 0), "seq")) == 0, "the first record is kept");
+	json_decref(pr);
+	json_t *jj = NULL;
+	jobq_get(q, a, 0, &jj, err, sizeof(err));
+	ok(json_real_value(json_object_get(jj, "progress")) == 1.0 && json_integer_value(json_object_get(jj, "events")) == 990,
+	   "job row carries progress fraction 1 and the latest event count");
+	json_decref(jj);
+
+	/* Cancel and delete rules. */
+	int sig = -1;
+	json_t *out = NULL;
+	rc = jobq_cancel(q, c, 500.0, &sig, &out, err, sizeof(err));
+	ok(rc == 0 && sig == 0 && !strcmp(json_string_value(json_object_get(out, "state")), "cancelled"),
+	   "cancelling a queued job ends it at once");
+	json_decref(out);
+	rc = jobq_cancel(q, c, 501.0, &sig, &out, err, sizeof(err));
+	ok(rc == 0, "cancelling it again is a no-op");
+	json_decref(out);
+	rc = jobq_cancel(q, b, 502.0, &sig, &out, err, sizeof(err));
+	ok(rc == 0 && sig == 1 && !strcmp(json_string_value(json_object_get(out, "state")), "running") &&
+	       jobq_cancel_requested(q, b) == 1, "cancelling a running job asks the supervisor to stop it");
+	json_decref(out);
+	ok(jobq_delete(q, b, err, sizeof(err)) == JOBQ_ECONFLICT, "a running job cannot be deleted: %s", err);
+	ok(jobq_attempt_finished(q, b, 1, 600.0, -1, 15, "cancelled by request", "tail", JOB_CANCELLED) == 0 &&
+	       !strcmp(state_of(q, b, sb), "cancelled"), "the supervisor records the cancellation");
+	ok(jobq_attempt_finished(q, a, 1, 610.0, 0, 0, NULL, "", JOB_SUCCEEDED) == 0 && !strcmp(state_of(q, a, sb), "succeeded"),
+	   "job 1 succeeds");
+	rc = jobq_cancel(q, a, 620.0, &sig, &out, err, sizeof(err));
+	ok(rc == JOBQ_ECONFLICT, "a succeeded job cannot be cancelled: %s", err);
+	ok(jobq_get(q, a, 0, &out, err, sizeof(err)) == 0 &&
+	       json_integer_value(json_object_get(json_array_get(json_object_get(out, "attempts"), 0), "pid")) == 4242 &&
+	       json_is_null(json_object_get(json_array_get(json_object_get(out, "attempts"), 0), "signal")),
+	   "attempt row holds pid, exit status and NULL signal");
+	json_decref(out);
+	ok(jobq_delete(q, a, err, sizeof(err)) == 0 && jobq_get(q, a, 0, &out, err, sizeof(err)) == JOBQ_ENOTFOUND,
+	   "a finished job can be deleted, and is gone");
+	ok(jobq_delete(q, 999, err, sizeof(err)) == JOBQ_ENOTFOUND, "deleting an unknown job: not found");
+
+	/* Requeue (interrupted attempt) keeps the attempt history. */
+	int64_t d = submit(q, SCENE, &rc, NULL, err);
+	jobq_claim(q, 4, 700.0, &cl, err, sizeof(err));
+	free(cl.scene);
+	jobq_running_t *run = NULL;
+	size_t nrun = 0;
+	jobq_list_running(q, &run, &nrun);
+	ok(nrun == 1 && run[0].id == d && run[0].attempt == 1, "the running job is listed for reconciliation");
+	free(run);
+	jobq_attempt_finished(q, d, 1, 710.0, -1, 0, "daemon restarted", NULL, JOB_QUEUED);
+	rc = jobq_claim(q, 4, 720.0, &cl, err, sizeof(err));
+	ok(rc == 0 && cl.id == d && cl.attempt == 2 && jobq_attempts(q, d) == 2, "a requeued job runs again as attempt 2");
+	free(cl.scene);
+
+	/* Listing: filters and cursor pagination (newest first). */
+	for (int i = 0; i < 5; i++)
+		submit(q, SCENE, &rc, NULL, err);
+	jobq_filter_t f = {.limit = 3};
+	json_t *l1 = NULL, *l2 = NULL, *l3 = NULL;
+	jobq_list(q, &f, &l1, err, sizeof(err));
+	const char *cur = json_string_value(json_object_get(l1, "next_cursor"));
+	ok(json_array_size(json_object_get(l1, "jobs")) == 3 && cur, "first page of 3 with a cursor");
+	f.cursor = cur ? atoll(cur) : 0;
+	jobq_list(q, &f, &l2, err, sizeof(err));
+	int64_t last1 = json_integer_value(json_object_get(json_array_get(json_object_get(l1, "jobs"), 2), "id"));
+	int64_t first2 = json_integer_value(json_object_get(json_array_get(json_object_get(l2, "jobs"), 0), "id"));
+	ok(first2 < last1, "second page continues below the first (%lld < %lld)", (long long)first2, (long long)last1);
+	f = (jobq_filter_t){.limit = 100, .states = 1u << JOB_CANCELLED};
+	jobq_list(q, &f, &l3, err, sizeof(err));
+	ok(json_array_size(json_object_get(l3, "jobs")) == 2 && json_is_null(json_object_get(l3, "next_cursor")),
+	   "state filter: the 2 cancelled jobs, no next page");
+	json_decref(l1);
+	json_decref(l2);
+	json_decref(l3);
+	json_t *st = NULL;
+	jobq_stats(q, 650.0, &st, err, sizeof(err));
+	ok(json_integer_value(json_object_get(json_object_get(st, "jobs"), "queued")) == 5 &&
+	       json_integer_value(json_object_get(st, "ranks_running")) == 1, "stats: 5 queued, 1 rank running");
+	json_decref(st);
+	jobq_close(q);
+
+	/* Queue limit. */
+	jobq_limits_t small = lim;
+	small.max_queued = 2;
+	q = jobq_open(":memory:", &small, err, sizeof(err));
+	submit(q, SCENE, &rc, NULL, err);
+	submit(q, SCENE, &rc, NULL, err);
+	submit(q, SCENE, &rc, NULL, err);
+	ok(rc == JOBQ_ELIMIT, "a third job beyond max_queued=2 is refused: %s", err);
+	jobq_close(q);
+
+	/* A file database keeps its jobs and schema version across opens; a newer schema is refused. */
+	char path[] = "/tmp/jobq_test.XXXXXX";
+	int fd = mkstemp(path);
+	close(fd);
+	unlink(path);
+	q = jobq_open(path, &lim, err, sizeof(err));
+	submit(q, SCENE, &rc, NULL, err);
+	jobq_close(q);
+	q = jobq_open(path, &lim, err, sizeof(err));
+	ok(q && !strcmp(state_of(q, 1, sb), "queued"), "jobs survive closing and reopening the file");
+	jobq_close(q);
+	sqlite3 *db = NULL;
+	sqlite3_open(path, &db);
+	sqlite3_exec(db, "PRAGMA user_version=99", NULL, NULL, NULL);
+	sqlite3_close(db);
+	q = jobq_open(path, &lim, err, sizeof(err));
+	ok(q == NULL && strstr(err, "newer"), "a database from a newer granulard is refused: %s", err);
+	jobq_close(q);
+	char side[64];
+	unlink(path);
+	snprintf(side, sizeof(side), "%s-wal", path);
+	unlink(side);
+	snprintf(side, sizeof(side), "%s-shm", path);
+	unlink(side);
+
+	plan(tap_n);
+	return tap_failed != 0;
+}
