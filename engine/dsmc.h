@@ -20,9 +20,10 @@
  *   normal restitution along the contact normal it defines.
  *   sigma_T = 2 sigma (2D), pi sigma^2 (3D).
  * - v_max per cell is the strict bound 2 max_i |v_i - u_c| (u_c the cell's
- *   mean velocity) at the start of the cell's collision step; should a later
- *   candidate exceed it (velocities change within the step) it is raised to
- *   that |g| and the event counted in vmax_raised.
+ *   mean velocity at the start of its collision step). A collision that
+ *   raises max_i |v_i - u_c| raises v_max, and later candidates then cost
+ *   less of the cell's budget (thinning of a Poisson process), so the
+ *   collision rate stays exact (vmax_raised counts these raises).
  * - Determinism: for one scene (seed and stream included) and one sequence
  *   of dsmc_advance() stop times, every number is identical from run to run.
  *   Output times cut a step short (steps land exactly on t_stop), so the
