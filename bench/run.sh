@@ -4,9 +4,11 @@ set -eu
 build=${1:-.}
 src=${2:-.}
 bench="$build/bench/ed_bench"
+mcbench="$build/bench/dsmc_bench"
 out="$src/docs/benchmarks.md"
 tmp=$(mktemp)
-trap 'rm -f "$tmp"' EXIT
+tmc=$(mktemp)
+trap 'rm -f "$tmp" "$tmc"' EXIT
 
 cpu=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')
 cores=$(nproc)
@@ -26,6 +28,19 @@ print("| %s | %d | %d | %g | %g | %.3g | %.3g | %.0f | %s | `%s` |" % (label, d[
       "x".join(str(c) for c in d["cells"][:d["dim"]]), cmd))' "$label" "bench/ed_bench $*" >>"$tmp"
 }
 
+mcrow() { # label method dim n phi e steps [correction]
+	label=$1; shift
+	line=$("$mcbench" "$@")
+	echo "$line" >&2
+	echo "$line" | /usr/bin/python3 -c '
+import json, sys
+d = json.loads(sys.stdin.read())
+label, cmd = sys.argv[1], sys.argv[2]
+print("| %s | %s/%s | %d | %d | %g | %g | %.3g | %.3g | %.0f | %s | `%s` |" % (label, d["method"], d["correction"], d["dim"], d["n"],
+      d["phi"], d["restitution"], d["moves_per_second"], d["collisions_per_second"], d["bytes_per_particle"],
+      "x".join(str(c) for c in d["cells"][:d["dim"]]), cmd))' "$label" "bench/dsmc_bench $*" >>"$tmc"
+}
+
 # Peers (docs/peers.md, same machine class): EDMD 1.03e6 / 0.79e6 / 0.62e6 / 0.33e6 collisions/s.
 row "3D elastic (peer EDMD 1.03e6)" 3 10976 0.45 1 200 100
 row "3D elastic (peer EDMD 0.79e6)" 3 10976 0.1 1 50 100
@@ -40,6 +55,17 @@ row "3D large (10^7), lattice start" 3 10000000 0.3 1 0 2
 # cell size (in diameters) against the automatic choice, dilute 2D and 3D
 for c in 0 1 2 3; do row "cell size ${c} (0 = auto)" 2 10000 0.05 1 20 50 0 $c; done
 for c in 0 1.2 1.5; do row "cell size ${c} (0 = auto)" 3 10976 0.1 1 20 50 0 $c; done
+
+# DSMC/HSMC (peer SPARTA, docs/peers.md: 2.6e7 moves/s at 10^5, 9.6e6 moves/s and 0.67e6 collisions/s at 10^6)
+mcrow "2D dilute (peer SPARTA 2.6e7 moves/s)" dsmc 2 100000 0.05 0.9 40
+mcrow "3D dilute (peer SPARTA 2.6e7 moves/s)" dsmc 3 100000 0.05 0.9 40
+mcrow "2D dilute (peer SPARTA 9.6e6 moves/s)" dsmc 2 1000000 0.05 0.9 8
+mcrow "3D dilute (peer SPARTA 9.6e6 moves/s)" dsmc 3 1000000 0.05 0.9 8
+mcrow "3D dense, Enskog" dsmc 3 100000 0.25 0.9 40 enskog
+mcrow "3D dense, Enskog" dsmc 3 1000000 0.25 0.9 8 enskog
+mcrow "2D dense, HSMC" hsmc 2 100000 0.4 0.9 40 cba
+mcrow "2D dense, HSMC" hsmc 2 1000000 0.4 0.9 8 cba
+mcrow "3D dense, HSMC" hsmc 3 1000000 0.25 0.9 8 cba
 
 {
 	echo "# Benchmarks"
@@ -56,6 +82,17 @@ for c in 0 1.2 1.5; do row "cell size ${c} (0 = auto)" 3 10976 0.1 1 20 50 0 $c;
 	echo "| case | D | N | volume fraction | restitution | collisions/s | events/s | bytes/particle | cells | command |"
 	echo "|---|---|---|---|---|---|---|---|---|---|"
 	cat "$tmp"
+	echo
+	echo "## DSMC and HSMC"
+	echo
+	echo "Random start, default cells (docs/scene.md) and adaptive step (0.2 collisions per particle per step), 2 untimed"
+	echo "warm-up steps, then STEPS timed. A move is one particle advanced by one step (SPARTA's unit). Columns: moves"
+	echo "per second, collisions per second, bytes held per particle (dsmc_memory(): particles, sort buffer, cells),"
+	echo "cell grid, command (dsmc_bench METHOD DIM N PHI RESTITUTION STEPS [CORRECTION])."
+	echo
+	echo "| case | method | D | N | volume fraction | restitution | moves/s | collisions/s | bytes/particle | cells | command |"
+	echo "|---|---|---|---|---|---|---|---|---|---|---|"
+	cat "$tmc"
 	echo
 	if [ -f "$src/docs/benchmarks-notes.md" ]; then cat "$src/docs/benchmarks-notes.md"; fi
 } >"$out"

@@ -646,7 +646,7 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 	/* Rebase often enough to keep times small, rarely enough to cost nothing. */
 	ed->rebase_every = 8ull * ed->n < 4096 ? 4096 : 8ull * ed->n;
 
-	rng_init(&rng, s->seed, 0);
+	rng_init(&rng, s->seed, s->stream);
 	if (s->positions == SCENE_POS_RANDOM) {
 		rc = DISPATCH(ed, place_random, ed, &rng);
 		if (rc != ED_OK) {

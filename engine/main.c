@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "config.h"
+#include "ensemble.h"
 #include "report.h"
 #include "run.h"
 #include "scene.h"
@@ -92,15 +93,13 @@ static void usage(FILE *f)
 	        "Exit status: 0 done, 1 failure, 2 bad input or usage, 3 interrupted.\n");
 }
 
-/* Ranks other than 0 have nothing to do yet: wait for rank 0 without
- * spinning a core (a blocking MPI_Barrier busy-polls in Open MPI). */
-static void idle_until_rank0(void)
+/* Complete a non-blocking collective without spinning a core (a blocking
+ * MPI call busy-polls in Open MPI). */
+static void wait_idle(MPI_Request *req)
 {
-	MPI_Request req;
 	int flag = 0;
-	MPI_Ibarrier(MPI_COMM_WORLD, &req);
 	while (!flag) {
-		MPI_Test(&req, &flag, MPI_STATUS_IGNORE);
+		MPI_Test(req, &flag, MPI_STATUS_IGNORE);
 		if (!flag) {
 			struct timespec ts = {0, 20 * 1000 * 1000};
 			nanosleep(&ts, NULL);
@@ -108,7 +107,149 @@ static void idle_until_rank0(void)
 	}
 }
 
-static int run_rank0(int argc, char **argv)
+/* Ranks other than 0 wait for rank 0 at the final barrier. */
+static void idle_until_rank0(void)
+{
+	MPI_Request req;
+	MPI_Ibarrier(MPI_COMM_WORLD, &req);
+	wait_idle(&req);
+}
+
+/* Rank 0 tells the others, once, whether there is work: {mode, text length};
+ * mode 1 (ensemble) is followed by the scene text, which every rank parses. */
+typedef struct {
+	int sent;
+} announce_t;
+
+static void announce(announce_t *an, long long mode, const char *text, size_t len)
+{
+	long long hdr[2] = {mode, (long long)len};
+	MPI_Request req;
+	an->sent = 1;
+	MPI_Ibcast(hdr, 2, MPI_LONG_LONG, 0, MPI_COMM_WORLD, &req);
+	wait_idle(&req);
+	if (mode == 1)
+		MPI_Bcast((void *)text, (int)len, MPI_CHAR, 0, MPI_COMM_WORLD);
+}
+
+/*
+ * Ensemble run (run.replicas > 1) on every rank: replica r runs on rank
+ * r mod size with random stream r. After each output time all ranks sum
+ * their packed records into one vector (each replica's slot is non-zero on
+ * exactly one rank, so the sum is exact), and rank 0 emits the mean and
+ * standard error over the replicas in replica order: the output does not
+ * depend on the number of ranks. Two extra slots carry rank 0's stop flag
+ * (SIGTERM/SIGINT) and an error count. Returns a RUN_* code.
+ */
+static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, char *err, size_t errlen)
+{
+	const int R = (int)s->replicas, NL = R / size + (rank < R % size);
+	const size_t NV = (size_t)R * ENSEMBLE_NV;
+	run_t **runs = calloc(NL > 0 ? NL : 1, sizeof(run_t *));
+	run_record_t *last = calloc(NL > 0 ? NL : 1, sizeof(run_record_t));
+	int *done = calloc(NL > 0 ? NL : 1, sizeof(int));
+	double *vals = malloc((NV + 2) * sizeof(double));
+	volatile sig_atomic_t stop_all = 0;
+	int ret = RUN_OK, failed = 0, emit_failed = 0;
+	run_record_t rec, out, proto;
+	double t0 = MPI_Wtime();
+
+	if (!runs || !last || !done || !vals)
+		failed = 1;
+	for (int i = 0; i < NL && !failed; i++) {
+		int e;
+		runs[i] = run_open(s, (uint64_t)(rank + i * size), &e, err, errlen);
+		if (!runs[i]) {
+			failed = 1;
+			ret = e;
+		}
+	}
+	for (;;) {
+		memset(vals, 0, (NV + 2) * sizeof(double));
+		for (int i = 0; i < NL && !failed; i++) {
+			int r = rank + i * size, e = RUN_OK;
+			if (!done[i] && (e = run_next(runs[i], &stop_all, &last[i], &done[i])) != RUN_OK) {
+				failed = 1;
+				ret = e;
+				break;
+			}
+			ensemble_pack(&last[i], done[i], vals + (size_t)r * ENSEMBLE_NV);
+			if (r == 0)
+				proto = last[i];
+		}
+		vals[NV] = rank == 0 ? stop_requested : 0;
+		vals[NV + 1] = failed + emit_failed;
+		MPI_Allreduce(MPI_IN_PLACE, vals, (int)(NV + 2), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+		if (vals[NV + 1] > 0) {
+			if (ret == RUN_OK)
+				ret = emit_failed ? RUN_EMIT : RUN_ESETUP;
+			if (ret == RUN_ESETUP && !failed)
+				snprintf(err, errlen, "granular-engine: a replica failed on another rank");
+			goto cleanup;
+		}
+		if (vals[NV] > 0)
+			stop_all = 1;
+		int ndone = ensemble_combine(vals, R, rank == 0 ? &proto : &last[0], &out);
+		if (rank == 0) {
+			out.wall_seconds = MPI_Wtime() - t0;
+			if (emit(&out, sink))
+				emit_failed = 1;
+		}
+		if (ndone == R && !emit_failed)
+			break;
+	}
+	/* Summary: totals and final means over the replicas. */
+	memset(vals, 0, (NV + 2) * sizeof(double));
+	for (int i = 0; i < NL; i++) {
+		run_summary(runs[i], &rec);
+		ensemble_pack(&rec, 1, vals + (size_t)(rank + i * size) * ENSEMBLE_NV);
+		if (rank + i * size == 0)
+			proto = rec;
+	}
+	MPI_Allreduce(MPI_IN_PLACE, vals, (int)(NV + 2), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+	if (rank == 0) {
+		ensemble_combine(vals, R, &proto, &out);
+		out.wall_seconds = MPI_Wtime() - t0;
+		out.events_per_second = out.wall_seconds > 0 ? out.events / out.wall_seconds : 0;
+		out.collisions_per_second = out.wall_seconds > 0 ? out.collisions / out.wall_seconds : 0;
+		if (emit(&out, sink))
+			ret = RUN_EMIT;
+	}
+cleanup:
+	for (int i = 0; runs && i < NL; i++)
+		run_close(runs[i]);
+	free(runs);
+	free(last);
+	free(done);
+	free(vals);
+	return ret;
+}
+
+/* Ranks other than 0: wait for rank 0's announcement, then take part in an
+ * ensemble or just wait for the end. */
+static int run_other(int rank, int size)
+{
+	long long hdr[2];
+	MPI_Request req;
+	char err[512] = "";
+	int ret = EX_DONE;
+	MPI_Ibcast(hdr, 2, MPI_LONG_LONG, 0, MPI_COMM_WORLD, &req);
+	wait_idle(&req);
+	if (hdr[0] == 1) {
+		char *text = malloc((size_t)hdr[1] + 1);
+		scene_t scene;
+		MPI_Bcast(text, (int)hdr[1], MPI_CHAR, 0, MPI_COMM_WORLD);
+		/* Rank 0 accepted this text, so the parse cannot fail here. */
+		if (scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
+		    ensemble_run(&scene, rank, size, NULL, err, sizeof(err)) != RUN_OK)
+			ret = EX_FAIL;
+		free(text);
+	}
+	idle_until_rank0();
+	return ret;
+}
+
+static int run_rank0(int argc, char **argv, announce_t *an, int size)
 {
 	const char *cmd = argv[1], *scene_path = NULL, *outdir = NULL;
 	int progress_fd = 1, ret = EX_FAIL;
@@ -145,19 +286,22 @@ static int run_rank0(int argc, char **argv)
 		return EX_INPUT;
 	}
 	int rc = scene_parse(text, len, &scene, err, sizeof(err));
-	free(text);
 	if (rc != SCENE_OK) {
+		free(text);
 		/* One line, starting with the key path. */
 		fprintf(stderr, "%s\n", err);
 		return EX_INPUT;
 	}
-	if (!strcmp(cmd, "validate"))
+	if (!strcmp(cmd, "validate")) {
+		free(text);
 		return EX_DONE;
+	}
 
 	sink.progress = progress_fd == 1 ? stdout : fdopen(progress_fd, "w");
 	if (!sink.progress) {
 		fprintf(stderr, "granular-engine: --progress-fd %d: %s\n", progress_fd, strerror(errno));
-		return EX_INPUT;
+		ret = EX_INPUT;
+		goto cleanup;
 	}
 	if (outdir) {
 		char path[4096];
@@ -182,7 +326,13 @@ static int run_rank0(int argc, char **argv)
 	sigaction(SIGINT, &sa, NULL);
 	signal(SIGPIPE, SIG_IGN);   /* a closed progress pipe is an error return, not death */
 
-	rc = run_scene(&scene, emit, &sink, &stop_requested, err, sizeof(err));
+	if (scene.replicas > 1) {
+		announce(an, 1, text, len);
+		rc = ensemble_run(&scene, 0, size, &sink, err, sizeof(err));
+	} else {
+		announce(an, 0, NULL, 0);
+		rc = run_scene(&scene, emit, &sink, &stop_requested, err, sizeof(err));
+	}
 	if (rc == RUN_OK) {
 		ret = stop_requested ? EX_INTERRUPTED : EX_DONE;
 	} else if (rc == RUN_ESETUP || rc == RUN_EMETHOD) {
@@ -196,6 +346,7 @@ static int run_rank0(int argc, char **argv)
 		ret = EX_FAIL;
 	}
 cleanup:
+	free(text);
 	if (sink.copy)
 		fclose(sink.copy);
 	if (sink.progress && sink.progress != stdout)
@@ -205,7 +356,7 @@ cleanup:
 
 int main(int argc, char **argv)
 {
-	int rank = 0, ret;
+	int rank = 0, size = 1, ret;
 
 	if (argc >= 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
 		usage(stdout);
@@ -221,14 +372,17 @@ int main(int argc, char **argv)
 	}
 	MPI_Init(&argc, &argv);
 	MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+	MPI_Comm_size(MPI_COMM_WORLD, &size);
 	if (rank == 0) {
-		ret = run_rank0(argc, argv);
+		announce_t an = {0};
+		ret = run_rank0(argc, argv, &an, size);
+		if (!an.sent)
+			announce(&an, 0, NULL, 0);
 		MPI_Request req;
 		MPI_Ibarrier(MPI_COMM_WORLD, &req);
 		MPI_Wait(&req, MPI_STATUS_IGNORE);
 	} else {
-		idle_until_rank0();
-		ret = EX_DONE;
+		ret = run_other(rank, size);
 	}
 	MPI_Finalize();
 	return ret;

@@ -35,6 +35,17 @@ static void num(out_t *o, const char *key, double v)
 		put(o, ",\"%s\":null", key);
 }
 
+/* A mean and, in ensemble records, its standard error as KEY_se. */
+static void num_se(out_t *o, const run_record_t *r, const char *key, double v, double se)
+{
+	num(o, key, v);
+	if (r->replicas > 1) {
+		char k[64];
+		snprintf(k, sizeof k, "%s_se", key);
+		num(o, k, se);
+	}
+}
+
 static void u64(out_t *o, const char *key, uint64_t v)
 {
 	put(o, ",\"%s\":%llu", key, (unsigned long long)v);
@@ -48,20 +59,24 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 	put(&o, "{\"type\":\"%s\"", r->kind == RUN_SUMMARY ? "summary" : "progress");
 	if (r->kind == RUN_SUMMARY)
 		put(&o, ",\"status\":\"%s\"", run_status_name(r->status));
-	num(&o, "time", r->time);
+	if (r->replicas > 1)
+		put(&o, ",\"replicas\":%u", r->replicas);
+	num_se(&o, r, "time", r->time, r->se.time);
 	u64(&o, "events", r->events);
 	u64(&o, "collisions", r->collisions);
-	num(&o, "collisions_per_particle", r->collisions_per_particle);
+	num_se(&o, r, "collisions_per_particle", r->collisions_per_particle, r->se.collisions_per_particle);
 	if (r->have & SCENE_OBS_ENERGY) {
-		num(&o, "kinetic_energy", r->kinetic_energy);
-		num(&o, "temperature", r->temperature);
+		num_se(&o, r, "kinetic_energy", r->kinetic_energy, r->se.kinetic_energy);
+		num_se(&o, r, "temperature", r->temperature, r->se.temperature);
 	}
 	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_PRESSURE)) {
-		num(&o, "pressure", r->have_interval ? r->pressure : NAN);
-		num(&o, "compressibility", r->have_interval ? r->compressibility : NAN);
+		num_se(&o, r, "pressure", r->have_interval ? r->pressure : NAN, r->have_interval ? r->se.pressure : NAN);
+		num_se(&o, r, "compressibility", r->have_interval ? r->compressibility : NAN,
+		       r->have_interval ? r->se.compressibility : NAN);
 	}
 	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_COLLISION_RATE))
-		num(&o, "collision_rate", r->have_interval ? r->collision_rate : NAN);
+		num_se(&o, r, "collision_rate", r->have_interval ? r->collision_rate : NAN,
+		       r->have_interval ? r->se.collision_rate : NAN);
 	if (r->have & SCENE_OBS_MOMENTUM) {
 		put(&o, ",\"momentum\":[");
 		for (int a = 0; a < r->dim; a++)
@@ -74,8 +89,8 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 		const clusters_stats_t *c = &r->clusters;
 		put(&o, ",\"clusters\":{\"count\":%llu,\"largest\":%llu", (unsigned long long)c->n_clusters,
 		    (unsigned long long)c->largest);
-		num(&o, "largest_fraction", c->largest_fraction);
-		num(&o, "mean_size", c->mean_size);
+		num_se(&o, r, "largest_fraction", c->largest_fraction, r->se.largest_fraction);
+		num_se(&o, r, "mean_size", c->mean_size, r->se.mean_size);
 		num(&o, "m2", c->m2);
 		num(&o, "m2_reduced", c->m2_reduced);
 		/* histogram: bin k counts clusters of size in [2^k, 2^(k+1)) */
@@ -84,8 +99,21 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 			put(&o, "%s%llu", k ? "," : "", (unsigned long long)c->hist[k]);
 		put(&o, "]}");
 	}
+	if (r->warning) {
+		/* Our own text: printable ASCII; quote the two JSON specials anyway. */
+		put(&o, ",\"warning\":\"");
+		for (const char *p = r->warning; *p; p++)
+			put(&o, *p == '"' || *p == '\\' ? "\\%c" : "%c", (unsigned char)*p >= 0x20 ? *p : '?');
+		put(&o, "\"");
+	}
 	num(&o, "wall_seconds", r->wall_seconds);
 	if (r->kind == RUN_SUMMARY) {
+		if (r->vmax_raised)
+			u64(&o, "vmax_raised", r->vmax_raised);
+		if (r->cell_collisions)
+			u64(&o, "cell_collisions", r->cell_collisions);
+		if (r->rejected_moves)
+			u64(&o, "rejected_moves", r->rejected_moves);
 		u64(&o, "particles", r->n);
 		num(&o, "events_per_second", r->events_per_second);
 		num(&o, "collisions_per_second", r->collisions_per_second);

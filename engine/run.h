@@ -46,6 +46,16 @@ typedef struct {
 	double momentum[3];
 	clusters_stats_t clusters;
 	uint64_t elastic_by_tc;      /* collisions made elastic by the TC model */
+	const char *warning;         /* dsmc/hsmc validity warning (first record only), or NULL */
+	/* dsmc/hsmc diagnostics (totals; printed in the summary when non-zero) */
+	uint64_t vmax_raised, cell_collisions, rejected_moves;
+	/* Ensembles (run.replicas > 1): the observables above are means over the
+	 * replicas and these their standard errors; replicas = 0 or 1 otherwise. */
+	uint32_t replicas;
+	struct {
+		double time, collisions_per_particle, kinetic_energy, temperature, pressure,
+		       compressibility, collision_rate, largest_fraction, mean_size;
+	} se;
 	/* summary only */
 	run_status_t status;
 	double events_per_second, collisions_per_second;
@@ -55,6 +65,18 @@ typedef struct {
 
 /* Called for each record; a non-zero return stops the run (RUN_EMIT). */
 typedef int (*run_emit_fn)(const run_record_t *rec, void *ctx);
+
+/* Step-wise form of run_scene(), used for ensembles: run_open() builds the
+ * state of one replica (the scene with random stream `stream`); each
+ * run_next() returns the next progress record (the first at time 0) and sets
+ * *done on the last; run_summary() fills the summary record. stop (may be
+ * NULL) is polled between chunks of work; when set the current record is
+ * the last one and the status becomes RUN_INTERRUPTED. */
+typedef struct run run_t;
+run_t *run_open(const scene_t *s, uint64_t stream, int *err, char *msg, size_t msglen);
+int run_next(run_t *r, const volatile sig_atomic_t *stop, run_record_t *rec, int *done);
+void run_summary(run_t *r, run_record_t *sum);
+void run_close(run_t *r);
 
 /* Run the scene. stop (may be NULL) is polled between chunks of events; when
  * it becomes non-zero the run ends with a summary of status

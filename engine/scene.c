@@ -46,12 +46,16 @@ static const struct range R_NONNEG = { 0, INFINITY, false };
 static const struct range R_UNIT = { 0, 1, false };
 static const struct irange R_COUNT = { 2, COUNT_MAX };
 static const struct irange R_SEED = { 0, SEED_MAX };
+static const struct irange R_REPLICAS = { 1, 1000000 };
 
 static const char *const method_names[] = {
 	[SCENE_METHOD_ED] = "ed", [SCENE_METHOD_DSMC] = "dsmc", [SCENE_METHOD_HSMC] = "hsmc",
 };
 static const char *const position_names[] = {
 	[SCENE_POS_LATTICE] = "lattice", [SCENE_POS_RANDOM] = "random",
+};
+static const char *const correction_names[] = {
+	[SCENE_MC_NONE - 1] = "none", [SCENE_MC_ENSKOG - 1] = "enskog", [SCENE_MC_CBA - 1] = "cba",
 };
 static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "kinetic_energy", SCENE_OBS_ENERGY },
@@ -203,6 +207,14 @@ static int parse_positions(ctx_t *c, const char *path, json_t *v, void *dst, con
 	int i, ret = match(c, path, v, position_names, 2, &i);
 	if (ret == 0)
 		*(scene_positions_t *)dst = (scene_positions_t)i;
+	return ret;
+}
+
+static int parse_correction(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	int i, ret = match(c, path, v, correction_names, 3, &i);
+	if (ret == 0)
+		*(scene_mc_correction_t *)dst = (scene_mc_correction_t)(i + 1);
 	return ret;
 }
 
@@ -401,6 +413,18 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 	if (s->restitution == 0 && s->tc == 0)
 		return fail(c, "collisions.restitution", "0 leads to inelastic collapse unless collisions.tc > 0; set collisions.tc");
 
+	/* Method settings only with their method: a forgotten "method" is a mistake. */
+	static const struct { const char *key; scene_method_t m; } tuning[] = {
+		{ "dsmc", SCENE_METHOD_DSMC }, { "hsmc", SCENE_METHOD_HSMC },
+	};
+	for (size_t i = 0; i < sizeof tuning / sizeof tuning[0]; i++)
+		if (json_object_get(v, tuning[i].key) && s->method != tuning[i].m)
+			return fail(c, tuning[i].key, "settings of method \"%s\", but method is \"%s\"", tuning[i].key,
+				    method_names[s->method]);
+	if (s->mc_max_volume_fraction >= cp)
+		return fail(c, "hsmc.max_volume_fraction", "%s is at or above the close-packing limit %.4f of %s",
+			    num(s->mc_max_volume_fraction).s, cp, shape);
+
 	if (s->every.kind == SCENE_CLOCK_NONE)
 		s->every = (scene_when_t){ s->until.kind, s->until.value / 100 };
 	return 0;
@@ -456,6 +480,7 @@ static const struct object run_obj = {
 	.fields = (const struct field[]){
 		{ "seed", parse_integer, offsetof(scene_t, seed), &R_SEED, false },
 		{ "until", parse_object, offsetof(scene_t, until), &when_obj, true },
+		{ "replicas", parse_integer, offsetof(scene_t, replicas), &R_REPLICAS, false },
 		{ .name = NULL },
 	},
 };
@@ -483,6 +508,36 @@ static const struct object ed_obj = {
 	},
 };
 
+static int check_mc(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	if (json_object_get(v, "time_step") && json_object_get(v, "collisions_per_step"))
+		return fail(c, path, "at most one of time_step or collisions_per_step");
+	return 0;
+}
+
+#define MC_FIELDS \
+	{ "cell_size", parse_number, offsetof(scene_t, mc_cell_size), &R_POS, false }, \
+	{ "time_step", parse_number, offsetof(scene_t, mc_time_step), &R_POS, false }, \
+	{ "collisions_per_step", parse_number, offsetof(scene_t, mc_collisions_per_step), &R_POS, false }, \
+	{ "correction", parse_correction, offsetof(scene_t, mc_correction), NULL, false }
+
+static const struct object dsmc_obj = {
+	.fields = (const struct field[]){
+		MC_FIELDS,
+		{ .name = NULL },
+	},
+	.check = check_mc,
+};
+
+static const struct object hsmc_obj = {
+	.fields = (const struct field[]){
+		MC_FIELDS,
+		{ "max_volume_fraction", parse_number, offsetof(scene_t, mc_max_volume_fraction), &R_POS, false },
+		{ .name = NULL },
+	},
+	.check = check_mc,
+};
+
 /* Table order is parse order: dimensions before particles (box length). */
 static const struct object scene_obj = {
 	.fields = (const struct field[]){
@@ -494,6 +549,8 @@ static const struct object scene_obj = {
 		{ "run", parse_object, 0, &run_obj, true },
 		{ "output", parse_object, 0, &output_obj, false },
 		{ "ed", parse_object, 0, &ed_obj, false },
+		{ "dsmc", parse_object, 0, &dsmc_obj, false },
+		{ "hsmc", parse_object, 0, &hsmc_obj, false },
 		{ .name = NULL },
 	},
 	.check = check_scene,
@@ -509,6 +566,7 @@ int scene_parse(const char *json, size_t len, scene_t *out, char *err, size_t er
 		.seed = 1,
 		.observables = SCENE_OBS_ENERGY | SCENE_OBS_PRESSURE | SCENE_OBS_COLLISION_RATE,
 		.cluster_delta = 0.1,
+		.replicas = 1,
 	};
 	ctx_t c = { &s, err, errlen };
 	json_error_t jerr;

@@ -24,6 +24,8 @@ enum {
 
 typedef enum { SCENE_METHOD_ED = 0, SCENE_METHOD_DSMC, SCENE_METHOD_HSMC } scene_method_t;
 typedef enum { SCENE_POS_LATTICE = 0, SCENE_POS_RANDOM } scene_positions_t;
+/* Dense-gas correction of the Monte Carlo methods (dsmc.h). */
+typedef enum { SCENE_MC_DEFAULT = 0, SCENE_MC_NONE, SCENE_MC_ENSKOG, SCENE_MC_CBA } scene_mc_correction_t;
 /* A stop or output condition: simulated time or collisions per particle. */
 typedef enum { SCENE_CLOCK_NONE = 0, SCENE_CLOCK_TIME, SCENE_CLOCK_CPP } scene_clock_t;
 
@@ -71,6 +73,17 @@ typedef struct scene {
 
 	/* ed method tuning */
 	double ed_cell_size;           /* minimum cell edge in diameters, 0 = automatic */
+
+	/* ensembles */
+	uint64_t replicas;             /* independent runs (seed streams 0..replicas-1), default 1 */
+	uint64_t stream;               /* not from JSON: the replica's random stream, set by the run driver */
+
+	/* dsmc / hsmc method tuning ("dsmc" or "hsmc" object; 0 = default) */
+	double mc_cell_size;           /* minimum cell edge in diameters, 0 = from the mean free path */
+	double mc_time_step;           /* fixed time step, 0 = not given */
+	double mc_collisions_per_step; /* adaptive step: expected collisions per particle per step, 0 = not given */
+	scene_mc_correction_t mc_correction; /* default: none (dsmc), cba (hsmc) */
+	double mc_max_volume_fraction; /* hsmc: cells at or above are full; 0 = default */
 } scene_t;
 
 /* Parse and validate a scene from a JSON text of len bytes. Fills *out with

@@ -47,7 +47,7 @@ obs = scene.get("output", {}).get("observables",
 for p in prog:
     missing = (base | {o for o in obs if o != "clusters"}) - set(p)
     assert not missing, missing
-    if "clusters" in obs:
+    if "clusters" in obs and "replicas" not in p:   # ensembles: histogram totals over replicas
         c = p["clusters"]
         assert c["count"] >= 1 and 1 <= c["largest"] <= scene["particles"]["count"]
         assert sum(c["histogram"]) == c["count"]
@@ -55,6 +55,9 @@ times = [p["time"] for p in prog]
 assert times == sorted(times) and len(prog) >= 2
 n = scene["particles"]["count"]
 for p in prog:
+    if "replicas" in p:   # means over replicas; collisions are totals
+        assert p["replicas"] == scene["run"]["replicas"] and "temperature_se" in p
+        continue
     assert abs(p["collisions_per_particle"] - 2 * p["collisions"] / n) < 1e-12
     if "temperature" in p and "kinetic_energy" in p:
         assert abs(p["temperature"] - 2 * p["kinetic_energy"] / (scene["dimensions"] * n)) < 1e-12 * p["temperature"] + 1e-300
@@ -104,6 +107,22 @@ if command -v mpirun >/dev/null 2>&1; then
 	strip "$tmp/m" >"$tmp/m2"
 	cmp -s "$tmp/a2" "$tmp/m2"
 	ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "mpirun -np 2: exit $rc, same output as the serial run"
+fi
+
+# 7. Ensembles: the same numbers whatever the number of ranks (1, 2, 3).
+if command -v mpirun >/dev/null 2>&1; then
+	for f in 2d-ed-replicas.json 2d-dsmc-replicas.json; do
+		"$ENGINE" run "$SRCDIR/tests/scenes/good/$f" >"$tmp/e1" 2>/dev/null
+		rc1=$?
+		strip "$tmp/e1" >"$tmp/e1s"
+		for np in 2 3; do
+			mpirun -np $np "$ENGINE" run "$SRCDIR/tests/scenes/good/$f" >"$tmp/e$np" 2>"$tmp/merr"
+			rc=$?
+			strip "$tmp/e$np" >"$tmp/e${np}s"
+			cmp -s "$tmp/e1s" "$tmp/e${np}s"
+			ok $(( rc1 == 0 && rc == 0 && $? == 0 ? 0 : 1 )) "ensemble $f: mpirun -np $np gives the serial output (exit $rc)"
+		done
+	done
 fi
 
 echo "1..$n"

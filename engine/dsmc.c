@@ -1,0 +1,742 @@
+/* DSMC and HSMC for granular gases: free flight, counting sort into cells, no-time-counter collisions, Enskog/CBA corrections, coarse excluded volume. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dsmc.h"
+#include "rng.h"
+
+#define PI 3.14159265358979323846
+#define ALWAYS_INLINE inline __attribute__((always_inline))
+
+struct dsmc {
+	int dim, hsmc, cba;
+	uint32_t n;
+	double L[3];
+	double sigma, mass, e, vp;     /* diameter, mass, restitution, particle volume */
+	double chi, sigma_t;           /* rate factor, total cross-section */
+	double fcoef;                  /* collision frequency = fcoef * sqrt(T) */
+	double dt_fixed, cps;          /* one of them is > 0 */
+
+	/* cells */
+	int nc[3];
+	size_t ncells;
+	double h[3], inv_h[3], vcell;
+	uint32_t nfull;                /* hsmc: a cell with >= nfull particles is full */
+
+	/* particles: AoS, stride 2D doubles: x[D] then v[D]; q is the sort buffer */
+	double *p, *q;
+	uint32_t *cell;                /* new cell of each particle (one step) */
+	uint32_t *start, *cnt;         /* ncells + 1 each; start: sorted offsets of p */
+	float *rem;                    /* NTC fractional candidate carried per cell */
+	uint32_t *stamp;               /* hsmc: step at which a cell last took part in a cell collision */
+
+	rng_t rng;
+	double t;
+	uint64_t steps, collisions, candidates, vmax_raised, cell_collisions, rejected;
+	double ekin_est;               /* E_kin now, up to rounding (for the adaptive step) */
+	double e_loss;                 /* energy dissipated in the current step's collisions */
+
+	/* interval accumulators */
+	double t_sample, ekin_int, virial;
+	uint64_t coll_sample;
+};
+
+/* ---- kinetic theory ------------------------------------------------------ */
+
+double dsmc_contact_value(int dim, double nu)
+{
+	return dim == 2 ? (1 - 7 * nu / 16) / ((1 - nu) * (1 - nu)) : (1 - nu / 2) / pow(1 - nu, 3);
+}
+
+double dsmc_mean_speed(int dim, double mass, double temp)
+{
+	return dim == 2 ? sqrt(PI * temp / (2 * mass)) : sqrt(8 * temp / (PI * mass));
+}
+
+/* f = n sigma_T <|g|> chi with <|g|> = sqrt(2) <|v|>. */
+double dsmc_collision_frequency(int dim, double nu, double radius, double mass, double temp, double chi)
+{
+	double sigma = 2 * radius;
+	double vp = dim == 2 ? PI * radius * radius : 4.0 / 3.0 * PI * radius * radius * radius;
+	double n = nu / vp, st = dim == 2 ? 2 * sigma : PI * sigma * sigma;
+	return n * st * sqrt(2.0) * dsmc_mean_speed(dim, mass, temp) * chi;
+}
+
+static double default_numax(int dim) { return dim == 2 ? 0.82 : 0.64; }   /* random close packing */
+
+int dsmc_params(const scene_t *s, dsmc_params_t *p, char *warn, size_t warnlen)
+{
+	memset(p, 0, sizeof(*p));
+	if (warn && warnlen)
+		warn[0] = '\0';
+	if (s->method != SCENE_METHOD_DSMC && s->method != SCENE_METHOD_HSMC)
+		return DSMC_EINVAL;
+	p->hsmc = s->method == SCENE_METHOD_HSMC;
+	p->correction = s->mc_correction != SCENE_MC_DEFAULT ? (int)s->mc_correction
+	                                                       : (p->hsmc ? SCENE_MC_CBA : SCENE_MC_NONE);
+	p->chi = p->correction == SCENE_MC_NONE ? 1.0 : dsmc_contact_value(s->dim, s->volume_fraction);
+	p->max_volume_fraction = s->mc_max_volume_fraction > 0 ? s->mc_max_volume_fraction : default_numax(s->dim);
+
+	/* Validity scales of the gas as simulated (collision rate with chi). */
+	double sigma = 2 * s->radius, T = s->temperature;
+	double f = dsmc_collision_frequency(s->dim, s->volume_fraction, s->radius, s->mass, T, p->chi);
+	p->mean_free_time = f > 0 ? 1 / f : INFINITY;
+	p->mean_free_path = dsmc_mean_speed(s->dim, s->mass, 1.0) / dsmc_collision_frequency(s->dim,
+	                    s->volume_fraction, s->radius, s->mass, 1.0, p->chi);   /* T-independent */
+	/* Two conditions on the cell edge L. Resolution: L <= lambda. Molecular
+	 * chaos: a pair that shares a cell must rarely meet twice there. During
+	 * its stay (~L / v) a particle has ~L / lambda collisions, shared among
+	 * its N_c - 1 = n L^D cell mates, so repeats ~ 1 / (n L^(D-1) lambda):
+	 * L >= L_chaos = (2 / (n lambda))^(1/(D-1)) keeps them below 1/2. In a
+	 * dilute gas L_chaos < lambda; in a dense one (lambda < sigma) no cell
+	 * meets both, and chaos wins (repeated collisions of a cooling pair stop
+	 * dissipating: measured in docs/tradeoff.md). hsmc cells must moreover
+	 * hold particles to be full: L >= 2 sigma. */
+	double n = s->volume_fraction / scene_particle_volume(s);
+	p->chaos_edge = pow(2 / (n * p->mean_free_path), 1.0 / (s->dim - 1));
+	double floor_edge = fmax(p->chaos_edge, p->hsmc ? 2 * sigma : 0);
+	double auto_edge = fmax(p->mean_free_path, floor_edge);
+	p->cell_edge = s->mc_cell_size > 0 ? s->mc_cell_size * sigma : auto_edge;
+	if (s->mc_time_step > 0)
+		p->time_step = s->mc_time_step;
+	else
+		p->collisions_per_step = s->mc_collisions_per_step > 0 ? s->mc_collisions_per_step : 0.2;
+
+	/* The validity conditions (seed 000 sec. 2.4.1), as warnings. */
+	char buf[512] = "";
+	size_t k = 0;
+#define WARN(...) do { if (k < sizeof buf) k += snprintf(buf + k, sizeof buf - k, "%s", k ? "; " : ""); \
+	if (k < sizeof buf) k += snprintf(buf + k, sizeof buf - k, __VA_ARGS__); } while (0)
+	if (p->cell_edge > auto_edge * (1 + 1e-9))
+		WARN("cell size %.3g diameters exceeds the mean free path %.3g diameters", p->cell_edge / sigma,
+		     p->mean_free_path / sigma);
+	if (p->cell_edge < 0.5 * p->chaos_edge)
+		WARN("cell size %.3g diameters holds too few particles for molecular chaos (repeated collisions of "
+		     "the same pair); use >= %.3g", p->cell_edge / sigma, p->chaos_edge / sigma);
+	if (p->time_step > p->mean_free_time)
+		WARN("time step %.3g exceeds the mean free time %.3g at the initial temperature",
+		     p->time_step, p->mean_free_time);
+	if (p->collisions_per_step > 1)
+		WARN("collisions_per_step %.3g > 1: the time step exceeds the mean free time", p->collisions_per_step);
+	if (p->hsmc) {
+		double vc = pow(p->cell_edge, s->dim);
+		if (p->max_volume_fraction * vc / scene_particle_volume(s) < 2)
+			WARN("a full cell holds fewer than 2 particles (cell size %.3g diameters, max_volume_fraction %.3g)",
+			     p->cell_edge / sigma, p->max_volume_fraction);
+		if (s->volume_fraction >= p->max_volume_fraction)
+			WARN("volume fraction %.3g is at or above max_volume_fraction %.3g", s->volume_fraction,
+			     p->max_volume_fraction);
+	}
+#undef WARN
+	if (warn && warnlen)
+		snprintf(warn, warnlen, "%s", buf);
+	return DSMC_OK;
+}
+
+/* ---- helpers ------------------------------------------------------------- */
+
+static ALWAYS_INLINE double wrap(double x, double L)
+{
+	if (x >= L || x < 0) {
+		x -= L * floor(x / L);
+		if (x >= L || x < 0)
+			x = 0;
+	}
+	return x;
+}
+
+static ALWAYS_INLINE uint32_t cell_of(const struct dsmc *d, const double *x, const int D)
+{
+	uint32_t c = 0;
+	for (int a = D - 1; a >= 0; a--) {
+		int ix = (int)(x[a] * d->inv_h[a]);
+		if (ix >= d->nc[a])
+			ix = d->nc[a] - 1;
+		c = c * (uint32_t)d->nc[a] + (uint32_t)ix;
+	}
+	return c;
+}
+
+static void set_msg(char *msg, size_t len, const char *fmt, double a)
+{
+	if (msg && len)
+		snprintf(msg, len, fmt, a);
+}
+
+/* ---- one step -------------------------------------------------------------- */
+
+/* Mean velocity of cell particles [k0, k0+n). */
+static ALWAYS_INLINE void cell_mean(const struct dsmc *d, uint32_t k0, uint32_t n, double *u, const int D)
+{
+	const int S = 2 * D;
+	for (int a = 0; a < D; a++)
+		u[a] = 0;
+	for (uint32_t k = k0; k < k0 + n; k++)
+		for (int a = 0; a < D; a++)
+			u[a] += d->p[k * S + D + a];
+	for (int a = 0; a < D; a++)
+		u[a] /= n;
+}
+
+/* Give cell particles the new mean velocity u1 (old u0) and return gain
+ * (>= 0) to their thermal motion: v' = u1 + k (v - u0), k^2 = (E + gain)/E
+ * (seed 000 eqs. 2.23-2.33). A cell with no thermal energy (all particles
+ * at u0) cannot be rescaled; there a zero-momentum kick along a random
+ * direction to its first two particles carries the gain instead. */
+static ALWAYS_INLINE void cell_return(struct dsmc *d, uint32_t k0, uint32_t n, const double *u0, const double *u1,
+                                      double gain, const int D)
+{
+	const int S = 2 * D;
+	double eth = 0;
+	for (uint32_t k = k0; k < k0 + n; k++)
+		for (int a = 0; a < D; a++) {
+			double w = d->p[k * S + D + a] - u0[a];
+			eth += w * w;
+		}
+	eth *= 0.5 * d->mass;
+	double ref = 0;
+	for (int a = 0; a < D; a++)
+		ref += u0[a] * u0[a] + u1[a] * u1[a];
+	ref *= 0.5 * d->mass * n;
+	if (eth > 1e-12 * ref && eth > 0) {
+		double kf = sqrt((eth + gain) / eth);
+		for (uint32_t k = k0; k < k0 + n; k++)
+			for (int a = 0; a < D; a++) {
+				double *v = &d->p[k * S + D + a];
+				*v = u1[a] + kf * (*v - u0[a]);
+			}
+		return;
+	}
+	double w[3], s2 = 0;
+	do {
+		s2 = 0;
+		for (int a = 0; a < D; a++) {
+			w[a] = 2 * rng_uniform_fast(&d->rng) - 1;
+			s2 += w[a] * w[a];
+		}
+	} while (s2 > 1 || s2 < 1e-6);
+	double delta = sqrt(gain / d->mass / s2);
+	for (uint32_t k = k0; k < k0 + n; k++)
+		for (int a = 0; a < D; a++)
+			d->p[k * S + D + a] = u1[a] + (k == k0 ? delta * w[a] : k == k0 + 1 ? -delta * w[a] : 0);
+}
+
+/* HSMC: each full cell of this step's colour meets the full face neighbour
+ * (not yet used this step) with the largest approaching normal velocity, as
+ * a pseudo-particle of mass M_c and velocity u_c; normal restitution along
+ * the face normal; the macroscopic energy lost goes back into the thermal
+ * motion of the two cells in proportion to their masses, so a cell
+ * collision conserves momentum and energy exactly. */
+static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D)
+{
+	uint32_t mark = (uint32_t)d->steps + 1;
+	int colour = (int)(d->steps & 1);
+	int ci[3] = {0, 0, 0};
+	for (size_t c = 0; c < d->ncells; c++) {
+		if (c > 0) {   /* advance the cell coordinates */
+			for (int a = 0; a < D; a++) {
+				if (++ci[a] < d->nc[a])
+					break;
+				ci[a] = 0;
+			}
+		}
+		uint32_t na = d->start[c + 1] - d->start[c];
+		if (na < d->nfull || ((ci[0] + ci[1] + ci[2] + colour) & 1) || d->stamp[c] == mark)
+			continue;
+		double ua[3], ub[3], best_u[3] = {0, 0, 0}, best_w = 0;
+		size_t best = c;
+		int best_axis = 0, best_sign = 0;
+		cell_mean(d, d->start[c], na, ua, D);
+		for (int a = 0; a < D; a++) {
+			size_t stride = 1;
+			for (int b = 0; b < a; b++)
+				stride *= (size_t)d->nc[b];
+			for (int sgn = -1; sgn <= 1; sgn += 2) {
+				int cj = ci[a] + sgn;
+				cj = cj < 0 ? d->nc[a] - 1 : cj >= d->nc[a] ? 0 : cj;
+				size_t nb = c + ((size_t)cj - (size_t)ci[a]) * stride;
+				if (nb == c)
+					continue;
+				uint32_t nn = d->start[nb + 1] - d->start[nb];
+				if (nn < d->nfull || d->stamp[nb] == mark)
+					continue;
+				cell_mean(d, d->start[nb], nn, ub, D);
+				double w = sgn * (ua[a] - ub[a]);   /* approach speed along the face normal a -> b */
+				if (w > best_w) {
+					best_w = w;
+					best = nb;
+					best_axis = a;
+					best_sign = sgn;
+					memcpy(best_u, ub, sizeof(best_u));
+				}
+			}
+		}
+		if (best == c)
+			continue;
+		uint32_t nb_n = d->start[best + 1] - d->start[best];
+		double ma = (double)na * d->mass, mb = (double)nb_n * d->mass, mu = ma * mb / (ma + mb);
+		double J = (1 + d->e) * mu * best_w;
+		double ua1[3], ub1[3];
+		memcpy(ua1, ua, sizeof(ua1));
+		memcpy(ub1, best_u, sizeof(ub1));
+		ua1[best_axis] -= best_sign * J / ma;
+		ub1[best_axis] += best_sign * J / mb;
+		double lost = 0.5 * (1 - d->e * d->e) * mu * best_w * best_w;
+		cell_return(d, d->start[c], na, ua, ua1, lost * ma / (ma + mb), D);
+		cell_return(d, d->start[best], nb_n, best_u, ub1, lost * mb / (ma + mb), D);
+		d->stamp[c] = d->stamp[best] = mark;
+		d->cell_collisions++;
+	}
+}
+
+/* Free flight, new cells counted; hsmc rejects moves into cells that were
+ * full at the start of the step (free space not updated during the step:
+ * order-independent, cells may overfill slightly). Returns E_kin. */
+static ALWAYS_INLINE double move(struct dsmc *d, double dt, const int D)
+{
+	const int S = 2 * D;
+	double ek = 0;
+	memset(d->cnt, 0, (d->ncells + 1) * sizeof(uint32_t));
+	for (size_t c = 0; c < d->ncells; c++) {
+		for (uint32_t k = d->start[c]; k < d->start[c + 1]; k++) {
+			double *x = &d->p[(size_t)k * S], *v = x + D, xn[3];
+			for (int a = 0; a < D; a++) {
+				ek += v[a] * v[a];
+				xn[a] = wrap(x[a] + v[a] * dt, d->L[a]);
+			}
+			uint32_t cn = cell_of(d, xn, D);
+			if (d->hsmc && cn != c && d->start[cn + 1] - d->start[cn] >= d->nfull) {
+				d->rejected++;
+				cn = (uint32_t)c;
+			} else {
+				for (int a = 0; a < D; a++)
+					x[a] = xn[a];
+			}
+			d->cell[k] = cn;
+			d->cnt[cn]++;
+		}
+	}
+	return 0.5 * d->mass * ek;
+}
+
+/* Counting sort p -> q by d->cell (stable), then swap; start/cnt swap too. */
+static ALWAYS_INLINE void sort(struct dsmc *d, const int D)
+{
+	const int S = 2 * D;
+	uint32_t acc = 0;
+	for (size_t c = 0; c < d->ncells; c++) {
+		acc += d->cnt[c];
+		d->cnt[c] = acc;        /* end of cell c */
+	}
+	d->cnt[d->ncells] = acc;
+	for (uint32_t k = d->n; k-- > 0;) {
+		uint32_t dst = --d->cnt[d->cell[k]];
+		memcpy(&d->q[(size_t)dst * S], &d->p[(size_t)k * S], S * sizeof(double));
+	}
+	double *t = d->p;
+	d->p = d->q;
+	d->q = t;
+	uint32_t *u = d->start;
+	d->start = d->cnt;
+	d->cnt = u;
+}
+
+/* Collisions in every cell (seed 000 eqs. 2.34-2.38, acceptance corrected). */
+static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D)
+{
+	const int S = 2 * D;
+	const double coef = d->chi * d->sigma_t * dt / (2 * d->vcell);
+	const double ehalf = 0.5 * (1 + d->e), eloss = 0.25 * (1 - d->e * d->e) * d->mass;
+	const double sigma = d->sigma;
+	double virial = 0, loss = 0;
+	uint64_t ncoll = 0, ncand = 0;
+	for (size_t c = 0; c < d->ncells; c++) {
+		uint32_t k0 = d->start[c], nc = d->start[c + 1] - k0;
+		if (nc < 2)
+			continue;
+		double u[3], s2 = 0;
+		cell_mean(d, k0, nc, u, D);
+		for (uint32_t k = k0; k < k0 + nc; k++) {
+			double w2 = 0;
+			for (int a = 0; a < D; a++) {
+				double w = d->p[(size_t)k * S + D + a] - u[a];
+				w2 += w * w;
+			}
+			s2 = w2 > s2 ? w2 : s2;
+		}
+		if (s2 == 0)
+			continue;
+		/* No-time-counter as a thinned Poisson process: the cell has a budget
+		 * b = chi N (N-1) sigma_T dt / (2 V_c) (plus the carried remainder)
+		 * and each candidate costs 1/v_max. When a collision raises the
+		 * bound, later candidates cost less: the thinning stays exact. */
+		double vmax = 2 * sqrt(s2), inv = 1 / vmax;
+		double b = coef * (double)nc * (double)(nc - 1) + (double)d->rem[c] * inv;
+		int offset = d->cba && !(d->hsmc && nc >= d->nfull);
+		while (b >= inv) {
+			b -= inv;
+			ncand++;
+			uint32_t i = k0 + (uint32_t)(rng_uniform_fast(&d->rng) * nc);
+			uint32_t j = k0 + (uint32_t)(rng_uniform_fast(&d->rng) * (nc - 1));
+			if (j >= i)
+				j++;
+			double *vi = &d->p[(size_t)i * S + D], *vj = &d->p[(size_t)j * S + D], g[3], g2 = 0;
+			for (int a = 0; a < D; a++) {
+				g[a] = vi[a] - vj[a];
+				g2 += g[a] * g[a];
+			}
+			double r = rng_uniform_fast(&d->rng) * vmax;
+			if (r * r >= g2)
+				continue;
+			/* Accepted: contact normal n (from j to i) from an impact
+			 * parameter uniform on [-sigma, sigma] (2D) or the disk of
+			 * radius sigma (3D) perpendicular to g. */
+			double gm = sqrt(g2), gh[3], nrm[3], cth;
+			for (int a = 0; a < D; a++)
+				gh[a] = g[a] / gm;
+			if (D == 2) {
+				double bp = 2 * rng_uniform_fast(&d->rng) - 1;
+				cth = sqrt(1 - bp * bp);
+				nrm[0] = -bp * gh[1] - cth * gh[0];
+				nrm[1] = bp * gh[0] - cth * gh[1];
+			} else {
+				double b1, b2, bb;
+				do {
+					b1 = 2 * rng_uniform_fast(&d->rng) - 1;
+					b2 = 2 * rng_uniform_fast(&d->rng) - 1;
+					bb = b1 * b1 + b2 * b2;
+				} while (bb >= 1);
+				cth = sqrt(1 - bb);
+				/* orthonormal basis e1, e2 perpendicular to gh (Duff et al. 2017) */
+				double sg = gh[2] >= 0 ? 1.0 : -1.0, aa = -1 / (sg + gh[2]), bq = gh[0] * gh[1] * aa;
+				double e1[3] = {1 + sg * gh[0] * gh[0] * aa, sg * bq, -sg * gh[0]};
+				double e2[3] = {bq, sg + gh[1] * gh[1] * aa, -gh[1]};
+				for (int a = 0; a < 3; a++)
+					nrm[a] = b1 * e1[a] + b2 * e2[a] - cth * gh[a];
+			}
+			double gn = gm * cth;            /* -g.n > 0 */
+			double dv = ehalf * gn;
+			for (int a = 0; a < D; a++) {
+				vi[a] += dv * nrm[a];
+				vj[a] -= dv * nrm[a];
+			}
+			virial += sigma * d->mass * dv;  /* (sigma n) . J, J = m dv n */
+			loss += eloss * gn * gn;
+			ncoll++;
+			/* Keep v_max a strict bound: |g| <= |v_i - u| + |v_j - u|. */
+			double wi = 0, wj = 0;
+			for (int a = 0; a < D; a++) {
+				wi += (vi[a] - u[a]) * (vi[a] - u[a]);
+				wj += (vj[a] - u[a]) * (vj[a] - u[a]);
+			}
+			if (wi > s2 || wj > s2) {
+				s2 = wi > wj ? wi : wj;
+				vmax = 2 * sqrt(s2);
+				inv = 1 / vmax;
+				d->vmax_raised++;
+			}
+			if (offset) {
+				/* CBA: each partner moves one diameter along its own
+				 * momentum change (seed 000 sec. 2.4.2). */
+				double *xi = vi - D, *xj = vj - D;
+				for (int a = 0; a < D; a++) {
+					xi[a] = wrap(xi[a] + sigma * nrm[a], d->L[a]);
+					xj[a] = wrap(xj[a] - sigma * nrm[a], d->L[a]);
+				}
+			}
+		}
+		d->rem[c] = (float)(b * vmax);
+	}
+	d->virial += virial;
+	d->e_loss += loss;
+	d->collisions += ncoll;
+	d->candidates += ncand;
+}
+
+static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D)
+{
+	if (d->hsmc)
+		cell_collisions(d, D);
+	double ek = move(d, dt, D);
+	sort(d, D);
+	d->ekin_int += ek * dt;
+	d->e_loss = 0;
+	collide(d, dt, D);
+	d->ekin_est = ek - d->e_loss;
+	d->steps++;
+}
+
+static void step2(struct dsmc *d, double dt) { step_dim(d, dt, 2); }
+static void step3(struct dsmc *d, double dt) { step_dim(d, dt, 3); }
+
+/* Initial sort (positions only). */
+static void initial_sort(struct dsmc *d)
+{
+	const int D = d->dim, S = 2 * D;
+	memset(d->cnt, 0, (d->ncells + 1) * sizeof(uint32_t));
+	for (uint32_t k = 0; k < d->n; k++) {
+		uint32_t c = cell_of(d, &d->p[(size_t)k * S], D);
+		d->cell[k] = c;
+		d->cnt[c]++;
+	}
+	if (D == 2)
+		sort(d, 2);
+	else
+		sort(d, 3);
+}
+
+static double ekin_exact(const struct dsmc *d, double *mom)
+{
+	const int D = d->dim, S = 2 * D;
+	double ek = 0, pm[3] = {0, 0, 0};
+	for (uint32_t k = 0; k < d->n; k++)
+		for (int a = 0; a < D; a++) {
+			double v = d->p[(size_t)k * S + D + a];
+			ek += v * v;
+			pm[a] += v;
+		}
+	if (mom)
+		for (int a = 0; a < 3; a++)
+			mom[a] = d->mass * pm[a];
+	return 0.5 * d->mass * ek;
+}
+
+int dsmc_advance(dsmc_t *d, double t_stop, uint64_t max_collisions, uint64_t max_steps)
+{
+	for (uint64_t k = 0; k < max_steps && d->t < t_stop && d->collisions < max_collisions; k++) {
+		double dt = d->dt_fixed;
+		if (dt <= 0) {
+			double T = 2 * d->ekin_est / (d->dim * (double)d->n);
+			dt = T > 0 ? d->cps / (d->fcoef * sqrt(T)) : INFINITY;
+		}
+		if (!isfinite(dt) && !isfinite(t_stop))
+			return DSMC_QUIESCENT;
+		int last = 0;
+		if (!(d->t + dt < t_stop) || (t_stop - d->t - dt) < 1e-12 * dt) {
+			dt = t_stop - d->t;
+			last = 1;
+		}
+		if (d->dim == 2)
+			step2(d, dt);
+		else
+			step3(d, dt);
+		d->t = last ? t_stop : d->t + dt;
+	}
+	return DSMC_OK;
+}
+
+/* ---- setup ------------------------------------------------------------------- */
+
+dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size_t msglen)
+{
+	struct dsmc *d = NULL;
+	int rc = DSMC_ENOMEM;
+	dsmc_params_t pr;
+
+	if (msg && msglen)
+		msg[0] = '\0';
+	if ((s->dim != 2 && s->dim != 3) || s->count < 2 || s->count > INT32_MAX ||
+	    dsmc_params(s, &pr, NULL, 0) != DSMC_OK) {
+		rc = DSMC_EINVAL;
+		set_msg(msg, msglen, "method: scene not usable by dsmc/hsmc (count %.0f)", (double)s->count);
+		goto fail;
+	}
+	d = calloc(1, sizeof(*d));
+	if (!d)
+		goto fail;
+	d->dim = s->dim;
+	d->n = (uint32_t)s->count;
+	d->hsmc = pr.hsmc;
+	d->cba = pr.correction == SCENE_MC_CBA;
+	d->sigma = 2 * s->radius;
+	d->mass = s->mass;
+	d->e = s->restitution;
+	d->vp = scene_particle_volume(s);
+	d->chi = pr.chi;
+	d->sigma_t = d->dim == 2 ? 2 * d->sigma : PI * d->sigma * d->sigma;
+	d->fcoef = dsmc_collision_frequency(d->dim, s->volume_fraction, s->radius, s->mass, 1.0, d->chi);
+	d->dt_fixed = pr.time_step;
+	d->cps = pr.collisions_per_step;
+
+	double ncell = 1;
+	d->vcell = 1;
+	for (int a = 0; a < 3; a++) {
+		d->L[a] = a < d->dim ? s->box[a] : 1.0;
+		double k = a < d->dim ? floor(d->L[a] / pr.cell_edge) : 1;
+		k = k < 1 ? 1 : k;
+		ncell *= k;
+		d->nc[a] = k > 1e9 ? 1 : (int)k;
+		d->h[a] = d->L[a] / k;
+		d->inv_h[a] = k / d->L[a];
+		if (a < d->dim)
+			d->vcell *= d->h[a];
+	}
+	/* Cells cost memory and time even when empty; an absurdly fine grid is
+	 * a scene error, not an out-of-memory crash. */
+	if (ncell > 64.0 * d->n + 4096 || ncell > 2e9) {
+		rc = DSMC_EINVAL;
+		if (msg && msglen)
+			snprintf(msg, msglen, "%s.cell_size: gives %.3g cells, more than 64 per particle",
+			         d->hsmc ? "hsmc" : "dsmc", ncell);
+		goto fail;
+	}
+	d->ncells = (size_t)ncell;
+	d->nfull = (uint32_t)ceil(pr.max_volume_fraction * d->vcell / d->vp - 1e-9);
+	if (d->nfull < 2)
+		d->nfull = 2;
+
+	size_t S = 2 * (size_t)d->dim;
+	d->p = malloc(d->n * S * sizeof(double));
+	d->q = malloc(d->n * S * sizeof(double));
+	d->cell = malloc(d->n * sizeof(uint32_t));
+	d->start = calloc(d->ncells + 1, sizeof(uint32_t));
+	d->cnt = calloc(d->ncells + 1, sizeof(uint32_t));
+	d->rem = calloc(d->ncells, sizeof(float));
+	if (d->hsmc)
+		d->stamp = calloc(d->ncells, sizeof(uint32_t));
+	if (!d->p || !d->q || !d->cell || !d->start || !d->cnt || !d->rem || (d->hsmc && !d->stamp))
+		goto fail;
+
+	rng_init(&d->rng, s->seed, stream);
+	/* positions */
+	if (s->positions == SCENE_POS_RANDOM) {
+		for (uint32_t i = 0; i < d->n; i++)
+			for (int a = 0; a < d->dim; a++)
+				d->p[i * S + a] = wrap(rng_uniform(&d->rng) * d->L[a], d->L[a]);
+	} else {
+		uint64_t k = (uint64_t)ceil(pow((double)d->n, 1.0 / d->dim) - 1e-9);
+		while (pow((double)k, d->dim) < d->n)
+			k++;
+		for (uint32_t i = 0; i < d->n; i++) {
+			uint64_t r = i;
+			for (int a = 0; a < d->dim; a++) {
+				d->p[i * S + a] = ((double)(r % k) + 0.5) * d->L[a] / (double)k;
+				r /= k;
+			}
+		}
+	}
+	/* Maxwellian velocities, zero momentum, exactly T. */
+	double mean[3] = {0, 0, 0}, s2 = 0;
+	for (uint32_t i = 0; i < d->n; i++)
+		for (int a = 0; a < d->dim; a++) {
+			double v = rng_gauss(&d->rng);
+			d->p[i * S + d->dim + a] = v;
+			mean[a] += v;
+		}
+	for (uint32_t i = 0; i < d->n; i++)
+		for (int a = 0; a < d->dim; a++) {
+			double *v = &d->p[i * S + d->dim + a];
+			*v -= mean[a] / d->n;
+			s2 += *v * *v;
+		}
+	double scale = s2 > 0 ? sqrt(s->temperature * d->dim * d->n / (d->mass * s2)) : 0;
+	for (uint32_t i = 0; i < d->n; i++)
+		for (int a = 0; a < d->dim; a++)
+			d->p[i * S + d->dim + a] *= scale;
+	initial_sort(d);
+	d->ekin_est = ekin_exact(d, NULL);
+	/* The carried remainders start from their stationary distribution,
+	 * uniform on [0, 1): starting at 0 would lose half a candidate per
+	 * active cell until every cell has been active once (hundreds of steps
+	 * when cells are sparsely occupied). */
+	for (size_t c = 0; c < d->ncells; c++)
+		d->rem[c] = (float)rng_uniform(&d->rng);
+
+	if (s->relax_cpp > 0) {
+		double e = d->e;
+		d->e = 1;
+		uint64_t target = (uint64_t)ceil(s->relax_cpp * d->n / 2.0);
+		(void)dsmc_advance(d, INFINITY, target, UINT64_MAX);   /* QUIESCENT at T = 0: nothing to relax */
+		d->e = e;
+		d->t = 0;
+		d->steps = d->collisions = d->candidates = d->vmax_raised = 0;
+		d->cell_collisions = d->rejected = 0;
+		d->virial = d->ekin_int = 0;
+		d->ekin_est = ekin_exact(d, NULL);
+	}
+	*err = DSMC_OK;
+	return d;
+fail:
+	dsmc_destroy(d);
+	*err = rc;
+	if (rc == DSMC_ENOMEM)
+		set_msg(msg, msglen, "out of memory for %.0f particles", (double)s->count);
+	return NULL;
+}
+
+void dsmc_destroy(dsmc_t *d)
+{
+	if (!d)
+		return;
+	free(d->p);
+	free(d->q);
+	free(d->cell);
+	free(d->start);
+	free(d->cnt);
+	free(d->rem);
+	free(d->stamp);
+	free(d);
+}
+
+void dsmc_sample(dsmc_t *d, dsmc_sample_t *out)
+{
+	memset(out, 0, sizeof(*out));
+	out->time = d->t;
+	out->interval = d->t - d->t_sample;
+	out->steps = d->steps;
+	out->moves = d->steps * d->n;
+	out->collisions = d->collisions;
+	out->interval_collisions = d->collisions - d->coll_sample;
+	out->candidates = d->candidates;
+	out->vmax_raised = d->vmax_raised;
+	out->cell_collisions = d->cell_collisions;
+	out->rejected_moves = d->rejected;
+	out->kinetic_energy = ekin_exact(d, out->momentum);
+	out->ekin_time_integral = d->ekin_int;
+	out->virial = d->virial;
+	d->t_sample = d->t;
+	d->coll_sample = d->collisions;
+	d->ekin_int = 0;
+	d->virial = 0;
+}
+
+void dsmc_state(const dsmc_t *d, double *pos, double *vel)
+{
+	const int D = d->dim, S = 2 * D;
+	for (uint32_t k = 0; k < d->n; k++)
+		for (int a = 0; a < D; a++) {
+			if (pos)
+				pos[(size_t)k * D + a] = d->p[(size_t)k * S + a];
+			if (vel)
+				vel[(size_t)k * D + a] = d->p[(size_t)k * S + D + a];
+		}
+}
+
+double dsmc_time(const dsmc_t *d) { return d->t; }
+uint64_t dsmc_collisions(const dsmc_t *d) { return d->collisions; }
+uint64_t dsmc_moves(const dsmc_t *d) { return d->steps * d->n; }
+
+void dsmc_cells(const dsmc_t *d, int cells[3])
+{
+	for (int a = 0; a < 3; a++)
+		cells[a] = a < d->dim ? d->nc[a] : 1;
+}
+
+size_t dsmc_memory(const dsmc_t *d)
+{
+	size_t S = 2 * (size_t)d->dim;
+	return sizeof(*d) + 2 * d->n * S * sizeof(double) + d->n * sizeof(uint32_t) +
+	       d->ncells * (2 * sizeof(uint32_t) + sizeof(float) + (d->hsmc ? sizeof(uint32_t) : 0));
+}
+
+const char *dsmc_strerror(int code)
+{
+	switch (code) {
+	case DSMC_OK: return "success";
+	case DSMC_ENOMEM: return "out of memory";
+	case DSMC_EINVAL: return "scene not usable by dsmc/hsmc";
+	default: return "unknown error";
+	}
+}

@@ -1,0 +1,117 @@
+/* Direct simulation Monte Carlo of inelastic hard disks/spheres (Bird's scheme, Enskog/CBA corrections) and Mueller's hybrid HSMC. */
+#pragma once
+
+#include <stddef.h>
+#include <stdint.h>
+#include "scene.h"
+
+/*
+ * Contract
+ * - Pure computation: no I/O, no globals, no allocation after dsmc_create().
+ * - Units are the scene's: diameter sigma = 2 * radius, mass m, k_B = 1,
+ *   T = 2 E_kin / (D N). Periodic box.
+ * - One step of length dt (operator splitting, seed 000 eq. 2.19):
+ *   [hsmc only: coarse-grain cells, cell-cell pseudo-collisions, return of
+ *   their lost energy as thermal motion]; free flight (hsmc: moves into
+ *   full cells rejected); counting sort into cells; in each cell
+ *   chi * N_c (N_c - 1) sigma_T v_max dt / (2 V_c) candidate pairs (no-time-
+ *   counter, the fractional remainder carried per cell), each accepted with
+ *   probability |g| / v_max, impact parameter uniform (molecular chaos),
+ *   normal restitution along the contact normal it defines.
+ *   sigma_T = 2 sigma (2D), pi sigma^2 (3D).
+ * - v_max per cell is the strict bound 2 max_i |v_i - u_c| (u_c the cell's
+ *   mean velocity at the start of its collision step). A collision that
+ *   raises max_i |v_i - u_c| raises v_max, and later candidates then cost
+ *   less of the cell's budget (thinning of a Poisson process), so the
+ *   collision rate stays exact (vmax_raised counts these raises).
+ * - Determinism: for one scene (seed and stream included) and one sequence
+ *   of dsmc_advance() stop times, every number is identical from run to run.
+ *   Output times cut a step short (steps land exactly on t_stop), so the
+ *   output schedule changes the random sequence, not the statistics.
+ */
+
+typedef struct dsmc dsmc_t;
+
+enum {
+	DSMC_OK = 0,
+	DSMC_ENOMEM = -1,
+	DSMC_EINVAL = -2,    /* scene not usable (message says why) */
+	DSMC_QUIESCENT = 1,  /* dsmc_advance: T = 0 and no finite stop time */
+};
+
+/* Parameters resolved from the scene: defaults from the validity conditions
+ * (Bird; seed 000 sec. 2.4.1): cell edge = the mean free path lambda of the
+ * simulated gas, but not below chaos_edge (enough cell mates that a pair
+ * rarely collides twice: dense gases) nor, for hsmc, 2 sigma; adaptive time
+ * step of 0.2 mean free times. Both lengths in the scene's units. */
+typedef struct {
+	int hsmc;                 /* 1 for the hybrid method */
+	int correction;           /* SCENE_MC_NONE / _ENSKOG / _CBA */
+	double chi;               /* collision-rate factor: g(sigma) at the mean volume fraction, or 1 */
+	double cell_edge;         /* requested minimum cell edge (length units) */
+	double time_step;         /* fixed step, or 0 */
+	double collisions_per_step; /* adaptive step dt = this / f_E(T), or 0 */
+	double max_volume_fraction; /* hsmc: a cell at or above this is full */
+	double mean_free_path;    /* lambda_E at the initial temperature */
+	double mean_free_time;    /* tau_E = 1 / f_E at the initial temperature */
+	double chaos_edge;        /* smallest cell edge that keeps repeated pair collisions rare */
+} dsmc_params_t;
+
+/* Resolve the parameters of s (method dsmc or hsmc). warn (may be NULL)
+ * receives "" or one line listing the validity conditions the scene
+ * breaks. Returns DSMC_OK or DSMC_EINVAL. */
+int dsmc_params(const scene_t *s, dsmc_params_t *p, char *warn, size_t warnlen);
+
+/* Build the initial state: positions (lattice: a simple grid; random:
+ * uniform, no overlap check since the particles are points to DSMC),
+ * Maxwellian velocities with zero total momentum scaled to exactly T,
+ * optional elastic pre-run (initial.relax, not counted). Random stream:
+ * rng_init(seed, stream). NULL on failure with *err and msg set. */
+dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size_t msglen);
+void dsmc_destroy(dsmc_t *d);
+
+/* Take steps until the clock reaches t_stop (the last step is shortened to
+ * land on it), or the collision count reaches max_collisions (at the end of
+ * the step that reaches it), or max_steps steps were taken. INFINITY /
+ * UINT64_MAX mean no limit. Returns DSMC_OK, or DSMC_QUIESCENT when the
+ * adaptive step is infinite (T = 0) and t_stop is infinite. */
+int dsmc_advance(dsmc_t *d, double t_stop, uint64_t max_collisions, uint64_t max_steps);
+
+typedef struct {
+	double time;               /* current simulated time */
+	double interval;           /* since the previous dsmc_sample() */
+	uint64_t steps, moves;     /* totals: steps, particle moves (N per step) */
+	uint64_t collisions;       /* accepted binary collisions, total */
+	uint64_t interval_collisions;
+	uint64_t candidates;       /* candidate pairs tested, total */
+	uint64_t vmax_raised;      /* candidates that exceeded the cell's v_max bound */
+	uint64_t cell_collisions;  /* hsmc: cell-cell pseudo-collisions, total */
+	uint64_t rejected_moves;   /* hsmc: moves into full cells rejected, total */
+	double kinetic_energy;     /* total, now (exact pass over the particles) */
+	double momentum[3];        /* total, now */
+	double ekin_time_integral; /* integral of E_kin dt over the interval */
+	double virial;             /* sum over collisions in the interval of (sigma n) . J */
+} dsmc_sample_t;
+
+/* Fill *out and start a new interval. Does not change the dynamics. */
+void dsmc_sample(dsmc_t *d, dsmc_sample_t *out);
+
+/* Positions in [0, L) and velocities as N*D doubles (cell order, not scene
+ * order: particles are interchangeable). Either pointer may be NULL. */
+void dsmc_state(const dsmc_t *d, double *pos, double *vel);
+
+double dsmc_time(const dsmc_t *d);
+uint64_t dsmc_collisions(const dsmc_t *d);
+uint64_t dsmc_moves(const dsmc_t *d);
+void dsmc_cells(const dsmc_t *d, int cells[3]);
+size_t dsmc_memory(const dsmc_t *d);
+
+/* Kinetic theory used for the defaults and the corrections (also handy for
+ * tests): contact value of the pair correlation, Henderson (2D) or
+ * Carnahan-Starling (3D); Enskog collision frequency per particle
+ * f_E = n sigma_T <|g|> chi; mean speed. */
+double dsmc_contact_value(int dim, double nu);
+double dsmc_collision_frequency(int dim, double nu, double radius, double mass, double temp, double chi);
+double dsmc_mean_speed(int dim, double mass, double temp);
+
+const char *dsmc_strerror(int code);

@@ -1,0 +1,254 @@
+/* Validation of the Monte Carlo methods (dsmc, hsmc) against kinetic theory: Haff's law, Enskog collision rate, equation of state, conservation. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dsmc.h"
+#include "run.h"
+#include "scene.h"
+#include "tap.h"
+
+#define PI 3.14159265358979323846
+
+typedef struct {
+	int n;
+	run_record_t rec[1024];
+} series_t;
+
+static int collect(const run_record_t *r, void *ctx)
+{
+	series_t *s = ctx;
+	if (r->kind == RUN_PROGRESS && s->n < 1024)
+		s->rec[s->n++] = *r;
+	return 0;
+}
+
+static int run_json(const char *json, series_t *out)
+{
+	scene_t sc;
+	char err[512];
+	out->n = 0;
+	if (scene_parse(json, strlen(json), &sc, err, sizeof(err)) != SCENE_OK) {
+		diag("scene rejected: %s", err);
+		return -1;
+	}
+	if (run_scene(&sc, collect, out, NULL, err, sizeof(err)) != RUN_OK) {
+		diag("run failed: %s", err);
+		return -1;
+	}
+	return 0;
+}
+
+/* Written out here, independently of dsmc.c: Henderson (2D), Carnahan-Starling (3D). */
+static double g_contact(int dim, double nu)
+{
+	return dim == 2 ? (1 - 7 * nu / 16) / ((1 - nu) * (1 - nu)) : (1 - nu / 2) / pow(1 - nu, 3);
+}
+
+/* Collision frequency per particle at T = 1, radius 1/2, mass 1:
+ * f = D 2^(D-1) / (sqrt(pi) a) nu chi (seed 003 eq. 4.56 with g -> chi). */
+static double f_theory(int dim, double nu, double chi) { return dim * pow(2, dim - 1) / (sqrt(PI) * 0.5) * nu * chi; }
+
+static void mean_se(const double *x, int n, double *mean, double *se)
+{
+	double s = 0, s2 = 0;
+	for (int i = 0; i < n; i++)
+		s += x[i];
+	*mean = s / n;
+	for (int i = 0; i < n; i++)
+		s2 += (x[i] - *mean) * (x[i] - *mean);
+	*se = sqrt(s2 / (n - 1) / n);
+}
+
+/*
+ * Haff's law T/T0 = 1/(1 + tau)^2, tau = (1 - e^2) f t / (2 D), with the
+ * collision frequency f of the gas the method simulates: chi = 1 for
+ * correction "none" (Boltzmann gas), chi = g(sigma) for "enskog"/"cba" and
+ * hsmc. Systems below the shear-instability threshold (see physics_test.c),
+ * so the state stays homogeneous. R replicas (seeds) give mean and standard
+ * error at each of K output times. Tolerance: 4 standard errors (a 4-sigma
+ * excursion has probability ~6e-5 per point) plus 1.5% of the theory for
+ * what Haff's law leaves out: the Sonine coefficient a2 of the cooling state
+ * (cooling rate changed by < 0.5% for e >= 0.9) and the operator-splitting
+ * error of the time step (0.2 mean free times by default: the cooling per
+ * step is lambda/(2D) * 0.4 <= 1%, and Euler splitting errs by a fraction of
+ * that, measured < 0.5% by halving the step).
+ */
+static void test_haff(const char *method, const char *corr, int dim, int n, double nu, double e)
+{
+	enum { R = 6, K = 8 };
+	static series_t s;
+	const double tau_end = 2;
+	double chi = strcmp(corr, "none") ? g_contact(dim, nu) : 1.0;
+	double lam = 1 - e * e, f = f_theory(dim, nu, chi);
+	double t_end = tau_end * 2 * dim / (lam * f);
+	double ratio[K][R];
+	int okrun = 1;
+	for (int r = 0; r < R && okrun; r++) {
+		char json[1024];
+		snprintf(json, sizeof(json),
+		         "{\"method\":\"%s\",\"dimensions\":%d,\"particles\":{\"count\":%d,\"volume_fraction\":%g,"
+		         "\"initial\":{\"positions\":\"random\"}},\"collisions\":{\"restitution\":%g},"
+		         "\"run\":{\"seed\":%d,\"until\":{\"time\":%.17g}},"
+		         "\"output\":{\"every\":{\"time\":%.17g},\"observables\":[\"temperature\"]},"
+		         "\"%s\":{\"correction\":\"%s\"}}",
+		         method, dim, n, nu, e, 300 + r, t_end, t_end / K, method, corr);
+		okrun = run_json(json, &s) == 0 && s.n == K + 1;
+		for (int k = 0; okrun && k < K; k++)
+			ratio[k][r] = s.rec[k + 1].temperature / s.rec[0].temperature;
+	}
+	if (!okrun) {
+		ok(0, "Haff %s/%s %dD ran", method, corr, dim);
+		return;
+	}
+	int good = 1;
+	double worst = 0;
+	for (int k = 0; k < K; k++) {
+		double m, se;
+		mean_se(ratio[k], R, &m, &se);
+		double tau = lam * f * s.rec[k + 1].time / (2 * dim), th = 1 / ((1 + tau) * (1 + tau));
+		double dev = fabs(m - th) / (4 * se + 0.015 * th);
+		worst = dev > worst ? dev : worst;
+		if (dev >= 1) {
+			good = 0;
+			diag("tau=%.3f: T/T0 = %.5f +- %.5f, Haff %.5f", tau, m, se, th);
+		}
+	}
+	ok(good, "Haff %s/%s %dD N=%d nu=%.2f e=%.2f to tau=%.0f: worst deviation %.2f of tolerance", method, corr,
+	   dim, n, nu, e, tau_end, worst);
+}
+
+/*
+ * Elastic equilibrium: collision frequency f/sqrt(T) against n sigma_T <g>
+ * chi, and compressibility Z = 1 + 2^(D-1) nu chi from the collision virial
+ * (the Enskog equation of state: Henderson in 2D, Carnahan-Starling in 3D,
+ * whose chi the corrected methods use). Blocks of 2 mean free times are
+ * nearly independent (velocities decorrelate within a collision time), so
+ * the block standard error is the statistical error; tolerance 4 standard
+ * errors plus `model` (relative): 0 for dsmc/enskog, where the sampled rate
+ * is the formula, and for the CBA offset (cba, hsmc) the depletion of
+ * same-cell pairs by the offset, which pushes partners one diameter apart:
+ * a hole of ~(2 sigma)^D in a cell of L^D, a few percent at the default L.
+ */
+static void test_eos(const char *method, const char *corr, int dim, int n, double nu, double model)
+{
+	static series_t s;
+	double chi = strcmp(corr, "none") ? g_contact(dim, nu) : 1.0, f = f_theory(dim, nu, chi);
+	char json[1024];
+	snprintf(json, sizeof(json),
+	         "{\"method\":\"%s\",\"dimensions\":%d,\"particles\":{\"count\":%d,\"volume_fraction\":%g,"
+	         "\"initial\":{\"positions\":\"random\",\"relax\":{\"collisions_per_particle\":5}}},"
+	         "\"run\":{\"seed\":11,\"until\":{\"time\":%.17g}},"
+	         "\"output\":{\"every\":{\"time\":%.17g},\"observables\":[\"temperature\",\"compressibility\",\"collision_rate\"]},"
+	         "\"%s\":{\"correction\":\"%s\"}}",
+	         method, dim, n, nu, 60 / f, 2 / f, method, corr);
+	if (run_json(json, &s) != 0 || s.n < 20) {
+		ok(0, "EOS %s %dD ran", method, dim);
+		return;
+	}
+	double z[1024], r[1024], zm, zse, rm, rse;
+	int k = 0;
+	for (int i = 1; i < s.n; i++, k++) {
+		z[k] = s.rec[i].compressibility;
+		r[k] = s.rec[i].collision_rate / sqrt(s.rec[i].temperature);
+	}
+	mean_se(z, k, &zm, &zse);
+	mean_se(r, k, &rm, &rse);
+	double zt = 1 + pow(2, dim - 1) * nu * chi;
+	double tol = 4 * zse + model * zt;
+	ok(fabs(zm - zt) < tol, "EOS %s/%s %dD nu=%.2f: Z = %.4f +- %.4f, Enskog %.4f (tolerance %.4f)", method, corr, dim,
+	   nu, zm, zse, zt, tol);
+	tol = 4 * rse + model * f;
+	ok(fabs(rm - f) < tol, "rate %s/%s %dD nu=%.2f: f/sqrt(T) = %.4f +- %.4f, theory %.4f (tolerance %.4f)", method,
+	   corr, dim, nu, rm, rse, f, tol);
+}
+
+/*
+ * HSMC near its maximum density: many full cells, cell-cell collisions and
+ * rejected moves. Elastic particles: particle collisions conserve momentum
+ * and energy up to rounding, and cell collisions conserve both exactly by
+ * construction (the macroscopic loss is returned as thermal motion), so
+ * after ~10^5 collisions energy drifts by no more than rounding (~1e-16
+ * per operation, random walk ~1e-13): 1e-10 flags any leak. Momentum stays
+ * zero to rounding (relative to N m v_th).
+ */
+static void test_hsmc_conservation(int dim, double nu, double numax, double e)
+{
+	char json[1024], err[256];
+	scene_t sc;
+	int rc;
+	snprintf(json, sizeof(json),
+	         "{\"method\":\"hsmc\",\"dimensions\":%d,\"particles\":{\"count\":3000,\"volume_fraction\":%g,"
+	         "\"initial\":{\"positions\":\"random\"}},\"collisions\":{\"restitution\":%g},"
+	         "\"run\":{\"until\":{\"time\":1}},\"hsmc\":{\"cell_size\":2,\"max_volume_fraction\":%g}}",
+	         dim, nu, e, numax);
+	if (scene_parse(json, strlen(json), &sc, err, sizeof(err)) != SCENE_OK) {
+		ok(0, "hsmc scene: %s", err);
+		return;
+	}
+	dsmc_t *d = dsmc_create(&sc, 0, &rc, err, sizeof(err));
+	if (!d) {
+		ok(0, "hsmc create: %s", err);
+		return;
+	}
+	dsmc_sample_t a, b;
+	dsmc_sample(d, &a);
+	dsmc_advance(d, INFINITY, 100000, UINT64_MAX);
+	dsmc_sample(d, &b);
+	double pm = 0;
+	for (int k = 0; k < dim; k++)
+		pm = fmax(pm, fabs(b.momentum[k]));
+	double pscale = sc.count * sqrt(sc.temperature);
+	ok(b.cell_collisions > 100 && b.rejected_moves > 100, "hsmc %dD nu=%.2f: %llu cell collisions, %llu rejected moves",
+	   dim, nu, (unsigned long long)b.cell_collisions, (unsigned long long)b.rejected_moves);
+	ok(pm / pscale < 1e-12, "hsmc %dD e=%g: total momentum %.2e of N m v_th", dim, e, pm / pscale);
+	if (e == 1)
+		ok(fabs(b.kinetic_energy / a.kinetic_energy - 1) < 1e-10, "hsmc %dD elastic: relative energy change %.2e",
+		   dim, b.kinetic_energy / a.kinetic_energy - 1);
+	dsmc_destroy(d);
+}
+
+/* Same seed and stream: bit-identical; another stream: different. */
+static void test_determinism(void)
+{
+	static series_t a, b;
+	const char *fmt = "{\"method\":\"hsmc\",\"dimensions\":2,\"particles\":{\"count\":1000,\"volume_fraction\":0.6},"
+	                  "\"collisions\":{\"restitution\":0.8},\"run\":{\"seed\":%d,\"until\":{\"time\":2}},"
+	                  "\"hsmc\":{\"cell_size\":2}}";
+	char j1[512], j2[512];
+	snprintf(j1, sizeof j1, fmt, 5);
+	snprintf(j2, sizeof j2, fmt, 6);
+	int same = run_json(j1, &a) == 0 && run_json(j1, &b) == 0 && a.n == b.n;
+	for (int i = 0; same && i < a.n; i++)
+		same = a.rec[i].kinetic_energy == b.rec[i].kinetic_energy && a.rec[i].collisions == b.rec[i].collisions;
+	ok(same, "hsmc: same scene twice gives identical records");
+	int differ = run_json(j2, &b) == 0 && b.rec[b.n - 1].kinetic_energy != a.rec[a.n - 1].kinetic_energy;
+	ok(differ, "hsmc: another seed gives another run");
+}
+
+int main(void)
+{
+	/* Dilute/Boltzmann: DSMC without correction against chi = 1. */
+	test_haff("dsmc", "none", 2, 500, 0.1, 0.95);
+	test_haff("dsmc", "none", 3, 2000, 0.1, 0.9);
+	/* Moderately dense, Enskog rate (3D N=2000 nu=0.25: optical depth
+	 * l = (N nu^2 pi/6)^(1/3) = 4.0, shear threshold 5 pi^3/(144 l^2) =
+	 * 0.066 > lambda = 0.0396 at e = 0.98). */
+	test_haff("dsmc", "enskog", 3, 2000, 0.25, 0.98);
+	/* 2D N=500 nu=0.4: l = sqrt(N nu pi/4) = 12.5, threshold 0.049 > 0.0396. */
+	test_haff("hsmc", "cba", 2, 500, 0.4, 0.98);
+
+	test_eos("dsmc", "none", 2, 2000, 0.05, 0);
+	test_eos("dsmc", "enskog", 2, 2000, 0.4, 0);
+	test_eos("dsmc", "enskog", 3, 2000, 0.25, 0);
+	test_eos("hsmc", "cba", 2, 2000, 0.4, 0.03);
+	test_eos("hsmc", "cba", 3, 2000, 0.25, 0.03);
+
+	test_hsmc_conservation(2, 0.75, 0.82, 1);
+	test_hsmc_conservation(3, 0.55, 0.6, 1);
+	test_hsmc_conservation(2, 0.75, 0.82, 0.7);
+	test_determinism();
+	plan(tap_n);
+	return done_testing();
+}
