@@ -166,7 +166,27 @@ post "/api/v1/jobs/$id6/cancel" >/dev/null
 wait_state "$id6" cancelled 20
 gd_stop
 
-# 10. A second daemon on the same state directory is refused; bad flags exit 2 with one line.
+# 10. 429 when the queue is full; 503 for changes while the daemon drains.
+printf '#!/bin/sh\n# a job that ignores SIGTERM (it must be killed)\ntrap "" TERM\nexec sleep 3600\n' >"$tmp/stubborn.sh"
+chmod +x "$tmp/stubborn.sh"
+S2=$tmp/state2
+gd_start "$S2" --slots 1 --max-queued 1 --launch "$tmp/stubborn.sh {scene}" --shutdown-grace 3
+a=$(field "$(post /api/v1/jobs -d "$SHORT")" 'd["id"]'); wait_state "$a" running 10
+post /api/v1/jobs -d "$SHORT" >/dev/null
+post /api/v1/jobs -D "$tmp/hdr" -d "$SHORT" >/dev/null; err_ok 429 "queue full (max_queued 1)"
+grep -qi '^Retry-After: ' "$tmp/hdr"
+ok $? "429 carries Retry-After"
+kill -TERM "$GD_PID"; sleep 0.7
+post /api/v1/jobs -d "$SHORT" >/dev/null; err_ok 503 "submission while the daemon drains its jobs"
+h=$(api GET /healthz)
+ok $([ "$(field "$h" 'd["status"]')" = stopping ]; echo $?) "healthz says stopping meanwhile"
+wait "$GD_PID"; GD_PID=
+gd_start "$S2" --slots 1 --max-queued 1 --launch "/bin/true"
+ok $([ "$(field "$(api GET "/api/v1/jobs/$a")" 'd["attempts"][0]["signal"]')" = 9 ]; echo $?) \
+	"a job that ignores SIGTERM was killed (SIGKILL) after shutdown_grace and requeued"
+gd_stop
+
+# 11. A second daemon on the same state directory is refused; bad flags exit 2 with one line.
 gd_start "$S" --slots 1
 "$GRANULARD" --state-dir "$S" --listen 127.0.0.1:0 2>"$tmp/err2"
 ok $([ $? -ne 0 ] && grep -q "another granulard" "$tmp/err2"; echo $?) "second daemon on the same state dir refused: $(cat "$tmp/err2")"
