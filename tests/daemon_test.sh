@@ -38,6 +38,29 @@ ok $([ "$(field "$job" 'd["attempts"][0]["exit_status"]')" = 0 ] && [ "$(field "
 [ -f "$S/jobs/$id/progress.jsonl" ] && [ -f "$S/jobs/$id/scene.json" ]
 ok $? "job directory holds scene.json and the engine's output"
 
+# Files: listing with checksums, downloads with ranges, no path escapes.
+fl=$(api GET "/api/v1/jobs/$id/files")
+sum=$(sha256sum "$S/jobs/$id/progress.jsonl" | cut -d' ' -f1)
+ok $([ "$(field "$fl" '[f["sha256"] for f in d["files"] if f["name"]=="progress.jsonl"][0]')" = "$sum" ] &&
+     [ "$(field "$fl" '[f["size"] for f in d["files"] if f["name"]=="scene.json"][0]')" = "$(stat -c %s "$S/jobs/$id/scene.json")" ]; echo $?) \
+	"GET /files lists $(field "$fl" '",".join(f["name"] for f in d["files"])') with sizes and SHA-256"
+api GET "/api/v1/jobs/$id/files/progress.jsonl" >/dev/null
+cmp -s "$tmp/body" "$S/jobs/$id/progress.jsonl"
+ok $([ $? = 0 ] && [ "$(code)" = 200 ]; echo $?) "download: the whole file, byte for byte"
+api GET "/api/v1/jobs/$id/files/progress.jsonl" -H 'Range: bytes=10-19' -D "$tmp/hdr" >/dev/null
+ok $([ "$(code)" = 206 ] && [ "$(cat "$tmp/body")" = "$(dd if="$S/jobs/$id/progress.jsonl" bs=1 skip=10 count=10 2>/dev/null)" ] &&
+     grep -qi "^Content-Range: bytes 10-19/$(stat -c %s "$S/jobs/$id/progress.jsonl")" "$tmp/hdr"; echo $?) "Range bytes=10-19: 206, 10 bytes, Content-Range"
+api GET "/api/v1/jobs/$id/files/progress.jsonl" -H 'Range: bytes=-7' >/dev/null
+ok $([ "$(code)" = 206 ] && [ "$(cat "$tmp/body")" = "$(tail -c 7 "$S/jobs/$id/progress.jsonl")" ]; echo $?) "Range bytes=-7: the last 7 bytes"
+api GET "/api/v1/jobs/$id/files/progress.jsonl" -H 'Range: bytes=99999999-' >/dev/null; err_ok_early=$(code)
+ok $([ "$err_ok_early" = 416 ]; echo $?) "Range past the end: 416"
+for bad in ..%2F..%2Ftoken .sha256 '%2E%2E' 'scene.json%00x'; do
+	c=$(curl -s --path-as-is -o "$tmp/b2" -w '%{http_code}' "$URL/api/v1/jobs/$id/files/$bad")
+	ok $(case $c in 4??) ! grep -q "$TOKEN" "$tmp/b2" ;; *) false ;; esac; echo $?) "file name $bad refused: $c"
+done
+c=$(curl -s --path-as-is -o /dev/null -w '%{http_code}' "$URL/api/v1/jobs/$id/files/../../../token")
+ok $(case $c in 4??) true ;; *) false ;; esac; echo $?) "path with .. segments refused: $c"
+
 # 2. cancel a running job.
 id2=$(field "$(post /api/v1/jobs -d "$LONG")" 'd["id"]')
 wait_state "$id2" running 20
