@@ -8,7 +8,7 @@
 #include <unistd.h>
 #include "api.h"
 #include "files.h"
-#include "openapi_yaml.h"   /* generated from schema/openapi.yaml: openapi_yaml[] */
+#include "daemon/openapi_yaml.h"   /* generated from schema/openapi.yaml: openapi_yaml[] */
 #include "util.h"
 
 

@@ -8,7 +8,7 @@
 #include "cfg.h"
 #include "hub.h"
 #include "jobq.h"
-#include "sched.h"
+#include "scheduler.h"
 
 /* Everything a handler may use; owned by main.c, shared read-only by the HTTP threads. */
 typedef struct gd {

@@ -14,7 +14,7 @@
 #include <time.h>
 #include <unistd.h>
 #include "log.h"
-#include "sched.h"
+#include "scheduler.h"
 #include "util.h"
 
 #define MAX_CHILDREN 4096
