@@ -154,6 +154,15 @@ int main(int argc, char **argv)
 		fprintf(stderr, "granulard: state_dir %s: %s\n", cfg.state_dir, strerror(errno));
 		goto cleanup;
 	}
+	/* Jobs run in their own directories: every path handed to them must be absolute. */
+	char *abs = realpath(cfg.state_dir, NULL);
+	if (!abs) {
+		fprintf(stderr, "granulard: state_dir %s: %s\n", cfg.state_dir, strerror(errno));
+		goto cleanup;
+	}
+	free(cfg.state_dir);
+	cfg.state_dir = abs;
+	snprintf(jobs, sizeof(jobs), "%s/jobs", cfg.state_dir);
 	/* One daemon per state directory: two would both claim the same jobs. */
 	snprintf(path, sizeof(path), "%s/granulard.lock", cfg.state_dir);
 	lockfd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0600);
