@@ -213,28 +213,32 @@ static char *tail_str(const child_t *k)
 	return s;
 }
 
-/* The line of the stderr tail that says what went wrong: the engine's own
- * last message ("granular-engine: ..."), else the last line that is not one
- * of mpirun's banner rules. */
+/* The line of the stderr tail that says what went wrong: the engine writes
+ * its one-line error before mpirun adds its banners (blocks framed by rules
+ * of dashes), so take the last line before the first rule; without rules, the
+ * last line. */
 static void last_line(const char *tail, char *out, size_t n)
 {
-	const char *best = NULL, *fallback = NULL;
-	size_t best_len = 0, fb_len = 0;
+	const char *best = NULL, *after = NULL;
+	size_t best_len = 0, after_len = 0;
+	int ruled = 0;
 	for (const char *p = tail; *p;) {
 		size_t len = strcspn(p, "\n");
-		size_t k = strspn(p, "- ");
-		if (len && !strncmp(p, "granular-engine:", 16)) {
+		int rule = len >= 10 && strspn(p, "-") == len;
+		if (rule)
+			ruled = 1;
+		else if (len && !ruled) {
 			best = p;
 			best_len = len;
-		} else if (len && k < len) {
-			fallback = p;
-			fb_len = len;
+		} else if (len && strspn(p, " ") < len) {
+			after = p;
+			after_len = len;
 		}
 		p += len + (p[len] == '\n');
 	}
 	if (!best) {
-		best = fallback;
-		best_len = fb_len;
+		best = after;
+		best_len = after_len;
 	}
 	snprintf(out, n, "%.*s", best ? (int)best_len : 0, best ? best : "");
 }

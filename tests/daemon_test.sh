@@ -85,6 +85,24 @@ case "$r" in *"signal"*|*"status"*) ok 0 "failure reason recorded: $r" ;; *) ok 
 api GET /healthz >/dev/null
 ok $([ "$(code)" = 200 ]; echo $?) "daemon still healthy"
 
+# A scene the engine refuses at run time (random placement jams): the reason is the engine's own message.
+jam='{"method":"ed","dimensions":2,"particles":{"count":400,"volume_fraction":0.8,"initial":{"positions":"random"}},"run":{"until":{"time":0.1}}}'
+idj=$(field "$(post /api/v1/jobs -d "$jam")" 'd["id"]')
+wait_state "$idj" failed 30
+r=$(field "$(api GET "/api/v1/jobs/$idj")" 'd["reason"]')
+case "$r" in "engine exited with status 2: "*"particles.initial.positions: random placement failed"*) ok 0 "engine-side failure explained: $r" ;;
+*) ok 1 "engine-side failure explained: $r" ;; esac
+# An unusable job directory (a file where the directory should go) fails the job with a clear reason.
+last=$(field "$(api GET '/api/v1/jobs?limit=1')" 'd["jobs"][0]["id"]')
+touch "$S/jobs/$((last + 1))"
+idb=$(field "$(post /api/v1/jobs -d "$SHORT")" 'd["id"]')
+wait_state "$idb" failed 20
+r=$(field "$(api GET "/api/v1/jobs/$idb")" 'd["reason"]')
+case "$r" in *"$S/jobs/$idb"*) ok 0 "unusable job directory: job $idb failed: $r" ;; *) ok 1 "unusable job directory: job $idb failed: $r" ;; esac
+api GET /healthz >/dev/null
+ok $([ "$(code)" = 200 ]; echo $?) "daemon healthy after both failures"
+rm -f "$S/jobs/$idb"
+
 # 4. kill -9 the daemon mid-run, restart: nothing lost, nothing duplicated, never two copies.
 id4=$(field "$(post /api/v1/jobs -d "$LONG")" 'd["id"]')
 wait_state "$id4" running 20
