@@ -9,6 +9,7 @@ trap 'kill $pid 2>/dev/null; wait $pid 2>/dev/null; rm -rf "$st"' EXIT
 "$build/daemon/granulard" --state-dir "$st" --listen 127.0.0.1:0 --slots 1 --launch "sleep 3600" \
 	--max-connections 512 --log-level warning 2>"$st/log" &
 pid=$!
+load=$(cut -d' ' -f1 /proc/loadavg)
 i=0; while [ ! -s "$st/granulard.addr" ] && [ $i -lt 100 ]; do sleep 0.05; i=$((i + 1)); done
 addr=$(cat "$st/granulard.addr"); port=${addr##*:}; token=$(cat "$st/token")
 printf '{"scene":{"method":"ed","dimensions":2,"particles":{"count":1000,"volume_fraction":0.2},"run":{"until":{"time":1}}},"submission_id":"load-@ID@"}' >"$st/body"
@@ -36,6 +37,8 @@ import json,sys
 d=json.loads(sys.stdin.read())
 print("| %s %s | %.0f | %.2f | %.2f | %.1f | %d | %d |" % (d["method"], d["path"], d["requests_per_second"], d["p50_ms"], d["p99_ms"], d["max_ms"], d["errors"], d["non_2xx"]))'
 done
+echo
+echo "Load average before the run: $load on $(nproc) cores (anything above 0 is other work competing for the CPUs)."
 echo
 echo "Daemon memory after the run: RSS $((rss / 1024)) MiB (peak $((hwm / 1024)) MiB) with $jobs jobs in the database ($((db / 1024)) MiB)."
 echo

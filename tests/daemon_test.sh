@@ -227,7 +227,15 @@ ok $([ "$(field "$(api GET "/api/v1/jobs/$a")" 'd["attempts"][0]["signal"]')" = 
 	"a job that ignores SIGTERM was killed (SIGKILL) after shutdown_grace and requeued"
 gd_stop
 
-# 11. A second daemon on the same state directory is refused; bad flags exit 2 with one line.
+# 11. The per-attempt wall-time limit stops a job and says so.
+gd_start "$tmp/state3" --slots 1 --max-wall-seconds 1 --cancel-grace 2
+w=$(field "$(post /api/v1/jobs -d "$LONG")" 'd["id"]')
+wait_state "$w" failed 30
+r=$(field "$(api GET "/api/v1/jobs/$w")" 'd["reason"]')
+case "$r" in "wall-time limit of 1 s exceeded"*) ok 0 "max_wall_seconds: $r" ;; *) ok 1 "max_wall_seconds: $r" ;; esac
+gd_stop
+
+# 12. A second daemon on the same state directory is refused; bad flags exit 2 with one line.
 gd_start "$S" --slots 1
 "$GRANULARD" --state-dir "$S" --listen 127.0.0.1:0 2>"$tmp/err2"
 ok $([ $? -ne 0 ] && grep -q "another granulard" "$tmp/err2"; echo $?) "second daemon on the same state dir refused: $(cat "$tmp/err2")"
