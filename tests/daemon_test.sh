@@ -8,6 +8,9 @@ SHORT='{"method":"ed","dimensions":2,"particles":{"count":400,"volume_fraction":
 # A run far longer than the test: it must be stopped.
 LONG='{"method":"ed","dimensions":3,"particles":{"count":4000,"volume_fraction":0.3},"run":{"seed":1,"until":{"time":1e9}},"output":{"every":{"time":0.05}}}'
 
+! ldd "$GRANULARD" | grep -Eiq 'libmpi|libhdf5'
+ok $? "granulard links neither MPI nor HDF5 (the engine runs them in its own processes)"
+
 S=$tmp/state
 gd_start "$S" --slots 2 --cancel-grace 5 --shutdown-grace 5
 api GET /healthz >/dev/null
