@@ -7,6 +7,7 @@
 #include <string.h>
 #include "api.h"
 #include "openapi_yaml.h"   /* generated from schema/openapi.yaml: openapi_yaml[] */
+#include "presets.h"
 #include "util.h"
 
 
@@ -341,6 +342,27 @@ static void h_openapi(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 	rs->ctype = "application/yaml";
 }
 
+/* ---- presets (built-in scenes) --------------------------------------------- */
+
+static void h_presets(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	char err[256];
+	if (presets_list(&rs->json, err, sizeof(err)) != PRESETS_OK)
+		api_error(rs, 500, err);
+	else
+		rs->status = 200;
+}
+
+static void h_preset(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	char err[256];
+	int r = presets_get(rq->params[0], &rs->json, err, sizeof(err));
+	if (r != PRESETS_OK)
+		api_error(rs, r == PRESETS_ENOTFOUND ? 404 : 500, err);
+	else
+		rs->status = 200;
+}
+
 static const char index_html[] =
 	"<!doctype html><html><head><meta charset=utf-8><title>granulard</title></head><body>"
 	"<h1>granulard</h1><p>The job service is running. API: <a href=\"/api/v1/jobs\">/api/v1/jobs</a>, "
@@ -372,6 +394,8 @@ const api_route_t api_routes[] = {
 	{.method = "GET", .pattern = "/api/v1/jobs/{id}/events", .fn = h_events_job},
 	{.method = "GET", .pattern = "/api/v1/events", .fn = h_events_all},
 	{.method = "GET", .pattern = "/api/v1/cluster", .fn = h_cluster},
+	{.method = "GET", .pattern = "/api/v1/presets", .fn = h_presets},
+	{.method = "GET", .pattern = "/api/v1/presets/{name}", .fn = h_preset},
 };
 const size_t api_nroutes = sizeof(api_routes) / sizeof(api_routes[0]);
 
