@@ -43,11 +43,10 @@ ok $([ $RC = 3 ] && one_line && grep -q 'http://127.0.0.1:1/api/v1/jobs' "$tmp/e
 ctl list --state-dir "$tmp/nowhere"
 ok $([ $RC = 3 ] && grep -q 'nowhere/granulard.addr' "$tmp/err"; echo $?) "no daemon in the state dir: exit 3, the file is named"
 
-# 3. A real daemon; the client finds it through the state directory alone.
-S=$tmp/state
-gd_start "$S" --slots 2 --cancel-grace 5
-export GRANULAR_STATE_DIR="$S"
-unset GRANULAR_URL GRANULAR_TOKEN
+# 3. A real daemon with its default state directory ./var: the client finds it with no set-up at all.
+cd "$tmp" || exit 1
+unset GRANULAR_URL GRANULAR_TOKEN GRANULAR_STATE_DIR
+gd_start var --slots 2 --cancel-grace 5
 ctl cluster
 ok $([ $RC = 0 ] && grep -q "at $URL" "$tmp/out" && grep -q 'slots *0 used of 2' "$tmp/out"; echo $?) "cluster: found the daemon via STATE_DIR/granulard.addr"
 ctl cluster --json; ok $([ $RC = 0 ] && jsonok 'd["slots"]["total"] == 2 and "uptime_seconds" in d'; echo $?) "cluster --json"
