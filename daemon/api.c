@@ -7,6 +7,7 @@
 #include <string.h>
 #include "api.h"
 #include "openapi_yaml.h"   /* generated from schema/openapi.yaml: openapi_yaml[] */
+#include "dashboard.h"
 #include "presets.h"
 #include "util.h"
 
@@ -363,19 +364,26 @@ static void h_preset(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 		rs->status = 200;
 }
 
-static const char index_html[] =
-	"<!doctype html><html><head><meta charset=utf-8><title>granulard</title></head><body>"
-	"<h1>granulard</h1><p>The job service is running. API: <a href=\"/api/v1/jobs\">/api/v1/jobs</a>, "
-	"<a href=\"/api/v1/cluster\">/api/v1/cluster</a>, <a href=\"/api/v1/openapi.yaml\">OpenAPI</a>, "
-	"<a href=\"/metrics\">metrics</a>.</p></body></html>\n";
+/* ---- dashboard (embedded dashboard/ files) ----------------------------------- */
 
-static void h_index(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+static void serve_file(api_resp_t *rs, const char *name)
 {
+	dashboard_file_t f;
+	char m[200];
+	if (dashboard_find(name, &f)) {
+		snprintf(m, sizeof(m), "no such file: %.100s", name);
+		api_error(rs, 404, m);
+		return;
+	}
 	rs->status = 200;
-	rs->raw = index_html;
-	rs->raw_len = sizeof(index_html) - 1;
-	rs->ctype = "text/html; charset=utf-8";
+	rs->raw = f.data;
+	rs->raw_len = f.len;
+	rs->ctype = f.ctype;
 }
+
+static void h_index(gd_t *gd, const api_req_t *rq, api_resp_t *rs) { serve_file(rs, "index.html"); }
+
+static void h_static(gd_t *gd, const api_req_t *rq, api_resp_t *rs) { serve_file(rs, rq->params[0]); }
 
 /* ---- routes ---------------------------------------------------------------- */
 
@@ -396,6 +404,7 @@ const api_route_t api_routes[] = {
 	{.method = "GET", .pattern = "/api/v1/cluster", .fn = h_cluster},
 	{.method = "GET", .pattern = "/api/v1/presets", .fn = h_presets},
 	{.method = "GET", .pattern = "/api/v1/presets/{name}", .fn = h_preset},
+	{.method = "GET", .pattern = "/static/{name}", .fn = h_static, .flags = API_OPEN},
 };
 const size_t api_nroutes = sizeof(api_routes) / sizeof(api_routes[0]);
 

@@ -119,7 +119,19 @@ GRANULAR_URL=http://127.0.0.1:1 "$GRANULARCTL" list >/dev/null 2>"$tmp/err"
 ok $([ $? = 3 ] && grep -q '127.0.0.1:1' "$tmp/err"; echo $?) "\$GRANULAR_URL overrides the state directory"
 ctl --url "$URL" --state-dir "$tmp/nowhere" presets; ok $([ $RC = 0 ]; echo $?) "--url needs no state directory"
 
-# 9. The daemon stops under a watch: exit 3.
+# 9. The dashboard is served from the daemon, scripts from files only (CSP default-src 'self').
+curl -s -D "$tmp/hdr" -o "$tmp/index" "$URL/"
+ok $(grep -q 'src="/static/app.js"' "$tmp/index" && grep -qi "content-security-policy: default-src 'self'" "$tmp/hdr"; echo $?) "GET /: the dashboard, under CSP default-src 'self'"
+for f in app.js app.css uPlot.iife.min.js uPlot.min.css; do
+	c=$(curl -s -o "$tmp/f" -w '%{http_code} %{content_type}' "$URL/static/$f")
+	# the embedding ends the last line with a newline when the file does not
+	src=$(find "$SRCDIR/dashboard" -name "$f")
+	{ cat "$src"; [ -z "$(tail -c 1 "$src")" ] || echo; } >"$tmp/want"
+	cmp -s "$tmp/f" "$tmp/want" || c="$c, differs"
+	ok $(case "$c" in "200 text/"*charset*) [ "${c%differs}" = "$c" ] ;; *) false ;; esac; echo $?) "GET /static/$f: $c"
+done
+
+# 10. The daemon stops under a watch: exit 3.
 ctl submit "$tmp/long.json"
 lid=$(sed -n 's/^job \([0-9]*\) submitted.*/\1/p' "$tmp/out")
 wait_state "$lid" running 20
