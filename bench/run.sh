@@ -67,6 +67,9 @@ mcrow "2D dense, HSMC" hsmc 2 100000 0.4 0.9 40 cba
 mcrow "2D dense, HSMC" hsmc 2 1000000 0.4 0.9 8 cba
 mcrow "3D dense, HSMC" hsmc 3 1000000 0.25 0.9 8 cba
 
+tdm=$(mktemp)
+sh "$src/bench/daemon_bench.sh" "$build" "$src" >"$tdm"
+
 {
 	echo "# Benchmarks"
 	echo
@@ -94,6 +97,8 @@ mcrow "3D dense, HSMC" hsmc 3 1000000 0.25 0.9 8 cba
 	echo "|---|---|---|---|---|---|---|---|---|---|---|"
 	cat "$tmc"
 	echo
+	cat "$tdm"
 	if [ -f "$src/docs/benchmarks-notes.md" ]; then cat "$src/docs/benchmarks-notes.md"; fi
 } >"$out"
+rm -f "$tdm"
 echo "wrote $out"

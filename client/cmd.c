@@ -128,21 +128,29 @@ static int terminal(const char *state)
 }
 
 /* GET/POST/DELETE path; on success print --json output when asked. *out is the caller's. */
-static int call(ctx_t *x, const char *method, const char *path, const char *body, json_t **out)
+/* Find the server lazily: usage errors are reported before any server is looked for. */
+static int ensure_conn(ctx_t *x)
 {
 	char err[1024];
-	/* Connect lazily: usage errors are reported before any server is looked for. */
-	if (!x->conn) {
-		if (settings_init(&x->cfg, x->url, x->token, x->state_dir, err, sizeof(err)) != SETTINGS_OK) {
-			errf("%s", err);
-			return CTL_EXIT_SERVER;
-		}
-		if (!(x->conn = conn_create(x->cfg.url, x->cfg.token))) {
-			errf("out of memory");
-			return CTL_EXIT_SERVER;
-		}
+	if (x->conn)
+		return CTL_EXIT_OK;
+	if (settings_init(&x->cfg, x->url, x->token, x->state_dir, err, sizeof(err)) != SETTINGS_OK) {
+		errf("%s", err);
+		return CTL_EXIT_SERVER;
 	}
-	int rc = conn_request(x->conn, method, path, body, out);
+	if (!(x->conn = conn_create(x->cfg.url, x->cfg.token))) {
+		errf("out of memory");
+		return CTL_EXIT_SERVER;
+	}
+	return CTL_EXIT_OK;
+}
+
+static int call(ctx_t *x, const char *method, const char *path, const char *body, json_t **out)
+{
+	int rc = ensure_conn(x);
+	if (rc != CTL_EXIT_OK)
+		return rc;
+	rc = conn_request(x->conn, method, path, body, out);
 	if (rc != CONN_OK)
 		return api_failed(x, rc);
 	return CTL_EXIT_OK;
@@ -593,6 +601,83 @@ cleanup:
 	return rc;
 }
 
+/* ---- files ------------------------------------------------------------------------- */
+
+static int c_files(ctx_t *x)
+{
+	long long id;
+	json_t *j = NULL, *f;
+	char path[128], size[16], age[16];
+	size_t i;
+	int rc = job_arg(x, x->args[0], &id);
+	if (rc)
+		return rc;
+	snprintf(path, sizeof(path), "/api/v1/jobs/%lld/files", id);
+	if ((rc = call(x, "GET", path, NULL, &j)))
+		return rc;
+	if (x->json) {
+		print_json(j);
+		goto cleanup;
+	}
+	double now = (double)time(NULL);
+	printf("%-24s %8s %6s  %s\n", "NAME", "SIZE", "AGE", "SHA256");
+	json_array_foreach(json_object_get(j, "files"), i, f)
+		printf("%-24s %8s %6s  %s\n", str(f, "name", "?"), fmt_si(num(f, "size"), size, sizeof(size)),
+		       fmt_age(now - num(f, "modified"), age, sizeof(age)), str(f, "sha256", "-"));
+cleanup:
+	json_decref(j);
+	return rc;
+}
+
+/* Names the daemon serves: letters, digits, . _ - and no leading dot (also keeps -o's default safe). */
+static int file_name_ok(const char *s)
+{
+	if (!*s || *s == '.')
+		return 0;
+	for (; *s; s++)
+		if (!isalnum((unsigned char)*s) && !strchr("._-", *s))
+			return 0;
+	return 1;
+}
+
+static int c_download(ctx_t *x)
+{
+	long long id;
+	char path[512];
+	const char *name = x->args[1], *dest = x->output ? x->output : name;
+	FILE *out = NULL;
+	int rc = job_arg(x, x->args[0], &id);
+	if (rc)
+		return rc;
+	if (!file_name_ok(name))
+		return usage_error(x, "NAME '%s': not a job file name (letters, digits, . _ -; no leading dot)", name);
+	int to_stdout = !strcmp(dest, "-");
+	if (!to_stdout && !(out = fopen(dest, "wb"))) {
+		errf("-o %s: %s", dest, strerror(errno));
+		return CTL_EXIT_USAGE;
+	}
+	snprintf(path, sizeof(path), "/api/v1/jobs/%lld/files/%s", id, name);
+	if ((rc = ensure_conn(x)) != CTL_EXIT_OK)
+		goto cleanup;
+	int r = conn_download(x->conn, path, to_stdout ? stdout : out);
+	if (r != CONN_OK)
+		rc = api_failed(x, r);
+	else if (!to_stdout && fflush(out)) {
+		errf("-o %s: %s", dest, strerror(errno));
+		rc = CTL_EXIT_SERVER;
+	}
+cleanup:
+	if (out && fclose(out) && rc == CTL_EXIT_OK) {
+		errf("-o %s: %s", dest, strerror(errno));
+		rc = CTL_EXIT_SERVER;
+	}
+	if (rc != CTL_EXIT_OK && !to_stdout)
+		remove(dest);   /* no half-written file left behind */
+	else if (rc == CTL_EXIT_OK && !to_stdout && !x->json)
+		fprintf(stderr, "granularctl: job %lld: %s -> %s\n", id, name, dest);
+	return rc;
+}
+
 /* ---- service ----------------------------------------------------------------------- */
 
 static int c_cluster(ctx_t *x)
@@ -678,6 +763,11 @@ static const cmd_t commands[] = {
 	 .fn = c_progress, .min_args = 1, .max_args = 1, .opts = O_AFTER},
 	{.name = "clusters", .args = "ID", .summary = "the job's particle-cluster statistics over time", .fn = c_clusters,
 	 .min_args = 1, .max_args = 1},
+	{.name = "files", .args = "ID", .summary = "the job's output files with sizes and SHA-256", .fn = c_files,
+	 .min_args = 1, .max_args = 1},
+	{.name = "download", .args = "ID NAME", .summary = "download a job file (to NAME, or -o FILE; -o - for stdout)",
+	 .help = "  -o, --output FILE     where to write (default: NAME in the current directory; - = stdout)\n",
+	 .fn = c_download, .min_args = 2, .max_args = 2, .opts = O_OUTPUT},
 	{.name = "cluster", .args = "", .summary = "compute-cluster status: slots, queue, throughput", .fn = c_cluster},
 	{.name = "presets", .args = "", .summary = "the built-in scenes", .fn = c_presets},
 	{.name = "help", .args = "[COMMAND]", .summary = "this help, or a command's", .fn = c_help, .max_args = 1},

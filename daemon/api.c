@@ -5,16 +5,18 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 #include "api.h"
-#include "openapi_yaml.h"   /* generated from schema/openapi.yaml: openapi_yaml[] */
 #include "dashboard.h"
+#include "files.h"
 #include "presets.h"
+#include "daemon/openapi_yaml.h"   /* generated from schema/openapi.yaml: openapi_yaml[] */
 #include "util.h"
 
 
 static const struct { int status; const char *code; } error_codes[] = {
 	{400, "bad_request"}, {401, "unauthorized"}, {403, "forbidden"}, {404, "not_found"},
-	{405, "method_not_allowed"}, {409, "conflict"}, {413, "payload_too_large"},
+	{405, "method_not_allowed"}, {409, "conflict"}, {413, "payload_too_large"}, {416, "range_not_satisfiable"},
 	{415, "unsupported_media_type"}, {429, "too_many_requests"}, {500, "internal"}, {503, "unavailable"},
 };
 
@@ -252,6 +254,68 @@ static void h_events_all(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 	rs->sse_job = 0;
 }
 
+/* ---- files ----------------------------------------------------------------- */
+
+/* The job must exist (a deleted job's leftovers are not served). */
+static int job_dir(gd_t *gd, const api_req_t *rq, api_resp_t *rs, char *dir, size_t n)
+{
+	char err[256];
+	json_t *j = NULL;
+	int64_t id = job_id(rq, rs);
+	if (!id)
+		return 0;
+	int r = jobq_get(gd->q, id, 0, &j, err, sizeof(err));
+	json_decref(j);
+	if (r) {
+		queue_error(rs, r, err);
+		return 0;
+	}
+	snprintf(dir, n, "%s/%" PRId64, gd->jobs_dir, id);
+	return 1;
+}
+
+static void h_files(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	char dir[4200], err[512];
+	if (!job_dir(gd, rq, rs, dir, sizeof(dir)))
+		return;
+	if (files_list(dir, &rs->json, err, sizeof(err))) {
+		api_error(rs, 500, err);
+		return;
+	}
+	rs->status = 200;
+}
+
+static void h_file(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	char dir[4200], err[512];
+	uint64_t size = 0, off = 0, len = 0;
+	int fd = -1;
+	if (!job_dir(gd, rq, rs, dir, sizeof(dir)))
+		return;
+	int r = files_open(dir, rq->params[1], &fd, &size, err, sizeof(err));
+	if (r) {
+		api_error(rs, r == FILES_ENAME ? 400 : 404, err);
+		return;
+	}
+	int part = files_range(rq->header(rq->conn, "Range"), size, &off, &len);
+	if (part < 0) {
+		close(fd);
+		snprintf(err, sizeof(err), "Range: not satisfiable for a file of %" PRIu64 " bytes", size);
+		api_error(rs, 416, err);
+		rs->file_size = size;
+		return;
+	}
+	rs->status = part ? 206 : 200;
+	rs->has_file = 1;
+	rs->fd = fd;
+	rs->file_off = part ? off : 0;
+	rs->file_len = part ? len : size;
+	rs->file_size = size;
+	rs->ctype = files_content_type(rq->params[1]);
+	snprintf(rs->disposition, sizeof(rs->disposition), "attachment; filename=\"%s\"", rq->params[1]);
+}
+
 /* ---- service --------------------------------------------------------------- */
 
 static void h_cluster(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
@@ -400,6 +464,8 @@ const api_route_t api_routes[] = {
 	{.method = "GET", .pattern = "/api/v1/jobs/{id}/progress", .fn = h_progress},
 	{.method = "GET", .pattern = "/api/v1/jobs/{id}/clusters", .fn = h_clusters},
 	{.method = "GET", .pattern = "/api/v1/jobs/{id}/events", .fn = h_events_job},
+	{.method = "GET", .pattern = "/api/v1/jobs/{id}/files", .fn = h_files},
+	{.method = "GET", .pattern = "/api/v1/jobs/{id}/files/{name}", .fn = h_file},
 	{.method = "GET", .pattern = "/api/v1/events", .fn = h_events_all},
 	{.method = "GET", .pattern = "/api/v1/cluster", .fn = h_cluster},
 	{.method = "GET", .pattern = "/api/v1/presets", .fn = h_presets},

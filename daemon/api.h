@@ -8,7 +8,7 @@
 #include "cfg.h"
 #include "hub.h"
 #include "jobq.h"
-#include "sched.h"
+#include "scheduler.h"
 
 /* Everything a handler may use; owned by main.c, shared read-only by the HTTP threads. */
 typedef struct gd {
@@ -33,8 +33,9 @@ typedef struct {
 	const char *body;
 	size_t body_len;
 	const char *last_event_id;  /* SSE reconnect header or NULL */
-	/* query string lookup; NULL when absent */
+	/* query string and header lookup; NULL when absent */
 	const char *(*query)(void *conn, const char *key);
+	const char *(*header)(void *conn, const char *key);
 	void *conn;
 } api_req_t;
 
@@ -48,6 +49,10 @@ typedef struct {
 	int sse;                    /* start an event stream instead of a body */
 	int64_t sse_job;            /* 0 = every job */
 	int retry_after;            /* seconds, for 429/503 */
+	int has_file;               /* send file_len bytes of fd from file_off (the HTTP layer closes fd) */
+	int fd;
+	uint64_t file_off, file_len, file_size;
+	char disposition[200];      /* Content-Disposition value, or "" */
 } api_resp_t;
 
 typedef void (*api_handler_fn)(gd_t *gd, const api_req_t *rq, api_resp_t *rs);

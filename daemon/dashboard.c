@@ -2,7 +2,7 @@
 #include <config.h>
 #include <string.h>
 #include "dashboard.h"
-#include "dashboard_files.h"   /* generated: dashboard_files[] = {{name, data, len}, ...} */
+#include "daemon/dashboard_files.h"   /* generated: dashboard_files[] = {{name, data, len}, ...} */
 
 #define NFILES (sizeof(dashboard_files) / sizeof(dashboard_files[0]))
 

@@ -1,7 +1,7 @@
 /* SQLite connection set-up: pragmas and schema migrations (SQL lives in schema/NNN_name.sql). */
 #include <stdio.h>
 #include "db.h"
-#include "schema_sql.h"   /* generated from schema/NNN_*.sql: db_migrations[] */
+#include "daemon/schema_sql.h"   /* generated from schema/NNN_*.sql: db_migrations[] */
 
 static int exec(sqlite3 *db, const char *sql, char *err, size_t errlen)
 {

@@ -46,6 +46,11 @@ static const char *query_get(void *conn, const char *key)
 	return MHD_lookup_connection_value(conn, MHD_GET_ARGUMENT_KIND, key);
 }
 
+static const char *header_get(void *conn, const char *key)
+{
+	return MHD_lookup_connection_value(conn, MHD_HEADER_KIND, key);
+}
+
 /* ---- server-sent events ------------------------------------------------------ */
 
 static void sse_put(sse_t *s, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -174,6 +179,23 @@ static enum MHD_Result reply(http_t *h, struct MHD_Connection *c, api_resp_t *rs
 		MHD_add_response_header(r, "Content-Type", "text/event-stream");
 		MHD_add_response_header(r, "Cache-Control", "no-cache");
 		MHD_add_response_header(r, "X-Accel-Buffering", "no");
+	} else if (rs->has_file) {
+		/* MHD sends from the descriptor (sendfile) and closes it with the response. */
+		r = MHD_create_response_from_fd_at_offset64(rs->file_len, rs->fd, rs->file_off);
+		if (!r) {
+			close(rs->fd);
+			return MHD_NO;
+		}
+		MHD_add_response_header(r, "Content-Type", rs->ctype);
+		MHD_add_response_header(r, "Accept-Ranges", "bytes");
+		if (*rs->disposition)
+			MHD_add_response_header(r, "Content-Disposition", rs->disposition);
+		if (rs->status == 206) {
+			char cr[96];
+			snprintf(cr, sizeof(cr), "bytes %" PRIu64 "-%" PRIu64 "/%" PRIu64, rs->file_off,
+			         rs->file_off + rs->file_len - 1, rs->file_size);
+			MHD_add_response_header(r, "Content-Range", cr);
+		}
 	} else if (rs->json) {
 		txt = json_dumps(rs->json, JSON_COMPACT | JSON_PRESERVE_ORDER);
 		size_t n = txt ? strlen(txt) : 0;
@@ -201,6 +223,11 @@ static enum MHD_Result reply(http_t *h, struct MHD_Connection *c, api_resp_t *rs
 		MHD_add_response_header(r, "WWW-Authenticate", "Bearer realm=\"granulard\"");
 	if (rs->status == 405 && allow)
 		MHD_add_response_header(r, "Allow", allow);
+	if (rs->status == 416) {
+		char cr[64];
+		snprintf(cr, sizeof(cr), "bytes */%" PRIu64, rs->file_size);
+		MHD_add_response_header(r, "Content-Range", cr);
+	}
 	if (rs->retry_after > 0) {
 		char ra[16];
 		snprintf(ra, sizeof(ra), "%d", rs->retry_after);
@@ -305,7 +332,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
 	}
 
 	api_req_t ar = {.method = method, .path = url, .body = rq->body ? rq->body : "", .body_len = rq->len,
-	                .query = query_get, .conn = c};
+	                .query = query_get, .header = header_get, .conn = c};
 	int known = 0;
 	const api_route_t *rt = api_match(method, url, &ar, store, &known, allow, sizeof(allow));
 	if (!rt) {
@@ -370,6 +397,27 @@ static void on_completed(void *cls, struct MHD_Connection *c, void **con_cls, en
 		free(rq);
 	}
 	*con_cls = NULL;
+}
+
+/* Percent-decoding that leaves %00 and %2F encoded: a NUL would cut a name
+ * short ("a.h5%00x" would serve a.h5) and a slash would invent path segments. */
+static size_t unescape(void *cls, struct MHD_Connection *c, char *s)
+{
+	char *w = s;
+	for (const char *r = s; *r; r++) {
+		int hi, lo;
+		if (r[0] == '%' && sscanf((char[3]){r[1], r[1] ? r[2] : 0, 0}, "%1x%1x", &hi, &lo) == 2) {
+			int v = hi * 16 + lo;
+			if (v != 0 && v != '/') {
+				*w++ = (char)v;
+				r += 2;
+				continue;
+			}
+		}
+		*w++ = *r;
+	}
+	*w = '\0';
+	return (size_t)(w - s);
 }
 
 static void mhd_log(void *cls, const char *fmt, va_list ap)
@@ -477,6 +525,7 @@ http_t *http_start(gd_t *gd, int *port, char *err, size_t errlen)
 		MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)65536,
 		MHD_OPTION_NOTIFY_COMPLETED, on_completed, h,
 		MHD_OPTION_EXTERNAL_LOGGER, mhd_log, h,
+		MHD_OPTION_UNESCAPE_CALLBACK, unescape, h,
 		MHD_OPTION_END);
 	if (!h->d) {
 		snprintf(err, errlen, "cannot start the HTTP server on %s", gd->cfg->listen);

@@ -13,6 +13,7 @@ struct jobq {
 	sqlite3 *db;
 	pthread_mutex_t lock;
 	jobq_limits_t lim;
+	int64_t queued;     /* jobs in state queued: kept here so a submission need not count them */
 };
 
 static const char *const state_names[JOB_NSTATES] = {
@@ -59,6 +60,11 @@ jobq_t *jobq_open(const char *path, const jobq_limits_t *lim, char *err, size_t 
 	}
 	pthread_mutex_init(&q->lock, NULL);
 	q->lim = *lim;
+	sqlite3_stmt *st = NULL;
+	if (sqlite3_prepare_v2(q->db, "SELECT count(*) FROM jobs WHERE state='queued'", -1, &st, NULL) == SQLITE_OK &&
+	    sqlite3_step(st) == SQLITE_ROW)
+		q->queued = sqlite3_column_int64(st, 0);
+	sqlite3_finalize(st);
 	return q;
 }
 
@@ -319,20 +325,12 @@ int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **ou
 		sqlite3_finalize(st);
 		st = NULL;
 	}
-	{
-		sqlite3_stmt *cnt = NULL;
-		int64_t queued = 0;
-		sqlite3_prepare_v2(q->db, "SELECT count(*) FROM jobs WHERE state='queued'", -1, &cnt, NULL);
-		if (sqlite3_step(cnt) == SQLITE_ROW)
-			queued = sqlite3_column_int64(cnt, 0);
-		sqlite3_finalize(cnt);
-		if (queued >= q->lim.max_queued) {
-			rollback(q);
-			ret = JOBQ_ELIMIT;
-			snprintf(err, errlen, "queue full: %" PRId64 " jobs are waiting (limit %d); retry later", queued,
-			         q->lim.max_queued);
-			goto cleanup;
-		}
+	if (q->queued >= q->lim.max_queued) {
+		rollback(q);
+		ret = JOBQ_ELIMIT;
+		snprintf(err, errlen, "queue full: %" PRId64 " jobs are waiting (limit %d); retry later", q->queued,
+		         q->lim.max_queued);
+		goto cleanup;
 	}
 	rc = sqlite3_prepare_v2(q->db,
 	                        "INSERT INTO jobs(submission_id, scene, scene_hash, method, particles, priority, ranks, "
@@ -358,6 +356,7 @@ int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **ou
 		goto cleanup;
 	}
 	*created = 1;
+	q->queued++;
 	ret = load_job(q, sqlite3_last_insert_rowid(q->db), 0, out);
 cleanup:
 	sqlite3_finalize(st);
@@ -517,9 +516,12 @@ int jobq_cancel(jobq_t *q, int64_t id, double now, int *signal, json_t **out, ch
 	}
 	ret = job_state(q, id, &s);
 	if (ret == JOBQ_OK) {
-		if (s == JOB_QUEUED)
+		if (s == JOB_QUEUED) {
 			rc = exec_bind(q, "UPDATE jobs SET state='cancelled', reason='cancelled by request', finished_at=?, "
 			                  "updated_at=? WHERE id=?", "ddi", now, now, id);
+			if (rc == SQLITE_OK)
+				q->queued--;   /* undone below if the commit fails */
+		}
 		else if (s == JOB_RUNNING) {
 			rc = exec_bind(q, "UPDATE jobs SET cancel_requested=1, updated_at=? WHERE id=?", "di", now, id);
 			*signal = 1;
@@ -533,6 +535,8 @@ int jobq_cancel(jobq_t *q, int64_t id, double now, int *signal, json_t **out, ch
 	if (ret == JOBQ_OK && (rc != SQLITE_OK || commit(q) != SQLITE_OK)) {
 		ret = JOBQ_EDB;
 		DBERR(q, err, errlen);
+		if (rc == SQLITE_OK && s == JOB_QUEUED)
+			q->queued++;
 	}
 	if (ret != JOBQ_OK)
 		rollback(q);
@@ -698,6 +702,8 @@ int jobq_claim(jobq_t *q, int free_slots, double now, jobq_claim_t *out, char *e
 		    commit(q) != SQLITE_OK) {
 			ret = JOBQ_EDB;
 			DBERR(q, err, errlen);
+		} else {
+			q->queued--;
 		}
 	}
 	if (ret != JOBQ_OK) {
@@ -840,6 +846,8 @@ int jobq_attempt_finished(jobq_t *q, int64_t id, int attempt, double now, int ex
 	    commit(q) != SQLITE_OK) {
 		ret = JOBQ_EDB;
 		rollback(q);
+	} else if (next == JOB_QUEUED) {
+		q->queued++;
 	}
 out:
 	pthread_mutex_unlock(&q->lock);

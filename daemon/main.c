@@ -154,11 +154,15 @@ int main(int argc, char **argv)
 		fprintf(stderr, "granulard: state_dir %s: %s\n", cfg.state_dir, strerror(errno));
 		goto cleanup;
 	}
-	/* The engine runs inside its job directory: a relative state_dir (the default ./var) must become absolute. */
-	char *abs_jobs = realpath(jobs, NULL);
-	if (abs_jobs)
-		snprintf(jobs, sizeof(jobs), "%s", abs_jobs);
-	free(abs_jobs);
+	/* Jobs run in their own directories: every path handed to them must be absolute. */
+	char *abs = realpath(cfg.state_dir, NULL);
+	if (!abs) {
+		fprintf(stderr, "granulard: state_dir %s: %s\n", cfg.state_dir, strerror(errno));
+		goto cleanup;
+	}
+	free(cfg.state_dir);
+	cfg.state_dir = abs;
+	snprintf(jobs, sizeof(jobs), "%s/jobs", cfg.state_dir);
 	/* One daemon per state directory: two would both claim the same jobs. */
 	snprintf(path, sizeof(path), "%s/granulard.lock", cfg.state_dir);
 	lockfd = open(path, O_RDWR | O_CREAT | O_CLOEXEC, 0600);

@@ -3,7 +3,7 @@
 #include <stdio.h>
 #include <string.h>
 #include "presets.h"
-#include "presets_json.h"   /* generated: presets_embedded[] = {{name, json}, ...} */
+#include "daemon/presets_json.h"   /* generated: presets_embedded[] = {{name, json}, ...} */
 #include "scene.h"
 
 /* One line per preset for humans; a preset without a row here is described as "". */

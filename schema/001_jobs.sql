@@ -3,7 +3,7 @@
 -- Times are unix seconds (REAL, UTC). The jobs row is the only truth about a job.
 
 CREATE TABLE jobs (
-  id            INTEGER PRIMARY KEY,            -- monotonic, never reused
+  id            INTEGER PRIMARY KEY AUTOINCREMENT, -- monotonic, never reused (even after DELETE)
   submission_id TEXT UNIQUE,                    -- client-chosen idempotency key (NULL = none)
   scene         TEXT NOT NULL,                  -- the scene JSON as submitted (validated)
   scene_hash    TEXT NOT NULL,                  -- FNV-1a 64 of scene, to tell retries from clashes

@@ -23,7 +23,7 @@ echo "$LONG" >"$tmp/long.json"
 ctl --help
 ok $([ $RC = 0 ] && grep -q '^  submit' "$tmp/out" && grep -q 'Exit status' "$tmp/out"; echo $?) "--help lists the commands and exit statuses"
 bad=
-for c in submit list show watch cancel delete progress clusters cluster presets; do
+for c in submit list show watch cancel delete progress clusters files download cluster presets; do
 	ctl "$c" --help
 	[ $RC = 0 ] && grep -q "^usage: granularctl $c" "$tmp/out" || bad="$bad $c"
 done
@@ -111,6 +111,16 @@ ctl watch 999999; ok $([ $RC = 4 ]; echo $?) "watch of an unknown id: exit 4"
 # 7. watch --json streams events as JSON lines; delete.
 ctl watch "$id" --json
 ok $([ $RC = 0 ] && "$PY" -c 'import json,sys; [json.loads(l) for l in open(sys.argv[1])]' "$tmp/out" && grep -q '"event": "state"' "$tmp/out"; echo $?) "watch --json: JSON lines"
+ctl files "$id"
+ok $([ $RC = 0 ] && grep -q '^scene.json ' "$tmp/out" && grep -q '^progress.jsonl ' "$tmp/out"; echo $?) "files: table with scene.json and progress.jsonl"
+ctl files "$id" --json; ok $([ $RC = 0 ] && jsonok 'all(len(f["sha256"]) == 64 for f in d["files"])'; echo $?) "files --json: SHA-256 of each"
+ctl download "$id" scene.json -o "$tmp/dl.json"
+ok $([ $RC = 0 ] && cmp -s "$tmp/dl.json" "var/jobs/$id/scene.json"; echo $?) "download -o FILE: the same bytes as the job's scene.json"
+ctl download "$id" progress.jsonl -o -
+ok $([ $RC = 0 ] && cmp -s "$tmp/out" "var/jobs/$id/progress.jsonl"; echo $?) "download -o -: to stdout"
+ctl download "$id" nope.h5 -o "$tmp/nope"
+ok $([ $RC = 4 ] && one_line && [ ! -e "$tmp/nope" ]; echo $?) "download of a missing file: exit 4, no file left: $(cat "$tmp/err")"
+ctl download "$id" ../token; ok $([ $RC = 2 ]; echo $?) "download ../token: exit 2 before any request"
 ctl delete "$id"; ok $([ $RC = 0 ] && grep -q "job $id deleted" "$tmp/out"; echo $?) "delete"
 ctl delete "$id" --json; ok $([ $RC = 4 ]; echo $?) "delete again: exit 4"
 

@@ -38,6 +38,29 @@ ok $([ "$(field "$job" 'd["attempts"][0]["exit_status"]')" = 0 ] && [ "$(field "
 [ -f "$S/jobs/$id/progress.jsonl" ] && [ -f "$S/jobs/$id/scene.json" ]
 ok $? "job directory holds scene.json and the engine's output"
 
+# Files: listing with checksums, downloads with ranges, no path escapes.
+fl=$(api GET "/api/v1/jobs/$id/files")
+sum=$(sha256sum "$S/jobs/$id/progress.jsonl" | cut -d' ' -f1)
+ok $([ "$(field "$fl" '[f["sha256"] for f in d["files"] if f["name"]=="progress.jsonl"][0]')" = "$sum" ] &&
+     [ "$(field "$fl" '[f["size"] for f in d["files"] if f["name"]=="scene.json"][0]')" = "$(stat -c %s "$S/jobs/$id/scene.json")" ]; echo $?) \
+	"GET /files lists $(field "$fl" '",".join(f["name"] for f in d["files"])') with sizes and SHA-256"
+api GET "/api/v1/jobs/$id/files/progress.jsonl" >/dev/null
+cmp -s "$tmp/body" "$S/jobs/$id/progress.jsonl"
+ok $([ $? = 0 ] && [ "$(code)" = 200 ]; echo $?) "download: the whole file, byte for byte"
+api GET "/api/v1/jobs/$id/files/progress.jsonl" -H 'Range: bytes=10-19' -D "$tmp/hdr" >/dev/null
+ok $([ "$(code)" = 206 ] && [ "$(cat "$tmp/body")" = "$(dd if="$S/jobs/$id/progress.jsonl" bs=1 skip=10 count=10 2>/dev/null)" ] &&
+     grep -qi "^Content-Range: bytes 10-19/$(stat -c %s "$S/jobs/$id/progress.jsonl")" "$tmp/hdr"; echo $?) "Range bytes=10-19: 206, 10 bytes, Content-Range"
+api GET "/api/v1/jobs/$id/files/progress.jsonl" -H 'Range: bytes=-7' >/dev/null
+ok $([ "$(code)" = 206 ] && [ "$(cat "$tmp/body")" = "$(tail -c 7 "$S/jobs/$id/progress.jsonl")" ]; echo $?) "Range bytes=-7: the last 7 bytes"
+api GET "/api/v1/jobs/$id/files/progress.jsonl" -H 'Range: bytes=99999999-' >/dev/null; err_ok_early=$(code)
+ok $([ "$err_ok_early" = 416 ]; echo $?) "Range past the end: 416"
+for bad in ..%2F..%2Ftoken .sha256 '%2E%2E' 'scene.json%00x'; do
+	c=$(curl -s --path-as-is -o "$tmp/b2" -w '%{http_code}' "$URL/api/v1/jobs/$id/files/$bad")
+	ok $(case $c in 4??) ! grep -q "$TOKEN" "$tmp/b2" ;; *) false ;; esac; echo $?) "file name $bad refused: $c"
+done
+c=$(curl -s --path-as-is -o /dev/null -w '%{http_code}' "$URL/api/v1/jobs/$id/files/../../../token")
+ok $(case $c in 4??) true ;; *) false ;; esac; echo $?) "path with .. segments refused: $c"
+
 # 2. cancel a running job.
 id2=$(field "$(post /api/v1/jobs -d "$LONG")" 'd["id"]')
 wait_state "$id2" running 20
@@ -166,7 +189,27 @@ post "/api/v1/jobs/$id6/cancel" >/dev/null
 wait_state "$id6" cancelled 20
 gd_stop
 
-# 10. A second daemon on the same state directory is refused; bad flags exit 2 with one line.
+# 10. 429 when the queue is full; 503 for changes while the daemon drains.
+printf '#!/bin/sh\n# a job that ignores SIGTERM (it must be killed)\ntrap "" TERM\nexec sleep 3600\n' >"$tmp/stubborn.sh"
+chmod +x "$tmp/stubborn.sh"
+S2=$tmp/state2
+gd_start "$S2" --slots 1 --max-queued 1 --launch "$tmp/stubborn.sh {scene}" --shutdown-grace 3
+a=$(field "$(post /api/v1/jobs -d "$SHORT")" 'd["id"]'); wait_state "$a" running 10
+post /api/v1/jobs -d "$SHORT" >/dev/null
+post /api/v1/jobs -D "$tmp/hdr" -d "$SHORT" >/dev/null; err_ok 429 "queue full (max_queued 1)"
+grep -qi '^Retry-After: ' "$tmp/hdr"
+ok $? "429 carries Retry-After"
+kill -TERM "$GD_PID"; sleep 0.7
+post /api/v1/jobs -d "$SHORT" >/dev/null; err_ok 503 "submission while the daemon drains its jobs"
+h=$(api GET /healthz)
+ok $([ "$(field "$h" 'd["status"]')" = stopping ]; echo $?) "healthz says stopping meanwhile"
+wait "$GD_PID"; GD_PID=
+gd_start "$S2" --slots 1 --max-queued 1 --launch "/bin/true"
+ok $([ "$(field "$(api GET "/api/v1/jobs/$a")" 'd["attempts"][0]["signal"]')" = 9 ]; echo $?) \
+	"a job that ignores SIGTERM was killed (SIGKILL) after shutdown_grace and requeued"
+gd_stop
+
+# 11. A second daemon on the same state directory is refused; bad flags exit 2 with one line.
 gd_start "$S" --slots 1
 "$GRANULARD" --state-dir "$S" --listen 127.0.0.1:0 2>"$tmp/err2"
 ok $([ $? -ne 0 ] && grep -q "another granulard" "$tmp/err2"; echo $?) "second daemon on the same state dir refused: $(cat "$tmp/err2")"

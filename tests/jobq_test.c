@@ -160,6 +160,10 @@ int main(void)
 	ok(jobq_delete(q, a, err, sizeof(err)) == 0 && jobq_get(q, a, 0, &out, err, sizeof(err)) == JOBQ_ENOTFOUND,
 	   "a finished job can be deleted, and is gone");
 	ok(jobq_delete(q, 999, err, sizeof(err)) == JOBQ_ENOTFOUND, "deleting an unknown job: not found");
+	int64_t e = submit(q, SCENE, &rc, NULL, err);
+	ok(e == 4, "ids are never reused: the next job after deleting job 1 is 4 (got %lld)", (long long)e);
+	jobq_cancel(q, e, 630.0, &sig, &out, err, sizeof(err));
+	json_decref(out);
 
 	/* Requeue (interrupted attempt) keeps the attempt history. */
 	int64_t d = submit(q, SCENE, &rc, NULL, err);
@@ -190,8 +194,8 @@ int main(void)
 	ok(first2 < last1, "second page continues below the first (%lld < %lld)", (long long)first2, (long long)last1);
 	f = (jobq_filter_t){.limit = 100, .states = 1u << JOB_CANCELLED};
 	jobq_list(q, &f, &l3, err, sizeof(err));
-	ok(json_array_size(json_object_get(l3, "jobs")) == 2 && json_is_null(json_object_get(l3, "next_cursor")),
-	   "state filter: the 2 cancelled jobs, no next page");
+	ok(json_array_size(json_object_get(l3, "jobs")) == 3 && json_is_null(json_object_get(l3, "next_cursor")),
+	   "state filter: the 3 cancelled jobs, no next page");
 	json_decref(l1);
 	json_decref(l2);
 	json_decref(l3);

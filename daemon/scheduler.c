@@ -14,7 +14,7 @@
 #include <time.h>
 #include <unistd.h>
 #include "log.h"
-#include "sched.h"
+#include "scheduler.h"
 #include "util.h"
 
 #define MAX_CHILDREN 4096
@@ -213,16 +213,30 @@ static char *tail_str(const child_t *k)
 	return s;
 }
 
-/* Last non-empty line of the stderr tail, for reasons. */
+/* The line of the stderr tail that says what went wrong: the engine's own
+ * last message ("granular-engine: ..."), else the last line that is not one
+ * of mpirun's banner rules. */
 static void last_line(const char *tail, char *out, size_t n)
 {
-	size_t len = strlen(tail);
-	while (len && (tail[len - 1] == '\n' || tail[len - 1] == ' '))
-		len--;
-	size_t b = len;
-	while (b && tail[b - 1] != '\n')
-		b--;
-	snprintf(out, n, "%.*s", (int)(len - b), tail + b);
+	const char *best = NULL, *fallback = NULL;
+	size_t best_len = 0, fb_len = 0;
+	for (const char *p = tail; *p;) {
+		size_t len = strcspn(p, "\n");
+		size_t k = strspn(p, "- ");
+		if (len && !strncmp(p, "granular-engine:", 16)) {
+			best = p;
+			best_len = len;
+		} else if (len && k < len) {
+			fallback = p;
+			fb_len = len;
+		}
+		p += len + (p[len] == '\n');
+	}
+	if (!best) {
+		best = fallback;
+		best_len = fb_len;
+	}
+	snprintf(out, n, "%.*s", best ? (int)best_len : 0, best ? best : "");
 }
 
 static int launch(sched_t *s, const jobq_claim_t *cl)
