@@ -7,7 +7,9 @@
 #include <string.h>
 #include <unistd.h>
 #include "api.h"
+#include "dashboard.h"
 #include "files.h"
+#include "presets.h"
 #include "daemon/openapi_yaml.h"   /* generated from schema/openapi.yaml: openapi_yaml[] */
 #include "util.h"
 
@@ -405,19 +407,47 @@ static void h_openapi(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 	rs->ctype = "application/yaml";
 }
 
-static const char index_html[] =
-	"<!doctype html><html><head><meta charset=utf-8><title>granulard</title></head><body>"
-	"<h1>granulard</h1><p>The job service is running. API: <a href=\"/api/v1/jobs\">/api/v1/jobs</a>, "
-	"<a href=\"/api/v1/cluster\">/api/v1/cluster</a>, <a href=\"/api/v1/openapi.yaml\">OpenAPI</a>, "
-	"<a href=\"/metrics\">metrics</a>.</p></body></html>\n";
+/* ---- presets (built-in scenes) --------------------------------------------- */
 
-static void h_index(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+static void h_presets(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 {
-	rs->status = 200;
-	rs->raw = index_html;
-	rs->raw_len = sizeof(index_html) - 1;
-	rs->ctype = "text/html; charset=utf-8";
+	char err[256];
+	if (presets_list(&rs->json, err, sizeof(err)) != PRESETS_OK)
+		api_error(rs, 500, err);
+	else
+		rs->status = 200;
 }
+
+static void h_preset(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	char err[256];
+	int r = presets_get(rq->params[0], &rs->json, err, sizeof(err));
+	if (r != PRESETS_OK)
+		api_error(rs, r == PRESETS_ENOTFOUND ? 404 : 500, err);
+	else
+		rs->status = 200;
+}
+
+/* ---- dashboard (embedded dashboard/ files) ----------------------------------- */
+
+static void serve_file(api_resp_t *rs, const char *name)
+{
+	dashboard_file_t f;
+	char m[200];
+	if (dashboard_find(name, &f)) {
+		snprintf(m, sizeof(m), "no such file: %.100s", name);
+		api_error(rs, 404, m);
+		return;
+	}
+	rs->status = 200;
+	rs->raw = f.data;
+	rs->raw_len = f.len;
+	rs->ctype = f.ctype;
+}
+
+static void h_index(gd_t *gd, const api_req_t *rq, api_resp_t *rs) { serve_file(rs, "index.html"); }
+
+static void h_static(gd_t *gd, const api_req_t *rq, api_resp_t *rs) { serve_file(rs, rq->params[0]); }
 
 /* ---- routes ---------------------------------------------------------------- */
 
@@ -438,6 +468,9 @@ const api_route_t api_routes[] = {
 	{.method = "GET", .pattern = "/api/v1/jobs/{id}/files/{name}", .fn = h_file},
 	{.method = "GET", .pattern = "/api/v1/events", .fn = h_events_all},
 	{.method = "GET", .pattern = "/api/v1/cluster", .fn = h_cluster},
+	{.method = "GET", .pattern = "/api/v1/presets", .fn = h_presets},
+	{.method = "GET", .pattern = "/api/v1/presets/{name}", .fn = h_preset},
+	{.method = "GET", .pattern = "/static/{name}", .fn = h_static, .flags = API_OPEN},
 };
 const size_t api_nroutes = sizeof(api_routes) / sizeof(api_routes[0]);
 

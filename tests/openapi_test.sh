@@ -27,7 +27,7 @@ SC='{"method":"ed","dimensions":2,"particles":{"count":100,"volume_fraction":0.2
 id=$(field "$(post /api/v1/jobs -d "$SC")" 'd["id"]')
 wait_state "$id" succeeded 30
 while read -r m p; do
-	path=$(echo "$p" | sed "s/{id}/$id/; s/{name}/scene.json/")
+	path=$(echo "$p" | sed "s/{id}/$id/; s|presets/{name}|presets/cooling-2d|; s|static/{name}|static/app.js|; s/{name}/scene.json/")
 	case "$m $p" in
 	*/events) code=$(curl -s -m 3 -o /dev/null -w '%{http_code}' "$URL$path") ;;   # streams: the status is enough
 	"POST /api/v1/jobs") post "$path" -d "$SC" >/dev/null; code=$(code) ;;

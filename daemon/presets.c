@@ -1,0 +1,107 @@
+/* Built-in scenes: the embedded presets/ *.json texts, described and validated with the engine's scene parser. */
+#include <config.h>
+#include <stdio.h>
+#include <string.h>
+#include "presets.h"
+#include "daemon/presets_json.h"   /* generated: presets_embedded[] = {{name, json}, ...} */
+#include "scene.h"
+
+/* One line per preset for humans; a preset without a row here is described as "". */
+static const struct { const char *name, *description; } descriptions[] = {
+	{.name = "cooling-2d", .description = "Homogeneous cooling of 10,000 disks (phi=0.2, e=0.9): Haff's law, "
+	                                      "200 collisions per particle"},
+	{.name = "clustering-2d", .description = "Clustering instability of 40,000 disks (phi=0.25, e=0.6): "
+	                                         "Haff's law breaks down as clusters form, 400 collisions per particle"},
+	{.name = "cooling-3d", .description = "Homogeneous cooling of 8,000 spheres (phi=0.2, e=0.9): Haff's law, "
+	                                      "100 collisions per particle"},
+	{.name = "clustering-3d", .description = "Clustering instability of 27,000 spheres (phi=0.2, e=0.6): "
+	                                         "a system-spanning cluster, 200 collisions per particle"},
+};
+
+static const size_t npresets = sizeof(presets_embedded) / sizeof(presets_embedded[0]);
+
+size_t presets_count(void) { return npresets; }
+
+const char *presets_name(size_t i) { return i < npresets ? presets_embedded[i].name : NULL; }
+
+const char *presets_text(const char *name)
+{
+	for (size_t i = 0; name && i < npresets; i++)
+		if (!strcmp(presets_embedded[i].name, name))
+			return presets_embedded[i].json;
+	return NULL;
+}
+
+static const char *describe(const char *name)
+{
+	for (size_t i = 0; i < sizeof(descriptions) / sizeof(descriptions[0]); i++)
+		if (!strcmp(descriptions[i].name, name))
+			return descriptions[i].description;
+	return "";
+}
+
+int presets_get(const char *name, json_t **out, char *err, size_t errlen)
+{
+	int rc = PRESETS_OK;
+	json_t *scene = NULL;
+	scene_t s;
+	char perr[256];
+	const char *text = presets_text(name);
+	*out = NULL;
+	if (!text) {
+		snprintf(err, errlen, "preset '%.100s' not found (GET /api/v1/presets lists them)", name ? name : "");
+		rc = PRESETS_ENOTFOUND;
+		goto cleanup;
+	}
+	if (scene_parse(text, strlen(text), &s, perr, sizeof(perr)) != SCENE_OK ||
+	    !(scene = json_loads(text, 0, NULL))) {
+		snprintf(err, errlen, "preset '%s' is not a valid scene: %s", name, perr);
+		rc = PRESETS_EINVAL;
+		goto cleanup;
+	}
+	*out = json_pack("{s:s, s:s, s:i, s:s, s:I, s:O}", "name", name, "description", describe(name), "dimensions",
+	                 s.dim, "method", scene_method_name(s.method), "particles", (json_int_t)s.count, "scene", scene);
+	if (!*out) {
+		snprintf(err, errlen, "out of memory");
+		rc = PRESETS_ENOMEM;
+	}
+cleanup:
+	json_decref(scene);
+	return rc;
+}
+
+int presets_list(json_t **out, char *err, size_t errlen)
+{
+	int rc = PRESETS_OK;
+	json_t *arr = json_array(), *p = NULL;
+	*out = NULL;
+	if (!arr) {
+		rc = PRESETS_ENOMEM;
+		snprintf(err, errlen, "out of memory");
+		goto cleanup;
+	}
+	for (size_t i = 0; i < npresets; i++) {
+		if ((rc = presets_get(presets_embedded[i].name, &p, err, errlen)) != PRESETS_OK)
+			goto cleanup;
+		json_array_append_new(arr, p);
+	}
+	*out = json_pack("{s:O}", "presets", arr);
+	if (!*out) {
+		rc = PRESETS_ENOMEM;
+		snprintf(err, errlen, "out of memory");
+	}
+cleanup:
+	json_decref(arr);
+	return rc;
+}
+
+const char *presets_strerror(int code)
+{
+	switch (code) {
+	case PRESETS_OK: return "ok";
+	case PRESETS_ENOTFOUND: return "no such preset";
+	case PRESETS_EINVAL: return "embedded preset is not a valid scene";
+	case PRESETS_ENOMEM: return "out of memory";
+	default: return "unknown error";
+	}
+}

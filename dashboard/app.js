@@ -1,0 +1,258 @@
+// granulard dashboard: one multiplexed SSE stream (/api/v1/events) keeps the job table, the open job and the cluster panel live.
+'use strict';
+(function () {
+  const $ = (id) => document.getElementById(id);
+  const TOKEN_KEY = 'granulard.token';
+  const TERMINAL = new Set(['succeeded', 'failed', 'cancelled']);
+  const jobs = new Map();          // id -> job JSON (without scene)
+  let view = { job: 0 };           // the open job page, 0 = list
+  let series = null;               // {job, after, t, T, rate, cl, until}
+  let plots = [];
+
+  // ---- HTTP: reads are open on loopback; changes carry the token as a header, never in the URL ----
+  async function api(method, path, body) {
+    const headers = {};
+    const token = localStorage.getItem(TOKEN_KEY);
+    if (method !== 'GET' && token) headers.Authorization = 'Bearer ' + token;
+    if (body !== undefined) headers['Content-Type'] = 'application/json';
+    const r = await fetch(path, { method, headers, body: body === undefined ? undefined : JSON.stringify(body) });
+    const j = await r.json().catch(() => null);
+    if (!r.ok) throw new Error(j && j.error ? j.error.message : 'HTTP ' + r.status);
+    return j;
+  }
+
+  // ---- helpers ----
+  const pct = (p) => (Number.isFinite(p) ? (100 * p).toFixed(1) + '%' : '-');
+  function si(v) {
+    if (!Number.isFinite(v)) return '-';
+    const u = ['', 'k', 'M', 'G', 'T']; let i = 0;
+    while (Math.abs(v) >= 1000 && i < u.length - 1) { v /= 1000; i++; }
+    return (i ? v.toPrecision(3) : String(Math.round(v))) + u[i];
+  }
+  function age(t) {
+    const s = Date.now() / 1000 - t;
+    if (!Number.isFinite(s)) return '-';
+    return s < 60 ? Math.floor(s) + 's' : s < 3600 ? Math.floor(s / 60) + 'm' : s < 86400 ? Math.floor(s / 3600) + 'h' : Math.floor(s / 86400) + 'd';
+  }
+  function el(tag, attrs, ...kids) {
+    const e = document.createElement(tag);
+    for (const [k, v] of Object.entries(attrs || {})) e.setAttribute(k, v);
+    for (const k of kids) e.append(k instanceof Node ? k : document.createTextNode(String(k)));
+    return e;
+  }
+  function badge(state) { return el('span', { class: 'badge ' + state }, state); }
+  function bar(p) { const b = el('div', { class: 'bar' }, el('div')); b.firstChild.style.width = (Number.isFinite(p) ? 100 * p : 0) + '%'; return b; }
+  function throttle(fn, ms) {
+    let last = 0, timer = null;
+    return function () {
+      const wait = last + ms - Date.now();
+      if (timer) return;
+      timer = setTimeout(() => { timer = null; last = Date.now(); fn(); }, Math.max(0, wait));
+    };
+  }
+  function dl(node, rows) {
+    node.replaceChildren();
+    for (const [k, v] of rows) node.append(el('dt', {}, k), el('dd', {}, v));
+  }
+
+  // ---- job table ----
+  function renderJobs() {
+    const body = $('jobs').tBodies[0], filter = $('filter').value;
+    const rows = [...jobs.values()].filter((j) => !filter || j.state === filter).sort((a, b) => b.id - a.id);
+    body.replaceChildren(...rows.map((j) => {
+      const tr = el('tr', { 'data-id': j.id },
+        el('td', {}, j.id), el('td', {}, badge(j.state)),
+        el('td', {}, bar(j.progress), pct(j.progress)), el('td', {}, j.method || '-'),
+        el('td', {}, si(j.particles)), el('td', {}, Number.isFinite(j.sim_time) ? j.sim_time.toPrecision(4) : '-'),
+        el('td', {}, age(j.created_at)), el('td', {}));
+      if (!TERMINAL.has(j.state)) {
+        const b = el('button', { type: 'button' }, 'cancel');
+        b.addEventListener('click', (ev) => { ev.stopPropagation(); cancel(j.id); });
+        tr.lastChild.append(b);
+      }
+      tr.addEventListener('click', () => { location.hash = '#/job/' + j.id; });
+      return tr;
+    }));
+  }
+  async function loadJobs() {
+    try {
+      const r = await api('GET', '/api/v1/jobs?limit=200');
+      jobs.clear();
+      for (const j of r.jobs) jobs.set(j.id, j);
+      renderJobs();
+    } catch (e) { $('submit-msg').textContent = e.message; }
+  }
+  // Progress moves between state events: refresh the unfinished jobs at most once a second.
+  const refreshActive = throttle(async () => {
+    try {
+      const r = await api('GET', '/api/v1/jobs?state=queued,running&limit=200');
+      for (const j of r.jobs) jobs.set(j.id, j);
+      renderJobs();
+      if (view.job && jobs.has(view.job)) renderJob(jobs.get(view.job));
+    } catch (e) { /* the stream status shows connectivity */ }
+  }, 1000);
+
+  async function cancel(id) {
+    try { await api('POST', '/api/v1/jobs/' + id + '/cancel'); }
+    catch (e) { alert('cancel job ' + id + ': ' + e.message); }
+  }
+
+  // ---- compute cluster ----
+  const loadCluster = throttle(async () => {
+    try {
+      const c = await api('GET', '/api/v1/cluster');
+      const byState = Object.entries(c.jobs || {}).map(([k, v]) => k + ' ' + v).join(', ');
+      dl($('cluster-stats'), [
+        ['version', c.version], ['uptime', Math.round(c.uptime_seconds) + ' s'],
+        ['slots', c.slots.used + ' / ' + c.slots.total + ' used'], ['jobs', byState],
+        ['running', (c.running || []).map((r) => '#' + r.id + ' ' + pct(r.progress)).join(', ') || '-'],
+        ['last hour', c.finished_last_hour + ' finished'], ['events/s', si(c.events_per_second)],
+      ]);
+    } catch (e) { dl($('cluster-stats'), [['error', e.message]]); }
+  }, 2000);
+
+  // ---- submit form with presets ----
+  let presets = [];
+  async function loadPresets() {
+    try {
+      presets = (await api('GET', '/api/v1/presets')).presets;
+      $('preset').replaceChildren(...presets.map((p) => el('option', { value: p.name }, p.name + ' (' + p.dimensions + 'D, N=' + si(p.particles) + ')')));
+      showPreset();
+    } catch (e) { $('submit-msg').textContent = 'presets: ' + e.message; }
+  }
+  function showPreset() {
+    const p = presets.find((x) => x.name === $('preset').value);
+    if (!p) return;
+    $('preset-desc').textContent = p.description;
+    $('scene').value = JSON.stringify(p.scene, null, 2);
+  }
+  async function submit(ev) {
+    ev.preventDefault();
+    const msg = $('submit-msg');
+    let scene;
+    try { scene = JSON.parse($('scene').value); } catch (e) { msg.className = 'err'; msg.textContent = 'scene: ' + e.message; return; }
+    try {
+      const j = await api('POST', '/api/v1/jobs', { scene, priority: Number($('priority').value), ranks: Number($('ranks').value) });
+      msg.className = 'ok'; msg.textContent = 'job ' + j.id + ' ' + j.state;
+      jobs.set(j.id, j); renderJobs();
+    } catch (e) { msg.className = 'err'; msg.textContent = e.message; }
+  }
+
+  // ---- job page: record, live plots ----
+  function renderJob(j) {
+    $('job-id').textContent = j.id;
+    const b = $('job-state'); b.className = 'badge ' + j.state; b.textContent = j.state;
+    $('job-bar').style.width = (Number.isFinite(j.progress) ? 100 * j.progress : 0) + '%';
+    $('job-cancel').hidden = TERMINAL.has(j.state);
+    dl($('job-info'), [
+      ['progress', pct(j.progress)], ['method', j.method + ', N=' + si(j.particles) + ', ' + j.ranks + ' rank(s)'],
+      ['sim time', Number.isFinite(j.sim_time) ? j.sim_time.toPrecision(5) : '-'], ['events', si(j.events)],
+      ['created', new Date(j.created_at * 1000).toLocaleString()], ['reason', j.reason || '-'],
+    ]);
+  }
+  // Haff's law: sqrt(T0/T) - 1 = t/tau; least squares through the origin over the early records (T > T0/4).
+  function haff(t, T) {
+    const T0 = T[0]; let stt = 0, sty = 0;
+    for (let i = 1; i < t.length; i++) {
+      if (!(T[i] > T0 / 4)) break;
+      const y = Math.sqrt(T0 / T[i]) - 1; stt += t[i] * t[i]; sty += t[i] * y;
+    }
+    return sty > 0 ? { T0, tau: stt / sty } : null;
+  }
+  function makePlots() {
+    for (const p of plots) p.destroy();
+    plots = [];
+    if (!window.uPlot) return;
+    const w = Math.max(380, $('plot-energy').clientWidth || 420), h = 240;
+    const base = (label, logy, extra) => ({
+      width: w, height: h, scales: { x: { time: false, distr: logy ? 3 : 1 }, y: { distr: logy ? 3 : 1 } },
+      axes: [{ label: 'time' }, {}], series: [{ label: 't' }, { label, stroke: '#2f6fde', width: 2, points: { show: false } }].concat(extra || []),
+    });
+    plots.push(new uPlot(base('T', true, [{ label: "Haff", stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }]), [[], [], []], $('plot-energy')));
+    plots.push(new uPlot(base('collisions/particle/time', false), [[], []], $('plot-rate')));
+    plots.push(new uPlot(base('largest fraction', false), [[], []], $('plot-cluster')));
+  }
+  function drawPlots() {
+    if (!series || plots.length < 3) return;
+    const { t, T, rate, cl } = series;
+    // log axes: drop t = 0 (the initial record) from the log-log plot
+    const i0 = t.length && t[0] <= 0 ? 1 : 0;
+    const fit = haff(t, T), tl = t.slice(i0);
+    const H = tl.map((x) => (fit ? fit.T0 / Math.pow(1 + x / fit.tau, 2) : null));
+    plots[0].setData([tl, T.slice(i0), H]);
+    plots[1].setData([t, rate]);
+    plots[2].setData([t, cl]);
+    $('haff').textContent = fit ? 'Haff fit: T0 = ' + fit.T0.toPrecision(3) + ', tau = ' + fit.tau.toPrecision(3) +
+      ' (early records with T > T0/4); departures at late times mark clustering' : '';
+  }
+  const fetchSeries = throttle(async () => {
+    if (!series) return;
+    const id = series.job;
+    try {
+      const r = await api('GET', '/api/v1/jobs/' + id + '/progress?after=' + series.after);
+      if (!series || series.job !== id) return;
+      for (const rec of r.records) {
+        series.after = Math.max(series.after, rec.seq);
+        if (rec.type !== 'progress') continue;
+        series.t.push(rec.time); series.T.push(rec.temperature ?? null);
+        series.rate.push(rec.collision_rate ?? null);
+        series.cl.push(rec.clusters ? rec.clusters.largest_fraction : null);
+      }
+      drawPlots();
+    } catch (e) { $('job-msg').textContent = e.message; }
+  }, 500);
+  async function openJob(id) {
+    view.job = id;
+    $('list-view').hidden = true; $('job-view').hidden = false;
+    series = { job: id, after: -1, t: [], T: [], rate: [], cl: [] };
+    makePlots();
+    try {
+      const j = await api('GET', '/api/v1/jobs/' + id + '?scene=0');
+      jobs.set(id, j); renderJob(j);
+      $('job-msg').textContent = '';
+    } catch (e) { $('job-msg').textContent = e.message; }
+    fetchSeries();
+  }
+  function route() {
+    const m = location.hash.match(/^#\/job\/(\d+)$/);
+    if (m) { openJob(Number(m[1])); return; }
+    view.job = 0; series = null;
+    $('job-view').hidden = true; $('list-view').hidden = false;
+    renderJobs();
+  }
+
+  // ---- the one event stream ----
+  function connect() {
+    const es = new EventSource('/api/v1/events');
+    const live = $('live');
+    es.addEventListener('hello', () => { live.className = 'badge live'; live.textContent = 'live'; loadJobs(); loadCluster(); if (view.job) fetchSeries(); });
+    es.addEventListener('state', (ev) => {
+      const j = JSON.parse(ev.data);
+      jobs.set(j.id, Object.assign(jobs.get(j.id) || {}, j));
+      renderJobs(); loadCluster();
+      if (view.job === j.id) { renderJob(jobs.get(j.id)); fetchSeries(); }
+    });
+    // Progress lines do not name their job: refresh what is on screen, throttled.
+    es.addEventListener('progress', () => { refreshActive(); if (view.job) fetchSeries(); });
+    es.addEventListener('deleted', () => loadJobs());
+    es.addEventListener('gap', () => loadJobs());
+    es.onerror = () => { live.className = 'badge down'; live.textContent = 'reconnecting'; };
+  }
+
+  // ---- token: entered once, kept in localStorage ----
+  function showToken() { $('token-state').textContent = localStorage.getItem(TOKEN_KEY) ? 'saved' : 'none (needed to submit/cancel)'; }
+  $('token-form').addEventListener('submit', (ev) => {
+    ev.preventDefault();
+    const v = $('token').value.trim();
+    if (v) localStorage.setItem(TOKEN_KEY, v); else localStorage.removeItem(TOKEN_KEY);
+    $('token').value = ''; showToken();
+  });
+
+  $('preset').addEventListener('change', showPreset);
+  $('submit-form').addEventListener('submit', submit);
+  $('filter').addEventListener('change', renderJobs);
+  $('job-cancel').addEventListener('click', () => view.job && cancel(view.job));
+  window.addEventListener('hashchange', route);
+  showToken(); loadPresets(); loadJobs(); loadCluster(); route(); connect();
+  setInterval(loadCluster, 10000);
+})();

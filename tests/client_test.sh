@@ -1,0 +1,154 @@
+#!/bin/sh
+# Integration test of granularctl against a real granulard and engine: every command, --json, exit codes, messages.
+set -u
+. "$(dirname "$0")/daemon_lib.sh"
+: "${GRANULARCTL:=$BUILDDIR/client/granularctl}"
+PY=/usr/bin/python3
+
+# ctl ARGS...: run granularctl; stdout in $tmp/out, stderr in $tmp/err, status in RC.
+ctl() { "$GRANULARCTL" "$@" >"$tmp/out" 2>"$tmp/err"; RC=$?; }
+out() { cat "$tmp/out"; }
+err() { cat "$tmp/err"; }
+# jsonok EXPR: the last stdout is JSON and EXPR (python, on d) holds.
+jsonok() { "$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); sys.exit(0 if eval(sys.argv[2]) else 1)' "$tmp/out" "$1" 2>/dev/null; }
+# one_line: stderr is exactly one line starting "granularctl: " (a usage hint may follow on a "Try" line).
+one_line() { [ "$(grep -vc '^Try ' "$tmp/err")" = 1 ] && grep -q '^granularctl: ' "$tmp/err"; }
+
+SHORT='{"method":"ed","dimensions":2,"particles":{"count":400,"volume_fraction":0.2},"collisions":{"restitution":0.9},"run":{"seed":3,"until":{"time":0.5}},"output":{"every":{"time":0.05},"observables":["kinetic_energy","temperature","collision_rate","clusters"]}}'
+LONG='{"method":"ed","dimensions":3,"particles":{"count":4000,"volume_fraction":0.3},"run":{"seed":1,"until":{"time":1e9}},"output":{"every":{"time":0.05}}}'
+echo "$SHORT" >"$tmp/short.json"
+echo "$LONG" >"$tmp/long.json"
+
+# 1. Offline: help and usage errors (exit 2, one line naming the argument).
+ctl --help
+ok $([ $RC = 0 ] && grep -q '^  submit' "$tmp/out" && grep -q 'Exit status' "$tmp/out"; echo $?) "--help lists the commands and exit statuses"
+bad=
+for c in submit list show watch cancel delete progress clusters files download cluster presets; do
+	ctl "$c" --help
+	[ $RC = 0 ] && grep -q "^usage: granularctl $c" "$tmp/out" || bad="$bad $c"
+done
+ok $([ -z "$bad" ]; echo $?) "every command has --help${bad:+ (not:$bad)}"
+ctl; ok $([ $RC = 2 ]; echo $?) "no command: exit 2"
+ctl frobnicate; ok $([ $RC = 2 ] && one_line && grep -q "unknown command 'frobnicate'" "$tmp/err"; echo $?) "unknown command: exit 2, named"
+ctl show abc; ok $([ $RC = 2 ] && one_line && grep -q "ID 'abc'" "$tmp/err"; echo $?) "non-numeric id: exit 2, $(head -1 "$tmp/err")"
+ctl list --wait; ok $([ $RC = 2 ] && grep -q -- "--wait: not an option of 'list'" "$tmp/err"; echo $?) "option of another command: exit 2"
+ctl list --limit zero; ok $([ $RC = 2 ] && grep -q -- "--limit 'zero'" "$tmp/err"; echo $?) "bad --limit: exit 2"
+ctl submit; ok $([ $RC = 2 ]; echo $?) "submit without a scene: exit 2"
+ctl submit "$tmp/none.json" --url http://127.0.0.1:1; ok $([ $RC = 2 ] && grep -q 'none.json' "$tmp/err"; echo $?) "missing scene file: exit 2, named"
+ctl submit "$tmp/short.json" --set novalue --url http://127.0.0.1:1; ok $([ $RC = 2 ] && grep -q "'novalue'" "$tmp/err"; echo $?) "bad --set: exit 2"
+
+# 2. Daemon down or absent: exit 3, the URL is named.
+ctl list --url http://127.0.0.1:1
+ok $([ $RC = 3 ] && one_line && grep -q 'http://127.0.0.1:1/api/v1/jobs' "$tmp/err"; echo $?) "daemon down: exit 3, $(cat "$tmp/err")"
+ctl list --state-dir "$tmp/nowhere"
+ok $([ $RC = 3 ] && grep -q 'nowhere/granulard.addr' "$tmp/err"; echo $?) "no daemon in the state dir: exit 3, the file is named"
+
+# 3. A real daemon with its default state directory ./var: the client finds it with no set-up at all.
+cd "$tmp" || exit 1
+unset GRANULAR_URL GRANULAR_TOKEN GRANULAR_STATE_DIR
+gd_start var --slots 2 --cancel-grace 5
+ctl cluster
+ok $([ $RC = 0 ] && grep -q "at $URL" "$tmp/out" && grep -q 'slots *0 used of 2' "$tmp/out"; echo $?) "cluster: found the daemon via STATE_DIR/granulard.addr"
+ctl cluster --json; ok $([ $RC = 0 ] && jsonok 'd["slots"]["total"] == 2 and "uptime_seconds" in d'; echo $?) "cluster --json"
+ctl presets
+ok $([ $RC = 0 ] && grep -q '^cooling-2d ' "$tmp/out" && grep -q '^clustering-3d ' "$tmp/out"; echo $?) "presets: table"
+ctl presets --json
+ok $([ $RC = 0 ] && jsonok 'len(d["presets"]) >= 4 and {p["dimensions"] for p in d["presets"]} == {2, 3}'; echo $?) "presets --json: 2D and 3D"
+
+# 4. submit (file), watch to the end, show, progress, clusters.
+ctl submit "$tmp/short.json"
+id=$(sed -n 's/^job \([0-9]*\) submitted.*/\1/p' "$tmp/out")
+ok $([ $RC = 0 ] && [ -n "$id" ]; echo $?) "submit FILE: $(out)"
+ctl watch "$id"
+ok $([ $RC = 0 ] && grep -q "job $id succeeded" "$tmp/out" && grep -q '100.0%' "$tmp/out" && grep -q 'ETA' "$tmp/out" && grep -q 'T=' "$tmp/out"; echo $?) \
+	"watch follows job $id to success: exit 0, percent, ETA, temperature"
+ctl show "$id"; ok $([ $RC = 0 ] && grep -q "job $id  succeeded" "$tmp/out" && grep -q 'attempt 1 .*exit 0' "$tmp/out"; echo $?) "show: state and attempt"
+ctl show "$id" --json; ok $([ $RC = 0 ] && jsonok 'd["state"] == "succeeded" and d["scene"]["particles"]["count"] == 400'; echo $?) "show --json: the record with its scene"
+ctl progress "$id"; ok $([ $RC = 0 ] && [ "$(grep -c ' progress ' "$tmp/out")" = 11 ] && grep -q ' summary ' "$tmp/out"; echo $?) "progress: 11 records and the summary"
+ctl progress "$id" --after 9 --json; ok $([ $RC = 0 ] && jsonok 'all(r["seq"] > 9 for r in d["records"]) and len(d["records"]) > 0'; echo $?) "progress --after --json"
+ctl clusters "$id"; ok $([ $RC = 0 ] && [ "$(grep -c '^[0-9]' "$tmp/out")" = 11 ]; echo $?) "clusters: 11 rows"
+ctl clusters "$id" --json; ok $([ $RC = 0 ] && jsonok 'd["series"][0]["clusters"]["count"] > 0'; echo $?) "clusters --json"
+
+# 5. submit --preset --set --wait, --json; idempotent resubmission; list.
+ctl submit --preset cooling-2d --set run.until.time=2 --set output.every.time=0.5 --set particles.count=900 --wait
+ok $([ $RC = 0 ] && grep -q 'succeeded' "$tmp/out"; echo $?) "submit --preset cooling-2d --set run.until.time=2 --wait: exit 0"
+pid=$(sed -n 's/^job \([0-9]*\) submitted.*/\1/p' "$tmp/out")
+ctl show "$pid" --json
+ok $(jsonok 'd["scene"]["run"]["until"] == {"time": 2} and d["particles"] == 900'; echo $?) "--set replaced the stop clock and typed the count"
+ctl submit "$tmp/short.json" --submission-id s-1 --priority 3 --json
+ok $([ $RC = 0 ] && jsonok 'd["submission_id"] == "s-1" and d["priority"] == 3'; echo $?) "submit --json with --submission-id and --priority"
+ctl submit "$tmp/short.json" --submission-id s-1
+ok $([ $RC = 0 ] && grep -q 'already submitted' "$tmp/out"; echo $?) "resubmission with the same id: already submitted"
+ctl list
+ok $([ $RC = 0 ] && head -1 "$tmp/out" | grep -q 'ID *STATE *PROGRESS *METHOD *N *AGE' && grep -q "^$id .*succeeded *100.0%" "$tmp/out"; echo $?) "list: table"
+ctl list --all --limit 1 --json
+ok $([ $RC = 0 ] && jsonok 'len(d["jobs"]) == 3 and d["next_cursor"] is None'; echo $?) "list --all --limit 1 follows the cursor to all 3 jobs"
+ctl list --state succeeded --limit 1
+ok $([ $RC = 0 ] && [ "$(grep -c succeeded "$tmp/out")" = 1 ] && grep -q 'more' "$tmp/out"; echo $?) "list --state --limit: one row and a 'more' hint"
+ctl submit --preset cooling-2d --set run.until.time=-1
+ok $([ $RC = 2 ] && one_line && grep -q 'run.until.time' "$tmp/err"; echo $?) "scene rejected by the daemon (400): exit 2, $(cat "$tmp/err")"
+ctl submit --preset no-such-preset
+ok $([ $RC = 4 ] && grep -q "no-such-preset" "$tmp/err"; echo $?) "unknown preset: exit 4"
+
+# 6. cancel: watch ends with exit 1; errors are the server's message; wrong token: exit 4.
+ctl submit "$tmp/long.json"
+lid=$(sed -n 's/^job \([0-9]*\) submitted.*/\1/p' "$tmp/out")
+wait_state "$lid" running 20
+ctl --token wrong cancel "$lid"
+ok $([ $RC = 4 ] && one_line && grep -q 'wrong token (token from --token)' "$tmp/err"; echo $?) "wrong token: exit 4, $(cat "$tmp/err")"
+GRANULAR_TOKEN=wrong "$GRANULARCTL" delete "$lid" >/dev/null 2>"$tmp/err"
+ok $([ $? = 4 ] && grep -q 'GRANULAR_TOKEN' "$tmp/err"; echo $?) "wrong \$GRANULAR_TOKEN: exit 4, the source named"
+ctl cancel "$lid"
+ok $([ $RC = 0 ] && grep -q "job $lid" "$tmp/out"; echo $?) "cancel: $(out)"
+ctl watch "$lid"
+ok $([ $RC = 1 ] && grep -q "job $lid cancelled" "$tmp/out"; echo $?) "watch of a cancelled job: exit 1"
+ctl cancel "$id"
+ok $([ $RC = 4 ] && one_line && grep -q 'already succeeded' "$tmp/err" && ! grep -q '{' "$tmp/err"; echo $?) "cancel of a finished job (409): exit 4, the message not JSON"
+ctl show 999999
+ok $([ $RC = 4 ] && one_line && grep -q 'job 999999 not found' "$tmp/err"; echo $?) "unknown id: exit 4, $(cat "$tmp/err")"
+ctl watch 999999; ok $([ $RC = 4 ]; echo $?) "watch of an unknown id: exit 4"
+
+# 7. watch --json streams events as JSON lines; delete.
+ctl watch "$id" --json
+ok $([ $RC = 0 ] && "$PY" -c 'import json,sys; [json.loads(l) for l in open(sys.argv[1])]' "$tmp/out" && grep -q '"event": "state"' "$tmp/out"; echo $?) "watch --json: JSON lines"
+ctl files "$id"
+ok $([ $RC = 0 ] && grep -q '^scene.json ' "$tmp/out" && grep -q '^progress.jsonl ' "$tmp/out"; echo $?) "files: table with scene.json and progress.jsonl"
+ctl files "$id" --json; ok $([ $RC = 0 ] && jsonok 'all(len(f["sha256"]) == 64 for f in d["files"])'; echo $?) "files --json: SHA-256 of each"
+ctl download "$id" scene.json -o "$tmp/dl.json"
+ok $([ $RC = 0 ] && cmp -s "$tmp/dl.json" "var/jobs/$id/scene.json"; echo $?) "download -o FILE: the same bytes as the job's scene.json"
+ctl download "$id" progress.jsonl -o -
+ok $([ $RC = 0 ] && cmp -s "$tmp/out" "var/jobs/$id/progress.jsonl"; echo $?) "download -o -: to stdout"
+ctl download "$id" nope.h5 -o "$tmp/nope"
+ok $([ $RC = 4 ] && one_line && [ ! -e "$tmp/nope" ]; echo $?) "download of a missing file: exit 4, no file left: $(cat "$tmp/err")"
+ctl download "$id" ../token; ok $([ $RC = 2 ]; echo $?) "download ../token: exit 2 before any request"
+ctl delete "$id"; ok $([ $RC = 0 ] && grep -q "job $id deleted" "$tmp/out"; echo $?) "delete"
+ctl delete "$id" --json; ok $([ $RC = 4 ]; echo $?) "delete again: exit 4"
+
+# 8. --url and $GRANULAR_URL win over the state directory.
+GRANULAR_URL=http://127.0.0.1:1 "$GRANULARCTL" list >/dev/null 2>"$tmp/err"
+ok $([ $? = 3 ] && grep -q '127.0.0.1:1' "$tmp/err"; echo $?) "\$GRANULAR_URL overrides the state directory"
+ctl --url "$URL" --state-dir "$tmp/nowhere" presets; ok $([ $RC = 0 ]; echo $?) "--url needs no state directory"
+
+# 9. The dashboard is served from the daemon, scripts from files only (CSP default-src 'self').
+curl -s -D "$tmp/hdr" -o "$tmp/index" "$URL/"
+ok $(grep -q 'src="/static/app.js"' "$tmp/index" && grep -qi "content-security-policy: default-src 'self'" "$tmp/hdr"; echo $?) "GET /: the dashboard, under CSP default-src 'self'"
+for f in app.js app.css uPlot.iife.min.js uPlot.min.css; do
+	c=$(curl -s -o "$tmp/f" -w '%{http_code} %{content_type}' "$URL/static/$f")
+	# the embedding ends the last line with a newline when the file does not
+	src=$(find "$SRCDIR/dashboard" -name "$f")
+	{ cat "$src"; [ -z "$(tail -c 1 "$src")" ] || echo; } >"$tmp/want"
+	cmp -s "$tmp/f" "$tmp/want" || c="$c, differs"
+	ok $(case "$c" in "200 text/"*charset*) [ "${c%differs}" = "$c" ] ;; *) false ;; esac; echo $?) "GET /static/$f: $c"
+done
+
+# 10. The daemon stops under a watch: exit 3.
+ctl submit "$tmp/long.json"
+lid=$(sed -n 's/^job \([0-9]*\) submitted.*/\1/p' "$tmp/out")
+wait_state "$lid" running 20
+"$GRANULARCTL" watch "$lid" >"$tmp/out" 2>"$tmp/err" &
+w=$!
+sleep 0.5
+kill -9 "$GD_PID"; wait "$GD_PID" 2>/dev/null; GD_PID=
+wait $w; RC=$?
+ok $([ $RC = 3 ] && one_line; echo $?) "daemon killed under watch: exit 3, $(cat "$tmp/err")"
+finish
