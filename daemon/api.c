@@ -36,7 +36,7 @@ static void queue_error(api_resp_t *rs, int code, const char *msg)
 {
 	static const struct { int code, status; } map[] = {
 		{JOBQ_EINVAL, 400}, {JOBQ_ENOTFOUND, 404}, {JOBQ_ECONFLICT, 409},
-		{JOBQ_ELIMIT, 429}, {JOBQ_EDB, 503}, {JOBQ_ENOMEM, 503},
+		{JOBQ_ELIMIT, 429}, {JOBQ_EDB, 503}, {JOBQ_ENOMEM, 503}, {JOBQ_EFULL, 503},
 	};
 	int status = 500;
 	for (size_t i = 0; i < sizeof(map) / sizeof(map[0]); i++)
@@ -178,12 +178,26 @@ static void h_delete(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 	if (!id)
 		return;
 	int r = jobq_delete(gd->q, id, err, sizeof(err));
+	snprintf(dir, sizeof(dir), "%s/%" PRId64, gd->jobs_dir, id);
+	if (r == JOBQ_EDB || r == JOBQ_EFULL) {
+		/* On a full disk the row's deletion itself needs room in the journal:
+		 * free the job's files first (they are what fills disks), then retry. */
+		json_t *j = NULL;
+		char e2[256];
+		if (jobq_get(gd->q, id, 0, &j, e2, sizeof(e2)) == JOBQ_OK) {
+			const char *st = json_string_value(json_object_get(j, "state"));
+			if (st && strcmp(st, "queued") && strcmp(st, "running")) {
+				util_rmtree(dir);
+				r = jobq_delete(gd->q, id, err, sizeof(err));
+			}
+		}
+		json_decref(j);
+	}
 	if (r) {
 		queue_error(rs, r, err);
 		return;
 	}
-	/* The row is gone first: a crash here leaves an orphan directory, never a job without files. */
-	snprintf(dir, sizeof(dir), "%s/%" PRId64, gd->jobs_dir, id);
+	/* Normally the row goes first: a crash here leaves an orphan directory, never a job without files. */
 	util_rmtree(dir);
 	rs->status = 200;
 	rs->json = json_pack("{s:I, s:b}", "id", (json_int_t)id, "deleted", 1);

@@ -54,6 +54,8 @@ static const key_t_ keys[] = {
 	K(max_attempts, T_INT, 1, 1000, "3", "launches per job, counting retries"),
 	K(cancel_grace, T_REAL, 0, 3600, "10", "seconds from SIGTERM to SIGKILL when cancelling"),
 	K(shutdown_grace, T_REAL, 0, 3600, "30", "seconds running jobs get to checkpoint when the daemon stops"),
+	K(disk_reserve, T_INT, 0, 1 << 30, "8388608",
+	  "bytes of ballast in STATE_DIR/reserve, freed when the disk fills so jobs can still be ended (0: none)"),
 	K(log_level, T_STR, 0, 0, "info", "error, warning, info or debug", .choices = log_choices),
 };
 #define NKEYS (sizeof(keys) / sizeof(keys[0]))

@@ -40,6 +40,7 @@ typedef struct {
 	double cancel_grace;     /* seconds between SIGTERM and SIGKILL */
 	double shutdown_grace;   /* seconds to let running jobs checkpoint at shutdown */
 	char *log_level;         /* error | warning | info | debug */
+	long disk_reserve;       /* bytes of ballast kept in the state dir for disk-full recovery, 0 = none */
 } cfg_t;
 
 /* Defaults (slots = online CPUs; state_dir = $STATE_DIRECTORY or ./var). */

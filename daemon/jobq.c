@@ -1,5 +1,10 @@
 /* The durable job queue on SQLite: submission, listing, cancellation, claims, attempts, progress series. */
+#include <errno.h>
+#include <fcntl.h>
 #include <inttypes.h>
+#include <sys/stat.h>
+#include <sys/statvfs.h>
+#include <unistd.h>
 #include <stdarg.h>
 #include <pthread.h>
 #include <stdio.h>
@@ -14,7 +19,13 @@ struct jobq {
 	pthread_mutex_t lock;
 	jobq_limits_t lim;
 	int64_t queued;     /* jobs in state queued: kept here so a submission need not count them */
+	char *reserve;      /* ballast file, released when the disk fills */
+	uint64_t reserve_bytes;
+	int low_space;      /* ballast spent */
 };
+
+static int space_short(jobq_t *q);
+static int release_reserve(jobq_t *q);
 
 static const char *const state_names[JOB_NSTATES] = {
 	[JOB_QUEUED] = "queued", [JOB_RUNNING] = "running", [JOB_SUCCEEDED] = "succeeded",
@@ -42,6 +53,7 @@ const char *jobq_strerror(int code)
 	case JOBQ_EDB: return "database error";
 	case JOBQ_ENOMEM: return "out of memory";
 	case JOBQ_EEMPTY: return "nothing to start";
+	case JOBQ_EFULL: return "disk full";
 	default: return "unknown error";
 	}
 }
@@ -74,6 +86,7 @@ void jobq_close(jobq_t *q)
 		return;
 	sqlite3_close_v2(q->db);
 	pthread_mutex_destroy(&q->lock);
+	free(q->reserve);
 	free(q);
 }
 
@@ -299,6 +312,11 @@ int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **ou
 
 	pthread_mutex_lock(&q->lock);
 	locked = 1;
+	if (q->low_space) {
+		ret = JOBQ_EFULL;
+		snprintf(err, errlen, "disk full: the state directory has no room for new jobs; delete finished jobs");
+		goto cleanup;
+	}
 	if (begin(q) != SQLITE_OK) {
 		ret = JOBQ_EDB;
 		DBERR(q, err, errlen);
@@ -502,7 +520,7 @@ static int exec_bind(jobq_t *q, const char *sql, const char *fmt, ...)
 	return rc == SQLITE_DONE || rc == SQLITE_ROW ? SQLITE_OK : rc;
 }
 
-int jobq_cancel(jobq_t *q, int64_t id, double now, int *signal, json_t **out, char *err, size_t errlen)
+static int jobq_cancel_once(jobq_t *q, int64_t id, double now, int *signal, json_t **out, char *err, size_t errlen)
 {
 	job_state_t s;
 	int ret, rc = SQLITE_OK;
@@ -547,7 +565,7 @@ out:
 	return ret;
 }
 
-int jobq_delete(jobq_t *q, int64_t id, char *err, size_t errlen)
+static int jobq_delete_once(jobq_t *q, int64_t id, char *err, size_t errlen)
 {
 	job_state_t s;
 	int ret;
@@ -746,6 +764,10 @@ int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, 
 	summary = json_is_string(json_object_get(r, "type")) &&
 	          !strcmp(json_string_value(json_object_get(r, "type")), "summary");
 	pthread_mutex_lock(&q->lock);
+	if (q->low_space) {
+		ret = JOBQ_EFULL;   /* the ballast is for ending jobs, not for more records */
+		goto out;
+	}
 	if (begin(q) != SQLITE_OK) {
 		ret = JOBQ_EDB;
 		goto out;
@@ -817,13 +839,15 @@ int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, 
 	goto out;
 fail:
 	rollback(q);
+	if (space_short(q))
+		q->low_space = 1;   /* stop storing records; the ballast stays for ending the job */
 out:
 	pthread_mutex_unlock(&q->lock);
 	json_decref(r);
 	return ret;
 }
 
-int jobq_attempt_finished(jobq_t *q, int64_t id, int attempt, double now, int exit_status, int signal,
+static int jobq_attempt_finished_once(jobq_t *q, int64_t id, int attempt, double now, int exit_status, int signal,
                           const char *reason, const char *stderr_tail, job_state_t next)
 {
 	int ret = JOBQ_OK;
@@ -910,4 +934,130 @@ int jobq_attempts(jobq_t *q, int64_t id)
 	sqlite3_finalize(st);
 	pthread_mutex_unlock(&q->lock);
 	return ret;
+}
+
+/* ---- disk-full protection ------------------------------------------------- */
+
+/* The disk holding the ballast (the state directory) has less free space
+ * than half the ballast: a failed write there is most likely ENOSPC. */
+static int space_short(jobq_t *q)
+{
+	struct statvfs vf;
+	char dir[4096];
+	if (!q->reserve)
+		return 0;
+	snprintf(dir, sizeof(dir), "%s", q->reserve);
+	char *sl = strrchr(dir, '/');
+	if (sl)
+		*sl = '\0';
+	return statvfs(sl ? dir : ".", &vf) == 0 && (uint64_t)vf.f_bavail * vf.f_frsize < q->reserve_bytes / 2 + 65536;
+}
+
+/* Free the ballast (locked by the caller); 1 if space was freed. */
+static int release_reserve(jobq_t *q)
+{
+	if (!q->reserve || q->low_space)
+		return 0;
+	q->low_space = 1;
+	return unlink(q->reserve) == 0;
+}
+
+int jobq_reserve(jobq_t *q, const char *path, uint64_t bytes)
+{
+	int ret = 0;
+	pthread_mutex_lock(&q->lock);
+	if (!q->reserve || strcmp(q->reserve, path)) {
+		free(q->reserve);
+		q->reserve = strdup(path);
+	}
+	q->reserve_bytes = bytes;
+	struct stat st;
+	if (stat(path, &st) == 0 && (uint64_t)st.st_size >= bytes) {
+		q->low_space = 0;
+		goto out;
+	}
+	struct statvfs vf;
+	/* Only take the ballast back when it leaves as much again free. */
+	if (statvfs(path, &vf) == 0 || statvfs(".", &vf) == 0) {
+		char dir[4096];
+		snprintf(dir, sizeof(dir), "%s", path);
+		char *sl = strrchr(dir, '/');
+		if (sl)
+			*sl = '\0';
+		if (statvfs(sl ? dir : ".", &vf) == 0 && (uint64_t)vf.f_bavail * vf.f_frsize < 2 * bytes) {
+			/* Give the journal's unused space back to the disk, then look again. */
+			sqlite3_exec(q->db, "PRAGMA wal_checkpoint(TRUNCATE)", NULL, NULL, NULL);
+			statvfs(sl ? dir : ".", &vf);
+		}
+		if ((uint64_t)vf.f_bavail * vf.f_frsize < 2 * bytes) {
+			q->low_space = 1;
+			ret = -1;
+			goto out;
+		}
+	}
+	int fd = open(path, O_WRONLY | O_CREAT | O_CLOEXEC, 0600);
+	if (fd < 0 || posix_fallocate(fd, 0, (off_t)bytes) || fsync(fd)) {
+		if (fd >= 0)
+			close(fd);
+		unlink(path);
+		q->low_space = 1;
+		ret = -1;
+		goto out;
+	}
+	close(fd);
+	q->low_space = 0;
+out:
+	pthread_mutex_unlock(&q->lock);
+	return ret;
+}
+
+int jobq_low_space(jobq_t *q)
+{
+	pthread_mutex_lock(&q->lock);
+	int r = q->low_space;
+	pthread_mutex_unlock(&q->lock);
+	return r;
+}
+
+/* A write that failed on a full disk is retried once after freeing the ballast. */
+int jobq_attempt_finished(jobq_t *q, int64_t id, int attempt, double now, int exit_status, int signal,
+                          const char *reason, const char *stderr_tail, job_state_t next)
+{
+	int r = jobq_attempt_finished_once(q, id, attempt, now, exit_status, signal, reason, stderr_tail, next);
+	if (r == JOBQ_EDB && space_short(q)) {
+		pthread_mutex_lock(&q->lock);
+		int freed = release_reserve(q);
+		pthread_mutex_unlock(&q->lock);
+		if (freed)
+			r = jobq_attempt_finished_once(q, id, attempt, now, exit_status, signal, reason, stderr_tail, next);
+	}
+	return r;
+}
+
+/* A write that failed on a full disk is retried once after freeing the ballast. */
+int jobq_cancel(jobq_t *q, int64_t id, double now, int *signal, json_t **out, char *err, size_t errlen)
+{
+	int r = jobq_cancel_once(q, id, now, signal, out, err, errlen);
+	if (r == JOBQ_EDB && space_short(q)) {
+		pthread_mutex_lock(&q->lock);
+		int freed = release_reserve(q);
+		pthread_mutex_unlock(&q->lock);
+		if (freed)
+			r = jobq_cancel_once(q, id, now, signal, out, err, errlen);
+	}
+	return r;
+}
+
+/* A write that failed on a full disk is retried once after freeing the ballast. */
+int jobq_delete(jobq_t *q, int64_t id, char *err, size_t errlen)
+{
+	int r = jobq_delete_once(q, id, err, errlen);
+	if (r == JOBQ_EDB && space_short(q)) {
+		pthread_mutex_lock(&q->lock);
+		int freed = release_reserve(q);
+		pthread_mutex_unlock(&q->lock);
+		if (freed)
+			r = jobq_delete_once(q, id, err, errlen);
+	}
+	return r;
 }

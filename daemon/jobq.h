@@ -32,6 +32,7 @@ enum {
 	JOBQ_EDB = -5,       /* SQLite failed (disk full, I/O): the request did not happen */
 	JOBQ_ENOMEM = -6,
 	JOBQ_EEMPTY = -7,    /* jobq_claim: nothing can start now */
+	JOBQ_EFULL = -8,     /* the disk holding the database is full */
 };
 
 typedef enum { JOB_QUEUED = 0, JOB_RUNNING, JOB_SUCCEEDED, JOB_FAILED, JOB_CANCELLED, JOB_NSTATES } job_state_t;
@@ -132,6 +133,17 @@ typedef struct {
 } jobq_running_t;
 /* *out malloc'd (caller frees), *n entries. */
 int jobq_list_running(jobq_t *q, jobq_running_t **out, size_t *n);
+
+/* Disk-full protection. jobq_reserve() creates PATH holding `bytes` of
+ * ballast. When a write fails because the disk is full, the queue deletes the
+ * ballast and retries once, so ending attempts, cancelling and deleting jobs
+ * still work; until jobq_reserve() succeeds again, new submissions get
+ * JOBQ_EFULL and progress records are not stored. Call jobq_reserve()
+ * periodically: it restores the ballast when the disk has room again.
+ * Returns 0 when the ballast is in place. */
+int jobq_reserve(jobq_t *q, const char *path, uint64_t bytes);
+/* 1 while the ballast is spent (disk full), else 0. */
+int jobq_low_space(jobq_t *q);
 
 /* Whether cancel was requested for a job (0/1), negative on error. */
 int jobq_cancel_requested(jobq_t *q, int64_t id);

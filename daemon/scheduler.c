@@ -56,6 +56,8 @@ struct sched {
 	sched_stats_t stats;
 	child_t *kids;
 	size_t nkids;
+	double reserve_at;           /* last ballast check (monotonic s) */
+	int warned_full;
 };
 
 static double mono(void)
@@ -572,7 +574,23 @@ static void *loop(void *arg)
 				running++;
 				rate += s->kids[i].rate;
 			}
-		if (!stopping) {
+		/* Disk-full protection: restore the ballast when there is room again;
+		 * start nothing while it is spent (a new job could not even write). */
+		static const double reserve_period = 5.0;
+		if (now - s->reserve_at > reserve_period) {
+			s->reserve_at = now;
+			char rp[4200];
+			snprintf(rp, sizeof(rp), "%s/../reserve", s->c.jobs_dir);
+			if (s->c.cfg->disk_reserve > 0 && jobq_reserve(s->c.q, rp, (uint64_t)s->c.cfg->disk_reserve) != 0 &&
+			    !s->warned_full) {
+				log_error("disk full: %s has less than %ld bytes free; new jobs wait", s->c.jobs_dir,
+				          2 * s->c.cfg->disk_reserve);
+				s->warned_full = 1;
+			} else if (!jobq_low_space(s->c.q)) {
+				s->warned_full = 0;
+			}
+		}
+		if (!stopping && !jobq_low_space(s->c.q)) {
 			for (;;) {
 				jobq_claim_t cl;
 				char err[256];

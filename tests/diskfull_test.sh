@@ -4,13 +4,13 @@ set -u
 . "$(dirname "$0")/daemon_lib.sh"
 M=$tmp/small
 mkdir -p "$M"
-if [ "$(id -u)" != 0 ] || ! mount -t tmpfs -o size=3m tmpfs "$M" 2>/dev/null; then
+if [ "$(id -u)" != 0 ] || ! mount -t tmpfs -o size=4m tmpfs "$M" 2>/dev/null; then
 	echo "1..0 # SKIP needs root to mount a small tmpfs"
 	exit 0
 fi
 trap 'kill -9 $GD_PID 2>/dev/null; pkill -9 -f "$M/" 2>/dev/null; sleep 0.2; umount "$M"; rm -rf "$tmp"' EXIT
-gd_start "$M/state" --slots 1
-# A job whose output (progress.jsonl, every record with cluster histograms) outgrows the 3 MB file system.
+gd_start "$M/state" --slots 1 --disk-reserve 524288
+# A job whose output (progress.jsonl, every record with cluster histograms) outgrows the 4 MB file system.
 BIG='{"method":"ed","dimensions":2,"particles":{"count":2000,"volume_fraction":0.3},"run":{"until":{"time":1e6}},"output":{"every":{"time":0.001},"observables":["kinetic_energy","pressure","collision_rate","clusters"]}}'
 id=$(field "$(post /api/v1/jobs -d "$BIG")" 'd["id"]')
 wait_state "$id" failed 120
@@ -33,7 +33,7 @@ n2=$(field "$(post /api/v1/jobs -d '{"method":"ed","dimensions":2,"particles":{"
 wait_state "$n2" succeeded 30
 ok $? "after freeing space a new job runs to success"
 gd_stop
-gd_start "$M/state" --slots 1
+gd_start "$M/state" --slots 1 --disk-reserve 524288
 api GET "/api/v1/jobs/$n2" >/dev/null
 ok $([ "$(code)" = 200 ]; echo $?) "database intact after restart"
 gd_stop
