@@ -363,8 +363,10 @@ static void h_healthz(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 		return;
 	}
 	rs->status = 200;
-	rs->json = json_pack("{s:s, s:s}", "status", atomic_load(&gd->stopping) ? "stopping" : "ok", "version",
-	                     PACKAGE_VERSION);
+	/* Still 200 on a full disk (the service answers and can end jobs), but say so. */
+	rs->json = json_pack("{s:s, s:s}", "status",
+	                     atomic_load(&gd->stopping) ? "stopping" : jobq_low_space(gd->q) ? "disk_full" : "ok",
+	                     "version", PACKAGE_VERSION);
 }
 
 static void h_metrics(gd_t *gd, const api_req_t *rq, api_resp_t *rs)

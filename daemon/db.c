@@ -38,7 +38,9 @@ sqlite3 *db_open(const char *path, char *err, size_t errlen)
 	sqlite3_busy_timeout(db, 5000);
 	/* Debian builds WAL with synchronous FULL already; say it anyway: an
 	 * acknowledged submission must survive a power cut. */
-	if (exec(db, "PRAGMA journal_mode=WAL; PRAGMA synchronous=FULL; PRAGMA foreign_keys=ON;", err, errlen))
+	if (exec(db, "PRAGMA journal_mode=WAL; PRAGMA synchronous=FULL; PRAGMA foreign_keys=ON; "
+	                 /* after each checkpoint, give the journal's space back beyond 4 MiB */
+	                 "PRAGMA journal_size_limit=4194304;", err, errlen))
 		goto fail;
 	if (user_version(db, &v) != SQLITE_OK) {
 		snprintf(err, errlen, "%s: %s", path, sqlite3_errmsg(db));

@@ -21,7 +21,8 @@ struct jobq {
 	int64_t queued;     /* jobs in state queued: kept here so a submission need not count them */
 	char *reserve;      /* ballast file, released when the disk fills */
 	uint64_t reserve_bytes;
-	int low_space;      /* ballast spent */
+	int low_space;      /* ballast spent, or the disk ran full: no new jobs, no progress records */
+	int have_reserve;   /* the ballast file is in place */
 };
 
 static int space_short(jobq_t *q);
@@ -956,9 +957,10 @@ static int space_short(jobq_t *q)
 /* Free the ballast (locked by the caller); 1 if space was freed. */
 static int release_reserve(jobq_t *q)
 {
-	if (!q->reserve || q->low_space)
-		return 0;
 	q->low_space = 1;
+	if (!q->reserve || !q->have_reserve)
+		return 0;
+	q->have_reserve = 0;
 	return unlink(q->reserve) == 0;
 }
 
@@ -973,6 +975,18 @@ int jobq_reserve(jobq_t *q, const char *path, uint64_t bytes)
 	q->reserve_bytes = bytes;
 	struct stat st;
 	if (stat(path, &st) == 0 && (uint64_t)st.st_size >= bytes) {
+		q->have_reserve = 1;
+		/* In place, but the disk may still be full: look before lifting the stop. */
+		struct statvfs v2;
+		char d2[4096];
+		snprintf(d2, sizeof(d2), "%s", path);
+		char *s2 = strrchr(d2, '/');
+		if (s2)
+			*s2 = '\0';
+		if (q->low_space && statvfs(s2 ? d2 : ".", &v2) == 0 && (uint64_t)v2.f_bavail * v2.f_frsize < bytes) {
+			ret = -1;
+			goto out;
+		}
 		q->low_space = 0;
 		goto out;
 	}
@@ -1005,6 +1019,7 @@ int jobq_reserve(jobq_t *q, const char *path, uint64_t bytes)
 		goto out;
 	}
 	close(fd);
+	q->have_reserve = 1;
 	q->low_space = 0;
 out:
 	pthread_mutex_unlock(&q->lock);
