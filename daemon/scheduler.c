@@ -438,6 +438,12 @@ static void finish(sched_t *s, child_t *k)
 	} else if (k->walllimit) {
 		next = JOB_FAILED;
 		snprintf(reason, sizeof(reason), "wall-time limit of %ld s exceeded", s->c.cfg->max_wall_seconds);
+	} else if (code == 4 && k->attempt < s->c.cfg->max_attempts) {
+		/* Exit 4: the engine was told to stop (SIGTERM from outside the
+		 * daemon), wrote a checkpoint and stopped: continue from it. */
+		next = JOB_QUEUED;
+		snprintf(reason, sizeof(reason), "engine stopped by SIGTERM from outside granulard after a checkpoint; "
+		         "requeued (attempt %d of %ld)", k->attempt + 1, s->c.cfg->max_attempts);
 	} else if (code == 0) {
 		next = JOB_SUCCEEDED;
 		if (!strcmp(k->status_word, "quiescent"))

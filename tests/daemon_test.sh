@@ -238,7 +238,27 @@ r=$(field "$(api GET "/api/v1/jobs/$w")" 'd["reason"]')
 case "$r" in "wall-time limit of 1 s exceeded"*) ok 0 "max_wall_seconds: $r" ;; *) ok 1 "max_wall_seconds: $r" ;; esac
 gd_stop
 
-# 12. A second daemon on the same state directory is refused; bad flags exit 2 with one line.
+# 12. systemd readiness: READY=1 on $NOTIFY_SOCKET once the listener is up, STOPPING=1 at the end.
+/usr/bin/python3 - "$tmp/notify.sock" >"$tmp/notify.txt" <<'PYEOF' &
+import socket, sys
+s = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
+s.bind(sys.argv[1]); s.settimeout(20)
+try:
+    for _ in range(2):
+        print(s.recv(4096).decode().replace("\n", " | "), flush=True)
+except socket.timeout:
+    pass
+PYEOF
+npid=$!
+i=0; while [ ! -S "$tmp/notify.sock" ] && [ $i -lt 100 ]; do sleep 0.05; i=$((i + 1)); done
+export NOTIFY_SOCKET="$tmp/notify.sock"; gd_start "$tmp/state4" --slots 1; unset NOTIFY_SOCKET
+api GET /healthz >/dev/null
+gd_stop
+wait $npid
+grep -q '^READY=1' "$tmp/notify.txt" && grep -q 'STOPPING=1' "$tmp/notify.txt"
+ok $? "sd_notify: $(tr '\n' ';' <"$tmp/notify.txt")"
+
+# 13. A second daemon on the same state directory is refused; bad flags exit 2 with one line.
 gd_start "$S" --slots 1
 "$GRANULARD" --state-dir "$S" --listen 127.0.0.1:0 2>"$tmp/err2"
 ok $([ $? -ne 0 ] && grep -q "another granulard" "$tmp/err2"; echo $?) "second daemon on the same state dir refused: $(cat "$tmp/err2")"
