@@ -461,6 +461,15 @@ static void serve_file(api_resp_t *rs, const char *name)
 	rs->ctype = f.ctype;
 }
 
+/* Browsers ask for it on every page; an empty answer keeps their consoles clean. */
+static void h_favicon(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	rs->status = 204;
+	rs->raw = "";
+	rs->raw_len = 0;
+	rs->ctype = "image/x-icon";
+}
+
 static void h_index(gd_t *gd, const api_req_t *rq, api_resp_t *rs) { serve_file(rs, "index.html"); }
 
 static void h_static(gd_t *gd, const api_req_t *rq, api_resp_t *rs) { serve_file(rs, rq->params[0]); }
@@ -470,6 +479,7 @@ static void h_static(gd_t *gd, const api_req_t *rq, api_resp_t *rs) { serve_file
 const api_route_t api_routes[] = {
 	{.method = "GET", .pattern = "/", .fn = h_index, .flags = API_OPEN},
 	{.method = "GET", .pattern = "/healthz", .fn = h_healthz, .flags = API_OPEN},
+	{.method = "GET", .pattern = "/favicon.ico", .fn = h_favicon, .flags = API_OPEN},
 	{.method = "GET", .pattern = "/metrics", .fn = h_metrics},
 	{.method = "GET", .pattern = "/api/v1/openapi.yaml", .fn = h_openapi, .flags = API_OPEN},
 	{.method = "POST", .pattern = "/api/v1/jobs", .fn = h_submit, .flags = API_MUTATES},

@@ -166,7 +166,8 @@
     const w = Math.max(380, $('plot-energy').clientWidth || 420), h = 240;
     const base = (label, logy, extra) => ({
       width: w, height: h, scales: { x: { time: false, distr: logy ? 3 : 1 }, y: { distr: logy ? 3 : 1 } },
-      axes: [{ label: 'time' }, {}], series: [{ label: 't' }, { label, stroke: '#2f6fde', width: 2, points: { show: false } }].concat(extra || []),
+      // log axes: decades as 1e-4 rather than uPlot's rounded "0"
+      axes: [{ label: 'time' }, logy ? { values: (u, vals) => vals.map((v) => (v == null ? '' : v >= 0.01 && v < 1e4 ? String(+v.toPrecision(3)) : v.toExponential(0))) } : {}], series: [{ label: 't' }, { label, stroke: '#2f6fde', width: 2, points: { show: false } }].concat(extra || []),
     });
     plots.push(new uPlot(base('T', true, [{ label: "Haff", stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }]), [[], [], []], $('plot-energy')));
     plots.push(new uPlot(base('collisions/particle/time', false), [[], []], $('plot-rate')));
