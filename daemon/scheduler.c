@@ -377,7 +377,16 @@ static void on_line(sched_t *s, child_t *k, char *line)
 	json_decref(r);
 	if (jobq_attempt_progress(s->c.q, k->id, k->attempt, line, util_now()) != JOBQ_OK)
 		log_warning("job %" PRId64 ": could not store a progress record", k->id);
-	hub_publish(s->c.hub, k->id, "progress", line);
+	/* Live subscribers of the multiplexed stream need to know whose record it is. */
+	size_t ll = strlen(line);
+	char *tagged = malloc(ll + 32);
+	if (tagged && line[0] == '{') {
+		snprintf(tagged, ll + 32, "{\"job\":%" PRId64 ",%s", k->id, line + 1);
+		hub_publish(s->c.hub, k->id, "progress", tagged);
+	} else {
+		hub_publish(s->c.hub, k->id, "progress", line);
+	}
+	free(tagged);
 }
 
 static void drain_fd(sched_t *s, child_t *k, int *fd, int is_out)
