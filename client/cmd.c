@@ -456,17 +456,31 @@ static void when(const char *label, double t, double now)
 	printf("  %-12s %s (%s ago)\n", label, b, fmt_age(now - t, age, sizeof(age)));
 }
 
+/* The job named by the first argument: METHOD /api/v1/jobs/ID<suffix> (a printf format for the rest). */
+static int job_request(ctx_t *x, const char *method, long long *id, json_t **j, const char *suffix, ...)
+	__attribute__((format(printf, 5, 6)));
+static int job_request(ctx_t *x, const char *method, long long *id, json_t **j, const char *suffix, ...)
+{
+	char path[256], rest[160];
+	va_list ap;
+	int rc = job_arg(x, x->args[0], id);
+	if (rc)
+		return rc;
+	va_start(ap, suffix);
+	vsnprintf(rest, sizeof(rest), suffix, ap);
+	va_end(ap);
+	snprintf(path, sizeof(path), "/api/v1/jobs/%lld%s", *id, rest);
+	return call(x, method, path, NULL, j);
+}
+
 static int c_show(ctx_t *x)
 {
 	long long id;
 	json_t *j = NULL, *a;
-	char path[128], ev[16];
+	char ev[16];
 	size_t i;
-	int rc = job_arg(x, x->args[0], &id);
+	int rc = job_request(x, "GET", &id, &j, "%s", "");
 	if (rc)
-		return rc;
-	snprintf(path, sizeof(path), "/api/v1/jobs/%lld", id);
-	if ((rc = call(x, "GET", path, NULL, &j)))
 		return rc;
 	if (x->json) {
 		print_json(j);
@@ -506,12 +520,8 @@ static int c_cancel(ctx_t *x)
 {
 	long long id;
 	json_t *j = NULL;
-	char path[128];
-	int rc = job_arg(x, x->args[0], &id);
+	int rc = job_request(x, "POST", &id, &j, "/cancel");
 	if (rc)
-		return rc;
-	snprintf(path, sizeof(path), "/api/v1/jobs/%lld/cancel", id);
-	if ((rc = call(x, "POST", path, NULL, &j)))
 		return rc;
 	if (x->json)
 		print_json(j);
@@ -527,12 +537,8 @@ static int c_delete(ctx_t *x)
 {
 	long long id;
 	json_t *j = NULL;
-	char path[128];
-	int rc = job_arg(x, x->args[0], &id);
+	int rc = job_request(x, "DELETE", &id, &j, "%s", "");
 	if (rc)
-		return rc;
-	snprintf(path, sizeof(path), "/api/v1/jobs/%lld", id);
-	if ((rc = call(x, "DELETE", path, NULL, &j)))
 		return rc;
 	if (x->json)
 		print_json(j);
@@ -548,13 +554,10 @@ static int c_progress(ctx_t *x)
 {
 	long long id;
 	json_t *j = NULL, *r;
-	char path[160], ev[16];
+	char ev[16];
 	size_t i;
-	int rc = job_arg(x, x->args[0], &id);
+	int rc = job_request(x, "GET", &id, &j, "/progress?after=%lld", (x->given & O_AFTER) ? x->after : -1);
 	if (rc)
-		return rc;
-	snprintf(path, sizeof(path), "/api/v1/jobs/%lld/progress?after=%lld", id, (x->given & O_AFTER) ? x->after : -1);
-	if ((rc = call(x, "GET", path, NULL, &j)))
 		return rc;
 	if (x->json) {
 		print_json(j);
@@ -576,13 +579,9 @@ static int c_clusters(ctx_t *x)
 {
 	long long id;
 	json_t *j = NULL, *r;
-	char path[128];
 	size_t i;
-	int rc = job_arg(x, x->args[0], &id);
+	int rc = job_request(x, "GET", &id, &j, "/clusters");
 	if (rc)
-		return rc;
-	snprintf(path, sizeof(path), "/api/v1/jobs/%lld/clusters", id);
-	if ((rc = call(x, "GET", path, NULL, &j)))
 		return rc;
 	if (x->json) {
 		print_json(j);
@@ -607,13 +606,10 @@ static int c_files(ctx_t *x)
 {
 	long long id;
 	json_t *j = NULL, *f;
-	char path[128], size[16], age[16];
+	char size[16], age[16];
 	size_t i;
-	int rc = job_arg(x, x->args[0], &id);
+	int rc = job_request(x, "GET", &id, &j, "/files");
 	if (rc)
-		return rc;
-	snprintf(path, sizeof(path), "/api/v1/jobs/%lld/files", id);
-	if ((rc = call(x, "GET", path, NULL, &j)))
 		return rc;
 	if (x->json) {
 		print_json(j);

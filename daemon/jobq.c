@@ -941,17 +941,23 @@ int jobq_attempts(jobq_t *q, int64_t id)
 
 /* The disk holding the ballast (the state directory) has less free space
  * than half the ballast: a failed write there is most likely ENOSPC. */
-static int space_short(jobq_t *q)
+/* Free bytes on the file system holding path's directory (UINT64_MAX if unknown). */
+static uint64_t free_bytes(const char *path)
 {
 	struct statvfs vf;
 	char dir[4096];
-	if (!q->reserve)
-		return 0;
-	snprintf(dir, sizeof(dir), "%s", q->reserve);
+	snprintf(dir, sizeof(dir), "%s", path);
 	char *sl = strrchr(dir, '/');
 	if (sl)
 		*sl = '\0';
-	return statvfs(sl ? dir : ".", &vf) == 0 && (uint64_t)vf.f_bavail * vf.f_frsize < q->reserve_bytes / 2 + 65536;
+	if (statvfs(sl ? dir : ".", &vf))
+		return UINT64_MAX;
+	return (uint64_t)vf.f_bavail * vf.f_frsize;
+}
+
+static int space_short(jobq_t *q)
+{
+	return q->reserve && free_bytes(q->reserve) < q->reserve_bytes / 2 + 65536;
 }
 
 /* Free the ballast (locked by the caller); 1 if space was freed. */
@@ -967,47 +973,31 @@ static int release_reserve(jobq_t *q)
 int jobq_reserve(jobq_t *q, const char *path, uint64_t bytes)
 {
 	int ret = 0;
+	struct stat st;
 	pthread_mutex_lock(&q->lock);
 	if (!q->reserve || strcmp(q->reserve, path)) {
 		free(q->reserve);
 		q->reserve = strdup(path);
 	}
 	q->reserve_bytes = bytes;
-	struct stat st;
 	if (stat(path, &st) == 0 && (uint64_t)st.st_size >= bytes) {
 		q->have_reserve = 1;
 		/* In place, but the disk may still be full: look before lifting the stop. */
-		struct statvfs v2;
-		char d2[4096];
-		snprintf(d2, sizeof(d2), "%s", path);
-		char *s2 = strrchr(d2, '/');
-		if (s2)
-			*s2 = '\0';
-		if (q->low_space && statvfs(s2 ? d2 : ".", &v2) == 0 && (uint64_t)v2.f_bavail * v2.f_frsize < bytes) {
+		if (q->low_space && free_bytes(path) < bytes) {
 			ret = -1;
 			goto out;
 		}
 		q->low_space = 0;
 		goto out;
 	}
-	struct statvfs vf;
-	/* Only take the ballast back when it leaves as much again free. */
-	if (statvfs(path, &vf) == 0 || statvfs(".", &vf) == 0) {
-		char dir[4096];
-		snprintf(dir, sizeof(dir), "%s", path);
-		char *sl = strrchr(dir, '/');
-		if (sl)
-			*sl = '\0';
-		if (statvfs(sl ? dir : ".", &vf) == 0 && (uint64_t)vf.f_bavail * vf.f_frsize < 2 * bytes) {
-			/* Give the journal's unused space back to the disk, then look again. */
-			sqlite3_exec(q->db, "PRAGMA wal_checkpoint(TRUNCATE)", NULL, NULL, NULL);
-			statvfs(sl ? dir : ".", &vf);
-		}
-		if ((uint64_t)vf.f_bavail * vf.f_frsize < 2 * bytes) {
-			q->low_space = 1;
-			ret = -1;
-			goto out;
-		}
+	/* Only take the ballast back when it leaves as much again free; first give
+	 * the journal's unused space back to the disk. */
+	if (free_bytes(path) < 2 * bytes)
+		sqlite3_exec(q->db, "PRAGMA wal_checkpoint(TRUNCATE)", NULL, NULL, NULL);
+	if (free_bytes(path) < 2 * bytes) {
+		q->low_space = 1;
+		ret = -1;
+		goto out;
 	}
 	int fd = open(path, O_WRONLY | O_CREAT | O_CLOEXEC, 0600);
 	if (fd < 0 || posix_fallocate(fd, 0, (off_t)bytes) || fsync(fd)) {

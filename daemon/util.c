@@ -99,7 +99,8 @@ int util_rmtree(const char *path)
 	return rmdir(path);
 }
 
-static int read_stat(pid_t pid, char *state, uint64_t *start)
+/* State, parent and start time of a process from /proc/PID/stat; any pointer may be NULL. */
+static int read_stat(pid_t pid, char *state, pid_t *ppid, uint64_t *start)
 {
 	char path[64], buf[1024];
 	snprintf(path, sizeof(path), "/proc/%d/stat", (int)pid);
@@ -114,30 +115,21 @@ static int read_stat(pid_t pid, char *state, uint64_t *start)
 	if (!p)
 		return -1;
 	p += 2;
-	*state = *p;
+	if (state)
+		*state = *p;
+	if (ppid)
+		*ppid = (pid_t)strtol(p + 2, NULL, 10);   /* field 4 */
 	/* field 3 is state; starttime is field 22, i.e. 19 fields further */
 	for (int f3 = 3; f3 < 22 && p; f3++) {
 		p = strchr(p, ' ');
 		if (p)
 			p++;
 	}
-	*start = p ? strtoull(p, NULL, 10) : 0;
+	if (start)
+		*start = p ? strtoull(p, NULL, 10) : 0;
 	return 0;
 }
 
-static pid_t parent_of(pid_t pid)
-{
-	char path[64], buf[1024];
-	snprintf(path, sizeof(path), "/proc/%d/stat", (int)pid);
-	FILE *f = fopen(path, "re");
-	if (!f)
-		return -1;
-	size_t n = fread(buf, 1, sizeof(buf) - 1, f);
-	fclose(f);
-	buf[n] = '\0';
-	char *p = strrchr(buf, ')');
-	return p ? (pid_t)strtol(p + 4, NULL, 10) : -1;   /* ") S PPID" */
-}
 
 int util_descendants(pid_t pid, pid_t *out, uint64_t *start, int max)
 {
@@ -154,7 +146,8 @@ int util_descendants(pid_t pid, pid_t *out, uint64_t *start, int max)
 		if (*end || p <= 0)
 			continue;
 		all[na] = (pid_t)p;
-		par[na] = parent_of((pid_t)p);
+		if (read_stat((pid_t)p, NULL, &par[na], NULL))
+			continue;
 		na++;
 	}
 	closedir(d);
@@ -182,14 +175,14 @@ uint64_t util_pid_start(pid_t pid)
 {
 	char st;
 	uint64_t s = 0;
-	return read_stat(pid, &st, &s) ? 0 : s;
+	return read_stat(pid, &st, NULL, &s) ? 0 : s;
 }
 
 int util_pid_alive(pid_t pid, uint64_t start)
 {
 	char st;
 	uint64_t s = 0;
-	if (pid <= 0 || read_stat(pid, &st, &s))
+	if (pid <= 0 || read_stat(pid, &st, NULL, &s))
 		return 0;
 	if (st == 'Z' || st == 'X')
 		return 0;
