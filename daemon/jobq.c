@@ -909,12 +909,13 @@ int jobq_list_running(jobq_t *q, jobq_running_t **out, size_t *n)
 	return JOBQ_OK;
 }
 
-int jobq_cancel_requested(jobq_t *q, int64_t id)
+/* One integer from a query bound to a job id; fallback when there is no row. */
+static int int_of_job(jobq_t *q, const char *sql, int64_t id, int fallback)
 {
 	sqlite3_stmt *st = NULL;
-	int ret = JOBQ_ENOTFOUND;
+	int ret = fallback;
 	pthread_mutex_lock(&q->lock);
-	sqlite3_prepare_v2(q->db, "SELECT cancel_requested FROM jobs WHERE id=?", -1, &st, NULL);
+	sqlite3_prepare_v2(q->db, sql, -1, &st, NULL);
 	sqlite3_bind_int64(st, 1, id);
 	if (sqlite3_step(st) == SQLITE_ROW)
 		ret = sqlite3_column_int(st, 0);
@@ -923,18 +924,14 @@ int jobq_cancel_requested(jobq_t *q, int64_t id)
 	return ret;
 }
 
+int jobq_cancel_requested(jobq_t *q, int64_t id)
+{
+	return int_of_job(q, "SELECT cancel_requested FROM jobs WHERE id=?", id, JOBQ_ENOTFOUND);
+}
+
 int jobq_attempts(jobq_t *q, int64_t id)
 {
-	sqlite3_stmt *st = NULL;
-	int ret = JOBQ_EDB;
-	pthread_mutex_lock(&q->lock);
-	sqlite3_prepare_v2(q->db, "SELECT count(*) FROM attempts WHERE job_id=?", -1, &st, NULL);
-	sqlite3_bind_int64(st, 1, id);
-	if (sqlite3_step(st) == SQLITE_ROW)
-		ret = sqlite3_column_int(st, 0);
-	sqlite3_finalize(st);
-	pthread_mutex_unlock(&q->lock);
-	return ret;
+	return int_of_job(q, "SELECT count(*) FROM attempts WHERE job_id=?", id, JOBQ_EDB);
 }
 
 /* ---- disk-full protection ------------------------------------------------- */
