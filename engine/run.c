@@ -25,15 +25,25 @@ static uint64_t cpp_to_collisions(double cpp, uint64_t n)
 	return c < 1.0 ? 1 : (c >= 1.8e19 ? UINT64_MAX : (uint64_t)c);
 }
 
-typedef struct {
-	const scene_t *s;
+struct run {
+	const scene_t *s;        /* the caller's; must outlive the run */
+	run_opts_t opts;
 	ed_t *ed;
 	clusters_t *cl;
-	double *pos;
-	double t0;
-} run_ctx_t;
+	double *pos, *vel;       /* sampling buffers (clusters, snapshots) */
+	double t0;               /* wall clock at the start of this process's part */
+	double ckpt_wall;        /* wall clock of the last checkpoint request */
+	run_state_t st;
+	run_record_t rec;        /* the last progress record */
+	run_status_t status;
+};
 
-static int sample(run_ctx_t *rc, run_record_t *r, run_kind_t kind)
+static double wall_seconds(const run_t *r)
+{
+	return r->st.wall_before + (wall_now() - r->t0);
+}
+
+static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 {
 	const scene_t *s = rc->s;
 	ed_sample_t sm;
@@ -46,7 +56,7 @@ static int sample(run_ctx_t *rc, run_record_t *r, run_kind_t kind)
 	r->events = sm.events;
 	r->collisions = sm.collisions;
 	r->collisions_per_particle = 2.0 * (double)sm.collisions / (double)s->count;
-	r->wall_seconds = wall_now() - rc->t0;
+	r->wall_seconds = wall_seconds(rc);
 	r->elastic_by_tc = sm.elastic_by_tc;
 	r->have = s->observables;
 	r->kinetic_energy = sm.kinetic_energy;
@@ -71,103 +81,267 @@ static int sample(run_ctx_t *rc, run_record_t *r, run_kind_t kind)
 	return RUN_OK;
 }
 
-int run_scene(const scene_t *s, run_emit_fn emit, void *ctx,
-              const volatile sig_atomic_t *stop, char *msg, size_t msglen)
+static int emit_progress(run_t *r, run_emit_fn emit, void *ctx)
 {
-	run_ctx_t rc = {.s = s};
+	int ret = sample(r, &r->rec, RUN_PROGRESS);
+	if (ret == RUN_OK && emit(&r->rec, ctx))
+		ret = RUN_EMIT;
+	return ret;
+}
+
+/* A snapshot of the present state (the dynamics are not touched). */
+static int emit_snapshot(run_t *r, run_emit_fn emit, void *ctx)
+{
+	ed_sample_t sm;
 	run_record_t rec;
-	int ret = RUN_OK, err = 0;
+	ed_totals(r->ed, &sm);
+	memset(&rec, 0, sizeof(rec));
+	rec.kind = RUN_SNAPSHOT;
+	rec.dim = r->s->dim;
+	rec.n = r->s->count;
+	rec.time = sm.time;
+	rec.events = sm.events;
+	rec.collisions = sm.collisions;
+	rec.collisions_per_particle = 2.0 * (double)sm.collisions / (double)r->s->count;
+	rec.wall_seconds = wall_seconds(r);
+	rec.kinetic_energy = sm.kinetic_energy;
+	ed_state(r->ed, r->pos, r->vel);
+	rec.pos = r->pos;
+	rec.vel = r->vel;
+	r->st.snap_events = sm.events;
+	return emit(&rec, ctx) ? RUN_EMIT : RUN_OK;
+}
+
+static run_t *create(const scene_t *s, const run_opts_t *opts, int blank, int *err, char *msg, size_t msglen)
+{
+	run_t *r = NULL;
+	int e = 0;
 
 	if (s->method != SCENE_METHOD_ED) {
 		if (msg && msglen)
 			snprintf(msg, msglen, "method: \"%s\" is not implemented yet (use \"ed\")",
 			         scene_method_name(s->method));
-		return RUN_EMETHOD;
+		*err = RUN_EMETHOD;
+		return NULL;
 	}
-	rc.ed = ed_create(s, &err, msg, msglen);
-	if (!rc.ed) {
-		ret = err == ED_ENOMEM ? RUN_ENOMEM : RUN_ESETUP;
-		goto cleanup;
+	r = calloc(1, sizeof(*r));
+	if (!r)
+		goto nomem;
+	r->s = s;
+	if (opts)
+		r->opts = *opts;
+	r->st = (run_state_t){.k_out = 1, .k_snap = 1, .k_ckpt = 1, .snap_events = UINT64_MAX};
+	r->ed = blank ? ed_create_blank(s, &e, msg, msglen) : ed_create(s, &e, msg, msglen);
+	if (!r->ed) {
+		*err = e == ED_ENOMEM ? RUN_ENOMEM : RUN_ESETUP;
+		run_destroy(r);
+		return NULL;
+	}
+	if ((s->observables & SCENE_OBS_CLUSTERS) || r->opts.snapshots) {
+		r->pos = malloc(s->count * s->dim * sizeof(double));
+		if (!r->pos)
+			goto nomem;
 	}
 	if (s->observables & SCENE_OBS_CLUSTERS) {
-		rc.cl = clusters_create(s->dim, s->count);
-		rc.pos = malloc(s->count * s->dim * sizeof(double));
-		if (!rc.cl || !rc.pos) {
-			ret = RUN_ENOMEM;
-			goto cleanup;
-		}
+		r->cl = clusters_create(s->dim, s->count);
+		if (!r->cl)
+			goto nomem;
 	}
-	rc.t0 = wall_now();
+	if (r->opts.snapshots) {
+		r->vel = malloc(s->count * s->dim * sizeof(double));
+		if (!r->vel)
+			goto nomem;
+	}
+	r->t0 = r->ckpt_wall = wall_now();
+	*err = RUN_OK;
+	return r;
+nomem:
+	run_destroy(r);
+	if (msg && msglen)
+		snprintf(msg, msglen, "out of memory");
+	*err = RUN_ENOMEM;
+	return NULL;
+}
 
-	/* Output and stop schedules: each is a time or a collision count. */
-	const int out_time = s->every.kind == SCENE_CLOCK_TIME;
+run_t *run_create(const scene_t *s, const run_opts_t *opts, int *err, char *msg, size_t msglen)
+{
+	return create(s, opts, 0, err, msg, msglen);
+}
+
+run_t *run_create_blank(const scene_t *s, const run_opts_t *opts, int *err, char *msg, size_t msglen)
+{
+	return create(s, opts, 1, err, msg, msglen);
+}
+
+int run_restore_finish(run_t *r, char *msg, size_t msglen)
+{
+	if (ed_restore_finish(r->ed, msg, msglen) != ED_OK)
+		return RUN_ERESTORE;
+	r->t0 = r->ckpt_wall = wall_now();
+	return RUN_OK;
+}
+
+void run_destroy(run_t *r)
+{
+	if (!r)
+		return;
+	clusters_destroy(r->cl);
+	free(r->pos);
+	free(r->vel);
+	ed_destroy(r->ed);
+	free(r);
+}
+
+struct ed *run_ed(run_t *r) { return r->ed; }
+void run_get_state(const run_t *r, run_state_t *st)
+{
+	*st = r->st;
+	st->wall_before = wall_seconds(r);
+}
+void run_set_state(run_t *r, const run_state_t *st) { r->st = *st; }
+
+/* Index k of a schedule of kind/value: its time, or its collision target. */
+static double sched_time(const scene_when_t *w, uint64_t k)
+{
+	return w->kind == SCENE_CLOCK_TIME ? (double)k * w->value : INFINITY;
+}
+
+static uint64_t sched_coll(const scene_when_t *w, uint64_t k, uint64_t n)
+{
+	return w->kind == SCENE_CLOCK_CPP ? cpp_to_collisions((double)k * w->value, n) : UINT64_MAX;
+}
+
+/* First index whose time / target lies beyond the present. */
+static void sched_skip(const scene_when_t *w, uint64_t *k, double t, uint64_t c, uint64_t n)
+{
+	if (w->kind == SCENE_CLOCK_TIME)
+		while ((double)*k * w->value <= t)
+			(*k)++;
+	else if (w->kind == SCENE_CLOCK_CPP)
+		while (cpp_to_collisions((double)*k * w->value, n) <= c)
+			(*k)++;
+}
+
+int run_summary(run_t *r, run_emit_fn emit, void *ctx)
+{
+	run_record_t sum = r->rec;
+	if (r->status == RUN_INTERRUPTED && r->opts.checkpoints) {
+		/* stopped for a checkpoint: totals now, without sampling */
+		ed_sample_t sm;
+		ed_totals(r->ed, &sm);
+		sum.time = sm.time;
+		sum.events = sm.events;
+		sum.collisions = sm.collisions;
+		sum.collisions_per_particle = 2.0 * (double)sm.collisions / (double)r->s->count;
+		sum.kinetic_energy = sm.kinetic_energy;
+		sum.temperature = 2.0 * sm.kinetic_energy / (r->s->dim * (double)r->s->count);
+		memcpy(sum.momentum, sm.momentum, sizeof(sum.momentum));
+		sum.elastic_by_tc = sm.elastic_by_tc;
+	}
+	sum.kind = RUN_SUMMARY;
+	sum.dim = r->s->dim;
+	sum.n = r->s->count;
+	sum.have = r->s->observables;
+	sum.have_interval = 0;
+	sum.status = r->status;
+	sum.wall_seconds = wall_seconds(r);
+	sum.events_per_second = sum.wall_seconds > 0 ? sum.events / sum.wall_seconds : 0.0;
+	sum.collisions_per_second = sum.wall_seconds > 0 ? sum.collisions / sum.wall_seconds : 0.0;
+	sum.memory_bytes = ed_memory(r->ed);
+	ed_cells(r->ed, sum.cells);
+	return emit(&sum, ctx) ? RUN_EMIT : RUN_OK;
+}
+
+int run_go(run_t *r, run_emit_fn emit, void *ctx, const volatile sig_atomic_t *stop,
+           char *msg, size_t msglen)
+{
+	const scene_t *s = r->s;
+	const uint64_t n = s->count;
+	int ret = RUN_OK;
+
+	/* Stop and checkpoint schedules: each is a time or a collision count. */
 	const int until_time = s->until.kind == SCENE_CLOCK_TIME;
 	const double t_until = until_time ? s->until.value : INFINITY;
-	const uint64_t c_until = until_time ? UINT64_MAX : cpp_to_collisions(s->until.value, s->count);
-	uint64_t k_out = 1;
-	run_status_t status = RUN_COMPLETED;
+	const uint64_t c_until = until_time ? UINT64_MAX : cpp_to_collisions(s->until.value, n);
+	const scene_when_t none = {SCENE_CLOCK_NONE, 0.0};
+	const scene_when_t *snaps = r->opts.snapshots ? &s->snapshots : &none;
+	const int ckpt_time = r->opts.checkpoints && s->checkpoint.kind == SCENE_CLOCK_TIME;
+	const int ckpt_wall = r->opts.checkpoints && s->checkpoint.kind == SCENE_CLOCK_WALL;
 
-	if ((ret = sample(&rc, &rec, RUN_PROGRESS)) != RUN_OK)
-		goto cleanup;
-	if (emit(&rec, ctx)) {
-		ret = RUN_EMIT;
-		goto cleanup;
+	r->status = RUN_COMPLETED;
+	if (!r->st.started) {
+		if ((ret = emit_progress(r, emit, ctx)) != RUN_OK)
+			goto cleanup;
+		if (r->opts.snapshots && (ret = emit_snapshot(r, emit, ctx)) != RUN_OK)
+			goto cleanup;
+		r->st.started = 1;
 	}
 	for (;;) {
-		double t_out = out_time ? (double)k_out * s->every.value : INFINITY;
-		uint64_t c_out = out_time ? UINT64_MAX : cpp_to_collisions((double)k_out * s->every.value, s->count);
-		double t_stop = t_out < t_until ? t_out : t_until;
-		uint64_t c_stop = c_out < c_until ? c_out : c_until;
+		double t_stop = fmin(fmin(sched_time(&s->every, r->st.k_out), t_until),
+		                     sched_time(snaps, r->st.k_snap));
+		uint64_t c_stop = sched_coll(&s->every, r->st.k_out, n);
+		if (c_until < c_stop) c_stop = c_until;
+		if (sched_coll(snaps, r->st.k_snap, n) < c_stop) c_stop = sched_coll(snaps, r->st.k_snap, n);
+		if (ckpt_time)
+			t_stop = fmin(t_stop, sched_time(&s->checkpoint, r->st.k_ckpt));
 
-		int r = ed_advance(rc.ed, t_stop, c_stop, RUN_CHUNK_EVENTS);
-		double t = ed_time(rc.ed);
-		uint64_t c = ed_collisions(rc.ed);
+		int e = ed_advance(r->ed, t_stop, c_stop, RUN_CHUNK_EVENTS);
+		double t = ed_time(r->ed);
+		uint64_t c = ed_collisions(r->ed);
 		int done = (until_time && t >= t_until) || (!until_time && c >= c_until);
-		if (r == ED_QUIESCENT && !done && !until_time) {
-			status = RUN_QUIESCENT;   /* the collision target can never be reached */
+		if (e == ED_QUIESCENT && !done && !until_time) {
+			r->status = RUN_QUIESCENT;   /* the collision target can never be reached */
 			done = 1;
 		}
-		int due = out_time ? t >= t_out : c >= c_out;
+		int due = s->every.kind == SCENE_CLOCK_TIME ? t >= sched_time(&s->every, r->st.k_out)
+		                                            : c >= sched_coll(&s->every, r->st.k_out, n);
+		int due_snap = snaps->kind == SCENE_CLOCK_TIME ? t >= sched_time(snaps, r->st.k_snap)
+		             : snaps->kind == SCENE_CLOCK_CPP ? c >= sched_coll(snaps, r->st.k_snap, n) : 0;
 		if (stop && *stop && !done) {
-			status = RUN_INTERRUPTED;
+			r->status = RUN_INTERRUPTED;
+			if (r->opts.checkpoints)
+				return RUN_STOPPED;   /* nothing sampled: the checkpoint continues exactly */
 			done = 1;
 		}
 		if (due || done) {
-			if ((ret = sample(&rc, &rec, RUN_PROGRESS)) != RUN_OK)
+			if ((ret = emit_progress(r, emit, ctx)) != RUN_OK)
 				goto cleanup;
-			if (emit(&rec, ctx)) {
-				ret = RUN_EMIT;
-				goto cleanup;
-			}
 			/* Skip output times already passed (a long jump in a quiescent
 			 * or very dilute system emits one record, not thousands). */
-			while (out_time ? (double)k_out * s->every.value <= t
-			                : cpp_to_collisions((double)k_out * s->every.value, s->count) <= c)
-				k_out++;
+			sched_skip(&s->every, &r->st.k_out, t, c, n);
+		}
+		if (due_snap || (done && r->opts.snapshots && r->st.snap_events != ed_events(r->ed))) {
+			if ((ret = emit_snapshot(r, emit, ctx)) != RUN_OK)
+				goto cleanup;
+			sched_skip(snaps, &r->st.k_snap, t, c, n);
 		}
 		if (done)
-			break;
+			return run_summary(r, emit, ctx);
+		if (ckpt_time && t >= sched_time(&s->checkpoint, r->st.k_ckpt)) {
+			sched_skip(&s->checkpoint, &r->st.k_ckpt, t, c, n);
+			r->ckpt_wall = wall_now();
+			return RUN_CHECKPOINT;
+		}
+		if (ckpt_wall && wall_now() - r->ckpt_wall >= s->checkpoint.value) {
+			r->ckpt_wall = wall_now();
+			return RUN_CHECKPOINT;
+		}
 	}
-
-	/* Summary: totals over the production run. */
-	run_record_t sum = rec;
-	sum.kind = RUN_SUMMARY;
-	sum.have_interval = 0;
-	sum.status = status;
-	sum.wall_seconds = wall_now() - rc.t0;
-	sum.events_per_second = sum.wall_seconds > 0 ? sum.events / sum.wall_seconds : 0.0;
-	sum.collisions_per_second = sum.wall_seconds > 0 ? sum.collisions / sum.wall_seconds : 0.0;
-	sum.memory_bytes = ed_memory(rc.ed);
-	ed_cells(rc.ed, sum.cells);
-	if (emit(&sum, ctx))
-		ret = RUN_EMIT;
-
 cleanup:
 	if (ret == RUN_ENOMEM && msg && msglen)
 		snprintf(msg, msglen, "out of memory");
-	clusters_destroy(rc.cl);
-	free(rc.pos);
-	ed_destroy(rc.ed);
+	return ret;
+}
+
+int run_scene(const scene_t *s, run_emit_fn emit, void *ctx,
+              const volatile sig_atomic_t *stop, char *msg, size_t msglen)
+{
+	int err = 0;
+	run_t *r = run_create(s, NULL, &err, msg, msglen);
+	if (!r)
+		return err;
+	int ret = run_go(r, emit, ctx, stop, msg, msglen);
+	run_destroy(r);
 	return ret;
 }
 

@@ -415,6 +415,53 @@ static const struct object when_obj = {
 	.check = check_when,
 };
 
+/* Checkpoint interval: simulated time or wall-clock seconds. */
+static int check_ckpt_when(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_when_t *w = base;
+	bool time = json_object_get(v, "time") != NULL;
+	bool wall = json_object_get(v, "wall_seconds") != NULL;
+	if (time == wall)
+		return fail(c, path, "must have exactly one of time or wall_seconds");
+	w->kind = time ? SCENE_CLOCK_TIME : SCENE_CLOCK_WALL;
+	return 0;
+}
+
+static const struct object ckpt_when_obj = {
+	.fields = (const struct field[]){
+		{ "time", parse_number, offsetof(scene_when_t, value), &R_POS, false },
+		{ "wall_seconds", parse_number, offsetof(scene_when_t, value), &R_POS, false },
+		{ .name = NULL },
+	},
+	.check = check_ckpt_when,
+};
+
+static const struct irange R_LEVEL = { 0, 9 };
+
+static int parse_level(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	uint64_t x;
+	int ret = parse_integer(c, path, v, &x, arg);
+	if (ret == 0)
+		*(int *)dst = (int)x;
+	return ret;
+}
+
+static const struct object snapshots_obj = {
+	.fields = (const struct field[]){
+		{ "every", parse_object, offsetof(scene_t, snapshots), &when_obj, false },
+		{ "compression", parse_level, offsetof(scene_t, compression), &R_LEVEL, false },
+		{ .name = NULL },
+	},
+};
+
+static const struct object checkpoint_obj = {
+	.fields = (const struct field[]){
+		{ "every", parse_object, offsetof(scene_t, checkpoint), &ckpt_when_obj, true },
+		{ .name = NULL },
+	},
+};
+
 static const struct object relax_obj = {
 	.fields = (const struct field[]){
 		{ "collisions_per_particle", parse_number, offsetof(scene_t, relax_cpp), &R_NONNEG, true },
@@ -472,6 +519,8 @@ static const struct object output_obj = {
 		{ "every", parse_object, offsetof(scene_t, every), &when_obj, false },
 		{ "observables", parse_observables, offsetof(scene_t, observables), NULL, false },
 		{ "clusters", parse_object, 0, &clusters_obj, false },
+		{ "snapshots", parse_object, 0, &snapshots_obj, false },
+		{ "checkpoint", parse_object, 0, &checkpoint_obj, false },
 		{ .name = NULL },
 	},
 };
@@ -509,6 +558,7 @@ int scene_parse(const char *json, size_t len, scene_t *out, char *err, size_t er
 		.seed = 1,
 		.observables = SCENE_OBS_ENERGY | SCENE_OBS_PRESSURE | SCENE_OBS_COLLISION_RATE,
 		.cluster_delta = 0.1,
+		.compression = 1,
 	};
 	ctx_t c = { &s, err, errlen };
 	json_error_t jerr;
