@@ -71,6 +71,12 @@ struct ed {
 	double cal_w, cal_iw;
 	double t;                 /* clock since the last rebase */
 	double epoch, epoch_c;    /* absolute time of the last rebase (compensated sum) */
+	/* When ed_advance() stopped at t_stop, the absolute clock is exactly
+	 * t_stop (epoch + (t_stop - epoch) need not round back to it, and a
+	 * caller waiting for t >= t_stop would wait forever). Cleared by the
+	 * next event. */
+	double t_abs;
+	int t_abs_valid;
 	uint64_t events, collisions, tc_elastic, since_rebase, rebase_every;
 	/* interval accumulators for ed_sample() */
 	double ekin_cur, ekin_int, t_mark, t_int0, virial;
@@ -306,7 +312,7 @@ static void epoch_add(struct ed *ed, double t)
 	ed->epoch = s;
 }
 
-double ed_time(const ed_t *ed) { return ed->epoch + ed->t; }
+double ed_time(const ed_t *ed) { return ed->t_abs_valid ? ed->t_abs : ed->epoch + ed->t; }
 
 #define D 2
 #define P_T p2_t
@@ -565,6 +571,7 @@ static void reset_clock(struct ed *ed)
 {
 	if (ed->dim == 2) rebase_2d(ed); else rebase_3d(ed);
 	ed->epoch = ed->epoch_c = 0.0;
+	ed->t_abs_valid = 0;
 	ed->events = ed->collisions = ed->tc_elastic = ed->since_rebase = 0;
 	double mom[3];
 	ed->ekin_cur = DISPATCH(ed, ekin, ed, mom);
@@ -827,6 +834,8 @@ static const struct {
 	{ "coll_int0", ED_T_U64, offsetof(struct ed, coll_int0) },
 	{ "cal_cur", ED_T_I64, offsetof(struct ed, cal_cur) },
 	{ "nl", ED_T_I32, offsetof(struct ed, nl) },
+	{ "t_abs", ED_T_F64, offsetof(struct ed, t_abs) },
+	{ "t_abs_valid", ED_T_I32, offsetof(struct ed, t_abs_valid) },
 };
 #define N_SCALARS (sizeof scalars / sizeof scalars[0])
 
@@ -1061,6 +1070,8 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 		why = "bad calendar width";
 	if (!why && (ed->nl != 0 && !(ed->nl == 1 && ed->xn)))
 		why = "bad mode";
+	if (!why && ed->t_abs_valid != 0 && ed->t_abs_valid != 1)
+		why = "bad clock flag";
 	memset(seen, 0, n * sizeof(uint32_t));
 #undef NEXT
 	if (why) {

@@ -60,13 +60,13 @@ static const obs_def_t obs_defs[] = {
 	{ "collision_rate", SCENE_OBS_COLLISION_RATE, 0, 0, "t0-1", g_rate },
 	{ "momentum", SCENE_OBS_MOMENTUM, 0, -1, "m0 l0 t0-1", g_mom },
 	{ "elastic_by_tc", NEED_TC, 1, 0, NULL, g_tc },
-	{ "clusters/count", SCENE_OBS_CLUSTERS, 1, 0, NULL, g_ccount },
-	{ "clusters/largest", SCENE_OBS_CLUSTERS, 1, 0, NULL, g_clargest },
-	{ "clusters/largest_fraction", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cfrac },
-	{ "clusters/mean_size", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cmean },
-	{ "clusters/m2", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cm2 },
-	{ "clusters/m2_reduced", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cm2r },
-	{ "clusters/histogram", SCENE_OBS_CLUSTERS, 1, CLUSTERS_MAX_BINS, NULL, g_chist },
+	{ "clusters_count", SCENE_OBS_CLUSTERS, 1, 0, NULL, g_ccount },
+	{ "clusters_largest", SCENE_OBS_CLUSTERS, 1, 0, NULL, g_clargest },
+	{ "clusters_largest_fraction", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cfrac },
+	{ "clusters_mean_size", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cmean },
+	{ "clusters_m2", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cm2 },
+	{ "clusters_m2_reduced", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cm2r },
+	{ "clusters_histogram", SCENE_OBS_CLUSTERS, 1, CLUSTERS_MAX_BINS, NULL, g_chist },
 };
 #define N_OBS_DEFS (sizeof obs_defs / sizeof obs_defs[0])
 
@@ -80,7 +80,8 @@ struct h5md {
 	hid_t obs[MAX_OBS];
 	int obs_def[MAX_OBS];
 	int n_obs;
-	hid_t pos_step, pos_time, pos_value, vel_value;
+	hid_t pos_step, pos_time, pos_value, vel_value, box_value;
+	double box[3];
 	uint64_t obs_rows, snap_rows;
 	double *frame_t;            /* times of the frames, for the XDMF */
 	size_t frame_cap;
@@ -188,6 +189,8 @@ static h5md_t *alloc_writer(const char *path, const scene_t *s)
 	if (!h)
 		return NULL;
 	h->file = h->obs_step = h->obs_time = h->pos_step = h->pos_time = h->pos_value = h->vel_value = H5I_INVALID_HID;
+	h->box_value = H5I_INVALID_HID;
+	memcpy(h->box, s->box, sizeof(h->box));
 	for (int k = 0; k < MAX_OBS; k++)
 		h->obs[k] = H5I_INVALID_HID;
 	h->dim = s->dim;
@@ -267,7 +270,7 @@ static int write_header(hid_t f)
 }
 
 /* Time-independent per-particle constant (diameter, mass): [N], compressed. */
-static int write_constant(hid_t g, const char *name, double v, uint64_t n, const char *unit)
+static int write_constant(hid_t g, const char *name, double v, uint64_t n)
 {
 	int ret = -1;
 	hsize_t dims[1] = {n}, chunk[1] = {n < FRAME_CHUNK ? n : FRAME_CHUNK};
@@ -277,7 +280,7 @@ static int write_constant(hid_t g, const char *name, double v, uint64_t n, const
 	if (!buf || sp < 0 || dcpl < 0 || H5Pset_chunk(dcpl, 1, chunk) < 0 || H5Pset_deflate(dcpl, 1) < 0)
 		goto out;
 	d = H5Dcreate2(g, name, H5T_IEEE_F64LE, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT);
-	if (d < 0 || h5u_attr_str(d, "unit", unit))
+	if (d < 0)
 		goto out;
 	for (size_t i = 0; i < chunk[0]; i++)
 		buf[i] = v;
@@ -310,32 +313,35 @@ static int write_particles(h5md_t *h, const scene_t *s)
 	int64_t dim = h->dim;
 	hid_t all = h5u_group(h->file, "particles/all"), box = h5u_group(h->file, "particles/all/box");
 	hid_t pos = h5u_group(h->file, "particles/all/position"), vel = h5u_group(h->file, "particles/all/velocity");
-	hid_t edges = H5I_INVALID_HID, sp = H5I_INVALID_HID;
-	hsize_t dd[1] = {(hsize_t)h->dim};
+	hid_t edges = H5I_INVALID_HID;
+	hsize_t binner[2] = {(hsize_t)h->dim, (hsize_t)h->dim}, bchunk[3] = {OBS_CHUNK, (hsize_t)h->dim, (hsize_t)h->dim};
 	if (all < 0 || box < 0 || pos < 0 || vel < 0)
 		goto out;
 	if (h5u_attr_i64(box, "dimension", &dim, 1) || h5u_attr_strs(box, "boundary", bnd, (size_t)h->dim))
-		goto out;
-	if ((sp = H5Screate_simple(1, dd, NULL)) < 0 ||
-	    (edges = H5Dcreate2(box, "edges", H5T_IEEE_F64LE, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT)) < 0 ||
-	    H5Dwrite(edges, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, s->box) < 0 || h5u_attr_str(edges, "unit", "l0"))
 		goto out;
 	h->pos_step = create_series(pos, "step", H5T_STD_I64LE, 1, NULL, chunk_t, 0);
 	h->pos_time = create_series(pos, "time", H5T_IEEE_F64LE, 1, NULL, chunk_t, 0);
 	h->pos_value = create_series(pos, "value", H5T_IEEE_F64LE, 3, inner, chunk, h->level);
 	h->vel_value = create_series(vel, "value", H5T_IEEE_F64LE, 3, inner, chunk, h->level);
+	/* The box as a time-dependent element of D x D box vectors sampled with
+	 * the frames (H5MD 1.1 allows a fixed [D]; MDAnalysis reads only this). */
+	edges = h5u_group(box, "edges");
+	h->box_value = edges >= 0 ? create_series(edges, "value", H5T_IEEE_F64LE, 3, binner, bchunk, 0) : H5I_INVALID_HID;
+	if (h->box_value < 0 || H5Lcreate_hard(pos, "step", edges, "step", H5P_DEFAULT, H5P_DEFAULT) < 0 ||
+	    H5Lcreate_hard(pos, "time", edges, "time", H5P_DEFAULT, H5P_DEFAULT) < 0)
+		goto out;
+	/* No unit attributes under /particles: the reduced system (l0, t0) is not
+	 * in the tables of H5MD readers such as MDAnalysis, which refuse unknown
+	 * unit strings even with convert_units=False (docs/output.md). */
 	if (h->pos_step < 0 || h->pos_time < 0 || h->pos_value < 0 || h->vel_value < 0 ||
-	    h5u_attr_str(h->pos_time, "unit", "t0") || h5u_attr_str(h->pos_value, "unit", "l0") ||
-	    h5u_attr_str(h->vel_value, "unit", "l0 t0-1") ||
 	    H5Lcreate_hard(pos, "step", vel, "step", H5P_DEFAULT, H5P_DEFAULT) < 0 ||
 	    H5Lcreate_hard(pos, "time", vel, "time", H5P_DEFAULT, H5P_DEFAULT) < 0)
 		goto out;
-	if (write_constant(all, "diameter", 2.0 * s->radius, h->n, "l0") || write_constant(all, "mass", s->mass, h->n, "m0"))
+	if (write_constant(all, "diameter", 2.0 * s->radius, h->n) || write_constant(all, "mass", s->mass, h->n))
 		goto out;
 	ret = 0;
 out:
-	if (edges >= 0) H5Dclose(edges);
-	if (sp >= 0) H5Sclose(sp);
+	if (edges >= 0) H5Gclose(edges);
 	if (all >= 0) H5Gclose(all);
 	if (box >= 0) H5Gclose(box);
 	if (pos >= 0) H5Gclose(pos);
@@ -448,6 +454,7 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 	h->pos_time = H5Dopen2(h->file, "particles/all/position/time", H5P_DEFAULT);
 	h->pos_value = H5Dopen2(h->file, "particles/all/position/value", H5P_DEFAULT);
 	h->vel_value = H5Dopen2(h->file, "particles/all/velocity/value", H5P_DEFAULT);
+	h->box_value = H5Dopen2(h->file, "particles/all/box/edges/value", H5P_DEFAULT);
 	int64_t first = -1;
 	for (size_t k = 0; k < N_OBS_DEFS && h->n_obs < MAX_OBS; k++) {
 		char p[128];
@@ -468,7 +475,8 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 			h->obs_time = H5Dopen2(h->file, p, H5P_DEFAULT);
 		}
 	}
-	if (h->pos_step < 0 || h->pos_time < 0 || h->pos_value < 0 || h->vel_value < 0 || h->obs_step < 0 || h->obs_time < 0) {
+	if (h->pos_step < 0 || h->pos_time < 0 || h->pos_value < 0 || h->vel_value < 0 || h->box_value < 0 ||
+	    h->obs_step < 0 || h->obs_time < 0) {
 		*err = failf(msg, msglen, H5MD_EFORMAT, "%s: not a trajectory of this scene (datasets missing)", path);
 		goto fail;
 	}
@@ -482,7 +490,8 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 	/* Drop what was written after the checkpoint. */
 	int bad = truncate_rows(h->obs_step, obs_rows) || truncate_rows(h->obs_time, obs_rows) ||
 	          truncate_rows(h->pos_step, snap_rows) || truncate_rows(h->pos_time, snap_rows) ||
-	          truncate_rows(h->pos_value, snap_rows) || truncate_rows(h->vel_value, snap_rows);
+	          truncate_rows(h->pos_value, snap_rows) || truncate_rows(h->vel_value, snap_rows) ||
+	          truncate_rows(h->box_value, snap_rows);
 	for (int k = 0; k < h->n_obs && !bad; k++)
 		bad = truncate_rows(h->obs[k], obs_rows);
 	if (bad || frame_times_reserve(h, snap_rows + 1)) {
@@ -507,7 +516,7 @@ int h5md_destroy(h5md_t *h)
 	int ret = H5MD_OK;
 	if (!h)
 		return H5MD_OK;
-	hid_t ds[] = {h->obs_step, h->obs_time, h->pos_step, h->pos_time, h->pos_value, h->vel_value};
+	hid_t ds[] = {h->obs_step, h->obs_time, h->pos_step, h->pos_time, h->pos_value, h->vel_value, h->box_value};
 	for (size_t k = 0; k < sizeof ds / sizeof ds[0]; k++)
 		if (ds[k] >= 0)
 			H5Dclose(ds[k]);
@@ -588,12 +597,16 @@ static int write_xdmf(h5md_t *h)
 int h5md_snapshot(h5md_t *h, const run_record_t *rec, char *msg, size_t msglen)
 {
 	int64_t step = (int64_t)rec->events;
+	double edges[9] = {0};
+	for (int a = 0; a < h->dim; a++)
+		edges[a * h->dim + a] = h->box[a];
 	if (frame_times_reserve(h, h->snap_rows + 1))
 		return failf(msg, msglen, H5MD_ENOMEM, "%s: out of memory", h->path);
 	if (append_row(h->pos_step, H5T_NATIVE_INT64, h->snap_rows, &step) ||
 	    append_row(h->pos_time, H5T_NATIVE_DOUBLE, h->snap_rows, &rec->time) ||
 	    append_row(h->pos_value, H5T_NATIVE_DOUBLE, h->snap_rows, rec->pos) ||
-	    append_row(h->vel_value, H5T_NATIVE_DOUBLE, h->snap_rows, rec->vel))
+	    append_row(h->vel_value, H5T_NATIVE_DOUBLE, h->snap_rows, rec->vel) ||
+	    append_row(h->box_value, H5T_NATIVE_DOUBLE, h->snap_rows, edges))
 		return failf(msg, msglen, H5MD_EIO, "%s: cannot append a frame", h->path);
 	h->frame_t[h->snap_rows++] = rec->time;
 	if (H5Fflush(h->file, H5F_SCOPE_GLOBAL) < 0)
