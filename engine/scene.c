@@ -558,7 +558,7 @@ int scene_parse(const char *json, size_t len, scene_t *out, char *err, size_t er
 		.seed = 1,
 		.observables = SCENE_OBS_ENERGY | SCENE_OBS_PRESSURE | SCENE_OBS_COLLISION_RATE,
 		.cluster_delta = 0.1,
-		.compression = 1,
+		.compression = 0,
 	};
 	ctx_t c = { &s, err, errlen };
 	json_error_t jerr;

@@ -69,7 +69,7 @@ typedef struct scene {
 	unsigned observables;          /* SCENE_OBS_* bit set; default energy|pressure|collision_rate */
 	double cluster_delta;          /* gap in diameters, default 0.1 */
 	scene_when_t snapshots;        /* trajectory frames (time or cpp); NONE = first and last only */
-	int compression;               /* deflate level 0..9 of the HDF5 output, default 1 */
+	int compression;               /* deflate level 0..9 of the HDF5 output, default 0 */
 	scene_when_t checkpoint;       /* checkpoint interval (simulated time or wall seconds); NONE = none */
 
 	/* ed method tuning */
