@@ -167,6 +167,41 @@ PYEOF
 	ok $? "$s: trajectory.xdmf well-formed, datasets exist ($(tail -n 1 "$tmp/x.$s"))"
 done
 
+# ParaView's XDMF reader (when installed: paraview + python3-paraview, not
+# installed by ./quickstart) sees every frame at its time with the stored
+# positions and velocities.
+if command -v pvbatch >/dev/null 2>&1 && pvbatch -c 'import paraview.simple' >/dev/null 2>&1; then
+	for s in 3d 2d; do
+		cat >"$tmp/pv.py" <<'PYEOF'
+import sys
+import h5py, numpy as np
+from paraview.simple import XDMFReader, servermanager
+from vtkmodules.util.numpy_support import vtk_to_numpy
+d = sys.argv[1]
+f = h5py.File(d + "/trajectory.h5", "r")
+P, V = f["particles/all/position/value"][()], f["particles/all/velocity/value"][()]
+T = f["particles/all/position/time"][()]
+r = XDMFReader(FileNames=[d + "/trajectory.xdmf"])
+r.UpdatePipelineInformation()
+assert np.array_equal(np.array(r.TimestepValues), T), "frame times"
+D = P.shape[2]
+for k, t in enumerate(T):
+    r.UpdatePipeline(t)
+    g = servermanager.Fetch(r)
+    g = g.GetBlock(0) if g.IsA("vtkMultiBlockDataSet") else g
+    pts = vtk_to_numpy(g.GetPoints().GetData())
+    vel = vtk_to_numpy(g.GetPointData().GetArray("velocity"))
+    assert np.array_equal(pts[:, :D], P[k]) and np.array_equal(vel[:, :D], V[k]), "frame %d" % k
+print("ParaView read %d frames of %d points" % (len(T), P.shape[1]))
+PYEOF
+		pvbatch "$tmp/pv.py" "$tmp/$s" >"$tmp/pv.$s" 2>&1
+		ok $? "$s: ParaView XDMF reader: $(grep -v '^$' "$tmp/pv.$s" | tail -n 1)"
+	done
+else
+	skip "ParaView (pvbatch, python3-paraview) not installed: XDMF not opened in ParaView"
+	skip "ParaView not installed"
+fi
+
 # MDAnalysis reads the 3D trajectory (its H5MD reader takes 3D periodic boxes only).
 if "$PY" -c 'import MDAnalysis' 2>/dev/null; then
 	"$PY" -W ignore - "$tmp/3d/trajectory.h5" >"$tmp/mda" 2>&1 <<'PYEOF'
