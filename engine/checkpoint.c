@@ -277,6 +277,8 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
 io:
 	ret = failf(msg, msglen, CKPT_EIO, "%s: cannot write the checkpoint%s%s", tmp, errno ? ": " : "",
 	            errno ? strerror(errno) : "");
+	if (f < 0)
+		unlink(tmp);   /* a half-written file must not linger (f open: removed below) */
 cleanup:
 	free(buf);
 	if (g >= 0) H5Gclose(g);
