@@ -8,7 +8,8 @@ mcbench="$build/bench/dsmc_bench"
 out="$src/docs/benchmarks.md"
 tmp=$(mktemp)
 tmc=$(mktemp)
-trap 'rm -f "$tmp" "$tmc"' EXIT
+iotmp=$(mktemp)
+trap 'rm -f "$tmp" "$tmc" "$iotmp"' EXIT
 
 cpu=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')
 cores=$(nproc)
@@ -56,6 +57,26 @@ row "3D large (10^7), lattice start" 3 10000000 0.3 1 0 2
 for c in 0 1 2 3; do row "cell size ${c} (0 = auto)" 2 10000 0.05 1 20 50 0 $c; done
 for c in 0 1.2 1.5; do row "cell size ${c} (0 = auto)" 3 10976 0.1 1 20 50 0 $c; done
 
+# HDF5 output: checkpoint and frame cost at N = 10^6, and a run with checkpoints.
+iorow() { # label dim n phi cpp every
+	label=$1; shift
+	line=$("$build/bench/io_bench" "$build/bench/io.tmp" "$@")
+	echo "$line" >&2
+	echo "$line" | /usr/bin/python3 -c '
+import json, sys
+d = json.loads(sys.stdin.read())
+label, cmd = sys.argv[1], sys.argv[2]
+per = d["ckpt_seconds_in_run"] / max(d["checkpoints"], 1)
+print("| %s | %d | %d | %g | %.1f | %.2f | %.2f | %.1f / %.1f | %.2f / %.2f | %.1f | %.1f (%d) | %.2f%% | %.2f%% | `%s` |" % (
+      label, d["dim"], d["n"], d["phi"], d["ckpt_bytes"] / 1e6, d["ckpt_write_seconds"], d["ckpt_read_seconds"],
+      d["frame_bytes"][0] / 1e6, d["frame_bytes"][1] / 1e6, d["frame_seconds"][0], d["frame_seconds"][1],
+      d["run_seconds"], d["run_ckpt_seconds"], d["checkpoints"],
+      100.0 * (d["run_ckpt_seconds"] - d["run_seconds"]) / d["run_seconds"], 100.0 * per / 60.0, cmd))' "$label" "bench/io_bench DIR $*" >>"$iotmp"
+}
+iorow "3D dilute (cells)" 3 1000000 0.3 12 5
+iorow "3D dense (neighbour lists)" 3 1000000 0.45 6 5
+iorow "2D (cells)" 2 1000000 0.3 8 5
+
 # DSMC/HSMC (peer SPARTA, docs/peers.md: 2.6e7 moves/s at 10^5, 9.6e6 moves/s and 0.67e6 collisions/s at 10^6)
 mcrow "2D dilute (peer SPARTA 2.6e7 moves/s)" dsmc 2 100000 0.05 0.9 40
 mcrow "3D dilute (peer SPARTA 2.6e7 moves/s)" dsmc 3 100000 0.05 0.9 40
@@ -96,6 +117,20 @@ sh "$src/bench/daemon_bench.sh" "$build" "$src" >"$tdm"
 	echo "| case | method | D | N | volume fraction | restitution | moves/s | collisions/s | bytes/particle | cells | command |"
 	echo "|---|---|---|---|---|---|---|---|---|---|---|"
 	cat "$tmc"
+	echo
+	echo "## HDF5 output"
+	echo
+	echo "Checkpoint (\`checkpoint.h5\`: full engine state, digest, written to a temporary file, fsync, rename, directory"
+	echo "fsync; best of 3) and one trajectory frame (positions + velocities appended to \`trajectory.h5\`, flushed and"
+	echo "fsynced) at deflate level 0 / 1, for the final state of a run of the given collisions per particle; then the"
+	echo "same run (lattice start, elastic) timed without checkpoints and with a checkpoint every 5 wall seconds. The"
+	echo "slowdown at a 1-minute interval is the measured time per checkpoint divided by 60 s (a 1-minute interval"
+	echo "would make \`make bench\` too long); the measured slowdown at 5 s is shown too, but it includes the run-to-run"
+	echo "noise of this shared VM (about ±10%). Command: io_bench DIR DIM N PHI CPP CKPT_WALL_SECONDS."
+	echo
+	echo "| case | D | N | volume fraction | checkpoint MB | write s | read s | frame MB (0 / 1) | frame write s (0 / 1) | run s | with checkpoints s (n) | slowdown measured (5 s) | slowdown at 1 min | command |"
+	echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+	cat "$iotmp"
 	echo
 	cat "$tdm"
 	if [ -f "$src/docs/benchmarks-notes.md" ]; then cat "$src/docs/benchmarks-notes.md"; fi

@@ -71,6 +71,12 @@ struct ed {
 	double cal_w, cal_iw;
 	double t;                 /* clock since the last rebase */
 	double epoch, epoch_c;    /* absolute time of the last rebase (compensated sum) */
+	/* When ed_advance() stopped at t_stop, the absolute clock is exactly
+	 * t_stop (epoch + (t_stop - epoch) need not round back to it, and a
+	 * caller waiting for t >= t_stop would wait forever). Cleared by the
+	 * next event. */
+	double t_abs;
+	int t_abs_valid;
 	uint64_t events, collisions, tc_elastic, since_rebase, rebase_every;
 	/* interval accumulators for ed_sample() */
 	double ekin_cur, ekin_int, t_mark, t_int0, virial;
@@ -306,7 +312,7 @@ static void epoch_add(struct ed *ed, double t)
 	ed->epoch = s;
 }
 
-double ed_time(const ed_t *ed) { return ed->epoch + ed->t; }
+double ed_time(const ed_t *ed) { return ed->t_abs_valid ? ed->t_abs : ed->epoch + ed->t; }
 
 #define D 2
 #define P_T p2_t
@@ -565,6 +571,7 @@ static void reset_clock(struct ed *ed)
 {
 	if (ed->dim == 2) rebase_2d(ed); else rebase_3d(ed);
 	ed->epoch = ed->epoch_c = 0.0;
+	ed->t_abs_valid = 0;
 	ed->events = ed->collisions = ed->tc_elastic = ed->since_rebase = 0;
 	double mom[3];
 	ed->ekin_cur = DISPATCH(ed, ekin, ed, mom);
@@ -576,11 +583,12 @@ static void reset_clock(struct ed *ed)
 			ed->tlast[i] = -INFINITY;
 }
 
-ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
+/* Allocate the engine for a scene and choose its mode and grid; no state
+ * yet (particles zeroed, cells empty). */
+static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 {
 	struct ed *ed = NULL;
 	int rc = ED_ENOMEM;
-	rng_t rng;
 
 	if (msg && msglen)
 		msg[0] = '\0';
@@ -627,7 +635,7 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 	if (ed->nl) {
 		ed->xn = malloc(ed->n * ed->dim * sizeof(double));
 		ed->nb = malloc(ed->n * ed->nlk * sizeof(int32_t));
-		ed->nn = malloc(ed->n);
+		ed->nn = calloc(ed->n, 1);
 		if (!ed->xn || !ed->nb || !ed->nn)
 			goto fail;
 	}
@@ -645,6 +653,23 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 		ed->head[c] = -1;
 	/* Rebase often enough to keep times small, rarely enough to cost nothing. */
 	ed->rebase_every = 8ull * ed->n < 4096 ? 4096 : 8ull * ed->n;
+	*err = ED_OK;
+	return ed;
+fail:
+	ed_destroy(ed);
+	*err = rc;
+	if (rc == ED_ENOMEM)
+		set_msg(msg, msglen, "out of memory for %.0f particles%.0s", (double)s->count, 0);
+	return NULL;
+}
+
+ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
+{
+	int rc;
+	rng_t rng;
+	struct ed *ed = ed_alloc(s, err, msg, msglen);
+	if (!ed)
+		return NULL;
 
 	rng_init(&rng, s->seed, s->stream);
 	if (s->positions == SCENE_POS_RANDOM) {
@@ -682,8 +707,6 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 fail:
 	ed_destroy(ed);
 	*err = rc;
-	if (rc == ED_ENOMEM)
-		set_msg(msg, msglen, "out of memory for %.0f particles%.0s", (double)s->count, 0);
 	return NULL;
 }
 
@@ -772,4 +795,307 @@ const char *ed_strerror(int code)
 	case ED_QUIESCENT: return "no further events";
 	default: return "unknown error";
 	}
+}
+
+/* ---- state export and import (checkpoints) ------------------------------
+ *
+ * The exported state is everything the dynamics read: particle records
+ * (position at the particle's own time, velocity, local time, cell-list link,
+ * collision counter), predicted events, cell heads, scene indices, TC times,
+ * neighbour lists, clocks, counters and interval accumulators. The event
+ * calendar is not exported: its pop order is the (time, particle index)
+ * order of the per-particle event times (see the invariant at struct ed), so
+ * re-inserting every particle's event into a calendar of the same bucket
+ * width and current bucket gives the same sequence of events. */
+
+typedef enum {
+	F_R, F_V, F_TLOC, F_NEXT, F_COUNT, F_TCOLL, F_TCROSS, F_PARTNER, F_PCOUNT, F_CROSS, F_CELL,
+	F_ID, F_HEAD, F_TLAST, F_XN, F_NN, F_NB, F_SCALAR
+} fid_t;
+
+static const struct {
+	const char *name;
+	ed_type_t type;
+	size_t off;
+} scalars[] = {
+	{ "clock", ED_T_F64, offsetof(struct ed, t) },
+	{ "epoch", ED_T_F64, offsetof(struct ed, epoch) },
+	{ "epoch_c", ED_T_F64, offsetof(struct ed, epoch_c) },
+	{ "ekin_cur", ED_T_F64, offsetof(struct ed, ekin_cur) },
+	{ "ekin_int", ED_T_F64, offsetof(struct ed, ekin_int) },
+	{ "t_mark", ED_T_F64, offsetof(struct ed, t_mark) },
+	{ "t_int0", ED_T_F64, offsetof(struct ed, t_int0) },
+	{ "virial", ED_T_F64, offsetof(struct ed, virial) },
+	{ "cal_w", ED_T_F64, offsetof(struct ed, cal_w) },
+	{ "events", ED_T_U64, offsetof(struct ed, events) },
+	{ "collisions", ED_T_U64, offsetof(struct ed, collisions) },
+	{ "tc_elastic", ED_T_U64, offsetof(struct ed, tc_elastic) },
+	{ "since_rebase", ED_T_U64, offsetof(struct ed, since_rebase) },
+	{ "coll_int0", ED_T_U64, offsetof(struct ed, coll_int0) },
+	{ "cal_cur", ED_T_I64, offsetof(struct ed, cal_cur) },
+	{ "nl", ED_T_I32, offsetof(struct ed, nl) },
+	{ "t_abs", ED_T_F64, offsetof(struct ed, t_abs) },
+	{ "t_abs_valid", ED_T_I32, offsetof(struct ed, t_abs_valid) },
+};
+#define N_SCALARS (sizeof scalars / sizeof scalars[0])
+
+static const struct {
+	const char *name;
+	fid_t id;
+	ed_type_t type;
+} arrays[] = {
+	{ "r", F_R, ED_T_F64 }, { "v", F_V, ED_T_F64 }, { "t_local", F_TLOC, ED_T_F64 },
+	{ "next", F_NEXT, ED_T_I32 }, { "count", F_COUNT, ED_T_U32 },
+	{ "t_coll", F_TCOLL, ED_T_F64 }, { "t_cross", F_TCROSS, ED_T_F64 },
+	{ "partner", F_PARTNER, ED_T_I32 }, { "pcount", F_PCOUNT, ED_T_U32 },
+	{ "cross", F_CROSS, ED_T_I32 }, { "cell", F_CELL, ED_T_I32 },
+	{ "id", F_ID, ED_T_U32 }, { "head", F_HEAD, ED_T_I32 }, { "tlast", F_TLAST, ED_T_F64 },
+	{ "xn", F_XN, ED_T_F64 }, { "nn", F_NN, ED_T_U8 }, { "nb", F_NB, ED_T_I32 },
+};
+#define N_ARRAYS (sizeof arrays / sizeof arrays[0])
+
+size_t ed_type_size(ed_type_t t)
+{
+	switch (t) {
+	case ED_T_F64: case ED_T_U64: case ED_T_I64: return 8;
+	case ED_T_I32: case ED_T_U32: return 4;
+	case ED_T_U8: return 1;
+	}
+	return 0;
+}
+
+static int array_present(const struct ed *ed, fid_t id)
+{
+	if (id == F_TLAST)
+		return ed->tlast != NULL;
+	if (id == F_XN || id == F_NN || id == F_NB)
+		return ed->xn != NULL;
+	return 1;
+}
+
+static size_t array_count(const struct ed *ed, fid_t id)
+{
+	switch (id) {
+	case F_R: case F_V: case F_XN: return (size_t)ed->n * ed->dim;
+	case F_CELL: return (size_t)ed->n * 3;
+	case F_HEAD: return ed->ncells;
+	case F_NB: {
+		size_t k = 0;
+		for (uint32_t i = 0; i < ed->n; i++)
+			k += ed->nn[i];
+		return k;
+	}
+	default: return ed->n;
+	}
+}
+
+int ed_fields(const ed_t *ed, ed_field_t *out, int max)
+{
+	int k = 0;
+	for (size_t a = 0; a < N_ARRAYS; a++) {
+		if (!array_present(ed, arrays[a].id))
+			continue;
+		if (k < max)
+			out[k] = (ed_field_t){ arrays[a].name, arrays[a].type, array_count(ed, arrays[a].id) };
+		k++;
+	}
+	for (size_t a = 0; a < N_SCALARS; a++) {
+		if (k < max)
+			out[k] = (ed_field_t){ scalars[a].name, scalars[a].type, 1 };
+		k++;
+	}
+	return k;
+}
+
+/* Copy one field between the engine and buf; to_buf selects the direction. */
+static void field_copy(struct ed *ed, fid_t id, void *buf, int to_buf)
+{
+	const size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
+	const int D = ed->dim;
+	char *P = ed->p, *b = buf;
+	size_t off = 0, width = 0;
+
+	switch (id) {
+	case F_R: off = D == 2 ? offsetof(p2_t, r) : offsetof(p3_t, r); width = D * sizeof(double); break;
+	case F_V: off = D == 2 ? offsetof(p2_t, v) : offsetof(p3_t, v); width = D * sizeof(double); break;
+	case F_TLOC: off = D == 2 ? offsetof(p2_t, t) : offsetof(p3_t, t); width = sizeof(double); break;
+	case F_NEXT: off = D == 2 ? offsetof(p2_t, next) : offsetof(p3_t, next); width = 4; break;
+	case F_COUNT: off = D == 2 ? offsetof(p2_t, count) : offsetof(p3_t, count); width = 4; break;
+	default: break;
+	}
+	if (width) {   /* a member of the particle records */
+		for (uint32_t i = 0; i < ed->n; i++) {
+			if (to_buf) memcpy(b + i * width, P + i * stride + off, width);
+			else memcpy(P + i * stride + off, b + i * width, width);
+		}
+		return;
+	}
+	switch (id) {
+	case F_TCOLL: off = offsetof(ev_t, t_coll); width = 8; break;
+	case F_TCROSS: off = offsetof(ev_t, t_cross); width = 8; break;
+	case F_PARTNER: off = offsetof(ev_t, partner); width = 4; break;
+	case F_PCOUNT: off = offsetof(ev_t, pcount); width = 4; break;
+	case F_CROSS: off = offsetof(ev_t, cross); width = 4; break;
+	case F_CELL: off = offsetof(ev_t, cc); width = 12; break;
+	default: break;
+	}
+	if (width) {   /* a member of the event records */
+		char *E = (char *)ed->ev;
+		for (uint32_t i = 0; i < ed->n; i++) {
+			if (to_buf) memcpy(b + i * width, E + i * sizeof(ev_t) + off, width);
+			else memcpy(E + i * sizeof(ev_t) + off, b + i * width, width);
+		}
+		return;
+	}
+	void *src = NULL;
+	size_t bytes = 0;
+	switch (id) {
+	case F_ID: src = ed->id; bytes = ed->n * sizeof(uint32_t); break;
+	case F_HEAD: src = ed->head; bytes = ed->ncells * sizeof(int32_t); break;
+	case F_TLAST: src = ed->tlast; bytes = ed->n * sizeof(double); break;
+	case F_XN: src = ed->xn; bytes = (size_t)ed->n * D * sizeof(double); break;
+	case F_NN: src = ed->nn; bytes = ed->n; break;
+	case F_NB: {
+		/* lists packed: the first nn[i] entries of each row */
+		size_t k = 0;
+		for (uint32_t i = 0; i < ed->n; i++) {
+			int32_t *row = ed->nb + (size_t)i * ed->nlk;
+			if (to_buf) memcpy(b + k * 4, row, ed->nn[i] * 4u);
+			else memcpy(row, b + k * 4, ed->nn[i] * 4u);
+			k += ed->nn[i];
+		}
+		return;
+	}
+	default: return;
+	}
+	if (to_buf) memcpy(buf, src, bytes);
+	else memcpy(src, buf, bytes);
+}
+
+int ed_field_get(const ed_t *ed, const char *name, void *buf)
+{
+	for (size_t a = 0; a < N_ARRAYS; a++)
+		if (!strcmp(arrays[a].name, name)) {
+			if (!array_present(ed, arrays[a].id))
+				return ED_EINVAL;
+			field_copy((struct ed *)ed, arrays[a].id, buf, 1);
+			return ED_OK;
+		}
+	for (size_t a = 0; a < N_SCALARS; a++)
+		if (!strcmp(scalars[a].name, name)) {
+			memcpy(buf, (const char *)ed + scalars[a].off, scalars[a].type == ED_T_I32 ? 4 : 8);
+			return ED_OK;
+		}
+	return ED_EINVAL;
+}
+
+int ed_field_set(ed_t *ed, const char *name, ed_type_t type, size_t count, const void *buf)
+{
+	for (size_t a = 0; a < N_ARRAYS; a++)
+		if (!strcmp(arrays[a].name, name)) {
+			/* nb's length is the sum of nn: nn must come first (ed_fields order) */
+			if (!array_present(ed, arrays[a].id) || type != arrays[a].type ||
+			    count != array_count(ed, arrays[a].id))
+				return ED_EINVAL;
+			if (arrays[a].id == F_NN)
+				for (size_t i = 0; i < count; i++)
+					if (((const uint8_t *)buf)[i] > ed->nlk)
+						return ED_EINVAL;
+			field_copy(ed, arrays[a].id, (void *)buf, 0);
+			return ED_OK;
+		}
+	for (size_t a = 0; a < N_SCALARS; a++)
+		if (!strcmp(scalars[a].name, name)) {
+			if (type != scalars[a].type || count != 1)
+				return ED_EINVAL;
+			memcpy((char *)ed + scalars[a].off, buf, type == ED_T_I32 ? 4 : 8);
+			return ED_OK;
+		}
+	return ED_EINVAL;
+}
+
+ed_t *ed_create_blank(const scene_t *s, int *err, char *msg, size_t msglen)
+{
+	return ed_alloc(s, err, msg, msglen);
+}
+
+static int in_range(int32_t x, uint32_t n) { return x >= -1 && x < (int32_t)n; }
+
+int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
+{
+	const uint32_t n = ed->n;
+	uint32_t *seen = ed->scratch_idx;
+	const char *why = NULL;
+	const size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
+	const size_t noff = ed->dim == 2 ? offsetof(p2_t, next) : offsetof(p3_t, next);
+#define NEXT(i) (*(int32_t *)((char *)ed->p + (size_t)(i) * stride + noff))
+
+	/* Indices must stay in range (a corrupted file must not crash us), the
+	 * scene indices must be a permutation, and the cell lists must hold each
+	 * particle once, in its own cell. */
+	memset(seen, 0, n * sizeof(uint32_t));
+	for (uint32_t i = 0; i < n && !why; i++) {
+		const ev_t *e = &ed->ev[i];
+		if (ed->id[i] >= n || seen[ed->id[i]]++)
+			why = "scene indices are not a permutation";
+		else if (!in_range(e->partner, n) || !in_range(NEXT(i), n))
+			why = "particle index out of range";
+		else if (e->cross < -1 || e->cross >= 2 * ed->dim || isnan(e->t_coll) || isnan(e->t_cross))
+			why = "bad event record";
+		for (int a = 0; a < 3 && !why; a++)
+			if (e->cc[a] < 0 || e->cc[a] >= ed->nc[a])
+				why = "cell out of range";
+		if (!why && ed->xn)
+			for (int k = 0; k < ed->nn[i]; k++)
+				if (ed->nb[(size_t)i * ed->nlk + k] < 0 || ed->nb[(size_t)i * ed->nlk + k] >= (int32_t)n)
+					why = "neighbour index out of range";
+	}
+	memset(seen, 0, n * sizeof(uint32_t));
+	for (size_t c = 0; c < ed->ncells && !why; c++) {
+		if (!in_range(ed->head[c], n)) {
+			why = "cell head out of range";
+			break;
+		}
+		for (int32_t j = ed->head[c]; j >= 0 && !why; j = NEXT(j)) {
+			if (seen[j]++)
+				why = "cell lists are not disjoint";
+			else if ((size_t)DISPATCH(ed, cell_index, ed, ed->ev[j].cc) != c)
+				why = "particle filed in the wrong cell";
+		}
+	}
+	for (uint32_t i = 0; i < n && !why; i++)
+		if (!seen[i])
+			why = "particle missing from the cell lists";
+	if (!why && (!(ed->cal_w > 0.0) || !isfinite(ed->cal_iw = 1.0 / ed->cal_w)))
+		why = "bad calendar width";
+	if (!why && (ed->nl != 0 && !(ed->nl == 1 && ed->xn)))
+		why = "bad mode";
+	if (!why && ed->t_abs_valid != 0 && ed->t_abs_valid != 1)
+		why = "bad clock flag";
+	memset(seen, 0, n * sizeof(uint32_t));
+#undef NEXT
+	if (why) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "inconsistent engine state: %s", why);
+		return ED_EINVAL;
+	}
+	/* The calendar: same width and current bucket, every event re-inserted. */
+	ed->nl_over = 0;
+	ed->cal_ring = 0;
+	ed->hn = 0;
+	for (uint32_t c = 0; c <= ed->cal_m; c++)
+		ed->cal_head[c] = -1;
+	for (uint32_t i = 0; i < n; i++)
+		cal_insert(ed, i, ev_time(ed, i));
+	return ED_OK;
+}
+
+void ed_totals(const ed_t *ed, ed_sample_t *out)
+{
+	memset(out, 0, sizeof(*out));
+	out->time = ed_time(ed);
+	out->events = ed->events;
+	out->collisions = ed->collisions;
+	out->elastic_by_tc = ed->tc_elastic;
+	out->kinetic_energy = DISPATCH(ed, ekin, ed, out->momentum);
 }

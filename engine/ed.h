@@ -72,4 +72,43 @@ double ed_min_gap(const ed_t *ed);
 void ed_cells(const ed_t *ed, int cells[3]);
 size_t ed_memory(const ed_t *ed);
 
+/* Totals now (time, counters, kinetic energy, momentum) without starting a
+ * new interval: unlike ed_sample() it changes nothing. Interval fields 0. */
+void ed_totals(const ed_t *ed, ed_sample_t *out);
+
+/*
+ * Checkpoints (no I/O here: the caller stores the fields where it wants).
+ * The state is a list of named fields, each an array of count elements of one
+ * type; ed_fields() lists them in an order that ed_field_set() accepts
+ * (a field's count may depend on earlier fields: "nb" has sum("nn")
+ * entries). Saving every field at any moment between ed_advance() calls and
+ * restoring them into ed_create_blank() + ed_field_set() ... +
+ * ed_restore_finish() gives an engine whose further events, states and
+ * samples are bit-for-bit those of the original (the event calendar is
+ * rebuilt: its pop order depends only on event times and particle indices).
+ * Field data are native-endian.
+ */
+typedef enum { ED_T_F64 = 0, ED_T_U64, ED_T_I64, ED_T_I32, ED_T_U32, ED_T_U8 } ed_type_t;
+typedef struct {
+	const char *name;    /* static string */
+	ed_type_t type;
+	size_t count;        /* elements */
+} ed_field_t;
+#define ED_MAX_FIELDS 40
+
+size_t ed_type_size(ed_type_t t);
+/* Describe the fields of the current state into out[max]; returns how many
+ * there are (may exceed max: then only max were written). */
+int ed_fields(const ed_t *ed, ed_field_t *out, int max);
+/* Copy field name into buf (count * ed_type_size(type) bytes, as listed by
+ * ed_fields() now). ED_EINVAL for an unknown name. */
+int ed_field_get(const ed_t *ed, const char *name, void *buf);
+/* An engine for scene s with memory but no state: only for restoring. */
+ed_t *ed_create_blank(const scene_t *s, int *err, char *msg, size_t msglen);
+/* Set one field; ED_EINVAL if name, type or count does not fit this scene. */
+int ed_field_set(ed_t *ed, const char *name, ed_type_t type, size_t count, const void *buf);
+/* After all fields are set: check the state's consistency (indices in range,
+ * cell lists) and rebuild the calendar. ED_EINVAL with a reason in msg. */
+int ed_restore_finish(ed_t *ed, char *msg, size_t msglen);
+
 const char *ed_strerror(int code);

@@ -485,6 +485,7 @@ static void FN(step)(struct ed *ed)
 	ev_t *e = &ed->ev[i];
 
 	ed->t = t;
+	ed->t_abs_valid = 0;
 	ed->events++;
 	if (e->t_cross < e->t_coll) {
 		if (ed->nl)
@@ -595,6 +596,8 @@ static int FN(run)(struct ed *ed, double t_stop, uint64_t max_coll, uint64_t max
 			goto quiescent;
 		if (tn > local_stop) {
 			ed->t = local_stop;
+			ed->t_abs = t_stop;
+			ed->t_abs_valid = 1;
 			return ED_OK;
 		}
 		FN(step)(ed);
@@ -606,8 +609,11 @@ static int FN(run)(struct ed *ed, double t_stop, uint64_t max_coll, uint64_t max
 	}
 	return ED_OK;
 quiescent:
-	if (isfinite(t_stop))
+	if (isfinite(t_stop)) {
 		ed->t = local_stop;
+		ed->t_abs = t_stop;
+		ed->t_abs_valid = 1;
+	}
 	return ED_QUIESCENT;
 }
 

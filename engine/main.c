@@ -9,14 +9,16 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "checkpoint.h"
 #include "config.h"
 #include "ensemble.h"
+#include "h5md.h"
 #include "report.h"
 #include "run.h"
 #include "scene.h"
 
-/* Exit codes (documented in docs/engine.md). */
-enum { EX_DONE = 0, EX_FAIL = 1, EX_INPUT = 2, EX_INTERRUPTED = 3 };
+/* Exit codes (documented in docs/engine.md and docs/output.md). */
+enum { EX_DONE = 0, EX_FAIL = 1, EX_INPUT = 2, EX_INTERRUPTED = 3, EX_CHECKPOINTED = 4 };
 
 static volatile sig_atomic_t stop_requested;
 
@@ -29,12 +31,18 @@ static void on_signal(int sig)
 typedef struct {
 	FILE *progress;     /* progress stream (stdout or --progress-fd) */
 	FILE *copy;         /* DIR/progress.jsonl with --out, or NULL */
+	h5md_t *traj;       /* DIR/trajectory.h5 with --out, or NULL */
+	char err[512];      /* why an output failed */
 } sink_t;
 
 static int emit(const run_record_t *rec, void *ctx)
 {
 	sink_t *sk = ctx;
 	char line[REPORT_MAX];
+	if (rec->kind == RUN_SNAPSHOT)
+		return sk->traj ? h5md_snapshot(sk->traj, rec, sk->err, sizeof(sk->err)) : 0;
+	if (rec->kind == RUN_PROGRESS && sk->traj && h5md_observables(sk->traj, rec, sk->err, sizeof(sk->err)))
+		return -1;
 	int n = report_format(rec, line, sizeof(line));
 	if (n < 0)
 		return -1;
@@ -43,6 +51,45 @@ static int emit(const run_record_t *rec, void *ctx)
 	if (sk->copy && (fwrite(line, 1, (size_t)n, sk->copy) != (size_t)n || fflush(sk->copy) != 0))
 		return -1;
 	return 0;
+}
+
+/* Make the outputs durable, note where they stand, and write the checkpoint. */
+static int checkpoint(const char *outdir, run_t *run, sink_t *sk, const char *text, size_t len)
+{
+	ckpt_output_t pos = {0, 0, 0};
+	long off;
+	if (fflush(sk->copy) != 0 || fsync(fileno(sk->copy)) != 0 || (off = ftell(sk->copy)) < 0) {
+		snprintf(sk->err, sizeof(sk->err), "%s/progress.jsonl: %s", outdir, strerror(errno));
+		return -1;
+	}
+	pos.progress_bytes = (uint64_t)off;
+	if (h5md_flush(sk->traj, sk->err, sizeof(sk->err)) != H5MD_OK)
+		return -1;
+	h5md_rows(sk->traj, &pos.obs_rows, &pos.snap_rows);
+	return ckpt_write(outdir, run, text, len, &pos, sk->err, sizeof(sk->err)) == CKPT_OK ? 0 : -1;
+}
+
+/* Load --resume PATH, falling back to checkpoint.prev.h5 beside it when PATH
+ * is damaged (one line on stderr says so). Exit code on failure. */
+static int resume(const char *path, const scene_t *s, const char *text, size_t len, const run_opts_t *opts,
+                  run_t **run, ckpt_output_t *pos)
+{
+	char msg[512], prev[4096];
+	int rc = ckpt_read(path, s, text, len, opts, run, pos, msg, sizeof(msg));
+	if (rc == CKPT_OK)
+		return EX_DONE;
+	if (rc == CKPT_ESCENE || rc == CKPT_ENOMEM || rc == CKPT_EIO) {
+		fprintf(stderr, "granular-engine: --resume %s\n", msg);
+		return rc == CKPT_ENOMEM ? EX_FAIL : EX_INPUT;
+	}
+	const char *slash = strrchr(path, '/');
+	snprintf(prev, sizeof(prev), "%.*s%s", slash ? (int)(slash - path + 1) : 0, path, CKPT_PREV);
+	fprintf(stderr, "granular-engine: --resume %s; using %s\n", msg, prev);
+	rc = ckpt_read(prev, s, text, len, opts, run, pos, msg, sizeof(msg));
+	if (rc == CKPT_OK)
+		return EX_DONE;
+	fprintf(stderr, "granular-engine: --resume %s\n", msg);
+	return rc == CKPT_ENOMEM ? EX_FAIL : EX_INPUT;
 }
 
 static char *read_file(const char *path, size_t *len, char *err, size_t errlen)
@@ -85,12 +132,15 @@ static char *read_file(const char *path, size_t *len, char *err, size_t errlen)
 static void usage(FILE *f)
 {
 	fprintf(f,
-	        "usage: granular-engine run SCENE.json [--out DIR] [--progress-fd N]\n"
+	        "usage: granular-engine run SCENE.json [--out DIR [--resume CHECKPOINT.h5]] [--progress-fd N]\n"
 	        "       granular-engine validate SCENE.json\n"
 	        "       granular-engine --version | --help\n"
 	        "Runs a granular-gas scene (docs/scene.md) and writes one JSON progress\n"
-	        "line per output time and a summary line (docs/engine.md).\n"
-	        "Exit status: 0 done, 1 failure, 2 bad input or usage, 3 interrupted.\n");
+	        "line per output time and a summary line (docs/engine.md). With --out DIR:\n"
+	        "DIR/progress.jsonl, DIR/trajectory.h5 (H5MD), DIR/trajectory.xdmf and\n"
+	        "checkpoints DIR/checkpoint.h5 (docs/output.md); --resume continues exactly.\n"
+	        "Exit status: 0 done, 1 failure, 2 bad input or usage, 3 interrupted,\n"
+	        "4 checkpointed and stopped (SIGTERM/SIGINT with --out).\n");
 }
 
 /* Complete a non-blocking collective without spinning a core (a blocking
@@ -201,7 +251,7 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, char
 	/* Summary: totals and final means over the replicas. */
 	memset(vals, 0, (NV + 2) * sizeof(double));
 	for (int i = 0; i < NL; i++) {
-		run_summary(runs[i], &rec);
+		run_summary_record(runs[i], &rec);
 		ensemble_pack(&rec, 1, vals + (size_t)(rank + i * size) * ENSEMBLE_NV);
 		if (rank + i * size == 0)
 			proto = rec;
@@ -217,7 +267,7 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, char
 	}
 cleanup:
 	for (int i = 0; runs && i < NL; i++)
-		run_close(runs[i]);
+		run_destroy(runs[i]);
 	free(runs);
 	free(last);
 	free(done);
@@ -251,16 +301,18 @@ static int run_other(int rank, int size)
 
 static int run_rank0(int argc, char **argv, announce_t *an, int size)
 {
-	const char *cmd = argv[1], *scene_path = NULL, *outdir = NULL;
+	const char *cmd = argv[1], *scene_path = NULL, *outdir = NULL, *resume_path = NULL;
 	int progress_fd = 1, ret = EX_FAIL;
 	char err[512] = "", *text = NULL;
 	size_t len = 0;
 	scene_t scene;
-	sink_t sink = {NULL, NULL};
+	sink_t sink = {NULL, NULL, NULL, ""};
 
 	for (int i = 2; i < argc; i++) {
 		if (!strcmp(argv[i], "--out") && i + 1 < argc) {
 			outdir = argv[++i];
+		} else if (!strcmp(argv[i], "--resume") && i + 1 < argc) {
+			resume_path = argv[++i];
 		} else if (!strcmp(argv[i], "--progress-fd") && i + 1 < argc) {
 			char *end;
 			long v = strtol(argv[++i], &end, 10);
@@ -285,17 +337,37 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		fprintf(stderr, "granular-engine: %s\n", err);
 		return EX_INPUT;
 	}
+	run_t *run = NULL;
 	int rc = scene_parse(text, len, &scene, err, sizeof(err));
 	if (rc != SCENE_OK) {
-		free(text);
 		/* One line, starting with the key path. */
 		fprintf(stderr, "%s\n", err);
-		return EX_INPUT;
+		ret = EX_INPUT;
+		goto cleanup;
 	}
 	if (!strcmp(cmd, "validate")) {
-		free(text);
-		return EX_DONE;
+		ret = EX_DONE;
+		goto cleanup;
 	}
+	/* Snapshots, checkpoints and --resume: method "ed" with one replica
+	 * (the scene parser rejects output.snapshots/output.checkpoint
+	 * elsewhere); other runs write progress and H5MD observables only. */
+	const int stepped = scene.method == SCENE_METHOD_ED && scene.replicas <= 1;
+	if (resume_path && !outdir) {
+		fprintf(stderr, "granular-engine: --resume needs --out DIR (the run's output directory)\n");
+		ret = EX_INPUT;
+		goto cleanup;
+	}
+	if (resume_path && !stepped) {
+		fprintf(stderr, "granular-engine: --resume: checkpoints exist only for method \"ed\" with run.replicas = 1\n");
+		ret = EX_INPUT;
+		goto cleanup;
+	}
+	run_opts_t opts = {.snapshots = outdir != NULL && stepped, .checkpoints = outdir != NULL && stepped};
+	ckpt_output_t at = {0, 0, 0};
+	if (resume_path && (ret = resume(resume_path, &scene, text, len, &opts, &run, &at)) != EX_DONE)
+		goto cleanup;
+	ret = EX_FAIL;
 
 	sink.progress = progress_fd == 1 ? stdout : fdopen(progress_fd, "w");
 	if (!sink.progress) {
@@ -311,10 +383,34 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			goto cleanup;
 		}
 		snprintf(path, sizeof(path), "%s/progress.jsonl", outdir);
-		sink.copy = fopen(path, "w");
+		/* Resumed: drop the lines written after the checkpoint, append. */
+		sink.copy = fopen(path, resume_path ? "r+" : "w");
+		if (sink.copy && resume_path) {
+			struct stat st;
+			if (fstat(fileno(sink.copy), &st) != 0 || (uint64_t)st.st_size < at.progress_bytes ||
+			    ftruncate(fileno(sink.copy), (off_t)at.progress_bytes) != 0 || fseek(sink.copy, 0, SEEK_END) != 0) {
+				fprintf(stderr, "granular-engine: %s: shorter than at the checkpoint or not writable\n", path);
+				goto cleanup;
+			}
+		}
 		if (!sink.copy) {
 			fprintf(stderr, "granular-engine: %s: %s\n", path, strerror(errno));
-			ret = EX_INPUT;
+			ret = resume_path ? EX_FAIL : EX_INPUT;
+			goto cleanup;
+		}
+		snprintf(path, sizeof(path), "%s/trajectory.h5", outdir);
+		sink.traj = resume_path ? h5md_open_append(path, &scene, at.obs_rows, at.snap_rows, &rc, err, sizeof(err))
+		                        : h5md_create(path, &scene, text, len, &rc, err, sizeof(err));
+		if (!sink.traj) {
+			fprintf(stderr, "granular-engine: %s\n", err);
+			goto cleanup;
+		}
+	}
+	if (!run && scene.replicas <= 1) {
+		run = run_create(&scene, &opts, &rc, err, sizeof(err));
+		if (!run) {
+			fprintf(stderr, "%s\n", err);
+			ret = rc == RUN_ENOMEM ? EX_FAIL : EX_INPUT;
 			goto cleanup;
 		}
 	}
@@ -331,7 +427,21 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		rc = ensemble_run(&scene, 0, size, &sink, err, sizeof(err));
 	} else {
 		announce(an, 0, NULL, 0);
-		rc = run_scene(&scene, emit, &sink, &stop_requested, err, sizeof(err));
+		for (;;) {
+			rc = run_go(run, emit, &sink, &stop_requested, err, sizeof(err));
+			if (rc != RUN_CHECKPOINT && rc != RUN_STOPPED)
+				break;
+			if (checkpoint(outdir, run, &sink, text, len) != 0) {
+				fprintf(stderr, "granular-engine: %s\n", sink.err);
+				ret = EX_FAIL;
+				goto cleanup;
+			}
+			if (rc == RUN_STOPPED) {
+				run_summary(run, emit, &sink);   /* best effort: the checkpoint is what counts */
+				ret = EX_CHECKPOINTED;
+				goto cleanup;
+			}
+		}
 	}
 	if (rc == RUN_OK) {
 		ret = stop_requested ? EX_INTERRUPTED : EX_DONE;
@@ -339,14 +449,22 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		fprintf(stderr, "%s\n", err);
 		ret = EX_INPUT;
 	} else if (rc == RUN_EMIT) {
-		fprintf(stderr, "granular-engine: cannot write progress: %s\n", strerror(errno));
+		if (sink.err[0])
+			fprintf(stderr, "granular-engine: %s\n", sink.err);
+		else
+			fprintf(stderr, "granular-engine: cannot write progress: %s\n", strerror(errno));
 		ret = stop_requested ? EX_INTERRUPTED : EX_FAIL;
 	} else {
 		fprintf(stderr, "granular-engine: %s\n", err[0] ? err : "run failed");
 		ret = EX_FAIL;
 	}
 cleanup:
+	run_destroy(run);
 	free(text);
+	if (sink.traj && h5md_destroy(sink.traj) != H5MD_OK && ret == EX_DONE) {
+		fprintf(stderr, "granular-engine: %s/trajectory.h5: cannot close\n", outdir);
+		ret = EX_FAIL;
+	}
 	if (sink.copy)
 		fclose(sink.copy);
 	if (sink.progress && sink.progress != stdout)

@@ -1,4 +1,4 @@
-/* Run driver: output schedule, stop conditions and observables around the engines (ed, dsmc/hsmc). */
+/* Run driver: output, snapshot and checkpoint schedules, stop conditions and observables around the engines (ed, dsmc/hsmc). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -27,25 +27,31 @@ static uint64_t cpp_to_collisions(double cpp, uint64_t n)
 	return c < 1.0 ? 1 : (c >= 1.8e19 ? UINT64_MAX : (uint64_t)c);
 }
 
-/* One replica: the engine state (ed or dsmc/hsmc) and the output schedule. */
+/* One replica: the engine state (ed or dsmc/hsmc) and the schedules. */
 struct run {
-	scene_t s;                   /* copy, with the replica's stream */
+	scene_t s;               /* copy, with the replica's stream */
+	run_opts_t opts;
 	ed_t *ed;
 	dsmc_t *mc;
-	uint64_t mc_chunk;           /* dsmc steps between polls of the stop flag */
+	uint64_t mc_chunk;       /* dsmc steps between polls of the stop flag */
 	clusters_t *cl;
-	double *pos;
-	double t0;
-	char warning[512];
-	int out_time, until_time;
-	double t_until;
-	uint64_t c_until, k_out;
-	int started, done;
+	double *pos, *vel;       /* sampling buffers (clusters, snapshots) */
+	double t0;               /* wall clock at the start of this process's part */
+	double ckpt_wall;        /* wall clock of the last checkpoint request */
+	char warning[512];       /* dsmc/hsmc validity warning for the first record */
+	run_state_t st;
+	run_record_t rec;        /* the last progress record */
 	run_status_t status;
-	run_record_t last;
+	int done;                /* run_next(): the last record has been returned */
 };
 
-/* The engines' common ground: one sample. */
+static double wall_seconds(const run_t *r)
+{
+	return r->st.wall_before + (wall_now() - r->t0);
+}
+
+/* ---- the engines' common ground ---------------------------------------- */
+
 typedef struct {
 	double time, interval, kinetic_energy, momentum[3], ekin_time_integral, virial;
 	uint64_t events, collisions, interval_collisions, elastic_by_tc;
@@ -76,6 +82,25 @@ static void eng_sample(run_t *rc, smp_t *o)
 	}
 }
 
+/* Advance to t_stop / c_stop or a chunk of work; returns non-zero when the
+ * system is quiescent (no further collisions will happen). */
+static int eng_advance(run_t *rc, double t_stop, uint64_t c_stop)
+{
+	if (rc->ed)
+		return ed_advance(rc->ed, t_stop, c_stop, RUN_CHUNK_EVENTS) == ED_QUIESCENT;
+	return dsmc_advance(rc->mc, t_stop, c_stop, rc->mc_chunk) == DSMC_QUIESCENT;
+}
+
+static double eng_time(const run_t *rc)
+{
+	return rc->ed ? ed_time(rc->ed) : dsmc_time(rc->mc);
+}
+
+static uint64_t eng_collisions(const run_t *rc)
+{
+	return rc->ed ? ed_collisions(rc->ed) : dsmc_collisions(rc->mc);
+}
+
 static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 {
 	const scene_t *s = &rc->s;
@@ -89,7 +114,7 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 	r->events = sm.events;
 	r->collisions = sm.collisions;
 	r->collisions_per_particle = 2.0 * (double)sm.collisions / (double)s->count;
-	r->wall_seconds = wall_now() - rc->t0;
+	r->wall_seconds = wall_seconds(rc);
 	r->elastic_by_tc = sm.elastic_by_tc;
 	r->vmax_raised = sm.vmax_raised;
 	r->cell_collisions = sm.cell_collisions;
@@ -120,170 +145,372 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 	return RUN_OK;
 }
 
-void run_close(run_t *rc)
+/* Sample into r->rec; the first record carries the dsmc/hsmc warning. */
+static int sample_progress(run_t *r)
 {
-	if (!rc)
-		return;
-	clusters_destroy(rc->cl);
-	free(rc->pos);
-	ed_destroy(rc->ed);
-	dsmc_destroy(rc->mc);
-	free(rc);
+	int first = !r->st.started;
+	int ret = sample(r, &r->rec, RUN_PROGRESS);
+	if (ret == RUN_OK && first && r->warning[0])
+		r->rec.warning = r->warning;
+	return ret;
+}
+
+static int emit_progress(run_t *r, run_emit_fn emit, void *ctx)
+{
+	int ret = sample_progress(r);
+	if (ret == RUN_OK && emit(&r->rec, ctx))
+		ret = RUN_EMIT;
+	r->rec.warning = NULL;
+	return ret;
+}
+
+/* A snapshot of the present state (the dynamics are not touched); ed only. */
+static int emit_snapshot(run_t *r, run_emit_fn emit, void *ctx)
+{
+	ed_sample_t sm;
+	run_record_t rec;
+	ed_totals(r->ed, &sm);
+	memset(&rec, 0, sizeof(rec));
+	rec.kind = RUN_SNAPSHOT;
+	rec.dim = r->s.dim;
+	rec.n = r->s.count;
+	rec.time = sm.time;
+	rec.events = sm.events;
+	rec.collisions = sm.collisions;
+	rec.collisions_per_particle = 2.0 * (double)sm.collisions / (double)r->s.count;
+	rec.wall_seconds = wall_seconds(r);
+	rec.kinetic_energy = sm.kinetic_energy;
+	ed_state(r->ed, r->pos, r->vel);
+	rec.pos = r->pos;
+	rec.vel = r->vel;
+	r->st.snap_events = sm.events;
+	return emit(&rec, ctx) ? RUN_EMIT : RUN_OK;
+}
+
+/* ---- life cycle ------------------------------------------------------------ */
+
+static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, int blank,
+                     int *err, char *msg, size_t msglen)
+{
+	run_t *r = NULL;
+	int e = 0;
+
+	if (s->method != SCENE_METHOD_ED && (blank || (opts && (opts->snapshots || opts->checkpoints)))) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "method: snapshots, checkpoints and --resume need \"ed\", not \"%s\"",
+			         scene_method_name(s->method));
+		*err = RUN_EMETHOD;
+		return NULL;
+	}
+	r = calloc(1, sizeof(*r));
+	if (!r)
+		goto nomem;
+	r->s = *s;
+	r->s.stream = stream;
+	if (opts)
+		r->opts = *opts;
+	r->st = (run_state_t){.k_out = 1, .k_snap = 1, .k_ckpt = 1, .snap_events = UINT64_MAX};
+	if (s->method == SCENE_METHOD_ED) {
+		r->ed = blank ? ed_create_blank(&r->s, &e, msg, msglen) : ed_create(&r->s, &e, msg, msglen);
+		if (!r->ed) {
+			*err = e == ED_ENOMEM ? RUN_ENOMEM : RUN_ESETUP;
+			run_destroy(r);
+			return NULL;
+		}
+	} else {
+		dsmc_params_t pr;
+		dsmc_params(&r->s, &pr, r->warning, sizeof(r->warning));
+		r->mc = dsmc_create(&r->s, stream, &e, msg, msglen);
+		if (!r->mc) {
+			*err = e == DSMC_ENOMEM ? RUN_ENOMEM : RUN_ESETUP;
+			run_destroy(r);
+			return NULL;
+		}
+		r->mc_chunk = RUN_CHUNK_MOVES / s->count + 1;
+	}
+	if ((s->observables & SCENE_OBS_CLUSTERS) || r->opts.snapshots) {
+		r->pos = malloc(s->count * s->dim * sizeof(double));
+		if (!r->pos)
+			goto nomem;
+	}
+	if (s->observables & SCENE_OBS_CLUSTERS) {
+		r->cl = clusters_create(s->dim, s->count);
+		if (!r->cl)
+			goto nomem;
+	}
+	if (r->opts.snapshots) {
+		r->vel = malloc(s->count * s->dim * sizeof(double));
+		if (!r->vel)
+			goto nomem;
+	}
+	r->status = RUN_COMPLETED;
+	r->t0 = r->ckpt_wall = wall_now();
+	*err = RUN_OK;
+	return r;
+nomem:
+	run_destroy(r);
+	if (msg && msglen)
+		snprintf(msg, msglen, "out of memory");
+	*err = RUN_ENOMEM;
+	return NULL;
+}
+
+run_t *run_create(const scene_t *s, const run_opts_t *opts, int *err, char *msg, size_t msglen)
+{
+	return create(s, s->stream, opts, 0, err, msg, msglen);
+}
+
+run_t *run_create_blank(const scene_t *s, const run_opts_t *opts, int *err, char *msg, size_t msglen)
+{
+	return create(s, s->stream, opts, 1, err, msg, msglen);
 }
 
 run_t *run_open(const scene_t *s, uint64_t stream, int *err, char *msg, size_t msglen)
 {
-	run_t *rc = calloc(1, sizeof(*rc));
-	int e = 0;
-	*err = RUN_ENOMEM;
-	if (!rc)
-		goto fail;
-	rc->s = *s;
-	rc->s.stream = stream;
-	if (s->method == SCENE_METHOD_ED) {
-		rc->ed = ed_create(&rc->s, &e, msg, msglen);
-		if (!rc->ed) {
-			*err = e == ED_ENOMEM ? RUN_ENOMEM : RUN_ESETUP;
-			goto fail;
-		}
-	} else {
-		dsmc_params_t pr;
-		dsmc_params(&rc->s, &pr, rc->warning, sizeof(rc->warning));
-		rc->mc = dsmc_create(&rc->s, stream, &e, msg, msglen);
-		if (!rc->mc) {
-			*err = e == DSMC_ENOMEM ? RUN_ENOMEM : RUN_ESETUP;
-			goto fail;
-		}
-		rc->mc_chunk = RUN_CHUNK_MOVES / s->count + 1;
-	}
-	if (s->observables & SCENE_OBS_CLUSTERS) {
-		rc->cl = clusters_create(s->dim, s->count);
-		rc->pos = malloc(s->count * s->dim * sizeof(double));
-		if (!rc->cl || !rc->pos)
-			goto fail;
-	}
-	/* Output and stop schedules: each is a time or a collision count. */
-	rc->out_time = s->every.kind == SCENE_CLOCK_TIME;
-	rc->until_time = s->until.kind == SCENE_CLOCK_TIME;
-	rc->t_until = rc->until_time ? s->until.value : INFINITY;
-	rc->c_until = rc->until_time ? UINT64_MAX : cpp_to_collisions(s->until.value, s->count);
-	rc->k_out = 1;
-	rc->status = RUN_COMPLETED;
-	rc->t0 = wall_now();
-	*err = RUN_OK;
-	return rc;
-fail:
-	if (*err == RUN_ENOMEM && msg && msglen)
-		snprintf(msg, msglen, "out of memory");
-	run_close(rc);
-	return NULL;
+	return create(s, stream, NULL, 0, err, msg, msglen);
 }
 
-int run_next(run_t *rc, const volatile sig_atomic_t *stop, run_record_t *rec, int *done_out)
+int run_restore_finish(run_t *r, char *msg, size_t msglen)
 {
-	const scene_t *s = &rc->s;
-	int ret;
-	*done_out = rc->done;
-	if (rc->done) {
-		*rec = rc->last;
-		return RUN_OK;
+	if (!r->ed || ed_restore_finish(r->ed, msg, msglen) != ED_OK)
+		return RUN_ERESTORE;
+	r->t0 = r->ckpt_wall = wall_now();
+	return RUN_OK;
+}
+
+void run_destroy(run_t *r)
+{
+	if (!r)
+		return;
+	clusters_destroy(r->cl);
+	free(r->pos);
+	free(r->vel);
+	ed_destroy(r->ed);
+	dsmc_destroy(r->mc);
+	free(r);
+}
+
+struct ed *run_ed(run_t *r) { return r->ed; }
+void run_get_state(const run_t *r, run_state_t *st)
+{
+	*st = r->st;
+	st->wall_before = wall_seconds(r);
+}
+void run_set_state(run_t *r, const run_state_t *st) { r->st = *st; }
+
+/* ---- schedules ------------------------------------------------------------- */
+
+/* Index k of a schedule of kind/value: its time, or its collision target. */
+static double sched_time(const scene_when_t *w, uint64_t k)
+{
+	return w->kind == SCENE_CLOCK_TIME ? (double)k * w->value : INFINITY;
+}
+
+static uint64_t sched_coll(const scene_when_t *w, uint64_t k, uint64_t n)
+{
+	return w->kind == SCENE_CLOCK_CPP ? cpp_to_collisions((double)k * w->value, n) : UINT64_MAX;
+}
+
+/* First index whose time / target lies beyond the present. */
+static void sched_skip(const scene_when_t *w, uint64_t *k, double t, uint64_t c, uint64_t n)
+{
+	if (w->kind == SCENE_CLOCK_TIME)
+		while ((double)*k * w->value <= t)
+			(*k)++;
+	else if (w->kind == SCENE_CLOCK_CPP)
+		while (cpp_to_collisions((double)*k * w->value, n) <= c)
+			(*k)++;
+}
+
+/* ---- summaries ------------------------------------------------------------- */
+
+void run_summary_record(run_t *r, run_record_t *sum)
+{
+	*sum = r->rec;
+	if (r->ed && r->status == RUN_INTERRUPTED && r->opts.checkpoints) {
+		/* stopped for a checkpoint: totals now, without sampling */
+		ed_sample_t sm;
+		ed_totals(r->ed, &sm);
+		sum->time = sm.time;
+		sum->events = sm.events;
+		sum->collisions = sm.collisions;
+		sum->collisions_per_particle = 2.0 * (double)sm.collisions / (double)r->s.count;
+		sum->kinetic_energy = sm.kinetic_energy;
+		sum->temperature = 2.0 * sm.kinetic_energy / (r->s.dim * (double)r->s.count);
+		memcpy(sum->momentum, sm.momentum, sizeof(sum->momentum));
+		sum->elastic_by_tc = sm.elastic_by_tc;
 	}
-	if (!rc->started) {
-		rc->started = 1;
-		if ((ret = sample(rc, rec, RUN_PROGRESS)) != RUN_OK)
-			return ret;
-		if (rc->warning[0])
-			rec->warning = rc->warning;
-		rc->last = *rec;
-		rc->last.warning = NULL;
-		return RUN_OK;
+	sum->kind = RUN_SUMMARY;
+	sum->dim = r->s.dim;
+	sum->n = r->s.count;
+	sum->have = r->s.observables;
+	sum->have_interval = 0;
+	sum->warning = NULL;
+	sum->status = r->status;
+	sum->wall_seconds = wall_seconds(r);
+	sum->events_per_second = sum->wall_seconds > 0 ? sum->events / sum->wall_seconds : 0.0;
+	sum->collisions_per_second = sum->wall_seconds > 0 ? sum->collisions / sum->wall_seconds : 0.0;
+	if (r->ed) {
+		sum->memory_bytes = ed_memory(r->ed);
+		ed_cells(r->ed, sum->cells);
+	} else {
+		sum->memory_bytes = dsmc_memory(r->mc);
+		dsmc_cells(r->mc, sum->cells);
+	}
+}
+
+int run_summary(run_t *r, run_emit_fn emit, void *ctx)
+{
+	run_record_t sum;
+	run_summary_record(r, &sum);
+	return emit(&sum, ctx) ? RUN_EMIT : RUN_OK;
+}
+
+/* ---- driving ------------------------------------------------------------- */
+
+int run_go(run_t *r, run_emit_fn emit, void *ctx, const volatile sig_atomic_t *stop,
+           char *msg, size_t msglen)
+{
+	const scene_t *s = &r->s;
+	const uint64_t n = s->count;
+	int ret = RUN_OK;
+
+	/* Stop and checkpoint schedules: each is a time or a collision count. */
+	const int until_time = s->until.kind == SCENE_CLOCK_TIME;
+	const double t_until = until_time ? s->until.value : INFINITY;
+	const uint64_t c_until = until_time ? UINT64_MAX : cpp_to_collisions(s->until.value, n);
+	const scene_when_t none = {SCENE_CLOCK_NONE, 0.0};
+	const scene_when_t *snaps = r->opts.snapshots ? &s->snapshots : &none;
+	const int ckpt_time = r->opts.checkpoints && s->checkpoint.kind == SCENE_CLOCK_TIME;
+	const int ckpt_wall = r->opts.checkpoints && s->checkpoint.kind == SCENE_CLOCK_WALL;
+
+	r->status = RUN_COMPLETED;
+	if (!r->st.started) {
+		if ((ret = emit_progress(r, emit, ctx)) != RUN_OK)
+			goto cleanup;
+		if (r->opts.snapshots && (ret = emit_snapshot(r, emit, ctx)) != RUN_OK)
+			goto cleanup;
+		r->st.started = 1;
 	}
 	for (;;) {
-		double t_out = rc->out_time ? (double)rc->k_out * s->every.value : INFINITY;
-		uint64_t c_out = rc->out_time ? UINT64_MAX : cpp_to_collisions((double)rc->k_out * s->every.value, s->count);
-		double t_stop = t_out < rc->t_until ? t_out : rc->t_until;
-		uint64_t c_stop = c_out < rc->c_until ? c_out : rc->c_until;
-		int quiescent;
-		double t;
-		uint64_t c;
-		if (rc->ed) {
-			quiescent = ed_advance(rc->ed, t_stop, c_stop, RUN_CHUNK_EVENTS) == ED_QUIESCENT;
-			t = ed_time(rc->ed);
-			c = ed_collisions(rc->ed);
-		} else {
-			quiescent = dsmc_advance(rc->mc, t_stop, c_stop, rc->mc_chunk) == DSMC_QUIESCENT;
-			t = dsmc_time(rc->mc);
-			c = dsmc_collisions(rc->mc);
-		}
-		int done = (rc->until_time && t >= rc->t_until) || (!rc->until_time && c >= rc->c_until);
-		if (quiescent && !done && !rc->until_time) {
-			rc->status = RUN_QUIESCENT;   /* the collision target can never be reached */
+		double t_stop = fmin(fmin(sched_time(&s->every, r->st.k_out), t_until),
+		                     sched_time(snaps, r->st.k_snap));
+		uint64_t c_stop = sched_coll(&s->every, r->st.k_out, n);
+		if (c_until < c_stop) c_stop = c_until;
+		if (sched_coll(snaps, r->st.k_snap, n) < c_stop) c_stop = sched_coll(snaps, r->st.k_snap, n);
+		if (ckpt_time)
+			t_stop = fmin(t_stop, sched_time(&s->checkpoint, r->st.k_ckpt));
+
+		int quiescent = eng_advance(r, t_stop, c_stop);
+		double t = eng_time(r);
+		uint64_t c = eng_collisions(r);
+		int done = (until_time && t >= t_until) || (!until_time && c >= c_until);
+		if (quiescent && !done && !until_time) {
+			r->status = RUN_QUIESCENT;   /* the collision target can never be reached */
 			done = 1;
 		}
-		int due = rc->out_time ? t >= t_out : c >= c_out;
+		int due = s->every.kind == SCENE_CLOCK_TIME ? t >= sched_time(&s->every, r->st.k_out)
+		                                            : c >= sched_coll(&s->every, r->st.k_out, n);
+		int due_snap = snaps->kind == SCENE_CLOCK_TIME ? t >= sched_time(snaps, r->st.k_snap)
+		             : snaps->kind == SCENE_CLOCK_CPP ? c >= sched_coll(snaps, r->st.k_snap, n) : 0;
 		if (stop && *stop && !done) {
-			rc->status = RUN_INTERRUPTED;
+			r->status = RUN_INTERRUPTED;
+			if (r->opts.checkpoints)
+				return RUN_STOPPED;   /* nothing sampled: the checkpoint continues exactly */
 			done = 1;
 		}
 		if (due || done) {
-			if ((ret = sample(rc, rec, RUN_PROGRESS)) != RUN_OK)
-				return ret;
+			if ((ret = emit_progress(r, emit, ctx)) != RUN_OK)
+				goto cleanup;
 			/* Skip output times already passed (a long jump in a quiescent
 			 * or very dilute system emits one record, not thousands). */
-			while (rc->out_time ? (double)rc->k_out * s->every.value <= t
-			                    : cpp_to_collisions((double)rc->k_out * s->every.value, s->count) <= c)
-				rc->k_out++;
-			rc->done = done;
-			*done_out = done;
-			rc->last = *rec;
-			return RUN_OK;
+			sched_skip(&s->every, &r->st.k_out, t, c, n);
+		}
+		if (due_snap || (done && r->opts.snapshots && r->st.snap_events != ed_events(r->ed))) {
+			if ((ret = emit_snapshot(r, emit, ctx)) != RUN_OK)
+				goto cleanup;
+			sched_skip(snaps, &r->st.k_snap, t, c, n);
+		}
+		if (done)
+			return run_summary(r, emit, ctx);
+		if (ckpt_time && t >= sched_time(&s->checkpoint, r->st.k_ckpt)) {
+			sched_skip(&s->checkpoint, &r->st.k_ckpt, t, c, n);
+			r->ckpt_wall = wall_now();
+			return RUN_CHECKPOINT;
+		}
+		if (ckpt_wall && wall_now() - r->ckpt_wall >= s->checkpoint.value) {
+			r->ckpt_wall = wall_now();
+			return RUN_CHECKPOINT;
 		}
 	}
+cleanup:
+	if (ret == RUN_ENOMEM && msg && msglen)
+		snprintf(msg, msglen, "out of memory");
+	return ret;
 }
 
-void run_summary(run_t *rc, run_record_t *sum)
+int run_next(run_t *r, const volatile sig_atomic_t *stop, run_record_t *rec, int *done_out)
 {
-	*sum = rc->last;
-	sum->kind = RUN_SUMMARY;
-	sum->have_interval = 0;
-	sum->warning = NULL;
-	sum->status = rc->status;
-	sum->wall_seconds = wall_now() - rc->t0;
-	sum->events_per_second = sum->wall_seconds > 0 ? sum->events / sum->wall_seconds : 0.0;
-	sum->collisions_per_second = sum->wall_seconds > 0 ? sum->collisions / sum->wall_seconds : 0.0;
-	if (rc->ed) {
-		sum->memory_bytes = ed_memory(rc->ed);
-		ed_cells(rc->ed, sum->cells);
-	} else {
-		sum->memory_bytes = dsmc_memory(rc->mc);
-		dsmc_cells(rc->mc, sum->cells);
+	const scene_t *s = &r->s;
+	const uint64_t n = s->count;
+	const int until_time = s->until.kind == SCENE_CLOCK_TIME;
+	const double t_until = until_time ? s->until.value : INFINITY;
+	const uint64_t c_until = until_time ? UINT64_MAX : cpp_to_collisions(s->until.value, n);
+	int ret;
+
+	*done_out = r->done;
+	if (r->done) {
+		*rec = r->rec;
+		return RUN_OK;
+	}
+	if (!r->st.started) {
+		r->status = RUN_COMPLETED;
+		if ((ret = sample_progress(r)) != RUN_OK)
+			return ret;
+		r->st.started = 1;
+		*rec = r->rec;
+		r->rec.warning = NULL;
+		return RUN_OK;
+	}
+	for (;;) {
+		double t_stop = fmin(sched_time(&s->every, r->st.k_out), t_until);
+		uint64_t c_stop = sched_coll(&s->every, r->st.k_out, n);
+		if (c_until < c_stop) c_stop = c_until;
+		int quiescent = eng_advance(r, t_stop, c_stop);
+		double t = eng_time(r);
+		uint64_t c = eng_collisions(r);
+		int done = (until_time && t >= t_until) || (!until_time && c >= c_until);
+		if (quiescent && !done && !until_time) {
+			r->status = RUN_QUIESCENT;   /* the collision target can never be reached */
+			done = 1;
+		}
+		int due = s->every.kind == SCENE_CLOCK_TIME ? t >= sched_time(&s->every, r->st.k_out)
+		                                            : c >= sched_coll(&s->every, r->st.k_out, n);
+		if (stop && *stop && !done) {
+			r->status = RUN_INTERRUPTED;
+			done = 1;
+		}
+		if (due || done) {
+			if ((ret = sample_progress(r)) != RUN_OK)
+				return ret;
+			sched_skip(&s->every, &r->st.k_out, t, c, n);
+			r->done = done;
+			*done_out = done;
+			*rec = r->rec;
+			return RUN_OK;
+		}
 	}
 }
 
 int run_scene(const scene_t *s, run_emit_fn emit, void *ctx,
               const volatile sig_atomic_t *stop, char *msg, size_t msglen)
 {
-	run_record_t rec;
-	int ret = RUN_OK, done = 0;
-	run_t *rc = run_open(s, s->stream, &ret, msg, msglen);
-	if (!rc)
-		return ret;
-	while (!done) {
-		if ((ret = run_next(rc, stop, &rec, &done)) != RUN_OK)
-			goto cleanup;
-		if (emit(&rec, ctx)) {
-			ret = RUN_EMIT;
-			goto cleanup;
-		}
-	}
-	/* Summary: totals over the production run. */
-	run_summary(rc, &rec);
-	if (emit(&rec, ctx))
-		ret = RUN_EMIT;
-cleanup:
-	if (ret == RUN_ENOMEM && msg && msglen)
-		snprintf(msg, msglen, "out of memory");
-	run_close(rc);
+	int err = 0;
+	run_t *r = run_create(s, NULL, &err, msg, msglen);
+	if (!r)
+		return err;
+	int ret = run_go(r, emit, ctx, stop, msg, msglen);
+	run_destroy(r);
 	return ret;
 }
 

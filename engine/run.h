@@ -17,7 +17,7 @@
  *   output.every reach identical states at identical times.
  */
 
-typedef enum { RUN_PROGRESS = 0, RUN_SUMMARY } run_kind_t;
+typedef enum { RUN_PROGRESS = 0, RUN_SUMMARY, RUN_SNAPSHOT } run_kind_t;
 typedef enum { RUN_COMPLETED = 0, RUN_QUIESCENT, RUN_INTERRUPTED } run_status_t;
 
 enum {
@@ -26,6 +26,10 @@ enum {
 	RUN_EMIT = -2,       /* emit() returned non-zero (e.g. the output pipe broke) */
 	RUN_ENOMEM = -3,
 	RUN_EMETHOD = -4,    /* method not implemented yet */
+	RUN_ERESTORE = -5,   /* a restored state is inconsistent (msg says why) */
+	/* run_go() results that ask the caller to act and call again: */
+	RUN_CHECKPOINT = 1,  /* a checkpoint is due: save the state now */
+	RUN_STOPPED = 2,     /* stop requested: save the state, then run_summary() */
 };
 
 typedef struct {
@@ -61,27 +65,83 @@ typedef struct {
 	double events_per_second, collisions_per_second;
 	uint64_t memory_bytes;
 	int cells[3];
+	/* snapshot only: N*D positions (folded into the box) and velocities in
+	 * scene particle order; owned by the run, valid during emit() */
+	const double *pos, *vel;
 } run_record_t;
 
 /* Called for each record; a non-zero return stops the run (RUN_EMIT). */
 typedef int (*run_emit_fn)(const run_record_t *rec, void *ctx);
 
-/* Step-wise form of run_scene(), used for ensembles: run_open() builds the
- * state of one replica (the scene with random stream `stream`); each
- * run_next() returns the next progress record (the first at time 0) and sets
- * *done on the last; run_summary() fills the summary record. stop (may be
- * NULL) is polled between chunks of work; when set the current record is
- * the last one and the status becomes RUN_INTERRUPTED. */
 typedef struct run run_t;
-run_t *run_open(const scene_t *s, uint64_t stream, int *err, char *msg, size_t msglen);
-int run_next(run_t *r, const volatile sig_atomic_t *stop, run_record_t *rec, int *done);
-void run_summary(run_t *r, run_record_t *sum);
-void run_close(run_t *r);
 
-/* Run the scene. stop (may be NULL) is polled between chunks of events; when
- * it becomes non-zero the run ends with a summary of status
- * RUN_INTERRUPTED. msg receives a one-line reason on failure. */
+/* Run the scene (any method, one replica with the scene's stream). stop (may
+ * be NULL) is polled between chunks of work; when it becomes non-zero the run
+ * ends with a summary of status RUN_INTERRUPTED. msg receives a one-line
+ * reason on failure. */
 int run_scene(const scene_t *s, run_emit_fn emit, void *ctx,
               const volatile sig_atomic_t *stop, char *msg, size_t msglen);
+
+/*
+ * Stepped runs with checkpoints. run_create() builds the initial state;
+ * run_go() advances until the run ends (RUN_OK, summary emitted), a
+ * checkpoint is due (RUN_CHECKPOINT) or a stop was requested (RUN_STOPPED),
+ * or fails (< 0). After RUN_CHECKPOINT the caller saves the state (run_ed()
+ * fields + run_get_state()) and calls run_go() again; after RUN_STOPPED it
+ * saves the state and calls run_summary(). Nothing is sampled for a
+ * checkpoint or a stop, so a run restored from a checkpoint (run_create_blank,
+ * fields, run_set_state, run_restore_finish) continues with exactly the
+ * records and states of the uninterrupted run (wall_seconds aside).
+ *
+ * Snapshots and checkpoints (non-zero run_opts_t fields) need method "ed":
+ * run_create() fails with RUN_EMETHOD for dsmc/hsmc (the scene parser
+ * already rejects output.snapshots / output.checkpoint there). Without
+ * options run_create()/run_go() drive any method (progress records only).
+ */
+typedef struct {
+	int snapshots;     /* emit RUN_SNAPSHOT records (output.snapshots; first and last state at least) */
+	int checkpoints;   /* return RUN_CHECKPOINT on output.checkpoint and RUN_STOPPED on a stop request;
+	                    * without it a stop ends the run with a last sample (status interrupted) */
+} run_opts_t;
+
+/* The schedule position: everything besides the engine state that a resumed
+ * run needs. Plain data, stored in checkpoints. */
+typedef struct {
+	uint64_t started;         /* the initial records have been emitted */
+	uint64_t k_out;           /* index of the next output time / collision target */
+	uint64_t k_snap;          /* same for snapshots */
+	uint64_t k_ckpt;          /* same for simulated-time checkpoints */
+	uint64_t snap_events;     /* events at the last snapshot (UINT64_MAX: none yet) */
+	double wall_before;       /* wall seconds spent before this process (resumed runs) */
+} run_state_t;
+
+run_t *run_create(const scene_t *s, const run_opts_t *opts, int *err, char *msg, size_t msglen);
+/* For restoring: engine memory without a state (see ed_create_blank()); ed only. */
+run_t *run_create_blank(const scene_t *s, const run_opts_t *opts, int *err, char *msg, size_t msglen);
+int run_restore_finish(run_t *r, char *msg, size_t msglen);
+void run_destroy(run_t *r);
+
+/* The event-driven engine, for its state fields (ed.h); owned by the run;
+ * NULL for dsmc/hsmc runs. */
+struct ed *run_ed(run_t *r);
+void run_get_state(const run_t *r, run_state_t *st);
+void run_set_state(run_t *r, const run_state_t *st);
+
+int run_go(run_t *r, run_emit_fn emit, void *ctx, const volatile sig_atomic_t *stop,
+           char *msg, size_t msglen);
+/* Summary of a stopped run (status interrupted), without sampling. */
+int run_summary(run_t *r, run_emit_fn emit, void *ctx);
+
+/* Step-wise form without emit(), used for ensembles: run_open() builds the
+ * state of one replica (the scene with random stream `stream`, no snapshots
+ * or checkpoints); each run_next() returns the next progress record (the
+ * first at time 0) and sets *done on the last; run_summary_record() fills
+ * the summary record. stop (may be NULL) is polled between chunks of work;
+ * when set the current record is the last one and the status becomes
+ * RUN_INTERRUPTED. Free with run_destroy(). Do not mix with run_go() on one
+ * run. */
+run_t *run_open(const scene_t *s, uint64_t stream, int *err, char *msg, size_t msglen);
+int run_next(run_t *r, const volatile sig_atomic_t *stop, run_record_t *rec, int *done);
+void run_summary_record(run_t *r, run_record_t *sum);
 
 const char *run_status_name(run_status_t st);

@@ -425,6 +425,23 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 		return fail(c, "hsmc.max_volume_fraction", "%s is at or above the close-packing limit %.4f of %s",
 			    num(s->mc_max_volume_fraction).s, cp, shape);
 
+	/* Trajectory frames and checkpoints (exact resume) exist for the
+	 * event-driven method with a single replica only. */
+	json_t *output = json_object_get(v, "output");
+	static const char *const stateful[] = { "snapshots", "checkpoint" };
+	for (size_t i = 0; i < sizeof stateful / sizeof stateful[0]; i++) {
+		char key[PATHLEN];
+		if (!json_object_get(output, stateful[i]))
+			continue;
+		snprintf(key, sizeof key, "output.%s", stateful[i]);
+		if (s->method != SCENE_METHOD_ED)
+			return fail(c, key, "is supported only with method \"ed\", but method is \"%s\"",
+				    method_names[s->method]);
+		if (s->replicas > 1)
+			return fail(c, key, "is supported only with run.replicas = 1, but run.replicas is %llu",
+				    (unsigned long long)s->replicas);
+	}
+
 	if (s->every.kind == SCENE_CLOCK_NONE)
 		s->every = (scene_when_t){ s->until.kind, s->until.value / 100 };
 	return 0;
@@ -437,6 +454,53 @@ static const struct object when_obj = {
 		{ .name = NULL },
 	},
 	.check = check_when,
+};
+
+/* Checkpoint interval: simulated time or wall-clock seconds. */
+static int check_ckpt_when(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_when_t *w = base;
+	bool time = json_object_get(v, "time") != NULL;
+	bool wall = json_object_get(v, "wall_seconds") != NULL;
+	if (time == wall)
+		return fail(c, path, "must have exactly one of time or wall_seconds");
+	w->kind = time ? SCENE_CLOCK_TIME : SCENE_CLOCK_WALL;
+	return 0;
+}
+
+static const struct object ckpt_when_obj = {
+	.fields = (const struct field[]){
+		{ "time", parse_number, offsetof(scene_when_t, value), &R_POS, false },
+		{ "wall_seconds", parse_number, offsetof(scene_when_t, value), &R_POS, false },
+		{ .name = NULL },
+	},
+	.check = check_ckpt_when,
+};
+
+static const struct irange R_LEVEL = { 0, 9 };
+
+static int parse_level(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	uint64_t x;
+	int ret = parse_integer(c, path, v, &x, arg);
+	if (ret == 0)
+		*(int *)dst = (int)x;
+	return ret;
+}
+
+static const struct object snapshots_obj = {
+	.fields = (const struct field[]){
+		{ "every", parse_object, offsetof(scene_t, snapshots), &when_obj, false },
+		{ "compression", parse_level, offsetof(scene_t, compression), &R_LEVEL, false },
+		{ .name = NULL },
+	},
+};
+
+static const struct object checkpoint_obj = {
+	.fields = (const struct field[]){
+		{ "every", parse_object, offsetof(scene_t, checkpoint), &ckpt_when_obj, true },
+		{ .name = NULL },
+	},
 };
 
 static const struct object relax_obj = {
@@ -497,6 +561,8 @@ static const struct object output_obj = {
 		{ "every", parse_object, offsetof(scene_t, every), &when_obj, false },
 		{ "observables", parse_observables, offsetof(scene_t, observables), NULL, false },
 		{ "clusters", parse_object, 0, &clusters_obj, false },
+		{ "snapshots", parse_object, 0, &snapshots_obj, false },
+		{ "checkpoint", parse_object, 0, &checkpoint_obj, false },
 		{ .name = NULL },
 	},
 };
@@ -567,6 +633,7 @@ int scene_parse(const char *json, size_t len, scene_t *out, char *err, size_t er
 		.observables = SCENE_OBS_ENERGY | SCENE_OBS_PRESSURE | SCENE_OBS_COLLISION_RATE,
 		.cluster_delta = 0.1,
 		.replicas = 1,
+		.compression = 0,
 	};
 	ctx_t c = { &s, err, errlen };
 	json_error_t jerr;

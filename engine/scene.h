@@ -27,7 +27,7 @@ typedef enum { SCENE_POS_LATTICE = 0, SCENE_POS_RANDOM } scene_positions_t;
 /* Dense-gas correction of the Monte Carlo methods (dsmc.h). */
 typedef enum { SCENE_MC_DEFAULT = 0, SCENE_MC_NONE, SCENE_MC_ENSKOG, SCENE_MC_CBA } scene_mc_correction_t;
 /* A stop or output condition: simulated time or collisions per particle. */
-typedef enum { SCENE_CLOCK_NONE = 0, SCENE_CLOCK_TIME, SCENE_CLOCK_CPP } scene_clock_t;
+typedef enum { SCENE_CLOCK_NONE = 0, SCENE_CLOCK_TIME, SCENE_CLOCK_CPP, SCENE_CLOCK_WALL } scene_clock_t;
 
 /* Observables a scene may ask for; only those asked for are computed. */
 enum {
@@ -40,7 +40,7 @@ enum {
 
 typedef struct {
 	scene_clock_t kind;
-	double value;        /* time, or collisions per particle (2C/N) */
+	double value;        /* time, collisions per particle (2C/N), or wall-clock seconds */
 } scene_when_t;
 
 typedef struct scene {
@@ -70,6 +70,9 @@ typedef struct scene {
 	scene_when_t every;            /* default: until / 100 of the same kind */
 	unsigned observables;          /* SCENE_OBS_* bit set; default energy|pressure|collision_rate */
 	double cluster_delta;          /* gap in diameters, default 0.1 */
+	scene_when_t snapshots;        /* trajectory frames (time or cpp); NONE = first and last only */
+	int compression;               /* deflate level 0..9 of the HDF5 output, default 0 */
+	scene_when_t checkpoint;       /* checkpoint interval (simulated time or wall seconds); NONE = none */
 
 	/* ed method tuning */
 	double ed_cell_size;           /* minimum cell edge in diameters, 0 = automatic */

@@ -172,6 +172,21 @@ static void test_defaults(void)
 	ok(s.cluster_delta == 0.1 && s.ed_cell_size == 0, "default cluster delta 0.1, automatic cells");
 	ok(near(scene_box_volume(&s) * s.volume_fraction, s.count * scene_particle_volume(&s)),
 	   "box volume and particle volume agree with the volume fraction");
+	ok(s.snapshots.kind == SCENE_CLOCK_NONE && s.compression == 0 && s.checkpoint.kind == SCENE_CLOCK_NONE,
+	   "default: no snapshot interval, compression 0, no checkpoints");
+	ret = parse("{" BASE ",\"output\":{\"snapshots\":{\"every\":{\"time\":0.5},\"compression\":3},"
+	            "\"checkpoint\":{\"every\":{\"wall_seconds\":30}}}}", &s, err, sizeof err);
+	ok(ret == SCENE_OK && s.snapshots.kind == SCENE_CLOCK_TIME && s.snapshots.value == 0.5 && s.compression == 3 &&
+	   s.checkpoint.kind == SCENE_CLOCK_WALL && s.checkpoint.value == 30,
+	   "snapshots every time 0.5, compression 3, checkpoint every 30 wall seconds (%s)", err);
+	ret = parse("{" BASE ",\"output\":{\"snapshots\":{\"every\":{\"collisions_per_particle\":2}},"
+	            "\"checkpoint\":{\"every\":{\"time\":4}}}}", &s, err, sizeof err);
+	ok(ret == SCENE_OK && s.snapshots.kind == SCENE_CLOCK_CPP && s.snapshots.value == 2 &&
+	   s.checkpoint.kind == SCENE_CLOCK_TIME && s.checkpoint.value == 4,
+	   "snapshots every 2 collisions per particle, checkpoint every simulated time 4 (%s)", err);
+	ret = parse("{" BASE ",\"output\":{\"checkpoint\":{\"every\":{\"time\":1,\"wall_seconds\":1}}}}", &s, err, sizeof err);
+	ok(ret == SCENE_EINVAL && !strcmp(err, "output.checkpoint.every: must have exactly one of time or wall_seconds"),
+	   "checkpoint with both clocks: %s", err);
 }
 
 static void test_derived(void)

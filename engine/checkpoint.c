@@ -1,0 +1,419 @@
+/* Crash-safe checkpoint files: the complete state of a run in HDF5, verified by a digest on load. */
+#include <errno.h>
+#include <limits.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <jansson.h>
+
+#include "checkpoint.h"
+#include "config.h"
+#include "ed.h"
+#include "h5util.h"
+
+#define FORMAT_NAME "granulard-checkpoint"
+#define FORMAT_VERSION 1
+
+/* ---- digest: 64-bit, 8 bytes a step (xxhash-style rounds) ---------------
+ * Detects torn and altered files; not a cryptographic hash. */
+static const uint64_t K1 = 0x9E3779B185EBCA87ull, K2 = 0xC2B2AE3D27D4EB4Full;
+
+static inline uint64_t rotl(uint64_t x, int r) { return (x << r) | (x >> (64 - r)); }
+
+static void dig(uint64_t *h, const void *p, size_t n)
+{
+	const unsigned char *b = p;
+	uint64_t x = *h;
+	while (n >= 8) {
+		uint64_t w;
+		memcpy(&w, b, 8);
+		x = rotl(x ^ (w * K2), 31) * K1;
+		b += 8;
+		n -= 8;
+	}
+	if (n) {
+		uint64_t w = 0;
+		memcpy(&w, b, n);
+		x = rotl(x ^ (w * K2) ^ n, 31) * K1;
+	}
+	*h = x;
+}
+
+static void dig_u64(uint64_t *h, uint64_t v) { dig(h, &v, 8); }
+
+static uint64_t dig_final(uint64_t x)
+{
+	x ^= x >> 33;
+	x *= K2;
+	x ^= x >> 29;
+	return x;
+}
+
+/* A field's name, type and length go into the digest with its data. */
+static void dig_field(uint64_t *h, const char *name, ed_type_t t, size_t count, const void *data)
+{
+	dig(h, name, strlen(name) + 1);
+	dig_u64(h, (uint64_t)t);
+	dig_u64(h, (uint64_t)count);
+	dig(h, data, count * ed_type_size(t));
+}
+
+static hid_t mem_type(ed_type_t t)
+{
+	switch (t) {
+	case ED_T_F64: return H5T_NATIVE_DOUBLE;
+	case ED_T_U64: return H5T_NATIVE_UINT64;
+	case ED_T_I64: return H5T_NATIVE_INT64;
+	case ED_T_I32: return H5T_NATIVE_INT32;
+	case ED_T_U32: return H5T_NATIVE_UINT32;
+	case ED_T_U8: return H5T_NATIVE_UINT8;
+	}
+	return H5I_INVALID_HID;
+}
+
+static hid_t file_type(ed_type_t t)
+{
+	switch (t) {
+	case ED_T_F64: return H5T_IEEE_F64LE;
+	case ED_T_U64: return H5T_STD_U64LE;
+	case ED_T_I64: return H5T_STD_I64LE;
+	case ED_T_I32: return H5T_STD_I32LE;
+	case ED_T_U32: return H5T_STD_U32LE;
+	case ED_T_U8: return H5T_STD_U8LE;
+	}
+	return H5I_INVALID_HID;
+}
+
+static int failf(char *msg, size_t msglen, int code, const char *fmt, ...)
+{
+	if (msg && msglen) {
+		va_list ap;
+		va_start(ap, fmt);
+		vsnprintf(msg, msglen, fmt, ap);
+		va_end(ap);
+	}
+	return code;
+}
+
+/* The run's schedule and the output positions, in digest order. */
+typedef struct {
+	const char *name;
+	size_t off;
+	int is_double;
+} rfield_t;
+
+static const rfield_t run_fields[] = {
+	{ "started", offsetof(run_state_t, started), 0 },
+	{ "k_out", offsetof(run_state_t, k_out), 0 },
+	{ "k_snap", offsetof(run_state_t, k_snap), 0 },
+	{ "k_ckpt", offsetof(run_state_t, k_ckpt), 0 },
+	{ "snap_events", offsetof(run_state_t, snap_events), 0 },
+	{ "wall_before", offsetof(run_state_t, wall_before), 1 },
+};
+static const rfield_t out_fields[] = {
+	{ "obs_rows", offsetof(ckpt_output_t, obs_rows), 0 },
+	{ "snap_rows", offsetof(ckpt_output_t, snap_rows), 0 },
+	{ "progress_bytes", offsetof(ckpt_output_t, progress_bytes), 0 },
+};
+#define N_RUN_FIELDS (sizeof run_fields / sizeof run_fields[0])
+#define N_OUT_FIELDS (sizeof out_fields / sizeof out_fields[0])
+
+static int write_rfields(hid_t g, const rfield_t *f, size_t n, const void *base, uint64_t *h)
+{
+	for (size_t k = 0; k < n; k++) {
+		const char *p = (const char *)base + f[k].off;
+		dig(h, p, 8);
+		if (f[k].is_double ? h5u_attr_f64(g, f[k].name, (const double *)p, 1)
+		                   : h5u_attr_u64(g, f[k].name, *(const uint64_t *)p))
+			return -1;
+	}
+	return 0;
+}
+
+static int read_rfields(hid_t g, const rfield_t *f, size_t n, void *base, uint64_t *h)
+{
+	for (size_t k = 0; k < n; k++) {
+		char *p = (char *)base + f[k].off;
+		if (f[k].is_double ? h5u_read_attr_f64(g, f[k].name, (double *)p)
+		                   : h5u_read_attr_u64(g, f[k].name, (uint64_t *)p))
+			return -1;
+		dig(h, p, 8);
+	}
+	return 0;
+}
+
+static int write_string(hid_t loc, const char *name, const char *text, size_t len)
+{
+	int ret = -1;
+	char *buf = malloc(len + 1);
+	hid_t t = H5Tcopy(H5T_C_S1), sp = H5Screate(H5S_SCALAR), d = H5I_INVALID_HID;
+	if (!buf || t < 0 || sp < 0 || H5Tset_size(t, len + 1) < 0)
+		goto out;
+	memcpy(buf, text, len);
+	buf[len] = '\0';
+	d = H5Dcreate2(loc, name, t, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+	if (d >= 0 && H5Dwrite(d, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) >= 0)
+		ret = 0;
+out:
+	free(buf);
+	if (d >= 0) H5Dclose(d);
+	if (sp >= 0) H5Sclose(sp);
+	if (t >= 0) H5Tclose(t);
+	return ret;
+}
+
+/* Read a fixed-length string dataset; caller frees. */
+static char *read_string(hid_t loc, const char *name, size_t *len)
+{
+	char *buf = NULL;
+	hid_t d = H5Dopen2(loc, name, H5P_DEFAULT), t = H5I_INVALID_HID;
+	if (d < 0)
+		return NULL;
+	t = H5Dget_type(d);
+	size_t n = t >= 0 && H5Tget_class(t) == H5T_STRING && !H5Tis_variable_str(t) ? H5Tget_size(t) : 0;
+	if (n > 0 && n < (64u << 20) && (buf = malloc(n + 1)) != NULL) {
+		if (H5Dread(d, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) {
+			free(buf);
+			buf = NULL;
+		} else {
+			buf[n] = '\0';
+			*len = strlen(buf);
+		}
+	}
+	if (t >= 0) H5Tclose(t);
+	H5Dclose(d);
+	return buf;
+}
+
+static void path_in(char *dst, size_t len, const char *dir, const char *name)
+{
+	snprintf(dst, len, "%s/%s", dir, name);
+}
+
+int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
+               const ckpt_output_t *out, char *msg, size_t msglen)
+{
+	char tmp[PATH_MAX], cur[PATH_MAX], prev[PATH_MAX];
+	ed_field_t fields[ED_MAX_FIELDS];
+	const ed_t *ed = run_ed(run);
+	int ret = CKPT_EIO, nf = ed_fields(ed, fields, ED_MAX_FIELDS);
+	uint64_t h = 0;
+	void *buf = NULL;
+	hid_t f = H5I_INVALID_HID, g = H5I_INVALID_HID, fapl = H5I_INVALID_HID;
+	run_state_t st;
+
+	h5u_quiet();
+	errno = 0;
+	path_in(tmp, sizeof tmp, dir, CKPT_TMP);
+	path_in(cur, sizeof cur, dir, CKPT_FILE);
+	path_in(prev, sizeof prev, dir, CKPT_PREV);
+	if (nf > ED_MAX_FIELDS)
+		return failf(msg, msglen, CKPT_EIO, "%s: too many state fields", tmp);
+	/* The 1.10 format checksums the file's metadata as well. */
+	fapl = H5Pcreate(H5P_FILE_ACCESS);
+	if (fapl < 0 || H5Pset_libver_bounds(fapl, H5F_LIBVER_V110, H5F_LIBVER_LATEST) < 0)
+		goto io;
+	f = H5Fcreate(tmp, H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+	if (f < 0)
+		goto io;
+	ed_sample_t tot;
+	ed_totals(ed, &tot);
+	if (h5u_attr_str(f, "format", FORMAT_NAME) || h5u_attr_u64(f, "format_version", FORMAT_VERSION) ||
+	    h5u_attr_str(f, "creator", "granular-engine " PACKAGE_VERSION) || h5u_attr_f64(f, "time", &tot.time, 1) ||
+	    h5u_attr_u64(f, "events", tot.events) || h5u_attr_u64(f, "collisions", tot.collisions) ||
+	    write_string(f, "scene", scene_text, len))
+		goto io;
+	dig(&h, scene_text, len);
+	if ((g = h5u_group(f, "ed")) < 0)
+		goto io;
+	for (int k = 0; k < nf; k++) {
+		size_t bytes = fields[k].count * ed_type_size(fields[k].type);
+		hsize_t dims[1] = {fields[k].count};
+		buf = malloc(bytes ? bytes : 1);
+		if (!buf) {
+			ret = failf(msg, msglen, CKPT_ENOMEM, "%s: out of memory", tmp);
+			goto cleanup;
+		}
+		ed_field_get(ed, fields[k].name, buf);
+		dig_field(&h, fields[k].name, fields[k].type, fields[k].count, buf);
+		hid_t sp = H5Screate_simple(1, dims, NULL);
+		hid_t d = sp >= 0 ? H5Dcreate2(g, fields[k].name, file_type(fields[k].type), sp, H5P_DEFAULT, H5P_DEFAULT,
+		                               H5P_DEFAULT) : H5I_INVALID_HID;
+		int bad = d < 0 || (bytes && H5Dwrite(d, mem_type(fields[k].type), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0);
+		if (d >= 0) H5Dclose(d);
+		if (sp >= 0) H5Sclose(sp);
+		free(buf);
+		buf = NULL;
+		if (bad)
+			goto io;
+	}
+	H5Gclose(g);
+	run_get_state(run, &st);
+	if ((g = h5u_group(f, "run")) < 0 || write_rfields(g, run_fields, N_RUN_FIELDS, &st, &h))
+		goto io;
+	H5Gclose(g);
+	if ((g = h5u_group(f, "output")) < 0 || write_rfields(g, out_fields, N_OUT_FIELDS, out, &h))
+		goto io;
+	H5Gclose(g);
+	g = H5I_INVALID_HID;
+	if (h5u_attr_u64(f, "digest", dig_final(h)))
+		goto io;
+	herr_t cl = H5Fclose(f);
+	f = H5I_INVALID_HID;
+	if (cl < 0 || h5u_fsync_path(tmp))
+		goto io;
+	/* Keep the previous one; checkpoint.h5 itself is replaced atomically. */
+	if (unlink(prev) != 0 && errno != ENOENT)
+		goto io;
+	if (link(cur, prev) != 0 && errno != ENOENT && rename(cur, prev) != 0)
+		goto io;
+	if (rename(tmp, cur) != 0 || h5u_fsync_dir_of(cur))
+		goto io;
+	ret = CKPT_OK;
+	goto cleanup;
+io:
+	ret = failf(msg, msglen, CKPT_EIO, "%s: cannot write the checkpoint%s%s", tmp, errno ? ": " : "",
+	            errno ? strerror(errno) : "");
+	if (f < 0)
+		unlink(tmp);   /* a half-written file must not linger (f open: removed below) */
+cleanup:
+	free(buf);
+	if (g >= 0) H5Gclose(g);
+	if (f >= 0) {
+		H5Fclose(f);
+		unlink(tmp);
+	}
+	if (fapl >= 0) H5Pclose(fapl);
+	return ret;
+}
+
+static int same_scene(const char *a, size_t alen, const char *b, size_t blen)
+{
+	json_error_t e;
+	json_t *x = json_loadb(a, alen, 0, &e), *y = json_loadb(b, blen, 0, &e);
+	int same = x && y && json_equal(x, y);
+	json_decref(x);
+	json_decref(y);
+	return same;
+}
+
+int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t len,
+              const run_opts_t *opts, run_t **run_out, ckpt_output_t *out, char *msg, size_t msglen)
+{
+	ed_field_t fields[ED_MAX_FIELDS];
+	int ret = CKPT_ECORRUPT, err = 0;
+	uint64_t h = 0, want = 0, fmt = 0;
+	char *text = NULL, why[256] = "";
+	size_t tlen = 0;
+	void *buf = NULL;
+	run_t *run = NULL;
+	hid_t f = H5I_INVALID_HID, g = H5I_INVALID_HID, d = H5I_INVALID_HID, sp = H5I_INVALID_HID;
+	run_state_t st;
+
+	*run_out = NULL;
+	h5u_quiet();
+	if (access(path, R_OK) != 0)
+		return failf(msg, msglen, errno == ENOENT ? CKPT_EMISSING : CKPT_EIO, "%s: %s", path, strerror(errno));
+	f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+	if (f < 0) {
+		snprintf(why, sizeof why, "not a readable HDF5 file (truncated or damaged)");
+		goto corrupt;
+	}
+	if (h5u_read_attr_u64(f, "format_version", &fmt) || fmt != FORMAT_VERSION ||
+	    h5u_read_attr_u64(f, "digest", &want) || !(text = read_string(f, "scene", &tlen))) {
+		snprintf(why, sizeof why, "not a granular-engine checkpoint of format %d", FORMAT_VERSION);
+		goto corrupt;
+	}
+	if (!same_scene(text, tlen, scene_text, len)) {
+		ret = failf(msg, msglen, CKPT_ESCENE, "%s: written for a different scene than the one given", path);
+		goto cleanup;
+	}
+	dig(&h, text, tlen);
+	run = run_create_blank(s, opts, &err, why, sizeof why);
+	if (!run) {
+		ret = failf(msg, msglen, err == RUN_ENOMEM ? CKPT_ENOMEM : CKPT_ECORRUPT, "%s: %s", path, why);
+		goto cleanup;
+	}
+	int nf = ed_fields(run_ed(run), fields, ED_MAX_FIELDS);
+	if (nf > ED_MAX_FIELDS || (g = H5Gopen2(f, "ed", H5P_DEFAULT)) < 0) {
+		snprintf(why, sizeof why, "no engine state");
+		goto corrupt;
+	}
+	for (int k = 0; k < nf; k++) {
+		hssize_t count;
+		d = H5Dopen2(g, fields[k].name, H5P_DEFAULT);
+		if (d < 0 || (sp = H5Dget_space(d)) < 0 || (count = H5Sget_simple_extent_npoints(sp)) < 0) {
+			snprintf(why, sizeof why, "state field %s missing", fields[k].name);
+			goto corrupt;
+		}
+		size_t bytes = (size_t)count * ed_type_size(fields[k].type);
+		buf = malloc(bytes ? bytes : 1);
+		if (!buf) {
+			ret = failf(msg, msglen, CKPT_ENOMEM, "%s: out of memory", path);
+			goto cleanup;
+		}
+		if (bytes && H5Dread(d, mem_type(fields[k].type), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) {
+			snprintf(why, sizeof why, "state field %s unreadable", fields[k].name);
+			goto corrupt;
+		}
+		dig_field(&h, fields[k].name, fields[k].type, (size_t)count, buf);
+		if (ed_field_set(run_ed(run), fields[k].name, fields[k].type, (size_t)count, buf) != ED_OK) {
+			snprintf(why, sizeof why, "state field %s does not fit the scene", fields[k].name);
+			goto corrupt;
+		}
+		free(buf);
+		buf = NULL;
+		H5Sclose(sp);
+		H5Dclose(d);
+		sp = d = H5I_INVALID_HID;
+	}
+	H5Gclose(g);
+	memset(&st, 0, sizeof st);
+	if ((g = H5Gopen2(f, "run", H5P_DEFAULT)) < 0 || read_rfields(g, run_fields, N_RUN_FIELDS, &st, &h)) {
+		snprintf(why, sizeof why, "run state missing");
+		goto corrupt;
+	}
+	H5Gclose(g);
+	if ((g = H5Gopen2(f, "output", H5P_DEFAULT)) < 0 || read_rfields(g, out_fields, N_OUT_FIELDS, out, &h)) {
+		snprintf(why, sizeof why, "output state missing");
+		goto corrupt;
+	}
+	if (dig_final(h) != want) {
+		snprintf(why, sizeof why, "digest mismatch (altered or torn)");
+		goto corrupt;
+	}
+	run_set_state(run, &st);
+	if (run_restore_finish(run, why, sizeof why) != RUN_OK)
+		goto corrupt;
+	*run_out = run;
+	run = NULL;
+	ret = CKPT_OK;
+	goto cleanup;
+corrupt:
+	ret = failf(msg, msglen, CKPT_ECORRUPT, "%s: corrupt checkpoint: %s", path, why);
+cleanup:
+	free(buf);
+	free(text);
+	run_destroy(run);
+	if (sp >= 0) H5Sclose(sp);
+	if (d >= 0) H5Dclose(d);
+	if (g >= 0) H5Gclose(g);
+	if (f >= 0) H5Fclose(f);
+	return ret;
+}
+
+const char *ckpt_strerror(int code)
+{
+	switch (code) {
+	case CKPT_OK: return "ok";
+	case CKPT_EIO: return "cannot write the checkpoint";
+	case CKPT_ENOMEM: return "out of memory";
+	case CKPT_ECORRUPT: return "corrupt checkpoint";
+	case CKPT_ESCENE: return "checkpoint of another scene";
+	case CKPT_EMISSING: return "no checkpoint";
+	default: return "unknown error";
+	}
+}

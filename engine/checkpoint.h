@@ -1,0 +1,54 @@
+/* Crash-safe checkpoint files: the complete state of a run in HDF5, verified by a digest on load. */
+#pragma once
+
+#include <stddef.h>
+#include <stdint.h>
+#include "run.h"
+#include "scene.h"
+
+/*
+ * Contract
+ * - A checkpoint holds the scene text, every engine state field (ed.h), the
+ *   run's schedule position (run_state_t) and the output positions below,
+ *   plus a 64-bit digest over all of them. Layout: docs/output.md.
+ * - ckpt_write() writes DIR/checkpoint.tmp.h5, closes it, fsyncs it, keeps
+ *   the previous DIR/checkpoint.h5 as DIR/checkpoint.prev.h5 (hard link, so
+ *   checkpoint.h5 never disappears), renames the new file over
+ *   DIR/checkpoint.h5 and fsyncs DIR.
+ * - ckpt_read() refuses a file whose scene differs from the given one
+ *   (CKPT_ESCENE) and reports a damaged or truncated one as CKPT_ECORRUPT
+ *   (unreadable HDF5, missing field, wrong digest, inconsistent state).
+ * - Serial (sec2 driver); no output on stderr: one-line reasons go to msg.
+ */
+
+enum {
+	CKPT_OK = 0,
+	CKPT_EIO = -1,        /* cannot write (disk full, permissions) */
+	CKPT_ENOMEM = -2,
+	CKPT_ECORRUPT = -3,   /* unreadable, truncated or altered file */
+	CKPT_ESCENE = -4,     /* written for another scene */
+	CKPT_EMISSING = -5,   /* no such file */
+};
+
+/* Where the outputs stood when the checkpoint was taken: a resumed run
+ * truncates them back to this. */
+typedef struct {
+	uint64_t obs_rows;        /* observable rows in trajectory.h5 */
+	uint64_t snap_rows;       /* frames in trajectory.h5 */
+	uint64_t progress_bytes;  /* length of progress.jsonl */
+} ckpt_output_t;
+
+int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
+               const ckpt_output_t *out, char *msg, size_t msglen);
+
+/* Load path into a new run for scene s (whose text is scene_text) with
+ * options opts; *run_out receives it (caller destroys with run_destroy). */
+int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t len,
+              const run_opts_t *opts, run_t **run_out, ckpt_output_t *out, char *msg, size_t msglen);
+
+/* File names inside an output directory. */
+#define CKPT_FILE "checkpoint.h5"
+#define CKPT_PREV "checkpoint.prev.h5"
+#define CKPT_TMP "checkpoint.tmp.h5"
+
+const char *ckpt_strerror(int code);

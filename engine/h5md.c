@@ -1,0 +1,641 @@
+/* H5MD 1.1 trajectory writer: snapshots, observables and parameters of a run in one HDF5 file, plus an XDMF sidecar. */
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "config.h"
+#include "h5md.h"
+#include "h5util.h"
+
+/* Particles per chunk of a frame: ~1.5 MB chunks in 3D, larger than the
+ * default chunk cache, so frames go straight to disk. */
+#define FRAME_CHUNK 65536u
+/* Rows per chunk of an observable time series. */
+#define OBS_CHUNK 256u
+#define MAX_OBS 24
+
+/* What a value column holds: cols 0 = scalar per row, -1 = D components. */
+typedef struct {
+	const char *path;       /* under /observables */
+	unsigned need;          /* SCENE_OBS_* bit; 0 = always */
+	int i64;                /* integer series */
+	int cols;
+	const char *unit;       /* NULL: dimensionless count, no unit attribute */
+	void (*get)(const run_record_t *r, void *out);
+} obs_def_t;
+
+#define NEED_TC 0x80000000u   /* only with the TC model */
+
+static void g_coll(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->collisions; }
+static void g_ekin(const run_record_t *r, void *o) { *(double *)o = r->kinetic_energy / (double)r->n; }
+static void g_temp(const run_record_t *r, void *o) { *(double *)o = r->temperature; }
+static void g_pres(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->pressure : NAN; }
+static void g_comp(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->compressibility : NAN; }
+static void g_rate(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->collision_rate : NAN; }
+static void g_mom(const run_record_t *r, void *o) { memcpy(o, r->momentum, r->dim * sizeof(double)); }
+static void g_tc(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->elastic_by_tc; }
+static void g_ccount(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->clusters.n_clusters; }
+static void g_clargest(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->clusters.largest; }
+static void g_cfrac(const run_record_t *r, void *o) { *(double *)o = r->clusters.largest_fraction; }
+static void g_cmean(const run_record_t *r, void *o) { *(double *)o = r->clusters.mean_size; }
+static void g_cm2(const run_record_t *r, void *o) { *(double *)o = r->clusters.m2; }
+static void g_cm2r(const run_record_t *r, void *o) { *(double *)o = r->clusters.m2_reduced; }
+static void g_chist(const run_record_t *r, void *o)
+{
+	int64_t *h = o;
+	for (int k = 0; k < CLUSTERS_MAX_BINS; k++)
+		h[k] = k < r->clusters.n_bins ? (int64_t)r->clusters.hist[k] : 0;
+}
+
+/* The first entry owns the shared step and time datasets. */
+static const obs_def_t obs_defs[] = {
+	{ "collision_count", 0, 1, 0, NULL, g_coll },
+	{ "kinetic_energy", SCENE_OBS_ENERGY, 0, 0, "e0", g_ekin },
+	{ "temperature", SCENE_OBS_ENERGY, 0, 0, "e0", g_temp },
+	{ "pressure", SCENE_OBS_PRESSURE, 0, 0, "pressure", g_pres },
+	{ "compressibility", SCENE_OBS_PRESSURE, 0, 0, "1", g_comp },
+	{ "collision_rate", SCENE_OBS_COLLISION_RATE, 0, 0, "t0-1", g_rate },
+	{ "momentum", SCENE_OBS_MOMENTUM, 0, -1, "m0 l0 t0-1", g_mom },
+	{ "elastic_by_tc", NEED_TC, 1, 0, NULL, g_tc },
+	{ "clusters_count", SCENE_OBS_CLUSTERS, 1, 0, NULL, g_ccount },
+	{ "clusters_largest", SCENE_OBS_CLUSTERS, 1, 0, NULL, g_clargest },
+	{ "clusters_largest_fraction", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cfrac },
+	{ "clusters_mean_size", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cmean },
+	{ "clusters_m2", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cm2 },
+	{ "clusters_m2_reduced", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cm2r },
+	{ "clusters_histogram", SCENE_OBS_CLUSTERS, 1, CLUSTERS_MAX_BINS, NULL, g_chist },
+};
+#define N_OBS_DEFS (sizeof obs_defs / sizeof obs_defs[0])
+
+struct h5md {
+	hid_t file;
+	char *path, *xdmf_path;
+	const char *h5_name;        /* base name of path, as the XDMF refers to it */
+	int dim, level;
+	uint64_t n;
+	hid_t obs_step, obs_time;
+	hid_t obs[MAX_OBS];
+	int obs_def[MAX_OBS];
+	int n_obs;
+	hid_t pos_step, pos_time, pos_value, vel_value, box_value;
+	double box[3];
+	uint64_t obs_rows, snap_rows;
+	double *frame_t;            /* times of the frames, for the XDMF */
+	size_t frame_cap;
+};
+
+static int failf(char *msg, size_t msglen, int code, const char *fmt, ...)
+{
+	if (msg && msglen) {
+		va_list ap;
+		va_start(ap, fmt);
+		vsnprintf(msg, msglen, fmt, ap);
+		va_end(ap);
+	}
+	return code;
+}
+
+static int def_wanted(const obs_def_t *d, const scene_t *s)
+{
+	if (d->need == 0)
+		return 1;
+	if (d->need == NEED_TC)
+		return s->tc > 0.0;
+	return (s->observables & d->need) != 0;
+}
+
+/* Chunked dataset with an unlimited first dimension: rank 1 + extra dims. */
+static hid_t create_series(hid_t loc, const char *name, hid_t ftype, int rank, const hsize_t *inner,
+                           const hsize_t *chunk, int level)
+{
+	hsize_t dims[3] = {0, 0, 0}, maxd[3] = {H5S_UNLIMITED, 0, 0};
+	for (int k = 1; k < rank; k++)
+		dims[k] = maxd[k] = inner[k - 1];
+	hid_t d = H5I_INVALID_HID, sp = H5Screate_simple(rank, dims, maxd), dcpl = H5Pcreate(H5P_DATASET_CREATE);
+	if (sp < 0 || dcpl < 0 || H5Pset_chunk(dcpl, rank, chunk) < 0)
+		goto out;
+	if (level > 0 && (H5Pset_shuffle(dcpl) < 0 || H5Pset_deflate(dcpl, (unsigned)level) < 0))
+		goto out;
+	d = H5Dcreate2(loc, name, ftype, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+out:
+	if (sp >= 0) H5Sclose(sp);
+	if (dcpl >= 0) H5Pclose(dcpl);
+	return d;
+}
+
+/* Write one row (row index `row`, inner elements as in the dataset) and
+ * grow the dataset to row + 1 rows. */
+static int append_row(hid_t d, hid_t mtype, uint64_t row, const void *buf)
+{
+	int ret = -1;
+	hsize_t dims[3], start[3] = {row, 0, 0}, count[3];
+	hid_t fs = H5Dget_space(d), ms = H5I_INVALID_HID;
+	int rank = fs >= 0 ? H5Sget_simple_extent_ndims(fs) : -1;
+	if (rank < 1 || rank > 3 || H5Sget_simple_extent_dims(fs, dims, NULL) < 0)
+		goto out;
+	H5Sclose(fs);
+	fs = H5I_INVALID_HID;
+	dims[0] = row + 1;
+	if (H5Dset_extent(d, dims) < 0 || (fs = H5Dget_space(d)) < 0)
+		goto out;
+	count[0] = 1;
+	for (int k = 1; k < rank; k++)
+		count[k] = dims[k];
+	if (H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, NULL, count, NULL) < 0)
+		goto out;
+	ms = H5Screate_simple(rank, count, NULL);
+	if (ms >= 0 && H5Dwrite(d, mtype, ms, fs, H5P_DEFAULT, buf) >= 0)
+		ret = 0;
+out:
+	if (fs >= 0) H5Sclose(fs);
+	if (ms >= 0) H5Sclose(ms);
+	return ret;
+}
+
+static int64_t rows_of(hid_t d)
+{
+	hsize_t dims[3];
+	hid_t fs = H5Dget_space(d);
+	int rank = fs >= 0 ? H5Sget_simple_extent_ndims(fs) : -1;
+	int64_t n = -1;
+	if (rank >= 1 && rank <= 3 && H5Sget_simple_extent_dims(fs, dims, NULL) >= 0)
+		n = (int64_t)dims[0];
+	if (fs >= 0)
+		H5Sclose(fs);
+	return n;
+}
+
+static int truncate_rows(hid_t d, uint64_t rows)
+{
+	hsize_t dims[3];
+	hid_t fs = H5Dget_space(d);
+	int rank = fs >= 0 ? H5Sget_simple_extent_ndims(fs) : -1;
+	int ret = -1;
+	if (rank >= 1 && rank <= 3 && H5Sget_simple_extent_dims(fs, dims, NULL) >= 0) {
+		dims[0] = rows;
+		ret = H5Dset_extent(d, dims) < 0 ? -1 : 0;
+	}
+	if (fs >= 0)
+		H5Sclose(fs);
+	return ret;
+}
+
+static h5md_t *alloc_writer(const char *path, const scene_t *s)
+{
+	h5md_t *h = calloc(1, sizeof(*h));
+	if (!h)
+		return NULL;
+	h->file = h->obs_step = h->obs_time = h->pos_step = h->pos_time = h->pos_value = h->vel_value = H5I_INVALID_HID;
+	h->box_value = H5I_INVALID_HID;
+	memcpy(h->box, s->box, sizeof(h->box));
+	for (int k = 0; k < MAX_OBS; k++)
+		h->obs[k] = H5I_INVALID_HID;
+	h->dim = s->dim;
+	h->n = s->count;
+	h->level = s->compression;
+	size_t len = strlen(path);
+	h->path = strdup(path);
+	h->xdmf_path = malloc(len + 8);
+	if (!h->path || !h->xdmf_path) {
+		h5md_destroy(h);
+		return NULL;
+	}
+	const char *slash = strrchr(h->path, '/');
+	h->h5_name = slash ? slash + 1 : h->path;
+	if (len > 3 && !strcmp(path + len - 3, ".h5"))
+		snprintf(h->xdmf_path, len + 8, "%.*s.xdmf", (int)(len - 3), path);
+	else
+		snprintf(h->xdmf_path, len + 8, "%s.xdmf", path);
+	return h;
+}
+
+/* Unit strings of the reduced system (docs/output.md): l0, m0, e0, t0. */
+static const char *unit_of(const obs_def_t *d, int dim)
+{
+	if (d->unit && !strcmp(d->unit, "pressure"))
+		return dim == 2 ? "e0 l0-2" : "e0 l0-3";
+	return d->unit;
+}
+
+static int write_parameters(hid_t f, const scene_t *s, const char *text, size_t len)
+{
+	int ret = -1;
+	hid_t g = h5u_group(f, "parameters"), t = H5Tcopy(H5T_C_S1), sp = H5Screate(H5S_SCALAR), d = H5I_INVALID_HID;
+	char *buf = malloc(len + 1);
+	if (g < 0 || t < 0 || sp < 0 || !buf || H5Tset_size(t, len + 1) < 0 || H5Tset_strpad(t, H5T_STR_NULLTERM) < 0)
+		goto out;
+	memcpy(buf, text, len);
+	buf[len] = '\0';
+	d = H5Dcreate2(g, "scene", t, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+	if (d < 0 || H5Dwrite(d, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0)
+		goto out;
+	int64_t dim = s->dim, count = (int64_t)s->count;
+	double diam = 2.0 * s->radius;
+	if (h5u_attr_i64(g, "dimensions", &dim, 1) || h5u_attr_u64(g, "particles", (uint64_t)count) ||
+	    h5u_attr_f64(g, "diameter", &diam, 1) || h5u_attr_f64(g, "mass", &s->mass, 1) ||
+	    h5u_attr_f64(g, "restitution", &s->restitution, 1) || h5u_attr_f64(g, "tc", &s->tc, 1) ||
+	    h5u_attr_u64(g, "seed", s->seed) || h5u_attr_f64(g, "volume_fraction", &s->volume_fraction, 1) ||
+	    h5u_attr_f64(g, "box", s->box, (size_t)s->dim) || h5u_attr_str(g, "method", scene_method_name(s->method)))
+		goto out;
+	ret = 0;
+out:
+	free(buf);
+	if (d >= 0) H5Dclose(d);
+	if (sp >= 0) H5Sclose(sp);
+	if (t >= 0) H5Tclose(t);
+	if (g >= 0) H5Gclose(g);
+	return ret;
+}
+
+static int write_header(hid_t f)
+{
+	int ret = -1;
+	int64_t ver[2] = {1, 1}, mver[2] = {1, 0};
+	hid_t h = h5u_group(f, "h5md"), a = h5u_group(f, "h5md/author"), c = h5u_group(f, "h5md/creator");
+	hid_t u = h5u_group(f, "h5md/modules/units"), th = h5u_group(f, "h5md/modules/thermodynamics");
+	if (h >= 0 && a >= 0 && c >= 0 && u >= 0 && th >= 0 && !h5u_attr_i64(h, "version", ver, 2) &&
+	    !h5u_attr_str(a, "name", "granulard") && !h5u_attr_str(c, "name", "granular-engine") &&
+	    !h5u_attr_str(c, "version", PACKAGE_VERSION) && !h5u_attr_i64(u, "version", mver, 2) &&
+	    !h5u_attr_str(u, "system", "granulard-reduced") && !h5u_attr_i64(th, "version", mver, 2))
+		ret = 0;
+	if (h >= 0) H5Gclose(h);
+	if (a >= 0) H5Gclose(a);
+	if (c >= 0) H5Gclose(c);
+	if (u >= 0) H5Gclose(u);
+	if (th >= 0) H5Gclose(th);
+	return ret;
+}
+
+/* Time-independent per-particle constant (diameter, mass): [N], compressed. */
+static int write_constant(hid_t g, const char *name, double v, uint64_t n)
+{
+	int ret = -1;
+	hsize_t dims[1] = {n}, chunk[1] = {n < FRAME_CHUNK ? n : FRAME_CHUNK};
+	double *buf = malloc(chunk[0] * sizeof(double));
+	hid_t sp = H5Screate_simple(1, dims, NULL), dcpl = H5Pcreate(H5P_DATASET_CREATE), d = H5I_INVALID_HID;
+	hid_t fs = H5I_INVALID_HID, ms = H5I_INVALID_HID;
+	if (!buf || sp < 0 || dcpl < 0 || H5Pset_chunk(dcpl, 1, chunk) < 0 || H5Pset_deflate(dcpl, 1) < 0)
+		goto out;
+	d = H5Dcreate2(g, name, H5T_IEEE_F64LE, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+	if (d < 0)
+		goto out;
+	for (size_t i = 0; i < chunk[0]; i++)
+		buf[i] = v;
+	for (hsize_t k = 0; k < n; k += chunk[0]) {
+		hsize_t start[1] = {k}, cnt[1] = {n - k < chunk[0] ? n - k : chunk[0]};
+		if ((fs = H5Dget_space(d)) < 0 || H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, NULL, cnt, NULL) < 0 ||
+		    (ms = H5Screate_simple(1, cnt, NULL)) < 0 || H5Dwrite(d, H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, buf) < 0)
+			goto out;
+		H5Sclose(fs);
+		H5Sclose(ms);
+		fs = ms = H5I_INVALID_HID;
+	}
+	ret = 0;
+out:
+	free(buf);
+	if (fs >= 0) H5Sclose(fs);
+	if (ms >= 0) H5Sclose(ms);
+	if (d >= 0) H5Dclose(d);
+	if (sp >= 0) H5Sclose(sp);
+	if (dcpl >= 0) H5Pclose(dcpl);
+	return ret;
+}
+
+static int write_particles(h5md_t *h, const scene_t *s)
+{
+	int ret = -1;
+	const hsize_t chunk_t[1] = {OBS_CHUNK};
+	hsize_t inner[2] = {h->n, (hsize_t)h->dim}, chunk[3] = {1, h->n < FRAME_CHUNK ? h->n : FRAME_CHUNK, (hsize_t)h->dim};
+	const char *bnd[3] = {"periodic", "periodic", "periodic"};
+	int64_t dim = h->dim;
+	hid_t all = h5u_group(h->file, "particles/all"), box = h5u_group(h->file, "particles/all/box");
+	hid_t pos = h5u_group(h->file, "particles/all/position"), vel = h5u_group(h->file, "particles/all/velocity");
+	hid_t edges = H5I_INVALID_HID;
+	hsize_t binner[2] = {(hsize_t)h->dim, (hsize_t)h->dim}, bchunk[3] = {OBS_CHUNK, (hsize_t)h->dim, (hsize_t)h->dim};
+	if (all < 0 || box < 0 || pos < 0 || vel < 0)
+		goto out;
+	if (h5u_attr_i64(box, "dimension", &dim, 1) || h5u_attr_strs(box, "boundary", bnd, (size_t)h->dim))
+		goto out;
+	h->pos_step = create_series(pos, "step", H5T_STD_I64LE, 1, NULL, chunk_t, 0);
+	h->pos_time = create_series(pos, "time", H5T_IEEE_F64LE, 1, NULL, chunk_t, 0);
+	h->pos_value = create_series(pos, "value", H5T_IEEE_F64LE, 3, inner, chunk, h->level);
+	h->vel_value = create_series(vel, "value", H5T_IEEE_F64LE, 3, inner, chunk, h->level);
+	/* The box as a time-dependent element of D x D box vectors sampled with
+	 * the frames (H5MD 1.1 allows a fixed [D]; MDAnalysis reads only this). */
+	edges = h5u_group(box, "edges");
+	h->box_value = edges >= 0 ? create_series(edges, "value", H5T_IEEE_F64LE, 3, binner, bchunk, 0) : H5I_INVALID_HID;
+	if (h->box_value < 0 || H5Lcreate_hard(pos, "step", edges, "step", H5P_DEFAULT, H5P_DEFAULT) < 0 ||
+	    H5Lcreate_hard(pos, "time", edges, "time", H5P_DEFAULT, H5P_DEFAULT) < 0)
+		goto out;
+	/* No unit attributes under /particles: the reduced system (l0, t0) is not
+	 * in the tables of H5MD readers such as MDAnalysis, which refuse unknown
+	 * unit strings even with convert_units=False (docs/output.md). */
+	if (h->pos_step < 0 || h->pos_time < 0 || h->pos_value < 0 || h->vel_value < 0 ||
+	    H5Lcreate_hard(pos, "step", vel, "step", H5P_DEFAULT, H5P_DEFAULT) < 0 ||
+	    H5Lcreate_hard(pos, "time", vel, "time", H5P_DEFAULT, H5P_DEFAULT) < 0)
+		goto out;
+	if (write_constant(all, "diameter", 2.0 * s->radius, h->n) || write_constant(all, "mass", s->mass, h->n))
+		goto out;
+	ret = 0;
+out:
+	if (edges >= 0) H5Gclose(edges);
+	if (all >= 0) H5Gclose(all);
+	if (box >= 0) H5Gclose(box);
+	if (pos >= 0) H5Gclose(pos);
+	if (vel >= 0) H5Gclose(vel);
+	return ret;
+}
+
+static int write_observables(h5md_t *h, const scene_t *s)
+{
+	int ret = -1;
+	const hsize_t chunk1[1] = {OBS_CHUNK};
+	hid_t root = h5u_group(h->file, "observables"), first = H5I_INVALID_HID;
+	if (root < 0)
+		return -1;
+	for (size_t k = 0; k < N_OBS_DEFS; k++) {
+		const obs_def_t *d = &obs_defs[k];
+		if (!def_wanted(d, s))
+			continue;
+		hid_t g = h5u_group(root, d->path);
+		if (g < 0)
+			goto out;
+		int cols = d->cols < 0 ? h->dim : d->cols;
+		hsize_t inner[1] = {(hsize_t)cols}, chunk[2] = {OBS_CHUNK, (hsize_t)cols};
+		hid_t v = cols ? create_series(g, "value", d->i64 ? H5T_STD_I64LE : H5T_IEEE_F64LE, 2, inner, chunk, h->level)
+		               : create_series(g, "value", d->i64 ? H5T_STD_I64LE : H5T_IEEE_F64LE, 1, NULL, chunk1, h->level);
+		const char *unit = unit_of(d, h->dim);
+		int bad = v < 0 || (unit && h5u_attr_str(v, "unit", unit));
+		if (!bad && first < 0) {
+			first = g;
+			h->obs_step = create_series(g, "step", H5T_STD_I64LE, 1, NULL, chunk1, 0);
+			h->obs_time = create_series(g, "time", H5T_IEEE_F64LE, 1, NULL, chunk1, 0);
+			bad = h->obs_step < 0 || h->obs_time < 0 || h5u_attr_str(h->obs_time, "unit", "t0");
+		} else if (!bad) {
+			/* same sampling: step and time hard-linked (H5MD 1.1) */
+			bad = H5Lcreate_hard(first, "step", g, "step", H5P_DEFAULT, H5P_DEFAULT) < 0 ||
+			      H5Lcreate_hard(first, "time", g, "time", H5P_DEFAULT, H5P_DEFAULT) < 0;
+		}
+		if (g != first)
+			H5Gclose(g);
+		if (bad || h->n_obs >= MAX_OBS) {
+			if (v >= 0) H5Dclose(v);
+			goto out;
+		}
+		h->obs[h->n_obs] = v;
+		h->obs_def[h->n_obs++] = (int)k;
+	}
+	ret = 0;
+out:
+	if (first >= 0) H5Gclose(first);
+	H5Gclose(root);
+	return ret;
+}
+
+h5md_t *h5md_create(const char *path, const scene_t *s, const char *scene_text, size_t len,
+                    int *err, char *msg, size_t msglen)
+{
+	h5u_quiet();
+	h5md_t *h = alloc_writer(path, s);
+	if (!h) {
+		*err = failf(msg, msglen, H5MD_ENOMEM, "%s: out of memory", path);
+		return NULL;
+	}
+	h->file = H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+	if (h->file < 0) {
+		*err = failf(msg, msglen, H5MD_EIO, "%s: cannot create HDF5 file", path);
+		goto fail;
+	}
+	if (write_header(h->file) || write_parameters(h->file, s, scene_text, len) || write_particles(h, s) ||
+	    write_observables(h, s) || H5Fflush(h->file, H5F_SCOPE_GLOBAL) < 0) {
+		*err = failf(msg, msglen, H5MD_EIO, "%s: cannot write the H5MD layout", path);
+		goto fail;
+	}
+	*err = H5MD_OK;
+	return h;
+fail:
+	h5md_destroy(h);
+	return NULL;
+}
+
+static int frame_times_reserve(h5md_t *h, size_t n)
+{
+	if (n <= h->frame_cap)
+		return 0;
+	size_t cap = h->frame_cap ? 2 * h->frame_cap : 64;
+	while (cap < n)
+		cap *= 2;
+	double *t = realloc(h->frame_t, cap * sizeof(double));
+	if (!t)
+		return -1;
+	h->frame_t = t;
+	h->frame_cap = cap;
+	return 0;
+}
+
+h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, uint64_t snap_rows,
+                         int *err, char *msg, size_t msglen)
+{
+	h5u_quiet();
+	h5md_t *h = alloc_writer(path, s);
+	if (!h) {
+		*err = failf(msg, msglen, H5MD_ENOMEM, "%s: out of memory", path);
+		return NULL;
+	}
+	h->file = H5Fopen(path, H5F_ACC_RDWR, H5P_DEFAULT);
+	if (h->file < 0) {
+		*err = failf(msg, msglen, H5MD_EIO, "%s: cannot open for appending (missing or damaged)", path);
+		goto fail;
+	}
+	h->pos_step = H5Dopen2(h->file, "particles/all/position/step", H5P_DEFAULT);
+	h->pos_time = H5Dopen2(h->file, "particles/all/position/time", H5P_DEFAULT);
+	h->pos_value = H5Dopen2(h->file, "particles/all/position/value", H5P_DEFAULT);
+	h->vel_value = H5Dopen2(h->file, "particles/all/velocity/value", H5P_DEFAULT);
+	h->box_value = H5Dopen2(h->file, "particles/all/box/edges/value", H5P_DEFAULT);
+	int64_t first = -1;
+	for (size_t k = 0; k < N_OBS_DEFS && h->n_obs < MAX_OBS; k++) {
+		char p[128];
+		if (!def_wanted(&obs_defs[k], s))
+			continue;
+		snprintf(p, sizeof p, "observables/%s/value", obs_defs[k].path);
+		h->obs[h->n_obs] = H5Dopen2(h->file, p, H5P_DEFAULT);
+		if (h->obs[h->n_obs] < 0) {
+			*err = failf(msg, msglen, H5MD_EFORMAT, "%s: missing dataset /%s", path, p);
+			goto fail;
+		}
+		h->obs_def[h->n_obs++] = (int)k;
+		if (first < 0) {
+			first = (int64_t)k;
+			snprintf(p, sizeof p, "observables/%s/step", obs_defs[k].path);
+			h->obs_step = H5Dopen2(h->file, p, H5P_DEFAULT);
+			snprintf(p, sizeof p, "observables/%s/time", obs_defs[k].path);
+			h->obs_time = H5Dopen2(h->file, p, H5P_DEFAULT);
+		}
+	}
+	if (h->pos_step < 0 || h->pos_time < 0 || h->pos_value < 0 || h->vel_value < 0 || h->box_value < 0 ||
+	    h->obs_step < 0 || h->obs_time < 0) {
+		*err = failf(msg, msglen, H5MD_EFORMAT, "%s: not a trajectory of this scene (datasets missing)", path);
+		goto fail;
+	}
+	int64_t have_obs = rows_of(h->obs_time), have_snap = rows_of(h->pos_time);
+	if (have_obs < (int64_t)obs_rows || have_snap < (int64_t)snap_rows) {
+		*err = failf(msg, msglen, H5MD_EFORMAT, "%s: has %lld observable rows and %lld frames, the checkpoint needs %llu and %llu",
+		             path, (long long)have_obs, (long long)have_snap, (unsigned long long)obs_rows,
+		             (unsigned long long)snap_rows);
+		goto fail;
+	}
+	/* Drop what was written after the checkpoint. */
+	int bad = truncate_rows(h->obs_step, obs_rows) || truncate_rows(h->obs_time, obs_rows) ||
+	          truncate_rows(h->pos_step, snap_rows) || truncate_rows(h->pos_time, snap_rows) ||
+	          truncate_rows(h->pos_value, snap_rows) || truncate_rows(h->vel_value, snap_rows) ||
+	          truncate_rows(h->box_value, snap_rows);
+	for (int k = 0; k < h->n_obs && !bad; k++)
+		bad = truncate_rows(h->obs[k], obs_rows);
+	if (bad || frame_times_reserve(h, snap_rows + 1)) {
+		*err = failf(msg, msglen, H5MD_EIO, "%s: cannot truncate to the checkpoint", path);
+		goto fail;
+	}
+	if (snap_rows > 0 && H5Dread(h->pos_time, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, h->frame_t) < 0) {
+		*err = failf(msg, msglen, H5MD_EIO, "%s: cannot read frame times", path);
+		goto fail;
+	}
+	h->obs_rows = obs_rows;
+	h->snap_rows = snap_rows;
+	*err = H5MD_OK;
+	return h;
+fail:
+	h5md_destroy(h);
+	return NULL;
+}
+
+int h5md_destroy(h5md_t *h)
+{
+	int ret = H5MD_OK;
+	if (!h)
+		return H5MD_OK;
+	hid_t ds[] = {h->obs_step, h->obs_time, h->pos_step, h->pos_time, h->pos_value, h->vel_value, h->box_value};
+	for (size_t k = 0; k < sizeof ds / sizeof ds[0]; k++)
+		if (ds[k] >= 0)
+			H5Dclose(ds[k]);
+	for (int k = 0; k < MAX_OBS; k++)
+		if (h->obs[k] >= 0)
+			H5Dclose(h->obs[k]);
+	if (h->file >= 0 && H5Fclose(h->file) < 0)
+		ret = H5MD_EIO;
+	free(h->frame_t);
+	free(h->path);
+	free(h->xdmf_path);
+	free(h);
+	return ret;
+}
+
+int h5md_observables(h5md_t *h, const run_record_t *rec, char *msg, size_t msglen)
+{
+	int64_t step = (int64_t)rec->events;
+	double vbuf[CLUSTERS_MAX_BINS];
+	int64_t ibuf[CLUSTERS_MAX_BINS];
+	if (append_row(h->obs_step, H5T_NATIVE_INT64, h->obs_rows, &step) ||
+	    append_row(h->obs_time, H5T_NATIVE_DOUBLE, h->obs_rows, &rec->time))
+		goto fail;
+	for (int k = 0; k < h->n_obs; k++) {
+		const obs_def_t *d = &obs_defs[h->obs_def[k]];
+		void *buf = d->i64 ? (void *)ibuf : (void *)vbuf;
+		d->get(rec, buf);
+		if (append_row(h->obs[k], d->i64 ? H5T_NATIVE_INT64 : H5T_NATIVE_DOUBLE, h->obs_rows, buf))
+			goto fail;
+	}
+	h->obs_rows++;
+	return H5MD_OK;
+fail:
+	return failf(msg, msglen, H5MD_EIO, "%s: cannot append observables", h->path);
+}
+
+/* The XDMF sidecar: one uniform grid per frame in a temporal collection,
+ * each a HyperSlab of frame k of position/value (and velocity/value). */
+static int write_xdmf(h5md_t *h)
+{
+	char tmp[4200];
+	snprintf(tmp, sizeof tmp, "%s.tmp", h->xdmf_path);
+	FILE *f = fopen(tmp, "w");
+	if (!f)
+		return -1;
+	const unsigned long long n = h->n, nf = h->snap_rows;
+	const int D = h->dim;
+	fprintf(f, "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
+	           "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n <Domain>\n"
+	           "  <Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
+	for (unsigned long long k = 0; k < nf; k++) {
+		fprintf(f, "   <Grid Name=\"frame%llu\" GridType=\"Uniform\">\n"
+		           "    <Time Value=\"%.17g\"/>\n"
+		           "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%llu\" NodesPerElement=\"1\"/>\n"
+		           "    <Geometry GeometryType=\"%s\">\n", k, h->frame_t[k], n, D == 2 ? "XY" : "XYZ");
+		const char *what[2] = {"position", "velocity"};
+		for (int w = 0; w < 2; w++) {
+			if (w == 1)
+				fprintf(f, "    <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">\n");
+			fprintf(f, "     <DataItem ItemType=\"HyperSlab\" Dimensions=\"%llu %d\" Type=\"HyperSlab\">\n"
+			           "      <DataItem Dimensions=\"3 3\" Format=\"XML\">%llu 0 0 1 1 1 1 %llu %d</DataItem>\n"
+			           "      <DataItem Dimensions=\"%llu %llu %d\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">%s:/particles/all/%s/value</DataItem>\n"
+			           "     </DataItem>\n",
+			        n, D, k, n, D, nf, n, D, h->h5_name, what[w]);
+			fprintf(f, w == 0 ? "    </Geometry>\n" : "    </Attribute>\n");
+		}
+		fprintf(f, "   </Grid>\n");
+	}
+	fprintf(f, "  </Grid>\n </Domain>\n</Xdmf>\n");
+	int bad = ferror(f);
+	if (fclose(f) != 0 || bad || rename(tmp, h->xdmf_path) != 0) {
+		remove(tmp);
+		return -1;
+	}
+	return 0;
+}
+
+int h5md_snapshot(h5md_t *h, const run_record_t *rec, char *msg, size_t msglen)
+{
+	int64_t step = (int64_t)rec->events;
+	double edges[9] = {0};
+	for (int a = 0; a < h->dim; a++)
+		edges[a * h->dim + a] = h->box[a];
+	if (frame_times_reserve(h, h->snap_rows + 1))
+		return failf(msg, msglen, H5MD_ENOMEM, "%s: out of memory", h->path);
+	if (append_row(h->pos_step, H5T_NATIVE_INT64, h->snap_rows, &step) ||
+	    append_row(h->pos_time, H5T_NATIVE_DOUBLE, h->snap_rows, &rec->time) ||
+	    append_row(h->pos_value, H5T_NATIVE_DOUBLE, h->snap_rows, rec->pos) ||
+	    append_row(h->vel_value, H5T_NATIVE_DOUBLE, h->snap_rows, rec->vel) ||
+	    append_row(h->box_value, H5T_NATIVE_DOUBLE, h->snap_rows, edges))
+		return failf(msg, msglen, H5MD_EIO, "%s: cannot append a frame", h->path);
+	h->frame_t[h->snap_rows++] = rec->time;
+	if (H5Fflush(h->file, H5F_SCOPE_GLOBAL) < 0)
+		return failf(msg, msglen, H5MD_EIO, "%s: cannot flush", h->path);
+	if (write_xdmf(h))
+		return failf(msg, msglen, H5MD_EIO, "%s: cannot write: %s", h->xdmf_path, strerror(errno));
+	return H5MD_OK;
+}
+
+int h5md_flush(h5md_t *h, char *msg, size_t msglen)
+{
+	if (H5Fflush(h->file, H5F_SCOPE_GLOBAL) < 0 || h5u_fsync_path(h->path))
+		return failf(msg, msglen, H5MD_EIO, "%s: cannot flush", h->path);
+	return H5MD_OK;
+}
+
+void h5md_rows(const h5md_t *h, uint64_t *obs_rows, uint64_t *snap_rows)
+{
+	*obs_rows = h->obs_rows;
+	*snap_rows = h->snap_rows;
+}
+
+const char *h5md_strerror(int code)
+{
+	switch (code) {
+	case H5MD_OK: return "ok";
+	case H5MD_EIO: return "HDF5 or file-system error";
+	case H5MD_ENOMEM: return "out of memory";
+	case H5MD_EFORMAT: return "file does not have the expected layout";
+	default: return "unknown error";
+	}
+}

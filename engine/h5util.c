@@ -1,0 +1,149 @@
+/* Small HDF5 and file-system helpers shared by the H5MD writer and the checkpoint files. */
+#include <fcntl.h>
+#include <limits.h>
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "h5util.h"
+
+void h5u_quiet(void)
+{
+	H5Eset_auto2(H5E_DEFAULT, NULL, NULL);
+}
+
+static int attr_write(hid_t obj, const char *name, hid_t ftype, hid_t mtype, hid_t space, const void *buf)
+{
+	int ret = -1;
+	hid_t a = H5Acreate2(obj, name, ftype, space, H5P_DEFAULT, H5P_DEFAULT);
+	if (a >= 0 && H5Awrite(a, mtype, buf) >= 0)
+		ret = 0;
+	if (a >= 0)
+		H5Aclose(a);
+	return ret;
+}
+
+int h5u_attr_str(hid_t obj, const char *name, const char *value)
+{
+	int ret = -1;
+	hid_t t = H5Tcopy(H5T_C_S1), s = H5Screate(H5S_SCALAR);
+	if (t >= 0 && s >= 0 && H5Tset_size(t, strlen(value) + 1) >= 0 && H5Tset_strpad(t, H5T_STR_NULLTERM) >= 0)
+		ret = attr_write(obj, name, t, t, s, value);
+	if (t >= 0) H5Tclose(t);
+	if (s >= 0) H5Sclose(s);
+	return ret;
+}
+
+int h5u_attr_strs(hid_t obj, const char *name, const char *const *values, size_t n)
+{
+	size_t w = 1;
+	char buf[16 * 64];
+	for (size_t i = 0; i < n; i++)
+		if (strlen(values[i]) + 1 > w)
+			w = strlen(values[i]) + 1;
+	if (n * w > sizeof buf || n == 0)
+		return -1;
+	memset(buf, 0, sizeof buf);
+	for (size_t i = 0; i < n; i++)
+		memcpy(buf + i * w, values[i], strlen(values[i]));
+	int ret = -1;
+	hsize_t dims[1] = {n};
+	hid_t t = H5Tcopy(H5T_C_S1), s = H5Screate_simple(1, dims, NULL);
+	if (t >= 0 && s >= 0 && H5Tset_size(t, w) >= 0 && H5Tset_strpad(t, H5T_STR_NULLTERM) >= 0)
+		ret = attr_write(obj, name, t, t, s, buf);
+	if (t >= 0) H5Tclose(t);
+	if (s >= 0) H5Sclose(s);
+	return ret;
+}
+
+static int attr_array(hid_t obj, const char *name, hid_t ftype, hid_t mtype, const void *v, size_t n)
+{
+	hsize_t dims[1] = {n};
+	hid_t s = n == 1 ? H5Screate(H5S_SCALAR) : H5Screate_simple(1, dims, NULL);
+	int ret = s >= 0 ? attr_write(obj, name, ftype, mtype, s, v) : -1;
+	if (s >= 0) H5Sclose(s);
+	return ret;
+}
+
+int h5u_attr_i64(hid_t obj, const char *name, const int64_t *values, size_t n)
+{
+	/* small integers as 32-bit: what H5MD readers expect for version/dimension */
+	int32_t v[16];
+	if (n > 16)
+		return -1;
+	for (size_t i = 0; i < n; i++)
+		v[i] = (int32_t)values[i];
+	return attr_array(obj, name, H5T_STD_I32LE, H5T_NATIVE_INT32, v, n);
+}
+
+int h5u_attr_u64(hid_t obj, const char *name, uint64_t value)
+{
+	return attr_array(obj, name, H5T_STD_U64LE, H5T_NATIVE_UINT64, &value, 1);
+}
+
+int h5u_attr_f64(hid_t obj, const char *name, const double *values, size_t n)
+{
+	return attr_array(obj, name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, values, n);
+}
+
+static int read_attr(hid_t obj, const char *name, hid_t mtype, void *v)
+{
+	int ret = -1;
+	hid_t a = H5Aopen(obj, name, H5P_DEFAULT);
+	if (a < 0)
+		return -1;
+	hid_t s = H5Aget_space(a);
+	if (s >= 0 && H5Sget_simple_extent_npoints(s) == 1 && H5Aread(a, mtype, v) >= 0)
+		ret = 0;
+	if (s >= 0) H5Sclose(s);
+	H5Aclose(a);
+	return ret;
+}
+
+int h5u_read_attr_u64(hid_t obj, const char *name, uint64_t *value)
+{
+	return read_attr(obj, name, H5T_NATIVE_UINT64, value);
+}
+
+int h5u_read_attr_f64(hid_t obj, const char *name, double *value)
+{
+	return read_attr(obj, name, H5T_NATIVE_DOUBLE, value);
+}
+
+hid_t h5u_group(hid_t loc, const char *path)
+{
+	hid_t lcpl = H5Pcreate(H5P_LINK_CREATE), g = H5I_INVALID_HID;
+	if (lcpl >= 0 && H5Pset_create_intermediate_group(lcpl, 1) >= 0)
+		g = H5Gcreate2(loc, path, lcpl, H5P_DEFAULT, H5P_DEFAULT);
+	if (lcpl >= 0)
+		H5Pclose(lcpl);
+	return g;
+}
+
+int h5u_fsync_path(const char *path)
+{
+	int fd = open(path, O_RDONLY | O_CLOEXEC);
+	if (fd < 0)
+		return -1;
+	int ret = fsync(fd);
+	close(fd);
+	return ret == 0 ? 0 : -1;
+}
+
+int h5u_fsync_dir_of(const char *path)
+{
+	char dir[PATH_MAX];
+	const char *slash = strrchr(path, '/');
+	if (!slash)
+		snprintf(dir, sizeof dir, ".");
+	else if (slash == path)
+		snprintf(dir, sizeof dir, "/");
+	else
+		snprintf(dir, sizeof dir, "%.*s", (int)(slash - path), path);
+	int fd = open(dir, O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+	if (fd < 0)
+		return -1;
+	int ret = fsync(fd);
+	close(fd);
+	return ret == 0 ? 0 : -1;
+}

@@ -1,0 +1,27 @@
+/* Small HDF5 and file-system helpers shared by the H5MD writer and the checkpoint files. */
+#pragma once
+
+#include <hdf5.h>
+#include <stddef.h>
+#include <stdint.h>
+
+/*
+ * Contract: each returns 0 on success, -1 on failure (HDF5 or errno); no
+ * output. Attributes are created on obj (a group or dataset); strings are
+ * fixed-length, NUL-terminated, ASCII.
+ */
+
+/* Silence HDF5's automatic error-stack printing: callers report one line. */
+void h5u_quiet(void);
+int h5u_attr_str(hid_t obj, const char *name, const char *value);
+int h5u_attr_strs(hid_t obj, const char *name, const char *const *values, size_t n);
+int h5u_attr_i64(hid_t obj, const char *name, const int64_t *values, size_t n);
+int h5u_attr_u64(hid_t obj, const char *name, uint64_t value);
+int h5u_attr_f64(hid_t obj, const char *name, const double *values, size_t n);
+int h5u_read_attr_u64(hid_t obj, const char *name, uint64_t *value);
+int h5u_read_attr_f64(hid_t obj, const char *name, double *value);
+/* New group (with intermediate groups). Returns the id or H5I_INVALID_HID. */
+hid_t h5u_group(hid_t loc, const char *path);
+/* open(path) + fsync; and fsync of the directory holding path. */
+int h5u_fsync_path(const char *path);
+int h5u_fsync_dir_of(const char *path);

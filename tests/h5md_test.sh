@@ -1,0 +1,264 @@
+#!/bin/sh
+# The engine's H5MD output read back with h5py, h5dump, an XML parser and MDAnalysis (TAP).
+set -u
+: "${SRCDIR:=$(cd "$(dirname "$0")/.." && pwd)}"
+: "${ENGINE:=$SRCDIR/engine/granular-engine}"
+PY=/usr/bin/python3
+tmp=$(mktemp -d "${TMPDIR:-/tmp}/h5md_test.XXXXXX")
+trap 'rm -rf "$tmp"' EXIT
+n=0; failed=0
+ok() { n=$((n + 1)); if [ "$1" = 0 ]; then echo "ok $n - $2"; else echo "not ok $n - $2"; failed=$((failed + 1)); fi; }
+skip() { n=$((n + 1)); echo "ok $n # SKIP $1"; }
+
+if ! "$PY" -c 'import h5py, numpy' 2>/dev/null; then
+	echo "1..0 # SKIP python3-h5py not installed (./quickstart installs it)"
+	exit 0
+fi
+
+cat >"$tmp/3d.json" <<'JSON'
+{"method":"ed","dimensions":3,"particles":{"count":300,"volume_fraction":0.2,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9,"tc":0.0001},"run":{"seed":11,"until":{"time":1.0}},
+ "output":{"every":{"time":0.05},
+   "observables":["kinetic_energy","temperature","pressure","compressibility","collision_rate","clusters","momentum"],
+   "snapshots":{"every":{"time":0.25},"compression":4}}}
+JSON
+cat >"$tmp/2d.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":400,"volume_fraction":0.7},
+ "run":{"seed":12,"until":{"collisions_per_particle":20}},
+ "output":{"every":{"collisions_per_particle":2},"snapshots":{"every":{"collisions_per_particle":5},"compression":0}}}
+JSON
+cat >"$tmp/nosnap.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":100,"volume_fraction":0.3},
+ "run":{"until":{"time":2}},"output":{"observables":["temperature"]}}
+JSON
+
+for s in 3d 2d nosnap; do
+	"$ENGINE" run "$tmp/$s.json" --out "$tmp/$s" >"$tmp/$s.out" 2>"$tmp/$s.err"
+	rc=$?
+	[ $rc -eq 0 ] && [ -s "$tmp/$s/trajectory.h5" ] && [ -s "$tmp/$s/trajectory.xdmf" ] && [ -s "$tmp/$s/progress.jsonl" ]
+	ok $? "$s: exit $rc, trajectory.h5, trajectory.xdmf and progress.jsonl written $(head -c 200 "$tmp/$s.err")"
+done
+
+# Layout and values, with h5py.
+for s in 3d 2d nosnap; do
+	"$PY" - "$tmp/$s/trajectory.h5" "$tmp/$s.json" "$tmp/$s/progress.jsonl" >"$tmp/check.$s" 2>&1 <<'PYEOF'
+import json, sys
+import h5py, numpy as np
+f = h5py.File(sys.argv[1], "r")
+scene = json.load(open(sys.argv[2]))
+prog = [json.loads(l) for l in open(sys.argv[3]) if '"progress"' in l]
+D, N = scene["dimensions"], scene["particles"]["count"]
+def check(cond, what):
+    if not cond:
+        raise SystemExit("FAILED: " + what)
+# /h5md
+check(list(f["h5md"].attrs["version"]) == [1, 1], "h5md version [1,1]")
+check(f["h5md/author"].attrs["name"] == b"granulard" or f["h5md/author"].attrs["name"] == "granulard", "author name")
+check(f["h5md/creator"].attrs["name"] in (b"granular-engine", "granular-engine"), "creator name")
+check(len(f["h5md/creator"].attrs["version"]) > 0, "creator version")
+check(list(f["h5md/modules/units"].attrs["version"]) == [1, 0], "units module")
+# box
+box = f["particles/all/box"]
+check(int(box.attrs["dimension"]) == D, "box dimension")
+check([b.decode() if isinstance(b, bytes) else b for b in box.attrs["boundary"]] == ["periodic"] * D, "boundary")
+E = box["edges/value"][()]
+check(E.ndim == 3 and E.shape[1:] == (D, D), "edges: time-dependent [frames][D][D]")
+edges = np.diag(E[0])
+check(np.all(edges > 0) and all(np.array_equal(e, np.diag(edges)) for e in E), "edges: constant diagonal box")
+check(box["edges/step"].id == f["particles/all/position/step"].id, "edges share position's step")
+vol = float(np.prod(edges))
+# frames
+pos, vel = f["particles/all/position"], f["particles/all/velocity"]
+P, V = pos["value"][()], vel["value"][()]
+check(P.shape[1:] == (N, D) and V.shape == P.shape, "position/velocity value [frames][N][D]")
+check(pos["value"].maxshape[0] is None and pos["value"].chunks is not None, "frames chunked, unlimited")
+check(pos["step"].id == vel["step"].id or np.array_equal(pos["step"][()], vel["step"][()]), "velocity shares step")
+check(np.all(P >= 0) and np.all(P < edges), "positions folded into the box")
+ft, fs = pos["time"][()], pos["step"][()]
+check(len(ft) == P.shape[0] and np.all(np.diff(ft) > 0) and np.all(np.diff(fs) >= 0), "frame time increasing, step non-decreasing")
+check(ft[0] == 0.0, "first frame at time 0")
+check("unit" not in pos["value"].attrs and "unit" not in pos["time"].attrs, "no unit attributes under /particles (MDAnalysis)")
+check(f["h5md/modules/units"].attrs["system"] in (b"granulard-reduced", "granulard-reduced"), "units system")
+check(f["particles/all/diameter"].shape == (N,) and f["particles/all/mass"].shape == (N,), "diameter and mass [N]")
+# observables
+obs = f["observables"]
+t = obs["collision_count/time"][()]
+check(obs["collision_count/time"].attrs["unit"] in (b"t0", "t0"), "observable time unit t0")
+st = obs["collision_count/step"][()]
+check(len(t) == len(prog) and np.all(np.diff(t) >= 0) and np.all(np.diff(st) >= 0), "observable time/step monotone, one row per progress line")
+check(np.array_equal(t, [p["time"] for p in prog]), "observable times equal the progress stream's")
+check(np.array_equal(obs["collision_count/value"][()], [p["collisions"] for p in prog]), "collision_count")
+want = set(scene.get("output", {}).get("observables", ["kinetic_energy", "temperature", "pressure", "compressibility", "collision_rate"]))
+for name in want - {"clusters"}:
+    check(name in obs and obs[name + "/value"].shape[0] == len(t), "observable " + name)
+    check(obs[name]["time"].id == obs["collision_count/time"].id, name + " time hard-linked")
+if "temperature" in want:
+    check(np.array_equal(obs["temperature/value"][()], [p["temperature"] for p in prog]), "temperature equals the progress stream's")
+if "kinetic_energy" in want:
+    ek = obs["kinetic_energy/value"][()]
+    check(ek.dtype == np.float64 and np.allclose(ek * N, [p["kinetic_energy"] for p in prog], rtol=1e-15, atol=0), "kinetic_energy per particle")
+    # the stored E_kin equals the one from the stored velocities at the same times
+    m = f["particles/all/mass"][0]
+    both = 0
+    for k, tk in enumerate(ft):
+        rows = np.nonzero(t == tk)[0]
+        if len(rows):
+            e = 0.5 * m * np.sum(V[k] ** 2) / N
+            check(abs(e - ek[rows[-1]]) <= 1e-12 * e, "E_kin from velocities at t=%g" % tk)
+            both += 1
+    check(both >= 2, "frames and observables share times")
+if "momentum" in want:
+    check(obs["momentum/value"].shape == (len(t), D), "momentum [rows][D]")
+if "pressure" in want:
+    p = obs["pressure/value"][()]
+    check(np.isnan(p[0]) and np.all(np.isfinite(p[1:])), "pressure NaN at the first row only")
+    check(obs["pressure/value"].attrs["unit"] in (b"e0 l0-%d" % D, "e0 l0-%d" % D), "pressure unit")
+if "clusters" in want:
+    for k in ("count", "largest", "largest_fraction", "mean_size", "m2", "m2_reduced", "histogram"):
+        check(("clusters_" + k) in obs, "clusters_" + k)
+    h = obs["clusters_histogram/value"][()]
+    check(np.array_equal(h.sum(axis=1), obs["clusters_count/value"][()]), "histogram sums to the cluster count")
+# parameters
+txt = f["parameters/scene"][()]
+txt = txt.decode() if isinstance(txt, bytes) else txt
+check(json.loads(txt) == scene and txt == open(sys.argv[2]).read(), "scene stored verbatim")
+check(int(f["parameters"].attrs["particles"]) == N, "parameters particles")
+# without output.snapshots: first and last state only
+if "snapshots" not in scene.get("output", {}):
+    check(P.shape[0] == 2 and ft[-1] == t[-1], "first and last frame only")
+print("N=%d D=%d frames=%d rows=%d" % (N, D, P.shape[0], len(t)))
+PYEOF
+	ok $? "$s: H5MD layout, units, values ($(tail -n 1 "$tmp/check.$s"))"
+done
+
+# h5dump can read every object.
+h5dump "$tmp/3d/trajectory.h5" >"$tmp/dump" 2>&1
+rc=$?
+[ $rc -eq 0 ] && grep -q 'GROUP "h5md"' "$tmp/dump" && grep -q 'DATASET "value"' "$tmp/dump"
+ok $? "h5dump reads the whole file (exit $rc)"
+
+# XDMF: well-formed; every referenced dataset exists with the stated shape.
+for s in 3d 2d; do
+	"$PY" - "$tmp/$s" >"$tmp/x.$s" 2>&1 <<'PYEOF'
+import os, sys
+import xml.etree.ElementTree as ET
+import h5py
+d = sys.argv[1]
+root = ET.parse(os.path.join(d, "trajectory.xdmf")).getroot()
+col = root.find("Domain/Grid")
+assert col.get("CollectionType") == "Temporal", "temporal collection"
+grids = col.findall("Grid")
+f = h5py.File(os.path.join(d, "trajectory.h5"), "r")
+times = f["particles/all/position/time"][()]
+assert len(grids) == len(times), "one grid per frame"
+for k, g in enumerate(grids):
+    assert float(g.find("Time").get("Value")) == times[k], "frame time"
+    assert g.find("Topology").get("TopologyType") == "Polyvertex"
+    for item in g.iter("DataItem"):
+        if item.get("Format") == "HDF":
+            fn, path = item.text.strip().split(":")
+            ds = h5py.File(os.path.join(d, fn), "r")[path]
+            assert " ".join(map(str, ds.shape)) == item.get("Dimensions"), (ds.shape, item.get("Dimensions"))
+        if item.get("Format") == "XML":
+            start = int(item.text.split()[0])
+            assert start == k, "hyperslab selects frame k"
+print(len(grids), "frames")
+PYEOF
+	ok $? "$s: trajectory.xdmf well-formed, datasets exist ($(tail -n 1 "$tmp/x.$s"))"
+done
+
+# ParaView's XDMF reader (when installed: paraview + python3-paraview, not
+# installed by ./quickstart) sees every frame at its time with the stored
+# positions and velocities.
+if command -v pvbatch >/dev/null 2>&1 && pvbatch -c 'import paraview.simple' >/dev/null 2>&1; then
+	for s in 3d 2d; do
+		cat >"$tmp/pv.py" <<'PYEOF'
+import sys
+import h5py, numpy as np
+from paraview.simple import XDMFReader, servermanager
+from vtkmodules.util.numpy_support import vtk_to_numpy
+d = sys.argv[1]
+f = h5py.File(d + "/trajectory.h5", "r")
+P, V = f["particles/all/position/value"][()], f["particles/all/velocity/value"][()]
+T = f["particles/all/position/time"][()]
+r = XDMFReader(FileNames=[d + "/trajectory.xdmf"])
+r.UpdatePipelineInformation()
+assert np.array_equal(np.array(r.TimestepValues), T), "frame times"
+D = P.shape[2]
+for k, t in enumerate(T):
+    r.UpdatePipeline(t)
+    g = servermanager.Fetch(r)
+    g = g.GetBlock(0) if g.IsA("vtkMultiBlockDataSet") else g
+    pts = vtk_to_numpy(g.GetPoints().GetData())
+    vel = vtk_to_numpy(g.GetPointData().GetArray("velocity"))
+    assert np.array_equal(pts[:, :D], P[k]) and np.array_equal(vel[:, :D], V[k]), "frame %d" % k
+print("ParaView read %d frames of %d points" % (len(T), P.shape[1]))
+PYEOF
+		pvbatch "$tmp/pv.py" "$tmp/$s" >"$tmp/pv.$s" 2>&1
+		ok $? "$s: ParaView XDMF reader: $(grep -v '^$' "$tmp/pv.$s" | tail -n 1)"
+	done
+else
+	skip "ParaView (pvbatch, python3-paraview) not installed: XDMF not opened in ParaView"
+	skip "ParaView not installed"
+fi
+
+# MDAnalysis reads the 3D trajectory (its H5MD reader takes 3D periodic boxes only).
+if "$PY" -c 'import MDAnalysis' 2>/dev/null; then
+	"$PY" -W ignore - "$tmp/3d/trajectory.h5" >"$tmp/mda" 2>&1 <<'PYEOF'
+import sys, warnings
+import numpy as np
+import h5py
+import MDAnalysis as mda
+from MDAnalysis.coordinates.H5MD import H5MDReader
+f = h5py.File(sys.argv[1], "r")
+P = f["particles/all/position/value"][()]
+N = P.shape[1]
+u = mda.Universe.empty(N, trajectory=True)
+u.load_new(sys.argv[1], format=H5MDReader, convert_units=False)
+assert len(u.trajectory) == P.shape[0], "frame count"
+for k, ts in enumerate(u.trajectory):
+    assert np.allclose(ts.positions, P[k], rtol=1e-6, atol=1e-5), "positions frame %d" % k
+    assert np.allclose(ts.dimensions[:3], np.diag(f["particles/all/box/edges/value"][k]), rtol=1e-6), "box"
+    assert ts.has_velocities
+print("MDAnalysis %s read %d frames of %d particles" % (mda.__version__, len(u.trajectory), N))
+PYEOF
+	ok $? "MDAnalysis H5MD reader: $(tail -n 1 "$tmp/mda")"
+else
+	skip "python3-mdanalysis not installed"
+fi
+
+# Methods dsmc/hsmc and ensembles: --out writes progress.jsonl and the
+# observables (ensembles: the means of the progress stream), no frames and no
+# XDMF; --resume is refused for them (exit 2, one line).
+for f in 2d-dsmc-cooling.json 2d-ed-replicas.json 2d-dsmc-replicas.json; do
+	d="$tmp/other-${f%.json}"
+	"$ENGINE" run "$SRCDIR/tests/scenes/good/$f" --out "$d" >"$d.out" 2>"$d.err"
+	rc=$?
+	"$PY" - "$d" "$d.out" >"$d.py" 2>&1 <<'PYEOF'
+import json, os, sys
+import h5py, numpy as np
+d, out = sys.argv[1], sys.argv[2]
+lines = [json.loads(l) for l in open(out)]
+prog = [l for l in lines if l["type"] == "progress"]
+assert lines[-1]["type"] == "summary" and lines[-1]["status"] == "completed", "summary"
+assert open(os.path.join(d, "progress.jsonl")).read() == open(out).read(), "progress.jsonl is a copy"
+assert not os.path.exists(os.path.join(d, "trajectory.xdmf")), "no XDMF without frames"
+assert not os.path.exists(os.path.join(d, "checkpoint.h5")), "no checkpoint"
+with h5py.File(os.path.join(d, "trajectory.h5"), "r") as h:
+    t = h["observables/temperature/time"][:]
+    T = h["observables/temperature/value"][:]
+    assert len(t) == len(prog), "one observable row per progress line (%d, %d)" % (len(t), len(prog))
+    assert np.array_equal(t, [p["time"] for p in prog]), "times"
+    assert np.array_equal(T, [p["temperature"] for p in prog]), "temperatures"
+    pos = h.get("particles/all/position/value")
+    assert pos is None or pos.shape[0] == 0, "no frames"
+print("%d observable rows, no frames" % len(t))
+PYEOF
+	ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "$f --out: exit $rc, $(tail -n 1 "$d.py")"
+	"$ENGINE" run "$SRCDIR/tests/scenes/good/$f" --out "$d" --resume "$d/checkpoint.h5" >/dev/null 2>"$d.err"
+	rc=$?
+	ok $(( rc == 2 && $(wc -l <"$d.err") == 1 ? 0 : 1 )) "$f --resume refused: exit $rc, $(head -n 1 "$d.err")"
+done
+
+echo "1..$n"
+[ $failed -eq 0 ]

@@ -1,0 +1,215 @@
+#!/bin/sh
+# Checkpoints and exact resume through the real program: resume, kill -9, corruption, SIGTERM (TAP).
+set -u
+: "${SRCDIR:=$(cd "$(dirname "$0")/.." && pwd)}"
+: "${ENGINE:=$SRCDIR/engine/granular-engine}"
+PY=/usr/bin/python3
+tmp=$(mktemp -d "${TMPDIR:-/tmp}/resume_test.XXXXXX")
+trap 'rm -rf "$tmp"' EXIT
+n=0; failed=0
+ok() { n=$((n + 1)); if [ "$1" = 0 ]; then echo "ok $n - $2"; else echo "not ok $n - $2"; failed=$((failed + 1)); fi; }
+
+if ! "$PY" -c 'import h5py, numpy' 2>/dev/null; then
+	echo "1..0 # SKIP python3-h5py not installed (./quickstart installs it)"
+	exit 0
+fi
+
+# same A B: every dataset of the two trajectories bit for bit, and the two
+# progress streams line for line (wall-clock fields aside). Prints why not.
+cat >"$tmp/same.py" <<'PYEOF'
+import json, sys
+import h5py, numpy as np
+a, b = sys.argv[1], sys.argv[2]
+fa, fb = h5py.File(a + "/trajectory.h5", "r"), h5py.File(b + "/trajectory.h5", "r")
+names, bad = [], []
+def visit(name, obj):
+    if isinstance(obj, h5py.Dataset):
+        names.append(name)
+fa.visititems(visit)
+nb = []
+fb.visititems(lambda name, o: nb.append(name) if isinstance(o, h5py.Dataset) else None)
+if sorted(names) != sorted(nb):
+    bad.append("dataset lists differ")
+for name in names:
+    x, y = fa[name][()], fb[name][()]
+    if isinstance(x, np.ndarray):
+        if x.shape != y.shape or x.tobytes() != y.tobytes():
+            bad.append(name)
+    elif x != y:
+        bad.append(name)
+def lines(d):
+    out = []
+    for l in open(d + "/progress.jsonl"):
+        r = json.loads(l)
+        for k in ("wall_seconds", "events_per_second", "collisions_per_second"):
+            r.pop(k, None)
+        out.append(json.dumps(r, sort_keys=True))
+    return out
+la, lb = lines(a), lines(b)
+if la != lb:
+    bad.append("progress.jsonl (%d vs %d lines)" % (len(la), len(lb)))
+frames = fa["particles/all/position/value"].shape[0]
+if bad:
+    print("differ: " + ", ".join(bad[:6]))
+    sys.exit(1)
+print("%d datasets, %d frames, %d progress lines identical" % (len(names), frames, len(la)))
+PYEOF
+same() { "$PY" "$tmp/same.py" "$1" "$2"; }
+
+# Scenes: 2D/3D, elastic/inelastic with TC, cell lists (dilute) and neighbour lists (dense).
+cat >"$tmp/2d-dilute.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":1500,"volume_fraction":0.05,"initial":{"positions":"random"}},
+ "run":{"seed":31,"until":{"time":40}},
+ "output":{"every":{"time":2},"observables":["kinetic_energy","pressure","collision_rate","momentum"],
+   "snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":7}}}}
+JSON
+cat >"$tmp/2d-dense-tc.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":1600,"volume_fraction":0.7},
+ "collisions":{"restitution":0.8,"tc":0.0001},"run":{"seed":32,"until":{"collisions_per_particle":100}},
+ "output":{"every":{"collisions_per_particle":10},"observables":["kinetic_energy","temperature","pressure","clusters"],
+   "snapshots":{"every":{"collisions_per_particle":40}},"checkpoint":{"every":{"time":15}}}}
+JSON
+cat >"$tmp/3d-dilute-tc.json" <<'JSON'
+{"method":"ed","dimensions":3,"particles":{"count":1500,"volume_fraction":0.1,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9,"tc":0.001},"run":{"seed":33,"until":{"time":12}},
+ "output":{"every":{"time":0.5},"observables":["kinetic_energy","collision_rate","clusters","momentum"],
+   "snapshots":{"every":{"time":2}},"checkpoint":{"every":{"time":1.3}}}}
+JSON
+cat >"$tmp/3d-dense.json" <<'JSON'
+{"method":"ed","dimensions":3,"particles":{"count":1372,"volume_fraction":0.45,"initial":{"relax":{"collisions_per_particle":5}}},
+ "run":{"seed":34,"until":{"time":3}},
+ "output":{"every":{"collisions_per_particle":15},"snapshots":{"every":{"time":1}},"checkpoint":{"every":{"time":0.4}}}}
+JSON
+# Long enough to be killed: wall-clock checkpoints, ~2-3 s of work.
+cat >"$tmp/3d-kill.json" <<'JSON'
+{"method":"ed","dimensions":3,"particles":{"count":3000,"volume_fraction":0.4},
+ "collisions":{"restitution":0.95,"tc":0.001},"run":{"seed":35,"until":{"collisions_per_particle":700}},
+ "output":{"every":{"collisions_per_particle":25},"observables":["kinetic_energy","pressure","clusters"],
+   "snapshots":{"every":{"collisions_per_particle":150}},"checkpoint":{"every":{"wall_seconds":0.05}}}}
+JSON
+cat >"$tmp/2d-kill.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":4000,"volume_fraction":0.1,"initial":{"positions":"random"}},
+ "run":{"seed":36,"until":{"collisions_per_particle":400}},
+ "output":{"every":{"collisions_per_particle":20},"snapshots":{"every":{"collisions_per_particle":100}},
+   "checkpoint":{"every":{"wall_seconds":0.05}}}}
+JSON
+
+ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
+	"$ENGINE" run "$tmp/$1.json" --out "$tmp/$1.ref" >/dev/null 2>"$tmp/$1.ref.err"
+}
+
+# (a) checkpoint at simulated time T, resume: identical to the uninterrupted run.
+for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense; do
+	ref $s
+	rc=$?
+	for which in checkpoint.prev.h5 checkpoint.h5; do
+		rm -rf "$tmp/$s.res"
+		cp -r "$tmp/$s.ref" "$tmp/$s.res"
+		t=$("$PY" -c 'import h5py,sys; print(h5py.File(sys.argv[1],"r").attrs["time"])' "$tmp/$s.res/$which")
+		"$ENGINE" run "$tmp/$s.json" --resume "$tmp/$s.res/$which" --out "$tmp/$s.res" >/dev/null 2>"$tmp/err"
+		rc2=$?
+		why=$(same "$tmp/$s.ref" "$tmp/$s.res")
+		ok $(( rc == 0 && rc2 == 0 && $? == 0 ? 0 : 1 )) "$s: resume from $which (time $t): $why $(head -c 200 "$tmp/err")"
+	done
+done
+
+# (b) kill -9 at random moments (seeded), resume from whatever is on disk.
+seed=20261121
+for s in 3d-kill 2d-kill; do
+	ref $s
+	d="$tmp/$s.kill"
+	rm -rf "$d"
+	kills=0; resumes=0; k=0; rc=1
+	while [ $k -lt 6 ]; do
+		k=$((k + 1))
+		if [ -f "$d/checkpoint.h5" ]; then
+			"$ENGINE" run "$tmp/$s.json" --resume "$d/checkpoint.h5" --out "$d" >/dev/null 2>>"$tmp/$s.kill.err" &
+			resumes=$((resumes + 1))
+		else
+			"$ENGINE" run "$tmp/$s.json" --out "$d" >/dev/null 2>>"$tmp/$s.kill.err" &
+		fi
+		pid=$!
+		if [ $k -le 3 ]; then
+			delay=$(awk -v s=$((seed + k)) 'BEGIN { srand(s); printf "%.2f", 0.3 + 0.9 * rand() }')
+			sleep "$delay"
+			if kill -KILL $pid 2>/dev/null; then
+				kills=$((kills + 1))
+			fi
+			wait $pid 2>/dev/null
+			rc=$?
+		else
+			wait $pid
+			rc=$?
+			[ $rc -eq 0 ] && break
+		fi
+	done
+	why=$(same "$tmp/$s.ref" "$d")
+	ok $(( rc == 0 && kills >= 2 && resumes >= 2 && $? == 0 ? 0 : 1 )) "$s: $kills kill -9, $resumes resumes, exit $rc: $why $(head -c 200 "$tmp/$s.kill.err")"
+done
+
+# (c) damaged checkpoints are detected (one line on stderr) and checkpoint.prev.h5 is used.
+s=3d-dilute-tc
+damage() { # mode dir
+	"$PY" - "$1" "$2/checkpoint.h5" <<'PYEOF'
+import os, sys
+import h5py
+mode, path = sys.argv[1], sys.argv[2]
+if mode == "truncate":
+    os.truncate(path, os.path.getsize(path) // 2)
+else:
+    # flip one byte inside the velocities: only the digest can tell
+    off = h5py.File(path, "r")["ed/v"].id.get_offset() + 1000
+    with open(path, "r+b") as f:
+        f.seek(off); b = f.read(1); f.seek(off); f.write(bytes([b[0] ^ 0x10]))
+PYEOF
+}
+for mode in truncate flip; do
+	rm -rf "$tmp/$s.dmg"
+	cp -r "$tmp/$s.ref" "$tmp/$s.dmg"
+	damage $mode "$tmp/$s.dmg"
+	"$ENGINE" run "$tmp/$s.json" --resume "$tmp/$s.dmg/checkpoint.h5" --out "$tmp/$s.dmg" >/dev/null 2>"$tmp/err"
+	rc=$?
+	lines=$(wc -l <"$tmp/err")
+	why=$(same "$tmp/$s.ref" "$tmp/$s.dmg")
+	res=$?
+	grep -q 'corrupt checkpoint.*using .*checkpoint.prev.h5' "$tmp/err"
+	ok $(( rc == 0 && lines == 1 && res == 0 && $? == 0 ? 0 : 1 )) "$mode checkpoint.h5: detected, prev used, exit $rc, $why: $(cat "$tmp/err")"
+done
+# both damaged: exit 2 and no run
+rm -rf "$tmp/$s.dmg"
+cp -r "$tmp/$s.ref" "$tmp/$s.dmg"
+damage flip "$tmp/$s.dmg"
+cp "$tmp/$s.dmg/checkpoint.h5" "$tmp/$s.dmg/checkpoint.prev.h5"
+"$ENGINE" run "$tmp/$s.json" --resume "$tmp/$s.dmg/checkpoint.h5" --out "$tmp/$s.dmg" >"$tmp/out" 2>"$tmp/err"
+rc=$?
+ok $(( rc == 2 && $(wc -l <"$tmp/err") == 2 ? 0 : 1 )) "both checkpoints damaged: exit $rc, $(tail -n 1 "$tmp/err")"
+# a checkpoint of another scene is refused
+sed 's/"seed":33/"seed":99/' "$tmp/$s.json" >"$tmp/other.json"
+"$ENGINE" run "$tmp/other.json" --resume "$tmp/$s.ref/checkpoint.h5" --out "$tmp/$s.ref" >"$tmp/out" 2>"$tmp/err"
+rc=$?
+[ $rc -eq 2 ] && [ "$(wc -l <"$tmp/err")" -eq 1 ] && [ ! -s "$tmp/out" ] && grep -q 'different scene' "$tmp/err"
+ok $? "checkpoint of a different scene refused: exit $rc, $(cat "$tmp/err")"
+"$ENGINE" run "$tmp/$s.json" --resume "$tmp/$s.ref/checkpoint.h5" >"$tmp/out" 2>"$tmp/err"
+ok $(( $? == 2 && $(wc -l <"$tmp/err") == 1 ? 0 : 1 )) "--resume without --out refused: $(cat "$tmp/err")"
+
+# (d) SIGTERM: checkpoint, exit 4; resume: identical result.
+for s in 3d-kill 2d-kill; do
+	d="$tmp/$s.term"
+	rm -rf "$d"
+	"$ENGINE" run "$tmp/$s.json" --out "$d" >/dev/null 2>"$tmp/err" &
+	pid=$!
+	sleep 0.8
+	kill -TERM $pid
+	wait $pid
+	rc=$?
+	last=$(tail -n 1 "$d/progress.jsonl")
+	"$ENGINE" run "$tmp/$s.json" --resume "$d/checkpoint.h5" --out "$d" >/dev/null 2>>"$tmp/err"
+	rc2=$?
+	why=$(same "$tmp/$s.ref" "$d")
+	res=$?
+	case "$last" in *'"status":"interrupted"'*) st=0 ;; *) st=1 ;; esac
+	ok $(( rc == 4 && st == 0 && rc2 == 0 && res == 0 ? 0 : 1 )) "$s: SIGTERM exit $rc (summary interrupted), resume exit $rc2: $why $(head -c 200 "$tmp/err")"
+done
+
+echo "1..$n"
+[ $failed -eq 0 ]
