@@ -7,6 +7,7 @@
 #include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <sys/stat.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -648,8 +649,15 @@ static int c_download(ctx_t *x)
 	if (!file_name_ok(name))
 		return usage_error(x, "NAME '%s': not a job file name (letters, digits, . _ -; no leading dot)", name);
 	int to_stdout = !strcmp(dest, "-");
-	if (!to_stdout && !(out = fopen(dest, "wb"))) {
-		errf("-o %s: %s", dest, strerror(errno));
+	/* A regular file is written as DEST.part and renamed into place when
+	 * complete, so a failure never leaves half a file nor destroys an existing
+	 * one; anything else (/dev/null, a pipe) is written directly. */
+	struct stat st;
+	int direct = to_stdout || (stat(dest, &st) == 0 && !S_ISREG(st.st_mode));
+	char part[4200];
+	snprintf(part, sizeof(part), "%s.part", dest);
+	if (!to_stdout && !(out = fopen(direct ? dest : part, "wb"))) {
+		errf("-o %s: %s", direct ? dest : part, strerror(errno));
 		return CTL_EXIT_USAGE;
 	}
 	snprintf(path, sizeof(path), "/api/v1/jobs/%lld/files/%s", id, name);
@@ -667,9 +675,14 @@ cleanup:
 		errf("-o %s: %s", dest, strerror(errno));
 		rc = CTL_EXIT_SERVER;
 	}
-	if (rc != CTL_EXIT_OK && !to_stdout)
-		remove(dest);   /* no half-written file left behind */
-	else if (rc == CTL_EXIT_OK && !to_stdout && !x->json)
+	if (!direct && rc != CTL_EXIT_OK)
+		remove(part);   /* no half-written file left behind */
+	else if (!direct && rename(part, dest)) {
+		errf("-o %s: %s", dest, strerror(errno));
+		remove(part);
+		rc = CTL_EXIT_SERVER;
+	}
+	if (rc == CTL_EXIT_OK && !to_stdout && !x->json)
 		fprintf(stderr, "granularctl: job %lld: %s -> %s\n", id, name, dest);
 	return rc;
 }

@@ -120,6 +120,11 @@ ctl download "$id" progress.jsonl -o -
 ok $([ $RC = 0 ] && cmp -s "$tmp/out" "var/jobs/$id/progress.jsonl"; echo $?) "download -o -: to stdout"
 ctl download "$id" nope.h5 -o "$tmp/nope"
 ok $([ $RC = 4 ] && one_line && [ ! -e "$tmp/nope" ]; echo $?) "download of a missing file: exit 4, no file left: $(cat "$tmp/err")"
+echo keep >"$tmp/existing"
+ctl download "$id" nope.h5 -o "$tmp/existing"
+ok $([ $RC = 4 ] && [ "$(cat "$tmp/existing")" = keep ] && [ ! -e "$tmp/existing.part" ]; echo $?) "a failed download leaves an existing file as it was"
+ctl download "$id" nope.h5 -o /dev/null
+ok $([ $RC = 4 ] && [ -c /dev/null ]; echo $?) "a failed download to /dev/null leaves /dev/null a device"
 ctl download "$id" ../token; ok $([ $RC = 2 ]; echo $?) "download ../token: exit 2 before any request"
 ctl delete "$id"; ok $([ $RC = 0 ] && grep -q "job $id deleted" "$tmp/out"; echo $?) "delete"
 ctl delete "$id" --json; ok $([ $RC = 4 ]; echo $?) "delete again: exit 4"
