@@ -87,16 +87,6 @@ static hid_t file_type(ed_type_t t)
 	return H5I_INVALID_HID;
 }
 
-static int failf(char *msg, size_t msglen, int code, const char *fmt, ...)
-{
-	if (msg && msglen) {
-		va_list ap;
-		va_start(ap, fmt);
-		vsnprintf(msg, msglen, fmt, ap);
-		va_end(ap);
-	}
-	return code;
-}
 
 /* The run's schedule and the output positions, in digest order. */
 typedef struct {
@@ -211,7 +201,7 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
 	path_in(cur, sizeof cur, dir, CKPT_FILE);
 	path_in(prev, sizeof prev, dir, CKPT_PREV);
 	if (nf > ED_MAX_FIELDS)
-		return failf(msg, msglen, CKPT_EIO, "%s: too many state fields", tmp);
+		return h5u_fail(msg, msglen, CKPT_EIO, "%s: too many state fields", tmp);
 	/* The 1.10 format checksums the file's metadata as well. */
 	fapl = H5Pcreate(H5P_FILE_ACCESS);
 	if (fapl < 0 || H5Pset_libver_bounds(fapl, H5F_LIBVER_V110, H5F_LIBVER_LATEST) < 0)
@@ -234,7 +224,7 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
 		hsize_t dims[1] = {fields[k].count};
 		buf = malloc(bytes ? bytes : 1);
 		if (!buf) {
-			ret = failf(msg, msglen, CKPT_ENOMEM, "%s: out of memory", tmp);
+			ret = h5u_fail(msg, msglen, CKPT_ENOMEM, "%s: out of memory", tmp);
 			goto cleanup;
 		}
 		ed_field_get(ed, fields[k].name, buf);
@@ -275,7 +265,7 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
 	ret = CKPT_OK;
 	goto cleanup;
 io:
-	ret = failf(msg, msglen, CKPT_EIO, "%s: cannot write the checkpoint%s%s", tmp, errno ? ": " : "",
+	ret = h5u_fail(msg, msglen, CKPT_EIO, "%s: cannot write the checkpoint%s%s", tmp, errno ? ": " : "",
 	            errno ? strerror(errno) : "");
 	if (f < 0)
 		unlink(tmp);   /* a half-written file must not linger (f open: removed below) */
@@ -316,7 +306,7 @@ int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t
 	*run_out = NULL;
 	h5u_quiet();
 	if (access(path, R_OK) != 0)
-		return failf(msg, msglen, errno == ENOENT ? CKPT_EMISSING : CKPT_EIO, "%s: %s", path, strerror(errno));
+		return h5u_fail(msg, msglen, errno == ENOENT ? CKPT_EMISSING : CKPT_EIO, "%s: %s", path, strerror(errno));
 	f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
 	if (f < 0) {
 		snprintf(why, sizeof why, "not a readable HDF5 file (truncated or damaged)");
@@ -328,13 +318,13 @@ int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t
 		goto corrupt;
 	}
 	if (!same_scene(text, tlen, scene_text, len)) {
-		ret = failf(msg, msglen, CKPT_ESCENE, "%s: written for a different scene than the one given", path);
+		ret = h5u_fail(msg, msglen, CKPT_ESCENE, "%s: written for a different scene than the one given", path);
 		goto cleanup;
 	}
 	dig(&h, text, tlen);
 	run = run_create_blank(s, opts, &err, why, sizeof why);
 	if (!run) {
-		ret = failf(msg, msglen, err == RUN_ENOMEM ? CKPT_ENOMEM : CKPT_ECORRUPT, "%s: %s", path, why);
+		ret = h5u_fail(msg, msglen, err == RUN_ENOMEM ? CKPT_ENOMEM : CKPT_ECORRUPT, "%s: %s", path, why);
 		goto cleanup;
 	}
 	int nf = ed_fields(run_ed(run), fields, ED_MAX_FIELDS);
@@ -352,7 +342,7 @@ int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t
 		size_t bytes = (size_t)count * ed_type_size(fields[k].type);
 		buf = malloc(bytes ? bytes : 1);
 		if (!buf) {
-			ret = failf(msg, msglen, CKPT_ENOMEM, "%s: out of memory", path);
+			ret = h5u_fail(msg, msglen, CKPT_ENOMEM, "%s: out of memory", path);
 			goto cleanup;
 		}
 		if (bytes && H5Dread(d, mem_type(fields[k].type), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) {
@@ -393,7 +383,7 @@ int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t
 	ret = CKPT_OK;
 	goto cleanup;
 corrupt:
-	ret = failf(msg, msglen, CKPT_ECORRUPT, "%s: corrupt checkpoint: %s", path, why);
+	ret = h5u_fail(msg, msglen, CKPT_ECORRUPT, "%s: corrupt checkpoint: %s", path, why);
 cleanup:
 	free(buf);
 	free(text);

@@ -87,16 +87,6 @@ struct h5md {
 	size_t frame_cap;
 };
 
-static int failf(char *msg, size_t msglen, int code, const char *fmt, ...)
-{
-	if (msg && msglen) {
-		va_list ap;
-		va_start(ap, fmt);
-		vsnprintf(msg, msglen, fmt, ap);
-		va_end(ap);
-	}
-	return code;
-}
 
 static int def_wanted(const obs_def_t *d, const scene_t *s)
 {
@@ -401,17 +391,17 @@ h5md_t *h5md_create(const char *path, const scene_t *s, const char *scene_text, 
 	h5u_quiet();
 	h5md_t *h = alloc_writer(path, s);
 	if (!h) {
-		*err = failf(msg, msglen, H5MD_ENOMEM, "%s: out of memory", path);
+		*err = h5u_fail(msg, msglen, H5MD_ENOMEM, "%s: out of memory", path);
 		return NULL;
 	}
 	h->file = H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
 	if (h->file < 0) {
-		*err = failf(msg, msglen, H5MD_EIO, "%s: cannot create HDF5 file", path);
+		*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot create HDF5 file", path);
 		goto fail;
 	}
 	if (write_header(h->file) || write_parameters(h->file, s, scene_text, len) || write_particles(h, s) ||
 	    write_observables(h, s) || H5Fflush(h->file, H5F_SCOPE_GLOBAL) < 0) {
-		*err = failf(msg, msglen, H5MD_EIO, "%s: cannot write the H5MD layout", path);
+		*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot write the H5MD layout", path);
 		goto fail;
 	}
 	*err = H5MD_OK;
@@ -442,12 +432,12 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 	h5u_quiet();
 	h5md_t *h = alloc_writer(path, s);
 	if (!h) {
-		*err = failf(msg, msglen, H5MD_ENOMEM, "%s: out of memory", path);
+		*err = h5u_fail(msg, msglen, H5MD_ENOMEM, "%s: out of memory", path);
 		return NULL;
 	}
 	h->file = H5Fopen(path, H5F_ACC_RDWR, H5P_DEFAULT);
 	if (h->file < 0) {
-		*err = failf(msg, msglen, H5MD_EIO, "%s: cannot open for appending (missing or damaged)", path);
+		*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot open for appending (missing or damaged)", path);
 		goto fail;
 	}
 	h->pos_step = H5Dopen2(h->file, "particles/all/position/step", H5P_DEFAULT);
@@ -463,7 +453,7 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 		snprintf(p, sizeof p, "observables/%s/value", obs_defs[k].path);
 		h->obs[h->n_obs] = H5Dopen2(h->file, p, H5P_DEFAULT);
 		if (h->obs[h->n_obs] < 0) {
-			*err = failf(msg, msglen, H5MD_EFORMAT, "%s: missing dataset /%s", path, p);
+			*err = h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: missing dataset /%s", path, p);
 			goto fail;
 		}
 		h->obs_def[h->n_obs++] = (int)k;
@@ -477,12 +467,12 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 	}
 	if (h->pos_step < 0 || h->pos_time < 0 || h->pos_value < 0 || h->vel_value < 0 || h->box_value < 0 ||
 	    h->obs_step < 0 || h->obs_time < 0) {
-		*err = failf(msg, msglen, H5MD_EFORMAT, "%s: not a trajectory of this scene (datasets missing)", path);
+		*err = h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: not a trajectory of this scene (datasets missing)", path);
 		goto fail;
 	}
 	int64_t have_obs = rows_of(h->obs_time), have_snap = rows_of(h->pos_time);
 	if (have_obs < (int64_t)obs_rows || have_snap < (int64_t)snap_rows) {
-		*err = failf(msg, msglen, H5MD_EFORMAT, "%s: has %lld observable rows and %lld frames, the checkpoint needs %llu and %llu",
+		*err = h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: has %lld observable rows and %lld frames, the checkpoint needs %llu and %llu",
 		             path, (long long)have_obs, (long long)have_snap, (unsigned long long)obs_rows,
 		             (unsigned long long)snap_rows);
 		goto fail;
@@ -495,11 +485,11 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 	for (int k = 0; k < h->n_obs && !bad; k++)
 		bad = truncate_rows(h->obs[k], obs_rows);
 	if (bad || frame_times_reserve(h, snap_rows + 1)) {
-		*err = failf(msg, msglen, H5MD_EIO, "%s: cannot truncate to the checkpoint", path);
+		*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot truncate to the checkpoint", path);
 		goto fail;
 	}
 	if (snap_rows > 0 && H5Dread(h->pos_time, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, h->frame_t) < 0) {
-		*err = failf(msg, msglen, H5MD_EIO, "%s: cannot read frame times", path);
+		*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot read frame times", path);
 		goto fail;
 	}
 	h->obs_rows = obs_rows;
@@ -550,7 +540,7 @@ int h5md_observables(h5md_t *h, const run_record_t *rec, char *msg, size_t msgle
 	h->obs_rows++;
 	return H5MD_OK;
 fail:
-	return failf(msg, msglen, H5MD_EIO, "%s: cannot append observables", h->path);
+	return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot append observables", h->path);
 }
 
 /* The XDMF sidecar: one uniform grid per frame in a temporal collection,
@@ -601,25 +591,25 @@ int h5md_snapshot(h5md_t *h, const run_record_t *rec, char *msg, size_t msglen)
 	for (int a = 0; a < h->dim; a++)
 		edges[a * h->dim + a] = h->box[a];
 	if (frame_times_reserve(h, h->snap_rows + 1))
-		return failf(msg, msglen, H5MD_ENOMEM, "%s: out of memory", h->path);
+		return h5u_fail(msg, msglen, H5MD_ENOMEM, "%s: out of memory", h->path);
 	if (append_row(h->pos_step, H5T_NATIVE_INT64, h->snap_rows, &step) ||
 	    append_row(h->pos_time, H5T_NATIVE_DOUBLE, h->snap_rows, &rec->time) ||
 	    append_row(h->pos_value, H5T_NATIVE_DOUBLE, h->snap_rows, rec->pos) ||
 	    append_row(h->vel_value, H5T_NATIVE_DOUBLE, h->snap_rows, rec->vel) ||
 	    append_row(h->box_value, H5T_NATIVE_DOUBLE, h->snap_rows, edges))
-		return failf(msg, msglen, H5MD_EIO, "%s: cannot append a frame", h->path);
+		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot append a frame", h->path);
 	h->frame_t[h->snap_rows++] = rec->time;
 	if (H5Fflush(h->file, H5F_SCOPE_GLOBAL) < 0)
-		return failf(msg, msglen, H5MD_EIO, "%s: cannot flush", h->path);
+		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot flush", h->path);
 	if (write_xdmf(h))
-		return failf(msg, msglen, H5MD_EIO, "%s: cannot write: %s", h->xdmf_path, strerror(errno));
+		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot write: %s", h->xdmf_path, strerror(errno));
 	return H5MD_OK;
 }
 
 int h5md_flush(h5md_t *h, char *msg, size_t msglen)
 {
 	if (H5Fflush(h->file, H5F_SCOPE_GLOBAL) < 0 || h5u_fsync_path(h->path))
-		return failf(msg, msglen, H5MD_EIO, "%s: cannot flush", h->path);
+		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot flush", h->path);
 	return H5MD_OK;
 }
 

@@ -1,6 +1,7 @@
 /* Small HDF5 and file-system helpers shared by the H5MD writer and the checkpoint files. */
 #include <fcntl.h>
 #include <limits.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 #include <unistd.h>
@@ -146,4 +147,15 @@ int h5u_fsync_dir_of(const char *path)
 	int ret = fsync(fd);
 	close(fd);
 	return ret == 0 ? 0 : -1;
+}
+
+int h5u_fail(char *msg, size_t msglen, int code, const char *fmt, ...)
+{
+	if (msg && msglen) {
+		va_list ap;
+		va_start(ap, fmt);
+		vsnprintf(msg, msglen, fmt, ap);
+		va_end(ap);
+	}
+	return code;
 }

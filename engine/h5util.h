@@ -13,6 +13,8 @@
 
 /* Silence HDF5's automatic error-stack printing: callers report one line. */
 void h5u_quiet(void);
+/* Write a printf-style message into msg (msglen bytes, may be NULL) and return code. */
+int h5u_fail(char *msg, size_t msglen, int code, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
 int h5u_attr_str(hid_t obj, const char *name, const char *value);
 int h5u_attr_strs(hid_t obj, const char *name, const char *const *values, size_t n);
 int h5u_attr_i64(hid_t obj, const char *name, const int64_t *values, size_t n);

@@ -9,42 +9,7 @@
 #include "scene.h"
 #include "tap.h"
 
-#define PI 3.14159265358979323846
-
-typedef struct {
-	int n;
-	run_record_t rec[1024];
-} series_t;
-
-static int collect(const run_record_t *r, void *ctx)
-{
-	series_t *s = ctx;
-	if (r->kind == RUN_PROGRESS && s->n < 1024)
-		s->rec[s->n++] = *r;
-	return 0;
-}
-
-static int run_json(const char *json, series_t *out)
-{
-	scene_t sc;
-	char err[512];
-	out->n = 0;
-	if (scene_parse(json, strlen(json), &sc, err, sizeof(err)) != SCENE_OK) {
-		diag("scene rejected: %s", err);
-		return -1;
-	}
-	if (run_scene(&sc, collect, out, NULL, err, sizeof(err)) != RUN_OK) {
-		diag("run failed: %s", err);
-		return -1;
-	}
-	return 0;
-}
-
-/* Written out here, independently of dsmc.c: Henderson (2D), Carnahan-Starling (3D). */
-static double g_contact(int dim, double nu)
-{
-	return dim == 2 ? (1 - 7 * nu / 16) / ((1 - nu) * (1 - nu)) : (1 - nu / 2) / pow(1 - nu, 3);
-}
+#include "kinetic.h"
 
 /* Collision frequency per particle at T = 1, radius 1/2, mass 1:
  * f = D 2^(D-1) / (sqrt(pi) a) nu chi (seed 003 eq. 4.56 with g -> chi). */
