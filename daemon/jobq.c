@@ -23,6 +23,10 @@ struct jobq {
 	uint64_t reserve_bytes;
 	int low_space;      /* ballast spent, or the disk ran full: no new jobs, no progress records */
 	int have_reserve;   /* the ballast file is in place */
+	pthread_mutex_t blk;    /* guards the submission batch below */
+	pthread_cond_t bcond;
+	struct sub *pending;    /* validated submissions waiting for the next transaction */
+	int leader;             /* a thread is running batches */
 };
 
 static int space_short(jobq_t *q);
@@ -72,6 +76,8 @@ jobq_t *jobq_open(const char *path, const jobq_limits_t *lim, char *err, size_t 
 		return NULL;
 	}
 	pthread_mutex_init(&q->lock, NULL);
+	pthread_mutex_init(&q->blk, NULL);
+	pthread_cond_init(&q->bcond, NULL);
 	q->lim = *lim;
 	sqlite3_stmt *st = NULL;
 	if (sqlite3_prepare_v2(q->db, "SELECT count(*) FROM jobs WHERE state='queued'", -1, &st, NULL) == SQLITE_OK &&
@@ -87,6 +93,8 @@ void jobq_close(jobq_t *q)
 		return;
 	sqlite3_close_v2(q->db);
 	pthread_mutex_destroy(&q->lock);
+	pthread_mutex_destroy(&q->blk);
+	pthread_cond_destroy(&q->bcond);
 	free(q->reserve);
 	free(q);
 }
@@ -221,6 +229,149 @@ static int valid_submission_id(const char *s)
 	return 1;
 }
 
+/* ---- submission batches ------------------------------------------------------ */
+
+/* One validated submission waiting for its transaction. */
+typedef struct sub {
+	const char *sub_id, *scene, *hash, *method;
+	uint64_t count;
+	json_int_t priority, ranks;
+	double now;
+	int64_t id;
+	int ret, created, done;
+	json_t *out;
+	char err[256];
+	struct sub *next;
+} sub_t;
+
+/* Run a batch of submissions in ONE transaction, so concurrent clients share
+ * one fsync instead of queueing for one each (group commit). Called by the
+ * batch leader with no lock held. On any database error nothing of the batch
+ * happened and every member gets JOBQ_EDB. */
+static void run_batch(jobq_t *q, sub_t *batch)
+{
+	sqlite3_stmt *st = NULL;
+	int64_t inserted = 0;
+	int fail = 0;
+	pthread_mutex_lock(&q->lock);
+	if (q->low_space) {
+		for (sub_t *it = batch; it; it = it->next) {
+			it->ret = JOBQ_EFULL;
+			snprintf(it->err, sizeof(it->err), "disk full: the state directory has no room for new jobs; delete finished jobs");
+		}
+		goto out;
+	}
+	if (begin(q) != SQLITE_OK) {
+		fail = 1;
+		goto done;
+	}
+	for (sub_t *it = batch; it && !fail; it = it->next) {
+		it->ret = JOBQ_OK;
+		if (it->sub_id) {
+			/* Idempotent retry: the same key and scene give the same job (also within this batch). */
+			sqlite3_prepare_v2(q->db, "SELECT id, scene_hash FROM jobs WHERE submission_id=?", -1, &st, NULL);
+			sqlite3_bind_text(st, 1, it->sub_id, -1, SQLITE_STATIC);
+			if (sqlite3_step(st) == SQLITE_ROW) {
+				it->id = sqlite3_column_int64(st, 0);
+				if (strcmp((const char *)sqlite3_column_text(st, 1), it->hash)) {
+					it->ret = JOBQ_ECONFLICT;
+					snprintf(it->err, sizeof(it->err),
+					         "submission_id: already used by job %" PRId64 " with a different scene", it->id);
+				}
+				sqlite3_finalize(st);
+				st = NULL;
+				continue;
+			}
+			sqlite3_finalize(st);
+			st = NULL;
+		}
+		if (q->queued + inserted >= q->lim.max_queued) {
+			it->ret = JOBQ_ELIMIT;
+			snprintf(it->err, sizeof(it->err), "queue full: %" PRId64 " jobs are waiting (limit %d); retry later",
+			         q->queued + inserted, q->lim.max_queued);
+			continue;
+		}
+		int rc = sqlite3_prepare_v2(q->db,
+		                            "INSERT INTO jobs(submission_id, scene, scene_hash, method, particles, priority, "
+		                            "ranks, created_at, updated_at) VALUES (?,?,?,?,?,?,?,?,?)", -1, &st, NULL);
+		if (rc == SQLITE_OK) {
+			if (it->sub_id)
+				sqlite3_bind_text(st, 1, it->sub_id, -1, SQLITE_STATIC);
+			sqlite3_bind_text(st, 2, it->scene, -1, SQLITE_STATIC);
+			sqlite3_bind_text(st, 3, it->hash, -1, SQLITE_STATIC);
+			sqlite3_bind_text(st, 4, it->method, -1, SQLITE_STATIC);
+			sqlite3_bind_int64(st, 5, (sqlite3_int64)it->count);
+			sqlite3_bind_int64(st, 6, it->priority);
+			sqlite3_bind_int64(st, 7, it->ranks);
+			sqlite3_bind_double(st, 8, it->now);
+			sqlite3_bind_double(st, 9, it->now);
+			rc = sqlite3_step(st);
+		}
+		sqlite3_finalize(st);
+		st = NULL;
+		if (rc != SQLITE_DONE) {
+			fail = 1;
+			break;
+		}
+		it->id = sqlite3_last_insert_rowid(q->db);
+		it->created = 1;
+		inserted++;
+	}
+	if (!fail && commit(q) != SQLITE_OK)
+		fail = 1;
+done:
+	if (fail) {
+		char e[200];
+		snprintf(e, sizeof(e), "database: %s", sqlite3_errmsg(q->db));
+		rollback(q);
+		for (sub_t *it = batch; it; it = it->next) {
+			it->ret = JOBQ_EDB;
+			it->created = 0;
+			snprintf(it->err, sizeof(it->err), "%s", e);
+		}
+		goto out;
+	}
+	q->queued += inserted;
+	for (sub_t *it = batch; it; it = it->next)
+		if (it->ret == JOBQ_OK)
+			it->ret = load_job(q, it->id, 0, &it->out);
+out:
+	pthread_mutex_unlock(&q->lock);
+}
+
+/* Queue the submission; the first waiter becomes the leader and runs batches
+ * until none is left, the others sleep until theirs is done. */
+static void submit_batched(jobq_t *q, sub_t *it)
+{
+	pthread_mutex_lock(&q->blk);
+	sub_t **tail = &q->pending;
+	while (*tail)
+		tail = &(*tail)->next;
+	*tail = it;
+	while (!it->done) {
+		if (q->leader) {
+			pthread_cond_wait(&q->bcond, &q->blk);
+			continue;
+		}
+		q->leader = 1;
+		while (q->pending) {
+			sub_t *batch = q->pending;
+			q->pending = NULL;
+			pthread_mutex_unlock(&q->blk);
+			run_batch(q, batch);
+			pthread_mutex_lock(&q->blk);
+			for (sub_t *b = batch, *nx; b; b = nx) {
+				nx = b->next;
+				b->next = NULL;
+				b->done = 1;
+			}
+			pthread_cond_broadcast(&q->bcond);
+		}
+		q->leader = 0;
+	}
+	pthread_mutex_unlock(&q->blk);
+}
+
 int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **out, int *created, char *err,
                 size_t errlen)
 {
@@ -230,8 +381,7 @@ int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **ou
 	const char *sub_id = NULL;
 	json_int_t priority = 0, ranks = 1;
 	scene_t sc;
-	sqlite3_stmt *st = NULL;
-	int ret = JOBQ_EINVAL, locked = 0, rc;
+	int ret = JOBQ_EINVAL;
 
 	*out = NULL;
 	*created = 0;
@@ -311,76 +461,17 @@ int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **ou
 	}
 	snprintf(hash, sizeof(hash), "%016" PRIx64, fnv1a(scene_txt, strlen(scene_txt)));
 
-	pthread_mutex_lock(&q->lock);
-	locked = 1;
-	if (q->low_space) {
-		ret = JOBQ_EFULL;
-		snprintf(err, errlen, "disk full: the state directory has no room for new jobs; delete finished jobs");
-		goto cleanup;
+	{
+		sub_t it = {.sub_id = sub_id, .scene = scene_txt, .hash = hash, .method = scene_method_name(sc.method),
+		            .count = sc.count, .priority = priority, .ranks = ranks, .now = now};
+		submit_batched(q, &it);
+		ret = it.ret;
+		*out = it.out;
+		*created = it.created;
+		if (ret)
+			snprintf(err, errlen, "%s", it.err);
 	}
-	if (begin(q) != SQLITE_OK) {
-		ret = JOBQ_EDB;
-		DBERR(q, err, errlen);
-		goto cleanup;
-	}
-	if (sub_id) {
-		/* Idempotent retry: the same key and scene give the same job. */
-		sqlite3_prepare_v2(q->db, "SELECT id, scene_hash FROM jobs WHERE submission_id=?", -1, &st, NULL);
-		sqlite3_bind_text(st, 1, sub_id, -1, SQLITE_STATIC);
-		if (sqlite3_step(st) == SQLITE_ROW) {
-			int64_t id = sqlite3_column_int64(st, 0);
-			int same = !strcmp((const char *)sqlite3_column_text(st, 1), hash);
-			sqlite3_finalize(st);
-			st = NULL;
-			rollback(q);
-			if (!same) {
-				ret = JOBQ_ECONFLICT;
-				snprintf(err, errlen, "submission_id: already used by job %" PRId64 " with a different scene", id);
-				goto cleanup;
-			}
-			ret = load_job(q, id, 0, out);
-			goto cleanup;
-		}
-		sqlite3_finalize(st);
-		st = NULL;
-	}
-	if (q->queued >= q->lim.max_queued) {
-		rollback(q);
-		ret = JOBQ_ELIMIT;
-		snprintf(err, errlen, "queue full: %" PRId64 " jobs are waiting (limit %d); retry later", q->queued,
-		         q->lim.max_queued);
-		goto cleanup;
-	}
-	rc = sqlite3_prepare_v2(q->db,
-	                        "INSERT INTO jobs(submission_id, scene, scene_hash, method, particles, priority, ranks, "
-	                        "created_at, updated_at) VALUES (?,?,?,?,?,?,?,?,?)",
-	                        -1, &st, NULL);
-	if (rc == SQLITE_OK) {
-		if (sub_id)
-			sqlite3_bind_text(st, 1, sub_id, -1, SQLITE_STATIC);
-		sqlite3_bind_text(st, 2, scene_txt, -1, SQLITE_STATIC);
-		sqlite3_bind_text(st, 3, hash, -1, SQLITE_STATIC);
-		sqlite3_bind_text(st, 4, scene_method_name(sc.method), -1, SQLITE_STATIC);
-		sqlite3_bind_int64(st, 5, (sqlite3_int64)sc.count);
-		sqlite3_bind_int64(st, 6, priority);
-		sqlite3_bind_int64(st, 7, ranks);
-		sqlite3_bind_double(st, 8, now);
-		sqlite3_bind_double(st, 9, now);
-		rc = sqlite3_step(st);
-	}
-	if (rc != SQLITE_DONE || commit(q) != SQLITE_OK) {
-		ret = JOBQ_EDB;
-		DBERR(q, err, errlen);
-		rollback(q);
-		goto cleanup;
-	}
-	*created = 1;
-	q->queued++;
-	ret = load_job(q, sqlite3_last_insert_rowid(q->db), 0, out);
 cleanup:
-	sqlite3_finalize(st);
-	if (locked)
-		pthread_mutex_unlock(&q->lock);
 	free(scene_txt);
 	json_decref(doc);
 	return ret;

@@ -1,4 +1,5 @@
 /* Unit tests of the job queue logic (daemon/jobq.c) against an in-memory and a temporary SQLite database. */
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -38,6 +39,37 @@ static const char *state_of(jobq_t *q, int64_t id, char *buf)
 	snprintf(buf, 32, "%s", json_string_value(json_object_get(j, "state")));
 	json_decref(j);
 	return buf;
+}
+
+/* Concurrent submitters share transactions (group commit): every submission
+ * must get exactly one job, and repeated submission_ids the same job. */
+typedef struct {
+	jobq_t *q;
+	int t;
+	int64_t ids[40];
+} worker_t;
+
+static void *submitter(void *arg)
+{
+	worker_t *w = arg;
+	char body[512], err[512];
+	for (int i = 0; i < 40; i++) {
+		json_t *j = NULL;
+		int created = 0;
+		/* even i: a key shared by all threads (i/2); odd i: a key of this thread */
+		snprintf(body, sizeof(body), "{\"scene\":%s,\"submission_id\":\"k-%d-%d\"}", SCENE,
+		         i % 2 ? w->t : -1, i / 2);
+		int rc = jobq_submit(w->q, body, strlen(body), 1.0, &j, &created, err, sizeof(err));
+		w->ids[i] = rc == 0 ? json_integer_value(json_object_get(j, "id")) : -1;
+		json_decref(j);
+	}
+	return NULL;
+}
+
+static int cmp64(const void *a, const void *b)
+{
+	int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+	return (x > y) - (x < y);
 }
 
 int main(void)
@@ -215,6 +247,39 @@ int main(void)
 	submit(q, SCENE, &rc, NULL, err);
 	ok(rc == JOBQ_ELIMIT, "a third job beyond max_queued=2 is refused: %s", err);
 	jobq_close(q);
+
+	/* Group commit under contention: 8 threads x 40 submissions; 20 keys shared
+	 * by all threads and 20 per thread give 20 + 8*20 = 180 distinct jobs. */
+	{
+		jobq_limits_t big = lim;
+		big.max_queued = 100000;
+		jobq_t *cq = jobq_open(":memory:", &big, err, sizeof(err));
+		worker_t w[8];
+		pthread_t th[8];
+		for (int t = 0; t < 8; t++) {
+			w[t] = (worker_t){.q = cq, .t = t};
+			pthread_create(&th[t], NULL, submitter, &w[t]);
+		}
+		for (int t = 0; t < 8; t++)
+			pthread_join(th[t], NULL);
+		int64_t all[320];
+		int bad = 0, shared_ok = 1;
+		for (int t = 0; t < 8; t++)
+			for (int i = 0; i < 40; i++) {
+				all[t * 40 + i] = w[t].ids[i];
+				bad += w[t].ids[i] <= 0;
+				if (i % 2 == 0)
+					shared_ok &= w[t].ids[i] == w[0].ids[i];
+			}
+		qsort(all, 320, sizeof(all[0]), cmp64);
+		int distinct = 0;
+		for (int i = 0; i < 320; i++)
+			distinct += i == 0 || all[i] != all[i - 1];
+		ok(bad == 0 && distinct == 180 && shared_ok,
+		   "8 concurrent submitters: 320 submissions, %d distinct jobs (180 expected), shared keys agree, %d failures",
+		   distinct, bad);
+		jobq_close(cq);
+	}
 
 	/* A file database keeps its jobs and schema version across opens; a newer schema is refused. */
 	char path[] = "/tmp/jobq_test.XXXXXX";
