@@ -368,6 +368,23 @@ int run_summary(run_t *r, run_emit_fn emit, void *ctx)
 
 /* ---- driving ------------------------------------------------------------- */
 
+/* Advance the engine towards (t_stop, c_stop); *t and *c get the clock
+ * reached. Returns 1 when the run's stop condition is met, or can never be
+ * (a quiescent system short of a collision target: status set to quiescent). */
+static int advance(run_t *r, double t_stop, uint64_t c_stop, int until_time, double t_until, uint64_t c_until,
+                   double *t, uint64_t *c)
+{
+	int quiescent = eng_advance(r, t_stop, c_stop);
+	*t = eng_time(r);
+	*c = eng_collisions(r);
+	int done = (until_time && *t >= t_until) || (!until_time && *c >= c_until);
+	if (quiescent && !done && !until_time) {
+		r->status = RUN_QUIESCENT;   /* the collision target can never be reached */
+		done = 1;
+	}
+	return done;
+}
+
 int run_go(run_t *r, run_emit_fn emit, void *ctx, const volatile sig_atomic_t *stop,
            char *msg, size_t msglen)
 {
@@ -401,14 +418,9 @@ int run_go(run_t *r, run_emit_fn emit, void *ctx, const volatile sig_atomic_t *s
 		if (ckpt_time)
 			t_stop = fmin(t_stop, sched_time(&s->checkpoint, r->st.k_ckpt));
 
-		int quiescent = eng_advance(r, t_stop, c_stop);
-		double t = eng_time(r);
-		uint64_t c = eng_collisions(r);
-		int done = (until_time && t >= t_until) || (!until_time && c >= c_until);
-		if (quiescent && !done && !until_time) {
-			r->status = RUN_QUIESCENT;   /* the collision target can never be reached */
-			done = 1;
-		}
+		double t;
+		uint64_t c;
+		int done = advance(r, t_stop, c_stop, until_time, t_until, c_until, &t, &c);
 		int due = s->every.kind == SCENE_CLOCK_TIME ? t >= sched_time(&s->every, r->st.k_out)
 		                                            : c >= sched_coll(&s->every, r->st.k_out, n);
 		int due_snap = snaps->kind == SCENE_CLOCK_TIME ? t >= sched_time(snaps, r->st.k_snap)
@@ -476,14 +488,9 @@ int run_next(run_t *r, const volatile sig_atomic_t *stop, run_record_t *rec, int
 		double t_stop = fmin(sched_time(&s->every, r->st.k_out), t_until);
 		uint64_t c_stop = sched_coll(&s->every, r->st.k_out, n);
 		if (c_until < c_stop) c_stop = c_until;
-		int quiescent = eng_advance(r, t_stop, c_stop);
-		double t = eng_time(r);
-		uint64_t c = eng_collisions(r);
-		int done = (until_time && t >= t_until) || (!until_time && c >= c_until);
-		if (quiescent && !done && !until_time) {
-			r->status = RUN_QUIESCENT;   /* the collision target can never be reached */
-			done = 1;
-		}
+		double t;
+		uint64_t c;
+		int done = advance(r, t_stop, c_stop, until_time, t_until, c_until, &t, &c);
 		int due = s->every.kind == SCENE_CLOCK_TIME ? t >= sched_time(&s->every, r->st.k_out)
 		                                            : c >= sched_coll(&s->every, r->st.k_out, n);
 		if (stop && *stop && !done) {
