@@ -135,25 +135,6 @@ static int read_rfields(hid_t g, const rfield_t *f, size_t n, void *base, uint64
 	return 0;
 }
 
-static int write_string(hid_t loc, const char *name, const char *text, size_t len)
-{
-	int ret = -1;
-	char *buf = malloc(len + 1);
-	hid_t t = H5Tcopy(H5T_C_S1), sp = H5Screate(H5S_SCALAR), d = H5I_INVALID_HID;
-	if (!buf || t < 0 || sp < 0 || H5Tset_size(t, len + 1) < 0)
-		goto out;
-	memcpy(buf, text, len);
-	buf[len] = '\0';
-	d = H5Dcreate2(loc, name, t, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-	if (d >= 0 && H5Dwrite(d, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) >= 0)
-		ret = 0;
-out:
-	free(buf);
-	if (d >= 0) H5Dclose(d);
-	if (sp >= 0) H5Sclose(sp);
-	if (t >= 0) H5Tclose(t);
-	return ret;
-}
 
 /* Read a fixed-length string dataset; caller frees. */
 static char *read_string(hid_t loc, const char *name, size_t *len)
@@ -214,7 +195,7 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
 	if (h5u_attr_str(f, "format", FORMAT_NAME) || h5u_attr_u64(f, "format_version", FORMAT_VERSION) ||
 	    h5u_attr_str(f, "creator", "granular-engine " PACKAGE_VERSION) || h5u_attr_f64(f, "time", &tot.time, 1) ||
 	    h5u_attr_u64(f, "events", tot.events) || h5u_attr_u64(f, "collisions", tot.collisions) ||
-	    write_string(f, "scene", scene_text, len))
+	    h5u_write_string(f, "scene", scene_text, len))
 		goto io;
 	dig(&h, scene_text, len);
 	if ((g = h5u_group(f, "ed")) < 0)

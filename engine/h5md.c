@@ -213,14 +213,8 @@ static const char *unit_of(const obs_def_t *d, int dim)
 static int write_parameters(hid_t f, const scene_t *s, const char *text, size_t len)
 {
 	int ret = -1;
-	hid_t g = h5u_group(f, "parameters"), t = H5Tcopy(H5T_C_S1), sp = H5Screate(H5S_SCALAR), d = H5I_INVALID_HID;
-	char *buf = malloc(len + 1);
-	if (g < 0 || t < 0 || sp < 0 || !buf || H5Tset_size(t, len + 1) < 0 || H5Tset_strpad(t, H5T_STR_NULLTERM) < 0)
-		goto out;
-	memcpy(buf, text, len);
-	buf[len] = '\0';
-	d = H5Dcreate2(g, "scene", t, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
-	if (d < 0 || H5Dwrite(d, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0)
+	hid_t g = h5u_group(f, "parameters");
+	if (g < 0 || h5u_write_string(g, "scene", text, len))
 		goto out;
 	int64_t dim = s->dim, count = (int64_t)s->count;
 	double diam = 2.0 * s->radius;
@@ -232,10 +226,6 @@ static int write_parameters(hid_t f, const scene_t *s, const char *text, size_t 
 		goto out;
 	ret = 0;
 out:
-	free(buf);
-	if (d >= 0) H5Dclose(d);
-	if (sp >= 0) H5Sclose(sp);
-	if (t >= 0) H5Tclose(t);
 	if (g >= 0) H5Gclose(g);
 	return ret;
 }

@@ -3,6 +3,7 @@
 #include <limits.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
@@ -158,4 +159,24 @@ int h5u_fail(char *msg, size_t msglen, int code, const char *fmt, ...)
 		va_end(ap);
 	}
 	return code;
+}
+
+int h5u_write_string(hid_t loc, const char *name, const char *text, size_t len)
+{
+	int ret = -1;
+	char *buf = malloc(len + 1);
+	hid_t t = H5Tcopy(H5T_C_S1), sp = H5Screate(H5S_SCALAR), d = H5I_INVALID_HID;
+	if (!buf || t < 0 || sp < 0 || H5Tset_size(t, len + 1) < 0)
+		goto out;
+	memcpy(buf, text, len);
+	buf[len] = '\0';
+	d = H5Dcreate2(loc, name, t, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+	if (d >= 0 && H5Dwrite(d, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) >= 0)
+		ret = 0;
+out:
+	free(buf);
+	if (d >= 0) H5Dclose(d);
+	if (sp >= 0) H5Sclose(sp);
+	if (t >= 0) H5Tclose(t);
+	return ret;
 }

@@ -24,6 +24,8 @@ int h5u_read_attr_u64(hid_t obj, const char *name, uint64_t *value);
 int h5u_read_attr_f64(hid_t obj, const char *name, double *value);
 /* New group (with intermediate groups). Returns the id or H5I_INVALID_HID. */
 hid_t h5u_group(hid_t loc, const char *path);
+/* A scalar NUL-terminated string dataset holding text[0..len). 0 or -1. */
+int h5u_write_string(hid_t loc, const char *name, const char *text, size_t len);
 /* open(path) + fsync; and fsync of the directory holding path. */
 int h5u_fsync_path(const char *path);
 int h5u_fsync_dir_of(const char *path);
