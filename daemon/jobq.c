@@ -842,17 +842,14 @@ int jobq_attempt_launched(jobq_t *q, int64_t id, int attempt, int pid, uint64_t 
 	return rc == SQLITE_OK ? JOBQ_OK : JOBQ_EDB;
 }
 
-int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, double now)
+int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, const json_t *r, double frac,
+                          double now)
 {
-	json_t *r = json_loads(line, 0, NULL);
 	sqlite3_stmt *st = NULL;
 	int ret = JOBQ_OK, summary;
 	int64_t seq = 0, stride = 1, stored = 0;
-	double frac = -1.0, until = 0.0;
-	if (!json_is_object(r)) {
-		json_decref(r);
+	if (!json_is_object(r))
 		return JOBQ_EINVAL;
-	}
 	summary = json_is_string(json_object_get(r, "type")) &&
 	          !strcmp(json_string_value(json_object_get(r, "type")), "summary");
 	pthread_mutex_lock(&q->lock);
@@ -864,20 +861,11 @@ int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, 
 		ret = JOBQ_EDB;
 		goto out;
 	}
-	sqlite3_prepare_v2(q->db, "SELECT progress_seq, progress_stride, scene FROM jobs WHERE id=?", -1, &st, NULL);
+	sqlite3_prepare_v2(q->db, "SELECT progress_seq, progress_stride FROM jobs WHERE id=?", -1, &st, NULL);
 	sqlite3_bind_int64(st, 1, id);
 	if (sqlite3_step(st) == SQLITE_ROW) {
-		scene_t sc;
-		const char *txt = (const char *)sqlite3_column_text(st, 2);
 		seq = sqlite3_column_int64(st, 0);
 		stride = sqlite3_column_int64(st, 1);
-		/* Progress is the fraction of the stop condition reached. */
-		if (scene_parse(txt, strlen(txt), &sc, NULL, 0) == SCENE_OK) {
-			json_t *x = json_object_get(r, sc.until.kind == SCENE_CLOCK_CPP ? "collisions_per_particle" : "time");
-			until = sc.until.value;
-			if (json_is_number(x) && until > 0)
-				frac = json_number_value(x) / until;
-		}
 	} else {
 		ret = JOBQ_ENOTFOUND;
 	}
@@ -935,7 +923,6 @@ fail:
 		q->low_space = 1;   /* stop storing records; the ballast stays for ending the job */
 out:
 	pthread_mutex_unlock(&q->lock);
-	json_decref(r);
 	return ret;
 }
 

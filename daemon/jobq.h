@@ -114,10 +114,13 @@ int jobq_claim(jobq_t *q, int free_slots, double now, jobq_claim_t *out, char *e
  * the checkpoint the attempt resumes from (NULL = fresh). */
 int jobq_attempt_launched(jobq_t *q, int64_t id, int attempt, int pid, uint64_t pid_start, const char *checkpoint);
 
-/* Store one progress record (a JSON line of the engine), with downsampling:
- * when a job holds more than max_progress records, every other one is
- * dropped and the stride doubles; summary records are always kept. */
-int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, double now);
+/* Store one progress record: line is the engine's JSON line as received, r
+ * the same record parsed (the caller has it already), frac the fraction of
+ * the stop condition it reports (< 0: unknown). Downsampling: when a job
+ * holds more than max_progress records, every other one is dropped and the
+ * stride doubles; summary records are always kept. */
+int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, const json_t *r, double frac,
+                          double now);
 
 /* End an attempt. next is the job's new state: JOB_QUEUED requeues it (the
  * attempt was interrupted), others are final. exit_status < 0 = none. */

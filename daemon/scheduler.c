@@ -36,6 +36,8 @@ typedef struct {
 	double last_wall, rate;      /* events/s from successive records */
 	int64_t last_events;
 	int summary_seen;
+	double until;                /* the stop condition: time, or collisions per particle when until_cpp */
+	int until_cpp;
 	pid_t desc[16];              /* mpirun's ranks (own process groups): signalled one by one */
 	uint64_t desc_start[16];
 	int ndesc;
@@ -275,6 +277,8 @@ static int launch(sched_t *s, const jobq_claim_t *cl)
 	k->id = cl->id;
 	k->attempt = cl->attempt;
 	k->ranks = cl->ranks;
+	k->until = cl->until;
+	k->until_cpp = cl->until_cpp;
 	av = build_argv(s, k, scene, dir, resume);
 	if (!av || pipe2(po, O_CLOEXEC) || pipe2(pe, O_CLOEXEC)) {
 		snprintf(err, sizeof(err), "cannot launch: %s", strerror(errno ? errno : ENOMEM));
@@ -374,8 +378,12 @@ static void on_line(sched_t *s, child_t *k, char *line)
 		k->last_wall = k->started + w;
 		k->last_events = e;
 	}
+	/* Progress is the fraction of the stop condition reached. */
+	json_t *x = json_object_get(r, k->until_cpp ? "collisions_per_particle" : "time");
+	double frac = json_is_number(x) && k->until > 0 ? json_number_value(x) / k->until : -1.0;
+	int stored = jobq_attempt_progress(s->c.q, k->id, k->attempt, line, r, frac, util_now());
 	json_decref(r);
-	if (jobq_attempt_progress(s->c.q, k->id, k->attempt, line, util_now()) != JOBQ_OK)
+	if (stored != JOBQ_OK && stored != JOBQ_EFULL)   /* on a full disk records are dropped on purpose */
 		log_warning("job %" PRId64 ": could not store a progress record", k->id);
 	/* Live subscribers of the multiplexed stream need to know whose record it is. */
 	size_t ll = strlen(line);

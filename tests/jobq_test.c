@@ -139,9 +139,16 @@ int main(void)
 		char line[256];
 		snprintf(line, sizeof(line), "{\"type\":\"progress\",\"time\":%g,\"events\":%d,\"collisions\":%d}", 0.01 * i,
 		         10 * i, 5 * i);
-		jobq_attempt_progress(q, a, 1, line, 300.0 + i);
+		json_t *rj = json_loads(line, 0, NULL);
+		jobq_attempt_progress(q, a, 1, line, rj, 0.01 * i, 300.0 + i);   /* until time 1 */
+		json_decref(rj);
 	}
-	jobq_attempt_progress(q, a, 1, "{\"type\":\"summary\",\"status\":\"completed\",\"time\":1}", 400.0);
+	{
+		const char *sum = "{\"type\":\"summary\",\"status\":\"completed\",\"time\":1}";
+		json_t *rj = json_loads(sum, 0, NULL);
+		jobq_attempt_progress(q, a, 1, sum, rj, 1.0, 400.0);
+		json_decref(rj);
+	}
 	json_t *pr = NULL;
 	rc = jobq_progress(q, a, -1, 100000, 0, &pr, err, sizeof(err));
 	json_t *recs = json_object_get(pr, "records");
