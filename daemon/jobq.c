@@ -631,8 +631,7 @@ static int jobq_cancel_once(jobq_t *q, int64_t id, double now, int *signal, json
 			                  "updated_at=? WHERE id=?", "ddi", now, now, id);
 			if (rc == SQLITE_OK)
 				q->queued--;   /* undone below if the commit fails */
-		}
-		else if (s == JOB_RUNNING) {
+		} else if (s == JOB_RUNNING) {
 			rc = exec_bind(q, "UPDATE jobs SET cancel_requested=1, updated_at=? WHERE id=?", "di", now, id);
 			*signal = 1;
 		} else if (s != JOB_CANCELLED) {
