@@ -11,11 +11,14 @@
 
 #include "checkpoint.h"
 #include "config.h"
+#include "dsmc.h"
 #include "ed.h"
 #include "h5util.h"
 
 #define FORMAT_NAME "granulard-checkpoint"
 #define FORMAT_VERSION 1
+/* Enough for either engine's state fields (ed.h, dsmc.h). */
+#define CKPT_MAX_FIELDS (ED_MAX_FIELDS > DSMC_MAX_FIELDS ? ED_MAX_FIELDS : DSMC_MAX_FIELDS)
 
 /* ---- digest: 64-bit, 8 bytes a step (xxhash-style rounds) ---------------
  * Detects torn and altered files; not a cryptographic hash. */
@@ -95,7 +98,7 @@ typedef struct {
 	int is_double;
 } rfield_t;
 
-static const rfield_t run_fields[] = {
+static const rfield_t sched_fields[] = {
 	{ "started", offsetof(run_state_t, started), 0 },
 	{ "k_out", offsetof(run_state_t, k_out), 0 },
 	{ "k_snap", offsetof(run_state_t, k_snap), 0 },
@@ -108,7 +111,7 @@ static const rfield_t out_fields[] = {
 	{ "snap_rows", offsetof(ckpt_output_t, snap_rows), 0 },
 	{ "progress_bytes", offsetof(ckpt_output_t, progress_bytes), 0 },
 };
-#define N_RUN_FIELDS (sizeof run_fields / sizeof run_fields[0])
+#define N_RUN_FIELDS (sizeof sched_fields / sizeof sched_fields[0])
 #define N_OUT_FIELDS (sizeof out_fields / sizeof out_fields[0])
 
 static int write_rfields(hid_t g, const rfield_t *f, size_t n, const void *base, uint64_t *h)
@@ -168,9 +171,8 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
                const ckpt_output_t *out, char *msg, size_t msglen)
 {
 	char tmp[PATH_MAX], cur[PATH_MAX], prev[PATH_MAX];
-	ed_field_t fields[ED_MAX_FIELDS];
-	const ed_t *ed = run_ed(run);
-	int ret = CKPT_EIO, nf = ed_fields(ed, fields, ED_MAX_FIELDS);
+	ed_field_t fields[CKPT_MAX_FIELDS];
+	int ret = CKPT_EIO, nf = run_fields(run, fields, CKPT_MAX_FIELDS);
 	uint64_t h = 0;
 	void *buf = NULL;
 	hid_t f = H5I_INVALID_HID, g = H5I_INVALID_HID, fapl = H5I_INVALID_HID;
@@ -181,7 +183,7 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
 	path_in(tmp, sizeof tmp, dir, CKPT_TMP);
 	path_in(cur, sizeof cur, dir, CKPT_FILE);
 	path_in(prev, sizeof prev, dir, CKPT_PREV);
-	if (nf > ED_MAX_FIELDS)
+	if (nf > CKPT_MAX_FIELDS)
 		return h5u_fail(msg, msglen, CKPT_EIO, "%s: too many state fields", tmp);
 	/* The 1.10 format checksums the file's metadata as well. */
 	fapl = H5Pcreate(H5P_FILE_ACCESS);
@@ -190,15 +192,16 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
 	f = H5Fcreate(tmp, H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
 	if (f < 0)
 		goto io;
-	ed_sample_t tot;
-	ed_totals(ed, &tot);
+	double tot_time;
+	uint64_t tot_events, tot_coll;
+	run_totals(run, &tot_time, &tot_events, &tot_coll);
 	if (h5u_attr_str(f, "format", FORMAT_NAME) || h5u_attr_u64(f, "format_version", FORMAT_VERSION) ||
-	    h5u_attr_str(f, "creator", "granular-engine " PACKAGE_VERSION) || h5u_attr_f64(f, "time", &tot.time, 1) ||
-	    h5u_attr_u64(f, "events", tot.events) || h5u_attr_u64(f, "collisions", tot.collisions) ||
+	    h5u_attr_str(f, "creator", "granular-engine " PACKAGE_VERSION) || h5u_attr_f64(f, "time", &tot_time, 1) ||
+	    h5u_attr_u64(f, "events", tot_events) || h5u_attr_u64(f, "collisions", tot_coll) ||
 	    h5u_write_string(f, "scene", scene_text, len))
 		goto io;
 	dig(&h, scene_text, len);
-	if ((g = h5u_group(f, "ed")) < 0)
+	if ((g = h5u_group(f, run_engine_name(run))) < 0)
 		goto io;
 	for (int k = 0; k < nf; k++) {
 		size_t bytes = fields[k].count * ed_type_size(fields[k].type);
@@ -208,7 +211,7 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
 			ret = h5u_fail(msg, msglen, CKPT_ENOMEM, "%s: out of memory", tmp);
 			goto cleanup;
 		}
-		ed_field_get(ed, fields[k].name, buf);
+		run_field_get(run, fields[k].name, buf);
 		dig_field(&h, fields[k].name, fields[k].type, fields[k].count, buf);
 		hid_t sp = H5Screate_simple(1, dims, NULL);
 		hid_t d = sp >= 0 ? H5Dcreate2(g, fields[k].name, file_type(fields[k].type), sp, H5P_DEFAULT, H5P_DEFAULT,
@@ -223,7 +226,7 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
 	}
 	H5Gclose(g);
 	run_get_state(run, &st);
-	if ((g = h5u_group(f, "run")) < 0 || write_rfields(g, run_fields, N_RUN_FIELDS, &st, &h))
+	if ((g = h5u_group(f, "run")) < 0 || write_rfields(g, sched_fields, N_RUN_FIELDS, &st, &h))
 		goto io;
 	H5Gclose(g);
 	if ((g = h5u_group(f, "output")) < 0 || write_rfields(g, out_fields, N_OUT_FIELDS, out, &h))
@@ -274,7 +277,7 @@ static int same_scene(const char *a, size_t alen, const char *b, size_t blen)
 int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t len,
               const run_opts_t *opts, run_t **run_out, ckpt_output_t *out, char *msg, size_t msglen)
 {
-	ed_field_t fields[ED_MAX_FIELDS];
+	ed_field_t fields[CKPT_MAX_FIELDS];
 	int ret = CKPT_ECORRUPT, err = 0;
 	uint64_t h = 0, want = 0, fmt = 0;
 	char *text = NULL, why[256] = "";
@@ -308,8 +311,8 @@ int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t
 		ret = h5u_fail(msg, msglen, err == RUN_ENOMEM ? CKPT_ENOMEM : CKPT_ECORRUPT, "%s: %s", path, why);
 		goto cleanup;
 	}
-	int nf = ed_fields(run_ed(run), fields, ED_MAX_FIELDS);
-	if (nf > ED_MAX_FIELDS || (g = H5Gopen2(f, "ed", H5P_DEFAULT)) < 0) {
+	int nf = run_fields(run, fields, CKPT_MAX_FIELDS);
+	if (nf > CKPT_MAX_FIELDS || (g = H5Gopen2(f, run_engine_name(run), H5P_DEFAULT)) < 0) {
 		snprintf(why, sizeof why, "no engine state");
 		goto corrupt;
 	}
@@ -331,7 +334,7 @@ int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t
 			goto corrupt;
 		}
 		dig_field(&h, fields[k].name, fields[k].type, (size_t)count, buf);
-		if (ed_field_set(run_ed(run), fields[k].name, fields[k].type, (size_t)count, buf) != ED_OK) {
+		if (run_field_set(run, fields[k].name, fields[k].type, (size_t)count, buf) != RUN_OK) {
 			snprintf(why, sizeof why, "state field %s does not fit the scene", fields[k].name);
 			goto corrupt;
 		}
@@ -343,7 +346,7 @@ int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t
 	}
 	H5Gclose(g);
 	memset(&st, 0, sizeof st);
-	if ((g = H5Gopen2(f, "run", H5P_DEFAULT)) < 0 || read_rfields(g, run_fields, N_RUN_FIELDS, &st, &h)) {
+	if ((g = H5Gopen2(f, "run", H5P_DEFAULT)) < 0 || read_rfields(g, sched_fields, N_RUN_FIELDS, &st, &h)) {
 		snprintf(why, sizeof why, "run state missing");
 		goto corrupt;
 	}

@@ -349,17 +349,15 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		ret = EX_DONE;
 		goto cleanup;
 	}
-	/* Snapshots, checkpoints and --resume: method "ed" with one replica
-	 * (the scene parser rejects output.snapshots/output.checkpoint
-	 * elsewhere); other runs write progress and H5MD observables only. */
-	const int stepped = scene.method == SCENE_METHOD_ED && scene.replicas <= 1;
+	/* Snapshots, checkpoints and --resume: single runs of any method. */
+	const int stepped = scene.replicas <= 1;
 	if (resume_path && !outdir) {
 		fprintf(stderr, "granular-engine: --resume needs --out DIR (the run's output directory)\n");
 		ret = EX_INPUT;
 		goto cleanup;
 	}
 	if (resume_path && !stepped) {
-		fprintf(stderr, "granular-engine: --resume: checkpoints exist only for method \"ed\" with run.replicas = 1\n");
+		fprintf(stderr, "granular-engine: --resume: checkpoints exist only with run.replicas = 1\n");
 		ret = EX_INPUT;
 		goto cleanup;
 	}

@@ -94,12 +94,43 @@ cat >"$tmp/2d-kill.json" <<'JSON'
    "checkpoint":{"every":{"wall_seconds":0.05}}}}
 JSON
 
+# The Monte Carlo methods: state = particles, identities, cell offsets, NTC
+# remainders, hsmc cell stamps, RNG, clock, counters, accumulators.
+cat >"$tmp/2d-dsmc.json" <<'JSON'
+{"method":"dsmc","dimensions":2,"particles":{"count":3000,"volume_fraction":0.05,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9},"run":{"seed":41,"until":{"time":30}},
+ "output":{"every":{"time":1},"observables":["kinetic_energy","temperature","pressure","collision_rate","clusters","momentum"],
+   "snapshots":{"every":{"time":5}},"checkpoint":{"every":{"time":3.7}}},
+ "dsmc":{"correction":"cba"}}
+JSON
+cat >"$tmp/3d-hsmc.json" <<'JSON'
+{"method":"hsmc","dimensions":3,"particles":{"count":2000,"volume_fraction":0.35,"initial":{"relax":{"collisions_per_particle":3}}},
+ "collisions":{"restitution":0.9},"run":{"seed":42,"until":{"collisions_per_particle":60}},
+ "output":{"every":{"collisions_per_particle":4},"observables":["kinetic_energy","pressure","clusters","momentum"],
+   "snapshots":{"every":{"collisions_per_particle":20}},"checkpoint":{"every":{"time":0.9}}},
+ "hsmc":{"cell_size":2}}
+JSON
+cat >"$tmp/2d-dsmc-kill.json" <<'JSON'
+{"method":"dsmc","dimensions":2,"particles":{"count":40000,"volume_fraction":0.1,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9},"run":{"seed":37,"until":{"time":192}},
+ "output":{"every":{"time":4},"observables":["kinetic_energy","pressure","collision_rate","clusters"],
+   "snapshots":{"every":{"time":32}},"checkpoint":{"every":{"wall_seconds":0.05}}},
+ "dsmc":{"correction":"enskog","time_step":0.05}}
+JSON
+cat >"$tmp/3d-hsmc-kill.json" <<'JSON'
+{"method":"hsmc","dimensions":3,"particles":{"count":30000,"volume_fraction":0.35},
+ "collisions":{"restitution":0.95},"run":{"seed":38,"until":{"collisions_per_particle":500}},
+ "output":{"every":{"collisions_per_particle":20},"observables":["kinetic_energy","temperature","pressure","momentum"],
+   "snapshots":{"every":{"collisions_per_particle":125}},"checkpoint":{"every":{"wall_seconds":0.05}}},
+ "hsmc":{"cell_size":2}}
+JSON
+
 ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 	"$ENGINE" run "$tmp/$1.json" --out "$tmp/$1.ref" >/dev/null 2>"$tmp/$1.ref.err"
 }
 
 # (a) checkpoint at simulated time T, resume: identical to the uninterrupted run.
-for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense; do
+for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do
@@ -115,7 +146,7 @@ done
 
 # (b) kill -9 at random moments (seeded), resume from whatever is on disk.
 seed=20261121
-for s in 3d-kill 2d-kill; do
+for s in 3d-kill 2d-kill 2d-dsmc-kill 3d-hsmc-kill; do
 	ref $s
 	d="$tmp/$s.kill"
 	rm -rf "$d"
@@ -193,7 +224,7 @@ ok $? "checkpoint of a different scene refused: exit $rc, $(cat "$tmp/err")"
 ok $(( $? == 2 && $(wc -l <"$tmp/err") == 1 ? 0 : 1 )) "--resume without --out refused: $(cat "$tmp/err")"
 
 # (d) SIGTERM: checkpoint, exit 4; resume: identical result.
-for s in 3d-kill 2d-kill; do
+for s in 3d-kill 2d-kill 2d-dsmc-kill 3d-hsmc-kill; do
 	d="$tmp/$s.term"
 	rm -rf "$d"
 	"$ENGINE" run "$tmp/$s.json" --out "$d" >/dev/null 2>"$tmp/err" &
