@@ -353,6 +353,19 @@ void run_get_state(const run_t *r, run_state_t *st)
 	st->wall_before = wall_seconds(r);
 }
 void run_set_state(run_t *r, const run_state_t *st) { r->st = *st; }
+const run_record_t *run_last(const run_t *r) { return &r->rec; }
+void run_get_finish(const run_t *r, int *done, run_status_t *status)
+{
+	*done = r->done;
+	*status = r->status;
+}
+void run_set_finish(run_t *r, const run_record_t *last, int done, run_status_t status)
+{
+	r->rec = *last;
+	r->rec.warning = NULL;
+	r->done = done;
+	r->status = status;
+}
 
 /* ---- schedules ------------------------------------------------------------- */
 

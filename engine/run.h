@@ -150,6 +150,12 @@ int run_summary(run_t *r, run_emit_fn emit, void *ctx);
  * RUN_INTERRUPTED. Free with run_destroy(). Do not mix with run_go() on one
  * run. */
 run_t *run_open(const scene_t *s, uint64_t stream, int *err, char *msg, size_t msglen);
+/* For ensemble checkpoints (ensemble_save/ensemble_load): the replica's last
+ * record, whether run_next() has returned its last record, and its status;
+ * run_set_finish() restores them into a restored run. */
+const run_record_t *run_last(const run_t *r);
+void run_get_finish(const run_t *r, int *done, run_status_t *status);
+void run_set_finish(run_t *r, const run_record_t *last, int done, run_status_t status);
 int run_next(run_t *r, const volatile sig_atomic_t *stop, run_record_t *rec, int *done);
 void run_summary_record(run_t *r, run_record_t *sum);
 

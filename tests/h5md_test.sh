@@ -240,8 +240,8 @@ else
 fi
 
 # Ensembles: --out writes progress.jsonl and the observables (the means of
-# the progress stream), no frames and no XDMF; --resume is refused for them
-# (exit 2, one line).
+# the progress stream), no frames and no XDMF; without a checkpoint --resume
+# has nothing to continue from (exit 2).
 for f in 2d-ed-replicas.json 2d-dsmc-replicas.json; do
 	d="$tmp/other-${f%.json}"
 	"$ENGINE" run "$SRCDIR/tests/scenes/good/$f" --out "$d" >"$d.out" 2>"$d.err"
@@ -269,7 +269,7 @@ PYEOF
 	ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "$f --out: exit $rc, $(tail -n 1 "$d.py")"
 	"$ENGINE" run "$SRCDIR/tests/scenes/good/$f" --out "$d" --resume "$d/checkpoint.h5" >/dev/null 2>"$d.err"
 	rc=$?
-	ok $(( rc == 2 && $(wc -l <"$d.err") == 1 ? 0 : 1 )) "$f --resume refused: exit $rc, $(head -n 1 "$d.err")"
+	ok $(( rc == 2 ? 0 : 1 )) "$f --resume without a checkpoint: exit $rc, $(tail -n 1 "$d.err")"
 done
 
 # Ensemble standard errors in the file: with 2 replicas the sample standard
