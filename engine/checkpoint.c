@@ -11,11 +11,15 @@
 
 #include "checkpoint.h"
 #include "config.h"
+#include "dsmc.h"
 #include "ed.h"
+#include "ensemble.h"
 #include "h5util.h"
 
 #define FORMAT_NAME "granulard-checkpoint"
 #define FORMAT_VERSION 1
+/* Enough for either engine's state fields (ed.h, dsmc.h). */
+#define CKPT_MAX_FIELDS (ED_MAX_FIELDS > DSMC_MAX_FIELDS ? ED_MAX_FIELDS : DSMC_MAX_FIELDS)
 
 /* ---- digest: 64-bit, 8 bytes a step (xxhash-style rounds) ---------------
  * Detects torn and altered files; not a cryptographic hash. */
@@ -95,7 +99,7 @@ typedef struct {
 	int is_double;
 } rfield_t;
 
-static const rfield_t run_fields[] = {
+static const rfield_t sched_fields[] = {
 	{ "started", offsetof(run_state_t, started), 0 },
 	{ "k_out", offsetof(run_state_t, k_out), 0 },
 	{ "k_snap", offsetof(run_state_t, k_snap), 0 },
@@ -108,7 +112,7 @@ static const rfield_t out_fields[] = {
 	{ "snap_rows", offsetof(ckpt_output_t, snap_rows), 0 },
 	{ "progress_bytes", offsetof(ckpt_output_t, progress_bytes), 0 },
 };
-#define N_RUN_FIELDS (sizeof run_fields / sizeof run_fields[0])
+#define N_RUN_FIELDS (sizeof sched_fields / sizeof sched_fields[0])
 #define N_OUT_FIELDS (sizeof out_fields / sizeof out_fields[0])
 
 static int write_rfields(hid_t g, const rfield_t *f, size_t n, const void *base, uint64_t *h)
@@ -168,9 +172,8 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
                const ckpt_output_t *out, char *msg, size_t msglen)
 {
 	char tmp[PATH_MAX], cur[PATH_MAX], prev[PATH_MAX];
-	ed_field_t fields[ED_MAX_FIELDS];
-	const ed_t *ed = run_ed(run);
-	int ret = CKPT_EIO, nf = ed_fields(ed, fields, ED_MAX_FIELDS);
+	ed_field_t fields[CKPT_MAX_FIELDS];
+	int ret = CKPT_EIO, nf = run_fields(run, fields, CKPT_MAX_FIELDS);
 	uint64_t h = 0;
 	void *buf = NULL;
 	hid_t f = H5I_INVALID_HID, g = H5I_INVALID_HID, fapl = H5I_INVALID_HID;
@@ -181,7 +184,7 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
 	path_in(tmp, sizeof tmp, dir, CKPT_TMP);
 	path_in(cur, sizeof cur, dir, CKPT_FILE);
 	path_in(prev, sizeof prev, dir, CKPT_PREV);
-	if (nf > ED_MAX_FIELDS)
+	if (nf > CKPT_MAX_FIELDS)
 		return h5u_fail(msg, msglen, CKPT_EIO, "%s: too many state fields", tmp);
 	/* The 1.10 format checksums the file's metadata as well. */
 	fapl = H5Pcreate(H5P_FILE_ACCESS);
@@ -190,15 +193,16 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
 	f = H5Fcreate(tmp, H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
 	if (f < 0)
 		goto io;
-	ed_sample_t tot;
-	ed_totals(ed, &tot);
+	double tot_time;
+	uint64_t tot_events, tot_coll;
+	run_totals(run, &tot_time, &tot_events, &tot_coll);
 	if (h5u_attr_str(f, "format", FORMAT_NAME) || h5u_attr_u64(f, "format_version", FORMAT_VERSION) ||
-	    h5u_attr_str(f, "creator", "granular-engine " PACKAGE_VERSION) || h5u_attr_f64(f, "time", &tot.time, 1) ||
-	    h5u_attr_u64(f, "events", tot.events) || h5u_attr_u64(f, "collisions", tot.collisions) ||
+	    h5u_attr_str(f, "creator", "granular-engine " PACKAGE_VERSION) || h5u_attr_f64(f, "time", &tot_time, 1) ||
+	    h5u_attr_u64(f, "events", tot_events) || h5u_attr_u64(f, "collisions", tot_coll) ||
 	    h5u_write_string(f, "scene", scene_text, len))
 		goto io;
 	dig(&h, scene_text, len);
-	if ((g = h5u_group(f, "ed")) < 0)
+	if ((g = h5u_group(f, run_engine_name(run))) < 0)
 		goto io;
 	for (int k = 0; k < nf; k++) {
 		size_t bytes = fields[k].count * ed_type_size(fields[k].type);
@@ -208,7 +212,7 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
 			ret = h5u_fail(msg, msglen, CKPT_ENOMEM, "%s: out of memory", tmp);
 			goto cleanup;
 		}
-		ed_field_get(ed, fields[k].name, buf);
+		run_field_get(run, fields[k].name, buf);
 		dig_field(&h, fields[k].name, fields[k].type, fields[k].count, buf);
 		hid_t sp = H5Screate_simple(1, dims, NULL);
 		hid_t d = sp >= 0 ? H5Dcreate2(g, fields[k].name, file_type(fields[k].type), sp, H5P_DEFAULT, H5P_DEFAULT,
@@ -223,7 +227,7 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
 	}
 	H5Gclose(g);
 	run_get_state(run, &st);
-	if ((g = h5u_group(f, "run")) < 0 || write_rfields(g, run_fields, N_RUN_FIELDS, &st, &h))
+	if ((g = h5u_group(f, "run")) < 0 || write_rfields(g, sched_fields, N_RUN_FIELDS, &st, &h))
 		goto io;
 	H5Gclose(g);
 	if ((g = h5u_group(f, "output")) < 0 || write_rfields(g, out_fields, N_OUT_FIELDS, out, &h))
@@ -274,7 +278,7 @@ static int same_scene(const char *a, size_t alen, const char *b, size_t blen)
 int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t len,
               const run_opts_t *opts, run_t **run_out, ckpt_output_t *out, char *msg, size_t msglen)
 {
-	ed_field_t fields[ED_MAX_FIELDS];
+	ed_field_t fields[CKPT_MAX_FIELDS];
 	int ret = CKPT_ECORRUPT, err = 0;
 	uint64_t h = 0, want = 0, fmt = 0;
 	char *text = NULL, why[256] = "";
@@ -308,8 +312,8 @@ int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t
 		ret = h5u_fail(msg, msglen, err == RUN_ENOMEM ? CKPT_ENOMEM : CKPT_ECORRUPT, "%s: %s", path, why);
 		goto cleanup;
 	}
-	int nf = ed_fields(run_ed(run), fields, ED_MAX_FIELDS);
-	if (nf > ED_MAX_FIELDS || (g = H5Gopen2(f, "ed", H5P_DEFAULT)) < 0) {
+	int nf = run_fields(run, fields, CKPT_MAX_FIELDS);
+	if (nf > CKPT_MAX_FIELDS || (g = H5Gopen2(f, run_engine_name(run), H5P_DEFAULT)) < 0) {
 		snprintf(why, sizeof why, "no engine state");
 		goto corrupt;
 	}
@@ -331,7 +335,7 @@ int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t
 			goto corrupt;
 		}
 		dig_field(&h, fields[k].name, fields[k].type, (size_t)count, buf);
-		if (ed_field_set(run_ed(run), fields[k].name, fields[k].type, (size_t)count, buf) != ED_OK) {
+		if (run_field_set(run, fields[k].name, fields[k].type, (size_t)count, buf) != RUN_OK) {
 			snprintf(why, sizeof why, "state field %s does not fit the scene", fields[k].name);
 			goto corrupt;
 		}
@@ -343,7 +347,7 @@ int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t
 	}
 	H5Gclose(g);
 	memset(&st, 0, sizeof st);
-	if ((g = H5Gopen2(f, "run", H5P_DEFAULT)) < 0 || read_rfields(g, run_fields, N_RUN_FIELDS, &st, &h)) {
+	if ((g = H5Gopen2(f, "run", H5P_DEFAULT)) < 0 || read_rfields(g, sched_fields, N_RUN_FIELDS, &st, &h)) {
 		snprintf(why, sizeof why, "run state missing");
 		goto corrupt;
 	}
@@ -387,4 +391,243 @@ const char *ckpt_strerror(int code)
 	case CKPT_EMISSING: return "no checkpoint";
 	default: return "unknown error";
 	}
+}
+
+/* ---- ensembles ---------------------------------------------------------------
+ * One file for all replicas, written by rank 0 from the replicas' state
+ * strings (ensemble_save()): group /replica_K per replica, one dataset per
+ * field in the string's order (creation order is tracked, so reading
+ * rebuilds the same string), digest over the strings. */
+
+static int write_field(hid_t g, const char *name, ed_type_t type, size_t count, const void *data, uint64_t *h)
+{
+	hsize_t dims[1] = {count};
+	dig_field(h, name, type, count, data);
+	hid_t sp = H5Screate_simple(1, dims, NULL);
+	hid_t d = sp >= 0 ? H5Dcreate2(g, name, file_type(type), sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT)
+	                  : H5I_INVALID_HID;
+	int bad = d < 0 || (count && H5Dwrite(d, mem_type(type), H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0);
+	if (d >= 0) H5Dclose(d);
+	if (sp >= 0) H5Sclose(sp);
+	return bad ? -1 : 0;
+}
+
+static const rfield_t ens_fields[] = {
+	{ "k_ckpt", offsetof(ckpt_ensemble_t, k_ckpt), 0 },
+	{ "wall_before", offsetof(ckpt_ensemble_t, wall_before), 1 },
+};
+#define N_ENS_FIELDS (sizeof ens_fields / sizeof ens_fields[0])
+
+int ckpt_write_ensemble(const char *dir, int R, unsigned char *const *blobs, const size_t *lens,
+                        const ckpt_ensemble_t *es, const char *scene_text, size_t len, const ckpt_output_t *out,
+                        char *msg, size_t msglen)
+{
+	char tmp[PATH_MAX], cur[PATH_MAX], prev[PATH_MAX], gname[64];
+	uint64_t h = 0;
+	hid_t f = H5I_INVALID_HID, g = H5I_INVALID_HID, fapl = H5I_INVALID_HID, gcpl = H5I_INVALID_HID;
+	int ret = CKPT_EIO;
+
+	h5u_quiet();
+	errno = 0;
+	path_in(tmp, sizeof tmp, dir, CKPT_TMP);
+	path_in(cur, sizeof cur, dir, CKPT_FILE);
+	path_in(prev, sizeof prev, dir, CKPT_PREV);
+	fapl = H5Pcreate(H5P_FILE_ACCESS);
+	gcpl = H5Pcreate(H5P_GROUP_CREATE);
+	if (fapl < 0 || gcpl < 0 || H5Pset_libver_bounds(fapl, H5F_LIBVER_V110, H5F_LIBVER_LATEST) < 0 ||
+	    H5Pset_link_creation_order(gcpl, H5P_CRT_ORDER_TRACKED | H5P_CRT_ORDER_INDEXED) < 0)
+		goto io;
+	f = H5Fcreate(tmp, H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+	if (f < 0 || h5u_attr_str(f, "format", FORMAT_NAME) || h5u_attr_u64(f, "format_version", FORMAT_VERSION) ||
+	    h5u_attr_str(f, "creator", "granular-engine " PACKAGE_VERSION) || h5u_attr_u64(f, "replicas", (uint64_t)R) ||
+	    h5u_write_string(f, "scene", scene_text, len))
+		goto io;
+	dig(&h, scene_text, len);
+	dig_u64(&h, (uint64_t)R);
+	for (int r = 0; r < R; r++) {
+		size_t pos = 0;
+		ed_field_t fl;
+		const void *data;
+		int rc;
+		snprintf(gname, sizeof gname, "replica_%d", r);
+		if ((g = H5Gcreate2(f, gname, H5P_DEFAULT, gcpl, H5P_DEFAULT)) < 0)
+			goto io;
+		while ((rc = ensemble_next_field(blobs[r], lens[r], &pos, &fl, &data)) == 1)
+			if (write_field(g, fl.name, fl.type, fl.count, data, &h))
+				goto io;
+		if (rc < 0)
+			goto io;
+		H5Gclose(g);
+		g = H5I_INVALID_HID;
+	}
+	if ((g = h5u_group(f, "ensemble")) < 0 || write_rfields(g, ens_fields, N_ENS_FIELDS, es, &h))
+		goto io;
+	H5Gclose(g);
+	if ((g = h5u_group(f, "output")) < 0 || write_rfields(g, out_fields, N_OUT_FIELDS, out, &h))
+		goto io;
+	H5Gclose(g);
+	g = H5I_INVALID_HID;
+	if (h5u_attr_u64(f, "digest", dig_final(h)))
+		goto io;
+	herr_t cl = H5Fclose(f);
+	f = H5I_INVALID_HID;
+	if (cl < 0 || h5u_fsync_path(tmp))
+		goto io;
+	if (unlink(prev) != 0 && errno != ENOENT)
+		goto io;
+	if (link(cur, prev) != 0 && errno != ENOENT && rename(cur, prev) != 0)
+		goto io;
+	if (rename(tmp, cur) != 0 || h5u_fsync_dir_of(cur))
+		goto io;
+	ret = CKPT_OK;
+	goto cleanup;
+io:
+	ret = h5u_fail(msg, msglen, CKPT_EIO, "%s: cannot write the checkpoint%s%s", tmp, errno ? ": " : "",
+	               errno ? strerror(errno) : "");
+	if (f < 0)
+		unlink(tmp);
+cleanup:
+	if (g >= 0) H5Gclose(g);
+	if (f >= 0) {
+		H5Fclose(f);
+		unlink(tmp);
+	}
+	if (fapl >= 0) H5Pclose(fapl);
+	if (gcpl >= 0) H5Pclose(gcpl);
+	return ret;
+}
+
+static int type_of(hid_t ft, ed_type_t *t)
+{
+	static const ed_type_t all[] = {ED_T_F64, ED_T_U64, ED_T_I64, ED_T_I32, ED_T_U32, ED_T_U8};
+	for (size_t k = 0; k < sizeof all / sizeof all[0]; k++)
+		if (H5Tequal(ft, file_type(all[k])) > 0) {
+			*t = all[k];
+			return 0;
+		}
+	return -1;
+}
+
+/* Rebuild one replica's state string from its group, in creation order. */
+typedef struct {
+	unsigned char *buf;
+	size_t len, cap;
+	uint64_t *h;
+	int bad;
+} gather_t;
+
+static herr_t gather_one(hid_t g, const char *name, const H5L_info_t *info, void *ctx)
+{
+	gather_t *ga = ctx;
+	(void)info;
+	hid_t d = H5Dopen2(g, name, H5P_DEFAULT), sp = H5I_INVALID_HID, ft = H5I_INVALID_HID;
+	hssize_t count = -1;
+	ed_type_t t;
+	void *data = NULL;
+	if (d < 0 || (sp = H5Dget_space(d)) < 0 || (count = H5Sget_simple_extent_npoints(sp)) < 0 ||
+	    (ft = H5Dget_type(d)) < 0 || type_of(ft, &t) || strlen(name) >= 64 ||
+	    !(data = malloc((size_t)count * ed_type_size(t) + 1)) ||
+	    (count && H5Dread(d, mem_type(t), H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) ||
+	    ensemble_put_field(&ga->buf, &ga->len, &ga->cap, name, t, (size_t)count, data))
+		ga->bad = 1;
+	else
+		dig_field(ga->h, name, t, (size_t)count, data);
+	free(data);
+	if (ft >= 0) H5Tclose(ft);
+	if (sp >= 0) H5Sclose(sp);
+	if (d >= 0) H5Dclose(d);
+	return ga->bad ? -1 : 0;
+}
+
+int ckpt_read_ensemble(const char *path, const scene_t *s, const char *scene_text, size_t len,
+                       unsigned char **blobs, size_t *lens, ckpt_ensemble_t *es, ckpt_output_t *out,
+                       char *msg, size_t msglen)
+{
+	int ret = CKPT_ECORRUPT, R = (int)s->replicas;
+	uint64_t h = 0, want = 0, fmt = 0, reps = 0;
+	char *text = NULL, why[256] = "", gname[64];
+	size_t tlen = 0;
+	hid_t f = H5I_INVALID_HID, g = H5I_INVALID_HID;
+
+	for (int r = 0; r < R; r++)
+		blobs[r] = NULL, lens[r] = 0;
+	h5u_quiet();
+	if (access(path, R_OK) != 0)
+		return h5u_fail(msg, msglen, errno == ENOENT ? CKPT_EMISSING : CKPT_EIO, "%s: %s", path, strerror(errno));
+	f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+	if (f < 0) {
+		snprintf(why, sizeof why, "not a readable HDF5 file (truncated or damaged)");
+		goto corrupt;
+	}
+	if (h5u_read_attr_u64(f, "format_version", &fmt) || fmt != FORMAT_VERSION ||
+	    h5u_read_attr_u64(f, "digest", &want) || !(text = read_string(f, "scene", &tlen))) {
+		snprintf(why, sizeof why, "not a granular-engine checkpoint of format %d", FORMAT_VERSION);
+		goto corrupt;
+	}
+	if (!same_scene(text, tlen, scene_text, len)) {
+		ret = h5u_fail(msg, msglen, CKPT_ESCENE, "%s: written for a different scene than the one given", path);
+		goto cleanup;
+	}
+	if (h5u_read_attr_u64(f, "replicas", &reps) || reps != (uint64_t)R) {
+		snprintf(why, sizeof why, "not an ensemble checkpoint of %d replicas", R);
+		goto corrupt;
+	}
+	dig(&h, text, tlen);
+	dig_u64(&h, reps);
+	for (int r = 0; r < R; r++) {
+		gather_t ga = {NULL, 0, 0, &h, 0};
+		hsize_t idx = 0;
+		snprintf(gname, sizeof gname, "replica_%d", r);
+		if ((g = H5Gopen2(f, gname, H5P_DEFAULT)) < 0 ||
+		    H5Literate(g, H5_INDEX_CRT_ORDER, H5_ITER_INC, &idx, gather_one, &ga) < 0 || ga.bad) {
+			free(ga.buf);
+			snprintf(why, sizeof why, "replica %d state missing or unreadable", r);
+			goto corrupt;
+		}
+		H5Gclose(g);
+		g = H5I_INVALID_HID;
+		blobs[r] = ga.buf;
+		lens[r] = ga.len;
+	}
+	if ((g = H5Gopen2(f, "ensemble", H5P_DEFAULT)) < 0 || read_rfields(g, ens_fields, N_ENS_FIELDS, es, &h)) {
+		snprintf(why, sizeof why, "ensemble state missing");
+		goto corrupt;
+	}
+	H5Gclose(g);
+	if ((g = H5Gopen2(f, "output", H5P_DEFAULT)) < 0 || read_rfields(g, out_fields, N_OUT_FIELDS, out, &h)) {
+		snprintf(why, sizeof why, "output state missing");
+		goto corrupt;
+	}
+	if (dig_final(h) != want) {
+		snprintf(why, sizeof why, "digest mismatch (altered or torn)");
+		goto corrupt;
+	}
+	/* Each replica must load (consistency checks of the engines). */
+	for (int r = 0; r < R; r++) {
+		run_t *run = NULL;
+		int rc = ensemble_load(s, (uint64_t)r, blobs[r], lens[r], &run, why, sizeof why);
+		run_destroy(run);
+		if (rc == RUN_ENOMEM) {
+			ret = h5u_fail(msg, msglen, CKPT_ENOMEM, "%s: out of memory", path);
+			goto cleanup;
+		}
+		if (rc != RUN_OK) {
+			ret = h5u_fail(msg, msglen, CKPT_ECORRUPT, "%s: corrupt checkpoint: replica %d: %s", path, r, why);
+			goto cleanup;
+		}
+	}
+	ret = CKPT_OK;
+	goto cleanup;
+corrupt:
+	ret = h5u_fail(msg, msglen, CKPT_ECORRUPT, "%s: corrupt checkpoint: %s", path, why);
+cleanup:
+	if (ret != CKPT_OK)
+		for (int r = 0; r < R; r++) {
+			free(blobs[r]);
+			blobs[r] = NULL;
+		}
+	free(text);
+	if (g >= 0) H5Gclose(g);
+	if (f >= 0) H5Fclose(f);
+	return ret;
 }

@@ -46,6 +46,23 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
 int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t len,
               const run_opts_t *opts, run_t **run_out, ckpt_output_t *out, char *msg, size_t msglen);
 
+/* Ensembles (run.replicas > 1): one file, written by rank 0, holding every
+ * replica's state string (ensemble.h: ensemble_save()) under /replica_K and
+ * the ensemble's own schedule. ckpt_read_ensemble() fills blobs[R] and
+ * lens[R] (malloc'd, caller frees) after checking the digest and that every
+ * replica loads (ensemble_load()); same error codes as ckpt_read(). */
+typedef struct {
+	uint64_t k_ckpt;          /* index of the next simulated-time checkpoint */
+	double wall_before;       /* wall seconds spent before this process */
+} ckpt_ensemble_t;
+
+int ckpt_write_ensemble(const char *dir, int R, unsigned char *const *blobs, const size_t *lens,
+                        const ckpt_ensemble_t *es, const char *scene_text, size_t len, const ckpt_output_t *out,
+                        char *msg, size_t msglen);
+int ckpt_read_ensemble(const char *path, const scene_t *s, const char *scene_text, size_t len,
+                       unsigned char **blobs, size_t *lens, ckpt_ensemble_t *es, ckpt_output_t *out,
+                       char *msg, size_t msglen);
+
 /* File names inside an output directory. */
 #define CKPT_FILE "checkpoint.h5"
 #define CKPT_PREV "checkpoint.prev.h5"

@@ -1,5 +1,6 @@
 /* DSMC and HSMC for granular gases: free flight, counting sort into cells, no-time-counter collisions, Enskog/CBA corrections, coarse excluded volume. */
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -27,6 +28,7 @@ struct dsmc {
 
 	/* particles: AoS, stride 2D doubles: x[D] then v[D]; q is the sort buffer */
 	double *p, *q;
+	uint32_t *id, *idq;            /* particle identity (creation index) of each record; sort buffer */
 	uint32_t *cell;                /* new cell of each particle (one step) */
 	uint32_t *start, *cnt;         /* ncells + 1 each; start: sorted offsets of p */
 	float *rem;                    /* NTC fractional candidate carried per cell */
@@ -334,10 +336,14 @@ static ALWAYS_INLINE void sort(struct dsmc *d, const int D)
 	for (uint32_t k = d->n; k-- > 0;) {
 		uint32_t dst = --d->cnt[d->cell[k]];
 		memcpy(&d->q[(size_t)dst * S], &d->p[(size_t)k * S], S * sizeof(double));
+		d->idq[dst] = d->id[k];
 	}
 	double *t = d->p;
 	d->p = d->q;
 	d->q = t;
+	uint32_t *ip = d->id;
+	d->id = d->idq;
+	d->idq = ip;
 	uint32_t *u = d->start;
 	d->start = d->cnt;
 	d->cnt = u;
@@ -505,7 +511,12 @@ static double ekin_exact(const struct dsmc *d, double *mom)
 
 int dsmc_advance(dsmc_t *d, double t_stop, uint64_t max_collisions, uint64_t max_steps)
 {
-	for (uint64_t k = 0; k < max_steps && d->t < t_stop && d->collisions < max_collisions; k++) {
+	return dsmc_advance_soft(d, t_stop, INFINITY, max_collisions, max_steps);
+}
+
+int dsmc_advance_soft(dsmc_t *d, double t_stop, double t_soft, uint64_t max_collisions, uint64_t max_steps)
+{
+	for (uint64_t k = 0; k < max_steps && d->t < t_stop && d->t < t_soft && d->collisions < max_collisions; k++) {
 		double dt = d->dt_fixed;
 		if (dt <= 0) {
 			double T = 2 * d->ekin_est / (d->dim * (double)d->n);
@@ -529,7 +540,8 @@ int dsmc_advance(dsmc_t *d, double t_stop, uint64_t max_collisions, uint64_t max
 
 /* ---- setup ------------------------------------------------------------------- */
 
-dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size_t msglen)
+/* Memory and constants for scene s, no state (positions, velocities, RNG). */
+static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 {
 	struct dsmc *d = NULL;
 	int rc = DSMC_ENOMEM;
@@ -596,8 +608,32 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 	d->rem = calloc(d->ncells, sizeof(float));
 	if (d->hsmc)
 		d->stamp = calloc(d->ncells, sizeof(uint32_t));
-	if (!d->p || !d->q || !d->cell || !d->start || !d->cnt || !d->rem || (d->hsmc && !d->stamp))
+	d->id = malloc(d->n * sizeof(uint32_t));
+	d->idq = malloc(d->n * sizeof(uint32_t));
+	if (!d->p || !d->q || !d->id || !d->idq || !d->cell || !d->start || !d->cnt || !d->rem ||
+	    (d->hsmc && !d->stamp))
 		goto fail;
+	*err = DSMC_OK;
+	return d;
+fail:
+	dsmc_destroy(d);
+	*err = rc;
+	if (rc == DSMC_ENOMEM)
+		set_msg(msg, msglen, "out of memory for %.0f particles", (double)s->count);
+	return NULL;
+}
+
+dsmc_t *dsmc_create_blank(const scene_t *s, int *err, char *msg, size_t msglen)
+{
+	return alloc(s, err, msg, msglen);
+}
+
+dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size_t msglen)
+{
+	struct dsmc *d = alloc(s, err, msg, msglen);
+	if (!d)
+		return NULL;
+	const size_t S = 2 * (size_t)d->dim;
 
 	rng_init(&d->rng, s->seed, stream);
 	/* positions */
@@ -617,6 +653,8 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 			}
 		}
 	}
+	for (uint32_t i = 0; i < d->n; i++)
+		d->id[i] = i;
 	/* Maxwellian velocities, zero momentum, exactly T. */
 	double mean[3] = {0, 0, 0}, s2 = 0;
 	for (uint32_t i = 0; i < d->n; i++)
@@ -656,14 +694,7 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 		d->virial = d->ekin_int = 0;
 		d->ekin_est = ekin_exact(d, NULL);
 	}
-	*err = DSMC_OK;
 	return d;
-fail:
-	dsmc_destroy(d);
-	*err = rc;
-	if (rc == DSMC_ENOMEM)
-		set_msg(msg, msglen, "out of memory for %.0f particles", (double)s->count);
-	return NULL;
 }
 
 void dsmc_destroy(dsmc_t *d)
@@ -672,6 +703,8 @@ void dsmc_destroy(dsmc_t *d)
 		return;
 	free(d->p);
 	free(d->q);
+	free(d->id);
+	free(d->idq);
 	free(d->cell);
 	free(d->start);
 	free(d->cnt);
@@ -705,13 +738,187 @@ void dsmc_sample(dsmc_t *d, dsmc_sample_t *out)
 void dsmc_state(const dsmc_t *d, double *pos, double *vel)
 {
 	const int D = d->dim, S = 2 * D;
-	for (uint32_t k = 0; k < d->n; k++)
+	for (uint32_t k = 0; k < d->n; k++) {
+		size_t i = d->id[k];
 		for (int a = 0; a < D; a++) {
 			if (pos)
-				pos[(size_t)k * D + a] = d->p[(size_t)k * S + a];
+				pos[i * D + a] = d->p[(size_t)k * S + a];
 			if (vel)
-				vel[(size_t)k * D + a] = d->p[(size_t)k * S + D + a];
+				vel[i * D + a] = d->p[(size_t)k * S + D + a];
 		}
+	}
+}
+
+void dsmc_totals(const dsmc_t *d, dsmc_sample_t *out)
+{
+	memset(out, 0, sizeof(*out));
+	out->time = d->t;
+	out->steps = d->steps;
+	out->moves = d->steps * d->n;
+	out->collisions = d->collisions;
+	out->candidates = d->candidates;
+	out->vmax_raised = d->vmax_raised;
+	out->cell_collisions = d->cell_collisions;
+	out->rejected_moves = d->rejected;
+	out->kinetic_energy = ekin_exact(d, out->momentum);
+}
+
+/* ---- state fields (checkpoints) ------------------------------------------
+ * Everything a step reads that is not rebuilt from the scene: the particle
+ * records in their cell order with their identities and the cell offsets
+ * (CBA offsets move particles after the sort, so the offsets are not a
+ * function of the positions), the carried NTC remainders, the hsmc cell
+ * stamps, the RNG, the clock and counters, the adaptive step's energy
+ * estimate and the interval accumulators. Not stored: the sort buffers q,
+ * idq, cell, cnt (rewritten before they are read in every step) and v_max
+ * (recomputed per cell and step from the velocities). */
+enum { F_SCALAR, F_PART, F_ID, F_START, F_REM, F_STAMP, F_RNG };
+typedef struct {
+	const char *name;
+	ed_type_t type;
+	int kind;
+	size_t off;   /* F_SCALAR: offset in struct dsmc */
+} dfield_t;
+
+static const dfield_t dfields[] = {
+	{ "particles", ED_T_F64, F_PART, 0 },
+	{ "id", ED_T_U32, F_ID, 0 },
+	{ "start", ED_T_U32, F_START, 0 },
+	{ "rem", ED_T_F64, F_REM, 0 },
+	{ "stamp", ED_T_U32, F_STAMP, 0 },
+	{ "rng", ED_T_U64, F_RNG, 0 },
+	{ "t", ED_T_F64, F_SCALAR, offsetof(struct dsmc, t) },
+	{ "steps", ED_T_U64, F_SCALAR, offsetof(struct dsmc, steps) },
+	{ "collisions", ED_T_U64, F_SCALAR, offsetof(struct dsmc, collisions) },
+	{ "candidates", ED_T_U64, F_SCALAR, offsetof(struct dsmc, candidates) },
+	{ "vmax_raised", ED_T_U64, F_SCALAR, offsetof(struct dsmc, vmax_raised) },
+	{ "cell_collisions", ED_T_U64, F_SCALAR, offsetof(struct dsmc, cell_collisions) },
+	{ "rejected", ED_T_U64, F_SCALAR, offsetof(struct dsmc, rejected) },
+	{ "ekin_est", ED_T_F64, F_SCALAR, offsetof(struct dsmc, ekin_est) },
+	{ "e_loss", ED_T_F64, F_SCALAR, offsetof(struct dsmc, e_loss) },
+	{ "t_sample", ED_T_F64, F_SCALAR, offsetof(struct dsmc, t_sample) },
+	{ "ekin_int", ED_T_F64, F_SCALAR, offsetof(struct dsmc, ekin_int) },
+	{ "virial", ED_T_F64, F_SCALAR, offsetof(struct dsmc, virial) },
+	{ "coll_sample", ED_T_U64, F_SCALAR, offsetof(struct dsmc, coll_sample) },
+};
+#define N_DFIELDS (sizeof dfields / sizeof dfields[0])
+
+static size_t dfield_count(const struct dsmc *d, const dfield_t *f)
+{
+	switch (f->kind) {
+	case F_PART: return (size_t)d->n * 2 * (size_t)d->dim;
+	case F_ID: return d->n;
+	case F_START: return d->ncells + 1;
+	case F_REM: return d->ncells;
+	case F_STAMP: return d->hsmc ? d->ncells : 0;
+	case F_RNG: return 4;
+	default: return 1;
+	}
+}
+
+static const dfield_t *dfield_find(const char *name)
+{
+	for (size_t k = 0; k < N_DFIELDS; k++)
+		if (!strcmp(dfields[k].name, name))
+			return &dfields[k];
+	return NULL;
+}
+
+int dsmc_fields(const dsmc_t *d, ed_field_t *out, int max)
+{
+	int n = 0;
+	for (size_t k = 0; k < N_DFIELDS; k++) {
+		size_t count = dfield_count(d, &dfields[k]);
+		if (dfields[k].kind == F_STAMP && !d->hsmc)
+			continue;
+		if (n < max)
+			out[n] = (ed_field_t){dfields[k].name, dfields[k].type, count};
+		n++;
+	}
+	return n;
+}
+
+int dsmc_field_get(const dsmc_t *d, const char *name, void *buf)
+{
+	const dfield_t *f = dfield_find(name);
+	if (!f || (f->kind == F_STAMP && !d->hsmc))
+		return DSMC_EINVAL;
+	size_t count = dfield_count(d, f);
+	switch (f->kind) {
+	case F_PART: memcpy(buf, d->p, count * sizeof(double)); break;
+	case F_ID: memcpy(buf, d->id, count * sizeof(uint32_t)); break;
+	case F_START: memcpy(buf, d->start, count * sizeof(uint32_t)); break;
+	case F_STAMP: memcpy(buf, d->stamp, count * sizeof(uint32_t)); break;
+	case F_RNG: memcpy(buf, d->rng.s, sizeof(d->rng.s)); break;
+	case F_REM:
+		for (size_t c = 0; c < count; c++)
+			((double *)buf)[c] = d->rem[c];   /* float -> double -> float is exact */
+		break;
+	default: memcpy(buf, (const char *)d + f->off, 8); break;
+	}
+	return DSMC_OK;
+}
+
+int dsmc_field_set(dsmc_t *d, const char *name, ed_type_t type, size_t count, const void *buf)
+{
+	const dfield_t *f = dfield_find(name);
+	if (!f || (f->kind == F_STAMP && !d->hsmc) || type != f->type || count != dfield_count(d, f))
+		return DSMC_EINVAL;
+	switch (f->kind) {
+	case F_PART: memcpy(d->p, buf, count * sizeof(double)); break;
+	case F_ID: memcpy(d->id, buf, count * sizeof(uint32_t)); break;
+	case F_START: memcpy(d->start, buf, count * sizeof(uint32_t)); break;
+	case F_STAMP: memcpy(d->stamp, buf, count * sizeof(uint32_t)); break;
+	case F_RNG: memcpy(d->rng.s, buf, sizeof(d->rng.s)); break;
+	case F_REM:
+		for (size_t c = 0; c < count; c++) {
+			double r = ((const double *)buf)[c];
+			if (!(r >= 0 && r < 1e30) || (double)(float)r != r)
+				return DSMC_EINVAL;
+			d->rem[c] = (float)r;
+		}
+		break;
+	default: memcpy((char *)d + f->off, buf, 8); break;
+	}
+	return DSMC_OK;
+}
+
+int dsmc_restore_finish(dsmc_t *d, char *msg, size_t msglen)
+{
+	const int D = d->dim, S = 2 * D;
+	const char *why = NULL;
+	if (d->start[0] != 0 || d->start[d->ncells] != d->n)
+		why = "cell offsets do not cover the particles";
+	for (size_t c = 0; !why && c < d->ncells; c++)
+		if (d->start[c + 1] < d->start[c])
+			why = "cell offsets decrease";
+	/* identities: a permutation (idq as scratch marks) */
+	memset(d->idq, 0, d->n * sizeof(uint32_t));
+	for (uint32_t k = 0; !why && k < d->n; k++) {
+		if (d->id[k] >= d->n || d->idq[d->id[k]])
+			why = "particle identities are not a permutation";
+		else
+			d->idq[d->id[k]] = 1;
+	}
+	for (uint32_t k = 0; !why && k < d->n; k++)
+		for (int a = 0; a < D; a++) {
+			double x = d->p[(size_t)k * S + a], v = d->p[(size_t)k * S + D + a];
+			if (!(x >= 0 && x < d->L[a]) || !isfinite(v)) {
+				why = "a position outside the box or a non-finite velocity";
+				break;
+			}
+		}
+	if (!why && !(d->rng.s[0] | d->rng.s[1] | d->rng.s[2] | d->rng.s[3]))
+		why = "random-number state is zero";
+	if (!why && (!isfinite(d->t) || !isfinite(d->ekin_est) || !isfinite(d->t_sample) || !isfinite(d->ekin_int) ||
+	             !isfinite(d->virial) || d->t_sample > d->t || d->coll_sample > d->collisions))
+		why = "clock or accumulators out of range";
+	if (why) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "%s", why);
+		return DSMC_EINVAL;
+	}
+	return DSMC_OK;
 }
 
 double dsmc_time(const dsmc_t *d) { return d->t; }
@@ -727,7 +934,7 @@ void dsmc_cells(const dsmc_t *d, int cells[3])
 size_t dsmc_memory(const dsmc_t *d)
 {
 	size_t S = 2 * (size_t)d->dim;
-	return sizeof(*d) + 2 * d->n * S * sizeof(double) + d->n * sizeof(uint32_t) +
+	return sizeof(*d) + 2 * d->n * S * sizeof(double) + 3 * d->n * sizeof(uint32_t) +
 	       d->ncells * (2 * sizeof(uint32_t) + sizeof(float) + (d->hsmc ? sizeof(uint32_t) : 0));
 }
 

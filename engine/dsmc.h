@@ -3,6 +3,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include "ed.h"      /* ed_type_t, ed_field_t: the state-field description shared by the engines */
 #include "scene.h"
 
 /*
@@ -76,6 +77,10 @@ void dsmc_destroy(dsmc_t *d);
  * UINT64_MAX mean no limit. Returns DSMC_OK, or DSMC_QUIESCENT when the
  * adaptive step is infinite (T = 0) and t_stop is infinite. */
 int dsmc_advance(dsmc_t *d, double t_stop, uint64_t max_collisions, uint64_t max_steps);
+/* The same, also stopping after the step that reaches or passes t_soft
+ * (that step is not shortened): a schedule (frames, checkpoints) that must
+ * not change the step sequence, unlike t_stop. */
+int dsmc_advance_soft(dsmc_t *d, double t_stop, double t_soft, uint64_t max_collisions, uint64_t max_steps);
 
 typedef struct {
 	double time;               /* current simulated time */
@@ -96,8 +101,13 @@ typedef struct {
 /* Fill *out and start a new interval. Does not change the dynamics. */
 void dsmc_sample(dsmc_t *d, dsmc_sample_t *out);
 
-/* Positions in [0, L) and velocities as N*D doubles (cell order, not scene
- * order: particles are interchangeable). Either pointer may be NULL. */
+/* Totals now (time, counters, kinetic energy, momentum) without starting a
+ * new interval: changes nothing. Interval fields 0. */
+void dsmc_totals(const dsmc_t *d, dsmc_sample_t *out);
+
+/* Positions in [0, L) and velocities as N*D doubles in particle order:
+ * index i is the i-th particle created, in every call (the engine keeps
+ * each record's identity through its cell sorts). Either pointer may be NULL. */
 void dsmc_state(const dsmc_t *d, double *pos, double *vel);
 
 double dsmc_time(const dsmc_t *d);
@@ -113,5 +123,26 @@ size_t dsmc_memory(const dsmc_t *d);
 double dsmc_contact_value(int dim, double nu);
 double dsmc_collision_frequency(int dim, double nu, double radius, double mass, double temp, double chi);
 double dsmc_mean_speed(int dim, double mass, double temp);
+
+/*
+ * Checkpoints (no I/O here), as for ed (ed.h): the state is a list of named
+ * fields (ed_field_t); saving every field between dsmc_advance() calls and
+ * restoring them into dsmc_create_blank() + dsmc_field_set() ... +
+ * dsmc_restore_finish() gives an engine whose further steps, random numbers,
+ * states and samples are bit-for-bit those of the original. Field counts
+ * depend only on the scene. Native-endian data.
+ */
+#define DSMC_MAX_FIELDS 24
+/* Describe the fields into out[max]; returns how many there are. */
+int dsmc_fields(const dsmc_t *d, ed_field_t *out, int max);
+/* Copy field name into buf (count * ed_type_size(type) bytes). DSMC_EINVAL if unknown. */
+int dsmc_field_get(const dsmc_t *d, const char *name, void *buf);
+/* An engine for scene s with memory but no state: only for restoring. */
+dsmc_t *dsmc_create_blank(const scene_t *s, int *err, char *msg, size_t msglen);
+/* Set one field; DSMC_EINVAL if name, type, count or values do not fit. */
+int dsmc_field_set(dsmc_t *d, const char *name, ed_type_t type, size_t count, const void *buf);
+/* After all fields are set: check consistency (cell offsets, identities a
+ * permutation, positions in the box, RNG state). DSMC_EINVAL with msg. */
+int dsmc_restore_finish(dsmc_t *d, char *msg, size_t msglen);
 
 const char *dsmc_strerror(int code);

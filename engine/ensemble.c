@@ -1,5 +1,8 @@
 /* Ensemble statistics over replica records: pack to vectors, mean and standard error in replica order. */
 #include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "ensemble.h"
@@ -115,4 +118,222 @@ int ensemble_combine(const double *vals, int R, const run_record_t *proto, run_r
 	}
 	out->status = (run_status_t)st;
 	return (int)sum(vals, R, V_DONE);
+}
+
+void ensemble_unpack(const double *v, const scene_t *s, run_record_t *r)
+{
+	memset(r, 0, sizeof(*r));
+	r->kind = RUN_PROGRESS;
+	r->dim = s->dim;
+	r->n = s->count;
+	r->have = s->observables;
+	r->time = v[V_TIME];
+	r->collisions_per_particle = v[V_CPP];
+	r->events = (uint64_t)v[V_EVENTS];
+	r->collisions = (uint64_t)v[V_COLL];
+	r->kinetic_energy = v[V_EKIN];
+	r->temperature = v[V_TEMP];
+	r->pressure = v[V_P];
+	r->compressibility = v[V_Z];
+	r->collision_rate = v[V_RATE];
+	for (int a = 0; a < 3; a++)
+		r->momentum[a] = v[V_MOM0 + a];
+	r->clusters.n_particles = s->count;
+	r->clusters.largest_fraction = v[V_LFRAC];
+	r->clusters.mean_size = v[V_MSIZE];
+	r->clusters.m2 = v[V_M2];
+	r->clusters.m2_reduced = v[V_M2R];
+	r->clusters.n_clusters = (uint64_t)v[V_NCL];
+	r->clusters.largest = (uint64_t)v[V_LARGEST];
+	r->clusters.n_bins = (int)v[V_NBINS];
+	r->have_interval = (int)v[V_HAVEI];
+	r->status = (run_status_t)(int)v[V_STATUS];
+	r->vmax_raised = (uint64_t)v[V_VMAX];
+	r->cell_collisions = (uint64_t)v[V_CELLC];
+	r->rejected_moves = (uint64_t)v[V_REJ];
+	r->elastic_by_tc = (uint64_t)v[V_TC];
+	for (int k = 0; k < CLUSTERS_MAX_BINS; k++)
+		r->clusters.hist[k] = (uint64_t)v[V_HIST + k];
+}
+
+/* ---- replica state as a byte string ----------------------------------------
+ * Per field: name length with its NUL (u32), name, type (u32), count (u64), data. */
+
+int ensemble_put_field(unsigned char **buf, size_t *len, size_t *cap, const char *name, ed_type_t type,
+                       size_t count, const void *data)
+{
+	uint32_t nl = (uint32_t)strlen(name) + 1, t = (uint32_t)type;
+	uint64_t c = count;
+	size_t bytes = count * ed_type_size(type), need = *len + 4 + nl + 4 + 8 + bytes;
+	if (need > *cap) {
+		size_t nc = *cap ? *cap : 4096;
+		while (nc < need)
+			nc *= 2;
+		unsigned char *nb = realloc(*buf, nc);
+		if (!nb)
+			return -1;
+		*buf = nb;
+		*cap = nc;
+	}
+	unsigned char *p = *buf + *len;
+	memcpy(p, &nl, 4), p += 4;
+	memcpy(p, name, nl), p += nl;
+	memcpy(p, &t, 4), p += 4;
+	memcpy(p, &c, 8), p += 8;
+	if (bytes)
+		memcpy(p, data, bytes);
+	*len = need;
+	return 0;
+}
+
+int ensemble_next_field(const unsigned char *buf, size_t len, size_t *pos, ed_field_t *f, const void **data)
+{
+	uint32_t nl, t;
+	uint64_t c;
+	size_t p = *pos;
+	if (p == len)
+		return 0;
+	if (p > len || len - p < 4)
+		return -1;
+	memcpy(&nl, buf + p, 4);
+	p += 4;
+	if (nl < 2 || nl > 64 || len - p < (size_t)nl + 12 || buf[p + nl - 1] != '\0')
+		return -1;
+	f->name = (const char *)buf + p;
+	p += nl;
+	memcpy(&t, buf + p, 4);
+	memcpy(&c, buf + p + 4, 8);
+	p += 12;
+	if (t > ED_T_U8 || c > len)
+		return -1;
+	size_t bytes = (size_t)c * ed_type_size((ed_type_t)t);
+	if (len - p < bytes)
+		return -1;
+	f->type = (ed_type_t)t;
+	f->count = (size_t)c;
+	*data = buf + p;
+	*pos = p + bytes;
+	return 1;
+}
+
+/* The replica's schedule and finish state beside its engine fields. */
+static const struct {
+	const char *name;
+	size_t off;
+	int is_double;
+} sched[] = {
+	{ "@started", offsetof(run_state_t, started), 0 },
+	{ "@k_out", offsetof(run_state_t, k_out), 0 },
+	{ "@k_snap", offsetof(run_state_t, k_snap), 0 },
+	{ "@k_ckpt", offsetof(run_state_t, k_ckpt), 0 },
+	{ "@snap_events", offsetof(run_state_t, snap_events), 0 },
+	{ "@wall_before", offsetof(run_state_t, wall_before), 1 },
+};
+#define N_SCHED (sizeof sched / sizeof sched[0])
+#define MAX_FIELDS 48
+
+int ensemble_save(const run_t *r, unsigned char **buf, size_t *len)
+{
+	ed_field_t f[MAX_FIELDS];
+	size_t cap = 0;
+	int nf = run_fields(r, f, MAX_FIELDS), done;
+	run_status_t status;
+	run_state_t st;
+	double last[ENSEMBLE_NV];
+	void *data = NULL;
+	*buf = NULL;
+	*len = 0;
+	if (nf > MAX_FIELDS)
+		goto fail;
+	for (int k = 0; k < nf; k++) {
+		data = malloc(f[k].count * ed_type_size(f[k].type) + 1);
+		if (!data || run_field_get(r, f[k].name, data) != RUN_OK ||
+		    ensemble_put_field(buf, len, &cap, f[k].name, f[k].type, f[k].count, data))
+			goto fail;
+		free(data);
+		data = NULL;
+	}
+	run_get_state(r, &st);
+	for (size_t k = 0; k < N_SCHED; k++)
+		if (ensemble_put_field(buf, len, &cap, sched[k].name, sched[k].is_double ? ED_T_F64 : ED_T_U64, 1,
+		                       (const char *)&st + sched[k].off))
+			goto fail;
+	run_get_finish(r, &done, &status);
+	uint64_t d = (uint64_t)done, s = (uint64_t)status;
+	ensemble_pack(run_last(r), done, last);
+	if (ensemble_put_field(buf, len, &cap, "@done", ED_T_U64, 1, &d) ||
+	    ensemble_put_field(buf, len, &cap, "@status", ED_T_U64, 1, &s) ||
+	    ensemble_put_field(buf, len, &cap, "@last", ED_T_F64, ENSEMBLE_NV, last))
+		goto fail;
+	return 0;
+fail:
+	free(data);
+	free(*buf);
+	*buf = NULL;
+	return -1;
+}
+
+int ensemble_load(const scene_t *s, uint64_t stream, const unsigned char *buf, size_t len, run_t **out,
+                  char *msg, size_t msglen)
+{
+	scene_t sc = *s;
+	int err = 0, rc, got = 0, have_last = 0;
+	uint64_t done = 0, status = 0;
+	size_t pos = 0;
+	ed_field_t f;
+	const void *data;
+	run_state_t st;
+	run_record_t last;
+	run_t *r;
+
+	sc.stream = stream;
+	*out = NULL;
+	r = run_create_blank(&sc, NULL, &err, msg, msglen);
+	if (!r)
+		return err == RUN_ENOMEM ? RUN_ENOMEM : RUN_ERESTORE;
+	memset(&st, 0, sizeof st);
+	memset(&last, 0, sizeof last);
+	while ((rc = ensemble_next_field(buf, len, &pos, &f, &data)) == 1) {
+		size_t k;
+		if (f.name[0] != '@') {
+			if (run_field_set(r, f.name, f.type, f.count, data) != RUN_OK) {
+				snprintf(msg, msglen, "state field %s does not fit the scene", f.name);
+				goto bad;
+			}
+			continue;
+		}
+		for (k = 0; k < N_SCHED && strcmp(sched[k].name, f.name); k++)
+			;
+		if (k < N_SCHED && f.count == 1 && f.type == (sched[k].is_double ? ED_T_F64 : ED_T_U64)) {
+			memcpy((char *)&st + sched[k].off, data, 8);
+			got++;
+		} else if (!strcmp(f.name, "@done") && f.type == ED_T_U64 && f.count == 1) {
+			memcpy(&done, data, 8);
+			got++;
+		} else if (!strcmp(f.name, "@status") && f.type == ED_T_U64 && f.count == 1) {
+			memcpy(&status, data, 8);
+			got++;
+		} else if (!strcmp(f.name, "@last") && f.type == ED_T_F64 && f.count == ENSEMBLE_NV) {
+			double v[ENSEMBLE_NV];
+			memcpy(v, data, sizeof v);
+			ensemble_unpack(v, s, &last);
+			have_last = 1;
+		} else {
+			snprintf(msg, msglen, "unknown replica field %s", f.name);
+			goto bad;
+		}
+	}
+	if (rc < 0 || got != (int)N_SCHED + 2 || !have_last || done > 1 || status > RUN_INTERRUPTED) {
+		snprintf(msg, msglen, "replica state malformed or incomplete");
+		goto bad;
+	}
+	run_set_state(r, &st);
+	if (run_restore_finish(r, msg, msglen) != RUN_OK)
+		goto bad;
+	run_set_finish(r, &last, (int)done, (run_status_t)status);
+	*out = r;
+	return RUN_OK;
+bad:
+	run_destroy(r);
+	return RUN_ERESTORE;
 }

@@ -3,10 +3,11 @@
 
 #include <stddef.h>
 #include "run.h"
+#include "scene.h"
 
 /*
  * Contract
- * - No I/O, no MPI: the caller moves the vectors (engine/main.c reduces them
+ * - No I/O, no MPI: the caller moves the vectors and replica states (engine/main.c reduces them
  *   with MPI_Allreduce, each replica's slot filled by exactly one rank and
  *   zero elsewhere, so the sum is exact and independent of the rank count).
  * - ensemble_combine() visits replicas in index order: the result depends
@@ -27,3 +28,28 @@ void ensemble_pack(const run_record_t *rec, int done, double *v);
  * any replica) supplies kind, dim, n and the observable flags. Returns the
  * number of replicas whose done flag is set. */
 int ensemble_combine(const double *vals, int R, const run_record_t *proto, run_record_t *out);
+
+/* Inverse of ensemble_pack() for the packed fields (kind RUN_PROGRESS; dim,
+ * n and the observable flags from s). Exact for counts below 2^53. */
+void ensemble_unpack(const double *v, const scene_t *s, run_record_t *rec);
+
+/*
+ * Replica state for ensemble checkpoints, as a byte string that can travel
+ * between ranks: a list of fields (name, ed_type_t, count, native-endian
+ * data): the engine's state fields (run_fields()), the replica's schedule
+ * ("@started", "@k_out", ...: run_state_t) and "@done", "@status", "@last"
+ * (its last record, packed). A replica loaded from it continues exactly.
+ */
+/* Serialise replica run r; *buf is malloc'd (caller frees). 0 or -1 (no memory). */
+int ensemble_save(const run_t *r, unsigned char **buf, size_t *len);
+/* Restore a replica of scene s with random stream `stream` from buf: *out
+ * receives a new run (run_destroy). RUN_OK, RUN_ENOMEM or RUN_ERESTORE with
+ * a reason in msg (malformed, a field that does not fit, inconsistent). */
+int ensemble_load(const scene_t *s, uint64_t stream, const unsigned char *buf, size_t len, run_t **out,
+                  char *msg, size_t msglen);
+/* Iterate the fields of buf: *pos starts at 0; returns 1 and fills *f and
+ * *data (pointing into buf) for each field, 0 at the end, -1 if malformed. */
+int ensemble_next_field(const unsigned char *buf, size_t len, size_t *pos, ed_field_t *f, const void **data);
+/* Append one field to a growing buffer (*buf, *len, *cap; realloc'd). 0 or -1. */
+int ensemble_put_field(unsigned char **buf, size_t *len, size_t *cap, const char *name, ed_type_t type,
+                       size_t count, const void *data);

@@ -15,7 +15,7 @@
 #define FRAME_CHUNK 65536u
 /* Rows per chunk of an observable time series. */
 #define OBS_CHUNK 256u
-#define MAX_OBS 24
+#define MAX_OBS 32
 
 /* What a value column holds: cols 0 = scalar per row, -1 = D components. */
 typedef struct {
@@ -28,6 +28,7 @@ typedef struct {
 } obs_def_t;
 
 #define NEED_TC 0x80000000u   /* only with the TC model */
+#define NEED_SE 0x40000000u   /* flag: only in ensembles (standard error of the mean over the replicas) */
 
 static void g_coll(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->collisions; }
 static void g_ekin(const run_record_t *r, void *o) { *(double *)o = r->kinetic_energy / (double)r->n; }
@@ -43,6 +44,15 @@ static void g_cfrac(const run_record_t *r, void *o) { *(double *)o = r->clusters
 static void g_cmean(const run_record_t *r, void *o) { *(double *)o = r->clusters.mean_size; }
 static void g_cm2(const run_record_t *r, void *o) { *(double *)o = r->clusters.m2; }
 static void g_cm2r(const run_record_t *r, void *o) { *(double *)o = r->clusters.m2_reduced; }
+/* Standard errors of ensemble means (NaN where the mean is). */
+static void g_time_se(const run_record_t *r, void *o) { *(double *)o = r->se.time; }
+static void g_ekin_se(const run_record_t *r, void *o) { *(double *)o = r->se.kinetic_energy / (double)r->n; }
+static void g_temp_se(const run_record_t *r, void *o) { *(double *)o = r->se.temperature; }
+static void g_pres_se(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->se.pressure : NAN; }
+static void g_comp_se(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->se.compressibility : NAN; }
+static void g_rate_se(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->se.collision_rate : NAN; }
+static void g_cfrac_se(const run_record_t *r, void *o) { *(double *)o = r->se.largest_fraction; }
+static void g_cmean_se(const run_record_t *r, void *o) { *(double *)o = r->se.mean_size; }
 static void g_chist(const run_record_t *r, void *o)
 {
 	int64_t *h = o;
@@ -67,6 +77,15 @@ static const obs_def_t obs_defs[] = {
 	{ "clusters_m2", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cm2 },
 	{ "clusters_m2_reduced", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cm2r },
 	{ "clusters_histogram", SCENE_OBS_CLUSTERS, 1, CLUSTERS_MAX_BINS, NULL, g_chist },
+	/* ensembles: NAME_se beside NAME, as KEY_se in the progress stream */
+	{ "time_se", NEED_SE, 0, 0, "t0", g_time_se },
+	{ "kinetic_energy_se", NEED_SE | SCENE_OBS_ENERGY, 0, 0, "e0", g_ekin_se },
+	{ "temperature_se", NEED_SE | SCENE_OBS_ENERGY, 0, 0, "e0", g_temp_se },
+	{ "pressure_se", NEED_SE | SCENE_OBS_PRESSURE, 0, 0, "pressure", g_pres_se },
+	{ "compressibility_se", NEED_SE | SCENE_OBS_PRESSURE, 0, 0, "1", g_comp_se },
+	{ "collision_rate_se", NEED_SE | SCENE_OBS_COLLISION_RATE, 0, 0, "t0-1", g_rate_se },
+	{ "clusters_largest_fraction_se", NEED_SE | SCENE_OBS_CLUSTERS, 0, 0, "1", g_cfrac_se },
+	{ "clusters_mean_size_se", NEED_SE | SCENE_OBS_CLUSTERS, 0, 0, "1", g_cmean_se },
 };
 #define N_OBS_DEFS (sizeof obs_defs / sizeof obs_defs[0])
 
@@ -90,11 +109,14 @@ struct h5md {
 
 static int def_wanted(const obs_def_t *d, const scene_t *s)
 {
-	if (d->need == 0)
+	unsigned need = d->need & ~NEED_SE;
+	if ((d->need & NEED_SE) && s->replicas <= 1)
+		return 0;
+	if (need == 0)
 		return 1;
-	if (d->need == NEED_TC)
+	if (need == NEED_TC)
 		return s->tc > 0.0;
-	return (s->observables & d->need) != 0;
+	return (s->observables & need) != 0;
 }
 
 /* Chunked dataset with an unlimited first dimension: rank 1 + extra dims. */

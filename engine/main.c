@@ -53,29 +53,53 @@ static int emit(const run_record_t *rec, void *ctx)
 	return 0;
 }
 
-/* Make the outputs durable, note where they stand, and write the checkpoint. */
-static int checkpoint(const char *outdir, run_t *run, sink_t *sk, const char *text, size_t len)
+/* Make the outputs durable and note where they stand (for a checkpoint). */
+static int flush_outputs(const char *outdir, sink_t *sk, ckpt_output_t *pos)
 {
-	ckpt_output_t pos = {0, 0, 0};
 	long off;
 	if (fflush(sk->copy) != 0 || fsync(fileno(sk->copy)) != 0 || (off = ftell(sk->copy)) < 0) {
 		snprintf(sk->err, sizeof(sk->err), "%s/progress.jsonl: %s", outdir, strerror(errno));
 		return -1;
 	}
-	pos.progress_bytes = (uint64_t)off;
+	pos->progress_bytes = (uint64_t)off;
 	if (h5md_flush(sk->traj, sk->err, sizeof(sk->err)) != H5MD_OK)
 		return -1;
-	h5md_rows(sk->traj, &pos.obs_rows, &pos.snap_rows);
+	h5md_rows(sk->traj, &pos->obs_rows, &pos->snap_rows);
+	return 0;
+}
+
+/* Make the outputs durable, note where they stand, and write the checkpoint. */
+static int checkpoint(const char *outdir, run_t *run, sink_t *sk, const char *text, size_t len)
+{
+	ckpt_output_t pos = {0, 0, 0};
+	if (flush_outputs(outdir, sk, &pos))
+		return -1;
 	return ckpt_write(outdir, run, text, len, &pos, sk->err, sizeof(sk->err)) == CKPT_OK ? 0 : -1;
+}
+
+/* Ensemble state from a checkpoint (rank 0): replica state strings and the
+ * ensemble's schedule; blobs and lens have run.replicas entries. */
+typedef struct {
+	unsigned char **blobs;
+	size_t *lens;
+	ckpt_ensemble_t es;
+} ens_resume_t;
+
+static int read_ckpt(const char *path, const scene_t *s, const char *text, size_t len, const run_opts_t *opts,
+                     run_t **run, ens_resume_t *ens, ckpt_output_t *pos, char *msg, size_t msglen)
+{
+	if (s->replicas > 1)
+		return ckpt_read_ensemble(path, s, text, len, ens->blobs, ens->lens, &ens->es, pos, msg, msglen);
+	return ckpt_read(path, s, text, len, opts, run, pos, msg, msglen);
 }
 
 /* Load --resume PATH, falling back to checkpoint.prev.h5 beside it when PATH
  * is damaged (one line on stderr says so). Exit code on failure. */
 static int resume(const char *path, const scene_t *s, const char *text, size_t len, const run_opts_t *opts,
-                  run_t **run, ckpt_output_t *pos)
+                  run_t **run, ens_resume_t *ens, ckpt_output_t *pos)
 {
 	char msg[512], prev[4096];
-	int rc = ckpt_read(path, s, text, len, opts, run, pos, msg, sizeof(msg));
+	int rc = read_ckpt(path, s, text, len, opts, run, ens, pos, msg, sizeof(msg));
 	if (rc == CKPT_OK)
 		return EX_DONE;
 	if (rc == CKPT_ESCENE || rc == CKPT_ENOMEM || rc == CKPT_EIO) {
@@ -85,7 +109,7 @@ static int resume(const char *path, const scene_t *s, const char *text, size_t l
 	const char *slash = strrchr(path, '/');
 	snprintf(prev, sizeof(prev), "%.*s%s", slash ? (int)(slash - path + 1) : 0, path, CKPT_PREV);
 	fprintf(stderr, "granular-engine: --resume %s; using %s\n", msg, prev);
-	rc = ckpt_read(prev, s, text, len, opts, run, pos, msg, sizeof(msg));
+	rc = read_ckpt(prev, s, text, len, opts, run, ens, pos, msg, sizeof(msg));
 	if (rc == CKPT_OK)
 		return EX_DONE;
 	fprintf(stderr, "granular-engine: --resume %s\n", msg);
@@ -166,7 +190,9 @@ static void idle_until_rank0(void)
 }
 
 /* Rank 0 tells the others, once, whether there is work: {mode, text length};
- * mode 1 (ensemble) is followed by the scene text, which every rank parses. */
+ * mode != 0 (ensemble: ENS_RUN | ENS_CKPT | ENS_RESUME) is followed by the
+ * scene text, which every rank parses. */
+enum { ENS_RUN = 1, ENS_CKPT = 2, ENS_RESUME = 4 };
 typedef struct {
 	int sent;
 } announce_t;
@@ -178,8 +204,114 @@ static void announce(announce_t *an, long long mode, const char *text, size_t le
 	an->sent = 1;
 	MPI_Ibcast(hdr, 2, MPI_LONG_LONG, 0, MPI_COMM_WORLD, &req);
 	wait_idle(&req);
-	if (mode == 1)
+	if (mode != 0)
 		MPI_Bcast((void *)text, (int)len, MPI_CHAR, 0, MPI_COMM_WORLD);
+}
+
+/* Ensemble checkpoints and resume (ENS_CKPT, ENS_RESUME). Rank 0 only:
+ * outdir, text/len, ens (resume state); every rank: mode. */
+typedef struct {
+	int mode;
+	const char *outdir;
+	const char *text;
+	size_t len;
+	ens_resume_t *ens;
+} ens_opts_t;
+
+/* Load the replicas of this rank from rank 0's resume state: rank 0 sends
+ * replica r's state string to its owner r mod size, in replica order. */
+static int ens_load(const scene_t *s, int rank, int size, ens_resume_t *ens, run_t **runs, char *err, size_t errlen)
+{
+	const int R = (int)s->replicas;
+	int ret = RUN_OK;
+	for (int r = 0; r < R; r++) {
+		int owner = r % size;
+		unsigned long long n = 0;
+		unsigned char *buf = NULL;
+		if (rank == 0 && owner != 0) {
+			n = ens->lens[r];
+			MPI_Send(&n, 1, MPI_UNSIGNED_LONG_LONG, owner, r, MPI_COMM_WORLD);
+			MPI_Send(ens->blobs[r], (int)n, MPI_BYTE, owner, r, MPI_COMM_WORLD);
+			continue;
+		}
+		if (rank != owner)
+			continue;
+		if (rank == 0) {
+			buf = ens->blobs[r];
+			n = ens->lens[r];
+		} else {
+			MPI_Recv(&n, 1, MPI_UNSIGNED_LONG_LONG, 0, r, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+			buf = malloc(n ? n : 1);
+			if (!buf) {
+				ret = RUN_ENOMEM;
+				MPI_Recv(NULL, 0, MPI_BYTE, 0, r, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+				continue;
+			}
+			MPI_Recv(buf, (int)n, MPI_BYTE, 0, r, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+		}
+		int e = ensemble_load(s, (uint64_t)r, buf, (size_t)n, &runs[r / size], err, errlen);
+		if (e != RUN_OK && ret == RUN_OK)
+			ret = e;
+		if (rank != 0)
+			free(buf);
+	}
+	return ret;
+}
+
+/* Collective checkpoint: every rank serialises its replicas and sends them to
+ * rank 0 (in replica order), which writes one file. Returns 0 on every rank
+ * when the file was written. */
+static int ens_checkpoint(const scene_t *s, int rank, int size, run_t **runs, const ens_opts_t *eo, sink_t *sink,
+                          const ckpt_ensemble_t *es)
+{
+	const int R = (int)s->replicas;
+	unsigned char **blobs = rank == 0 ? calloc(R, sizeof(*blobs)) : NULL;
+	size_t *lens = rank == 0 ? calloc(R, sizeof(*lens)) : NULL;
+	int bad = rank == 0 && (!blobs || !lens);
+	for (int r = 0; r < R; r++) {
+		int owner = r % size;
+		unsigned char *buf = NULL;
+		size_t n = 0;
+		unsigned long long nn;
+		if (rank == owner) {
+			if (ensemble_save(runs[r / size], &buf, &n))
+				bad = 1, n = 0;
+			nn = n;
+			if (rank == 0) {
+				if (blobs) blobs[r] = buf, lens[r] = n;
+				else free(buf);
+			} else {
+				MPI_Send(&nn, 1, MPI_UNSIGNED_LONG_LONG, 0, r, MPI_COMM_WORLD);
+				MPI_Send(buf, (int)nn, MPI_BYTE, 0, r, MPI_COMM_WORLD);
+				free(buf);
+			}
+		} else if (rank == 0) {
+			MPI_Recv(&nn, 1, MPI_UNSIGNED_LONG_LONG, owner, r, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+			buf = malloc(nn ? nn : 1);
+			if (!buf)
+				bad = 1;
+			MPI_Recv(buf, buf ? (int)nn : 0, MPI_BYTE, owner, r, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+			if (blobs) blobs[r] = buf, lens[r] = nn;
+			else free(buf);
+		}
+	}
+	int failed = bad;
+	MPI_Allreduce(MPI_IN_PLACE, &failed, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (rank == 0 && !failed) {
+		ckpt_output_t pos = {0, 0, 0};
+		if (flush_outputs(eo->outdir, sink, &pos) ||
+		    ckpt_write_ensemble(eo->outdir, R, blobs, lens, es, eo->text, eo->len, &pos, sink->err,
+		                        sizeof(sink->err)) != CKPT_OK)
+			failed = 1;
+	} else if (rank == 0) {
+		snprintf(sink->err, sizeof(sink->err), "checkpoint: out of memory for the replica states");
+	}
+	MPI_Bcast(&failed, 1, MPI_INT, 0, MPI_COMM_WORLD);
+	for (int r = 0; blobs && r < R; r++)
+		free(blobs[r]);
+	free(blobs);
+	free(lens);
+	return failed ? -1 : 0;
 }
 
 /*
@@ -188,25 +320,41 @@ static void announce(announce_t *an, long long mode, const char *text, size_t le
  * their packed records into one vector (each replica's slot is non-zero on
  * exactly one rank, so the sum is exact), and rank 0 emits the mean and
  * standard error over the replicas in replica order: the output does not
- * depend on the number of ranks. Two extra slots carry rank 0's stop flag
- * (SIGTERM/SIGINT) and an error count. Returns a RUN_* code.
+ * depend on the number of ranks. Three extra slots carry rank 0's stop flag
+ * (SIGTERM/SIGINT), an error count and rank 0's wall-clock checkpoint flag.
+ * With ENS_CKPT, checkpoints are taken at output times (where the replicas
+ * are in step): when the mean time passes the next output.checkpoint time,
+ * when the wall-clock interval has passed on rank 0, or on a stop request
+ * (then the summary says interrupted and RUN_STOPPED is returned). Returns a
+ * RUN_* code.
  */
-static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, char *err, size_t errlen)
+static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, const ens_opts_t *eo, char *err,
+                        size_t errlen)
 {
 	const int R = (int)s->replicas, NL = R / size + (rank < R % size);
 	const size_t NV = (size_t)R * ENSEMBLE_NV;
 	run_t **runs = calloc(NL > 0 ? NL : 1, sizeof(run_t *));
 	run_record_t *last = calloc(NL > 0 ? NL : 1, sizeof(run_record_t));
 	int *done = calloc(NL > 0 ? NL : 1, sizeof(int));
-	double *vals = malloc((NV + 2) * sizeof(double));
+	double *vals = malloc((NV + 3) * sizeof(double));
 	volatile sig_atomic_t stop_all = 0;
-	int ret = RUN_OK, failed = 0, emit_failed = 0;
+	int ret = RUN_OK, failed = 0, emit_failed = 0, stopping = 0;
 	run_record_t rec, out, proto;
-	double t0 = MPI_Wtime();
+	double t0 = MPI_Wtime(), ckpt_wall = t0;
+	ckpt_ensemble_t es = {1, 0.0};
+	const int ckpt = (eo->mode & ENS_CKPT) != 0;
 
 	if (!runs || !last || !done || !vals)
 		failed = 1;
-	for (int i = 0; i < NL && !failed; i++) {
+	if (eo->mode & ENS_RESUME) {
+		if (rank == 0)
+			es = eo->ens->es;
+		MPI_Bcast(&es.k_ckpt, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+		MPI_Bcast(&es.wall_before, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+		if (!failed && (ret = ens_load(s, rank, size, eo->ens, runs, err, errlen)) != RUN_OK)
+			failed = 1;
+	}
+	for (int i = 0; i < NL && !failed && !(eo->mode & ENS_RESUME); i++) {
 		int e;
 		runs[i] = run_open(s, (uint64_t)(rank + i * size), &e, err, errlen);
 		if (!runs[i]) {
@@ -215,7 +363,7 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, char
 		}
 	}
 	for (;;) {
-		memset(vals, 0, (NV + 2) * sizeof(double));
+		memset(vals, 0, (NV + 3) * sizeof(double));
 		for (int i = 0; i < NL && !failed; i++) {
 			int r = rank + i * size, e = RUN_OK;
 			if (!done[i] && (e = run_next(runs[i], &stop_all, &last[i], &done[i])) != RUN_OK) {
@@ -229,7 +377,9 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, char
 		}
 		vals[NV] = rank == 0 ? stop_requested : 0;
 		vals[NV + 1] = failed + emit_failed;
-		MPI_Allreduce(MPI_IN_PLACE, vals, (int)(NV + 2), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+		vals[NV + 2] = rank == 0 && ckpt && s->checkpoint.kind == SCENE_CLOCK_WALL &&
+		               MPI_Wtime() - ckpt_wall >= s->checkpoint.value;
+		MPI_Allreduce(MPI_IN_PLACE, vals, (int)(NV + 3), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
 		if (vals[NV + 1] > 0) {
 			if (ret == RUN_OK)
 				ret = emit_failed ? RUN_EMIT : RUN_ESETUP;
@@ -237,34 +387,61 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, char
 				snprintf(err, errlen, "granular-engine: a replica failed on another rank");
 			goto cleanup;
 		}
-		if (vals[NV] > 0)
-			stop_all = 1;
+		if (vals[NV] > 0) {
+			if (ckpt)
+				stopping = 1;   /* checkpoint below, after this output time's record */
+			else
+				stop_all = 1;
+		}
 		int ndone = ensemble_combine(vals, R, rank == 0 ? &proto : &last[0], &out);
 		if (rank == 0) {
-			out.wall_seconds = MPI_Wtime() - t0;
+			out.wall_seconds = es.wall_before + MPI_Wtime() - t0;
 			if (emit(&out, sink))
 				emit_failed = 1;
 		}
 		if (ndone == R && !emit_failed)
 			break;
+		/* Checkpoint decisions from data every rank has: the mean time, the
+		 * reduced flags. */
+		int due = stopping || vals[NV + 2] > 0;
+		if (ckpt && s->checkpoint.kind == SCENE_CLOCK_TIME && out.time >= (double)es.k_ckpt * s->checkpoint.value) {
+			due = 1;
+			while ((double)es.k_ckpt * s->checkpoint.value <= out.time)
+				es.k_ckpt++;
+		}
+		if (ckpt && due) {
+			ckpt_ensemble_t now = es;
+			now.wall_before = es.wall_before + MPI_Wtime() - t0;
+			if (ens_checkpoint(s, rank, size, runs, eo, sink, &now)) {
+				ret = RUN_EMIT;
+				goto cleanup;
+			}
+			ckpt_wall = MPI_Wtime();
+			if (stopping)
+				break;
+		}
 	}
 	/* Summary: totals and final means over the replicas. */
-	memset(vals, 0, (NV + 2) * sizeof(double));
+	memset(vals, 0, (NV + 3) * sizeof(double));
 	for (int i = 0; i < NL; i++) {
 		run_summary_record(runs[i], &rec);
 		ensemble_pack(&rec, 1, vals + (size_t)(rank + i * size) * ENSEMBLE_NV);
 		if (rank + i * size == 0)
 			proto = rec;
 	}
-	MPI_Allreduce(MPI_IN_PLACE, vals, (int)(NV + 2), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+	MPI_Allreduce(MPI_IN_PLACE, vals, (int)(NV + 3), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
 	if (rank == 0) {
 		ensemble_combine(vals, R, &proto, &out);
-		out.wall_seconds = MPI_Wtime() - t0;
+		if (stopping)
+			out.status = RUN_INTERRUPTED;
+		out.wall_seconds = es.wall_before + MPI_Wtime() - t0;
 		out.events_per_second = out.wall_seconds > 0 ? out.events / out.wall_seconds : 0;
 		out.collisions_per_second = out.wall_seconds > 0 ? out.collisions / out.wall_seconds : 0;
 		if (emit(&out, sink))
 			ret = RUN_EMIT;
 	}
+	if (stopping && ret == RUN_OK)
+		ret = RUN_STOPPED;
 cleanup:
 	for (int i = 0; runs && i < NL; i++)
 		run_destroy(runs[i]);
@@ -285,14 +462,17 @@ static int run_other(int rank, int size)
 	int ret = EX_DONE;
 	MPI_Ibcast(hdr, 2, MPI_LONG_LONG, 0, MPI_COMM_WORLD, &req);
 	wait_idle(&req);
-	if (hdr[0] == 1) {
+	if (hdr[0] != 0) {
 		char *text = malloc((size_t)hdr[1] + 1);
 		scene_t scene;
+		ens_opts_t eo = {(int)hdr[0], NULL, NULL, 0, NULL};
 		MPI_Bcast(text, (int)hdr[1], MPI_CHAR, 0, MPI_COMM_WORLD);
 		/* Rank 0 accepted this text, so the parse cannot fail here. */
-		if (scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
-		    ensemble_run(&scene, rank, size, NULL, err, sizeof(err)) != RUN_OK)
-			ret = EX_FAIL;
+		if (scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK) {
+			int rc = ensemble_run(&scene, rank, size, NULL, &eo, err, sizeof(err));
+			if (rc != RUN_OK && rc != RUN_STOPPED)
+				ret = EX_FAIL;
+		}
 		free(text);
 	}
 	idle_until_rank0();
@@ -307,6 +487,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	size_t len = 0;
 	scene_t scene;
 	sink_t sink = {NULL, NULL, NULL, ""};
+	ens_resume_t ens = {NULL, NULL, {1, 0.0}};
 
 	for (int i = 2; i < argc; i++) {
 		if (!strcmp(argv[i], "--out") && i + 1 < argc) {
@@ -349,23 +530,25 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		ret = EX_DONE;
 		goto cleanup;
 	}
-	/* Snapshots, checkpoints and --resume: method "ed" with one replica
-	 * (the scene parser rejects output.snapshots/output.checkpoint
-	 * elsewhere); other runs write progress and H5MD observables only. */
-	const int stepped = scene.method == SCENE_METHOD_ED && scene.replicas <= 1;
+	/* Snapshots: single runs of any method; checkpoints and --resume: any
+	 * run (ensembles checkpoint at output times, ensemble_run()). */
+	const int stepped = scene.replicas <= 1;
 	if (resume_path && !outdir) {
 		fprintf(stderr, "granular-engine: --resume needs --out DIR (the run's output directory)\n");
 		ret = EX_INPUT;
 		goto cleanup;
 	}
-	if (resume_path && !stepped) {
-		fprintf(stderr, "granular-engine: --resume: checkpoints exist only for method \"ed\" with run.replicas = 1\n");
-		ret = EX_INPUT;
-		goto cleanup;
-	}
 	run_opts_t opts = {.snapshots = outdir != NULL && stepped, .checkpoints = outdir != NULL && stepped};
 	ckpt_output_t at = {0, 0, 0};
-	if (resume_path && (ret = resume(resume_path, &scene, text, len, &opts, &run, &at)) != EX_DONE)
+	if (!stepped) {
+		ens.blobs = calloc(scene.replicas, sizeof(*ens.blobs));
+		ens.lens = calloc(scene.replicas, sizeof(*ens.lens));
+		if (!ens.blobs || !ens.lens) {
+			fprintf(stderr, "granular-engine: out of memory\n");
+			goto cleanup;
+		}
+	}
+	if (resume_path && (ret = resume(resume_path, &scene, text, len, &opts, &run, &ens, &at)) != EX_DONE)
 		goto cleanup;
 	ret = EX_FAIL;
 
@@ -415,16 +598,16 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		}
 	}
 
-	struct sigaction sa;
-	memset(&sa, 0, sizeof(sa));
-	sa.sa_handler = on_signal;
-	sigaction(SIGTERM, &sa, NULL);
-	sigaction(SIGINT, &sa, NULL);
 	signal(SIGPIPE, SIG_IGN);   /* a closed progress pipe is an error return, not death */
 
 	if (scene.replicas > 1) {
-		announce(an, 1, text, len);
-		rc = ensemble_run(&scene, 0, size, &sink, err, sizeof(err));
+		ens_opts_t eo = {ENS_RUN | (outdir ? ENS_CKPT : 0) | (resume_path ? ENS_RESUME : 0), outdir, text, len, &ens};
+		announce(an, eo.mode, text, len);
+		rc = ensemble_run(&scene, 0, size, &sink, &eo, err, sizeof(err));
+		if (rc == RUN_STOPPED) {
+			ret = EX_CHECKPOINTED;
+			goto cleanup;
+		}
 	} else {
 		announce(an, 0, NULL, 0);
 		for (;;) {
@@ -460,6 +643,10 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	}
 cleanup:
 	run_destroy(run);
+	for (uint64_t r = 0; ens.blobs && r < scene.replicas; r++)
+		free(ens.blobs[r]);
+	free(ens.blobs);
+	free(ens.lens);
 	free(text);
 	if (sink.traj && h5md_destroy(sink.traj) != H5MD_OK && ret == EX_DONE) {
 		fprintf(stderr, "granular-engine: %s/trajectory.h5: cannot close\n", outdir);
@@ -489,6 +676,14 @@ int main(int argc, char **argv)
 		return EX_INPUT;
 	}
 	MPI_Init(&argc, &argv);
+	/* Every rank notes SIGTERM/SIGINT (mpirun forwards them to all ranks):
+	 * only rank 0's flag stops a run, at a point all ranks agree on, so the
+	 * others must survive the signal to take part in the last checkpoint. */
+	struct sigaction sa;
+	memset(&sa, 0, sizeof(sa));
+	sa.sa_handler = on_signal;
+	sigaction(SIGTERM, &sa, NULL);
+	sigaction(SIGINT, &sa, NULL);
 	MPI_Comm_rank(MPI_COMM_WORLD, &rank);
 	MPI_Comm_size(MPI_COMM_WORLD, &size);
 	if (rank == 0) {

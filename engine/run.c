@@ -82,13 +82,51 @@ static void eng_sample(run_t *rc, smp_t *o)
 	}
 }
 
+/* Totals now without starting a new interval (changes nothing). */
+static void eng_totals(const run_t *rc, smp_t *o)
+{
+	memset(o, 0, sizeof(*o));
+	if (rc->ed) {
+		ed_sample_t sm;
+		ed_totals(rc->ed, &sm);
+		o->time = sm.time, o->kinetic_energy = sm.kinetic_energy;
+		memcpy(o->momentum, sm.momentum, sizeof(o->momentum));
+		o->events = sm.events, o->collisions = sm.collisions, o->elastic_by_tc = sm.elastic_by_tc;
+	} else {
+		dsmc_sample_t sm;
+		dsmc_totals(rc->mc, &sm);
+		o->time = sm.time, o->kinetic_energy = sm.kinetic_energy;
+		memcpy(o->momentum, sm.momentum, sizeof(o->momentum));
+		o->events = sm.moves, o->collisions = sm.collisions;
+		o->vmax_raised = sm.vmax_raised, o->cell_collisions = sm.cell_collisions;
+		o->rejected_moves = sm.rejected_moves;
+	}
+}
+
 /* Advance to t_stop / c_stop or a chunk of work; returns non-zero when the
- * system is quiescent (no further collisions will happen). */
-static int eng_advance(run_t *rc, double t_stop, uint64_t c_stop)
+ * system is quiescent (no further collisions will happen). t_soft: a
+ * schedule time that must not change the dynamics. ed stops exactly there
+ * (its events do not depend on where it stops); dsmc/hsmc stop at the end
+ * of the step that reaches it, since shortening a step would change the
+ * random sequence (frames and checkpoints must not alter the run). */
+static int eng_advance(run_t *rc, double t_stop, double t_soft, uint64_t c_stop)
 {
 	if (rc->ed)
-		return ed_advance(rc->ed, t_stop, c_stop, RUN_CHUNK_EVENTS) == ED_QUIESCENT;
-	return dsmc_advance(rc->mc, t_stop, c_stop, rc->mc_chunk) == DSMC_QUIESCENT;
+		return ed_advance(rc->ed, fmin(t_stop, t_soft), c_stop, RUN_CHUNK_EVENTS) == ED_QUIESCENT;
+	return dsmc_advance_soft(rc->mc, t_stop, t_soft, c_stop, rc->mc_chunk) == DSMC_QUIESCENT;
+}
+
+static uint64_t eng_events(const run_t *rc)
+{
+	return rc->ed ? ed_events(rc->ed) : dsmc_moves(rc->mc);
+}
+
+static void eng_state(const run_t *rc, double *pos, double *vel)
+{
+	if (rc->ed)
+		ed_state(rc->ed, pos, vel);
+	else
+		dsmc_state(rc->mc, pos, vel);
 }
 
 static double eng_time(const run_t *rc)
@@ -134,10 +172,7 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 		r->collision_rate = 2.0 * (double)sm.interval_collisions / ((double)s->count * sm.interval);
 	}
 	if ((s->observables & SCENE_OBS_CLUSTERS) && rc->cl) {
-		if (rc->ed)
-			ed_state(rc->ed, rc->pos, NULL);
-		else
-			dsmc_state(rc->mc, rc->pos, NULL);
+		eng_state(rc, rc->pos, NULL);
 		if (clusters_compute(rc->cl, rc->pos, s->box, s->radius, s->cluster_delta * 2.0 * s->radius,
 		                     &r->clusters) != 0)
 			return RUN_ENOMEM;
@@ -164,12 +199,12 @@ static int emit_progress(run_t *r, run_emit_fn emit, void *ctx)
 	return ret;
 }
 
-/* A snapshot of the present state (the dynamics are not touched); ed only. */
+/* A snapshot of the present state (the dynamics are not touched). */
 static int emit_snapshot(run_t *r, run_emit_fn emit, void *ctx)
 {
-	ed_sample_t sm;
+	smp_t sm;
 	run_record_t rec;
-	ed_totals(r->ed, &sm);
+	eng_totals(r, &sm);
 	memset(&rec, 0, sizeof(rec));
 	rec.kind = RUN_SNAPSHOT;
 	rec.dim = r->s.dim;
@@ -180,7 +215,7 @@ static int emit_snapshot(run_t *r, run_emit_fn emit, void *ctx)
 	rec.collisions_per_particle = 2.0 * (double)sm.collisions / (double)r->s.count;
 	rec.wall_seconds = wall_seconds(r);
 	rec.kinetic_energy = sm.kinetic_energy;
-	ed_state(r->ed, r->pos, r->vel);
+	eng_state(r, r->pos, r->vel);
 	rec.pos = r->pos;
 	rec.vel = r->vel;
 	r->st.snap_events = sm.events;
@@ -195,13 +230,6 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 	run_t *r = NULL;
 	int e = 0;
 
-	if (s->method != SCENE_METHOD_ED && (blank || (opts && (opts->snapshots || opts->checkpoints)))) {
-		if (msg && msglen)
-			snprintf(msg, msglen, "method: snapshots, checkpoints and --resume need \"ed\", not \"%s\"",
-			         scene_method_name(s->method));
-		*err = RUN_EMETHOD;
-		return NULL;
-	}
 	r = calloc(1, sizeof(*r));
 	if (!r)
 		goto nomem;
@@ -220,7 +248,7 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 	} else {
 		dsmc_params_t pr;
 		dsmc_params(&r->s, &pr, r->warning, sizeof(r->warning));
-		r->mc = dsmc_create(&r->s, stream, &e, msg, msglen);
+		r->mc = blank ? dsmc_create_blank(&r->s, &e, msg, msglen) : dsmc_create(&r->s, stream, &e, msg, msglen);
 		if (!r->mc) {
 			*err = e == DSMC_ENOMEM ? RUN_ENOMEM : RUN_ESETUP;
 			run_destroy(r);
@@ -272,7 +300,7 @@ run_t *run_open(const scene_t *s, uint64_t stream, int *err, char *msg, size_t m
 
 int run_restore_finish(run_t *r, char *msg, size_t msglen)
 {
-	if (!r->ed || ed_restore_finish(r->ed, msg, msglen) != ED_OK)
+	if (r->ed ? ed_restore_finish(r->ed, msg, msglen) != ED_OK : dsmc_restore_finish(r->mc, msg, msglen) != DSMC_OK)
 		return RUN_ERESTORE;
 	r->t0 = r->ckpt_wall = wall_now();
 	return RUN_OK;
@@ -291,12 +319,53 @@ void run_destroy(run_t *r)
 }
 
 struct ed *run_ed(run_t *r) { return r->ed; }
+
+const char *run_engine_name(const run_t *r) { return r->ed ? "ed" : "dsmc"; }
+
+int run_fields(const run_t *r, ed_field_t *out, int max)
+{
+	return r->ed ? ed_fields(r->ed, out, max) : dsmc_fields(r->mc, out, max);
+}
+
+int run_field_get(const run_t *r, const char *name, void *buf)
+{
+	int rc = r->ed ? ed_field_get(r->ed, name, buf) : dsmc_field_get(r->mc, name, buf);
+	return rc == 0 ? RUN_OK : RUN_ERESTORE;
+}
+
+int run_field_set(run_t *r, const char *name, ed_type_t type, size_t count, const void *buf)
+{
+	int rc = r->ed ? ed_field_set(r->ed, name, type, count, buf) : dsmc_field_set(r->mc, name, type, count, buf);
+	return rc == 0 ? RUN_OK : RUN_ERESTORE;
+}
+
+void run_totals(const run_t *r, double *time, uint64_t *events, uint64_t *collisions)
+{
+	smp_t sm;
+	eng_totals(r, &sm);
+	*time = sm.time;
+	*events = sm.events;
+	*collisions = sm.collisions;
+}
 void run_get_state(const run_t *r, run_state_t *st)
 {
 	*st = r->st;
 	st->wall_before = wall_seconds(r);
 }
 void run_set_state(run_t *r, const run_state_t *st) { r->st = *st; }
+const run_record_t *run_last(const run_t *r) { return &r->rec; }
+void run_get_finish(const run_t *r, int *done, run_status_t *status)
+{
+	*done = r->done;
+	*status = r->status;
+}
+void run_set_finish(run_t *r, const run_record_t *last, int done, run_status_t status)
+{
+	r->rec = *last;
+	r->rec.warning = NULL;
+	r->done = done;
+	r->status = status;
+}
 
 /* ---- schedules ------------------------------------------------------------- */
 
@@ -327,10 +396,10 @@ static void sched_skip(const scene_when_t *w, uint64_t *k, double t, uint64_t c,
 void run_summary_record(run_t *r, run_record_t *sum)
 {
 	*sum = r->rec;
-	if (r->ed && r->status == RUN_INTERRUPTED && r->opts.checkpoints) {
+	if (r->status == RUN_INTERRUPTED && r->opts.checkpoints) {
 		/* stopped for a checkpoint: totals now, without sampling */
-		ed_sample_t sm;
-		ed_totals(r->ed, &sm);
+		smp_t sm;
+		eng_totals(r, &sm);
 		sum->time = sm.time;
 		sum->events = sm.events;
 		sum->collisions = sm.collisions;
@@ -339,6 +408,9 @@ void run_summary_record(run_t *r, run_record_t *sum)
 		sum->temperature = 2.0 * sm.kinetic_energy / (r->s.dim * (double)r->s.count);
 		memcpy(sum->momentum, sm.momentum, sizeof(sum->momentum));
 		sum->elastic_by_tc = sm.elastic_by_tc;
+		sum->vmax_raised = sm.vmax_raised;
+		sum->cell_collisions = sm.cell_collisions;
+		sum->rejected_moves = sm.rejected_moves;
 	}
 	sum->kind = RUN_SUMMARY;
 	sum->dim = r->s.dim;
@@ -371,10 +443,10 @@ int run_summary(run_t *r, run_emit_fn emit, void *ctx)
 /* Advance the engine towards (t_stop, c_stop); *t and *c get the clock
  * reached. Returns 1 when the run's stop condition is met, or can never be
  * (a quiescent system short of a collision target: status set to quiescent). */
-static int advance(run_t *r, double t_stop, uint64_t c_stop, int until_time, double t_until, uint64_t c_until,
-                   double *t, uint64_t *c)
+static int advance(run_t *r, double t_stop, double t_soft, uint64_t c_stop, int until_time, double t_until,
+                   uint64_t c_until, double *t, uint64_t *c)
 {
-	int quiescent = eng_advance(r, t_stop, c_stop);
+	int quiescent = eng_advance(r, t_stop, t_soft, c_stop);
 	*t = eng_time(r);
 	*c = eng_collisions(r);
 	int done = (until_time && *t >= t_until) || (!until_time && *c >= c_until);
@@ -410,17 +482,17 @@ int run_go(run_t *r, run_emit_fn emit, void *ctx, const volatile sig_atomic_t *s
 		r->st.started = 1;
 	}
 	for (;;) {
-		double t_stop = fmin(fmin(sched_time(&s->every, r->st.k_out), t_until),
-		                     sched_time(snaps, r->st.k_snap));
+		double t_stop = fmin(sched_time(&s->every, r->st.k_out), t_until);
+		double t_soft = sched_time(snaps, r->st.k_snap);
 		uint64_t c_stop = sched_coll(&s->every, r->st.k_out, n);
 		if (c_until < c_stop) c_stop = c_until;
 		if (sched_coll(snaps, r->st.k_snap, n) < c_stop) c_stop = sched_coll(snaps, r->st.k_snap, n);
 		if (ckpt_time)
-			t_stop = fmin(t_stop, sched_time(&s->checkpoint, r->st.k_ckpt));
+			t_soft = fmin(t_soft, sched_time(&s->checkpoint, r->st.k_ckpt));
 
 		double t;
 		uint64_t c;
-		int done = advance(r, t_stop, c_stop, until_time, t_until, c_until, &t, &c);
+		int done = advance(r, t_stop, t_soft, c_stop, until_time, t_until, c_until, &t, &c);
 		int due = s->every.kind == SCENE_CLOCK_TIME ? t >= sched_time(&s->every, r->st.k_out)
 		                                            : c >= sched_coll(&s->every, r->st.k_out, n);
 		int due_snap = snaps->kind == SCENE_CLOCK_TIME ? t >= sched_time(snaps, r->st.k_snap)
@@ -438,7 +510,7 @@ int run_go(run_t *r, run_emit_fn emit, void *ctx, const volatile sig_atomic_t *s
 			 * or very dilute system emits one record, not thousands). */
 			sched_skip(&s->every, &r->st.k_out, t, c, n);
 		}
-		if (due_snap || (done && r->opts.snapshots && r->st.snap_events != ed_events(r->ed))) {
+		if (due_snap || (done && r->opts.snapshots && r->st.snap_events != eng_events(r))) {
 			if ((ret = emit_snapshot(r, emit, ctx)) != RUN_OK)
 				goto cleanup;
 			sched_skip(snaps, &r->st.k_snap, t, c, n);
@@ -490,7 +562,7 @@ int run_next(run_t *r, const volatile sig_atomic_t *stop, run_record_t *rec, int
 		if (c_until < c_stop) c_stop = c_until;
 		double t;
 		uint64_t c;
-		int done = advance(r, t_stop, c_stop, until_time, t_until, c_until, &t, &c);
+		int done = advance(r, t_stop, INFINITY, c_stop, until_time, t_until, c_until, &t, &c);
 		int due = s->every.kind == SCENE_CLOCK_TIME ? t >= sched_time(&s->every, r->st.k_out)
 		                                            : c >= sched_coll(&s->every, r->st.k_out, n);
 		if (stop && *stop && !done) {

@@ -4,6 +4,7 @@
 #include <signal.h>
 #include <stdint.h>
 #include "clusters.h"
+#include "ed.h"
 #include "scene.h"
 
 /*
@@ -86,17 +87,15 @@ int run_scene(const scene_t *s, run_emit_fn emit, void *ctx,
  * Stepped runs with checkpoints. run_create() builds the initial state;
  * run_go() advances until the run ends (RUN_OK, summary emitted), a
  * checkpoint is due (RUN_CHECKPOINT) or a stop was requested (RUN_STOPPED),
- * or fails (< 0). After RUN_CHECKPOINT the caller saves the state (run_ed()
- * fields + run_get_state()) and calls run_go() again; after RUN_STOPPED it
- * saves the state and calls run_summary(). Nothing is sampled for a
- * checkpoint or a stop, so a run restored from a checkpoint (run_create_blank,
- * fields, run_set_state, run_restore_finish) continues with exactly the
- * records and states of the uninterrupted run (wall_seconds aside).
- *
- * Snapshots and checkpoints (non-zero run_opts_t fields) need method "ed":
- * run_create() fails with RUN_EMETHOD for dsmc/hsmc (the scene parser
- * already rejects output.snapshots / output.checkpoint there). Without
- * options run_create()/run_go() drive any method (progress records only).
+ * or fails (< 0). After RUN_CHECKPOINT the caller saves the state
+ * (run_fields() + run_get_state()) and calls run_go() again; after
+ * RUN_STOPPED it saves the state and calls run_summary(). Nothing is sampled
+ * for a checkpoint or a stop, so a run restored from a checkpoint
+ * (run_create_blank, run_field_set, run_set_state, run_restore_finish)
+ * continues with exactly the records and states of the uninterrupted run
+ * (wall_seconds aside). Any method: for dsmc/hsmc, frame and checkpoint
+ * times do not shorten a time step (they are taken at the end of the step
+ * that reaches them), so they never change the run; only output times do.
  */
 typedef struct {
 	int snapshots;     /* emit RUN_SNAPSHOT records (output.snapshots; first and last state at least) */
@@ -116,14 +115,24 @@ typedef struct {
 } run_state_t;
 
 run_t *run_create(const scene_t *s, const run_opts_t *opts, int *err, char *msg, size_t msglen);
-/* For restoring: engine memory without a state (see ed_create_blank()); ed only. */
+/* For restoring: engine memory without a state (ed_create_blank(), dsmc_create_blank()). */
 run_t *run_create_blank(const scene_t *s, const run_opts_t *opts, int *err, char *msg, size_t msglen);
 int run_restore_finish(run_t *r, char *msg, size_t msglen);
 void run_destroy(run_t *r);
 
-/* The event-driven engine, for its state fields (ed.h); owned by the run;
- * NULL for dsmc/hsmc runs. */
+/* The event-driven engine (ed.h); owned by the run; NULL for dsmc/hsmc runs. */
 struct ed *run_ed(run_t *r);
+/* The engine's state fields, whatever the method (ed_fields() or
+ * dsmc_fields() semantics); run_engine_name() names the set ("ed" or
+ * "dsmc", also for hsmc): a checkpoint stores the fields under that name.
+ * run_field_get/set return RUN_OK or RUN_ERESTORE (unknown name, wrong
+ * type or count). */
+const char *run_engine_name(const run_t *r);
+int run_fields(const run_t *r, ed_field_t *out, int max);
+int run_field_get(const run_t *r, const char *name, void *buf);
+int run_field_set(run_t *r, const char *name, ed_type_t type, size_t count, const void *buf);
+/* Simulated time, events (ed) or particle moves (dsmc) and collisions now; changes nothing. */
+void run_totals(const run_t *r, double *time, uint64_t *events, uint64_t *collisions);
 void run_get_state(const run_t *r, run_state_t *st);
 void run_set_state(run_t *r, const run_state_t *st);
 
@@ -141,6 +150,12 @@ int run_summary(run_t *r, run_emit_fn emit, void *ctx);
  * RUN_INTERRUPTED. Free with run_destroy(). Do not mix with run_go() on one
  * run. */
 run_t *run_open(const scene_t *s, uint64_t stream, int *err, char *msg, size_t msglen);
+/* For ensemble checkpoints (ensemble_save/ensemble_load): the replica's last
+ * record, whether run_next() has returned its last record, and its status;
+ * run_set_finish() restores them into a restored run. */
+const run_record_t *run_last(const run_t *r);
+void run_get_finish(const run_t *r, int *done, run_status_t *status);
+void run_set_finish(run_t *r, const run_record_t *last, int done, run_status_t status);
 int run_next(run_t *r, const volatile sig_atomic_t *stop, run_record_t *rec, int *done);
 void run_summary_record(run_t *r, run_record_t *sum);
 

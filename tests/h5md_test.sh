@@ -27,12 +27,24 @@ cat >"$tmp/2d.json" <<'JSON'
  "run":{"seed":12,"until":{"collisions_per_particle":20}},
  "output":{"every":{"collisions_per_particle":2},"snapshots":{"every":{"collisions_per_particle":5},"compression":0}}}
 JSON
+# The Monte Carlo methods write the same layout (particle identity kept through their cell sorts).
+cat >"$tmp/2d-dsmc.json" <<'JSON'
+{"method":"dsmc","dimensions":2,"particles":{"count":2000,"volume_fraction":0.05,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9},"run":{"seed":13,"until":{"time":10}},
+ "output":{"every":{"time":0.5},"observables":["kinetic_energy","temperature","pressure","collision_rate","clusters","momentum"],
+   "snapshots":{"every":{"time":2.5}}}}
+JSON
+cat >"$tmp/3d-hsmc.json" <<'JSON'
+{"method":"hsmc","dimensions":3,"particles":{"count":1500,"volume_fraction":0.3},
+ "collisions":{"restitution":0.8},"run":{"seed":14,"until":{"collisions_per_particle":20}},
+ "output":{"every":{"collisions_per_particle":2},"snapshots":{"every":{"collisions_per_particle":5},"compression":1}}}
+JSON
 cat >"$tmp/nosnap.json" <<'JSON'
 {"method":"ed","dimensions":2,"particles":{"count":100,"volume_fraction":0.3},
  "run":{"until":{"time":2}},"output":{"observables":["temperature"]}}
 JSON
 
-for s in 3d 2d nosnap; do
+for s in 3d 2d nosnap 2d-dsmc 3d-hsmc; do
 	"$ENGINE" run "$tmp/$s.json" --out "$tmp/$s" >"$tmp/$s.out" 2>"$tmp/$s.err"
 	rc=$?
 	[ $rc -eq 0 ] && [ -s "$tmp/$s/trajectory.h5" ] && [ -s "$tmp/$s/trajectory.xdmf" ] && [ -s "$tmp/$s/progress.jsonl" ]
@@ -40,7 +52,7 @@ for s in 3d 2d nosnap; do
 done
 
 # Layout and values, with h5py.
-for s in 3d 2d nosnap; do
+for s in 3d 2d nosnap 2d-dsmc 3d-hsmc; do
 	"$PY" - "$tmp/$s/trajectory.h5" "$tmp/$s.json" "$tmp/$s/progress.jsonl" >"$tmp/check.$s" 2>&1 <<'PYEOF'
 import json, sys
 import h5py, numpy as np
@@ -138,7 +150,7 @@ rc=$?
 ok $? "h5dump reads the whole file (exit $rc)"
 
 # XDMF: well-formed; every referenced dataset exists with the stated shape.
-for s in 3d 2d; do
+for s in 3d 2d 2d-dsmc 3d-hsmc; do
 	"$PY" - "$tmp/$s" >"$tmp/x.$s" 2>&1 <<'PYEOF'
 import os, sys
 import xml.etree.ElementTree as ET
@@ -227,10 +239,10 @@ else
 	skip "python3-mdanalysis not installed"
 fi
 
-# Methods dsmc/hsmc and ensembles: --out writes progress.jsonl and the
-# observables (ensembles: the means of the progress stream), no frames and no
-# XDMF; --resume is refused for them (exit 2, one line).
-for f in 2d-dsmc-cooling.json 2d-ed-replicas.json 2d-dsmc-replicas.json; do
+# Ensembles: --out writes progress.jsonl and the observables (the means of
+# the progress stream), no frames and no XDMF; without a checkpoint --resume
+# has nothing to continue from (exit 2).
+for f in 2d-ed-replicas.json 2d-dsmc-replicas.json; do
 	d="$tmp/other-${f%.json}"
 	"$ENGINE" run "$SRCDIR/tests/scenes/good/$f" --out "$d" >"$d.out" 2>"$d.err"
 	rc=$?
@@ -257,7 +269,56 @@ PYEOF
 	ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "$f --out: exit $rc, $(tail -n 1 "$d.py")"
 	"$ENGINE" run "$SRCDIR/tests/scenes/good/$f" --out "$d" --resume "$d/checkpoint.h5" >/dev/null 2>"$d.err"
 	rc=$?
-	ok $(( rc == 2 && $(wc -l <"$d.err") == 1 ? 0 : 1 )) "$f --resume refused: exit $rc, $(head -n 1 "$d.err")"
+	ok $(( rc == 2 ? 0 : 1 )) "$f --resume without a checkpoint: exit $rc, $(tail -n 1 "$d.err")"
+done
+
+# Ensemble standard errors in the file: with 2 replicas the sample standard
+# error of the mean is |x0 - x1| / 2 = |mean - x0|, and replica 0 (random
+# stream 0) is the single run of the same scene, so the stored NAME_se can be
+# checked against an independent single run.
+for f in 2d-ed-replicas.json 2d-dsmc-replicas.json; do
+	d="$tmp/se-${f%.json}"
+	mkdir -p "$d"
+	"$PY" - "$SRCDIR/tests/scenes/good/$f" "$d" <<'PYEOF'
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["run"]["replicas"] = 2
+json.dump(s, open(sys.argv[2] + "/r2.json", "w"))
+s["run"]["replicas"] = 1
+json.dump(s, open(sys.argv[2] + "/r1.json", "w"))
+PYEOF
+	"$ENGINE" run "$d/r2.json" --out "$d/r2" >/dev/null 2>"$d.err" && "$ENGINE" run "$d/r1.json" --out "$d/r1" >/dev/null 2>>"$d.err"
+	rc=$?
+	"$PY" - "$d" >"$d.py" 2>&1 <<'PYEOF'
+import json, sys
+import h5py, numpy as np
+d = sys.argv[1]
+e, one = h5py.File(d + "/r2/trajectory.h5", "r")["observables"], h5py.File(d + "/r1/trajectory.h5", "r")["observables"]
+prog = [json.loads(l) for l in open(d + "/r2/progress.jsonl") if '"progress"' in l]
+checked = 0
+for name in ("temperature", "kinetic_energy", "pressure", "compressibility", "collision_rate",
+             "clusters_largest_fraction", "clusters_mean_size"):
+    if name not in e:
+        continue
+    m, se, x0 = e[name + "/value"][()], e[name + "_se/value"][()], one[name + "/value"][()]
+    assert e[name + "_se/time"].id == e[name + "/time"].id, name + "_se shares time"
+    assert len(m) == len(se) == len(x0) == len(prog), name + ": rows"
+    ok = np.isnan(m) == np.isnan(se)
+    want = np.abs(m - x0)
+    fin = ~np.isnan(m)
+    assert ok.all() and np.allclose(se[fin], want[fin], rtol=1e-9, atol=1e-13 * np.abs(m[fin]).max()), \
+        "%s: stored SE %s, |mean - replica 0| %s" % (name, se[fin][:3], want[fin][:3])
+    assert np.any(se[fin] > 0), name + ": some SE > 0"
+    key = {"clusters_largest_fraction": None, "clusters_mean_size": None}.get(name, name)
+    if key:
+        p = np.array([np.nan if q[key + "_se"] is None else q[key + "_se"] for q in prog], dtype=float)
+        scale = len(prog) and (h5py.File(d + "/r2/trajectory.h5", "r")["parameters"].attrs["particles"] if name == "kinetic_energy" else 1)
+        assert np.array_equal(np.isnan(p), np.isnan(se)) and np.all(se[fin] == p[fin] / scale), name + "_se equals the progress stream's"
+    checked += 1
+assert "time_se" in e and checked >= 3
+print("%d observables: NAME_se = |mean - replica 0| (2 replicas), = progress KEY_se" % checked)
+PYEOF
+	ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "$f, 2 replicas: $(tail -n 1 "$d.py") $(head -c 200 "$d.err")"
 done
 
 echo "1..$n"

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dsmc.h"
 #include "ed.h"
 #include "report.h"
 #include "rng.h"
@@ -153,6 +154,109 @@ static void test_engine(size_t k)
 	ed_destroy(b);
 }
 
+/* dsmc/hsmc: the same at random step boundaries (random chunks of steps,
+ * some cut short by a stop time, as output times do), through dsmc_fields(). */
+static const struct {
+	const char *name;
+	const char *json;
+} mc_scenes[] = {
+	{ "dsmc 2D CBA", "{\"method\":\"dsmc\",\"dimensions\":2,\"particles\":{\"count\":900,\"volume_fraction\":0.2,"
+	  "\"initial\":{\"positions\":\"random\"}},\"collisions\":{\"restitution\":0.9},\"run\":{\"seed\":8,"
+	  "\"until\":{\"time\":100}},\"dsmc\":{\"correction\":\"cba\"}}" },
+	{ "hsmc 3D dense", "{\"method\":\"hsmc\",\"dimensions\":3,\"particles\":{\"count\":1000,\"volume_fraction\":0.45},"
+	  "\"collisions\":{\"restitution\":0.8},\"run\":{\"seed\":9,\"until\":{\"time\":100}},\"hsmc\":{\"cell_size\":2}}" },
+};
+
+static void test_mc(size_t k)
+{
+	scene_t sc;
+	char err[512] = "";
+	int e1, e2, restores = 0, same_samples = 1, same = 0;
+	ed_field_t f[DSMC_MAX_FIELDS];
+	void *data[DSMC_MAX_FIELDS] = {NULL};
+	int nf = 0;
+	scene_parse(mc_scenes[k].json, strlen(mc_scenes[k].json), &sc, err, sizeof(err));
+	dsmc_t *a = dsmc_create(&sc, 0, &e1, err, sizeof(err)), *b = dsmc_create(&sc, 0, &e2, err, sizeof(err));
+	rng_t rng;
+	rng_init(&rng, 77 + k, 0);
+	for (int it = 0; a && b && it < 60; it++) {
+		uint64_t steps = 1 + rng_u64(&rng) % 8;
+		double t_stop = rng_u64(&rng) % 3 == 0 ? dsmc_time(a) + 0.37 * rng_uniform(&rng) : INFINITY;
+		dsmc_advance(a, t_stop, UINT64_MAX, steps);
+		dsmc_advance(b, t_stop, UINT64_MAX, steps);
+		if (rng_u64(&rng) % 4 == 0) {
+			dsmc_sample_t x, y;
+			dsmc_sample(a, &x);
+			dsmc_sample(b, &y);
+			same_samples &= memcmp(&x, &y, sizeof x) == 0;
+		}
+		nf = dsmc_fields(b, f, DSMC_MAX_FIELDS);
+		for (int j = 0; j < nf; j++) {
+			data[j] = malloc(f[j].count * ed_type_size(f[j].type) + 1);
+			dsmc_field_get(b, f[j].name, data[j]);
+		}
+		dsmc_destroy(b);
+		b = dsmc_create_blank(&sc, &e2, err, sizeof(err));
+		for (int j = 0; b && j < nf; j++)
+			if (dsmc_field_set(b, f[j].name, f[j].type, f[j].count, data[j]) != DSMC_OK)
+				snprintf(err, sizeof err, "field %s refused", f[j].name);
+		if (b && dsmc_restore_finish(b, err, sizeof(err)) != DSMC_OK) {
+			dsmc_destroy(b);
+			b = NULL;
+		}
+		for (int j = 0; j < nf; j++)
+			free(data[j]);
+		restores++;
+	}
+	if (a && b) {
+		size_t bytes = sc.count * sc.dim * sizeof(double);
+		double *pa = malloc(bytes), *pb = malloc(bytes), *va = malloc(bytes), *vb = malloc(bytes);
+		dsmc_state(a, pa, va);
+		dsmc_state(b, pb, vb);
+		same = !memcmp(pa, pb, bytes) && !memcmp(va, vb, bytes) && dsmc_collisions(a) == dsmc_collisions(b) &&
+		       dsmc_time(a) == dsmc_time(b) && dsmc_collisions(a) > 1000;
+		free(pa), free(pb), free(va), free(vb);
+	}
+	ok(same && same_samples, "%s: %d restores at random step boundaries, %llu collisions: state %s, samples %s %s",
+	   mc_scenes[k].name, restores, a ? (unsigned long long)dsmc_collisions(a) : 0ull,
+	   same ? "bit-identical" : "differs", same_samples ? "identical" : "differ", err);
+	dsmc_destroy(a);
+	dsmc_destroy(b);
+}
+
+/* dsmc: damaged fields are refused. */
+static void test_mc_refuse(void)
+{
+	scene_t sc;
+	char err[512] = "";
+	int e;
+	scene_parse(mc_scenes[1].json, strlen(mc_scenes[1].json), &sc, err, sizeof(err));
+	dsmc_t *a = dsmc_create(&sc, 0, &e, err, sizeof(err));
+	static const char *const targets[] = {"id", "start", "particles"};
+	for (size_t t = 0; a && t < sizeof targets / sizeof targets[0]; t++) {
+		ed_field_t f[DSMC_MAX_FIELDS];
+		int nf = dsmc_fields(a, f, DSMC_MAX_FIELDS);
+		void *data[DSMC_MAX_FIELDS];
+		dsmc_t *b = dsmc_create_blank(&sc, &e, err, sizeof(err));
+		for (int j = 0; j < nf; j++) {
+			data[j] = malloc(f[j].count * ed_type_size(f[j].type));
+			dsmc_field_get(a, f[j].name, data[j]);
+			if (!strcmp(f[j].name, targets[t])) {
+				if (f[j].type == ED_T_U32)
+					((uint32_t *)data[j])[f[j].count / 2] = (uint32_t)sc.count + 5;
+				else
+					((double *)data[j])[0] = -1.0;
+			}
+			dsmc_field_set(b, f[j].name, f[j].type, f[j].count, data[j]);
+			free(data[j]);
+		}
+		int rc = dsmc_restore_finish(b, err, sizeof(err));
+		ok(rc == DSMC_EINVAL, "dsmc field %s damaged: refused (%s)", targets[t], rc ? err : "accepted");
+		dsmc_destroy(b);
+	}
+	dsmc_destroy(a);
+}
+
 /* A corrupted field must be refused, never crash the engine. */
 static void test_refuse(void)
 {
@@ -276,9 +380,12 @@ static void test_run(void)
 
 int main(void)
 {
-	plan((int)N_SCENES + 10);
+	plan((int)N_SCENES + 10 + 2 + 3);
 	for (size_t k = 0; k < N_SCENES; k++)
 		test_engine(k);
+	for (size_t k = 0; k < 2; k++)
+		test_mc(k);
+	test_mc_refuse();
 	test_refuse();
 	test_run();
 	return done_testing();
