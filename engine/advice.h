@@ -8,8 +8,9 @@
 /*
  * Contract
  * - Pure logic: no I/O, no globals. The model is a JSON text (format in
- *   docs/tradeoff.md, "The advice model"); advice_model_builtin() returns
- *   the one shipped with the build (data/advice-model.json, embedded).
+ *   docs/tradeoff-notes.md, fitted by bench/tradeoff.py);
+ *   advice_model_builtin() returns the one shipped with the build
+ *   (data/advice-model.json, embedded at build time).
  * - Cost (CPU seconds, all replicas, set-up included) = predicted work x
  *   fitted seconds per unit of work:
  *     ed:        collisions x (a_D + b_D / (nu chi(nu)))   (cell crossings ~ mean free path)
