@@ -1,20 +1,28 @@
 #!/usr/bin/python3
-"""The trade, measured: cost and error of DSMC/HSMC against event-driven MD on homogeneous cooling and clustering.
+"""The trade, measured: cost and error of DSMC/HSMC against event-driven MD, and the advice model fitted to it.
 
-usage: tradeoff.py ENGINE DOCDIR [--quick]
-Runs granular-engine on generated scenes, writes DOCDIR/tradeoff.md and DOCDIR/tradeoff.png.
-Error = relative RMS of T(t)/T_ED(t) - 1 over the output times; the ED reference is itself an
-ensemble of replicas, so its own relative standard error is shown next to it (an MC error at or
-below it is not resolved). Cost = CPU seconds per unit simulated time per particle (wall time of
-a serial run / (replicas * t_end * N)).
+usage: tradeoff.py ENGINE DOCDIR [--model MODEL.json] [--quick]
+Runs granular-engine on generated scenes, writes DOCDIR/tradeoff.md, DOCDIR/tradeoff.png and (with --model)
+the advice model that the build embeds (data/advice-model.json; format in docs/tradeoff.md), then checks the
+model on held-out scenes with `ENGINE advise --model`.
+Error = relative RMS of T(t)/T_ED(t) - 1 over the output times; the ED reference is itself an ensemble of
+replicas, so its own relative standard error is shown next to it. Cost = the engine's own production
+wall_seconds (set-up and the elastic pre-run excluded; one rank, so replicas run one after another) per
+replica, unit simulated time and particle.
 """
 import json, math, os, platform, subprocess, sys, tempfile, time
 
-ENGINE, DOCDIR = sys.argv[1], sys.argv[2]
+args = [a for a in sys.argv[1:] if not a.startswith("--")]
+ENGINE, DOCDIR = args[0], args[1]
 QUICK = "--quick" in sys.argv
+MODEL = sys.argv[sys.argv.index("--model") + 1] if "--model" in sys.argv else None
 R = 4                      # replicas per point (ED and MC alike)
 K = 10                     # output times
-N2, N3 = (1000, 1000) if QUICK else (2000, 2000)
+N = 2000 if QUICK else 20000
+N_HELD = 1000 if QUICK else 8000
+TAU_END = 2.0              # Haff time of the cooling runs: T/T0 = 1/9 if homogeneous
+CPS = 0.2                  # the engine's default collisions per step
+t_start = time.time()
 
 
 def g_contact(dim, nu):
@@ -29,31 +37,46 @@ def run(scene):
     with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
         json.dump(scene, f)
         path = f.name
-    t0 = time.time()
     out = subprocess.run([ENGINE, "run", path], capture_output=True, text=True)
-    wall = time.time() - t0
     os.unlink(path)
     if out.returncode != 0:
         raise RuntimeError(out.stderr.strip())
     lines = [json.loads(l) for l in out.stdout.splitlines()]
-    prog = [l for l in lines if l["type"] == "progress"]
-    return prog, lines[-1], wall
+    return [l for l in lines if l["type"] == "progress"], lines[-1]
+
+
+def advise(scene):
+    with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
+        json.dump(scene, f)
+        path = f.name
+    out = subprocess.run([ENGINE, "advise", path, "--model", MODEL], capture_output=True, text=True)
+    os.unlink(path)
+    if out.returncode != 0:
+        raise RuntimeError(out.stderr.strip())
+    return json.loads(out.stdout)
 
 
 def case_scene(c, method, extra):
+    until = {"time": c["t_end"]} if "cpp_end" not in c else {"collisions_per_particle": c["cpp_end"]}
+    every = {"time": c["t_end"] / K} if "cpp_end" not in c else {"collisions_per_particle": c["cpp_end"] / K}
     sc = {"method": method, "dimensions": c["dim"],
           "particles": {"count": c["n"], "volume_fraction": c["nu"], "initial": {"positions": "random"}},
           "collisions": {"restitution": c["e"]},
-          "run": {"seed": 17, "until": {"time": c["t_end"]}, "replicas": R},
-          "output": {"every": {"time": c["t_end"] / K}, "observables": ["temperature"]}}
+          "run": {"seed": 17, "until": until, "replicas": R},
+          "output": {"every": every, "observables": ["temperature"]}}
     if method == "ed":
         sc["particles"]["initial"] = {"positions": "lattice", "relax": {"collisions_per_particle": 10}}
         if c["e"] < 0.8:
             sc["collisions"]["tc"] = 1e-4 / f_enskog(c["dim"], c["nu"])
     else:
         sc["particles"]["initial"]["relax"] = {"collisions_per_particle": 10}
-        sc[method] = extra
+        if extra:
+            sc[method] = extra
     return sc
+
+
+def cooling_t_end(dim, nu, e, tau):
+    return tau * 2 * dim / ((1 - e * e) * f_enskog(dim, nu))
 
 
 def cases():
@@ -61,79 +84,262 @@ def cases():
     for dim, nus in ((2, (0.05, 0.4)), (3, (0.05, 0.25))):
         for nu in nus:
             for e in (0.9, 0.5):
-                lam = 1 - e * e
-                tau_end = 2.0                       # Haff time: T/T0 = 1/9 at the end
-                t_end = tau_end * 2 * dim / (lam * f_enskog(dim, nu))
-                out.append(dict(name="%dD nu=%g e=%g" % (dim, nu, e), dim=dim, nu=nu, e=e, t_end=t_end,
-                                n=N2 if dim == 2 else N3, kind="cooling"))
-    # Clustering (seed 000 sec. 3.2, scaled down): 2D nu=0.25, e=0.8 to t/t0 = 10.
-    dim, nu, e = 2, 0.25, 0.8
-    t0 = math.sqrt(math.pi) / (math.sqrt(2) * (1 - e * e) * nu / g_contact(dim, nu)) * 1.0
-    out.append(dict(name="clustering 2D nu=0.25 e=0.8", dim=dim, nu=nu, e=e,
-                    t_end=10 * 2 * dim / ((1 - e * e) * f_enskog(dim, nu)), n=4000 if not QUICK else 2000,
-                    kind="clustering"))
+                out.append(dict(name="%dD nu=%g e=%g" % (dim, nu, e), dim=dim, nu=nu, e=e,
+                                t_end=cooling_t_end(dim, nu, e, TAU_END), n=N, kind="cooling"))
+    # Clustering (seed 000 sec. 3.2, scaled down): 2D nu=0.25, e=0.8 to Haff time 10.
+    out.append(dict(name="clustering 2D nu=0.25 e=0.8", dim=2, nu=0.25, e=0.8, t_end=cooling_t_end(2, 0.25, 0.8, 10),
+                    n=N, kind="clustering"))
     return out
 
 
+DEFAULT = "auto cell, %g coll/step" % CPS
+
+
 def variants(c):
-    dense = c["nu"] > 0.1
-    corr = "enskog" if dense else "none"
+    sweep = "enskog" if c["nu"] > 0.1 else "none"
     v = []
-    for method, cr in (("dsmc", corr), ("hsmc", "cba")):
-        v.append((method, {"correction": cr}, "auto cell, 0.2 coll/step"))
+    for method, cr in (("dsmc", "none"), ("dsmc", "enskog"), ("hsmc", "cba")):
+        v.append((method, cr, {"correction": cr}, DEFAULT))
         for cps in (0.05, 0.8):
-            v.append((method, {"correction": cr, "collisions_per_step": cps}, "auto cell, %g coll/step" % cps))
-        for cell in (1, 2, 4, 8):
-            if method == "hsmc" and cell < 2:
-                continue
-            v.append((method, {"correction": cr, "cell_size": cell}, "cell %g, 0.2 coll/step" % cell))
+            v.append((method, cr, {"correction": cr, "collisions_per_step": cps}, "auto cell, %g coll/step" % cps))
+    for method, cr, cells in (("dsmc", sweep, (1, 2, 4, 8)), ("hsmc", "cba", (2, 4, 8))):
+        for cell in cells:
+            v.append((method, cr, {"correction": cr, "cell_size": cell}, "cell %g, %g coll/step" % (cell, CPS)))
     return v
 
 
+def rel_se(prog):
+    s = [p["temperature_se"] / p["temperature"] for p in prog[1:]]
+    return math.sqrt(sum(x * x for x in s) / len(s))
+
+
+def rel_err(prog, tref):
+    t = [p["temperature"] for p in prog[1:]]
+    return math.sqrt(sum((a / b - 1) ** 2 for a, b in zip(t, tref)) / len(t))
+
+
+# ---- the table ------------------------------------------------------------------------------
 rows = []
 for c in cases():
-    ref, refsum, refwall = run(case_scene(c, "ed", None))
+    ref, refsum = run(case_scene(c, "ed", None))
     tref = [p["temperature"] for p in ref[1:]]
-    seref = [p["temperature_se"] / p["temperature"] for p in ref[1:]]
-    ref_se = math.sqrt(sum(s * s for s in seref) / len(seref))
-    cost_ed = refwall / (R * c["t_end"] * c["n"])
-    rows.append(dict(case=c["name"], method="ed", setting="reference (%d replicas)" % R, cost=cost_ed,
-                     err=ref_se, ref_se=ref_se, warn=""))
-    print(c["name"], "ed", cost_ed, ref_se, file=sys.stderr)
-    for method, extra, label in variants(c):
+    ref_se = rel_se(ref)
+    norm = R * c["t_end"] * c["n"]
+    rows.append(dict(case=c["name"], c=c, method="ed", setting="reference (%d replicas)" % R,
+                     cost=refsum["wall_seconds"] / norm, err=ref_se, ref_se=ref_se, se=ref_se, warn="",
+                     wall=refsum["wall_seconds"], collisions=refsum["collisions"], moves=0))
+    print(c["name"], "ed", rows[-1]["cost"], ref_se, file=sys.stderr)
+    for method, cr, extra, label in variants(c):
         try:
-            prog, summ, wall = run(case_scene(c, method, extra))
+            prog, summ = run(case_scene(c, method, extra))
         except RuntimeError as ex:
             print("skip", c["name"], method, label, ex, file=sys.stderr)
             continue
-        t = [p["temperature"] for p in prog[1:]]
-        err = math.sqrt(sum((a / b - 1) ** 2 for a, b in zip(t, tref)) / len(t))
-        rows.append(dict(case=c["name"], method=method + "/" + extra["correction"], setting=label,
-                         cost=wall / (R * c["t_end"] * c["n"]), err=err, ref_se=ref_se,
-                         warn="yes" if prog[0].get("warning") else ""))
-        print(c["name"], method, label, rows[-1]["cost"], err, file=sys.stderr)
+        rows.append(dict(case=c["name"], c=c, method=method + "/" + cr, setting=label,
+                         cost=summ["wall_seconds"] / norm, err=rel_err(prog, tref), ref_se=ref_se, se=rel_se(prog),
+                         warn="yes" if prog[0].get("warning") else "", wall=summ["wall_seconds"],
+                         collisions=summ["collisions"], moves=summ["events"]))
+        print(c["name"], method, cr, label, rows[-1]["cost"], rows[-1]["err"], file=sys.stderr)
 
+
+# ---- the model ------------------------------------------------------------------------------
+def lsq2(xs, ys, ws):
+    """Least squares y = p0 x0 + p1 x1 with weights, both >= 0 (the smaller one set to 0 if negative)."""
+    def solve(cols):
+        if len(cols) == 1:
+            k = cols[0]
+            num = sum(w * x[k] * y for x, y, w in zip(xs, ys, ws))
+            den = sum(w * x[k] * x[k] for x, w in zip(xs, ws))
+            p = [0.0, 0.0]
+            p[k] = max(num / den, 0.0) if den > 0 else 0.0
+            return p
+        a = [[sum(w * x[i] * x[j] for x, w in zip(xs, ws)) for j in (0, 1)] for i in (0, 1)]
+        b = [sum(w * x[i] * y for x, y, w in zip(xs, ys, ws)) for i in (0, 1)]
+        det = a[0][0] * a[1][1] - a[0][1] * a[1][0]
+        if det == 0:
+            return None
+        return [(b[0] * a[1][1] - b[1] * a[0][1]) / det, (a[0][0] * b[1] - a[1][0] * b[0]) / det]
+    p = solve([0, 1])
+    if p is None or min(p) < 0:
+        cands = [solve([0]), solve([1])]
+        def sse(q):
+            return sum(w * (q[0] * x[0] + q[1] * x[1] - y) ** 2 for x, y, w in zip(xs, ys, ws))
+        p = min(cands, key=sse)
+    return p
+
+
+def fit_rms(rowsel, pred):
+    r = [pred(x) / x["wall"] - 1 for x in rowsel]
+    return math.sqrt(sum(v * v for v in r) / len(r)) if r else float("nan")
+
+
+cool = [r for r in rows if r["c"]["kind"] == "cooling"]
+model = {"format": "granulard-advice-model", "version": 1,
+         "generated": {"by": "bench/tradeoff.py%s" % (" --quick" if QUICK else ""),
+                       "date": time.strftime("%Y-%m-%d", time.gmtime()),
+                       "machine": "%s, %d cores (shared)" % (platform.processor() or platform.machine(), os.cpu_count()),
+                       "replicas": R},
+         "particles_measured": N, "haff_time_max": TAU_END,
+         "cost": {"ed": {}, "dsmc": {}, "hsmc": {}}, "error": {}}
+fit_quality = {}
+for dim in (2, 3):
+    sel = [r for r in cool if r["method"] == "ed" and r["c"]["dim"] == dim]
+    xs = [(r["collisions"], r["collisions"] / (r["c"]["nu"] * g_contact(dim, r["c"]["nu"]))) for r in sel]
+    a, b = lsq2(xs, [r["wall"] for r in sel], [1 / r["wall"] ** 2 for r in sel])
+    model["cost"]["ed"][str(dim)] = {"per_collision": a, "per_collision_dilute": b}
+    fit_quality[("ed", dim)] = fit_rms(sel, lambda r: r["collisions"] * (a + b / (r["c"]["nu"] * g_contact(dim, r["c"]["nu"]))))
+    for m in ("dsmc", "hsmc"):
+        sel = [r for r in cool if r["method"].startswith(m) and r["c"]["dim"] == dim and r["setting"].startswith("auto")]
+        xs = [(r["moves"], r["collisions"]) for r in sel]
+        pm, pc = lsq2(xs, [r["wall"] for r in sel], [1 / r["wall"] ** 2 for r in sel])
+        model["cost"][m][str(dim)] = {"per_move": pm, "per_collision": pc}
+        fit_quality[(m, dim)] = fit_rms(sel, lambda r: pm * r["moves"] + pc * r["collisions"])
+    nus = sorted({r["c"]["nu"] for r in cool if r["c"]["dim"] == dim})
+    lams = sorted({round(1 - r["c"]["e"] ** 2, 12) for r in cool if r["c"]["dim"] == dim})
+    grid = {"volume_fraction": nus, "lambda": lams, "variants": {}, "clustering": {}}
+    for var in ("ed", "dsmc/none", "dsmc/enskog", "hsmc/cba"):
+        bias, spread = [], []
+        for nu in nus:
+            brow, srow = [], []
+            for lam in lams:
+                pts = [r for r in cool if r["c"]["dim"] == dim and r["c"]["nu"] == nu and
+                       abs(1 - r["c"]["e"] ** 2 - lam) < 1e-9 and r["method"] == var and
+                       (var == "ed" or r["setting"] == DEFAULT)]
+                if not pts:
+                    raise SystemExit("no %s point at D=%d nu=%g lambda=%g" % (var, dim, nu, lam))
+                p = pts[0]
+                # measured error^2 = bias^2 + its own SE^2 + the reference's SE^2
+                brow.append(0.0 if var == "ed" else math.sqrt(max(0.0, p["err"] ** 2 - p["se"] ** 2 - p["ref_se"] ** 2)))
+                srow.append(p["se"] * math.sqrt(p["c"]["n"] * R))
+            bias.append(brow)
+            spread.append(srow)
+        grid["variants"][var] = {"bias": bias, "spread": spread}
+        clu = [r for r in rows if r["c"]["kind"] == "clustering" and r["c"]["dim"] == dim and r["method"] == var and
+               r["setting"] == DEFAULT and var != "ed"]
+        if clu:
+            p = clu[0]
+            grid["clustering"][var] = math.sqrt(max(0.0, p["err"] ** 2 - p["se"] ** 2 - p["ref_se"] ** 2))
+    model["error"][str(dim)] = grid
+
+
+def round_sig(o):
+    if isinstance(o, float):
+        return float("%.4g" % o)
+    if isinstance(o, dict):
+        return {k: round_sig(v) for k, v in o.items()}
+    if isinstance(o, list):
+        return [round_sig(v) for v in o]
+    return o
+
+
+model = round_sig(model)
+
+# ---- held-out check: scenes the model was not fitted on ----------------------------------------
+held = []
+if MODEL:
+    with open(MODEL, "w") as f:
+        json.dump(model, f, indent=1)
+        f.write("\n")
+    ho_cases = [dict(name="held-out 2D nu=0.2 e=0.7", dim=2, nu=0.2, e=0.7, n=N_HELD,
+                     t_end=cooling_t_end(2, 0.2, 0.7, 1.5), kind="held"),
+                dict(name="held-out 3D nu=0.15 e=0.8 (stop at 15 coll/particle)", dim=3, nu=0.15, e=0.8, n=N_HELD,
+                     t_end=cooling_t_end(3, 0.15, 0.8, math.exp(15 * 0.36 / 6) - 1), cpp_end=15.0, kind="held")]
+    for c in ho_cases:
+        est = {e["method"]: e for e in advise(case_scene(c, "ed", None))["estimates"]}
+        ref, refsum = run(case_scene(c, "ed", None))
+        tref = [p["temperature"] for p in ref[1:]]
+        if "cpp_end" in c:     # time stops differ per method: compare at equal collision counts instead
+            tref = None
+        for m in ("ed", "dsmc", "hsmc"):
+            if m == "ed":
+                prog, summ = ref, refsum
+                err = rel_se(ref)
+            else:
+                prog, summ = run(case_scene(c, m, None))
+                if tref is not None:
+                    err = rel_err(prog, tref)
+                else:
+                    err = float("nan")
+            e = est[m]
+            relax_coll = R * c["n"] * 10 / 2
+            held.append(dict(case=c["name"], method=e["variant"],
+                             pred_cost=e["cpu_seconds"] - e["setup_cpu_seconds"], cost=summ["wall_seconds"],
+                             pred_coll=e["collisions"] - relax_coll, coll=summ["collisions"],
+                             pred_err=e["error"]["temperature"], err=err, ref_se=rel_se(ref),
+                             extrapolated=e["extrapolated"]))
+            print("held", c["name"], m, held[-1], file=sys.stderr)
+
+# ---- the document -----------------------------------------------------------------------------
 md = os.path.join(DOCDIR, "tradeoff.md")
 png = os.path.join(DOCDIR, "tradeoff.png")
-cmd = "make bench (bench/tradeoff.py ENGINE DOCDIR%s)" % (" --quick" if QUICK else "")
+cmd = "make bench (bench/tradeoff.py ENGINE DOCDIR --model data/advice-model.json%s)" % (" --quick" if QUICK else "")
 with open(md, "w") as f:
     f.write("# The trade: cost against accuracy, DSMC/HSMC vs event-driven MD\n\n")
-    f.write("Written by `%s`; numbers from the last run. Do not edit by hand.\n\n" % cmd)
-    f.write("- Machine: %s, %d cores; one engine run at a time, serial (wall time).\n" % (platform.processor() or platform.machine(), os.cpu_count()))
+    f.write("Written by `%s`; numbers from the last run (%.0f s). Do not edit by hand.\n\n" % (cmd, time.time() - t_start))
+    f.write("- Machine: %s, %d cores, shared with other jobs; one engine run at a time, one rank.\n" %
+            (platform.processor() or platform.machine(), os.cpu_count()))
     f.write("- Date: %s.\n" % time.strftime("%Y-%m-%d", time.gmtime()))
     f.write("- Homogeneous cooling from an equilibrated elastic state (10 collisions per particle), periodic box, diameter 1,\n"
-            "  mass 1, T0 = 1, to Haff time tau = 2 (T/T0 = 1/9 if homogeneous); N = %d (2D), %d (3D). Clustering: 2D, nu = 0.25,\n"
-            "  e = 0.8, to tau = 10 (clusters form; Haff's law no longer holds).\n" % (N2, N3))
+            "  mass 1, T0 = 1, to Haff time tau = %g (T/T0 = 1/9 if homogeneous); N = %d. Clustering: 2D, nu = 0.25,\n"
+            "  e = 0.8, to tau = 10 (clusters form; Haff's law no longer holds).\n" % (TAU_END, N))
     f.write("- Reference: event-driven MD (exact for hard spheres), %d replicas; `ref SE` is its relative standard error\n"
             "  of T (RMS over the output times): an MC error at or below it is not resolved.\n" % R)
     f.write("- Error: relative RMS of T_MC(t)/T_ED(t) - 1 over %d output times, each MC point also %d replicas.\n" % (K, R))
-    f.write("- Cost: CPU seconds per unit simulated time per particle. `warn`: the engine's validity warning fired.\n")
-    f.write("- dsmc uses correction `none` at nu = 0.05 and `enskog` above; hsmc uses `cba` (Enskog rate + offset).\n\n")
+    f.write("- Cost: CPU seconds per unit simulated time per particle, from the engine's own `wall_seconds` of the\n"
+            "  production run (process start, set-up and the elastic pre-run excluded), summed over the replicas.\n"
+            "  `warn`: the engine's validity warning fired.\n")
+    f.write("- dsmc is shown with correction `none` (its default) and `enskog`; hsmc with `cba` (its default).\n\n")
     f.write("![error vs cost](tradeoff.png)\n\n")
     f.write("| case | method | setting | cost (s per time per particle) | error (rel. RMS) | ref SE | warn |\n|---|---|---|---|---|---|---|\n")
     for r in rows:
         f.write("| %s | %s | %s | %.3g | %.3g | %.2g | %s |\n" % (r["case"], r["method"], r["setting"], r["cost"], r["err"],
                                                            r["ref_se"], r["warn"]))
+    f.write("\n## The advice model\n\n")
+    f.write("Fitted from the table above and written to `data/advice-model.json`, which the build embeds in\n"
+            "`granular-engine` and `granulard` (`granular-engine advise`, `POST /api/v1/advice`, `\"method\": \"auto\"`).\n"
+            "Form (engine/advice.h):\n\n"
+            "- Work: production collisions per particle from Haff's law for the gas each method simulates,\n"
+            "  `cpp = (2D/lambda) ln(1 + lambda f0 t / (2D))` with `lambda = 1 - e^2` and `f0` the Enskog collision frequency\n"
+            "  (chi = g(sigma); chi = 1 for dsmc/none), or the stop condition; plus the elastic pre-run. MC steps = cpp / 0.2\n"
+            "  (+1 per output time); moves = N x steps.\n"
+            "- Cost: ed `collisions x (a + b / (nu chi))` (cell crossings per collision grow with the mean free path);\n"
+            "  dsmc/hsmc `moves x s_move + collisions x s_coll`. Fitted by least squares in relative terms on the cooling rows\n"
+            "  (MC: every automatic-cell row, all three step sizes).\n"
+            "- Error: `sqrt(bias^2 + spread^2 / (N x replicas))`; bias and spread on the (volume fraction, lambda) grid of the\n"
+            "  cooling cases at default settings, bilinear in between, 0 at lambda = 0; bias = sqrt(error^2 - SE_MC^2 -\n"
+            "  SE_ref^2), spread = SE x sqrt(N x replicas). Beyond Haff time %g (clustering) the MC bias is at least the\n"
+            "  clustering case's. Outside the grid, beyond Haff time %g, with non-default MC settings, on validity\n"
+            "  warnings or at N > 10x %d an estimate is flagged `extrapolated`.\n\n" % (TAU_END, TAU_END, N))
+    f.write("| constant | D = 2 | D = 3 | fit: RMS relative residual (2D / 3D) |\n|---|---|---|---|\n")
+    cm = model["cost"]
+    f.write("| ed a (s per collision) | %.3g | %.3g | %.2f / %.2f |\n" % (cm["ed"]["2"]["per_collision"], cm["ed"]["3"]["per_collision"],
+                                                                       fit_quality[("ed", 2)], fit_quality[("ed", 3)]))
+    f.write("| ed b (s per collision x nu chi) | %.3g | %.3g | |\n" % (cm["ed"]["2"]["per_collision_dilute"], cm["ed"]["3"]["per_collision_dilute"]))
+    for m in ("dsmc", "hsmc"):
+        f.write("| %s s_move | %.3g | %.3g | %.2f / %.2f |\n" % (m, cm[m]["2"]["per_move"], cm[m]["3"]["per_move"],
+                                                               fit_quality[(m, 2)], fit_quality[(m, 3)]))
+        f.write("| %s s_coll | %.3g | %.3g | |\n" % (m, cm[m]["2"]["per_collision"], cm[m]["3"]["per_collision"]))
+    f.write("\n| D | variant | bias (rows: nu; columns: lambda) | spread |\n|---|---|---|---|\n")
+    for dim in ("2", "3"):
+        g = model["error"][dim]
+        for var, v in g["variants"].items():
+            f.write("| %s | %s | %s | %s |\n" % (dim, var, v["bias"], v["spread"]))
+        f.write("| %s | grid | nu = %s, lambda = %s; clustering: %s | |\n" % (dim, g["volume_fraction"], g["lambda"],
+                                                                          g["clustering"] or "not measured"))
+    if held:
+        f.write("\n### Held-out check\n\n"
+                "Scenes the model was not fitted on (other volume fraction, restitution and N = %d, %d replicas):\n"
+                "`granular-engine advise --model` on the fresh model against the measured run. Cost: production CPU s\n"
+                "(the pre-run excluded on both sides); collisions: production, all replicas; error: the MC run against\n"
+                "the ED run (which carries its own `ref SE`), for ed its own SE. With a stop after a number of\n"
+                "collisions the methods stop at different times, so no time-wise error is measured there.\n\n" % (N_HELD, R))
+        f.write("| case | method | cost predicted | measured | ratio | collisions predicted | measured | error predicted | measured | ref SE |\n"
+                "|---|---|---|---|---|---|---|---|---|---|\n")
+        for h in held:
+            f.write("| %s | %s%s | %.3g | %.3g | %.2f | %.4g | %.4g | %.3g | %s | %.2g |\n" % (
+                h["case"], h["method"], " (extrapolated)" if h["extrapolated"] else "", h["pred_cost"], h["cost"],
+                h["pred_cost"] / h["cost"], h["pred_coll"], h["coll"], h["pred_err"],
+                "-" if h["err"] != h["err"] else "%.3g" % h["err"], h["ref_se"]))
     notes = os.path.join(DOCDIR, "tradeoff-notes.md")
     if os.path.exists(notes):
         f.write("\n" + open(notes).read())
@@ -157,7 +363,7 @@ try:
                                label="%s %s" % (name, m) if m != "hsmc" else None)
         ax.set_xscale("log")
         ax.set_yscale("log")
-        ax.set_xlabel("cost: CPU s per unit time per particle")
+        ax.set_xlabel("cost: CPU s per unit time per particle (production run)")
         ax.set_title(title)
         ax.grid(True, which="both", alpha=0.3)
     axes[0].set_ylabel("error: relative RMS of T(t) vs ED (ED star: its own SE)")
@@ -168,4 +374,4 @@ try:
     fig.savefig(png, dpi=110)
 except ImportError:
     print("matplotlib missing (apt-get install python3-matplotlib): no plot", file=sys.stderr)
-print("wrote", md, file=sys.stderr)
+print("wrote", md, MODEL or "", "in %.0f s" % (time.time() - t_start), file=sys.stderr)

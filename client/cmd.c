@@ -313,59 +313,64 @@ static void clear_clock(json_t *scene, const char *assignment)
 	}
 }
 
-static int c_submit(ctx_t *x)
+/* The request body {"scene": ...} from SCENE.json (a scene or a whole
+ * submission) or --preset, with --set applied. *doc and *body are the caller's. */
+static int scene_body(ctx_t *x, json_t **doc, json_t **body)
 {
 	int rc = CTL_EXIT_OK;
-	json_t *doc = NULL, *body = NULL, *resp = NULL, *scene;
+	json_t *scene;
 	json_error_t je;
-	char *txt = NULL, err[512], path[256];
+	char err[512], path[256];
 
-	if (!!x->preset == (x->nargs == 1)) {
-		rc = usage_error(x, "submit: give either SCENE.json or --preset NAME");
-		goto cleanup;
-	}
+	if (!!x->preset == (x->nargs == 1))
+		return usage_error(x, "%s: give either SCENE.json or --preset NAME", x->cmd->name);
 	if (x->preset) {
 		for (const char *p = x->preset; *p; p++)
-			if (!isalnum((unsigned char)*p) && !strchr("-_.", *p)) {
-				rc = usage_error(x, "--preset '%s': not a preset name (see 'granularctl presets')", x->preset);
-				goto cleanup;
-			}
+			if (!isalnum((unsigned char)*p) && !strchr("-_.", *p))
+				return usage_error(x, "--preset '%s': not a preset name (see 'granularctl presets')", x->preset);
 		snprintf(path, sizeof(path), "/api/v1/presets/%s", x->preset);
-		if ((rc = call(x, "GET", path, NULL, &doc)))
-			goto cleanup;
-		body = json_pack("{s:O}", "scene", json_object_get(doc, "scene"));
+		if ((rc = call(x, "GET", path, NULL, doc)))
+			return rc;
+		*body = json_pack("{s:O}", "scene", json_object_get(*doc, "scene"));
 	} else {
 		const char *f = x->args[0];
-		doc = !strcmp(f, "-") ? json_loadf(stdin, 0, &je) : json_load_file(f, 0, &je);
-		if (!doc || !json_is_object(doc)) {
-			if (doc)
+		*doc = !strcmp(f, "-") ? json_loadf(stdin, 0, &je) : json_load_file(f, 0, &je);
+		if (!*doc || !json_is_object(*doc)) {
+			if (*doc)
 				errf("%s: not a JSON object", f);
 			else if (je.line > 0)
 				errf("%s:%d:%d: %s", f, je.line, je.column, je.text);
 			else
 				errf("%s", je.text);
-			rc = CTL_EXIT_USAGE;
-			goto cleanup;
+			return CTL_EXIT_USAGE;
 		}
 		/* A scene, or a whole submission {"scene": {...}, "priority": ...}. */
-		body = json_object_get(doc, "scene") ? json_deep_copy(doc) : json_pack("{s:O}", "scene", doc);
+		*body = json_object_get(*doc, "scene") ? json_deep_copy(*doc) : json_pack("{s:O}", "scene", *doc);
 	}
-	if (!body || !json_is_object(scene = json_object_get(body, "scene"))) {
-		errf("no scene to submit");
-		rc = CTL_EXIT_USAGE;
-		goto cleanup;
+	if (!*body || !json_is_object(scene = json_object_get(*body, "scene"))) {
+		errf("no scene in %s", x->preset ? x->preset : x->args[0]);
+		return CTL_EXIT_USAGE;
 	}
 	for (int i = 0; i < x->nsets; i++) {
 		clear_clock(scene, x->sets[i]);
-		if (jpath_set(scene, x->sets[i], err, sizeof(err)) != JPATH_OK) {
-			rc = usage_error(x, "%s", err);
-			goto cleanup;
-		}
+		if (jpath_set(scene, x->sets[i], err, sizeof(err)) != JPATH_OK)
+			return usage_error(x, "%s", err);
 	}
+	if (x->given & O_RANKS)
+		json_object_set_new(*body, "ranks", json_integer(x->ranks));
+	return rc;
+}
+
+static int c_submit(ctx_t *x)
+{
+	json_t *doc = NULL, *body = NULL, *resp = NULL;
+	char *txt = NULL;
+	int rc = scene_body(x, &doc, &body);
+
+	if (rc)
+		goto cleanup;
 	if (x->given & O_PRIORITY)
 		json_object_set_new(body, "priority", json_integer(x->priority));
-	if (x->given & O_RANKS)
-		json_object_set_new(body, "ranks", json_integer(x->ranks));
 	if (x->subid)
 		json_object_set_new(body, "submission_id", json_string(x->subid));
 	if (!(txt = json_dumps(body, JSON_COMPACT))) {
@@ -384,6 +389,81 @@ static int c_submit(ctx_t *x)
 	fflush(stdout);
 	if (x->given & O_WAIT)
 		rc = follow(x, id);
+cleanup:
+	free(txt);
+	json_decref(doc);
+	json_decref(body);
+	json_decref(resp);
+	return rc;
+}
+
+/* ---- advise ---------------------------------------------------------------------- */
+
+static void settings_text(const json_t *e, char *buf, size_t n)
+{
+	const json_t *st = json_object_get(e, "settings");
+	if (!strcmp(str(e, "method", ""), "ed")) {
+		double c = num(st, "cell_size");
+		if (isfinite(c))
+			snprintf(buf, n, "cell %.3g diameters", c);
+		else
+			snprintf(buf, n, "cell automatic");
+		return;
+	}
+	double cps = num(st, "collisions_per_step"), dt = num(st, "time_step");
+	int k = snprintf(buf, n, "%s, cell %.3g, ", str(st, "correction", "?"), num(st, "cell_size"));
+	if (k > 0 && (size_t)k < n)
+		snprintf(buf + k, n - k, isfinite(dt) ? "step %.3g" : "%.3g coll/step", isfinite(dt) ? dt : cps);
+}
+
+static int c_advise(ctx_t *x)
+{
+	json_t *doc = NULL, *body = NULL, *resp = NULL, *e;
+	char *txt = NULL;
+	size_t i;
+	int rc = scene_body(x, &doc, &body);
+
+	if (rc)
+		goto cleanup;
+	json_object_del(body, "priority");
+	json_object_del(body, "submission_id");
+	if (!(txt = json_dumps(body, JSON_COMPACT))) {
+		errf("out of memory");
+		rc = CTL_EXIT_SERVER;
+		goto cleanup;
+	}
+	if ((rc = call(x, "POST", "/api/v1/advice", txt, &resp)))
+		goto cleanup;
+	if (x->json) {
+		print_json(resp);
+		goto cleanup;
+	}
+	const json_t *sc = json_object_get(resp, "scene");
+	double target = num(json_object_get(resp, "target"), "temperature");
+	printf("%lld particles x %lld replicas, %lld rank%s; Haff time %.3g, %.3g collisions per particle",
+	       (long long)num(sc, "particles"), (long long)num(sc, "replicas"), (long long)num(sc, "ranks"),
+	       num(sc, "ranks") == 1 ? "" : "s", num(sc, "haff_time"), num(sc, "collisions_per_particle"));
+	if (isfinite(target))
+		printf("; target: temperature error <= %.3g", target);
+	printf("\n%-6s %-32s %10s %10s %9s %-6s %s\n", "METHOD", "SETTINGS", "CPU", "WALL", "ERROR", "MEETS",
+	       "EXTRAPOLATED");
+	json_array_foreach(json_object_get(resp, "estimates"), i, e) {
+		char set[96];
+		const json_t *m = json_object_get(e, "meets_target");
+		settings_text(e, set, sizeof(set));
+		printf("%-6s %-32s %9.3gs %9.3gs %9.3g %-6s %s\n", str(e, "method", "?"), set, num(e, "cpu_seconds"),
+		       num(e, "wall_seconds"),
+		       num(json_object_get(e, "error"), "temperature"), json_is_boolean(m) ? (json_is_true(m) ? "yes" : "no") : "-",
+		       json_is_true(json_object_get(e, "extrapolated")) ? "yes" : "");
+	}
+	json_array_foreach(json_object_get(resp, "estimates"), i, e) {
+		size_t k;
+		json_t *nt;
+		json_array_foreach(json_object_get(e, "notes"), k, nt)
+			printf("  %s: %s\n", str(e, "method", "?"), json_string_value(nt));
+	}
+	if (json_is_string(json_object_get(resp, "choice")))
+		printf("choice: %s (%s)\n", str(resp, "choice", "?"), str(resp, "reason", ""));
 cleanup:
 	free(txt);
 	json_decref(doc);
@@ -755,6 +835,12 @@ static const cmd_t commands[] = {
 	         "  --submission-id ID    idempotency key: resubmitting returns the same job\n"
 	         "  --wait                follow the job to its end; exit status 0 succeeded, 1 failed/cancelled\n",
 	 .fn = c_submit, .min_args = 0, .max_args = 1, .opts = O_PRESET | O_SET | O_PRIORITY | O_RANKS | O_SUBID | O_WAIT},
+	{.name = "advise", .args = "SCENE.json | --preset NAME",
+	 .summary = "estimated cost and expected error of each method for a scene (no job is made)",
+	 .help = "  --preset NAME         a built-in scene\n"
+	         "  --set KEY.PATH=VALUE  override a scene key, as for submit; repeatable\n"
+	         "  --ranks R             MPI ranks the wall time assumes (default 1)\n",
+	 .fn = c_advise, .min_args = 0, .max_args = 1, .opts = O_PRESET | O_SET | O_RANKS},
 	{.name = "list", .args = "", .summary = "list jobs, newest first",
 	 .help = "  --state S[,S...]      only these states (queued, running, succeeded, failed, cancelled)\n"
 	         "  --limit N             at most N jobs per page (default 100)\n"

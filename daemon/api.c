@@ -100,6 +100,18 @@ static void h_submit(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 	}
 }
 
+/* Estimates only: nothing changes, so it is a read (auth as for GET), but it
+ * takes a body with the same validation and limits as a submission. */
+static void h_advice(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	char err[1024];
+	int r = jobq_advice(gd->q, rq->body, rq->body_len, &rs->json, err, sizeof(err));
+	if (r)
+		queue_error(rs, r, err);
+	else
+		rs->status = 200;
+}
+
 static void h_list(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 {
 	jobq_filter_t f = {.limit = 100};
@@ -493,6 +505,7 @@ const api_route_t api_routes[] = {
 	{.method = "GET", .pattern = "/api/v1/jobs/{id}/files", .fn = h_files},
 	{.method = "GET", .pattern = "/api/v1/jobs/{id}/files/{name}", .fn = h_file},
 	{.method = "GET", .pattern = "/api/v1/events", .fn = h_events_all},
+	{.method = "POST", .pattern = "/api/v1/advice", .fn = h_advice},
 	{.method = "GET", .pattern = "/api/v1/cluster", .fn = h_cluster},
 	{.method = "GET", .pattern = "/api/v1/presets", .fn = h_presets},
 	{.method = "GET", .pattern = "/api/v1/presets/{name}", .fn = h_preset},

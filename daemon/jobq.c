@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include "advice.h"
 #include "db.h"
 #include "jobq.h"
 #include "scene.h"
@@ -27,6 +28,7 @@ struct jobq {
 	pthread_cond_t bcond;
 	struct sub *pending;    /* validated submissions waiting for the next transaction */
 	int leader;             /* a thread is running batches */
+	advice_model_t *model;  /* the built-in advice model: "method": "auto" and jobq_advice() */
 };
 
 static int space_short(jobq_t *q);
@@ -79,6 +81,15 @@ jobq_t *jobq_open(const char *path, const jobq_limits_t *lim, char *err, size_t 
 	pthread_mutex_init(&q->blk, NULL);
 	pthread_cond_init(&q->bcond, NULL);
 	q->lim = *lim;
+	{
+		size_t n;
+		const char *text = advice_model_builtin(&n);
+		q->model = advice_model_create(text, n, err, errlen);
+		if (!q->model) {
+			jobq_close(q);
+			return NULL;
+		}
+	}
 	sqlite3_stmt *st = NULL;
 	if (sqlite3_prepare_v2(q->db, "SELECT count(*) FROM jobs WHERE state='queued'", -1, &st, NULL) == SQLITE_OK &&
 	    sqlite3_step(st) == SQLITE_ROW)
@@ -95,6 +106,7 @@ void jobq_close(jobq_t *q)
 	pthread_mutex_destroy(&q->lock);
 	pthread_mutex_destroy(&q->blk);
 	pthread_cond_destroy(&q->bcond);
+	advice_model_destroy(q->model);
 	free(q->reserve);
 	free(q);
 }
@@ -152,7 +164,7 @@ static json_t *col_json(sqlite3_stmt *st, int i)
 }
 
 #define JOB_COLS "id, submission_id, state, priority, ranks, method, particles, reason, created_at, " \
-	"updated_at, started_at, finished_at, progress, sim_time, events, collisions, cancel_requested, scene"
+	"updated_at, started_at, finished_at, progress, sim_time, events, collisions, cancel_requested, scene, advice"
 
 /* Job object from a row selected with JOB_COLS. */
 static json_t *job_from_row(sqlite3_stmt *st, int with_scene)
@@ -164,6 +176,10 @@ static json_t *job_from_row(sqlite3_stmt *st, int with_scene)
 	for (int i = 0; i < (int)(sizeof(names) / sizeof(names[0])); i++)
 		json_object_set_new(j, names[i], col_json(st, i));
 	json_object_set_new(j, "cancel_requested", json_boolean(sqlite3_column_int(st, 16)));
+	/* "method": "auto" jobs: the decision (estimates, choice, reason); null otherwise. */
+	json_t *adv = sqlite3_column_type(st, 18) == SQLITE_TEXT
+	                      ? json_loads((const char *)sqlite3_column_text(st, 18), 0, NULL) : NULL;
+	json_object_set_new(j, "advice", adv ? adv : json_null());
 	if (with_scene) {
 		json_t *sc = json_loads((const char *)sqlite3_column_text(st, 17), 0, NULL);
 		json_object_set_new(j, "scene", sc ? sc : json_null());
@@ -233,7 +249,7 @@ static int valid_submission_id(const char *s)
 
 /* One validated submission waiting for its transaction. */
 typedef struct sub {
-	const char *sub_id, *scene, *hash, *method;
+	const char *sub_id, *scene, *hash, *method, *advice;
 	uint64_t count;
 	json_int_t priority, ranks;
 	double now;
@@ -293,7 +309,7 @@ static void run_batch(jobq_t *q, sub_t *batch)
 		}
 		int rc = sqlite3_prepare_v2(q->db,
 		                            "INSERT INTO jobs(submission_id, scene, scene_hash, method, particles, priority, "
-		                            "ranks, created_at, updated_at) VALUES (?,?,?,?,?,?,?,?,?)", -1, &st, NULL);
+		                            "ranks, created_at, updated_at, advice) VALUES (?,?,?,?,?,?,?,?,?,?)", -1, &st, NULL);
 		if (rc == SQLITE_OK) {
 			if (it->sub_id)
 				sqlite3_bind_text(st, 1, it->sub_id, -1, SQLITE_STATIC);
@@ -305,6 +321,8 @@ static void run_batch(jobq_t *q, sub_t *batch)
 			sqlite3_bind_int64(st, 7, it->ranks);
 			sqlite3_bind_double(st, 8, it->now);
 			sqlite3_bind_double(st, 9, it->now);
+			if (it->advice)
+				sqlite3_bind_text(st, 10, it->advice, -1, SQLITE_STATIC);
 			rc = sqlite3_step(st);
 		}
 		sqlite3_finalize(st);
@@ -372,38 +390,45 @@ static void submit_batched(jobq_t *q, sub_t *it)
 	pthread_mutex_unlock(&q->blk);
 }
 
-int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **out, int *created, char *err,
-                size_t errlen)
+/* A request body: the scene itself or {"scene": ..., "priority", "ranks",
+ * "submission_id"}, validated by the engine's parser and the limits. */
+typedef struct {
+	json_t *doc, *scene_obj;     /* doc owns scene_obj */
+	const char *prefix;          /* "scene." in the wrapper form, for error paths */
+	const char *sub_id;
+	json_int_t priority, ranks;
+	scene_t sc;
+} body_t;
+
+static int parse_body(jobq_t *q, const char *body, size_t len, body_t *b, char *err, size_t errlen)
 {
 	json_error_t jerr;
-	json_t *doc = NULL, *scene_obj;
-	char *scene_txt = NULL, hash[17];
-	const char *sub_id = NULL;
-	json_int_t priority = 0, ranks = 1;
-	scene_t sc;
+	char *txt = NULL;
 	int ret = JOBQ_EINVAL;
 
-	*out = NULL;
-	*created = 0;
-	doc = json_loadb(body, len, JSON_REJECT_DUPLICATES, &jerr);
-	if (!doc) {
+	memset(b, 0, sizeof(*b));
+	b->ranks = 1;
+	b->prefix = "";
+	b->doc = json_loadb(body, len, JSON_REJECT_DUPLICATES, &jerr);
+	if (!b->doc) {
 		snprintf(err, errlen, "body: not valid JSON at line %d column %d: %s", jerr.line, jerr.column, jerr.text);
 		goto cleanup;
 	}
-	if (!json_is_object(doc)) {
+	if (!json_is_object(b->doc)) {
 		snprintf(err, errlen, "body: must be a JSON object (a scene, or {\"scene\": ...})");
 		goto cleanup;
 	}
-	if (json_depth(doc) > q->lim.max_json_depth) {
+	if (json_depth(b->doc) > q->lim.max_json_depth) {
 		snprintf(err, errlen, "body: JSON nested deeper than %d levels", q->lim.max_json_depth);
 		goto cleanup;
 	}
-	scene_obj = json_object_get(doc, "scene");
-	if (scene_obj) {
+	b->scene_obj = json_object_get(b->doc, "scene");
+	if (b->scene_obj) {
 		/* The wrapper form: only these keys, each checked. */
 		const char *k;
 		json_t *v;
-		json_object_foreach(doc, k, v) {
+		b->prefix = "scene.";
+		json_object_foreach(b->doc, k, v) {
 			if (!strcmp(k, "scene")) {
 				if (!json_is_object(v)) {
 					snprintf(err, errlen, "scene: must be an object");
@@ -414,15 +439,15 @@ int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **ou
 					snprintf(err, errlen, "priority: must be an integer in -1000..1000");
 					goto cleanup;
 				}
-				priority = json_integer_value(v);
+				b->priority = json_integer_value(v);
 			} else if (!strcmp(k, "ranks")) {
 				if (!json_is_integer(v) || json_integer_value(v) < 1) {
 					snprintf(err, errlen, "ranks: must be an integer >= 1");
 					goto cleanup;
 				}
-				ranks = json_integer_value(v);
-				if (ranks > q->lim.max_ranks) {
-					snprintf(err, errlen, "ranks: %" JSON_INTEGER_FORMAT " exceeds the limit of %d", ranks,
+				b->ranks = json_integer_value(v);
+				if (b->ranks > q->lim.max_ranks) {
+					snprintf(err, errlen, "ranks: %" JSON_INTEGER_FORMAT " exceeds the limit of %d", b->ranks,
 					         q->lim.max_ranks);
 					goto cleanup;
 				}
@@ -432,38 +457,114 @@ int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **ou
 					         "submission_id: must be a string of 1..128 characters from A-Z a-z 0-9 . _ - :");
 					goto cleanup;
 				}
-				sub_id = json_string_value(v);
+				b->sub_id = json_string_value(v);
 			} else {
 				snprintf(err, errlen, "%s: unknown key (expected scene, priority, ranks, submission_id)", k);
 				goto cleanup;
 			}
 		}
 	} else {
-		scene_obj = doc;
+		b->scene_obj = b->doc;
 	}
-	scene_txt = json_dumps(scene_obj, JSON_COMPACT | JSON_PRESERVE_ORDER);
-	if (!scene_txt) {
+	txt = json_dumps(b->scene_obj, JSON_COMPACT | JSON_PRESERVE_ORDER);
+	if (!txt) {
 		ret = JOBQ_ENOMEM;
 		snprintf(err, errlen, "out of memory");
 		goto cleanup;
 	}
 	{
 		char msg[512];
-		if (scene_parse(scene_txt, strlen(scene_txt), &sc, msg, sizeof(msg)) != SCENE_OK) {
-			snprintf(err, errlen, "%s%s", scene_obj == doc ? "" : "scene.", msg);
+		if (scene_parse(txt, strlen(txt), &b->sc, msg, sizeof(msg)) != SCENE_OK) {
+			snprintf(err, errlen, "%s%s", b->prefix, msg);
 			goto cleanup;
 		}
 	}
-	if (sc.count > q->lim.max_particles) {
-		snprintf(err, errlen, "%sparticles.count: %" PRIu64 " exceeds this server's limit of %" PRIu64,
-		         scene_obj == doc ? "" : "scene.", sc.count, q->lim.max_particles);
+	if (b->sc.count > q->lim.max_particles) {
+		snprintf(err, errlen, "%sparticles.count: %" PRIu64 " exceeds this server's limit of %" PRIu64, b->prefix,
+		         b->sc.count, q->lim.max_particles);
 		goto cleanup;
 	}
-	snprintf(hash, sizeof(hash), "%016" PRIx64, fnv1a(scene_txt, strlen(scene_txt)));
+	ret = JOBQ_OK;
+cleanup:
+	free(txt);
+	if (ret) {
+		json_decref(b->doc);
+		b->doc = b->scene_obj = NULL;
+	}
+	return ret;
+}
 
+/* Estimates for the body's scene with the body's ranks. */
+static int estimate(jobq_t *q, const body_t *b, advice_t *adv, char *err, size_t errlen)
+{
+	char msg[512];
+	if (advice_estimate(q->model, &b->sc, (int)b->ranks, adv, msg, sizeof(msg)) != ADVICE_OK) {
+		snprintf(err, errlen, "%s%s", b->prefix, msg);
+		return JOBQ_EINVAL;
+	}
+	return JOBQ_OK;
+}
+
+int jobq_advice(jobq_t *q, const char *body, size_t len, json_t **out, char *err, size_t errlen)
+{
+	body_t b;
+	advice_t adv;
+	*out = NULL;
+	int ret = parse_body(q, body, len, &b, err, errlen);
+	if (!ret && !(ret = estimate(q, &b, &adv, err, errlen)) && !(*out = advice_json(&adv))) {
+		ret = JOBQ_ENOMEM;
+		snprintf(err, errlen, "out of memory");
+	}
+	json_decref(b.doc);
+	return ret;
+}
+
+int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **out, int *created, char *err,
+                size_t errlen)
+{
+	char *scene_txt = NULL, *advice_txt = NULL, hash[17];
+	body_t b;
+	int ret;
+
+	*out = NULL;
+	*created = 0;
+	if ((ret = parse_body(q, body, len, &b, err, errlen)))
+		return ret;
+	ret = JOBQ_ENOMEM;
+	scene_txt = json_dumps(b.scene_obj, JSON_COMPACT | JSON_PRESERVE_ORDER);
+	if (!scene_txt)
+		goto nomem;
+	/* Retries are recognised by the scene as submitted. */
+	snprintf(hash, sizeof(hash), "%016" PRIx64, fnv1a(scene_txt, strlen(scene_txt)));
+	if (b.sc.method == SCENE_METHOD_AUTO) {
+		/* Decide now and keep the decision: the job stores and runs the
+		 * concrete scene (method chosen, accuracy dropped), so the engine,
+		 * its checkpoints and a later daemon with another model agree. */
+		advice_t adv;
+		json_t *aj;
+		char msg[512];
+		if ((ret = estimate(q, &b, &adv, err, errlen)))
+			goto cleanup;
+		if (!(aj = advice_json(&adv)))
+			goto nomem;
+		advice_txt = json_dumps(aj, JSON_COMPACT);
+		json_decref(aj);
+		free(scene_txt);
+		scene_txt = NULL;
+		advice_apply(&adv, &b.sc);
+		if (!advice_txt || json_object_set_new(b.scene_obj, "method", json_string(scene_method_name(b.sc.method))) ||
+		    json_object_del(b.scene_obj, "accuracy") ||
+		    !(scene_txt = json_dumps(b.scene_obj, JSON_COMPACT | JSON_PRESERVE_ORDER)))
+			goto nomem;
+		if (scene_parse(scene_txt, strlen(scene_txt), &b.sc, msg, sizeof(msg)) != SCENE_OK) {
+			ret = JOBQ_EINVAL;
+			snprintf(err, errlen, "%sthe scene with the chosen method is not valid: %s", b.prefix, msg);
+			goto cleanup;
+		}
+	}
 	{
-		sub_t it = {.sub_id = sub_id, .scene = scene_txt, .hash = hash, .method = scene_method_name(sc.method),
-		            .count = sc.count, .priority = priority, .ranks = ranks, .now = now};
+		sub_t it = {.sub_id = b.sub_id, .scene = scene_txt, .hash = hash, .method = scene_method_name(b.sc.method),
+		            .advice = advice_txt, .count = b.sc.count, .priority = b.priority, .ranks = b.ranks, .now = now};
 		submit_batched(q, &it);
 		ret = it.ret;
 		*out = it.out;
@@ -471,9 +572,14 @@ int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **ou
 		if (ret)
 			snprintf(err, errlen, "%s", it.err);
 	}
+	goto cleanup;
+nomem:
+	ret = JOBQ_ENOMEM;
+	snprintf(err, errlen, "out of memory");
 cleanup:
 	free(scene_txt);
-	json_decref(doc);
+	free(advice_txt);
+	json_decref(b.doc);
 	return ret;
 }
 

@@ -61,6 +61,16 @@ int job_state_parse(const char *name);
 int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **out, int *created, char *err,
                 size_t errlen);
 
+/* Submission of a "method": "auto" scene: the method is chosen with the
+ * built-in advice model (advice.h) at submission; the job then holds the
+ * concrete scene ("method" set, "accuracy" dropped), the chosen method, and
+ * the decision in "advice" (null for other jobs). */
+
+/* Advice without submitting: body as for jobq_submit() (ranks count for the
+ * wall time; priority and submission_id are ignored); *out = the estimates
+ * (advice_json()). Same validation and limits as a submission. */
+int jobq_advice(jobq_t *q, const char *body, size_t len, json_t **out, char *err, size_t errlen);
+
 /* One job (with its attempts; with the scene when with_scene). */
 int jobq_get(jobq_t *q, int64_t id, int with_scene, json_t **out, char *err, size_t errlen);
 

@@ -9,6 +9,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "advice.h"
 #include "checkpoint.h"
 #include "config.h"
 #include "ensemble.h"
@@ -153,18 +154,129 @@ static char *read_file(const char *path, size_t *len, char *err, size_t errlen)
 	return buf;
 }
 
+/* Method "auto": choose with the built-in model (deterministic, so every
+ * rank of an ensemble agrees). line (may be NULL) receives the decision as
+ * one malloc'd {"type":"advice",...} JSON line. Exit code. */
+static int resolve_auto(scene_t *s, int ranks, char **line)
+{
+	char err[512];
+	size_t len;
+	advice_t adv;
+	const char *text = advice_model_builtin(&len);
+	advice_model_t *m = advice_model_create(text, len, err, sizeof(err));
+	if (!m) {
+		fprintf(stderr, "granular-engine: built-in advice model: %s\n", err);
+		return EX_FAIL;
+	}
+	int rc = advice_estimate(m, s, ranks, &adv, err, sizeof(err));
+	advice_model_destroy(m);
+	if (rc != ADVICE_OK) {
+		fprintf(stderr, "%s\n", err);
+		return EX_INPUT;
+	}
+	advice_apply(&adv, s);
+	if (line) {
+		json_t *o = json_pack("{s:s}", "type", "advice"), *a = advice_json(&adv);
+		char *t = o && a && !json_object_update(o, a) ? json_dumps(o, JSON_COMPACT | JSON_REAL_PRECISION(6)) : NULL;
+		json_decref(o);
+		json_decref(a);
+		*line = t ? malloc(strlen(t) + 2) : NULL;
+		if (*line)
+			sprintf(*line, "%s\n", t);
+		free(t);
+		if (!*line) {
+			fprintf(stderr, "granular-engine: out of memory\n");
+			return EX_FAIL;
+		}
+	}
+	return EX_DONE;
+}
+
+/* granular-engine advise SCENE.json [--ranks P] [--model MODEL.json]: the estimates as JSON on stdout. */
+static int advise_main(int argc, char **argv)
+{
+	const char *scene_path = NULL, *model_path = NULL;
+	char err[512], *text = NULL, *mtext = NULL, *out = NULL;
+	size_t len = 0, mlen = 0;
+	long ranks = 1;
+	int ret = EX_INPUT;
+	scene_t scene;
+	advice_t adv;
+	advice_model_t *m = NULL;
+	json_t *j = NULL;
+
+	for (int i = 2; i < argc; i++) {
+		if (!strcmp(argv[i], "--ranks") && i + 1 < argc) {
+			char *end;
+			ranks = strtol(argv[++i], &end, 10);
+			if (*end || ranks < 1 || ranks > 1 << 20) {
+				fprintf(stderr, "granular-engine: --ranks: not a positive integer: %s\n", argv[i]);
+				goto cleanup;
+			}
+		} else if (!strcmp(argv[i], "--model") && i + 1 < argc) {
+			model_path = argv[++i];
+		} else if (argv[i][0] == '-' || scene_path) {
+			fprintf(stderr, "granular-engine: unexpected argument: %s (see --help)\n", argv[i]);
+			goto cleanup;
+		} else {
+			scene_path = argv[i];
+		}
+	}
+	if (!scene_path) {
+		fprintf(stderr, "granular-engine: advise: missing SCENE.json (see --help)\n");
+		goto cleanup;
+	}
+	if (!(text = read_file(scene_path, &len, err, sizeof(err))) ||
+	    (model_path && !(mtext = read_file(model_path, &mlen, err, sizeof(err))))) {
+		fprintf(stderr, "granular-engine: %s\n", err);
+		goto cleanup;
+	}
+	if (scene_parse(text, len, &scene, err, sizeof(err)) != SCENE_OK) {
+		fprintf(stderr, "%s\n", err);
+		goto cleanup;
+	}
+	if (!mtext)
+		mtext = (char *)advice_model_builtin(&mlen);
+	m = advice_model_create(mtext, mlen, err, sizeof(err));
+	if (!m) {
+		fprintf(stderr, "granular-engine: %s: %s\n", model_path ? model_path : "built-in advice model", err);
+		ret = model_path ? EX_INPUT : EX_FAIL;
+		goto cleanup;
+	}
+	if (advice_estimate(m, &scene, (int)ranks, &adv, err, sizeof(err)) != ADVICE_OK) {
+		fprintf(stderr, "%s\n", err);
+		goto cleanup;
+	}
+	ret = EX_FAIL;
+	if (!(j = advice_json(&adv)) || !(out = json_dumps(j, JSON_INDENT(2) | JSON_REAL_PRECISION(6))) || printf("%s\n", out) < 0 ||
+	    fflush(stdout) != 0)
+		goto cleanup;
+	ret = EX_DONE;
+cleanup:
+	if (model_path)
+		free(mtext);
+	free(text);
+	free(out);
+	json_decref(j);
+	advice_model_destroy(m);
+	return ret;
+}
+
 static void usage(FILE *f)
 {
 	fprintf(f,
 	        "usage: granular-engine run SCENE.json [--out DIR [--resume CHECKPOINT.h5]] [--progress-fd N]\n"
 	        "       granular-engine validate SCENE.json\n"
+	        "       granular-engine advise SCENE.json [--ranks P] [--model MODEL.json]\n"
 	        "       granular-engine --version | --help\n"
 	        "Runs a granular-gas scene (docs/scene.md) and writes one JSON progress\n"
 	        "line per output time and a summary line (docs/engine.md). With --out DIR:\n"
 	        "DIR/progress.jsonl, DIR/trajectory.h5 (H5MD), DIR/trajectory.xdmf and\n"
 	        "checkpoints DIR/checkpoint.h5 (docs/output.md); --resume continues exactly.\n"
 	        "Exit status: 0 done, 1 failure, 2 bad input or usage, 3 interrupted,\n"
-	        "4 checkpointed and stopped (SIGTERM/SIGINT with --out).\n");
+	        "4 checkpointed and stopped (SIGTERM/SIGINT with --out).\n"
+	        "advise prints the estimated cost and expected error of each method\n"
+	        "(docs/engine.md); \"method\": \"auto\" scenes run the method it chooses.\n");
 }
 
 /* Complete a non-blocking collective without spinning a core (a blocking
@@ -340,7 +452,7 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 	volatile sig_atomic_t stop_all = 0;
 	int ret = RUN_OK, failed = 0, emit_failed = 0, stopping = 0;
 	run_record_t rec, out, proto;
-	double t0 = MPI_Wtime(), ckpt_wall = t0;
+	double t0, ckpt_wall;
 	ckpt_ensemble_t es = {1, 0.0};
 	const int ckpt = (eo->mode & ENS_CKPT) != 0;
 
@@ -362,6 +474,7 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 			ret = e;
 		}
 	}
+	t0 = ckpt_wall = MPI_Wtime();   /* wall_seconds: the production run, as for one replica (set-up and relax excluded) */
 	for (;;) {
 		memset(vals, 0, (NV + 3) * sizeof(double));
 		for (int i = 0; i < NL && !failed; i++) {
@@ -468,7 +581,8 @@ static int run_other(int rank, int size)
 		ens_opts_t eo = {(int)hdr[0], NULL, NULL, 0, NULL};
 		MPI_Bcast(text, (int)hdr[1], MPI_CHAR, 0, MPI_COMM_WORLD);
 		/* Rank 0 accepted this text, so the parse cannot fail here. */
-		if (scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK) {
+		if (scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
+		    (scene.method != SCENE_METHOD_AUTO || resolve_auto(&scene, size, NULL) == EX_DONE)) {
 			int rc = ensemble_run(&scene, rank, size, NULL, &eo, err, sizeof(err));
 			if (rc != RUN_OK && rc != RUN_STOPPED)
 				ret = EX_FAIL;
@@ -483,7 +597,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 {
 	const char *cmd = argv[1], *scene_path = NULL, *outdir = NULL, *resume_path = NULL;
 	int progress_fd = 1, ret = EX_FAIL;
-	char err[512] = "", *text = NULL;
+	char err[512] = "", *text = NULL, *advice_line = NULL;
 	size_t len = 0;
 	scene_t scene;
 	sink_t sink = {NULL, NULL, NULL, ""};
@@ -530,6 +644,8 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		ret = EX_DONE;
 		goto cleanup;
 	}
+	if (scene.method == SCENE_METHOD_AUTO && (ret = resolve_auto(&scene, size, &advice_line)) != EX_DONE)
+		goto cleanup;
 	/* Snapshots: single runs of any method; checkpoints and --resume: any
 	 * run (ensembles checkpoint at output times, ensemble_run()). */
 	const int stepped = scene.replicas <= 1;
@@ -598,6 +714,16 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		}
 	}
 
+	/* The method choice goes first (not after a resume: it is already there). */
+	if (advice_line && !resume_path) {
+		size_t n = strlen(advice_line);
+		if (fwrite(advice_line, 1, n, sink.progress) != n || fflush(sink.progress) != 0 ||
+		    (sink.copy && (fwrite(advice_line, 1, n, sink.copy) != n || fflush(sink.copy) != 0))) {
+			fprintf(stderr, "granular-engine: cannot write progress: %s\n", strerror(errno));
+			goto cleanup;
+		}
+	}
+
 	signal(SIGPIPE, SIG_IGN);   /* a closed progress pipe is an error return, not death */
 
 	if (scene.replicas > 1) {
@@ -648,6 +774,7 @@ cleanup:
 	free(ens.blobs);
 	free(ens.lens);
 	free(text);
+	free(advice_line);
 	if (sink.traj && h5md_destroy(sink.traj) != H5MD_OK && ret == EX_DONE) {
 		fprintf(stderr, "granular-engine: %s/trajectory.h5: cannot close\n", outdir);
 		ret = EX_FAIL;
@@ -671,6 +798,8 @@ int main(int argc, char **argv)
 		printf("granular-engine %s\n", PACKAGE_VERSION);
 		return EX_DONE;
 	}
+	if (argc >= 2 && !strcmp(argv[1], "advise"))
+		return advise_main(argc, argv);   /* no MPI: a pure estimate */
 	if (argc < 2 || (strcmp(argv[1], "run") && strcmp(argv[1], "validate"))) {
 		usage(stderr);
 		return EX_INPUT;

@@ -50,6 +50,7 @@ static const struct irange R_REPLICAS = { 1, 1000000 };
 
 static const char *const method_names[] = {
 	[SCENE_METHOD_ED] = "ed", [SCENE_METHOD_DSMC] = "dsmc", [SCENE_METHOD_HSMC] = "hsmc",
+	[SCENE_METHOD_AUTO] = "auto",
 };
 static const char *const position_names[] = {
 	[SCENE_POS_LATTICE] = "lattice", [SCENE_POS_RANDOM] = "random",
@@ -196,7 +197,7 @@ static int match(ctx_t *c, const char *path, const json_t *v, const char *const 
 
 static int parse_method(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
 {
-	int i, ret = match(c, path, v, method_names, 3, &i);
+	int i, ret = match(c, path, v, method_names, 4, &i);
 	if (ret == 0)
 		*(scene_method_t *)dst = (scene_method_t)i;
 	return ret;
@@ -421,6 +422,12 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 		if (json_object_get(v, tuning[i].key) && s->method != tuning[i].m)
 			return fail(c, tuning[i].key, "settings of method \"%s\", but method is \"%s\"", tuning[i].key,
 				    method_names[s->method]);
+	/* An accuracy target is what "auto" chooses by; with a fixed method it would be ignored. */
+	bool accuracy = json_object_get(v, "accuracy") != NULL;
+	if (accuracy && s->method != SCENE_METHOD_AUTO)
+		return fail(c, "accuracy", "only with \"method\": \"auto\", but method is \"%s\"", method_names[s->method]);
+	if (!accuracy && s->method == SCENE_METHOD_AUTO)
+		return fail(c, "accuracy", "required with \"method\": \"auto\" (e.g. {\"temperature\": 0.05})");
 	if (s->mc_max_volume_fraction >= cp)
 		return fail(c, "hsmc.max_volume_fraction", "%s is at or above the close-packing limit %.4f of %s",
 			    num(s->mc_max_volume_fraction).s, cp, shape);
@@ -563,6 +570,15 @@ static const struct object output_obj = {
 	},
 };
 
+static const struct range R_ACCURACY = { 0, 1, true };
+
+static const struct object accuracy_obj = {
+	.fields = (const struct field[]){
+		{ "temperature", parse_number, offsetof(scene_t, accuracy_temperature), &R_ACCURACY, true },
+		{ .name = NULL },
+	},
+};
+
 static const struct object ed_obj = {
 	.fields = (const struct field[]){
 		{ "cell_size", parse_cell_size, offsetof(scene_t, ed_cell_size), NULL, false },
@@ -613,6 +629,7 @@ static const struct object scene_obj = {
 		{ "ed", parse_object, 0, &ed_obj, false },
 		{ "dsmc", parse_object, 0, &dsmc_obj, false },
 		{ "hsmc", parse_object, 0, &hsmc_obj, false },
+		{ "accuracy", parse_object, 0, &accuracy_obj, false },
 		{ .name = NULL },
 	},
 	.check = check_scene,

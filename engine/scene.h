@@ -22,7 +22,9 @@ enum {
 	SCENE_ENOMEM = -3,
 };
 
-typedef enum { SCENE_METHOD_ED = 0, SCENE_METHOD_DSMC, SCENE_METHOD_HSMC } scene_method_t;
+/* SCENE_METHOD_AUTO: chosen by advice_ (advice.h) from accuracy_temperature
+ * before the scene runs; the engines never see it. */
+typedef enum { SCENE_METHOD_ED = 0, SCENE_METHOD_DSMC, SCENE_METHOD_HSMC, SCENE_METHOD_AUTO } scene_method_t;
 typedef enum { SCENE_POS_LATTICE = 0, SCENE_POS_RANDOM } scene_positions_t;
 /* Dense-gas correction of the Monte Carlo methods (dsmc.h). */
 typedef enum { SCENE_MC_DEFAULT = 0, SCENE_MC_NONE, SCENE_MC_ENSKOG, SCENE_MC_CBA } scene_mc_correction_t;
@@ -87,6 +89,10 @@ typedef struct scene {
 	double mc_collisions_per_step; /* adaptive step: expected collisions per particle per step, 0 = not given */
 	scene_mc_correction_t mc_correction; /* default: none (dsmc), cba (hsmc) */
 	double mc_max_volume_fraction; /* hsmc: cells at or above are full; 0 = default */
+
+	/* method "auto" only (required there): target for the expected relative
+	 * RMS error of T(t) against exact hard-sphere dynamics, in (0, 1] */
+	double accuracy_temperature;
 } scene_t;
 
 /* Parse and validate a scene from a JSON text of len bytes. Fills *out with

@@ -23,7 +23,7 @@ echo "$LONG" >"$tmp/long.json"
 ctl --help
 ok $([ $RC = 0 ] && grep -q '^  submit' "$tmp/out" && grep -q 'Exit status' "$tmp/out"; echo $?) "--help lists the commands and exit statuses"
 bad=
-for c in submit list show watch cancel delete progress clusters files download cluster presets; do
+for c in submit advise list show watch cancel delete progress clusters files download cluster presets; do
 	ctl "$c" --help
 	[ $RC = 0 ] && grep -q "^usage: granularctl $c" "$tmp/out" || bad="$bad $c"
 done
@@ -133,6 +133,24 @@ ctl delete "$id" --json; ok $([ $RC = 4 ]; echo $?) "delete again: exit 4"
 GRANULAR_URL=http://127.0.0.1:1 "$GRANULARCTL" list >/dev/null 2>"$tmp/err"
 ok $([ $? = 3 ] && grep -q '127.0.0.1:1' "$tmp/err"; echo $?) "\$GRANULAR_URL overrides the state directory"
 ctl --url "$URL" --state-dir "$tmp/nowhere" presets; ok $([ $RC = 0 ]; echo $?) "--url needs no state directory"
+
+# 8b. advise: the estimates as a table or JSON; bad scenes name the key; no job is made.
+AUTO='{"method":"auto","accuracy":{"temperature":0.05},"dimensions":2,"particles":{"count":2000,"volume_fraction":0.1,"initial":{"positions":"random"}},"collisions":{"restitution":0.9},"run":{"until":{"time":5},"replicas":4}}'
+echo "$AUTO" >"$tmp/auto.json"
+njobs=$("$GRANULARCTL" list --json | "$PY" -c 'import json,sys; print(len(json.load(sys.stdin)["jobs"]))')
+ctl advise "$tmp/auto.json" --ranks 2
+ok $([ $RC = 0 ] && grep -q '^METHOD *SETTINGS *CPU *WALL *ERROR *MEETS *EXTRAPOLATED' "$tmp/out" &&
+     grep -q '^ed *cell automatic' "$tmp/out" && grep -q '^dsmc *none, cell' "$tmp/out" && grep -q '^hsmc *cba, cell' "$tmp/out" &&
+     grep -q '^choice: ' "$tmp/out" && grep -q '4 replicas, 2 ranks' "$tmp/out"; echo $?) "advise: a table of ed, dsmc, hsmc with the choice ($(grep '^choice' "$tmp/out" | cut -c1-60)...)"
+ctl advise "$tmp/auto.json" --json --set particles.count=4000
+ok $([ $RC = 0 ] && jsonok 'd["scene"]["particles"] == 4000 and len(d["estimates"]) == 3 and d["choice"] in ("ed","dsmc","hsmc")'; echo $?) \
+	"advise --json --set: the server's JSON for the changed scene"
+ctl advise --preset cooling-2d --json
+ok $([ $RC = 0 ] && jsonok 'd["choice"] is None and d["target"] is None and all(e["meets_target"] is None for e in d["estimates"])'; echo $?) \
+	"advise --preset on a concrete scene: estimates without a target"
+ctl advise "$tmp/auto.json" --set accuracy.temperature=0
+ok $([ $RC = 2 ] && one_line && grep -q 'accuracy.temperature: must be between 0 and 1' "$tmp/err"; echo $?) "advise with a bad target: exit 2, $(head -1 "$tmp/err")"
+ok $([ "$("$GRANULARCTL" list --json | "$PY" -c 'import json,sys; print(len(json.load(sys.stdin)["jobs"]))')" = "$njobs" ]; echo $?) "advise made no job"
 
 # 9. The dashboard is served from the daemon, scripts from files only (CSP default-src 'self').
 curl -s -D "$tmp/hdr" -o "$tmp/index" "$URL/"

@@ -287,4 +287,56 @@ printf 'slots = 4\nfrobs = 1\n' >"$tmp/conf"
 "$GRANULARD" --config "$tmp/conf" 2>"$tmp/err4"
 ok $([ $? = 2 ] && grep -q "conf:2: frobs" "$tmp/err4"; echo $?) "bad config key names file and line: $(cat "$tmp/err4")"
 
+# 14. Advice and "method": "auto": estimates without a job, the decision stored in the job, its concrete scene run.
+AUTO='{"method":"auto","accuracy":{"temperature":0.05},"dimensions":2,"particles":{"count":400,"volume_fraction":0.1,"initial":{"positions":"random","relax":{"collisions_per_particle":2}}},"collisions":{"restitution":0.9},"run":{"seed":5,"until":{"time":2},"replicas":2},"output":{"every":{"time":0.5},"observables":["temperature"]}}'
+gd_start "$tmp/state5" --slots 2
+adv=$(api POST /api/v1/advice -H 'Content-Type: application/json' -d "$AUTO")
+choice=$(field "$adv" 'd["choice"]')
+ok $([ "$(code)" = 200 ] && [ "$(field "$adv" '",".join(e["method"] for e in d["estimates"])')" = ed,dsmc,hsmc ] &&
+     [ "$(field "$adv" 'all(e["cpu_seconds"] > 0 and e["error"]["temperature"] > 0 for e in d["estimates"])')" = True ] &&
+     [ -n "$(field "$adv" 'd["reason"]')" ]; echo $?) "POST /advice (no token needed on loopback): 200, estimates for ed, dsmc, hsmc; choice $choice"
+adv2=$(api POST /api/v1/advice -H 'Content-Type: application/json' -d "{\"scene\":$AUTO,\"ranks\":2}")
+ok $([ "$(field "$adv2" 'd["scene"]["ranks"]')" = 2 ] && [ "$(field "$adv2" 'd["choice"]')" = "$choice" ] &&
+     [ "$(field "$adv2" 'd["estimates"][0]["wall_seconds"] < d["estimates"][0]["cpu_seconds"]')" = True ]; echo $?) \
+	"wrapper form with ranks 2: same choice, ed's wall time below its CPU time (2 replicas on 2 ranks)"
+api POST /api/v1/advice -H 'Content-Type: application/json' -d "$(echo "$AUTO" | sed 's/"temperature":0.05/"temperature":-1/')" >/dev/null
+ok $([ "$(code)" = 400 ] && grep -q '"accuracy.temperature: must be between 0 and 1' "$tmp/body"; echo $?) "bad target: 400 naming accuracy.temperature"
+api POST /api/v1/advice -H 'Content-Type: application/json' -d "{\"scene\":$(echo "$AUTO" | sed 's/"count":400/"count":"many"/')}" >/dev/null
+ok $([ "$(code)" = 400 ] && grep -q '"scene.particles.count: ' "$tmp/body"; echo $?) "bad scene in the wrapper: 400 naming scene.particles.count"
+body=$(post /api/v1/jobs -d "$AUTO")
+aid=$(field "$body" 'd["id"]')
+ok $([ "$(code)" = 201 ] && [ "$(field "$body" 'd["method"]')" = "$choice" ] &&
+     [ "$(field "$body" 'd["advice"]["choice"]')" = "$choice" ]; echo $?) "auto job $aid: method $choice, the decision in advice"
+wait_state "$aid" succeeded 60
+ok $? "auto job $aid succeeded"
+job=$(api GET "/api/v1/jobs/$aid")
+ok $([ "$(field "$job" 'd["scene"]["method"]')" = "$choice" ] && [ "$(field "$job" '"accuracy" in d["scene"]')" = False ] &&
+     [ "$(field "$job" 'd["advice"]["scene"]["method"]')" = auto ] && [ "$(field "$job" 'd["advice"]["target"]["temperature"]')" = 0.05 ] &&
+     grep -q "\"method\":\"$choice\"" "$tmp/state5/jobs/$aid/scene.json"; echo $?) \
+	"GET /jobs/$aid: the concrete scene ran (method $choice, no accuracy); advice keeps the request"
+cj=$(post /api/v1/jobs -d "$SHORT")
+ok $([ "$(code)" = 201 ] && [ "$(field "$cj" 'd["advice"]')" = None ] && [ "$(field "$cj" 'd["method"]')" = ed ]; echo $?) "a job with a concrete method carries advice null"
+gd_stop
+
+# 15. A version-1 database (before advice) is upgraded in place and its jobs kept.
+mkdir -p "$tmp/state6"
+/usr/bin/python3 - "$SRCDIR/schema/001_jobs.sql" "$tmp/state6/granulard.db" <<'PYEOF'
+import sqlite3, sys
+db = sqlite3.connect(sys.argv[2])
+db.executescript(open(sys.argv[1]).read())
+db.execute("PRAGMA user_version=1")
+db.execute("INSERT INTO jobs(scene, scene_hash, method, particles, state, created_at, updated_at, finished_at) "
+           "VALUES ('{\"method\":\"ed\"}', '0', 'ed', 400, 'succeeded', 1, 1, 1)")
+db.commit()
+PYEOF
+gd_start "$tmp/state6" --slots 1
+old=$(api GET /api/v1/jobs/1)
+ok $([ "$(code)" = 200 ] && [ "$(field "$old" 'd["state"]')" = succeeded ] && [ "$(field "$old" 'd["advice"]')" = None ]; echo $?) \
+	"version-1 database: job 1 still there after the upgrade, advice null"
+new=$(field "$(post /api/v1/jobs -d "$AUTO")" 'd["advice"]["choice"]')
+ok $([ "$new" = "$choice" ]; echo $?) "the upgraded database takes auto jobs (choice $new)"
+gd_stop
+v=$(/usr/bin/python3 -c 'import sqlite3,sys; print(sqlite3.connect(sys.argv[1]).execute("PRAGMA user_version").fetchone()[0])' "$tmp/state6/granulard.db")
+ok $([ "$v" = 2 ]; echo $?) "database schema version is now $v"
+
 finish

@@ -145,6 +145,14 @@ for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc; do
 done
 
 # (b) kill -9 at random moments (seeded), resume from whatever is on disk.
+# The random delay counts from the moment a checkpoint exists (polled), not
+# from the start: on a loaded machine set-up alone can outlast a fixed delay.
+await_ckpt() {   # DIR PID: until DIR/checkpoint.h5 exists or PID is gone (60 s at most)
+	i=0
+	while [ ! -f "$1/checkpoint.h5" ] && kill -0 "$2" 2>/dev/null && [ $i -lt 600 ]; do
+		sleep 0.1; i=$((i + 1))
+	done
+}
 seed=20261121
 for s in 3d-kill 2d-kill 2d-dsmc-kill 3d-hsmc-kill; do
 	ref $s
@@ -161,7 +169,8 @@ for s in 3d-kill 2d-kill 2d-dsmc-kill 3d-hsmc-kill; do
 		fi
 		pid=$!
 		if [ $k -le 3 ]; then
-			delay=$(awk -v s=$((seed + k)) 'BEGIN { srand(s); printf "%.2f", 0.3 + 0.9 * rand() }')
+			delay=$(awk -v s=$((seed + k)) 'BEGIN { srand(s); printf "%.2f", 0.1 + 0.5 * rand() }')
+			await_ckpt "$d" $pid
 			sleep "$delay"
 			if kill -KILL $pid 2>/dev/null; then
 				kills=$((kills + 1))
@@ -305,7 +314,8 @@ if command -v mpirun >/dev/null 2>&1; then
 		fi
 		pid=$!
 		if [ $k -le 3 ]; then
-			delay=$(awk -v s=$((seed + 10 + k)) 'BEGIN { srand(s); printf "%.2f", 0.8 + 1.0 * rand() }')
+			delay=$(awk -v s=$((seed + 10 + k)) 'BEGIN { srand(s); printf "%.2f", 0.1 + 0.6 * rand() }')
+			await_ckpt "$d" $pid
 			sleep "$delay"
 			kids=$(pgrep -P $pid)
 			if kill -KILL $kids $pid 2>/dev/null; then

@@ -127,7 +127,7 @@ static const struct bad {
 	  NULL },
 	{ "cluster delta 0", "{" BASE ",'output':{'clusters':{'delta':0}}}", SCENE_EINVAL, "output.clusters.delta", NULL },
 	{ "method md", "{'method':'md','dimensions':2," PART "," RUN "}", SCENE_EINVAL, "method",
-	  "method: must be one of \"ed\", \"dsmc\", \"hsmc\", got \"md\"" },
+	  "method: must be one of \"ed\", \"dsmc\", \"hsmc\", \"auto\", got \"md\"" },
 	{ "method missing", "{'dimensions':2," PART "," RUN "}", SCENE_EINVAL, "method", NULL },
 	{ "dimensions 4", "{'method':'ed','dimensions':4," PART "," RUN "}", SCENE_EINVAL, "dimensions",
 	  "dimensions: must be 2 or 3, got 4" },
