@@ -17,6 +17,8 @@ struct dsmc {
 	double L[3];
 	double sigma, mass, e, vp;     /* diameter, mass, restitution, particle volume */
 	double chi, sigma_t;           /* rate factor, total cross-section */
+	int local_chi;                 /* chi per cell from the local volume fraction (chic) */
+	double nu_cap;                 /* local volume fraction is capped here (chi diverges at 1) */
 	double fcoef;                  /* collision frequency = fcoef * sqrt(T) */
 	double dt_fixed, cps;          /* one of them is > 0 */
 
@@ -33,6 +35,7 @@ struct dsmc {
 	uint32_t *start, *cnt;         /* ncells + 1 each; start: sorted offsets of p */
 	float *rem;                    /* NTC fractional candidate carried per cell */
 	uint32_t *stamp;               /* hsmc: step at which a cell last took part in a cell collision */
+	float *chic, *chit;            /* local_chi: chi per cell; scratch for the block average */
 
 	rng_t rng;
 	double t;
@@ -79,6 +82,7 @@ int dsmc_params(const scene_t *s, dsmc_params_t *p, char *warn, size_t warnlen)
 	p->correction = s->mc_correction != SCENE_MC_DEFAULT ? (int)s->mc_correction
 	                                                       : (p->hsmc ? SCENE_MC_CBA : SCENE_MC_NONE);
 	p->chi = p->correction == SCENE_MC_NONE ? 1.0 : dsmc_contact_value(s->dim, s->volume_fraction);
+	p->local_chi = p->correction != SCENE_MC_NONE && s->mc_local_chi;
 	p->max_volume_fraction = s->mc_max_volume_fraction > 0 ? s->mc_max_volume_fraction : default_numax(s->dim);
 
 	/* Validity scales of the gas as simulated (collision rate with chi). */
@@ -349,15 +353,73 @@ static ALWAYS_INLINE void sort(struct dsmc *d, const int D)
 	d->cnt = u;
 }
 
+/* d^2 g / d nu^2 of dsmc_contact_value(). */
+static double contact_value_dd(int dim, double nu)
+{
+	double w = 1 / (1 - nu);
+	return dim == 2 ? -4 * (7.0 / 16) * w * w * w + 6 * (1 - 7 * nu / 16) * w * w * w * w
+	                : -3 * w * w * w * w + 12 * (1 - nu / 2) * w * w * w * w * w;
+}
+
+/* Local contact value: chi per cell from the volume fraction of the cells
+ * around it (the 3^D block less the cell itself). Two biases are avoided:
+ * counting the cell's own particles would correlate chi with its pair
+ * count N(N-1) (rate too high by ~2 chi' nu / (3^D chi m) for m particles
+ * per cell), and chi is convex, so E g(nu^) > g(nu): the second-order
+ * (delta-method) term 1/2 g'' Var(nu^) is taken off, Var from Poisson
+ * counts, leaving O(1/M^2) for M particles in the ring. nu is capped at
+ * nu_cap, where chi diverges no more. The block sum is separable: one pass
+ * of 3-point periodic sums per axis (an axis of 1 or 2 cells sums its
+ * distinct cells only). Writes chic. */
+static void local_chi(struct dsmc *d, const int D)
+{
+	float *a = d->chic, *b = d->chit;
+	for (size_t c = 0; c < d->ncells; c++)
+		a[c] = (float)(d->start[c + 1] - d->start[c]);
+	size_t stride = 1;
+	double block = 1;
+	for (int ax = 0; ax < D; ax++) {
+		size_t n = (size_t)d->nc[ax];
+		for (size_t c = 0; c < d->ncells; c++) {
+			size_t i = (c / stride) % n, base = c - i * stride;
+			float sum = a[c];
+			if (n >= 2)
+				sum += a[base + ((i + 1) % n) * stride];
+			if (n >= 3)
+				sum += a[base + ((i + n - 1) % n) * stride];
+			b[c] = sum;
+		}
+		block *= n >= 3 ? 3 : (double)n;
+		float *t = a;
+		a = b;
+		b = t;
+		stride *= n;
+	}
+	/* a: block sums (chic or chit, depending on D's parity). */
+	const int ring = block > 1;
+	const double vring = (ring ? block - 1 : 1) * d->vcell, unit = d->vp / vring;
+	for (size_t c = 0; c < d->ncells; c++) {
+		double m = a[c] - (ring ? (double)(d->start[c + 1] - d->start[c]) : 0);
+		double nu = m * unit, chi;
+		if (nu >= d->nu_cap)
+			chi = dsmc_contact_value(D, d->nu_cap);
+		else
+			chi = dsmc_contact_value(D, nu) - 0.5 * contact_value_dd(D, nu) * nu * unit;
+		d->chic[c] = (float)(chi > 0 ? chi : 0);   /* unbiased: no clamp at 1 */
+	}
+}
+
 /* Collisions in every cell (seed 000 eqs. 2.34-2.38, acceptance corrected). */
 static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D)
 {
 	const int S = 2 * D;
-	const double coef = d->chi * d->sigma_t * dt / (2 * d->vcell);
+	const double coef = (d->local_chi ? 1.0 : d->chi) * d->sigma_t * dt / (2 * d->vcell);
 	const double ehalf = 0.5 * (1 + d->e), eloss = 0.25 * (1 - d->e * d->e) * d->mass;
 	const double sigma = d->sigma;
 	double virial = 0, loss = 0;
 	uint64_t ncoll = 0, ncand = 0;
+	if (d->local_chi)
+		local_chi(d, D);
 	for (size_t c = 0; c < d->ncells; c++) {
 		uint32_t k0 = d->start[c], nc = d->start[c + 1] - k0;
 		if (nc < 2)
@@ -379,7 +441,8 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D)
 		 * and each candidate costs 1/v_max. When a collision raises the
 		 * bound, later candidates cost less: the thinning stays exact. */
 		double vmax = 2 * sqrt(s2), inv = 1 / vmax;
-		double b = coef * (double)nc * (double)(nc - 1) + (double)d->rem[c] * inv;
+		double b = (d->local_chi ? coef * d->chic[c] : coef) * (double)nc * (double)(nc - 1) +
+		           (double)d->rem[c] * inv;
 		int offset = d->cba && !(d->hsmc && nc >= d->nfull);
 		while (b >= inv) {
 			b -= inv;
@@ -567,6 +630,8 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	d->e = s->restitution;
 	d->vp = scene_particle_volume(s);
 	d->chi = pr.chi;
+	d->local_chi = pr.local_chi;
+	d->nu_cap = pr.max_volume_fraction;
 	d->sigma_t = d->dim == 2 ? 2 * d->sigma : PI * d->sigma * d->sigma;
 	d->fcoef = dsmc_collision_frequency(d->dim, s->volume_fraction, s->radius, s->mass, 1.0, d->chi);
 	d->dt_fixed = pr.time_step;
@@ -608,10 +673,14 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	d->rem = calloc(d->ncells, sizeof(float));
 	if (d->hsmc)
 		d->stamp = calloc(d->ncells, sizeof(uint32_t));
+	if (d->local_chi) {
+		d->chic = malloc(d->ncells * sizeof(float));
+		d->chit = malloc(d->ncells * sizeof(float));
+	}
 	d->id = malloc(d->n * sizeof(uint32_t));
 	d->idq = malloc(d->n * sizeof(uint32_t));
 	if (!d->p || !d->q || !d->id || !d->idq || !d->cell || !d->start || !d->cnt || !d->rem ||
-	    (d->hsmc && !d->stamp))
+	    (d->hsmc && !d->stamp) || (d->local_chi && (!d->chic || !d->chit)))
 		goto fail;
 	*err = DSMC_OK;
 	return d;
@@ -710,6 +779,8 @@ void dsmc_destroy(dsmc_t *d)
 	free(d->cnt);
 	free(d->rem);
 	free(d->stamp);
+	free(d->chic);
+	free(d->chit);
 	free(d);
 }
 
@@ -935,7 +1006,8 @@ size_t dsmc_memory(const dsmc_t *d)
 {
 	size_t S = 2 * (size_t)d->dim;
 	return sizeof(*d) + 2 * d->n * S * sizeof(double) + 3 * d->n * sizeof(uint32_t) +
-	       d->ncells * (2 * sizeof(uint32_t) + sizeof(float) + (d->hsmc ? sizeof(uint32_t) : 0));
+	       d->ncells * (2 * sizeof(uint32_t) + sizeof(float) + (d->hsmc ? sizeof(uint32_t) : 0) +
+	                    (d->local_chi ? 2 * sizeof(float) : 0));
 }
 
 const char *dsmc_strerror(int code)

@@ -49,6 +49,8 @@ typedef struct {
 	int hsmc;                 /* 1 for the hybrid method */
 	int correction;           /* SCENE_MC_NONE / _ENSKOG / _CBA */
 	double chi;               /* collision-rate factor: g(sigma) at the mean volume fraction, or 1 */
+	int local_chi;            /* 1: g(sigma) per cell at the local volume fraction (3^D cell block,
+	                             capped at max_volume_fraction) instead of chi */
 	double cell_edge;         /* requested minimum cell edge (length units) */
 	double time_step;         /* fixed step, or 0 */
 	double collisions_per_step; /* adaptive step dt = this / f_E(T), or 0 */

@@ -58,6 +58,7 @@ static const char *const position_names[] = {
 static const char *const correction_names[] = {
 	[SCENE_MC_NONE - 1] = "none", [SCENE_MC_ENSKOG - 1] = "enskog", [SCENE_MC_CBA - 1] = "cba",
 };
+static const char *const contact_names[] = { "global", "local" };
 static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "kinetic_energy", SCENE_OBS_ENERGY },
 	{ "temperature", SCENE_OBS_ENERGY },
@@ -216,6 +217,14 @@ static int parse_correction(ctx_t *c, const char *path, json_t *v, void *dst, co
 	int i, ret = match(c, path, v, correction_names, 3, &i);
 	if (ret == 0)
 		*(scene_mc_correction_t *)dst = (scene_mc_correction_t)(i + 1);
+	return ret;
+}
+
+static int parse_contact(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	int i, ret = match(c, path, v, contact_names, 2, &i);
+	if (ret == 0)
+		*(int *)dst = i;
 	return ret;
 }
 
@@ -428,6 +437,11 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 		return fail(c, "accuracy", "only with \"method\": \"auto\", but method is \"%s\"", method_names[s->method]);
 	if (!accuracy && s->method == SCENE_METHOD_AUTO)
 		return fail(c, "accuracy", "required with \"method\": \"auto\" (e.g. {\"temperature\": 0.05})");
+	/* A local contact value scales the Enskog rate: without one it would do nothing. */
+	if (s->mc_local_chi && (s->mc_correction == SCENE_MC_NONE ||
+	                        (s->mc_correction == SCENE_MC_DEFAULT && s->method == SCENE_METHOD_DSMC)))
+		return fail(c, s->method == SCENE_METHOD_HSMC ? "hsmc.contact_value" : "dsmc.contact_value",
+			    "\"local\" needs correction \"enskog\" or \"cba\" (the correction is \"none\")");
 	if (s->mc_max_volume_fraction >= cp)
 		return fail(c, "hsmc.max_volume_fraction", "%s is at or above the close-packing limit %.4f of %s",
 			    num(s->mc_max_volume_fraction).s, cp, shape);
@@ -597,7 +611,8 @@ static int check_mc(ctx_t *c, const char *path, json_t *v, void *base)
 	{ "cell_size", parse_number, offsetof(scene_t, mc_cell_size), &R_POS, false }, \
 	{ "time_step", parse_number, offsetof(scene_t, mc_time_step), &R_POS, false }, \
 	{ "collisions_per_step", parse_number, offsetof(scene_t, mc_collisions_per_step), &R_POS, false }, \
-	{ "correction", parse_correction, offsetof(scene_t, mc_correction), NULL, false }
+	{ "correction", parse_correction, offsetof(scene_t, mc_correction), NULL, false }, \
+	{ "contact_value", parse_contact, offsetof(scene_t, mc_local_chi), NULL, false }
 
 static const struct object dsmc_obj = {
 	.fields = (const struct field[]){

@@ -89,6 +89,7 @@ typedef struct scene {
 	double mc_collisions_per_step; /* adaptive step: expected collisions per particle per step, 0 = not given */
 	scene_mc_correction_t mc_correction; /* default: none (dsmc), cba (hsmc) */
 	double mc_max_volume_fraction; /* hsmc: cells at or above are full; 0 = default */
+	int mc_local_chi;              /* contact_value: 0 = "global" (mean volume fraction), 1 = "local" (per cell) */
 
 	/* method "auto" only (required there): target for the expected relative
 	 * RMS error of T(t) against exact hard-sphere dynamics, in (0, 1] */
