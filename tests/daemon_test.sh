@@ -137,9 +137,13 @@ jm=$(api GET "/api/v1/jobs/$idm")
 ok $([ "$(field "$jm" 'len(d["attempts"])')" = 2 ] && [ "$(field "$jm" 'd["attempts"][1]["checkpoint"]')" = checkpoint.h5 ] &&
      [ "$(field "$jm" '(d["attempts"][0]["signal"] or d["attempts"][0]["exit_status"]) not in (None, 0)')" = True ]; echo $?) \
 	"dsmc engine killed after a checkpoint: attempt 2 resumed from checkpoint.h5 and succeeded ($(field "$jm" 'd["attempts"][0]["reason"]'))"
-summ() { field "$(api GET "/api/v1/jobs/$1/progress")" 'sorted((k, repr(v)) for k, v in [r for r in d["records"] if r["type"]=="summary"][-1].items() if k not in ("wall_seconds", "events_per_second", "collisions_per_second"))'; }
+# (seq is the daemon's record number, not an engine value)
+summ() { field "$(api GET "/api/v1/jobs/$1/progress")" 'sorted((k, repr(v)) for k, v in [r for r in d["records"] if r["type"]=="summary"][-1].items() if k not in ("wall_seconds", "events_per_second", "collisions_per_second", "seq"))'; }
 m1=$(summ "$refm"); m2=$(summ "$idm")
-ok $([ -n "$m1" ] && [ "$m1" = "$m2" ]; echo $?) "resumed dsmc job ends exactly as the uninterrupted one, every summary field: $(echo "$m2" | cut -c1-200)"
+rec_times() { field "$(api GET "/api/v1/jobs/$1/progress")" '[r["time"] for r in d["records"]]'; }
+t1=$(rec_times "$refm"); t2=$(rec_times "$idm")
+diffm=$(/usr/bin/python3 -c 'import ast,sys; a,b=dict(ast.literal_eval(sys.argv[1])),dict(ast.literal_eval(sys.argv[2])); print(sorted((k,a.get(k),b.get(k)) for k in set(a)|set(b) if a.get(k)!=b.get(k)))' "$m1" "$m2" 2>&1)
+ok $([ -n "$m1" ] && [ "$m1" = "$m2" ]; echo $?) "resumed dsmc job ends exactly as the uninterrupted one, every summary field ($(echo "$m2" | wc -c) chars): $(echo "$m2" | cut -c1-160) differing: $diffm; stored record times $([ "$t1" = "$t2" ] && echo equal || echo "differ: $t2")"
 
 # 4. kill -9 the daemon mid-run, restart: nothing lost, nothing duplicated, never two copies.
 id4=$(field "$(post /api/v1/jobs -d "$LONG")" 'd["id"]')
