@@ -286,7 +286,7 @@ int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t
 	void *buf = NULL;
 	run_t *run = NULL;
 	hid_t f = H5I_INVALID_HID, g = H5I_INVALID_HID, d = H5I_INVALID_HID, sp = H5I_INVALID_HID;
-	run_state_t st;
+	run_state_t st = {0};   /* fields not stored (frames) start at 0 */
 
 	*run_out = NULL;
 	h5u_quiet();

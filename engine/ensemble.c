@@ -221,13 +221,18 @@ static const struct {
 	const char *name;
 	size_t off;
 	int is_double;
+	int optional;   /* absent in older checkpoints: 0 */
 } sched[] = {
-	{ "@started", offsetof(run_state_t, started), 0 },
-	{ "@k_out", offsetof(run_state_t, k_out), 0 },
-	{ "@k_snap", offsetof(run_state_t, k_snap), 0 },
-	{ "@k_ckpt", offsetof(run_state_t, k_ckpt), 0 },
-	{ "@snap_events", offsetof(run_state_t, snap_events), 0 },
-	{ "@wall_before", offsetof(run_state_t, wall_before), 1 },
+	{ "@started", offsetof(run_state_t, started), 0, 0 },
+	{ "@k_out", offsetof(run_state_t, k_out), 0, 0 },
+	{ "@k_snap", offsetof(run_state_t, k_snap), 0, 0 },
+	{ "@k_ckpt", offsetof(run_state_t, k_ckpt), 0, 0 },
+	{ "@snap_events", offsetof(run_state_t, snap_events), 0, 0 },
+	{ "@wall_before", offsetof(run_state_t, wall_before), 1, 0 },
+	/* frames written for this replica (trajectory.h5 particles/replica_K);
+	 * absent from checkpoints of versions without ensemble frames, which
+	 * wrote none */
+	{ "@frames", offsetof(run_state_t, frames), 0, 1 },
 };
 #define N_SCHED (sizeof sched / sizeof sched[0])
 #define MAX_FIELDS 48
@@ -277,7 +282,7 @@ int ensemble_load(const scene_t *s, uint64_t stream, const unsigned char *buf, s
                   char *msg, size_t msglen)
 {
 	scene_t sc = *s;
-	int err = 0, rc, got = 0, have_last = 0;
+	int err = 0, rc, got = 0, have_last = 0, need = 2;
 	uint64_t done = 0, status = 0;
 	size_t pos = 0;
 	ed_field_t f;
@@ -306,7 +311,7 @@ int ensemble_load(const scene_t *s, uint64_t stream, const unsigned char *buf, s
 			;
 		if (k < N_SCHED && f.count == 1 && f.type == (sched[k].is_double ? ED_T_F64 : ED_T_U64)) {
 			memcpy((char *)&st + sched[k].off, data, 8);
-			got++;
+			got += !sched[k].optional;
 		} else if (!strcmp(f.name, "@done") && f.type == ED_T_U64 && f.count == 1) {
 			memcpy(&done, data, 8);
 			got++;
@@ -323,7 +328,9 @@ int ensemble_load(const scene_t *s, uint64_t stream, const unsigned char *buf, s
 			goto bad;
 		}
 	}
-	if (rc < 0 || got != (int)N_SCHED + 2 || !have_last || done > 1 || status > RUN_INTERRUPTED) {
+	for (size_t k = 0; k < N_SCHED; k++)
+		need += !sched[k].optional;
+	if (rc < 0 || got != need || !have_last || done > 1 || status > RUN_INTERRUPTED) {
 		snprintf(msg, msglen, "replica state malformed or incomplete");
 		goto bad;
 	}
@@ -336,4 +343,20 @@ int ensemble_load(const scene_t *s, uint64_t stream, const unsigned char *buf, s
 bad:
 	run_destroy(r);
 	return RUN_ERESTORE;
+}
+
+int ensemble_blob_u64(const unsigned char *buf, size_t len, const char *name, uint64_t *v)
+{
+	size_t pos = 0;
+	ed_field_t f;
+	const void *data;
+	int rc;
+	while ((rc = ensemble_next_field(buf, len, &pos, &f, &data)) == 1)
+		if (!strcmp(f.name, name)) {
+			if (f.type != ED_T_U64 || f.count != 1)
+				return -1;
+			memcpy(v, data, 8);
+			return 0;
+		}
+	return rc < 0 ? -1 : 1;
 }

@@ -37,7 +37,7 @@ void ensemble_unpack(const double *v, const scene_t *s, run_record_t *rec);
  * Replica state for ensemble checkpoints, as a byte string that can travel
  * between ranks: a list of fields (name, ed_type_t, count, native-endian
  * data): the engine's state fields (run_fields()), the replica's schedule
- * ("@started", "@k_out", ...: run_state_t) and "@done", "@status", "@last"
+ * ("@started", "@k_out", ..., "@frames": run_state_t) and "@done", "@status", "@last"
  * (its last record, packed). A replica loaded from it continues exactly.
  */
 /* Serialise replica run r; *buf is malloc'd (caller frees). 0 or -1 (no memory). */
@@ -50,6 +50,9 @@ int ensemble_load(const scene_t *s, uint64_t stream, const unsigned char *buf, s
 /* Iterate the fields of buf: *pos starts at 0; returns 1 and fills *f and
  * *data (pointing into buf) for each field, 0 at the end, -1 if malformed. */
 int ensemble_next_field(const unsigned char *buf, size_t len, size_t *pos, ed_field_t *f, const void **data);
+/* The value of the one-element u64 field `name` of buf (e.g. "@frames"):
+ * 0 found, 1 absent, -1 malformed or of another type. */
+int ensemble_blob_u64(const unsigned char *buf, size_t len, const char *name, uint64_t *v);
 /* Append one field to a growing buffer (*buf, *len, *cap; realloc'd). 0 or -1. */
 int ensemble_put_field(unsigned char **buf, size_t *len, size_t *cap, const char *name, ed_type_t type,
                        size_t count, const void *data);

@@ -89,6 +89,15 @@ static const obs_def_t obs_defs[] = {
 };
 #define N_OBS_DEFS (sizeof obs_defs / sizeof obs_defs[0])
 
+/* One H5MD particles group: /particles/all (single runs) or
+ * /particles/replica_K (ensembles with output.snapshots). */
+typedef struct {
+	hid_t pos_step, pos_time, pos_value, vel_value, box_value;
+	uint64_t rows;
+	double *frame_t;            /* times of the frames, for the XDMF */
+	size_t frame_cap;
+} pgroup_t;
+
 struct h5md {
 	hid_t file;
 	char *path, *xdmf_path;
@@ -99,12 +108,28 @@ struct h5md {
 	hid_t obs[MAX_OBS];
 	int obs_def[MAX_OBS];
 	int n_obs;
-	hid_t pos_step, pos_time, pos_value, vel_value, box_value;
 	double box[3];
-	uint64_t obs_rows, snap_rows;
-	double *frame_t;            /* times of the frames, for the XDMF */
-	size_t frame_cap;
+	uint64_t obs_rows;
+	int ensemble;               /* groups are replica_K, not all */
+	int n_grp;
+	pgroup_t *grp;
+	int frames_pending;         /* frames appended since the last flush + XDMF */
 };
+
+int h5md_groups(const scene_t *s)
+{
+	if (s->replicas <= 1)
+		return 1;
+	return s->snapshots.kind != SCENE_CLOCK_NONE ? (int)s->replicas : 0;
+}
+
+static void group_name(const h5md_t *h, int k, char *buf, size_t len)
+{
+	if (h->ensemble)
+		snprintf(buf, len, "particles/replica_%d", k);
+	else
+		snprintf(buf, len, "particles/all");
+}
 
 
 static int def_wanted(const obs_def_t *d, const scene_t *s)
@@ -200,8 +225,18 @@ static h5md_t *alloc_writer(const char *path, const scene_t *s)
 	h5md_t *h = calloc(1, sizeof(*h));
 	if (!h)
 		return NULL;
-	h->file = h->obs_step = h->obs_time = h->pos_step = h->pos_time = h->pos_value = h->vel_value = H5I_INVALID_HID;
-	h->box_value = H5I_INVALID_HID;
+	h->file = h->obs_step = h->obs_time = H5I_INVALID_HID;
+	h->ensemble = s->replicas > 1;
+	h->n_grp = h5md_groups(s);
+	h->grp = calloc(h->n_grp > 0 ? (size_t)h->n_grp : 1, sizeof(*h->grp));
+	if (!h->grp) {
+		free(h);
+		return NULL;
+	}
+	for (int k = 0; k < h->n_grp; k++) {
+		pgroup_t *g = &h->grp[k];
+		g->pos_step = g->pos_time = g->pos_value = g->vel_value = g->box_value = H5I_INVALID_HID;
+	}
 	memcpy(h->box, s->box, sizeof(h->box));
 	for (int k = 0; k < MAX_OBS; k++)
 		h->obs[k] = H5I_INVALID_HID;
@@ -306,36 +341,40 @@ out:
 	return ret;
 }
 
-static int write_particles(h5md_t *h, const scene_t *s)
+static int write_group(h5md_t *h, int k, const scene_t *s)
 {
 	int ret = -1;
 	const hsize_t chunk_t[1] = {OBS_CHUNK};
 	hsize_t inner[2] = {h->n, (hsize_t)h->dim}, chunk[3] = {1, h->n < FRAME_CHUNK ? h->n : FRAME_CHUNK, (hsize_t)h->dim};
 	const char *bnd[3] = {"periodic", "periodic", "periodic"};
 	int64_t dim = h->dim;
-	hid_t all = h5u_group(h->file, "particles/all"), box = h5u_group(h->file, "particles/all/box");
-	hid_t pos = h5u_group(h->file, "particles/all/position"), vel = h5u_group(h->file, "particles/all/velocity");
+	pgroup_t *pg = &h->grp[k];
+	char name[64];
+	group_name(h, k, name, sizeof name);
+	hid_t all = h5u_group(h->file, name), box = all >= 0 ? h5u_group(all, "box") : H5I_INVALID_HID;
+	hid_t pos = all >= 0 ? h5u_group(all, "position") : H5I_INVALID_HID;
+	hid_t vel = all >= 0 ? h5u_group(all, "velocity") : H5I_INVALID_HID;
 	hid_t edges = H5I_INVALID_HID;
 	hsize_t binner[2] = {(hsize_t)h->dim, (hsize_t)h->dim}, bchunk[3] = {OBS_CHUNK, (hsize_t)h->dim, (hsize_t)h->dim};
 	if (all < 0 || box < 0 || pos < 0 || vel < 0)
 		goto out;
 	if (h5u_attr_i64(box, "dimension", &dim, 1) || h5u_attr_strs(box, "boundary", bnd, (size_t)h->dim))
 		goto out;
-	h->pos_step = create_series(pos, "step", H5T_STD_I64LE, 1, NULL, chunk_t, 0);
-	h->pos_time = create_series(pos, "time", H5T_IEEE_F64LE, 1, NULL, chunk_t, 0);
-	h->pos_value = create_series(pos, "value", H5T_IEEE_F64LE, 3, inner, chunk, h->level);
-	h->vel_value = create_series(vel, "value", H5T_IEEE_F64LE, 3, inner, chunk, h->level);
+	pg->pos_step = create_series(pos, "step", H5T_STD_I64LE, 1, NULL, chunk_t, 0);
+	pg->pos_time = create_series(pos, "time", H5T_IEEE_F64LE, 1, NULL, chunk_t, 0);
+	pg->pos_value = create_series(pos, "value", H5T_IEEE_F64LE, 3, inner, chunk, h->level);
+	pg->vel_value = create_series(vel, "value", H5T_IEEE_F64LE, 3, inner, chunk, h->level);
 	/* The box as a time-dependent element of D x D box vectors sampled with
 	 * the frames (H5MD 1.1 allows a fixed [D]; MDAnalysis reads only this). */
 	edges = h5u_group(box, "edges");
-	h->box_value = edges >= 0 ? create_series(edges, "value", H5T_IEEE_F64LE, 3, binner, bchunk, 0) : H5I_INVALID_HID;
-	if (h->box_value < 0 || H5Lcreate_hard(pos, "step", edges, "step", H5P_DEFAULT, H5P_DEFAULT) < 0 ||
+	pg->box_value = edges >= 0 ? create_series(edges, "value", H5T_IEEE_F64LE, 3, binner, bchunk, 0) : H5I_INVALID_HID;
+	if (pg->box_value < 0 || H5Lcreate_hard(pos, "step", edges, "step", H5P_DEFAULT, H5P_DEFAULT) < 0 ||
 	    H5Lcreate_hard(pos, "time", edges, "time", H5P_DEFAULT, H5P_DEFAULT) < 0)
 		goto out;
 	/* No unit attributes under /particles: the reduced system (l0, t0) is not
 	 * in the tables of H5MD readers such as MDAnalysis, which refuse unknown
 	 * unit strings even with convert_units=False (docs/output.md). */
-	if (h->pos_step < 0 || h->pos_time < 0 || h->pos_value < 0 || h->vel_value < 0 ||
+	if (pg->pos_step < 0 || pg->pos_time < 0 || pg->pos_value < 0 || pg->vel_value < 0 ||
 	    H5Lcreate_hard(pos, "step", vel, "step", H5P_DEFAULT, H5P_DEFAULT) < 0 ||
 	    H5Lcreate_hard(pos, "time", vel, "time", H5P_DEFAULT, H5P_DEFAULT) < 0)
 		goto out;
@@ -349,6 +388,18 @@ out:
 	if (pos >= 0) H5Gclose(pos);
 	if (vel >= 0) H5Gclose(vel);
 	return ret;
+}
+
+static int write_particles(h5md_t *h, const scene_t *s)
+{
+	hid_t p = h5u_group(h->file, "particles");
+	if (p < 0)
+		return -1;
+	H5Gclose(p);
+	for (int k = 0; k < h->n_grp; k++)
+		if (write_group(h, k, s))
+			return -1;
+	return 0;
 }
 
 static int write_observables(h5md_t *h, const scene_t *s)
@@ -423,24 +474,29 @@ fail:
 	return NULL;
 }
 
-static int frame_times_reserve(h5md_t *h, size_t n)
+static int frame_times_reserve(pgroup_t *g, size_t n)
 {
-	if (n <= h->frame_cap)
+	if (n <= g->frame_cap)
 		return 0;
-	size_t cap = h->frame_cap ? 2 * h->frame_cap : 64;
+	size_t cap = g->frame_cap ? 2 * g->frame_cap : 64;
 	while (cap < n)
 		cap *= 2;
-	double *t = realloc(h->frame_t, cap * sizeof(double));
+	double *t = realloc(g->frame_t, cap * sizeof(double));
 	if (!t)
 		return -1;
-	h->frame_t = t;
-	h->frame_cap = cap;
+	g->frame_t = t;
+	g->frame_cap = cap;
 	return 0;
 }
 
-h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, uint64_t snap_rows,
+static int write_xdmf(h5md_t *h);
+
+h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, const uint64_t *frames,
                          int *err, char *msg, size_t msglen)
 {
+	static const char *const sub[] = {"position/step", "position/time", "position/value", "velocity/value",
+	                                  "box/edges/value"};
+	char name[64], p[160];
 	h5u_quiet();
 	h5md_t *h = alloc_writer(path, s);
 	if (!h) {
@@ -452,14 +508,21 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 		*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot open for appending (missing or damaged)", path);
 		goto fail;
 	}
-	h->pos_step = H5Dopen2(h->file, "particles/all/position/step", H5P_DEFAULT);
-	h->pos_time = H5Dopen2(h->file, "particles/all/position/time", H5P_DEFAULT);
-	h->pos_value = H5Dopen2(h->file, "particles/all/position/value", H5P_DEFAULT);
-	h->vel_value = H5Dopen2(h->file, "particles/all/velocity/value", H5P_DEFAULT);
-	h->box_value = H5Dopen2(h->file, "particles/all/box/edges/value", H5P_DEFAULT);
+	for (int k = 0; k < h->n_grp; k++) {
+		pgroup_t *g = &h->grp[k];
+		hid_t *dst[] = {&g->pos_step, &g->pos_time, &g->pos_value, &g->vel_value, &g->box_value};
+		group_name(h, k, name, sizeof name);
+		for (size_t j = 0; j < sizeof sub / sizeof sub[0]; j++) {
+			snprintf(p, sizeof p, "%s/%s", name, sub[j]);
+			*dst[j] = H5Dopen2(h->file, p, H5P_DEFAULT);
+			if (*dst[j] < 0) {
+				*err = h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: not a trajectory of this scene (missing /%s)", path, p);
+				goto fail;
+			}
+		}
+	}
 	int64_t first = -1;
 	for (size_t k = 0; k < N_OBS_DEFS && h->n_obs < MAX_OBS; k++) {
-		char p[128];
 		if (!def_wanted(&obs_defs[k], s))
 			continue;
 		snprintf(p, sizeof p, "observables/%s/value", obs_defs[k].path);
@@ -477,35 +540,49 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 			h->obs_time = H5Dopen2(h->file, p, H5P_DEFAULT);
 		}
 	}
-	if (h->pos_step < 0 || h->pos_time < 0 || h->pos_value < 0 || h->vel_value < 0 || h->box_value < 0 ||
-	    h->obs_step < 0 || h->obs_time < 0) {
+	if (h->obs_step < 0 || h->obs_time < 0) {
 		*err = h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: not a trajectory of this scene (datasets missing)", path);
 		goto fail;
 	}
-	int64_t have_obs = rows_of(h->obs_time), have_snap = rows_of(h->pos_time);
-	if (have_obs < (int64_t)obs_rows || have_snap < (int64_t)snap_rows) {
-		*err = h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: has %lld observable rows and %lld frames, the checkpoint needs %llu and %llu",
-		             path, (long long)have_obs, (long long)have_snap, (unsigned long long)obs_rows,
-		             (unsigned long long)snap_rows);
+	int64_t have_obs = rows_of(h->obs_time);
+	if (have_obs < (int64_t)obs_rows) {
+		*err = h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: has %lld observable rows, the checkpoint needs %llu",
+		                path, (long long)have_obs, (unsigned long long)obs_rows);
 		goto fail;
 	}
 	/* Drop what was written after the checkpoint. */
-	int bad = truncate_rows(h->obs_step, obs_rows) || truncate_rows(h->obs_time, obs_rows) ||
-	          truncate_rows(h->pos_step, snap_rows) || truncate_rows(h->pos_time, snap_rows) ||
-	          truncate_rows(h->pos_value, snap_rows) || truncate_rows(h->vel_value, snap_rows) ||
-	          truncate_rows(h->box_value, snap_rows);
+	int bad = truncate_rows(h->obs_step, obs_rows) || truncate_rows(h->obs_time, obs_rows);
 	for (int k = 0; k < h->n_obs && !bad; k++)
 		bad = truncate_rows(h->obs[k], obs_rows);
-	if (bad || frame_times_reserve(h, snap_rows + 1)) {
+	for (int k = 0; k < h->n_grp && !bad; k++) {
+		pgroup_t *g = &h->grp[k];
+		int64_t have = rows_of(g->pos_time);
+		if (have < (int64_t)frames[k]) {
+			group_name(h, k, name, sizeof name);
+			*err = h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: /%s has %lld frames, the checkpoint needs %llu", path,
+			                name, (long long)have, (unsigned long long)frames[k]);
+			goto fail;
+		}
+		bad = truncate_rows(g->pos_step, frames[k]) || truncate_rows(g->pos_time, frames[k]) ||
+		      truncate_rows(g->pos_value, frames[k]) || truncate_rows(g->vel_value, frames[k]) ||
+		      truncate_rows(g->box_value, frames[k]) || frame_times_reserve(g, frames[k] + 1);
+		if (!bad && frames[k] > 0 &&
+		    H5Dread(g->pos_time, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, g->frame_t) < 0) {
+			*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot read frame times", path);
+			goto fail;
+		}
+		g->rows = frames[k];
+	}
+	if (bad) {
 		*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot truncate to the checkpoint", path);
 		goto fail;
 	}
-	if (snap_rows > 0 && H5Dread(h->pos_time, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, h->frame_t) < 0) {
-		*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot read frame times", path);
+	h->obs_rows = obs_rows;
+	/* The sidecar may list frames written after the checkpoint. */
+	if (h->n_grp > 0 && write_xdmf(h)) {
+		*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot write: %s", h->xdmf_path, strerror(errno));
 		goto fail;
 	}
-	h->obs_rows = obs_rows;
-	h->snap_rows = snap_rows;
 	*err = H5MD_OK;
 	return h;
 fail:
@@ -518,16 +595,22 @@ int h5md_destroy(h5md_t *h)
 	int ret = H5MD_OK;
 	if (!h)
 		return H5MD_OK;
-	hid_t ds[] = {h->obs_step, h->obs_time, h->pos_step, h->pos_time, h->pos_value, h->vel_value, h->box_value};
-	for (size_t k = 0; k < sizeof ds / sizeof ds[0]; k++)
-		if (ds[k] >= 0)
-			H5Dclose(ds[k]);
+	if (h->obs_step >= 0) H5Dclose(h->obs_step);
+	if (h->obs_time >= 0) H5Dclose(h->obs_time);
+	for (int k = 0; k < h->n_grp; k++) {
+		pgroup_t *g = &h->grp[k];
+		hid_t ds[] = {g->pos_step, g->pos_time, g->pos_value, g->vel_value, g->box_value};
+		for (size_t j = 0; j < sizeof ds / sizeof ds[0]; j++)
+			if (ds[j] >= 0)
+				H5Dclose(ds[j]);
+		free(g->frame_t);
+	}
 	for (int k = 0; k < MAX_OBS; k++)
 		if (h->obs[k] >= 0)
 			H5Dclose(h->obs[k]);
 	if (h->file >= 0 && H5Fclose(h->file) < 0)
 		ret = H5MD_EIO;
-	free(h->frame_t);
+	free(h->grp);
 	free(h->path);
 	free(h->xdmf_path);
 	free(h);
@@ -555,39 +638,49 @@ fail:
 	return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot append observables", h->path);
 }
 
-/* The XDMF sidecar: one uniform grid per frame in a temporal collection,
- * each a HyperSlab of frame k of position/value (and velocity/value). */
+/* The XDMF sidecar: per particles group a temporal collection (named after
+ * the group: "particles" for /particles/all, "replica_K" for ensembles) of
+ * one uniform grid per frame, each a HyperSlab of frame k of
+ * position/value (and velocity/value). Ensemble replicas may have different
+ * frame times (collision-count schedules), hence a collection each. */
 static int write_xdmf(h5md_t *h)
 {
-	char tmp[4200];
+	char tmp[4200], name[64];
 	snprintf(tmp, sizeof tmp, "%s.tmp", h->xdmf_path);
 	FILE *f = fopen(tmp, "w");
 	if (!f)
 		return -1;
-	const unsigned long long n = h->n, nf = h->snap_rows;
+	const unsigned long long n = h->n;
 	const int D = h->dim;
 	fprintf(f, "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
-	           "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n <Domain>\n"
-	           "  <Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n");
-	for (unsigned long long k = 0; k < nf; k++) {
-		fprintf(f, "   <Grid Name=\"frame%llu\" GridType=\"Uniform\">\n"
-		           "    <Time Value=\"%.17g\"/>\n"
-		           "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%llu\" NodesPerElement=\"1\"/>\n"
-		           "    <Geometry GeometryType=\"%s\">\n", k, h->frame_t[k], n, D == 2 ? "XY" : "XYZ");
-		const char *what[2] = {"position", "velocity"};
-		for (int w = 0; w < 2; w++) {
-			if (w == 1)
-				fprintf(f, "    <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">\n");
-			fprintf(f, "     <DataItem ItemType=\"HyperSlab\" Dimensions=\"%llu %d\" Type=\"HyperSlab\">\n"
-			           "      <DataItem Dimensions=\"3 3\" Format=\"XML\">%llu 0 0 1 1 1 1 %llu %d</DataItem>\n"
-			           "      <DataItem Dimensions=\"%llu %llu %d\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">%s:/particles/all/%s/value</DataItem>\n"
-			           "     </DataItem>\n",
-			        n, D, k, n, D, nf, n, D, h->h5_name, what[w]);
-			fprintf(f, w == 0 ? "    </Geometry>\n" : "    </Attribute>\n");
+	           "<Xdmf Version=\"3.0\" xmlns:xi=\"http://www.w3.org/2001/XInclude\">\n <Domain>\n");
+	for (int gi = 0; gi < h->n_grp; gi++) {
+		const pgroup_t *g = &h->grp[gi];
+		const unsigned long long nf = g->rows;
+		group_name(h, gi, name, sizeof name);
+		fprintf(f, "  <Grid Name=\"%s\" GridType=\"Collection\" CollectionType=\"Temporal\">\n",
+		        h->ensemble ? name + strlen("particles/") : "particles");
+		for (unsigned long long k = 0; k < nf; k++) {
+			fprintf(f, "   <Grid Name=\"frame%llu\" GridType=\"Uniform\">\n"
+			           "    <Time Value=\"%.17g\"/>\n"
+			           "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"%llu\" NodesPerElement=\"1\"/>\n"
+			           "    <Geometry GeometryType=\"%s\">\n", k, g->frame_t[k], n, D == 2 ? "XY" : "XYZ");
+			const char *what[2] = {"position", "velocity"};
+			for (int w = 0; w < 2; w++) {
+				if (w == 1)
+					fprintf(f, "    <Attribute Name=\"velocity\" AttributeType=\"Vector\" Center=\"Node\">\n");
+				fprintf(f, "     <DataItem ItemType=\"HyperSlab\" Dimensions=\"%llu %d\" Type=\"HyperSlab\">\n"
+				           "      <DataItem Dimensions=\"3 3\" Format=\"XML\">%llu 0 0 1 1 1 1 %llu %d</DataItem>\n"
+				           "      <DataItem Dimensions=\"%llu %llu %d\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">%s:/%s/%s/value</DataItem>\n"
+				           "     </DataItem>\n",
+				        n, D, k, n, D, nf, n, D, h->h5_name, name, what[w]);
+				fprintf(f, w == 0 ? "    </Geometry>\n" : "    </Attribute>\n");
+			}
+			fprintf(f, "   </Grid>\n");
 		}
-		fprintf(f, "   </Grid>\n");
+		fprintf(f, "  </Grid>\n");
 	}
-	fprintf(f, "  </Grid>\n </Domain>\n</Xdmf>\n");
+	fprintf(f, " </Domain>\n</Xdmf>\n");
 	int bad = ferror(f);
 	if (fclose(f) != 0 || bad || rename(tmp, h->xdmf_path) != 0) {
 		remove(tmp);
@@ -596,26 +689,44 @@ static int write_xdmf(h5md_t *h)
 	return 0;
 }
 
-int h5md_snapshot(h5md_t *h, const run_record_t *rec, char *msg, size_t msglen)
+int h5md_frame(h5md_t *h, int group, const run_record_t *rec, char *msg, size_t msglen)
 {
 	int64_t step = (int64_t)rec->events;
 	double edges[9] = {0};
+	if (group < 0 || group >= h->n_grp)
+		return h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: no particles group %d", h->path, group);
+	pgroup_t *g = &h->grp[group];
 	for (int a = 0; a < h->dim; a++)
 		edges[a * h->dim + a] = h->box[a];
-	if (frame_times_reserve(h, h->snap_rows + 1))
+	if (frame_times_reserve(g, g->rows + 1))
 		return h5u_fail(msg, msglen, H5MD_ENOMEM, "%s: out of memory", h->path);
-	if (append_row(h->pos_step, H5T_NATIVE_INT64, h->snap_rows, &step) ||
-	    append_row(h->pos_time, H5T_NATIVE_DOUBLE, h->snap_rows, &rec->time) ||
-	    append_row(h->pos_value, H5T_NATIVE_DOUBLE, h->snap_rows, rec->pos) ||
-	    append_row(h->vel_value, H5T_NATIVE_DOUBLE, h->snap_rows, rec->vel) ||
-	    append_row(h->box_value, H5T_NATIVE_DOUBLE, h->snap_rows, edges))
+	if (append_row(g->pos_step, H5T_NATIVE_INT64, g->rows, &step) ||
+	    append_row(g->pos_time, H5T_NATIVE_DOUBLE, g->rows, &rec->time) ||
+	    append_row(g->pos_value, H5T_NATIVE_DOUBLE, g->rows, rec->pos) ||
+	    append_row(g->vel_value, H5T_NATIVE_DOUBLE, g->rows, rec->vel) ||
+	    append_row(g->box_value, H5T_NATIVE_DOUBLE, g->rows, edges))
 		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot append a frame", h->path);
-	h->frame_t[h->snap_rows++] = rec->time;
+	g->frame_t[g->rows++] = rec->time;
+	h->frames_pending = 1;
+	return H5MD_OK;
+}
+
+int h5md_frames_done(h5md_t *h, char *msg, size_t msglen)
+{
+	if (!h->frames_pending)
+		return H5MD_OK;
 	if (H5Fflush(h->file, H5F_SCOPE_GLOBAL) < 0)
 		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot flush", h->path);
 	if (write_xdmf(h))
 		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot write: %s", h->xdmf_path, strerror(errno));
+	h->frames_pending = 0;
 	return H5MD_OK;
+}
+
+int h5md_snapshot(h5md_t *h, const run_record_t *rec, char *msg, size_t msglen)
+{
+	int rc = h5md_frame(h, 0, rec, msg, msglen);
+	return rc == H5MD_OK ? h5md_frames_done(h, msg, msglen) : rc;
 }
 
 int h5md_flush(h5md_t *h, char *msg, size_t msglen)
@@ -628,7 +739,9 @@ int h5md_flush(h5md_t *h, char *msg, size_t msglen)
 void h5md_rows(const h5md_t *h, uint64_t *obs_rows, uint64_t *snap_rows)
 {
 	*obs_rows = h->obs_rows;
-	*snap_rows = h->snap_rows;
+	*snap_rows = 0;
+	for (int k = 0; k < h->n_grp; k++)
+		*snap_rows += h->grp[k].rows;
 }
 
 const char *h5md_strerror(int code)

@@ -117,6 +117,28 @@ static int resume(const char *path, const scene_t *s, const char *text, size_t l
 	return rc == CKPT_ENOMEM ? EX_FAIL : EX_INPUT;
 }
 
+/* Frames per particles group at the checkpoint (h5md_open_append()): a
+ * single run's count, or each replica's "@frames", which must add up to the
+ * checkpoint's total. *out is malloc'd (caller frees). 0, or -1. */
+static int resume_frames(const scene_t *s, const ens_resume_t *ens, const ckpt_output_t *at, uint64_t **out)
+{
+	int ng = h5md_groups(s);
+	uint64_t sum = 0, *f = calloc(ng > 0 ? (size_t)ng : 1, sizeof(uint64_t));
+	*out = f;
+	if (!f)
+		return -1;
+	if (s->replicas <= 1) {
+		f[0] = at->snap_rows;
+		return 0;
+	}
+	for (int r = 0; r < ng; r++) {
+		if (ensemble_blob_u64(ens->blobs[r], ens->lens[r], "@frames", &f[r]) < 0)
+			return -1;
+		sum += f[r];
+	}
+	return sum == at->snap_rows ? 0 : -1;
+}
+
 static char *read_file(const char *path, size_t *len, char *err, size_t errlen)
 {
 	FILE *f = fopen(path, "rb");
@@ -302,9 +324,9 @@ static void idle_until_rank0(void)
 }
 
 /* Rank 0 tells the others, once, whether there is work: {mode, text length};
- * mode != 0 (ensemble: ENS_RUN | ENS_CKPT | ENS_RESUME) is followed by the
- * scene text, which every rank parses. */
-enum { ENS_RUN = 1, ENS_CKPT = 2, ENS_RESUME = 4 };
+ * mode != 0 (ensemble: ENS_RUN | ENS_CKPT | ENS_RESUME | ENS_FRAMES) is
+ * followed by the scene text, which every rank parses. */
+enum { ENS_RUN = 1, ENS_CKPT = 2, ENS_RESUME = 4, ENS_FRAMES = 8 };
 typedef struct {
 	int sent;
 } announce_t;
@@ -374,12 +396,14 @@ static int ens_load(const scene_t *s, int rank, int size, ens_resume_t *ens, run
  * rank 0 (in replica order), which writes one file. Returns 0 on every rank
  * when the file was written. */
 static int ens_checkpoint(const scene_t *s, int rank, int size, run_t **runs, const ens_opts_t *eo, sink_t *sink,
-                          const ckpt_ensemble_t *es)
+                          const ckpt_ensemble_t *es, int out_failed)
 {
 	const int R = (int)s->replicas;
 	unsigned char **blobs = rank == 0 ? calloc(R, sizeof(*blobs)) : NULL;
 	size_t *lens = rank == 0 ? calloc(R, sizeof(*lens)) : NULL;
-	int bad = rank == 0 && (!blobs || !lens);
+	/* out_failed (rank 0: a record or frame was not written): no checkpoint
+	 * of outputs that are not there */
+	int bad = rank == 0 && (!blobs || !lens || out_failed);
 	for (int r = 0; r < R; r++) {
 		int owner = r % size;
 		unsigned char *buf = NULL;
@@ -415,7 +439,7 @@ static int ens_checkpoint(const scene_t *s, int rank, int size, run_t **runs, co
 		    ckpt_write_ensemble(eo->outdir, R, blobs, lens, es, eo->text, eo->len, &pos, sink->err,
 		                        sizeof(sink->err)) != CKPT_OK)
 			failed = 1;
-	} else if (rank == 0) {
+	} else if (rank == 0 && !out_failed) {
 		snprintf(sink->err, sizeof(sink->err), "checkpoint: out of memory for the replica states");
 	}
 	MPI_Bcast(&failed, 1, MPI_INT, 0, MPI_COMM_WORLD);
@@ -424,6 +448,51 @@ static int ens_checkpoint(const scene_t *s, int rank, int size, run_t **runs, co
 	free(blobs);
 	free(lens);
 	return failed ? -1 : 0;
+}
+
+/* Collective frames of one output time (ENS_FRAMES): want[r] != 0 for the
+ * replicas whose schedule asks for one (run_frame_due(), reduced). In
+ * replica order, the owner copies the replica's state into its buffers and,
+ * unless it is rank 0, sends them to rank 0, which appends the frame to
+ * particles/replica_r: rank 0 holds one frame at a time, whatever R. A
+ * write failure on rank 0 sets *failed there (the next reduction stops the
+ * run); the exchange is completed regardless, so no rank is left waiting. */
+static void ens_frames(const scene_t *s, int rank, int size, run_t **runs, const double *want, sink_t *sink,
+                       double *pos, double *vel, int *failed)
+{
+	const int R = (int)s->replicas;
+	const int cnt = (int)(s->count * (uint64_t)s->dim);
+	struct { double time; uint64_t events, collisions; } hdr;
+	for (int r = 0; r < R; r++) {
+		int owner = r % size;
+		run_record_t rec;
+		if (want[r] == 0 || (rank != owner && rank != 0))
+			continue;
+		if (rank == owner) {
+			run_frame(runs[r / size], &rec, pos, vel);
+			if (rank != 0) {
+				hdr.time = rec.time, hdr.events = rec.events, hdr.collisions = rec.collisions;
+				MPI_Send(&hdr, (int)sizeof hdr, MPI_BYTE, 0, r, MPI_COMM_WORLD);
+				MPI_Send(pos, cnt, MPI_DOUBLE, 0, r, MPI_COMM_WORLD);
+				MPI_Send(vel, cnt, MPI_DOUBLE, 0, r, MPI_COMM_WORLD);
+				continue;
+			}
+		} else {
+			MPI_Recv(&hdr, (int)sizeof hdr, MPI_BYTE, owner, r, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+			MPI_Recv(pos, cnt, MPI_DOUBLE, owner, r, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+			MPI_Recv(vel, cnt, MPI_DOUBLE, owner, r, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+			memset(&rec, 0, sizeof rec);
+			rec.kind = RUN_SNAPSHOT;
+			rec.dim = s->dim;
+			rec.n = s->count;
+			rec.time = hdr.time, rec.events = hdr.events, rec.collisions = hdr.collisions;
+			rec.pos = pos, rec.vel = vel;
+		}
+		if (!*failed && h5md_frame(sink->traj, r, &rec, sink->err, sizeof(sink->err)) != H5MD_OK)
+			*failed = 1;
+	}
+	if (rank == 0 && !*failed && h5md_frames_done(sink->traj, sink->err, sizeof(sink->err)) != H5MD_OK)
+		*failed = 1;
 }
 
 /*
@@ -437,18 +506,25 @@ static int ens_checkpoint(const scene_t *s, int rank, int size, run_t **runs, co
  * With ENS_CKPT, checkpoints are taken at output times (where the replicas
  * are in step): when the mean time passes the next output.checkpoint time,
  * when the wall-clock interval has passed on rank 0, or on a stop request
- * (then the summary says interrupted and RUN_STOPPED is returned). Returns a
- * RUN_* code.
+ * (then the summary says interrupted and RUN_STOPPED is returned). With
+ * ENS_FRAMES, R more slots carry each replica's frame request; the frames
+ * are written after the record and before a checkpoint (ens_frames()), so
+ * a checkpoint's replica states count exactly the frames in the file.
+ * Returns a RUN_* code.
  */
 static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, const ens_opts_t *eo, char *err,
                         size_t errlen)
 {
 	const int R = (int)s->replicas, NL = R / size + (rank < R % size);
 	const size_t NV = (size_t)R * ENSEMBLE_NV;
+	const int frames = (eo->mode & ENS_FRAMES) != 0;
+	const size_t NX = NV + 3 + (frames ? (size_t)R : 0);   /* reduced each output time */
+	const size_t fsz = frames ? s->count * (size_t)s->dim : 0;
+	double *fpos = frames ? malloc(fsz * sizeof(double)) : NULL, *fvel = frames ? malloc(fsz * sizeof(double)) : NULL;
 	run_t **runs = calloc(NL > 0 ? NL : 1, sizeof(run_t *));
 	run_record_t *last = calloc(NL > 0 ? NL : 1, sizeof(run_record_t));
 	int *done = calloc(NL > 0 ? NL : 1, sizeof(int));
-	double *vals = malloc((NV + 3) * sizeof(double));
+	double *vals = malloc(NX * sizeof(double));
 	volatile sig_atomic_t stop_all = 0;
 	int ret = RUN_OK, failed = 0, emit_failed = 0, stopping = 0;
 	run_record_t rec, out, proto;
@@ -456,7 +532,7 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 	ckpt_ensemble_t es = {1, 0.0};
 	const int ckpt = (eo->mode & ENS_CKPT) != 0;
 
-	if (!runs || !last || !done || !vals)
+	if (!runs || !last || !done || !vals || (frames && (!fpos || !fvel)))
 		failed = 1;
 	if (eo->mode & ENS_RESUME) {
 		if (rank == 0)
@@ -476,13 +552,17 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 	}
 	t0 = ckpt_wall = MPI_Wtime();   /* wall_seconds: the production run, as for one replica (set-up and relax excluded) */
 	for (;;) {
-		memset(vals, 0, (NV + 3) * sizeof(double));
+		memset(vals, 0, NX * sizeof(double));
 		for (int i = 0; i < NL && !failed; i++) {
 			int r = rank + i * size, e = RUN_OK;
-			if (!done[i] && (e = run_next(runs[i], &stop_all, &last[i], &done[i])) != RUN_OK) {
-				failed = 1;
-				ret = e;
-				break;
+			if (!done[i]) {
+				if ((e = run_next(runs[i], &stop_all, &last[i], &done[i])) != RUN_OK) {
+					failed = 1;
+					ret = e;
+					break;
+				}
+				if (frames)
+					vals[NV + 3 + r] = run_frame_due(runs[i]);
 			}
 			ensemble_pack(&last[i], done[i], vals + (size_t)r * ENSEMBLE_NV);
 			if (r == 0)
@@ -492,7 +572,7 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 		vals[NV + 1] = failed + emit_failed;
 		vals[NV + 2] = rank == 0 && ckpt && s->checkpoint.kind == SCENE_CLOCK_WALL &&
 		               MPI_Wtime() - ckpt_wall >= s->checkpoint.value;
-		MPI_Allreduce(MPI_IN_PLACE, vals, (int)(NV + 3), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+		MPI_Allreduce(MPI_IN_PLACE, vals, (int)NX, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
 		if (vals[NV + 1] > 0) {
 			if (ret == RUN_OK)
 				ret = emit_failed ? RUN_EMIT : RUN_ESETUP;
@@ -512,6 +592,8 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 			if (emit(&out, sink))
 				emit_failed = 1;
 		}
+		if (frames)
+			ens_frames(s, rank, size, runs, vals + NV + 3, sink, fpos, fvel, &emit_failed);
 		if (ndone == R && !emit_failed)
 			break;
 		/* Checkpoint decisions from data every rank has: the mean time, the
@@ -525,7 +607,7 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 		if (ckpt && due) {
 			ckpt_ensemble_t now = es;
 			now.wall_before = es.wall_before + MPI_Wtime() - t0;
-			if (ens_checkpoint(s, rank, size, runs, eo, sink, &now)) {
+			if (ens_checkpoint(s, rank, size, runs, eo, sink, &now, emit_failed)) {
 				ret = RUN_EMIT;
 				goto cleanup;
 			}
@@ -535,7 +617,7 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 		}
 	}
 	/* Summary: totals and final means over the replicas. */
-	memset(vals, 0, (NV + 3) * sizeof(double));
+	memset(vals, 0, NX * sizeof(double));
 	for (int i = 0; i < NL; i++) {
 		run_summary_record(runs[i], &rec);
 		ensemble_pack(&rec, 1, vals + (size_t)(rank + i * size) * ENSEMBLE_NV);
@@ -562,6 +644,8 @@ cleanup:
 	free(last);
 	free(done);
 	free(vals);
+	free(fpos);
+	free(fvel);
 	return ret;
 }
 
@@ -602,6 +686,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	scene_t scene;
 	sink_t sink = {NULL, NULL, NULL, ""};
 	ens_resume_t ens = {NULL, NULL, {1, 0.0}};
+	uint64_t *frames = NULL;
 
 	for (int i = 2; i < argc; i++) {
 		if (!strcmp(argv[i], "--out") && i + 1 < argc) {
@@ -644,10 +729,15 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		ret = EX_DONE;
 		goto cleanup;
 	}
+<<<<<<< HEAD
 	if (scene.method == SCENE_METHOD_AUTO && (ret = resolve_auto(&scene, size, &advice_line)) != EX_DONE)
 		goto cleanup;
 	/* Snapshots: single runs of any method; checkpoints and --resume: any
 	 * run (ensembles checkpoint at output times, ensemble_run()). */
+=======
+	/* Single runs: run_go() with frames and checkpoints; ensembles take both
+	 * at output times (ensemble_run()). */
+>>>>>>> mcio
 	const int stepped = scene.replicas <= 1;
 	if (resume_path && !outdir) {
 		fprintf(stderr, "granular-engine: --resume needs --out DIR (the run's output directory)\n");
@@ -698,7 +788,13 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			goto cleanup;
 		}
 		snprintf(path, sizeof(path), "%s/trajectory.h5", outdir);
-		sink.traj = resume_path ? h5md_open_append(path, &scene, at.obs_rows, at.snap_rows, &rc, err, sizeof(err))
+		if (resume_path && resume_frames(&scene, &ens, &at, &frames) != 0) {
+			fprintf(stderr, "granular-engine: --resume %s: frame counts of the replicas do not add up to the "
+			        "checkpoint's (damaged)\n", resume_path);
+			ret = EX_INPUT;
+			goto cleanup;
+		}
+		sink.traj = resume_path ? h5md_open_append(path, &scene, at.obs_rows, frames, &rc, err, sizeof(err))
 		                        : h5md_create(path, &scene, text, len, &rc, err, sizeof(err));
 		if (!sink.traj) {
 			fprintf(stderr, "granular-engine: %s\n", err);
@@ -727,7 +823,8 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	signal(SIGPIPE, SIG_IGN);   /* a closed progress pipe is an error return, not death */
 
 	if (scene.replicas > 1) {
-		ens_opts_t eo = {ENS_RUN | (outdir ? ENS_CKPT : 0) | (resume_path ? ENS_RESUME : 0), outdir, text, len, &ens};
+		ens_opts_t eo = {ENS_RUN | (outdir ? ENS_CKPT : 0) | (resume_path ? ENS_RESUME : 0) |
+		                 (outdir && h5md_groups(&scene) > 0 ? ENS_FRAMES : 0), outdir, text, len, &ens};
 		announce(an, eo.mode, text, len);
 		rc = ensemble_run(&scene, 0, size, &sink, &eo, err, sizeof(err));
 		if (rc == RUN_STOPPED) {
@@ -769,6 +866,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	}
 cleanup:
 	run_destroy(run);
+	free(frames);
 	for (uint64_t r = 0; ens.blobs && r < scene.replicas; r++)
 		free(ens.blobs[r]);
 	free(ens.blobs);

@@ -112,6 +112,8 @@ typedef struct {
 	uint64_t k_ckpt;          /* same for simulated-time checkpoints */
 	uint64_t snap_events;     /* events at the last snapshot (UINT64_MAX: none yet) */
 	double wall_before;       /* wall seconds spent before this process (resumed runs) */
+	uint64_t frames;          /* ensemble replicas: frames taken by run_frame() (single runs: 0;
+	                           * their checkpoints count frames in the output position) */
 } run_state_t;
 
 run_t *run_create(const scene_t *s, const run_opts_t *opts, int *err, char *msg, size_t msglen);
@@ -158,5 +160,17 @@ void run_get_finish(const run_t *r, int *done, run_status_t *status);
 void run_set_finish(run_t *r, const run_record_t *last, int done, run_status_t status);
 int run_next(run_t *r, const volatile sig_atomic_t *stop, run_record_t *rec, int *done);
 void run_summary_record(run_t *r, run_record_t *sum);
+/* Ensemble frames (output.snapshots with run.replicas > 1), asked after each
+ * run_next(): run_frame_due() says whether the replica wants a frame of its
+ * present state: the first record, the first record at or after each
+ * snapshot time or collision target of the replica's own clock, and the
+ * last record when the state changed since the last frame (as for single
+ * runs, whose frames are equal when snapshot times are output times).
+ * run_frame() fills rec (RUN_SNAPSHOT: time, events, collisions, kinetic
+ * energy) with the state copied into the caller's pos and vel (N*D doubles
+ * each, scene particle order, positions folded) and advances the schedule
+ * (run_state_t k_snap, snap_events, frames). Neither moves a particle. */
+int run_frame_due(const run_t *r);
+void run_frame(run_t *r, run_record_t *rec, double *pos, double *vel);
 
 const char *run_status_name(run_status_t st);

@@ -446,19 +446,6 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 		return fail(c, "hsmc.max_volume_fraction", "%s is at or above the close-packing limit %.4f of %s",
 			    num(s->mc_max_volume_fraction).s, cp, shape);
 
-	/* Trajectory frames exist for single runs only (checkpoints for all). */
-	json_t *output = json_object_get(v, "output");
-	static const char *const stateful[] = { "snapshots" };
-	for (size_t i = 0; i < sizeof stateful / sizeof stateful[0]; i++) {
-		char key[PATHLEN];
-		if (!json_object_get(output, stateful[i]))
-			continue;
-		snprintf(key, sizeof key, "output.%s", stateful[i]);
-		if (s->replicas > 1)
-			return fail(c, key, "is supported only with run.replicas = 1, but run.replicas is %llu",
-				    (unsigned long long)s->replicas);
-	}
-
 	if (s->every.kind == SCENE_CLOCK_NONE)
 		s->every = (scene_when_t){ s->until.kind, s->until.value / 100 };
 	return 0;

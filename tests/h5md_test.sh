@@ -240,8 +240,8 @@ else
 fi
 
 # Ensembles: --out writes progress.jsonl and the observables (the means of
-# the progress stream), no frames and no XDMF; without a checkpoint --resume
-# has nothing to continue from (exit 2).
+# the progress stream); without output.snapshots no frames and no XDMF;
+# without a checkpoint --resume has nothing to continue from (exit 2).
 for f in 2d-ed-replicas.json 2d-dsmc-replicas.json; do
 	d="$tmp/other-${f%.json}"
 	"$ENGINE" run "$SRCDIR/tests/scenes/good/$f" --out "$d" >"$d.out" 2>"$d.err"
@@ -319,6 +319,146 @@ assert "time_se" in e and checked >= 3
 print("%d observables: NAME_se = |mean - replica 0| (2 replicas), = progress KEY_se" % checked)
 PYEOF
 	ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "$f, 2 replicas: $(tail -n 1 "$d.py") $(head -c 200 "$d.err")"
+done
+
+# Ensemble frames (output.snapshots with run.replicas = 2): particles/replica_K
+# per replica, taken at output times. With the snapshot interval a multiple
+# of output.every, replica 0 (random stream 0) must give bit for bit the
+# frames of the single run of the same scene, and the file must not depend
+# on the number of ranks. ed with a time schedule, dsmc with a collision
+# schedule (replica frame times then differ).
+cat >"$tmp/ens-ed.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":300,"volume_fraction":0.3},"collisions":{"restitution":0.9},
+ "run":{"seed":21,"until":{"time":2},"replicas":2},
+ "output":{"every":{"time":0.1},"observables":["temperature"],"snapshots":{"every":{"time":0.5}}}}
+JSON
+cat >"$tmp/ens-dsmc.json" <<'JSON'
+{"method":"dsmc","dimensions":3,"particles":{"count":1000,"volume_fraction":0.05,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.8},"run":{"seed":22,"until":{"collisions_per_particle":12},"replicas":2},
+ "output":{"every":{"collisions_per_particle":1},"observables":["temperature"],
+   "snapshots":{"every":{"collisions_per_particle":3},"compression":1}}}
+JSON
+for s in ens-ed ens-dsmc; do
+	sed 's/"replicas":2/"replicas":1/' "$tmp/$s.json" >"$tmp/$s-single.json"
+	"$ENGINE" run "$tmp/$s.json" --out "$tmp/$s.np1" >/dev/null 2>"$tmp/$s.err" &&
+		"$ENGINE" run "$tmp/$s-single.json" --out "$tmp/$s.single" >/dev/null 2>>"$tmp/$s.err"
+	rc=$?
+	np2=
+	if command -v mpirun >/dev/null 2>&1; then
+		mpirun -np 2 "$ENGINE" run "$tmp/$s.json" --out "$tmp/$s.np2" >/dev/null 2>>"$tmp/$s.err" || rc=1
+		np2="$tmp/$s.np2"
+	fi
+	"$PY" - "$tmp/$s" "$tmp/$s.json" $np2 >"$tmp/$s.py" 2>&1 <<'PYEOF'
+import json, os, sys
+import xml.etree.ElementTree as ET
+import h5py, numpy as np
+base, scene = sys.argv[1], json.load(open(sys.argv[2]))
+N, D, R = scene["particles"]["count"], scene["dimensions"], scene["run"]["replicas"]
+e, one = h5py.File(base + ".np1/trajectory.h5", "r"), h5py.File(base + ".single/trajectory.h5", "r")
+assert sorted(e["particles"]) == ["replica_%d" % k for k in range(R)], list(e["particles"])
+sub = ["position/value", "velocity/value", "position/time", "position/step", "box/edges/value", "diameter", "mass"]
+for k in sub:
+    a, b = e["particles/replica_0/" + k][()], one["particles/all/" + k][()]
+    assert a.shape == b.shape and a.tobytes() == b.tobytes(), "replica_0 %s differs from the single run" % k
+g1 = e["particles/replica_1"]
+assert g1["position/step"].id == g1["velocity/step"].id and g1["box/edges/time"].id == g1["position/time"].id, "hard links"
+P0, P1 = e["particles/replica_0/position/value"][()], g1["position/value"][()]
+assert P1.shape[1:] == (N, D) and not np.array_equal(P0[-1], P1[-1]), "replica 1 is another replica"
+assert np.all(P1 >= 0) and np.all(P1 < np.diag(g1["box/edges/value"][0])), "replica 1 folded into the box"
+# frames at output times: every frame time is an observable row time of that replica's schedule
+t_obs = e["observables/collision_count/time"][()]
+for r in range(R):
+    ft = e["particles/replica_%d/position/time" % r][()]
+    assert ft[0] == 0 and np.all(np.diff(ft) > 0) and len(ft) >= 4, "replica %d frame times %s" % (r, ft)
+    if "time" in scene["output"]["every"]:
+        assert set(ft) <= set(t_obs), "frames at output times"
+# the XDMF: one temporal collection per replica, every frame, datasets of the right shape
+root = ET.parse(base + ".np1/trajectory.xdmf").getroot()
+cols = root.findall("Domain/Grid")
+assert [c.get("Name") for c in cols] == ["replica_%d" % r for r in range(R)], "one collection per replica"
+for r, c in enumerate(cols):
+    assert c.get("CollectionType") == "Temporal"
+    ft = e["particles/replica_%d/position/time" % r][()]
+    grids = c.findall("Grid")
+    assert [float(g.find("Time").get("Value")) for g in grids] == list(ft), "replica %d frame times" % r
+    for item in c.iter("DataItem"):
+        if item.get("Format") == "HDF":
+            fn, path = item.text.strip().split(":")
+            assert path.startswith("/particles/replica_%d/" % r), path
+            assert " ".join(map(str, e[path].shape)) == item.get("Dimensions")
+# the same file content from 2 ranks
+if len(sys.argv) > 3:
+    m = h5py.File(sys.argv[3] + "/trajectory.h5", "r")
+    na, nb = [], []
+    e.visititems(lambda n, o: na.append(n) if isinstance(o, h5py.Dataset) else None)
+    m.visititems(lambda n, o: nb.append(n) if isinstance(o, h5py.Dataset) else None)
+    assert sorted(na) == sorted(nb), "dataset lists under 1 and 2 ranks"
+    for n in na:
+        assert e[n][()].tobytes() == m[n][()].tobytes(), "%s differs under mpirun -np 2" % n
+    assert open(base + ".np1/trajectory.xdmf").read() == open(sys.argv[3] + "/trajectory.xdmf").read(), "XDMF"
+print("%d replicas, frames %s; replica 0 = single run%s" % (R, [len(e["particles/replica_%d/position/time" % r]) for r in range(R)],
+      ", 1 and 2 ranks identical" if len(sys.argv) > 3 else ""))
+PYEOF
+	ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "$s: ensemble frames: $(tail -n 1 "$tmp/$s.py") $(head -c 200 "$tmp/$s.err")"
+done
+
+# Particle identity in dsmc/hsmc frames (the engines re-sort particles into
+# cells every step): with frames after every time step, a particle's move is
+# its free flight, x(k+1) = x(k) + v(k) dt folded into the box, because a
+# step streams first and collides after. dsmc (no CBA offsets) must satisfy
+# this for every particle. hsmc with its CBA offsets: for every particle
+# whose velocity did not change in the step (no collision: an elastic
+# collision always changes it) exactly, and such particles must be most of
+# them (about 2% collide per step at 0.05 collisions per particle per step).
+# hsmc cells of 10 diameters at volume fraction 0.05 are never full (0.82),
+# so no move is rejected (checked in the summary). A shuffled index would
+# break this for almost every particle.
+cat >"$tmp/id-dsmc.json" <<'JSON'
+{"method":"dsmc","dimensions":2,"particles":{"count":2000,"volume_fraction":0.05,"initial":{"positions":"random"}},
+ "collisions":{"restitution":1},"run":{"seed":31,"until":{"time":1}},
+ "output":{"every":{"time":0.0625},"observables":["temperature"],"snapshots":{"every":{"time":0.0625}}},
+ "dsmc":{"time_step":0.0625}}
+JSON
+cat >"$tmp/id-hsmc.json" <<'JSON'
+{"method":"hsmc","dimensions":3,"particles":{"count":2000,"volume_fraction":0.05,"initial":{"positions":"random"}},
+ "collisions":{"restitution":1},"run":{"seed":32,"until":{"time":1}},
+ "output":{"every":{"time":0.0625},"observables":["temperature"],"snapshots":{"every":{"time":0.0625}}},
+ "hsmc":{"time_step":0.0625,"cell_size":10}}
+JSON
+for s in id-dsmc id-hsmc; do
+	"$ENGINE" run "$tmp/$s.json" --out "$tmp/$s" >"$tmp/$s.out" 2>"$tmp/$s.err"
+	rc=$?
+	"$PY" - "$tmp/$s" "$tmp/$s.out" >"$tmp/$s.py" 2>&1 <<'PYEOF'
+import json, sys
+import h5py, numpy as np
+f = h5py.File(sys.argv[1] + "/trajectory.h5", "r")
+summary = json.loads(open(sys.argv[2]).read().splitlines()[-1])
+assert summary.get("rejected_moves", 0) == 0, "no rejected moves"
+g = f["particles/all"]
+P, V, T = g["position/value"][()], g["velocity/value"][()], g["position/time"][()]
+L = np.diag(g["box/edges/value"][0])
+method = f["parameters"].attrs["method"]
+method = method.decode() if isinstance(method, bytes) else method
+assert len(T) == 17 and np.allclose(np.diff(T), 0.0625, rtol=0, atol=1e-12), "a frame after every step: %s" % T
+worst, unchanged = 0.0, []
+for k in range(len(T) - 1):
+    d = P[k + 1] - P[k] - V[k] * (T[k + 1] - T[k])
+    d -= L * np.round(d / L)                      # box wrapping
+    err = np.abs(d).max(axis=1)
+    same_v = np.all(V[k + 1] == V[k], axis=1)
+    unchanged.append(same_v.mean())
+    if method == "dsmc":
+        worst = max(worst, err.max())
+    else:
+        worst = max(worst, err[same_v].max())
+        # a collided particle's CBA offset is one diameter per collision
+        assert err.max() < 4 * f["particles/all/diameter"][0], "step %d: a jump of %g" % (k, err.max())
+assert worst < 1e-9 * L.max(), "free flight violated by %g" % worst
+assert min(unchanged) > 0.9, "fraction without collision per step %s" % min(unchanged)
+print("%s: %d frames, |x(k+1) - x(k) - v(k) dt| <= %.1e, %.3f of the particles without collision per step"
+      % (method, len(T), worst, np.mean(unchanged)))
+PYEOF
+	ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "$s: index i is one particle in every frame: $(tail -n 1 "$tmp/$s.py") $(head -c 200 "$tmp/$s.err")"
 done
 
 echo "1..$n"

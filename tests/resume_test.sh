@@ -48,11 +48,13 @@ def lines(d):
 la, lb = lines(a), lines(b)
 if la != lb:
     bad.append("progress.jsonl (%d vs %d lines)" % (len(la), len(lb)))
-frames = fa["particles/all/position/value"].shape[0] if "particles/all/position/value" in fa else 0
+frames = sum(g["position/value"].shape[0] for g in fa["particles"].values()) if "particles" in fa else 0
 if bad:
     print("differ: " + ", ".join(bad[:6]))
     sys.exit(1)
-print("%d datasets, %d frames, %d progress lines identical" % (len(names), frames, len(la)))
+groups = len(fa["particles"]) if "particles" in fa else 0
+print("%d datasets, %d frames%s, %d progress lines identical" % (len(names), frames,
+      " in %d particles groups" % groups if groups > 1 else "", len(la)))
 PYEOF
 same() { "$PY" "$tmp/same.py" "$1" "$2"; }
 
@@ -260,18 +262,21 @@ cat >"$tmp/ens.json" <<'JSON'
    "checkpoint":{"every":{"time":3}}},"dsmc":{"correction":"enskog"}}
 JSON
 # ed replicas with a collision-count schedule and a time stop: replicas end
-# after different numbers of records, so finished replicas are checkpointed too.
+# after different numbers of records, so finished replicas are checkpointed
+# too, and their frames (particles/replica_K) differ in number and times:
+# a resume must cut each replica's frames back to its own count.
 cat >"$tmp/ens-ed.json" <<'JSON'
 {"method":"ed","dimensions":2,"particles":{"count":400,"volume_fraction":0.3},"collisions":{"restitution":0.9},
  "run":{"seed":44,"until":{"time":6},"replicas":3},
- "output":{"every":{"collisions_per_particle":3},"observables":["temperature","pressure","clusters"],
-   "checkpoint":{"every":{"time":1.1}}}}
+ "output":{"every":{"collisions_per_particle":0.5},"observables":["temperature","pressure","clusters"],
+   "snapshots":{"every":{"collisions_per_particle":0.5}},"checkpoint":{"every":{"time":1.1}}}}
 JSON
 cat >"$tmp/ens-kill.json" <<'JSON'
 {"method":"dsmc","dimensions":2,"particles":{"count":20000,"volume_fraction":0.1,"initial":{"positions":"random"}},
  "collisions":{"restitution":0.9},"run":{"seed":45,"until":{"time":160},"replicas":5},
  "output":{"every":{"time":0.5},"observables":["kinetic_energy","temperature","pressure"],
-   "checkpoint":{"every":{"wall_seconds":0.1}}},"dsmc":{"correction":"enskog","time_step":0.05}}
+   "snapshots":{"every":{"time":20}},"checkpoint":{"every":{"wall_seconds":0.1}}},
+ "dsmc":{"correction":"enskog","time_step":0.05}}
 JSON
 for s in ens ens-ed; do
 	ref $s
@@ -283,8 +288,25 @@ for s in ens ens-ed; do
 	why=$(same "$tmp/$s.ref" "$tmp/$s.res")
 	ok $(( rc == 0 && rc2 == 0 && $? == 0 ? 0 : 1 )) "$s: ensemble resume from checkpoint.prev.h5: $why $(head -c 200 "$tmp/err")"
 done
+# The ensemble checkpoint resumed above lies inside the frame series: each
+# replica had written some frames and wrote more after it (so the resume
+# had frames to cut back and to continue), and the replicas' counts differ.
+"$PY" - "$tmp/ens-ed.ref" >"$tmp/ens-ed.frames" 2>&1 <<'PYEOF'
+import sys
+import h5py
+d = sys.argv[1]
+c, t = h5py.File(d + "/checkpoint.prev.h5", "r"), h5py.File(d + "/trajectory.h5", "r")
+R = int(c.attrs["replicas"])
+at = [int(c["replica_%d/@frames" % r][0]) for r in range(R)]
+final = [t["particles/replica_%d/position/value" % r].shape[0] for r in range(R)]
+assert all(0 < a < f for a, f in zip(at, final)), (at, final)
+assert sum(at) == int(c["output"].attrs["snap_rows"]), "snap_rows is the sum"
+assert len(set(final)) > 1, "replicas with different frame counts %s" % final
+print("frames per replica at the checkpoint %s, at the end %s" % (at, final))
+PYEOF
+ok $? "ens-ed: the checkpoint splits every replica's frame series: $(tail -n 1 "$tmp/ens-ed.frames")"
 if command -v mpirun >/dev/null 2>&1; then
-	s=ens
+	for s in ens ens-ed; do
 	for np in 2 3; do
 		rm -rf "$tmp/$s.np$np"
 		mpirun -np 2 "$ENGINE" run "$tmp/$s.json" --out "$tmp/$s.np$np" >/dev/null 2>"$tmp/err"
@@ -297,6 +319,7 @@ if command -v mpirun >/dev/null 2>&1; then
 		rc2=$?
 		why=$(same "$tmp/$s.ref" "$tmp/$s.np$np")
 		ok $(( rc == 0 && rc2 == 0 && $? == 0 ? 0 : 1 )) "$s: checkpoints written under mpirun -np 2, resumed $([ $np = 3 ] && echo 'under -np 3' || echo serially): $why $(head -c 200 "$tmp/err")"
+	done
 	done
 	# kill -9 of the whole job at random moments, resumed under mpirun -np 2
 	s=ens-kill
