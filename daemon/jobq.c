@@ -947,6 +947,39 @@ int jobq_attempt_launched(jobq_t *q, int64_t id, int attempt, int pid, uint64_t 
 	return rc == SQLITE_OK ? JOBQ_OK : JOBQ_EDB;
 }
 
+/*
+ * A retry re-emits what the earlier attempt emitted after the point it
+ * restarts from (its checkpoint, or time 0): at the first progress record
+ * of attempt n > 1, drop the earlier attempts' progress records at or after
+ * its time, so that the series reads as one run. Times increase strictly
+ * within a run, so "at or after" is exactly the repeated part. Summaries
+ * (an interrupted attempt's) and other record types stay. In the caller's
+ * transaction.
+ */
+static int rewind_series(jobq_t *q, int64_t id, int attempt, const json_t *r)
+{
+	sqlite3_stmt *st = NULL;
+	json_t *t = json_object_get(r, "time");
+	const char *type = json_string_value(json_object_get(r, "type"));
+	if (!json_is_number(t) || !type || strcmp(type, "progress"))
+		return JOBQ_OK;
+	int64_t last = -1;
+	sqlite3_prepare_v2(q->db, "SELECT attempt FROM progress WHERE job_id=? AND "
+	                          "json_extract(record, '$.type') = 'progress' ORDER BY seq DESC LIMIT 1", -1, &st, NULL);
+	sqlite3_bind_int64(st, 1, id);
+	int rc = sqlite3_step(st);
+	if (rc == SQLITE_ROW)
+		last = sqlite3_column_int64(st, 0);
+	sqlite3_finalize(st);
+	if (rc != SQLITE_ROW && rc != SQLITE_DONE)
+		return JOBQ_EDB;
+	if (last < 0 || last >= attempt)
+		return JOBQ_OK;   /* nothing earlier, or not this attempt's first record */
+	return exec_bind(q, "DELETE FROM progress WHERE job_id=? AND attempt<? AND time>=? AND "
+	                    "json_extract(record, '$.type') = 'progress'", "iid", id, (int64_t)attempt,
+	                 json_number_value(t)) == SQLITE_OK ? JOBQ_OK : JOBQ_EDB;
+}
+
 int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, const json_t *r, double frac,
                           double now)
 {
@@ -980,6 +1013,8 @@ int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, 
 		goto fail;
 	if (frac > 1.0)
 		frac = 1.0;
+	if (attempt > 1 && (ret = rewind_series(q, id, attempt, r)) != JOBQ_OK)
+		goto fail;
 	if (summary || seq % stride == 0) {
 		json_t *t = json_object_get(r, "time");
 		if (exec_bind(q, "INSERT OR REPLACE INTO progress(job_id, seq, attempt, time, record) VALUES (?,?,?,?,?)",

@@ -128,7 +128,10 @@ int jobq_attempt_launched(jobq_t *q, int64_t id, int attempt, int pid, uint64_t 
  * the same record parsed (the caller has it already), frac the fraction of
  * the stop condition it reports (< 0: unknown). Downsampling: when a job
  * holds more than max_progress records, every other one is dropped and the
- * stride doubles; summary records are always kept. */
+ * stride doubles; summary records are always kept. A retry's first progress
+ * record (attempt > 1) drops the earlier attempts' progress records at or
+ * after its time: the part the retry repeats from its checkpoint (or from
+ * the start), so the stored series reads as one run. */
 int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, const json_t *r, double frac,
                           double now);
 

@@ -170,6 +170,54 @@ int main(void)
 	   "job row carries progress fraction 1 and the latest event count");
 	json_decref(jj);
 
+	/* A retry's series: attempt 1 ran to time 5 (interrupted summary at 5);
+	 * attempt 2 resumed from a checkpoint at 2.5 and re-emits 3, 4, ...;
+	 * attempt 3 starts afresh at 0. Each retry's first progress record
+	 * drops the earlier attempts' progress at or after its time. */
+	{
+		static const struct { int attempt; const char *line; } rs[] = {
+			{1, "{\"type\":\"progress\",\"time\":0}"}, {1, "{\"type\":\"progress\",\"time\":1}"},
+			{1, "{\"type\":\"progress\",\"time\":2}"}, {1, "{\"type\":\"progress\",\"time\":3}"},
+			{1, "{\"type\":\"progress\",\"time\":4}"}, {1, "{\"type\":\"summary\",\"status\":\"interrupted\",\"time\":4.5}"},
+			{2, "{\"type\":\"warning\",\"message\":\"x\"}"},
+			{2, "{\"type\":\"progress\",\"time\":3}"}, {2, "{\"type\":\"progress\",\"time\":4}"},
+		};
+		for (size_t i = 0; i < sizeof rs / sizeof rs[0]; i++) {
+			json_t *rj = json_loads(rs[i].line, 0, NULL);
+			jobq_attempt_progress(q, b, rs[i].attempt, rs[i].line, rj, -1, 500.0 + (double)i);
+			json_decref(rj);
+		}
+		char got[256] = "";
+		json_t *p2 = NULL;
+		jobq_progress(q, b, -1, 1000, 0, &p2, err, sizeof(err));
+		json_t *rr = json_object_get(p2, "records");
+		for (size_t i = 0; i < json_array_size(rr); i++) {
+			json_t *o = json_array_get(rr, i);
+			const char *ty = json_string_value(json_object_get(o, "type"));
+			size_t l = strlen(got);
+			snprintf(got + l, sizeof got - l, "%s%c%g", i ? " " : "", ty ? ty[0] : '?',
+			         json_number_value(json_object_get(o, "time")));
+		}
+		ok(!strcmp(got, "p0 p1 p2 s4.5 w0 p3 p4"), "resumed retry: repeated records dropped, summary kept: %s", got);
+		json_decref(p2);
+		const char *fresh = "{\"type\":\"progress\",\"time\":0}";
+		json_t *rj = json_loads(fresh, 0, NULL);
+		jobq_attempt_progress(q, b, 3, fresh, rj, -1, 600.0);
+		json_decref(rj);
+		got[0] = '\0';
+		jobq_progress(q, b, -1, 1000, 0, &p2, err, sizeof(err));
+		rr = json_object_get(p2, "records");
+		for (size_t i = 0; i < json_array_size(rr); i++) {
+			json_t *o = json_array_get(rr, i);
+			const char *ty = json_string_value(json_object_get(o, "type"));
+			size_t l = strlen(got);
+			snprintf(got + l, sizeof got - l, "%s%c%g", i ? " " : "", ty ? ty[0] : '?',
+			         json_number_value(json_object_get(o, "time")));
+		}
+		ok(!strcmp(got, "s4.5 w0 p0"), "fresh retry: all earlier progress dropped: %s", got);
+		json_decref(p2);
+	}
+
 	/* Cancel and delete rules. */
 	int sig = -1;
 	json_t *out = NULL;
