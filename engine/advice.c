@@ -342,12 +342,22 @@ static double outputs(const scene_t *s, double t_end, double cpp)
 	return isfinite(n) ? ceil(n) : 0;
 }
 
-/* One method's estimate. own: the scene's own method (its settings count). */
-static int estimate_one(const advice_model_t *m, const scene_t *s, scene_method_t method, int ranks, double tau,
-                        advice_estimate_t *e, char *err, size_t errlen)
+/* The correction a scene's MC method resolves to (dsmc_params()'s default). */
+static int resolved_correction(scene_method_t method, int corr)
+{
+	return corr != SCENE_MC_DEFAULT ? corr : method == SCENE_METHOD_HSMC ? SCENE_MC_CBA : SCENE_MC_NONE;
+}
+
+/* One candidate's estimate (correction: resolved, 0 for ed). The scene's own
+ * method and correction is estimated with its settings, the others at the
+ * defaults with that correction. */
+static int estimate_one(const advice_model_t *m, const scene_t *s, scene_method_t method, int correction, int ranks,
+                        double tau, advice_estimate_t *e, char *err, size_t errlen)
 {
 	const dimmodel_t *d = &m->d[s->dim == 3];
-	const int D = s->dim, own = s->method == method;
+	const int D = s->dim;
+	const int own = s->method == method &&
+	                (method == SCENE_METHOD_ED || resolved_correction(method, s->mc_correction) == correction);
 	const double N = (double)s->count, R = (double)s->replicas, nu = s->volume_fraction;
 	const double lam = 1 - s->restitution * s->restitution;
 	const double chi_hs = dsmc_contact_value(D, nu);
@@ -365,9 +375,9 @@ static int estimate_one(const advice_model_t *m, const scene_t *s, scene_method_
 		scene_t c = *s;
 		dsmc_params_t p;
 		c.method = method;
-		if (!own) {   /* the defaults: what the engine picks for a scene without a dsmc/hsmc object */
+		if (!own) {   /* the defaults: what the engine picks for a dsmc/hsmc object with only a correction */
 			c.mc_cell_size = c.mc_time_step = c.mc_collisions_per_step = c.mc_max_volume_fraction = 0;
-			c.mc_correction = SCENE_MC_DEFAULT;
+			c.mc_correction = (scene_mc_correction_t)correction;
 		}
 		if (dsmc_params(&c, &p, warn, sizeof warn) != DSMC_OK) {
 			snprintf(err, errlen, "method: %s cannot be estimated for this scene", scene_method_name(method));
@@ -506,9 +516,31 @@ static void choose(advice_t *a)
 #undef ADD
 }
 
+/* The candidates (see advice.h): ed; per MC method its default correction,
+ * the other measured ones, and the scene's own if still missing. */
+static int candidates(const dimmodel_t *d, const scene_t *s, scene_method_t meth[], int corr[])
+{
+	static const scene_method_t mc[2] = {SCENE_METHOD_DSMC, SCENE_METHOD_HSMC};
+	int n = 0;
+	meth[n] = SCENE_METHOD_ED, corr[n++] = 0;
+	for (int k = 0; k < 2; k++) {
+		const int def = resolved_correction(mc[k], SCENE_MC_DEFAULT);
+		const int mine = s->method == mc[k] ? resolved_correction(mc[k], s->mc_correction) : -1;
+		meth[n] = mc[k], corr[n++] = def;
+		for (int c = SCENE_MC_NONE; c <= SCENE_MC_CBA; c++) {
+			char name[16];
+			snprintf(name, sizeof name, "%s/%s", scene_method_name(mc[k]), corr_names[c]);
+			if (c != def && (c == mine || find_variant(d, name)) && n < ADVICE_MAX_ESTIMATES)
+				meth[n] = mc[k], corr[n++] = c;
+		}
+	}
+	return n;
+}
+
 int advice_estimate(const advice_model_t *m, const scene_t *s, int ranks, advice_t *out, char *err, size_t errlen)
 {
-	static const scene_method_t methods[ADVICE_MAX_METHODS] = {SCENE_METHOD_ED, SCENE_METHOD_DSMC, SCENE_METHOD_HSMC};
+	scene_method_t meth[ADVICE_MAX_ESTIMATES];
+	int corr[ADVICE_MAX_ESTIMATES];
 	memset(out, 0, sizeof(*out));
 	if (err && errlen)
 		err[0] = '\0';
@@ -534,8 +566,9 @@ int advice_estimate(const advice_model_t *m, const scene_t *s, int ranks, advice
 	                                                 : haff_time_of_cpp(s->dim, f_hs, lam, s->until.value);
 	out->cpp = s->until.kind == SCENE_CLOCK_TIME ? advice_haff_cpp(s->dim, f_hs, lam, t_end) : s->until.value;
 	out->haff_time = isfinite(t_end) ? lam * f_hs * t_end / (2.0 * s->dim) : INFINITY;
-	for (int i = 0; i < ADVICE_MAX_METHODS; i++) {
-		int r = estimate_one(m, s, methods[i], out->ranks, out->haff_time, &out->est[out->n], err, errlen);
+	const int nc = candidates(&m->d[s->dim == 3], s, meth, corr);
+	for (int i = 0; i < nc; i++) {
+		int r = estimate_one(m, s, meth[i], corr[i], out->ranks, out->haff_time, &out->est[out->n], err, errlen);
 		if (r)
 			return r;
 		out->n++;
@@ -553,10 +586,41 @@ int advice_estimate(const advice_model_t *m, const scene_t *s, int ranks, advice
 	return ADVICE_OK;
 }
 
+static const advice_estimate_t *chosen(const advice_t *a)
+{
+	return a->requested == SCENE_METHOD_AUTO && a->choice >= 0 && a->choice < a->n ? &a->est[a->choice] : NULL;
+}
+
 void advice_apply(const advice_t *a, scene_t *s)
 {
-	if (s->method == SCENE_METHOD_AUTO && a->choice >= 0 && a->choice < a->n)
-		s->method = a->est[a->choice].method;
+	const advice_estimate_t *e = chosen(a);
+	if (s->method != SCENE_METHOD_AUTO || !e)
+		return;
+	s->method = e->method;
+	if (e->method != SCENE_METHOD_ED)
+		s->mc_correction = (scene_mc_correction_t)e->correction;
+}
+
+/* What the choice changes in the scene: {"method": M[, M: {"correction": C}]}. */
+static json_t *resolved_json(const advice_estimate_t *e)
+{
+	const char *name = scene_method_name(e->method);
+	if (e->method == SCENE_METHOD_ED)
+		return json_pack("{s:s}", "method", name);
+	return json_pack("{s:s, s:{s:s}}", "method", name, name, "correction", corr_names[e->correction]);
+}
+
+int advice_apply_json(const advice_t *a, json_t *scene)
+{
+	const advice_estimate_t *e = chosen(a);
+	if (!e)
+		return ADVICE_ESCENE;
+	json_t *patch = resolved_json(e);
+	int bad = !patch || json_object_update(scene, patch);
+	json_decref(patch);
+	if (!bad && json_object_get(scene, "accuracy"))
+		bad = json_object_del(scene, "accuracy");
+	return bad ? ADVICE_ENOMEM : ADVICE_OK;
 }
 
 /* ---- JSON ------------------------------------------------------------------------ */
@@ -625,5 +689,14 @@ json_t *advice_json(const advice_t *a)
 	                 "estimates", ests,
 	                 "choice", a->choice >= 0 ? json_string(scene_method_name(a->est[a->choice].method)) : json_null(),
 	                 "reason", a->choice >= 0 ? json_string(a->reason) : json_null());
+	const advice_estimate_t *c = chosen(a);
+	if (root && json_object_set_new(root, "choice_variant", c ? json_string(c->variant) : json_null())) {
+		json_decref(root);
+		return NULL;
+	}
+	if (root && json_object_set_new(root, "resolved", c ? resolved_json(c) : json_null())) {
+		json_decref(root);
+		return NULL;
+	}
 	return root;
 }
