@@ -10,21 +10,24 @@
 
 /* A synthetic model with round constants, so expectations follow from the
  * formulas in advice.h rather than from a bench run. 2D grid nu {0.05, 0.4},
- * lambda {0.19, 0.75}; 3D the same numbers. */
+ * lambda {0.19, 0.75}, Haff time {0.1, 2}; 3D the same numbers. Curves
+ * [tau 0.1, tau 2]: dsmc/none's bias grows with density only (0.1 -> 0.3),
+ * hsmc/cba's with the Haff time only (0.02 -> 0.04), the rest are flat. */
+#define FLAT(v) "[[[" v "," v "],[" v "," v "]],[[" v "," v "],[" v "," v "]]]"
 #define DIMMODEL(D) \
-	"\"" #D "\": {\"volume_fraction\": [0.05, 0.4], \"lambda\": [0.19, 0.75], \"variants\": {" \
-	"\"ed\": {\"bias\": [[0,0],[0,0]], \"spread\": [[1,1],[1,1]]}," \
-	"\"dsmc/none\": {\"bias\": [[0.1,0.1],[0.1,0.1]], \"spread\": [[1,1],[1,1]]}," \
-	"\"dsmc/enskog\": {\"bias\": [[0.01,0.01],[0.01,0.01]], \"spread\": [[1,1],[1,1]]}," \
-	"\"hsmc/cba\": {\"bias\": [[0.02,0.02],[0.02,0.02]], \"spread\": [[1,1],[1,1]]}}," \
+	"\"" #D "\": {\"volume_fraction\": [0.05, 0.4], \"lambda\": [0.19, 0.75], \"haff_time\": [0.1, 2], \"variants\": {" \
+	"\"ed\": {\"bias\": " FLAT("0") ", \"spread\": " FLAT("1") "}," \
+	"\"dsmc/none\": {\"bias\": [[[0.1,0.1],[0.1,0.1]],[[0.3,0.3],[0.3,0.3]]], \"spread\": " FLAT("1") "}," \
+	"\"dsmc/enskog\": {\"bias\": " FLAT("0.01") ", \"spread\": " FLAT("1") "}," \
+	"\"hsmc/cba\": {\"bias\": [[[0.02,0.04],[0.02,0.04]],[[0.02,0.04],[0.02,0.04]]], \"spread\": " FLAT("1") "}}," \
 	"\"clustering\": {\"dsmc/none\": 0.3, \"hsmc/cba\": 0.2}}"
 #define COST(D) \
 	"\"" #D "\": {\"per_move\": 1e-8, \"per_collision\": 1e-7}"
 #define HCOST(D) \
 	"\"" #D "\": {\"per_move\": 1.5e-8, \"per_collision\": 1e-7}"
 static const char *const MODEL =
-	"{\"format\": \"granulard-advice-model\", \"version\": 1, \"generated\": {\"date\": \"test\"},"
-	" \"particles_measured\": 10000, \"haff_time_max\": 2,"
+	"{\"format\": \"granulard-advice-model\", \"version\": 2, \"generated\": {\"date\": \"test\"},"
+	" \"particles_measured\": 10000,"
 	" \"cost\": {\"ed\": {\"2\": {\"per_collision\": 1e-6, \"per_collision_dilute\": 1e-7},"
 	"                     \"3\": {\"per_collision\": 2e-6, \"per_collision_dilute\": 0}},"
 	"          \"dsmc\": {" COST(2) ", " COST(3) "}, \"hsmc\": {" HCOST(2) ", " HCOST(3) "}},"
@@ -83,8 +86,8 @@ static void model_errors(void)
 		{"not json", "(root)"},
 		{"[1]", "(root)"},
 		{"{\"format\": \"other\", \"version\": 1}", "format"},
-		{"{\"format\": \"granulard-advice-model\", \"version\": 2}", "version"},
-		{"{\"format\": \"granulard-advice-model\", \"version\": 1}", "particles_measured"},
+		{"{\"format\": \"granulard-advice-model\", \"version\": 1}", "version"},
+		{"{\"format\": \"granulard-advice-model\", \"version\": 2}", "particles_measured"},
 	};
 	char err[256];
 	for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
@@ -98,10 +101,13 @@ static void model_errors(void)
 		{"\"per_collision\": 1e-6", "\"per_collision\": -1", "cost.ed.2.per_collision"},
 		{"\"per_collision_dilute\": 0", "\"per_collision_dilute\": \"x\"", "cost.ed.3.per_collision_dilute"},
 		{"\"lambda\": [0.19, 0.75]", "\"lambda\": [0.75, 0.19]", "error.2.lambda"},
-		{"\"spread\": [[1,1],[1,1]]}}", "\"spread\": [[1,1]]}}", "error.2.variants.hsmc/cba.spread"},
+		{"\"haff_time\": [0.1, 2]", "\"haff_time\": []", "error.2.haff_time"},
+		{"[[[0.02,0.04],[0.02,0.04]],[[0.02,0.04],[0.02,0.04]]]", "[[[0.02,0.04],[0.02,0.04]],[[0.02,0.04],[0.02]]]",
+		 "error.2.variants.hsmc/cba.bias"},
+		{"\"particles_measured\": 10000,", "\"particles_measured\": 10000, \"density_axis\": \"nu\",", "density_axis"},
 	};
 	for (size_t i = 0; i < sizeof edits / sizeof edits[0]; i++) {
-		char buf[4096];
+		char buf[8192];
 		const char *at = strstr(MODEL, edits[i].from);
 		snprintf(buf, sizeof buf, "%.*s%s%s", (int)(at - MODEL), MODEL, edits[i].to, at + strlen(edits[i].from));
 		advice_model_t *m = advice_model_create(buf, strlen(buf), err, sizeof err);
@@ -185,6 +191,100 @@ static void scaling(const advice_model_t *m)
 	ok(fabs(a1.est[1].moves / moves - 1) < 1e-12 && fabs(a1.est[1].cpu_seconds - (moves * 1e-8 + 2000 / 2.0 * 25 * 1e-7)) < 1e-12,
 	   "dsmc cost = moves x s_move + collisions x s_coll (%.6g moves)", a1.est[1].moves);
 	ok(a1.est[0].wall_seconds == a1.est[0].cpu_seconds, "one replica: wall time = CPU time");
+}
+
+/* The expected error's form: growth with the Haff time the run reaches,
+ * interpolation in the density coordinate chi(nu) - 1, lambda below the grid. */
+static void growth(const advice_model_t *m)
+{
+	scene_t s;
+	advice_t a[3];
+	const double times[3] = {1, 2, 40};
+	for (int i = 0; i < 3; i++) {
+		char until[32];
+		snprintf(until, sizeof until, "\"time\":%g", times[i]);
+		if (scene(&s, COOL, "ed", "", 2, 10000, 0.1, 0.0, 0.9, until, 4, "\"time\":0.5") || estimate(m, &s, &a[i])) {
+			ok(0, "growth scenes");
+			return;
+		}
+	}
+	const advice_estimate_t *h0 = est(&a[0], "hsmc/cba"), *h1 = est(&a[1], "hsmc/cba"), *h2 = est(&a[2], "hsmc/cba");
+	/* Haff time is proportional to t: 1 and 2 lie below the first measured 0.1, 40 between 0.1 and 2. */
+	if (!ok(a[1].haff_time < 0.1 && a[2].haff_time > 0.1 && a[2].haff_time < 2 &&
+	        fabs(a[1].haff_time / a[0].haff_time - 2) < 1e-12, "Haff times %.3g, %.3g, %.3g", a[0].haff_time,
+	        a[1].haff_time, a[2].haff_time))
+		return;
+	ok(fabs(h0->bias - 0.02 * a[0].haff_time / 0.1) < 1e-12 && fabs(h1->bias / h0->bias - 2) < 1e-9,
+	   "below the first Haff time the bias grows linearly from 0 (%.4g, %.4g)", h0->bias, h1->bias);
+	ok(h0->statistical == h1->statistical && fabs(h0->statistical - 1 / sqrt(4e4)) < 1e-12,
+	   "... and the spread is the first measured one");
+	ok(fabs(h2->bias - (0.02 + 0.02 * (a[2].haff_time - 0.1) / 1.9)) < 1e-12 && !(h2->extrapolated & ADVICE_X_CLUSTERING),
+	   "between measured Haff times: linear (bias %.5g at tau %.3g), not extrapolated", h2->bias, a[2].haff_time);
+	const advice_estimate_t *e2 = est(&a[2], "dsmc/enskog");
+	ok(fabs(e2->bias - 0.01) < 1e-12, "a flat curve stays flat (dsmc/enskog %.4g)", e2->bias);
+
+	/* Density: bilinear in chi(nu) - 1 (dsmc/none: 0.1 at nu = 0.05 to 0.3 at 0.4, flat otherwise). */
+	const double c05 = dsmc_contact_value(2, 0.05), c2 = dsmc_contact_value(2, 0.2), c4 = dsmc_contact_value(2, 0.4);
+	if (scene(&s, COOL, "ed", "", 2, 10000, 0.2, 0.0, 0.9, "\"time\":10", 4, "\"time\":1") || estimate(m, &s, &a[0])) {
+		ok(0, "density scene");
+		return;
+	}
+	double want = 0.1 + 0.2 * (c2 - c05) / (c4 - c05);
+	ok(fabs(est(&a[0], "dsmc/none")->bias - want) < 1e-12, "nu = 0.2: dsmc/none bias %.5g = linear in chi - 1 (%.5g)",
+	   est(&a[0], "dsmc/none")->bias, want);
+	char buf[8192], err[256];
+	const char *at = strstr(MODEL, "\"particles_measured\"");
+	snprintf(buf, sizeof buf, "%.*s\"density_axis\": \"volume_fraction\", %s", (int)(at - MODEL), MODEL, at);
+	advice_model_t *mv = advice_model_create(buf, strlen(buf), err, sizeof err);
+	advice_t b;
+	if (ok(mv && !estimate(mv, &s, &b), "density_axis volume_fraction accepted%s%s", mv ? "" : ": ", mv ? "" : err))
+		ok(fabs(est(&b, "dsmc/none")->bias - (0.1 + 0.2 * 0.15 / 0.35)) < 1e-12,
+		   "density_axis volume_fraction: bilinear in nu (%.5g)", est(&b, "dsmc/none")->bias);
+	advice_model_destroy(mv);
+
+	/* lambda below the grid: towards 0 at lambda = 0 (e = 0.95: lambda 0.0975 < 0.19). */
+	if (scene(&s, COOL, "ed", "", 2, 10000, 0.1, 0.0, 0.95, "\"time\":40", 4, "\"time\":1") || estimate(m, &s, &a[0])) {
+		ok(0, "weak dissipation scene");
+		return;
+	}
+	const double lam = 1 - 0.95 * 0.95;
+	e2 = est(&a[0], "dsmc/enskog");
+	ok(a[0].haff_time > 0.1 && fabs(e2->bias - 0.01 * lam / 0.19) < 1e-12 && fabs(e2->statistical - lam / 0.19 / 200) < 1e-12,
+	   "lambda %.4g below the grid: bias and spread scaled by lambda / 0.19", lam);
+}
+
+/* The built-in model: a longer run never has a smaller bias (the fit makes the curves non-decreasing). */
+static void builtin_growth(void)
+{
+	size_t len;
+	char err[256];
+	const char *text = advice_model_builtin(&len);
+	advice_model_t *b = advice_model_create(text, len, err, sizeof err);
+	int mono = b != NULL, n = 0;
+	for (int dim = 2; b && dim <= 3; dim++)
+		for (double nu = 0.05; nu < 0.41; nu += 0.07)
+			for (double e = 0.5; e < 0.95; e += 0.2) {
+				advice_t prev, cur;
+				for (int k = 0; k < 12; k++) {
+					scene_t s;
+					char until[48];
+					snprintf(until, sizeof until, "\"collisions_per_particle\":%g", 0.5 + 3.0 * k);
+					if (scene(&s, COOL, "ed", "", dim, 2000, nu, 0.0, e, until, 1, "\"time\":1") || estimate(b, &s, &cur)) {
+						mono = 0;
+						break;
+					}
+					for (int i = 1; k > 0 && i < cur.n; i++)
+						if (cur.est[i].bias < prev.est[i].bias * (1 - 1e-12)) {
+							mono = 0;
+							diag("D=%d nu=%g e=%g %s: bias %g at tau %g < %g at tau %g", dim, nu, e, cur.est[i].variant,
+							     cur.est[i].bias, cur.haff_time, prev.est[i].bias, prev.haff_time);
+						}
+					prev = cur;
+					n++;
+				}
+			}
+	ok(mono, "built-in model: every MC bias is non-decreasing in the run length (%d scenes)", n);
+	advice_model_destroy(b);
 }
 
 /* auto picks the cheapest candidate that meets the target by the model's own measure. */
@@ -345,17 +445,19 @@ static void determinism(const advice_model_t *m)
 
 int main(void)
 {
-	plan(53);
 	advice_model_t *m = model();
 	ok(m != NULL, "synthetic model parses");
 	model_errors();
 	if (m) {
 		haff(m);
 		scaling(m);
+		growth(m);
+		builtin_growth();
 		choice(m);
 		resolve(m);
 		determinism(m);
 	}
 	advice_model_destroy(m);
+	plan(tap_n);
 	return done_testing();
 }

@@ -137,9 +137,9 @@ ok $("$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); assert d["choice
 "$ENGINE" advise "$SRCDIR/tests/scenes/bad/71-accuracy-zero.json" >"$tmp/out" 2>"$tmp/err"
 ok $([ $? = 2 ] && [ "$(wc -l <"$tmp/err")" = 1 ] && grep -q '^accuracy.temperature: ' "$tmp/err" && [ ! -s "$tmp/out" ]; echo $?) \
 	"advise on a bad target: exit 2, one line: $(cat "$tmp/err")"
-echo '{"format": "granulard-advice-model", "version": 1, "particles_measured": 1000}' >"$tmp/model.json"
+echo '{"format": "granulard-advice-model", "version": 2, "particles_measured": 1000}' >"$tmp/model.json"
 "$ENGINE" advise "$auto" --model "$tmp/model.json" >/dev/null 2>"$tmp/err"
-ok $([ $? = 2 ] && grep -q 'haff_time_max: required key missing' "$tmp/err"; echo $?) "advise --model with a broken model: exit 2: $(cat "$tmp/err")"
+ok $([ $? = 2 ] && grep -q 'cost: required key missing' "$tmp/err"; echo $?) "advise --model with a broken model: exit 2: $(cat "$tmp/err")"
 "$ENGINE" advise "$auto" --ranks 0 >/dev/null 2>&1
 ok $(( $? == 2 ? 0 : 1 )) "advise --ranks 0: exit 2"
 "$ENGINE" run "$auto" >"$tmp/r1" 2>"$tmp/err"
