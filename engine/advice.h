@@ -7,8 +7,8 @@
 
 /*
  * Contract
- * - Pure logic: no I/O, no globals. The model is a JSON text (format in
- *   docs/tradeoff-notes.md, fitted by bench/tradeoff.py);
+ * - Pure logic: no I/O, no globals. The model is a JSON text (version 2,
+ *   format in docs/tradeoff-notes.md, fitted by bench/tradeoff.py);
  *   advice_model_builtin() returns the one shipped with the build
  *   (data/advice-model.json, embedded at build time).
  * - Cost (CPU seconds, all replicas, set-up included) = predicted work x
@@ -22,11 +22,16 @@
  *   (f0 t when lambda = 0), or the stop condition itself; the elastic
  *   pre-run adds relax collisions per particle. MC steps = cpp /
  *   collisions_per_step (+ one per output time), moves = N x steps.
- * - Expected error of T(t) (relative RMS over the run against exact
- *   hard-sphere dynamics) = sqrt(bias^2 + spread^2 / (N x replicas)); bias 0
- *   for ed; bias and spread interpolated bilinearly in (volume fraction,
- *   lambda) from the table at default settings, with bias = spread = 0 at
- *   lambda = 0 (elastic: T is conserved exactly by every method).
+ * - Expected error of T(t) (relative RMS over the run's output times
+ *   against exact hard-sphere dynamics) = sqrt(bias^2 + spread^2 / (N x
+ *   replicas)); bias 0 for ed. Bias and spread are measured per grid point
+ *   (volume fraction, lambda) as curves over the Haff time tau (model key
+ *   haff_time) and evaluated at the tau the run reaches (advice_t.haff_time):
+ *   linear between measured times, below the first the bias linear to 0 at
+ *   tau = 0 and the spread constant, beyond the last clamped (flagged).
+ *   Across the grid: bilinear in (chi(nu) - 1, lambda) (model key
+ *   density_axis; "volume_fraction": in nu), clamped outside (flagged), and
+ *   bias = spread = 0 at lambda = 0 (elastic: T is conserved exactly).
  * - auto: the cheapest candidate (CPU seconds) whose expected error meets
  *   the target and is not extrapolated (ed always counts: exact up to its
  *   statistical error); none: ed, with the N x replicas that would meet it.
