@@ -1,10 +1,13 @@
 #!/usr/bin/python3
 """The trade, measured: cost and error of DSMC/HSMC against event-driven MD, and the advice model fitted to it.
 
-usage: tradeoff.py ENGINE DOCDIR [--model MODEL.json] [--quick]
+usage: tradeoff.py ENGINE DOCDIR [--model MODEL.json] [--quick] [--rows ROWS.json] [--refit ROWS.json]
+                   [--baseline OLD_ENGINE]
 Runs granular-engine on generated scenes, writes DOCDIR/tradeoff.md, DOCDIR/tradeoff.png and (with --model)
-the advice model that the build embeds (data/advice-model.json; format in docs/tradeoff.md), then checks the
-model on held-out scenes with `ENGINE advise --model`.
+the advice model that the build embeds (data/advice-model.json; format in docs/tradeoff-notes.md), then checks
+the model on held-out scenes with `ENGINE advise --model`. --rows keeps the measurements (per output time);
+--refit reads them instead of running (the fit and the held-out predictions only). --baseline: also show the
+held-out predictions of another engine's built-in model (the model before a change).
 Error = relative RMS of T(t)/T_ED(t) - 1 over the output times; the ED reference is itself an ensemble of
 replicas, so its own relative standard error is shown next to it. Cost = the engine's own production
 wall_seconds (set-up and the elastic pre-run excluded; one rank, so replicas run one after another) per
@@ -13,9 +16,16 @@ replica, unit simulated time and particle.
 import json, math, os, platform, subprocess, sys, tempfile, time
 
 args = [a for a in sys.argv[1:] if not a.startswith("--")]
-ENGINE, DOCDIR = args[0], args[1]
 QUICK = "--quick" in sys.argv
-MODEL = sys.argv[sys.argv.index("--model") + 1] if "--model" in sys.argv else None
+def opt(name):
+    return sys.argv[sys.argv.index(name) + 1] if name in sys.argv else None
+
+
+MODEL, ROWS, REFIT, BASELINE = opt("--model"), opt("--rows"), opt("--refit"), opt("--baseline")
+DENSITY_AXIS = opt("--density-axis") or "contact_value"     # or volume_fraction: plain bilinear in nu
+BASELINE_NOTE = "bilinear in (nu, lambda), no dependence on the run length: every run as if to Haff time 2"
+args = [a for a in args if a not in (MODEL, ROWS, REFIT, BASELINE, DENSITY_AXIS)]
+ENGINE, DOCDIR = args[0], args[1]
 R = 4                      # replicas per point (ED and MC alike)
 K = 10                     # output times
 N = 2000 if QUICK else 20000
@@ -45,11 +55,12 @@ def run(scene):
     return [l for l in lines if l["type"] == "progress"], lines[-1]
 
 
-def advise(scene):
+def advise(scene, engine=None):
     with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
         json.dump(scene, f)
         path = f.name
-    out = subprocess.run([ENGINE, "advise", path, "--model", MODEL], capture_output=True, text=True)
+    cmd = [engine, "advise", path] if engine else [ENGINE, "advise", path, "--model", MODEL]
+    out = subprocess.run(cmd, capture_output=True, text=True)
     os.unlink(path)
     if out.returncode != 0:
         raise RuntimeError(out.stderr.strip())
@@ -108,26 +119,43 @@ def variants(c):
     return v
 
 
+def rms(v):
+    return math.sqrt(sum(x * x for x in v) / len(v)) if v else float("nan")
+
+
+def ses(prog):             # relative SE of T at each output time (t = 0 excluded)
+    return [p["temperature_se"] / p["temperature"] for p in prog[1:]]
+
+
 def rel_se(prog):
-    s = [p["temperature_se"] / p["temperature"] for p in prog[1:]]
-    return math.sqrt(sum(x * x for x in s) / len(s))
+    return rms(ses(prog))
+
+
+def devs(prog, tref):      # T_MC / T_ED - 1 at each output time
+    return [a["temperature"] / b - 1 for a, b in zip(prog[1:], tref)]
 
 
 def rel_err(prog, tref):
-    t = [p["temperature"] for p in prog[1:]]
-    return math.sqrt(sum((a / b - 1) ** 2 for a, b in zip(t, tref)) / len(t))
+    return rms(devs(prog, tref))
 
 
 # ---- the table ------------------------------------------------------------------------------
+# Every row keeps its per-output-time series (dev: T/T_ED - 1, se: its relative SE, ref_ses: the reference's),
+# from which the model's growth with the Haff time is fitted.
 rows = []
-for c in cases():
+if REFIT:
+    saved = json.load(open(REFIT))
+    rows, ho_measured = saved["rows"], saved["held"]
+    t_start -= saved["seconds"]
+for c in ([] if REFIT else cases()):
     ref, refsum = run(case_scene(c, "ed", None))
     tref = [p["temperature"] for p in ref[1:]]
     ref_se = rel_se(ref)
     norm = R * c["t_end"] * c["n"]
     rows.append(dict(case=c["name"], c=c, method="ed", setting="reference (%d replicas)" % R,
                      cost=refsum["wall_seconds"] / norm, err=ref_se, ref_se=ref_se, se=ref_se, warn="",
-                     wall=refsum["wall_seconds"], collisions=refsum["collisions"], moves=0))
+                     wall=refsum["wall_seconds"], collisions=refsum["collisions"], moves=0,
+                     dev=[0.0] * len(tref), ses=ses(ref), ref_ses=ses(ref)))
     print(c["name"], "ed", rows[-1]["cost"], ref_se, file=sys.stderr)
     for method, cr, extra, label in variants(c):
         try:
@@ -138,7 +166,8 @@ for c in cases():
         rows.append(dict(case=c["name"], c=c, method=method + "/" + cr, setting=label,
                          cost=summ["wall_seconds"] / norm, err=rel_err(prog, tref), ref_se=ref_se, se=rel_se(prog),
                          warn="yes" if prog[0].get("warning") else "", wall=summ["wall_seconds"],
-                         collisions=summ["collisions"], moves=summ["events"]))
+                         collisions=summ["collisions"], moves=summ["events"],
+                         dev=devs(prog, tref), ses=ses(prog), ref_ses=ses(ref)))
         print(c["name"], method, cr, label, rows[-1]["cost"], rows[-1]["err"], file=sys.stderr)
 
 
@@ -174,12 +203,29 @@ def fit_rms(rowsel, pred):
 
 
 cool = [r for r in rows if r["c"]["kind"] == "cooling"]
-model = {"format": "granulard-advice-model", "version": 1,
+def curves(p, var):
+    """bias(tau_k), spread(tau_k) of one measured row: over the output times up to the k-th (the error of a run
+    that stops there, as the RMS over its outputs), measured error^2 = bias^2 + SE_MC^2 + SE_ref^2; bias made
+    non-decreasing (a longer run cannot have a smaller bias than the part it starts with); spread = SE x
+    sqrt(N x replicas)."""
+    bias, spread, b = [], [], 0.0
+    for k in range(1, len(p["dev"]) + 1):
+        ms_dev = sum(d * d for d in p["dev"][:k]) / k
+        ms_se = sum(x * x for x in p["ses"][:k]) / k
+        ms_ref = sum(x * x for x in p["ref_ses"][:k]) / k
+        if var != "ed":
+            b = max(b, math.sqrt(max(0.0, ms_dev - ms_se - ms_ref)))
+        bias.append(b)
+        spread.append(math.sqrt(ms_se) * math.sqrt(p["c"]["n"] * R))
+    return bias, spread
+
+
+model = {"format": "granulard-advice-model", "version": 2,
          "generated": {"by": "bench/tradeoff.py%s" % (" --quick" if QUICK else ""),
                        "date": time.strftime("%Y-%m-%d", time.gmtime()),
                        "machine": "%s, %d cores (shared)" % (platform.processor() or platform.machine(), os.cpu_count()),
                        "replicas": R},
-         "particles_measured": N, "haff_time_max": TAU_END,
+         "particles_measured": N, "density_axis": DENSITY_AXIS,
          "cost": {"ed": {}, "dsmc": {}, "hsmc": {}}, "error": {}}
 fit_quality = {}
 for dim in (2, 3):
@@ -196,7 +242,8 @@ for dim in (2, 3):
         fit_quality[(m, dim)] = fit_rms(sel, lambda r: pm * r["moves"] + pc * r["collisions"])
     nus = sorted({r["c"]["nu"] for r in cool if r["c"]["dim"] == dim})
     lams = sorted({round(1 - r["c"]["e"] ** 2, 12) for r in cool if r["c"]["dim"] == dim})
-    grid = {"volume_fraction": nus, "lambda": lams, "variants": {}, "clustering": {}}
+    grid = {"volume_fraction": nus, "lambda": lams, "haff_time": [TAU_END * (k + 1) / K for k in range(K)],
+            "variants": {}, "clustering": {}}
     for var in ("ed", "dsmc/none", "dsmc/enskog", "hsmc/cba"):
         bias, spread = [], []
         for nu in nus:
@@ -207,10 +254,9 @@ for dim in (2, 3):
                        (var == "ed" or r["setting"] == DEFAULT)]
                 if not pts:
                     raise SystemExit("no %s point at D=%d nu=%g lambda=%g" % (var, dim, nu, lam))
-                p = pts[0]
-                # measured error^2 = bias^2 + its own SE^2 + the reference's SE^2
-                brow.append(0.0 if var == "ed" else math.sqrt(max(0.0, p["err"] ** 2 - p["se"] ** 2 - p["ref_se"] ** 2)))
-                srow.append(p["se"] * math.sqrt(p["c"]["n"] * R))
+                b, sp = curves(pts[0], var)
+                brow.append(b)
+                srow.append(sp)
             bias.append(brow)
             spread.append(srow)
         grid["variants"][var] = {"bias": bias, "spread": spread}
@@ -235,44 +281,61 @@ def round_sig(o):
 model = round_sig(model)
 
 # ---- held-out check: scenes the model was not fitted on ----------------------------------------
+HO_VARIANTS = (("ed", None), ("dsmc", "none"), ("dsmc", "enskog"), ("hsmc", "cba"))
+
+
+def ho_cases():
+    return [dict(name="held-out 2D nu=0.2 e=0.7", dim=2, nu=0.2, e=0.7, n=N_HELD,
+                 t_end=cooling_t_end(2, 0.2, 0.7, 1.5), kind="held"),
+            dict(name="held-out 2D nu=0.1 e=0.8 (short: tau 0.5)", dim=2, nu=0.1, e=0.8, n=N_HELD,
+                 t_end=cooling_t_end(2, 0.1, 0.8, 0.5), kind="held"),
+            dict(name="held-out 3D nu=0.15 e=0.8", dim=3, nu=0.15, e=0.8, n=N_HELD,
+                 t_end=cooling_t_end(3, 0.15, 0.8, 1.0), kind="held"),
+            dict(name="held-out 3D nu=0.15 e=0.8 (stop at 15 coll/particle)", dim=3, nu=0.15, e=0.8, n=N_HELD,
+                 t_end=cooling_t_end(3, 0.15, 0.8, math.exp(15 * 0.36 / 6) - 1), cpp_end=15.0, kind="held")]
+
+
+if not REFIT:              # the measured side of the held-out check (kept with --rows)
+    ho_measured = []
+    for c in ho_cases():
+        ref, refsum = run(case_scene(c, "ed", None))
+        tref = None if "cpp_end" in c else [p["temperature"] for p in ref[1:]]   # stops differ per method
+        for m, cr in HO_VARIANTS:
+            if m == "ed":
+                prog, summ, err = ref, refsum, rel_se(ref)
+            else:
+                prog, summ = run(case_scene(c, m, {"correction": cr}))
+                err = rel_err(prog, tref) if tref is not None else float("nan")
+            ho_measured.append(dict(case=c["name"], variant=m if m == "ed" else m + "/" + cr, cost=summ["wall_seconds"],
+                                    coll=summ["collisions"], err=err, ref_se=rel_se(ref)))
+            print("held", ho_measured[-1], file=sys.stderr)
+if ROWS:
+    with open(ROWS, "w") as f:
+        json.dump({"rows": rows, "held": ho_measured, "seconds": time.time() - t_start}, f)
+
 held = []
 if MODEL:
     with open(MODEL, "w") as f:
         json.dump(model, f, indent=1)
         f.write("\n")
-    ho_cases = [dict(name="held-out 2D nu=0.2 e=0.7", dim=2, nu=0.2, e=0.7, n=N_HELD,
-                     t_end=cooling_t_end(2, 0.2, 0.7, 1.5), kind="held"),
-                dict(name="held-out 3D nu=0.15 e=0.8 (stop at 15 coll/particle)", dim=3, nu=0.15, e=0.8, n=N_HELD,
-                     t_end=cooling_t_end(3, 0.15, 0.8, math.exp(15 * 0.36 / 6) - 1), cpp_end=15.0, kind="held")]
-    for c in ho_cases:
-        est = {e["method"]: e for e in advise(case_scene(c, "ed", None))["estimates"]}
-        ref, refsum = run(case_scene(c, "ed", None))
-        tref = [p["temperature"] for p in ref[1:]]
-        if "cpp_end" in c:     # time stops differ per method: compare at equal collision counts instead
-            tref = None
-        for m in ("ed", "dsmc", "hsmc"):
-            if m == "ed":
-                prog, summ = ref, refsum
-                err = rel_se(ref)
-            else:
-                prog, summ = run(case_scene(c, m, None))
-                if tref is not None:
-                    err = rel_err(prog, tref)
-                else:
-                    err = float("nan")
-            e = est[m]
+    for c in ho_cases():
+        est = {e["variant"]: e for e in advise(case_scene(c, "ed", None))["estimates"]}
+        base = {e["variant"]: e for e in advise(case_scene(c, "ed", None), BASELINE)["estimates"]} if BASELINE else {}
+        for h in [x for x in ho_measured if x["case"] == c["name"]]:
+            e = est[h["variant"]]
             relax_coll = R * c["n"] * 10 / 2
-            held.append(dict(case=c["name"], method=e["variant"],
-                             pred_cost=e["cpu_seconds"] - e["setup_cpu_seconds"], cost=summ["wall_seconds"],
-                             pred_coll=e["collisions"] - relax_coll, coll=summ["collisions"],
-                             pred_err=e["error"]["temperature"], err=err, ref_se=rel_se(ref),
+            b = base.get(h["variant"])
+            held.append(dict(h, method=h["variant"], pred_cost=e["cpu_seconds"] - e["setup_cpu_seconds"],
+                             pred_coll=e["collisions"] - relax_coll, pred_err=e["error"]["temperature"],
+                             base_err=b["error"]["temperature"] if b else None,
                              extrapolated=e["extrapolated"]))
-            print("held", c["name"], m, held[-1], file=sys.stderr)
+            print("held", held[-1], file=sys.stderr)
 
 # ---- the document -----------------------------------------------------------------------------
 md = os.path.join(DOCDIR, "tradeoff.md")
 png = os.path.join(DOCDIR, "tradeoff.png")
-cmd = "make bench (bench/tradeoff.py ENGINE DOCDIR --model data/advice-model.json%s)" % (" --quick" if QUICK else "")
+cmd = "make bench (bench/tradeoff.py ENGINE DOCDIR --model data/advice-model.json%s%s)" % (
+    " --quick" if QUICK else "", " --baseline OLD_ENGINE" if BASELINE else "")
 with open(md, "w") as f:
     f.write("# The trade: cost against accuracy, DSMC/HSMC vs event-driven MD\n\n")
     f.write("Written by `%s`; numbers from the last run (%.0f s). Do not edit by hand.\n\n" % (cmd, time.time() - t_start))
@@ -305,11 +368,16 @@ with open(md, "w") as f:
             "- Cost: ed `collisions x (a + b / (nu chi))` (cell crossings per collision grow with the mean free path);\n"
             "  dsmc/hsmc `moves x s_move + collisions x s_coll`. Fitted by least squares in relative terms on the cooling rows\n"
             "  (MC: every automatic-cell row, all three step sizes).\n"
-            "- Error: `sqrt(bias^2 + spread^2 / (N x replicas))`; bias and spread on the (volume fraction, lambda) grid of the\n"
-            "  cooling cases at default settings, bilinear in between, 0 at lambda = 0; bias = sqrt(error^2 - SE_MC^2 -\n"
-            "  SE_ref^2), spread = SE x sqrt(N x replicas). Beyond Haff time %g (clustering) the MC bias is at least the\n"
-            "  clustering case's. Outside the grid, beyond Haff time %g, with non-default MC settings, on validity\n"
-            "  warnings or at N > 10x %d an estimate is flagged `extrapolated`.\n\n" % (TAU_END, TAU_END, N))
+            "- Error: `sqrt(bias^2 + spread^2 / (N x replicas))`, bias and spread functions of (volume fraction,\n"
+            "  lambda, Haff time tau reached by the run), from the cooling cases at default settings: at each grid point\n"
+            "  and output time tau_k the error of a run stopping there (RMS over its outputs), bias^2 = error^2 -\n"
+            "  SE_MC^2 - SE_ref^2 (made non-decreasing in tau), spread = SE x sqrt(N x replicas). In tau: linear between\n"
+            "  the output times, bias linear to 0 at tau = 0 below the first, spread constant there; beyond tau = %g\n"
+            "  clamped (and the MC bias at least the clustering case's), `extrapolated`. In (nu, lambda): bilinear in\n"
+            "  (chi(nu) - 1, lambda) (chi the contact value: the coordinate the collision rate, and dsmc/none's bias,\n"
+            "  follow), clamped outside the grid and `extrapolated`; linear to 0 at lambda = 0. Outside the grid,\n"
+            "  beyond Haff time %g, with non-default MC settings, on validity warnings or at N > 10x %d an estimate is\n"
+            "  flagged `extrapolated`.\n\n" % (TAU_END, TAU_END, N))
     f.write("| constant | D = 2 | D = 3 | fit: RMS relative residual (2D / 3D) |\n|---|---|---|---|\n")
     cm = model["cost"]
     f.write("| ed a (s per collision) | %.3g | %.3g | %.2f / %.2f |\n" % (cm["ed"]["2"]["per_collision"], cm["ed"]["3"]["per_collision"],
@@ -319,11 +387,14 @@ with open(md, "w") as f:
         f.write("| %s s_move | %.3g | %.3g | %.2f / %.2f |\n" % (m, cm[m]["2"]["per_move"], cm[m]["3"]["per_move"],
                                                                fit_quality[(m, 2)], fit_quality[(m, 3)]))
         f.write("| %s s_coll | %.3g | %.3g | |\n" % (m, cm[m]["2"]["per_collision"], cm[m]["3"]["per_collision"]))
-    f.write("\n| D | variant | bias (rows: nu; columns: lambda) | spread |\n|---|---|---|---|\n")
+    f.write("\n| D | variant | bias at tau = %g, %g (rows: nu; columns: lambda) | spread at tau = %g |\n|---|---|---|---|\n"
+            % (TAU_END / K, TAU_END, TAU_END))
     for dim in ("2", "3"):
         g = model["error"][dim]
         for var, v in g["variants"].items():
-            f.write("| %s | %s | %s | %s |\n" % (dim, var, v["bias"], v["spread"]))
+            f.write("| %s | %s | %s; %s | %s |\n" % (dim, var, [[b[0] for b in r] for r in v["bias"]],
+                                                   [[b[-1] for b in r] for r in v["bias"]],
+                                                   [[b[-1] for b in r] for r in v["spread"]]))
         f.write("| %s | grid | nu = %s, lambda = %s; clustering: %s | |\n" % (dim, g["volume_fraction"], g["lambda"],
                                                                           g["clustering"] or "not measured"))
     if held:
@@ -333,13 +404,29 @@ with open(md, "w") as f:
                 "(the pre-run excluded on both sides); collisions: production, all replicas; error: the MC run against\n"
                 "the ED run (which carries its own `ref SE`), for ed its own SE. With a stop after a number of\n"
                 "collisions the methods stop at different times, so no time-wise error is measured there.\n\n" % (N_HELD, R))
-        f.write("| case | method | cost predicted | measured | ratio | collisions predicted | measured | error predicted | measured | ref SE |\n"
-                "|---|---|---|---|---|---|---|---|---|---|\n")
+        bl = BASELINE is not None
+        f.write("| case | method | cost predicted | measured | ratio | collisions predicted | measured | error predicted |%s measured | ref SE |\n"
+                "|---|---|---|---|---|---|---|---|%s---|---|\n" % (" before |" if bl else "", "---|" if bl else ""))
         for h in held:
-            f.write("| %s | %s%s | %.3g | %.3g | %.2f | %.4g | %.4g | %.3g | %s | %.2g |\n" % (
+            f.write("| %s | %s%s | %.3g | %.3g | %.2f | %.4g | %.4g | %.3g |%s %s | %.2g |\n" % (
                 h["case"], h["method"], " (extrapolated)" if h["extrapolated"] else "", h["pred_cost"], h["cost"],
                 h["pred_cost"] / h["cost"], h["pred_coll"], h["coll"], h["pred_err"],
+                (" %.3g |" % h["base_err"] if h["base_err"] is not None else " - |") if bl else "",
                 "-" if h["err"] != h["err"] else "%.3g" % h["err"], h["ref_se"]))
+        if bl:
+            f.write("\n`before`: the expected error of the previous model (%s), for comparison.\n" % BASELINE_NOTE)
+
+        def summary(key):
+            # an MC run is measured against the ED run, which adds the reference's SE: compare like with like
+            r = [math.sqrt(h[key] ** 2 + (h["ref_se"] ** 2 if h["method"] != "ed" else 0)) / h["err"]
+                 for h in held if h["err"] == h["err"] and h.get(key) is not None]
+            g = math.exp(sum(math.log(x) for x in r) / len(r))
+            return "geometric mean %.2f, range %.2f-%.2f over %d runs" % (g, min(r), max(r), len(r))
+        cr = [h["pred_cost"] / h["cost"] for h in held]
+        f.write("\nSummary: cost predicted/measured: geometric mean %.2f, range %.2f-%.2f. Error predicted/measured\n"
+                "(MC: sqrt(predicted^2 + ref SE^2), as the measured error carries the reference's noise): %s%s.\n" % (
+                    math.exp(sum(math.log(x) for x in cr) / len(cr)), min(cr), max(cr), summary("pred_err"),
+                    "; before: " + summary("base_err") if bl else ""))
     notes = os.path.join(DOCDIR, "tradeoff-notes.md")
     if os.path.exists(notes):
         f.write("\n" + open(notes).read())

@@ -463,7 +463,7 @@ static int c_advise(ctx_t *x)
 			printf("  %s: %s\n", str(e, "method", "?"), json_string_value(nt));
 	}
 	if (json_is_string(json_object_get(resp, "choice")))
-		printf("choice: %s (%s)\n", str(resp, "choice", "?"), str(resp, "reason", ""));
+		printf("choice: %s (%s)\n", str(resp, "choice_variant", str(resp, "choice", "?")), str(resp, "reason", ""));
 cleanup:
 	free(txt);
 	json_decref(doc);

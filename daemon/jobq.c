@@ -538,7 +538,8 @@ int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **ou
 	snprintf(hash, sizeof(hash), "%016" PRIx64, fnv1a(scene_txt, strlen(scene_txt)));
 	if (b.sc.method == SCENE_METHOD_AUTO) {
 		/* Decide now and keep the decision: the job stores and runs the
-		 * concrete scene (method chosen, accuracy dropped), so the engine,
+		 * concrete scene (method and correction chosen, accuracy dropped:
+		 * exactly what was estimated), so the engine,
 		 * its checkpoints and a later daemon with another model agree. */
 		advice_t adv;
 		json_t *aj;
@@ -551,9 +552,7 @@ int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **ou
 		json_decref(aj);
 		free(scene_txt);
 		scene_txt = NULL;
-		advice_apply(&adv, &b.sc);
-		if (!advice_txt || json_object_set_new(b.scene_obj, "method", json_string(scene_method_name(b.sc.method))) ||
-		    json_object_del(b.scene_obj, "accuracy") ||
+		if (!advice_txt || advice_apply_json(&adv, b.scene_obj) != ADVICE_OK ||
 		    !(scene_txt = json_dumps(b.scene_obj, JSON_COMPACT | JSON_PRESERVE_ORDER)))
 			goto nomem;
 		if (scene_parse(scene_txt, strlen(scene_txt), &b.sc, msg, sizeof(msg)) != SCENE_OK) {

@@ -124,6 +124,7 @@
     const p = presets.find((x) => x.name === $('preset').value);
     if (!p) return;
     $('preset-desc').textContent = p.description;
+    $('advice').hidden = true;
     $('scene').value = JSON.stringify(p.scene, null, 2);
   }
   async function submit(ev) {
@@ -138,6 +139,57 @@
     } catch (e) { msg.className = 'err'; msg.textContent = e.message; }
   }
 
+  // ---- method advice (POST /api/v1/advice; a job's "advice" for method auto) ----
+  const num = (v, p) => (Number.isFinite(v) ? v.toPrecision(p || 3) : '-');
+  function settingsText(e) {
+    const s = e.settings || {};
+    if (e.method === 'ed') return 'cell ' + (s.cell_size ?? 'automatic');
+    const step = s.time_step ? 'step ' + num(s.time_step) : num(s.collisions_per_step, 2) + ' coll/step';
+    return 'cell ' + num(s.cell_size) + ', ' + step;
+  }
+  // The decision (chosen variant and the first clause of the reason) and every candidate's cost and error.
+  function adviceView(a) {
+    const kids = [];
+    const chosen = a.choice_variant || a.choice;
+    const sc = a.scene || {};
+    kids.push(el('p', { class: 'muted' }, (sc.particles ?? '?') + ' particles x ' + (sc.replicas ?? '?') + ' replicas, ' +
+      (sc.ranks ?? 1) + ' rank(s); Haff time ' + num(sc.haff_time) + (a.target ? '; target: temperature error <= ' + a.target.temperature : '; no target (method ' + (sc.method || '?') + ')')));
+    if (chosen) {
+      const [first, ...rest] = (a.reason || '').split('; ');
+      kids.push(el('p', { class: 'reason' }, el('strong', {}, 'chosen: ' + chosen), ' \u2014 ' + first));
+      if (rest.length) kids.push(el('p', { class: 'more muted' }, rest.join('; ')));
+    }
+    const head = el('tr', {}, ...['variant', 'settings', 'CPU s', 'wall s', 'expected error', 'meets', 'extrapolated'].map((h) => el('th', {}, h)));
+    const rows = (a.estimates || []).map((e) => {
+      const m = e.meets_target;
+      const tr = el('tr', { 'data-variant': e.variant, title: (e.notes || []).join('; ') },
+        el('td', {}, e.variant), el('td', {}, settingsText(e)), el('td', {}, num(e.cpu_seconds)), el('td', {}, num(e.wall_seconds)),
+        el('td', {}, num(e.error && e.error.temperature)), el('td', {}, m === true ? 'yes' : m === false ? 'no' : '-'),
+        el('td', {}, e.extrapolated ? 'yes' : ''));
+      if (chosen && e.variant === chosen) tr.className = 'chosen';
+      return tr;
+    });
+    kids.push(el('table', {}, el('thead', {}, head), el('tbody', {}, ...rows)));
+    return kids;
+  }
+  async function advise() {
+    const msg = $('submit-msg'), box = $('advice');
+    let scene;
+    try { scene = JSON.parse($('scene').value); } catch (e) { msg.className = 'err'; msg.textContent = 'scene: ' + e.message; return; }
+    try {
+      const a = await api('POST', '/api/v1/advice', { scene, ranks: Number($('ranks').value) });
+      box.replaceChildren(el('h3', {}, 'Advice'), ...adviceView(a));
+      box.hidden = false;
+      msg.className = ''; msg.textContent = '';
+    } catch (e) { box.hidden = true; msg.className = 'err'; msg.textContent = 'advice: ' + e.message; }
+  }
+  function renderJobAdvice(j) {
+    const box = $('job-advice');
+    if (!j.advice) { box.hidden = true; box.replaceChildren(); return; }
+    box.replaceChildren(el('h3', {}, 'Method advice (method auto, decided at submission)'), ...adviceView(j.advice));
+    box.hidden = false;
+  }
+
   // ---- job page: record, live plots ----
   function renderJob(j) {
     $('job-id').textContent = j.id;
@@ -149,6 +201,7 @@
       ['sim time', Number.isFinite(j.sim_time) ? j.sim_time.toPrecision(5) : '-'], ['events', si(j.events)],
       ['created', new Date(j.created_at * 1000).toLocaleString()], ['reason', j.reason || '-'],
     ]);
+    if (j.advice !== undefined) renderJobAdvice(j);
   }
   // Haff's law: sqrt(T0/T) - 1 = t/tau; least squares through the origin over the early records (T > T0/4).
   function haff(t, T) {
@@ -205,6 +258,8 @@
   async function openJob(id) {
     view.job = id;
     $('list-view').hidden = true; $('job-view').hidden = false;
+    renderJobAdvice({});
+    $('haff').textContent = '';
     series = { job: id, after: -1, t: [], T: [], rate: [], cl: [] };
     makePlots();
     try {
@@ -251,6 +306,7 @@
 
   $('preset').addEventListener('change', showPreset);
   $('submit-form').addEventListener('submit', submit);
+  $('advise').addEventListener('click', advise);
   $('filter').addEventListener('change', renderJobs);
   $('job-cancel').addEventListener('click', () => view.job && cancel(view.job));
   window.addEventListener('hashchange', route);

@@ -10,22 +10,24 @@
 #include "engine/advice_model_json.h"   /* generated from data/advice-model.json: advice_model_text[] */
 
 #define GRID_MAX 8
+#define TAU_MAX 16
 #define VARIANTS_MAX 8
 /* Cost per operation is measured at one N; beyond this factor caches change it (docs/benchmarks.md). */
 #define SIZE_FACTOR 10.0
 
 typedef struct {
 	char name[16];
-	double bias[GRID_MAX][GRID_MAX];     /* [volume fraction][lambda] */
-	double spread[GRID_MAX][GRID_MAX];   /* relative SE of T x sqrt(N replicas) */
-	double clustering;                   /* error measured past haff_time_max; NAN = not measured */
+	double bias[GRID_MAX][GRID_MAX][TAU_MAX];     /* [volume fraction][lambda][Haff time] */
+	double spread[GRID_MAX][GRID_MAX][TAU_MAX];   /* relative SE of T x sqrt(N replicas) */
+	double clustering;                   /* error measured past the last Haff time; NAN = not measured */
 } variant_t;
 
 typedef struct {
 	double ed_a, ed_b;                   /* ed: s per collision = a + b / (nu chi) */
 	double mc_move[2], mc_coll[2];       /* [0] dsmc, [1] hsmc */
-	int nnu, nlam;
-	double nu[GRID_MAX], lam[GRID_MAX];
+	int nnu, nlam, ntau;
+	double nu[GRID_MAX], lam[GRID_MAX], tau[TAU_MAX];
+	double xnu[GRID_MAX];                /* the density coordinate of each grid volume fraction */
 	int nvar;
 	variant_t var[VARIANTS_MAX];
 } dimmodel_t;
@@ -34,7 +36,7 @@ struct advice_model {
 	int version;
 	char date[32];
 	double particles;        /* N of the measured table */
-	double haff_time_max;    /* the homogeneous cooling runs reached this Haff time */
+	int contact_axis;        /* interpolate in chi(nu) - 1 (1) or in nu (0) */
 	dimmodel_t d[2];         /* D = 2, 3 */
 };
 
@@ -102,15 +104,15 @@ static json_t *obj_at(pctx_t *c, json_t *obj, const char *path, const char *key)
 	return v;
 }
 
-/* A strictly increasing array of 1..GRID_MAX numbers >= 0. */
-static int axis(pctx_t *c, json_t *obj, const char *path, const char *key, double *out, int *n)
+/* A strictly increasing array of 1..max numbers > 0. */
+static int axis(pctx_t *c, json_t *obj, const char *path, const char *key, int max, double *out, int *n)
 {
 	char p[160];
 	snprintf(p, sizeof p, "%s.%s", path, key);
 	json_t *a = json_object_get(obj, key), *v;
 	size_t i;
-	if (!json_is_array(a) || json_array_size(a) < 1 || json_array_size(a) > GRID_MAX)
-		return bad(c, p, "must be an array of 1 to %d numbers", GRID_MAX);
+	if (!json_is_array(a) || json_array_size(a) < 1 || json_array_size(a) > (size_t)max)
+		return bad(c, p, "must be an array of 1 to %d numbers", max);
 	json_array_foreach(a, i, v) {
 		if (!json_is_number(v) || !(json_number_value(v) > 0) || (i > 0 && !(json_number_value(v) > out[i - 1])))
 			return bad(c, p, "must hold increasing numbers > 0");
@@ -120,9 +122,9 @@ static int axis(pctx_t *c, json_t *obj, const char *path, const char *key, doubl
 	return 0;
 }
 
-/* A nnu x nlam matrix of numbers >= 0. */
-static int matrix(pctx_t *c, json_t *obj, const char *path, const char *key, int nnu, int nlam,
-                  double m[GRID_MAX][GRID_MAX])
+/* A nnu x nlam x ntau array of numbers >= 0. */
+static int cube(pctx_t *c, json_t *obj, const char *path, const char *key, int nnu, int nlam, int ntau,
+                double m[GRID_MAX][GRID_MAX][TAU_MAX])
 {
 	char p[160];
 	snprintf(p, sizeof p, "%s.%s", path, key);
@@ -132,21 +134,34 @@ static int matrix(pctx_t *c, json_t *obj, const char *path, const char *key, int
 	for (int i = 0; i < nnu; i++) {
 		json_t *row = json_array_get(a, i);
 		if (!json_is_array(row) || json_array_size(row) != (size_t)nlam)
-			return bad(c, p, "row %d must hold %d numbers (one per lambda)", i, nlam);
+			return bad(c, p, "row %d must hold %d arrays (one per lambda)", i, nlam);
 		for (int j = 0; j < nlam; j++) {
-			json_t *v = json_array_get(row, j);
-			if (!json_is_number(v) || !(json_number_value(v) >= 0) || !isfinite(json_number_value(v)))
-				return bad(c, p, "[%d][%d] must be a finite number >= 0", i, j);
-			m[i][j] = json_number_value(v);
+			json_t *cur = json_array_get(row, j);
+			if (!json_is_array(cur) || json_array_size(cur) != (size_t)ntau)
+				return bad(c, p, "[%d][%d] must hold %d numbers (one per Haff time)", i, j, ntau);
+			for (int k = 0; k < ntau; k++) {
+				json_t *v = json_array_get(cur, k);
+				if (!json_is_number(v) || !(json_number_value(v) >= 0) || !isfinite(json_number_value(v)))
+					return bad(c, p, "[%d][%d][%d] must be a finite number >= 0", i, j, k);
+				m[i][j][k] = json_number_value(v);
+			}
 		}
 	}
 	return 0;
 }
 
-static int parse_dim(pctx_t *c, json_t *root, int dim, dimmodel_t *d)
+/* The coordinate in which the error is interpolated across densities:
+ * chi(nu) - 1 follows the collision rate (and dsmc/none's bias, which is
+ * the missing chi), so it is closer to linear than nu itself. */
+static double density_coordinate(int dim, double nu, int contact_axis)
+{
+	return contact_axis ? dsmc_contact_value(dim, nu) - 1 : nu;
+}
+
+static int parse_dim(pctx_t *c, json_t *root, int dim, dimmodel_t *d, int contact_axis)
 {
 	char path[64], p2[96];
-	json_t *cost = obj_at(c, root, "", "cost"), *err = obj_at(c, root, "", "error"), *o, *vars, *v;
+	json_t *cost = obj_at(c, root, "", "cost"), *err = cost ? obj_at(c, root, "", "error") : NULL, *o, *vars, *v;
 	const char *key, *dk = dim == 2 ? "2" : "3";
 	if (!cost || !err)
 		return -1;
@@ -169,8 +184,11 @@ static int parse_dim(pctx_t *c, json_t *root, int dim, dimmodel_t *d)
 	snprintf(path, sizeof path, "error.%s", dk);
 	if (!(o = obj_at(c, err, "error", dk)))
 		return -1;
-	if (axis(c, o, path, "volume_fraction", d->nu, &d->nnu) || axis(c, o, path, "lambda", d->lam, &d->nlam))
+	if (axis(c, o, path, "volume_fraction", GRID_MAX, d->nu, &d->nnu) ||
+	    axis(c, o, path, "lambda", GRID_MAX, d->lam, &d->nlam) || axis(c, o, path, "haff_time", TAU_MAX, d->tau, &d->ntau))
 		return -1;
+	for (int i = 0; i < d->nnu; i++)
+		d->xnu[i] = density_coordinate(dim, d->nu[i], contact_axis);
 	snprintf(p2, sizeof p2, "%s.variants", path);
 	if (!(vars = obj_at(c, o, path, "variants")))
 		return -1;
@@ -186,8 +204,8 @@ static int parse_dim(pctx_t *c, json_t *root, int dim, dimmodel_t *d)
 		snprintf(x->name, sizeof x->name, "%s", key);
 		if (!json_is_object(v))
 			return bad(c, vp, "must be an object");
-		if (matrix(c, v, vp, "bias", d->nnu, d->nlam, x->bias) ||
-		    matrix(c, v, vp, "spread", d->nnu, d->nlam, x->spread))
+		if (cube(c, v, vp, "bias", d->nnu, d->nlam, d->ntau, x->bias) ||
+		    cube(c, v, vp, "spread", d->nnu, d->nlam, d->ntau, x->spread))
 			return -1;
 		json_t *cv = json_object_get(clu, key);
 		x->clustering = json_is_number(cv) && json_number_value(cv) >= 0 ? json_number_value(cv) : NAN;
@@ -217,8 +235,8 @@ advice_model_t *advice_model_create(const char *json, size_t len, char *err, siz
 		goto cleanup;
 	}
 	v = json_object_get(root, "version");
-	if (!json_is_integer(v) || json_integer_value(v) != 1) {
-		bad(&c, "version", "must be 1 (this build reads model version 1)");
+	if (!json_is_integer(v) || json_integer_value(v) != 2) {
+		bad(&c, "version", "must be 2 (this build reads model version 2)");
 		goto cleanup;
 	}
 	m = calloc(1, sizeof(*m));
@@ -226,13 +244,22 @@ advice_model_t *advice_model_create(const char *json, size_t len, char *err, siz
 		bad(&c, "(root)", "out of memory");
 		goto cleanup;
 	}
-	m->version = 1;
+	m->version = 2;
+	v = json_object_get(root, "density_axis");
+	if (v && (!json_is_string(v) || (strcmp(json_string_value(v), "contact_value") &&
+	                                  strcmp(json_string_value(v), "volume_fraction")))) {
+		bad(&c, "density_axis", "must be \"contact_value\" or \"volume_fraction\"");
+		free(m);
+		m = NULL;
+		goto cleanup;
+	}
+	m->contact_axis = !v || !strcmp(json_string_value(v), "contact_value");
 	json_t *gen = json_object_get(root, "generated");
 	snprintf(m->date, sizeof m->date, "%s", json_is_string(json_object_get(gen, "date"))
 	                                        ? json_string_value(json_object_get(gen, "date")) : "");
 	if (num_at(&c, root, "", "particles_measured", 2, &m->particles) ||
-	    num_at(&c, root, "", "haff_time_max", 0, &m->haff_time_max) || parse_dim(&c, root, 2, &m->d[0]) ||
-	    parse_dim(&c, root, 3, &m->d[1])) {
+	    parse_dim(&c, root, 2, &m->d[0], m->contact_axis) ||
+	    parse_dim(&c, root, 3, &m->d[1], m->contact_axis)) {
 		free(m);
 		m = NULL;
 	}
@@ -291,20 +318,39 @@ static void locate(const double *ax, int n, double x, int *i, double *w, int *ou
 	*i = k, *w = (x - ax[k]) / (ax[k + 1] - ax[k]);
 }
 
-/* Bilinear in (nu, lambda); below the first lambda, linear towards 0 at lambda = 0. */
-static double interp(const dimmodel_t *d, const double m[GRID_MAX][GRID_MAX], double nu, double lam, unsigned *x)
+/* One grid point's curve at Haff time tau: linear between the measured
+ * times; below the first, the bias linear towards 0 at tau = 0 (both runs
+ * start from the same state) and the spread constant; beyond the last,
+ * clamped (the caller flags it). */
+static double along_tau(const dimmodel_t *d, const double *curve, double tau, int is_bias)
+{
+	if (tau <= d->tau[0])
+		return is_bias ? curve[0] * (tau > 0 ? tau / d->tau[0] : 0) : curve[0];
+	int k, o;
+	double w;
+	locate(d->tau, d->ntau, tau, &k, &w, &o);
+	return d->ntau > 1 ? (1 - w) * curve[k] + w * curve[k + 1] : curve[0];
+}
+
+/* Bilinear in (density coordinate, lambda) of the grid points' values at
+ * tau; below the first lambda, linear towards 0 at lambda = 0. */
+static double interp(const advice_model_t *m, const dimmodel_t *d, const double c[GRID_MAX][GRID_MAX][TAU_MAX],
+                     int dim, double nu, double lam, double tau, int is_bias, unsigned *x)
 {
 	int i, j, o1, o2;
 	double wi, wj;
-	locate(d->nu, d->nnu, nu, &i, &wi, &o1);
+	locate(d->nu, d->nnu, nu, &i, &wi, &o1);   /* for the range check */
 	if (o1)
 		*x |= ADVICE_X_DENSITY;
+	locate(d->xnu, d->nnu, density_coordinate(dim, nu, m->contact_axis), &i, &wi, &o1);
 	double lc = lam < d->lam[0] ? d->lam[0] : lam;
 	locate(d->lam, d->nlam, lc, &j, &wj, &o2);
 	if (lam > d->lam[d->nlam - 1] * (1 + 1e-9))
 		*x |= ADVICE_X_DISSIPATION;
 	int i1 = d->nnu > 1 ? i + 1 : i, j1 = d->nlam > 1 ? j + 1 : j;
-	double v = (1 - wi) * ((1 - wj) * m[i][j] + wj * m[i][j1]) + wi * ((1 - wj) * m[i1][j] + wj * m[i1][j1]);
+#define AT(a, b) along_tau(d, c[a][b], tau, is_bias)
+	double v = (1 - wi) * ((1 - wj) * AT(i, j) + wj * AT(i, j1)) + wi * ((1 - wj) * AT(i1, j) + wj * AT(i1, j1));
+#undef AT
 	return lam < d->lam[0] ? v * lam / d->lam[0] : v;
 }
 
@@ -342,12 +388,22 @@ static double outputs(const scene_t *s, double t_end, double cpp)
 	return isfinite(n) ? ceil(n) : 0;
 }
 
-/* One method's estimate. own: the scene's own method (its settings count). */
-static int estimate_one(const advice_model_t *m, const scene_t *s, scene_method_t method, int ranks, double tau,
-                        advice_estimate_t *e, char *err, size_t errlen)
+/* The correction a scene's MC method resolves to (dsmc_params()'s default). */
+static int resolved_correction(scene_method_t method, int corr)
+{
+	return corr != SCENE_MC_DEFAULT ? corr : method == SCENE_METHOD_HSMC ? SCENE_MC_CBA : SCENE_MC_NONE;
+}
+
+/* One candidate's estimate (correction: resolved, 0 for ed). The scene's own
+ * method and correction is estimated with its settings, the others at the
+ * defaults with that correction. */
+static int estimate_one(const advice_model_t *m, const scene_t *s, scene_method_t method, int correction, int ranks,
+                        double tau, advice_estimate_t *e, char *err, size_t errlen)
 {
 	const dimmodel_t *d = &m->d[s->dim == 3];
-	const int D = s->dim, own = s->method == method;
+	const int D = s->dim;
+	const int own = s->method == method &&
+	                (method == SCENE_METHOD_ED || resolved_correction(method, s->mc_correction) == correction);
 	const double N = (double)s->count, R = (double)s->replicas, nu = s->volume_fraction;
 	const double lam = 1 - s->restitution * s->restitution;
 	const double chi_hs = dsmc_contact_value(D, nu);
@@ -365,9 +421,9 @@ static int estimate_one(const advice_model_t *m, const scene_t *s, scene_method_
 		scene_t c = *s;
 		dsmc_params_t p;
 		c.method = method;
-		if (!own) {   /* the defaults: what the engine picks for a scene without a dsmc/hsmc object */
+		if (!own) {   /* the defaults: what the engine picks for a dsmc/hsmc object with only a correction */
 			c.mc_cell_size = c.mc_time_step = c.mc_collisions_per_step = c.mc_max_volume_fraction = 0;
-			c.mc_correction = SCENE_MC_DEFAULT;
+			c.mc_correction = (scene_mc_correction_t)correction;
 		}
 		if (dsmc_params(&c, &p, warn, sizeof warn) != DSMC_OK) {
 			snprintf(err, errlen, "method: %s cannot be estimated for this scene", scene_method_name(method));
@@ -438,10 +494,11 @@ static int estimate_one(const advice_model_t *m, const scene_t *s, scene_method_
 		note(e, "no measured error for %s", e->variant);
 		return ADVICE_OK;
 	}
-	e->bias = method == SCENE_METHOD_ED ? 0 : interp(d, v->bias, nu, lam, &x);
-	double spread = interp(d, v->spread, nu, lam, &x);
+	e->bias = method == SCENE_METHOD_ED ? 0 : interp(m, d, v->bias, D, nu, lam, tau, 1, &x);
+	double spread = interp(m, d, v->spread, D, nu, lam, tau, 0, &x);
 	e->statistical = spread / sqrt(N * R);
-	if (lam > 0 && tau > m->haff_time_max * (1 + 1e-9)) {
+	const double tau_max = d->tau[d->ntau - 1];
+	if (lam > 0 && tau > tau_max * (1 + 1e-9)) {
 		x |= ADVICE_X_CLUSTERING;
 		if (method != SCENE_METHOD_ED && isfinite(v->clustering) && v->clustering > e->bias)
 			e->bias = v->clustering;
@@ -453,7 +510,7 @@ static int estimate_one(const advice_model_t *m, const scene_t *s, scene_method_
 		note(e, "1 - e^2 = %.3g above the measured %.3g", lam, d->lam[d->nlam - 1]);
 	if (x & ADVICE_X_CLUSTERING)
 		note(e, "runs to Haff time %.3g, beyond the measured homogeneous cooling (%.3g): clustering regime%s", tau,
-		     m->haff_time_max, method != SCENE_METHOD_ED && isfinite(v->clustering) ? ", bias at least the measured clustering error" : "");
+		     tau_max, method != SCENE_METHOD_ED && isfinite(v->clustering) ? ", bias at least the measured clustering error" : "");
 	e->extrapolated |= x;
 	return ADVICE_OK;
 }
@@ -506,9 +563,31 @@ static void choose(advice_t *a)
 #undef ADD
 }
 
+/* The candidates (see advice.h): ed; per MC method its default correction,
+ * the other measured ones, and the scene's own if still missing. */
+static int candidates(const dimmodel_t *d, const scene_t *s, scene_method_t meth[], int corr[])
+{
+	static const scene_method_t mc[2] = {SCENE_METHOD_DSMC, SCENE_METHOD_HSMC};
+	int n = 0;
+	meth[n] = SCENE_METHOD_ED, corr[n++] = 0;
+	for (int k = 0; k < 2; k++) {
+		const int def = resolved_correction(mc[k], SCENE_MC_DEFAULT);
+		const int mine = s->method == mc[k] ? resolved_correction(mc[k], s->mc_correction) : -1;
+		meth[n] = mc[k], corr[n++] = def;
+		for (int c = SCENE_MC_NONE; c <= SCENE_MC_CBA; c++) {
+			char name[16];
+			snprintf(name, sizeof name, "%s/%s", scene_method_name(mc[k]), corr_names[c]);
+			if (c != def && (c == mine || find_variant(d, name)) && n < ADVICE_MAX_ESTIMATES)
+				meth[n] = mc[k], corr[n++] = c;
+		}
+	}
+	return n;
+}
+
 int advice_estimate(const advice_model_t *m, const scene_t *s, int ranks, advice_t *out, char *err, size_t errlen)
 {
-	static const scene_method_t methods[ADVICE_MAX_METHODS] = {SCENE_METHOD_ED, SCENE_METHOD_DSMC, SCENE_METHOD_HSMC};
+	scene_method_t meth[ADVICE_MAX_ESTIMATES];
+	int corr[ADVICE_MAX_ESTIMATES];
 	memset(out, 0, sizeof(*out));
 	if (err && errlen)
 		err[0] = '\0';
@@ -534,8 +613,9 @@ int advice_estimate(const advice_model_t *m, const scene_t *s, int ranks, advice
 	                                                 : haff_time_of_cpp(s->dim, f_hs, lam, s->until.value);
 	out->cpp = s->until.kind == SCENE_CLOCK_TIME ? advice_haff_cpp(s->dim, f_hs, lam, t_end) : s->until.value;
 	out->haff_time = isfinite(t_end) ? lam * f_hs * t_end / (2.0 * s->dim) : INFINITY;
-	for (int i = 0; i < ADVICE_MAX_METHODS; i++) {
-		int r = estimate_one(m, s, methods[i], out->ranks, out->haff_time, &out->est[out->n], err, errlen);
+	const int nc = candidates(&m->d[s->dim == 3], s, meth, corr);
+	for (int i = 0; i < nc; i++) {
+		int r = estimate_one(m, s, meth[i], corr[i], out->ranks, out->haff_time, &out->est[out->n], err, errlen);
 		if (r)
 			return r;
 		out->n++;
@@ -553,10 +633,41 @@ int advice_estimate(const advice_model_t *m, const scene_t *s, int ranks, advice
 	return ADVICE_OK;
 }
 
+static const advice_estimate_t *chosen(const advice_t *a)
+{
+	return a->requested == SCENE_METHOD_AUTO && a->choice >= 0 && a->choice < a->n ? &a->est[a->choice] : NULL;
+}
+
 void advice_apply(const advice_t *a, scene_t *s)
 {
-	if (s->method == SCENE_METHOD_AUTO && a->choice >= 0 && a->choice < a->n)
-		s->method = a->est[a->choice].method;
+	const advice_estimate_t *e = chosen(a);
+	if (s->method != SCENE_METHOD_AUTO || !e)
+		return;
+	s->method = e->method;
+	if (e->method != SCENE_METHOD_ED)
+		s->mc_correction = (scene_mc_correction_t)e->correction;
+}
+
+/* What the choice changes in the scene: {"method": M[, M: {"correction": C}]}. */
+static json_t *resolved_json(const advice_estimate_t *e)
+{
+	const char *name = scene_method_name(e->method);
+	if (e->method == SCENE_METHOD_ED)
+		return json_pack("{s:s}", "method", name);
+	return json_pack("{s:s, s:{s:s}}", "method", name, name, "correction", corr_names[e->correction]);
+}
+
+int advice_apply_json(const advice_t *a, json_t *scene)
+{
+	const advice_estimate_t *e = chosen(a);
+	if (!e)
+		return ADVICE_ESCENE;
+	json_t *patch = resolved_json(e);
+	int bad = !patch || json_object_update(scene, patch);
+	json_decref(patch);
+	if (!bad && json_object_get(scene, "accuracy"))
+		bad = json_object_del(scene, "accuracy");
+	return bad ? ADVICE_ENOMEM : ADVICE_OK;
 }
 
 /* ---- JSON ------------------------------------------------------------------------ */
@@ -625,5 +736,14 @@ json_t *advice_json(const advice_t *a)
 	                 "estimates", ests,
 	                 "choice", a->choice >= 0 ? json_string(scene_method_name(a->est[a->choice].method)) : json_null(),
 	                 "reason", a->choice >= 0 ? json_string(a->reason) : json_null());
+	const advice_estimate_t *c = chosen(a);
+	if (root && json_object_set_new(root, "choice_variant", c ? json_string(c->variant) : json_null())) {
+		json_decref(root);
+		return NULL;
+	}
+	if (root && json_object_set_new(root, "resolved", c ? resolved_json(c) : json_null())) {
+		json_decref(root);
+		return NULL;
+	}
 	return root;
 }

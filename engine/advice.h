@@ -7,8 +7,8 @@
 
 /*
  * Contract
- * - Pure logic: no I/O, no globals. The model is a JSON text (format in
- *   docs/tradeoff-notes.md, fitted by bench/tradeoff.py);
+ * - Pure logic: no I/O, no globals. The model is a JSON text (version 2,
+ *   format in docs/tradeoff-notes.md, fitted by bench/tradeoff.py);
  *   advice_model_builtin() returns the one shipped with the build
  *   (data/advice-model.json, embedded at build time).
  * - Cost (CPU seconds, all replicas, set-up included) = predicted work x
@@ -22,11 +22,19 @@
  *   (f0 t when lambda = 0), or the stop condition itself; the elastic
  *   pre-run adds relax collisions per particle. MC steps = cpp /
  *   collisions_per_step (+ one per output time), moves = N x steps.
- * - Expected error of T(t) (relative RMS over the run against exact
- *   hard-sphere dynamics) = sqrt(bias^2 + spread^2 / (N x replicas)); bias 0
- *   for ed; bias and spread interpolated bilinearly in (volume fraction,
- *   lambda) from the table at default settings, with bias = spread = 0 at
- *   lambda = 0 (elastic: T is conserved exactly by every method).
+ * - Expected error of T(t) (relative RMS over the run's output times
+ *   against exact hard-sphere dynamics) = sqrt(bias^2 + spread^2 / (N x
+ *   replicas)); bias 0 for ed. Bias and spread are measured per grid point
+ *   (volume fraction, lambda) as curves over the Haff time tau (model key
+ *   haff_time) and evaluated at the tau the run reaches (advice_t.haff_time):
+ *   linear between measured times, below the first the bias linear to 0 at
+ *   tau = 0 and the spread constant, beyond the last clamped (flagged).
+ *   Across the grid: bilinear in (chi(nu) - 1, lambda) (model key
+ *   density_axis; "volume_fraction": in nu), clamped outside (flagged), and
+ *   bias = spread = 0 at lambda = 0 (elastic: T is conserved exactly).
+ * - auto: the cheapest candidate (CPU seconds) whose expected error meets
+ *   the target and is not extrapolated (ed always counts: exact up to its
+ *   statistical error); none: ed, with the N x replicas that would meet it.
  * - Outside the measured range (volume fraction, lambda, Haff time beyond
  *   the measured cooling: clustering; non-default MC settings; validity
  *   warnings of dsmc_params(); N far above the measured size) an estimate
@@ -58,7 +66,9 @@ enum {
 	                 ADVICE_X_VALIDITY | ADVICE_X_VARIANT,
 };
 
-#define ADVICE_MAX_METHODS 3
+/* Candidates: ed, each MC method at its default correction, and every other
+ * dsmc/hsmc variant the model has measured (at default cell and step). */
+#define ADVICE_MAX_ESTIMATES 8
 
 typedef struct {
 	scene_method_t method;        /* ED, DSMC or HSMC */
@@ -92,7 +102,7 @@ typedef struct {
 	double cpp;                   /* production collisions per particle of the hard-sphere gas */
 	double target;                /* accuracy.temperature, 0 = none */
 	int n;
-	advice_estimate_t est[ADVICE_MAX_METHODS];   /* ed, dsmc, hsmc */
+	advice_estimate_t est[ADVICE_MAX_ESTIMATES]; /* ed first, then dsmc and hsmc variants (see advice_estimate) */
 	int choice;                   /* index into est for "auto", -1 otherwise */
 	char reason[768];             /* why the choice (auto), "" otherwise */
 	char model_date[32];
@@ -107,14 +117,27 @@ const char *advice_model_builtin(size_t *len);
 /* Size of the systems the model's costs were measured on. */
 double advice_model_particles(const advice_model_t *m);
 
-/* Estimate every method for s (method AUTO or concrete), with ranks MPI
+/* Estimate every candidate for s (method AUTO or concrete), with ranks MPI
  * ranks (>= 1) for the wall time; for AUTO also choose (out->choice,
- * out->reason). ADVICE_OK or ADVICE_ESCENE with err. */
+ * out->reason). Candidates, in this order: ed; dsmc at its default
+ * correction (none), then every other dsmc/CORRECTION the model measured;
+ * hsmc likewise (default cba). Each at the default cell size and step,
+ * except the scene's own method and correction, which is estimated with
+ * the scene's settings (and added if the model lacks it).
+ * ADVICE_OK or ADVICE_ESCENE with err. */
 int advice_estimate(const advice_model_t *m, const scene_t *s, int ranks, advice_t *out, char *err, size_t errlen);
 
-/* Resolve an AUTO scene in place: method := the choice (settings stay the
- * defaults, which the estimate assumed). No-op for a concrete method. */
+/* Resolve an AUTO scene in place: method and, for dsmc/hsmc, the correction
+ * := the choice; the other settings stay the defaults, which the estimate
+ * assumed. No-op for a concrete method. */
 void advice_apply(const advice_t *a, scene_t *s);
+
+/* The same on the scene's JSON object (an AUTO scene, which carries no
+ * dsmc/hsmc object): "method" := the choice, "accuracy" removed, and for
+ * dsmc/hsmc "<method>": {"correction": "<chosen>"}. The result parses to
+ * what advice_apply() gives. ADVICE_OK, ADVICE_ENOMEM, or ADVICE_ESCENE
+ * when a has no choice. */
+int advice_apply_json(const advice_t *a, json_t *scene);
 
 /* The advice as JSON (new reference; NULL on allocation failure). Schema in
  * docs/engine.md ("advise"). */

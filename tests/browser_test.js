@@ -1,5 +1,6 @@
 // Dashboard in a real browser: headless Chromium (playwright-core) against a live granulard; submits a preset,
-// follows the job to the end, checks the plots received data, saves a screenshot.
+// follows the job to the end, checks the plots received data, saves a screenshot; asks for advice on the preset
+// (the candidates table) and shows an auto job's advice panel.
 'use strict';
 const { chromium } = require('playwright-core');
 const [url, token, shot] = process.argv.slice(2);
@@ -24,6 +25,13 @@ const ok = (c, d) => { n++; if (!c) failed++; console.log(`${c ? '' : 'not '}ok 
     ok(!(await page.evaluate(() => location.href)).includes(token), 'the token is not in the URL');
     await page.waitForFunction(() => document.querySelectorAll('#preset option').length > 0, null, { timeout: 10000 });
     await page.selectOption('#preset', 'cooling-2d');
+    // Advice before submitting: the table of candidates for the preset (a concrete scene: no choice).
+    await page.click('#advise');
+    await page.waitForFunction(() => document.querySelectorAll('#advice tbody tr').length > 0, null, { timeout: 10000 });
+    const variants = await page.$$eval('#advice tbody tr', (rs) => rs.map((r) => r.dataset.variant));
+    const cells = await page.$$eval('#advice tbody tr', (rs) => rs.map((r) => r.children.length));
+    ok(['ed', 'dsmc/none', 'dsmc/enskog', 'hsmc/cba'].every((v) => variants.includes(v)) && cells.every((c) => c === 7) &&
+      !(await page.isHidden('#advice')), 'advice table for the preset: ' + variants.join(', '));
     await page.click('#submit-form button[type=submit]');
     await page.waitForFunction(() => /^job \d+/.test(document.getElementById('submit-msg').textContent), null, { timeout: 10000 });
     const msg = await page.textContent('#submit-msg');
@@ -50,6 +58,29 @@ const ok = (c, d) => { n++; if (!c) failed++; console.log(`${c ? '' : 'not '}ok 
     ok(px[2] > 50, `largest-cluster plot drew its series (${px[2]} px)`);
     await page.screenshot({ path: shot, fullPage: true });
     ok(true, 'screenshot saved: ' + shot);
+    ok(!(await page.isVisible('#job-advice')), 'a job with a concrete method shows no advice panel');
+    // Method auto: the job page shows the decision (chosen variant, reason) and the candidates.
+    await page.evaluate(() => { location.hash = '#/'; });
+    await page.waitForFunction(() => !document.getElementById('list-view').hidden, null, { timeout: 10000 });
+    await page.evaluate(() => {
+      const s = JSON.parse(document.getElementById('scene').value);
+      s.method = 'auto'; s.accuracy = { temperature: 0.05 };
+      document.getElementById('scene').value = JSON.stringify(s);
+    });
+    await page.click('#advise');
+    await page.waitForFunction(() => /chosen: /.test(document.getElementById('advice').textContent), null, { timeout: 10000 });
+    const chosenForm = (await page.textContent('#advice .reason')).match(/chosen: (\S+)/)[1];
+    ok(await page.$('#advice tr.chosen') !== null, 'advise on an auto scene: chosen ' + chosenForm + ', its row marked');
+    await page.click('#submit-form button[type=submit]');
+    await page.waitForFunction((i) => (document.getElementById('submit-msg').textContent.match(/^job (\d+)/) || [])[1] > i, id,
+      { timeout: 10000 });
+    const aid = Number((await page.textContent('#submit-msg')).match(/^job (\d+)/)[1]);
+    await page.evaluate((i) => { location.hash = '#/job/' + i; }, aid);
+    await page.waitForFunction(() => !document.getElementById('job-advice').hidden && document.querySelectorAll('#job-advice tbody tr').length > 0,
+      null, { timeout: 10000 });
+    const reason = await page.textContent('#job-advice .reason');
+    ok(reason.includes('chosen: ' + chosenForm) && reason.includes('cheapest') &&
+      (await page.$$eval('#job-advice tbody tr', (rs) => rs.length)) >= 4, 'auto job ' + aid + ': advice panel: ' + reason.slice(0, 90));
     ok(errors.length === 0, 'no script errors' + (errors.length ? ': ' + errors.join('; ') : ''));
   } catch (e) {
     ok(false, 'browser session: ' + e.message.split('\n')[0]);

@@ -313,7 +313,7 @@ AUTO='{"method":"auto","accuracy":{"temperature":0.05},"dimensions":2,"particles
 gd_start "$tmp/state5" --slots 2
 adv=$(api POST /api/v1/advice -H 'Content-Type: application/json' -d "$AUTO")
 choice=$(field "$adv" 'd["choice"]')
-ok $([ "$(code)" = 200 ] && [ "$(field "$adv" '",".join(e["method"] for e in d["estimates"])')" = ed,dsmc,hsmc ] &&
+ok $([ "$(code)" = 200 ] && [ "$(field "$adv" '",".join(sorted({e["method"] for e in d["estimates"]}))')" = dsmc,ed,hsmc ] &&
      [ "$(field "$adv" 'all(e["cpu_seconds"] > 0 and e["error"]["temperature"] > 0 for e in d["estimates"])')" = True ] &&
      [ -n "$(field "$adv" 'd["reason"]')" ]; echo $?) "POST /advice (no token needed on loopback): 200, estimates for ed, dsmc, hsmc; choice $choice"
 adv2=$(api POST /api/v1/advice -H 'Content-Type: application/json' -d "{\"scene\":$AUTO,\"ranks\":2}")
@@ -333,8 +333,9 @@ ok $? "auto job $aid succeeded"
 job=$(api GET "/api/v1/jobs/$aid")
 ok $([ "$(field "$job" 'd["scene"]["method"]')" = "$choice" ] && [ "$(field "$job" '"accuracy" in d["scene"]')" = False ] &&
      [ "$(field "$job" 'd["advice"]["scene"]["method"]')" = auto ] && [ "$(field "$job" 'd["advice"]["target"]["temperature"]')" = 0.05 ] &&
-     grep -q "\"method\":\"$choice\"" "$tmp/state5/jobs/$aid/scene.json"; echo $?) \
-	"GET /jobs/$aid: the concrete scene ran (method $choice, no accuracy); advice keeps the request"
+     grep -q "\"method\":\"$choice\"" "$tmp/state5/jobs/$aid/scene.json" &&
+     [ "$(field "$job" 'all(d["scene"].get(k) == v for k, v in d["advice"]["resolved"].items())')" = True ]; echo $?) \
+	"GET /jobs/$aid: the concrete scene ran (method $choice with the chosen settings, no accuracy); advice keeps the request"
 cj=$(post /api/v1/jobs -d "$SHORT")
 ok $([ "$(code)" = 201 ] && [ "$(field "$cj" 'd["advice"]')" = None ] && [ "$(field "$cj" 'd["method"]')" = ed ]; echo $?) "a job with a concrete method carries advice null"
 gd_stop

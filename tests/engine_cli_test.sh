@@ -129,17 +129,17 @@ fi
 auto="$SRCDIR/tests/scenes/good/2d-method-auto.json"
 "$ENGINE" advise "$auto" >"$tmp/adv" 2>"$tmp/err"
 rc=$?
-choice=$("$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); assert [e["method"] for e in d["estimates"]] == ["ed","dsmc","hsmc"]; assert all(e["cpu_seconds"] > 0 for e in d["estimates"]); print(d["choice"])' "$tmp/adv" 2>/dev/null)
-ok $(( rc == 0 && ${#choice} > 0 ? 0 : 1 )) "advise: exit $rc, estimates for ed, dsmc, hsmc; choice $choice"
+choice=$("$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); v=[e["variant"] for e in d["estimates"]]; assert v[0] == "ed" and {"dsmc/none","dsmc/enskog","hsmc/cba"} <= set(v), v; assert all(e["cpu_seconds"] > 0 for e in d["estimates"]); assert d["resolved"]["method"] == d["choice"] and d["choice_variant"].split("/")[0] == d["choice"]; print(d["choice"])' "$tmp/adv" 2>/dev/null)
+ok $(( rc == 0 && ${#choice} > 0 ? 0 : 1 )) "advise: exit $rc, estimates for ed and every measured dsmc/hsmc variant; choice $choice, resolved settings"
 "$ENGINE" advise "$SRCDIR/tests/scenes/good/2d-minimal.json" --ranks 4 >"$tmp/adv2" 2>/dev/null
 ok $("$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); assert d["choice"] is None and d["target"] is None and d["scene"]["ranks"] == 4' "$tmp/adv2" 2>/dev/null; echo $?) \
 	"advise on a concrete scene: estimates, no target, no choice; --ranks 4 recorded"
 "$ENGINE" advise "$SRCDIR/tests/scenes/bad/71-accuracy-zero.json" >"$tmp/out" 2>"$tmp/err"
 ok $([ $? = 2 ] && [ "$(wc -l <"$tmp/err")" = 1 ] && grep -q '^accuracy.temperature: ' "$tmp/err" && [ ! -s "$tmp/out" ]; echo $?) \
 	"advise on a bad target: exit 2, one line: $(cat "$tmp/err")"
-echo '{"format": "granulard-advice-model", "version": 1, "particles_measured": 1000}' >"$tmp/model.json"
+echo '{"format": "granulard-advice-model", "version": 2, "particles_measured": 1000}' >"$tmp/model.json"
 "$ENGINE" advise "$auto" --model "$tmp/model.json" >/dev/null 2>"$tmp/err"
-ok $([ $? = 2 ] && grep -q 'haff_time_max: required key missing' "$tmp/err"; echo $?) "advise --model with a broken model: exit 2: $(cat "$tmp/err")"
+ok $([ $? = 2 ] && grep -q 'cost: required key missing' "$tmp/err"; echo $?) "advise --model with a broken model: exit 2: $(cat "$tmp/err")"
 "$ENGINE" advise "$auto" --ranks 0 >/dev/null 2>&1
 ok $(( $? == 2 ? 0 : 1 )) "advise --ranks 0: exit 2"
 "$ENGINE" run "$auto" >"$tmp/r1" 2>"$tmp/err"
@@ -152,13 +152,16 @@ assert all(l["type"] == "progress" for l in lines[1:-1]) and lines[-1]["status"]
 assert all(l["type"] != "advice" for l in lines[1:])
 PYEOF
 ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "run auto: the advice line first (choice $choice), then progress and the summary (exit $rc)"
-"$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); d["method"]=sys.argv[2]; del d["accuracy"]; json.dump(d,open(sys.argv[3],"w"))' \
-	"$auto" "$choice" "$tmp/concrete.json"
+# The concrete scene: the request with the advice line's "resolved" settings (method, MC correction), no accuracy.
+variant=$("$PY" -c 'import json,sys; a=json.loads(open(sys.argv[1]).readline()); d=json.load(open(sys.argv[2])); del d["accuracy"]; d.update(a["resolved"]); json.dump(d,open(sys.argv[3],"w")); print(a["choice_variant"])' \
+	"$tmp/r1" "$auto" "$tmp/concrete.json")
+c=${variant#*/}
+ok $([ "$variant" = ed ] || grep -q "\"$choice\": {\"correction\": \"$c\"}" "$tmp/concrete.json"; echo $?) "the resolved scene carries the chosen variant $variant"
 "$ENGINE" run "$tmp/concrete.json" >"$tmp/r2" 2>/dev/null
 tail -n +2 "$tmp/r1" >"$tmp/r1b"
 strip "$tmp/r1b" >"$tmp/r1s"; strip "$tmp/r2" >"$tmp/r2s"
-cmp -s "$tmp/r1s" "$tmp/r2s"
-ok $? "run auto gives the same records as the scene with method $choice"
+cmp -s "$tmp/r1s" "$tmp/r2s" && [ -s "$tmp/r1s" ]
+ok $? "run auto gives the same records as the resolved concrete scene ($variant)"
 if command -v mpirun >/dev/null 2>&1; then
 	mpirun -np 2 "$ENGINE" run "$auto" >"$tmp/r3" 2>"$tmp/merr"
 	rc=$?

@@ -336,6 +336,32 @@ int main(void)
 		jobq_close(cq);
 	}
 
+	/* "method": "auto": the stored scene is the concrete one the advice estimated: the chosen method and, for
+	 * dsmc/hsmc, the chosen correction (whatever the model chooses; the target is loose so that every candidate
+	 * meets it and the cheapest, an MC variant per the cost model, is taken). */
+	{
+		static const char *AUTO =
+			"{\"method\":\"auto\",\"accuracy\":{\"temperature\":0.9},\"dimensions\":2,"
+			"\"particles\":{\"count\":1000,\"volume_fraction\":0.05},\"collisions\":{\"restitution\":0.9},"
+			"\"run\":{\"until\":{\"time\":5},\"replicas\":2}}";
+		json_t *j = NULL;
+		q = jobq_open(":memory:", &lim, err, sizeof(err));
+		int64_t id = q ? submit(q, AUTO, &rc, NULL, err) : 0;
+		if (ok(id > 0 && jobq_get(q, id, 1, &j, err, sizeof(err)) == 0, "auto job submitted (%s)", id > 0 ? "ok" : err)) {
+			json_t *sc = json_object_get(j, "scene"), *adv = json_object_get(j, "advice");
+			const char *m = json_string_value(json_object_get(sc, "method"));
+			const char *v = json_string_value(json_object_get(adv, "choice_variant"));
+			const char *corr = json_string_value(json_object_get(json_object_get(sc, m ? m : ""), "correction"));
+			const char *rm = json_string_value(json_object_get(json_object_get(adv, "resolved"), "method"));
+			ok(m && v && rm && !strcmp(rm, m) && strcmp(m, "ed") && !strncmp(v, m, strlen(m)) && v[strlen(m)] == '/' &&
+			   corr && !strcmp(v + strlen(m) + 1, corr) && !json_object_get(sc, "accuracy"),
+			   "the stored scene runs the chosen variant %s: method %s, correction %s", v ? v : "-", m ? m : "-",
+			   corr ? corr : "-");
+		}
+		json_decref(j);
+		jobq_close(q);
+	}
+
 	/* A file database keeps its jobs and schema version across opens; a newer schema is refused. */
 	char path[] = "/tmp/jobq_test.XXXXXX";
 	int fd = mkstemp(path);
