@@ -729,15 +729,10 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		ret = EX_DONE;
 		goto cleanup;
 	}
-<<<<<<< HEAD
 	if (scene.method == SCENE_METHOD_AUTO && (ret = resolve_auto(&scene, size, &advice_line)) != EX_DONE)
 		goto cleanup;
-	/* Snapshots: single runs of any method; checkpoints and --resume: any
-	 * run (ensembles checkpoint at output times, ensemble_run()). */
-=======
 	/* Single runs: run_go() with frames and checkpoints; ensembles take both
 	 * at output times (ensemble_run()). */
->>>>>>> mcio
 	const int stepped = scene.replicas <= 1;
 	if (resume_path && !outdir) {
 		fprintf(stderr, "granular-engine: --resume needs --out DIR (the run's output directory)\n");

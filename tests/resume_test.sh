@@ -240,7 +240,8 @@ for s in 3d-kill 2d-kill 2d-dsmc-kill 3d-hsmc-kill; do
 	rm -rf "$d"
 	"$ENGINE" run "$tmp/$s.json" --out "$d" >/dev/null 2>"$tmp/err" &
 	pid=$!
-	sleep 0.8
+	await_ckpt "$d" $pid   # under way (handler installed), then mid-run
+	sleep 0.3
 	kill -TERM $pid
 	wait $pid
 	rc=$?
@@ -359,7 +360,8 @@ if command -v mpirun >/dev/null 2>&1; then
 	rm -rf "$d"
 	mpirun -np 2 "$ENGINE" run "$tmp/$s.json" --out "$d" >/dev/null 2>"$tmp/err" &
 	pid=$!
-	sleep 1.5
+	await_ckpt "$d" $pid
+	sleep 0.3
 	kill -TERM $(pgrep -P $pid)
 	wait $pid
 	rc=$?
