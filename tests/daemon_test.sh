@@ -140,10 +140,16 @@ ok $([ "$(field "$jm" 'len(d["attempts"])')" = 2 ] && [ "$(field "$jm" 'd["attem
 # (seq is the daemon's record number, not an engine value)
 summ() { field "$(api GET "/api/v1/jobs/$1/progress")" 'sorted((k, repr(v)) for k, v in [r for r in d["records"] if r["type"]=="summary"][-1].items() if k not in ("wall_seconds", "events_per_second", "collisions_per_second", "seq"))'; }
 m1=$(summ "$refm"); m2=$(summ "$idm")
-rec_times() { field "$(api GET "/api/v1/jobs/$1/progress")" '[r["time"] for r in d["records"]]'; }
-t1=$(rec_times "$refm"); t2=$(rec_times "$idm")
+series() { field "$(api GET "/api/v1/jobs/$1/progress")" '[(r["type"], r["time"], repr(r.get("kinetic_energy"))) for r in d["records"]]'; }
 diffm=$(/usr/bin/python3 -c 'import ast,sys; a,b=dict(ast.literal_eval(sys.argv[1])),dict(ast.literal_eval(sys.argv[2])); print(sorted((k,a.get(k),b.get(k)) for k in set(a)|set(b) if a.get(k)!=b.get(k)))' "$m1" "$m2" 2>&1)
-ok $([ -n "$m1" ] && [ "$m1" = "$m2" ]; echo $?) "resumed dsmc job ends exactly as the uninterrupted one, every summary field ($(echo "$m2" | wc -c) chars): $(echo "$m2" | cut -c1-160) differing: $diffm; stored record times $([ "$t1" = "$t2" ] && echo equal || echo "differ: $t2")"
+ok $([ -n "$m1" ] && [ "$m1" = "$m2" ]; echo $?) "resumed dsmc job ends exactly as the uninterrupted one, every summary field ($(echo "$m2" | wc -c) chars): $(echo "$m2" | cut -c1-160) differing: $diffm"
+# The stored series reads as one run: the records the killed attempt sent after its checkpoint are
+# dropped when the retry repeats them (jobq), so both jobs hold the same records.
+for pair in "$ref $idk" "$refm $idm"; do
+	set -- $pair
+	s1=$(series "$1"); s2=$(series "$2")
+	ok $([ -n "$s1" ] && [ "$s1" = "$s2" ]; echo $?) "job $2 (killed, resumed) stores the same progress series as job $1: $(echo "$s2" | cut -c1-120)"
+done
 
 # 4. kill -9 the daemon mid-run, restart: nothing lost, nothing duplicated, never two copies.
 id4=$(field "$(post /api/v1/jobs -d "$LONG")" 'd["id"]')
