@@ -283,6 +283,11 @@ static void FN(scan_nl)(struct ed *ed, uint32_t i)
 		vi[a] = P[i].v[a];
 		edge |= e->cc[a] == 0 || e->cc[a] == ed->nc[a] - 1;
 	}
+	/* The neighbours' records are the scan's cache misses: ask for all of
+	 * them at once rather than one per candidate behind unpredictable
+	 * branches. */
+	for (int k = 0; k < m; k++)
+		__builtin_prefetch(&P[nb[k]]);
 	double horizon = e->t_cross - t;
 	int32_t found = -1;
 	if (edge)
