@@ -316,6 +316,10 @@ static void epoch_add(struct ed *ed, double t)
 
 double ed_time(const ed_t *ed) { return ed->t_abs_valid ? ed->t_abs : ed->epoch + ed->t; }
 
+/* Loops over the D axes, unrolled (GCC does not at -O2 by itself; the
+ * per-candidate arithmetic is the hot loop of the engine). */
+#define FOR_AXES(a) _Pragma("GCC unroll 3") for (int a = 0; a < D; a++)
+
 #define D 2
 #define P_T p2_t
 #define FN(x) x##_2d

@@ -9,7 +9,7 @@
 static inline void FN(advance)(P_T *p, double t)
 {
 	double dt = t - p->t;
-	for (int a = 0; a < D; a++)
+	FOR_AXES(a)
 		p->r[a] += p->v[a] * dt;
 	p->t = t;
 }
@@ -49,7 +49,7 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
 	ev_t *e = &ed->ev[i];
 	double best = INFINITY;
 	int32_t code = -1;
-	for (int a = 0; a < D; a++) {
+	FOR_AXES(a) {
 		double v = p->v[a], dt;
 		if (v > 0.0) {
 			double hi = (e->cc[a] + 1 == ed->nc[a]) ? ed->L[a] : (e->cc[a] + 1) * ed->cw[a];
@@ -79,7 +79,7 @@ static inline void FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, c
                                 const double *vi, double t, int minimg, double *horizon, int32_t *found)
 {
 	double dtj = t - pj->t, dr[D], dv[D], b = 0.0, r2 = 0.0;
-	for (int a = 0; a < D; a++) {
+	FOR_AXES(a) {
 		dv[a] = vi[a] - pj->v[a];
 		double x = ri[a] - (pj->r[a] + pj->v[a] * dtj);
 		if (minimg) {
@@ -91,7 +91,7 @@ static inline void FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, c
 	}
 	if (b >= 0.0)
 		return;          /* separating (or itself): no collision */
-	for (int a = 0; a < D; a++)
+	FOR_AXES(a)
 		r2 += dr[a] * dr[a];
 	double c = r2 - ed->sigma2, dt;
 	if (c <= 0.0) {
@@ -101,7 +101,7 @@ static inline void FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, c
 		 * would loop on zero-time events, since the collision rule's own
 		 * arithmetic may see it receding. */
 		double v2 = 0.0;
-		for (int a = 0; a < D; a++)
+		FOR_AXES(a)
 			v2 += dv[a] * dv[a];
 		if (b * b <= 1e-20 * v2 * r2)
 			return;
@@ -110,7 +110,7 @@ static inline void FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, c
 		if (c >= *horizon * (-2.0 * b))
 			return;      /* cannot beat the best: dt >= c/(-2b) */
 		double v2 = 0.0;
-		for (int a = 0; a < D; a++)
+		FOR_AXES(a)
 			v2 += dv[a] * dv[a];
 		double disc = b * b - v2 * c;
 		if (disc <= 0.0)
@@ -133,14 +133,14 @@ static void FN(try_images)(const struct ed *ed, const P_T *pj, int32_t j, const 
                            const double *vi, double t, double *horizon, int32_t *found)
 {
 	int k[3] = {0, 0, 0}, lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
-	for (int a = 0; a < D; a++)
+	FOR_AXES(a)
 		if (ed->nc[a] < 3)
 			lo[a] = -1, hi[a] = 1;
 	for (k[2] = lo[2]; k[2] <= hi[2]; k[2]++)
 		for (k[1] = lo[1]; k[1] <= hi[1]; k[1]++)
 			for (k[0] = lo[0]; k[0] <= hi[0]; k[0]++) {
 				double rk[D];
-				for (int a = 0; a < D; a++)
+				FOR_AXES(a)
 					rk[a] = ri[a] + k[a] * ed->L[a];
 				FN(try_pair)(ed, pj, j, rk, vi, t, 0, horizon, found);
 			}
@@ -155,7 +155,7 @@ static inline void FN(scan_cell)(const struct ed *ed, const P_T *restrict P, uin
 	/* Own data in locals: nothing in the loop can alias them. */
 	double ri[D], vi[D];
 	const double t = P[i].t;
-	for (int a = 0; a < D; a++) {
+	FOR_AXES(a) {
 		ri[a] = P[i].r[a] - shift[a];
 		vi[a] = P[i].v[a];
 	}
@@ -248,7 +248,7 @@ static void FN(set_nl)(struct ed *ed, uint32_t i)
 	const P_T *p = &((P_T *)ed->p)[i];
 	const double *x = ed->xn + (size_t)i * D;
 	double b = 0.0, c = -ed->nl_d2, v2 = 0.0, dt;
-	for (int a = 0; a < D; a++) {
+	FOR_AXES(a) {
 		double d = p->r[a] - x[a];
 		b += d * p->v[a];
 		c += d * d;
@@ -278,7 +278,7 @@ static void FN(scan_nl)(struct ed *ed, uint32_t i)
 	double ri[D], vi[D];
 	const double t = P[i].t;
 	int edge = 0;
-	for (int a = 0; a < D; a++) {
+	FOR_AXES(a) {
 		ri[a] = P[i].r[a];
 		vi[a] = P[i].v[a];
 		edge |= e->cc[a] == 0 || e->cc[a] == ed->nc[a] - 1;
@@ -334,7 +334,7 @@ static void FN(nl_gather)(struct ed *ed, uint32_t i, int sym)
 				for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = P[j].next) {
 					const double *xj = ed->xn + (size_t)j * D;
 					double r2 = 0.0;
-					for (int a = 0; a < D; a++) {
+					FOR_AXES(a) {
 						double x = xi[a] - sh[a] - xj[a];
 						r2 += x * x;
 					}
@@ -375,7 +375,7 @@ static void FN(nl_rebuild)(struct ed *ed, uint32_t i, double t)
 	}
 	ed->nn[i] = 0;
 	FN(cell_remove)(ed, i);
-	for (int a = 0; a < D; a++) {
+	FOR_AXES(a) {
 		if (p->r[a] < 0.0) p->r[a] += ed->L[a];
 		else if (p->r[a] >= ed->L[a]) p->r[a] -= ed->L[a];
 		ed->xn[(size_t)i * D + a] = p->r[a];
@@ -396,7 +396,7 @@ static void FN(nl_build_all)(struct ed *ed)
 {
 	const P_T *P = ed->p;
 	for (uint32_t i = 0; i < ed->n; i++) {
-		for (int a = 0; a < D; a++)
+		FOR_AXES(a)
 			ed->xn[(size_t)i * D + a] = P[i].r[a];
 		ed->nn[i] = 0;
 	}
@@ -446,7 +446,7 @@ static void FN(collide)(struct ed *ed, uint32_t i, uint32_t j, double t)
 	FN(advance)(pi, t);
 	FN(advance)(pj, t);
 	double dr[D], dv[D], b = 0.0, r2 = 0.0;
-	for (int a = 0; a < D; a++) {
+	FOR_AXES(a) {
 		double x = pi->r[a] - pj->r[a];
 		if (x > ed->halfL[a]) x -= ed->L[a];
 		else if (x < -ed->halfL[a]) x += ed->L[a];
@@ -467,7 +467,7 @@ static void FN(collide)(struct ed *ed, uint32_t i, uint32_t j, double t)
 			ed->tlast[i] = ed->tlast[j] = t;
 		}
 		double f = 0.5 * (1.0 + e) * b / r2;
-		for (int a = 0; a < D; a++) {
+		FOR_AXES(a) {
 			pi->v[a] -= f * dr[a];
 			pj->v[a] += f * dr[a];
 		}
@@ -626,7 +626,7 @@ static void FN(state)(const struct ed *ed, double *pos, double *vel)
 {
 	const P_T *P = ed->p;
 	for (uint32_t i = 0; i < ed->n; i++) {
-		for (int a = 0; a < D; a++) {
+		FOR_AXES(a) {
 			if (pos) {
 				double x = P[i].r[a] + P[i].v[a] * (ed->t - P[i].t);
 				x = fmod(x, ed->L[a]);
@@ -648,11 +648,11 @@ static double FN(ekin)(const struct ed *ed, double mom[3])
 	double s = 0.0;
 	mom[0] = mom[1] = mom[2] = 0.0;
 	for (uint32_t i = 0; i < ed->n; i++)
-		for (int a = 0; a < D; a++) {
+		FOR_AXES(a) {
 			s += P[i].v[a] * P[i].v[a];
 			mom[a] += P[i].v[a];
 		}
-	for (int a = 0; a < D; a++)
+	FOR_AXES(a)
 		mom[a] *= ed->mass;
 	return 0.5 * ed->mass * s;
 }
@@ -666,7 +666,7 @@ static double FN(min_gap)(const struct ed *ed)
 		const ev_t *e = &ed->ev[i];
 		int32_t cc[3] = {0, 0, 0};
 		double ri[D];
-		for (int a = 0; a < D; a++)
+		FOR_AXES(a)
 			ri[a] = P[i].r[a] + P[i].v[a] * (ed->t - P[i].t);
 #if D == 3
 		for (int kz = 0; kz < ed->no[2]; kz++) {
@@ -680,7 +680,7 @@ static double FN(min_gap)(const struct ed *ed)
 					if ((uint32_t)j <= i)
 						continue;
 					double r2 = 0.0;
-					for (int a = 0; a < D; a++) {
+					FOR_AXES(a) {
 						double x = ri[a] - (P[j].r[a] + P[j].v[a] * (ed->t - P[j].t));
 						x -= ed->L[a] * nearbyint(x / ed->L[a]);
 						r2 += x * x;
@@ -707,7 +707,7 @@ static void FN(resync)(struct ed *ed)
 		ed->head[c] = -1;
 	for (uint32_t i = 0; i < ed->n; i++) {
 		FN(advance)(&P[i], ed->t);
-		for (int a = 0; a < D; a++) {
+		FOR_AXES(a) {
 			if (P[i].r[a] < 0.0) P[i].r[a] += ed->L[a];
 			else if (P[i].r[a] >= ed->L[a]) P[i].r[a] -= ed->L[a];
 		}
@@ -721,7 +721,7 @@ static void FN(resync)(struct ed *ed)
 static void FN(place)(struct ed *ed, uint32_t i)
 {
 	P_T *p = &((P_T *)ed->p)[i];
-	for (int a = 0; a < D; a++) {
+	FOR_AXES(a) {
 		int32_t c = (int32_t)floor(p->r[a] / ed->cw[a]);
 		if (c < 0) c = 0;
 		if (c >= ed->nc[a]) c = ed->nc[a] - 1;
@@ -741,11 +741,11 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
 		for (;;) {
 			if (++tries > max_tries)
 				return ED_EPLACE;
-			for (int a = 0; a < D; a++)
+			FOR_AXES(a)
 				P[i].r[a] = rng_uniform(rng) * ed->L[a];
 			P[i].t = 0.0;
 			int32_t cc[3] = {0, 0, 0}, base[3] = {0, 0, 0};
-			for (int a = 0; a < D; a++) {
+			FOR_AXES(a) {
 				base[a] = (int32_t)floor(P[i].r[a] / ed->cw[a]);
 				if (base[a] >= ed->nc[a]) base[a] = ed->nc[a] - 1;
 			}
@@ -760,7 +760,7 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
 					cc[0] = (base[0] + ed->off[0][kx] + ed->nc[0]) % ed->nc[0];
 					for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = P[j].next) {
 						double r2 = 0.0;
-						for (int a = 0; a < D; a++) {
+						FOR_AXES(a) {
 							double x = P[i].r[a] - P[j].r[a];
 							x -= ed->L[a] * nearbyint(x / ed->L[a]);
 							r2 += x * x;
