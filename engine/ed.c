@@ -11,9 +11,11 @@
 #include "rng.h"
 
 /* Hot particle record: everything a neighbour scan touches, one cache line
- * in 3D. Position r is valid at the particle's own time t (lazy update). */
-typedef struct { double r[2], v[2], t; int32_t next; uint32_t count; } p2_t;
-typedef struct { double r[3], v[3], t; int32_t next; uint32_t count; } p3_t;
+ * in 3D. Position r is valid at the particle's own time t (lazy update).
+ * The cell-list links are a separate array: walking a cell then runs
+ * through a small array instead of waiting on each record. */
+typedef struct { double r[2], v[2], t; uint32_t count; } p2_t;
+typedef struct { double r[3], v[3], t; uint32_t count; } p3_t;
 
 /* Cold per-particle event data: the next collision (partner and the
  * partner's collision counter at prediction time, for lazy invalidation)
@@ -39,6 +41,7 @@ struct ed {
 	int minimg;               /* some axis has < 3 cells: neighbour images need minimum image */
 	size_t ncells;
 	int32_t *head;            /* first particle of each cell, -1 if empty */
+	int32_t *next;            /* next particle in the same cell, -1 at the end */
 	/* Neighbour-list mode (dense systems): each particle lists the particles
 	 * whose build positions xn lie within nl_r of its own; a particle is
 	 * rebuilt when it drifts nl_d from xn, so a pair not listed stays apart
@@ -659,6 +662,7 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	ed->cal_prev = big_alloc(ed->n * sizeof(int32_t), 0);
 	ed->cal_head = big_alloc((ed->cal_m + 1) * sizeof(int32_t), 0);
 	ed->head = big_alloc(ed->ncells * sizeof(int32_t), 0);
+	ed->next = big_alloc(ed->n * sizeof(int32_t), 0);
 	ed->id = big_alloc(ed->n * sizeof(uint32_t), 0);
 	ed->scratch_idx = malloc(ed->n * sizeof(uint32_t));
 	ed->scratch_cell = malloc((ed->ncells + 1) * sizeof(uint32_t));
@@ -673,7 +677,7 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 		ed->tlast = big_alloc(ed->n * sizeof(double), 0);
 	}
 	if (!ed->p || !ed->ev || !ed->heap || !ed->hpos || !ed->cal_slot || !ed->cal_next ||
-	    !ed->cal_prev || !ed->cal_head || !ed->head || !ed->id || !ed->scratch_idx || !ed->scratch_cell ||
+	    !ed->cal_prev || !ed->cal_head || !ed->head || !ed->next || !ed->id || !ed->scratch_idx || !ed->scratch_cell ||
 	    (s->tc > 0.0 && !ed->tlast))
 		goto fail;
 	for (uint32_t i = 0; i < ed->n; i++)
@@ -753,6 +757,7 @@ void ed_destroy(ed_t *ed)
 	free(ed->cal_prev);
 	free(ed->cal_head);
 	free(ed->head);
+	free(ed->next);
 	free(ed->tlast);
 	free(ed->id);
 	free(ed->scratch_idx);
@@ -808,10 +813,10 @@ size_t ed_memory(const ed_t *ed)
 {
 	size_t psz = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
 	/* per particle: record, event, heap entry and slot, calendar links and
-	 * slot, scene index, renumbering scratch; lists; TC times */
+	 * slot, cell link, scene index, renumbering scratch; lists; TC times */
 	size_t nl = ed->xn ? ed->dim * sizeof(double) + ed->nlk * sizeof(int32_t) + 1 : 0;
 	return sizeof(*ed) + (ed->cal_m + 1) * sizeof(int32_t) + (2 * ed->ncells + 1) * sizeof(int32_t) +
-	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + 6 * sizeof(uint32_t) + nl +
+	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + 7 * sizeof(uint32_t) + nl +
 	                (ed->tlast ? sizeof(double) : 0));
 }
 
@@ -949,7 +954,6 @@ static void field_copy(struct ed *ed, fid_t id, void *buf, int to_buf)
 	case F_R: off = D == 2 ? offsetof(p2_t, r) : offsetof(p3_t, r); width = D * sizeof(double); break;
 	case F_V: off = D == 2 ? offsetof(p2_t, v) : offsetof(p3_t, v); width = D * sizeof(double); break;
 	case F_TLOC: off = D == 2 ? offsetof(p2_t, t) : offsetof(p3_t, t); width = sizeof(double); break;
-	case F_NEXT: off = D == 2 ? offsetof(p2_t, next) : offsetof(p3_t, next); width = 4; break;
 	case F_COUNT: off = D == 2 ? offsetof(p2_t, count) : offsetof(p3_t, count); width = 4; break;
 	default: break;
 	}
@@ -981,6 +985,7 @@ static void field_copy(struct ed *ed, fid_t id, void *buf, int to_buf)
 	size_t bytes = 0;
 	switch (id) {
 	case F_ID: src = ed->id; bytes = ed->n * sizeof(uint32_t); break;
+	case F_NEXT: src = ed->next; bytes = ed->n * sizeof(int32_t); break;
 	case F_HEAD: src = ed->head; bytes = ed->ncells * sizeof(int32_t); break;
 	case F_TLAST: src = ed->tlast; bytes = ed->n * sizeof(double); break;
 	case F_XN: src = ed->xn; bytes = (size_t)ed->n * D * sizeof(double); break;
@@ -1056,9 +1061,7 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 	const uint32_t n = ed->n;
 	uint32_t *seen = ed->scratch_idx;
 	const char *why = NULL;
-	const size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
-	const size_t noff = ed->dim == 2 ? offsetof(p2_t, next) : offsetof(p3_t, next);
-#define NEXT(i) (*(int32_t *)((char *)ed->p + (size_t)(i) * stride + noff))
+#define NEXT(i) (ed->next[i])
 
 	/* Indices must stay in range (a corrupted file must not crash us), the
 	 * scene indices must be a permutation, and the cell lists must hold each

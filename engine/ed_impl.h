@@ -1,7 +1,7 @@
 /* Dimension-specific event-driven kernels; included by ed.c once per dimension with D and FN() defined. */
 
 /*
- * Expects: D (2 or 3), P_T (particle record type with r[D], v[D], t, next,
+ * Expects: D (2 or 3), P_T (particle record type with r[D], v[D], t,
  * count) and FN(name) (name mangling), plus the shared declarations of ed.c.
  */
 
@@ -25,19 +25,17 @@ static inline int32_t FN(cell_index)(const struct ed *ed, const int32_t *cc)
 
 static void FN(cell_insert)(struct ed *ed, uint32_t i)
 {
-	P_T *P = ed->p;
 	int32_t c = FN(cell_index)(ed, ed->ev[i].cc);
-	P[i].next = ed->head[c];
+	ed->next[i] = ed->head[c];
 	ed->head[c] = (int32_t)i;
 }
 
 static void FN(cell_remove)(struct ed *ed, uint32_t i)
 {
-	P_T *P = ed->p;
 	int32_t *link = &ed->head[FN(cell_index)(ed, ed->ev[i].cc)];
 	while (*link != (int32_t)i)
-		link = &P[*link].next;
-	*link = P[i].next;
+		link = &ed->next[*link];
+	*link = ed->next[i];
 }
 
 /* Time at which particle i (synchronised at time t) leaves its cell, and
@@ -161,7 +159,7 @@ static inline void FN(scan_cell)(const struct ed *ed, const P_T *restrict P, uin
 	}
 	double horizon = *best - t;
 	int32_t found = -1;
-	for (int32_t j = head; j >= 0; j = P[j].next) {
+	for (int32_t j = head; j >= 0; j = ed->next[j]) {
 		if ((uint32_t)j == i)
 			continue;
 		if (minimg)
@@ -309,7 +307,6 @@ static void FN(scan_nl)(struct ed *ed, uint32_t i)
  * position is within nl_r of i's (and i to theirs when sym). */
 static void FN(nl_gather)(struct ed *ed, uint32_t i, int sym)
 {
-	const P_T *P = ed->p;
 	const ev_t *e = &ed->ev[i];
 	const uint32_t K = ed->nlk;
 	int32_t *li = ed->nb + (size_t)i * K;
@@ -331,7 +328,7 @@ static void FN(nl_gather)(struct ed *ed, uint32_t i, int sym)
 				cc[0] = e->cc[0] + kx;
 				sh[0] = cc[0] < 0 ? -ed->L[0] : cc[0] >= ed->nc[0] ? ed->L[0] : 0.0;
 				cc[0] = (cc[0] + ed->nc[0]) % ed->nc[0];
-				for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = P[j].next) {
+				for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = ed->next[j]) {
 					const double *xj = ed->xn + (size_t)j * D;
 					double r2 = 0.0;
 					FOR_AXES(a) {
@@ -676,7 +673,7 @@ static double FN(min_gap)(const struct ed *ed)
 			cc[1] = (e->cc[1] + ed->off[1][ky] + ed->nc[1]) % ed->nc[1];
 			for (int kx = 0; kx < ed->no[0]; kx++) {
 				cc[0] = (e->cc[0] + ed->off[0][kx] + ed->nc[0]) % ed->nc[0];
-				for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = P[j].next) {
+				for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = ed->next[j]) {
 					if ((uint32_t)j <= i)
 						continue;
 					double r2 = 0.0;
@@ -758,7 +755,7 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
 				cc[1] = (base[1] + ed->off[1][ky] + ed->nc[1]) % ed->nc[1];
 				for (int kx = 0; kx < ed->no[0] && !clash; kx++) {
 					cc[0] = (base[0] + ed->off[0][kx] + ed->nc[0]) % ed->nc[0];
-					for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = P[j].next) {
+					for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = ed->next[j]) {
 						double r2 = 0.0;
 						FOR_AXES(a) {
 							double x = P[i].r[a] - P[j].r[a];
