@@ -72,11 +72,13 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
  * they collide within *horizon (relative to t), shrink it and record j.
  * minimg: some axis needs the minimum image (small grids, or a neighbour
  * list near the box edge). The lower bound dt >= c/(-2b) rejects most
- * candidates without a square root. */
-static inline void FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri,
-                                const double *vi, double t, int minimg, double *horizon, int32_t *found)
+ * candidates without a square root. Always inlined: it is the inner loop
+ * of every scan (GCC's -O2 heuristics otherwise may not). */
+static inline __attribute__((always_inline)) void
+FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, const double *vi, double t, int minimg,
+             double *horizon, int32_t *found)
 {
-	double dtj = t - pj->t, dr[D], dv[D], b = 0.0, r2 = 0.0;
+	double dtj = t - pj->t, dr[D], dv[D], b, r2;
 	FOR_AXES(a) {
 		dv[a] = vi[a] - pj->v[a];
 		double x = ri[a] - (pj->r[a] + pj->v[a] * dtj);
@@ -85,11 +87,16 @@ static inline void FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, c
 			else if (x < -ed->halfL[a]) x += ed->L[a];
 		}
 		dr[a] = x;
-		b += x * dv[a];
 	}
+	/* Sums start at the first term (0.0 + x is not x for x = -0.0, so the
+	 * compiler would keep an addition of 0.0). */
+	b = dr[0] * dv[0];
+	_Pragma("GCC unroll 3") for (int a = 1; a < D; a++)
+		b += dr[a] * dv[a];
 	if (b >= 0.0)
 		return;          /* separating (or itself): no collision */
-	FOR_AXES(a)
+	r2 = dr[0] * dr[0];
+	_Pragma("GCC unroll 3") for (int a = 1; a < D; a++)
 		r2 += dr[a] * dr[a];
 	double c = r2 - ed->sigma2, dt;
 	if (c <= 0.0) {
