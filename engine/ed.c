@@ -30,6 +30,8 @@ typedef struct {
 
 typedef struct { double t; uint32_t i; } hent_t;
 
+enum { NL_KMAX = 32 };   /* largest neighbour-list capacity (setup_mode) */
+
 struct ed {
 	int dim;
 	uint32_t n;
@@ -54,6 +56,7 @@ struct ed {
 	double *xn;               /* build positions, n*dim */
 	int32_t *nb;              /* lists, n*nlk */
 	uint8_t *nn;              /* list lengths */
+	uint8_t *mark;            /* all 0 between events; scratch of a list rebuild */
 	void *p;                  /* p2_t[n] or p3_t[n] */
 	ev_t *ev;
 	double *tlast;            /* last collision time per particle; only with the TC model */
@@ -418,7 +421,7 @@ static void setup_mode(struct ed *ed, double min_edge)
 			ed->nl_d2 = 0.25 * shell * shell * ed->sigma2;
 			/* dense random packing holds ~1.3x the mean count within rl;
 			 * more than this capacity sends the run back to cell mode */
-			ed->nlk = ed->dim == 2 ? 24 : 32;
+			ed->nlk = ed->dim == 2 ? 24 : 32;   /* <= NL_KMAX */
 			return;
 		}
 		ed->minimg = 0;
@@ -670,7 +673,8 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 		ed->xn = big_alloc((size_t)ed->n * ed->dim * sizeof(double), 0);
 		ed->nb = big_alloc((size_t)ed->n * ed->nlk * sizeof(int32_t), 0);
 		ed->nn = big_alloc(ed->n, 1);
-		if (!ed->xn || !ed->nb || !ed->nn)
+		ed->mark = big_alloc(ed->n, 1);
+		if (!ed->xn || !ed->nb || !ed->nn || !ed->mark)
 			goto fail;
 	}
 	if (s->tc > 0.0) {
@@ -765,6 +769,7 @@ void ed_destroy(ed_t *ed)
 	free(ed->xn);
 	free(ed->nb);
 	free(ed->nn);
+	free(ed->mark);
 	free(ed);
 }
 
@@ -814,7 +819,7 @@ size_t ed_memory(const ed_t *ed)
 	size_t psz = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
 	/* per particle: record, event, heap entry and slot, calendar links and
 	 * slot, cell link, scene index, renumbering scratch; lists; TC times */
-	size_t nl = ed->xn ? ed->dim * sizeof(double) + ed->nlk * sizeof(int32_t) + 1 : 0;
+	size_t nl = ed->xn ? ed->dim * sizeof(double) + ed->nlk * sizeof(int32_t) + 2 : 0;
 	return sizeof(*ed) + (ed->cal_m + 1) * sizeof(int32_t) + (2 * ed->ncells + 1) * sizeof(int32_t) +
 	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + 7 * sizeof(uint32_t) + nl +
 	                (ed->tlast ? sizeof(double) : 0));

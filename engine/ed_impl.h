@@ -361,23 +361,19 @@ static void FN(nl_gather)(struct ed *ed, uint32_t i, int sym)
 static void FN(place)(struct ed *ed, uint32_t i);
 
 /* Rebuild event of particle i at time t: new build position (wrapped into
- * the box), new cell, new list (kept symmetric), new prediction. */
+ * the box), new cell, new list, new prediction. The lists stay symmetric:
+ * most neighbours stay on the list (i drifted a fraction of the shell), and
+ * only the lists of those that left or joined are edited (each one a
+ * cache miss in a large system). */
 static void FN(nl_rebuild)(struct ed *ed, uint32_t i, double t)
 {
 	P_T *p = &((P_T *)ed->p)[i];
 	const uint32_t K = ed->nlk;
-	const int32_t *li = ed->nb + (size_t)i * K;
+	int32_t *li = ed->nb + (size_t)i * K, old[NL_KMAX];
+	uint8_t *mark = ed->mark;
+	const int m_old = ed->nn[i];
+	memcpy(old, li, (size_t)m_old * sizeof(int32_t));
 	FN(advance)(p, t);
-	for (int k = 0; k < ed->nn[i]; k++) {
-		uint32_t j = (uint32_t)li[k];
-		int32_t *lj = ed->nb + (size_t)j * K;
-		int q = 0, last = ed->nn[j] - 1;
-		while (lj[q] != (int32_t)i)
-			q++;
-		lj[q] = lj[last];
-		ed->nn[j] = (uint8_t)last;
-	}
-	ed->nn[i] = 0;
 	FN(cell_remove)(ed, i);
 	FOR_AXES(a) {
 		if (p->r[a] < 0.0) p->r[a] += ed->L[a];
@@ -385,7 +381,32 @@ static void FN(nl_rebuild)(struct ed *ed, uint32_t i, double t)
 		ed->xn[(size_t)i * D + a] = p->r[a];
 	}
 	FN(place)(ed, i);
-	FN(nl_gather)(ed, i, 1);
+	ed->nn[i] = 0;
+	FN(nl_gather)(ed, i, 0);
+	for (int k = 0; k < m_old; k++)
+		mark[old[k]] = 1;
+	for (int k = 0; k < ed->nn[i]; k++) {
+		uint32_t j = (uint32_t)li[k];
+		if (mark[j]) {
+			mark[j] = 2;          /* stays: its list keeps i */
+		} else if (ed->nn[j] >= K) {
+			ed->nl_over = 1;
+		} else {
+			ed->nb[(size_t)j * K + ed->nn[j]++] = (int32_t)i;
+		}
+	}
+	for (int k = 0; k < m_old; k++) {
+		uint32_t j = (uint32_t)old[k];
+		if (mark[j] == 1) {       /* left: i off its list */
+			int32_t *lj = ed->nb + (size_t)j * K;
+			int q = 0, last = ed->nn[j] - 1;
+			while (lj[q] != (int32_t)i)
+				q++;
+			lj[q] = lj[last];
+			ed->nn[j] = (uint8_t)last;
+		}
+		mark[j] = 0;
+	}
 	if (ed->nl_over) {
 		nl_abandon(ed);
 		return;
