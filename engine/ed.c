@@ -30,6 +30,16 @@ typedef struct {
 
 typedef struct { double t; uint32_t i; } hent_t;
 
+/* A particle's place in the event calendar, in one record: a calendar
+ * operation touches one line of the particle (the queued time is here too,
+ * so moving a bucket into the heap reads no event record). */
+typedef struct {
+	double t;          /* queued event time */
+	int32_t slot;      /* -1: in the heap; 0..cal_m-1: ring bucket; cal_m: overflow */
+	int32_t next, prev;   /* bucket list */
+	uint32_t hpos;     /* heap slot while in the heap */
+} cnode_t;
+
 enum { NL_KMAX = 32 };   /* largest neighbour-list capacity (setup_mode) */
 
 struct ed {
@@ -70,10 +80,9 @@ struct ed {
 	 * has bucket <= cal_cur, every other one > cal_cur, so the heap's top is
 	 * the next event in (time, index) order. */
 	hent_t *heap;
-	uint32_t *hpos;           /* heap slot of each particle in the heap */
 	uint32_t hn;              /* events in the heap */
-	int32_t *cal_slot;        /* -1: in the heap; 0..cal_m-1: ring; cal_m: overflow */
-	int32_t *cal_next, *cal_prev, *cal_head;   /* lists (cal_head[cal_m + 1]) */
+	cnode_t *cn;              /* per particle */
+	int32_t *cal_head;        /* first of each bucket list (cal_m + 1: the overflow list) */
 	uint32_t cal_m, cal_ring; /* ring size; events in ring lists */
 	int64_t cal_cur;
 	double cal_w, cal_iw;
@@ -109,11 +118,11 @@ static void heap_down(struct ed *ed, uint32_t k)
 		if (!hless(&h[c], &x))
 			break;
 		h[k] = h[c];
-		ed->hpos[h[k].i] = k;
+		ed->cn[h[k].i].hpos = k;
 		k = c;
 	}
 	h[k] = x;
-	ed->hpos[x.i] = k;
+	ed->cn[x.i].hpos = k;
 }
 
 static void heap_up(struct ed *ed, uint32_t k)
@@ -124,11 +133,11 @@ static void heap_up(struct ed *ed, uint32_t k)
 		if (!hless(&x, &h[p]))
 			break;
 		h[k] = h[p];
-		ed->hpos[h[k].i] = k;
+		ed->cn[h[k].i].hpos = k;
 		k = p;
 	}
 	h[k] = x;
-	ed->hpos[x.i] = k;
+	ed->cn[x.i].hpos = k;
 }
 
 static inline double ev_time(const struct ed *ed, uint32_t i)
@@ -141,7 +150,8 @@ static void heap_push(struct ed *ed, uint32_t i, double t)
 	uint32_t k = ed->hn++;
 	ed->heap[k].t = t;
 	ed->heap[k].i = i;
-	ed->cal_slot[i] = -1;
+	ed->cn[i].slot = -1;
+	ed->cn[i].t = t;
 	heap_up(ed, k);
 }
 
@@ -161,25 +171,27 @@ static void cal_insert(struct ed *ed, uint32_t i, double t)
 		return;
 	}
 	int32_t s = b < 0 ? (int32_t)ed->cal_m : (int32_t)(b % ed->cal_m), h = ed->cal_head[s];
-	ed->cal_slot[i] = s;
-	ed->cal_prev[i] = -1;
-	ed->cal_next[i] = h;
+	cnode_t *c = &ed->cn[i];
+	c->t = t;
+	c->slot = s;
+	c->prev = -1;
+	c->next = h;
 	if (h >= 0)
-		ed->cal_prev[h] = (int32_t)i;
+		ed->cn[h].prev = (int32_t)i;
 	ed->cal_head[s] = (int32_t)i;
 	ed->cal_ring += b >= 0;
 }
 
 static void cal_remove(struct ed *ed, uint32_t i)
 {
-	int32_t s = ed->cal_slot[i];
+	int32_t s = ed->cn[i].slot;
 	if (s < 0) {
-		uint32_t k = ed->hpos[i];
+		uint32_t k = ed->cn[i].hpos;
 		hent_t last = ed->heap[--ed->hn];
 		if (k < ed->hn) {
 			double old = ed->heap[k].t;
 			ed->heap[k] = last;
-			ed->hpos[last.i] = k;
+			ed->cn[last.i].hpos = k;
 			if (last.t < old || (last.t == old && last.i < i))
 				heap_up(ed, k);
 			else
@@ -187,21 +199,22 @@ static void cal_remove(struct ed *ed, uint32_t i)
 		}
 		return;
 	}
-	int32_t p = ed->cal_prev[i], n = ed->cal_next[i];
-	if (p >= 0) ed->cal_next[p] = n; else ed->cal_head[s] = n;
-	if (n >= 0) ed->cal_prev[n] = p;
+	int32_t p = ed->cn[i].prev, n = ed->cn[i].next;
+	if (p >= 0) ed->cn[p].next = n; else ed->cal_head[s] = n;
+	if (n >= 0) ed->cn[n].prev = p;
 	ed->cal_ring -= s < (int32_t)ed->cal_m;
 }
 
 /* New event time of particle i. */
 static inline void cal_update(struct ed *ed, uint32_t i, double t)
 {
-	if (ed->cal_slot[i] < 0) {
+	if (ed->cn[i].slot < 0) {
 		int64_t b = cal_bucket(ed, t);
 		if (b >= 0 && b <= ed->cal_cur) {
-			uint32_t k = ed->hpos[i];
+			uint32_t k = ed->cn[i].hpos;
 			double old = ed->heap[k].t;
 			ed->heap[k].t = t;
+			ed->cn[i].t = t;
 			if (t < old)
 				heap_up(ed, k);
 			else if (t > old)
@@ -222,8 +235,8 @@ static double cal_next_time(struct ed *ed)
 	while (ed->hn == 0) {
 		if (ed->cal_ring == 0) {
 			double tmin = INFINITY;
-			for (int32_t j = ed->cal_head[ed->cal_m]; j >= 0; j = ed->cal_next[j]) {
-				double t = ev_time(ed, (uint32_t)j);
+			for (int32_t j = ed->cal_head[ed->cal_m]; j >= 0; j = ed->cn[j].next) {
+				double t = ed->cn[j].t;
 				if (t < tmin) tmin = t;
 			}
 			if (tmin == INFINITY)
@@ -237,9 +250,9 @@ static double cal_next_time(struct ed *ed)
 			int32_t j = ed->cal_head[s];
 			ed->cal_head[s] = -1;
 			while (j >= 0) {
-				int32_t nx = ed->cal_next[j];
+				int32_t nx = ed->cn[j].next;
 				ed->cal_ring--;
-				heap_push(ed, (uint32_t)j, ev_time(ed, (uint32_t)j));
+				heap_push(ed, (uint32_t)j, ed->cn[j].t);
 				j = nx;
 			}
 			if (s != 0)
@@ -249,8 +262,8 @@ static double cal_next_time(struct ed *ed)
 		int32_t j = ed->cal_head[ed->cal_m];
 		ed->cal_head[ed->cal_m] = -1;
 		while (j >= 0) {
-			int32_t nx = ed->cal_next[j];
-			cal_insert(ed, (uint32_t)j, ev_time(ed, (uint32_t)j));
+			int32_t nx = ed->cn[j].next;
+			cal_insert(ed, (uint32_t)j, ed->cn[j].t);
 			j = nx;
 		}
 	}
@@ -658,11 +671,8 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	ed->p = big_alloc(ed->n * psz, 0);
 	ed->ev = big_alloc(ed->n * sizeof(ev_t), 1);
 	ed->heap = big_alloc(ed->n * sizeof(hent_t), 1);
-	ed->hpos = big_alloc(ed->n * sizeof(uint32_t), 1);
 	ed->cal_m = ed->n < 64 ? 64 : ed->n;
-	ed->cal_slot = big_alloc(ed->n * sizeof(int32_t), 0);
-	ed->cal_next = big_alloc(ed->n * sizeof(int32_t), 0);
-	ed->cal_prev = big_alloc(ed->n * sizeof(int32_t), 0);
+	ed->cn = big_alloc(ed->n * sizeof(cnode_t), 1);
 	ed->cal_head = big_alloc((ed->cal_m + 1) * sizeof(int32_t), 0);
 	ed->head = big_alloc(ed->ncells * sizeof(int32_t), 0);
 	ed->next = big_alloc(ed->n * sizeof(int32_t), 0);
@@ -680,8 +690,7 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	if (s->tc > 0.0) {
 		ed->tlast = big_alloc(ed->n * sizeof(double), 0);
 	}
-	if (!ed->p || !ed->ev || !ed->heap || !ed->hpos || !ed->cal_slot || !ed->cal_next ||
-	    !ed->cal_prev || !ed->cal_head || !ed->head || !ed->next || !ed->id || !ed->scratch_idx || !ed->scratch_cell ||
+	if (!ed->p || !ed->ev || !ed->heap || !ed->cn || !ed->cal_head || !ed->head || !ed->next || !ed->id || !ed->scratch_idx || !ed->scratch_cell ||
 	    (s->tc > 0.0 && !ed->tlast))
 		goto fail;
 	for (uint32_t i = 0; i < ed->n; i++)
@@ -755,10 +764,7 @@ void ed_destroy(ed_t *ed)
 	free(ed->p);
 	free(ed->ev);
 	free(ed->heap);
-	free(ed->hpos);
-	free(ed->cal_slot);
-	free(ed->cal_next);
-	free(ed->cal_prev);
+	free(ed->cn);
 	free(ed->cal_head);
 	free(ed->head);
 	free(ed->next);
@@ -817,11 +823,11 @@ void ed_cells(const ed_t *ed, int cells[3])
 size_t ed_memory(const ed_t *ed)
 {
 	size_t psz = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
-	/* per particle: record, event, heap entry and slot, calendar links and
-	 * slot, cell link, scene index, renumbering scratch; lists; TC times */
+	/* per particle: record, event, heap entry, calendar record, cell link,
+	 * scene index, renumbering scratch; lists and marks; TC times */
 	size_t nl = ed->xn ? ed->dim * sizeof(double) + ed->nlk * sizeof(int32_t) + 2 : 0;
 	return sizeof(*ed) + (ed->cal_m + 1) * sizeof(int32_t) + (2 * ed->ncells + 1) * sizeof(int32_t) +
-	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + 7 * sizeof(uint32_t) + nl +
+	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + sizeof(cnode_t) + 3 * sizeof(uint32_t) + nl +
 	                (ed->tlast ? sizeof(double) : 0));
 }
 
