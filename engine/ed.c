@@ -12,10 +12,9 @@
 
 /* Hot particle record: everything a neighbour scan touches, one cache line
  * in 3D. Position r is valid at the particle's own time t (lazy update).
- * The cell-list links are a separate array: walking a cell then runs
- * through a small array instead of waiting on each record. */
-typedef struct { double r[2], v[2], t; uint32_t count; } p2_t;
-typedef struct { double r[3], v[3], t; uint32_t count; } p3_t;
+ * next: cell-list link in cell mode (see link() in ed_impl.h). */
+typedef struct { double r[2], v[2], t; int32_t next; uint32_t count; } p2_t;
+typedef struct { double r[3], v[3], t; int32_t next; uint32_t count; } p3_t;
 
 /* Cold per-particle event data: the next collision (partner and the
  * partner's collision counter at prediction time, for lazy invalidation)
@@ -53,7 +52,7 @@ struct ed {
 	int minimg;               /* some axis has < 3 cells: neighbour images need minimum image */
 	size_t ncells;
 	int32_t *head;            /* first particle of each cell, -1 if empty */
-	int32_t *next;            /* next particle in the same cell, -1 at the end */
+	int32_t *next;            /* neighbour-list mode: next particle in the same cell, -1 at the end */
 	/* Neighbour-list mode (dense systems): each particle lists the particles
 	 * whose build positions xn lie within nl_r of its own; a particle is
 	 * rebuilt when it drifts nl_d from xn, so a pair not listed stays apart
@@ -996,7 +995,19 @@ static void field_copy(struct ed *ed, fid_t id, void *buf, int to_buf)
 	size_t bytes = 0;
 	switch (id) {
 	case F_ID: src = ed->id; bytes = ed->n * sizeof(uint32_t); break;
-	case F_NEXT: src = ed->next; bytes = ed->n * sizeof(int32_t); break;
+	case F_NEXT: {
+		/* from the links in use; restored into both places, since the
+		 * mode ("nl") is set after the arrays */
+		int32_t *nx = (int32_t *)b;
+		for (uint32_t i = 0; i < ed->n; i++) {
+			int32_t *pl = (int32_t *)(P + i * stride + (D == 2 ? offsetof(p2_t, next) : offsetof(p3_t, next)));
+			if (to_buf)
+				nx[i] = ed->nl ? ed->next[i] : *pl;
+			else
+				ed->next[i] = *pl = nx[i];
+		}
+		return;
+	}
 	case F_HEAD: src = ed->head; bytes = ed->ncells * sizeof(int32_t); break;
 	case F_TLAST: src = ed->tlast; bytes = ed->n * sizeof(double); break;
 	case F_XN: src = ed->xn; bytes = (size_t)ed->n * D * sizeof(double); break;

@@ -1,7 +1,7 @@
 /* Dimension-specific event-driven kernels; included by ed.c once per dimension with D and FN() defined. */
 
 /*
- * Expects: D (2 or 3), P_T (particle record type with r[D], v[D], t,
+ * Expects: D (2 or 3), P_T (particle record type with r[D], v[D], t, next,
  * count) and FN(name) (name mangling), plus the shared declarations of ed.c.
  */
 
@@ -23,10 +23,18 @@ static inline int32_t FN(cell_index)(const struct ed *ed, const int32_t *cc)
 #endif
 }
 
+/* Cell-list link of particle j: in the record in cell mode (a scan reads
+ * the record anyway), in a small array of its own with neighbour lists (a
+ * list rebuild walks cells without reading records). */
+static inline int32_t *FN(link)(const struct ed *ed, int32_t j)
+{
+	return ed->nl ? &ed->next[j] : &((P_T *)ed->p)[j].next;
+}
+
 static void FN(cell_insert)(struct ed *ed, uint32_t i)
 {
 	int32_t c = FN(cell_index)(ed, ed->ev[i].cc);
-	ed->next[i] = ed->head[c];
+	*FN(link)(ed, (int32_t)i) = ed->head[c];
 	ed->head[c] = (int32_t)i;
 }
 
@@ -34,8 +42,8 @@ static void FN(cell_remove)(struct ed *ed, uint32_t i)
 {
 	int32_t *link = &ed->head[FN(cell_index)(ed, ed->ev[i].cc)];
 	while (*link != (int32_t)i)
-		link = &ed->next[*link];
-	*link = ed->next[i];
+		link = FN(link)(ed, *link);
+	*link = *FN(link)(ed, (int32_t)i);
 }
 
 /* Time at which particle i (synchronised at time t) leaves its cell, and
@@ -166,7 +174,7 @@ static inline void FN(scan_cell)(const struct ed *ed, const P_T *restrict P, uin
 	}
 	double horizon = *best - t;
 	int32_t found = -1;
-	for (int32_t j = head; j >= 0; j = ed->next[j]) {
+	for (int32_t j = head; j >= 0; j = P[j].next) {   /* cell mode: links in the records */
 		if ((uint32_t)j == i)
 			continue;
 		if (minimg)
@@ -335,7 +343,7 @@ static void FN(nl_gather)(struct ed *ed, uint32_t i, int sym)
 				cc[0] = e->cc[0] + kx;
 				sh[0] = cc[0] < 0 ? -ed->L[0] : cc[0] >= ed->nc[0] ? ed->L[0] : 0.0;
 				cc[0] = (cc[0] + ed->nc[0]) % ed->nc[0];
-				for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = ed->next[j]) {
+				for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = ed->next[j]) {   /* lists mode: links apart */
 					const double *xj = ed->xn + (size_t)j * D;
 					double r2 = 0.0;
 					FOR_AXES(a) {
@@ -701,7 +709,7 @@ static double FN(min_gap)(const struct ed *ed)
 			cc[1] = (e->cc[1] + ed->off[1][ky] + ed->nc[1]) % ed->nc[1];
 			for (int kx = 0; kx < ed->no[0]; kx++) {
 				cc[0] = (e->cc[0] + ed->off[0][kx] + ed->nc[0]) % ed->nc[0];
-				for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = ed->next[j]) {
+				for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = *FN(link)(ed, j)) {
 					if ((uint32_t)j <= i)
 						continue;
 					double r2 = 0.0;
@@ -783,7 +791,7 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
 				cc[1] = (base[1] + ed->off[1][ky] + ed->nc[1]) % ed->nc[1];
 				for (int kx = 0; kx < ed->no[0] && !clash; kx++) {
 					cc[0] = (base[0] + ed->off[0][kx] + ed->nc[0]) % ed->nc[0];
-					for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = ed->next[j]) {
+					for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = *FN(link)(ed, j)) {
 						double r2 = 0.0;
 						FOR_AXES(a) {
 							double x = P[i].r[a] - P[j].r[a];
