@@ -159,84 +159,74 @@ static void FN(try_images)(const struct ed *ed, const P_T *pj, int32_t j, const 
 			}
 }
 
-/* Candidates of one cell for particle i at its time. shift is the periodic
- * image offset of that cell (used when every axis has >= 3 cells, so each
- * neighbour cell is one definite image); otherwise minimum image. */
-static inline void FN(scan_cell)(const struct ed *ed, const P_T *restrict P, uint32_t i, int32_t head,
-                                 const double *shift, int minimg, double *best, int32_t *bj)
-{
-	/* Own data in locals: nothing in the loop can alias them. */
-	double ri[D], vi[D];
-	const double t = P[i].t;
-	FOR_AXES(a) {
-		ri[a] = P[i].r[a] - shift[a];
-		vi[a] = P[i].v[a];
-	}
-	double horizon = *best - t;
-	int32_t found = -1;
-	for (int32_t j = head; j >= 0; j = P[j].next) {   /* cell mode: links in the records */
-		if ((uint32_t)j == i)
-			continue;
-		if (minimg)
-			FN(try_images)(ed, &P[j], j, ri, vi, t, &horizon, &found);
-		else
-			FN(try_pair)(ed, &P[j], j, ri, vi, t, 0, &horizon, &found);
-	}
-	if (found >= 0) {
-		*best = t + horizon;
-		*bj = found;
-	}
-}
-
 /* Scan the cells at the given per-axis offsets around particle i (at its
- * time) for the earliest collision; keeps the stored one if earlier. */
+ * time) for the earliest collision; keeps the stored one if earlier. Each
+ * neighbour cell is one definite periodic image (shift) when every axis has
+ * >= 3 cells; otherwise minimum image over all images (try_images). Cell
+ * coordinates and shifts are worked out once per axis: most cells of a
+ * dilute system are empty, so the walk itself is much of the cost. */
 static void FN(scan)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[3])
 {
-	P_T *P = ed->p;
+	const P_T *restrict P = ed->p;
 	ev_t *e = &ed->ev[i];
-	double best = e->t_coll, shift[3] = {0.0, 0.0, 0.0};
-	int32_t bj = e->partner;
-	int32_t cc[3] = {0, 0, 0};
 	const int minimg = ed->minimg;
-
-#if D == 3
-	for (int kz = 0; kz < no[2]; kz++) {
-		cc[2] = e->cc[2] + offs[2][kz];
-		shift[2] = 0.0;
-		if (cc[2] < 0) cc[2] += ed->nc[2], shift[2] = -ed->L[2];
-		else if (cc[2] >= ed->nc[2]) cc[2] -= ed->nc[2], shift[2] = ed->L[2];
-		if (ed->nc[2] < 3)
-			shift[2] = 0.0;   /* small axis: try_images covers the images */
-#endif
-	for (int ky = 0; ky < no[1]; ky++) {
-		cc[1] = e->cc[1] + offs[1][ky];
-		shift[1] = 0.0;
-		if (cc[1] < 0) cc[1] += ed->nc[1], shift[1] = -ed->L[1];
-		else if (cc[1] >= ed->nc[1]) cc[1] -= ed->nc[1], shift[1] = ed->L[1];
-		if (ed->nc[1] < 3)
-			shift[1] = 0.0;   /* small axis: try_images covers the images */
-		for (int kx = 0; kx < no[0]; kx++) {
-			cc[0] = e->cc[0] + offs[0][kx];
-			shift[0] = 0.0;
-			if (cc[0] < 0) cc[0] += ed->nc[0], shift[0] = -ed->L[0];
-			else if (cc[0] >= ed->nc[0]) cc[0] -= ed->nc[0], shift[0] = ed->L[0];
-			if (ed->nc[0] < 3)
-				shift[0] = 0.0;   /* small axis: try_images covers the images */
-			int32_t h = ed->head[FN(cell_index)(ed, cc)];
-			if (h >= 0)
-				FN(scan_cell)(ed, P, i, h, shift, minimg, &best, &bj);
+	const int32_t *restrict head = ed->head;
+	int32_t cell[3][3] = {{0}};   /* per axis: contribution to the cell index */
+	double sh[3][3] = {{0.0}};    /* per axis: periodic shift */
+	int32_t stride = 1;
+	for (int a = 0; a < D; a++) {
+		const int32_t n = ed->nc[a];
+		for (int k = 0; k < no[a]; k++) {
+			int32_t c = e->cc[a] + offs[a][k];
+			double s = 0.0;
+			if (c < 0) c += n, s = -ed->L[a];
+			else if (c >= n) c -= n, s = ed->L[a];
+			if (n < 3)
+				s = 0.0;          /* small axis: try_images covers the images */
+			cell[a][k] = c * stride;
+			sh[a][k] = s;
 		}
+		stride *= n;
 	}
-#if D == 3
+	/* Own data in locals: nothing in the loop can alias them. */
+	const double t = P[i].t;
+	double r0[D], vi[D];
+	FOR_AXES(a) {
+		r0[a] = P[i].r[a];
+		vi[a] = P[i].v[a];
 	}
-#endif
+	double horizon = e->t_coll - t;
+	int32_t found = -1;
+	const int nz = D == 3 ? no[2] : 1;
+	for (int kz = 0; kz < nz; kz++)
+		for (int ky = 0; ky < no[1]; ky++) {
+			const int32_t row = cell[2][kz] + cell[1][ky];
+			for (int kx = 0; kx < no[0]; kx++) {
+				int32_t j = head[row + cell[0][kx]];
+				if (j < 0)
+					continue;
+				double ri[D];
+				ri[0] = r0[0] - sh[0][kx];
+				ri[1] = r0[1] - sh[1][ky];
+				if (D == 3)
+					ri[D - 1] = r0[D - 1] - sh[D - 1][kz];
+				for (; j >= 0; j = P[j].next) {   /* cell mode: links in the records */
+					if ((uint32_t)j == i)
+						continue;
+					if (minimg)
+						FN(try_images)(ed, &P[j], j, ri, vi, t, &horizon, &found);
+					else
+						FN(try_pair)(ed, &P[j], j, ri, vi, t, 0, &horizon, &found);
+				}
+			}
+		}
 	/* Only a partner found by this scan gets its counter recorded: a kept
 	 * (possibly stale) prediction must keep the counter it was made with,
 	 * or a cancelled collision would be taken for a valid one. */
-	if (best < e->t_coll) {
-		e->t_coll = best;
-		e->partner = bj;
-		e->pcount = P[bj].count;
+	if (found >= 0) {
+		e->t_coll = t + horizon;
+		e->partner = found;
+		e->pcount = P[found].count;
 	}
 }
 
