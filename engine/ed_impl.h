@@ -101,13 +101,13 @@ FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, co
 	b = dr[0] * dv[0];
 	_Pragma("GCC unroll 3") for (int a = 1; a < D; a++)
 		b += dr[a] * dv[a];
-	if (b >= 0.0)
-		return;          /* separating (or itself): no collision */
 	r2 = dr[0] * dr[0];
 	_Pragma("GCC unroll 3") for (int a = 1; a < D; a++)
 		r2 += dr[a] * dr[a];
 	double c = r2 - ed->sigma2, dt;
-	if (c <= 0.0) {
+	if (__builtin_expect(c <= 0.0, 0)) {
+		if (b >= 0.0)
+			return;      /* separating (or itself): no collision */
 		/* Overlapping by rounding. Clearly approaching: collide now. An
 		 * approach at rounding level (|b| <= 1e-10 |dr||dv|, e.g. a pair
 		 * just stopped by restitution 0) is a touching pair: colliding it
@@ -120,10 +120,13 @@ FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, co
 			return;
 		dt = 0.0;
 	} else {
-		if (c >= *horizon * (-2.0 * b))
-			return;      /* cannot beat the best: dt >= c/(-2b) */
-		double v2 = 0.0;
-		FOR_AXES(a)
+		/* One test, rarely passed: separating (b >= 0 makes the right side
+		 * <= 0 or NaN), or cannot beat the best (dt >= c/(-2b)). A test of
+		 * b alone first would be a coin toss for the branch predictor. */
+		if (!(c < *horizon * (-2.0 * b)))
+			return;
+		double v2 = dv[0] * dv[0];
+		_Pragma("GCC unroll 3") for (int a = 1; a < D; a++)
 			v2 += dv[a] * dv[a];
 		double disc = b * b - v2 * c;
 		if (disc <= 0.0)
