@@ -53,27 +53,28 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
 {
 	const P_T *p = &((P_T *)ed->p)[i];
 	ev_t *e = &ed->ev[i];
-	double best = INFINITY;
-	int32_t code = -1;
+	/* Written without branches on the velocity signs or on which axis
+	 * comes first: those are coin tosses for the branch predictor. An axis
+	 * with v = 0 never crosses (dt = INFINITY); ties go to the lower axis. */
+	double dts[D];
+	int up[D];
 	FOR_AXES(a) {
-		double v = p->v[a], dt;
-		if (v > 0.0) {
-			double hi = (e->cc[a] + 1 == ed->nc[a]) ? ed->L[a] : (e->cc[a] + 1) * ed->cw[a];
-			dt = (hi - p->r[a]) / v;
-		} else if (v < 0.0) {
-			dt = (e->cc[a] * ed->cw[a] - p->r[a]) / v;
-		} else {
-			continue;
-		}
-		if (dt < 0.0)
-			dt = 0.0;
-		if (dt < best) {
-			best = dt;
-			code = 2 * a + (v > 0.0);
-		}
+		double v = p->v[a], f[2];
+		int s = v > 0.0;
+		f[0] = e->cc[a] * ed->cw[a];
+		f[1] = (e->cc[a] + 1 == ed->nc[a]) ? ed->L[a] : (e->cc[a] + 1) * ed->cw[a];
+		double dt = (f[s] - p->r[a]) / v;
+		if (__builtin_expect(v == 0.0, 0))
+			dt = INFINITY;
+		dts[a] = dt < 0.0 ? 0.0 : dt;
+		up[a] = s;
 	}
+	int k = dts[1] < dts[0];
+	if (D == 3)
+		k += (dts[D - 1] < dts[k]) * (D - 1 - k);
+	double best = dts[k];
 	e->t_cross = p->t + best;
-	e->cross = code;
+	e->cross = best < INFINITY ? 2 * k + up[k] : -1;
 }
 
 /* One candidate partner j for particle i (own data ri, vi at time t): if
