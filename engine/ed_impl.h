@@ -266,8 +266,12 @@ static void FN(set_nl)(struct ed *ed, uint32_t i)
 	else if (c >= 0.0)
 		dt = 0.0;     /* at the limit by rounding: rebuild now */
 	else {
+		/* larger root, no cancellation: (q - b) / v2 for b <= 0, else
+		 * -c / (b + q); picked by index, not by a branch on the sign of b */
 		double q = sqrt(b * b - v2 * c);
-		dt = b <= 0.0 ? (q - b) / v2 : -c / (b + q);   /* larger root, no cancellation */
+		const double num[2] = {q - b, -c}, den[2] = {v2, b + q};
+		const int k = b > 0.0;
+		dt = num[k] / den[k];
 	}
 	ed->ev[i].t_cross = p->t + dt;
 }
