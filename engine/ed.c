@@ -40,6 +40,9 @@ typedef struct {
 } cnode_t;
 
 enum { NL_KMAX = 32 };   /* largest neighbour-list capacity (setup_mode) */
+/* Cell scans consult the occupancy bitmap above this many cells (heads of
+ * 512 KiB and more: out of a core's L2 cache). */
+enum { OCC_MIN_CELLS = 1 << 17 };
 
 struct ed {
 	int dim;
@@ -52,6 +55,7 @@ struct ed {
 	int minimg;               /* some axis has < 3 cells: neighbour images need minimum image */
 	size_t ncells;
 	int32_t *head;            /* first particle of each cell, -1 if empty */
+	uint64_t *occ;            /* bit c set: cell c is not empty */
 	int32_t *next;            /* neighbour-list mode: next particle in the same cell, -1 at the end */
 	/* Neighbour-list mode (dense systems): each particle lists the particles
 	 * whose build positions xn lie within nl_r of its own; a particle is
@@ -297,6 +301,14 @@ static void cal_build(struct ed *ed)
 }
 
 static void nl_abandon(struct ed *ed);
+
+/* All cells empty. */
+static void cells_clear(struct ed *ed)
+{
+	for (size_t c = 0; c < ed->ncells; c++)
+		ed->head[c] = -1;
+	memset(ed->occ, 0, (ed->ncells + 63) / 64 * sizeof(uint64_t));
+}
 
 /* Move row i of n rows of size bytes to row newidx[i], in place by
  * following the permutation's cycles (the top bit of newidx marks rows done
@@ -674,6 +686,7 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	ed->cn = big_alloc(ed->n * sizeof(cnode_t), 1);
 	ed->cal_head = big_alloc((ed->cal_m + 1) * sizeof(int32_t), 0);
 	ed->head = big_alloc(ed->ncells * sizeof(int32_t), 0);
+	ed->occ = big_alloc((ed->ncells + 63) / 64 * sizeof(uint64_t), 0);
 	ed->next = big_alloc(ed->n * sizeof(int32_t), 0);
 	ed->id = big_alloc(ed->n * sizeof(uint32_t), 0);
 	ed->scratch_idx = malloc(ed->n * sizeof(uint32_t));
@@ -689,14 +702,13 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	if (s->tc > 0.0) {
 		ed->tlast = big_alloc(ed->n * sizeof(double), 0);
 	}
-	if (!ed->p || !ed->ev || !ed->heap || !ed->cn || !ed->cal_head || !ed->head || !ed->next || !ed->id || !ed->scratch_idx || !ed->scratch_cell ||
+	if (!ed->p || !ed->ev || !ed->heap || !ed->cn || !ed->cal_head || !ed->head || !ed->occ || !ed->next || !ed->id || !ed->scratch_idx || !ed->scratch_cell ||
 	    (s->tc > 0.0 && !ed->tlast))
 		goto fail;
 	for (uint32_t i = 0; i < ed->n; i++)
 		ed->id[i] = i;
 	memset(ed->p, 0, ed->n * psz);
-	for (size_t c = 0; c < ed->ncells; c++)
-		ed->head[c] = -1;
+	cells_clear(ed);
 	/* Rebase often enough to keep times small, rarely enough to cost nothing. */
 	ed->rebase_every = 8ull * ed->n < 4096 ? 4096 : 8ull * ed->n;
 	*err = ED_OK;
@@ -766,6 +778,7 @@ void ed_destroy(ed_t *ed)
 	free(ed->cn);
 	free(ed->cal_head);
 	free(ed->head);
+	free(ed->occ);
 	free(ed->next);
 	free(ed->tlast);
 	free(ed->id);
@@ -826,6 +839,7 @@ size_t ed_memory(const ed_t *ed)
 	 * scene index, renumbering scratch; lists and marks; TC times */
 	size_t nl = ed->xn ? ed->dim * sizeof(double) + ed->nlk * sizeof(int32_t) + 2 : 0;
 	return sizeof(*ed) + (ed->cal_m + 1) * sizeof(int32_t) + (2 * ed->ncells + 1) * sizeof(int32_t) +
+	       (ed->ncells + 63) / 64 * sizeof(uint64_t) +
 	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + sizeof(cnode_t) + 3 * sizeof(uint32_t) + nl +
 	                (ed->tlast ? sizeof(double) : 0));
 }
@@ -1134,6 +1148,11 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 			snprintf(msg, msglen, "inconsistent engine state: %s", why);
 		return ED_EINVAL;
 	}
+	/* The occupancy bitmap from the cell heads. */
+	memset(ed->occ, 0, (ed->ncells + 63) / 64 * sizeof(uint64_t));
+	for (size_t c = 0; c < ed->ncells; c++)
+		if (ed->head[c] >= 0)
+			ed->occ[c >> 6] |= (uint64_t)1 << (c & 63);
 	/* The calendar: same width and current bucket, every event re-inserted. */
 	ed->nl_over = 0;
 	ed->cal_ring = 0;

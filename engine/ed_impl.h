@@ -36,14 +36,17 @@ static void FN(cell_insert)(struct ed *ed, uint32_t i)
 	int32_t c = FN(cell_index)(ed, ed->ev[i].cc);
 	*FN(link)(ed, (int32_t)i) = ed->head[c];
 	ed->head[c] = (int32_t)i;
+	ed->occ[c >> 6] |= (uint64_t)1 << (c & 63);
 }
 
 static void FN(cell_remove)(struct ed *ed, uint32_t i)
 {
-	int32_t *link = &ed->head[FN(cell_index)(ed, ed->ev[i].cc)];
+	int32_t c = FN(cell_index)(ed, ed->ev[i].cc), *link = &ed->head[c];
 	while (*link != (int32_t)i)
 		link = FN(link)(ed, *link);
 	*link = *FN(link)(ed, (int32_t)i);
+	if (ed->head[c] < 0)
+		ed->occ[c >> 6] &= ~((uint64_t)1 << (c & 63));
 }
 
 /* Time at which particle i (synchronised at time t) leaves its cell, and
@@ -167,14 +170,18 @@ static void FN(try_images)(const struct ed *ed, const P_T *pj, int32_t j, const 
  * time) for the earliest collision; keeps the stored one if earlier. Each
  * neighbour cell is one definite periodic image (shift) when every axis has
  * >= 3 cells; otherwise minimum image over all images (try_images). Cell
- * coordinates and shifts are worked out once per axis: most cells of a
- * dilute system are empty, so the walk itself is much of the cost. */
-static void FN(scan)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[3])
+ * coordinates and shifts are worked out once per axis, and the occupancy
+ * bitmap (a few bits per particle: in cache) spares reading the heads of
+ * empty cells: most cells of a dilute system are empty, so the walk
+ * itself is much of the cost. */
+static inline __attribute__((always_inline)) void
+FN(scan_impl)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[3], int use_occ)
 {
 	const P_T *restrict P = ed->p;
 	ev_t *e = &ed->ev[i];
 	const int minimg = ed->minimg;
 	const int32_t *restrict head = ed->head;
+	const uint64_t *restrict occ = ed->occ;
 	int32_t cell[3][3] = {{0}};   /* per axis: contribution to the cell index */
 	double sh[3][3] = {{0.0}};    /* per axis: periodic shift */
 	int32_t stride = 1;
@@ -206,7 +213,10 @@ static void FN(scan)(struct ed *ed, uint32_t i, const int *const offs[3], const 
 		for (int ky = 0; ky < no[1]; ky++) {
 			const int32_t row = cell[2][kz] + cell[1][ky];
 			for (int kx = 0; kx < no[0]; kx++) {
-				int32_t j = head[row + cell[0][kx]];
+				const int32_t c = row + cell[0][kx];
+				if (use_occ && !((occ[c >> 6] >> (c & 63)) & 1))
+					continue;     /* empty: its head need not be read */
+				int32_t j = head[c];
 				if (j < 0)
 					continue;
 				double ri[D];
@@ -232,6 +242,16 @@ static void FN(scan)(struct ed *ed, uint32_t i, const int *const offs[3], const 
 		e->partner = found;
 		e->pcount = P[found].count;
 	}
+}
+
+/* The bitmap pays where the heads do not stay in cache (measured: a loss
+ * of ~8% at 5e4 cells, a gain at 5e5). */
+static void FN(scan)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[3])
+{
+	if (ed->ncells > OCC_MIN_CELLS)
+		FN(scan_impl)(ed, i, offs, no, 1);
+	else
+		FN(scan_impl)(ed, i, offs, no, 0);
 }
 
 static void FN(scan_full)(struct ed *ed, uint32_t i)
@@ -592,8 +612,7 @@ static void FN(reorder)(struct ed *ed)
 		permute(ed->nn, 1, newidx, n);
 		permute(ed->xn, D * sizeof(double), newidx, n);
 	}
-	for (size_t c = 0; c < ed->ncells; c++)
-		ed->head[c] = -1;
+	cells_clear(ed);
 	for (uint32_t k = n; k-- > 0;)
 		FN(cell_insert)(ed, k);
 }
@@ -734,8 +753,7 @@ static double FN(min_gap)(const struct ed *ed)
 static void FN(resync)(struct ed *ed)
 {
 	P_T *P = ed->p;
-	for (size_t c = 0; c < ed->ncells; c++)
-		ed->head[c] = -1;
+	cells_clear(ed);
 	for (uint32_t i = 0; i < ed->n; i++) {
 		FN(advance)(&P[i], ed->t);
 		FOR_AXES(a) {
