@@ -208,6 +208,12 @@ FN(scan_impl)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[
 	}
 	double horizon = e->t_coll - t;
 	int32_t found = -1;
+	/* First the non-empty cells, with their first particles' records
+	 * requested at once (in a large system each is a cache miss, and the
+	 * tests below would let only one or two be under way at a time); then
+	 * the candidates, in the same cell order. */
+	struct { int32_t j; uint8_t k[3]; } occd[27];
+	int m = 0;
 	const int nz = D == 3 ? no[2] : 1;
 	for (int kz = 0; kz < nz; kz++)
 		for (int ky = 0; ky < no[1]; ky++) {
@@ -217,23 +223,25 @@ FN(scan_impl)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[
 				if (use_occ && !((occ[c >> 6] >> (c & 63)) & 1))
 					continue;     /* empty: its head need not be read */
 				int32_t j = head[c];
-				if (j < 0)
-					continue;
-				double ri[D];
-				ri[0] = r0[0] - sh[0][kx];
-				ri[1] = r0[1] - sh[1][ky];
-				if (D == 3)
-					ri[D - 1] = r0[D - 1] - sh[D - 1][kz];
-				for (; j >= 0; j = P[j].next) {   /* cell mode: links in the records */
-					if ((uint32_t)j == i)
-						continue;
-					if (minimg)
-						FN(try_images)(ed, &P[j], j, ri, vi, t, &horizon, &found);
-					else
-						FN(try_pair)(ed, &P[j], j, ri, vi, t, 0, &horizon, &found);
-				}
+				__builtin_prefetch(&P[j]);
+				occd[m].j = j;
+				occd[m].k[0] = (uint8_t)kx, occd[m].k[1] = (uint8_t)ky, occd[m].k[2] = (uint8_t)kz;
+				m += j >= 0;
 			}
 		}
+	for (int q = 0; q < m; q++) {
+		double ri[D];
+		FOR_AXES(a)
+			ri[a] = r0[a] - sh[a][occd[q].k[a]];
+		for (int32_t j = occd[q].j; j >= 0; j = P[j].next) {   /* cell mode: links in the records */
+			if ((uint32_t)j == i)
+				continue;
+			if (minimg)
+				FN(try_images)(ed, &P[j], j, ri, vi, t, &horizon, &found);
+			else
+				FN(try_pair)(ed, &P[j], j, ri, vi, t, 0, &horizon, &found);
+		}
+	}
 	/* Only a partner found by this scan gets its counter recorded: a kept
 	 * (possibly stale) prediction must keep the counter it was made with,
 	 * or a cancelled collision would be taken for a valid one. */
