@@ -548,6 +548,14 @@ static void FN(step)(struct ed *ed)
 	P_T *P = ed->p;
 	ev_t *e = &ed->ev[i];
 
+	/* The probable next event (the earlier child of the heap's top): its
+	 * particle's records are requested now, to arrive while this event is
+	 * processed (large systems wait on memory at every event's start). */
+	if (ed->hn > 1) {
+		uint32_t k = ed->hn > 2 && hless(&ed->heap[2], &ed->heap[1]) ? ed->heap[2].i : ed->heap[1].i;
+		__builtin_prefetch(&P[k]);
+		__builtin_prefetch(&ed->ev[k]);
+	}
 	ed->t = t;
 	ed->t_abs_valid = 0;
 	ed->events++;
