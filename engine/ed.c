@@ -86,7 +86,7 @@ struct ed {
 	uint32_t hn;              /* events in the heap */
 	cnode_t *cn;              /* per particle */
 	int32_t *cal_head;        /* first of each bucket list (cal_m + 1: the overflow list) */
-	uint32_t cal_m, cal_ring; /* ring size; events in ring lists */
+	uint32_t cal_m, cal_ring; /* ring size (a power of two); events in ring lists */
 	int64_t cal_cur;
 	double cal_w, cal_iw;
 	double t;                 /* clock since the last rebase */
@@ -173,7 +173,7 @@ static void cal_insert(struct ed *ed, uint32_t i, double t)
 		heap_push(ed, i, t);
 		return;
 	}
-	int32_t s = b < 0 ? (int32_t)ed->cal_m : (int32_t)(b % ed->cal_m), h = ed->cal_head[s];
+	int32_t s = b < 0 ? (int32_t)ed->cal_m : (int32_t)(b & (ed->cal_m - 1)), h = ed->cal_head[s];
 	cnode_t *c = &ed->cn[i];
 	c->t = t;
 	c->slot = s;
@@ -249,7 +249,7 @@ static double cal_next_time(struct ed *ed)
 			ed->cal_cur = f < 4e18 ? (int64_t)f : (int64_t)4e18;
 		} else {
 			ed->cal_cur++;
-			int32_t s = (int32_t)(ed->cal_cur % ed->cal_m);
+			int32_t s = (int32_t)(ed->cal_cur & (ed->cal_m - 1));
 			int32_t j = ed->cal_head[s];
 			ed->cal_head[s] = -1;
 			while (j >= 0) {
@@ -682,7 +682,10 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	ed->p = big_alloc(ed->n * psz, 0);
 	ed->ev = big_alloc(ed->n * sizeof(ev_t), 1);
 	ed->heap = big_alloc(ed->n * sizeof(hent_t), 1);
-	ed->cal_m = ed->n < 64 ? 64 : ed->n;
+	/* a power of two >= N: bucket numbers wrap with a mask, not a division */
+	ed->cal_m = 64;
+	while (ed->cal_m < ed->n)
+		ed->cal_m *= 2;
 	ed->cn = big_alloc(ed->n * sizeof(cnode_t), 1);
 	ed->cal_head = big_alloc((ed->cal_m + 1) * sizeof(int32_t), 0);
 	ed->head = big_alloc(ed->ncells * sizeof(int32_t), 0);
