@@ -555,6 +555,17 @@ static void FN(step)(struct ed *ed)
 		uint32_t k = ed->hn > 2 && hless(&ed->heap[2], &ed->heap[1]) ? ed->heap[2].i : ed->heap[1].i;
 		__builtin_prefetch(&P[k]);
 		__builtin_prefetch(&ed->ev[k]);
+		if (ed->nl) {
+			__builtin_prefetch(ed->nb + (size_t)k * ed->nlk);
+			__builtin_prefetch(ed->xn + (size_t)k * D);
+		}
+	}
+	if (ed->nl && e->t_coll <= e->t_cross) {
+		/* a collision (or a cancelled one): the partner's list is next */
+		const uint32_t j = (uint32_t)e->partner;
+		__builtin_prefetch(ed->nb + (size_t)j * ed->nlk);
+		__builtin_prefetch(ed->xn + (size_t)j * D);
+		__builtin_prefetch(&ed->cn[j]);
 	}
 	ed->t = t;
 	ed->t_abs_valid = 0;
