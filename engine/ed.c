@@ -89,6 +89,7 @@ struct ed {
 	uint32_t cal_m, cal_ring; /* ring size (a power of two); events in ring lists */
 	int64_t cal_cur;
 	double cal_w, cal_iw;
+	int32_t cal_pf;           /* cache hint only: next bucket's list, one particle per event */
 	double t;                 /* clock since the last rebase */
 	double epoch, epoch_c;    /* absolute time of the last rebase (compensated sum) */
 	/* When ed_advance() stopped at t_stop, the absolute clock is exactly
@@ -258,6 +259,11 @@ static double cal_next_time(struct ed *ed)
 				heap_push(ed, (uint32_t)j, ed->cn[j].t);
 				j = nx;
 			}
+			/* The next bucket's list is a chain of cache misses when it is
+			 * pulled in: walk it ahead, one link per event (cal_prefetch). */
+			ed->cal_pf = ed->cal_head[(s + 1) & (int32_t)(ed->cal_m - 1)];
+			if (ed->cal_pf >= 0)
+				__builtin_prefetch(&ed->cn[ed->cal_pf]);
 			if (s != 0)
 				continue;
 		}
@@ -271,6 +277,18 @@ static double cal_next_time(struct ed *ed)
 		}
 	}
 	return ed->heap[0].t;
+}
+
+/* One step of the walk ahead along the next bucket's list (the record
+ * asked for one event ago has arrived by now). A hint only: the list may
+ * have changed meanwhile; links are always valid indices or -1. */
+static inline void cal_prefetch(struct ed *ed)
+{
+	if (ed->cal_pf >= 0) {
+		ed->cal_pf = ed->cn[ed->cal_pf].next;
+		if (ed->cal_pf >= 0)
+			__builtin_prefetch(&ed->cn[ed->cal_pf]);
+	}
 }
 
 /* Calendar from scratch at time 0 (after a rebase or a full prediction):
@@ -293,6 +311,7 @@ static void cal_build(struct ed *ed)
 	ed->cal_iw = 1.0 / w;
 	ed->cal_cur = 0;
 	ed->cal_ring = 0;
+	ed->cal_pf = -1;
 	ed->hn = 0;
 	for (uint32_t s = 0; s <= ed->cal_m; s++)
 		ed->cal_head[s] = -1;
@@ -1159,6 +1178,7 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 	/* The calendar: same width and current bucket, every event re-inserted. */
 	ed->nl_over = 0;
 	ed->cal_ring = 0;
+	ed->cal_pf = -1;
 	ed->hn = 0;
 	for (uint32_t c = 0; c <= ed->cal_m; c++)
 		ed->cal_head[c] = -1;

@@ -560,6 +560,7 @@ static void FN(step)(struct ed *ed)
 			__builtin_prefetch(ed->xn + (size_t)k * D);
 		}
 	}
+	cal_prefetch(ed);
 	if (ed->nl && e->t_coll <= e->t_cross) {
 		/* a collision (or a cancelled one): the partner's list is next */
 		const uint32_t j = (uint32_t)e->partner;
