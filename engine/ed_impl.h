@@ -344,51 +344,66 @@ static void FN(scan_nl)(struct ed *ed, uint32_t i)
 	}
 }
 
-/* Add to i's list every particle of the surrounding cells whose build
- * position is within nl_r of i's (and i to theirs when sym). */
-static void FN(nl_gather)(struct ed *ed, uint32_t i, int sym)
+/* Fill i's list (empty on entry) with every particle of the surrounding
+ * cells whose build position is within nl_r of i's; a full list sets
+ * nl_over. First the cells' first build positions are requested at once
+ * (large systems wait on memory here), then the cells are walked in order. */
+static void FN(nl_gather)(struct ed *ed, uint32_t i)
 {
 	const ev_t *e = &ed->ev[i];
 	const uint32_t K = ed->nlk;
 	int32_t *li = ed->nb + (size_t)i * K;
 	const double *xi = ed->xn + (size_t)i * D;
-	int32_t cc[3] = {0, 0, 0};
-	double sh[3] = {0.0, 0.0, 0.0};
-	int kz0 = D == 3 ? -1 : 0, kz1 = D == 3 ? 1 : 0;
-	for (int kz = kz0; kz <= kz1; kz++) {
-		if (D == 3) {
-			cc[2] = e->cc[2] + kz;
-			sh[2] = cc[2] < 0 ? -ed->L[2] : cc[2] >= ed->nc[2] ? ed->L[2] : 0.0;
-			cc[2] = (cc[2] + ed->nc[2]) % ed->nc[2];
+	const double r2max = ed->nl_r2;
+	int32_t cell[3][3] = {{0}}, stride = 1;
+	double sh[3][3] = {{0.0}};
+	for (int a = 0; a < D; a++) {
+		for (int k = 0; k < 3; k++) {
+			int32_t c = e->cc[a] + k - 1;
+			double s = 0.0;
+			if (c < 0) c += ed->nc[a], s = -ed->L[a];
+			else if (c >= ed->nc[a]) c -= ed->nc[a], s = ed->L[a];
+			cell[a][k] = c * stride;
+			sh[a][k] = s;
 		}
-		for (int ky = -1; ky <= 1; ky++) {
-			cc[1] = e->cc[1] + ky;
-			sh[1] = cc[1] < 0 ? -ed->L[1] : cc[1] >= ed->nc[1] ? ed->L[1] : 0.0;
-			cc[1] = (cc[1] + ed->nc[1]) % ed->nc[1];
-			for (int kx = -1; kx <= 1; kx++) {
-				cc[0] = e->cc[0] + kx;
-				sh[0] = cc[0] < 0 ? -ed->L[0] : cc[0] >= ed->nc[0] ? ed->L[0] : 0.0;
-				cc[0] = (cc[0] + ed->nc[0]) % ed->nc[0];
-				for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = ed->next[j]) {   /* lists mode: links apart */
+		stride *= ed->nc[a];
+	}
+	int32_t hd[27];
+	int m = 0;
+	const int nz = D == 3 ? 3 : 1;
+	for (int kz = 0; kz < nz; kz++)
+		for (int ky = 0; ky < 3; ky++)
+			for (int kx = 0; kx < 3; kx++, m++) {
+				hd[m] = ed->head[cell[2][kz] + cell[1][ky] + cell[0][kx]];
+				__builtin_prefetch(ed->xn + (size_t)hd[m] * D);
+			}
+	m = 0;
+	int n = ed->nn[i];
+	for (int kz = 0; kz < nz; kz++)
+		for (int ky = 0; ky < 3; ky++)
+			for (int kx = 0; kx < 3; kx++, m++) {
+				double xs[D];
+				xs[0] = xi[0] - sh[0][kx];
+				xs[1] = xi[1] - sh[1][ky];
+				if (D == 3)
+					xs[D - 1] = xi[D - 1] - sh[D - 1][kz];
+				for (int32_t j = hd[m]; j >= 0; j = ed->next[j]) {   /* lists mode: links apart */
 					const double *xj = ed->xn + (size_t)j * D;
-					double r2 = 0.0;
-					FOR_AXES(a) {
-						double x = xi[a] - sh[a] - xj[a];
+					double x = xs[0] - xj[0], r2 = x * x;
+					_Pragma("GCC unroll 3") for (int a = 1; a < D; a++) {
+						x = xs[a] - xj[a];
 						r2 += x * x;
 					}
-					if (r2 >= ed->nl_r2 || (uint32_t)j == i)
+					if (r2 >= r2max || (uint32_t)j == i)
 						continue;
-					if (ed->nn[i] >= K || (sym && ed->nn[j] >= K)) {
+					if ((uint32_t)n >= K) {
 						ed->nl_over = 1;
 						continue;
 					}
-					li[ed->nn[i]++] = j;
-					if (sym)
-						ed->nb[(size_t)j * K + ed->nn[j]++] = (int32_t)i;
+					li[n++] = j;
 				}
 			}
-		}
-	}
+	ed->nn[i] = (uint8_t)n;
 }
 
 /* Put particle i (in the box) into the cell of its position. */
@@ -416,7 +431,7 @@ static void FN(nl_rebuild)(struct ed *ed, uint32_t i, double t)
 	}
 	FN(place)(ed, i);
 	ed->nn[i] = 0;
-	FN(nl_gather)(ed, i, 0);
+	FN(nl_gather)(ed, i);
 	for (int k = 0; k < m_old; k++)
 		mark[old[k]] = 1;
 	for (int k = 0; k < ed->nn[i]; k++) {
@@ -461,7 +476,7 @@ static void FN(nl_build_all)(struct ed *ed)
 	}
 	/* each pair is met from both sides: one-sided adds give symmetric lists */
 	for (uint32_t i = 0; i < ed->n; i++)
-		FN(nl_gather)(ed, i, 0);
+		FN(nl_gather)(ed, i);
 }
 
 /* A particle crosses a cell face: new cell, wrap at the box edge, then only
