@@ -1,15 +1,18 @@
 /* Event-driven hard-sphere dynamics: setup, event queue, clock and the dimension dispatch. */
+#define _DEFAULT_SOURCE   /* madvise(MADV_HUGEPAGE) */
 #include <math.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 
 #include "ed.h"
 #include "rng.h"
 
 /* Hot particle record: everything a neighbour scan touches, one cache line
- * in 3D. Position r is valid at the particle's own time t (lazy update). */
+ * in 3D. Position r is valid at the particle's own time t (lazy update).
+ * next: cell-list link in cell mode (see link() in ed_impl.h). */
 typedef struct { double r[2], v[2], t; int32_t next; uint32_t count; } p2_t;
 typedef struct { double r[3], v[3], t; int32_t next; uint32_t count; } p3_t;
 
@@ -26,6 +29,21 @@ typedef struct {
 
 typedef struct { double t; uint32_t i; } hent_t;
 
+/* A particle's place in the event calendar, in one record: a calendar
+ * operation touches one line of the particle (the queued time is here too,
+ * so moving a bucket into the heap reads no event record). */
+typedef struct {
+	double t;          /* queued event time */
+	int32_t slot;      /* -1: in the heap; 0..cal_m-1: ring bucket; cal_m: overflow */
+	int32_t next, prev;   /* bucket list */
+	uint32_t hpos;     /* heap slot while in the heap */
+} cnode_t;
+
+enum { NL_KMAX = 32 };   /* largest neighbour-list capacity (setup_mode) */
+/* Cell scans consult the occupancy bitmap above this many cells (heads of
+ * 512 KiB and more: out of a core's L2 cache). */
+enum { OCC_MIN_CELLS = 1 << 17 };
+
 struct ed {
 	int dim;
 	uint32_t n;
@@ -37,6 +55,8 @@ struct ed {
 	int minimg;               /* some axis has < 3 cells: neighbour images need minimum image */
 	size_t ncells;
 	int32_t *head;            /* first particle of each cell, -1 if empty */
+	uint64_t *occ;            /* bit c set: cell c is not empty */
+	int32_t *next;            /* neighbour-list mode: next particle in the same cell, -1 at the end */
 	/* Neighbour-list mode (dense systems): each particle lists the particles
 	 * whose build positions xn lie within nl_r of its own; a particle is
 	 * rebuilt when it drifts nl_d from xn, so a pair not listed stays apart
@@ -49,6 +69,7 @@ struct ed {
 	double *xn;               /* build positions, n*dim */
 	int32_t *nb;              /* lists, n*nlk */
 	uint8_t *nn;              /* list lengths */
+	uint8_t *mark;            /* all 0 between events; scratch of a list rebuild */
 	void *p;                  /* p2_t[n] or p3_t[n] */
 	ev_t *ev;
 	double *tlast;            /* last collision time per particle; only with the TC model */
@@ -62,13 +83,13 @@ struct ed {
 	 * has bucket <= cal_cur, every other one > cal_cur, so the heap's top is
 	 * the next event in (time, index) order. */
 	hent_t *heap;
-	uint32_t *hpos;           /* heap slot of each particle in the heap */
 	uint32_t hn;              /* events in the heap */
-	int32_t *cal_slot;        /* -1: in the heap; 0..cal_m-1: ring; cal_m: overflow */
-	int32_t *cal_next, *cal_prev, *cal_head;   /* lists (cal_head[cal_m + 1]) */
-	uint32_t cal_m, cal_ring; /* ring size; events in ring lists */
+	cnode_t *cn;              /* per particle */
+	int32_t *cal_head;        /* first of each bucket list (cal_m + 1: the overflow list) */
+	uint32_t cal_m, cal_ring; /* ring size (a power of two); events in ring lists */
 	int64_t cal_cur;
 	double cal_w, cal_iw;
+	int32_t cal_pf;           /* cache hint only: next bucket's list, one particle per event */
 	double t;                 /* clock since the last rebase */
 	double epoch, epoch_c;    /* absolute time of the last rebase (compensated sum) */
 	/* When ed_advance() stopped at t_stop, the absolute clock is exactly
@@ -101,11 +122,11 @@ static void heap_down(struct ed *ed, uint32_t k)
 		if (!hless(&h[c], &x))
 			break;
 		h[k] = h[c];
-		ed->hpos[h[k].i] = k;
+		ed->cn[h[k].i].hpos = k;
 		k = c;
 	}
 	h[k] = x;
-	ed->hpos[x.i] = k;
+	ed->cn[x.i].hpos = k;
 }
 
 static void heap_up(struct ed *ed, uint32_t k)
@@ -116,11 +137,11 @@ static void heap_up(struct ed *ed, uint32_t k)
 		if (!hless(&x, &h[p]))
 			break;
 		h[k] = h[p];
-		ed->hpos[h[k].i] = k;
+		ed->cn[h[k].i].hpos = k;
 		k = p;
 	}
 	h[k] = x;
-	ed->hpos[x.i] = k;
+	ed->cn[x.i].hpos = k;
 }
 
 static inline double ev_time(const struct ed *ed, uint32_t i)
@@ -133,7 +154,8 @@ static void heap_push(struct ed *ed, uint32_t i, double t)
 	uint32_t k = ed->hn++;
 	ed->heap[k].t = t;
 	ed->heap[k].i = i;
-	ed->cal_slot[i] = -1;
+	ed->cn[i].slot = -1;
+	ed->cn[i].t = t;
 	heap_up(ed, k);
 }
 
@@ -152,26 +174,28 @@ static void cal_insert(struct ed *ed, uint32_t i, double t)
 		heap_push(ed, i, t);
 		return;
 	}
-	int32_t s = b < 0 ? (int32_t)ed->cal_m : (int32_t)(b % ed->cal_m), h = ed->cal_head[s];
-	ed->cal_slot[i] = s;
-	ed->cal_prev[i] = -1;
-	ed->cal_next[i] = h;
+	int32_t s = b < 0 ? (int32_t)ed->cal_m : (int32_t)(b & (ed->cal_m - 1)), h = ed->cal_head[s];
+	cnode_t *c = &ed->cn[i];
+	c->t = t;
+	c->slot = s;
+	c->prev = -1;
+	c->next = h;
 	if (h >= 0)
-		ed->cal_prev[h] = (int32_t)i;
+		ed->cn[h].prev = (int32_t)i;
 	ed->cal_head[s] = (int32_t)i;
 	ed->cal_ring += b >= 0;
 }
 
 static void cal_remove(struct ed *ed, uint32_t i)
 {
-	int32_t s = ed->cal_slot[i];
+	int32_t s = ed->cn[i].slot;
 	if (s < 0) {
-		uint32_t k = ed->hpos[i];
+		uint32_t k = ed->cn[i].hpos;
 		hent_t last = ed->heap[--ed->hn];
 		if (k < ed->hn) {
 			double old = ed->heap[k].t;
 			ed->heap[k] = last;
-			ed->hpos[last.i] = k;
+			ed->cn[last.i].hpos = k;
 			if (last.t < old || (last.t == old && last.i < i))
 				heap_up(ed, k);
 			else
@@ -179,21 +203,22 @@ static void cal_remove(struct ed *ed, uint32_t i)
 		}
 		return;
 	}
-	int32_t p = ed->cal_prev[i], n = ed->cal_next[i];
-	if (p >= 0) ed->cal_next[p] = n; else ed->cal_head[s] = n;
-	if (n >= 0) ed->cal_prev[n] = p;
+	int32_t p = ed->cn[i].prev, n = ed->cn[i].next;
+	if (p >= 0) ed->cn[p].next = n; else ed->cal_head[s] = n;
+	if (n >= 0) ed->cn[n].prev = p;
 	ed->cal_ring -= s < (int32_t)ed->cal_m;
 }
 
 /* New event time of particle i. */
 static inline void cal_update(struct ed *ed, uint32_t i, double t)
 {
-	if (ed->cal_slot[i] < 0) {
+	if (ed->cn[i].slot < 0) {
 		int64_t b = cal_bucket(ed, t);
 		if (b >= 0 && b <= ed->cal_cur) {
-			uint32_t k = ed->hpos[i];
+			uint32_t k = ed->cn[i].hpos;
 			double old = ed->heap[k].t;
 			ed->heap[k].t = t;
+			ed->cn[i].t = t;
 			if (t < old)
 				heap_up(ed, k);
 			else if (t > old)
@@ -214,8 +239,8 @@ static double cal_next_time(struct ed *ed)
 	while (ed->hn == 0) {
 		if (ed->cal_ring == 0) {
 			double tmin = INFINITY;
-			for (int32_t j = ed->cal_head[ed->cal_m]; j >= 0; j = ed->cal_next[j]) {
-				double t = ev_time(ed, (uint32_t)j);
+			for (int32_t j = ed->cal_head[ed->cal_m]; j >= 0; j = ed->cn[j].next) {
+				double t = ed->cn[j].t;
 				if (t < tmin) tmin = t;
 			}
 			if (tmin == INFINITY)
@@ -225,15 +250,20 @@ static double cal_next_time(struct ed *ed)
 			ed->cal_cur = f < 4e18 ? (int64_t)f : (int64_t)4e18;
 		} else {
 			ed->cal_cur++;
-			int32_t s = (int32_t)(ed->cal_cur % ed->cal_m);
+			int32_t s = (int32_t)(ed->cal_cur & (ed->cal_m - 1));
 			int32_t j = ed->cal_head[s];
 			ed->cal_head[s] = -1;
 			while (j >= 0) {
-				int32_t nx = ed->cal_next[j];
+				int32_t nx = ed->cn[j].next;
 				ed->cal_ring--;
-				heap_push(ed, (uint32_t)j, ev_time(ed, (uint32_t)j));
+				heap_push(ed, (uint32_t)j, ed->cn[j].t);
 				j = nx;
 			}
+			/* The next bucket's list is a chain of cache misses when it is
+			 * pulled in: walk it ahead, one link per event (cal_prefetch). */
+			ed->cal_pf = ed->cal_head[(s + 1) & (int32_t)(ed->cal_m - 1)];
+			if (ed->cal_pf >= 0)
+				__builtin_prefetch(&ed->cn[ed->cal_pf]);
 			if (s != 0)
 				continue;
 		}
@@ -241,12 +271,24 @@ static double cal_next_time(struct ed *ed)
 		int32_t j = ed->cal_head[ed->cal_m];
 		ed->cal_head[ed->cal_m] = -1;
 		while (j >= 0) {
-			int32_t nx = ed->cal_next[j];
-			cal_insert(ed, (uint32_t)j, ev_time(ed, (uint32_t)j));
+			int32_t nx = ed->cn[j].next;
+			cal_insert(ed, (uint32_t)j, ed->cn[j].t);
 			j = nx;
 		}
 	}
 	return ed->heap[0].t;
+}
+
+/* One step of the walk ahead along the next bucket's list (the record
+ * asked for one event ago has arrived by now). A hint only: the list may
+ * have changed meanwhile; links are always valid indices or -1. */
+static inline void cal_prefetch(struct ed *ed)
+{
+	if (ed->cal_pf >= 0) {
+		ed->cal_pf = ed->cn[ed->cal_pf].next;
+		if (ed->cal_pf >= 0)
+			__builtin_prefetch(&ed->cn[ed->cal_pf]);
+	}
 }
 
 /* Calendar from scratch at time 0 (after a rebase or a full prediction):
@@ -269,6 +311,7 @@ static void cal_build(struct ed *ed)
 	ed->cal_iw = 1.0 / w;
 	ed->cal_cur = 0;
 	ed->cal_ring = 0;
+	ed->cal_pf = -1;
 	ed->hn = 0;
 	for (uint32_t s = 0; s <= ed->cal_m; s++)
 		ed->cal_head[s] = -1;
@@ -277,6 +320,14 @@ static void cal_build(struct ed *ed)
 }
 
 static void nl_abandon(struct ed *ed);
+
+/* All cells empty. */
+static void cells_clear(struct ed *ed)
+{
+	for (size_t c = 0; c < ed->ncells; c++)
+		ed->head[c] = -1;
+	memset(ed->occ, 0, (ed->ncells + 63) / 64 * sizeof(uint64_t));
+}
 
 /* Move row i of n rows of size bytes to row newidx[i], in place by
  * following the permutation's cycles (the top bit of newidx marks rows done
@@ -313,6 +364,10 @@ static void epoch_add(struct ed *ed, double t)
 }
 
 double ed_time(const ed_t *ed) { return ed->t_abs_valid ? ed->t_abs : ed->epoch + ed->t; }
+
+/* Loops over the D axes, unrolled (GCC does not at -O2 by itself; the
+ * per-candidate arithmetic is the hot loop of the engine). */
+#define FOR_AXES(a) _Pragma("GCC unroll 3") for (int a = 0; a < D; a++)
 
 #define D 2
 #define P_T p2_t
@@ -409,7 +464,7 @@ static void setup_mode(struct ed *ed, double min_edge)
 			ed->nl_d2 = 0.25 * shell * shell * ed->sigma2;
 			/* dense random packing holds ~1.3x the mean count within rl;
 			 * more than this capacity sends the run back to cell mode */
-			ed->nlk = ed->dim == 2 ? 24 : 32;
+			ed->nlk = ed->dim == 2 ? 24 : 32;   /* <= NL_KMAX */
 			return;
 		}
 		ed->minimg = 0;
@@ -583,6 +638,30 @@ static void reset_clock(struct ed *ed)
 			ed->tlast[i] = -INFINITY;
 }
 
+/* Per-particle arrays are read at random (neighbours, calendar): with 4 KiB
+ * pages a large system misses the TLB on most of those reads. Arrays of
+ * 2 MiB and more are aligned to and advised for transparent huge pages (a
+ * hint, ignored where unsupported). Cache-line aligned; freed with free(). */
+static void *big_alloc(size_t bytes, int zero)
+{
+	const size_t huge = (size_t)2 << 20;
+	void *p;
+	if (bytes < huge) {
+		bytes = (bytes + 63) / 64 * 64;
+		p = aligned_alloc(64, bytes ? bytes : 64);
+	} else {
+		bytes = (bytes + huge - 1) / huge * huge;
+		p = aligned_alloc(huge, bytes);
+#ifdef MADV_HUGEPAGE
+		if (p)
+			madvise(p, bytes, MADV_HUGEPAGE);
+#endif
+	}
+	if (p && zero)
+		memset(p, 0, bytes);
+	return p;
+}
+
 /* Allocate the engine for a scene and choose its mode and grid; no state
  * yet (particles zeroed, cells empty). */
 static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
@@ -619,38 +698,39 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	setup_mode(ed, s->ed_cell_size * ed->sigma);
 
 	size_t psz = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
-	ed->p = aligned_alloc(64, ((ed->n * psz + 63) / 64) * 64);
-	ed->ev = calloc(ed->n, sizeof(ev_t));
-	ed->heap = calloc(ed->n, sizeof(hent_t));
-	ed->hpos = calloc(ed->n, sizeof(uint32_t));
-	ed->cal_m = ed->n < 64 ? 64 : ed->n;
-	ed->cal_slot = malloc(ed->n * sizeof(int32_t));
-	ed->cal_next = malloc(ed->n * sizeof(int32_t));
-	ed->cal_prev = malloc(ed->n * sizeof(int32_t));
-	ed->cal_head = malloc((ed->cal_m + 1) * sizeof(int32_t));
-	ed->head = malloc(ed->ncells * sizeof(int32_t));
-	ed->id = malloc(ed->n * sizeof(uint32_t));
+	ed->p = big_alloc(ed->n * psz, 0);
+	ed->ev = big_alloc(ed->n * sizeof(ev_t), 1);
+	ed->heap = big_alloc(ed->n * sizeof(hent_t), 1);
+	/* a power of two >= N: bucket numbers wrap with a mask, not a division */
+	ed->cal_m = 64;
+	while (ed->cal_m < ed->n)
+		ed->cal_m *= 2;
+	ed->cn = big_alloc(ed->n * sizeof(cnode_t), 1);
+	ed->cal_head = big_alloc((ed->cal_m + 1) * sizeof(int32_t), 0);
+	ed->head = big_alloc(ed->ncells * sizeof(int32_t), 0);
+	ed->occ = big_alloc((ed->ncells + 63) / 64 * sizeof(uint64_t), 0);
+	ed->next = big_alloc(ed->n * sizeof(int32_t), 0);
+	ed->id = big_alloc(ed->n * sizeof(uint32_t), 0);
 	ed->scratch_idx = malloc(ed->n * sizeof(uint32_t));
 	ed->scratch_cell = malloc((ed->ncells + 1) * sizeof(uint32_t));
 	if (ed->nl) {
-		ed->xn = malloc(ed->n * ed->dim * sizeof(double));
-		ed->nb = malloc(ed->n * ed->nlk * sizeof(int32_t));
-		ed->nn = calloc(ed->n, 1);
-		if (!ed->xn || !ed->nb || !ed->nn)
+		ed->xn = big_alloc((size_t)ed->n * ed->dim * sizeof(double), 0);
+		ed->nb = big_alloc((size_t)ed->n * ed->nlk * sizeof(int32_t), 0);
+		ed->nn = big_alloc(ed->n, 1);
+		ed->mark = big_alloc(ed->n, 1);
+		if (!ed->xn || !ed->nb || !ed->nn || !ed->mark)
 			goto fail;
 	}
 	if (s->tc > 0.0) {
-		ed->tlast = malloc(ed->n * sizeof(double));
+		ed->tlast = big_alloc(ed->n * sizeof(double), 0);
 	}
-	if (!ed->p || !ed->ev || !ed->heap || !ed->hpos || !ed->cal_slot || !ed->cal_next ||
-	    !ed->cal_prev || !ed->cal_head || !ed->head || !ed->id || !ed->scratch_idx || !ed->scratch_cell ||
+	if (!ed->p || !ed->ev || !ed->heap || !ed->cn || !ed->cal_head || !ed->head || !ed->occ || !ed->next || !ed->id || !ed->scratch_idx || !ed->scratch_cell ||
 	    (s->tc > 0.0 && !ed->tlast))
 		goto fail;
 	for (uint32_t i = 0; i < ed->n; i++)
 		ed->id[i] = i;
 	memset(ed->p, 0, ed->n * psz);
-	for (size_t c = 0; c < ed->ncells; c++)
-		ed->head[c] = -1;
+	cells_clear(ed);
 	/* Rebase often enough to keep times small, rarely enough to cost nothing. */
 	ed->rebase_every = 8ull * ed->n < 4096 ? 4096 : 8ull * ed->n;
 	*err = ED_OK;
@@ -717,12 +797,11 @@ void ed_destroy(ed_t *ed)
 	free(ed->p);
 	free(ed->ev);
 	free(ed->heap);
-	free(ed->hpos);
-	free(ed->cal_slot);
-	free(ed->cal_next);
-	free(ed->cal_prev);
+	free(ed->cn);
 	free(ed->cal_head);
 	free(ed->head);
+	free(ed->occ);
+	free(ed->next);
 	free(ed->tlast);
 	free(ed->id);
 	free(ed->scratch_idx);
@@ -730,6 +809,7 @@ void ed_destroy(ed_t *ed)
 	free(ed->xn);
 	free(ed->nb);
 	free(ed->nn);
+	free(ed->mark);
 	free(ed);
 }
 
@@ -777,11 +857,12 @@ void ed_cells(const ed_t *ed, int cells[3])
 size_t ed_memory(const ed_t *ed)
 {
 	size_t psz = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
-	/* per particle: record, event, heap entry and slot, calendar links and
-	 * slot, scene index, renumbering scratch; lists; TC times */
-	size_t nl = ed->xn ? ed->dim * sizeof(double) + ed->nlk * sizeof(int32_t) + 1 : 0;
+	/* per particle: record, event, heap entry, calendar record, cell link,
+	 * scene index, renumbering scratch; lists and marks; TC times */
+	size_t nl = ed->xn ? ed->dim * sizeof(double) + ed->nlk * sizeof(int32_t) + 2 : 0;
 	return sizeof(*ed) + (ed->cal_m + 1) * sizeof(int32_t) + (2 * ed->ncells + 1) * sizeof(int32_t) +
-	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + 6 * sizeof(uint32_t) + nl +
+	       (ed->ncells + 63) / 64 * sizeof(uint64_t) +
+	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + sizeof(cnode_t) + 3 * sizeof(uint32_t) + nl +
 	                (ed->tlast ? sizeof(double) : 0));
 }
 
@@ -919,7 +1000,6 @@ static void field_copy(struct ed *ed, fid_t id, void *buf, int to_buf)
 	case F_R: off = D == 2 ? offsetof(p2_t, r) : offsetof(p3_t, r); width = D * sizeof(double); break;
 	case F_V: off = D == 2 ? offsetof(p2_t, v) : offsetof(p3_t, v); width = D * sizeof(double); break;
 	case F_TLOC: off = D == 2 ? offsetof(p2_t, t) : offsetof(p3_t, t); width = sizeof(double); break;
-	case F_NEXT: off = D == 2 ? offsetof(p2_t, next) : offsetof(p3_t, next); width = 4; break;
 	case F_COUNT: off = D == 2 ? offsetof(p2_t, count) : offsetof(p3_t, count); width = 4; break;
 	default: break;
 	}
@@ -951,6 +1031,19 @@ static void field_copy(struct ed *ed, fid_t id, void *buf, int to_buf)
 	size_t bytes = 0;
 	switch (id) {
 	case F_ID: src = ed->id; bytes = ed->n * sizeof(uint32_t); break;
+	case F_NEXT: {
+		/* from the links in use; restored into both places, since the
+		 * mode ("nl") is set after the arrays */
+		int32_t *nx = (int32_t *)b;
+		for (uint32_t i = 0; i < ed->n; i++) {
+			int32_t *pl = (int32_t *)(P + i * stride + (D == 2 ? offsetof(p2_t, next) : offsetof(p3_t, next)));
+			if (to_buf)
+				nx[i] = ed->nl ? ed->next[i] : *pl;
+			else
+				ed->next[i] = *pl = nx[i];
+		}
+		return;
+	}
 	case F_HEAD: src = ed->head; bytes = ed->ncells * sizeof(int32_t); break;
 	case F_TLAST: src = ed->tlast; bytes = ed->n * sizeof(double); break;
 	case F_XN: src = ed->xn; bytes = (size_t)ed->n * D * sizeof(double); break;
@@ -1026,9 +1119,7 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 	const uint32_t n = ed->n;
 	uint32_t *seen = ed->scratch_idx;
 	const char *why = NULL;
-	const size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
-	const size_t noff = ed->dim == 2 ? offsetof(p2_t, next) : offsetof(p3_t, next);
-#define NEXT(i) (*(int32_t *)((char *)ed->p + (size_t)(i) * stride + noff))
+#define NEXT(i) (ed->next[i])
 
 	/* Indices must stay in range (a corrupted file must not crash us), the
 	 * scene indices must be a permutation, and the cell lists must hold each
@@ -1079,9 +1170,15 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 			snprintf(msg, msglen, "inconsistent engine state: %s", why);
 		return ED_EINVAL;
 	}
+	/* The occupancy bitmap from the cell heads. */
+	memset(ed->occ, 0, (ed->ncells + 63) / 64 * sizeof(uint64_t));
+	for (size_t c = 0; c < ed->ncells; c++)
+		if (ed->head[c] >= 0)
+			ed->occ[c >> 6] |= (uint64_t)1 << (c & 63);
 	/* The calendar: same width and current bucket, every event re-inserted. */
 	ed->nl_over = 0;
 	ed->cal_ring = 0;
+	ed->cal_pf = -1;
 	ed->hn = 0;
 	for (uint32_t c = 0; c <= ed->cal_m; c++)
 		ed->cal_head[c] = -1;
