@@ -251,7 +251,7 @@ static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D)
 		uint32_t na = d->start[c + 1] - d->start[c];
 		if (na < d->nfull || ((ci[0] + ci[1] + ci[2] + colour) & 1) || d->stamp[c] == mark)
 			continue;
-		double ua[3], ub[3], best_u[3] = {0, 0, 0}, best_w = 0;
+		double ua[3], ub[3] = {0, 0, 0}, best_u[3] = {0, 0, 0}, best_w = 0;
 		size_t best = c;
 		int best_axis = 0, best_sign = 0;
 		cell_mean(d, d->start[c], na, ua, D);

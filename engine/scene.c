@@ -485,7 +485,7 @@ static const struct irange R_LEVEL = { 0, 9 };
 
 static int parse_level(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
 {
-	uint64_t x;
+	uint64_t x = 0;   /* set when ret == 0; -O3 cannot see it */
 	int ret = parse_integer(c, path, v, &x, arg);
 	if (ret == 0)
 		*(int *)dst = (int)x;
