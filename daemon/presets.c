@@ -16,6 +16,8 @@ static const struct { const char *name, *description; } descriptions[] = {
 	                                      "100 collisions per particle"},
 	{.name = "clustering-3d", .description = "Clustering instability of 27,000 spheres (phi=0.2, e=0.6): "
 	                                         "a system-spanning cluster, 200 collisions per particle"},
+	{.name = "dilute-3d-auto", .description = "Dilute cooling of 100,000 spheres (phi=0.05, e=0.9) with method auto: "
+	                                          "the cheapest method expected to keep T(t) within 2% of exact dynamics"},
 };
 
 static const size_t npresets = sizeof(presets_embedded) / sizeof(presets_embedded[0]);
