@@ -168,58 +168,108 @@ static void path_in(char *dst, size_t len, const char *dir, const char *name)
 	snprintf(dst, len, "%s/%s", dir, name);
 }
 
+static int write_field(hid_t g, const char *name, ed_type_t type, size_t count, const void *data, uint64_t *h)
+{
+	hsize_t dims[1] = {count};
+	dig_field(h, name, type, count, data);
+	hid_t sp = H5Screate_simple(1, dims, NULL);
+	hid_t d = sp >= 0 ? H5Dcreate2(g, name, file_type(type), sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT)
+	                  : H5I_INVALID_HID;
+	int bad = d < 0 || (count && H5Dwrite(d, mem_type(type), H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0);
+	if (d >= 0) H5Dclose(d);
+	if (sp >= 0) H5Sclose(sp);
+	return bad ? -1 : 0;
+}
+
+/* The three files of a checkpoint directory. */
+typedef struct {
+	char tmp[PATH_MAX], cur[PATH_MAX], prev[PATH_MAX];
+} ckpt_paths_t;
+
+/* Start a checkpoint: fill *p for dir and create p->tmp (format 1.10, whose
+ * metadata is checksummed too) with the format attributes. Returns the file
+ * or a negative id (errno may say why). */
+static hid_t begin_file(const char *dir, ckpt_paths_t *p)
+{
+	path_in(p->tmp, sizeof p->tmp, dir, CKPT_TMP);
+	path_in(p->cur, sizeof p->cur, dir, CKPT_FILE);
+	path_in(p->prev, sizeof p->prev, dir, CKPT_PREV);
+	hid_t fapl = H5Pcreate(H5P_FILE_ACCESS), f = H5I_INVALID_HID;
+	if (fapl >= 0 && H5Pset_libver_bounds(fapl, H5F_LIBVER_V110, H5F_LIBVER_LATEST) >= 0)
+		f = H5Fcreate(p->tmp, H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+	if (fapl >= 0)
+		H5Pclose(fapl);
+	if (f >= 0 && (h5u_attr_str(f, "format", FORMAT_NAME) || h5u_attr_u64(f, "format_version", FORMAT_VERSION) ||
+	               h5u_attr_str(f, "creator", "granular-engine " PACKAGE_VERSION))) {
+		H5Fclose(f);
+		f = H5I_INVALID_HID;
+	}
+	return f;
+}
+
+/* Finish a checkpoint: the output group and the digest, then close *f
+ * (set invalid either way), fsync, keep the previous checkpoint and replace
+ * checkpoint.h5 atomically. 0, or -1 with the temporary file left to the
+ * caller. */
+static int publish(hid_t *f, const ckpt_paths_t *p, const ckpt_output_t *out, uint64_t h)
+{
+	hid_t g = h5u_group(*f, "output");
+	int bad = g < 0 || write_rfields(g, out_fields, N_OUT_FIELDS, out, &h);
+	if (g >= 0)
+		H5Gclose(g);
+	if (bad || h5u_attr_u64(*f, "digest", dig_final(h)))
+		return -1;
+	herr_t cl = H5Fclose(*f);
+	*f = H5I_INVALID_HID;
+	if (cl < 0 || h5u_fsync_path(p->tmp))
+		return -1;
+	/* Keep the previous one; checkpoint.h5 itself is replaced atomically. */
+	if (unlink(p->prev) != 0 && errno != ENOENT)
+		return -1;
+	if (link(p->cur, p->prev) != 0 && errno != ENOENT && rename(p->cur, p->prev) != 0)
+		return -1;
+	if (rename(p->tmp, p->cur) != 0 || h5u_fsync_dir_of(p->cur))
+		return -1;
+	return 0;
+}
+
 int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
                const ckpt_output_t *out, char *msg, size_t msglen)
 {
-	char tmp[PATH_MAX], cur[PATH_MAX], prev[PATH_MAX];
+	ckpt_paths_t p;
 	ed_field_t fields[CKPT_MAX_FIELDS];
 	int ret = CKPT_EIO, nf = run_fields(run, fields, CKPT_MAX_FIELDS);
 	uint64_t h = 0;
 	void *buf = NULL;
-	hid_t f = H5I_INVALID_HID, g = H5I_INVALID_HID, fapl = H5I_INVALID_HID;
+	hid_t f = H5I_INVALID_HID, g = H5I_INVALID_HID;
 	run_state_t st;
 
 	h5u_quiet();
 	errno = 0;
-	path_in(tmp, sizeof tmp, dir, CKPT_TMP);
-	path_in(cur, sizeof cur, dir, CKPT_FILE);
-	path_in(prev, sizeof prev, dir, CKPT_PREV);
-	if (nf > CKPT_MAX_FIELDS)
-		return h5u_fail(msg, msglen, CKPT_EIO, "%s: too many state fields", tmp);
-	/* The 1.10 format checksums the file's metadata as well. */
-	fapl = H5Pcreate(H5P_FILE_ACCESS);
-	if (fapl < 0 || H5Pset_libver_bounds(fapl, H5F_LIBVER_V110, H5F_LIBVER_LATEST) < 0)
-		goto io;
-	f = H5Fcreate(tmp, H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
-	if (f < 0)
+	if (nf > CKPT_MAX_FIELDS) {
+		path_in(p.tmp, sizeof p.tmp, dir, CKPT_TMP);
+		return h5u_fail(msg, msglen, CKPT_EIO, "%s: too many state fields", p.tmp);
+	}
+	if ((f = begin_file(dir, &p)) < 0)
 		goto io;
 	double tot_time;
 	uint64_t tot_events, tot_coll;
 	run_totals(run, &tot_time, &tot_events, &tot_coll);
-	if (h5u_attr_str(f, "format", FORMAT_NAME) || h5u_attr_u64(f, "format_version", FORMAT_VERSION) ||
-	    h5u_attr_str(f, "creator", "granular-engine " PACKAGE_VERSION) || h5u_attr_f64(f, "time", &tot_time, 1) ||
-	    h5u_attr_u64(f, "events", tot_events) || h5u_attr_u64(f, "collisions", tot_coll) ||
-	    h5u_write_string(f, "scene", scene_text, len))
+	if (h5u_attr_f64(f, "time", &tot_time, 1) || h5u_attr_u64(f, "events", tot_events) ||
+	    h5u_attr_u64(f, "collisions", tot_coll) || h5u_write_string(f, "scene", scene_text, len))
 		goto io;
 	dig(&h, scene_text, len);
 	if ((g = h5u_group(f, run_engine_name(run))) < 0)
 		goto io;
 	for (int k = 0; k < nf; k++) {
 		size_t bytes = fields[k].count * ed_type_size(fields[k].type);
-		hsize_t dims[1] = {fields[k].count};
 		buf = malloc(bytes ? bytes : 1);
 		if (!buf) {
-			ret = h5u_fail(msg, msglen, CKPT_ENOMEM, "%s: out of memory", tmp);
+			ret = h5u_fail(msg, msglen, CKPT_ENOMEM, "%s: out of memory", p.tmp);
 			goto cleanup;
 		}
 		run_field_get(run, fields[k].name, buf);
-		dig_field(&h, fields[k].name, fields[k].type, fields[k].count, buf);
-		hid_t sp = H5Screate_simple(1, dims, NULL);
-		hid_t d = sp >= 0 ? H5Dcreate2(g, fields[k].name, file_type(fields[k].type), sp, H5P_DEFAULT, H5P_DEFAULT,
-		                               H5P_DEFAULT) : H5I_INVALID_HID;
-		int bad = d < 0 || (bytes && H5Dwrite(d, mem_type(fields[k].type), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0);
-		if (d >= 0) H5Dclose(d);
-		if (sp >= 0) H5Sclose(sp);
+		int bad = write_field(g, fields[k].name, fields[k].type, fields[k].count, buf, &h);
 		free(buf);
 		buf = NULL;
 		if (bad)
@@ -230,38 +280,23 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
 	if ((g = h5u_group(f, "run")) < 0 || write_rfields(g, sched_fields, N_RUN_FIELDS, &st, &h))
 		goto io;
 	H5Gclose(g);
-	if ((g = h5u_group(f, "output")) < 0 || write_rfields(g, out_fields, N_OUT_FIELDS, out, &h))
-		goto io;
-	H5Gclose(g);
 	g = H5I_INVALID_HID;
-	if (h5u_attr_u64(f, "digest", dig_final(h)))
-		goto io;
-	herr_t cl = H5Fclose(f);
-	f = H5I_INVALID_HID;
-	if (cl < 0 || h5u_fsync_path(tmp))
-		goto io;
-	/* Keep the previous one; checkpoint.h5 itself is replaced atomically. */
-	if (unlink(prev) != 0 && errno != ENOENT)
-		goto io;
-	if (link(cur, prev) != 0 && errno != ENOENT && rename(cur, prev) != 0)
-		goto io;
-	if (rename(tmp, cur) != 0 || h5u_fsync_dir_of(cur))
+	if (publish(&f, &p, out, h))
 		goto io;
 	ret = CKPT_OK;
 	goto cleanup;
 io:
-	ret = h5u_fail(msg, msglen, CKPT_EIO, "%s: cannot write the checkpoint%s%s", tmp, errno ? ": " : "",
+	ret = h5u_fail(msg, msglen, CKPT_EIO, "%s: cannot write the checkpoint%s%s", p.tmp, errno ? ": " : "",
 	            errno ? strerror(errno) : "");
 	if (f < 0)
-		unlink(tmp);   /* a half-written file must not linger (f open: removed below) */
+		unlink(p.tmp);   /* a half-written file must not linger (f open: removed below) */
 cleanup:
 	free(buf);
 	if (g >= 0) H5Gclose(g);
 	if (f >= 0) {
 		H5Fclose(f);
-		unlink(tmp);
+		unlink(p.tmp);
 	}
-	if (fapl >= 0) H5Pclose(fapl);
 	return ret;
 }
 
@@ -399,19 +434,6 @@ const char *ckpt_strerror(int code)
  * field in the string's order (creation order is tracked, so reading
  * rebuilds the same string), digest over the strings. */
 
-static int write_field(hid_t g, const char *name, ed_type_t type, size_t count, const void *data, uint64_t *h)
-{
-	hsize_t dims[1] = {count};
-	dig_field(h, name, type, count, data);
-	hid_t sp = H5Screate_simple(1, dims, NULL);
-	hid_t d = sp >= 0 ? H5Dcreate2(g, name, file_type(type), sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT)
-	                  : H5I_INVALID_HID;
-	int bad = d < 0 || (count && H5Dwrite(d, mem_type(type), H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0);
-	if (d >= 0) H5Dclose(d);
-	if (sp >= 0) H5Sclose(sp);
-	return bad ? -1 : 0;
-}
-
 static const rfield_t ens_fields[] = {
 	{ "k_ckpt", offsetof(ckpt_ensemble_t, k_ckpt), 0 },
 	{ "wall_before", offsetof(ckpt_ensemble_t, wall_before), 1 },
@@ -422,25 +444,18 @@ int ckpt_write_ensemble(const char *dir, int R, unsigned char *const *blobs, con
                         const ckpt_ensemble_t *es, const char *scene_text, size_t len, const ckpt_output_t *out,
                         char *msg, size_t msglen)
 {
-	char tmp[PATH_MAX], cur[PATH_MAX], prev[PATH_MAX], gname[64];
+	ckpt_paths_t p;
+	char gname[64];
 	uint64_t h = 0;
-	hid_t f = H5I_INVALID_HID, g = H5I_INVALID_HID, fapl = H5I_INVALID_HID, gcpl = H5I_INVALID_HID;
+	hid_t f = H5I_INVALID_HID, g = H5I_INVALID_HID, gcpl = H5I_INVALID_HID;
 	int ret = CKPT_EIO;
 
 	h5u_quiet();
 	errno = 0;
-	path_in(tmp, sizeof tmp, dir, CKPT_TMP);
-	path_in(cur, sizeof cur, dir, CKPT_FILE);
-	path_in(prev, sizeof prev, dir, CKPT_PREV);
-	fapl = H5Pcreate(H5P_FILE_ACCESS);
+	f = begin_file(dir, &p);
 	gcpl = H5Pcreate(H5P_GROUP_CREATE);
-	if (fapl < 0 || gcpl < 0 || H5Pset_libver_bounds(fapl, H5F_LIBVER_V110, H5F_LIBVER_LATEST) < 0 ||
-	    H5Pset_link_creation_order(gcpl, H5P_CRT_ORDER_TRACKED | H5P_CRT_ORDER_INDEXED) < 0)
-		goto io;
-	f = H5Fcreate(tmp, H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
-	if (f < 0 || h5u_attr_str(f, "format", FORMAT_NAME) || h5u_attr_u64(f, "format_version", FORMAT_VERSION) ||
-	    h5u_attr_str(f, "creator", "granular-engine " PACKAGE_VERSION) || h5u_attr_u64(f, "replicas", (uint64_t)R) ||
-	    h5u_write_string(f, "scene", scene_text, len))
+	if (f < 0 || gcpl < 0 || H5Pset_link_creation_order(gcpl, H5P_CRT_ORDER_TRACKED | H5P_CRT_ORDER_INDEXED) < 0 ||
+	    h5u_attr_u64(f, "replicas", (uint64_t)R) || h5u_write_string(f, "scene", scene_text, len))
 		goto io;
 	dig(&h, scene_text, len);
 	dig_u64(&h, (uint64_t)R);
@@ -463,36 +478,22 @@ int ckpt_write_ensemble(const char *dir, int R, unsigned char *const *blobs, con
 	if ((g = h5u_group(f, "ensemble")) < 0 || write_rfields(g, ens_fields, N_ENS_FIELDS, es, &h))
 		goto io;
 	H5Gclose(g);
-	if ((g = h5u_group(f, "output")) < 0 || write_rfields(g, out_fields, N_OUT_FIELDS, out, &h))
-		goto io;
-	H5Gclose(g);
 	g = H5I_INVALID_HID;
-	if (h5u_attr_u64(f, "digest", dig_final(h)))
-		goto io;
-	herr_t cl = H5Fclose(f);
-	f = H5I_INVALID_HID;
-	if (cl < 0 || h5u_fsync_path(tmp))
-		goto io;
-	if (unlink(prev) != 0 && errno != ENOENT)
-		goto io;
-	if (link(cur, prev) != 0 && errno != ENOENT && rename(cur, prev) != 0)
-		goto io;
-	if (rename(tmp, cur) != 0 || h5u_fsync_dir_of(cur))
+	if (publish(&f, &p, out, h))
 		goto io;
 	ret = CKPT_OK;
 	goto cleanup;
 io:
-	ret = h5u_fail(msg, msglen, CKPT_EIO, "%s: cannot write the checkpoint%s%s", tmp, errno ? ": " : "",
+	ret = h5u_fail(msg, msglen, CKPT_EIO, "%s: cannot write the checkpoint%s%s", p.tmp, errno ? ": " : "",
 	               errno ? strerror(errno) : "");
 	if (f < 0)
-		unlink(tmp);
+		unlink(p.tmp);
 cleanup:
 	if (g >= 0) H5Gclose(g);
 	if (f >= 0) {
 		H5Fclose(f);
-		unlink(tmp);
+		unlink(p.tmp);
 	}
-	if (fapl >= 0) H5Pclose(fapl);
 	if (gcpl >= 0) H5Pclose(gcpl);
 	return ret;
 }
