@@ -45,3 +45,34 @@ static inline double g_contact(int dim, double nu)
 {
 	return dim == 2 ? (1 - 7 * nu / 16) / ((1 - nu) * (1 - nu)) : (1 - nu / 2) / pow(1 - nu, 3);
 }
+
+/* Mean and standard error of n >= 2 samples. */
+static inline void mean_se(const double *x, int n, double *mean, double *se)
+{
+	double s = 0, s2 = 0;
+	for (int i = 0; i < n; i++)
+		s += x[i];
+	*mean = s / n;
+	for (int i = 0; i < n; i++)
+		s2 += (x[i] - *mean) * (x[i] - *mean);
+	*se = sqrt(s2 / (n - 1) / n);
+}
+
+/* Haff's law T/T0 = 1/(1 + tau)^2, tau = rate t, against ratio[k * R + r]
+ * (T/T0 of replica r at time t[k], K times): tolerance 4 standard errors of
+ * the replica mean plus 1.5% of the theory (the callers' comments justify
+ * both). Failing times go to diag(). Returns the worst deviation in units
+ * of the tolerance: below 1 passes. */
+static inline double haff_worst(int K, int R, const double *ratio, const double *t, double rate)
+{
+	double worst = 0;
+	for (int k = 0; k < K; k++) {
+		double m, se, tau = rate * t[k], th = 1 / ((1 + tau) * (1 + tau));
+		mean_se(ratio + (size_t)k * R, R, &m, &se);
+		double dev = fabs(m - th) / (4 * se + 0.015 * th);
+		worst = dev > worst ? dev : worst;
+		if (dev >= 1)
+			diag("tau=%.3f: T/T0 = %.5f +- %.5f, Haff %.5f", tau, m, se, th);
+	}
+	return worst;
+}
