@@ -72,6 +72,24 @@ static int cmp64(const void *a, const void *b)
 	return (x > y) - (x < y);
 }
 
+/* A job's stored series as "p0 p1 s4.5 ...": type initial and time of each record. */
+static void series_of(jobq_t *q, int64_t id, char *got, size_t len)
+{
+	char err[256];
+	json_t *p = NULL;
+	got[0] = '\0';
+	if (jobq_progress(q, id, -1, 1000, 0, &p, err, sizeof(err)) != 0)
+		return;
+	json_t *rr = json_object_get(p, "records");
+	for (size_t i = 0; i < json_array_size(rr); i++) {
+		json_t *o = json_array_get(rr, i);
+		const char *ty = json_string_value(json_object_get(o, "type"));
+		size_t l = strlen(got);
+		snprintf(got + l, len - l, "%s%c%g", i ? " " : "", ty ? ty[0] : '?', json_number_value(json_object_get(o, "time")));
+	}
+	json_decref(p);
+}
+
 int main(void)
 {
 	char err[512], sb[32], body[1024];
@@ -187,35 +205,15 @@ int main(void)
 			jobq_attempt_progress(q, b, rs[i].attempt, rs[i].line, rj, -1, 500.0 + (double)i);
 			json_decref(rj);
 		}
-		char got[256] = "";
-		json_t *p2 = NULL;
-		jobq_progress(q, b, -1, 1000, 0, &p2, err, sizeof(err));
-		json_t *rr = json_object_get(p2, "records");
-		for (size_t i = 0; i < json_array_size(rr); i++) {
-			json_t *o = json_array_get(rr, i);
-			const char *ty = json_string_value(json_object_get(o, "type"));
-			size_t l = strlen(got);
-			snprintf(got + l, sizeof got - l, "%s%c%g", i ? " " : "", ty ? ty[0] : '?',
-			         json_number_value(json_object_get(o, "time")));
-		}
+		char got[256];
+		series_of(q, b, got, sizeof got);
 		ok(!strcmp(got, "p0 p1 p2 s4.5 w0 p3 p4"), "resumed retry: repeated records dropped, summary kept: %s", got);
-		json_decref(p2);
 		const char *fresh = "{\"type\":\"progress\",\"time\":0}";
 		json_t *rj = json_loads(fresh, 0, NULL);
 		jobq_attempt_progress(q, b, 3, fresh, rj, -1, 600.0);
 		json_decref(rj);
-		got[0] = '\0';
-		jobq_progress(q, b, -1, 1000, 0, &p2, err, sizeof(err));
-		rr = json_object_get(p2, "records");
-		for (size_t i = 0; i < json_array_size(rr); i++) {
-			json_t *o = json_array_get(rr, i);
-			const char *ty = json_string_value(json_object_get(o, "type"));
-			size_t l = strlen(got);
-			snprintf(got + l, sizeof got - l, "%s%c%g", i ? " " : "", ty ? ty[0] : '?',
-			         json_number_value(json_object_get(o, "time")));
-		}
+		series_of(q, b, got, sizeof got);
 		ok(!strcmp(got, "s4.5 w0 p0"), "fresh retry: all earlier progress dropped: %s", got);
-		json_decref(p2);
 	}
 
 	/* Cancel and delete rules. */
