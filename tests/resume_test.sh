@@ -156,25 +156,27 @@ await_ckpt() {   # DIR PID: until DIR/checkpoint.h5 exists or PID is gone (60 s 
 	done
 }
 seed=20261121
-for s in 3d-kill 2d-kill 2d-dsmc-kill 3d-hsmc-kill; do
-	ref $s
-	d="$tmp/$s.kill"
-	rm -rf "$d"
+# kill_resume SEEDOFF SPAN [LAUNCHER...]: run scene $s into $d (under LAUNCHER, e.g. mpirun -np 2), kill -9
+# the launcher and its children three times at random delays of 0.1 + SPAN * U(0,1) s after a checkpoint
+# exists (seeded by seed + SEEDOFF + k), resuming from whatever is on disk, then run to the end.
+# Sets kills, resumes and rc (the last exit status).
+kill_resume() {
+	off=$1 span=$2; shift 2
 	kills=0; resumes=0; k=0; rc=1
 	while [ $k -lt 6 ]; do
 		k=$((k + 1))
 		if [ -f "$d/checkpoint.h5" ]; then
-			"$ENGINE" run "$tmp/$s.json" --resume "$d/checkpoint.h5" --out "$d" >/dev/null 2>>"$tmp/$s.kill.err" &
+			"$@" "$ENGINE" run "$tmp/$s.json" --resume "$d/checkpoint.h5" --out "$d" >/dev/null 2>>"$tmp/$s.kill.err" &
 			resumes=$((resumes + 1))
 		else
-			"$ENGINE" run "$tmp/$s.json" --out "$d" >/dev/null 2>>"$tmp/$s.kill.err" &
+			"$@" "$ENGINE" run "$tmp/$s.json" --out "$d" >/dev/null 2>>"$tmp/$s.kill.err" &
 		fi
 		pid=$!
 		if [ $k -le 3 ]; then
-			delay=$(awk -v s=$((seed + k)) 'BEGIN { srand(s); printf "%.2f", 0.1 + 0.5 * rand() }')
+			delay=$(awk -v s=$((seed + off + k)) -v w="$span" 'BEGIN { srand(s); printf "%.2f", 0.1 + w * rand() }')
 			await_ckpt "$d" $pid
 			sleep "$delay"
-			if kill -KILL $pid 2>/dev/null; then
+			if kill -KILL $(pgrep -P $pid) $pid 2>/dev/null; then
 				kills=$((kills + 1))
 			fi
 			wait $pid 2>/dev/null
@@ -185,6 +187,12 @@ for s in 3d-kill 2d-kill 2d-dsmc-kill 3d-hsmc-kill; do
 			[ $rc -eq 0 ] && break
 		fi
 	done
+}
+for s in 3d-kill 2d-kill 2d-dsmc-kill 3d-hsmc-kill; do
+	ref $s
+	d="$tmp/$s.kill"
+	rm -rf "$d"
+	kill_resume 0 0.5
 	why=$(same "$tmp/$s.ref" "$d")
 	ok $(( rc == 0 && kills >= 2 && resumes >= 2 && $? == 0 ? 0 : 1 )) "$s: $kills kill -9, $resumes resumes, exit $rc: $why $(head -c 200 "$tmp/$s.kill.err")"
 done
@@ -327,32 +335,7 @@ if command -v mpirun >/dev/null 2>&1; then
 	ref $s
 	d="$tmp/$s.kill"
 	rm -rf "$d"
-	kills=0; resumes=0; k=0; rc=1
-	while [ $k -lt 6 ]; do
-		k=$((k + 1))
-		if [ -f "$d/checkpoint.h5" ]; then
-			mpirun -np 2 "$ENGINE" run "$tmp/$s.json" --resume "$d/checkpoint.h5" --out "$d" >/dev/null 2>>"$tmp/$s.kill.err" &
-			resumes=$((resumes + 1))
-		else
-			mpirun -np 2 "$ENGINE" run "$tmp/$s.json" --out "$d" >/dev/null 2>>"$tmp/$s.kill.err" &
-		fi
-		pid=$!
-		if [ $k -le 3 ]; then
-			delay=$(awk -v s=$((seed + 10 + k)) 'BEGIN { srand(s); printf "%.2f", 0.1 + 0.6 * rand() }')
-			await_ckpt "$d" $pid
-			sleep "$delay"
-			kids=$(pgrep -P $pid)
-			if kill -KILL $kids $pid 2>/dev/null; then
-				kills=$((kills + 1))
-			fi
-			wait $pid 2>/dev/null
-			rc=$?
-		else
-			wait $pid
-			rc=$?
-			[ $rc -eq 0 ] && break
-		fi
-	done
+	kill_resume 10 0.6 mpirun -np 2
 	why=$(same "$tmp/$s.ref" "$d")
 	ok $(( rc == 0 && kills >= 2 && resumes >= 2 && $? == 0 ? 0 : 1 )) "$s: mpirun -np 2, $kills kill -9, $resumes resumes, exit $rc: $why"
 	# SIGTERM to the ranks (as granulard sends it): checkpoint, exit 4, exact resume under -np 3
