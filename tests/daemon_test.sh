@@ -109,34 +109,31 @@ rm -f "$S/jobs/$idb"
 # A worker killed after writing checkpoints is retried from the last one, and the result is the one an
 # uninterrupted run gives (the engine's resume is bit-exact: docs/output.md), summary value for value.
 CK='{"method":"ed","dimensions":2,"particles":{"count":20000,"volume_fraction":0.3},"run":{"seed":7,"until":{"time":100}},"output":{"every":{"time":10},"checkpoint":{"every":{"wall_seconds":0.3}}}}'
-ref=$(field "$(post /api/v1/jobs -d "$CK")" 'd["id"]')
-wait_state "$ref" succeeded 120
-idk=$(field "$(post /api/v1/jobs -d "{\"scene\": $CK, \"submission_id\": \"ckpt-retry\"}")" 'd["id"]')
-i=0; until [ -s "$S/jobs/$idk/checkpoint.h5" ] || [ $i -ge 200 ]; do sleep 0.05; i=$((i + 1)); done
-sleep 0.4
-pkill -9 -f "^$ENGINE run $S/jobs/$idk/"
-wait_state "$idk" succeeded 120
-jk=$(api GET "/api/v1/jobs/$idk")
-ok $([ "$(field "$jk" 'len(d["attempts"])')" = 2 ] && [ "$(field "$jk" 'd["attempts"][1]["checkpoint"]')" = checkpoint.h5 ] &&
-     [ "$(field "$jk" '(d["attempts"][0]["signal"] or d["attempts"][0]["exit_status"]) not in (None, 0)')" = True ]; echo $?) \
-	"engine killed after a checkpoint: attempt 2 resumed from checkpoint.h5 and succeeded ($(field "$jk" 'd["attempts"][0]["reason"]'))"
+# killed_retry LABEL SCENE SUBMISSION_ID: run SCENE once to the end (job $ref), then again (job $idk) with its
+# engine killed -9 once a checkpoint exists; checks that attempt 2 resumed from checkpoint.h5 and succeeded.
+killed_retry() {
+	ref=$(field "$(post /api/v1/jobs -d "$2")" 'd["id"]')
+	wait_state "$ref" succeeded 120
+	idk=$(field "$(post /api/v1/jobs -d "{\"scene\": $2, \"submission_id\": \"$3\"}")" 'd["id"]')
+	i=0; until [ -s "$S/jobs/$idk/checkpoint.h5" ] || [ $i -ge 200 ]; do sleep 0.05; i=$((i + 1)); done
+	sleep 0.4
+	pkill -9 -f "^$ENGINE run $S/jobs/$idk/"
+	wait_state "$idk" succeeded 120
+	jk=$(api GET "/api/v1/jobs/$idk")
+	ok $([ "$(field "$jk" 'len(d["attempts"])')" = 2 ] && [ "$(field "$jk" 'd["attempts"][1]["checkpoint"]')" = checkpoint.h5 ] &&
+	     [ "$(field "$jk" '(d["attempts"][0]["signal"] or d["attempts"][0]["exit_status"]) not in (None, 0)')" = True ]; echo $?) \
+		"$1 killed after a checkpoint: attempt 2 resumed from checkpoint.h5 and succeeded ($(field "$jk" 'd["attempts"][0]["reason"]'))"
+}
+killed_retry engine "$CK" ckpt-retry
+refe=$ref; ide=$idk
 last() { field "$(api GET "/api/v1/jobs/$1/progress")" '[(r["time"], r["events"], r["collisions"], repr(r["kinetic_energy"])) for r in d["records"] if r["type"]=="summary"][-1]'; }
-a1=$(last "$ref"); a2=$(last "$idk")
+a1=$(last "$refe"); a2=$(last "$ide")
 ok $([ -n "$a1" ] && [ "$a1" = "$a2" ]; echo $?) "resumed job ends exactly as the uninterrupted one: $a2"
 # The same for dsmc (random numbers: the generator state is in the checkpoint), comparing every
 # field of the summary apart from the wall-clock ones.
 CKM='{"method":"dsmc","dimensions":2,"particles":{"count":200000,"volume_fraction":0.1,"initial":{"positions":"random"}},"collisions":{"restitution":0.98},"run":{"seed":7,"until":{"time":300}},"output":{"every":{"time":10},"observables":["kinetic_energy","temperature","pressure","collision_rate"],"checkpoint":{"every":{"wall_seconds":0.3}}}}'
-refm=$(field "$(post /api/v1/jobs -d "$CKM")" 'd["id"]')
-wait_state "$refm" succeeded 120
-idm=$(field "$(post /api/v1/jobs -d "{\"scene\": $CKM, \"submission_id\": \"ckpt-retry-dsmc\"}")" 'd["id"]')
-i=0; until [ -s "$S/jobs/$idm/checkpoint.h5" ] || [ $i -ge 200 ]; do sleep 0.05; i=$((i + 1)); done
-sleep 0.4
-pkill -9 -f "^$ENGINE run $S/jobs/$idm/"
-wait_state "$idm" succeeded 120
-jm=$(api GET "/api/v1/jobs/$idm")
-ok $([ "$(field "$jm" 'len(d["attempts"])')" = 2 ] && [ "$(field "$jm" 'd["attempts"][1]["checkpoint"]')" = checkpoint.h5 ] &&
-     [ "$(field "$jm" '(d["attempts"][0]["signal"] or d["attempts"][0]["exit_status"]) not in (None, 0)')" = True ]; echo $?) \
-	"dsmc engine killed after a checkpoint: attempt 2 resumed from checkpoint.h5 and succeeded ($(field "$jm" 'd["attempts"][0]["reason"]'))"
+killed_retry "dsmc engine" "$CKM" ckpt-retry-dsmc
+refm=$ref; idm=$idk
 # (seq is the daemon's record number, not an engine value)
 summ() { field "$(api GET "/api/v1/jobs/$1/progress")" 'sorted((k, repr(v)) for k, v in [r for r in d["records"] if r["type"]=="summary"][-1].items() if k not in ("wall_seconds", "events_per_second", "collisions_per_second", "seq"))'; }
 m1=$(summ "$refm"); m2=$(summ "$idm")
@@ -145,7 +142,7 @@ diffm=$(/usr/bin/python3 -c 'import ast,sys; a,b=dict(ast.literal_eval(sys.argv[
 ok $([ -n "$m1" ] && [ "$m1" = "$m2" ]; echo $?) "resumed dsmc job ends exactly as the uninterrupted one, every summary field ($(echo "$m2" | wc -c) chars): $(echo "$m2" | cut -c1-160) differing: $diffm"
 # The stored series reads as one run: the records the killed attempt sent after its checkpoint are
 # dropped when the retry repeats them (jobq), so both jobs hold the same records.
-for pair in "$ref $idk" "$refm $idm"; do
+for pair in "$refe $ide" "$refm $idm"; do
 	set -- $pair
 	s1=$(series "$1"); s2=$(series "$2")
 	ok $([ -n "$s1" ] && [ "$s1" = "$s2" ]; echo $?) "job $2 (killed, resumed) stores the same progress series as job $1: $(echo "$s2" | cut -c1-120)"
