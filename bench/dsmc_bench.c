@@ -5,7 +5,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "dsmc.h"
+#include "mc/dsmc.h"
 #include "scene.h"
 
 static double now(void)

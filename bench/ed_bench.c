@@ -5,7 +5,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "ed.h"
+#include "ed/ed.h"
 #include "scene.h"
 
 static double now(void)

@@ -7,9 +7,9 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "checkpoint.h"
-#include "ed.h"
-#include "h5md.h"
+#include "io/checkpoint.h"
+#include "ed/ed.h"
+#include "io/h5md.h"
 #include "run.h"
 #include "scene.h"
 

@@ -6,7 +6,7 @@
 #include <string.h>
 
 #include "advice.h"
-#include "dsmc.h"
+#include "mc/dsmc.h"
 #include "engine/advice_model_json.h"   /* generated from data/advice-model.json: advice_model_text[] */
 
 #define GRID_MAX 8

@@ -10,11 +10,11 @@
 #include <unistd.h>
 
 #include "advice.h"
-#include "checkpoint.h"
+#include "io/checkpoint.h"
 #include "config.h"
-#include "ensemble.h"
-#include "h5md.h"
-#include "report.h"
+#include "par/ensemble.h"
+#include "io/h5md.h"
+#include "io/report.h"
 #include "run.h"
 #include "scene.h"
 

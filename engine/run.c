@@ -5,8 +5,8 @@
 #include <string.h>
 #include <time.h>
 
-#include "dsmc.h"
-#include "ed.h"
+#include "mc/dsmc.h"
+#include "ed/ed.h"
 #include "run.h"
 
 /* Work between polls of the stop flag: ~0.1 s (events for ed, particle moves for dsmc). */

@@ -3,8 +3,8 @@
 
 #include <signal.h>
 #include <stdint.h>
-#include "clusters.h"
-#include "ed.h"
+#include "observe/clusters.h"
+#include "ed/ed.h"
 #include "scene.h"
 
 /*

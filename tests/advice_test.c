@@ -4,7 +4,7 @@
 #include <string.h>
 
 #include "advice.h"
-#include "dsmc.h"
+#include "mc/dsmc.h"
 #include "scene.h"
 #include "tap.h"
 

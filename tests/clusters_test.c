@@ -5,7 +5,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "clusters.h"
+#include "observe/clusters.h"
 #include "tap.h"
 
 #define PI 3.14159265358979323846

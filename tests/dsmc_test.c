@@ -4,7 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "dsmc.h"
+#include "mc/dsmc.h"
 #include "run.h"
 #include "scene.h"
 #include "tap.h"

@@ -4,7 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "ed.h"
+#include "ed/ed.h"
 #include "scene.h"
 #include "tap.h"
 

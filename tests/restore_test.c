@@ -5,9 +5,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "dsmc.h"
-#include "ed.h"
-#include "report.h"
+#include "mc/dsmc.h"
+#include "ed/ed.h"
+#include "io/report.h"
 #include "rng.h"
 #include "run.h"
 #include "scene.h"

@@ -3,7 +3,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
-#include "ed.h"      /* ed_type_t, ed_field_t: the state-field description shared by the engines */
+#include "ed/ed.h"      /* ed_type_t, ed_field_t: the state-field description shared by the engines */
 #include "scene.h"
 
 /*

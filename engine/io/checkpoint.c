@@ -11,9 +11,9 @@
 
 #include "checkpoint.h"
 #include "config.h"
-#include "dsmc.h"
-#include "ed.h"
-#include "ensemble.h"
+#include "mc/dsmc.h"
+#include "ed/ed.h"
+#include "par/ensemble.h"
 #include "h5util.h"
 
 #define FORMAT_NAME "granulard-checkpoint"
