@@ -101,6 +101,8 @@ mcrow "3D dense, HSMC" hsmc 3 1000000 0.25 0.9 8 cba
 
 tdm=$(mktemp)
 sh "$src/bench/daemon_bench.sh" "$build" "$src" >"$tdm"
+tin=$(mktemp)
+sh "$src/bench/ingest_bench.sh" "$build" "$src" >"$tin"
 
 {
 	echo "# Benchmarks"
@@ -144,7 +146,8 @@ sh "$src/bench/daemon_bench.sh" "$build" "$src" >"$tdm"
 	cat "$iotmp"
 	echo
 	cat "$tdm"
+	cat "$tin"
 	if [ -f "$src/docs/benchmarks-notes.md" ]; then cat "$src/docs/benchmarks-notes.md"; fi
 } >"$out"
-rm -f "$tdm"
+rm -f "$tdm" "$tin"
 echo "wrote $out"

@@ -36,6 +36,9 @@ typedef struct {
 	long max_wall_seconds;   /* per attempt, 0 = none */
 	long max_queued;
 	long max_progress_records;
+	double progress_rate;    /* progress records stored per second per job (token bucket) */
+	long progress_burst;     /* bucket size */
+	double progress_flush;   /* seconds between a job's progress commits */
 	long max_attempts;       /* launches per job (retries from checkpoints) */
 	double cancel_grace;     /* seconds between SIGTERM and SIGKILL */
 	double shutdown_grace;   /* seconds to let running jobs checkpoint at shutdown */
