@@ -9,6 +9,7 @@
 
 #include "ed.h"
 #include "rng.h"
+#include "lattice.h"
 
 /* Hot particle record: everything a neighbour scan touches, one cache line
  * in 3D. Position r is valid at the particle's own time t (lazy update).
@@ -474,7 +475,8 @@ static void setup_mode(struct ed *ed, double min_edge)
 
 /* Lattice start: a rectangular (2D, staggered rows ~ hexagonal) or FCC (3D)
  * lattice chosen to maximise the nearest-neighbour distance for N sites in
- * the box; the first N sites are used. */
+ * the box; when N does not fill it, the vacancies are spread over the box
+ * (lattice.h), not left as an empty slab at the top. */
 static double lattice_2d(const double *L, uint64_t n, int64_t *bx, int64_t *by)
 {
 	double best = -1.0;
@@ -524,17 +526,19 @@ static double lattice_3d(const double *L, uint64_t n, int64_t *bn)
 	return best;
 }
 
-static int place_lattice(struct ed *ed, char *msg, size_t msglen)
+static int place_lattice(struct ed *ed, rng_t *rng, char *msg, size_t msglen)
 {
 	double *r = NULL;
 	size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
 	double d;
+	lattice_fill_t fill;
 	if (ed->dim == 2) {
 		int64_t nx = 1, ny = 1;
 		d = lattice_2d(ed->L, ed->n, &nx, &ny);
 		double ax = ed->L[0] / nx, ay = ed->L[1] / ny;
+		lattice_fill_init(&fill, (uint64_t)(nx * ny), ed->n, rng);
 		for (uint32_t i = 0; i < ed->n; i++) {
-			int64_t ix = i % nx, iy = i / nx;
+			int64_t j = (int64_t)lattice_fill_next(&fill), ix = j % nx, iy = j / nx;
 			r = (double *)((char *)ed->p + i * stride);
 			r[0] = (ix + 0.25 + 0.5 * (iy & 1)) * ax;
 			r[1] = (iy + 0.5) * ay;
@@ -544,8 +548,9 @@ static int place_lattice(struct ed *ed, char *msg, size_t msglen)
 		int64_t nn[3] = {1, 1, 1};
 		d = lattice_3d(ed->L, ed->n, nn);
 		double ax = ed->L[0] / nn[0], ay = ed->L[1] / nn[1], az = ed->L[2] / nn[2];
+		lattice_fill_init(&fill, (uint64_t)(4 * nn[0] * nn[1] * nn[2]), ed->n, rng);
 		for (uint32_t i = 0; i < ed->n; i++) {
-			int64_t c = i / 4, s = i % 4;
+			int64_t j = (int64_t)lattice_fill_next(&fill), c = j / 4, s = j % 4;
 			int64_t ix = c % nn[0], iy = (c / nn[0]) % nn[1], iz = c / (nn[0] * nn[1]);
 			r = (double *)((char *)ed->p + i * stride);
 			r[0] = (ix + site[s][0] + 0.25) * ax;
@@ -761,7 +766,7 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 			goto fail;
 		}
 	} else {
-		rc = place_lattice(ed, msg, msglen);
+		rc = place_lattice(ed, &rng, msg, msglen);
 		if (rc != ED_OK)
 			goto fail;
 	}

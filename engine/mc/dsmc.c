@@ -7,6 +7,7 @@
 
 #include "dsmc.h"
 #include "rng.h"
+#include "lattice.h"
 
 #define PI 3.14159265358979323846
 #define ALWAYS_INLINE inline __attribute__((always_inline))
@@ -711,11 +712,15 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 			for (int a = 0; a < d->dim; a++)
 				d->p[i * S + a] = wrap(rng_uniform(&d->rng) * d->L[a], d->L[a]);
 	} else {
+		/* A k^D grid; when N does not fill it the vacancies are spread over
+		 * the box (lattice.h), not left as an empty slab at the top. */
 		uint64_t k = (uint64_t)ceil(pow((double)d->n, 1.0 / d->dim) - 1e-9);
 		while (pow((double)k, d->dim) < d->n)
 			k++;
+		lattice_fill_t fill;
+		lattice_fill_init(&fill, d->dim == 2 ? k * k : k * k * k, d->n, &d->rng);
 		for (uint32_t i = 0; i < d->n; i++) {
-			uint64_t r = i;
+			uint64_t r = lattice_fill_next(&fill);
 			for (int a = 0; a < d->dim; a++) {
 				d->p[i * S + a] = ((double)(r % k) + 0.5) * d->L[a] / (double)k;
 				r /= k;
