@@ -44,6 +44,9 @@ static int emit(const run_record_t *rec, void *ctx)
 		return sk->traj ? h5md_snapshot(sk->traj, rec, sk->err, sizeof(sk->err)) : 0;
 	if (rec->kind == RUN_PROGRESS && sk->traj && h5md_observables(sk->traj, rec, sk->err, sizeof(sk->err)))
 		return -1;
+	if (rec->kind == RUN_SUMMARY && rec->status == RUN_COLLAPSED && sk->traj && rec->warning &&
+	    h5md_collapse(sk->traj, rec->time, rec->warning, sk->err, sizeof(sk->err)))
+		return -1;
 	int n = report_format(rec, line, sizeof(line));
 	if (n < 0)
 		return -1;
@@ -559,6 +562,8 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 				if ((e = run_next(runs[i], &stop_all, &last[i], &done[i])) != RUN_OK) {
 					failed = 1;
 					ret = e;
+					if (e == RUN_ECOLLAPSE)
+						snprintf(err, errlen, "replica %d: %s", r, last[i].warning ? last[i].warning : "");
 					break;
 				}
 				if (frames)
@@ -668,6 +673,8 @@ static int run_other(int rank, int size)
 		if (scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
 		    (scene.method != SCENE_METHOD_AUTO || resolve_auto(&scene, size, NULL) == EX_DONE)) {
 			int rc = ensemble_run(&scene, rank, size, NULL, &eo, err, sizeof(err));
+			if (rc == RUN_ECOLLAPSE)
+				fprintf(stderr, "%s\n", err);   /* rank 0 knows only that a replica failed here */
 			if (rc != RUN_OK && rc != RUN_STOPPED)
 				ret = EX_FAIL;
 		}
@@ -846,7 +853,8 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	}
 	if (rc == RUN_OK) {
 		ret = stop_requested ? EX_INTERRUPTED : EX_DONE;
-	} else if (rc == RUN_ESETUP || rc == RUN_EMETHOD) {
+	} else if (rc == RUN_ESETUP || rc == RUN_EMETHOD || rc == RUN_ECOLLAPSE) {
+		/* a collapse: the scene needs collisions.tc (the line starts with it) */
 		fprintf(stderr, "%s\n", err);
 		ret = EX_INPUT;
 	} else if (rc == RUN_EMIT) {

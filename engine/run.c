@@ -13,6 +13,21 @@
 #define RUN_CHUNK_EVENTS 200000u
 #define RUN_CHUNK_MOVES 4000000u
 
+/*
+ * Inelastic collapse (ed; docs/engine.md, "Inelastic collapse"): the run
+ * stops when a window of 8N events (ed_watch_collapse()) came more than
+ * RUN_COLLAPSE_FACTOR times faster than the Enskog collision rate of the
+ * scene's volume fraction at the present temperature, per particle. Events
+ * outnumber collisions (crossings, list rebuilds: 1-10 per collision), and
+ * dense clusters of a cooling gas collide faster than the mean density
+ * says: measured windows of fluids, dense elastic systems, clustering
+ * inelastic gases and TC runs stay below 10^3 times the rate. A collapse
+ * processes events at one instant (the window's time tends to 0, often is
+ * 0): measured 10^9 and more, or infinite. 10^6 leaves three decades on
+ * either side.
+ */
+#define RUN_COLLAPSE_FACTOR 1e6
+
 static double wall_now(void)
 {
 	struct timespec ts;
@@ -39,6 +54,7 @@ struct run {
 	double t0;               /* wall clock at the start of this process's part */
 	double ckpt_wall;        /* wall clock of the last checkpoint request */
 	char warning[512];       /* dsmc/hsmc validity warning for the first record */
+	char collapse[512];      /* status RUN_COLLAPSED: what happened and what to do (last records) */
 	run_state_t st;
 	run_record_t rec;        /* the last progress record */
 	run_status_t status;
@@ -103,16 +119,19 @@ static void eng_totals(const run_t *rc, smp_t *o)
 	}
 }
 
-/* Advance to t_stop / c_stop or a chunk of work; returns non-zero when the
- * system is quiescent (no further collisions will happen). t_soft: a
+/* Advance to t_stop / c_stop or a chunk of work; returns 1 when the system
+ * is quiescent (no further collisions will happen), 2 on an inelastic
+ * collapse (ed_watch_collapse()), else 0. t_soft: a
  * schedule time that must not change the dynamics. ed stops exactly there
  * (its events do not depend on where it stops); dsmc/hsmc stop at the end
  * of the step that reaches it, since shortening a step would change the
  * random sequence (frames and checkpoints must not alter the run). */
 static int eng_advance(run_t *rc, double t_stop, double t_soft, uint64_t c_stop)
 {
-	if (rc->ed)
-		return ed_advance(rc->ed, fmin(t_stop, t_soft), c_stop, RUN_CHUNK_EVENTS) == ED_QUIESCENT;
+	if (rc->ed) {
+		int e = ed_advance(rc->ed, fmin(t_stop, t_soft), c_stop, RUN_CHUNK_EVENTS);
+		return e == ED_QUIESCENT ? 1 : e == ED_COLLAPSE ? 2 : 0;
+	}
 	return dsmc_advance_soft(rc->mc, t_stop, t_soft, c_stop, rc->mc_chunk) == DSMC_QUIESCENT;
 }
 
@@ -187,6 +206,8 @@ static int sample_progress(run_t *r)
 	int ret = sample(r, &r->rec, RUN_PROGRESS);
 	if (ret == RUN_OK && first && r->warning[0])
 		r->rec.warning = r->warning;
+	if (ret == RUN_OK && r->status == RUN_COLLAPSED)
+		r->rec.warning = r->collapse;
 	return ret;
 }
 
@@ -245,6 +266,10 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 			run_destroy(r);
 			return NULL;
 		}
+		/* Enskog collision rate per particle at T = 1 (dsmc.h: kinetic theory) */
+		double f1 = dsmc_collision_frequency(s->dim, s->volume_fraction, s->radius, s->mass, 1.0,
+		                                     dsmc_contact_value(s->dim, s->volume_fraction));
+		ed_watch_collapse(r->ed, RUN_COLLAPSE_FACTOR * f1);
 	} else {
 		dsmc_params_t pr;
 		dsmc_params(&r->s, &pr, r->warning, sizeof(r->warning));
@@ -417,7 +442,7 @@ void run_summary_record(run_t *r, run_record_t *sum)
 	sum->n = r->s.count;
 	sum->have = r->s.observables;
 	sum->have_interval = 0;
-	sum->warning = NULL;
+	sum->warning = r->status == RUN_COLLAPSED ? r->collapse : NULL;
 	sum->status = r->status;
 	sum->wall_seconds = wall_seconds(r);
 	sum->events_per_second = sum->wall_seconds > 0 ? sum->events / sum->wall_seconds : 0.0;
@@ -440,18 +465,43 @@ int run_summary(run_t *r, run_emit_fn emit, void *ctx)
 
 /* ---- driving ------------------------------------------------------------- */
 
+/* The run ends in an inelastic collapse: status and the message of its last
+ * records, stderr and the job (it names collisions.tc, the remedy). */
+static void note_collapse(run_t *r)
+{
+	const ed_collapse_t *c = ed_collapse(r->ed);
+	const scene_t *s = &r->s;
+	double f = dsmc_collision_frequency(s->dim, s->volume_fraction, s->radius, s->mass, c->temperature,
+	                                    dsmc_contact_value(s->dim, s->volume_fraction));
+	double rate = c->interval > 0.0 ? 2.0 * (double)c->events / ((double)s->count * c->interval) : INFINITY;
+	int len = snprintf(r->collapse, sizeof(r->collapse),
+	                   "collisions.tc: inelastic collapse at time %.9g: %llu events in %.3g time units, "
+	                   "%.3g per particle per unit time, %.3g times the Enskog collision rate at T = %.3g; ",
+	                   c->time, (unsigned long long)c->events, c->interval, rate, f > 0.0 ? rate / f : INFINITY,
+	                   c->temperature);
+	if (len > 0 && (size_t)len < sizeof(r->collapse))
+		snprintf(r->collapse + len, sizeof(r->collapse) - (size_t)len,
+		         s->tc > 0.0 ? "tc = %.3g is too short to prevent it: make it longer (docs/engine.md)"
+		                     : "%.0sset collisions.tc > 0 (the TC model, docs/engine.md)", s->tc);
+	r->status = RUN_COLLAPSED;
+}
+
 /* Advance the engine towards (t_stop, c_stop); *t and *c get the clock
  * reached. Returns 1 when the run's stop condition is met, or can never be
  * (a quiescent system short of a collision target: status set to quiescent). */
 static int advance(run_t *r, double t_stop, double t_soft, uint64_t c_stop, int until_time, double t_until,
                    uint64_t c_until, double *t, uint64_t *c)
 {
-	int quiescent = eng_advance(r, t_stop, t_soft, c_stop);
+	int adv = eng_advance(r, t_stop, t_soft, c_stop);
 	*t = eng_time(r);
 	*c = eng_collisions(r);
 	int done = (until_time && *t >= t_until) || (!until_time && *c >= c_until);
-	if (quiescent && !done && !until_time) {
+	if (adv == 1 && !done && !until_time) {
 		r->status = RUN_QUIESCENT;   /* the collision target can never be reached */
+		done = 1;
+	}
+	if (adv == 2) {
+		note_collapse(r);
 		done = 1;
 	}
 	return done;
@@ -515,8 +565,15 @@ int run_go(run_t *r, run_emit_fn emit, void *ctx, const volatile sig_atomic_t *s
 				goto cleanup;
 			sched_skip(snaps, &r->st.k_snap, t, c, n);
 		}
-		if (done)
-			return run_summary(r, emit, ctx);
+		if (done) {
+			ret = run_summary(r, emit, ctx);
+			if (ret == RUN_OK && r->status == RUN_COLLAPSED) {
+				ret = RUN_ECOLLAPSE;
+				if (msg && msglen)
+					snprintf(msg, msglen, "%s", r->collapse);
+			}
+			return ret;
+		}
 		if (ckpt_time && t >= sched_time(&s->checkpoint, r->st.k_ckpt)) {
 			sched_skip(&s->checkpoint, &r->st.k_ckpt, t, c, n);
 			r->ckpt_wall = wall_now();
@@ -576,7 +633,7 @@ int run_next(run_t *r, const volatile sig_atomic_t *stop, run_record_t *rec, int
 			r->done = done;
 			*done_out = done;
 			*rec = r->rec;
-			return RUN_OK;
+			return r->status == RUN_COLLAPSED ? RUN_ECOLLAPSE : RUN_OK;
 		}
 	}
 }
@@ -639,6 +696,7 @@ const char *run_status_name(run_status_t st)
 		[RUN_COMPLETED] = "completed",
 		[RUN_QUIESCENT] = "quiescent",
 		[RUN_INTERRUPTED] = "interrupted",
+		[RUN_COLLAPSED] = "collapsed",
 	};
 	return (unsigned)st < sizeof(names) / sizeof(names[0]) ? names[st] : "unknown";
 }

@@ -19,7 +19,7 @@
  */
 
 typedef enum { RUN_PROGRESS = 0, RUN_SUMMARY, RUN_SNAPSHOT } run_kind_t;
-typedef enum { RUN_COMPLETED = 0, RUN_QUIESCENT, RUN_INTERRUPTED } run_status_t;
+typedef enum { RUN_COMPLETED = 0, RUN_QUIESCENT, RUN_INTERRUPTED, RUN_COLLAPSED } run_status_t;
 
 enum {
 	RUN_OK = 0,
@@ -28,6 +28,9 @@ enum {
 	RUN_ENOMEM = -3,
 	RUN_EMETHOD = -4,    /* method not implemented yet */
 	RUN_ERESTORE = -5,   /* a restored state is inconsistent (msg says why) */
+	RUN_ECOLLAPSE = -6,  /* inelastic collapse (ed, ed_watch_collapse()): the last progress record
+	                      * and the summary (status RUN_COLLAPSED) were emitted; msg says what
+	                      * happened, starting "collisions.tc: " */
 	/* run_go() results that ask the caller to act and call again: */
 	RUN_CHECKPOINT = 1,  /* a checkpoint is due: save the state now */
 	RUN_STOPPED = 2,     /* stop requested: save the state, then run_summary() */
@@ -149,7 +152,8 @@ int run_summary(run_t *r, run_emit_fn emit, void *ctx);
  * first at time 0) and sets *done on the last; run_summary_record() fills
  * the summary record. stop (may be NULL) is polled between chunks of work;
  * when set the current record is the last one and the status becomes
- * RUN_INTERRUPTED. Free with run_destroy(). Do not mix with run_go() on one
+ * RUN_INTERRUPTED. An inelastic collapse ends the replica: its last record
+ * (warning: the message) comes with RUN_ECOLLAPSE. Free with run_destroy(). Do not mix with run_go() on one
  * run. */
 run_t *run_open(const scene_t *s, uint64_t stream, int *err, char *msg, size_t msglen);
 /* For ensemble checkpoints (ensemble_save/ensemble_load): the replica's last

@@ -77,6 +77,41 @@ rc=$?
 [ $rc -eq 0 ] && [ ! -s "$tmp/stdout" ] && [ -s "$tmp/fd3" ] && cmp -s "$tmp/fd3" "$tmp/out.d/progress.jsonl"
 ok $? "--progress-fd 3 carries the progress, --out DIR keeps a copy (exit $rc)"
 
+# 3b. Inelastic collapse (issue 19.10): strong dissipation without the TC
+# model. e = 0.3 in 2D collapses within ~200 collisions per particle (the
+# clock stalls: thousands of events in ~1e-5 time units); the run stops with
+# exit 2 and one stderr line naming collisions.tc, the last progress record
+# and the summary (status "collapsed") carry the message, and the H5MD file
+# records it. The same scene with tc > 0 runs to its end.
+cat >"$tmp/collapse.json" <<'EOF'
+{ "method": "ed", "dimensions": 2,
+  "particles": { "count": 500, "volume_fraction": 0.3, "initial": { "positions": "random", "temperature": 1 } },
+  "collisions": { "restitution": 0.3, "tc": 0 },
+  "run": { "seed": 1, "until": { "collisions_per_particle": 2000 } },
+  "output": { "every": { "collisions_per_particle": 100 } } }
+EOF
+"$ENGINE" run "$tmp/collapse.json" --out "$tmp/collapse.d" >"$tmp/collapse.out" 2>"$tmp/collapse.err"
+rc=$?
+"$PY" - "$tmp/collapse.out" <<'PYEOF'
+import json, sys
+lines = [json.loads(l) for l in open(sys.argv[1])]
+summ, last = lines[-1], lines[-2]
+assert summ["type"] == "summary" and summ["status"] == "collapsed", summ
+assert last["type"] == "progress" and last["warning"].startswith("collisions.tc: inelastic collapse"), last
+assert summ["warning"] == last["warning"] and summ["collisions_per_particle"] < 2000
+PYEOF
+py=$?
+[ $rc -eq 2 ] && [ $py -eq 0 ] && [ "$(wc -l <"$tmp/collapse.err")" -eq 1 ] &&
+	grep -q '^collisions\.tc: inelastic collapse at time .*set collisions\.tc > 0' "$tmp/collapse.err" &&
+	h5dump -a /observables/inelastic_collapse "$tmp/collapse.d/trajectory.h5" 2>/dev/null | grep -q 'collisions.tc: inelastic collapse' &&
+	h5dump -a /observables/inelastic_collapse_time "$tmp/collapse.d/trajectory.h5" >/dev/null 2>&1
+ok $? "tc 0, e 0.3: inelastic collapse detected, exit $rc: $(cat "$tmp/collapse.err")"
+sed 's/"tc": 0 }/"tc": 1e-4 }/' "$tmp/collapse.json" >"$tmp/collapse-tc.json"
+"$ENGINE" run "$tmp/collapse-tc.json" >"$tmp/collapse-tc.out" 2>"$tmp/collapse-tc.err"
+rc=$?
+[ $rc -eq 0 ] && tail -n 1 "$tmp/collapse-tc.out" | grep -q '"status":"completed"' && ! grep -q collapse "$tmp/collapse-tc.out"
+ok $? "the same scene with tc 1e-4 completes without a collapse warning (exit $rc)"
+
 # 4. Same scene, same seed: identical physics (wall time aside).
 strip() { "$PY" -c 'import json,sys
 for l in open(sys.argv[1]):

@@ -103,6 +103,10 @@ struct ed {
 	/* interval accumulators for ed_sample() */
 	double ekin_cur, ekin_int, t_mark, t_int0, virial;
 	uint64_t coll_int0;
+	/* Inelastic-collapse watch (ed_watch_collapse()): not state, the run
+	 * ends when it fires. */
+	double collapse_rate;     /* limit at T = 1, events per particle per unit time; 0: off */
+	ed_collapse_t collapse;   /* the window that fired */
 };
 
 static inline bool hless(const hent_t *a, const hent_t *b)
@@ -365,6 +369,22 @@ static void epoch_add(struct ed *ed, double t)
 }
 
 double ed_time(const ed_t *ed) { return ed->t_abs_valid ? ed->t_abs : ed->epoch + ed->t; }
+
+/* Called after each rebase with dt, the time the last rebase_every events
+ * took: an event rate beyond collapse_rate sqrt(T) is an inelastic collapse
+ * (ed.h, ed_watch_collapse()). Once per 8N events, O(1); in a collapse dt
+ * may be exactly 0. */
+static bool collapse_check(struct ed *ed, double dt)
+{
+	if (!(ed->collapse_rate > 0.0))
+		return false;
+	double temp = fmax(2.0 * ed->ekin_cur / (ed->dim * (double)ed->n), 0.0);
+	if (2.0 * (double)ed->rebase_every <= ed->collapse_rate * sqrt(temp) * (double)ed->n * dt)
+		return false;
+	ed->collapse = (ed_collapse_t){.time = ed_time(ed), .interval = dt, .events = ed->rebase_every,
+	                               .temperature = temp};
+	return true;
+}
 
 /* Loops over the D axes, unrolled (GCC does not at -O2 by itself; the
  * per-candidate arithmetic is the hot loop of the engine). */
@@ -879,6 +899,7 @@ const char *ed_strerror(int code)
 	case ED_EPLACE: return "initial positions could not be placed";
 	case ED_EINVAL: return "scene not usable by the event-driven method";
 	case ED_QUIESCENT: return "no further events";
+	case ED_COLLAPSE: return "inelastic collapse";
 	default: return "unknown error";
 	}
 }
@@ -1200,4 +1221,14 @@ void ed_totals(const ed_t *ed, ed_sample_t *out)
 	out->collisions = ed->collisions;
 	out->elastic_by_tc = ed->tc_elastic;
 	out->kinetic_energy = DISPATCH(ed, ekin, ed, out->momentum);
+}
+
+void ed_watch_collapse(ed_t *ed, double rate)
+{
+	ed->collapse_rate = rate > 0.0 ? rate : 0.0;
+}
+
+const ed_collapse_t *ed_collapse(const ed_t *ed)
+{
+	return ed->collapse.events ? &ed->collapse : NULL;
 }

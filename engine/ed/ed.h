@@ -25,6 +25,7 @@ enum {
 	ED_EPLACE = -2,    /* initial positions could not be placed */
 	ED_EINVAL = -3,    /* scene not usable by this method */
 	ED_QUIESCENT = 1,  /* ed_advance: no further event can ever happen */
+	ED_COLLAPSE = 2,   /* ed_advance: inelastic collapse (ed_watch_collapse()) */
 };
 
 /* Build the initial state (positions, Maxwellian velocities with zero total
@@ -38,8 +39,29 @@ void ed_destroy(ed_t *ed);
  * max_events further events were processed, whichever comes first. Use
  * INFINITY / UINT64_MAX for "no limit". When stopped by t_stop the clock is
  * set to t_stop. Returns ED_OK, or ED_QUIESCENT when no event remains (the
- * clock is then set to t_stop if finite). */
+ * clock is then set to t_stop if finite), or ED_COLLAPSE (below). */
 int ed_advance(ed_t *ed, double t_stop, uint64_t max_collisions, uint64_t max_events);
+
+/*
+ * Inelastic collapse: without the TC model, strongly inelastic particles can
+ * collide infinitely often in finite time; the engine then processes
+ * collisions at (numerically) one instant and the clock stalls. With
+ * ed_watch_collapse(ed, rate) (rate > 0; 0 turns it off, the default),
+ * ed_advance() checks at each clock rebase (every 8N events, at least 4096:
+ * part of the dynamics, so at the same events in every run and across a
+ * restore) whether the events since the previous rebase came faster than
+ * rate * sqrt(T) per particle per unit time (T = 2 E_kin / (D N) now), and
+ * then returns ED_COLLAPSE at once, the state intact. ed_collapse() gives
+ * the window that fired (NULL before). Costs O(1) per 8N events.
+ */
+typedef struct {
+	double time;          /* absolute time of the rebase that fired */
+	double interval;      /* time the window's events took (may be 0) */
+	uint64_t events;      /* events in the window */
+	double temperature;   /* T at the end of the window */
+} ed_collapse_t;
+void ed_watch_collapse(ed_t *ed, double rate);
+const ed_collapse_t *ed_collapse(const ed_t *ed);
 
 /* Interval statistics since the previous ed_sample() (or the start). */
 typedef struct {

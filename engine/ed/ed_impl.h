@@ -700,9 +700,12 @@ static int FN(run)(struct ed *ed, double t_stop, uint64_t max_coll, uint64_t max
 		}
 		FN(step)(ed);
 		if (++ed->since_rebase >= ed->rebase_every) {
+			double dt = ed->t;   /* the last rebase_every events took this long */
 			ed->since_rebase = 0;
 			FN(rebase)(ed);
 			local_stop = t_stop - ed->epoch;
+			if (collapse_check(ed, dt))
+				return ED_COLLAPSE;
 		}
 	}
 	return ED_OK;

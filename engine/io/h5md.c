@@ -736,6 +736,23 @@ int h5md_flush(h5md_t *h, char *msg, size_t msglen)
 	return H5MD_OK;
 }
 
+int h5md_collapse(h5md_t *h, double time, const char *message, char *msg, size_t msglen)
+{
+	static const char *const names[] = {"inelastic_collapse", "inelastic_collapse_time"};
+	hid_t g = H5Gopen2(h->file, "observables", H5P_DEFAULT);
+	int bad = g < 0;
+	/* a resumed run that collapses again replaces what its first try wrote */
+	for (size_t k = 0; !bad && k < 2; k++)
+		if (H5Aexists(g, names[k]) > 0 && H5Adelete(g, names[k]) < 0)
+			bad = 1;
+	bad = bad || h5u_attr_str(g, names[0], message) || h5u_attr_f64(g, names[1], &time, 1);
+	if (g >= 0)
+		H5Gclose(g);
+	if (bad || H5Fflush(h->file, H5F_SCOPE_GLOBAL) < 0)
+		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot record the inelastic collapse", h->path);
+	return H5MD_OK;
+}
+
 void h5md_rows(const h5md_t *h, uint64_t *obs_rows, uint64_t *snap_rows)
 {
 	*obs_rows = h->obs_rows;

@@ -58,6 +58,10 @@ int h5md_snapshot(h5md_t *h, const run_record_t *rec, char *msg, size_t msglen);
 int h5md_frame(h5md_t *h, int group, const run_record_t *rec, char *msg, size_t msglen);
 int h5md_frames_done(h5md_t *h, char *msg, size_t msglen);
 int h5md_flush(h5md_t *h, char *msg, size_t msglen);
+/* The run ended in an inelastic collapse (run.h, RUN_COLLAPSED) at time:
+ * attributes inelastic_collapse (message) and inelastic_collapse_time on
+ * /observables (replacing earlier ones), flushed. */
+int h5md_collapse(h5md_t *h, double time, const char *message, char *msg, size_t msglen);
 /* Rows of observables and frames appended so far (frames: all groups together). */
 void h5md_rows(const h5md_t *h, uint64_t *obs_rows, uint64_t *snap_rows);
 
