@@ -110,12 +110,20 @@ static int resume(const char *path, const scene_t *s, const char *text, size_t l
 		fprintf(stderr, "granular-engine: --resume %s\n", msg);
 		return rc == CKPT_ENOMEM ? EX_FAIL : EX_INPUT;
 	}
+	/* Any checkpoint that does not verify (unreadable, truncated, digest,
+	 * a damaged stored scene: CKPT_ECORRUPT; missing) falls back. The line
+	 * "...; using PREV" is printed only when PREV did load: the daemon reads
+	 * it to record the checkpoint really used (scheduler.c). */
 	const char *slash = strrchr(path, '/');
+	char first[512];
+	snprintf(first, sizeof(first), "%s", msg);
 	snprintf(prev, sizeof(prev), "%.*s%s", slash ? (int)(slash - path + 1) : 0, path, CKPT_PREV);
-	fprintf(stderr, "granular-engine: --resume %s; using %s\n", msg, prev);
 	rc = read_ckpt(prev, s, text, len, opts, run, ens, pos, msg, sizeof(msg));
-	if (rc == CKPT_OK)
+	if (rc == CKPT_OK) {
+		fprintf(stderr, "granular-engine: --resume %s; using %s\n", first, prev);
 		return EX_DONE;
+	}
+	fprintf(stderr, "granular-engine: --resume %s; tried %s\n", first, prev);
 	fprintf(stderr, "granular-engine: --resume %s\n", msg);
 	return rc == CKPT_ENOMEM ? EX_FAIL : EX_INPUT;
 }

@@ -206,6 +206,14 @@ import h5py
 mode, path = sys.argv[1], sys.argv[2]
 if mode == "truncate":
     os.truncate(path, os.path.getsize(path) // 2)
+elif mode.startswith("scene"):
+    # the scene stored in the checkpoint (issue 19.5): "scene" makes it
+    # another valid scene (seed 33 -> 37: only the digest tells damage from
+    # a checkpoint of another scene), "scenejunk" breaks its JSON
+    with open(path, "r+b") as f:
+        data = f.read()
+        off = data.index(b'"seed":33') + (8 if mode == "scene" else 0)
+        f.seek(off); f.write(b"7" if mode == "scene" else b"}")
 else:
     # flip one byte inside the velocities: only the digest can tell
     off = h5py.File(path, "r")["ed/v"].id.get_offset() + 1000
@@ -213,7 +221,7 @@ else:
         f.seek(off); b = f.read(1); f.seek(off); f.write(bytes([b[0] ^ 0x10]))
 PYEOF
 }
-for mode in truncate flip; do
+for mode in truncate flip scene scenejunk; do
 	rm -rf "$tmp/$s.dmg"
 	cp -r "$tmp/$s.ref" "$tmp/$s.dmg"
 	damage $mode "$tmp/$s.dmg"

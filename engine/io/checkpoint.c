@@ -322,6 +322,8 @@ int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t
 	run_t *run = NULL;
 	hid_t f = H5I_INVALID_HID, g = H5I_INVALID_HID, d = H5I_INVALID_HID, sp = H5I_INVALID_HID;
 	run_state_t st = {0};   /* fields not stored (frames) start at 0 */
+	scene_t stored;         /* the file's own scene, when it differs from s */
+	int differs = 0;
 
 	*run_out = NULL;
 	h5u_quiet();
@@ -337,12 +339,25 @@ int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t
 		snprintf(why, sizeof why, "not a granular-engine checkpoint of format %d", FORMAT_VERSION);
 		goto corrupt;
 	}
+	/* A stored scene that differs from the given one is either another
+	 * scene's checkpoint (CKPT_ESCENE: the caller must not fall back) or a
+	 * damaged one (CKPT_ECORRUPT: the caller falls back to the previous
+	 * checkpoint): the file is read against its own scene and the digest
+	 * decides. */
 	if (!same_scene(text, tlen, scene_text, len)) {
-		ret = h5u_fail(msg, msglen, CKPT_ESCENE, "%s: written for a different scene than the one given", path);
-		goto cleanup;
+		if (scene_parse(text, tlen, &stored, NULL, 0) != SCENE_OK) {
+			snprintf(why, sizeof why, "its stored scene is not a valid scene (damaged)");
+			goto corrupt;
+		}
+		differs = 1;
+		s = &stored;
 	}
 	dig(&h, text, tlen);
 	run = run_create_blank(s, opts, &err, why, sizeof why);
+	if (!run && err != RUN_ENOMEM && differs) {
+		snprintf(why, sizeof why, "its stored scene cannot be verified (damaged or for another method)");
+		goto corrupt;
+	}
 	if (!run) {
 		ret = h5u_fail(msg, msglen, err == RUN_ENOMEM ? CKPT_ENOMEM : CKPT_ECORRUPT, "%s: %s", path, why);
 		goto cleanup;
@@ -394,6 +409,10 @@ int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t
 	if (dig_final(h) != want) {
 		snprintf(why, sizeof why, "digest mismatch (altered or torn)");
 		goto corrupt;
+	}
+	if (differs) {
+		ret = h5u_fail(msg, msglen, CKPT_ESCENE, "%s: written for a different scene than the one given", path);
+		goto cleanup;
 	}
 	run_set_state(run, &st);
 	if (run_restore_finish(run, why, sizeof why) != RUN_OK)
@@ -565,17 +584,18 @@ int ckpt_read_ensemble(const char *path, const scene_t *s, const char *scene_tex
 		snprintf(why, sizeof why, "not a granular-engine checkpoint of format %d", FORMAT_VERSION);
 		goto corrupt;
 	}
-	if (!same_scene(text, tlen, scene_text, len)) {
-		ret = h5u_fail(msg, msglen, CKPT_ESCENE, "%s: written for a different scene than the one given", path);
-		goto cleanup;
-	}
-	if (h5u_read_attr_u64(f, "replicas", &reps) || reps != (uint64_t)R) {
+	/* A stored scene that differs: another scene's checkpoint (CKPT_ESCENE)
+	 * or a damaged one (CKPT_ECORRUPT, the caller falls back): the digest,
+	 * over the file's own replicas, decides. */
+	int differs = !same_scene(text, tlen, scene_text, len);
+	if (h5u_read_attr_u64(f, "replicas", &reps) || (!differs && reps != (uint64_t)R) || reps < 1 ||
+	    reps > (uint64_t)1 << 24) {
 		snprintf(why, sizeof why, "not an ensemble checkpoint of %d replicas", R);
 		goto corrupt;
 	}
 	dig(&h, text, tlen);
 	dig_u64(&h, reps);
-	for (int r = 0; r < R; r++) {
+	for (int r = 0; r < (int)reps; r++) {
 		gather_t ga = {NULL, 0, 0, &h, 0};
 		hsize_t idx = 0;
 		snprintf(gname, sizeof gname, "replica_%d", r);
@@ -587,6 +607,10 @@ int ckpt_read_ensemble(const char *path, const scene_t *s, const char *scene_tex
 		}
 		H5Gclose(g);
 		g = H5I_INVALID_HID;
+		if (differs) {
+			free(ga.buf);   /* only the digest counts */
+			continue;
+		}
 		blobs[r] = ga.buf;
 		lens[r] = ga.len;
 	}
@@ -602,6 +626,10 @@ int ckpt_read_ensemble(const char *path, const scene_t *s, const char *scene_tex
 	if (dig_final(h) != want) {
 		snprintf(why, sizeof why, "digest mismatch (altered or torn)");
 		goto corrupt;
+	}
+	if (differs) {
+		ret = h5u_fail(msg, msglen, CKPT_ESCENE, "%s: written for a different scene than the one given", path);
+		goto cleanup;
 	}
 	/* Each replica must load (consistency checks of the engines). */
 	for (int r = 0; r < R; r++) {

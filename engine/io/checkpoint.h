@@ -16,8 +16,11 @@
  *   checkpoint.h5 never disappears), renames the new file over
  *   DIR/checkpoint.h5 and fsyncs DIR.
  * - ckpt_read() refuses a file whose scene differs from the given one
- *   (CKPT_ESCENE) and reports a damaged or truncated one as CKPT_ECORRUPT
- *   (unreadable HDF5, missing field, wrong digest, inconsistent state).
+ *   (CKPT_ESCENE: an intact file, digest verified against its own stored
+ *   scene) and reports a damaged or truncated one as CKPT_ECORRUPT
+ *   (unreadable HDF5, missing field, wrong digest, inconsistent state, a
+ *   stored scene that was altered or no longer parses): callers fall back
+ *   to DIR/checkpoint.prev.h5 on CKPT_ECORRUPT, never on CKPT_ESCENE.
  * - Serial (sec2 driver); no output on stderr: one-line reasons go to msg.
  */
 
