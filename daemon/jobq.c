@@ -954,6 +954,15 @@ int jobq_attempt_launched(jobq_t *q, int64_t id, int attempt, int pid, uint64_t 
 	return rc == SQLITE_OK ? JOBQ_OK : JOBQ_EDB;
 }
 
+int jobq_attempt_checkpoint(jobq_t *q, int64_t id, int attempt, const char *checkpoint)
+{
+	pthread_mutex_lock(&q->lock);
+	int rc = exec_bind(q, "UPDATE attempts SET checkpoint=? WHERE job_id=? AND n=?", "sii", checkpoint, id,
+	                   (int64_t)attempt);
+	pthread_mutex_unlock(&q->lock);
+	return rc == SQLITE_OK ? JOBQ_OK : JOBQ_EDB;
+}
+
 /*
  * A retry re-emits what the earlier attempt emitted after the point it
  * restarts from (its checkpoint, or time 0): at the first progress record

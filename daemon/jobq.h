@@ -123,6 +123,10 @@ int jobq_claim(jobq_t *q, int free_slots, double now, jobq_claim_t *out, char *e
 /* Record the launch (pid of the process-group leader and its start time) and
  * the checkpoint the attempt resumes from (NULL = fresh). */
 int jobq_attempt_launched(jobq_t *q, int64_t id, int attempt, int pid, uint64_t pid_start, const char *checkpoint);
+/* The engine fell back to another checkpoint than the one it was launched
+ * with (its stderr says so): record that file name (relative to the job
+ * directory) as the attempt's checkpoint. */
+int jobq_attempt_checkpoint(jobq_t *q, int64_t id, int attempt, const char *checkpoint);
 
 /* Store one progress record: line is the engine's JSON line as received, r
  * the same record parsed (the caller has it already), frac the fraction of

@@ -53,6 +53,9 @@ typedef struct {
 	int ndesc;
 	double desc_at;              /* when desc was refreshed */
 	char status_word[32];        /* summary status: completed, quiescent, interrupted */
+	int resumed, ckpt_noted;     /* launched with --resume; fallback seen (note_fallback()) */
+	char head[1024];             /* first stderr bytes: the engine's resume line comes first */
+	size_t nhead;
 } child_t;
 
 struct sched {
@@ -318,6 +321,7 @@ static int launch(sched_t *s, const jobq_claim_t *cl)
 	memset(k, 0, sizeof(*k));
 	k->id = cl->id;
 	k->attempt = cl->attempt;
+	k->resumed = resume != NULL;
 	k->ranks = cl->ranks;
 	k->until = cl->until;
 	k->until_cpp = cl->until_cpp;
@@ -468,6 +472,36 @@ static void flush_progress(sched_t *s, child_t *k, double now)
 	ingest_taken(k->ing, now);
 }
 
+/* The engine could not verify checkpoint.h5 and resumed from the previous
+ * one: its first stderr line is "granular-engine: --resume ...; using
+ * DIR/checkpoint.prev.h5" (engine/main.c, printed only when that file
+ * loaded). Record the file really used on the attempt, once. */
+static void note_fallback(sched_t *s, child_t *k, const char *b, size_t n)
+{
+	static const char want[] = "; using ";
+	static const char prev[] = "/checkpoint.prev.h5\n";
+	if (!k->resumed || k->ckpt_noted || k->nhead >= sizeof(k->head) - 1)
+		return;
+	size_t take = n < sizeof(k->head) - 1 - k->nhead ? n : sizeof(k->head) - 1 - k->nhead;
+	memcpy(k->head + k->nhead, b, take);
+	k->nhead += take;
+	k->head[k->nhead] = '\0';
+	const char *line = strstr(k->head, "granular-engine: --resume ");
+	const char *eol = line ? strchr(line, '\n') : NULL;
+	if (!eol)
+		return;   /* not (yet) a whole line */
+	k->ckpt_noted = 1;
+	const char *u = strstr(line, want);
+	if (!u || u > eol || (size_t)(eol + 1 - line) < sizeof(prev) - 1 ||
+	    memcmp(eol + 1 - (sizeof(prev) - 1), prev, sizeof(prev) - 1))
+		return;
+	if (jobq_attempt_checkpoint(s->c.q, k->id, k->attempt, "checkpoint.prev.h5") != JOBQ_OK)
+		log_warning("job %" PRId64 " attempt %d: could not record the checkpoint used", k->id, k->attempt);
+	else
+		log_info("job %" PRId64 " attempt %d: checkpoint.h5 did not verify, resumed from checkpoint.prev.h5",
+		         k->id, k->attempt);
+}
+
 /* Read what one pipe holds, at most `budget` bytes (one read when budget is
  * READ_BYTES). Closes the fd at EOF. */
 static void read_fd(sched_t *s, child_t *k, int *fd, int is_out, size_t budget, double now)
@@ -475,8 +509,10 @@ static void read_fd(sched_t *s, child_t *k, int *fd, int is_out, size_t budget, 
 	while (budget) {
 		ssize_t n = read(*fd, s->rbuf, budget < READ_BYTES ? budget : READ_BYTES);
 		if (n > 0) {
-			if (!is_out)
+			if (!is_out) {
 				tail_add(k, s->rbuf, (size_t)n);
+				note_fallback(s, k, s->rbuf, (size_t)n);
+			}
 			else if (k->ing)
 				ingest_feed(k->ing, s->rbuf, (size_t)n, now);
 			budget -= (size_t)n < budget ? (size_t)n : budget;
