@@ -148,6 +148,42 @@ for pair in "$refe $ide" "$refm $idm"; do
 	ok $([ -n "$s1" ] && [ "$s1" = "$s2" ]; echo $?) "job $2 (killed, resumed) stores the same progress series as job $1: $(echo "$s2" | cut -c1-120)"
 done
 
+# 3b. A checkpoint.h5 whose stored scene was altered (issue 19.5: exit 2 "different scene" and a failed job
+# before): the engine falls back to checkpoint.prev.h5, the job succeeds, and attempt 2 names the file it
+# really resumed from. The engine is stopped (SIGSTOP) while the scene's seed digit is changed, so no new
+# checkpoint rotates the damaged file away, and killed -9 then.
+idc=$(field "$(post /api/v1/jobs -d "$CK")" 'd["id"]')
+i=0; until [ -s "$S/jobs/$idc/checkpoint.prev.h5" ] || [ $i -ge 400 ]; do sleep 0.05; i=$((i + 1)); done
+for try in 1 2 3 4 5 6 7 8 9 10; do
+	pkill -STOP -f "^$ENGINE run $S/jobs/$idc/"
+	# not between the rotation's link and rename (checkpoint.h5 and .prev.h5 the same file)
+	[ "$(stat -c %i "$S/jobs/$idc/checkpoint.h5")" != "$(stat -c %i "$S/jobs/$idc/checkpoint.prev.h5")" ] && break
+	pkill -CONT -f "^$ENGINE run $S/jobs/$idc/"; sleep 0.05
+done
+/usr/bin/python3 - "$S/jobs/$idc/checkpoint.h5" <<'PYEOF'
+import re, sys
+with open(sys.argv[1], "r+b") as f:
+    data = f.read()
+    m = re.search(rb'"seed"\s*:\s*([0-9])', data)
+    f.seek(m.start(1)); f.write(b"8" if m.group(1) != b"8" else b"9")
+PYEOF
+pkill -9 -f "^$ENGINE run $S/jobs/$idc/"; pkill -CONT -f "^$ENGINE run $S/jobs/$idc/"
+wait_state "$idc" succeeded 120
+st=$?
+jc=$(api GET "/api/v1/jobs/$idc")
+ok $([ $st = 0 ] && [ "$(field "$jc" 'len(d["attempts"])')" = 2 ] &&
+     [ "$(field "$jc" 'd["attempts"][1]["checkpoint"]')" = checkpoint.prev.h5 ]; echo $?) \
+	"checkpoint.h5 with an altered stored scene: attempt 2 resumed from $(field "$jc" 'd["attempts"][1]["checkpoint"]'), job $(field "$jc" 'd["state"]')"
+
+# 3c. Inelastic collapse (issue 19.10): the job fails and its reason is the engine's message naming collisions.tc.
+COL='{"method":"ed","dimensions":2,"particles":{"count":500,"volume_fraction":0.3,"initial":{"positions":"random","temperature":1}},"collisions":{"restitution":0.3,"tc":0},"run":{"seed":1,"until":{"collisions_per_particle":2000}},"output":{"every":{"collisions_per_particle":100}}}'
+idl=$(field "$(post /api/v1/jobs -d "$COL")" 'd["id"]')
+wait_state "$idl" failed 60
+st=$?
+jl=$(api GET "/api/v1/jobs/$idl")
+ok $([ $st = 0 ] && field "$jl" 'd["reason"]' | grep -q 'collisions.tc: inelastic collapse at time'; echo $?) \
+	"tc 0, e 0.3: job $(field "$jl" 'd["state"]'): $(field "$jl" 'd["reason"]' | cut -c1-160)"
+
 # 4. kill -9 the daemon mid-run, restart: nothing lost, nothing duplicated, never two copies. The job writes
 # no record after its first for a long while: an engine that writes to the dead daemon's pipe dies of it (EPIPE),
 # and this is about the orphans that do not.
