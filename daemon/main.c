@@ -26,8 +26,9 @@
 static void usage(FILE *f)
 {
 	fprintf(f, "usage: granulard [--listen HOST:PORT] [--state-dir DIR] [--slots N] [--config FILE] [--KEY VALUE]...\n"
-	           "Serves the granulard REST API (docs/daemon.md). Every configuration key is also a flag:\n");
-	cfg_print_help(f);
+	           "Serves the granulard REST API (man granulard, docs/daemon.md). Every flag --some-key is also a\n"
+	           "config-file line `some_key = value`; flags override the file:\n");
+	cfg_print_keys(f, CFG_FMT_TEXT);
 }
 
 static int executable(const char *p) { return access(p, X_OK) == 0; }
@@ -119,6 +120,16 @@ int main(int argc, char **argv)
 			printf("%s %s\n", api_routes[i].method, api_routes[i].pattern);
 		cfg_deinit(&cfg);
 		return 0;
+	}
+	if (argc == 3 && !strcmp(argv[1], "--list-keys")) {
+		/* The key table as text, man or markdown: the man page is generated from it, docs/daemon.md checked. */
+		int fmt = cfg_format_parse(argv[2]);
+		cfg_deinit(&cfg);
+		if (fmt < 0) {
+			fprintf(stderr, "granulard: --list-keys %s: expected text, man or markdown\n", argv[2]);
+			return 2;
+		}
+		return cfg_print_keys(stdout, (cfg_format_t)fmt) || fflush(stdout) ? 1 : 0;
 	}
 	int r = cfg_from_args(&cfg, argc, argv, err, sizeof(err));
 	if (r == CFG_EHELP) {
