@@ -107,7 +107,7 @@ int main(int argc, char **argv)
 	gd_t gd = {0};
 	http_t *http = NULL;
 	char err[1024], path[PATH_MAX], jobs[PATH_MAX], engine[PATH_MAX], token[256], addr[320];
-	int port = 0, ret = 1, lockfd = -1, lvl;
+	int port = 0, ret = 1, lockfd = -1, locked = 0, lvl;
 	sigset_t sigs;
 
 	if (cfg_init(&cfg)) {
@@ -182,6 +182,11 @@ int main(int argc, char **argv)
 		        errno == EWOULDBLOCK ? "another granulard is using it" : strerror(errno));
 		goto cleanup;
 	}
+	/* The lock file names its holder, so `./quickstart stop` signals exactly this daemon (after checking
+	 * that the file is still locked and that the pid is a granulard that has it open). */
+	locked = 1;
+	if (ftruncate(lockfd, 0) || dprintf(lockfd, "%ld\n", (long)getpid()) < 0)
+		log_warning("%s: cannot write our pid: %s", path, strerror(errno));
 	if (load_token(&cfg, token, sizeof(token), err, sizeof(err))) {
 		fprintf(stderr, "granulard: %s\n", err);
 		goto cleanup;
@@ -255,6 +260,8 @@ cleanup:
 	sched_destroy(gd.sched);
 	hub_destroy(gd.hub);
 	jobq_close(gd.q);
+	if (locked && ftruncate(lockfd, 0))   /* no pid left for a stopped daemon */
+		log_warning("granulard.lock: %s", strerror(errno));
 	if (lockfd >= 0)
 		close(lockfd);
 	cfg_deinit(&cfg);
