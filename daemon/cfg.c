@@ -74,6 +74,7 @@ static const key_t_ keys[] = {
 #define NKEYS (sizeof(keys) / sizeof(keys[0]))
 
 static void number_text(const key_t_ *k, double v, char *buf, size_t n);
+static void flag_name(const key_t_ *k, char *buf, size_t n);
 
 static const key_t_ *find(const char *name)
 {
@@ -91,15 +92,20 @@ static const key_t_ *find(const char *name)
 
 static int set(cfg_t *c, const key_t_ *k, const char *v, const char *where, char *err, size_t errlen)
 {
-	char *end;
+	char *end, name[64];
 	void *p = (char *)c + k->off;
+	/* Errors name the key as it was given: --max-body as a flag, max_body in a file. */
+	if (!strcmp(where, "--"))
+		flag_name(k, name, sizeof(name));
+	else
+		snprintf(name, sizeof(name), "%s", k->name);
 	if (k->type == T_STR) {
 		if (k->choices) {
 			int ok = 0;
 			for (int i = 0; k->choices[i]; i++)
 				ok |= !strcmp(v, k->choices[i]);
 			if (!ok) {
-				snprintf(err, errlen, "%s%s: '%s' is not one of the allowed values (see --help)", where, k->name, v);
+				snprintf(err, errlen, "%s%s: '%s' is not one of the allowed values (see --help)", where, name, v);
 				return CFG_EINVAL;
 			}
 		}
@@ -115,14 +121,14 @@ static int set(cfg_t *c, const key_t_ *k, const char *v, const char *where, char
 	errno = 0;
 	double x = strtod(v, &end);
 	if (!*v || *end || errno || !isfinite(x) || (k->type == T_INT && x != floor(x))) {
-		snprintf(err, errlen, "%s%s: '%s' is not %s", where, k->name, v, k->type == T_INT ? "an integer" : "a number");
+		snprintf(err, errlen, "%s%s: '%s' is not %s", where, name, v, k->type == T_INT ? "an integer" : "a number");
 		return CFG_EINVAL;
 	}
 	if (x < k->min || x > k->max) {
 		char lo[48], hi[48];
 		number_text(k, k->min, lo, sizeof(lo));
 		number_text(k, k->max, hi, sizeof(hi));
-		snprintf(err, errlen, "%s%s: %s is out of range %s..%s", where, k->name, v, lo, hi);
+		snprintf(err, errlen, "%s%s: %s is out of range %s..%s", where, name, v, lo, hi);
 		return CFG_EINVAL;
 	}
 	if (k->type == T_INT)

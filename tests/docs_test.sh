@@ -59,7 +59,7 @@ ok $([ -z "$bad" ]; echo $?) "every --help entry states its default exactly once
 ok $(! grep -Eq '[0-9]e[+-]?[0-9]' "$tmp/help"; echo $?) "--help has no number in exponent notation$(grep -Eo '[^ ]*[0-9]e[+-]?[0-9][^ ]*' "$tmp/help" | head -n 1 | sed 's/^/: /')"
 ok $(grep -q -- '--max-body BYTES .*1073741824 (1 GiB); default 4194304 (4 MiB)' "$tmp/entries"; echo $?) "byte counts read as digits with their binary multiple: $(grep -o -- '--max-body.*' "$tmp/entries" | cut -c1-90)"
 "$GRANULARD" --max-body 2e9 >/dev/null 2>"$tmp/err"
-ok $([ $? = 2 ] && grep -q 'out of range 1024..1073741824' "$tmp/err"; echo $?) "a value out of range names it in digits: $(cat "$tmp/err")"
+ok $([ $? = 2 ] && grep -q -- '--max-body: 2e9 is out of range 1024..1073741824' "$tmp/err"; echo $?) "a value out of range names the flag as typed and the range in digits: $(cat "$tmp/err")"
 
 # 3. max_particles: the range --help states is the one the scene parser takes.
 hi=$(grep -- '--max-particles' "$tmp/entries" | sed -n 's/.*; 2\.\.\([0-9][0-9]*\);.*/\1/p')
