@@ -479,10 +479,12 @@ static void note_collapse(run_t *r)
 	                   "%.3g per particle per unit time, %.3g times the Enskog collision rate at T = %.3g; ",
 	                   c->time, (unsigned long long)c->events, c->interval, rate, f > 0.0 ? rate / f : INFINITY,
 	                   c->temperature);
-	if (len > 0 && (size_t)len < sizeof(r->collapse))
+	if (len > 0 && (size_t)len < sizeof(r->collapse) && s->tc > 0.0)
 		snprintf(r->collapse + len, sizeof(r->collapse) - (size_t)len,
-		         s->tc > 0.0 ? "tc = %.3g is too short to prevent it: make it longer (docs/engine.md)"
-		                     : "%.0sset collisions.tc > 0 (the TC model, docs/engine.md)", s->tc);
+		         "tc = %.3g is too short to prevent it: make it longer (docs/engine.md)", s->tc);
+	else if (len > 0 && (size_t)len < sizeof(r->collapse))
+		snprintf(r->collapse + len, sizeof(r->collapse) - (size_t)len,
+		         "set collisions.tc > 0 (the TC model, docs/engine.md)");
 	r->status = RUN_COLLAPSED;
 }
 
