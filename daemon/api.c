@@ -428,6 +428,16 @@ static void h_metrics(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 	  "# TYPE granulard_http_requests_total counter\n");
 	for (int c = 1; c <= 5; c++)
 		P("granulard_http_requests_total{class=\"%dxx\"} %ld\n", c, atomic_load(&gd->responses_by_class[c]));
+	P("# HELP granulard_http_connections Client connections held open.\n# TYPE granulard_http_connections gauge\n"
+	  "granulard_http_connections %d\n", atomic_load(&gd->open_connections));
+	P("# HELP granulard_http_streams Event streams open.\n# TYPE granulard_http_streams gauge\n"
+	  "granulard_http_streams %d\n", atomic_load(&gd->open_streams));
+	P("# HELP granulard_http_connections_refused_total Connections refused: table full of busy ones.\n"
+	  "# TYPE granulard_http_connections_refused_total counter\ngranulard_http_connections_refused_total %ld\n",
+	  atomic_load(&gd->refused_connections));
+	P("# HELP granulard_http_connections_evicted_total Idle or slow connections closed for a new one or on timeout.\n"
+	  "# TYPE granulard_http_connections_evicted_total counter\ngranulard_http_connections_evicted_total %ld\n",
+	  atomic_load(&gd->evicted_connections));
 	P("# HELP granulard_uptime_seconds Seconds since the daemon started.\n# TYPE granulard_uptime_seconds gauge\n"
 	  "granulard_uptime_seconds %.3f\n", util_now() - gd->started);
 #undef P
