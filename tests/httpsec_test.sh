@@ -96,15 +96,32 @@ ok $([ "$(code)" = 200 ] && [ "$(field "$b" '"trap.fifo" in [f["name"] for f in 
 api GET /healthz -m 5 >/dev/null
 ok $(is "$(code)" 200) "healthz still answers"
 
-# 7. A closed event stream is noticed within 2 s (the keep-alive comment comes every 15 s).
+# 7. A closed event stream is noticed within 2 s (the keep-alive comment comes every 15 s): the
+# daemon's end of the socket leaves CLOSE_WAIT (read from /proc/net/tcp, no tool needed).
+close_wait() {
+	/usr/bin/python3 -c '
+import sys
+port = "%04X" % int(sys.argv[1])
+n = 0
+for f in ("/proc/net/tcp", "/proc/net/tcp6"):
+    try:
+        for line in open(f).readlines()[1:]:
+            c = line.split()
+            n += c[1].endswith(":" + port) and c[3] == "08"
+    except OSError:
+        pass
+print(n)' "$PORT"
+}
 streams() { api GET /metrics | sed -n 's/^granulard_http_streams //p'; }
 curl -sN -m 60 "$URL/api/v1/events" >"$tmp/sse" &
 c=$!
-i=0; while [ "$(streams)" != 1 ] && [ $i -lt 50 ]; do sleep 0.1; i=$((i + 1)); done
-ok $(is "$(streams)" 1) "one event stream open"
+i=0; while ! grep -q '^event: hello' "$tmp/sse" && [ $i -lt 50 ]; do sleep 0.1; i=$((i + 1)); done
+ok $(is "$(streams)" 1) "one event stream open (metrics)"
 kill $c; wait $c 2>/dev/null
-i=0; while [ "$(streams)" != 0 ] && [ $i -lt 20 ]; do sleep 0.1; i=$((i + 1)); done
-ok $(is "$(streams)" 0) "closed stream noticed within 2 s ($((i * 100)) ms)"
+sleep 0.1
+i=1; while [ "$(close_wait)" != 0 ] && [ $i -lt 20 ]; do sleep 0.1; i=$((i + 1)); done
+ok $(is "$(close_wait)" 0) "closed stream's socket closed by the daemon within 2 s ($((i * 100)) ms)"
+ok $(is "$(streams)" 0) "no stream counted any more"
 
 # 8. Idle and slow clients: 1500 idle connections and 530 slow-loris clients (a header line every
 # second) do not stop /healthz and the API answering. Default limits, then no per-address limit
