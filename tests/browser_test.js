@@ -38,6 +38,12 @@ const ok = (c, d) => { n++; if (!c) failed++; console.log(`${c ? '' : 'not '}ok 
       await page.waitForFunction((i) => [...document.querySelectorAll('#jobs tbody tr')].some((r) => r.textContent.includes(String(i)) &&
         r.textContent.includes('succeeded')), id, { timeout: 120000 });
       ok(true, 'job ' + id + ' followed to succeeded in the live table');
+      // A file link: with the token saved the download goes through fetch() with the header.
+      await page.evaluate((i) => { location.hash = '#/job/' + i; }, id);
+      await page.waitForFunction(() => document.querySelectorAll('#job-files tbody tr a').length > 0, null, { timeout: 10000 });
+      const [dl] = await Promise.all([page.waitForEvent('download', { timeout: 10000 }), page.click('#job-files tbody tr a')]);
+      const size = require('fs').statSync(await dl.path()).size;
+      ok(size > 0 && !dl.url().includes(token), 'job file ' + dl.suggestedFilename() + ' downloaded with the token header (' + size + ' bytes)');
       ok(!(await page.evaluate(() => location.href)).includes(token), 'the token is not in the URL');
       // The 401s before the token was entered are expected; nothing else may fail.
       const other = errors.filter((e) => !/401/.test(e));
