@@ -128,9 +128,12 @@ ok $(is "$(streams)" 0) "no stream counted any more"
 # (so that the daemon really holds them all). The client loops are bounded.
 load() {
 	/usr/bin/python3 - "$HP" "$1" "$2" <<'EOF'
-import socket, sys, time, json, urllib.request
+import resource, socket, sys, time, json, urllib.request
 h, p = sys.argv[1].rsplit(":", 1); p = int(p)
 idle_n, slow_n = int(sys.argv[2]), int(sys.argv[3])
+soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+if soft != resource.RLIM_INFINITY and soft < idle_n + slow_n + 100:
+    resource.setrlimit(resource.RLIMIT_NOFILE, (min(hard, idle_n + slow_n + 100), hard))
 socks, slow = [], []
 for i in range(idle_n + slow_n):
     try:
