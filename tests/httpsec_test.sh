@@ -175,7 +175,7 @@ EOF
 }
 r=$(load 1500 530)
 echo "# default limits: $r"
-ok $([ "$(field "$r" 'd["ok"]')" = 6 ] && [ "$(field "$r" 'd["worst"] < 2')" = True ]; echo $?) \
+ok $([ "$(field "$r" 'd["opened"]')" = 2030 ] && [ "$(field "$r" 'd["ok"]')" = 6 ] && [ "$(field "$r" 'd["worst"] < 2')" = True ]; echo $?) \
 	"default limits: /healthz and /jobs answer under 1500 idle + 530 slow clients"
 ok $([ "$(field "$r" 'd["held"] <= 64 + 2')" = True ]; echo $?) "default per-address limit: at most 64 held from 127.0.0.1"
 gd_stop
@@ -184,7 +184,7 @@ gd_start "$S" --per-ip-connections 0 --header-timeout 60
 HP=${URL#http://}
 r=$(load 1500 530)
 echo "# no per-address limit: $r"
-ok $([ "$(field "$r" 'd["ok"]')" = 6 ] && [ "$(field "$r" 'd["worst"] < 2')" = True ]; echo $?) \
+ok $([ "$(field "$r" 'd["opened"]')" = 2030 ] && [ "$(field "$r" 'd["ok"]')" = 6 ] && [ "$(field "$r" 'd["worst"] < 2')" = True ]; echo $?) \
 	"no per-address limit: /healthz and /jobs answer under 1500 idle + 530 slow clients"
 ok $([ "$(field "$r" 'd["held"] >= 2000')" = True ]; echo $?) "the 2030 connections are held, not refused"
 gd_stop
