@@ -2,6 +2,7 @@
 #include <config.h>
 #include <errno.h>
 #include <inttypes.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -16,8 +17,9 @@
 
 static const struct { int status; const char *code; } error_codes[] = {
 	{400, "bad_request"}, {401, "unauthorized"}, {403, "forbidden"}, {404, "not_found"},
-	{405, "method_not_allowed"}, {409, "conflict"}, {413, "payload_too_large"}, {416, "range_not_satisfiable"},
-	{415, "unsupported_media_type"}, {429, "too_many_requests"}, {500, "internal"}, {503, "unavailable"},
+	{405, "method_not_allowed"}, {408, "request_timeout"}, {409, "conflict"}, {413, "payload_too_large"},
+	{414, "uri_too_long"}, {415, "unsupported_media_type"}, {416, "range_not_satisfiable"},
+	{429, "too_many_requests"}, {431, "header_fields_too_large"}, {500, "internal"}, {503, "unavailable"},
 };
 
 void api_error(api_resp_t *rs, int status, const char *message)
@@ -47,15 +49,30 @@ static void queue_error(api_resp_t *rs, int code, const char *msg)
 		rs->retry_after = 5;
 }
 
+/* An integer in one spelling only: an optional '-', then digits without a
+ * leading zero ("0" itself is fine); no '+', no spaces, within long long. */
+int api_parse_int(const char *s, long long *v)
+{
+	char *end;
+	const char *d = s && *s == '-' ? s + 1 : s;
+	if (!d || *d < '0' || *d > '9' || (d[0] == '0' && d[1]))
+		return -1;
+	errno = 0;
+	long long x = strtoll(s, &end, 10);
+	if (*end || errno)
+		return -1;
+	*v = x;
+	return 0;
+}
+
 /* Path parameter as a job id; 0 (and a 404 answer) when it is not one. */
 static int64_t job_id(const api_req_t *rq, api_resp_t *rs)
 {
-	char *end;
-	errno = 0;
-	long long v = strtoll(rq->params[0], &end, 10);
-	if (*end || errno || v <= 0) {
+	long long v;
+	if (api_parse_int(rq->params[0], &v) || v <= 0) {
 		char m[200];
-		snprintf(m, sizeof(m), "job %.100s not found (ids are positive integers)", rq->params[0]);
+		snprintf(m, sizeof(m), "job %.100s not found (ids are positive integers, written without sign or leading zeros)",
+		         rq->params[0]);
 		api_error(rs, 404, m);
 		return 0;
 	}
@@ -67,12 +84,11 @@ static int query_int(const api_req_t *rq, api_resp_t *rs, const char *key, long 
                      long long *v)
 {
 	const char *s = rq->query(rq->conn, key);
-	char *end, m[200];
+	char m[200];
+	long long x = 0;
 	if (!s)
 		return 1;
-	errno = 0;
-	long long x = strtoll(s, &end, 10);
-	if (!*s || *end || errno || x < lo || x > hi) {
+	if (api_parse_int(s, &x) || x < lo || x > hi) {
 		snprintf(m, sizeof(m), "%s: must be an integer in %lld..%lld", key, lo, hi);
 		api_error(rs, 400, m);
 		return 0;
@@ -139,7 +155,7 @@ static void h_list(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 	if (since) {
 		char *end;
 		f.since = strtod(since, &end);
-		if (!*since || *end || f.since < 0) {
+		if (!*since || *end || !isfinite(f.since) || f.since < 0) {
 			api_error(rs, 400, "since: must be a unix time in seconds");
 			return;
 		}
@@ -412,6 +428,16 @@ static void h_metrics(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 	  "# TYPE granulard_http_requests_total counter\n");
 	for (int c = 1; c <= 5; c++)
 		P("granulard_http_requests_total{class=\"%dxx\"} %ld\n", c, atomic_load(&gd->responses_by_class[c]));
+	P("# HELP granulard_http_connections Client connections held open.\n# TYPE granulard_http_connections gauge\n"
+	  "granulard_http_connections %d\n", atomic_load(&gd->open_connections));
+	P("# HELP granulard_http_streams Event streams open.\n# TYPE granulard_http_streams gauge\n"
+	  "granulard_http_streams %d\n", atomic_load(&gd->open_streams));
+	P("# HELP granulard_http_connections_refused_total Connections refused: table full of busy ones.\n"
+	  "# TYPE granulard_http_connections_refused_total counter\ngranulard_http_connections_refused_total %ld\n",
+	  atomic_load(&gd->refused_connections));
+	P("# HELP granulard_http_connections_evicted_total Idle or slow connections closed for a new one or on timeout.\n"
+	  "# TYPE granulard_http_connections_evicted_total counter\ngranulard_http_connections_evicted_total %ld\n",
+	  atomic_load(&gd->evicted_connections));
 	P("# HELP granulard_uptime_seconds Seconds since the daemon started.\n# TYPE granulard_uptime_seconds gauge\n"
 	  "granulard_uptime_seconds %.3f\n", util_now() - gd->started);
 #undef P
@@ -489,11 +515,11 @@ static void h_static(gd_t *gd, const api_req_t *rq, api_resp_t *rs) { serve_file
 /* ---- routes ---------------------------------------------------------------- */
 
 const api_route_t api_routes[] = {
-	{.method = "GET", .pattern = "/", .fn = h_index, .flags = API_OPEN},
+	{.method = "GET", .pattern = "/", .fn = h_index, .flags = API_OPEN | API_INLINE},
 	{.method = "GET", .pattern = "/healthz", .fn = h_healthz, .flags = API_OPEN},
-	{.method = "GET", .pattern = "/favicon.ico", .fn = h_favicon, .flags = API_OPEN},
+	{.method = "GET", .pattern = "/favicon.ico", .fn = h_favicon, .flags = API_OPEN | API_INLINE},
 	{.method = "GET", .pattern = "/metrics", .fn = h_metrics},
-	{.method = "GET", .pattern = "/api/v1/openapi.yaml", .fn = h_openapi, .flags = API_OPEN},
+	{.method = "GET", .pattern = "/api/v1/openapi.yaml", .fn = h_openapi, .flags = API_OPEN | API_INLINE},
 	{.method = "POST", .pattern = "/api/v1/jobs", .fn = h_submit, .flags = API_MUTATES},
 	{.method = "GET", .pattern = "/api/v1/jobs", .fn = h_list},
 	{.method = "GET", .pattern = "/api/v1/jobs/{id}", .fn = h_get},
@@ -509,7 +535,7 @@ const api_route_t api_routes[] = {
 	{.method = "GET", .pattern = "/api/v1/cluster", .fn = h_cluster},
 	{.method = "GET", .pattern = "/api/v1/presets", .fn = h_presets},
 	{.method = "GET", .pattern = "/api/v1/presets/{name}", .fn = h_preset},
-	{.method = "GET", .pattern = "/static/{name}", .fn = h_static, .flags = API_OPEN},
+	{.method = "GET", .pattern = "/static/{name}", .fn = h_static, .flags = API_OPEN | API_INLINE},
 };
 const size_t api_nroutes = sizeof(api_routes) / sizeof(api_routes[0]);
 

@@ -21,9 +21,16 @@ typedef struct gd {
 	double started;             /* unix time of start */
 	atomic_int stopping;        /* shutting down: mutating requests get 503 */
 	atomic_long requests, responses_by_class[6];   /* [1..5] = 1xx..5xx */
+	/* kept by the HTTP layer, for /metrics */
+	atomic_int open_connections, open_streams;
+	atomic_long refused_connections, evicted_connections;
 } gd_t;
 
-enum { API_MUTATES = 1u << 0, API_OPEN = 1u << 1 /* never needs a token */ };
+enum {
+	API_MUTATES = 1u << 0,
+	API_OPEN = 1u << 1,    /* never needs a token (Host and Origin are still checked) */
+	API_INLINE = 1u << 2,  /* never blocks (no database, no files): runs on the polling thread */
+};
 
 typedef struct {
 	const char *method;
@@ -72,6 +79,9 @@ extern const size_t api_nroutes;
  * lists them). Fills params (pointers into store). */
 const api_route_t *api_match(const char *method, const char *path, api_req_t *rq, char store[][128],
                              int *path_known, char *allow, size_t allowlen);
+
+/* Strict integer syntax: [-]digits, no leading zeros, no '+' or spaces. 0 or -1. */
+int api_parse_int(const char *s, long long *v);
 
 /* Fill rs with the standard error body {"error": {"code", "message"}}. */
 void api_error(api_resp_t *rs, int status, const char *message);

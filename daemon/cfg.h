@@ -25,12 +25,14 @@ typedef struct {
 	char *launch;            /* launch template, placeholders {mpirun} {ranks} {engine} {scene} {dir} */
 	char *token;             /* bearer token ("" = state_dir/token, generated) */
 	char *read_auth;         /* auto | open | token */
-	char *allowed_hosts;     /* extra Host names accepted on mutating requests */
+	char *allowed_hosts;     /* extra Host values this server answers to */
 	long max_body;           /* bytes */
 	long max_json_depth;
 	long max_connections;
 	long per_ip_connections; /* 0 = unlimited */
-	long request_timeout;    /* seconds of inactivity */
+	long header_timeout;     /* seconds to a complete request head */
+	long request_timeout;    /* seconds for a body; of silence while answering */
+	long http_workers;       /* handler threads */
 	long max_particles;
 	long max_ranks;          /* 0 = slots */
 	long max_wall_seconds;   /* per attempt, 0 = none */

@@ -84,8 +84,10 @@ int files_list(const char *dir, json_t **out, char *err, size_t errlen)
 		if (c && !strcmp(json_string_value(json_object_get(c, "key")) ?: "", key)) {
 			snprintf(hex, sizeof(hex), "%s", json_string_value(json_object_get(c, "sha256")));
 		} else {
-			int fd = open(path, O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
-			if (fd < 0 || sha256_file(fd, hex))
+			/* O_NONBLOCK: the entry may have been swapped for a FIFO since lstat(). */
+			int fd = open(path, O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
+			struct stat fst;
+			if (fd < 0 || fstat(fd, &fst) || !S_ISREG(fst.st_mode) || sha256_file(fd, hex))
 				hex[0] = '\0';
 			if (fd >= 0)
 				close(fd);
@@ -125,7 +127,10 @@ int files_open(const char *dir, const char *name, int *fd, uint64_t *size, char 
 		return FILES_ENAME;
 	}
 	snprintf(path, sizeof(path), "%s/%s", dir, name);
-	int f = open(path, O_RDONLY | O_CLOEXEC | O_NOFOLLOW);
+	/* O_NONBLOCK: opening a FIFO for reading would otherwise wait for a
+	 * writer, holding the handler thread forever; fstat() then refuses
+	 * anything but a regular file (FIFOs, devices, sockets, directories). */
+	int f = open(path, O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
 	if (f < 0 || fstat(f, &st) || !S_ISREG(st.st_mode)) {
 		snprintf(err, errlen, "no file '%s' in this job", name);
 		if (f >= 0)

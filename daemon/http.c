@@ -1,45 +1,89 @@
-/* libmicrohttpd glue: request bodies and limits, auth and Host/Origin checks, JSON and SSE responses. */
+/* libmicrohttpd glue: admission checks, request bodies, handlers on worker threads, JSON and SSE responses. */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
 #include <errno.h>
 #include <inttypes.h>
 #include <microhttpd.h>
 #include <netinet/in.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
+#include <time.h>
 #include <unistd.h>
+#include "conns.h"
+#include "gate.h"
+#include "guard.h"
 #include "http.h"
 #include "log.h"
 #include "util.h"
 
-#define MAX_HOSTS 16
+#define LINE_MAX_BYTES 8192       /* request line (method, target, version) */
+#define HEAD_MAX_BYTES 32768      /* the whole request head */
+#define POOL_BYTES (128 * 1024)   /* libmicrohttpd's per-connection memory: above HEAD_MAX_BYTES, so our 431 comes first */
+#define KEEPALIVE_SECONDS 15.0    /* comment line on a quiet event stream */
+#define FD_RESERVE 256            /* descriptors kept for the database, job pipes, files */
+
+enum { RQ_NEW = 0, RQ_QUEUED, RQ_DONE };
+
+typedef struct sse sse_t;
+
+typedef struct req {
+	struct req *next;             /* worker queue */
+	struct MHD_Connection *c;
+	int fd;
+	int state;                    /* RQ_*: a handler runs on a worker while the connection is suspended */
+	char *body;
+	size_t len, cap;
+	int too_large;
+	const api_route_t *rt;
+	api_req_t ar;
+	char store[4][128];
+	api_resp_t rs;
+	sse_t *sse;                   /* an event stream prepared by the worker */
+} req_t;
+
+struct sse {
+	sse_t *prev, *next;           /* http_t.streams */
+	http_t *h;
+	struct MHD_Connection *c;
+	int fd;
+	int64_t job;
+	uint64_t after;
+	int done, suspended;
+	double last_write;
+	char *buf;
+	size_t len, off, cap;
+};
 
 struct http {
 	gd_t *gd;
 	struct MHD_Daemon *d;
-	int fd;
-	int read_needs_token;
-	char hosts[MAX_HOSTS][256];   /* accepted Host values on mutating requests */
-	int nhosts;
+	guard_t *guard;
+	conns_t *conns;
+	gate_t *gate;
+	int fd_cap;
+	char resp408[1024], resp414[1024], resp431[1024];
+	pthread_mutex_t lock;         /* queue, streams, counters below; never held while calling libmicrohttpd */
+	pthread_cond_t wake, idle;
+	req_t *qhead, *qtail;
+	sse_t *streams;
+	int closing, stop_workers, suspended;
+	pthread_t *workers;
+	int nworkers;
+	pthread_t pump;
+	int pump_started, stop_pump;
 };
 
-typedef struct {
-	char *body;
-	size_t len, cap;
-	int too_large;
-} req_t;
-
-typedef struct {
-	gd_t *gd;
-	int64_t job;
-	uint64_t after;
-	int started, done;
-	char *buf;
-	size_t len, off, cap;
-} sse_t;
+static double mono(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
 
 static const char *query_get(void *conn, const char *key)
 {
@@ -49,6 +93,27 @@ static const char *query_get(void *conn, const char *key)
 static const char *header_get(void *conn, const char *key)
 {
 	return MHD_lookup_connection_value(conn, MHD_HEADER_KIND, key);
+}
+
+static int conn_fd(struct MHD_Connection *c)
+{
+	const union MHD_ConnectionInfo *ci = MHD_get_connection_info(c, MHD_CONNECTION_INFO_CONNECTION_FD);
+	return ci ? ci->connect_fd : -1;
+}
+
+/* Strict decimal: digits only, no sign, no leading zero (so one spelling per number). */
+static int parse_u64(const char *s, uint64_t *v)
+{
+	uint64_t x = 0;
+	if (!s || !*s || (s[0] == '0' && s[1]))
+		return -1;
+	for (; *s; s++) {
+		if (*s < '0' || *s > '9' || x > (UINT64_MAX - 9) / 10)
+			return -1;
+		x = x * 10 + (uint64_t)(*s - '0');
+	}
+	*v = x;
+	return 0;
 }
 
 /* ---- server-sent events ------------------------------------------------------ */
@@ -74,6 +139,7 @@ static void sse_put(sse_t *s, const char *fmt, ...)
 	vsnprintf(s->buf + s->len, (size_t)n + 1, fmt, ap);
 	va_end(ap);
 	s->len += (size_t)n;
+	s->last_write = mono();
 }
 
 static int terminal(const char *state)
@@ -81,36 +147,20 @@ static int terminal(const char *state)
 	return state && (!strcmp(state, "succeeded") || !strcmp(state, "failed") || !strcmp(state, "cancelled"));
 }
 
-static ssize_t sse_read(void *cls, uint64_t pos, char *out, size_t max)
+/* The client closed its end (or reset it): nothing to read and EOF, or an error. */
+static int peer_gone(int fd)
 {
-	sse_t *s = cls;
-	while (s->off == s->len) {
-		s->off = s->len = 0;
-		if (s->done)
-			return MHD_CONTENT_READER_END_OF_STREAM;
-		if (!s->started) {
-			s->started = 1;
-			sse_put(s, "retry: 2000\n");
-			if (s->job) {
-				/* The current state first; later changes arrive as events
-				 * (s->after was taken before this read, so none is missed). */
-				json_t *j = NULL;
-				char err[128];
-				if (jobq_get(s->gd->q, s->job, 0, &j, err, sizeof(err)) != JOBQ_OK)
-					return MHD_CONTENT_READER_END_WITH_ERROR;
-				char *txt = json_dumps(j, JSON_COMPACT);
-				sse_put(s, "id: %" PRIu64 "\nevent: state\ndata: %s\n\n", s->after, txt ? txt : "{}");
-				if (terminal(json_string_value(json_object_get(j, "state"))))
-					s->done = 1;
-				free(txt);
-				json_decref(j);
-			} else {
-				sse_put(s, "id: %" PRIu64 "\nevent: hello\ndata: {\"last\": %" PRIu64 "}\n\n", s->after, s->after);
-			}
-			continue;
-		}
+	char b;
+	ssize_t r = recv(fd, &b, 1, MSG_PEEK | MSG_DONTWAIT);
+	return r == 0 || (r < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR);
+}
+
+/* Whatever the hub has for this stream now, without waiting. */
+static void sse_fill(sse_t *s)
+{
+	for (int k = 0; k < 64 && !s->done; k++) {
 		hub_event_t ev;
-		int r = hub_wait(s->gd->hub, &s->after, s->job, 15000, &ev);
+		int r = hub_wait(s->h->gd->hub, &s->after, s->job, 0, &ev);
 		if (r == HUB_OK) {
 			sse_put(s, "id: %" PRIu64 "\nevent: %s\ndata: %s\n\n", ev.seq, ev.type, ev.data);
 			if (s->job && !strcmp(ev.type, "state")) {
@@ -122,12 +172,50 @@ static ssize_t sse_read(void *cls, uint64_t pos, char *out, size_t max)
 				s->done = 1;
 			}
 			free(ev.data);
-		} else if (r == HUB_ETIMEOUT) {
-			sse_put(s, ": keep-alive\n\n");
 		} else if (r == HUB_EGAP) {
 			sse_put(s, "event: gap\ndata: {\"resume_after\": %" PRIu64 "}\n\n", s->after);
+		} else if (r == HUB_ECLOSED) {
+			s->done = 1;
 		} else {
+			break;
+		}
+	}
+	if (!s->len && !s->done && mono() - s->last_write >= KEEPALIVE_SECONDS)
+		sse_put(s, ": keep-alive\n\n");
+}
+
+/* Runs on the server's polling thread: never blocks. With nothing to send the
+ * connection is suspended; the pump thread resumes it on new events and once a
+ * second (to see a closed client and to send keep-alives). */
+static ssize_t sse_read(void *cls, uint64_t pos, char *out, size_t max)
+{
+	sse_t *s = cls;
+	http_t *h = s->h;
+	(void)pos;
+	if (s->off == s->len) {
+		s->off = s->len = 0;
+		if (s->done)
 			return MHD_CONTENT_READER_END_OF_STREAM;
+		if (peer_gone(s->fd))
+			return MHD_CONTENT_READER_END_WITH_ERROR;
+		sse_fill(s);
+		if (!s->len) {
+			if (s->done)
+				return MHD_CONTENT_READER_END_OF_STREAM;
+			/* Suspend first, then let the pump see it: a resume never precedes its suspend. */
+			MHD_suspend_connection(s->c);
+			pthread_mutex_lock(&h->lock);
+			int closing = h->closing;
+			if (!closing) {
+				s->suspended = 1;
+				h->suspended++;
+			}
+			pthread_mutex_unlock(&h->lock);
+			if (closing) {
+				s->done = 1;
+				MHD_resume_connection(s->c);
+			}
+			return 0;
 		}
 	}
 	size_t n = s->len - s->off < max ? s->len - s->off : max;
@@ -139,49 +227,164 @@ static ssize_t sse_read(void *cls, uint64_t pos, char *out, size_t max)
 static void sse_free(void *cls)
 {
 	sse_t *s = cls;
+	http_t *h = s->h;
+	pthread_mutex_lock(&h->lock);
+	if (s->prev)
+		s->prev->next = s->next;
+	else if (h->streams == s)
+		h->streams = s->next;
+	if (s->next)
+		s->next->prev = s->prev;
+	pthread_mutex_unlock(&h->lock);
+	atomic_fetch_sub(&h->gd->open_streams, 1);
 	free(s->buf);
 	free(s);
 }
 
-/* ---- responses ---------------------------------------------------------------- */
-
-static void common_headers(struct MHD_Response *r)
+/* On a worker: the stream's first event (the job's state, or hello), taken after
+ * the position in the hub so that no later change is missed. */
+static sse_t *sse_prepare(http_t *h, req_t *rq)
 {
-	MHD_add_response_header(r, "X-Content-Type-Options", "nosniff");
-	MHD_add_response_header(r, "Content-Security-Policy", "default-src 'self'");
-	MHD_add_response_header(r, "Referrer-Policy", "no-referrer");
+	sse_t *s = calloc(1, sizeof(*s));
+	char err[128];
+	uint64_t lei;
+	if (!s)
+		return NULL;
+	s->h = h;
+	s->c = rq->c;
+	s->fd = rq->fd;
+	s->job = rq->rs.sse_job;
+	s->after = hub_last(h->gd->hub);
+	if (!parse_u64(MHD_lookup_connection_value(rq->c, MHD_HEADER_KIND, "Last-Event-ID"), &lei) && lei <= s->after)
+		s->after = lei;
+	sse_put(s, "retry: 2000\n");
+	if (s->job) {
+		json_t *j = NULL;
+		if (jobq_get(h->gd->q, s->job, 0, &j, err, sizeof(err)) != JOBQ_OK) {
+			free(s->buf);
+			free(s);
+			return NULL;
+		}
+		char *txt = json_dumps(j, JSON_COMPACT);
+		sse_put(s, "id: %" PRIu64 "\nevent: state\ndata: %s\n\n", s->after, txt ? txt : "{}");
+		if (terminal(json_string_value(json_object_get(j, "state"))))
+			s->done = 1;
+		free(txt);
+		json_decref(j);
+	} else {
+		sse_put(s, "id: %" PRIu64 "\nevent: hello\ndata: {\"last\": %" PRIu64 "}\n\n", s->after, s->after);
+	}
+	return s;
 }
 
-static enum MHD_Result reply(http_t *h, struct MHD_Connection *c, api_resp_t *rs, const char *allow)
+/* Resume every suspended stream (new events, the one-second tick, or shutdown). */
+static void sweep(http_t *h)
 {
-	struct MHD_Response *r;
-	char *txt = NULL;
-	enum MHD_Result ret;
-	if (rs->sse) {
-		sse_t *s = calloc(1, sizeof(*s));
-		if (!s)
-			return MHD_NO;
-		s->gd = h->gd;
-		s->job = rs->sse_job;
-		s->after = hub_last(h->gd->hub);
-		const char *lei = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Last-Event-ID");
-		if (lei) {
-			char *end;
-			unsigned long long v = strtoull(lei, &end, 10);
-			if (!*end && v <= s->after)
-				s->after = v;
+	struct MHD_Connection *batch[256];
+	for (;;) {
+		int n = 0;
+		pthread_mutex_lock(&h->lock);
+		for (sse_t *s = h->streams; s && n < 256; s = s->next)
+			if (s->suspended) {
+				s->suspended = 0;
+				batch[n++] = s->c;
+			}
+		pthread_mutex_unlock(&h->lock);
+		for (int i = 0; i < n; i++)
+			MHD_resume_connection(batch[i]);
+		pthread_mutex_lock(&h->lock);
+		h->suspended -= n;
+		pthread_cond_broadcast(&h->idle);
+		pthread_mutex_unlock(&h->lock);
+		if (n < 256)
+			return;
+	}
+}
+
+static void evict_cb(void *arg, int fd)
+{
+	(void)arg;
+	shutdown(fd, SHUT_RDWR);   /* its owner sees the end and closes it */
+}
+
+/* Streams, deadlines and gauges: wakes on each new hub event and at least once a second. */
+static void *pump(void *arg)
+{
+	http_t *h = arg;
+	gd_t *gd = h->gd;
+	uint64_t seen = hub_last(gd->hub);
+	double tick = mono();
+	for (;;) {
+		pthread_mutex_lock(&h->lock);
+		int stop = h->stop_pump;
+		pthread_mutex_unlock(&h->lock);
+		if (stop)
+			return NULL;
+		uint64_t now_seq = hub_wait_newer(gd->hub, seen, 250);
+		double now = mono();
+		int closed = hub_closed(gd->hub);
+		if (now_seq != seen || now - tick >= 1.0 || closed) {
+			sweep(h);
+			seen = now_seq;
 		}
+		if (now - tick >= 1.0) {
+			tick = now;
+			conns_expire(h->conns, now - (double)gd->cfg->header_timeout, now - (double)gd->cfg->request_timeout,
+			             evict_cb, h);
+			atomic_store(&gd->open_connections, conns_count(h->conns));
+			atomic_store(&gd->evicted_connections, conns_evictions(h->conns));
+		}
+		if (closed)
+			usleep(50000);
+	}
+}
+
+/* ---- responses ---------------------------------------------------------------- */
+
+/* On every answer, the gate's included (http_start renders those with the same list). */
+static const char *const security_headers[][2] = {
+	{"X-Content-Type-Options", "nosniff"},
+	{"Content-Security-Policy", "default-src 'self'; frame-ancestors 'none'; base-uri 'none'; form-action 'self'"},
+	{"X-Frame-Options", "DENY"},
+	{"Referrer-Policy", "no-referrer"},
+	{"Cross-Origin-Resource-Policy", "same-origin"},
+};
+
+static void count_status(gd_t *gd, int status)
+{
+	int cls = status / 100;
+	if (cls >= 1 && cls <= 5)
+		atomic_fetch_add(&gd->responses_by_class[cls], 1);
+}
+
+static enum MHD_Result reply(http_t *h, struct MHD_Connection *c, req_t *rq, const char *allow)
+{
+	api_resp_t *rs = &rq->rs;
+	struct MHD_Response *r;
+	enum MHD_Result ret;
+	if (rs->sse && rq->sse) {
+		sse_t *s = rq->sse;
+		rq->sse = NULL;
 		r = MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 4096, sse_read, s, sse_free);
 		if (!r) {
-			sse_free(s);
+			free(s->buf);
+			free(s);
 			return MHD_NO;
 		}
+		pthread_mutex_lock(&h->lock);
+		s->next = h->streams;
+		if (s->next)
+			s->next->prev = s;
+		h->streams = s;
+		pthread_mutex_unlock(&h->lock);
+		atomic_fetch_add(&h->gd->open_streams, 1);
 		MHD_add_response_header(r, "Content-Type", "text/event-stream");
 		MHD_add_response_header(r, "Cache-Control", "no-cache");
 		MHD_add_response_header(r, "X-Accel-Buffering", "no");
 	} else if (rs->has_file) {
 		/* MHD sends from the descriptor (sendfile) and closes it with the response. */
 		r = MHD_create_response_from_fd_at_offset64(rs->file_len, rs->fd, rs->file_off);
+		rs->has_file = 0;
 		if (!r) {
 			close(rs->fd);
 			return MHD_NO;
@@ -197,28 +400,34 @@ static enum MHD_Result reply(http_t *h, struct MHD_Connection *c, api_resp_t *rs
 			MHD_add_response_header(r, "Content-Range", cr);
 		}
 	} else if (rs->json) {
-		txt = json_dumps(rs->json, JSON_COMPACT | JSON_PRESERVE_ORDER);
+		char *txt = json_dumps(rs->json, JSON_COMPACT | JSON_PRESERVE_ORDER);
 		size_t n = txt ? strlen(txt) : 0;
-		if (txt) {
+		if (txt)
 			txt[n] = '\n';  /* json_dumps leaves room: replace the NUL, keep length n+1 */
-		}
 		r = MHD_create_response_from_buffer(txt ? n + 1 : 0, txt, MHD_RESPMEM_MUST_FREE);
-		txt = NULL;
-		MHD_add_response_header(r, "Content-Type", "application/json");
-		MHD_add_response_header(r, "Cache-Control", "no-store");
+		if (r) {
+			MHD_add_response_header(r, "Content-Type", "application/json");
+			MHD_add_response_header(r, "Cache-Control", "no-store");
+		} else {
+			free(txt);
+		}
 	} else if (rs->owned) {
 		r = MHD_create_response_from_buffer(rs->raw_len, rs->owned, MHD_RESPMEM_MUST_FREE);
-		rs->owned = NULL;
-		MHD_add_response_header(r, "Content-Type", rs->ctype);
+		if (r)
+			rs->owned = NULL;
+		if (r)
+			MHD_add_response_header(r, "Content-Type", rs->ctype);
 	} else {
 		r = MHD_create_response_from_buffer(rs->raw_len, (void *)rs->raw, MHD_RESPMEM_PERSISTENT);
-		MHD_add_response_header(r, "Content-Type", rs->ctype ? rs->ctype : "text/plain");
+		if (r)
+			MHD_add_response_header(r, "Content-Type", rs->ctype ? rs->ctype : "text/plain");
 	}
 	json_decref(rs->json);
 	rs->json = NULL;
 	if (!r)
 		return MHD_NO;
-	common_headers(r);
+	for (size_t i = 0; i < sizeof(security_headers) / sizeof(security_headers[0]); i++)
+		MHD_add_response_header(r, security_headers[i][0], security_headers[i][1]);
 	if (rs->status == 401)
 		MHD_add_response_header(r, "WWW-Authenticate", "Bearer realm=\"granulard\"");
 	if (rs->status == 405 && allow)
@@ -235,41 +444,68 @@ static enum MHD_Result reply(http_t *h, struct MHD_Connection *c, api_resp_t *rs
 	}
 	ret = MHD_queue_response(c, (unsigned)rs->status, r);
 	MHD_destroy_response(r);
-	int cls = rs->status / 100;
-	if (cls >= 1 && cls <= 5)
-		atomic_fetch_add(&h->gd->responses_by_class[cls], 1);
-	free(txt);
+	count_status(h->gd, rs->status);
 	return ret;
+}
+
+static enum MHD_Result fail(http_t *h, struct MHD_Connection *c, req_t *rq, int status, const char *msg)
+{
+	api_error(&rq->rs, status, msg);
+	return reply(h, c, rq, NULL);
+}
+
+/* A complete response with a JSON error body, for the gate (which answers before libmicrohttpd sees a request). */
+static void render_error(char *out, size_t n, int status, const char *reason, const char *code, const char *msg)
+{
+	char body[512];
+	int bl = snprintf(body, sizeof(body), "{\"error\":{\"code\":\"%s\",\"message\":\"%s\"}}\n", code, msg);
+	int o = snprintf(out, n, "HTTP/1.1 %d %s\r\nConnection: close\r\nContent-Type: application/json\r\n"
+	                 "Cache-Control: no-store\r\nContent-Length: %d\r\n", status, reason, bl);
+	for (size_t i = 0; i < sizeof(security_headers) / sizeof(security_headers[0]); i++)
+		o += snprintf(out + o, n - (size_t)o, "%s: %s\r\n", security_headers[i][0], security_headers[i][1]);
+	snprintf(out + o, n - (size_t)o, "\r\n%s", body);
 }
 
 /* ---- checks -------------------------------------------------------------------- */
 
-static int authorised(http_t *h, struct MHD_Connection *c)
+typedef struct {
+	guard_req_t g;
+	const char *seen[8];
+	int nseen;
+	size_t bytes;
+} heads_t;
+
+static enum MHD_Result collect(void *cls, enum MHD_ValueKind kind, const char *key, const char *value)
 {
-	const char *a = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Authorization");
-	if (!a || strncasecmp(a, "Bearer ", 7))
-		return 0;
-	a += 7;
-	while (*a == ' ')
-		a++;
-	return util_ct_equal(a, h->gd->token);
+	heads_t *hs = cls;
+	(void)kind;
+	hs->bytes += strlen(key) + (value ? strlen(value) : 0) + 4;
+	if (!strcasecmp(key, "Forwarded") || !strcasecmp(key, "X-Forwarded-For") || !strcasecmp(key, "X-Real-IP"))
+		hs->g.forwarded = 1;
+	if (!guard_single_header(key))
+		return MHD_YES;
+	for (int i = 0; i < hs->nseen; i++)
+		if (!strcasecmp(hs->seen[i], key)) {
+			if (!hs->g.duplicate)
+				hs->g.duplicate = hs->seen[i];
+			return MHD_YES;
+		}
+	if (hs->nseen < 8)
+		hs->seen[hs->nseen++] = key;
+	if (!strcasecmp(key, "Host"))
+		hs->g.host = value;
+	else if (!strcasecmp(key, "Origin"))
+		hs->g.origin = value;
+	else if (!strcasecmp(key, "Authorization"))
+		hs->g.authorization = value;
+	return MHD_YES;
 }
 
-static int host_ok(http_t *h, const char *host)
+static enum MHD_Result count_args(void *cls, enum MHD_ValueKind kind, const char *key, const char *value)
 {
-	if (!host)
-		return 0;
-	for (int i = 0; i < h->nhosts; i++)
-		if (!strcasecmp(host, h->hosts[i]))
-			return 1;
-	return 0;
-}
-
-/* Origin "scheme://host[:port]" must name an accepted host. */
-static int origin_ok(http_t *h, const char *origin)
-{
-	const char *p = strstr(origin, "://");
-	return p && host_ok(h, p + 3);
+	(void)kind;
+	*(size_t *)cls += strlen(key) + (value ? strlen(value) : 0) + 2;
+	return MHD_YES;
 }
 
 static int is_json(const char *ct)
@@ -282,7 +518,112 @@ static int is_json(const char *ct)
 	return n == 16 && !strncasecmp(ct, "application/json", 16);
 }
 
+/* ---- workers -------------------------------------------------------------------- */
+
+static void handle(http_t *h, req_t *rq)
+{
+	gd_t *gd = h->gd;
+	pthread_mutex_lock(&h->lock);
+	int closing = h->closing;
+	pthread_mutex_unlock(&h->lock);
+	if (closing) {
+		api_error(&rq->rs, 503, "the daemon is shutting down");
+		rq->rs.retry_after = 5;
+		return;
+	}
+	rq->rt->fn(gd, &rq->ar, &rq->rs);
+	if (!rq->rs.status)
+		api_error(&rq->rs, 500, "handler gave no answer");
+	if (rq->rs.sse && rq->rs.status == 200) {
+		rq->sse = sse_prepare(h, rq);
+		if (!rq->sse) {
+			rq->rs.sse = 0;
+			api_error(&rq->rs, 503, "cannot start the event stream");
+		}
+	}
+}
+
+static void *worker(void *arg)
+{
+	http_t *h = arg;
+	pthread_mutex_lock(&h->lock);
+	for (;;) {
+		while (!h->qhead && !h->stop_workers)
+			pthread_cond_wait(&h->wake, &h->lock);
+		req_t *rq = h->qhead;
+		if (!rq)
+			break;
+		h->qhead = rq->next;
+		if (!h->qhead)
+			h->qtail = NULL;
+		pthread_mutex_unlock(&h->lock);
+		handle(h, rq);
+		rq->state = RQ_DONE;
+		MHD_resume_connection(rq->c);   /* libmicrohttpd calls on_request again, which sends rq->rs */
+		pthread_mutex_lock(&h->lock);
+		h->suspended--;
+		pthread_cond_broadcast(&h->idle);
+	}
+	pthread_mutex_unlock(&h->lock);
+	return NULL;
+}
+
 /* ---- request handling ---------------------------------------------------------- */
+
+/* First call for a request (its head is complete): limits and admission. Answers
+ * at once when the request is refused; returns MHD_YES with rq->rs.status == 0 otherwise. */
+static enum MHD_Result admit(http_t *h, struct MHD_Connection *c, req_t *rq, const char *url, const char *method)
+{
+	gd_t *gd = h->gd;
+	char allow[128], msg[256];
+	heads_t hs = {0};
+	size_t line = strlen(method) + strlen(url) + 12;
+	MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, count_args, &line);
+	MHD_get_connection_values(c, MHD_HEADER_KIND, collect, &hs);
+	/* The gate checked the first request of a connection; these are the later ones. */
+	if (line > LINE_MAX_BYTES) {
+		snprintf(msg, sizeof(msg), "request line longer than %d bytes", LINE_MAX_BYTES);
+		return fail(h, c, rq, 414, msg);
+	}
+	if (line + hs.bytes > HEAD_MAX_BYTES) {
+		snprintf(msg, sizeof(msg), "request head longer than %d bytes", HEAD_MAX_BYTES);
+		return fail(h, c, rq, 431, msg);
+	}
+	const union MHD_ConnectionInfo *ci = MHD_get_connection_info(c, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
+	hs.g.peer_loopback = ci && guard_addr_loopback(ci->client_addr);
+	int known = 0;
+	rq->ar = (api_req_t){.method = method, .path = url, .query = query_get, .header = header_get, .conn = c};
+	rq->rt = api_match(method, url, &rq->ar, rq->store, &known, allow, sizeof(allow));
+	guard_route_t kind = !rq->rt || (rq->rt->flags & API_OPEN) ? GUARD_ROUTE_OPEN
+	                     : rq->rt->flags & API_MUTATES         ? GUARD_ROUTE_MUTATES
+	                                                           : GUARD_ROUTE_READ;
+	int st = guard_check(h->guard, &hs.g, kind, msg, sizeof(msg));
+	if (st)
+		return fail(h, c, rq, st, msg);
+	if (!rq->rt) {
+		if (known) {
+			snprintf(msg, sizeof(msg), "method %s not allowed on %.100s (allowed: %s)", method, url, allow);
+			api_error(&rq->rs, 405, msg);
+		} else {
+			snprintf(msg, sizeof(msg), "no such resource: %.200s", url);
+			api_error(&rq->rs, 404, msg);
+		}
+		return reply(h, c, rq, allow);
+	}
+	/* Refuse an announced oversized body before reading any of it. */
+	const char *cl = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Content-Length");
+	if (cl && strtoull(cl, NULL, 10) > (unsigned long long)gd->cfg->max_body) {
+		rq->too_large = 1;
+		snprintf(msg, sizeof(msg), "request body of %.20s bytes exceeds the limit of %ld", cl, gd->cfg->max_body);
+		return fail(h, c, rq, 413, msg);
+	}
+	if ((rq->rt->flags & API_MUTATES) && atomic_load(&gd->stopping)) {
+		api_error(&rq->rs, 503, "the daemon is shutting down");
+		rq->rs.retry_after = 5;
+		return reply(h, c, rq, NULL);
+	}
+	return MHD_YES;
+}
 
 static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const char *url, const char *method,
                                   const char *version, const char *upload, size_t *upload_size, void **con_cls)
@@ -290,25 +631,23 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
 	http_t *h = cls;
 	gd_t *gd = h->gd;
 	req_t *rq = *con_cls;
-	api_resp_t rs = {0};
-	char allow[128], store[4][128], msg[256];
+	(void)version;
 
 	if (!rq) {
 		rq = calloc(1, sizeof(*rq));
 		if (!rq)
 			return MHD_NO;
 		*con_cls = rq;
+		rq->c = c;
+		rq->fd = conn_fd(c);
 		atomic_fetch_add(&gd->requests, 1);
-		/* Refuse an announced oversized body before reading any of it. */
 		const char *cl = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Content-Length");
-		if (cl && strtoull(cl, NULL, 10) > (unsigned long long)gd->cfg->max_body) {
-			rq->too_large = 1;
-			snprintf(msg, sizeof(msg), "request body of %s bytes exceeds the limit of %ld", cl, gd->cfg->max_body);
-			api_error(&rs, 413, msg);
-			return reply(h, c, &rs, NULL);
-		}
-		return MHD_YES;
+		int body = (cl && strcmp(cl, "0")) || MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Transfer-Encoding");
+		conns_set_phase(h->conns, rq->fd, body ? CONN_BODY : CONN_BUSY, mono());
+		return admit(h, c, rq, url, method);
 	}
+	if (rq->rs.status && rq->state == RQ_NEW)
+		return MHD_YES;   /* answered by admit(); libmicrohttpd discards the rest of the body */
 	if (*upload_size) {
 		size_t n = *upload_size;
 		*upload_size = 0;
@@ -330,75 +669,99 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
 		rq->len += n;
 		return MHD_YES;
 	}
-
-	api_req_t ar = {.method = method, .path = url, .body = rq->body ? rq->body : "", .body_len = rq->len,
-	                .query = query_get, .header = header_get, .conn = c};
-	int known = 0;
-	const api_route_t *rt = api_match(method, url, &ar, store, &known, allow, sizeof(allow));
-	if (!rt) {
-		if (known) {
-			snprintf(msg, sizeof(msg), "method %s not allowed on %s (allowed: %s)", method, url, allow);
-			api_error(&rs, 405, msg);
-		} else {
-			snprintf(msg, sizeof(msg), "no such resource: %.200s", url);
-			api_error(&rs, 404, msg);
-		}
-		return reply(h, c, &rs, allow);
-	}
-	int mut = (rt->flags & API_MUTATES) != 0;
-	if ((mut || (h->read_needs_token && !(rt->flags & API_OPEN))) && !authorised(h, c)) {
-		api_error(&rs, 401, MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Authorization")
-		                        ? "wrong token" : "missing Authorization: Bearer <token> (see STATE_DIR/token)");
-		return reply(h, c, &rs, NULL);
-	}
-	if (mut) {
-		const char *host = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Host");
-		const char *origin = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Origin");
-		if (!host_ok(h, host)) {
-			snprintf(msg, sizeof(msg), "Host '%.100s' is not served here (allowed_hosts)", host ? host : "");
-			api_error(&rs, 403, msg);
-			return reply(h, c, &rs, NULL);
-		}
-		if (origin && !origin_ok(h, origin)) {
-			snprintf(msg, sizeof(msg), "cross-origin request from '%.100s' refused", origin);
-			api_error(&rs, 403, msg);
-			return reply(h, c, &rs, NULL);
-		}
-		if (atomic_load(&gd->stopping)) {
-			api_error(&rs, 503, "the daemon is shutting down");
-			rs.retry_after = 5;
-			return reply(h, c, &rs, NULL);
-		}
-	}
+	if (rq->state == RQ_DONE)
+		return reply(h, c, rq, NULL);
+	if (rq->state == RQ_QUEUED)
+		return MHD_YES;
+	conns_set_phase(h->conns, rq->fd, CONN_BUSY, mono());
+	char msg[256];
 	if (rq->too_large) {
 		snprintf(msg, sizeof(msg), "request body exceeds the limit of %ld bytes", gd->cfg->max_body);
-		api_error(&rs, 413, msg);
-		return reply(h, c, &rs, NULL);
+		return fail(h, c, rq, 413, msg);
 	}
-	if (rq->len && !is_json(MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Content-Type"))) {
-		api_error(&rs, 415, "request body must be Content-Type: application/json");
-		return reply(h, c, &rs, NULL);
+	if (rq->len && !is_json(MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Content-Type")))
+		return fail(h, c, rq, 415, "request body must be Content-Type: application/json");
+	if (!strcmp(method, "POST") && !strcmp(rq->rt->pattern, "/api/v1/jobs") && !rq->len)
+		return fail(h, c, rq, 400, "body: empty; send a scene (application/json)");
+	rq->ar.body = rq->body ? rq->body : "";
+	rq->ar.body_len = rq->len;
+	if (rq->rt->flags & API_INLINE) {
+		rq->rt->fn(gd, &rq->ar, &rq->rs);
+		return reply(h, c, rq, NULL);
 	}
-	if (!strcmp(method, "POST") && !strcmp(rt->pattern, "/api/v1/jobs") && !rq->len) {
-		api_error(&rs, 400, "body: empty; send a scene (application/json)");
-		return reply(h, c, &rs, NULL);
+	/* Everything else may block (database, files): a worker runs it while the
+	 * connection is suspended, so a slow handler holds no polling thread. */
+	MHD_suspend_connection(c);
+	pthread_mutex_lock(&h->lock);
+	if (h->closing) {
+		pthread_mutex_unlock(&h->lock);
+		api_error(&rq->rs, 503, "the daemon is shutting down");
+		rq->rs.retry_after = 5;
+		rq->state = RQ_DONE;
+		MHD_resume_connection(c);
+		return MHD_YES;
 	}
-	rt->fn(gd, &ar, &rs);
-	if (!rs.status)
-		api_error(&rs, 500, "handler gave no answer");
-	return reply(h, c, &rs, NULL);
+	rq->state = RQ_QUEUED;
+	rq->next = NULL;
+	if (h->qtail)
+		h->qtail->next = rq;
+	else
+		h->qhead = rq;
+	h->qtail = rq;
+	h->suspended++;
+	pthread_cond_signal(&h->wake);
+	pthread_mutex_unlock(&h->lock);
+	return MHD_YES;
 }
 
 static void on_completed(void *cls, struct MHD_Connection *c, void **con_cls, enum MHD_RequestTerminationCode t)
 {
+	http_t *h = cls;
 	req_t *rq = *con_cls;
+	(void)t;
 	if (rq) {
+		conns_set_phase(h->conns, rq->fd, CONN_HEAD, mono());   /* kept alive: waiting for the next head */
+		if (rq->rs.has_file)
+			close(rq->rs.fd);
+		json_decref(rq->rs.json);
+		free(rq->rs.owned);
+		if (rq->sse) {
+			free(rq->sse->buf);
+			free(rq->sse);
+		}
 		free(rq->body);
 		free(rq);
 	}
 	*con_cls = NULL;
 }
 
+static void on_connection(void *cls, struct MHD_Connection *c, void **socket_context,
+                          enum MHD_ConnectionNotificationCode code)
+{
+	http_t *h = cls;
+	if (code == MHD_CONNECTION_NOTIFY_STARTED) {
+		*socket_context = (void *)(intptr_t)(conn_fd(c) + 1);
+	} else if (*socket_context) {
+		/* Called before libmicrohttpd closes the descriptor: it cannot be reused yet. */
+		conns_remove(h->conns, (int)(intptr_t)*socket_context - 1);
+		*socket_context = NULL;
+	}
+}
+
+static int handoff(void *arg, int fd, const struct sockaddr *sa, socklen_t salen)
+{
+	http_t *h = arg;
+	return MHD_add_connection(h->d, fd, sa, salen) == MHD_YES ? 0 : -1;
+}
+
+static void gate_count(void *arg, int status)
+{
+	http_t *h = arg;
+	if (status)
+		count_status(h->gd, status);
+	else
+		atomic_fetch_add(&h->gd->refused_connections, 1);
+}
 /* Percent-decoding that leaves %00 and %2F encoded: a NUL would cut a name
  * short ("a.h5%00x" would serve a.h5) and a slash would invent path segments. */
 static size_t unescape(void *cls, struct MHD_Connection *c, char *s)
@@ -423,6 +786,7 @@ static size_t unescape(void *cls, struct MHD_Connection *c, char *s)
 static void mhd_log(void *cls, const char *fmt, va_list ap)
 {
 	char buf[512];
+	(void)cls;
 	vsnprintf(buf, sizeof(buf), fmt, ap);
 	buf[strcspn(buf, "\n")] = '\0';
 	log_debug("http: %s", buf);
@@ -485,61 +849,159 @@ static int bind_listen(const char *spec, int *port, char *host, size_t hostlen, 
 	return fd;
 }
 
-static int loopback(const char *host)
+/* As many descriptors as the hard limit allows: each connection holds one. */
+static int raise_nofile(void)
 {
-	return !strncmp(host, "127.", 4) || !strcmp(host, "::1") || !strcmp(host, "localhost");
+	struct rlimit rl;
+	if (getrlimit(RLIMIT_NOFILE, &rl))
+		return 1024;
+	if (rl.rlim_cur < rl.rlim_max) {
+		rlim_t want = rl.rlim_max == RLIM_INFINITY || rl.rlim_max > 1048576 ? 1048576 : rl.rlim_max;
+		if (want > rl.rlim_cur) {
+			struct rlimit n = {.rlim_cur = want, .rlim_max = rl.rlim_max};
+			if (!setrlimit(RLIMIT_NOFILE, &n))
+				rl.rlim_cur = want;
+		}
+	}
+	return rl.rlim_cur == RLIM_INFINITY || rl.rlim_cur > 1048576 ? 1048576 : (int)rl.rlim_cur;
+}
+
+static unsigned poll_threads(void)
+{
+	long n = sysconf(_SC_NPROCESSORS_ONLN);
+	return n < 2 ? 1u : n > 4 ? 4u : (unsigned)n;
 }
 
 http_t *http_start(gd_t *gd, int *port, char *err, size_t errlen)
 {
+	const cfg_t *cfg = gd->cfg;
 	http_t *h = calloc(1, sizeof(*h));
-	char host[256];
+	char host[256], msg[200];
+	int lfd = -1;
 	if (!h) {
 		snprintf(err, errlen, "out of memory");
 		return NULL;
 	}
 	h->gd = gd;
-	h->fd = bind_listen(gd->cfg->listen, port, host, sizeof(host), err, errlen);
-	if (h->fd < 0) {
-		free(h);
-		return NULL;
+	pthread_mutex_init(&h->lock, NULL);
+	pthread_cond_init(&h->wake, NULL);
+	pthread_cond_init(&h->idle, NULL);
+	lfd = bind_listen(cfg->listen, port, host, sizeof(host), err, errlen);
+	if (lfd < 0)
+		goto fail;
+	const char *ra = cfg->read_auth;
+	h->guard = guard_create(host, *port, cfg->allowed_hosts,
+	                        !strcmp(ra, "open") ? GUARD_READ_OPEN : !strcmp(ra, "token") ? GUARD_READ_TOKEN : GUARD_READ_AUTO,
+	                        gd->token, err, errlen);
+	if (!h->guard)
+		goto fail;
+	h->fd_cap = raise_nofile();
+	int max = (int)cfg->max_connections;
+	if (max > h->fd_cap - FD_RESERVE) {
+		max = h->fd_cap - FD_RESERVE > 16 ? h->fd_cap - FD_RESERVE : 16;
+		log_warning("max_connections %ld lowered to %d: the descriptor limit (RLIMIT_NOFILE) is %d", cfg->max_connections,
+		            max, h->fd_cap);
 	}
-	const char *ra = gd->cfg->read_auth;
-	h->read_needs_token = !strcmp(ra, "token") || (!strcmp(ra, "auto") && !loopback(host));
-	const char *local[] = {"127.0.0.1", "localhost", "[::1]", NULL};
-	for (int i = 0; local[i] && h->nhosts < MAX_HOSTS; i++)
-		snprintf(h->hosts[h->nhosts++], 256, "%s:%d", local[i], *port);
-	snprintf(h->hosts[h->nhosts++], 256, strchr(host, ':') ? "[%s]:%d" : "%s:%d", host, *port);
-	char extra[1024];
-	snprintf(extra, sizeof(extra), "%s", gd->cfg->allowed_hosts);
-	for (char *sp = NULL, *t = strtok_r(extra, ", ", &sp); t && h->nhosts < MAX_HOSTS; t = strtok_r(NULL, ", ", &sp))
-		snprintf(h->hosts[h->nhosts++], 256, "%s", t);
+	h->conns = conns_create(max, (int)cfg->per_ip_connections, h->fd_cap);
+	if (!h->conns) {
+		snprintf(err, errlen, "out of memory");
+		goto fail;
+	}
+	snprintf(msg, sizeof(msg), "request head not complete within %ld s (header_timeout)", cfg->header_timeout);
+	render_error(h->resp408, sizeof(h->resp408), 408, "Request Timeout", "request_timeout", msg);
+	snprintf(msg, sizeof(msg), "request line longer than %d bytes", LINE_MAX_BYTES);
+	render_error(h->resp414, sizeof(h->resp414), 414, "URI Too Long", "uri_too_long", msg);
+	snprintf(msg, sizeof(msg), "request head longer than %d bytes", HEAD_MAX_BYTES);
+	render_error(h->resp431, sizeof(h->resp431), 431, "Request Header Fields Too Large", "header_fields_too_large", msg);
 
-	h->d = MHD_start_daemon(
-		MHD_USE_THREAD_PER_CONNECTION | MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_POLL | MHD_USE_ERROR_LOG, 0,
-		NULL, NULL, on_request, h,
-		MHD_OPTION_LISTEN_SOCKET, h->fd,
-		MHD_OPTION_CONNECTION_LIMIT, (unsigned)gd->cfg->max_connections,
-		MHD_OPTION_PER_IP_CONNECTION_LIMIT, (unsigned)gd->cfg->per_ip_connections,
-		MHD_OPTION_CONNECTION_TIMEOUT, (unsigned)gd->cfg->request_timeout,
-		MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)65536,
-		MHD_OPTION_NOTIFY_COMPLETED, on_completed, h,
-		MHD_OPTION_EXTERNAL_LOGGER, mhd_log, h,
-		MHD_OPTION_UNESCAPE_CALLBACK, unescape, h,
-		MHD_OPTION_END);
+	/* Polling threads only parse and move bytes (epoll; idle connections and event
+	 * streams hold no thread); handlers run on the workers. */
+	h->d = MHD_start_daemon(MHD_USE_INTERNAL_POLLING_THREAD | MHD_USE_EPOLL | MHD_ALLOW_SUSPEND_RESUME |
+	                            MHD_USE_NO_LISTEN_SOCKET | MHD_USE_ERROR_LOG,
+	                        0, NULL, NULL, on_request, h,
+	                        MHD_OPTION_THREAD_POOL_SIZE, poll_threads(),
+	                        MHD_OPTION_CONNECTION_LIMIT, (unsigned)(max + FD_RESERVE),
+	                        MHD_OPTION_CONNECTION_TIMEOUT, (unsigned)cfg->request_timeout,
+	                        MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)POOL_BYTES,
+	                        MHD_OPTION_NOTIFY_COMPLETED, on_completed, h,
+	                        MHD_OPTION_NOTIFY_CONNECTION, on_connection, h,
+	                        MHD_OPTION_EXTERNAL_LOGGER, mhd_log, h,
+	                        MHD_OPTION_UNESCAPE_CALLBACK, unescape, h,
+	                        MHD_OPTION_END);
 	if (!h->d) {
-		snprintf(err, errlen, "cannot start the HTTP server on %s", gd->cfg->listen);
-		close(h->fd);
-		free(h);
-		return NULL;
+		snprintf(err, errlen, "cannot start the HTTP server on %s", cfg->listen);
+		goto fail;
 	}
+	h->nworkers = (int)cfg->http_workers;
+	h->workers = calloc((size_t)h->nworkers, sizeof(*h->workers));
+	if (!h->workers) {
+		snprintf(err, errlen, "out of memory");
+		goto fail;
+	}
+	for (int i = 0; i < h->nworkers; i++)
+		if (pthread_create(&h->workers[i], NULL, worker, h)) {
+			h->nworkers = i;
+			snprintf(err, errlen, "cannot start HTTP worker threads: %s", strerror(errno));
+			goto fail;
+		}
+	if (pthread_create(&h->pump, NULL, pump, h)) {
+		snprintf(err, errlen, "cannot start the event stream thread");
+		goto fail;
+	}
+	h->pump_started = 1;
+	gate_conf_t gc = {.listen_fd = lfd, .conns = h->conns, .fd_cap = h->fd_cap,
+	                  .head_timeout = (double)cfg->header_timeout, .line_max = LINE_MAX_BYTES,
+	                  .head_max = HEAD_MAX_BYTES, .resp_408 = h->resp408, .resp_414 = h->resp414,
+	                  .resp_431 = h->resp431, .handoff = handoff, .count = gate_count, .arg = h};
+	lfd = -1;   /* the gate owns it from here, also on failure */
+	h->gate = gate_start(&gc, err, errlen);
+	if (!h->gate)
+		goto fail;
 	return h;
+fail:
+	if (lfd >= 0)
+		close(lfd);
+	http_stop(h);
+	return NULL;
 }
 
 void http_stop(http_t *h)
 {
 	if (!h)
 		return;
-	MHD_stop_daemon(h->d);   /* closes the listening socket it was given */
+	/* No new connections; then no new work: queued requests get 503, streams end. */
+	gate_stop(h->gate);
+	pthread_mutex_lock(&h->lock);
+	h->closing = 1;
+	pthread_mutex_unlock(&h->lock);
+	if (h->pump_started)
+		sweep(h);
+	/* libmicrohttpd must not be stopped with suspended connections. */
+	pthread_mutex_lock(&h->lock);
+	while (h->suspended > 0) {
+		struct timespec dl;
+		clock_gettime(CLOCK_REALTIME, &dl);
+		dl.tv_sec += 1;
+		pthread_cond_timedwait(&h->idle, &h->lock, &dl);
+		pthread_mutex_unlock(&h->lock);
+		sweep(h);
+		pthread_mutex_lock(&h->lock);
+	}
+	h->stop_workers = 1;
+	h->stop_pump = 1;
+	pthread_cond_broadcast(&h->wake);
+	pthread_mutex_unlock(&h->lock);
+	if (h->d)
+		MHD_stop_daemon(h->d);
+	for (int i = 0; i < h->nworkers; i++)
+		pthread_join(h->workers[i], NULL);
+	if (h->pump_started)
+		pthread_join(h->pump, NULL);
+	free(h->workers);
+	conns_destroy(h->conns);
+	guard_destroy(h->guard);
+	pthread_mutex_destroy(&h->lock);
+	pthread_cond_destroy(&h->wake);
+	pthread_cond_destroy(&h->idle);
 	free(h);
 }

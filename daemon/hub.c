@@ -83,10 +83,9 @@ uint64_t hub_last(hub_t *h)
 	return s;
 }
 
-int hub_wait(hub_t *h, uint64_t *after, int64_t job, int timeout_ms, hub_event_t *ev)
+static struct timespec deadline(int timeout_ms)
 {
 	struct timespec dl;
-	int ret = HUB_ETIMEOUT;
 	clock_gettime(CLOCK_MONOTONIC, &dl);
 	dl.tv_sec += timeout_ms / 1000;
 	dl.tv_nsec += (long)(timeout_ms % 1000) * 1000000L;
@@ -94,6 +93,33 @@ int hub_wait(hub_t *h, uint64_t *after, int64_t job, int timeout_ms, hub_event_t
 		dl.tv_sec++;
 		dl.tv_nsec -= 1000000000L;
 	}
+	return dl;
+}
+
+uint64_t hub_wait_newer(hub_t *h, uint64_t seen, int timeout_ms)
+{
+	struct timespec dl = deadline(timeout_ms);
+	pthread_mutex_lock(&h->lock);
+	while (!h->closed && h->last <= seen)
+		if (pthread_cond_timedwait(&h->cond, &h->lock, &dl) == ETIMEDOUT)
+			break;
+	uint64_t s = h->last;
+	pthread_mutex_unlock(&h->lock);
+	return s;
+}
+
+int hub_closed(hub_t *h)
+{
+	pthread_mutex_lock(&h->lock);
+	int c = h->closed;
+	pthread_mutex_unlock(&h->lock);
+	return c;
+}
+
+int hub_wait(hub_t *h, uint64_t *after, int64_t job, int timeout_ms, hub_event_t *ev)
+{
+	struct timespec dl = deadline(timeout_ms);
+	int ret = HUB_ETIMEOUT;
 	pthread_mutex_lock(&h->lock);
 	for (;;) {
 		if (h->closed) {
@@ -116,7 +142,7 @@ int hub_wait(hub_t *h, uint64_t *after, int64_t job, int timeout_ms, hub_event_t
 				goto out;
 			}
 		}
-		if (pthread_cond_timedwait(&h->cond, &h->lock, &dl) == ETIMEDOUT)
+		if (timeout_ms <= 0 || pthread_cond_timedwait(&h->cond, &h->lock, &dl) == ETIMEDOUT)
 			break;
 	}
 out:

@@ -36,7 +36,14 @@ uint64_t hub_publish(hub_t *h, int64_t job, const char *type, const char *data);
 /* Sequence number of the newest event (0 if none). */
 uint64_t hub_last(hub_t *h);
 
-/* Wait up to timeout_ms for the first event with seq > *after that matches
+/* Wait up to timeout_ms until an event newer than seen exists or the hub is
+ * closed; returns the newest sequence number (== seen after a timeout). */
+uint64_t hub_wait_newer(hub_t *h, uint64_t seen, int timeout_ms);
+
+/* The hub was closed. */
+int hub_closed(hub_t *h);
+
+/* Wait up to timeout_ms (0: do not wait) for the first event with seq > *after that matches
  * job (0 = any job). On HUB_OK fills *ev and sets *after = ev->seq; on
  * HUB_EGAP moves *after to just before the oldest kept event. */
 int hub_wait(hub_t *h, uint64_t *after, int64_t job, int timeout_ms, hub_event_t *ev);

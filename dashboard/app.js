@@ -9,11 +9,13 @@
   let series = null;               // {job, after, t, T, rate, cl, until}
   let plots = [];
 
-  // ---- HTTP: reads are open on loopback; changes carry the token as a header, never in the URL ----
-  async function api(method, path, body) {
-    const headers = {};
+  // ---- HTTP: every request carries the saved token as a header, never in the URL (reads may need it: read_auth) ----
+  function authHeaders() {
     const token = localStorage.getItem(TOKEN_KEY);
-    if (method !== 'GET' && token) headers.Authorization = 'Bearer ' + token;
+    return token ? { Authorization: 'Bearer ' + token } : {};
+  }
+  async function api(method, path, body) {
+    const headers = authHeaders();
     if (body !== undefined) headers['Content-Type'] = 'application/json';
     const r = await fetch(path, { method, headers, body: body === undefined ? undefined : JSON.stringify(body) });
     const j = await r.json().catch(() => null);
@@ -244,12 +246,30 @@
     $('job-attempts').hidden = !list.length;
     $('job-attempts-none').hidden = list.length > 0;
   }
+  // A plain link, but with a saved token the download goes through fetch() with the header (read_auth token):
+  // a link cannot send it, and the token never goes into a URL.
+  function fileLink(href, name) {
+    const a = el('a', { href, download: name }, name);
+    a.addEventListener('click', async (ev) => {
+      if (!localStorage.getItem(TOKEN_KEY)) return;
+      ev.preventDefault();
+      try {
+        const r = await fetch(href, { headers: authHeaders() });
+        if (!r.ok) throw new Error('HTTP ' + r.status);
+        const url = URL.createObjectURL(await r.blob());
+        const t = el('a', { href: url, download: name });
+        document.body.append(t); t.click(); t.remove();
+        setTimeout(() => URL.revokeObjectURL(url), 10000);
+      } catch (e) { setError('job-msg', 'files', name + ': ' + e.message); }
+    });
+    return a;
+  }
   async function loadFiles(id) {
     try {
       const r = await api('GET', '/api/v1/jobs/' + id + '/files');
       if (view.job !== id) return;
       $('job-files').tBodies[0].replaceChildren(...r.files.map((f) => el('tr', { 'data-name': f.name },
-        el('td', {}, el('a', { href: '/api/v1/jobs/' + id + '/files/' + encodeURIComponent(f.name), download: f.name }, f.name)),
+        el('td', {}, fileLink('/api/v1/jobs/' + id + '/files/' + encodeURIComponent(f.name), f.name)),
         el('td', {}, bytes(f.size)), el('td', {}, age(f.modified) + ' ago'),
         el('td', { class: 'sha', title: f.sha256 || '' }, (f.sha256 || '-').slice(0, 16)))));
       $('job-files').hidden = !r.files.length;
@@ -360,30 +380,74 @@
   }
 
   // ---- the one event stream ----
-  function connect() {
-    const es = new EventSource('/api/v1/events');
-    const live = $('live');
-    es.addEventListener('hello', () => { live.className = 'badge live'; live.textContent = 'live'; loadJobs(); loadCluster(); if (view.job) fetchSeries(); });
-    es.addEventListener('state', (ev) => {
-      const j = JSON.parse(ev.data);
+  // fetch() rather than EventSource: EventSource cannot send the Authorization header, and with
+  // read_auth token the stream needs it. Reconnects itself, resuming with Last-Event-ID.
+  const handlers = {
+    hello: () => { loadJobs(); loadCluster(); if (view.job) fetchSeries(); },
+    state: (data) => {
+      const j = JSON.parse(data);
       jobs.set(j.id, Object.assign(jobs.get(j.id) || {}, j));
       renderJobs(); loadCluster();
       if (view.job === j.id) { renderJob(jobs.get(j.id)); fetchSeries(); loadJob(j.id); }
-    });
+    },
     // Progress lines do not name their job: refresh what is on screen, throttled.
-    es.addEventListener('progress', () => { refreshActive(); if (view.job) fetchSeries(); });
-    es.addEventListener('deleted', () => loadJobs());
-    es.addEventListener('gap', () => loadJobs());
-    es.onerror = () => { live.className = 'badge down'; live.textContent = 'reconnecting'; };
+    progress: () => { refreshActive(); if (view.job) fetchSeries(); },
+    deleted: () => loadJobs(),
+    gap: () => loadJobs(),
+  };
+  let stream = null, lastEventId = '', retryMs = 2000;
+  function liveBadge(cls, text) { const live = $('live'); live.className = 'badge ' + cls; live.textContent = text; }
+  function dispatch(block) {
+    let type = 'message', data = [], id = null;
+    for (const line of block.split('\n')) {
+      if (!line || line[0] === ':') continue;
+      const k = line.indexOf(':');
+      const f = k < 0 ? line : line.slice(0, k);
+      const v = k < 0 ? '' : line.slice(k + 1).replace(/^ /, '');
+      if (f === 'event') type = v;
+      else if (f === 'data') data.push(v);
+      else if (f === 'id') id = v;
+      else if (f === 'retry' && /^\d+$/.test(v)) retryMs = Number(v);
+    }
+    if (id !== null) lastEventId = id;
+    if (type === 'hello') liveBadge('live', 'live');
+    if (handlers[type] && (data.length || type === 'hello')) handlers[type](data.join('\n'));
+  }
+  async function connect() {
+    const ctl = new AbortController();
+    if (stream) stream.abort();
+    stream = ctl;
+    const headers = Object.assign({ Accept: 'text/event-stream' }, authHeaders());
+    if (lastEventId) headers['Last-Event-ID'] = lastEventId;
+    try {
+      const r = await fetch('/api/v1/events', { headers, signal: ctl.signal, cache: 'no-store' });
+      if (r.status === 401) { liveBadge('down', 'token needed'); return; }   // the token form reconnects
+      if (!r.ok || !r.body) throw new Error('HTTP ' + r.status);
+      const reader = r.body.getReader(), dec = new TextDecoder();
+      let buf = '';
+      for (;;) {
+        const { value, done } = await reader.read();
+        if (done) break;
+        buf += dec.decode(value, { stream: true }).replace(/\r\n?/g, '\n');
+        let e;
+        while ((e = buf.indexOf('\n\n')) >= 0) { dispatch(buf.slice(0, e)); buf = buf.slice(e + 2); }
+      }
+    } catch (err) {
+      if (ctl.signal.aborted) return;
+    }
+    if (stream !== ctl) return;
+    liveBadge('down', 'reconnecting');
+    setTimeout(() => { if (stream === ctl) connect(); }, retryMs);
   }
 
   // ---- token: entered once, kept in localStorage ----
-  function showToken() { $('token-state').textContent = localStorage.getItem(TOKEN_KEY) ? 'saved' : 'none (needed to submit/cancel)'; }
+  function showToken() { $('token-state').textContent = localStorage.getItem(TOKEN_KEY) ? 'saved' : 'none (needed to submit/cancel, and to read where the daemon asks)'; }
   $('token-form').addEventListener('submit', (ev) => {
     ev.preventDefault();
     const v = $('token').value.trim();
     if (v) localStorage.setItem(TOKEN_KEY, v); else localStorage.removeItem(TOKEN_KEY);
     $('token').value = ''; showToken();
+    lastEventId = ''; loadPresets(); loadJobs(); loadCluster(); connect();
   });
 
   $('preset').addEventListener('change', showPreset);

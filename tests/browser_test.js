@@ -1,10 +1,11 @@
 // Dashboard in a real browser: headless Chromium (playwright-core) against a live granulard; submits a preset,
 // follows the job to the end, checks the plots received data, saves a screenshot; asks for advice on the preset
 // (the candidates table) and shows an auto job's advice panel; the job page's files and attempts, "no data" on
-// an empty plot, nothing stale kept (advice, errors, another job's page), and a confirmation before cancelling.
+// an empty plot, nothing stale kept (advice, errors, another job's page), and a confirmation before cancelling. With a 4th argument "read-auth-token" (a daemon run
+// with --read-auth token): the page asks for the token, then lists jobs and follows the event stream with it.
 'use strict';
 const { chromium } = require('playwright-core');
-const [url, token, shot] = process.argv.slice(2);
+const [url, token, shot, mode] = process.argv.slice(2);
 let n = 0, failed = 0;
 const ok = (c, d) => { n++; if (!c) failed++; console.log(`${c ? '' : 'not '}ok ${n} - ${d}`); };
 (async () => {
@@ -18,6 +19,43 @@ const ok = (c, d) => { n++; if (!c) failed++; console.log(`${c ? '' : 'not '}ok 
   page.on('pageerror', (e) => errors.push(String(e)));
   // A 404 the test asks for on purpose (an unknown job) is logged by Chromium as a failed resource, not a script error.
   page.on('console', (m) => { if (m.type() === 'error' && !/Failed to load resource.* 404/.test(m.text())) errors.push(m.text()); });
+  if (mode === 'read-auth-token') {
+    try {
+      await page.goto(url + '/', { waitUntil: 'load' });
+      await page.waitForFunction(() => document.getElementById('live').textContent === 'token needed', null, { timeout: 10000 });
+      ok(true, 'read_auth token, no token saved: the live badge says the token is needed');
+      await page.fill('#token', token);
+      await page.click('#token-form button');
+      await page.waitForFunction(() => document.getElementById('live').textContent === 'live', null, { timeout: 10000 });
+      ok(true, 'token entered: the event stream (fetch with the Authorization header) is live');
+      await page.waitForFunction(() => document.querySelectorAll('#preset option').length > 0, null, { timeout: 10000 });
+      ok(true, 'token entered: presets load');
+      await page.selectOption('#preset', 'cooling-2d');
+      await page.click('#submit-form button[type=submit]');
+      await page.waitForFunction(() => /^job \d+/.test(document.getElementById('submit-msg').textContent), null, { timeout: 10000 });
+      const id = Number((await page.textContent('#submit-msg')).match(/^job (\d+)/)[1]);
+      // The table learns the end of the job from the stream's state events only (no reload in between).
+      await page.waitForFunction((i) => [...document.querySelectorAll('#jobs tbody tr')].some((r) => r.textContent.includes(String(i)) &&
+        r.textContent.includes('succeeded')), id, { timeout: 120000 });
+      ok(true, 'job ' + id + ' followed to succeeded in the live table');
+      // A file link: with the token saved the download goes through fetch() with the header.
+      await page.evaluate((i) => { location.hash = '#/job/' + i; }, id);
+      await page.waitForFunction(() => document.querySelectorAll('#job-files tbody tr a').length > 0, null, { timeout: 10000 });
+      const [dl] = await Promise.all([page.waitForEvent('download', { timeout: 10000 }), page.click('#job-files tbody tr a')]);
+      const size = require('fs').statSync(await dl.path()).size;
+      ok(size > 0 && !dl.url().includes(token), 'job file ' + dl.suggestedFilename() + ' downloaded with the token header (' + size + ' bytes)');
+      ok(!(await page.evaluate(() => location.href)).includes(token), 'the token is not in the URL');
+      // The 401s before the token was entered are expected; nothing else may fail.
+      const other = errors.filter((e) => !/401/.test(e));
+      ok(other.length === 0, 'no script errors' + (other.length ? ': ' + other.join('; ') : ''));
+    } catch (e) {
+      ok(false, 'browser session (read_auth token): ' + e.message.split('\n')[0]);
+    } finally {
+      await browser.close();
+    }
+    console.log(`1..${n}`);
+    process.exit(failed ? 1 : 0);
+  }
   try {
     await page.goto(url + '/', { waitUntil: 'load' });
     ok(await page.title() !== '', 'dashboard loads: ' + await page.title());
