@@ -31,6 +31,18 @@ void api_error(api_resp_t *rs, int status, const char *message)
 	json_decref(rs->json);
 	rs->status = status;
 	rs->json = json_pack("{s:{s:s, s:s}}", "error", "code", code, "message", message);
+	if (!rs->json) {
+		/* Messages quote request bytes (a path, a query value, cut at a byte
+		 * count), which need not be UTF-8, and a JSON string must be: rather
+		 * than an answer without a body, send the text with '?' for every
+		 * non-ASCII byte. */
+		char safe[1024];
+		size_t n = 0;
+		for (const unsigned char *p = (const unsigned char *)message; *p && n + 1 < sizeof(safe); p++)
+			safe[n++] = *p < 0x80 ? (char)*p : '?';
+		safe[n] = '\0';
+		rs->json = json_pack("{s:{s:s, s:s}}", "error", "code", code, "message", safe);
+	}
 }
 
 /* Map a queue error to an HTTP answer. */

@@ -51,6 +51,15 @@ wait_state() {
 code() { cat "$tmp/code"; }
 # alive PID: the process exists and is not a zombie (a container's PID 1 may never reap orphans).
 alive() { st=$(sed 's/.*) //' "/proc/$1/stat" 2>/dev/null | cut -d' ' -f1); [ -n "$st" ] && [ "$st" != Z ]; }
+# Built with --enable-sanitizers (docs/fuzzing.md): no ASan, LSan or UBSan
+# report in any log of this test (the daemon's, the engine's stderr.log).
+sanitizer_check() {
+	grep -q __asan_init "$GRANULARD" 2>/dev/null || return 0
+	rep=$(grep -rl --include='*.log' -e 'ERROR: AddressSanitizer' -e 'ERROR: LeakSanitizer' -e 'runtime error:' "$tmp" 2>/dev/null | head -n 3)
+	ok $([ -z "$rep" ]; echo $?) "no sanitizer report in the logs${rep:+: $rep}"
+	for f in $rep; do grep -A12 -e 'Sanitizer' -e 'runtime error:' "$f" | head -n 30 | sed 's/^/# /'; done
+}
 finish() {
+	sanitizer_check
 	[ $failed -eq 0 ] || for f in "$tmp"/*.log; do echo "# --- $f"; tail -n 30 "$f" | sed 's/^/# /'; done
 	echo "1..$n"; [ $failed -eq 0 ]; exit $?; }
