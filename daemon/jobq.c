@@ -171,6 +171,7 @@ static json_t *col_json(sqlite3_stmt *st, int i)
 
 #define JOB_COLS "id, submission_id, state, priority, ranks, method, particles, reason, created_at, " \
 	"updated_at, started_at, finished_at, progress, sim_time, events, collisions, cancel_requested, scene, advice, " \
+	"progress_received, progress_stored, progress_thinned, progress_dropped, progress_stride, " \
 	"memory_bytes, output_bytes, max_output"
 
 /* Job object from a row selected with JOB_COLS. */
@@ -187,11 +188,18 @@ static json_t *job_from_row(sqlite3_stmt *st, int with_scene)
 	json_t *adv = sqlite3_column_type(st, 18) == SQLITE_TEXT
 	                      ? json_loads((const char *)sqlite3_column_text(st, 18), 0, NULL) : NULL;
 	json_object_set_new(j, "advice", adv ? adv : json_null());
+	/* Progress ingestion: what the engine sent and what became of it (docs/daemon.md, "Progress records"). */
+	json_object_set_new(j, "progress_records",
+	                    json_pack("{sI sI sI sI sI}", "received", (json_int_t)sqlite3_column_int64(st, 19),
+	                              "stored", (json_int_t)sqlite3_column_int64(st, 20), "thinned",
+	                              (json_int_t)sqlite3_column_int64(st, 21), "dropped",
+	                              (json_int_t)sqlite3_column_int64(st, 22), "stride",
+	                              (json_int_t)sqlite3_column_int64(st, 23)));
 	/* Admission: the estimates made at submission and the output limit
 	 * (null for jobs of older versions: the server's max_job_output). */
-	json_object_set_new(j, "resources", json_pack("{s:o, s:o, s:o}", "memory_bytes", col_json(st, 19),
-	                                              "output_bytes", col_json(st, 20), "max_output_bytes",
-	                                              col_json(st, 21)));
+	json_object_set_new(j, "resources", json_pack("{s:o, s:o, s:o}", "memory_bytes", col_json(st, 24),
+	                                              "output_bytes", col_json(st, 25), "max_output_bytes",
+	                                              col_json(st, 26)));
 	if (with_scene) {
 		json_t *sc = json_loads((const char *)sqlite3_column_text(st, 17), 0, NULL);
 		json_object_set_new(j, "scene", sc ? sc : json_null());
@@ -1237,19 +1245,34 @@ static int rewind_series(jobq_t *q, int64_t id, int attempt, const json_t *r)
 	                 json_number_value(t)) == SQLITE_OK ? JOBQ_OK : JOBQ_EDB;
 }
 
-int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, const json_t *r, double frac,
-                          double now)
+/* Count a batch's records that were not stored (disk full) on the job row, when the disk allows it. */
+static void count_dropped(jobq_t *q, int64_t id, int64_t received, int64_t thinned, int64_t dropped, double now)
 {
-	sqlite3_stmt *st = NULL;
-	int ret = JOBQ_OK, summary;
+	if (begin(q) != SQLITE_OK)
+		return;
+	if (exec_bind(q, "UPDATE jobs SET progress_received=progress_received+?, progress_thinned=progress_thinned+?, "
+	                 "progress_dropped=progress_dropped+?, updated_at=? WHERE id=?", "iiidi", received, thinned,
+	              dropped, now, id) != SQLITE_OK || commit(q) != SQLITE_OK)
+		rollback(q);
+}
+
+int jobq_attempt_progress_batch(jobq_t *q, int64_t id, int attempt, const jobq_record_t *recs, size_t n,
+                                int64_t received, int64_t thinned, double now)
+{
+	sqlite3_stmt *st = NULL, *ins = NULL;
+	int ret = JOBQ_OK;
 	int64_t seq = 0, stride = 1, stored = 0;
-	if (!json_is_object(r))
-		return JOBQ_EINVAL;
-	summary = json_is_string(json_object_get(r, "type")) &&
-	          !strcmp(json_string_value(json_object_get(r, "type")), "summary");
+	double frac_max = 0.0, tv = 0.0;
+	int64_t evv = 0, cov = 0;
+	int has_t = 0, has_ev = 0, has_co = 0;
+	for (size_t i = 0; i < n; i++)
+		if (!json_is_object(recs[i].r))
+			return JOBQ_EINVAL;
 	pthread_mutex_lock(&q->lock);
 	if (q->low_space) {
-		ret = JOBQ_EFULL;   /* the ballast is for ending jobs, not for more records */
+		/* The ballast is for ending jobs, not for more records: counted as dropped. */
+		count_dropped(q, id, received, thinned, (int64_t)n, now);
+		ret = JOBQ_EFULL;
 		goto out;
 	}
 	if (begin(q) != SQLITE_OK) {
@@ -1268,25 +1291,61 @@ int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, 
 	st = NULL;
 	if (ret)
 		goto fail;
-	if (frac > 1.0)
-		frac = 1.0;
-	if (attempt > 1 && (ret = rewind_series(q, id, attempt, r)) != JOBQ_OK)
+	/* A retry's first progress record rewinds the series (it is the batch's
+	 * first progress record or a later batch's, where rewinding is a no-op). */
+	for (size_t i = 0; i < n && attempt > 1; i++) {
+		const char *type = json_string_value(json_object_get(recs[i].r, "type"));
+		if (type && !strcmp(type, "progress")) {
+			if ((ret = rewind_series(q, id, attempt, recs[i].r)) != JOBQ_OK)
+				goto fail;
+			break;
+		}
+	}
+	sqlite3_prepare_v2(q->db, "SELECT count(*) FROM progress WHERE job_id=?", -1, &st, NULL);
+	sqlite3_bind_int64(st, 1, id);
+	if (sqlite3_step(st) == SQLITE_ROW)
+		stored = sqlite3_column_int64(st, 0);
+	sqlite3_finalize(st);
+	st = NULL;
+	if (sqlite3_prepare_v2(q->db, "INSERT OR REPLACE INTO progress(job_id, seq, attempt, time, record) "
+	                              "VALUES (?,?,?,?,?)", -1, &ins, NULL) != SQLITE_OK) {
+		ret = JOBQ_EDB;
 		goto fail;
-	if (summary || seq % stride == 0) {
-		json_t *t = json_object_get(r, "time");
-		if (exec_bind(q, "INSERT OR REPLACE INTO progress(job_id, seq, attempt, time, record) VALUES (?,?,?,?,?)",
-		              "iiids", id, seq, (int64_t)attempt, json_is_number(t) ? json_number_value(t) : 0.0, line) !=
-		    SQLITE_OK) {
+	}
+	for (size_t i = 0; i < n; i++, seq++) {
+		const json_t *r = recs[i].r;
+		const char *type = json_string_value(json_object_get(r, "type"));
+		json_t *t = json_object_get(r, "time"), *ev = json_object_get(r, "events"),
+		       *co = json_object_get(r, "collisions");
+		double frac = recs[i].frac > 1.0 ? 1.0 : recs[i].frac;
+		if (frac > frac_max)
+			frac_max = frac;
+		/* Absent fields keep the previous values (a summary may omit some). */
+		if (json_is_number(t)) {
+			tv = json_number_value(t);
+			has_t = 1;
+		}
+		if (json_is_integer(ev)) {
+			evv = (int64_t)json_integer_value(ev);
+			has_ev = 1;
+		}
+		if (json_is_integer(co)) {
+			cov = (int64_t)json_integer_value(co);
+			has_co = 1;
+		}
+		if (!(type && !strcmp(type, "summary")) && seq % stride != 0)
+			continue;
+		sqlite3_reset(ins);
+		sqlite3_bind_int64(ins, 1, id);
+		sqlite3_bind_int64(ins, 2, seq);
+		sqlite3_bind_int64(ins, 3, attempt);
+		sqlite3_bind_double(ins, 4, json_is_number(t) ? json_number_value(t) : 0.0);
+		sqlite3_bind_text(ins, 5, recs[i].line, -1, SQLITE_STATIC);
+		if (sqlite3_step(ins) != SQLITE_DONE) {
 			ret = JOBQ_EDB;
 			goto fail;
 		}
-		sqlite3_prepare_v2(q->db, "SELECT count(*) FROM progress WHERE job_id=?", -1, &st, NULL);
-		sqlite3_bind_int64(st, 1, id);
-		if (sqlite3_step(st) == SQLITE_ROW)
-			stored = sqlite3_column_int64(st, 0);
-		sqlite3_finalize(st);
-		st = NULL;
-		if (stored > q->lim.max_progress) {
+		if (++stored > q->lim.max_progress) {
 			/* Halve the series: keep multiples of the doubled stride, the
 			 * newest record and every summary. */
 			stride *= 2;
@@ -1295,32 +1354,37 @@ int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, 
 				ret = JOBQ_EDB;
 				goto fail;
 			}
+			stored -= sqlite3_changes(q->db);
 		}
 	}
-	{
-		json_t *t = json_object_get(r, "time"), *ev = json_object_get(r, "events"),
-		       *co = json_object_get(r, "collisions");
-		/* Absent fields keep the previous values (a summary may omit some). */
-		double tv = json_number_value(t);
-		int64_t evv = (int64_t)json_integer_value(ev), cov = (int64_t)json_integer_value(co);
-		if (exec_bind(q, "UPDATE jobs SET progress_seq=?, progress_stride=?, progress=max(progress, ?), "
-		                 "sim_time=coalesce(?, sim_time), events=coalesce(?, events), "
-		                 "collisions=coalesce(?, collisions), updated_at=? WHERE id=?", "iidDnndi",
-		              seq + 1, stride, frac < 0 ? 0.0 : frac, json_is_number(t) ? &tv : NULL,
-		              json_is_integer(ev) ? &evv : NULL, json_is_integer(co) ? &cov : NULL, now, id) != SQLITE_OK ||
-		    commit(q) != SQLITE_OK) {
-			ret = JOBQ_EDB;
-			goto fail;
-		}
+	if (exec_bind(q, "UPDATE jobs SET progress_seq=?, progress_stride=?, progress=max(progress, ?), "
+	                 "sim_time=coalesce(?, sim_time), events=coalesce(?, events), "
+	                 "collisions=coalesce(?, collisions), progress_received=progress_received+?, "
+	                 "progress_thinned=progress_thinned+?, progress_stored=?, updated_at=? WHERE id=?",
+	              "iidDnniiidi", seq, stride, frac_max, has_t ? &tv : NULL, has_ev ? &evv : NULL,
+	              has_co ? &cov : NULL, received, thinned, stored, now, id) != SQLITE_OK ||
+	    commit(q) != SQLITE_OK) {
+		ret = JOBQ_EDB;
+		goto fail;
 	}
 	goto out;
 fail:
 	rollback(q);
-	if (space_short(q))
+	if (space_short(q)) {
 		q->low_space = 1;   /* stop storing records; the ballast stays for ending the job */
+		count_dropped(q, id, received, thinned, (int64_t)n, now);
+	}
 out:
+	sqlite3_finalize(ins);
 	pthread_mutex_unlock(&q->lock);
 	return ret;
+}
+
+int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, const json_t *r, double frac,
+                          double now)
+{
+	const jobq_record_t rec = {.line = line, .r = r, .frac = frac};
+	return jobq_attempt_progress_batch(q, id, attempt, &rec, 1, 1, 0, now);
 }
 
 static int jobq_attempt_finished_once(jobq_t *q, int64_t id, int attempt, double now, int exit_status, int signal,

@@ -156,6 +156,23 @@ int jobq_attempt_launched(jobq_t *q, int64_t id, int attempt, int pid, uint64_t 
 int jobq_attempt_progress(jobq_t *q, int64_t id, int attempt, const char *line, const json_t *r, double frac,
                           double now);
 
+/* One record for jobq_attempt_progress_batch(). */
+typedef struct {
+	const char *line;   /* the engine's JSON line as received */
+	const json_t *r;    /* the same record, parsed (an object) */
+	double frac;        /* fraction of the stop condition it reports, < 0: unknown */
+} jobq_record_t;
+
+/* Store n records of one attempt in one transaction (one commit), in order,
+ * as jobq_attempt_progress() stores one, and add the ingestion counters the
+ * job shows in "progress_records": received (records the engine sent since
+ * the previous batch, n of them offered here) and thinned (not offered: the
+ * daemon held them back beyond its rate, docs/daemon.md). On a full disk
+ * nothing is stored, the n records count as dropped and JOBQ_EFULL is
+ * returned. n may be 0 (only the counters change). */
+int jobq_attempt_progress_batch(jobq_t *q, int64_t id, int attempt, const jobq_record_t *recs, size_t n,
+                                int64_t received, int64_t thinned, double now);
+
 /* End an attempt. next is the job's new state: JOB_QUEUED requeues it (the
  * attempt was interrupted), others are final. exit_status < 0 = none. */
 int jobq_attempt_finished(jobq_t *q, int64_t id, int attempt, double now, int exit_status, int signal,

@@ -13,6 +13,7 @@
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
+#include "ingest.h"
 #include "log.h"
 #include "quota.h"
 #include "scheduler.h"
@@ -21,6 +22,16 @@
 #define MAX_CHILDREN 4096
 #define LINE_MAX_BYTES (1 << 16)
 #define TAIL_BYTES 2048
+/* Bounded work per wake-up: one read of at most this many bytes per pipe per
+ * loop turn, so that requests, deadlines and reaping never wait behind an
+ * engine that writes without pause. */
+#define READ_BYTES (1 << 16)
+/* At the end of a run, what is left in its pipes is read up to this much;
+ * beyond (ranks that would not die), the rest is abandoned. */
+#define FINAL_READ_BYTES (16 << 20)
+/* Queued jobs are looked at when woken (submission, cancel), after a job
+ * ends, and at least this often (seconds). */
+#define CLAIM_PERIOD 1.0
 
 typedef struct {
 	int64_t id;
@@ -28,8 +39,7 @@ typedef struct {
 	pid_t pid;
 	int out, err;                /* pipe read ends, -1 at EOF */
 	int reaped, status;
-	char *line;                  /* partial stdout line */
-	size_t nline;
+	ingest_t *ing;               /* stdout: progress records, thinned and batched */
 	char tail[TAIL_BYTES];       /* last stderr bytes (ring) */
 	size_t ntail;
 	double started, term_at, kill_at;   /* monotonic seconds; 0 = not scheduled */
@@ -64,6 +74,8 @@ struct sched {
 	double reserve_at;           /* last ballast check (monotonic s) */
 	int warned_full;
 	quota_t *quota;              /* output limits of running jobs */
+	double claim_at;             /* last look at the queue (monotonic s) */
+	char rbuf[READ_BYTES];
 };
 
 static double mono(void)
@@ -254,11 +266,41 @@ static void last_line(const char *tail, char *out, size_t n)
 	snprintf(out, n, "%.*s", best ? (int)best_len : 0, best ? best : "");
 }
 
+/* Launcher chatter on stdout (not a record): keep it with stderr for diagnosis. */
+static void chatter(void *ctx, const char *line, size_t len)
+{
+	child_t *k = ctx;
+	tail_add(k, line, len);
+	tail_add(k, "\n", 1);
+}
+
+/* The launched command's environment: the daemon's, plus
+ * OMPI_MCA_odls_base_sigkill_timeout=0 unless set: Open MPI's mpirun
+ * otherwise waits 1 s twice before it exits after a rank's non-zero exit
+ * (exit 4 after a checkpoint), which would hold a cancel for 2 s. Harmless
+ * for other launchers. malloc'd array (entries borrowed), NULL on ENOMEM. */
+extern char **environ;
+static char **child_env(void)
+{
+	static char kill_timeout[] = "OMPI_MCA_odls_base_sigkill_timeout=0";
+	size_t n = 0;
+	int have = 0;
+	for (; environ[n]; n++)
+		have |= !strncmp(environ[n], kill_timeout, strlen("OMPI_MCA_odls_base_sigkill_timeout="));
+	char **env = calloc(n + 2, sizeof(char *));
+	if (!env)
+		return NULL;
+	memcpy(env, environ, n * sizeof(char *));
+	if (!have)
+		env[n] = kill_timeout;
+	return env;
+}
+
 static int launch(sched_t *s, const jobq_claim_t *cl)
 {
 	char dir[4096], scene[4200], ckpt[4200], err[512];
 	child_t *k = NULL;
-	char **av = NULL;
+	char **av = NULL, **env = NULL;
 	int po[2] = {-1, -1}, pe[2] = {-1, -1};
 	const char *resume = NULL;
 	pid_t pid;
@@ -287,7 +329,8 @@ static int launch(sched_t *s, const jobq_claim_t *cl)
 	k->until = cl->until;
 	k->until_cpp = cl->until_cpp;
 	av = build_argv(s, k, scene, dir, resume);
-	if (!av || pipe2(po, O_CLOEXEC) || pipe2(pe, O_CLOEXEC)) {
+	env = child_env();
+	if (!av || !env || pipe2(po, O_CLOEXEC) || pipe2(pe, O_CLOEXEC)) {
 		snprintf(err, sizeof(err), "cannot launch: %s", strerror(errno ? errno : ENOMEM));
 		goto fail;
 	}
@@ -312,7 +355,7 @@ static int launch(sched_t *s, const jobq_claim_t *cl)
 		dup2(pe[1], 2);
 		close_range(3, ~0U, 0);
 		if (chdir(dir) == 0)
-			execvp(av[0], av);
+			execvpe(av[0], av, env);
 		const char *m = "granulard: cannot execute the launcher: ";
 		ssize_t w = write(2, m, strlen(m));
 		w = write(2, av[0], strlen(av[0]));
@@ -328,6 +371,14 @@ static int launch(sched_t *s, const jobq_claim_t *cl)
 	k->out = po[0];
 	k->err = pe[0];
 	k->started = mono();
+	{
+		const ingest_conf_t ic = {.rate = s->c.cfg->progress_rate, .burst = (double)s->c.cfg->progress_burst,
+		                          .flush = s->c.cfg->progress_flush, .max_batch = 4096,
+		                          .max_line = LINE_MAX_BYTES, .chatter = chatter, .ctx = k};
+		k->ing = ingest_create(&ic, k->started);
+		if (!k->ing)
+			log_warning("job %" PRId64 ": no memory to follow its progress", cl->id);
+	}
 	k->last_wall = k->started;
 	if (s->c.cfg->max_wall_seconds > 0)
 		k->term_at = k->started + (double)s->c.cfg->max_wall_seconds;
@@ -337,6 +388,7 @@ static int launch(sched_t *s, const jobq_claim_t *cl)
 	log_info("job %" PRId64 " attempt %d: launched pid %d with %d rank(s)%s", cl->id, cl->attempt, (int)pid,
 	         cl->ranks, resume ? ", resuming from checkpoint.h5" : "");
 	free_argv(av);
+	free(env);
 	return 0;
 fail:
 	if (po[0] >= 0) {
@@ -348,6 +400,7 @@ fail:
 		close(pe[1]);
 	}
 	free_argv(av);
+	free(env);
 	if (k)
 		memset(k, 0, sizeof(*k));
 	log_error("job %" PRId64 ": %s", cl->id, err);
@@ -358,16 +411,10 @@ fail:
 
 /* ---- following ------------------------------------------------------------- */
 
-static void on_line(sched_t *s, child_t *k, char *line)
+/* What the supervisor itself learns from an accepted record: the summary's
+ * status, the event rate, the fraction of the stop condition. */
+static double note_record(child_t *k, const json_t *r)
 {
-	json_t *r = json_loads(line, 0, NULL);
-	if (!json_is_object(r)) {
-		/* Launcher chatter on stdout: keep it with stderr for diagnosis. */
-		tail_add(k, line, strlen(line));
-		tail_add(k, "\n", 1);
-		json_decref(r);
-		return;
-	}
 	const char *kind = json_string_value(json_object_get(r, "type"));
 	json_t *ev = json_object_get(r, "events"), *wall = json_object_get(r, "wall_seconds");
 	if (kind && !strcmp(kind, "summary")) {
@@ -387,46 +434,59 @@ static void on_line(sched_t *s, child_t *k, char *line)
 	}
 	/* Progress is the fraction of the stop condition reached. */
 	json_t *x = json_object_get(r, k->until_cpp ? "collisions_per_particle" : "time");
-	double frac = json_is_number(x) && k->until > 0 ? json_number_value(x) / k->until : -1.0;
-	int stored = jobq_attempt_progress(s->c.q, k->id, k->attempt, line, r, frac, util_now());
-	json_decref(r);
-	if (stored != JOBQ_OK && stored != JOBQ_EFULL)   /* on a full disk records are dropped on purpose */
-		log_warning("job %" PRId64 ": could not store a progress record", k->id);
-	/* Live subscribers of the multiplexed stream need to know whose record it is. */
-	size_t ll = strlen(line);
-	char *tagged = malloc(ll + 32);
-	if (tagged && line[0] == '{') {
-		snprintf(tagged, ll + 32, "{\"job\":%" PRId64 ",%s", k->id, line + 1);
-		hub_publish(s->c.hub, k->id, "progress", tagged);
-	} else {
-		hub_publish(s->c.hub, k->id, "progress", line);
-	}
-	free(tagged);
+	return json_is_number(x) && k->until > 0 ? json_number_value(x) / k->until : -1.0;
 }
 
-static void drain_fd(sched_t *s, child_t *k, int *fd, int is_out)
+/* Store the pending batch of accepted records in one transaction, then
+ * publish them to live subscribers (stored first, as for state changes). */
+static void flush_progress(sched_t *s, child_t *k, double now)
 {
-	char buf[65536];
-	for (;;) {
-		ssize_t n = read(*fd, buf, sizeof(buf));
+	const ingest_record_t *recs;
+	ingest_counts_t d;
+	if (!k->ing)
+		return;
+	size_t n = ingest_batch(k->ing, &recs, &d);
+	if (!n && !d.received)
+		return;
+	jobq_record_t *jr = n ? malloc(n * sizeof(*jr)) : NULL;
+	if (n && !jr) {
+		log_warning("job %" PRId64 ": no memory to store %zu progress records", k->id, n);
+		ingest_taken(k->ing, now);
+		return;
+	}
+	for (size_t i = 0; i < n; i++)
+		jr[i] = (jobq_record_t){.line = recs[i].line, .r = recs[i].r, .frac = note_record(k, recs[i].r)};
+	int rc = jobq_attempt_progress_batch(s->c.q, k->id, k->attempt, jr, n, (int64_t)d.received,
+	                                     (int64_t)d.thinned, util_now());
+	free(jr);
+	if (rc != JOBQ_OK && rc != JOBQ_EFULL)   /* on a full disk records are dropped on purpose (and counted) */
+		log_warning("job %" PRId64 ": could not store %zu progress records", k->id, n);
+	/* Live subscribers of the multiplexed stream need to know whose record it is. */
+	for (size_t i = 0; i < n; i++) {
+		const char *line = recs[i].line;
+		size_t ll = strlen(line);
+		char *tagged = malloc(ll + 32);
+		if (tagged) {
+			snprintf(tagged, ll + 32, "{\"job\":%" PRId64 ",%s", k->id, line + 1);
+			hub_publish(s->c.hub, k->id, "progress", tagged);
+		}
+		free(tagged);
+	}
+	ingest_taken(k->ing, now);
+}
+
+/* Read what one pipe holds, at most `budget` bytes (one read when budget is
+ * READ_BYTES). Closes the fd at EOF. */
+static void read_fd(sched_t *s, child_t *k, int *fd, int is_out, size_t budget, double now)
+{
+	while (budget) {
+		ssize_t n = read(*fd, s->rbuf, budget < READ_BYTES ? budget : READ_BYTES);
 		if (n > 0) {
-			if (!is_out) {
-				tail_add(k, buf, (size_t)n);
-				continue;
-			}
-			for (ssize_t i = 0; i < n; i++) {
-				if (buf[i] == '\n') {
-					if (k->line) {
-						k->line[k->nline] = '\0';
-						on_line(s, k, k->line);
-					}
-					k->nline = 0;
-				} else if (k->nline + 1 < LINE_MAX_BYTES) {
-					if (!k->line && !(k->line = malloc(LINE_MAX_BYTES)))
-						continue;
-					k->line[k->nline++] = buf[i];
-				}
-			}
+			if (!is_out)
+				tail_add(k, s->rbuf, (size_t)n);
+			else if (k->ing)
+				ingest_feed(k->ing, s->rbuf, (size_t)n, now);
+			budget -= (size_t)n < budget ? (size_t)n : budget;
 			continue;
 		}
 		if (n == 0 || (errno != EAGAIN && errno != EINTR)) {
@@ -503,35 +563,52 @@ static void finish(sched_t *s, child_t *k)
 	         reason);
 	sched_publish_state(s->c.q, s->c.hub, k->id);
 	free(tail);
-	free(k->line);
+	ingest_destroy(k->ing);
 	memset(k, 0, sizeof(*k));
 }
 
-static void refresh_desc(child_t *k, double now)
+static void refresh_desc(child_t *k, double now, int force)
 {
-	if (k->reaped || now - k->desc_at < 1.0)
+	if (k->reaped || (!force && now - k->desc_at < 1.0))
 		return;
 	k->desc_at = now;
 	k->ndesc = util_descendants(k->pid, k->desc, k->desc_start, 16);
 }
 
-/* Signal mpirun's process group and every rank we have seen (they sit in
- * groups of their own and would outlive a killed mpirun). */
-static void signal_child(child_t *k, int sig)
+/* SIGKILL: mpirun's process group and every rank we have seen (they sit in
+ * groups of their own and would outlive a killed mpirun).
+ * SIGTERM: the ranks only, when they are known. Open MPI's mpirun answers a
+ * SIGTERM of its own by killing its ranks (SIGTERM, then SIGKILL after
+ * odls_base_sigkill_timeout), which would cut their checkpoint short; the
+ * ranks checkpoint, exit 4, and mpirun follows (launch() sets that timeout
+ * to 0 so that mpirun does not linger after a rank's non-zero exit). Before
+ * the ranks exist (a launch under way) there is nothing to checkpoint: the
+ * process group gets it. */
+static void signal_child(child_t *k, int sig, double now)
 {
-	if (k->pid > 0 && !k->reaped)
-		kill(-k->pid, sig);
+	int ranks = 0;
+	if (sig == SIGTERM)
+		refresh_desc(k, now, 1);
 	for (int i = 0; i < k->ndesc; i++)
-		if (util_pid_alive(k->desc[i], k->desc_start[i]))
+		if (util_pid_alive(k->desc[i], k->desc_start[i])) {
 			kill(k->desc[i], sig);
+			ranks++;
+		}
+	if (k->pid > 0 && !k->reaped && (sig != SIGTERM || !ranks))
+		kill(-k->pid, sig);
 }
 
 static void *loop(void *arg)
 {
 	sched_t *s = arg;
 	struct pollfd *pf = calloc(2 * MAX_CHILDREN + 1, sizeof(*pf));
-	if (!pf)
+	size_t *who = calloc(2 * MAX_CHILDREN + 1, sizeof(*who));   /* pf[i] is kid who[i] */
+	int claim = 1;   /* look at the queue this turn */
+	if (!pf || !who) {
+		free(pf);
+		free(who);
 		return NULL;
+	}
 	for (;;) {
 		double now = mono();
 		int stopping;
@@ -569,16 +646,16 @@ static void *loop(void *arg)
 			child_t *k = &s->kids[i];
 			if (!k->pid)
 				continue;
-			refresh_desc(k, now);
+			refresh_desc(k, now, 0);
 			if (k->term_at > 0 && now >= k->term_at) {
 				if (!k->cancel && !k->over_output && stopping == 0)
 					k->walllimit = 1;
-				signal_child(k, SIGTERM);
+				signal_child(k, SIGTERM, now);
 				k->term_at = 0;
 				k->kill_at = now + (stopping ? s->stop_deadline - now : s->c.cfg->cancel_grace);
 			}
 			if (k->kill_at > 0 && now >= k->kill_at) {
-				signal_child(k, SIGKILL);
+				signal_child(k, SIGKILL, now);
 				k->kill_at = 0;
 			}
 		}
@@ -591,16 +668,21 @@ static void *loop(void *arg)
 				k->reaped = 1;
 			if (k->reaped) {
 				/* Ranks that outlive mpirun would hold the pipes open: take what is there and stop. */
-				signal_child(k, SIGKILL);
+				signal_child(k, SIGKILL, now);
 				if (k->out >= 0)
-					drain_fd(s, k, &k->out, 1);
+					read_fd(s, k, &k->out, 1, FINAL_READ_BYTES, now);
 				if (k->err >= 0)
-					drain_fd(s, k, &k->err, 0);
+					read_fd(s, k, &k->err, 0, FINAL_READ_BYTES, now);
 				if (k->out >= 0)
 					close(k->out);
 				if (k->err >= 0)
 					close(k->err);
+				/* The run's last records (its held progress record, the summary) are stored before its end. */
+				if (k->ing)
+					ingest_finish(k->ing, now);
+				flush_progress(s, k, now);
 				finish(s, k);
+				claim = 1;   /* slots were freed */
 			}
 		}
 		/* Launch what fits. */
@@ -628,7 +710,11 @@ static void *loop(void *arg)
 				s->warned_full = 0;
 			}
 		}
-		if (!stopping && !jobq_low_space(s->c.q)) {
+		if (now - s->claim_at >= CLAIM_PERIOD)
+			claim = 1;
+		if (claim && !stopping && !jobq_low_space(s->c.q)) {
+			claim = 0;
+			s->claim_at = now;
 			for (;;) {
 				jobq_claim_t cl;
 				char err[256];
@@ -654,33 +740,54 @@ static void *loop(void *arg)
 		if (stopping && running == 0)
 			break;
 
-		/* Wait for output, a wake-up or the next tick. */
+		/* Progress: held records whose token came, batches whose interval is up. */
+		double wait = 0.2;
+		for (size_t i = 0; i < s->nkids; i++) {
+			child_t *k = &s->kids[i];
+			if (!k->pid || !k->ing)
+				continue;
+			ingest_tick(k->ing, now);
+			if (ingest_due(k->ing, now))
+				flush_progress(s, k, now);
+			double w = ingest_wait(k->ing, now);
+			if (w < wait)
+				wait = w;
+		}
+
+		/* Wait for output, a wake-up, the next batch or the next tick. */
 		size_t np = 0;
 		pf[np++] = (struct pollfd){.fd = s->wake[0], .events = POLLIN};
 		for (size_t i = 0; i < s->nkids; i++) {
 			child_t *k = &s->kids[i];
 			if (!k->pid)
 				continue;
-			if (k->out >= 0)
+			if (k->out >= 0) {
+				who[np] = i;
 				pf[np++] = (struct pollfd){.fd = k->out, .events = POLLIN};
-			if (k->err >= 0)
+			}
+			if (k->err >= 0) {
+				who[np] = i;
 				pf[np++] = (struct pollfd){.fd = k->err, .events = POLLIN};
+			}
 		}
-		poll(pf, np, 200);
+		poll(pf, np, (int)(wait * 1000.0) + 1);
 		char buf[256];
 		while (read(s->wake[0], buf, sizeof(buf)) > 0)
-			;
-		for (size_t i = 0; i < s->nkids; i++) {
-			child_t *k = &s->kids[i];
-			if (!k->pid)
+			claim = 1;
+		/* One read per readable pipe: bounded work before the next turn. */
+		now = mono();
+		for (size_t i = 1; i < np; i++) {
+			if (!(pf[i].revents & (POLLIN | POLLHUP | POLLERR)))
 				continue;
-			if (k->out >= 0)
-				drain_fd(s, k, &k->out, 1);
-			if (k->err >= 0)
-				drain_fd(s, k, &k->err, 0);
+			child_t *k = &s->kids[who[i]];
+			if (k->out == pf[i].fd)
+				read_fd(s, k, &k->out, 1, READ_BYTES, now);
+			else if (k->err == pf[i].fd)
+				read_fd(s, k, &k->err, 0, READ_BYTES, now);
 		}
 	}
 	free(pf);
+	free(who);
 	return NULL;
 }
 

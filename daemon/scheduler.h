@@ -11,6 +11,12 @@
  * - One thread owns every child process: it launches, reads progress lines
  *   (the engine's stdout through mpirun) and stderr, reaps, signals. Other
  *   threads only ask (sched_wake, sched_cancel); nothing else touches pids.
+ * - The thread never waits on one job: each turn reads at most 64 KiB per
+ *   pipe, then serves requests, deadlines and reaping. Progress records are
+ *   thinned to cfg progress_rate/progress_burst per job and stored in one
+ *   transaction per job every progress_flush seconds (ingest.h), then
+ *   published; so a cancel is acted on within one turn whatever the engines
+ *   write.
  * - Each launch is its own session and process group (setsid), so signals
  *   reach mpirun and every rank.
  * - Outcomes are written to the job queue first, then published on the hub.

@@ -560,6 +560,65 @@ int main(void)
 		jobq_close(q);
 	}
 
+	/* Batches (the supervisor stores a job's records once per interval): the same stored series as one call
+	 * per record, the counters on the job, and a record that is not an object refused without a change. */
+	{
+		jobq_t *q1 = jobq_open(":memory:", &lim, err, sizeof(err)), *q2 = jobq_open(":memory:", &lim, err, sizeof(err));
+		int64_t id1 = submit(q1, SCENE, &rc, NULL, err), id2 = submit(q2, SCENE, &rc, NULL, err);
+		jobq_claim_t c1, c2;
+		jobq_claim(q1, 1, 100.0, &c1, err, sizeof(err));
+		jobq_claim(q2, 1, 100.0, &c2, err, sizeof(err));
+		free(c1.scene);
+		free(c2.scene);
+		char lines[101][128];
+		json_t *rj[101];
+		jobq_record_t batch[101];
+		for (int i = 0; i < 101; i++) {
+			if (i < 100)
+				snprintf(lines[i], sizeof lines[i], "{\"type\":\"progress\",\"time\":%d,\"events\":%d}", i, 3 * i);
+			else
+				snprintf(lines[i], sizeof lines[i], "{\"type\":\"summary\",\"time\":99}");
+			rj[i] = json_loads(lines[i], 0, NULL);
+			batch[i] = (jobq_record_t){.line = lines[i], .r = rj[i], .frac = i / 99.0};
+			jobq_attempt_progress(q1, id1, 1, lines[i], rj[i], i / 99.0, 200.0);
+		}
+		/* Batches of 7 (the last one shorter); say 3 records were thinned before each batch. */
+		int bad = 0;
+		for (int i = 0; i < 101; i += 7)
+			bad |= jobq_attempt_progress_batch(q2, id2, 1, batch + i, i + 7 <= 101 ? 7 : (size_t)(101 - i),
+			                                   (i + 7 <= 101 ? 7 : 101 - i) + 3, 3, 200.0);
+		json_t *p1 = NULL, *p2 = NULL, *j2 = NULL;
+		jobq_progress(q1, id1, -1, 1000, 0, &p1, err, sizeof(err));
+		jobq_progress(q2, id2, -1, 1000, 0, &p2, err, sizeof(err));
+		ok(!bad && p1 && p2 && json_equal(json_object_get(p1, "records"), json_object_get(p2, "records")) &&
+		   json_equal(json_object_get(p1, "stride"), json_object_get(p2, "stride")),
+		   "101 records in batches of 7 give the series of 101 single stores (%zu records, stride %lld)",
+		   json_array_size(json_object_get(p2, "records")), (long long)json_integer_value(json_object_get(p2, "stride")));
+		jobq_get(q2, id2, 0, &j2, err, sizeof(err));
+		json_t *pc = json_object_get(j2, "progress_records");
+		ok(json_integer_value(json_object_get(pc, "received")) == 101 + 3 * 15 &&
+		   json_integer_value(json_object_get(pc, "thinned")) == 3 * 15 &&
+		   json_integer_value(json_object_get(pc, "stored")) == (json_int_t)json_array_size(json_object_get(p2, "records")) &&
+		   json_integer_value(json_object_get(j2, "events")) == 297 && json_real_value(json_object_get(j2, "progress")) == 1.0,
+		   "the job counts received, thinned and stored records and carries the latest values");
+		json_t *notobj = json_integer(5);
+		jobq_record_t badrec = {.line = "5", .r = notobj, .frac = -1};
+		json_t *j3 = NULL;
+		ok(jobq_attempt_progress_batch(q2, id2, 1, &badrec, 1, 1, 0, 201.0) == JOBQ_EINVAL &&
+		   jobq_get(q2, id2, 0, &j3, err, sizeof(err)) == 0 &&
+		   json_equal(json_object_get(j3, "progress_records"), pc),
+		   "a batch with a record that is not an object is refused and changes nothing");
+		json_decref(notobj);
+		json_decref(j3);
+		json_decref(j2);
+		json_decref(p1);
+		json_decref(p2);
+		for (int i = 0; i < 101; i++)
+			json_decref(rj[i]);
+		jobq_close(q1);
+		jobq_close(q2);
+	}
+
 	/* A file database keeps its jobs and schema version across opens; a newer schema is refused. */
 	char path[] = "/tmp/jobq_test.XXXXXX";
 	int fd = mkstemp(path);

@@ -1,5 +1,5 @@
--- granulard job store, version 3: admission control (docs/daemon.md, "Admission").
--- Applied by daemon/db.c to a version-2 database in place (one transaction with PRAGMA user_version=3).
+-- granulard job store, version 4: admission control (docs/daemon.md, "Admission").
+-- Applied by daemon/db.c to a version-3 database in place (one transaction with PRAGMA user_version=4).
 -- memory_bytes, output_bytes: the estimates made at submission (engine/budget.h) for the job's scene and ranks;
 -- a job starts only while its memory estimate and those of the running jobs fit the server's memory_budget.
 -- Jobs of older versions get memory_bytes when the daemon opens the database (queued and running jobs).
