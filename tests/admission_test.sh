@@ -22,13 +22,14 @@ wait_state "$id_run" running 30
 gd_stop
 for tpl in '{mpirun} --stdin none -np {ranks} {engine} run {scene} --out {dir} {nope}' \
            '{mpirun} -np {ranks} {engine} run {scene} --out={dir}'; do
-	"$GRANULARD" --state-dir "$S" --listen 127.0.0.1:0 --engine "$ENGINE" --launch "$tpl" >"$tmp/out" 2>"$tmp/err"
+	# (timeout: a daemon that takes the template serves until stopped; 124 then)
+	timeout 20 "$GRANULARD" --state-dir "$S" --listen 127.0.0.1:0 --engine "$ENGINE" --launch "$tpl" >"$tmp/out" 2>"$tmp/err"
 	rc=$?
 	ok $([ $rc = 2 ] && [ "$(wc -l <"$tmp/err")" = 1 ] && grep -q '^granulard: --launch: ' "$tmp/err" && [ ! -s "$tmp/out" ]; echo $?) \
 		"bad template refused at start (exit $rc): $(cat "$tmp/err")"
 done
 printf 'launch = {mpirun} -np {ranks} {engine} run {scene} {dir} {nope}\n' >"$tmp/bad.conf"
-"$GRANULARD" --state-dir "$S" --listen 127.0.0.1:0 --config "$tmp/bad.conf" >/dev/null 2>"$tmp/err"
+timeout 20 "$GRANULARD" --state-dir "$S" --listen 127.0.0.1:0 --config "$tmp/bad.conf" >/dev/null 2>"$tmp/err"
 rc=$?
 ok $([ $rc = 2 ] && grep -q "bad.conf:1: launch: unknown placeholder {nope}" "$tmp/err"; echo $?) \
 	"in a config file too, with FILE:LINE (exit $rc): $(cat "$tmp/err")"
