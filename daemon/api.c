@@ -140,6 +140,18 @@ static void h_advice(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 		rs->status = 200;
 }
 
+/* The checks of a submission (the engine's own start checks and the
+ * admission limits) without submitting; a read, like advice. */
+static void h_validate(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	char err[1024];
+	int r = jobq_validate(gd->q, rq->body, rq->body_len, &rs->json, err, sizeof(err));
+	if (r)
+		queue_error(rs, r, err);
+	else
+		rs->status = 200;
+}
+
 static void h_list(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 {
 	jobq_filter_t f = {.limit = 100};
@@ -544,6 +556,7 @@ const api_route_t api_routes[] = {
 	{.method = "GET", .pattern = "/api/v1/jobs/{id}/files/{name}", .fn = h_file},
 	{.method = "GET", .pattern = "/api/v1/events", .fn = h_events_all},
 	{.method = "POST", .pattern = "/api/v1/advice", .fn = h_advice},
+	{.method = "POST", .pattern = "/api/v1/scenes/validate", .fn = h_validate},
 	{.method = "GET", .pattern = "/api/v1/cluster", .fn = h_cluster},
 	{.method = "GET", .pattern = "/api/v1/presets", .fn = h_presets},
 	{.method = "GET", .pattern = "/api/v1/presets/{name}", .fn = h_preset},

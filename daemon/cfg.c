@@ -27,7 +27,49 @@ typedef struct {
 	const char *arg;         /* the value's name in --help (default from type and unit) */
 	const char *def_text;    /* the default in words, where the literal says too little ("" = search...) */
 	kunit_t unit;
+	int (*check)(const char *value, char *err, size_t errlen);   /* T_STR: further rules, err "reason" */
 } key_t_;
+
+static const char *const placeholders[] = {"{mpirun}", "{ranks}", "{engine}", "{scene}", "{dir}", NULL};
+
+/* The scheduler substitutes whole words only (daemon/scheduler.c,
+ * build_argv()): a placeholder inside a word, an unknown one or a stray
+ * brace would reach the launcher as literal text and every job would fail
+ * at launch; refuse the template instead. */
+static int check_launch(const char *tpl, char *err, size_t errlen)
+{
+	char known[128] = "";
+	for (int i = 0; placeholders[i]; i++)
+		snprintf(known + strlen(known), sizeof(known) - strlen(known), "%s%s", i ? " " : "", placeholders[i]);
+	if (!tpl[strspn(tpl, " ")]) {
+		snprintf(err, errlen, "empty template (placeholders: %s)", known);
+		return CFG_EINVAL;
+	}
+	for (const char *p = tpl; *p;) {
+		p += strspn(p, " ");
+		size_t len = strcspn(p, " ");
+		if (!len)
+			break;
+		if (memchr(p, '{', len) || memchr(p, '}', len)) {
+			int whole = 0;
+			for (int i = 0; placeholders[i] && !whole; i++)
+				whole = strlen(placeholders[i]) == len && !strncmp(p, placeholders[i], len);
+			if (!whole) {
+				const char *o = memchr(p, '{', len), *c = o ? memchr(o, '}', len - (size_t)(o - p)) : NULL;
+				if (o && c && (c - o != (ptrdiff_t)len - 1 || o != p))
+					snprintf(err, errlen, "'%.*s': a placeholder must be a word of its own (placeholders: %s)",
+					         (int)len, p, known);
+				else if (o && c)
+					snprintf(err, errlen, "unknown placeholder %.*s (placeholders: %s)", (int)len, p, known);
+				else
+					snprintf(err, errlen, "'%.*s': unbalanced brace (placeholders: %s)", (int)len, p, known);
+				return CFG_EINVAL;
+			}
+		}
+		p += len;
+	}
+	return CFG_OK;
+}
 
 static const char *const read_auth_choices[] = {"auto", "open", "token", NULL};
 static const char *const log_choices[] = {"error", "warning", "info", "debug", NULL};
@@ -45,7 +87,8 @@ static const key_t_ keys[] = {
 	  .def_text = "next to granulard, else the install dir, else PATH"),
 	K(mpirun, T_STR, 0, 0, GRANULARD_MPIRUN, "MPI launcher program", .arg = "PROGRAM"),
 	K(launch, T_STR, 0, 0, "{mpirun} --stdin none -np {ranks} {engine} run {scene} --out {dir}",
-	  "launch command template; placeholders {mpirun} {ranks} {engine} {scene} {dir}", .arg = "TEMPLATE"),
+	  "launch command template; placeholders {mpirun} {ranks} {engine} {scene} {dir}, each a word of its own",
+	  .arg = "TEMPLATE", .check = check_launch),
 	K(token, T_STR, 0, 0, "", "bearer token for mutating requests (as a flag it shows in ps: prefer the file)",
 	  .arg = "TOKEN", .def_text = "read from STATE_DIR/token, generated on first start"),
 	K(read_auth, T_STR, 0, 0, "auto",
@@ -83,6 +126,12 @@ static const key_t_ keys[] = {
 	K(disk_reserve, T_INT, 0, 1 << 30, "8388608",
 	  "ballast in STATE_DIR/reserve, freed when the disk fills so jobs can still be ended (0: none)", .unit = U_BYTES),
 	K(log_level, T_STR, 0, 0, "info", "the least severe messages logged", .choices = log_choices),
+	K(memory_budget, T_INT, 0, 1e15, "0",
+	  "memory running jobs may use together, by their estimates (docs/daemon.md, \"Admission\"; 0: 90% of the "
+	  "physical memory or of the service's cgroup limit, whichever is smaller)", .unit = U_BYTES),
+	K(max_replicas, T_INT, 1, 1000000, "1000", "largest run.replicas of a job"),
+	K(max_job_output, T_INT, 1048576, 1e15, "17179869184",
+	  "what a job's directory may hold; a job may ask for less (max_output_bytes)", .unit = U_BYTES),
 };
 #define NKEYS (sizeof(keys) / sizeof(keys[0]))
 
@@ -121,6 +170,11 @@ static int set(cfg_t *c, const key_t_ *k, const char *v, const char *where, char
 				snprintf(err, errlen, "%s%s: '%s' is not one of the allowed values (see --help)", where, name, v);
 				return CFG_EINVAL;
 			}
+		}
+		char why[384];
+		if (k->check && k->check(v, why, sizeof(why))) {
+			snprintf(err, errlen, "%s%s: %s", where, k->name, why);
+			return CFG_EINVAL;
 		}
 		char *s = strdup(v);
 		if (!s) {

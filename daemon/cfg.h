@@ -11,6 +11,9 @@
  * - cfg_* return 0 or CFG_EINVAL with one line in err naming the key (and
  *   FILE:LINE for files) and the reason.
  * - Strings in cfg_t are owned by it (cfg_deinit frees them).
+ * - launch is checked when set: every {...} must be one of the
+ *   placeholders, a word of its own (the scheduler substitutes whole words),
+ *   so a daemon with a broken template refuses to start.
  */
 
 enum { CFG_OK = 0, CFG_EINVAL = -1, CFG_EIO = -2, CFG_EHELP = -3 };
@@ -46,6 +49,9 @@ typedef struct {
 	double shutdown_grace;   /* seconds to let running jobs checkpoint at shutdown */
 	char *log_level;         /* error | warning | info | debug */
 	long disk_reserve;       /* bytes of ballast kept in the state dir for disk-full recovery, 0 = none */
+	long memory_budget;      /* bytes running jobs may use together (estimates, budget.h); 0 = automatic */
+	long max_replicas;       /* largest run.replicas of a job */
+	long max_job_output;     /* bytes a job's directory may hold (default and cap of max_output_bytes) */
 } cfg_t;
 
 /* Defaults (slots = online CPUs; state_dir = $STATE_DIRECTORY or ./var). */

@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include "advice.h"
+#include "budget.h"
 #include "db.h"
 #include "jobq.h"
 #include "scene.h"
@@ -33,6 +34,7 @@ struct jobq {
 
 static int space_short(jobq_t *q);
 static int release_reserve(jobq_t *q);
+static void backfill_estimates(jobq_t *q);
 
 static const char *const state_names[JOB_NSTATES] = {
 	[JOB_QUEUED] = "queued", [JOB_RUNNING] = "running", [JOB_SUCCEEDED] = "succeeded",
@@ -95,6 +97,7 @@ jobq_t *jobq_open(const char *path, const jobq_limits_t *lim, char *err, size_t 
 	    sqlite3_step(st) == SQLITE_ROW)
 		q->queued = sqlite3_column_int64(st, 0);
 	sqlite3_finalize(st);
+	backfill_estimates(q);
 	return q;
 }
 
@@ -118,6 +121,9 @@ void jobq_close(jobq_t *q)
 static int begin(jobq_t *q) { return sqlite3_exec(q->db, "BEGIN IMMEDIATE", NULL, NULL, NULL); }
 static int commit(jobq_t *q) { return sqlite3_exec(q->db, "COMMIT", NULL, NULL, NULL); }
 static void rollback(jobq_t *q) { sqlite3_exec(q->db, "ROLLBACK", NULL, NULL, NULL); }
+
+/* A byte count for SQLite and JSON (signed 64 bits; saturated estimates stay saturated). */
+static int64_t i64(uint64_t x) { return x > (uint64_t)INT64_MAX ? INT64_MAX : (int64_t)x; }
 
 static uint64_t fnv1a(const char *s, size_t n)
 {
@@ -165,7 +171,8 @@ static json_t *col_json(sqlite3_stmt *st, int i)
 
 #define JOB_COLS "id, submission_id, state, priority, ranks, method, particles, reason, created_at, " \
 	"updated_at, started_at, finished_at, progress, sim_time, events, collisions, cancel_requested, scene, advice, " \
-	"progress_received, progress_stored, progress_thinned, progress_dropped, progress_stride"
+	"progress_received, progress_stored, progress_thinned, progress_dropped, progress_stride, " \
+	"memory_bytes, output_bytes, max_output"
 
 /* Job object from a row selected with JOB_COLS. */
 static json_t *job_from_row(sqlite3_stmt *st, int with_scene)
@@ -188,6 +195,11 @@ static json_t *job_from_row(sqlite3_stmt *st, int with_scene)
 	                              (json_int_t)sqlite3_column_int64(st, 21), "dropped",
 	                              (json_int_t)sqlite3_column_int64(st, 22), "stride",
 	                              (json_int_t)sqlite3_column_int64(st, 23)));
+	/* Admission: the estimates made at submission and the output limit
+	 * (null for jobs of older versions: the server's max_job_output). */
+	json_object_set_new(j, "resources", json_pack("{s:o, s:o, s:o}", "memory_bytes", col_json(st, 24),
+	                                              "output_bytes", col_json(st, 25), "max_output_bytes",
+	                                              col_json(st, 26)));
 	if (with_scene) {
 		json_t *sc = json_loads((const char *)sqlite3_column_text(st, 17), 0, NULL);
 		json_object_set_new(j, "scene", sc ? sc : json_null());
@@ -237,6 +249,37 @@ static int load_job(jobq_t *q, int64_t id, int with_scene, json_t **out)
 	return ret;
 }
 
+/* Jobs queued or running under a version without admission (schema 2) get
+ * their memory estimate now, so the scheduler can count them. Best effort:
+ * a scene that no longer parses keeps none (it fails at its start). */
+static void backfill_estimates(jobq_t *q)
+{
+	sqlite3_stmt *st = NULL, *up = NULL;
+	if (sqlite3_prepare_v2(q->db, "SELECT id, ranks, scene FROM jobs WHERE memory_bytes IS NULL AND "
+	                       "state IN ('queued','running')", -1, &st, NULL) != SQLITE_OK ||
+	    sqlite3_prepare_v2(q->db, "UPDATE jobs SET memory_bytes=?, output_bytes=? WHERE id=?", -1, &up, NULL) !=
+	        SQLITE_OK || begin(q) != SQLITE_OK)
+		goto out;
+	while (sqlite3_step(st) == SQLITE_ROW) {
+		const char *txt = (const char *)sqlite3_column_text(st, 2);
+		scene_t sc;
+		budget_t u;
+		if (!txt || scene_parse(txt, strlen(txt), &sc, NULL, 0) != SCENE_OK ||
+		    budget_estimate(&sc, sqlite3_column_int(st, 1), &u, NULL, 0) != BUDGET_OK)
+			continue;
+		sqlite3_bind_int64(up, 1, i64(u.memory));
+		sqlite3_bind_int64(up, 2, i64(u.output));
+		sqlite3_bind_int64(up, 3, sqlite3_column_int64(st, 0));
+		sqlite3_step(up);
+		sqlite3_reset(up);
+	}
+	if (commit(q) != SQLITE_OK)
+		rollback(q);
+out:
+	sqlite3_finalize(st);
+	sqlite3_finalize(up);
+}
+
 /* ---- submission ------------------------------------------------------------ */
 
 static int valid_submission_id(const char *s)
@@ -258,7 +301,7 @@ static int valid_submission_id(const char *s)
 /* One validated submission waiting for its transaction. */
 typedef struct sub {
 	const char *sub_id, *scene, *hash, *method, *advice;
-	uint64_t count;
+	uint64_t count, memory, output, max_output;   /* max_output 0: NULL (the server's limit) */
 	json_int_t priority, ranks;
 	double now;
 	int64_t id;
@@ -317,7 +360,8 @@ static void run_batch(jobq_t *q, sub_t *batch)
 		}
 		int rc = sqlite3_prepare_v2(q->db,
 		                            "INSERT INTO jobs(submission_id, scene, scene_hash, method, particles, priority, "
-		                            "ranks, created_at, updated_at, advice) VALUES (?,?,?,?,?,?,?,?,?,?)", -1, &st, NULL);
+		                            "ranks, created_at, updated_at, advice, memory_bytes, output_bytes, max_output) "
+		                            "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)", -1, &st, NULL);
 		if (rc == SQLITE_OK) {
 			if (it->sub_id)
 				sqlite3_bind_text(st, 1, it->sub_id, -1, SQLITE_STATIC);
@@ -331,6 +375,10 @@ static void run_batch(jobq_t *q, sub_t *batch)
 			sqlite3_bind_double(st, 9, it->now);
 			if (it->advice)
 				sqlite3_bind_text(st, 10, it->advice, -1, SQLITE_STATIC);
+			sqlite3_bind_int64(st, 11, i64(it->memory));
+			sqlite3_bind_int64(st, 12, i64(it->output));
+			if (it->max_output)
+				sqlite3_bind_int64(st, 13, i64(it->max_output));
 			rc = sqlite3_step(st);
 		}
 		sqlite3_finalize(st);
@@ -399,14 +447,19 @@ static void submit_batched(jobq_t *q, sub_t *it)
 }
 
 /* A request body: the scene itself or {"scene": ..., "priority", "ranks",
- * "submission_id"}, validated by the engine's parser and the limits. */
+ * "submission_id", "max_output_bytes"}, validated by the engine's parser and
+ * the limits. */
 typedef struct {
 	json_t *doc, *scene_obj;     /* doc owns scene_obj */
 	const char *prefix;          /* "scene." in the wrapper form, for error paths */
 	const char *sub_id;
 	json_int_t priority, ranks;
+	uint64_t max_output;         /* asked for by the submission; 0 = the server's limit */
 	scene_t sc;
+	budget_t bud;                /* set by admit() */
 } body_t;
+
+#define MIN_OUTPUT_LIMIT (1u << 20)   /* smaller cannot hold a run's first files */
 
 static int parse_body(jobq_t *q, const char *body, size_t len, body_t *b, char *err, size_t errlen)
 {
@@ -466,8 +519,21 @@ static int parse_body(jobq_t *q, const char *body, size_t len, body_t *b, char *
 					goto cleanup;
 				}
 				b->sub_id = json_string_value(v);
+			} else if (!strcmp(k, "max_output_bytes")) {
+				json_int_t m = json_is_integer(v) ? json_integer_value(v) : -1;
+				if (m < MIN_OUTPUT_LIMIT) {
+					snprintf(err, errlen, "max_output_bytes: must be an integer >= %u", MIN_OUTPUT_LIMIT);
+					goto cleanup;
+				}
+				if (q->lim.max_output && (uint64_t)m > q->lim.max_output) {
+					snprintf(err, errlen, "max_output_bytes: %" JSON_INTEGER_FORMAT " exceeds this server's limit of "
+					         "%" PRIu64 " (max_job_output)", m, q->lim.max_output);
+					goto cleanup;
+				}
+				b->max_output = (uint64_t)m;
 			} else {
-				snprintf(err, errlen, "%s: unknown key (expected scene, priority, ranks, submission_id)", k);
+				snprintf(err, errlen, "%s: unknown key (expected scene, priority, ranks, submission_id, "
+				         "max_output_bytes)", k);
 				goto cleanup;
 			}
 		}
@@ -492,6 +558,11 @@ static int parse_body(jobq_t *q, const char *body, size_t len, body_t *b, char *
 		         b->sc.count, q->lim.max_particles);
 		goto cleanup;
 	}
+	if (q->lim.max_replicas && b->sc.replicas > q->lim.max_replicas) {
+		snprintf(err, errlen, "%srun.replicas: %" PRIu64 " exceeds this server's limit of %" PRIu64 " (max_replicas)",
+		         b->prefix, b->sc.replicas, q->lim.max_replicas);
+		goto cleanup;
+	}
 	ret = JOBQ_OK;
 cleanup:
 	free(txt);
@@ -513,15 +584,136 @@ static int estimate(jobq_t *q, const body_t *b, advice_t *adv, char *err, size_t
 	return JOBQ_OK;
 }
 
+/* Bytes for a message: "17.2 GB", or with exact "17.2 GB (17234567890 bytes)". */
+typedef struct { char s[64]; } bytes_t;
+static bytes_t fmt_bytes_x(uint64_t x, int exact)
+{
+	bytes_t r;
+	if (x == UINT64_MAX) {
+		snprintf(r.s, sizeof(r.s), "more than 18 EB (unbounded)");
+		return r;
+	}
+	static const char *const unit[] = {"B", "kB", "MB", "GB", "TB", "PB", "EB"};
+	double v = (double)x;
+	int u = 0;
+	while (v >= 1000 && u < 6)
+		v /= 1000, u++;
+	if (u && exact)
+		snprintf(r.s, sizeof(r.s), "%.3g %s (%" PRIu64 " bytes)", v, unit[u], x);
+	else
+		snprintf(r.s, sizeof(r.s), u ? "%.3g %s" : "%.0f %s", v, unit[u]);
+	return r;
+}
+static bytes_t fmt_bytes(uint64_t x) { return fmt_bytes_x(x, 1); }
+static bytes_t fmt_short(uint64_t x) { return fmt_bytes_x(x, 0); }
+
+/* Admission of a body whose scene has a concrete method (b->sc; an "auto"
+ * scene is resolved by the caller): the budget on the body's ranks against
+ * the memory budget and the job's output limit. Sets b->bud. */
+static int admit(jobq_t *q, body_t *b, char *err, size_t errlen)
+{
+	char msg[512];
+	if (budget_estimate(&b->sc, (int)b->ranks, &b->bud, msg, sizeof(msg)) != BUDGET_OK) {
+		snprintf(err, errlen, "%s%s", b->prefix, msg);
+		return JOBQ_EINVAL;
+	}
+	const budget_t *u = &b->bud;
+	if (q->lim.memory_budget && u->memory > q->lim.memory_budget) {
+		/* The key to change: the replicas when one replica would fit. */
+		scene_t one = b->sc;
+		budget_t ub;
+		one.replicas = 1;
+		const char *key = b->sc.replicas > 1 && budget_estimate(&one, (int)b->ranks, &ub, NULL, 0) == BUDGET_OK &&
+		                  ub.memory <= q->lim.memory_budget ? "run.replicas" : "particles.count";
+		snprintf(err, errlen, "%s%s: the job needs an estimated %s of memory (one replica's engine %s, %" PRIu64
+		         " replica(s) on %" JSON_INTEGER_FORMAT " rank(s)), more than this server's memory_budget of %s: "
+		         "it could never start", b->prefix, key, fmt_bytes(u->memory).s, fmt_short(u->engine).s,
+		         b->sc.replicas, b->ranks, fmt_bytes(q->lim.memory_budget).s);
+		return JOBQ_EINVAL;
+	}
+	uint64_t limit = b->max_output ? b->max_output : q->lim.max_output;
+	if (limit && u->output > limit) {
+		/* The key behind the largest part. */
+		uint64_t ck = 3 * (u->checkpoint < UINT64_MAX / 3 ? u->checkpoint : UINT64_MAX / 3);
+		const char *key = u->trajectory >= u->progress && u->trajectory >= ck
+		                          ? (b->sc.snapshots.kind != SCENE_CLOCK_NONE ? "output.snapshots.every" : "particles.count")
+		                  : u->progress >= ck ? "output.every"
+		                  : b->sc.replicas > 1 ? "run.replicas" : "particles.count";
+		snprintf(err, errlen, "%s%s: the job would write an estimated %s (%" PRIu64 " frames: trajectory %s; "
+		         "checkpoints %s; %" PRIu64 " progress lines: %s), more than its output limit of %s (%s)", b->prefix,
+		         key, fmt_bytes(u->output).s, u->frames, fmt_short(u->trajectory).s, fmt_short(ck).s, u->records,
+		         fmt_short(u->progress).s, fmt_bytes(limit).s,
+		         b->max_output ? "max_output_bytes" : "the server's max_job_output");
+		return JOBQ_EINVAL;
+	}
+	return JOBQ_OK;
+}
+
+/* The budget as JSON (the "resources" of a validation). */
+static json_t *budget_json(const budget_t *u, uint64_t max_output)
+{
+	return json_pack("{s:I, s:I, s:I, s:I, s:I, s:I, s:I, s:I, s:I, s:I, s:s, s:I}",
+	                 "memory_bytes", i64(u->memory), "memory_rank0_bytes", i64(u->memory_rank0),
+	                 "engine_bytes", i64(u->engine), "output_bytes", i64(u->output),
+	                 "trajectory_bytes", i64(u->trajectory), "checkpoint_bytes", i64(u->checkpoint),
+	                 "progress_bytes", i64(u->progress), "frames", i64(u->frames),
+	                 "records", i64(u->records), "cells", i64(u->cells), "output_estimate",
+	                 u->bound == BUDGET_EXACT ? "schedule" : "haff", "max_output_bytes", i64(max_output));
+}
+
+/* Body parsed and admitted, "auto" resolved on a copy of the scene (b->sc
+ * becomes the chosen scene; *adv the decision when adv is not NULL). The
+ * checks of a submission, for advice and validation. */
+static int check_body(jobq_t *q, const char *body, size_t len, body_t *b, advice_t *adv, char *err, size_t errlen)
+{
+	advice_t a;
+	char msg[512];
+	int ret = parse_body(q, body, len, b, err, errlen);
+	if (ret)
+		return ret;
+	if (b->sc.method == SCENE_METHOD_AUTO || adv) {
+		if ((ret = estimate(q, b, &a, err, errlen)))
+			return ret;
+		if (adv)
+			*adv = a;
+	}
+	if (b->sc.method == SCENE_METHOD_AUTO) {
+		advice_apply(&a, &b->sc);
+		if (scene_check_start(&b->sc, msg, sizeof(msg)) != SCENE_OK) {
+			snprintf(err, errlen, "%sthe scene with the chosen method is not valid: %s", b->prefix, msg);
+			return JOBQ_EINVAL;
+		}
+	}
+	return admit(q, b, err, errlen);
+}
+
 int jobq_advice(jobq_t *q, const char *body, size_t len, json_t **out, char *err, size_t errlen)
 {
 	body_t b;
 	advice_t adv;
 	*out = NULL;
-	int ret = parse_body(q, body, len, &b, err, errlen);
-	if (!ret && !(ret = estimate(q, &b, &adv, err, errlen)) && !(*out = advice_json(&adv))) {
+	int ret = check_body(q, body, len, &b, &adv, err, errlen);
+	if (!ret && !(*out = advice_json(&adv))) {
 		ret = JOBQ_ENOMEM;
 		snprintf(err, errlen, "out of memory");
+	}
+	json_decref(b.doc);
+	return ret;
+}
+
+int jobq_validate(jobq_t *q, const char *body, size_t len, json_t **out, char *err, size_t errlen)
+{
+	body_t b;
+	*out = NULL;
+	int ret = check_body(q, body, len, &b, NULL, err, errlen);
+	if (!ret) {
+		json_t *r = budget_json(&b.bud, b.max_output ? b.max_output : q->lim.max_output);
+		*out = r ? json_pack("{s:b, s:s, s:o}", "valid", 1, "method", scene_method_name(b.sc.method), "resources", r)
+		         : NULL;
+		if (!*out) {
+			ret = JOBQ_ENOMEM;
+			snprintf(err, errlen, "out of memory");
+		}
 	}
 	json_decref(b.doc);
 	return ret;
@@ -569,9 +761,12 @@ int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **ou
 			goto cleanup;
 		}
 	}
+	if ((ret = admit(q, &b, err, errlen)))
+		goto cleanup;
 	{
 		sub_t it = {.sub_id = b.sub_id, .scene = scene_txt, .hash = hash, .method = scene_method_name(b.sc.method),
-		            .advice = advice_txt, .count = b.sc.count, .priority = b.priority, .ranks = b.ranks, .now = now};
+		            .advice = advice_txt, .count = b.sc.count, .priority = b.priority, .ranks = b.ranks, .now = now,
+		            .memory = b.bud.memory, .output = b.bud.output, .max_output = b.max_output};
 		submit_batched(q, &it);
 		ret = it.ret;
 		*out = it.out;
@@ -884,6 +1079,27 @@ int jobq_stats(jobq_t *q, double now, json_t **out, char *err, size_t errlen)
 
 /* ---- supervisor side ------------------------------------------------------- */
 
+/* Whether a job needing `need` bytes fits beside the running jobs in the
+ * memory budget (*never: not even alone). Locked, in the caller's
+ * transaction. Running jobs of older versions without an estimate count 0. */
+static int memory_fits(jobq_t *q, uint64_t need, int *never)
+{
+	*never = 0;
+	if (!q->lim.memory_budget)
+		return 1;
+	if (need > q->lim.memory_budget) {
+		*never = 1;
+		return 0;
+	}
+	sqlite3_stmt *st = NULL;
+	uint64_t used = 0;
+	if (sqlite3_prepare_v2(q->db, "SELECT coalesce(sum(memory_bytes), 0) FROM jobs WHERE state='running'", -1, &st,
+	                       NULL) == SQLITE_OK && sqlite3_step(st) == SQLITE_ROW)
+		used = (uint64_t)sqlite3_column_int64(st, 0);
+	sqlite3_finalize(st);
+	return used <= q->lim.memory_budget && need <= q->lim.memory_budget - used;
+}
+
 int jobq_claim(jobq_t *q, int free_slots, double now, jobq_claim_t *out, char *err, size_t errlen)
 {
 	sqlite3_stmt *st = NULL;
@@ -895,20 +1111,40 @@ int jobq_claim(jobq_t *q, int free_slots, double now, jobq_claim_t *out, char *e
 		DBERR(q, err, errlen);
 		goto out;
 	}
-	sqlite3_prepare_v2(q->db, "SELECT id, ranks, scene FROM jobs WHERE state='queued' ORDER BY priority DESC, id LIMIT 1",
-	                   -1, &st, NULL);
-	rc = sqlite3_step(st);
-	if (rc == SQLITE_ROW && sqlite3_column_int(st, 1) <= free_slots) {
-		out->id = sqlite3_column_int64(st, 0);
-		out->ranks = sqlite3_column_int(st, 1);
-		out->scene = strdup((const char *)sqlite3_column_text(st, 2));
-		ret = JOBQ_OK;
-	} else if (rc != SQLITE_ROW && rc != SQLITE_DONE) {
-		ret = JOBQ_EDB;
-		DBERR(q, err, errlen);
+	for (;;) {
+		sqlite3_prepare_v2(q->db, "SELECT id, ranks, scene, coalesce(memory_bytes, 0) FROM jobs WHERE state='queued' "
+		                   "ORDER BY priority DESC, id LIMIT 1", -1, &st, NULL);
+		rc = sqlite3_step(st);
+		int never = 0;
+		if (rc == SQLITE_ROW && sqlite3_column_int(st, 1) <= free_slots &&
+		    memory_fits(q, (uint64_t)sqlite3_column_int64(st, 3), &never)) {
+			out->id = sqlite3_column_int64(st, 0);
+			out->ranks = sqlite3_column_int(st, 1);
+			out->scene = strdup((const char *)sqlite3_column_text(st, 2));
+			ret = JOBQ_OK;
+		} else if (rc != SQLITE_ROW && rc != SQLITE_DONE) {
+			ret = JOBQ_EDB;
+			DBERR(q, err, errlen);
+		}
+		int64_t head = rc == SQLITE_ROW ? sqlite3_column_int64(st, 0) : 0;
+		uint64_t need = rc == SQLITE_ROW ? (uint64_t)sqlite3_column_int64(st, 3) : 0;
+		sqlite3_finalize(st);
+		st = NULL;
+		if (!never)
+			break;
+		/* The head can never start here: fail it, look at the next. */
+		char why[256];
+		snprintf(why, sizeof(why), "needs an estimated %s of memory, more than this server's memory_budget of %s "
+		         "(lowered since the job was submitted): it can never start", fmt_short(need).s,
+		         fmt_short(q->lim.memory_budget).s);
+		if (exec_bind(q, "UPDATE jobs SET state='failed', reason=?, updated_at=?, finished_at=? WHERE id=?", "sddi",
+		              why, now, now, head) != SQLITE_OK) {
+			ret = JOBQ_EDB;
+			DBERR(q, err, errlen);
+			break;
+		}
+		q->queued--;
 	}
-	sqlite3_finalize(st);
-	st = NULL;
 	if (ret == JOBQ_OK) {
 		int64_t n = 1;
 		sqlite3_prepare_v2(q->db, "SELECT coalesce(max(n),0)+1 FROM attempts WHERE job_id=?", -1, &st, NULL);
@@ -941,6 +1177,28 @@ int jobq_claim(jobq_t *q, int free_slots, double now, jobq_claim_t *out, char *e
 		}
 	}
 out:
+	pthread_mutex_unlock(&q->lock);
+	return ret;
+}
+
+int jobq_output_limit(jobq_t *q, int64_t id, uint64_t *bytes)
+{
+	sqlite3_stmt *st = NULL;
+	int ret = JOBQ_EDB, rc;
+	*bytes = 0;
+	pthread_mutex_lock(&q->lock);
+	if (sqlite3_prepare_v2(q->db, "SELECT max_output FROM jobs WHERE id=?", -1, &st, NULL) == SQLITE_OK) {
+		sqlite3_bind_int64(st, 1, id);
+		rc = sqlite3_step(st);
+		if (rc == SQLITE_ROW) {
+			*bytes = sqlite3_column_type(st, 0) == SQLITE_NULL ? q->lim.max_output
+			                                                   : (uint64_t)sqlite3_column_int64(st, 0);
+			ret = JOBQ_OK;
+		} else if (rc == SQLITE_DONE) {
+			ret = JOBQ_ENOTFOUND;
+		}
+	}
+	sqlite3_finalize(st);
 	pthread_mutex_unlock(&q->lock);
 	return ret;
 }

@@ -43,6 +43,10 @@ typedef struct {
 	int max_queued;          /* jobs in state queued; more gives JOBQ_ELIMIT */
 	int max_json_depth;      /* nesting limit of the request body */
 	int max_progress;        /* stored progress records per job before downsampling */
+	/* Admission (docs/daemon.md): 0 = no limit. */
+	uint64_t memory_budget;  /* bytes the memory estimates of running jobs may add up to */
+	uint64_t max_replicas;   /* per-job limit on run.replicas */
+	uint64_t max_output;     /* bytes a job's directory may hold; a job may ask for less */
 } jobq_limits_t;
 
 /* Open the queue on a database file (":memory:" for tests). NULL on error (err). */
@@ -55,9 +59,16 @@ const char *job_state_name(job_state_t s);
 int job_state_parse(const char *name);
 
 /* Submit: body is the scene JSON itself or {"scene": {...}, "priority": p,
- * "ranks": r, "submission_id": "..."}. The scene is validated by the
- * engine's own parser. A repeated submission_id with the same scene returns
- * the existing job with *created = 0; with another scene JOBQ_ECONFLICT. */
+ * "ranks": r, "submission_id": "...", "max_output_bytes": b}. The scene is
+ * validated by the engine's own parser, which makes the engine's start
+ * checks too (scene.h), and admitted by its budget (engine/budget.h) on the
+ * job's ranks: JOBQ_EINVAL naming the key and the estimate when its memory
+ * exceeds memory_budget (it could never start) or its output the job's
+ * limit (max_output_bytes, at most the limits' max_output), or when
+ * run.replicas exceeds max_replicas. A repeated submission_id with the same
+ * scene returns the existing job with *created = 0; with another scene
+ * JOBQ_ECONFLICT. The job keeps its estimates: "resources" {memory_bytes,
+ * output_bytes, max_output_bytes}. */
 int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **out, int *created, char *err,
                 size_t errlen);
 
@@ -70,6 +81,12 @@ int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **ou
  * wall time; priority and submission_id are ignored); *out = the estimates
  * (advice_json()). Same validation and limits as a submission. */
 int jobq_advice(jobq_t *q, const char *body, size_t len, json_t **out, char *err, size_t errlen);
+
+/* Validation without submitting: exactly the checks of jobq_submit() (the
+ * method of an "auto" scene chosen as a submission would), nothing stored.
+ * *out = {"valid": true, "method": m, "resources": {...}} with the budget
+ * (docs/daemon.md); errors as jobq_submit(). */
+int jobq_validate(jobq_t *q, const char *body, size_t len, json_t **out, char *err, size_t errlen);
 
 /* One job (with its attempts; with the scene when with_scene). */
 int jobq_get(jobq_t *q, int64_t id, int with_scene, json_t **out, char *err, size_t errlen);
@@ -115,9 +132,13 @@ typedef struct {
 } jobq_claim_t;
 
 /* Claim the next queued job (priority, then submission order) if its ranks
- * fit in free_slots: it becomes running with a new attempt row. Strict order
- * (a big job at the head waits for slots instead of being overtaken forever).
- * JOBQ_EEMPTY when nothing can start. */
+ * fit in free_slots and its memory estimate beside those of the running jobs
+ * in memory_budget: it becomes running with a new attempt row. Strict order
+ * (a big job at the head waits for slots or memory instead of being
+ * overtaken forever). A head job whose estimate alone exceeds memory_budget
+ * (the budget shrank since it was submitted) can never start: it fails with
+ * a reason saying so and the next one is considered. JOBQ_EEMPTY when
+ * nothing can start. */
 int jobq_claim(jobq_t *q, int free_slots, double now, jobq_claim_t *out, char *err, size_t errlen);
 
 /* Record the launch (pid of the process-group leader and its start time) and
@@ -181,6 +202,10 @@ int jobq_list_running(jobq_t *q, jobq_running_t **out, size_t *n);
 int jobq_reserve(jobq_t *q, const char *path, uint64_t bytes);
 /* 1 while the ballast is spent (disk full), else 0. */
 int jobq_low_space(jobq_t *q);
+
+/* Bytes job id's directory may hold (its max_output_bytes, or the limits'
+ * max_output; 0 = no limit) into *bytes. JOBQ_OK or JOBQ_ENOTFOUND/EDB. */
+int jobq_output_limit(jobq_t *q, int64_t id, uint64_t *bytes);
 
 /* Whether cancel was requested for a job (0/1), negative on error. */
 int jobq_cancel_requested(jobq_t *q, int64_t id);

@@ -195,9 +195,15 @@ int main(int argc, char **argv)
 		log_warning("granular-engine not found (tried the engine key, next to granulard, %s, PATH); "
 		            "jobs will fail until it is installed", GRANULARD_BINDIR);
 
+	/* Admission: what running jobs may use together (their estimates). */
+	uint64_t budget = cfg.memory_budget > 0 ? (uint64_t)cfg.memory_budget : util_memory_total() / 10 * 9;
+	if (!budget)
+		log_warning("memory_budget: the machine's memory is unknown and none is configured: jobs are not "
+		            "limited by memory");
 	jobq_limits_t lim = {.max_particles = (uint64_t)cfg.max_particles, .max_ranks = (int)cfg.max_ranks,
 	                     .max_queued = (int)cfg.max_queued, .max_json_depth = (int)cfg.max_json_depth,
-	                     .max_progress = (int)cfg.max_progress_records};
+	                     .max_progress = (int)cfg.max_progress_records, .memory_budget = budget,
+	                     .max_replicas = (uint64_t)cfg.max_replicas, .max_output = (uint64_t)cfg.max_job_output};
 	snprintf(path, sizeof(path), "%s/granulard.db", cfg.state_dir);
 	gd.cfg = &cfg;
 	gd.q = jobq_open(path, &lim, err, sizeof(err));
@@ -236,7 +242,8 @@ int main(int argc, char **argv)
 		goto cleanup;
 	}
 	addr[strcspn(addr, "\n")] = '\0';
-	log_info("serving http://%s/ (state %s, %ld slots, engine %s)", addr, cfg.state_dir, cfg.slots, engine);
+	log_info("serving http://%s/ (state %s, %ld slots, memory budget %.3g GB, engine %s)", addr, cfg.state_dir,
+	         cfg.slots, (double)budget / 1e9, engine);
 	char st[512];
 	snprintf(st, sizeof(st), "READY=1\nSTATUS=serving http://%s/ with %ld slots", addr, cfg.slots);
 	notify_send(st);

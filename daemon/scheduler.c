@@ -15,6 +15,7 @@
 #include <unistd.h>
 #include "ingest.h"
 #include "log.h"
+#include "quota.h"
 #include "scheduler.h"
 #include "util.h"
 
@@ -56,6 +57,8 @@ typedef struct {
 	int resumed, ckpt_noted;     /* launched with --resume; fallback seen (note_fallback()) */
 	char head[1024];             /* first stderr bytes: the engine's resume line comes first */
 	size_t nhead;
+	int over_output;             /* stopped for its output limit (quota.h): over_msg says why */
+	char over_msg[320];
 } child_t;
 
 struct sched {
@@ -73,6 +76,7 @@ struct sched {
 	size_t nkids;
 	double reserve_at;           /* last ballast check (monotonic s) */
 	int warned_full;
+	quota_t *quota;              /* output limits of running jobs */
 	double claim_at;             /* last look at the queue (monotonic s) */
 	char rbuf[READ_BYTES];
 };
@@ -104,7 +108,9 @@ sched_t *sched_create(const sched_conf_t *conf)
 		return NULL;
 	s->c = *conf;
 	s->kids = calloc(MAX_CHILDREN, sizeof(child_t));
-	if (!s->kids || pipe2(s->wake, O_CLOEXEC | O_NONBLOCK)) {
+	s->quota = quota_create(conf->q, conf->jobs_dir, 1.0);
+	if (!s->kids || !s->quota || pipe2(s->wake, O_CLOEXEC | O_NONBLOCK)) {
+		quota_destroy(s->quota);
 		free(s->kids);
 		free(s);
 		return NULL;
@@ -123,6 +129,7 @@ void sched_destroy(sched_t *s)
 	pthread_mutex_destroy(&s->lock);
 	free(s->cancels);
 	free(s->kids);
+	quota_destroy(s->quota);
 	free(s);
 }
 
@@ -548,6 +555,9 @@ static void finish(sched_t *s, child_t *k)
 	} else if (stopping) {
 		next = JOB_QUEUED;
 		snprintf(reason, sizeof(reason), "interrupted by daemon shutdown; requeued");
+	} else if (k->over_output) {
+		next = JOB_FAILED;
+		snprintf(reason, sizeof(reason), "%s", k->over_msg);
 	} else if (k->walllimit) {
 		next = JOB_FAILED;
 		snprintf(reason, sizeof(reason), "wall-time limit of %ld s exceeded", s->c.cfg->max_wall_seconds);
@@ -662,6 +672,11 @@ static void *loop(void *arg)
 			s->stopping = 2;
 			pthread_mutex_unlock(&s->lock);
 		}
+		/* Output limits (quota.h): a job whose directory outgrew its limit is stopped and fails. */
+		for (size_t i = 0; i < s->nkids; i++)
+			if (s->kids[i].pid && !s->kids[i].over_output && !s->kids[i].cancel &&
+			    quota_exceeded(s->quota, s->kids[i].id, now, s->kids[i].over_msg, sizeof(s->kids[i].over_msg)))
+				s->kids[i].over_output = 1, s->kids[i].term_at = now;
 		/* Deadlines: SIGTERM (the engine checkpoints), then SIGKILL. */
 		for (size_t i = 0; i < s->nkids; i++) {
 			child_t *k = &s->kids[i];
@@ -669,7 +684,7 @@ static void *loop(void *arg)
 				continue;
 			refresh_desc(k, now, 0);
 			if (k->term_at > 0 && now >= k->term_at) {
-				if (!k->cancel && stopping == 0)
+				if (!k->cancel && !k->over_output && stopping == 0)
 					k->walllimit = 1;
 				signal_child(k, SIGTERM, now);
 				k->term_at = 0;

@@ -207,3 +207,46 @@ int util_ct_equal(const char *a, const char *b)
 		d |= (unsigned char)(a[i] ^ b[i % (nb ? nb : 1)]);
 	return d == 0 && nb > 0;
 }
+
+/* A cgroup memory limit file: a number of bytes, or "max" / a huge value for none. */
+static uint64_t read_limit(const char *path)
+{
+	char buf[64] = "";
+	FILE *f = fopen(path, "re");
+	if (!f)
+		return 0;
+	if (!fgets(buf, sizeof(buf), f))
+		buf[0] = '\0';
+	fclose(f);
+	char *end;
+	unsigned long long v = strtoull(buf, &end, 10);
+	return end != buf && v > 0 && v < (1ull << 62) ? (uint64_t)v : 0;
+}
+
+uint64_t util_memory_total(void)
+{
+	long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+	uint64_t total = pages > 0 && page > 0 ? (uint64_t)pages * (uint64_t)page : 0;
+	/* Our own cgroup (systemd's MemoryMax=): v2 "0::/path", v1 "N:memory:/path". */
+	char line[512], path[1024];
+	FILE *f = fopen("/proc/self/cgroup", "re");
+	while (f && fgets(line, sizeof(line), f)) {
+		line[strcspn(line, "\n")] = '\0';
+		char *rel = NULL;
+		if (!strncmp(line, "0::", 3)) {
+			rel = line + 3;
+			snprintf(path, sizeof(path), "/sys/fs/cgroup%s/memory.max", rel);
+		} else if ((rel = strstr(line, ":memory:"))) {
+			rel += 8;
+			snprintf(path, sizeof(path), "/sys/fs/cgroup/memory%s/memory.limit_in_bytes", rel);
+		} else {
+			continue;
+		}
+		uint64_t lim = read_limit(path);
+		if (lim && (!total || lim < total))
+			total = lim;
+	}
+	if (f)
+		fclose(f);
+	return total;
+}

@@ -23,3 +23,7 @@ int util_descendants(pid_t pid, pid_t *out, uint64_t *start, int max);
 int util_random_hex(char *out, size_t nbytes);
 /* Constant-time comparison of two strings (time depends only on lengths). */
 int util_ct_equal(const char *a, const char *b);
+/* Memory this process and its children may use, in bytes: the physical
+ * memory, or the memory limit of our cgroup (v2 memory.max, v1
+ * memory.limit_in_bytes: systemd's MemoryMax=) when smaller; 0 if unknown. */
+uint64_t util_memory_total(void);

@@ -740,12 +740,21 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		ret = EX_INPUT;
 		goto cleanup;
 	}
+	/* "auto": the method is chosen now, and the chosen scene must pass the
+	 * start checks the parser makes for a fixed method (validate alike). */
+	if (scene.method == SCENE_METHOD_AUTO) {
+		if ((ret = resolve_auto(&scene, size, strcmp(cmd, "validate") ? &advice_line : NULL)) != EX_DONE)
+			goto cleanup;
+		if (scene_check_start(&scene, err, sizeof(err)) != SCENE_OK) {
+			fprintf(stderr, "%s\n", err);
+			ret = EX_INPUT;
+			goto cleanup;
+		}
+	}
 	if (!strcmp(cmd, "validate")) {
 		ret = EX_DONE;
 		goto cleanup;
 	}
-	if (scene.method == SCENE_METHOD_AUTO && (ret = resolve_auto(&scene, size, &advice_line)) != EX_DONE)
-		goto cleanup;
 	/* Single runs: run_go() with frames and checkpoints; ensembles take both
 	 * at output times (ensemble_run()). */
 	const int stepped = scene.replicas <= 1;

@@ -9,6 +9,8 @@
 #include <jansson.h>
 
 #include "scene.h"
+#include "ed/ed.h"
+#include "mc/dsmc.h"
 
 #define PI 3.14159265358979323846
 #define PATHLEN 256
@@ -448,7 +450,29 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 
 	if (s->every.kind == SCENE_CLOCK_NONE)
 		s->every = (scene_when_t){ s->until.kind, s->until.value / 100 };
-	return 0;
+
+	return scene_check_start(s, c->err, c->errlen);
+}
+
+/* The engines' own start checks (cell grid, initial placement), made by
+ * the engines' plan functions that their constructors share: a scene that
+ * parses is one the engine starts. */
+int scene_check_start(const scene_t *s, char *err, size_t errlen)
+{
+	char why[PATHLEN + 256] = "";
+	int bad = 0;
+	if (s->method == SCENE_METHOD_ED)
+		bad = ed_plan(s, NULL, why, sizeof why) != ED_OK;
+	else if (s->method == SCENE_METHOD_DSMC || s->method == SCENE_METHOD_HSMC)
+		bad = dsmc_plan(s, NULL, why, sizeof why) != DSMC_OK;
+	if (!bad)
+		return SCENE_OK;
+	/* why is "KEY: reason" */
+	ctx_t c = { NULL, err, errlen };
+	char key[PATHLEN];
+	const char *sep = strstr(why, ": ");
+	snprintf(key, sizeof key, "%.*s", sep ? (int)(sep - why) : 0, why);
+	return fail(&c, sep ? key : "(root)", "%s", sep ? sep + 2 : why);
 }
 
 static const struct object when_obj = {

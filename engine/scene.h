@@ -103,6 +103,14 @@ typedef struct scene {
  * defaults applied. err (errlen bytes, may be NULL) receives the message. */
 int scene_parse(const char *json, size_t len, scene_t *out, char *err, size_t errlen);
 
+/* The engines' start checks for a parsed scene of a concrete method: what
+ * granular-engine refuses after parsing, before running (ed: a cell grid of
+ * at most 64 cells per particle, initial placement; dsmc/hsmc: the cell
+ * grid; ed_plan(), dsmc_plan()). scene_parse() makes them for ed, dsmc and
+ * hsmc scenes; for "auto" call this once advice_apply() has chosen the
+ * method. SCENE_OK, or SCENE_EINVAL with "KEY.PATH: reason" in err. */
+int scene_check_start(const scene_t *s, char *err, size_t errlen);
+
 /* Close-packing volume fraction of disks (dim 2) or spheres (dim 3). */
 double scene_close_packing(int dim);
 

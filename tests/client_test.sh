@@ -15,7 +15,7 @@ jsonok() { "$PY" -c 'import json,sys; d=json.load(open(sys.argv[1])); sys.exit(0
 one_line() { [ "$(grep -vc '^Try ' "$tmp/err")" = 1 ] && grep -q '^granularctl: ' "$tmp/err"; }
 
 SHORT='{"method":"ed","dimensions":2,"particles":{"count":400,"volume_fraction":0.2},"collisions":{"restitution":0.9},"run":{"seed":3,"until":{"time":0.5}},"output":{"every":{"time":0.05},"observables":["kinetic_energy","temperature","collision_rate","clusters"]}}'
-LONG='{"method":"ed","dimensions":3,"particles":{"count":4000,"volume_fraction":0.3},"run":{"seed":1,"until":{"time":1e9}},"output":{"every":{"time":0.05}}}'
+LONG='{"method":"ed","dimensions":3,"particles":{"count":4000,"volume_fraction":0.3},"run":{"seed":1,"until":{"time":1e5}},"output":{"every":{"time":0.05}}}'
 echo "$SHORT" >"$tmp/short.json"
 echo "$LONG" >"$tmp/long.json"
 

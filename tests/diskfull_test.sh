@@ -11,7 +11,7 @@ fi
 trap 'kill -9 $GD_PID 2>/dev/null; pkill -9 -f "$M/" 2>/dev/null; sleep 0.2; umount "$M"; rm -rf "$tmp"' EXIT
 gd_start "$M/state" --slots 1 --disk-reserve 524288 --max-progress-records 16
 # A job whose output (progress.jsonl, every record with cluster histograms) outgrows the 4 MB file system.
-BIG='{"method":"ed","dimensions":2,"particles":{"count":2000,"volume_fraction":0.3},"run":{"until":{"time":1e6}},"output":{"every":{"time":0.001},"observables":["kinetic_energy","pressure","collision_rate","clusters"]}}'
+BIG='{"method":"ed","dimensions":2,"particles":{"count":2000,"volume_fraction":0.3},"run":{"until":{"time":1000}},"output":{"every":{"time":0.001},"observables":["kinetic_energy","pressure","collision_rate","clusters"]}}'
 # Fill the disk to within ~1 MB, so the job's files quickly take the rest.
 sleep 0.5
 free=$(df -k --output=avail "$M" | tail -n 1)

@@ -90,6 +90,203 @@ static void series_of(jobq_t *q, int64_t id, char *got, size_t len)
 	json_decref(p);
 }
 
+/* jobq_validate(): 0 and the resources, or the error. */
+static int validate(jobq_t *q, const char *body, json_t **res, char *err)
+{
+	json_t *j = NULL;
+	int rc = jobq_validate(q, body, strlen(body), &j, err, 512);
+	if (res)
+		*res = rc == 0 ? json_incref(json_object_get(j, "resources")) : NULL;
+	json_decref(j);
+	return rc;
+}
+
+static long long res_int(const json_t *res, const char *key) { return json_integer_value(json_object_get(res, key)); }
+
+/* A 2D dsmc scene of n particles and r replicas (~100 bytes per particle per replica). */
+static void mc_scene(char *buf, size_t len, long n, long r, const char *extra)
+{
+	snprintf(buf, len, "{\"method\":\"dsmc\",\"dimensions\":2,\"particles\":{\"count\":%ld,\"volume_fraction\":0.1},"
+	         "\"run\":{\"until\":{\"time\":1},\"replicas\":%ld}%s}", n, r, extra);
+}
+
+/*
+ * Admission (issue 19, items 3 and 7): a job is estimated before it is
+ * queued (engine/budget.h). What can never fit the machine's memory budget
+ * is refused naming the key and the estimate; what fits alone but not
+ * beside the running jobs waits in the queue; replicas are capped; the
+ * output limit is per job (max_output_bytes) under the server's; and the
+ * engine's own start checks run at validation, advice and submission.
+ * On main every one of these scenes was accepted.
+ */
+static void test_admission(void)
+{
+	char err[512], body[1024], sb[32];
+	json_t *res = NULL;
+	int rc, created;
+	jobq_limits_t al = lim;
+	al.max_particles = 1000000000;
+	al.max_replicas = 100;
+	al.max_output = 200u << 20;
+	al.memory_budget = 1000000000;   /* 1 GB */
+	jobq_t *q = jobq_open(":memory:", &al, err, sizeof(err));
+	if (!ok(q != NULL, "admission queue opened (%s)", q ? "ok" : err))
+		return;
+
+	/* The issue's examples. */
+	const char *BIG = "{\"method\":\"ed\",\"dimensions\":3,\"particles\":{\"count\":100000000,\"volume_fraction\":0.3},"
+	                  "\"run\":{\"until\":{\"time\":1}}}";
+	submit(q, BIG, &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && !strncmp(err, "particles.count: the job needs an estimated ", 44) && strstr(err, " GB (") &&
+	   strstr(err, "memory_budget"), "1e8 particles refused by memory, naming the key and the estimate: %s", err);
+	mc_scene(body, sizeof body, 100, 1000000, "");
+	submit(q, body, &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && !strncmp(err, "run.replicas: 1000000 exceeds", 29) && strstr(err, "max_replicas"),
+	   "1e6 replicas refused by max_replicas: %s", err);
+	mc_scene(body, sizeof body, 100000, 100, "");
+	submit(q, body, &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && !strncmp(err, "run.replicas: the job needs", 27),
+	   "100 replicas of 1e5 particles: the replicas named (one would fit): %s", err);
+	snprintf(body, sizeof body, "{\"scene\":%s,\"ranks\":2}", BIG);
+	ok(validate(q, body, NULL, err) == JOBQ_EINVAL && !strncmp(err, "scene.particles.count", 21),
+	   "validation refuses it alike: %s", err);
+	json_t *adv = NULL;
+	ok(jobq_advice(q, BIG, strlen(BIG), &adv, err, sizeof(err)) == JOBQ_EINVAL && !strncmp(err, "particles.count", 15),
+	   "advice refuses it alike: %s", err);
+	json_decref(adv);
+
+	/* Fits alone, not beside another: the second waits for the first. */
+	mc_scene(body, sizeof body, 1000000, 1, "");
+	rc = validate(q, body, &res, err);
+	long long need = res_int(res, "memory_bytes");
+	ok(rc == 0 && need > 100000000 && need < 500000000, "validate: a 1e6-particle job needs %.0f MB", need / 1e6);
+	json_decref(res);
+	jobq_close(q);
+	al.memory_budget = (uint64_t)(1.5 * (double)need);
+	q = jobq_open(":memory:", &al, err, sizeof(err));
+	int64_t j1 = submit(q, body, &rc, NULL, err), j2 = submit(q, body, &rc, NULL, err);
+	mc_scene(body, sizeof body, 1000, 1, "");
+	int64_t j3 = submit(q, body, &rc, NULL, err);
+	jobq_claim_t cl;
+	rc = jobq_claim(q, 4, 200.0, &cl, err, sizeof(err));
+	ok(rc == 0 && cl.id == j1, "budget 1.5 x one job: the first claimed");
+	free(cl.scene);
+	rc = jobq_claim(q, 4, 201.0, &cl, err, sizeof(err));
+	ok(rc == JOBQ_EEMPTY && !strcmp(state_of(q, j2, sb), "queued") && !strcmp(state_of(q, j3, sb), "queued"),
+	   "the second waits with 3 slots free (memory), and the small third does not overtake it");
+	jobq_attempt_finished(q, j1, 1, 300.0, 0, 0, NULL, "", JOB_SUCCEEDED);
+	rc = jobq_claim(q, 4, 301.0, &cl, err, sizeof(err));
+	ok(rc == 0 && cl.id == j2, "when the first ends, the second starts");
+	free(cl.scene);
+	rc = jobq_claim(q, 4, 302.0, &cl, err, sizeof(err));
+	ok(rc == 0 && cl.id == j3, "and the small one fits beside it");
+	free(cl.scene);
+	json_t *job = NULL;
+	jobq_get(q, j2, 0, &job, err, sizeof(err));
+	ok(json_integer_value(json_object_get(json_object_get(job, "resources"), "memory_bytes")) == need,
+	   "the job keeps its estimate in resources.memory_bytes");
+	json_decref(job);
+	jobq_close(q);
+
+	/* Output: the server's limit, a job's own smaller one, and its bounds. */
+	al.memory_budget = 0;
+	q = jobq_open(":memory:", &al, err, sizeof(err));
+	mc_scene(body, sizeof body, 100000, 1, ",\"output\":{\"snapshots\":{\"every\":{\"time\":0.001}}}");
+	submit(q, body, &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && !strncmp(err, "output.snapshots.every: the job would write an estimated ", 57) &&
+	   strstr(err, "max_job_output"), "1001 frames of 1e5 particles exceed the server's 200 MiB: %s", err);
+	mc_scene(body, sizeof body, 100000, 1, ",\"output\":{\"snapshots\":{\"every\":{\"time\":0.1}}}");
+	rc = validate(q, body, &res, err);
+	long long out = res_int(res, "output_bytes");
+	ok(rc == 0 && res_int(res, "frames") == 11 && out > 11 * 3200000LL && res_int(res, "max_output_bytes") == 200 << 20,
+	   "11 frames fit: output %.1f MB estimated", out / 1e6);
+	json_decref(res);
+	char wrap[1200];
+	snprintf(wrap, sizeof wrap, "{\"scene\":%s,\"max_output_bytes\":%lld}", body, out / 2);
+	submit(q, wrap, &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && !strncmp(err, "scene.output.snapshots.every", 28) && strstr(err, "(max_output_bytes)"),
+	   "the same job with max_output_bytes of half its estimate: %s", err);
+	snprintf(wrap, sizeof wrap, "{\"scene\":%s,\"max_output_bytes\":%lld}", body, 2 * out);
+	int64_t lim_job = submit(q, wrap, &rc, &created, err);
+	uint64_t got = 0;
+	int lr = jobq_output_limit(q, lim_job, &got);
+	ok(rc == 0 && created && lr == 0 && got == (uint64_t)(2 * out),
+	   "with twice its estimate it is queued, and its limit is kept (%llu)", (unsigned long long)got);
+	int64_t plain = submit(q, body, &rc, NULL, err);
+	lr = jobq_output_limit(q, plain, &got);
+	ok(rc == 0 && lr == 0 && got == 200u << 20, "a job without max_output_bytes has the server's limit (%llu)",
+	   (unsigned long long)got);
+	snprintf(wrap, sizeof wrap, "{\"scene\":%s,\"max_output_bytes\":%llu}", body, (1ull << 40));
+	submit(q, wrap, &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && !strncmp(err, "max_output_bytes: 1099511627776 exceeds", 39),
+	   "max_output_bytes above the server's refused: %s", err);
+	snprintf(wrap, sizeof wrap, "{\"scene\":%s,\"max_output_bytes\":1000}", body);
+	submit(q, wrap, &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && !strncmp(err, "max_output_bytes: must be", 25), "max_output_bytes below 1 MiB refused");
+
+	/* Validate = submit = start: the engine's start checks at every door. */
+	static const struct { const char *scene, *key; } starts[] = {
+		{"{\"method\":\"dsmc\",\"dimensions\":2,\"particles\":{\"count\":1000,\"volume_fraction\":0.1},"
+		 "\"run\":{\"until\":{\"time\":1}},\"dsmc\":{\"cell_size\":1e-9}}", "dsmc.cell_size"},
+		{"{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":1000,\"volume_fraction\":0.6,"
+		 "\"initial\":{\"positions\":\"random\"}},\"run\":{\"until\":{\"time\":1}}}", "particles.initial.positions"},
+	};
+	for (size_t i = 0; i < sizeof starts / sizeof starts[0]; i++) {
+		char e1[512] = "", e2[512] = "", e3[512] = "";
+		submit(q, starts[i].scene, &rc, NULL, e1);
+		int r2 = validate(q, starts[i].scene, NULL, e2);
+		int r3 = jobq_advice(q, starts[i].scene, strlen(starts[i].scene), &adv, e3, sizeof(e3));
+		json_decref(adv);
+		size_t kl = strlen(starts[i].key);
+		ok(rc == JOBQ_EINVAL && r2 == JOBQ_EINVAL && r3 == JOBQ_EINVAL && !strncmp(e1, starts[i].key, kl) &&
+		   !strcmp(e1, e2) && !strcmp(e1, e3), "submission, validation and advice refuse alike: %s", e1);
+	}
+	const char *AUTO = "{\"method\":\"auto\",\"accuracy\":{\"temperature\":0.9},\"dimensions\":2,"
+	                   "\"particles\":{\"count\":1000,\"volume_fraction\":0.05},\"collisions\":{\"restitution\":0.99},"
+	                   "\"run\":{\"until\":{\"time\":500},\"replicas\":2},\"output\":{\"every\":{\"time\":100}}}";
+	json_t *v = NULL;
+	rc = jobq_validate(q, AUTO, strlen(AUTO), &v, err, sizeof(err));
+	const char *vm = json_string_value(json_object_get(v, "method"));
+	int64_t aid = submit(q, AUTO, &rc, NULL, err);
+	jobq_get(q, aid, 0, &job, err, sizeof(err));
+	ok(vm && json_is_true(json_object_get(v, "valid")) && aid > 0 &&
+	   !strcmp(vm, json_string_value(json_object_get(job, "method"))),
+	   "validating an auto scene names the method its submission chooses (%s)", vm ? vm : "-");
+	json_decref(v);
+	json_decref(job);
+	jobq_close(q);
+
+	/* A budget lowered below a queued job's estimate: the job can never start; it fails, the next runs. */
+	char path[] = "/tmp/jobq_adm.XXXXXX";
+	int fd = mkstemp(path);
+	close(fd);
+	unlink(path);
+	al.memory_budget = 1000000000;
+	q = jobq_open(path, &al, err, sizeof(err));
+	mc_scene(body, sizeof body, 1000000, 1, "");
+	int64_t big = submit(q, body, &rc, NULL, err);
+	mc_scene(body, sizeof body, 1000, 1, "");
+	int64_t small = submit(q, body, &rc, NULL, err);
+	jobq_close(q);
+	al.memory_budget = (uint64_t)need / 2;
+	q = jobq_open(path, &al, err, sizeof(err));
+	rc = q ? jobq_claim(q, 4, 400.0, &cl, err, sizeof(err)) : -1;
+	jobq_get(q, big, 0, &job, err, sizeof(err));
+	const char *why = json_string_value(json_object_get(job, "reason"));
+	ok(rc == 0 && cl.id == small && !strcmp(state_of(q, big, sb), "failed") && why && strstr(why, "never start"),
+	   "after the budget shrank: the big head job failed (%s), the small one claimed", why ? why : "-");
+	if (rc == 0)
+		free(cl.scene);
+	json_decref(job);
+	jobq_close(q);
+	char side[64];
+	unlink(path);
+	snprintf(side, sizeof(side), "%s-wal", path);
+	unlink(side);
+	snprintf(side, sizeof(side), "%s-shm", path);
+	unlink(side);
+}
+
 int main(void)
 {
 	char err[512], sb[32], body[1024];
@@ -447,6 +644,7 @@ int main(void)
 	snprintf(side, sizeof(side), "%s-shm", path);
 	unlink(side);
 
+	test_admission();
 	plan(tap_n);
 	return tap_failed != 0;
 }

@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "run.h"
 #include "scene.h"
 #include "tap.h"
 
@@ -258,6 +259,86 @@ static void test_bad(void)
 	}
 }
 
+/*
+ * Validate means runnable: the engines' start checks (what granular-engine
+ * run refuses after parsing: the cell grid, the initial placement) are
+ * made by scene_parse() through scene_check_start(), so every scene the
+ * parser accepts starts. For scenes at the edges of those checks the
+ * parser's verdict and message equal the engine's (run_create(), the
+ * constructor the engine runs): the geometry comes from an "auto" scene
+ * (whose start checks wait for the method), the method and settings are
+ * then set on the parsed scene. On main the parser accepted them all
+ * (dsmc.cell_size 1e-9 and random placement at 0.6 among them).
+ */
+static void test_start_checks(void)
+{
+	static const struct { int dim; double phi; int n; const char *pos; scene_method_t m; double cell; } cases[] = {
+		/* dsmc/hsmc cell grid: at most 64 cells per particle (+4096) */
+		{2, 0.1, 1000, "lattice", SCENE_METHOD_DSMC, 1e-9}, {2, 0.1, 1000, "lattice", SCENE_METHOD_DSMC, 0.05},
+		{2, 0.1, 1000, "lattice", SCENE_METHOD_DSMC, 0.1}, {2, 0.1, 1000, "lattice", SCENE_METHOD_DSMC, 1},
+		{3, 0.3, 1000, "lattice", SCENE_METHOD_HSMC, 0.01}, {3, 0.3, 1000, "lattice", SCENE_METHOD_HSMC, 0.1},
+		{3, 0.3, 1000, "lattice", SCENE_METHOD_HSMC, 0.2}, {3, 0.01, 1000, "lattice", SCENE_METHOD_DSMC, 0.05},
+		{2, 0.1, 1000, "lattice", SCENE_METHOD_DSMC, 5}, {3, 0.3, 1000, "lattice", SCENE_METHOD_HSMC, 2},
+		/* ed lattice near its densest fit */
+		{2, 0.85, 1000, "lattice", SCENE_METHOD_ED, 0}, {2, 0.88, 1000, "lattice", SCENE_METHOD_ED, 0},
+		{2, 0.89, 1000, "lattice", SCENE_METHOD_ED, 0}, {2, 0.89, 1024, "lattice", SCENE_METHOD_ED, 0},
+		{2, 0.9, 1001, "lattice", SCENE_METHOD_ED, 0}, {3, 0.7, 1000, "lattice", SCENE_METHOD_ED, 0},
+		{3, 0.72, 500, "lattice", SCENE_METHOD_ED, 0}, {3, 0.74, 4000, "lattice", SCENE_METHOD_ED, 0},
+		/* ed random placement: refused at the jamming coverage of random sequential addition */
+		{2, 0.3, 1000, "random", SCENE_METHOD_ED, 0}, {2, 0.6, 1000, "random", SCENE_METHOD_ED, 0},
+		{3, 0.2, 1000, "random", SCENE_METHOD_ED, 0}, {3, 0.39, 1000, "random", SCENE_METHOD_ED, 0},
+		/* ed cell grid: an explicit cell_size in a dilute box (64 per particle beyond a million) */
+		{3, 1e-6, 1000, "lattice", SCENE_METHOD_ED, 1}, {3, 1e-3, 1000, "lattice", SCENE_METHOD_ED, 1},
+		{2, 1e-6, 1000, "lattice", SCENE_METHOD_ED, 1},
+	};
+	int refused = 0, started = 0;
+	for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+		char text[512], perr[512] = "", rerr[512] = "";
+		scene_t s;
+		snprintf(text, sizeof text, "{'method':'auto','accuracy':{'temperature':0.1},'dimensions':%d,"
+		         "'particles':{'count':%d,'volume_fraction':%.17g,'initial':{'positions':'%s'}},"
+		         "'run':{'until':{'time':0.001}}}", cases[i].dim, cases[i].n, cases[i].phi, cases[i].pos);
+		if (parse(text, &s, perr, sizeof perr)) {
+			ok(0, "start case %zu parses as auto: %s", i, perr);
+			continue;
+		}
+		s.method = cases[i].m;
+		if (s.method == SCENE_METHOD_ED)
+			s.ed_cell_size = cases[i].cell;
+		else
+			s.mc_cell_size = cases[i].cell;
+		int pv = scene_check_start(&s, perr, sizeof perr), e = 0;
+		run_t *r = run_create(&s, NULL, &e, rerr, sizeof rerr);
+		run_destroy(r);
+		refused += pv != SCENE_OK;
+		started += r != NULL;
+		ok((pv == SCENE_OK) == (r != NULL) && (r || !strcmp(perr, rerr)),
+		   "%s %dD N=%d phi=%g %s cell %g: parser %s, engine %s%s%s", scene_method_name(s.method), s.dim,
+		   cases[i].n, cases[i].phi, cases[i].pos, cases[i].cell, pv == SCENE_OK ? "accepts" : "refuses",
+		   r ? "starts" : "refuses", r ? "" : ": ", r ? "" : rerr);
+	}
+	ok(refused >= 8 && started >= 8, "both sides covered: %d refused, %d started", refused, started);
+
+	/* Through scene_parse() itself, with the key of the check. */
+	static const struct { const char *text, *key; } refused_by_engine[] = {
+		{"{'method':'dsmc','dimensions':2,'particles':{'count':1000,'volume_fraction':0.1},"
+		 "'run':{'until':{'time':1}},'dsmc':{'cell_size':1e-9}}", "dsmc.cell_size"},
+		{"{'method':'ed','dimensions':2,'particles':{'count':1000,'volume_fraction':0.6,"
+		 "'initial':{'positions':'random'}},'run':{'until':{'time':1}}}", "particles.initial.positions"},
+		{"{'method':'ed','dimensions':2,'particles':{'count':1000,'volume_fraction':0.89},"
+		 "'run':{'until':{'time':1}}}", "particles.initial.positions"},
+		{"{'method':'ed','dimensions':3,'particles':{'count':1000,'volume_fraction':1e-6},"
+		 "'run':{'until':{'time':1}},'ed':{'cell_size':1}}", "ed.cell_size"},
+	};
+	for (size_t i = 0; i < sizeof refused_by_engine / sizeof refused_by_engine[0]; i++) {
+		char err[512] = "";
+		scene_t s;
+		int rc = parse(refused_by_engine[i].text, &s, err, sizeof err);
+		ok(rc == SCENE_EINVAL && has_path(err, refused_by_engine[i].key), "scene_parse refuses what the engine would: %s",
+		   err);
+	}
+}
+
 static void test_api(void)
 {
 	scene_t s, keep;
@@ -336,6 +417,7 @@ int main(void)
 	test_derived();
 	test_all_keys();
 	test_bad();
+	test_start_checks();
 	test_api();
 	const char *srcdir = getenv("SRCDIR");
 	if (srcdir && *srcdir)

@@ -10,6 +10,13 @@ grep -q '^Type=notify$' "$unit" && grep -q '^StateDirectory=granulard$' "$unit" 
 ok $? "unit is Type=notify with a state directory and a dedicated (dynamic) user"
 grep -q "^ExecStart=/.*/granulard " "$unit"
 ok $? "ExecStart has an absolute path: $(sed -n 's/^ExecStart=//p' "$unit")"
+# Resources: memory bounded relative to the host, no swap, an OOM-killed engine does not stop the service,
+# and enough tasks for this host's slots (HTTP threads + daemon + 7 per slot: docs/daemon.md).
+grep -q '^MemoryMax=[0-9]*%$' "$unit" && grep -q '^MemorySwapMax=0$' "$unit" && grep -q '^OOMPolicy=continue$' "$unit"
+ok $? "memory: $(grep -E '^Memory(Max|SwapMax)=' "$unit" | tr '\n' ' ')OOMPolicy=$(sed -n 's/^OOMPolicy=//p' "$unit")"
+tasks=$(sed -n 's/^TasksMax=//p' "$unit")
+need=$((512 + 8 + 7 * $(nproc)))
+ok $([ -n "$tasks" ] && [ "$tasks" -ge "$need" ]; echo $?) "TasksMax=$tasks covers 512 connections + 8 + 7 x $(nproc) slots ($need)"
 if command -v systemd-analyze >/dev/null 2>&1; then
 	score=$(systemd-analyze security --offline=true "$unit" 2>/dev/null | sed -n 's/.*Overall exposure level for granulard.service: \([0-9.]*\).*/\1/p')
 	ok $([ -n "$score" ] && awk -v s="$score" 'BEGIN { exit !(s <= 2.0) }'; echo $?) "systemd-analyze security exposure $score (<= 2.0 is OK)"

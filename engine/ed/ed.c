@@ -546,6 +546,16 @@ static double lattice_3d(const double *L, uint64_t n, int64_t *bn)
 	return best;
 }
 
+/* Whether a lattice of nearest distance d is too tight for the diameter (msg says so). */
+static int lattice_short(const struct ed *ed, double d, char *msg, size_t msglen)
+{
+	if (d >= ed->sigma * (1.0 + 1e-12))
+		return 0;
+	set_msg(msg, msglen, "particles.initial.positions: no lattice of this many particles fits the box "
+	        "(nearest distance %.6g < diameter %.6g); use fewer particles or a lower volume fraction", d, ed->sigma);
+	return 1;
+}
+
 static int place_lattice(struct ed *ed, rng_t *rng, char *msg, size_t msglen)
 {
 	double *r = NULL;
@@ -578,14 +588,35 @@ static int place_lattice(struct ed *ed, rng_t *rng, char *msg, size_t msglen)
 			r[2] = (iz + site[s][2] + 0.25) * az;
 		}
 	}
-	if (d < ed->sigma * (1.0 + 1e-12)) {
-		set_msg(msg, msglen, "particles.initial.positions: no lattice of this many particles fits the box "
-		        "(nearest distance %.6g < diameter %.6g); use fewer particles or a lower volume fraction", d, ed->sigma);
+	if (lattice_short(ed, d, msg, msglen))
 		return ED_EPLACE;
-	}
 	for (uint32_t i = 0; i < ed->n; i++)
 		DISPATCH(ed, place, ed, i);
 	return ED_OK;
+}
+
+/* Random sequential addition (place_random()) cannot pass its jamming
+ * coverage: 0.547 for disks, 0.384 for spheres (Torquato, Random
+ * Heterogeneous Materials, sec. 3.4), so at or above it the placement
+ * fails for certain, after ~2000 N tries. Refused before trying. */
+static double rsa_jamming(int dim) { return dim == 2 ? 0.547 : 0.384; }
+
+/* The placement checks ed_create() makes, without placing (ed_plan() and
+ * ed_create() share them): a lattice whose nearest distance is below a
+ * diameter, random placement at or above jamming. ED_OK or ED_EPLACE. */
+static int placement_check(const struct ed *ed, const scene_t *s, char *msg, size_t msglen)
+{
+	if (s->positions == SCENE_POS_RANDOM) {
+		if (s->volume_fraction < rsa_jamming(ed->dim))
+			return ED_OK;
+		set_msg(msg, msglen, "particles.initial.positions: \"random\" cannot place particles at volume fraction "
+		        "%.4g (random sequential addition jams at %.3g); use \"lattice\"", s->volume_fraction,
+		        rsa_jamming(ed->dim));
+		return ED_EPLACE;
+	}
+	int64_t b[3] = {1, 1, 1};
+	double d = ed->dim == 2 ? lattice_2d(ed->L, ed->n, &b[0], &b[1]) : lattice_3d(ed->L, ed->n, b);
+	return lattice_short(ed, d, msg, msglen) ? ED_EPLACE : ED_OK;
 }
 
 static void init_velocities(struct ed *ed, double temp, rng_t *rng)
@@ -667,15 +698,20 @@ static void reset_clock(struct ed *ed)
  * pages a large system misses the TLB on most of those reads. Arrays of
  * 2 MiB and more are aligned to and advised for transparent huge pages (a
  * hint, ignored where unsupported). Cache-line aligned; freed with free(). */
+static size_t big_size(size_t bytes)
+{
+	const size_t huge = (size_t)2 << 20;
+	return bytes < huge ? (bytes ? (bytes + 63) / 64 * 64 : 64) : (bytes + huge - 1) / huge * huge;
+}
+
 static void *big_alloc(size_t bytes, int zero)
 {
 	const size_t huge = (size_t)2 << 20;
 	void *p;
+	bytes = big_size(bytes);
 	if (bytes < huge) {
-		bytes = (bytes + 63) / 64 * 64;
-		p = aligned_alloc(64, bytes ? bytes : 64);
+		p = aligned_alloc(64, bytes);
 	} else {
-		bytes = (bytes + huge - 1) / huge * huge;
 		p = aligned_alloc(huge, bytes);
 #ifdef MADV_HUGEPAGE
 		if (p)
@@ -687,28 +723,52 @@ static void *big_alloc(size_t bytes, int zero)
 	return p;
 }
 
-/* Allocate the engine for a scene and choose its mode and grid; no state
- * yet (particles zeroed, cells empty). */
-static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
+/* The engine's arrays in bytes (ed_alloc() allocates exactly these, with
+ * big_alloc() but for the scratch arrays; ed_plan() adds them up), for an
+ * engine of ed's geometry with neighbour lists (nl) and TC times (tc);
+ * absent arrays are 0. */
+enum { A_P, A_EV, A_HEAP, A_CN, A_CALHEAD, A_HEAD, A_OCC, A_NEXT, A_ID, A_SCRATCH_IDX, A_SCRATCH_CELL,
+       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_COUNT };
+static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 {
-	struct ed *ed = NULL;
-	int rc = ED_ENOMEM;
+	const size_t n = ed->n;
+	b[A_P] = n * (ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t));
+	b[A_EV] = n * sizeof(ev_t);
+	b[A_HEAP] = n * sizeof(hent_t);
+	b[A_CN] = n * sizeof(cnode_t);
+	b[A_CALHEAD] = (ed->cal_m + 1) * sizeof(int32_t);
+	b[A_HEAD] = ed->ncells * sizeof(int32_t);
+	b[A_OCC] = (ed->ncells + 63) / 64 * sizeof(uint64_t);
+	b[A_NEXT] = n * sizeof(int32_t);
+	b[A_ID] = n * sizeof(uint32_t);
+	b[A_SCRATCH_IDX] = n * sizeof(uint32_t);
+	b[A_SCRATCH_CELL] = (ed->ncells + 1) * sizeof(uint32_t);
+	b[A_XN] = nl ? n * ed->dim * sizeof(double) : 0;
+	b[A_NB] = nl ? n * ed->nlk * sizeof(int32_t) : 0;
+	b[A_NN] = b[A_MARK] = nl ? n : 0;
+	b[A_TLAST] = tc ? n * sizeof(double) : 0;
+}
 
-	if (msg && msglen)
-		msg[0] = '\0';
+/* Cells cost memory even when empty (~9 bytes each): a grid finer than this
+ * (an explicit ed.cell_size in a dilute box; the automatic grid has at
+ * most 8 per particle) is a scene error, not an out-of-memory failure at
+ * start. A million cells (9 MB) are always allowed. */
+#define ED_CELLS_FREE 1048576.0
+static int too_many_cells(size_t ncells, uint32_t n) { return (double)ncells > 64.0 * n + ED_CELLS_FREE; }
+
+/* Constants, mode and grid of scene s in ed (no arrays): the checks a
+ * scene must pass before allocating, shared by ed_alloc() and ed_plan().
+ * ED_OK or ED_EINVAL with "KEY: reason" in msg. */
+static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
+{
 	if (s->dim != 2 && s->dim != 3) {
-		rc = ED_EINVAL;
 		set_msg(msg, msglen, "dimensions: must be 2 or 3%.0s%.0s", 0, 0);
-		goto fail;
+		return ED_EINVAL;
 	}
 	if (s->count < 2 || s->count > INT32_MAX) {
-		rc = ED_EINVAL;
 		set_msg(msg, msglen, "particles.count: %.0f is outside 2..2^31-1%.0s", (double)s->count, 0);
-		goto fail;
+		return ED_EINVAL;
 	}
-	ed = calloc(1, sizeof(*ed));
-	if (!ed)
-		goto fail;
 	ed->dim = s->dim;
 	ed->n = (uint32_t)s->count;
 	ed->sigma = 2.0 * s->radius;
@@ -721,33 +781,58 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 		ed->halfL[a] = 0.5 * ed->L[a];
 	}
 	setup_mode(ed, s->ed_cell_size * ed->sigma);
-
-	size_t psz = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
-	ed->p = big_alloc(ed->n * psz, 0);
-	ed->ev = big_alloc(ed->n * sizeof(ev_t), 1);
-	ed->heap = big_alloc(ed->n * sizeof(hent_t), 1);
+	if (too_many_cells(ed->ncells, ed->n)) {
+		set_msg(msg, msglen, "ed.cell_size: gives %.3g cells, more than 64 per particle (beyond the first %.0f); "
+		        "use a larger cell_size or 0 (automatic)", (double)ed->ncells, ED_CELLS_FREE);
+		return ED_EINVAL;
+	}
 	/* a power of two >= N: bucket numbers wrap with a mask, not a division */
 	ed->cal_m = 64;
 	while (ed->cal_m < ed->n)
 		ed->cal_m *= 2;
-	ed->cn = big_alloc(ed->n * sizeof(cnode_t), 1);
-	ed->cal_head = big_alloc((ed->cal_m + 1) * sizeof(int32_t), 0);
-	ed->head = big_alloc(ed->ncells * sizeof(int32_t), 0);
-	ed->occ = big_alloc((ed->ncells + 63) / 64 * sizeof(uint64_t), 0);
-	ed->next = big_alloc(ed->n * sizeof(int32_t), 0);
-	ed->id = big_alloc(ed->n * sizeof(uint32_t), 0);
-	ed->scratch_idx = malloc(ed->n * sizeof(uint32_t));
-	ed->scratch_cell = malloc((ed->ncells + 1) * sizeof(uint32_t));
+	return ED_OK;
+}
+
+/* Allocate the engine for a scene and choose its mode and grid; no state
+ * yet (particles zeroed, cells empty). */
+static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
+{
+	struct ed *ed = NULL;
+	int rc = ED_ENOMEM;
+
+	if (msg && msglen)
+		msg[0] = '\0';
+	ed = calloc(1, sizeof(*ed));
+	if (!ed)
+		goto fail;
+	if (geometry(ed, s, msg, msglen) != ED_OK) {
+		rc = ED_EINVAL;
+		goto fail;
+	}
+
+	size_t psz = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t), b[A_COUNT];
+	array_bytes(ed, ed->nl, s->tc > 0.0, b);
+	ed->p = big_alloc(b[A_P], 0);
+	ed->ev = big_alloc(b[A_EV], 1);
+	ed->heap = big_alloc(b[A_HEAP], 1);
+	ed->cn = big_alloc(b[A_CN], 1);
+	ed->cal_head = big_alloc(b[A_CALHEAD], 0);
+	ed->head = big_alloc(b[A_HEAD], 0);
+	ed->occ = big_alloc(b[A_OCC], 0);
+	ed->next = big_alloc(b[A_NEXT], 0);
+	ed->id = big_alloc(b[A_ID], 0);
+	ed->scratch_idx = malloc(b[A_SCRATCH_IDX]);
+	ed->scratch_cell = malloc(b[A_SCRATCH_CELL]);
 	if (ed->nl) {
-		ed->xn = big_alloc((size_t)ed->n * ed->dim * sizeof(double), 0);
-		ed->nb = big_alloc((size_t)ed->n * ed->nlk * sizeof(int32_t), 0);
-		ed->nn = big_alloc(ed->n, 1);
-		ed->mark = big_alloc(ed->n, 1);
+		ed->xn = big_alloc(b[A_XN], 0);
+		ed->nb = big_alloc(b[A_NB], 0);
+		ed->nn = big_alloc(b[A_NN], 1);
+		ed->mark = big_alloc(b[A_MARK], 1);
 		if (!ed->xn || !ed->nb || !ed->nn || !ed->mark)
 			goto fail;
 	}
 	if (s->tc > 0.0) {
-		ed->tlast = big_alloc(ed->n * sizeof(double), 0);
+		ed->tlast = big_alloc(b[A_TLAST], 0);
 	}
 	if (!ed->p || !ed->ev || !ed->heap || !ed->cn || !ed->cal_head || !ed->head || !ed->occ || !ed->next || !ed->id || !ed->scratch_idx || !ed->scratch_cell ||
 	    (s->tc > 0.0 && !ed->tlast))
@@ -777,6 +862,8 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 		return NULL;
 
 	rng_init(&rng, s->seed, s->stream);
+	if ((rc = placement_check(ed, s, msg, msglen)) != ED_OK)
+		goto fail;
 	if (s->positions == SCENE_POS_RANDOM) {
 		rc = DISPATCH(ed, place_random, ed, &rng);
 		if (rc != ED_OK) {
@@ -879,17 +966,20 @@ void ed_cells(const ed_t *ed, int cells[3])
 		cells[a] = ed->nc[a];
 }
 
-size_t ed_memory(const ed_t *ed)
+/* Bytes of an engine of this geometry (nl: neighbour lists; tc: TC times). */
+static size_t held(const struct ed *ed, int nl, int tc)
 {
 	size_t psz = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
 	/* per particle: record, event, heap entry, calendar record, cell link,
 	 * scene index, renumbering scratch; lists and marks; TC times */
-	size_t nl = ed->xn ? ed->dim * sizeof(double) + ed->nlk * sizeof(int32_t) + 2 : 0;
+	size_t per_nl = nl ? ed->dim * sizeof(double) + ed->nlk * sizeof(int32_t) + 2 : 0;
 	return sizeof(*ed) + (ed->cal_m + 1) * sizeof(int32_t) + (2 * ed->ncells + 1) * sizeof(int32_t) +
 	       (ed->ncells + 63) / 64 * sizeof(uint64_t) +
-	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + sizeof(cnode_t) + 3 * sizeof(uint32_t) + nl +
-	                (ed->tlast ? sizeof(double) : 0));
+	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + sizeof(cnode_t) + 3 * sizeof(uint32_t) + per_nl +
+	                (tc ? sizeof(double) : 0));
 }
+
+size_t ed_memory(const ed_t *ed) { return held(ed, ed->xn != NULL, ed->tlast != NULL); }
 
 const char *ed_strerror(int code)
 {
@@ -971,14 +1061,17 @@ size_t ed_type_size(ed_type_t t)
 	return 0;
 }
 
-static int array_present(const struct ed *ed, fid_t id)
+/* Whether a field exists, for an engine with neighbour lists (nl) and TC times (tc). */
+static int field_exists(fid_t id, int nl, int tc)
 {
 	if (id == F_TLAST)
-		return ed->tlast != NULL;
+		return tc;
 	if (id == F_XN || id == F_NN || id == F_NB)
-		return ed->xn != NULL;
+		return nl;
 	return 1;
 }
+
+static int array_present(const struct ed *ed, fid_t id) { return field_exists(id, ed->xn != NULL, ed->tlast != NULL); }
 
 static size_t array_count(const struct ed *ed, fid_t id)
 {
@@ -994,6 +1087,49 @@ static size_t array_count(const struct ed *ed, fid_t id)
 	}
 	default: return ed->n;
 	}
+}
+
+int ed_plan(const scene_t *s, ed_plan_t *out, char *msg, size_t msglen)
+{
+	struct ed ed;
+	memset(&ed, 0, sizeof(ed));
+	if (msg && msglen)
+		msg[0] = '\0';
+	int rc = geometry(&ed, s, msg, msglen);
+	if (rc == ED_OK)
+		rc = placement_check(&ed, s, msg, msglen);
+	if (rc != ED_OK || !out)
+		return rc;
+	/* What ed_alloc() takes: its arrays with big_alloc()'s rounding (of
+	 * the zeroed arrays every page is touched; rounding is counted for all,
+	 * an upper bound of at most 2 MiB per array) and the engine struct. */
+	size_t b[A_COUNT];
+	array_bytes(&ed, ed.nl, s->tc > 0.0, b);
+	out->memory = sizeof(struct ed);
+	for (int a = 0; a < A_COUNT; a++)
+		out->memory += a == A_SCRATCH_IDX || a == A_SCRATCH_CELL ? b[a] : b[a] ? big_size(b[a]) : 0;
+	out->cells = ed.ncells;
+	out->neighbour_lists = ed.nl;
+	/* State fields as ed_fields() lists them. The neighbour lists ("nb")
+	 * hold each particle's neighbours within the list radius: their mean
+	 * count is the number density times that ball's volume. */
+	double vol = ed.L[0] * ed.L[1] * (ed.dim == 3 ? ed.L[2] : 1.0), rl = sqrt(ed.nl_r2);
+	double ball = ed.dim == 2 ? 3.14159265358979323846 * rl * rl : 4.0 / 3.0 * 3.14159265358979323846 * rl * rl * rl;
+	double per = fmin((double)ed.n / vol * ball, (double)ed.nlk);
+	out->state = 0;
+	for (size_t a = 0; a < N_SCALARS; a++)
+		out->state += ed_type_size(scalars[a].type);
+	out->largest = 0;
+	for (size_t a = 0; a < N_ARRAYS; a++) {
+		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0))
+			continue;
+		double count = arrays[a].id == F_NB ? per * ed.n : (double)array_count(&ed, arrays[a].id);
+		uint64_t bytes = (uint64_t)(count * (double)ed_type_size(arrays[a].type));
+		out->state += bytes;
+		if (bytes > out->largest)
+			out->largest = bytes;
+	}
+	return ED_OK;
 }
 
 int ed_fields(const ed_t *ed, ed_field_t *out, int max)

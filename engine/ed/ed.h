@@ -34,6 +34,26 @@ enum {
 ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen);
 void ed_destroy(ed_t *ed);
 
+/* What ed_create() would build for scene s, without building it (pure, no
+ * allocation; the lattice search is O(N^(1/2)) in 2D, O(N^(2/3)) in 3D):
+ * the checks it makes before running (cell grid of at most 64 cells per
+ * particle beyond the first million; a lattice whose nearest distance is at least a diameter;
+ * random placement below the jamming coverage of random sequential
+ * addition, 0.547 in 2D and 0.384 in 3D) and the sizes. Returns ED_OK,
+ * or ED_EINVAL / ED_EPLACE with "KEY: reason" in msg (the scene parser
+ * reports it: scene.h). out may be NULL (checks only). Random placement
+ * below jamming may still exhaust its tries at start (a property of the
+ * random sequence; docs/scene.md). */
+typedef struct {
+	uint64_t memory;       /* bytes the engine allocates: ed_memory() of the built engine */
+	uint64_t state;        /* bytes of its state fields (ed_fields()): a checkpoint's data; the
+	                          neighbour lists at their mean length */
+	uint64_t largest;      /* bytes of the largest state field (checkpoints copy one field at a time) */
+	uint64_t cells;
+	int neighbour_lists;   /* 1: neighbour-list mode (dense), 0: cell mode */
+} ed_plan_t;
+int ed_plan(const scene_t *s, ed_plan_t *out, char *msg, size_t msglen);
+
 /* Process events in time order until the next event would lie beyond
  * t_stop, or the total collision count reaches max_collisions, or
  * max_events further events were processed, whichever comes first. Use

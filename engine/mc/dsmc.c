@@ -604,24 +604,18 @@ int dsmc_advance_soft(dsmc_t *d, double t_stop, double t_soft, uint64_t max_coll
 
 /* ---- setup ------------------------------------------------------------------- */
 
-/* Memory and constants for scene s, no state (positions, velocities, RNG). */
-static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
+/* Constants and the cell grid of scene s in d (no arrays): the checks a
+ * scene must pass to start, shared by alloc() and dsmc_plan() so that a
+ * scene the plan accepts is one the engine builds. DSMC_OK or DSMC_EINVAL
+ * with "KEY: reason" in msg. */
+static int layout(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
 {
-	struct dsmc *d = NULL;
-	int rc = DSMC_ENOMEM;
 	dsmc_params_t pr;
-
-	if (msg && msglen)
-		msg[0] = '\0';
 	if ((s->dim != 2 && s->dim != 3) || s->count < 2 || s->count > INT32_MAX ||
 	    dsmc_params(s, &pr, NULL, 0) != DSMC_OK) {
-		rc = DSMC_EINVAL;
 		set_msg(msg, msglen, "method: scene not usable by dsmc/hsmc (count %.0f)", (double)s->count);
-		goto fail;
+		return DSMC_EINVAL;
 	}
-	d = calloc(1, sizeof(*d));
-	if (!d)
-		goto fail;
 	d->dim = s->dim;
 	d->n = (uint32_t)s->count;
 	d->hsmc = pr.hsmc;
@@ -654,17 +648,33 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	/* Cells cost memory and time even when empty; an absurdly fine grid is
 	 * a scene error, not an out-of-memory crash. */
 	if (ncell > 64.0 * d->n + 4096 || ncell > 2e9) {
-		rc = DSMC_EINVAL;
 		if (msg && msglen)
-			snprintf(msg, msglen, "%s.cell_size: gives %.3g cells, more than 64 per particle",
-			         d->hsmc ? "hsmc" : "dsmc", ncell);
-		goto fail;
+			snprintf(msg, msglen, "%s.cell_size: gives %.3g cells, more than 64 per particle; "
+			         "use a larger cell_size or leave it out (automatic)", d->hsmc ? "hsmc" : "dsmc", ncell);
+		return DSMC_EINVAL;
 	}
 	d->ncells = (size_t)ncell;
 	d->nfull = (uint32_t)ceil(pr.max_volume_fraction * d->vcell / d->vp - 1e-9);
 	if (d->nfull < 2)
 		d->nfull = 2;
+	return DSMC_OK;
+}
 
+/* Memory and constants for scene s, no state (positions, velocities, RNG). */
+static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
+{
+	struct dsmc *d = NULL;
+	int rc = DSMC_ENOMEM;
+
+	if (msg && msglen)
+		msg[0] = '\0';
+	d = calloc(1, sizeof(*d));
+	if (!d)
+		goto fail;
+	if (layout(d, s, msg, msglen) != DSMC_OK) {
+		rc = DSMC_EINVAL;
+		goto fail;
+	}
 	size_t S = 2 * (size_t)d->dim;
 	d->p = malloc(d->n * S * sizeof(double));
 	d->q = malloc(d->n * S * sizeof(double));
@@ -1013,6 +1023,27 @@ size_t dsmc_memory(const dsmc_t *d)
 	return sizeof(*d) + 2 * d->n * S * sizeof(double) + 3 * d->n * sizeof(uint32_t) +
 	       d->ncells * (2 * sizeof(uint32_t) + sizeof(float) + (d->hsmc ? sizeof(uint32_t) : 0) +
 	                    (d->local_chi ? 2 * sizeof(float) : 0));
+}
+
+int dsmc_plan(const scene_t *s, dsmc_plan_t *out, char *msg, size_t msglen)
+{
+	struct dsmc d;
+	memset(&d, 0, sizeof(d));
+	if (msg && msglen)
+		msg[0] = '\0';
+	int rc = layout(&d, s, msg, msglen);
+	if (rc != DSMC_OK || !out)
+		return rc;
+	out->memory = dsmc_memory(&d);
+	out->state = out->largest = 0;
+	for (size_t k = 0; k < N_DFIELDS; k++) {
+		uint64_t bytes = dfield_count(&d, &dfields[k]) * ed_type_size(dfields[k].type);
+		out->state += bytes;
+		if (bytes > out->largest)
+			out->largest = bytes;
+	}
+	out->cells = d.ncells;
+	return DSMC_OK;
 }
 
 const char *dsmc_strerror(int code)

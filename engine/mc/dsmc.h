@@ -65,6 +65,19 @@ typedef struct {
  * breaks. Returns DSMC_OK or DSMC_EINVAL. */
 int dsmc_params(const scene_t *s, dsmc_params_t *p, char *warn, size_t warnlen);
 
+/* What dsmc_create() would build for scene s, without building it (pure,
+ * no allocation): the checks it makes before allocating (the cell grid:
+ * at most 64 cells per particle) and the sizes. Returns DSMC_OK, or
+ * DSMC_EINVAL with "KEY: reason" in msg (the scene parser reports it; see
+ * scene.h). out may be NULL (checks only). */
+typedef struct {
+	uint64_t memory;   /* bytes the engine allocates: dsmc_memory() of the built engine */
+	uint64_t state;    /* bytes of its state fields (dsmc_fields()): a checkpoint's data */
+	uint64_t largest;  /* bytes of the largest state field (checkpoints copy one field at a time) */
+	uint64_t cells;
+} dsmc_plan_t;
+int dsmc_plan(const scene_t *s, dsmc_plan_t *out, char *msg, size_t msglen);
+
 /* Build the initial state: positions (lattice: a simple grid; random:
  * uniform, no overlap check since the particles are points to DSMC),
  * Maxwellian velocities with zero total momentum scaled to exactly T,
