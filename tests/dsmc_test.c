@@ -297,6 +297,36 @@ cleanup:
 	dsmc_destroy(d);
 }
 
+/* Bytes held per particle (dsmc_memory, what admission control budgets):
+ * issue 15's goal of <= 64 B in 3D, <= 48 B in 2D, at the dilute default
+ * grid (cell edge = mean free path); the records must survive a few steps
+ * of the in-place sort with their identities (checked via the kinetic
+ * energy, which a lost or duplicated record would change). */
+static void test_memory(int dim, double limit)
+{
+	char json[512], err[256];
+	snprintf(json, sizeof json, "{\"method\":\"dsmc\",\"dimensions\":%d,\"particles\":{\"count\":100000,"
+	         "\"volume_fraction\":0.05,\"initial\":{\"positions\":\"random\"}},\"collisions\":{\"restitution\":1},"
+	         "\"run\":{\"until\":{\"time\":1}}}", dim);
+	scene_t sc;
+	int rc;
+	dsmc_t *d = NULL;
+	double bpp = -1, e0 = 0, e1 = -1;
+	if (scene_parse(json, strlen(json), &sc, err, sizeof err) == SCENE_OK && (d = dsmc_create(&sc, 0, &rc, err, sizeof err))) {
+		dsmc_sample_t s;
+		bpp = (double)dsmc_memory(d) / 100000;
+		dsmc_totals(d, &s);
+		e0 = s.kinetic_energy;
+		dsmc_advance(d, INFINITY, UINT64_MAX, 5);
+		dsmc_totals(d, &s);
+		e1 = s.kinetic_energy;
+	}
+	/* elastic: energy conserved to rounding (1e-9 relative is ~1e6 ulps of slack) */
+	ok(d && bpp <= limit && fabs(e1 - e0) <= 1e-9 * e0, "memory dsmc %dD N=1e5 nu=0.05: %.1f B per particle (goal <= %.0f), "
+	   "E_kin conserved through 5 in-place sorts", dim, bpp, limit);
+	dsmc_destroy(d);
+}
+
 /* Same seed and stream: bit-identical; another stream: different. */
 static void test_determinism(void)
 {
@@ -341,6 +371,8 @@ int main(void)
 	test_hsmc_conservation(3, 0.55, 0.6, 1);
 	test_hsmc_conservation(2, 0.75, 0.82, 0.7);
 	test_determinism();
+	test_memory(3, 64);
+	test_memory(2, 48);
 
 	/* The collision rule's loss per collision, dense, at the default cell
 	 * and step: 2D e = 0.9 and 3D e = 0.7 (3.2e5 collisions each, SE ~0.25%). */

@@ -29,11 +29,16 @@ struct dsmc {
 	double h[3], inv_h[3], vcell;
 	uint32_t nfull;                /* hsmc: a cell with >= nfull particles is full */
 
-	/* particles: AoS, stride 2D doubles: x[D] then v[D]; q is the sort buffer */
-	double *p, *q;
-	uint32_t *id, *idq;            /* particle identity (creation index) of each record; sort buffer */
-	uint32_t *cell;                /* new cell of each particle (one step) */
-	uint32_t *start, *cnt;         /* ncells + 1 each; start: sorted offsets of p */
+	/* particles: AoS, stride 2D doubles: x[D] then v[D], in cell order (sorted in place) */
+	double *p;
+	uint32_t *id;                  /* particle identity (creation index) of each record */
+	uint32_t *cell;                /* new cell of each particle, then its sort destination (one step) */
+	uint32_t *start, *cnt;         /* ncells + 1 each; start: sorted offsets of p; cnt: counts, cursors */
+	/* sort scratch (see sort()): ring of ring_n records waiting for their slot
+	 * (tag: destination, UINT32_MAX when free), list of over_n far movers */
+	uint32_t ring_n, over_n;
+	double *ringp, *overp;
+	uint32_t *ringid, *ringtag, *overid, *overdst;
 	float *rem;                    /* NTC fractional candidate carried per cell */
 	uint32_t *stamp;               /* hsmc: step at which a cell last took part in a cell collision */
 	float *chic, *chit;            /* local_chi: chi per cell; scratch for the block average */
@@ -328,30 +333,95 @@ static ALWAYS_INLINE double move(struct dsmc *d, double dt, const int D)
 	return 0.5 * d->mass * ek;
 }
 
-/* Counting sort p -> q by d->cell (stable), then swap; start/cnt swap too. */
+/* Stable counting sort of the records by d->cell, in place: the new
+ * offsets go to start and each record's destination (its rank among the
+ * records of its new cell, in the old order) replaces its cell number. The
+ * order is that of the out-of-place stable sort it replaced (bit-identical
+ * trajectories) without a second copy of the records.
+ * The records are read once, in order; slot r is written as soon as its
+ * own record has been read. A record going back (dst <= r) is written at
+ * once; one going forward waits in a ring indexed by destination (window
+ * W records: a move to the next cell plane lands about one plane of
+ * records ahead); the few going further (periodic wrap across the last
+ * axis) wait in an overflow list until the end. Memory traffic is that of
+ * a copy, in cache-friendly order. When a step has more far movers than
+ * the list holds (a strongly clustered gas), the permutation is applied by
+ * following its cycles instead: the same result, with random access. */
 static ALWAYS_INLINE void sort(struct dsmc *d, const int D)
 {
 	const int S = 2 * D;
+	const uint32_t n = d->n, W = d->ring_n;
 	uint32_t acc = 0;
 	for (size_t c = 0; c < d->ncells; c++) {
-		acc += d->cnt[c];
-		d->cnt[c] = acc;        /* end of cell c */
+		uint32_t k = d->cnt[c];
+		d->start[c] = d->cnt[c] = acc;   /* cnt: running cursor of cell c */
+		acc += k;
 	}
-	d->cnt[d->ncells] = acc;
-	for (uint32_t k = d->n; k-- > 0;) {
-		uint32_t dst = --d->cnt[d->cell[k]];
-		memcpy(&d->q[(size_t)dst * S], &d->p[(size_t)k * S], S * sizeof(double));
-		d->idq[dst] = d->id[k];
+	d->start[d->ncells] = acc;
+	uint32_t *dst = d->cell, far = 0;
+	for (uint32_t k = 0; k < n; k++) {
+		uint32_t j = d->cnt[dst[k]]++;
+		dst[k] = j;
+		far += j >= k + W;
 	}
-	double *t = d->p;
-	d->p = d->q;
-	d->q = t;
-	uint32_t *ip = d->id;
-	d->id = d->idq;
-	d->idq = ip;
-	uint32_t *u = d->start;
-	d->start = d->cnt;
-	d->cnt = u;
+	double *p = d->p;
+	uint32_t *id = d->id;
+	if (far <= d->over_n) {
+		double *rp = d->ringp, *op = d->overp;
+		uint32_t *rid = d->ringid, *rtag = d->ringtag, *oid = d->overid, *odst = d->overdst, no = 0;
+		for (uint32_t r = 0; r < n; r++) {
+			double rec[6];
+			memcpy(rec, &p[(size_t)r * S], S * sizeof(double));
+			uint32_t rid0 = id[r], j = dst[r], w = r % W;
+			if (rtag[w] == r) {   /* the record waiting for slot r */
+				memcpy(&p[(size_t)r * S], &rp[(size_t)w * S], S * sizeof(double));
+				id[r] = rid[w];
+				rtag[w] = UINT32_MAX;
+			}
+			if (j <= r) {
+				memcpy(&p[(size_t)j * S], rec, S * sizeof(double));
+				id[j] = rid0;
+			} else if (j - r < W) {
+				w = j % W;
+				memcpy(&rp[(size_t)w * S], rec, S * sizeof(double));
+				rid[w] = rid0;
+				rtag[w] = j;
+			} else {
+				memcpy(&op[(size_t)no * S], rec, S * sizeof(double));
+				oid[no] = rid0;
+				odst[no++] = j;
+			}
+		}
+		for (uint32_t o = 0; o < no; o++) {
+			memcpy(&p[(size_t)odst[o] * S], &op[(size_t)o * S], S * sizeof(double));
+			id[odst[o]] = oid[o];
+		}
+		return;
+	}
+	for (uint32_t k = 0; k < n; k++) {
+		uint32_t j = dst[k];
+		if (j == k)
+			continue;
+		/* carry record k along its cycle until the slot k is reached again */
+		double rec[6];
+		memcpy(rec, &p[(size_t)k * S], S * sizeof(double));
+		uint32_t rid = id[k];
+		do {
+			double tmp[6];
+			memcpy(tmp, &p[(size_t)j * S], S * sizeof(double));
+			memcpy(&p[(size_t)j * S], rec, S * sizeof(double));
+			memcpy(rec, tmp, S * sizeof(double));
+			uint32_t ti = id[j];
+			id[j] = rid;
+			rid = ti;
+			uint32_t jn = dst[j];
+			dst[j] = j;
+			j = jn;
+		} while (j != k);
+		memcpy(&p[(size_t)k * S], rec, S * sizeof(double));
+		id[k] = rid;
+		dst[k] = k;
+	}
 }
 
 /* d^2 g / d nu^2 of dsmc_contact_value(). */
@@ -677,7 +747,6 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	}
 	size_t S = 2 * (size_t)d->dim;
 	d->p = malloc(d->n * S * sizeof(double));
-	d->q = malloc(d->n * S * sizeof(double));
 	d->cell = malloc(d->n * sizeof(uint32_t));
 	d->start = calloc(d->ncells + 1, sizeof(uint32_t));
 	d->cnt = calloc(d->ncells + 1, sizeof(uint32_t));
@@ -689,8 +758,24 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 		d->chit = malloc(d->ncells * sizeof(float));
 	}
 	d->id = malloc(d->n * sizeof(uint32_t));
-	d->idq = malloc(d->n * sizeof(uint32_t));
-	if (!d->p || !d->q || !d->id || !d->idq || !d->cell || !d->start || !d->cnt || !d->rem ||
+	/* Ring: 1.25 planes of cells (a move along the last axis) + 512 records;
+	 * overflow list: 1/8 of that + 128. */
+	size_t plane = d->dim == 3 ? (size_t)d->nc[0] * (size_t)d->nc[1] : (size_t)d->nc[0];
+	double ring = 1.25 * (double)d->n * (double)plane / (double)d->ncells + 512;
+	d->ring_n = ring < d->n ? (uint32_t)ring : d->n;
+	d->over_n = d->ring_n / 8 + 128 < d->n ? d->ring_n / 8 + 128 : d->n;
+	d->ringp = malloc((size_t)d->ring_n * S * sizeof(double));
+	d->ringid = malloc((size_t)d->ring_n * sizeof(uint32_t));
+	d->ringtag = malloc((size_t)d->ring_n * sizeof(uint32_t));
+	d->overp = malloc((size_t)d->over_n * S * sizeof(double));
+	d->overid = malloc((size_t)d->over_n * sizeof(uint32_t));
+	d->overdst = malloc((size_t)d->over_n * sizeof(uint32_t));
+	if (d->ringtag)
+		for (uint32_t k = 0; k < d->ring_n; k++)
+			d->ringtag[k] = UINT32_MAX;
+	if (!d->ringp || !d->ringid || !d->ringtag || !d->overp || !d->overid || !d->overdst)
+		goto fail;
+	if (!d->p || !d->id || !d->cell || !d->start || !d->cnt || !d->rem ||
 	    (d->hsmc && !d->stamp) || (d->local_chi && (!d->chic || !d->chit)))
 		goto fail;
 	*err = DSMC_OK;
@@ -786,9 +871,13 @@ void dsmc_destroy(dsmc_t *d)
 	if (!d)
 		return;
 	free(d->p);
-	free(d->q);
 	free(d->id);
-	free(d->idq);
+	free(d->ringp);
+	free(d->ringid);
+	free(d->ringtag);
+	free(d->overp);
+	free(d->overid);
+	free(d->overdst);
 	free(d->cell);
 	free(d->start);
 	free(d->cnt);
@@ -855,8 +944,8 @@ void dsmc_totals(const dsmc_t *d, dsmc_sample_t *out)
  * (CBA offsets move particles after the sort, so the offsets are not a
  * function of the positions), the carried NTC remainders, the hsmc cell
  * stamps, the RNG, the clock and counters, the adaptive step's energy
- * estimate and the interval accumulators. Not stored: the sort buffers q,
- * idq, cell, cnt (rewritten before they are read in every step) and v_max
+ * estimate and the interval accumulators. Not stored: the sort scratch
+ * cell, cnt (rewritten before they are read in every step) and v_max
  * (recomputed per cell and step from the velocities). */
 enum { F_SCALAR, F_PART, F_ID, F_START, F_REM, F_STAMP, F_RNG };
 typedef struct {
@@ -978,13 +1067,13 @@ int dsmc_restore_finish(dsmc_t *d, char *msg, size_t msglen)
 	for (size_t c = 0; !why && c < d->ncells; c++)
 		if (d->start[c + 1] < d->start[c])
 			why = "cell offsets decrease";
-	/* identities: a permutation (idq as scratch marks) */
-	memset(d->idq, 0, d->n * sizeof(uint32_t));
+	/* identities: a permutation (cell as scratch marks) */
+	memset(d->cell, 0, d->n * sizeof(uint32_t));
 	for (uint32_t k = 0; !why && k < d->n; k++) {
-		if (d->id[k] >= d->n || d->idq[d->id[k]])
+		if (d->id[k] >= d->n || d->cell[d->id[k]])
 			why = "particle identities are not a permutation";
 		else
-			d->idq[d->id[k]] = 1;
+			d->cell[d->id[k]] = 1;
 	}
 	for (uint32_t k = 0; !why && k < d->n; k++)
 		for (int a = 0; a < D; a++) {
@@ -1020,7 +1109,8 @@ void dsmc_cells(const dsmc_t *d, int cells[3])
 size_t dsmc_memory(const dsmc_t *d)
 {
 	size_t S = 2 * (size_t)d->dim;
-	return sizeof(*d) + 2 * d->n * S * sizeof(double) + 3 * d->n * sizeof(uint32_t) +
+	return sizeof(*d) + d->n * S * sizeof(double) + 2 * d->n * sizeof(uint32_t) +
+	       (size_t)(d->ring_n + d->over_n) * (S * sizeof(double) + 2 * sizeof(uint32_t)) +
 	       d->ncells * (2 * sizeof(uint32_t) + sizeof(float) + (d->hsmc ? sizeof(uint32_t) : 0) +
 	                    (d->local_chi ? 2 * sizeof(float) : 0));
 }
