@@ -33,8 +33,31 @@ typedef struct {
 	FILE *progress;     /* progress stream (stdout or --progress-fd) */
 	FILE *copy;         /* DIR/progress.jsonl with --out, or NULL */
 	h5md_t *traj;       /* DIR/trajectory.h5 with --out, or NULL */
+	FILE *curves;       /* DIR/observables.jsonl with --out and curve observables, or NULL */
+	uint64_t curve_samples;   /* samples written to it (the next "sample" index) */
 	char err[512];      /* why an output failed */
 } sink_t;
+
+/* One curve sample as JSON lines into DIR/observables.jsonl. */
+static int emit_curves(sink_t *sk, const run_record_t *rec)
+{
+	if (!sk->curves)
+		return 0;
+	size_t cap = report_curves_max(rec->curves);
+	char *buf = malloc(cap);
+	int n = buf ? report_curves(rec, sk->curve_samples, buf, cap) : -1;
+	int ret = -1;
+	if (n < 0) {
+		snprintf(sk->err, sizeof(sk->err), "observables.jsonl: cannot format a sample (out of memory)");
+	} else if (fwrite(buf, 1, (size_t)n, sk->curves) != (size_t)n || fflush(sk->curves) != 0) {
+		snprintf(sk->err, sizeof(sk->err), "observables.jsonl: %s", strerror(errno));
+	} else {
+		sk->curve_samples++;
+		ret = 0;
+	}
+	free(buf);
+	return ret;
+}
 
 static int emit(const run_record_t *rec, void *ctx)
 {
@@ -42,6 +65,8 @@ static int emit(const run_record_t *rec, void *ctx)
 	char line[REPORT_MAX];
 	if (rec->kind == RUN_SNAPSHOT)
 		return sk->traj ? h5md_snapshot(sk->traj, rec, sk->err, sizeof(sk->err)) : 0;
+	if (rec->kind == RUN_CURVES)
+		return emit_curves(sk, rec);
 	if (rec->kind == RUN_PROGRESS && sk->traj && h5md_observables(sk->traj, rec, sk->err, sizeof(sk->err)))
 		return -1;
 	int n = report_format(rec, line, sizeof(line));
@@ -51,6 +76,46 @@ static int emit(const run_record_t *rec, void *ctx)
 		return -1;
 	if (sk->copy && (fwrite(line, 1, (size_t)n, sk->copy) != (size_t)n || fflush(sk->copy) != 0))
 		return -1;
+	return 0;
+}
+
+/* DIR/observables.jsonl: new, or (resumed) appended to, counting the samples already there. A resumed run
+ * repeats the samples taken after its checkpoint; readers keep the last line of each (name, time). */
+static int open_curves(const char *outdir, int resumed, sink_t *sk)
+{
+	char path[4096];
+	snprintf(path, sizeof(path), "%s/observables.jsonl", outdir);
+	sk->curves = fopen(path, resumed ? "a+" : "w");
+	if (!sk->curves) {
+		fprintf(stderr, "granular-engine: %s: %s\n", path, strerror(errno));
+		return -1;
+	}
+	if (resumed) {
+		/* samples: lines of the first family (each sample starts with it) */
+		char first[64] = "";
+		int ch, col = 0;
+		char head[96];
+		rewind(sk->curves);
+		while ((ch = fgetc(sk->curves)) != EOF) {
+			if (col < (int)sizeof(head) - 1)
+				head[col] = (char)ch;
+			col++;
+			if (ch != '\n')
+				continue;
+			head[col < (int)sizeof(head) ? col : (int)sizeof(head) - 1] = '\0';
+			const char *q = strstr(head, "\"name\":\"");
+			if (q) {
+				q += 8;
+				size_t l = strcspn(q, "\"");
+				if (!first[0] && l < sizeof(first))
+					snprintf(first, sizeof(first), "%.*s", (int)l, q);
+				if (!strncmp(q, first, l) && first[l] == '\0')
+					sk->curve_samples++;
+			}
+			col = 0;
+		}
+		fseek(sk->curves, 0, SEEK_END);
+	}
 	return 0;
 }
 
@@ -684,7 +749,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	char err[512] = "", *text = NULL, *advice_line = NULL;
 	size_t len = 0;
 	scene_t scene;
-	sink_t sink = {NULL, NULL, NULL, ""};
+	sink_t sink = {.progress = NULL};
 	ens_resume_t ens = {NULL, NULL, {1, 0.0}};
 	uint64_t *frames = NULL;
 
@@ -739,7 +804,9 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		ret = EX_INPUT;
 		goto cleanup;
 	}
-	run_opts_t opts = {.snapshots = outdir != NULL && stepped, .checkpoints = outdir != NULL && stepped};
+	/* Curves (observables.jsonl) come with --out; single runs only in this version (docs/output.md). */
+	run_opts_t opts = {.snapshots = outdir != NULL && stepped, .checkpoints = outdir != NULL && stepped,
+	                   .curves = outdir != NULL && stepped && obs_curve_bits(&scene) != 0};
 	ckpt_output_t at = {0, 0, 0};
 	if (!stepped) {
 		ens.blobs = calloc(scene.replicas, sizeof(*ens.blobs));
@@ -782,6 +849,8 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			ret = resume_path ? EX_FAIL : EX_INPUT;
 			goto cleanup;
 		}
+		if (opts.curves && open_curves(outdir, resume_path != NULL, &sink) != 0)
+			goto cleanup;
 		snprintf(path, sizeof(path), "%s/trajectory.h5", outdir);
 		if (resume_path && resume_frames(&scene, &ens, &at, &frames) != 0) {
 			fprintf(stderr, "granular-engine: --resume %s: frame counts of the replicas do not add up to the "
@@ -874,6 +943,8 @@ cleanup:
 	}
 	if (sink.copy)
 		fclose(sink.copy);
+	if (sink.curves)
+		fclose(sink.curves);
 	if (sink.progress && sink.progress != stdout)
 		fclose(sink.progress);
 	return ret;
