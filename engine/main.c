@@ -79,42 +79,43 @@ static int emit(const run_record_t *rec, void *ctx)
 	return 0;
 }
 
-/* DIR/observables.jsonl: new, or (resumed) appended to, counting the samples already there. A resumed run
- * repeats the samples taken after its checkpoint; readers keep the last line of each (name, time). */
-static int open_curves(const char *outdir, int resumed, sink_t *sk)
+/* DIR/observables.jsonl: new, or (resumed from a checkpoint at time t_ckpt) cut back to the samples taken
+ * up to the checkpoint (lines are in time order; a sample at t_ckpt was written before the checkpoint and
+ * is not taken again), counting the samples kept. A torn last line goes too. */
+static int open_curves(const char *outdir, int resumed, double t_ckpt, sink_t *sk)
 {
-	char path[4096];
+	char path[4096], line[160];
 	snprintf(path, sizeof(path), "%s/observables.jsonl", outdir);
-	sk->curves = fopen(path, resumed ? "a+" : "w");
+	sk->curves = fopen(path, resumed ? "r+" : "w");
 	if (!sk->curves) {
 		fprintf(stderr, "granular-engine: %s: %s\n", path, strerror(errno));
 		return -1;
 	}
-	if (resumed) {
-		/* samples: lines of the first family (each sample starts with it) */
-		char first[64] = "";
-		int ch, col = 0;
-		char head[96];
-		rewind(sk->curves);
-		while ((ch = fgetc(sk->curves)) != EOF) {
-			if (col < (int)sizeof(head) - 1)
-				head[col] = (char)ch;
-			col++;
-			if (ch != '\n')
-				continue;
-			head[col < (int)sizeof(head) ? col : (int)sizeof(head) - 1] = '\0';
-			const char *q = strstr(head, "\"name\":\"");
-			if (q) {
-				q += 8;
-				size_t l = strcspn(q, "\"");
-				if (!first[0] && l < sizeof(first))
-					snprintf(first, sizeof(first), "%.*s", (int)l, q);
-				if (!strncmp(q, first, l) && first[l] == '\0')
-					sk->curve_samples++;
-			}
-			col = 0;
+	if (!resumed)
+		return 0;
+	long keep = 0;
+	int at_start = 1;
+	uint64_t last_sample = UINT64_MAX;
+	while (fgets(line, sizeof(line), sk->curves)) {
+		size_t l = strlen(line);
+		if (at_start) {
+			/* each line opens {"name":"...","sample":K,...,"time":T, within its first 160 bytes */
+			const char *q = strstr(line, "\"sample\":"), *t = strstr(line, "\"time\":");
+			if (!q || !t || strtod(t + 7, NULL) > t_ckpt)
+				break;
+			uint64_t k = strtoull(q + 9, NULL, 10);
+			if (k != last_sample)
+				sk->curve_samples++;
+			last_sample = k;
 		}
-		fseek(sk->curves, 0, SEEK_END);
+		at_start = l > 0 && line[l - 1] == '\n';
+		if (at_start)
+			keep = ftell(sk->curves);
+	}
+	if (keep < 0 || fflush(sk->curves) != 0 || ftruncate(fileno(sk->curves), (off_t)keep) != 0 ||
+	    fseek(sk->curves, 0, SEEK_END) != 0) {
+		fprintf(stderr, "granular-engine: %s: cannot cut back to the checkpoint: %s\n", path, strerror(errno));
+		return -1;
 	}
 	return 0;
 }
@@ -128,6 +129,10 @@ static int flush_outputs(const char *outdir, sink_t *sk, ckpt_output_t *pos)
 		return -1;
 	}
 	pos->progress_bytes = (uint64_t)off;
+	if (sk->curves && (fflush(sk->curves) != 0 || fsync(fileno(sk->curves)) != 0)) {
+		snprintf(sk->err, sizeof(sk->err), "%s/observables.jsonl: %s", outdir, strerror(errno));
+		return -1;
+	}
 	if (h5md_flush(sk->traj, sk->err, sizeof(sk->err)) != H5MD_OK)
 		return -1;
 	h5md_rows(sk->traj, &pos->obs_rows, &pos->snap_rows);
@@ -849,7 +854,11 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			ret = resume_path ? EX_FAIL : EX_INPUT;
 			goto cleanup;
 		}
-		if (opts.curves && open_curves(outdir, resume_path != NULL, &sink) != 0)
+		double t_ckpt = 0.0;
+		uint64_t ev, co;
+		if (run)
+			run_totals(run, &t_ckpt, &ev, &co);
+		if (opts.curves && open_curves(outdir, resume_path != NULL, t_ckpt, &sink) != 0)
 			goto cleanup;
 		snprintf(path, sizeof(path), "%s/trajectory.h5", outdir);
 		if (resume_path && resume_frames(&scene, &ens, &at, &frames) != 0) {
