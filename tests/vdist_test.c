@@ -100,7 +100,7 @@ static void test_shell(int dim)
 
 int main(void)
 {
-	plan(14);
+	plan(12);
 	test_maxwell(2, 400000);
 	test_maxwell(3, 400000);
 	test_shell(2);
