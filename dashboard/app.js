@@ -345,8 +345,75 @@
         series.cl.push(rec.clusters ? rec.clusters.largest_fraction : null);
       }
       drawPlots();
+      fetchCurves();
     } catch (e) { if (series && series.job === id) setError('job-msg', 'series', 'progress: ' + e.message); }
   }, 500);
+  // ---- curves at snapshot times: the last sample of DIR/observables.jsonl (docs/output.md) ----
+  let curvePlots = [], curvesAt = 0, curvesTimer = null;
+  function curvePlot(node, label, logx, logy, extra) {
+    const w = Math.max(380, node.clientWidth || 420);
+    return new uPlot({
+      width: w, height: 240, scales: { x: { time: false, distr: logx ? 3 : 1 }, y: { distr: logy ? 3 : 1 } },
+      axes: [{ label: logx ? 'k' : '' }, logy ? { values: (u, vals) => vals.map((v) => (v == null ? '' : v >= 0.01 && v < 1e4 ? String(+v.toPrecision(3)) : v.toExponential(0))) } : {}],
+      series: [{}, { label, stroke: '#2f6fde', width: 2, points: { show: false } }].concat(extra || []),
+    }, [[], []].concat((extra || []).map(() => [])), node);
+  }
+  const pos = (v) => (v > 0 ? v : null);   // log scales: no zeros
+  const CURVE_OBS = ['velocity_distribution', 'pair_correlation', 'structure_factor'];
+  async function fetchCurves() {
+    if (!series || !window.uPlot) return;
+    const id = series.job, now = Date.now();
+    if (series.curves === undefined) {   // once per job: does its scene ask for a plotted curve?
+      series.curves = false;
+      try {
+        const j = await api('GET', '/api/v1/jobs/' + id);
+        const obs = (j.scene && j.scene.output && j.scene.output.observables) || [];
+        if (series && series.job === id) series.curves = CURVE_OBS.some((o) => obs.includes(o));
+      } catch (e) { return; }
+    }
+    // the engine creates the file before its first progress record
+    if (!series || series.job !== id || !series.curves || !series.t.length) return;
+    if (now - curvesAt < 5000) {   // at most every 5 s (the file grows), but always once more after the last call
+      if (!curvesTimer) curvesTimer = setTimeout(() => { curvesTimer = null; fetchCurves(); }, 5000 - (now - curvesAt));
+      return;
+    }
+    curvesAt = now;
+    let text;
+    try {
+      const r = await fetch('/api/v1/jobs/' + id + '/files/observables.jsonl');
+      if (!r.ok) return;   // no curve observables asked for (or not yet written)
+      text = await r.text();
+    } catch (e) { return; }
+    if (!series || series.job !== id) return;
+    const last = {};
+    for (const line of text.split('\n')) {
+      if (!line) continue;
+      try { const c = JSON.parse(line); last[c.name] = c; } catch (e) { /* a line being written */ }
+    }
+    const tab = (name, sub) => (last[name] ? last[name].tables.find((t) => t.table === sub) : null);
+    const sp = tab('velocity_distribution', 'speed'), comp = tab('velocity_distribution', 'components');
+    const g = tab('pair_correlation', ''), sk = tab('structure_factor', '');
+    if (!sp && !g && !sk) return;
+    $('curves').hidden = false;
+    if (!curvePlots.length) {
+      curvePlots = [
+        curvePlot($('plot-vdist'), 'P(c)', false, true, [{ label: 'Maxwellian', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }]),
+        curvePlot($('plot-gofr'), 'g(r)', false, false),
+        curvePlot($('plot-sofk'), 'S(k)', true, true),
+      ];
+    }
+    if (sp) {
+      const D = comp ? Object.keys(comp.columns).length : 2;
+      const mw = sp.centres.map((c) => pos(D === 2 ? 2 * c * Math.exp(-c * c) : 4 / Math.sqrt(Math.PI) * c * c * Math.exp(-c * c)));
+      curvePlots[0].setData([sp.centres, sp.columns.p.map(pos), mw]);
+    }
+    if (g) curvePlots[1].setData([g.centres, g.columns.g]);
+    if (sk) curvePlots[2].setData([sk.centres, sk.columns.s.map(pos)]);
+    const any = last.velocity_distribution || last.pair_correlation || last.structure_factor;
+    $('curves-info').textContent = 'sample ' + any.sample + ' at time ' + (+any.time.toPrecision(4)) +
+      (last.velocity_distribution ? ', a2 = ' + (last.velocity_distribution.a2 ?? NaN).toPrecision(3) : '') +
+      (last.pair_correlation ? ', g(σ) = ' + (last.pair_correlation.g_contact_pairs ?? NaN).toPrecision(4) : '');
+  }
   // Nothing of the job shown before may stay on the page of the next one.
   function clearJobPage(id) {
     $('job-id').textContent = id;
@@ -359,6 +426,8 @@
     $('haff').textContent = '';
     for (const t of ['job-attempts', 'job-files']) { $(t).tBodies[0].replaceChildren(); $(t).hidden = true; }
     $('job-attempts-none').hidden = true; $('job-files-none').hidden = true;
+    for (const p of curvePlots) p.destroy();
+    curvePlots = []; curvesAt = 0; $('curves').hidden = true; $('curves-info').textContent = '';
   }
   async function openJob(id) {
     view.job = id;

@@ -33,8 +33,31 @@ typedef struct {
 	FILE *progress;     /* progress stream (stdout or --progress-fd) */
 	FILE *copy;         /* DIR/progress.jsonl with --out, or NULL */
 	h5md_t *traj;       /* DIR/trajectory.h5 with --out, or NULL */
+	FILE *curves;       /* DIR/observables.jsonl with --out and curve observables, or NULL */
+	uint64_t curve_samples;   /* samples written to it (the next "sample" index) */
 	char err[512];      /* why an output failed */
 } sink_t;
+
+/* One curve sample as JSON lines into DIR/observables.jsonl. */
+static int emit_curves(sink_t *sk, const run_record_t *rec)
+{
+	if (!sk->curves)
+		return 0;
+	size_t cap = report_curves_max(rec->curves);
+	char *buf = malloc(cap);
+	int n = buf ? report_curves(rec, sk->curve_samples, buf, cap) : -1;
+	int ret = -1;
+	if (n < 0) {
+		snprintf(sk->err, sizeof(sk->err), "observables.jsonl: cannot format a sample (out of memory)");
+	} else if (fwrite(buf, 1, (size_t)n, sk->curves) != (size_t)n || fflush(sk->curves) != 0) {
+		snprintf(sk->err, sizeof(sk->err), "observables.jsonl: %s", strerror(errno));
+	} else {
+		sk->curve_samples++;
+		ret = 0;
+	}
+	free(buf);
+	return ret;
+}
 
 static int emit(const run_record_t *rec, void *ctx)
 {
@@ -42,6 +65,8 @@ static int emit(const run_record_t *rec, void *ctx)
 	char line[REPORT_MAX];
 	if (rec->kind == RUN_SNAPSHOT)
 		return sk->traj ? h5md_snapshot(sk->traj, rec, sk->err, sizeof(sk->err)) : 0;
+	if (rec->kind == RUN_CURVES)
+		return emit_curves(sk, rec);
 	if (rec->kind == RUN_PROGRESS && sk->traj && h5md_observables(sk->traj, rec, sk->err, sizeof(sk->err)))
 		return -1;
 	if (rec->kind == RUN_SUMMARY && rec->status == RUN_COLLAPSED && sk->traj && rec->warning &&
@@ -57,6 +82,47 @@ static int emit(const run_record_t *rec, void *ctx)
 	return 0;
 }
 
+/* DIR/observables.jsonl: new, or (resumed from a checkpoint at time t_ckpt) cut back to the samples taken
+ * up to the checkpoint (lines are in time order; a sample at t_ckpt was written before the checkpoint and
+ * is not taken again), counting the samples kept. A torn last line goes too. */
+static int open_curves(const char *outdir, int resumed, double t_ckpt, sink_t *sk)
+{
+	char path[4096], line[160];
+	snprintf(path, sizeof(path), "%s/observables.jsonl", outdir);
+	sk->curves = fopen(path, resumed ? "r+" : "w");
+	if (!sk->curves) {
+		fprintf(stderr, "granular-engine: %s: %s\n", path, strerror(errno));
+		return -1;
+	}
+	if (!resumed)
+		return 0;
+	long keep = 0;
+	int at_start = 1;
+	uint64_t last_sample = UINT64_MAX;
+	while (fgets(line, sizeof(line), sk->curves)) {
+		size_t l = strlen(line);
+		if (at_start) {
+			/* each line opens {"name":"...","sample":K,...,"time":T, within its first 160 bytes */
+			const char *q = strstr(line, "\"sample\":"), *t = strstr(line, "\"time\":");
+			if (!q || !t || strtod(t + 7, NULL) > t_ckpt)
+				break;
+			uint64_t k = strtoull(q + 9, NULL, 10);
+			if (k != last_sample)
+				sk->curve_samples++;
+			last_sample = k;
+		}
+		at_start = l > 0 && line[l - 1] == '\n';
+		if (at_start)
+			keep = ftell(sk->curves);
+	}
+	if (keep < 0 || fflush(sk->curves) != 0 || ftruncate(fileno(sk->curves), (off_t)keep) != 0 ||
+	    fseek(sk->curves, 0, SEEK_END) != 0) {
+		fprintf(stderr, "granular-engine: %s: cannot cut back to the checkpoint: %s\n", path, strerror(errno));
+		return -1;
+	}
+	return 0;
+}
+
 /* Make the outputs durable and note where they stand (for a checkpoint). */
 static int flush_outputs(const char *outdir, sink_t *sk, ckpt_output_t *pos)
 {
@@ -66,6 +132,10 @@ static int flush_outputs(const char *outdir, sink_t *sk, ckpt_output_t *pos)
 		return -1;
 	}
 	pos->progress_bytes = (uint64_t)off;
+	if (sk->curves && (fflush(sk->curves) != 0 || fsync(fileno(sk->curves)) != 0)) {
+		snprintf(sk->err, sizeof(sk->err), "%s/observables.jsonl: %s", outdir, strerror(errno));
+		return -1;
+	}
 	if (h5md_flush(sk->traj, sk->err, sizeof(sk->err)) != H5MD_OK)
 		return -1;
 	h5md_rows(sk->traj, &pos->obs_rows, &pos->snap_rows);
@@ -699,7 +769,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	char err[512] = "", *text = NULL, *advice_line = NULL;
 	size_t len = 0;
 	scene_t scene;
-	sink_t sink = {NULL, NULL, NULL, ""};
+	sink_t sink = {.progress = NULL};
 	ens_resume_t ens = {NULL, NULL, {1, 0.0}};
 	uint64_t *frames = NULL;
 
@@ -763,7 +833,9 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		ret = EX_INPUT;
 		goto cleanup;
 	}
-	run_opts_t opts = {.snapshots = outdir != NULL && stepped, .checkpoints = outdir != NULL && stepped};
+	/* Curves (observables.jsonl) come with --out; single runs only in this version (docs/output.md). */
+	run_opts_t opts = {.snapshots = outdir != NULL && stepped, .checkpoints = outdir != NULL && stepped,
+	                   .curves = outdir != NULL && stepped && obs_curve_bits(&scene) != 0};
 	ckpt_output_t at = {0, 0, 0};
 	if (!stepped) {
 		ens.blobs = calloc(scene.replicas, sizeof(*ens.blobs));
@@ -806,6 +878,12 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			ret = resume_path ? EX_FAIL : EX_INPUT;
 			goto cleanup;
 		}
+		double t_ckpt = 0.0;
+		uint64_t ev, co;
+		if (run)
+			run_totals(run, &t_ckpt, &ev, &co);
+		if (opts.curves && open_curves(outdir, resume_path != NULL, t_ckpt, &sink) != 0)
+			goto cleanup;
 		snprintf(path, sizeof(path), "%s/trajectory.h5", outdir);
 		if (resume_path && resume_frames(&scene, &ens, &at, &frames) != 0) {
 			fprintf(stderr, "granular-engine: --resume %s: frame counts of the replicas do not add up to the "
@@ -899,6 +977,8 @@ cleanup:
 	}
 	if (sink.copy)
 		fclose(sink.copy);
+	if (sink.curves)
+		fclose(sink.curves);
 	if (sink.progress && sink.progress != stdout)
 		fclose(sink.progress);
 	return ret;

@@ -50,7 +50,8 @@ struct run {
 	dsmc_t *mc;
 	uint64_t mc_chunk;       /* dsmc steps between polls of the stop flag */
 	clusters_t *cl;
-	double *pos, *vel;       /* sampling buffers (clusters, snapshots) */
+	obs_t *obs;              /* structure observables (observe.h), NULL when none is asked for */
+	double *pos, *vel;       /* sampling buffers (clusters, snapshots, structure observables) */
 	double t0;               /* wall clock at the start of this process's part */
 	double ckpt_wall;        /* wall clock of the last checkpoint request */
 	char warning[512];       /* dsmc/hsmc validity warning for the first record */
@@ -190,13 +191,56 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 		r->compressibility = t_avg > 0.0 ? r->pressure * vol / ((double)s->count * t_avg) : NAN;
 		r->collision_rate = 2.0 * (double)sm.interval_collisions / ((double)s->count * sm.interval);
 	}
+	int want_vel = (s->observables & SCENE_OBS_VDIST) != 0;
+	int want_pos = (s->observables & (SCENE_OBS_CLUSTERS | SCENE_OBS_GOFR)) != 0;
+	if (want_pos || want_vel)
+		eng_state(rc, rc->pos, want_vel ? rc->vel : NULL);
 	if ((s->observables & SCENE_OBS_CLUSTERS) && rc->cl) {
-		eng_state(rc, rc->pos, NULL);
 		if (clusters_compute(rc->cl, rc->pos, s->box, s->radius, s->cluster_delta * 2.0 * s->radius,
 		                     &r->clusters) != 0)
 			return RUN_ENOMEM;
 	}
+	r->obs.a2 = r->obs.a3 = r->obs.g_pairs = r->obs.g_pairs_se = r->obs.g_rate = r->obs.g_pressure = NAN;
+	if (rc->obs && (s->observables & (SCENE_OBS_VDIST | SCENE_OBS_GOFR))) {
+		if (obs_scalars(rc->obs, rc->pos, rc->vel, &r->obs) != 0)
+			return RUN_ENOMEM;
+		if (r->have_interval && (s->observables & SCENE_OBS_GOFR)) {
+			double t_avg = 2.0 * sm.ekin_time_integral / (s->dim * (double)s->count * sm.interval);
+			obs_interval(rc->obs, r->collision_rate, r->compressibility, t_avg, &r->obs);
+		}
+	}
 	return RUN_OK;
+}
+
+/* Curves of the present state as a RUN_CURVES record (the dynamics are not touched). */
+int run_curves(run_t *r, run_record_t *rec)
+{
+	smp_t sm;
+	if (!r->obs || !obs_curve_bits(&r->s))
+		return RUN_EMETHOD;
+	eng_totals(r, &sm);
+	memset(rec, 0, sizeof(*rec));
+	rec->kind = RUN_CURVES;
+	rec->dim = r->s.dim;
+	rec->n = r->s.count;
+	rec->time = sm.time;
+	rec->events = sm.events;
+	rec->collisions = sm.collisions;
+	rec->collisions_per_particle = 2.0 * (double)sm.collisions / (double)r->s.count;
+	rec->wall_seconds = wall_seconds(r);
+	rec->kinetic_energy = sm.kinetic_energy;
+	rec->have = r->s.observables;
+	eng_state(r, r->pos, r->vel);
+	rec->curves = obs_curves(r->obs, r->cl, r->pos, r->vel);
+	if (!rec->curves)
+		return RUN_ENOMEM;
+	rec->temperature = rec->curves->temperature;
+	return RUN_OK;
+}
+
+static int curves_on(const run_t *r)
+{
+	return r->opts.curves && r->obs && obs_curve_bits(&r->s);
 }
 
 /* Sample into r->rec; the first record carries the dsmc/hsmc warning. */
@@ -243,6 +287,23 @@ static int emit_snapshot(run_t *r, run_emit_fn emit, void *ctx)
 	return emit(&rec, ctx) ? RUN_EMIT : RUN_OK;
 }
 
+/* The snapshot schedule's records: the frame (opts.snapshots), then the curves (opts.curves). */
+static int emit_structure(run_t *r, run_emit_fn emit, void *ctx)
+{
+	int ret = RUN_OK;
+	if (r->opts.snapshots && (ret = emit_snapshot(r, emit, ctx)) != RUN_OK)
+		return ret;
+	if (curves_on(r)) {
+		run_record_t rec;
+		if ((ret = run_curves(r, &rec)) != RUN_OK)
+			return ret;
+		r->st.snap_events = rec.events;
+		if (emit(&rec, ctx))
+			return RUN_EMIT;
+	}
+	return RUN_OK;
+}
+
 /* ---- life cycle ------------------------------------------------------------ */
 
 static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, int blank,
@@ -281,7 +342,12 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		}
 		r->mc_chunk = RUN_CHUNK_MOVES / s->count + 1;
 	}
-	if ((s->observables & SCENE_OBS_CLUSTERS) || r->opts.snapshots) {
+	if (obs_curve_bits(s)) {
+		r->obs = obs_create(s, 0);
+		if (!r->obs)
+			goto nomem;
+	}
+	if ((s->observables & SCENE_OBS_CLUSTERS) || r->opts.snapshots || r->obs) {
 		r->pos = malloc(s->count * s->dim * sizeof(double));
 		if (!r->pos)
 			goto nomem;
@@ -291,7 +357,7 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		if (!r->cl)
 			goto nomem;
 	}
-	if (r->opts.snapshots) {
+	if (r->opts.snapshots || r->obs) {
 		r->vel = malloc(s->count * s->dim * sizeof(double));
 		if (!r->vel)
 			goto nomem;
@@ -336,6 +402,7 @@ void run_destroy(run_t *r)
 	if (!r)
 		return;
 	clusters_destroy(r->cl);
+	obs_destroy(r->obs);
 	free(r->pos);
 	free(r->vel);
 	ed_destroy(r->ed);
@@ -454,6 +521,8 @@ void run_summary_record(run_t *r, run_record_t *sum)
 		sum->memory_bytes = dsmc_memory(r->mc);
 		dsmc_cells(r->mc, sum->cells);
 	}
+	if (r->obs)
+		sum->memory_bytes += obs_memory(r->obs);
 }
 
 int run_summary(run_t *r, run_emit_fn emit, void *ctx)
@@ -521,7 +590,8 @@ int run_go(run_t *r, run_emit_fn emit, void *ctx, const volatile sig_atomic_t *s
 	const double t_until = until_time ? s->until.value : INFINITY;
 	const uint64_t c_until = until_time ? UINT64_MAX : cpp_to_collisions(s->until.value, n);
 	const scene_when_t none = {SCENE_CLOCK_NONE, 0.0};
-	const scene_when_t *snaps = r->opts.snapshots ? &s->snapshots : &none;
+	const int structure = r->opts.snapshots || curves_on(r);   /* frames or curves on the snapshot schedule */
+	const scene_when_t *snaps = structure ? &s->snapshots : &none;
 	const int ckpt_time = r->opts.checkpoints && s->checkpoint.kind == SCENE_CLOCK_TIME;
 	const int ckpt_wall = r->opts.checkpoints && s->checkpoint.kind == SCENE_CLOCK_WALL;
 
@@ -529,7 +599,7 @@ int run_go(run_t *r, run_emit_fn emit, void *ctx, const volatile sig_atomic_t *s
 	if (!r->st.started) {
 		if ((ret = emit_progress(r, emit, ctx)) != RUN_OK)
 			goto cleanup;
-		if (r->opts.snapshots && (ret = emit_snapshot(r, emit, ctx)) != RUN_OK)
+		if (structure && (ret = emit_structure(r, emit, ctx)) != RUN_OK)
 			goto cleanup;
 		r->st.started = 1;
 	}
@@ -562,8 +632,8 @@ int run_go(run_t *r, run_emit_fn emit, void *ctx, const volatile sig_atomic_t *s
 			 * or very dilute system emits one record, not thousands). */
 			sched_skip(&s->every, &r->st.k_out, t, c, n);
 		}
-		if (due_snap || (done && r->opts.snapshots && r->st.snap_events != eng_events(r))) {
-			if ((ret = emit_snapshot(r, emit, ctx)) != RUN_OK)
+		if (due_snap || (done && structure && r->st.snap_events != eng_events(r))) {
+			if ((ret = emit_structure(r, emit, ctx)) != RUN_OK)
 				goto cleanup;
 			sched_skip(snaps, &r->st.k_snap, t, c, n);
 		}

@@ -4,6 +4,7 @@
 #include <signal.h>
 #include <stdint.h>
 #include "observe/clusters.h"
+#include "observe/observe.h"
 #include "ed/ed.h"
 #include "scene.h"
 
@@ -18,7 +19,7 @@
  *   output.every reach identical states at identical times.
  */
 
-typedef enum { RUN_PROGRESS = 0, RUN_SUMMARY, RUN_SNAPSHOT } run_kind_t;
+typedef enum { RUN_PROGRESS = 0, RUN_SUMMARY, RUN_SNAPSHOT, RUN_CURVES } run_kind_t;
 typedef enum { RUN_COMPLETED = 0, RUN_QUIESCENT, RUN_INTERRUPTED, RUN_COLLAPSED } run_status_t;
 
 enum {
@@ -53,6 +54,7 @@ typedef struct {
 	double collision_rate;       /* 2 C / (N dt) over the interval */
 	double momentum[3];
 	clusters_stats_t clusters;
+	obs_scalars_t obs;           /* velocity_distribution (a2, a3), pair_correlation (contact values) */
 	uint64_t elastic_by_tc;      /* collisions made elastic by the TC model */
 	const char *warning;         /* dsmc/hsmc validity warning (first record only), or NULL */
 	/* dsmc/hsmc diagnostics (totals; printed in the summary when non-zero) */
@@ -63,6 +65,7 @@ typedef struct {
 	struct {
 		double time, collisions_per_particle, kinetic_energy, temperature, pressure,
 		       compressibility, collision_rate, largest_fraction, mean_size;
+		double a2, a3, g_pairs, g_rate, g_pressure, cluster_w, cluster_exponent;
 	} se;
 	/* summary only */
 	run_status_t status;
@@ -72,6 +75,9 @@ typedef struct {
 	/* snapshot only: N*D positions (folded into the box) and velocities in
 	 * scene particle order; owned by the run, valid during emit() */
 	const double *pos, *vel;
+	/* RUN_CURVES only: the structure curves of the present state (observe.h),
+	 * taken with the snapshots; owned by the run, valid during emit() */
+	const obs_curves_t *curves;
 } run_record_t;
 
 /* Called for each record; a non-zero return stops the run (RUN_EMIT). */
@@ -104,6 +110,8 @@ typedef struct {
 	int snapshots;     /* emit RUN_SNAPSHOT records (output.snapshots; first and last state at least) */
 	int checkpoints;   /* return RUN_CHECKPOINT on output.checkpoint and RUN_STOPPED on a stop request;
 	                    * without it a stop ends the run with a last sample (status interrupted) */
+	int curves;        /* emit RUN_CURVES records (after the RUN_SNAPSHOT of the same state, if any) on the
+	                    * snapshot schedule, for the curve observables the scene asks for (obs_curve_bits()) */
 } run_opts_t;
 
 /* The schedule position: everything besides the engine state that a resumed
@@ -176,5 +184,10 @@ void run_summary_record(run_t *r, run_record_t *sum);
  * (run_state_t k_snap, snap_events, frames). Neither moves a particle. */
 int run_frame_due(const run_t *r);
 void run_frame(run_t *r, run_record_t *rec, double *pos, double *vel);
+/* The structure curves of the present state (ensembles: each replica at the ensemble's curve times):
+ * fills rec (RUN_CURVES: time, events, collisions, temperature, curves owned by r). Moves no
+ * particle, changes no schedule. RUN_OK, or RUN_ENOMEM (cluster workspace), RUN_EMETHOD when the
+ * scene asks for no curve observable. */
+int run_curves(run_t *r, run_record_t *rec);
 
 const char *run_status_name(run_status_t st);

@@ -69,6 +69,10 @@ static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "collision_rate", SCENE_OBS_COLLISION_RATE },
 	{ "clusters", SCENE_OBS_CLUSTERS },
 	{ "momentum", SCENE_OBS_MOMENTUM },
+	{ "velocity_distribution", SCENE_OBS_VDIST },
+	{ "pair_correlation", SCENE_OBS_GOFR },
+	{ "structure_factor", SCENE_OBS_SOFK },
+	{ "velocity_correlations", SCENE_OBS_VCORR },
 };
 #define N_OBSERVABLES (sizeof observables / sizeof observables[0])
 
@@ -187,7 +191,7 @@ static int match(ctx_t *c, const char *path, const json_t *v, const char *const 
 {
 	if (!json_is_string(v))
 		return fail(c, path, "must be a string, got %s", type_name(v));
-	char known[PATHLEN] = "";
+	char known[PATHLEN * 2] = "";
 	for (size_t i = 0; i < n; i++) {
 		if (strcmp(json_string_value(v), names[i]) == 0) {
 			*idx = (int)i;
@@ -282,7 +286,7 @@ static int parse_observables(ctx_t *c, const char *path, json_t *v, void *dst, c
 			if (strcmp(json_string_value(o), observables[k].name) == 0)
 				break;
 		if (k == N_OBSERVABLES) {
-			char known[PATHLEN] = "";
+			char known[PATHLEN * 2] = "";
 			for (size_t j = 0; j < N_OBSERVABLES; j++)
 				snprintf(known + strlen(known), sizeof known - strlen(known), "%s%s",
 					 j ? ", " : "", observables[j].name);
@@ -373,6 +377,58 @@ static int check_particles(ctx_t *c, const char *path, json_t *v, void *base)
 	return 0;
 }
 
+/* Largest density grid per axis: 2^24 cells in all (128 MiB of doubles per field). */
+#define GRID_MAX_2D 4096
+#define GRID_MAX_3D 256
+
+/* Settings of the structure observables (docs/scene.md, output.*): only with
+ * an observable that uses them; g(r) within the minimum image; the density
+ * grid within its memory bound; defaults that depend on the box. */
+static int check_structure(ctx_t *c, json_t *v, scene_t *s)
+{
+	static const struct { const char *key; unsigned users; const char *names; } settings[] = {
+		{ "velocity_distribution", SCENE_OBS_VDIST, "\"velocity_distribution\"" },
+		{ "pair_correlation", SCENE_OBS_GOFR | SCENE_OBS_VCORR, "\"pair_correlation\" or \"velocity_correlations\"" },
+		{ "structure_factor", SCENE_OBS_SOFK | SCENE_OBS_VCORR, "\"structure_factor\" or \"velocity_correlations\"" },
+	};
+	json_t *out = json_object_get(v, "output");
+	char sub[PATHLEN];
+	for (size_t i = 0; i < sizeof settings / sizeof settings[0]; i++)
+		if (json_object_get(out, settings[i].key) && !(s->observables & settings[i].users)) {
+			snprintf(sub, sizeof sub, "output.%s", settings[i].key);
+			return fail(c, sub, "settings of an observable not asked for: add %s to output.observables",
+				    settings[i].names);
+		}
+	double sigma = 2 * s->radius, half = s->box[0];
+	for (int i = 1; i < s->dim; i++)
+		half = fmin(half, s->box[i]);
+	half /= 2 * sigma;   /* half the smallest edge, in diameters */
+	if (s->gofr_range == 0)
+		s->gofr_range = fmin(5.0, half);
+	else if (s->gofr_range > half)
+		return fail(c, "output.pair_correlation.range", "%s diameters is more than half the smallest box edge "
+			    "(%.6g diameters): pairs beyond it have no unique minimum image", num(s->gofr_range).s, half);
+	int gmax = s->dim == 2 ? GRID_MAX_2D : GRID_MAX_3D;
+	if (s->sofk_grid[0] > gmax)
+		return fail(c, "output.structure_factor.grid", "must be at most %d in %dD (memory), got %d", gmax,
+			    s->dim, s->sofk_grid[0]);
+	for (int i = 0; i < 3; i++) {
+		if (i >= s->dim) {
+			s->sofk_grid[i] = 1;
+			continue;
+		}
+		if (s->sofk_grid[i] > 0)
+			continue;
+		/* Seed 000 sec. 3.2: the power of 2 whose cell is closest to one diameter. */
+		double m = s->box[i] / sigma;
+		int g = 4;
+		while (g < gmax && fabs(log((double)g * 2 / m)) < fabs(log((double)g / m)))
+			g *= 2;
+		s->sofk_grid[i] = g;
+	}
+	return 0;
+}
+
 /* Rules that span objects, and the derived fields. */
 static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 {
@@ -447,6 +503,10 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 	if (s->mc_max_volume_fraction >= cp)
 		return fail(c, "hsmc.max_volume_fraction", "%s is at or above the close-packing limit %.4f of %s",
 			    num(s->mc_max_volume_fraction).s, cp, shape);
+
+	int ret = check_structure(c, v, s);
+	if (ret)
+		return ret;
 
 	if (s->every.kind == SCENE_CLOCK_NONE)
 		s->every = (scene_when_t){ s->until.kind, s->until.value / 100 };
@@ -584,11 +644,62 @@ static const struct object clusters_obj = {
 	},
 };
 
+static const struct irange R_BINS = { 2, 100000 };
+static const struct range R_VRANGE = { 0, 100, true };
+
+static int parse_bins(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	uint64_t x = 0;   /* set when ret == 0 */
+	int ret = parse_integer(c, path, v, &x, arg);
+	if (ret == 0)
+		*(int *)dst = (int)x;
+	return ret;
+}
+
+/* One edge count for every axis; the range depends on the dimension (check_scene). */
+static int parse_grid(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	static const struct irange r = { 4, 4096 };
+	uint64_t x = 0;
+	int ret = parse_integer(c, path, v, &x, &r);
+	if (ret == 0) {
+		int *g = dst;
+		g[0] = g[1] = g[2] = (int)x;
+	}
+	return ret;
+}
+
+static const struct object vdist_obj = {
+	.fields = (const struct field[]){
+		{ "bins", parse_bins, offsetof(scene_t, vdist_bins), &R_BINS, false },
+		{ "range", parse_number, offsetof(scene_t, vdist_range), &R_VRANGE, false },
+		{ .name = NULL },
+	},
+};
+
+static const struct object gofr_obj = {
+	.fields = (const struct field[]){
+		{ "bins", parse_bins, offsetof(scene_t, gofr_bins), &R_BINS, false },
+		{ "range", parse_number, offsetof(scene_t, gofr_range), &R_POS, false },
+		{ .name = NULL },
+	},
+};
+
+static const struct object sofk_obj = {
+	.fields = (const struct field[]){
+		{ "grid", parse_grid, offsetof(scene_t, sofk_grid), NULL, false },
+		{ .name = NULL },
+	},
+};
+
 static const struct object output_obj = {
 	.fields = (const struct field[]){
 		{ "every", parse_object, offsetof(scene_t, every), &when_obj, false },
 		{ "observables", parse_observables, offsetof(scene_t, observables), NULL, false },
 		{ "clusters", parse_object, 0, &clusters_obj, false },
+		{ "velocity_distribution", parse_object, 0, &vdist_obj, false },
+		{ "pair_correlation", parse_object, 0, &gofr_obj, false },
+		{ "structure_factor", parse_object, 0, &sofk_obj, false },
 		{ "snapshots", parse_object, 0, &snapshots_obj, false },
 		{ "checkpoint", parse_object, 0, &checkpoint_obj, false },
 		{ .name = NULL },
@@ -671,6 +782,9 @@ int scene_parse(const char *json, size_t len, scene_t *out, char *err, size_t er
 		.seed = 1,
 		.observables = SCENE_OBS_ENERGY | SCENE_OBS_PRESSURE | SCENE_OBS_COLLISION_RATE,
 		.cluster_delta = 0.1,
+		.vdist_bins = 80,
+		.vdist_range = 5,
+		.gofr_bins = 250,
 		.replicas = 1,
 		.compression = 0,
 	};

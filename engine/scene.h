@@ -41,6 +41,11 @@ enum {
 	SCENE_OBS_COLLISION_RATE = 1u << 2, /* collision_rate */
 	SCENE_OBS_CLUSTERS = 1u << 3,       /* particle-cluster statistics */
 	SCENE_OBS_MOMENTUM = 1u << 4,       /* total momentum vector */
+	/* structure and statistics (engine/observe/observe.h; docs/scene.md) */
+	SCENE_OBS_VDIST = 1u << 5,          /* velocity_distribution: a2, a3; histograms at snapshot times */
+	SCENE_OBS_GOFR = 1u << 6,           /* pair_correlation: contact values; g(r) at snapshot times */
+	SCENE_OBS_SOFK = 1u << 7,           /* structure_factor: S(k) at snapshot times */
+	SCENE_OBS_VCORR = 1u << 8,          /* velocity_correlations: G_par(r), G_perp(r), S_par(k), S_perp(k) at snapshot times */
 };
 
 typedef struct {
@@ -75,6 +80,11 @@ typedef struct scene {
 	scene_when_t every;            /* default: until / 100 of the same kind */
 	unsigned observables;          /* SCENE_OBS_* bit set; default energy|pressure|collision_rate */
 	double cluster_delta;          /* gap in diameters, default 0.1 */
+	int vdist_bins;                /* velocity histograms: bins (default 80) */
+	double vdist_range;            /* ... over |c| < range, c = v / sqrt(2 T / m) (default 5) */
+	int gofr_bins;                 /* pair correlation: bins over [0, range) (default 250) */
+	double gofr_range;             /* ... range in diameters (default min(5, half the smallest box edge)) */
+	int sofk_grid[3];              /* density grid per axis for S(k) and the velocity structure factors */
 	scene_when_t snapshots;        /* trajectory frames (time or cpp); NONE = first and last only */
 	int compression;               /* deflate level 0..9 of the HDF5 output, default 0 */
 	scene_when_t checkpoint;       /* checkpoint interval (simulated time or wall seconds); NONE = none */

@@ -72,6 +72,14 @@ const ok = (c, d) => { n++; if (!c) failed++; console.log(`${c ? '' : 'not '}ok 
     const cells = await page.$$eval('#advice tbody tr', (rs) => rs.map((r) => r.children.length));
     ok(['ed', 'dsmc/none', 'dsmc/enskog', 'hsmc/cba'].every((v) => variants.includes(v)) && cells.every((c) => c === 7) &&
       !(await page.isHidden('#advice')), 'advice table for the preset: ' + variants.join(', '));
+    // The structure observables too: their curves (observables.jsonl) get plots of their own.
+    await page.evaluate(() => {
+      const s = JSON.parse(document.getElementById('scene').value);
+      s.output = s.output || {};
+      s.output.observables = (s.output.observables || ['kinetic_energy', 'temperature', 'pressure', 'compressibility', 'collision_rate'])
+        .concat(['velocity_distribution', 'pair_correlation', 'structure_factor']);
+      document.getElementById('scene').value = JSON.stringify(s);
+    });
     await page.click('#submit-form button[type=submit]');
     await page.waitForFunction(() => /^job \d+/.test(document.getElementById('submit-msg').textContent), null, { timeout: 10000 });
     const msg = await page.textContent('#submit-msg');
@@ -96,6 +104,17 @@ const ok = (c, d) => { n++; if (!c) failed++; console.log(`${c ? '' : 'not '}ok 
     ok(px[0] > 50, `temperature plot drew its series (${px[0]} px) with ${await page.textContent('#haff')}`);
     ok(px[1] > 50, `collision-rate plot drew its series (${px[1]} px)`);
     ok(px[2] > 50, `largest-cluster plot drew its series (${px[2]} px)`);
+    await page.waitForFunction(() => !document.getElementById('curves').hidden &&
+      /sample [1-9]/.test(document.getElementById('curves-info').textContent), null, { timeout: 15000 });
+    const cpx = await page.evaluate(() => ['plot-vdist', 'plot-gofr', 'plot-sofk'].map((id) => {
+      const c = document.querySelector('#' + id + ' canvas');
+      if (!c) return 0;
+      const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+      let k = 0;
+      for (let i = 0; i < d.length; i += 4) if (Math.abs(d[i] - 47) < 30 && Math.abs(d[i + 1] - 111) < 30 && Math.abs(d[i + 2] - 222) < 30 && d[i + 3] > 100) k++;
+      return k;
+    }));
+    ok(cpx.every((k) => k > 50), `P(c), g(r), S(k) plots drew the last sample (${cpx.join(', ')} px): ${await page.textContent('#curves-info')}`);
     await page.screenshot({ path: shot, fullPage: true });
     ok(true, 'screenshot saved: ' + shot);
     ok(!(await page.isVisible('#job-advice')), 'a job with a concrete method shows no advice panel');

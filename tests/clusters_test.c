@@ -446,6 +446,108 @@ static void test_ideal_gas(void)
 	}
 }
 
+/* ---- size distribution and its fits ---- */
+
+/* Bins: sizes 1..16 one each, then growing, contiguous, ending at n + 1. */
+static void test_size_bins(void)
+{
+	static const uint64_t ns[] = {1, 2, 16, 17, 100, 1000000, 2147483647ULL};
+	int good = 1;
+	for (size_t t = 0; t < sizeof ns / sizeof ns[0]; t++) {
+		double e[CLUSTERS_SIZE_BINS + 1], c[CLUSTERS_SIZE_BINS];
+		int nb = clusters_size_bins(ns[t], e, c);
+		good &= nb >= 1 && nb <= CLUSTERS_SIZE_BINS && e[0] == 1 && e[nb] == (double)(ns[t] + 1);
+		for (int k = 0; k < nb; k++) {
+			good &= e[k + 1] > e[k] && c[k] >= e[k] && c[k] <= e[k + 1] - 1;
+			if (k < 16 && e[k] <= (double)ns[t])
+				good &= e[k] == k + 1;
+		}
+	}
+	ok(good, "size bins: one per size to 16, then contiguous and growing, up to n + 1");
+}
+
+/*
+ * Particles placed as isolated chains of s touching spheres (far apart), so
+ * that n_s is exactly what we choose: n_s = round(A s^-theta e^-w s) for the
+ * initial (percolation) form, and round(B s^-tau) for a power law. The fits
+ * must return w and tau; the rounding of small counts is the only error
+ * (a few per cent in the far tail, which the count weights suppress).
+ */
+static size_t place_chains(const uint64_t *count, int smax, double *pos, double *box)
+{
+	/* chains along x on a 3D grid of slots 24 diameters apart */
+	size_t chains = 0, n = 0;
+	for (int s = 1; s <= smax; s++)
+		chains += count[s];
+	int side = (int)ceil(cbrt((double)chains));
+	double slot = smax + 4.0;
+	box[0] = side * slot, box[1] = box[2] = side * 4.0;
+	size_t k = 0;
+	for (int s = 1; s <= smax; s++)
+		for (uint64_t c = 0; c < count[s]; c++, k++) {
+			int ix = (int)(k % side), iy = (int)(k / side % side), iz = (int)(k / side / side);
+			for (int j = 0; j < s; j++, n++) {
+				pos[3 * n] = ix * slot + j * 1.02;   /* gap 0.02 < delta 0.1: one cluster */
+				pos[3 * n + 1] = iy * 4.0;
+				pos[3 * n + 2] = iz * 4.0;
+			}
+		}
+	return n;
+}
+
+static void test_fits(void)
+{
+	enum { SMAX = 60 };
+	uint64_t cnt[SMAX + 1] = {0};
+	size_t n = 0;
+	/* initial form, 3D theta = 3/2, w = 0.35 */
+	for (int s = 1; s <= SMAX; s++) {
+		cnt[s] = (uint64_t)llround(20000 * pow(s, -1.5) * exp(-0.35 * s));
+		n += cnt[s] * s;
+	}
+	cnt[SMAX] = 1;   /* a largest cluster (left out of the fit) */
+	n += SMAX;
+	double *pos = malloc(n * 3 * sizeof(double)), box[3];
+	size_t placed = place_chains(cnt, SMAX, pos, box);
+	clusters_t *c = clusters_create(3, placed);
+	clusters_stats_t st;
+	int rc = clusters_compute(c, pos, box, 0.5, 0.1, &st);
+	ok(rc == 0 && st.largest == SMAX && fabs(st.w - 0.35) < 0.01,
+	   "n_s = 20000 s^-3/2 e^-0.35 s (rounded): fitted w = %.4f, %llu clusters", st.w, (unsigned long long)st.n_clusters);
+	double e[CLUSTERS_SIZE_BINS + 1], nsd[CLUSTERS_SIZE_BINS], ct[CLUSTERS_SIZE_BINS];
+	int nb = clusters_size_bins(placed, e, NULL);
+	clusters_size_distribution(c, nb, e, nsd, ct);
+	int same = 1;
+	for (int s = 1; s <= 16; s++)
+		same &= nsd[s - 1] == (double)cnt[s] && ct[s - 1] == (double)cnt[s];
+	ok(same, "n_s per bin equals the placed counts for s = 1..16");
+	clusters_destroy(c);
+	free(pos);
+
+	/* power law tau = 2.2 (the 3D percolation exponent) */
+	n = 0;
+	for (int s = 1; s <= SMAX; s++) {
+		cnt[s] = (uint64_t)llround(30000 * pow(s, -2.2));
+		n += cnt[s] * s;
+	}
+	cnt[SMAX] += 1;
+	n += SMAX;
+	pos = malloc(n * 3 * sizeof(double));
+	placed = place_chains(cnt, SMAX, pos, box);
+	c = clusters_create(3, placed);
+	rc = clusters_compute(c, pos, box, 0.5, 0.1, &st);
+	ok(rc == 0 && fabs(st.exponent - 2.2) < 0.05, "n_s = 30000 s^-2.2 (rounded): fitted exponent %.3f", st.exponent);
+	clusters_destroy(c);
+	free(pos);
+
+	/* nothing to fit: all single */
+	double one[6] = {0, 0, 0, 5, 5, 5}, b1[3] = {10, 10, 10};
+	c = clusters_create(3, 2);
+	rc = clusters_compute(c, one, b1, 0.5, 0.1, &st);
+	ok(rc == 0 && isnan(st.w) && isnan(st.exponent), "two free particles: no fit (NaN)");
+	clusters_destroy(c);
+}
+
 /* ---- a large run: 10^6 spheres at volume fraction 0.3 ---- */
 
 /* Labels consistent with the statistics, in O(N). */
@@ -507,6 +609,8 @@ int main(int argc, char **argv)
 	}
 	test_random();
 	test_ideal_gas();
+	test_size_bins();
+	test_fits();
 	if (quick)
 		skip("10^6 particle run (CLUSTERS_TEST_QUICK)");
 	else

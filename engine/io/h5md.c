@@ -15,7 +15,7 @@
 #define FRAME_CHUNK 65536u
 /* Rows per chunk of an observable time series. */
 #define OBS_CHUNK 256u
-#define MAX_OBS 32
+#define MAX_OBS 48
 
 /* What a value column holds: cols 0 = scalar per row, -1 = D components. */
 typedef struct {
@@ -53,6 +53,17 @@ static void g_comp_se(const run_record_t *r, void *o) { *(double *)o = r->have_i
 static void g_rate_se(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->se.collision_rate : NAN; }
 static void g_cfrac_se(const run_record_t *r, void *o) { *(double *)o = r->se.largest_fraction; }
 static void g_cmean_se(const run_record_t *r, void *o) { *(double *)o = r->se.mean_size; }
+/* structure observables (observe.h): NaN where undefined (no interval yet, no contact fit) */
+static void g_a2(const run_record_t *r, void *o) { *(double *)o = r->obs.a2; }
+static void g_a3(const run_record_t *r, void *o) { *(double *)o = r->obs.a3; }
+static void g_gpairs(const run_record_t *r, void *o) { *(double *)o = r->obs.g_pairs; }
+static void g_grate(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->obs.g_rate : NAN; }
+static void g_gpres(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->obs.g_pressure : NAN; }
+static void g_a2_se(const run_record_t *r, void *o) { *(double *)o = r->se.a2; }
+static void g_a3_se(const run_record_t *r, void *o) { *(double *)o = r->se.a3; }
+static void g_gpairs_se(const run_record_t *r, void *o) { *(double *)o = r->se.g_pairs; }
+static void g_grate_se(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->se.g_rate : NAN; }
+static void g_gpres_se(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->se.g_pressure : NAN; }
 static void g_chist(const run_record_t *r, void *o)
 {
 	int64_t *h = o;
@@ -77,6 +88,11 @@ static const obs_def_t obs_defs[] = {
 	{ "clusters_m2", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cm2 },
 	{ "clusters_m2_reduced", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cm2r },
 	{ "clusters_histogram", SCENE_OBS_CLUSTERS, 1, CLUSTERS_MAX_BINS, NULL, g_chist },
+	{ "sonine_a2", SCENE_OBS_VDIST, 0, 0, "1", g_a2 },
+	{ "sonine_a3", SCENE_OBS_VDIST, 0, 0, "1", g_a3 },
+	{ "g_contact_pairs", SCENE_OBS_GOFR, 0, 0, "1", g_gpairs },
+	{ "g_contact_rate", SCENE_OBS_GOFR, 0, 0, "1", g_grate },
+	{ "g_contact_pressure", SCENE_OBS_GOFR, 0, 0, "1", g_gpres },
 	/* ensembles: NAME_se beside NAME, as KEY_se in the progress stream */
 	{ "time_se", NEED_SE, 0, 0, "t0", g_time_se },
 	{ "kinetic_energy_se", NEED_SE | SCENE_OBS_ENERGY, 0, 0, "e0", g_ekin_se },
@@ -86,6 +102,11 @@ static const obs_def_t obs_defs[] = {
 	{ "collision_rate_se", NEED_SE | SCENE_OBS_COLLISION_RATE, 0, 0, "t0-1", g_rate_se },
 	{ "clusters_largest_fraction_se", NEED_SE | SCENE_OBS_CLUSTERS, 0, 0, "1", g_cfrac_se },
 	{ "clusters_mean_size_se", NEED_SE | SCENE_OBS_CLUSTERS, 0, 0, "1", g_cmean_se },
+	{ "sonine_a2_se", NEED_SE | SCENE_OBS_VDIST, 0, 0, "1", g_a2_se },
+	{ "sonine_a3_se", NEED_SE | SCENE_OBS_VDIST, 0, 0, "1", g_a3_se },
+	{ "g_contact_pairs_se", NEED_SE | SCENE_OBS_GOFR, 0, 0, "1", g_gpairs_se },
+	{ "g_contact_rate_se", NEED_SE | SCENE_OBS_GOFR, 0, 0, "1", g_grate_se },
+	{ "g_contact_pressure_se", NEED_SE | SCENE_OBS_GOFR, 0, 0, "1", g_gpres_se },
 };
 #define N_OBS_DEFS (sizeof obs_defs / sizeof obs_defs[0])
 

@@ -93,11 +93,23 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 		num_se(&o, r, "mean_size", c->mean_size, r->se.mean_size);
 		num(&o, "m2", c->m2);
 		num(&o, "m2_reduced", c->m2_reduced);
+		num_se(&o, r, "w", c->w, r->se.cluster_w);
+		num_se(&o, r, "exponent", c->exponent, r->se.cluster_exponent);
 		/* histogram: bin k counts clusters of size in [2^k, 2^(k+1)) */
 		put(&o, ",\"histogram\":[");
 		for (int k = 0; k < c->n_bins && k < CLUSTERS_MAX_BINS; k++)
 			put(&o, "%s%llu", k ? "," : "", (unsigned long long)c->hist[k]);
 		put(&o, "]}");
+	}
+	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_VDIST)) {
+		num_se(&o, r, "a2", r->obs.a2, r->se.a2);
+		num_se(&o, r, "a3", r->obs.a3, r->se.a3);
+	}
+	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_GOFR)) {
+		num_se(&o, r, "g_contact_pairs", r->obs.g_pairs, r->se.g_pairs);
+		num_se(&o, r, "g_contact_rate", r->have_interval ? r->obs.g_rate : NAN, r->have_interval ? r->se.g_rate : NAN);
+		num_se(&o, r, "g_contact_pressure", r->have_interval ? r->obs.g_pressure : NAN,
+		       r->have_interval ? r->se.g_pressure : NAN);
 	}
 	if (r->warning) {
 		/* Our own text: printable ASCII; quote the two JSON specials anyway. */
@@ -124,5 +136,99 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 		put(&o, "]");
 	}
 	put(&o, "}\n");
+	return o.overflow ? -1 : (int)o.pos;
+}
+
+/* ---- curves (observables.jsonl) ------------------------------------------ */
+
+static void num9(out_t *o, const char *sep, double v)
+{
+	if (isfinite(v))
+		put(o, "%s%.9g", sep, v);
+	else
+		put(o, "%snull", sep);
+}
+
+static void array9(out_t *o, const char *key, const double *v, int n)
+{
+	put(o, "\"%s\":[", key);
+	for (int k = 0; k < n; k++)
+		num9(o, k ? "," : "", v[k]);
+	put(o, "]");
+}
+
+/* A scalar of the sample with, in ensembles, its standard error. */
+static void scalar9(out_t *o, int ens, const char *key, double v, double se)
+{
+	put(o, ",\"%s\":", key);
+	num9(o, "", v);
+	if (ens) {
+		put(o, ",\"%s_se\":", key);
+		num9(o, "", se);
+	}
+}
+
+size_t report_curves_max(const obs_curves_t *c)
+{
+	/* each number at most 16 characters (-1.23456789e-123) plus a comma;
+	 * per table: edges, centres, a value and a standard error per column */
+	size_t n = 1024;
+	for (int i = 0; i < c->ntables; i++)
+		n += 256 + 17 * (size_t)(2 * c->t[i].nb + 1 + 2 * c->t[i].nb * c->t[i].ncols);
+	return n;
+}
+
+int report_curves(const run_record_t *r, uint64_t sample, char *buf, size_t len)
+{
+	out_t o = {.buf = buf, .len = len};
+	const obs_curves_t *c = r->curves;
+	const int ens = r->replicas > 1;
+	if (!buf || len == 0 || !c)
+		return -1;
+	for (int i = 0; i < c->ntables; i++) {
+		const obs_table_t *t = &c->t[i];
+		if (i > 0 && !strcmp(t->family, c->t[i - 1].family))
+			continue;   /* written with the family's first table */
+		put(&o, "{\"name\":\"%s\",\"sample\":%llu", t->family, (unsigned long long)sample);
+		if (ens)
+			put(&o, ",\"replicas\":%u", r->replicas);
+		put(&o, ",\"time\":%.17g,\"collisions_per_particle\":%.17g", r->time, r->collisions_per_particle);
+		scalar9(&o, ens, "temperature", c->temperature, c->se_temperature);
+		if (!strcmp(t->family, "velocity_distribution")) {
+			scalar9(&o, ens, "a2", c->a2, c->se_a2);
+			scalar9(&o, ens, "a3", c->a3, c->se_a3);
+		} else if (!strcmp(t->family, "pair_correlation")) {
+			scalar9(&o, ens, "g_contact_pairs", c->g_pairs, c->se_g_pairs);
+		} else if (!strcmp(t->family, "clusters")) {
+			scalar9(&o, ens, "mean_size", c->mean_size, c->se_mean_size);
+			scalar9(&o, ens, "m2_reduced", c->m2_reduced, c->se_m2_reduced);
+			scalar9(&o, ens, "w", c->cluster_w, c->se_cluster_w);
+			scalar9(&o, ens, "exponent", c->cluster_exponent, c->se_cluster_exponent);
+		}
+		put(&o, ",\"tables\":[");
+		for (int j = i; j < c->ntables && !strcmp(c->t[j].family, t->family); j++) {
+			const obs_table_t *u = &c->t[j];
+			put(&o, "%s{\"table\":\"%s\",\"x\":\"%s\",", j > i ? "," : "", u->table, u->x);
+			array9(&o, "edges", u->edges, u->nb + 1);
+			put(&o, ",");
+			array9(&o, "centres", u->centres, u->nb);
+			put(&o, ",\"columns\":{");
+			for (int k = 0; k < u->ncols; k++) {
+				put(&o, k ? "," : "");
+				array9(&o, u->col[k], u->val[k], u->nb);
+			}
+			put(&o, "}");
+			if (ens) {
+				put(&o, ",\"se\":{");
+				for (int k = 0; k < u->ncols; k++) {
+					put(&o, k ? "," : "");
+					array9(&o, u->col[k], u->se[k], u->nb);
+				}
+				put(&o, "}");
+			}
+			put(&o, "}");
+		}
+		put(&o, "]}\n");
+	}
 	return o.overflow ? -1 : (int)o.pos;
 }

@@ -11,3 +11,11 @@
 int report_format(const run_record_t *rec, char *buf, size_t len);
 
 #define REPORT_MAX 4096
+
+/* The curves of a RUN_CURVES record (rec->curves) as JSON lines, one per observable family, into buf
+ * (format: docs/output.md, observables.jsonl); sample: the index of this sample in the run (0, 1, ...).
+ * Curve values are printed with 9 significant digits, non-finite ones as null; ensembles
+ * (rec->replicas > 1) add the standard errors. Returns the length written, or -1 if buf is too small:
+ * report_curves_max() bytes always suffice for the curves of one scene. */
+int report_curves(const run_record_t *rec, uint64_t sample, char *buf, size_t len);
+size_t report_curves_max(const obs_curves_t *c);

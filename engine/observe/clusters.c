@@ -43,6 +43,10 @@ struct clusters {
 	uint32_t *label;      /* particle -> label */
 	uint32_t *cell_start; /* cell_cap + 1 entries */
 	size_t cell_cap;
+	uint32_t *ns;         /* n + 1 entries: clusters of size s (after fill_stats) */
+	double *sbin_edges;   /* CLUSTERS_SIZE_BINS + 1: size bins for the exponent fit */
+	double *sbin_ns, *sbin_count;
+	int sbins;
 };
 
 clusters_t *clusters_create(int dim, size_t n)
@@ -64,11 +68,16 @@ clusters_t *clusters_create(int dim, size_t n)
 	/* Dense packings need about one cell per particle; more is grown. */
 	c->cell_cap = n + CELLS_MIN;
 	c->cell_start = malloc((c->cell_cap + 1) * sizeof(uint32_t));
+	c->ns = calloc(m + 1, sizeof(uint32_t));
+	c->sbin_edges = malloc((CLUSTERS_SIZE_BINS + 1) * sizeof(double));
+	c->sbin_ns = malloc(CLUSTERS_SIZE_BINS * sizeof(double));
+	c->sbin_count = malloc(CLUSTERS_SIZE_BINS * sizeof(double));
 	if (!c->spos || !c->cell_of || !c->slot_of || !c->parent || !c->size ||
-	    !c->label || !c->cell_start) {
+	    !c->label || !c->cell_start || !c->ns || !c->sbin_edges || !c->sbin_ns || !c->sbin_count) {
 		clusters_destroy(c);
 		return NULL;
 	}
+	c->sbins = clusters_size_bins(n, c->sbin_edges, NULL);
 	return c;
 }
 
@@ -83,6 +92,10 @@ void clusters_destroy(clusters_t *c)
 	free(c->size);
 	free(c->label);
 	free(c->cell_start);
+	free(c->ns);
+	free(c->sbin_edges);
+	free(c->sbin_ns);
+	free(c->sbin_count);
 	free(c);
 }
 
@@ -197,15 +210,66 @@ static void scan_pair(clusters_t *c, const double *box, double cut2,
 	}
 }
 
+/* Weighted least squares slope and intercept of y on x; 0, or -1 when degenerate. */
+static int wls(double sw, double sx, double sy, double sxx, double sxy, double *slope, double *icpt)
+{
+	double det = sw * sxx - sx * sx;
+	if (!(det > 0) || !(sw > 0))
+		return -1;
+	*slope = (sw * sxy - sx * sy) / det;
+	*icpt = (sxx * sy - sx * sxy) / det;
+	return 0;
+}
+
+/* The two fits of clusters.h over c->ns (sizes 1 .. largest). */
+static void fit_sizes(clusters_t *c, int dim, clusters_stats_t *out)
+{
+	double theta = dim == 2 ? 1.0 : 1.5, slope, icpt;
+	double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+	int used = 0;
+	out->w = out->exponent = NAN;
+	/* Initial form: ln(n_s s^theta) = A - w s, sizes below the largest. */
+	for (uint64_t s = 1; s < out->largest; s++) {
+		double ns = c->ns[s];
+		if (ns <= 0)
+			continue;
+		double x = (double)s, y = log(ns) + theta * log(x);
+		sw += ns, sx += ns * x, sy += ns * y, sxx += ns * x * x, sxy += ns * x * y;
+		used++;
+	}
+	if (used >= 2 && wls(sw, sx, sy, sxx, sxy, &slope, &icpt) == 0)
+		out->w = -slope;
+	/* Power law over size bins from s = 2, the largest cluster left out. */
+	c->ns[out->largest]--;
+	clusters_size_distribution(c, c->sbins, c->sbin_edges, c->sbin_ns, c->sbin_count);
+	c->ns[out->largest]++;
+	sw = sx = sy = sxx = sxy = 0;
+	used = 0;
+	for (int k = 1; k < c->sbins; k++) {
+		double cnt = c->sbin_count[k];
+		if (cnt <= 0)
+			continue;
+		double lo = c->sbin_edges[k], hi = c->sbin_edges[k + 1] - 1;
+		double x = log(0.5 * (lo + hi)), y = log(c->sbin_ns[k]);
+		sw += cnt, sx += cnt * x, sy += cnt * y, sxx += cnt * x * x, sxy += cnt * x * y;
+		used++;
+	}
+	if (used >= 3 && wls(sw, sx, sy, sxx, sxy, &slope, &icpt) == 0)
+		out->exponent = -slope;
+}
+
 static void fill_stats(clusters_t *c, clusters_stats_t *out)
 {
 	memset(out, 0, sizeof(*out));
 	out->n_particles = c->n;
+	out->w = out->exponent = NAN;
 	uint64_t sum2 = 0; /* exact: sum s^2 <= N^2 < 2^64 */
+	memset(c->ns, 0, (c->n + 1) * sizeof(uint32_t));
 	for (size_t s = 0; s < c->n; s++) {
 		if (c->parent[s] != s)
 			continue;
 		uint64_t sz = c->size[s];
+		c->ns[sz]++;
 		out->n_clusters++;
 		if (sz > out->largest)
 			out->largest = sz;
@@ -224,6 +288,7 @@ static void fill_stats(clusters_t *c, clusters_stats_t *out)
 	out->mean_size = (double)c->n / nc;
 	out->m2 = (double)sum2 / nc;
 	out->m2_reduced = (double)(sum2 - out->largest * out->largest) / nc;
+	fit_sizes(c, c->dim, out);
 }
 
 int clusters_compute(clusters_t *c, const double *pos, const double *box,
@@ -348,4 +413,39 @@ uint32_t clusters_label(const clusters_t *c, size_t i)
 	if (c == NULL || !c->valid || i >= c->n)
 		return NO_LABEL;
 	return c->label[i];
+}
+
+int clusters_size_bins(uint64_t n, double *edges, double *centres)
+{
+	uint64_t e = 1, next;
+	int nb = 0;
+	while (e <= n && nb < CLUSTERS_SIZE_BINS) {
+		next = e < 17 ? e + 1 : (uint64_t)llround((double)e * 1.189207115002721);   /* 2^(1/4) */
+		if (next <= e)
+			next = e + 1;
+		if (next > n + 1 || nb == CLUSTERS_SIZE_BINS - 1)
+			next = n + 1;
+		if (edges)
+			edges[nb] = (double)e;
+		if (centres)
+			centres[nb] = 0.5 * (double)(e + next - 1);
+		nb++;
+		e = next;
+	}
+	if (edges)
+		edges[nb] = (double)e;
+	return nb;
+}
+
+void clusters_size_distribution(const clusters_t *c, int nb, const double *edges, double *ns, double *count)
+{
+	for (int k = 0; k < nb; k++) {
+		uint64_t lo = (uint64_t)edges[k], hi = (uint64_t)edges[k + 1];
+		double cnt = 0;
+		for (uint64_t s = lo; s < hi && s <= c->n; s++)
+			cnt += c->ns[s];
+		ns[k] = cnt / (double)(hi - lo);
+		if (count)
+			count[k] = cnt;
+	}
 }

@@ -26,6 +26,17 @@ typedef struct {
 	double m2_reduced;             /* M'_2 = M_2 - largest^2 / n_tot */
 	int n_bins;                    /* logarithmic bins [2^k, 2^(k+1)) */
 	uint64_t hist[CLUSTERS_MAX_BINS]; /* number of clusters per bin */
+	/* Fits to n_s (seed 003 sec. 5.3.1), NaN when there is too little to fit:
+	 * - w: the initial (percolation) form n_s ~ s^-theta exp(-w s) with the
+	 *   universal theta = 1 (2D), 3/2 (3D) fixed, fitted to ln(n_s s^theta)
+	 *   over the sizes 1 <= s < largest present (weights n_s);
+	 * - exponent: the power law n_s ~ s^-exponent fitted to ln n_s (per unit
+	 *   size, CLUSTERS_SIZE_BINS bins) against ln s over 2 <= s, the largest
+	 *   cluster left out (weights: clusters per bin). At the peak of
+	 *   m2_reduced it is the percolation exponent (2.2 in 3D), late in the
+	 *   clustering regime about 3. */
+	double w;
+	double exponent;
 } clusters_stats_t;
 
 typedef struct clusters clusters_t;
@@ -43,3 +54,12 @@ int clusters_compute(clusters_t *c, const double *pos, const double *box,
 /* Cluster label (0..n_clusters-1, in order of first particle) of particle i
  * after the last clusters_compute(). */
 uint32_t clusters_label(const clusters_t *c, size_t i);
+
+/* Bins of cluster size for n particles: each size 1..16, then edges growing by 2^(1/4) (at least 1)
+ * up to n + 1. edges[nb + 1] (bin k: s in [edges[k], edges[k+1])) and centres[nb] (mean size in the
+ * bin); returns nb (<= CLUSTERS_SIZE_BINS). Either array may be NULL. */
+#define CLUSTERS_SIZE_BINS 128
+int clusters_size_bins(uint64_t n, double *edges, double *centres);
+/* n_s after the last clusters_compute(): clusters per bin divided by the number of sizes in the bin
+ * (ns[nb], for edges of clusters_size_bins()), and the clusters per bin (count[nb], may be NULL). */
+void clusters_size_distribution(const clusters_t *c, int nb, const double *edges, double *ns, double *count);

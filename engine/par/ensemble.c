@@ -10,7 +10,9 @@
 enum {
 	V_TIME, V_CPP, V_EVENTS, V_COLL, V_EKIN, V_TEMP, V_P, V_Z, V_RATE, V_MOM0, V_MOM1, V_MOM2,
 	V_LFRAC, V_MSIZE, V_M2, V_M2R, V_NCL, V_LARGEST, V_NBINS, V_DONE, V_HAVEI, V_STATUS,
-	V_VMAX, V_CELLC, V_REJ, V_TC, V_HIST
+	V_VMAX, V_CELLC, V_REJ, V_TC, V_HIST,
+	/* after the histogram: absent (zero) in records packed by older versions */
+	V_A2 = V_HIST + CLUSTERS_MAX_BINS, V_A3, V_GPAIRS, V_GRATE, V_GPRES, V_CW, V_CEXP,
 };
 
 void ensemble_pack(const run_record_t *r, int done, double *v)
@@ -43,6 +45,13 @@ void ensemble_pack(const run_record_t *r, int done, double *v)
 	v[V_TC] = (double)r->elastic_by_tc;
 	for (int k = 0; k < CLUSTERS_MAX_BINS; k++)
 		v[V_HIST + k] = (double)r->clusters.hist[k];
+	v[V_A2] = r->obs.a2;
+	v[V_A3] = r->obs.a3;
+	v[V_GPAIRS] = r->obs.g_pairs;
+	v[V_GRATE] = r->obs.g_rate;
+	v[V_GPRES] = r->obs.g_pressure;
+	v[V_CW] = r->clusters.w;
+	v[V_CEXP] = r->clusters.exponent;
 }
 
 static void stat(const double *vals, int R, int idx, double *mean, double *se)
@@ -91,6 +100,15 @@ int ensemble_combine(const double *vals, int R, const run_record_t *proto, run_r
 	stat(vals, R, V_MSIZE, &out->clusters.mean_size, &out->se.mean_size);
 	stat(vals, R, V_M2, &out->clusters.m2, &dummy);
 	stat(vals, R, V_M2R, &out->clusters.m2_reduced, &dummy);
+	/* NaN in one replica (undefined there: no fit, no interval) makes the mean NaN: said, not hidden */
+	stat(vals, R, V_A2, &out->obs.a2, &out->se.a2);
+	stat(vals, R, V_A3, &out->obs.a3, &out->se.a3);
+	stat(vals, R, V_GPAIRS, &out->obs.g_pairs, &out->se.g_pairs);
+	stat(vals, R, V_GRATE, &out->obs.g_rate, &out->se.g_rate);
+	stat(vals, R, V_GPRES, &out->obs.g_pressure, &out->se.g_pressure);
+	stat(vals, R, V_CW, &out->clusters.w, &out->se.cluster_w);
+	stat(vals, R, V_CEXP, &out->clusters.exponent, &out->se.cluster_exponent);
+	out->obs.g_pairs_se = NAN;
 	out->clusters.n_particles = proto->n;
 	out->clusters.n_clusters = (uint64_t)llround(sum(vals, R, V_NCL) / R);
 	out->clusters.largest = (uint64_t)llround(sum(vals, R, V_LARGEST) / R);
@@ -154,6 +172,14 @@ void ensemble_unpack(const double *v, const scene_t *s, run_record_t *r)
 	r->elastic_by_tc = (uint64_t)v[V_TC];
 	for (int k = 0; k < CLUSTERS_MAX_BINS; k++)
 		r->clusters.hist[k] = (uint64_t)v[V_HIST + k];
+	r->obs.a2 = v[V_A2];
+	r->obs.a3 = v[V_A3];
+	r->obs.g_pairs = v[V_GPAIRS];
+	r->obs.g_rate = v[V_GRATE];
+	r->obs.g_pressure = v[V_GPRES];
+	r->obs.g_pairs_se = NAN;
+	r->clusters.w = v[V_CW];
+	r->clusters.exponent = v[V_CEXP];
 }
 
 /* ---- replica state as a byte string ----------------------------------------
@@ -318,9 +344,11 @@ int ensemble_load(const scene_t *s, uint64_t stream, const unsigned char *buf, s
 		} else if (!strcmp(f.name, "@status") && f.type == ED_T_U64 && f.count == 1) {
 			memcpy(&status, data, 8);
 			got++;
-		} else if (!strcmp(f.name, "@last") && f.type == ED_T_F64 && f.count == ENSEMBLE_NV) {
-			double v[ENSEMBLE_NV];
-			memcpy(v, data, sizeof v);
+		} else if (!strcmp(f.name, "@last") && f.type == ED_T_F64 &&
+		           (f.count == ENSEMBLE_NV || f.count == ENSEMBLE_NV_V1)) {
+			/* an older version's record has no structure observables: zeros */
+			double v[ENSEMBLE_NV] = {0};
+			memcpy(v, data, f.count * sizeof(double));
 			ensemble_unpack(v, s, &last);
 			have_last = 1;
 		} else {

@@ -14,7 +14,9 @@
  *   only on the replica records, never on which rank produced them.
  */
 
-#define ENSEMBLE_NV (26 + CLUSTERS_MAX_BINS)   /* doubles per replica record */
+#define ENSEMBLE_NV (33 + CLUSTERS_MAX_BINS)   /* doubles per replica record */
+/* Packed records of versions before the structure observables (checkpoints' "@last"). */
+#define ENSEMBLE_NV_V1 (26 + CLUSTERS_MAX_BINS)
 
 /* Pack rec (a progress or summary record of one replica) into v[ENSEMBLE_NV];
  * done says whether it was that replica's last progress record. */

@@ -1,0 +1,62 @@
+/* Pair correlation g(r) by a cell-list pair histogram in O(N), its contact value, and velocity pair correlations on the same pairs. */
+#pragma once
+
+#include <stddef.h>
+
+/*
+ * Contract
+ * - Periodic box, minimum image; particles are sorted into a grid of cells
+ *   of edge >= the largest distance asked for, so one call costs O(N) at
+ *   bounded density (N times the pairs within range). No I/O; all memory
+ *   is allocated in gofr_create() (reused by every call).
+ * - g(r) of a shell [a, b) = pairs counted / pairs an ideal gas of the same
+ *   N and volume would have there, N (N-1)/2 * v_shell / V (gofr_ideal()).
+ * - Distances must not exceed half the smallest box edge (the caller's
+ *   check; scene_parse() enforces it for the scene's range).
+ */
+
+typedef struct gofr gofr_t;
+
+/* Workspace for n particles in dim (2, 3) dimensions in a box of edges box[dim];
+ * cutoff: the largest distance a call will ask for. NULL on bad arguments or no memory. */
+gofr_t *gofr_create(int dim, size_t n, const double *box, double cutoff);
+void gofr_destroy(gofr_t *g);
+
+/* Pair counts in nb equal bins over [r0, r1) into count[nb]. With vel (n*dim doubles, may be NULL),
+ * also per bin the sums over those pairs of (w_i . e)(w_j . e) into par[nb] and of
+ * (w_i . w_j - (w_i . e)(w_j . e)) into perp[nb], where w are the peculiar velocities (v minus the mean
+ * over the particles) and e the unit vector between the pair. Returns 0, or -1 on bad arguments
+ * (r1 above the cutoff, nb < 1, par/perp missing with vel). */
+int gofr_pairs(gofr_t *g, const double *pos, const double *vel, double r0, double r1, int nb, double *count,
+               double *par, double *perp);
+
+/* Pairs of an ideal gas of n particles in volume V in the shell [a, b). */
+double gofr_ideal(int dim, size_t n, double volume, double a, double b);
+
+/* Contact value g(sigma) from the pair histogram: GOFR_CONTACT_BINS bins of width sigma/100 over
+ * [sigma, 1.1 sigma); ln g(r) fitted by a straight line in r (least squares weighted by the pair count
+ * of each bin, the inverse variance of ln g for Poisson counts) and taken at r = sigma. se: the
+ * standard error of that value from the fit (Poisson counting only). NaN (and -1 returned) when fewer
+ * than 3 bins hold pairs. Hard spheres have no pair below sigma; point particles (dsmc/hsmc) do, and
+ * are counted from sigma on as well. */
+#define GOFR_CONTACT_BINS 10
+#define GOFR_CONTACT_WIDTH 0.1
+typedef struct {
+	double value, se;
+	double pairs;     /* pairs counted in [sigma, 1.1 sigma) */
+} gofr_contact_t;
+int gofr_contact(gofr_t *g, const double *pos, double sigma, gofr_contact_t *out);
+
+/* The same fit on counts already binned (count[nb] over [sigma, sigma + nb*width)), for tests. */
+int gofr_contact_fit(int dim, size_t n, double volume, double sigma, double width, int nb, const double *count,
+                     gofr_contact_t *out);
+
+/* The contact value that Enskog theory (molecular chaos, Maxwellian velocities) gives from other
+ * observables; for elastic hard disks/spheres all three agree with the pair histogram:
+ * - from the collision frequency per particle f = 2C/(N t) at temperature T:
+ *     f = D 2^(D-1) nu g sqrt(T/m) / (sqrt(pi) a),  a the radius;
+ * - from the compressibility factor Z = p V / (N T) of the collision virial:
+ *     Z - 1 = (1 + e)/2 2^(D-1) nu g  (e the restitution; 2 nu g (2D), 4 nu g (3D) elastic).
+ * NaN when the input is not finite or T, nu not positive. */
+double gofr_contact_rate(int dim, double nu, double radius, double mass, double temp, double rate);
+double gofr_contact_virial(int dim, double nu, double restitution, double z);

@@ -1,0 +1,327 @@
+/* Structure observables: workspaces and tables made from the scene once, filled by the family modules at each sample. */
+#include "observe.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "observe/fgrid.h"
+#include "observe/gofr.h"
+#include "observe/sofk.h"
+#include "observe/vcorr.h"
+#include "observe/vdist.h"
+
+#define N_SCALARS 8   /* temperature, a2, a3, g_pairs, cluster_w, cluster_exponent, m2_reduced, mean_size */
+
+struct obs {
+	scene_t s;
+	unsigned bits;            /* curve families asked for */
+	int layout_only;
+	double sigma, volume;
+	gofr_t *gofr;             /* pair_correlation, velocity_correlations */
+	fgrid_t *grid;            /* structure_factor, velocity_correlations */
+	double *mem;              /* one block: axes, values, standard errors, scratch */
+	double *gcount, *gpar, *gperp;   /* pair sums over the g(r) bins */
+	double *vhist;                   /* D * bins: the component histograms, axis-major */
+	obs_curves_t c;
+	size_t packed;
+};
+
+unsigned obs_curve_bits(const scene_t *s)
+{
+	return s->observables & OBS_CURVE_BITS;
+}
+
+static size_t n_vals(const obs_curves_t *c)
+{
+	size_t k = 0;
+	for (int i = 0; i < c->ntables; i++)
+		k += (size_t)c->t[i].nb * c->t[i].ncols;
+	return k;
+}
+
+void obs_destroy(obs_t *o)
+{
+	if (!o)
+		return;
+	gofr_destroy(o->gofr);
+	fgrid_destroy(o->grid);
+	free(o->mem);
+	free(o);
+}
+
+/* Table i with nb bins and ncols columns named by cols (NULL-terminated). */
+static obs_table_t *table(obs_t *o, const char *family, const char *sub, const char *x, const char *x_unit, int nb,
+                          const char *const *cols)
+{
+	obs_table_t *t = &o->c.t[o->c.ntables++];
+	t->family = family;
+	t->table = sub;
+	t->x = x;
+	t->x_unit = x_unit;
+	t->nb = nb;
+	t->ncols = 0;
+	while (cols[t->ncols] && t->ncols < OBS_MAX_COLS) {
+		t->col[t->ncols] = cols[t->ncols];
+		t->ncols++;
+	}
+	return t;
+}
+
+obs_t *obs_create(const scene_t *s, int layout_only)
+{
+	obs_t *o = calloc(1, sizeof(*o));
+	if (!o)
+		return NULL;
+	const int D = s->dim;
+	o->s = *s;
+	o->bits = obs_curve_bits(s);
+	o->layout_only = layout_only;
+	o->sigma = 2 * s->radius;
+	o->volume = scene_box_volume(s);
+	int J = 0, gnb = s->gofr_bins;
+	double rmax = s->gofr_range * o->sigma;
+
+	/* The grid first: its shell count sizes the k tables. */
+	if (o->bits & (SCENE_OBS_SOFK | SCENE_OBS_VCORR)) {
+		o->grid = fgrid_create(D, s->box, s->sofk_grid, layout_only ? 1 : (o->bits & SCENE_OBS_VCORR) ? D : 1);
+		if (!o->grid)
+			goto fail;
+		J = fgrid_bins(o->grid);
+	}
+	if (!layout_only && (s->observables & (SCENE_OBS_GOFR | SCENE_OBS_VCORR))) {
+		o->gofr = gofr_create(D, s->count, s->box, fmax(rmax, o->sigma * (1 + GOFR_CONTACT_WIDTH)));
+		if (!o->gofr)
+			goto fail;
+	}
+
+	/* Tables (values assigned below from one block). */
+	static const char *const comp3[] = {"p_x", "p_y", "p_z", NULL}, *const comp2[] = {"p_x", "p_y", NULL};
+	static const char *const speed[] = {"p", NULL}, *const gcols[] = {"g", NULL}, *const scol[] = {"s", NULL};
+	static const char *const vpairs[] = {"g_par", "g_perp", "g_nn", NULL}, *const vmodes[] = {"s_par", "s_perp", NULL};
+	static const char *const ncol[] = {"n_s", NULL};
+	int vnb = s->vdist_bins, snb = 0;
+	if (o->bits & SCENE_OBS_VDIST) {
+		table(o, "velocity_distribution", "components", "c", "1", vnb, D == 3 ? comp3 : comp2);
+		table(o, "velocity_distribution", "speed", "c", "1", vnb, speed);
+	}
+	if (o->bits & SCENE_OBS_GOFR)
+		table(o, "pair_correlation", "", "r", "l0", gnb, gcols);
+	if (o->bits & SCENE_OBS_SOFK)
+		table(o, "structure_factor", "", "k", "l0-1", J, scol);
+	if (o->bits & SCENE_OBS_VCORR) {
+		table(o, "velocity_correlations", "pairs", "r", "l0", gnb, vpairs);
+		table(o, "velocity_correlations", "modes", "k", "l0-1", J, vmodes);
+	}
+	if (o->bits & SCENE_OBS_CLUSTERS) {
+		snb = clusters_size_bins(s->count, NULL, NULL);
+		table(o, "clusters", "", "s", "1", snb, ncol);
+	}
+
+	/* One block: per table edges (nb+1) and centres (nb); per column value
+	 * and standard error (nb each); pair sums (3 gnb). */
+	size_t need = 3 * (size_t)gnb + 3 * (size_t)vnb;
+	for (int i = 0; i < o->c.ntables; i++)
+		need += 2 * (size_t)o->c.t[i].nb + 1 + 2 * (size_t)o->c.t[i].nb * o->c.t[i].ncols;
+	o->mem = calloc(need ? need : 1, sizeof(double));
+	if (!o->mem)
+		goto fail;
+	double *p = o->mem;
+	o->gcount = p, p += gnb;
+	o->gpar = p, p += gnb;
+	o->gperp = p, p += gnb;
+	o->vhist = p, p += 3 * (size_t)vnb;
+	for (int i = 0; i < o->c.ntables; i++) {
+		obs_table_t *t = &o->c.t[i];
+		double *edges = p, *centres = p + t->nb + 1;
+		p += 2 * (size_t)t->nb + 1;
+		for (int k = 0; k < t->ncols; k++) {
+			t->val[k] = p, p += t->nb;
+			t->se[k] = p, p += t->nb;
+		}
+		t->edges = edges;
+		t->centres = centres;
+		if (!strcmp(t->x, "c")) {
+			int sp = !strcmp(t->table, "speed");
+			double lo = sp ? 0 : -s->vdist_range, w = (sp ? s->vdist_range : 2 * s->vdist_range) / t->nb;
+			for (int b = 0; b <= t->nb; b++)
+				edges[b] = lo + b * w;
+		} else if (!strcmp(t->x, "r")) {
+			for (int b = 0; b <= t->nb; b++)
+				edges[b] = rmax * b / t->nb;
+		} else if (!strcmp(t->x, "k")) {
+			fgrid_axis(o->grid, edges, centres, NULL);
+			continue;
+		} else {
+			clusters_size_bins(s->count, edges, centres);
+			continue;
+		}
+		for (int b = 0; b < t->nb; b++)
+			centres[b] = 0.5 * (edges[b] + edges[b + 1]);
+	}
+	o->packed = n_vals(&o->c) + N_SCALARS;
+	return o;
+fail:
+	obs_destroy(o);
+	return NULL;
+}
+
+const obs_curves_t *obs_layout(const obs_t *o) { return &o->c; }
+size_t obs_packed_size(const obs_t *o) { return o->packed; }
+
+size_t obs_memory(const obs_t *o)
+{
+	size_t b = sizeof(*o) + o->packed * 2 * sizeof(double);
+	if (o->grid)
+		b += fgrid_memory(o->grid);
+	if (o->gofr)
+		b += (size_t)o->s.count * (2 * o->s.dim * sizeof(double) + sizeof(uint32_t)) +
+		     (3 * (size_t)o->s.count + 28) * sizeof(uint32_t);
+	return b;
+}
+
+int obs_scalars(obs_t *o, const double *pos, const double *vel, obs_scalars_t *out)
+{
+	const scene_t *s = &o->s;
+	out->a2 = out->a3 = out->g_pairs = out->g_pairs_se = NAN;
+	if ((s->observables & SCENE_OBS_VDIST) && vel) {
+		vdist_moments_t m;
+		vdist_moments(s->dim, s->count, s->mass, vel, &m);
+		out->a2 = m.a2;
+		out->a3 = m.a3;
+	}
+	if (s->observables & SCENE_OBS_GOFR) {
+		if (!o->gofr || !pos)
+			return -1;
+		gofr_contact_t gc;
+		gofr_contact(o->gofr, pos, o->sigma, &gc);
+		out->g_pairs = gc.value;
+		out->g_pairs_se = gc.se;
+	}
+	return 0;
+}
+
+void obs_interval(const obs_t *o, double rate, double z, double t_avg, obs_scalars_t *out)
+{
+	const scene_t *s = &o->s;
+	out->g_rate = gofr_contact_rate(s->dim, s->volume_fraction, s->radius, s->mass, t_avg, rate);
+	out->g_pressure = gofr_contact_virial(s->dim, s->volume_fraction, s->restitution, z);
+}
+
+static obs_table_t *find(obs_t *o, const char *family, const char *sub)
+{
+	for (int i = 0; i < o->c.ntables; i++)
+		if (!strcmp(o->c.t[i].family, family) && !strcmp(o->c.t[i].table, sub))
+			return &o->c.t[i];
+	return NULL;
+}
+
+const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, const double *vel)
+{
+	const scene_t *s = &o->s;
+	const int D = s->dim;
+	const size_t n = s->count;
+	obs_curves_t *c = &o->c;
+	obs_table_t *t;
+	vdist_moments_t m;
+	vdist_moments(D, n, s->mass, vel, &m);
+	double tm = m.temperature / s->mass;
+	c->temperature = m.temperature;
+	c->a2 = c->a3 = c->g_pairs = c->cluster_w = c->cluster_exponent = c->m2_reduced = c->mean_size = NAN;
+	if ((t = find(o, "velocity_distribution", "components"))) {
+		obs_table_t *sp = find(o, "velocity_distribution", "speed");
+		vdist_histograms(D, n, s->mass, vel, &m, t->nb, s->vdist_range, o->vhist, sp->val[0]);
+		for (int a = 0; a < D; a++)
+			memcpy(t->val[a], o->vhist + (size_t)a * t->nb, (size_t)t->nb * sizeof(double));
+		c->a2 = m.a2;
+		c->a3 = m.a3;
+	}
+	obs_table_t *tg = find(o, "pair_correlation", ""), *tv = find(o, "velocity_correlations", "pairs");
+	if (o->gofr && (tg || tv)) {
+		int nb = s->gofr_bins;
+		double rmax = s->gofr_range * o->sigma;
+		gofr_pairs(o->gofr, pos, tv ? vel : NULL, 0, rmax, nb, o->gcount, o->gpar, o->gperp);
+		for (int b = 0; b < nb; b++) {
+			double ideal = gofr_ideal(D, n, o->volume, rmax * b / nb, rmax * (b + 1) / nb);
+			double g = o->gcount[b] / ideal;
+			if (tg)
+				tg->val[0][b] = g;
+			if (tv)
+				tv->val[2][b] = g - 1;
+		}
+		if (tv)
+			vcorr_pairs(D, nb, o->gcount, o->gpar, o->gperp, tm, tv->val[0], tv->val[1]);
+		if (s->observables & SCENE_OBS_GOFR) {
+			gofr_contact_t gc;
+			gofr_contact(o->gofr, pos, o->sigma, &gc);
+			c->g_pairs = gc.value;
+		}
+	}
+	if ((t = find(o, "structure_factor", "")))
+		sofk_compute(o->grid, n, pos, t->val[0]);
+	if ((t = find(o, "velocity_correlations", "modes")))
+		vcorr_kspace(o->grid, D, n, pos, vel, m.mean, tm, t->val[0], t->val[1]);
+	if ((t = find(o, "clusters", ""))) {
+		clusters_stats_t st;
+		if (!cl || clusters_compute(cl, pos, s->box, s->radius, s->cluster_delta * o->sigma, &st) != 0)
+			return NULL;
+		clusters_size_distribution(cl, t->nb, t->edges, t->val[0], NULL);
+		c->cluster_w = st.w;
+		c->cluster_exponent = st.exponent;
+		c->m2_reduced = st.m2_reduced;
+		c->mean_size = st.mean_size;
+	}
+	return c;
+}
+
+/* ---- ensembles ------------------------------------------------------------- */
+
+static double *scalar_slot(obs_curves_t *c, int k, int se)
+{
+	double *v[N_SCALARS] = {&c->temperature, &c->a2, &c->a3, &c->g_pairs, &c->cluster_w, &c->cluster_exponent,
+	                        &c->m2_reduced, &c->mean_size};
+	double *e[N_SCALARS] = {&c->se_temperature, &c->se_a2, &c->se_a3, &c->se_g_pairs, &c->se_cluster_w,
+	                        &c->se_cluster_exponent, &c->se_m2_reduced, &c->se_mean_size};
+	return se ? e[k] : v[k];
+}
+
+void obs_pack(const obs_t *o, const obs_curves_t *c, double *v)
+{
+	size_t p = 0;
+	for (int i = 0; i < c->ntables; i++)
+		for (int k = 0; k < c->t[i].ncols; k++) {
+			memcpy(v + p, c->t[i].val[k], (size_t)c->t[i].nb * sizeof(double));
+			p += (size_t)c->t[i].nb;
+		}
+	for (int k = 0; k < N_SCALARS; k++)
+		v[p++] = *scalar_slot((obs_curves_t *)c, k, 0);
+	(void)o;
+}
+
+/* Mean and standard error of element idx over R packed samples of size P, in replica order. A NaN in
+ * any replica (an empty bin) makes both NaN. */
+static void stat(const double *v, int R, size_t P, size_t idx, double *mean, double *se)
+{
+	double s = 0, s2 = 0;
+	for (int r = 0; r < R; r++)
+		s += v[(size_t)r * P + idx];
+	*mean = s / R;
+	for (int r = 0; r < R; r++) {
+		double d = v[(size_t)r * P + idx] - *mean;
+		s2 += d * d;
+	}
+	*se = R > 1 ? sqrt(s2 / (R - 1) / R) : 0.0;
+}
+
+const obs_curves_t *obs_combine(obs_t *o, const double *v, int R)
+{
+	obs_curves_t *c = &o->c;
+	size_t p = 0, P = o->packed;
+	for (int i = 0; i < c->ntables; i++)
+		for (int k = 0; k < c->t[i].ncols; k++)
+			for (int b = 0; b < c->t[i].nb; b++, p++)
+				stat(v, R, P, p, &c->t[i].val[k][b], &c->t[i].se[k][b]);
+	for (int k = 0; k < N_SCALARS; k++, p++)
+		stat(v, R, P, p, scalar_slot(c, k, 0), scalar_slot(c, k, 1));
+	return c;
+}

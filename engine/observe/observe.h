@@ -1,0 +1,96 @@
+/* Structure observables of a run: the scalars sampled with each progress record and the curves (histograms, g(r), S(k), n_s, correlations) sampled at snapshot times. */
+#pragma once
+
+#include <stddef.h>
+#include <stdint.h>
+#include "observe/clusters.h"
+#include "scene.h"
+
+/*
+ * Contract
+ * - obs_create() allocates everything for the scene's observables
+ *   (velocity_distribution, pair_correlation, structure_factor,
+ *   velocity_correlations, and the cluster-size distribution of clusters);
+ *   sampling allocates nothing. No I/O, no globals (FFTW keeps its own
+ *   planner state; plans are made once, FFTW_ESTIMATE, deterministic).
+ * - The curves are described by a fixed list of tables (obs_curves_t): one
+ *   x axis (bin edges and centres, fixed by the scene) and one to three
+ *   value columns each. Writers (H5MD, JSON lines) and ensembles use the
+ *   description and need no knowledge of the families.
+ * - Every method (ed, dsmc, hsmc): the input is the particle state only.
+ *   For dsmc/hsmc, whose particles are points, g(r) has no excluded volume
+ *   (see docs/output.md for what each contact value means there).
+ */
+
+/* Scalars of a progress record (NaN where not asked for or undefined). */
+typedef struct {
+	double a2, a3;            /* velocity_distribution: Sonine coefficients */
+	double g_pairs, g_pairs_se; /* pair_correlation: contact value from the pair histogram, its fit error */
+	double g_rate;            /* ... from the collision rate over the interval (Enskog) */
+	double g_pressure;        /* ... from the pressure (collision virial) over the interval */
+} obs_scalars_t;
+
+#define OBS_MAX_COLS 3
+#define OBS_MAX_TABLES 8
+
+typedef struct {
+	const char *family;       /* observable name (output.observables; "clusters" for n_s) */
+	const char *table;        /* "" or the sub-table name ("components", "speed", "pairs", "modes") */
+	const char *x;            /* name of the x quantity: "c", "r", "k", "s" */
+	const char *x_unit;       /* H5MD-style unit string of x ("1", "l0", "l0-1") */
+	int nb;                   /* bins */
+	const double *edges;      /* nb + 1 */
+	const double *centres;    /* nb */
+	int ncols;
+	const char *col[OBS_MAX_COLS];   /* column names, e.g. "g", "p_x" */
+	double *val[OBS_MAX_COLS];       /* nb each: the sample (ensembles: the mean) */
+	double *se[OBS_MAX_COLS];        /* nb each: ensembles only (standard error), else unused */
+} obs_table_t;
+
+typedef struct {
+	int ntables;
+	obs_table_t t[OBS_MAX_TABLES];
+	/* scalars of the sample */
+	double temperature;       /* of the peculiar velocities */
+	double a2, a3;            /* when velocity_distribution is asked */
+	double g_pairs;           /* when pair_correlation is asked */
+	double cluster_w, cluster_exponent, m2_reduced, mean_size;   /* when clusters is asked */
+	/* ensembles: standard errors of the same scalars */
+	double se_temperature, se_a2, se_a3, se_g_pairs, se_cluster_w, se_cluster_exponent, se_m2_reduced,
+	       se_mean_size;
+} obs_curves_t;
+
+typedef struct obs obs_t;
+
+/* The observables of scene s that make curves (what obs_create() lays out). */
+#define OBS_CURVE_BITS (SCENE_OBS_VDIST | SCENE_OBS_GOFR | SCENE_OBS_SOFK | SCENE_OBS_VCORR | SCENE_OBS_CLUSTERS)
+unsigned obs_curve_bits(const scene_t *s);
+
+/* Workspaces for scene s. layout_only: only the curve description (axes, zeroed values), no
+ * sampling workspace (for writers that need the table list). NULL when out of memory. */
+obs_t *obs_create(const scene_t *s, int layout_only);
+void obs_destroy(obs_t *o);
+
+/* Scalars of the present state (pos, vel: N*D in scene order) into *out: a2, a3, g_pairs.
+ * g_rate and g_pressure come from obs_interval(). 0, or -1 (a workspace missing). */
+int obs_scalars(obs_t *o, const double *pos, const double *vel, obs_scalars_t *out);
+/* Contact values from interval quantities (collision rate 2C/(N dt), compressibility Z, time-averaged
+ * temperature t_avg) into out->g_rate and out->g_pressure. */
+void obs_interval(const obs_t *o, double rate, double z, double t_avg, obs_scalars_t *out);
+
+/* Curves of the present state; cl (may be NULL unless clusters are asked for) is the run's cluster
+ * workspace, recomputed here. Returns the tables (owned by o, valid until the next call), or NULL
+ * when out of memory in the cluster code. */
+const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, const double *vel);
+
+/* The table description without sampling (layout_only objects too). */
+const obs_curves_t *obs_layout(const obs_t *o);
+/* Doubles in one packed sample (obs_pack): every column of every table plus the scalars. */
+size_t obs_packed_size(const obs_t *o);
+/* Pack c into v[obs_packed_size()]; obs_combine() turns R packed samples (replica-major) into means
+ * and standard errors (sample standard deviation / sqrt(R)) in o's tables, in replica order. */
+void obs_pack(const obs_t *o, const obs_curves_t *c, double *v);
+const obs_curves_t *obs_combine(obs_t *o, const double *v, int R);
+
+/* Bytes of the workspaces. */
+size_t obs_memory(const obs_t *o);
