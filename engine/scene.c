@@ -650,6 +650,10 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 	json_array_foreach(obs, i, o) {
 		const char *name = json_string_value(o);
 		snprintf(path, sizeof path, "output.observables[%zu]", i);
+		bool mine = !strcmp(name, "wall_force") || !strcmp(name, "center_of_mass_height") ||
+		            !strcmp(name, "potential_energy");
+		if (mine && s->replicas > 1)
+			return fail(c, path, "\"%s\" is not averaged over ensembles yet (run.replicas must be 1)", name);
 		if (!strcmp(name, "wall_force") && !walls)
 			return fail(c, path, "\"wall_force\" needs walls (boundaries)");
 		if (!strcmp(name, "center_of_mass_height") || !strcmp(name, "potential_energy")) {

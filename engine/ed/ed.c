@@ -549,6 +549,7 @@ typedef struct ed_ops {
 	void (*scan_nl)(struct ed *, uint32_t);
 	/* walls and gravity variants only */
 	void (*observe)(const struct ed *, double *, double *);
+	void (*energy_to)(struct ed *, double);
 } ed_ops_t;
 
 #define OPS_COMMON(x) \
@@ -557,8 +558,10 @@ typedef struct ed_ops {
 	.scan_full = scan_full_##x
 #define OPS_NL(x) .nl_build_all = nl_build_all_##x, .resync = resync_##x, .set_nl = set_nl_##x, .scan_nl = scan_nl_##x
 static const ed_ops_t ed_ops[2][3] = {
-	{ { OPS_COMMON(2d), OPS_NL(2d) }, { OPS_COMMON(2w), .observe = observe_2w }, { OPS_COMMON(2g), .observe = observe_2g } },
-	{ { OPS_COMMON(3d), OPS_NL(3d) }, { OPS_COMMON(3w), .observe = observe_3w }, { OPS_COMMON(3g), .observe = observe_3g } },
+	{ { OPS_COMMON(2d), OPS_NL(2d) }, { OPS_COMMON(2w), .observe = observe_2w },
+	  { OPS_COMMON(2g), .observe = observe_2g, .energy_to = energy_to_2g } },
+	{ { OPS_COMMON(3d), OPS_NL(3d) }, { OPS_COMMON(3w), .observe = observe_3w },
+	  { OPS_COMMON(3g), .observe = observe_3g, .energy_to = energy_to_3g } },
 };
 
 #define DISPATCH(ed, fn, ...) ((ed)->ops->fn(__VA_ARGS__))
@@ -1104,6 +1107,17 @@ int ed_advance(ed_t *ed, double t_stop, uint64_t max_collisions, uint64_t max_ev
 	return DISPATCH(ed, run, ed, t_stop, max_collisions, max_events);
 }
 
+/* The wall and gravity fields of a sample (totals and the interval's
+ * impulses so far). */
+static void sample_walls(const struct ed *ed, ed_sample_t *out)
+{
+	out->wall_collisions = ed->wall_collisions;
+	memcpy(out->wall_impulse, ed->wimp, sizeof out->wall_impulse);
+	out->com_height = out->potential_energy = NAN;
+	if (ed->variant == 2)
+		ed->ops->observe(ed, &out->com_height, &out->potential_energy);
+}
+
 void ed_sample(ed_t *ed, ed_sample_t *out)
 {
 	memset(out, 0, sizeof(*out));
@@ -1113,9 +1127,15 @@ void ed_sample(ed_t *ed, ed_sample_t *out)
 	out->collisions = ed->collisions;
 	out->interval_collisions = ed->collisions - ed->coll_int0;
 	out->elastic_by_tc = ed->tc_elastic;
+	if (ed->ops->energy_to)   /* gravity: E_kin changes between events */
+		ed->ops->energy_to(ed, ed->t);
 	out->kinetic_energy = DISPATCH(ed, ekin, ed, out->momentum);
 	out->ekin_time_integral = ed->ekin_int + ed->ekin_cur * (ed->t - ed->t_mark);
 	out->virial = ed->virial;
+	sample_walls(ed, out);
+	memset(ed->wimp, 0, sizeof ed->wimp);
+	for (int a = 0; a < 3; a++)
+		ed->psum[a] = out->momentum[a] / ed->mass;
 	/* New interval; the running energy is refreshed from the velocities so
 	 * that rounding in the incremental bookkeeping cannot accumulate. */
 	ed->ekin_cur = out->kinetic_energy;
@@ -1177,7 +1197,9 @@ const char *ed_strerror(int code)
 
 typedef enum {
 	F_R, F_V, F_TLOC, F_NEXT, F_COUNT, F_TCOLL, F_TCROSS, F_PARTNER, F_PCOUNT, F_CROSS, F_CELL,
-	F_ID, F_HEAD, F_TLAST, F_XN, F_NN, F_NB, F_SCALAR
+	F_ID, F_HEAD, F_TLAST, F_XN, F_NN, F_NB,
+	F_WPH, F_WIMP, F_WIMPTOT, F_WHITS, F_WCOLL, F_WRNG, F_PSUM,   /* walls and gravity variants only */
+	F_SCALAR
 } fid_t;
 
 static const struct {
@@ -1218,6 +1240,10 @@ static const struct {
 	{ "cross", F_CROSS, ED_T_I32 }, { "cell", F_CELL, ED_T_I32 },
 	{ "id", F_ID, ED_T_U32 }, { "head", F_HEAD, ED_T_I32 }, { "tlast", F_TLAST, ED_T_F64 },
 	{ "xn", F_XN, ED_T_F64 }, { "nn", F_NN, ED_T_U8 }, { "nb", F_NB, ED_T_I32 },
+	{ "wall_phase", F_WPH, ED_T_F64 }, { "wall_impulse", F_WIMP, ED_T_F64 },
+	{ "wall_impulse_total", F_WIMPTOT, ED_T_F64 }, { "wall_hits", F_WHITS, ED_T_U64 },
+	{ "wall_collisions", F_WCOLL, ED_T_U64 }, { "wall_rng", F_WRNG, ED_T_U64 },
+	{ "velocity_sum", F_PSUM, ED_T_F64 },
 };
 #define N_ARRAYS (sizeof arrays / sizeof arrays[0])
 
@@ -1237,6 +1263,8 @@ static int array_present(const struct ed *ed, fid_t id)
 		return ed->tlast != NULL;
 	if (id == F_XN || id == F_NN || id == F_NB)
 		return ed->xn != NULL;
+	if (id >= F_WPH && id <= F_PSUM)   /* periodic scenes keep their checkpoint layout */
+		return ed->variant != 0;
 	return 1;
 }
 
@@ -1246,6 +1274,11 @@ static size_t array_count(const struct ed *ed, fid_t id)
 	case F_R: case F_V: case F_XN: return (size_t)ed->n * ed->dim;
 	case F_CELL: return (size_t)ed->n * 3;
 	case F_HEAD: return ed->ncells;
+	case F_WPH: case F_WHITS: return 6;
+	case F_WIMP: case F_WIMPTOT: return 18;
+	case F_WCOLL: return 1;
+	case F_WRNG: return 4;
+	case F_PSUM: return 3;
 	case F_NB: {
 		size_t k = 0;
 		for (uint32_t i = 0; i < ed->n; i++)
@@ -1334,6 +1367,20 @@ static void field_copy(struct ed *ed, fid_t id, void *buf, int to_buf)
 	case F_TLAST: src = ed->tlast; bytes = ed->n * sizeof(double); break;
 	case F_XN: src = ed->xn; bytes = (size_t)ed->n * D * sizeof(double); break;
 	case F_NN: src = ed->nn; bytes = ed->n; break;
+	case F_WPH: {
+		double *ph = (double *)b;
+		for (int w = 0; w < 6; w++) {
+			if (to_buf) ph[w] = ed->wall[w].ph;
+			else ed->wall[w].ph = ph[w];
+		}
+		return;
+	}
+	case F_WIMP: src = ed->wimp; bytes = sizeof ed->wimp; break;
+	case F_WIMPTOT: src = ed->wimp_tot; bytes = sizeof ed->wimp_tot; break;
+	case F_WHITS: src = ed->whits; bytes = sizeof ed->whits; break;
+	case F_WCOLL: src = &ed->wall_collisions; bytes = sizeof ed->wall_collisions; break;
+	case F_WRNG: src = ed->wrng.s; bytes = sizeof ed->wrng.s; break;
+	case F_PSUM: src = ed->psum; bytes = sizeof ed->psum; break;
 	case F_NB: {
 		/* lists packed: the first nn[i] entries of each row */
 		size_t k = 0;
@@ -1400,6 +1447,14 @@ ed_t *ed_create_blank(const scene_t *s, int *err, char *msg, size_t msglen)
 
 static int in_range(int32_t x, uint32_t n) { return x >= -1 && x < (int32_t)n; }
 
+/* A boundary event code: none, a cell face, or (walls) a wall of a walled axis. */
+static int cross_valid(const struct ed *ed, int32_t c)
+{
+	if (c >= -1 && c < 2 * ed->dim)
+		return 1;
+	return ed->variant && c >= ED_WALL0 && c < ED_WALL0 + 2 * ed->dim && !ed->periodic[(c - ED_WALL0) >> 1];
+}
+
 int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 {
 	const uint32_t n = ed->n;
@@ -1417,7 +1472,7 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 			why = "scene indices are not a permutation";
 		else if (!in_range(e->partner, n) || !in_range(NEXT(i), n))
 			why = "particle index out of range";
-		else if (e->cross < -1 || e->cross >= 2 * ed->dim || isnan(e->t_coll) || isnan(e->t_cross))
+		else if (!cross_valid(ed, e->cross) || isnan(e->t_coll) || isnan(e->t_cross))
 			why = "bad event record";
 		for (int a = 0; a < 3 && !why; a++)
 			if (e->cc[a] < 0 || e->cc[a] >= ed->nc[a])
@@ -1481,4 +1536,5 @@ void ed_totals(const ed_t *ed, ed_sample_t *out)
 	out->collisions = ed->collisions;
 	out->elastic_by_tc = ed->tc_elastic;
 	out->kinetic_energy = DISPATCH(ed, ekin, ed, out->momentum);
+	sample_walls(ed, out);
 }
