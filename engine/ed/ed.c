@@ -72,8 +72,6 @@ struct ed {
 	int dim;
 	uint32_t n;
 	double L[3], halfL[3];    /* internal box (walled axes: + vibration amplitudes); halfL = INFINITY on walled axes */
-	const struct ed_ops *ops; /* the kernels of this scene's variant (dimension, walls, gravity) */
-	int variant;              /* 0 periodic homogeneous, 1 walls, 2 gravity (and maybe walls) */
 	double sigma, sigma2, mass, e, tc;
 	int32_t nc[3];
 	double cw[3];
@@ -128,6 +126,11 @@ struct ed {
 	/* interval accumulators for ed_sample() */
 	double ekin_cur, ekin_int, t_mark, t_int0, virial;
 	uint64_t coll_int0;
+	/* The kernels of this scene's variant (dimension, walls, gravity),
+	 * chosen once; at the end, so that the hot fields above keep the
+	 * periodic engine's layout. */
+	const struct ed_ops *ops;
+	int variant;              /* 0 periodic homogeneous, 1 walls, 2 gravity (and maybe walls) */
 	/* Walls and gravity (variants 1, 2; unused in 0). Internal coordinates
 	 * on a walled axis are the scene's plus org (the lower wall's
 	 * amplitude), so that a vibrating wall never leaves [0, L]. */
