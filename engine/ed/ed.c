@@ -807,7 +807,7 @@ static void predict_all(struct ed *ed)
 /* A neighbour list overflowed (denser locally than its capacity): go on in
  * cell mode on the same grid, everything predicted afresh from the present
  * state. Deterministic like any other event. */
-static void nl_abandon(struct ed *ed)
+__attribute__((noinline, cold)) static void nl_abandon(struct ed *ed)
 {
 	ed->nl = ed->nl_over = 0;
 	DISPATCH(ed, resync, ed);

@@ -658,7 +658,7 @@ static inline void FN(energy_to)(struct ed *ed, double t)
 
 /* Binary collision of i and j at time t with normal restitution (elastic
  * within the TC time of either partner's previous collision). */
-static void FN(collide)(struct ed *ed, uint32_t i, uint32_t j, double t)
+static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uint32_t i, uint32_t j, double t)
 {
 	P_T *P = ed->p, *pi = &P[i], *pj = &P[j];
 	FN(advance)(ed, pi, t);
