@@ -338,6 +338,67 @@ static void test_settling(void)
 	ed_destroy(ed);
 }
 
+/* Inelastic disks (r = 0.9) sheared between walls moving at -+0.5 along
+ * x (Couette, beta = 1): in the steady state the gas's x momentum is
+ * stationary, so the mean x forces on the two walls cancel, and the shear
+ * stress they carry is clearly non-zero. Rough walls (elastic) reverse
+ * tangential velocities only: energy is conserved. */
+static void test_couette_rough(void)
+{
+	const char *json = "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":400,\"volume_fraction\":0.05,"
+	                   "\"initial\":{\"positions\":\"random\",\"temperature\":1}},"
+	                   "\"collisions\":{\"restitution\":0.9,\"tc\":1e-4},"
+	                   "\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"moving\",\"velocity\":[-0.5,0]},"
+	                   "\"upper\":{\"type\":\"moving\",\"velocity\":[0.5,0]}}},\"run\":{\"seed\":17,\"until\":{\"time\":1}}}";
+	scene_t sc;
+	ed_t *ed = make(json, &sc);
+	if (!ed) {
+		ok(0, "couette: setup");
+	} else {
+		enum { K = 40 };
+		const double t_eq = 500.0, tau = 100.0;
+		double sum[K], lo[K];
+		ed_sample_t sm;
+		ed_advance(ed, t_eq, UINT64_MAX, UINT64_MAX);
+		ed_sample(ed, &sm);
+		for (int k = 0; k < K; k++) {
+			ed_advance(ed, t_eq + (k + 1) * tau, UINT64_MAX, UINT64_MAX);
+			ed_sample(ed, &sm);
+			sum[k] = (sm.wall_impulse[2][0] + sm.wall_impulse[3][0]) / sm.interval;
+			lo[k] = sm.wall_impulse[2][0] / sm.interval;
+		}
+		double ms, ses, ml, sel;
+		mean_se(sum, K, &ms, &ses);
+		mean_se(lo, K, &ml, &sel);
+		/* the sum within 4 standard errors of 0; the lower wall, dragged
+		 * forward (+x) by the gas moving faster than it, at > 10 SE */
+		ok(fabs(ms) < 4.0 * ses && ml > 10.0 * sel,
+		   "couette walls -+0.5: x forces on the walls cancel (sum %.3g +- %.2g), shear force on the lower wall %.4g +- %.2g",
+		   ms, ses, ml, sel);
+		ed_destroy(ed);
+	}
+	json = "{\"method\":\"ed\",\"dimensions\":3,\"particles\":{\"count\":500,\"volume_fraction\":0.1,"
+	       "\"initial\":{\"positions\":\"random\",\"temperature\":1}},"
+	       "\"boundaries\":{\"x\":{\"type\":\"walls\",\"lower\":{\"type\":\"rough\",\"probability\":0.5},"
+	       "\"upper\":{\"type\":\"rough\",\"probability\":1}},\"z\":{\"type\":\"walls\","
+	       "\"lower\":{\"type\":\"specular\"},\"upper\":{\"type\":\"rough\",\"probability\":0.2}}},"
+	       "\"run\":{\"seed\":18,\"until\":{\"time\":1}}}";
+	ed = make(json, &sc);
+	if (!ed) {
+		ok(0, "rough walls: setup");
+		return;
+	}
+	ed_sample_t s0, s1;
+	ed_sample(ed, &s0);
+	ed_advance(ed, 300.0, UINT64_MAX, UINT64_MAX);
+	ed_sample(ed, &s1);
+	double drift = fabs(s1.kinetic_energy - s0.kinetic_energy) / s0.kinetic_energy;
+	ok(drift < 1e-12 && s1.wall_collisions > 10000 && ed_min_gap(ed) > -1e-9,
+	   "rough walls (3D, p = 0.5, 1, 0.2), elastic: energy conserved to %.2g over %llu wall hits, no overlap", drift,
+	   (unsigned long long)s1.wall_collisions);
+	ed_destroy(ed);
+}
+
 /* Checkpoint with thermal and vibrating walls and gravity: every field out,
  * into a blank engine, and both continue bit for bit. */
 static void test_checkpoint(void)
@@ -402,8 +463,9 @@ static void test_checkpoint(void)
 
 int main(void)
 {
-	plan(10);
+	plan(12);
 	test_specular_pressure();
+	test_couette_rough();
 	test_barometric();
 	test_thermal();
 	test_vibrating();
