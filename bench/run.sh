@@ -151,7 +151,7 @@ sh "$src/bench/ingest_bench.sh" "$build" "$src" >"$tin"
 		echo
 		echo "## Periodic scenes against the baseline build"
 		echo
-		echo "Collisions/s of this build over the baseline's (\`BASELINE_ED_BENCH=... make bench\`, bench/compare.sh),"
+		echo "Collisions per CPU second of this build over the baseline's (\`BASELINE_ED_BENCH=... make bench\`, bench/compare.sh),"
 		echo "runs interleaved (alternating which goes first), median of 5 ratios. The features of issue 12 must cost a"
 		echo "periodic scene nothing: within 3%, same trajectories bit for bit."
 		echo
