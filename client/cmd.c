@@ -18,17 +18,17 @@
 #include "jpath.h"
 #include "settings.h"
 
-/* Command-specific options; the global ones (--url --token --state-dir --json --help) go with every command. */
+/* Command-specific options; the global ones (--url --token --token-file --state-dir --json --help) go with every command. */
 enum {
 	O_STATE = 1u << 0, O_LIMIT = 1u << 1, O_ALL = 1u << 2, O_PRESET = 1u << 3, O_SET = 1u << 4,
 	O_PRIORITY = 1u << 5, O_RANKS = 1u << 6, O_SUBID = 1u << 7, O_WAIT = 1u << 8, O_OUTPUT = 1u << 9,
-	O_AFTER = 1u << 10,
+	O_AFTER = 1u << 10, O_FORCE = 1u << 11,
 };
 
 #define MAX_SETS 64
 
 typedef struct {
-	const char *url, *token, *state_dir;
+	const char *url, *token, *token_file, *state_dir;
 	int json, help;
 	unsigned given;              /* O_* seen on the command line */
 	const char *state, *preset, *subid, *output;
@@ -135,9 +135,10 @@ static int ensure_conn(ctx_t *x)
 	char err[1024];
 	if (x->conn)
 		return CTL_EXIT_OK;
-	if (settings_init(&x->cfg, x->url, x->token, x->state_dir, err, sizeof(err)) != SETTINGS_OK) {
+	int r = settings_init(&x->cfg, x->url, x->token, x->token_file, x->state_dir, err, sizeof(err));
+	if (r != SETTINGS_OK) {
 		errf("%s", err);
-		return CTL_EXIT_SERVER;
+		return r == SETTINGS_ETOKEN ? CTL_EXIT_USAGE : CTL_EXIT_SERVER;
 	}
 	if (!(x->conn = conn_create(x->cfg.url, x->cfg.token))) {
 		errf("out of memory");
@@ -192,9 +193,9 @@ static void draw(watch_t *w, const json_t *r)
 		w->last_events = ev;
 	}
 	double left = isfinite(f) && f > 0 && isfinite(wall) ? wall * (1 - f) / f : NAN;
-	snprintf(line, sizeof(line), "%s %5.1f%%  ETA %s  %s ev/s  T=%.3g  t=%.4g", fmt_bar(f, 30, bar, sizeof(bar)),
+	snprintf(line, sizeof(line), "%s %5.1f%%  ETA %s  %s ev/s  T=%s  t=%s", fmt_bar(f, 30, bar, sizeof(bar)),
 	         isfinite(f) ? 100 * f : 0.0, fmt_duration(left, eta, sizeof(eta)), fmt_si(w->rate, rate, sizeof(rate)),
-	         temp, t);
+	         FMT_NUM(temp, "%.3g"), FMT_NUM(t, "%.4g"));
 	if (w->tty) {
 		fprintf(stderr, "\r\033[Kjob %lld %s", w->id, line);
 		fflush(stderr);
@@ -411,9 +412,9 @@ static void settings_text(const json_t *e, char *buf, size_t n)
 		return;
 	}
 	double cps = num(st, "collisions_per_step"), dt = num(st, "time_step");
-	int k = snprintf(buf, n, "%s, cell %.3g, ", str(st, "correction", "?"), num(st, "cell_size"));
+	int k = snprintf(buf, n, "%s, cell %s, ", str(st, "correction", "?"), FMT_NUM(num(st, "cell_size"), "%.3g"));
 	if (k > 0 && (size_t)k < n)
-		snprintf(buf + k, n - k, isfinite(dt) ? "step %.3g" : "%.3g coll/step", isfinite(dt) ? dt : cps);
+		snprintf(buf + k, n - k, isfinite(dt) ? "step %s" : "%s coll/step", FMT_NUM(isfinite(dt) ? dt : cps, "%.3g"));
 }
 
 static int c_advise(ctx_t *x)
@@ -440,9 +441,11 @@ static int c_advise(ctx_t *x)
 	}
 	const json_t *sc = json_object_get(resp, "scene");
 	double target = num(json_object_get(resp, "target"), "temperature");
-	printf("%lld particles x %lld replicas, %lld rank%s; Haff time %.3g, %.3g collisions per particle",
-	       (long long)num(sc, "particles"), (long long)num(sc, "replicas"), (long long)num(sc, "ranks"),
-	       num(sc, "ranks") == 1 ? "" : "s", num(sc, "haff_time"), num(sc, "collisions_per_particle"));
+	double reps = num(sc, "replicas"), ranks = num(sc, "ranks");
+	printf("%s particles x %s replica%s, %s rank%s; Haff time %s, %s collisions per particle",
+	       FMT_NUM(num(sc, "particles"), "%.0f"), FMT_NUM(reps, "%.0f"), reps == 1 ? "" : "s",
+	       FMT_NUM(ranks, "%.0f"), ranks == 1 ? "" : "s", FMT_NUM(num(sc, "haff_time"), "%.3g"),
+	       FMT_NUM(num(sc, "collisions_per_particle"), "%.3g"));
 	if (isfinite(target))
 		printf("; target: temperature error <= %.3g", target);
 	printf("\n%-6s %-32s %10s %10s %9s %-6s %s\n", "METHOD", "SETTINGS", "CPU", "WALL", "ERROR", "MEETS",
@@ -451,9 +454,9 @@ static int c_advise(ctx_t *x)
 		char set[96];
 		const json_t *m = json_object_get(e, "meets_target");
 		settings_text(e, set, sizeof(set));
-		printf("%-6s %-32s %9.3gs %9.3gs %9.3g %-6s %s\n", str(e, "method", "?"), set, num(e, "cpu_seconds"),
-		       num(e, "wall_seconds"),
-		       num(json_object_get(e, "error"), "temperature"), json_is_boolean(m) ? (json_is_true(m) ? "yes" : "no") : "-",
+		printf("%-6s %-32s %10s %10s %9s %-6s %s\n", str(e, "method", "?"), set, FMT_NUM(num(e, "cpu_seconds"), "%.3gs"),
+		       FMT_NUM(num(e, "wall_seconds"), "%.3gs"), FMT_NUM(num(json_object_get(e, "error"), "temperature"), "%.3g"),
+		       json_is_boolean(m) ? (json_is_true(m) ? "yes" : "no") : "-",
 		       json_is_true(json_object_get(e, "extrapolated")) ? "yes" : "");
 	}
 	json_array_foreach(json_object_get(resp, "estimates"), i, e) {
@@ -571,13 +574,17 @@ static int c_show(ctx_t *x)
 	const json_t *sc = json_object_get(j, "scene");
 	printf("job %lld  %s\n", id, str(j, "state", "?"));
 	printf("  %-12s %s\n", "submission", str(j, "submission_id", "-"));
-	printf("  %-12s %s, %lldD, N=%lld, ranks %lld, priority %lld\n", "scene", str(j, "method", "?"),
+	printf("  %-12s %s, %lldD, N=%lld, %lld rank%s, priority %lld\n", "scene", str(j, "method", "?"),
 	       (long long)json_integer_value(json_object_get(sc, "dimensions")),
 	       (long long)json_integer_value(json_object_get(j, "particles")),
 	       (long long)json_integer_value(json_object_get(j, "ranks")),
+	       json_integer_value(json_object_get(j, "ranks")) == 1 ? "" : "s",
 	       (long long)json_integer_value(json_object_get(j, "priority")));
-	printf("  %-12s %.1f%%  sim time %.6g  events %s\n", "progress", 100 * num(j, "progress"),
-	       isfinite(num(j, "sim_time")) ? num(j, "sim_time") : 0.0, fmt_si(num(j, "events"), ev, sizeof(ev)));
+	printf("  %-12s %s  sim time %s  events %s\n", "progress", FMT_NUM(100 * num(j, "progress"), "%.1f%%"),
+	       FMT_NUM(num(j, "sim_time"), "%.6g"), fmt_si(num(j, "events"), ev, sizeof(ev)));
+	/* Cancelling a running job takes up to cancel_grace: say that one was asked for. */
+	if (json_is_true(json_object_get(j, "cancel_requested")))
+		printf("  %-12s requested%s\n", "cancel", !strcmp(str(j, "state", ""), "running") ? " (the job is stopping)" : "");
 	when("created", num(j, "created_at"), now);
 	when("started", num(j, "started_at"), now);
 	when("finished", num(j, "finished_at"), now);
@@ -647,10 +654,11 @@ static int c_progress(ctx_t *x)
 	printf("%-5s %-8s %12s %9s %8s %12s %12s %10s\n", "SEQ", "TYPE", "TIME", "COLL/N", "EVENTS", "E_KIN",
 	       "TEMPERATURE", "COLL_RATE");
 	json_array_foreach(json_object_get(j, "records"), i, r)
-		printf("%-5lld %-8s %12.6g %9.4g %8s %12.6g %12.6g %10.4g\n",
-		       (long long)json_integer_value(json_object_get(r, "seq")), str(r, "type", "?"), num(r, "time"),
-		       num(r, "collisions_per_particle"), fmt_si(num(r, "events"), ev, sizeof(ev)),
-		       num(r, "kinetic_energy"), num(r, "temperature"), num(r, "collision_rate"));
+		printf("%-5lld %-8s %12s %9s %8s %12s %12s %10s\n",
+		       (long long)json_integer_value(json_object_get(r, "seq")), str(r, "type", "?"), FMT_NUM(num(r, "time"), "%.6g"),
+		       FMT_NUM(num(r, "collisions_per_particle"), "%.4g"), fmt_si(num(r, "events"), ev, sizeof(ev)),
+		       FMT_NUM(num(r, "kinetic_energy"), "%.6g"), FMT_NUM(num(r, "temperature"), "%.6g"),
+		       FMT_NUM(num(r, "collision_rate"), "%.4g"));
 cleanup:
 	json_decref(j);
 	return rc;
@@ -672,9 +680,10 @@ static int c_clusters(ctx_t *x)
 	       "MEAN_SIZE");
 	json_array_foreach(json_object_get(j, "series"), i, r) {
 		const json_t *c = json_object_get(r, "clusters");
-		printf("%-5lld %12.6g %9.4g %8.0f %8.0f %9.4f %9.3f\n", (long long)json_integer_value(json_object_get(r, "seq")),
-		       num(r, "time"), num(r, "collisions_per_particle"), num(c, "count"), num(c, "largest"),
-		       num(c, "largest_fraction"), num(c, "mean_size"));
+		printf("%-5lld %12s %9s %8s %8s %9s %9s\n", (long long)json_integer_value(json_object_get(r, "seq")),
+		       FMT_NUM(num(r, "time"), "%.6g"), FMT_NUM(num(r, "collisions_per_particle"), "%.4g"),
+		       FMT_NUM(num(c, "count"), "%.0f"), FMT_NUM(num(c, "largest"), "%.0f"),
+		       FMT_NUM(num(c, "largest_fraction"), "%.4f"), FMT_NUM(num(c, "mean_size"), "%.3f"));
 	}
 cleanup:
 	json_decref(j);
@@ -728,12 +737,19 @@ static int c_download(ctx_t *x)
 		return rc;
 	if (!file_name_ok(name))
 		return usage_error(x, "NAME '%s': not a job file name (letters, digits, . _ -; no leading dot)", name);
-	int to_stdout = !strcmp(dest, "-");
-	/* A regular file is written as DEST.part and renamed into place when
+	int to_stdout = !strcmp(dest, "-"), force = !!(x->given & O_FORCE);
+	/* A regular file is written as DEST.part and moved into place when
 	 * complete, so a failure never leaves half a file nor destroys an existing
-	 * one; anything else (/dev/null, a pipe) is written directly. */
+	 * one; anything else (/dev/null, a pipe) is written directly. An existing
+	 * file is replaced only with --force: asked before any transfer, and again
+	 * when moving into place (link() fails on a file that appeared meanwhile). */
 	struct stat st;
-	int direct = to_stdout || (stat(dest, &st) == 0 && !S_ISREG(st.st_mode));
+	int exists = !to_stdout && stat(dest, &st) == 0;
+	int direct = to_stdout || (exists && !S_ISREG(st.st_mode));
+	if (exists && !direct && !force) {
+		errf("%s exists: not overwritten (--force replaces it)", dest);
+		return CTL_EXIT_USAGE;
+	}
 	char part[4200];
 	snprintf(part, sizeof(part), "%s.part", dest);
 	if (!to_stdout && !(out = fopen(direct ? dest : part, "wb"))) {
@@ -755,9 +771,15 @@ cleanup:
 		errf("-o %s: %s", dest, strerror(errno));
 		rc = CTL_EXIT_SERVER;
 	}
-	if (!direct && rc != CTL_EXIT_OK)
+	if (!direct && rc != CTL_EXIT_OK) {
 		remove(part);   /* no half-written file left behind */
-	else if (!direct && rename(part, dest)) {
+	} else if (!direct && !force && link(part, dest) == 0) {
+		remove(part);
+	} else if (!direct && !force && errno == EEXIST) {
+		errf("%s exists: not overwritten (--force replaces it)", dest);
+		remove(part);
+		rc = CTL_EXIT_USAGE;
+	} else if (!direct && rename(part, dest)) {   /* --force, or a file system without hard links */
 		errf("-o %s: %s", dest, strerror(errno));
 		remove(part);
 		rc = CTL_EXIT_SERVER;
@@ -785,15 +807,17 @@ static int c_cluster(ctx_t *x)
 	const json_t *s = json_object_get(j, "slots");
 	printf("granulard %s at %s, up %s\n", str(j, "version", "?"), conn_url(x->conn),
 	       fmt_duration(num(j, "uptime_seconds"), up, sizeof(up)));
-	printf("  slots      %.0f used of %.0f (%.0f free)\n", num(s, "used"), num(s, "total"), num(s, "free"));
+	printf("  slots      %s used of %s (%s free)\n", FMT_NUM(num(s, "used"), "%.0f"), FMT_NUM(num(s, "total"), "%.0f"),
+	       FMT_NUM(num(s, "free"), "%.0f"));
 	printf("  jobs      ");
 	json_object_foreach(json_object_get(j, "jobs"), k, v)
 		printf(" %s %lld", k, (long long)json_integer_value(v));
 	printf("\n  finished   %lld in the last hour\n", (long long)json_integer_value(json_object_get(j, "finished_last_hour")));
 	printf("  events/s   %s\n", fmt_si(num(j, "events_per_second"), eps, sizeof(eps)));
 	json_array_foreach(json_object_get(j, "running"), i, r)
-		printf("  running    job %lld, %.1f%%, %lld ranks\n", (long long)json_integer_value(json_object_get(r, "id")),
-		       100 * num(r, "progress"), (long long)json_integer_value(json_object_get(r, "ranks")));
+		printf("  running    job %lld, %s, %lld rank%s\n", (long long)json_integer_value(json_object_get(r, "id")),
+		       FMT_NUM(100 * num(r, "progress"), "%.1f%%"), (long long)json_integer_value(json_object_get(r, "ranks")),
+		       json_integer_value(json_object_get(r, "ranks")) == 1 ? "" : "s");
 cleanup:
 	json_decref(j);
 	return rc;
@@ -861,8 +885,9 @@ static const cmd_t commands[] = {
 	{.name = "files", .args = "ID", .summary = "the job's output files with sizes and SHA-256", .fn = c_files,
 	 .min_args = 1, .max_args = 1},
 	{.name = "download", .args = "ID NAME", .summary = "download a job file (to NAME, or -o FILE; -o - for stdout)",
-	 .help = "  -o, --output FILE     where to write (default: NAME in the current directory; - = stdout)\n",
-	 .fn = c_download, .min_args = 2, .max_args = 2, .opts = O_OUTPUT},
+	 .help = "  -o, --output FILE     where to write (default: NAME in the current directory; - = stdout)\n"
+	         "  -f, --force           replace an existing file (without it an existing file is left alone)\n",
+	 .fn = c_download, .min_args = 2, .max_args = 2, .opts = O_OUTPUT | O_FORCE},
 	{.name = "cluster", .args = "", .summary = "compute-cluster status: slots, queue, throughput", .fn = c_cluster},
 	{.name = "presets", .args = "", .summary = "the built-in scenes", .fn = c_presets},
 	{.name = "help", .args = "[COMMAND]", .summary = "this help, or a command's", .fn = c_help, .max_args = 1},
@@ -872,7 +897,8 @@ static const size_t ncommands = sizeof(commands) / sizeof(commands[0]);
 static const char global_help[] =
 	"Global options:\n"
 	"  --url URL             granulard's address (else $GRANULAR_URL, else STATE_DIR/granulard.addr)\n"
-	"  --token TOKEN         bearer token for changes (else $GRANULAR_TOKEN, else STATE_DIR/token)\n"
+	"  --token-file FILE     read the bearer token for changes from FILE (else $GRANULAR_TOKEN,\n"
+	"                        else STATE_DIR/token; --token TOKEN also works but shows in ps)\n"
 	"  --state-dir DIR       granulard's state directory (else $GRANULAR_STATE_DIR, else ./var)\n"
 	"  --json                print the server's JSON instead of a table\n"
 	"  -h, --help            help\n"
@@ -902,7 +928,7 @@ static void main_help(FILE *f)
 	for (size_t i = 0; i < ncommands; i++)
 		fprintf(f, "  %-9s %-28s %s\n", commands[i].name, commands[i].args, commands[i].summary);
 	fputs(global_help, f);
-	fputs("'granularctl COMMAND --help' describes a command; man granularctl(1).\n", f);
+	fputs("'granularctl COMMAND --help' describes a command; 'man granularctl' is the manual.\n", f);
 }
 
 static int c_help(ctx_t *x)
@@ -928,7 +954,8 @@ static const struct option long_opts[] = {
 	{"set", required_argument, NULL, 'S'},       {"priority", required_argument, NULL, 'P'},
 	{"ranks", required_argument, NULL, 'r'},     {"submission-id", required_argument, NULL, 'i'},
 	{"wait", no_argument, NULL, 'w'},            {"output", required_argument, NULL, 'o'},
-	{"after", required_argument, NULL, 'A'},     {NULL, 0, NULL, 0},
+	{"after", required_argument, NULL, 'A'},     {"token-file", required_argument, NULL, 'F'},
+	{"force", no_argument, NULL, 'f'},           {NULL, 0, NULL, 0},
 };
 
 /* Which bit each command-specific option sets, for the per-command check. */
@@ -936,7 +963,7 @@ static const struct { int ch; unsigned bit; const char *name; } opt_bits[] = {
 	{'s', O_STATE, "--state"},   {'n', O_LIMIT, "--limit"},       {'a', O_ALL, "--all"},
 	{'p', O_PRESET, "--preset"}, {'S', O_SET, "--set"},           {'P', O_PRIORITY, "--priority"},
 	{'r', O_RANKS, "--ranks"},   {'i', O_SUBID, "--submission-id"}, {'w', O_WAIT, "--wait"},
-	{'o', O_OUTPUT, "--output"}, {'A', O_AFTER, "--after"},
+	{'o', O_OUTPUT, "--output"}, {'A', O_AFTER, "--after"},         {'f', O_FORCE, "--force"},
 };
 
 static int int_opt(const ctx_t *x, const char *name, const char *s, long long lo, long long hi, long long *v)
@@ -953,13 +980,14 @@ static int parse(ctx_t *x, int argc, char **argv)
 {
 	int ch, rc;
 	opterr = 0;
-	while ((ch = getopt_long(argc, argv, ":ho:", long_opts, NULL)) != -1) {
+	while ((ch = getopt_long(argc, argv, ":ho:f", long_opts, NULL)) != -1) {
 		for (size_t i = 0; i < sizeof(opt_bits) / sizeof(opt_bits[0]); i++)
 			if (opt_bits[i].ch == ch)
 				x->given |= opt_bits[i].bit;
 		switch (ch) {
 		case 'U': x->url = optarg; break;
 		case 'T': x->token = optarg; break;
+		case 'F': x->token_file = optarg; break;
 		case 'D': x->state_dir = optarg; break;
 		case 'j': x->json = 1; break;
 		case 'h': x->help = 1; break;
@@ -978,6 +1006,7 @@ static int parse(ctx_t *x, int argc, char **argv)
 		case 'i': x->subid = optarg; break;
 		case 'w': break;
 		case 'o': x->output = optarg; break;
+		case 'f': break;
 		case 'A': if ((rc = int_opt(x, "--after", optarg, -1, INT64_MAX, &x->after))) return rc; break;
 		case ':': return usage_error(x, "%s: needs an argument", argv[optind - 1]);
 		default: return usage_error(x, "%s: unknown option", argv[optind - 1]);

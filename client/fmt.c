@@ -5,8 +5,12 @@
 
 char *fmt_age(double s, char *buf, size_t n)
 {
-	if (!isfinite(s) || s < 0)
-		s = 0;
+	if (!isfinite(s)) {
+		snprintf(buf, n, "-");
+		return buf;
+	}
+	if (s < 0)
+		s = 0;   /* a clock slightly ahead of ours */
 	if (s < 60)
 		snprintf(buf, n, "%.0fs", floor(s));
 	else if (s < 3600)
@@ -69,5 +73,14 @@ char *fmt_bar(double frac, int width, char *buf, size_t n)
 		buf[o++] = i < full ? '#' : '-';
 	buf[o++] = ']';
 	buf[o] = '\0';
+	return buf;
+}
+
+char *fmt_num(double v, const char *conv, char *buf, size_t n)
+{
+	if (!isfinite(v))
+		snprintf(buf, n, "-");
+	else
+		snprintf(buf, n, conv, v);
 	return buf;
 }

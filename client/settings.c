@@ -33,8 +33,8 @@ static char *normalise(const char *u)
 	return s;
 }
 
-int settings_init(settings_t *s, const char *url, const char *token, const char *state_dir, char *err,
-                  size_t errlen)
+int settings_init(settings_t *s, const char *url, const char *token, const char *token_file, const char *state_dir,
+                  char *err, size_t errlen)
 {
 	char path[4096], *raw = NULL;
 	const char *env;
@@ -67,6 +67,15 @@ int settings_init(settings_t *s, const char *url, const char *token, const char 
 	if (token) {
 		s->token = strdup(token);
 		snprintf(s->token_source, sizeof(s->token_source), "--token");
+	} else if (token_file) {
+		/* A file keeps the token out of the command line, where ps shows it to every user. */
+		errno = 0;
+		if (!(s->token = read_line(token_file))) {
+			snprintf(err, errlen, "--token-file %s: %s", token_file, errno ? strerror(errno) : "empty");
+			settings_deinit(s);
+			return SETTINGS_ETOKEN;
+		}
+		snprintf(s->token_source, sizeof(s->token_source), "--token-file %s", token_file);
 	} else if ((env = getenv("GRANULAR_TOKEN")) && *env) {
 		s->token = strdup(env);
 		snprintf(s->token_source, sizeof(s->token_source), "$GRANULAR_TOKEN");

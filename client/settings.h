@@ -5,9 +5,10 @@
 
 /*
  * Contract
- * - Order: --url/--token flags, then $GRANULAR_URL/$GRANULAR_TOKEN, then the
- *   state directory (--state-dir, $GRANULAR_STATE_DIR, default ./var):
- *   granulard.addr ("host:port") and token, as written by granulard.
+ * - Order: --url/--token flags (or --token-file FILE, the token's first line),
+ *   then $GRANULAR_URL/$GRANULAR_TOKEN, then the state directory (--state-dir,
+ *   $GRANULAR_STATE_DIR, default ./var): granulard.addr ("host:port") and
+ *   token, as written by granulard.
  * - settings_t is filled in place (caller-owned); settings_deinit frees its
  *   strings. A missing token is not an error (reads need none on loopback).
  */
@@ -19,9 +20,10 @@ typedef struct {
 	char token_source[512];
 } settings_t;
 
-enum { SETTINGS_OK = 0, SETTINGS_ENOURL = -1, SETTINGS_ENOMEM = -2 };
+enum { SETTINGS_OK = 0, SETTINGS_ENOURL = -1, SETTINGS_ENOMEM = -2, SETTINGS_ETOKEN = -3 };
 
-/* url, token, state_dir: the flags (NULL when not given). On SETTINGS_ENOURL err says what was tried. */
-int settings_init(settings_t *s, const char *url, const char *token, const char *state_dir, char *err,
-                  size_t errlen);
+/* url, token, token_file, state_dir: the flags (NULL when not given). On SETTINGS_ENOURL err says what was
+ * tried; SETTINGS_ETOKEN: --token-file cannot be read or is empty. */
+int settings_init(settings_t *s, const char *url, const char *token, const char *token_file, const char *state_dir,
+                  char *err, size_t errlen);
 void settings_deinit(settings_t *s);

@@ -6,12 +6,15 @@
 #include <string.h>
 #include <unistd.h>
 #include "cfg.h"
+#include "scene.h"
 
 #ifndef GRANULARD_MPIRUN
 #define GRANULARD_MPIRUN "mpirun"
 #endif
 
 typedef enum { T_STR, T_INT, T_REAL } ktype_t;
+/* How a number is shown in --help and the man page (the value itself is always plain). */
+typedef enum { U_NONE = 0, U_BYTES, U_SECONDS } kunit_t;
 
 typedef struct {
 	const char *name;
@@ -19,8 +22,11 @@ typedef struct {
 	size_t off;
 	double min, max;
 	const char *def;         /* NULL: computed in cfg_init */
-	const char *help;
+	const char *help;        /* what the key does; no default, no range (printed from the fields) */
 	const char *const *choices;  /* for T_STR enumerations */
+	const char *arg;         /* the value's name in --help (default from type and unit) */
+	const char *def_text;    /* the default in words, where the literal says too little ("" = search...) */
+	kunit_t unit;
 } key_t_;
 
 static const char *const read_auth_choices[] = {"auto", "open", "token", NULL};
@@ -29,40 +35,52 @@ static const char *const log_choices[] = {"error", "warning", "info", "debug", N
 #define K(n, t, mn, mx, d, h, ...) {.name = #n, .type = t, .off = offsetof(cfg_t, n), .min = mn, .max = mx, \
 	.def = d, .help = h, __VA_ARGS__}
 static const key_t_ keys[] = {
-	K(listen, T_STR, 0, 0, "127.0.0.1:8080", "address to serve on, HOST:PORT (port 0: any free port)"),
-	K(state_dir, T_STR, 0, 0, NULL, "state directory: database, job directories, token ($STATE_DIRECTORY or ./var)"),
-	K(config, T_STR, 0, 0, "", "config file of `key = value` lines (these keys)"),
-	K(slots, T_INT, 1, 4096, NULL, "MPI ranks that may run at once (default: online CPUs)"),
-	K(engine, T_STR, 0, 0, "", "granular-engine program (default: next to granulard, the install dir, then PATH)"),
-	K(mpirun, T_STR, 0, 0, GRANULARD_MPIRUN, "MPI launcher program"),
+	K(listen, T_STR, 0, 0, "127.0.0.1:8080", "address to serve on (port 0: any free port)", .arg = "HOST:PORT"),
+	K(state_dir, T_STR, 0, 0, NULL, "state directory: database, job directories, token, granulard.addr, granulard.lock",
+	  .arg = "DIR", .def_text = "$STATE_DIRECTORY, else ./var"),
+	K(config, T_STR, 0, 0, "", "config file of `key = value` lines (these keys)", .arg = "FILE",
+	  .def_text = "none"),
+	K(slots, T_INT, 1, 4096, NULL, "MPI ranks that may run at once", .def_text = "the number of online CPUs"),
+	K(engine, T_STR, 0, 0, "", "granular-engine program", .arg = "PROGRAM",
+	  .def_text = "next to granulard, else the install dir, else PATH"),
+	K(mpirun, T_STR, 0, 0, GRANULARD_MPIRUN, "MPI launcher program", .arg = "PROGRAM"),
 	K(launch, T_STR, 0, 0, "{mpirun} --stdin none -np {ranks} {engine} run {scene} --out {dir}",
-	  "launch command template; placeholders {mpirun} {ranks} {engine} {scene} {dir}"),
-	K(token, T_STR, 0, 0, "", "bearer token for mutating requests (default: STATE_DIR/token, generated)"),
+	  "launch command template; placeholders {mpirun} {ranks} {engine} {scene} {dir}", .arg = "TEMPLATE"),
+	K(token, T_STR, 0, 0, "", "bearer token for mutating requests (as a flag it shows in ps: prefer the file)",
+	  .arg = "TOKEN", .def_text = "read from STATE_DIR/token, generated on first start"),
 	K(read_auth, T_STR, 0, 0, "auto", "read-only requests: open, token, or auto (open on loopback)",
 	  .choices = read_auth_choices),
-	K(allowed_hosts, T_STR, 0, 0, "", "extra Host names accepted on mutating requests, comma-separated"),
-	K(max_body, T_INT, 1024, 1 << 30, "4194304", "largest request body in bytes"),
+	K(allowed_hosts, T_STR, 0, 0, "", "extra Host names accepted on mutating requests, comma-separated",
+	  .arg = "HOSTS", .def_text = "none"),
+	K(max_body, T_INT, 1024, 1 << 30, "4194304", "largest request body", .unit = U_BYTES),
 	K(max_json_depth, T_INT, 2, 1000, "32", "deepest JSON nesting accepted"),
 	K(max_connections, T_INT, 1, 100000, "512", "concurrent connections"),
 	K(per_ip_connections, T_INT, 0, 100000, "0", "concurrent connections per client address (0: no limit)"),
-	K(request_timeout, T_INT, 1, 3600, "60", "seconds of inactivity before a connection is closed"),
-	K(max_particles, T_INT, 2, 1e12, "100000000", "largest particles.count of a job"),
+	K(request_timeout, T_INT, 1, 3600, "60", "inactivity before a connection is closed", .unit = U_SECONDS),
+	/* The scene parser's own limit is the most that can ever run: a larger value would promise more. */
+	K(max_particles, T_INT, 2, SCENE_COUNT_MAX, "100000000", "largest particles.count of a job"),
 	K(max_ranks, T_INT, 0, 4096, "0", "most ranks one job may ask for (0: slots)"),
-	K(max_wall_seconds, T_INT, 0, 1e9, "0", "wall-clock limit of one attempt in seconds (0: none)"),
+	K(max_wall_seconds, T_INT, 0, 1e9, "0", "wall-clock limit of one attempt (0: none)", .unit = U_SECONDS),
 	K(max_queued, T_INT, 1, 1e9, "100000", "most jobs waiting in the queue"),
 	K(max_progress_records, T_INT, 16, 1e8, "10000", "stored progress records per job before downsampling"),
 	K(progress_rate, T_REAL, 0.01, 1e6, "100",
-	  "progress records per second stored per job; beyond, the newest waits for the next slot and older ones are thinned"),
+	  "progress records per second stored per job; beyond, the newest waits for the next slot and older ones are thinned",
+	  .arg = "RATE"),
 	K(progress_burst, T_INT, 1, 1e8, "1000", "progress records a job may send at once before progress_rate applies"),
-	K(progress_flush, T_REAL, 0.01, 60, "0.25", "seconds between progress commits of one job (one transaction each)"),
+	K(progress_flush, T_REAL, 0.01, 60, "0.25", "time between progress commits of one job (one transaction each)",
+	  .unit = U_SECONDS),
 	K(max_attempts, T_INT, 1, 1000, "3", "launches per job, counting retries"),
-	K(cancel_grace, T_REAL, 0, 3600, "10", "seconds from SIGTERM to SIGKILL when cancelling"),
-	K(shutdown_grace, T_REAL, 0, 3600, "30", "seconds running jobs get to checkpoint when the daemon stops"),
+	K(cancel_grace, T_REAL, 0, 3600, "10", "time from SIGTERM to SIGKILL when cancelling", .unit = U_SECONDS),
+	K(shutdown_grace, T_REAL, 0, 3600, "30", "time running jobs get to checkpoint when the daemon stops",
+	  .unit = U_SECONDS),
 	K(disk_reserve, T_INT, 0, 1 << 30, "8388608",
-	  "bytes of ballast in STATE_DIR/reserve, freed when the disk fills so jobs can still be ended (0: none)"),
-	K(log_level, T_STR, 0, 0, "info", "error, warning, info or debug", .choices = log_choices),
+	  "ballast in STATE_DIR/reserve, freed when the disk fills so jobs can still be ended (0: none)", .unit = U_BYTES),
+	K(log_level, T_STR, 0, 0, "info", "the least severe messages logged", .choices = log_choices),
 };
 #define NKEYS (sizeof(keys) / sizeof(keys[0]))
+
+static void number_text(const key_t_ *k, double v, char *buf, size_t n);
+static void flag_name(const key_t_ *k, char *buf, size_t n);
 
 static const key_t_ *find(const char *name)
 {
@@ -80,15 +98,20 @@ static const key_t_ *find(const char *name)
 
 static int set(cfg_t *c, const key_t_ *k, const char *v, const char *where, char *err, size_t errlen)
 {
-	char *end;
+	char *end, name[64];
 	void *p = (char *)c + k->off;
+	/* Errors name the key as it was given: --max-body as a flag, max_body in a file. */
+	if (!strcmp(where, "--"))
+		flag_name(k, name, sizeof(name));
+	else
+		snprintf(name, sizeof(name), "%s", k->name);
 	if (k->type == T_STR) {
 		if (k->choices) {
 			int ok = 0;
 			for (int i = 0; k->choices[i]; i++)
 				ok |= !strcmp(v, k->choices[i]);
 			if (!ok) {
-				snprintf(err, errlen, "%s%s: '%s' is not one of the allowed values (see --help)", where, k->name, v);
+				snprintf(err, errlen, "%s%s: '%s' is not one of the allowed values (see --help)", where, name, v);
 				return CFG_EINVAL;
 			}
 		}
@@ -104,11 +127,14 @@ static int set(cfg_t *c, const key_t_ *k, const char *v, const char *where, char
 	errno = 0;
 	double x = strtod(v, &end);
 	if (!*v || *end || errno || !isfinite(x) || (k->type == T_INT && x != floor(x))) {
-		snprintf(err, errlen, "%s%s: '%s' is not %s", where, k->name, v, k->type == T_INT ? "an integer" : "a number");
+		snprintf(err, errlen, "%s%s: '%s' is not %s", where, name, v, k->type == T_INT ? "an integer" : "a number");
 		return CFG_EINVAL;
 	}
 	if (x < k->min || x > k->max) {
-		snprintf(err, errlen, "%s%s: %s is out of range %g..%g", where, k->name, v, k->min, k->max);
+		char lo[48], hi[48];
+		number_text(k, k->min, lo, sizeof(lo));
+		number_text(k, k->max, hi, sizeof(hi));
+		snprintf(err, errlen, "%s%s: %s is out of range %s..%s", where, name, v, lo, hi);
 		return CFG_EINVAL;
 	}
 	if (k->type == T_INT)
@@ -242,15 +268,176 @@ int cfg_from_args(cfg_t *c, int argc, char **argv, char *err, size_t errlen)
 	return CFG_OK;
 }
 
-void cfg_print_help(void *file)
+/* ---- the table as text, roff and Markdown ----------------------------------- */
+
+/* A number as digits (never 1e+09), with the binary multiple for byte counts: "4194304 (4 MiB)". */
+static void number_text(const key_t_ *k, double v, char *buf, size_t n)
+{
+	static const char *const bin[] = {"KiB", "MiB", "GiB", "TiB"};
+	int len = snprintf(buf, n, "%.15g", v);
+	if (k->type == T_INT || v == floor(v))
+		len = snprintf(buf, n, "%.0f", v);
+	if (k->unit != U_BYTES || v < 1024 || len < 0 || (size_t)len >= n)
+		return;
+	int u = -1;
+	double m = v;
+	while (u < 3 && m >= 1024 && fmod(m, 1024) == 0) {
+		m /= 1024;
+		u++;
+	}
+	if (u >= 1)   /* MiB and up: "1024 (1 KiB)" tells nothing new */
+		snprintf(buf + len, n - (size_t)len, " (%.0f %s)", m, bin[u]);
+}
+
+static const char *arg_name(const key_t_ *k, char *buf, size_t n)
+{
+	if (k->arg)
+		return k->arg;
+	if (k->choices) {
+		size_t o = 0;
+		buf[0] = '\0';
+		for (int i = 0; k->choices[i] && o < n; i++)
+			o += (size_t)snprintf(buf + o, n - o, "%s%s", i ? "|" : "", k->choices[i]);
+		return buf;
+	}
+	return k->unit == U_BYTES ? "BYTES" : k->unit == U_SECONDS ? "SECONDS" : k->type == T_INT ? "N" : "VALUE";
+}
+
+/* The range ("1024..1073741824 (1 GiB)"; "" for strings) and the default, each once. */
+static void range_text(const key_t_ *k, char *buf, size_t n)
+{
+	char lo[48], hi[48];
+	buf[0] = '\0';
+	if (k->type == T_STR)
+		return;
+	number_text(k, k->min, lo, sizeof(lo));
+	number_text(k, k->max, hi, sizeof(hi));
+	snprintf(buf, n, "%s..%s", lo, hi);
+}
+
+static void default_text(const key_t_ *k, char *buf, size_t n)
+{
+	if (k->def_text)
+		snprintf(buf, n, "%s", k->def_text);
+	else if (!k->def || !*k->def)
+		snprintf(buf, n, "none");
+	else if (k->type == T_STR)
+		snprintf(buf, n, "%s", k->def);
+	else
+		number_text(k, strtod(k->def, NULL), buf, n);
+}
+
+/* The flag as typed: dashes for underscores. */
+static void flag_name(const key_t_ *k, char *buf, size_t n)
+{
+	size_t i = 0;
+	for (; k->name[i] && i + 1 < n; i++)
+		buf[i] = k->name[i] == '_' ? '-' : k->name[i];
+	buf[i] = '\0';
+}
+
+/* roff text: backslashes and dashes escaped, no line may start a request. */
+static void roff_puts(FILE *f, const char *s)
+{
+	if (*s == '.' || *s == '\'')
+		fputs("\\&", f);
+	for (; *s; s++) {
+		if (*s == '\\')
+			fputs("\\e", f);
+		else if (*s == '-')
+			fputs("\\-", f);
+		else
+			fputc(*s, f);
+	}
+}
+
+/* --help: the description column starts at HELP_COL and wraps at spaces before HELP_WIDTH. */
+#define HELP_COL 28
+#define HELP_WIDTH 100
+static void wrap(FILE *f, const char *s)
+{
+	const size_t room = HELP_WIDTH - HELP_COL;
+	while (strlen(s) > room) {
+		size_t cut = room;
+		while (cut > 0 && s[cut] != ' ')
+			cut--;
+		if (cut == 0)
+			cut = strcspn(s, " ");   /* one long word: print it whole */
+		fprintf(f, "%.*s\n%*s", (int)cut, s, HELP_COL, "");
+		s += cut;
+		while (*s == ' ')
+			s++;
+	}
+	fprintf(f, "%s\n", s);
+}
+
+/* A Markdown table cell: '|' would end it. */
+static void md_puts(FILE *f, const char *s)
+{
+	for (; *s; s++) {
+		if (*s == '|')
+			fputc('\\', f);
+		fputc(*s, f);
+	}
+}
+
+int cfg_print_keys(void *file, cfg_format_t fmt)
 {
 	FILE *f = file;
+	char flag[64], argbuf[64], range[128], def[160], head[160], line[1024];
+	if (fmt == CFG_FMT_MARKDOWN)
+		fputs("| key | flag | meaning | range | default |\n|---|---|---|---|---|\n", f);
 	for (size_t i = 0; i < NKEYS; i++) {
 		const key_t_ *k = &keys[i];
-		char range[64] = "";
-		if (k->type != T_STR)
-			snprintf(range, sizeof(range), " [%g..%g]", k->min, k->max);
-		fprintf(f, "  --%-22s %s%s%s%s%s\n", k->name, k->help, range, k->def ? " (default: " : "",
-		        k->def ? (*k->def ? k->def : "\"\"") : "", k->def ? ")" : "");
+		flag_name(k, flag, sizeof(flag));
+		const char *arg = arg_name(k, argbuf, sizeof(argbuf));
+		range_text(k, range, sizeof(range));
+		default_text(k, def, sizeof(def));
+		switch (fmt) {
+		case CFG_FMT_TEXT:
+			snprintf(head, sizeof(head), "--%s %s", flag, arg);
+			snprintf(line, sizeof(line), "%s%s%s; default %s", k->help, *range ? "; " : "", range, def);
+			fprintf(f, "  %-*s", HELP_COL - 2, head);
+			if (strlen(head) > HELP_COL - 3)
+				fprintf(f, "\n%*s", HELP_COL, "");
+			wrap(f, line);
+			break;
+		case CFG_FMT_ROFF:
+			fputs(".TP\n\\fB\\-\\-", f);
+			roff_puts(f, flag);
+			fputs("\\fR \\fI", f);
+			roff_puts(f, arg);
+			fprintf(f, "\\fR (\\fB%s\\fR)\n", k->name);
+			roff_puts(f, k->help);
+			fputs(".\n", f);
+			if (*range) {
+				fputs("Range ", f);
+				roff_puts(f, range);
+				fputs("; default ", f);
+			} else {
+				fputs("Default ", f);
+			}
+			roff_puts(f, def);
+			fputs(".\n", f);
+			break;
+		case CFG_FMT_MARKDOWN:
+			fprintf(f, "| `%s` | `--%s ", k->name, flag);
+			md_puts(f, arg);
+			fprintf(f, "` | %s | %s | %s |\n", k->help, range, def);
+			break;
+		default:
+			return CFG_EINVAL;
+		}
 	}
+	return CFG_OK;
+}
+
+int cfg_format_parse(const char *name)
+{
+	static const char *const names[] = {[CFG_FMT_TEXT] = "text", [CFG_FMT_ROFF] = "man",
+	                                    [CFG_FMT_MARKDOWN] = "markdown"};
+	for (int i = 0; i < (int)(sizeof(names) / sizeof(names[0])); i++)
+		if (name && !strcmp(name, names[i]))
+			return i;
+	return CFG_EINVAL;
 }

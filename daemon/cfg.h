@@ -56,5 +56,11 @@ int cfg_from_args(cfg_t *c, int argc, char **argv, char *err, size_t errlen);
 int cfg_load_file(cfg_t *c, const char *path, char *err, size_t errlen);
 int cfg_set(cfg_t *c, const char *key, const char *value, char *err, size_t errlen);
 
-/* Table of keys as text (for --help and docs). */
-void cfg_print_help(void *file);
+/* The table of keys (flag, value name, meaning, range, default; each default
+ * once, numbers in digits) for --help, the man page (generated from it at
+ * build time) and docs/daemon.md (a test keeps it equal). file is a FILE *.
+ * CFG_EINVAL for an unknown format. */
+typedef enum { CFG_FMT_TEXT = 0, CFG_FMT_ROFF, CFG_FMT_MARKDOWN } cfg_format_t;
+int cfg_print_keys(void *file, cfg_format_t fmt);
+/* "text", "man" or "markdown" to a cfg_format_t; CFG_EINVAL otherwise. */
+int cfg_format_parse(const char *name);

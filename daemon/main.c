@@ -26,8 +26,9 @@
 static void usage(FILE *f)
 {
 	fprintf(f, "usage: granulard [--listen HOST:PORT] [--state-dir DIR] [--slots N] [--config FILE] [--KEY VALUE]...\n"
-	           "Serves the granulard REST API (docs/daemon.md). Every configuration key is also a flag:\n");
-	cfg_print_help(f);
+	           "Serves the granulard REST API (man granulard, docs/daemon.md). Every flag --some-key is also a\n"
+	           "config-file line `some_key = value`; flags override the file:\n");
+	cfg_print_keys(f, CFG_FMT_TEXT);
 }
 
 static int executable(const char *p) { return access(p, X_OK) == 0; }
@@ -106,7 +107,7 @@ int main(int argc, char **argv)
 	gd_t gd = {0};
 	http_t *http = NULL;
 	char err[1024], path[PATH_MAX], jobs[PATH_MAX], engine[PATH_MAX], token[256], addr[320];
-	int port = 0, ret = 1, lockfd = -1, lvl;
+	int port = 0, ret = 1, lockfd = -1, locked = 0, lvl;
 	sigset_t sigs;
 
 	if (cfg_init(&cfg)) {
@@ -119,6 +120,16 @@ int main(int argc, char **argv)
 			printf("%s %s\n", api_routes[i].method, api_routes[i].pattern);
 		cfg_deinit(&cfg);
 		return 0;
+	}
+	if (argc == 3 && !strcmp(argv[1], "--list-keys")) {
+		/* The key table as text, man or markdown: the man page is generated from it, docs/daemon.md checked. */
+		int fmt = cfg_format_parse(argv[2]);
+		cfg_deinit(&cfg);
+		if (fmt < 0) {
+			fprintf(stderr, "granulard: --list-keys %s: expected text, man or markdown\n", argv[2]);
+			return 2;
+		}
+		return cfg_print_keys(stdout, (cfg_format_t)fmt) || fflush(stdout) ? 1 : 0;
 	}
 	int r = cfg_from_args(&cfg, argc, argv, err, sizeof(err));
 	if (r == CFG_EHELP) {
@@ -171,6 +182,11 @@ int main(int argc, char **argv)
 		        errno == EWOULDBLOCK ? "another granulard is using it" : strerror(errno));
 		goto cleanup;
 	}
+	/* The lock file names its holder, so `./quickstart stop` signals exactly this daemon (after checking
+	 * that the file is still locked and that the pid is a granulard that has it open). */
+	locked = 1;
+	if (ftruncate(lockfd, 0) || dprintf(lockfd, "%ld\n", (long)getpid()) < 0)
+		log_warning("%s: cannot write our pid: %s", path, strerror(errno));
 	if (load_token(&cfg, token, sizeof(token), err, sizeof(err))) {
 		fprintf(stderr, "granulard: %s\n", err);
 		goto cleanup;
@@ -244,6 +260,8 @@ cleanup:
 	sched_destroy(gd.sched);
 	hub_destroy(gd.hub);
 	jobq_close(gd.q);
+	if (locked && ftruncate(lockfd, 0))   /* no pid left for a stopped daemon */
+		log_warning("granulard.lock: %s", strerror(errno));
 	if (lockfd >= 0)
 		close(lockfd);
 	cfg_deinit(&cfg);

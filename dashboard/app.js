@@ -54,6 +54,25 @@
     node.replaceChildren();
     for (const [k, v] of rows) node.append(el('dt', {}, k), el('dd', {}, v));
   }
+  const plural = (n, word) => n + ' ' + word + (n === 1 ? '' : 's');
+  function bytes(v) {
+    if (!Number.isFinite(v)) return '-';
+    const u = ['B', 'KiB', 'MiB', 'GiB', 'TiB']; let i = 0;
+    while (v >= 1024 && i < u.length - 1) { v /= 1024; i++; }
+    return (i ? v.toPrecision(3) : String(v)) + ' ' + u[i];
+  }
+  const when = (t) => (Number.isFinite(t) ? new Date(t * 1000).toLocaleString() : '-');
+  // Error lines by source ({box: {source: text}}): a source that succeeds again takes its own error away,
+  // so no message outlives what it was about.
+  const errors = {};
+  function setError(box, source, text) {
+    const m = errors[box] || (errors[box] = {});
+    if (text) m[source] = text; else delete m[source];
+    const node = $(box);
+    node.textContent = Object.values(m).join('; ');
+    node.hidden = !node.textContent;
+  }
+  function clearErrors(box) { errors[box] = {}; setError(box, '', ''); }
 
   // ---- job table ----
   function renderJobs() {
@@ -67,7 +86,7 @@
         el('td', {}, age(j.created_at)), el('td', {}));
       if (!TERMINAL.has(j.state)) {
         const b = el('button', { type: 'button' }, 'cancel');
-        b.addEventListener('click', (ev) => { ev.stopPropagation(); cancel(j.id); });
+        b.addEventListener('click', (ev) => { ev.stopPropagation(); cancel(j.id, j.state); });
         tr.lastChild.append(b);
       }
       tr.addEventListener('click', () => { location.hash = '#/job/' + j.id; });
@@ -80,7 +99,8 @@
       jobs.clear();
       for (const j of r.jobs) jobs.set(j.id, j);
       renderJobs();
-    } catch (e) { $('submit-msg').textContent = e.message; }
+      setError('jobs-msg', 'load', '');
+    } catch (e) { setError('jobs-msg', 'load', 'jobs: ' + e.message); }
   }
   // Progress moves between state events: refresh the unfinished jobs at most once a second.
   const refreshActive = throttle(async () => {
@@ -92,9 +112,12 @@
     } catch (e) { /* the stream status shows connectivity */ }
   }, 1000);
 
-  async function cancel(id) {
-    try { await api('POST', '/api/v1/jobs/' + id + '/cancel'); }
-    catch (e) { alert('cancel job ' + id + ': ' + e.message); }
+  // Cancelling cannot be undone (a running job is stopped, at best from its checkpoint): ask first.
+  async function cancel(id, state) {
+    if (!confirm('Cancel job ' + id + (state ? ' (' + state + ')' : '') + '? This cannot be undone.')) return;
+    const box = view.job ? 'job-msg' : 'jobs-msg';
+    try { await api('POST', '/api/v1/jobs/' + id + '/cancel'); setError(box, 'cancel', ''); }
+    catch (e) { setError(box, 'cancel', 'cancel job ' + id + ': ' + e.message); }
   }
 
   // ---- compute cluster ----
@@ -124,8 +147,13 @@
     const p = presets.find((x) => x.name === $('preset').value);
     if (!p) return;
     $('preset-desc').textContent = p.description;
-    $('advice').hidden = true;
     $('scene').value = JSON.stringify(p.scene, null, 2);
+    formChanged();
+  }
+  // The advice and the last message were about the form as it was: drop them when it changes.
+  function formChanged() {
+    $('advice').hidden = true; $('advice').replaceChildren();
+    const msg = $('submit-msg'); msg.className = ''; msg.textContent = '';
   }
   async function submit(ev) {
     ev.preventDefault();
@@ -152,8 +180,8 @@
     const kids = [];
     const chosen = a.choice_variant || a.choice;
     const sc = a.scene || {};
-    kids.push(el('p', { class: 'muted' }, (sc.particles ?? '?') + ' particles x ' + (sc.replicas ?? '?') + ' replicas, ' +
-      (sc.ranks ?? 1) + ' rank(s); Haff time ' + num(sc.haff_time) + (a.target ? '; target: temperature error <= ' + a.target.temperature : '; no target (method ' + (sc.method || '?') + ')')));
+    kids.push(el('p', { class: 'muted' }, (sc.particles ?? '?') + ' particles x ' + plural(sc.replicas ?? 1, 'replica') + ', ' +
+      plural(sc.ranks ?? 1, 'rank') + '; Haff time ' + num(sc.haff_time) + (a.target ? '; target: temperature error <= ' + a.target.temperature : '; no target (method ' + (sc.method || '?') + ')')));
     if (chosen) {
       const [first, ...rest] = (a.reason || '').split('; ');
       kids.push(el('p', { class: 'reason' }, el('strong', {}, 'chosen: ' + chosen), ' \u2014 ' + first));
@@ -197,11 +225,47 @@
     $('job-bar').style.width = (Number.isFinite(j.progress) ? 100 * j.progress : 0) + '%';
     $('job-cancel').hidden = TERMINAL.has(j.state);
     dl($('job-info'), [
-      ['progress', pct(j.progress)], ['method', j.method + ', N=' + si(j.particles) + ', ' + j.ranks + ' rank(s)'],
+      ['progress', pct(j.progress)], ['method', j.method + ', N=' + si(j.particles) + ', ' + plural(j.ranks, 'rank')],
       ['sim time', Number.isFinite(j.sim_time) ? j.sim_time.toPrecision(5) : '-'], ['events', si(j.events)],
-      ['created', new Date(j.created_at * 1000).toLocaleString()], ['reason', j.reason || '-'],
-    ]);
+      ['created', when(j.created_at)], ['reason', j.reason || '-'],
+    ].concat(j.cancel_requested && !TERMINAL.has(j.state) ? [['cancel', 'requested: the job is stopping']] : []));
     if (j.advice !== undefined) renderJobAdvice(j);
+    if (j.attempts !== undefined) renderAttempts(j.attempts);
+  }
+  function renderAttempts(list) {
+    $('job-attempts').tBodies[0].replaceChildren(...list.map((a) => {
+      const result = a.exit_status != null ? 'exit ' + a.exit_status : a.signal != null ? 'signal ' + a.signal
+        : a.ended_at == null ? 'running' : '-';
+      const cell = el('td', {}, result + (a.reason ? ': ' + a.reason : ''));
+      if (a.stderr_tail) cell.append(el('pre', { class: 'stderr' }, a.stderr_tail.trim().split('\n').slice(-3).join('\n')));
+      return el('tr', { 'data-n': a.n }, el('td', {}, a.n), el('td', {}, when(a.started_at)), el('td', {}, when(a.ended_at)),
+        cell, el('td', {}, a.checkpoint || '-'));
+    }));
+    $('job-attempts').hidden = !list.length;
+    $('job-attempts-none').hidden = list.length > 0;
+  }
+  async function loadFiles(id) {
+    try {
+      const r = await api('GET', '/api/v1/jobs/' + id + '/files');
+      if (view.job !== id) return;
+      $('job-files').tBodies[0].replaceChildren(...r.files.map((f) => el('tr', { 'data-name': f.name },
+        el('td', {}, el('a', { href: '/api/v1/jobs/' + id + '/files/' + encodeURIComponent(f.name), download: f.name }, f.name)),
+        el('td', {}, bytes(f.size)), el('td', {}, age(f.modified) + ' ago'),
+        el('td', { class: 'sha', title: f.sha256 || '' }, (f.sha256 || '-').slice(0, 16)))));
+      $('job-files').hidden = !r.files.length;
+      $('job-files-none').hidden = r.files.length > 0;
+      setError('job-msg', 'files', '');
+    } catch (e) { if (view.job === id) setError('job-msg', 'files', 'files: ' + e.message); }
+  }
+  // The record (with attempts) and the files: on opening a job and when its state changes.
+  async function loadJob(id) {
+    try {
+      const j = await api('GET', '/api/v1/jobs/' + id + '?scene=0');
+      if (view.job !== id) return;
+      jobs.set(id, j); renderJob(j);
+      setError('job-msg', 'job', '');
+    } catch (e) { if (view.job === id) setError('job-msg', 'job', 'job ' + id + ': ' + e.message); }
+    loadFiles(id);
   }
   // Haff's law: sqrt(T0/T) - 1 = t/tau; least squares through the origin over the early records (T > T0/4).
   function haff(t, T) {
@@ -226,9 +290,15 @@
     plots.push(new uPlot(base('collisions/particle/time', false), [[], []], $('plot-rate')));
     plots.push(new uPlot(base('largest fraction', false), [[], []], $('plot-cluster')));
   }
+  // A plot without a single value says so ("no data": the observable was not asked for, or no record yet).
+  function noData(id, ys) {
+    $(id + '-nodata').hidden = !series || !series.loaded || ys.some((v) => Number.isFinite(v));
+  }
   function drawPlots() {
-    if (!series || plots.length < 3) return;
+    if (!series) return;
     const { t, T, rate, cl } = series;
+    noData('plot-energy', T); noData('plot-rate', rate); noData('plot-cluster', cl);
+    if (plots.length < 3) return;
     // log axes: drop t = 0 (the initial record) from the log-log plot
     const i0 = t.length && t[0] <= 0 ? 1 : 0;
     const fit = haff(t, T), tl = t.slice(i0);
@@ -245,6 +315,8 @@
     try {
       const r = await api('GET', '/api/v1/jobs/' + id + '/progress?after=' + series.after);
       if (!series || series.job !== id) return;
+      series.loaded = true;
+      setError('job-msg', 'series', '');
       for (const rec of r.records) {
         series.after = Math.max(series.after, rec.seq);
         if (rec.type !== 'progress') continue;
@@ -253,20 +325,29 @@
         series.cl.push(rec.clusters ? rec.clusters.largest_fraction : null);
       }
       drawPlots();
-    } catch (e) { $('job-msg').textContent = e.message; }
+    } catch (e) { if (series && series.job === id) setError('job-msg', 'series', 'progress: ' + e.message); }
   }, 500);
+  // Nothing of the job shown before may stay on the page of the next one.
+  function clearJobPage(id) {
+    $('job-id').textContent = id;
+    const b = $('job-state'); b.className = 'badge'; b.textContent = '';
+    $('job-bar').style.width = '0%';
+    $('job-cancel').hidden = true;
+    $('job-info').replaceChildren();
+    clearErrors('job-msg');
+    renderJobAdvice({});
+    $('haff').textContent = '';
+    for (const t of ['job-attempts', 'job-files']) { $(t).tBodies[0].replaceChildren(); $(t).hidden = true; }
+    $('job-attempts-none').hidden = true; $('job-files-none').hidden = true;
+  }
   async function openJob(id) {
     view.job = id;
     $('list-view').hidden = true; $('job-view').hidden = false;
-    renderJobAdvice({});
-    $('haff').textContent = '';
-    series = { job: id, after: -1, t: [], T: [], rate: [], cl: [] };
+    clearJobPage(id);
+    series = { job: id, after: -1, t: [], T: [], rate: [], cl: [], loaded: false };
     makePlots();
-    try {
-      const j = await api('GET', '/api/v1/jobs/' + id + '?scene=0');
-      jobs.set(id, j); renderJob(j);
-      $('job-msg').textContent = '';
-    } catch (e) { $('job-msg').textContent = e.message; }
+    drawPlots();
+    await loadJob(id);
     fetchSeries();
   }
   function route() {
@@ -274,6 +355,7 @@
     if (m) { openJob(Number(m[1])); return; }
     view.job = 0; series = null;
     $('job-view').hidden = true; $('list-view').hidden = false;
+    setError('jobs-msg', 'cancel', '');
     renderJobs();
   }
 
@@ -286,7 +368,7 @@
       const j = JSON.parse(ev.data);
       jobs.set(j.id, Object.assign(jobs.get(j.id) || {}, j));
       renderJobs(); loadCluster();
-      if (view.job === j.id) { renderJob(jobs.get(j.id)); fetchSeries(); }
+      if (view.job === j.id) { renderJob(jobs.get(j.id)); fetchSeries(); loadJob(j.id); }
     });
     // Progress lines do not name their job: refresh what is on screen, throttled.
     es.addEventListener('progress', () => { refreshActive(); if (view.job) fetchSeries(); });
@@ -305,10 +387,11 @@
   });
 
   $('preset').addEventListener('change', showPreset);
+  for (const id of ['scene', 'priority', 'ranks']) $(id).addEventListener('input', formChanged);
   $('submit-form').addEventListener('submit', submit);
   $('advise').addEventListener('click', advise);
   $('filter').addEventListener('change', renderJobs);
-  $('job-cancel').addEventListener('click', () => view.job && cancel(view.job));
+  $('job-cancel').addEventListener('click', () => view.job && cancel(view.job, $('job-state').textContent));
   window.addEventListener('hashchange', route);
   showToken(); loadPresets(); loadJobs(); loadCluster(); route(); connect();
   setInterval(loadCluster, 10000);

@@ -12,7 +12,7 @@
 
 #define PI 3.14159265358979323846
 #define PATHLEN 256
-#define COUNT_MAX 2147483647LL          /* particle indices are 32-bit in the engines */
+#define COUNT_MAX SCENE_COUNT_MAX        /* particle indices are 32-bit in the engines */
 #define SEED_MAX 9007199254740992LL     /* 2^53: exact in every JSON client (doubles) */
 
 typedef struct {

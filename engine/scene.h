@@ -24,6 +24,9 @@ enum {
 
 /* SCENE_METHOD_AUTO: chosen by advice_ (advice.h) from accuracy_temperature
  * before the scene runs; the engines never see it. */
+/* Largest particles.count scene_parse() accepts: particle indices are 32-bit in the engines. */
+#define SCENE_COUNT_MAX 2147483647LL
+
 typedef enum { SCENE_METHOD_ED = 0, SCENE_METHOD_DSMC, SCENE_METHOD_HSMC, SCENE_METHOD_AUTO } scene_method_t;
 typedef enum { SCENE_POS_LATTICE = 0, SCENE_POS_RANDOM } scene_positions_t;
 /* Dense-gas correction of the Monte Carlo methods (dsmc.h). */

@@ -1,6 +1,7 @@
 // Dashboard in a real browser: headless Chromium (playwright-core) against a live granulard; submits a preset,
 // follows the job to the end, checks the plots received data, saves a screenshot; asks for advice on the preset
-// (the candidates table) and shows an auto job's advice panel.
+// (the candidates table) and shows an auto job's advice panel; the job page's files and attempts, "no data" on
+// an empty plot, nothing stale kept (advice, errors, another job's page), and a confirmation before cancelling.
 'use strict';
 const { chromium } = require('playwright-core');
 const [url, token, shot] = process.argv.slice(2);
@@ -15,7 +16,8 @@ const ok = (c, d) => { n++; if (!c) failed++; console.log(`${c ? '' : 'not '}ok 
   const page = await browser.newPage({ viewport: { width: 1280, height: 1000 } });
   const errors = [];
   page.on('pageerror', (e) => errors.push(String(e)));
-  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+  // A 404 the test asks for on purpose (an unknown job) is logged by Chromium as a failed resource, not a script error.
+  page.on('console', (m) => { if (m.type() === 'error' && !/Failed to load resource.* 404/.test(m.text())) errors.push(m.text()); });
   try {
     await page.goto(url + '/', { waitUntil: 'load' });
     ok(await page.title() !== '', 'dashboard loads: ' + await page.title());
@@ -81,6 +83,92 @@ const ok = (c, d) => { n++; if (!c) failed++; console.log(`${c ? '' : 'not '}ok 
     const reason = await page.textContent('#job-advice .reason');
     ok(reason.includes('chosen: ' + chosenForm) && reason.includes('cheapest') &&
       (await page.$$eval('#job-advice tbody tr', (rs) => rs.length)) >= 4, 'auto job ' + aid + ': advice panel: ' + reason.slice(0, 90));
+
+    // The job page lists the job's files (links that download them) and its attempts.
+    await page.evaluate((i) => { location.hash = '#/job/' + i; }, id);
+    await page.waitForFunction(() => document.querySelectorAll('#job-files tbody tr').length > 0 &&
+      document.querySelectorAll('#job-attempts tbody tr').length > 0, null, { timeout: 10000 });
+    const files = await page.$$eval('#job-files tbody tr', (rs) => rs.map((r) => r.dataset.name));
+    const href = await page.getAttribute('#job-files tr[data-name="scene.json"] a', 'href');
+    const fetched = href ? await page.evaluate(async (h) => (await fetch(h)).json(), href) : null;
+    ok(files.includes('scene.json') && files.includes('progress.jsonl') && fetched && fetched.method === 'ed',
+      'job ' + id + ' page lists its files, each a download link: ' + files.join(', '));
+    const attempts = await page.$$eval('#job-attempts tbody tr', (rs) => rs.map((r) => r.textContent));
+    ok(attempts.length === 1 && /exit 0/.test(attempts[0]) && await page.isHidden('#job-attempts-none'),
+      'and its attempts: ' + attempts.join(' | '));
+
+    // Another job's page keeps nothing of this one; an error goes when the next page loads fine.
+    await page.evaluate(() => { location.hash = '#/job/999999'; });
+    await page.waitForFunction(() => /not found/.test(document.getElementById('job-msg').textContent), null, { timeout: 10000 });
+    const stale = await page.evaluate(() => ({
+      id: document.getElementById('job-id').textContent, info: document.getElementById('job-info').textContent,
+      files: document.querySelectorAll('#job-files tbody tr').length, attempts: document.querySelectorAll('#job-attempts tbody tr').length,
+      state: document.getElementById('job-state').textContent,
+    }));
+    ok(stale.id === '999999' && stale.info === '' && stale.files === 0 && stale.attempts === 0 && stale.state === '' &&
+      await page.isVisible('#job-msg'), 'an unknown job\'s page shows its error and nothing of job ' + id + ': ' + JSON.stringify(stale));
+    await page.evaluate((i) => { location.hash = '#/job/' + i; }, id);
+    await page.waitForFunction(() => document.getElementById('job-state').textContent === 'succeeded', null, { timeout: 10000 });
+    ok(await page.isHidden('#job-msg') && (await page.textContent('#job-msg')) === '', 'the error is gone on the next job\'s page');
+
+    // "no data" on a plot whose observable the scene did not ask for; the plot that has data does not say it.
+    await page.evaluate(() => { location.hash = '#/'; });
+    await page.waitForFunction(() => !document.getElementById('list-view').hidden, null, { timeout: 10000 });
+    await page.fill('#scene', JSON.stringify({ method: 'ed', dimensions: 2, particles: { count: 400, volume_fraction: 0.2 },
+      collisions: { restitution: 0.9 }, run: { seed: 3, until: { time: 0.5 } },
+      output: { every: { time: 0.05 }, observables: ['kinetic_energy', 'temperature'] } }));
+    await page.click('#submit-form button[type=submit]');
+    await page.waitForFunction((i) => (document.getElementById('submit-msg').textContent.match(/^job (\d+)/) || [])[1] > i, aid,
+      { timeout: 10000 });
+    const nid = Number((await page.textContent('#submit-msg')).match(/^job (\d+)/)[1]);
+    await page.evaluate((i) => { location.hash = '#/job/' + i; }, nid);
+    await page.waitForFunction(() => document.getElementById('job-state').textContent === 'succeeded', null, { timeout: 60000 });
+    // The last records arrive after the final state: wait for T(t) to have them (and the others to say so).
+    await page.waitForFunction(() => document.getElementById('plot-energy-nodata').hidden &&
+      !document.getElementById('plot-rate-nodata').hidden, null, { timeout: 10000 }).catch(() => {});
+    const nodata = await page.evaluate(() => ['plot-energy', 'plot-rate', 'plot-cluster'].map((p) => {
+      const n = document.getElementById(p + '-nodata');
+      return !n.hidden && n.getBoundingClientRect().height > 0 && n.textContent === 'no data';
+    }));
+    ok(!nodata[0] && nodata[1] && nodata[2], 'job ' + nid + ' without collision_rate and clusters: "no data" on those plots, not on T(t) ' +
+      JSON.stringify(nodata));
+
+    // Advice and an error describe the form as it was: editing it takes them away.
+    await page.evaluate(() => { location.hash = '#/'; });
+    await page.waitForFunction(() => !document.getElementById('list-view').hidden, null, { timeout: 10000 });
+    await page.selectOption('#preset', 'cooling-2d');
+    await page.click('#advise');
+    await page.waitForFunction(() => !document.getElementById('advice').hidden, null, { timeout: 10000 });
+    await page.type('#scene', ' ');
+    ok(await page.isHidden('#advice'), 'editing the scene hides the advice given for the previous one');
+    await page.fill('#scene', '{"method": ');
+    await page.click('#submit-form button[type=submit]');
+    const bad = await page.textContent('#submit-msg');
+    await page.type('#scene', '"ed"');
+    ok(/^scene: /.test(bad) && (await page.textContent('#submit-msg')) === '', 'an error about the scene goes when the scene is edited: ' + bad);
+
+    // Cancelling asks first: dismissed, the job runs on; accepted, it is cancelled.
+    await page.fill('#scene', JSON.stringify({ method: 'ed', dimensions: 2, particles: { count: 400, volume_fraction: 0.2 },
+      run: { seed: 1, until: { time: 1e9 } }, output: { every: { time: 1e7 } } }));   // rare records: the daemon keeps up
+    await page.click('#submit-form button[type=submit]');
+    await page.waitForFunction((i) => (document.getElementById('submit-msg').textContent.match(/^job (\d+)/) || [])[1] > i, nid,
+      { timeout: 10000 });
+    const cid = Number((await page.textContent('#submit-msg')).match(/^job (\d+)/)[1]);
+    const button = '#jobs tbody tr[data-id="' + cid + '"] button';
+    await page.waitForSelector(button, { timeout: 10000 });
+    const asked = [];
+    page.once('dialog', (d) => { asked.push(d.type() + ': ' + d.message()); d.dismiss(); });
+    await page.click(button);
+    await page.waitForTimeout(1000);
+    const kept = await page.evaluate(async (i) => (await (await fetch('/api/v1/jobs/' + i)).json()), cid);
+    ok(asked.length === 1 && asked[0].startsWith('confirm: ') && asked[0].includes('job ' + cid) &&
+      !kept.cancel_requested && !['cancelled'].includes(kept.state),
+      'cancel asks first (' + (asked[0] || 'no dialog') + '); dismissed, job ' + cid + ' stays ' + kept.state);
+    page.once('dialog', (d) => { asked.push(d.message()); d.accept(); });
+    await page.click(button);
+    await page.waitForFunction((i) => /cancelled/.test((document.querySelector('#jobs tbody tr[data-id="' + i + '"]') || {}).textContent || ''),
+      cid, { timeout: 30000 });
+    ok(asked.length === 2, 'accepted, job ' + cid + ' is cancelled');
     ok(errors.length === 0, 'no script errors' + (errors.length ? ': ' + errors.join('; ') : ''));
   } catch (e) {
     ok(false, 'browser session: ' + e.message.split('\n')[0]);

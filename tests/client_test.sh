@@ -90,6 +90,18 @@ ok $([ $RC = 2 ] && one_line && grep -q 'run.until.time' "$tmp/err"; echo $?) "s
 ctl submit --preset no-such-preset
 ok $([ $RC = 4 ] && grep -q "no-such-preset" "$tmp/err"; echo $?) "unknown preset: exit 4"
 
+# 4b. Fields the server sends as null (an observable not asked for) print as "-", never "nan".
+echo "$SHORT" | sed 's/"observables":\[[^]]*\]/"observables":["kinetic_energy"]/' >"$tmp/noobs.json"
+ctl submit "$tmp/noobs.json" --wait
+nid=$(sed -n 's/^job \([0-9]*\) submitted.*/\1/p' "$tmp/out")
+: >"$tmp/tables"
+for c in show progress clusters; do ctl "$c" "$nid"; cat "$tmp/out" >>"$tmp/tables"; done
+ctl cluster; cat "$tmp/out" >>"$tmp/tables"
+ctl list; cat "$tmp/out" >>"$tmp/tables"
+ok $([ -n "$nid" ] && ! grep -qiw 'nan' "$tmp/tables"; echo $?) "no 'nan' in show, progress, clusters, cluster, list for a job without collision_rate$(grep -iw -m1 nan "$tmp/tables" | sed 's/^/: /')"
+ctl progress "$nid"
+ok $(awk 'NR > 1 && $2 == "progress" && $8 != "-" { bad = 1 } END { exit bad }' "$tmp/out" && grep -q ' progress ' "$tmp/out"; echo $?) "progress: COLL_RATE reads '-' where the record has none"
+
 # 6. cancel: watch ends with exit 1; errors are the server's message; wrong token: exit 4.
 ctl submit "$tmp/long.json"
 lid=$(sed -n 's/^job \([0-9]*\) submitted.*/\1/p' "$tmp/out")
@@ -98,8 +110,15 @@ ctl --token wrong cancel "$lid"
 ok $([ $RC = 4 ] && one_line && grep -q 'wrong token (token from --token)' "$tmp/err"; echo $?) "wrong token: exit 4, $(cat "$tmp/err")"
 GRANULAR_TOKEN=wrong "$GRANULARCTL" delete "$lid" >/dev/null 2>"$tmp/err"
 ok $([ $? = 4 ] && grep -q 'GRANULAR_TOKEN' "$tmp/err"; echo $?) "wrong \$GRANULAR_TOKEN: exit 4, the source named"
+echo wrong-token-in-a-file >"$tmp/tokfile"
+ctl --token-file "$tmp/tokfile" cancel "$lid"
+ok $([ $RC = 4 ] && one_line && grep -q "token from --token-file $tmp/tokfile" "$tmp/err"; echo $?) "--token-file with a wrong token: exit 4, the file named"
+ctl --token-file "$tmp/no-such-token" cancel "$lid"
+ok $([ $RC = 2 ] && one_line && grep -q "no-such-token" "$tmp/err"; echo $?) "--token-file that cannot be read: exit 2, $(cat "$tmp/err")"
 ctl cancel "$lid"
 ok $([ $RC = 0 ] && grep -q "job $lid" "$tmp/out"; echo $?) "cancel: $(out)"
+ctl show "$lid"
+ok $([ $RC = 0 ] && grep -q '^  cancel  *requested' "$tmp/out"; echo $?) "show of a job cancelled while running: $(grep '^  cancel' "$tmp/out")"
 ctl watch "$lid"
 ok $([ $RC = 1 ] && grep -q "job $lid cancelled" "$tmp/out"; echo $?) "watch of a cancelled job: exit 1"
 ctl cancel "$id"
@@ -121,8 +140,18 @@ ok $([ $RC = 0 ] && cmp -s "$tmp/out" "var/jobs/$id/progress.jsonl"; echo $?) "d
 ctl download "$id" nope.h5 -o "$tmp/nope"
 ok $([ $RC = 4 ] && one_line && [ ! -e "$tmp/nope" ]; echo $?) "download of a missing file: exit 4, no file left: $(cat "$tmp/err")"
 echo keep >"$tmp/existing"
-ctl download "$id" nope.h5 -o "$tmp/existing"
-ok $([ $RC = 4 ] && [ "$(cat "$tmp/existing")" = keep ] && [ ! -e "$tmp/existing.part" ]; echo $?) "a failed download leaves an existing file as it was"
+ctl download "$id" nope.h5 -o "$tmp/existing" --force
+ok $([ $RC = 4 ] && [ "$(cat "$tmp/existing")" = keep ] && [ ! -e "$tmp/existing.part" ]; echo $?) "a failed download leaves an existing file as it was (even with --force)"
+ctl download "$id" scene.json -o "$tmp/existing"
+ok $([ $RC = 2 ] && one_line && grep -q 'exists.*--force' "$tmp/err" && [ "$(cat "$tmp/existing")" = keep ]; echo $?) "download onto an existing file without --force: exit 2, the file untouched: $(cat "$tmp/err")"
+rm -f scene.json
+ctl download "$id" scene.json
+ok $([ $RC = 0 ] && cmp -s scene.json "var/jobs/$id/scene.json"; echo $?) "download ID NAME: to NAME in the current directory"
+echo keep >scene.json
+ctl download "$id" scene.json
+ok $([ $RC = 2 ] && [ "$(cat scene.json)" = keep ]; echo $?) "a second download to NAME does not overwrite it"
+ctl download "$id" scene.json -f
+ok $([ $RC = 0 ] && cmp -s scene.json "var/jobs/$id/scene.json"; echo $?) "download -f replaces it"
 ctl download "$id" nope.h5 -o /dev/null
 ok $([ $RC = 4 ] && [ -c /dev/null ]; echo $?) "a failed download to /dev/null leaves /dev/null a device"
 ctl download "$id" ../token; ok $([ $RC = 2 ]; echo $?) "download ../token: exit 2 before any request"
@@ -133,6 +162,8 @@ ctl delete "$id" --json; ok $([ $RC = 4 ]; echo $?) "delete again: exit 4"
 GRANULAR_URL=http://127.0.0.1:1 "$GRANULARCTL" list >/dev/null 2>"$tmp/err"
 ok $([ $? = 3 ] && grep -q '127.0.0.1:1' "$tmp/err"; echo $?) "\$GRANULAR_URL overrides the state directory"
 ctl --url "$URL" --state-dir "$tmp/nowhere" presets; ok $([ $RC = 0 ]; echo $?) "--url needs no state directory"
+ctl --url "$URL" --state-dir "$tmp/nowhere" --token-file var/token submit "$tmp/short.json"
+ok $([ $RC = 0 ] && grep -q submitted "$tmp/out"; echo $?) "--token-file: the token from a file, not the command line"
 
 # 8b. advise: the estimates as a table or JSON; bad scenes name the key; no job is made.
 AUTO='{"method":"auto","accuracy":{"temperature":0.05},"dimensions":2,"particles":{"count":2000,"volume_fraction":0.1,"initial":{"positions":"random"}},"collisions":{"restitution":0.9},"run":{"until":{"time":5},"replicas":4}}'
@@ -145,6 +176,8 @@ ok $([ $RC = 0 ] && grep -q '^METHOD *SETTINGS *CPU *WALL *ERROR *MEETS *EXTRAPO
 ctl advise "$tmp/auto.json" --json --set particles.count=4000
 ok $([ $RC = 0 ] && jsonok 'd["scene"]["particles"] == 4000 and len(d["estimates"]) >= 4 and d["choice"] in ("ed","dsmc","hsmc")'; echo $?) \
 	"advise --json --set: the server's JSON for the changed scene"
+ctl advise --preset cooling-2d
+ok $([ $RC = 0 ] && grep -q ' x 1 replica, 1 rank;' "$tmp/out"; echo $?) "advise reads right in the singular: $(head -n 1 "$tmp/out" | cut -c1-60)"
 ctl advise --preset cooling-2d --json
 ok $([ $RC = 0 ] && jsonok 'd["choice"] is None and d["target"] is None and all(e["meets_target"] is None for e in d["estimates"])'; echo $?) \
 	"advise --preset on a concrete scene: estimates without a target"
