@@ -71,14 +71,8 @@ for c in 0 1 2 3; do row "cell size ${c} (0 = auto)" 2 10000 0.05 1 20 50 0 $c; 
 for c in 0 1.2 1.5; do row "cell size ${c} (0 = auto)" 3 10976 0.1 1 20 50 0 $c; done
 
 # Scene features (issue 12): the same gas with walls, thermal walls, gravity (medians of 3).
-REPS=3
-ROWS=$tft
-for f in periodic walls thermal gravity; do
-	row "2D $f" 2 10000 0.3 1 20 200 0 0 $f
-	row "3D $f" 3 10976 0.3 1 20 200 0 0 $f
-done
-REPS=1
-ROWS=$tmp
+# Rounds interleaved over the features (a shared machine drifts), median of 3 each.
+sh "$src/bench/features.sh" "$bench" 3 >"$tft"
 # The periodic fast path against a baseline build (BASELINE_ED_BENCH=path/to/old/bench/ed_bench make bench).
 if [ -n "${BASELINE_ED_BENCH:-}" ]; then
 	sh "$src/bench/compare.sh" "$BASELINE_ED_BENCH" "$bench" >"$tcmp"
@@ -145,7 +139,7 @@ sh "$src/bench/ingest_bench.sh" "$build" "$src" >"$tin"
 	echo "The same elastic gas (lattice start, relaxed, then timed as above) in a periodic box, between specular walls on"
 	echo "every axis, between thermal walls (T = 1) on the last axis, and under gravity (scale height T/(m g) = half the"
 	echo "box) over a specular floor and lid. Each scene runs the kernels of its features only (chosen at load), so"
-	echo "the difference is the price of the feature. Median of 3 runs."
+	echo "the difference is the price of the feature. Median of 3 runs, the runs of all rows interleaved (bench/features.sh)."
 	echo
 	echo "| case | D | N | volume fraction | restitution | collisions/s | events/s | bytes/particle | cells | command |"
 	echo "|---|---|---|---|---|---|---|---|---|---|"
