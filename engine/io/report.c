@@ -89,7 +89,7 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 		static const char *const axis[3] = { "x", "y", "z" };
 		u64(&o, "wall_collisions", r->wall_collisions);
 		if (r->kind == RUN_PROGRESS) {
-			put(&o, ",\"walls\":[");
+			put(&o, ",\"wall_force\":[");
 			int first = 1;
 			for (int w = 0; w < 6; w++) {
 				if (!(r->walls & (1u << w)))
