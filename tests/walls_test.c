@@ -282,6 +282,49 @@ static void test_vibrating(void)
 	ed_destroy(ed);
 }
 
+/* Stochastic (Fermi-Ulam) heating: elastic disks hitting a wall that
+ * vibrates with velocity u = A w cos(phase), at phases uniform in time (the
+ * flight between hits, ~20, is long against the period 1). A hit at normal
+ * speed |v| > |u| gives dE = 2 m (u^2 - u v); weighted by the hit rate
+ * (u - v) and averaged over the phase, <dE> = 4 m <u^2> = 2 m (A w)^2 per
+ * hit (|v| > A w for all but ~0.2% of the hits here). */
+static void test_fermi_heating(void)
+{
+	const char *json = "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":200,\"box\":[200,10],"
+	                   "\"initial\":{\"positions\":\"random\",\"temperature\":1}},"
+	                   "\"boundaries\":{\"y\":{\"type\":\"walls\","
+	                   "\"lower\":{\"type\":\"vibrating\",\"amplitude\":0.01,\"frequency\":1},"
+	                   "\"upper\":{\"type\":\"specular\"}}},\"run\":{\"seed\":19,\"until\":{\"time\":1}}}";
+	scene_t sc;
+	ed_t *ed = make(json, &sc);
+	if (!ed) {
+		ok(0, "fermi heating: setup");
+		return;
+	}
+	enum { K = 40 };
+	const double tau = 500.0;
+	double gain[K];
+	ed_sample_t sm;
+	ed_sample(ed, &sm);
+	double e = sm.kinetic_energy;
+	uint64_t hits = sm.wall_hits[2];
+	for (int k = 0; k < K; k++) {
+		ed_advance(ed, (k + 1) * tau, UINT64_MAX, UINT64_MAX);
+		ed_sample(ed, &sm);
+		gain[k] = (sm.kinetic_energy - e) / (double)(sm.wall_hits[2] - hits);
+		e = sm.kinetic_energy;
+		hits = sm.wall_hits[2];
+	}
+	double m, se;
+	mean_se(gain, K, &m, &se);
+	const double aw = 0.01 * 2.0 * M_PI, theory = 2.0 * sc.mass * aw * aw;
+	/* 4 standard errors of the block means (blocks of ~4000 hits) */
+	ok(fabs(m - theory) < 4.0 * se && se < 0.1 * theory,
+	   "vibrating wall: energy gain per hit %.5g +- %.2g over %llu hits, theory 2 m (A w)^2 = %.5g", m, se,
+	   (unsigned long long)hits, theory);
+	ed_destroy(ed);
+}
+
 /* A bed of inelastic disks (r = 0.5, walls too) dropped on a floor under
  * gravity with the TC model: it settles without a Zeno stall (the run
  * reaches its end with a bounded number of events), nothing falls through
@@ -515,13 +558,14 @@ static void test_periodic_unchanged(void)
 
 int main(void)
 {
-	plan(14);
+	plan(15);
 	test_periodic_unchanged();
 	test_specular_pressure();
 	test_couette_rough();
 	test_barometric();
 	test_thermal();
 	test_vibrating();
+	test_fermi_heating();
 	test_settling();
 	test_checkpoint();
 	return done_testing();

@@ -1115,6 +1115,7 @@ int ed_advance(ed_t *ed, double t_stop, uint64_t max_collisions, uint64_t max_ev
 static void sample_walls(const struct ed *ed, ed_sample_t *out)
 {
 	out->wall_collisions = ed->wall_collisions;
+	memcpy(out->wall_hits, ed->whits, sizeof out->wall_hits);
 	memcpy(out->wall_impulse, ed->wimp, sizeof out->wall_impulse);
 	out->com_height = out->potential_energy = NAN;
 	if (ed->variant == 2)

@@ -59,6 +59,7 @@ typedef struct {
 	 * component along the axis is positive for a push outwards at the
 	 * lower wall, negative at the upper). Zero without walls. */
 	uint64_t wall_collisions;       /* particle-wall collisions (total) */
+	uint64_t wall_hits[6];          /* ... per wall (total) */
 	double wall_impulse[6][3];
 	/* Scenes with gravity g: centre-of-mass height along -g (from the
 	 * lower walls' rest positions; scene coordinates) and potential energy
