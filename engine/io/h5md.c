@@ -360,6 +360,9 @@ static int write_group(h5md_t *h, int k, const scene_t *s)
 	const hsize_t chunk_t[1] = {OBS_CHUNK};
 	hsize_t inner[2] = {h->n, (hsize_t)h->dim}, chunk[3] = {1, h->n < FRAME_CHUNK ? h->n : FRAME_CHUNK, (hsize_t)h->dim};
 	const char *bnd[3] = {"periodic", "periodic", "periodic"};
+	for (int a = 0; a < 3; a++)
+		if (s->boundary[a].walled)
+			bnd[a] = "none";   /* H5MD: a non-periodic axis */
 	int64_t dim = h->dim;
 	pgroup_t *pg = &h->grp[k];
 	char name[64];
