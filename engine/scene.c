@@ -514,7 +514,7 @@ static const struct {
 	{ "temperature", 1u << SCENE_WALL_THERMAL, 1u << SCENE_WALL_THERMAL },
 	{ "accommodation", 1u << SCENE_WALL_THERMAL, 0 },
 	{ "probability", 1u << SCENE_WALL_ROUGH, 1u << SCENE_WALL_ROUGH },
-	{ "velocity", 1u << SCENE_WALL_MOVING, 1u << SCENE_WALL_MOVING },
+	{ "velocity", 1u << SCENE_WALL_MOVING | 1u << SCENE_WALL_THERMAL, 1u << SCENE_WALL_MOVING },
 	{ "tangential_restitution", 1u << SCENE_WALL_MOVING, 0 },
 	{ "coverage", 1u << SCENE_WALL_MOVING, 0 },
 	{ "amplitude", 1u << SCENE_WALL_VIBRATING, 1u << SCENE_WALL_VIBRATING },
@@ -573,7 +573,7 @@ static int check_axis(ctx_t *c, const char *path, json_t *v, void *base)
 		if (!has && b->walled)
 			return fail(c, sub, "required with type \"walls\" (walls at both ends)");
 		const scene_wall_t *w = &b->wall[k];
-		if (has && w->type == SCENE_WALL_MOVING && w->velocity[axis] != 0) {
+		if (has && (w->type == SCENE_WALL_MOVING || w->type == SCENE_WALL_THERMAL) && w->velocity[axis] != 0) {
 			char vel[PATHLEN + 32];
 			snprintf(vel, sizeof vel, "%s.velocity[%d]", sub, axis & 3);
 			return fail(c, vel, "the wall moves in its own plane: the component along the axis must be 0, got %s "

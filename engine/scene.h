@@ -63,7 +63,7 @@ typedef struct {
 	double temperature;        /* thermal: T_w > 0 */
 	double accommodation;      /* thermal: fraction of diffuse re-emissions, [0, 1], default 1 */
 	double probability;        /* rough: probability of reversing the tangential velocity, [0, 1] */
-	double velocity[3];        /* moving: wall velocity, normal component 0 */
+	double velocity[3];        /* moving, thermal: wall velocity, normal component 0 (thermal: default 0) */
 	double tangential_restitution; /* moving: beta in [-1, 1], default 1 */
 	double amplitude;          /* vibrating: A >= 0 (length) */
 	double frequency;          /* vibrating: f > 0 (1/time) */

@@ -232,6 +232,44 @@ static void test_thermal(void)
 	ed_destroy(ed);
 }
 
+/* Thermal walls moving together at u = 0.5 along x (T_w = 1): the gas
+ * relaxes to the walls' Maxwellian, drifting with them: mean velocity u,
+ * and 2 E_kin / (D N) = T_w + m u^2 / D. */
+static void test_thermal_moving(void)
+{
+	const char *json = "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":400,\"volume_fraction\":0.05,"
+	                   "\"initial\":{\"positions\":\"random\",\"temperature\":1}},"
+	                   "\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"thermal\",\"temperature\":1,"
+	                   "\"velocity\":[0.5,0]},\"upper\":{\"type\":\"thermal\",\"temperature\":1,\"velocity\":[0.5,0]}}},"
+	                   "\"run\":{\"seed\":20,\"until\":{\"time\":1}}}";
+	scene_t sc;
+	ed_t *ed = make(json, &sc);
+	if (!ed) {
+		ok(0, "moving thermal walls: setup");
+		return;
+	}
+	enum { K = 30 };
+	const double t_eq = 1000.0, tau = 300.0;
+	double ux[K], temp[K];
+	ed_sample_t sm;
+	ed_advance(ed, t_eq, UINT64_MAX, UINT64_MAX);
+	ed_sample(ed, &sm);
+	for (int k = 0; k < K; k++) {
+		ed_advance(ed, t_eq + (k + 1) * tau, UINT64_MAX, UINT64_MAX);
+		ed_sample(ed, &sm);
+		ux[k] = sm.momentum[0] / (sc.mass * sc.count);   /* momentum is conserved between wall hits: a snapshot */
+		temp[k] = 2.0 * sm.ekin_time_integral / (2.0 * sc.count * sm.interval);
+	}
+	double mu, seu, mt, set;
+	mean_se(ux, K, &mu, &seu);
+	mean_se(temp, K, &mt, &set);
+	const double t_theory = 1.0 + sc.mass * 0.25 / 2.0;
+	ok(fabs(mu - 0.5) < 4.0 * seu && fabs(mt - t_theory) < 4.0 * set,
+	   "thermal walls moving at 0.5: gas drifts at %.4f +- %.2g, 2E/(DN) = %.4f +- %.2g (theory T_w + m u^2/D = %.4f)",
+	   mu, seu, mt, set, t_theory);
+	ed_destroy(ed);
+}
+
 /* Elastic disks under gravity on a floor vibrating as A sin(2 pi f t)
  * (and a lid vibrating too): no particle is ever beyond a wall, no pair
  * overlaps, and the walls inject energy. */
@@ -558,12 +596,13 @@ static void test_periodic_unchanged(void)
 
 int main(void)
 {
-	plan(15);
+	plan(16);
 	test_periodic_unchanged();
 	test_specular_pressure();
 	test_couette_rough();
 	test_barometric();
 	test_thermal();
+	test_thermal_moving();
 	test_vibrating();
 	test_fermi_heating();
 	test_settling();

@@ -50,7 +50,7 @@ typedef struct {
 	double sv;             /* thermal: sqrt(T_w / m) */
 	double acc;            /* thermal: accommodation */
 	double p;              /* rough: probability of reversing the tangential velocity */
-	double u[3];           /* moving: velocity (in the wall's plane) */
+	double u[3];           /* moving, thermal: velocity (in the wall's plane) */
 	double beta;           /* moving: tangential restitution */
 	double A, omega, phase0;   /* vibrating (A = 0: fixed) */
 	double ph;             /* state: theta at local time 0 (rebased with the clock) */
@@ -435,11 +435,12 @@ static void wall_rule(struct ed *ed, int w, double *v, double t, int elastic)
 		switch (W->type) {
 		case SCENE_WALL_THERMAL:
 			if (rng_uniform(&ed->wrng) < W->acc) {
-				/* diffuse: the flux-weighted Maxwellian of the wall (Rayleigh normal, Gaussian tangential) */
+				/* diffuse: the flux-weighted Maxwellian of the wall, moving
+				 * with it (Rayleigh normal, Gaussian tangential about u) */
 				vn = W->sv * sqrt(-2.0 * log(1.0 - rng_uniform(&ed->wrng)));
 				for (int k = 0; k < dim; k++)
 					if (k != a)
-						v[k] = W->sv * rng_gauss(&ed->wrng);
+						v[k] = W->u[k] + W->sv * rng_gauss(&ed->wrng);
 			} else {
 				vn = -r * vn;
 			}
@@ -898,7 +899,7 @@ static void setup_walls(struct ed *ed, const scene_t *s)
 			W->acc = sw->accommodation;
 			W->p = sw->probability;
 			for (int j = 0; j < 3; j++)
-				W->u[j] = sw->type == SCENE_WALL_MOVING ? sw->velocity[j] : 0.0;
+				W->u[j] = sw->type == SCENE_WALL_MOVING || sw->type == SCENE_WALL_THERMAL ? sw->velocity[j] : 0.0;
 			W->beta = sw->tangential_restitution;
 			if (sw->type == SCENE_WALL_VIBRATING && sw->amplitude > 0.0) {
 				W->A = sw->amplitude;
