@@ -481,6 +481,55 @@ static void test_couette_rough(void)
 	ed_destroy(ed);
 }
 
+/* Bagnold scaling (seed 000, A7): hard particles have no time scale of
+ * their own, so a Couette flow driven by walls at -+v/2 (restitution 0.9,
+ * no TC) has a steady state that is the v = 1 one run v times faster: the
+ * shear force F is proportional to v^2. Measured at v = 0.2, 2 and 20 (two
+ * decades), each for the same number of wall-speed time units. */
+static void test_bagnold(void)
+{
+	const double v[3] = {0.2, 2.0, 20.0};
+	double lf[3], sl[3];
+	for (int k = 0; k < 3; k++) {
+		char json[1024];
+		snprintf(json, sizeof json,
+		         "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":400,\"volume_fraction\":0.1,"
+		         "\"initial\":{\"positions\":\"random\",\"temperature\":1}},\"collisions\":{\"restitution\":0.9},"
+		         "\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"moving\",\"velocity\":[%.17g,0]},"
+		         "\"upper\":{\"type\":\"moving\",\"velocity\":[%.17g,0]}}},\"run\":{\"seed\":23,\"until\":{\"time\":1}}}",
+		         -v[k] / 2, v[k] / 2);
+		scene_t sc;
+		ed_t *ed = make(json, &sc);
+		if (!ed) {
+			ok(0, "bagnold: setup v = %g", v[k]);
+			return;
+		}
+		enum { K = 30 };
+		const double t_eq = 400.0 / v[k], tau = 100.0 / v[k];
+		double f[K];
+		ed_sample_t sm;
+		ed_advance(ed, t_eq, UINT64_MAX, UINT64_MAX);
+		ed_sample(ed, &sm);
+		for (int b = 0; b < K; b++) {
+			ed_advance(ed, t_eq + (b + 1) * tau, UINT64_MAX, UINT64_MAX);
+			ed_sample(ed, &sm);
+			/* shear force: mean of the two walls' x forces (opposite signs) */
+			f[b] = 0.5 * (sm.wall_impulse[2][0] - sm.wall_impulse[3][0]) / sm.interval;
+		}
+		double m, se;
+		mean_se(f, K, &m, &se);
+		lf[k] = log(m);
+		sl[k] = se / m;   /* standard error of log F */
+		diag("bagnold v = %g: shear force %.6g +- %.2g", v[k], m, se);
+		ed_destroy(ed);
+	}
+	double slope = (lf[2] - lf[0]) / log(v[2] / v[0]);
+	double se = sqrt(sl[2] * sl[2] + sl[0] * sl[0]) / log(v[2] / v[0]);
+	double mid = (lf[1] - lf[0]) / log(v[1] / v[0]);
+	ok(fabs(slope - 2.0) < 4.0 * se && se < 0.025,
+	   "bagnold: shear force ~ v^%.4f +- %.2g over v = 0.2 .. 20 (first decade %.4f; theory 2)", slope, se, mid);
+}
+
 /* Checkpoint with thermal and vibrating walls and gravity: every field out,
  * into a blank engine, and both continue bit for bit. */
 static void test_checkpoint(void)
@@ -596,10 +645,11 @@ static void test_periodic_unchanged(void)
 
 int main(void)
 {
-	plan(16);
+	plan(17);
 	test_periodic_unchanged();
 	test_specular_pressure();
 	test_couette_rough();
+	test_bagnold();
 	test_barometric();
 	test_thermal();
 	test_thermal_moving();
