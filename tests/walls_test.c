@@ -5,6 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <jansson.h>
+
 #include "ed/ed.h"
 #include "scene.h"
 #include "tap.h"
@@ -481,7 +483,7 @@ static void test_couette_rough(void)
 	ed_destroy(ed);
 }
 
-/* Bagnold scaling (seed 000, A7): hard particles have no time scale of
+/* Bagnold scaling (seed 000, A7; the preset bagnold-shear-2d): hard particles have no time scale of
  * their own, so a Couette flow driven by walls at -+v/2 (restitution 0.9,
  * no TC) has a steady state that is the v = 1 one run v times faster: the
  * shear force F is proportional to v^2. Measured at v = 0.2, 2 and 20 (two
@@ -490,17 +492,29 @@ static void test_bagnold(void)
 {
 	const double v[3] = {0.2, 2.0, 20.0};
 	double lf[3], sl[3];
+	/* the preset presets/bagnold-shear-2d.json at three wall speeds */
+	const char *src = getenv("SRCDIR");
+	char path[4096];
+	snprintf(path, sizeof path, "%s/presets/bagnold-shear-2d.json", src ? src : ".");
+	json_error_t jerr;
+	json_t *preset = json_load_file(path, 0, &jerr);
+	json_t *y = json_object_get(json_object_get(preset, "boundaries"), "y");
+	json_t *vl = json_object_get(json_object_get(y, "lower"), "velocity");
+	json_t *vu = json_object_get(json_object_get(y, "upper"), "velocity");
+	if (!vl || !vu) {
+		ok(0, "bagnold: preset %s with moving walls (%s)", path, jerr.text);
+		json_decref(preset);
+		return;
+	}
 	for (int k = 0; k < 3; k++) {
-		char json[1024];
-		snprintf(json, sizeof json,
-		         "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":400,\"volume_fraction\":0.1,"
-		         "\"initial\":{\"positions\":\"random\",\"temperature\":1}},\"collisions\":{\"restitution\":0.9},"
-		         "\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"moving\",\"velocity\":[%.17g,0]},"
-		         "\"upper\":{\"type\":\"moving\",\"velocity\":[%.17g,0]}}},\"run\":{\"seed\":23,\"until\":{\"time\":1}}}",
-		         -v[k] / 2, v[k] / 2);
+		json_array_set_new(vl, 0, json_real(-v[k] / 2));
+		json_array_set_new(vu, 0, json_real(v[k] / 2));
+		char *json = json_dumps(preset, JSON_REAL_PRECISION(17));
 		scene_t sc;
-		ed_t *ed = make(json, &sc);
+		ed_t *ed = json ? make(json, &sc) : NULL;
+		free(json);
 		if (!ed) {
+			json_decref(preset);
 			ok(0, "bagnold: setup v = %g", v[k]);
 			return;
 		}
@@ -523,6 +537,7 @@ static void test_bagnold(void)
 		diag("bagnold v = %g: shear force %.6g +- %.2g", v[k], m, se);
 		ed_destroy(ed);
 	}
+	json_decref(preset);
 	double slope = (lf[2] - lf[0]) / log(v[2] / v[0]);
 	double se = sqrt(sl[2] * sl[2] + sl[0] * sl[0]) / log(v[2] / v[0]);
 	double mid = (lf[1] - lf[0]) / log(v[1] / v[0]);
