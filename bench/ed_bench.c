@@ -24,9 +24,12 @@ static double cpu_now(void)
 	return ts.tv_sec + 1e-9 * ts.tv_nsec;
 }
 
-/* usage: ed_bench DIM N VOLUME_FRACTION RESTITUTION WARMUP_CPP MEASURE_CPP [TC [CELL_SIZE]]
+/* usage: ed_bench DIM N VOLUME_FRACTION RESTITUTION WARMUP_CPP MEASURE_CPP [TC [CELL_SIZE [FEATURE]]]
  * Prints one JSON line. The warm-up (elastic relaxation from the lattice
- * for restitution 1) is not timed. */
+ * for restitution 1) is not timed. FEATURE (scene features, issue 12):
+ * periodic (default), walls (specular walls on every axis), thermal
+ * (thermal walls at T = 1 on the last axis), gravity (specular walls on the
+ * last axis, gravity along it with scale height T/(m g) = half the box). */
 int main(int argc, char **argv)
 {
 	if (argc < 7) {
@@ -37,13 +40,32 @@ int main(int argc, char **argv)
 	long n = atol(argv[2]);
 	double phi = atof(argv[3]), e = atof(argv[4]), warm = atof(argv[5]), meas = atof(argv[6]);
 	double tc = argc > 7 ? atof(argv[7]) : 0.0, cell = argc > 8 ? atof(argv[8]) : 0.0;
-	char json[512], err[512];
+	const char *feature = argc > 9 ? argv[9] : "periodic";
+	char json[1024], err[512], extra[512] = "";
+	const char *ax = dim == 2 ? "y" : "z";
+	const char *spec = "{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},\"upper\":{\"type\":\"specular\"}}";
+	if (!strcmp(feature, "walls")) {
+		snprintf(extra, sizeof extra, ",\"boundaries\":{\"x\":%s,\"y\":%s%s%s}", spec, spec,
+		         dim == 3 ? ",\"z\":" : "", dim == 3 ? spec : "");
+	} else if (!strcmp(feature, "thermal")) {
+		snprintf(extra, sizeof extra, ",\"boundaries\":{\"%s\":{\"type\":\"walls\",\"lower\":{\"type\":\"thermal\","
+		         "\"temperature\":1},\"upper\":{\"type\":\"thermal\",\"temperature\":1}}}", ax);
+	} else if (!strcmp(feature, "gravity")) {
+		/* box edge of the square/cubic box; g = 2 T / (m L) */
+		double vp = dim == 2 ? 3.14159265358979 / 4 : 3.14159265358979 / 6;
+		double L = pow(n * vp / phi, 1.0 / dim), g = 2.0 / L;
+		snprintf(extra, sizeof extra, ",\"boundaries\":{\"%s\":%s},\"gravity\":[0,%s%.17g]", ax, spec,
+		         dim == 3 ? "0,-" : "-", g);
+	} else if (strcmp(feature, "periodic")) {
+		fprintf(stderr, "ed_bench: unknown feature %s (periodic, walls, thermal, gravity)\n", feature);
+		return 2;
+	}
 	snprintf(json, sizeof(json),
 	         "{\"method\":\"ed\",\"dimensions\":%d,\"particles\":{\"count\":%ld,\"volume_fraction\":%g,"
 	         "\"initial\":{\"relax\":{\"collisions_per_particle\":%g}}},"
 	         "\"collisions\":{\"restitution\":%g,\"tc\":%g},\"run\":{\"until\":{\"time\":1}},"
-	         "\"ed\":{\"cell_size\":%g}}",
-	         dim, n, phi, warm, e, tc, cell);
+	         "\"ed\":{\"cell_size\":%g}%s}",
+	         dim, n, phi, warm, e, tc, cell, extra);
 	scene_t sc;
 	int rc;
 	if (scene_parse(json, strlen(json), &sc, err, sizeof(err)) != SCENE_OK) {

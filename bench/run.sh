@@ -9,7 +9,10 @@ out="$src/docs/benchmarks.md"
 tmp=$(mktemp)
 tmc=$(mktemp)
 iotmp=$(mktemp)
-trap 'rm -f "$tmp" "$tmc" "$iotmp"' EXIT
+tft=$(mktemp)
+tcmp=$(mktemp)
+ROWS=$tmp
+trap 'rm -f "$tmp" "$tmc" "$iotmp" "$tft" "$tcmp"' EXIT
 
 cpu=$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')
 cores=$(nproc)
@@ -34,7 +37,7 @@ if len(runs) > 1:
     label += " (runs: %s)" % ", ".join("%.3g" % r for r in runs)
 print("| %s | %d | %d | %g | %g | %.3g | %.3g | %.0f | %s | `%s` |" % (label, d["dim"], d["n"], d["phi"], d["restitution"],
       d["collisions_per_second"], d["events_per_second"], d["bytes_per_particle"],
-      "x".join(str(c) for c in d["cells"][:d["dim"]]), cmd))' "$label" "bench/ed_bench $*" >>"$tmp"
+      "x".join(str(c) for c in d["cells"][:d["dim"]]), cmd))' "$label" "bench/ed_bench $*" >>"$ROWS"
 }
 
 mcrow() { # label method dim n phi e steps [correction]
@@ -66,6 +69,14 @@ row "3D large (10^7), lattice start" 3 10000000 0.3 1 0 2
 # cell size (in diameters) against the automatic choice, dilute 2D and 3D
 for c in 0 1 2 3; do row "cell size ${c} (0 = auto)" 2 10000 0.05 1 20 50 0 $c; done
 for c in 0 1.2 1.5; do row "cell size ${c} (0 = auto)" 3 10976 0.1 1 20 50 0 $c; done
+
+# Scene features (issue 12): the same gas with walls, thermal walls, gravity (medians of 3).
+# Rounds interleaved over the features (a shared machine drifts), median of 3 each.
+sh "$src/bench/features.sh" "$bench" 3 >"$tft"
+# The periodic fast path against a baseline build (BASELINE_ED_BENCH=path/to/old/bench/ed_bench make bench).
+if [ -n "${BASELINE_ED_BENCH:-}" ]; then
+	sh "$src/bench/compare.sh" "$BASELINE_ED_BENCH" "$bench" >"$tcmp"
+fi
 
 # HDF5 output: checkpoint and frame cost at N = 10^6, and a run with checkpoints.
 iorow() { # label dim n phi cpp every
@@ -122,6 +133,29 @@ sh "$src/bench/ingest_bench.sh" "$build" "$src" >"$tin"
 	echo "| case | D | N | volume fraction | restitution | collisions/s | events/s | bytes/particle | cells | command |"
 	echo "|---|---|---|---|---|---|---|---|---|---|"
 	cat "$tmp"
+	echo
+	echo "## Scene features"
+	echo
+	echo "The same elastic gas (lattice start, relaxed, then timed as above) in a periodic box, between specular walls on"
+	echo "every axis, between thermal walls (T = 1) on the last axis, and under gravity (scale height T/(m g) = half the"
+	echo "box) over a specular floor and lid. Each scene runs the kernels of its features only (chosen at load), so"
+	echo "the difference is the price of the feature. Median of 3 runs, the runs of all rows interleaved (bench/features.sh)."
+	echo
+	echo "| case | D | N | volume fraction | restitution | collisions/s | events/s | bytes/particle | cells | command |"
+	echo "|---|---|---|---|---|---|---|---|---|---|"
+	cat "$tft"
+	if [ -s "$tcmp" ]; then
+		echo
+		echo "## Periodic scenes against the baseline build"
+		echo
+		echo "Collisions per CPU second of this build over the baseline's (\`BASELINE_ED_BENCH=... make bench\`, bench/compare.sh),"
+		echo "runs interleaved (alternating which goes first), median of 5 ratios. The features of issue 12 must cost a"
+		echo "periodic scene nothing: within 3%, same trajectories bit for bit."
+		echo
+		echo "| command | median ratio | ratios |"
+		echo "|---|---|---|"
+		cat "$tcmp"
+	fi
 	echo
 	echo "## DSMC and HSMC"
 	echo

@@ -18,6 +18,8 @@ static const struct { const char *name, *description; } descriptions[] = {
 	                                         "a system-spanning cluster, 200 collisions per particle"},
 	{.name = "dilute-3d-auto", .description = "Dilute cooling of 100,000 spheres (phi=0.05, e=0.9) with method auto: "
 	                                          "the cheapest method expected to keep T(t) within 2% of exact dynamics"},
+	{.name = "bagnold-shear-2d", .description = "Couette shear of 400 disks (phi=0.1, e=0.9) between walls moving at "
+	                                            "-+0.5: steady temperature and wall shear force (Bagnold: F ~ v^2)"},
 };
 
 static const size_t npresets = sizeof(presets_embedded) / sizeof(presets_embedded[0]);

@@ -73,6 +73,8 @@ typedef struct {
 	double time, interval, kinetic_energy, momentum[3], ekin_time_integral, virial;
 	uint64_t events, collisions, interval_collisions, elastic_by_tc;
 	uint64_t vmax_raised, cell_collisions, rejected_moves;
+	uint64_t wall_collisions;
+	double wall_impulse[6][3], com_height, potential_energy;
 } smp_t;
 
 static void eng_sample(run_t *rc, smp_t *o)
@@ -86,6 +88,9 @@ static void eng_sample(run_t *rc, smp_t *o)
 		o->ekin_time_integral = sm.ekin_time_integral, o->virial = sm.virial;
 		o->events = sm.events, o->collisions = sm.collisions;
 		o->interval_collisions = sm.interval_collisions, o->elastic_by_tc = sm.elastic_by_tc;
+		o->wall_collisions = sm.wall_collisions;
+		memcpy(o->wall_impulse, sm.wall_impulse, sizeof(o->wall_impulse));
+		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
 	} else {
 		dsmc_sample_t sm;
 		dsmc_sample(rc->mc, &sm);
@@ -109,6 +114,8 @@ static void eng_totals(const run_t *rc, smp_t *o)
 		o->time = sm.time, o->kinetic_energy = sm.kinetic_energy;
 		memcpy(o->momentum, sm.momentum, sizeof(o->momentum));
 		o->events = sm.events, o->collisions = sm.collisions, o->elastic_by_tc = sm.elastic_by_tc;
+		o->wall_collisions = sm.wall_collisions;
+		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
 	} else {
 		dsmc_sample_t sm;
 		dsmc_totals(rc->mc, &sm);
@@ -190,6 +197,27 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 		r->pressure = ((double)s->count * t_avg + sm.virial / (s->dim * sm.interval)) / vol;
 		r->compressibility = t_avg > 0.0 ? r->pressure * vol / ((double)s->count * t_avg) : NAN;
 		r->collision_rate = 2.0 * (double)sm.interval_collisions / ((double)s->count * sm.interval);
+	}
+	r->wall_collisions = sm.wall_collisions;
+	r->com_height = sm.com_height, r->potential_energy = sm.potential_energy;
+	for (int a = 0; a < s->dim; a++) {
+		if (!s->boundary[a].walled)
+			continue;
+		/* the wall's area: the box's other edges */
+		double area = 1.0;
+		for (int b = 0; b < s->dim; b++)
+			if (b != a)
+				area *= s->box[b];
+		for (int k = 0; k < 2; k++) {
+			int w = 2 * a + k;
+			r->walls |= 1u << w;
+			if (!(sm.interval > 0.0))
+				continue;
+			for (int b = 0; b < 3; b++)
+				r->wall_force[w][b] = sm.wall_impulse[w][b] / sm.interval;
+			/* outward: -axis at the lower wall, +axis at the upper */
+			r->wall_pressure[w] = (k ? 1.0 : -1.0) * r->wall_force[w][a] / area;
+		}
 	}
 	int want_vel = (s->observables & SCENE_OBS_VDIST) != 0;
 	int want_pos = (s->observables & (SCENE_OBS_CLUSTERS | SCENE_OBS_GOFR)) != 0;

@@ -56,6 +56,17 @@ typedef struct {
 	clusters_stats_t clusters;
 	obs_scalars_t obs;           /* velocity_distribution (a2, a3), pair_correlation (contact values) */
 	uint64_t elastic_by_tc;      /* collisions made elastic by the TC model */
+	/* Walls (SCENE_OBS_WALL_FORCE): bit w of walls set for each wall w =
+	 * 2 axis + end (0 lower, 1 upper); over the interval (have_interval):
+	 * the mean force on the wall (momentum given to it per unit time) and
+	 * its pressure, the outward normal force per unit wall area (per unit
+	 * length in 2D). Gravity (SCENE_OBS_COM_HEIGHT, SCENE_OBS_POTENTIAL):
+	 * centre-of-mass height along -g above the lower walls, potential
+	 * energy -m sum g.r, now. */
+	unsigned walls;
+	uint64_t wall_collisions;
+	double wall_force[6][3], wall_pressure[6];
+	double com_height, potential_energy;
 	const char *warning;         /* dsmc/hsmc validity warning (first record only), or NULL */
 	/* dsmc/hsmc diagnostics (totals; printed in the summary when non-zero) */
 	uint64_t vmax_raised, cell_collisions, rejected_moves;

@@ -46,6 +46,8 @@ struct irange { long long lo, hi; };
 static const struct range R_POS = { 0, INFINITY, true };
 static const struct range R_NONNEG = { 0, INFINITY, false };
 static const struct range R_UNIT = { 0, 1, false };
+static const struct range R_ANY = { -INFINITY, INFINITY, false };
+static const struct range R_SIGNED_UNIT = { -1, 1, false };
 static const struct irange R_COUNT = { 2, COUNT_MAX };
 static const struct irange R_SEED = { 0, SEED_MAX };
 static const struct irange R_REPLICAS = { 1, 1000000 };
@@ -61,6 +63,12 @@ static const char *const correction_names[] = {
 	[SCENE_MC_NONE - 1] = "none", [SCENE_MC_ENSKOG - 1] = "enskog", [SCENE_MC_CBA - 1] = "cba",
 };
 static const char *const contact_names[] = { "global", "local" };
+static const char *const wall_names[] = {
+	[SCENE_WALL_SPECULAR] = "specular", [SCENE_WALL_THERMAL] = "thermal", [SCENE_WALL_ROUGH] = "rough",
+	[SCENE_WALL_MOVING] = "moving", [SCENE_WALL_VIBRATING] = "vibrating",
+};
+static const char *const axis_kinds[] = { "periodic", "walls" };
+static const char *const axis_names[] = { "x", "y", "z" };
 static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "kinetic_energy", SCENE_OBS_ENERGY },
 	{ "temperature", SCENE_OBS_ENERGY },
@@ -73,6 +81,9 @@ static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "pair_correlation", SCENE_OBS_GOFR },
 	{ "structure_factor", SCENE_OBS_SOFK },
 	{ "velocity_correlations", SCENE_OBS_VCORR },
+	{ "wall_force", SCENE_OBS_WALL_FORCE },
+	{ "center_of_mass_height", SCENE_OBS_COM_HEIGHT },
+	{ "potential_energy", SCENE_OBS_POTENTIAL },
 };
 #define N_OBSERVABLES (sizeof observables / sizeof observables[0])
 
@@ -269,6 +280,40 @@ static int parse_box(ctx_t *c, const char *path, json_t *v, void *dst, const voi
 	return 0;
 }
 
+/* A vector of D finite numbers (gravity, wall velocity); needs the dimension. */
+static int parse_vector(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	double *x = dst;
+	if (!json_is_array(v))
+		return fail(c, path, "must be an array, got %s", type_name(v));
+	if (json_array_size(v) != (size_t)c->s->dim)
+		return fail(c, path, "must have %d components (one per dimension), got %zu", c->s->dim, json_array_size(v));
+	for (int i = 0; i < c->s->dim; i++) {
+		char sub[PATHLEN];
+		snprintf(sub, sizeof sub, "%s[%d]", path, i);
+		int ret = get_number(c, sub, json_array_get(v, i), &R_ANY, &x[i]);
+		if (ret)
+			return ret;
+	}
+	return 0;
+}
+
+static int parse_wall_type(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	int i, ret = match(c, path, v, wall_names, sizeof wall_names / sizeof wall_names[0], &i);
+	if (ret == 0)
+		*(scene_wall_type_t *)dst = (scene_wall_type_t)i;
+	return ret;
+}
+
+static int parse_axis_kind(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	int i, ret = match(c, path, v, axis_kinds, 2, &i);
+	if (ret == 0)
+		*(int *)dst = i;
+	return ret;
+}
+
 static int parse_observables(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
 {
 	unsigned bits = 0, seen = 0;
@@ -429,6 +474,8 @@ static int check_structure(ctx_t *c, json_t *v, scene_t *s)
 	return 0;
 }
 
+static int check_boundaries(ctx_t *c, json_t *v, scene_t *s);
+
 /* Rules that span objects, and the derived fields. */
 static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 {
@@ -508,6 +555,9 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 	if (ret)
 		return ret;
 
+	ret = check_boundaries(c, v, s);
+	if (ret)
+		return ret;
 	if (s->every.kind == SCENE_CLOCK_NONE)
 		s->every = (scene_when_t){ s->until.kind, s->until.value / 100 };
 
@@ -533,6 +583,182 @@ int scene_check_start(const scene_t *s, char *err, size_t errlen)
 	const char *sep = strstr(why, ": ");
 	snprintf(key, sizeof key, "%.*s", sep ? (int)(sep - why) : 0, why);
 	return fail(&c, sep ? key : "(root)", "%s", sep ? sep + 2 : why);
+}
+
+
+/* ---- boundaries ------------------------------------------------------ */
+
+/* Keys a wall of each type takes besides "type" (and what it requires). */
+static const struct {
+	const char *key;
+	unsigned types;      /* bit per scene_wall_type_t that accepts it */
+	unsigned required;   /* bit per type that requires it */
+} wall_keys[] = {
+	{ "restitution", 0x1f, 0 },
+	{ "temperature", 1u << SCENE_WALL_THERMAL, 1u << SCENE_WALL_THERMAL },
+	{ "accommodation", 1u << SCENE_WALL_THERMAL, 0 },
+	{ "probability", 1u << SCENE_WALL_ROUGH, 1u << SCENE_WALL_ROUGH },
+	{ "velocity", 1u << SCENE_WALL_MOVING | 1u << SCENE_WALL_THERMAL, 1u << SCENE_WALL_MOVING },
+	{ "tangential_restitution", 1u << SCENE_WALL_MOVING, 0 },
+	{ "coverage", 1u << SCENE_WALL_MOVING, 0 },
+	{ "amplitude", 1u << SCENE_WALL_VIBRATING, 1u << SCENE_WALL_VIBRATING },
+	{ "frequency", 1u << SCENE_WALL_VIBRATING, 1u << SCENE_WALL_VIBRATING },
+	{ "phase", 1u << SCENE_WALL_VIBRATING, 0 },
+};
+
+static int check_wall(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_wall_t *w = base;
+	char sub[PATHLEN];
+	for (size_t k = 0; k < sizeof wall_keys / sizeof wall_keys[0]; k++) {
+		bool has = json_object_get(v, wall_keys[k].key) != NULL;
+		join(sub, path, wall_keys[k].key);
+		if (has && !(wall_keys[k].types & (1u << w->type)))
+			return fail(c, sub, "not a key of a \"%s\" wall", wall_names[w->type]);
+		if (!has && (wall_keys[k].required & (1u << w->type)))
+			return fail(c, sub, "required for a \"%s\" wall", wall_names[w->type]);
+	}
+	if (json_object_get(v, "coverage") && json_object_get(v, "restitution"))
+		return fail(c, path, "at most one of restitution or coverage (which sets the restitution)");
+	return 0;
+}
+
+static const struct object wall_obj = {
+	.fields = (const struct field[]){
+		{ "type", parse_wall_type, offsetof(scene_wall_t, type), NULL, true },
+		{ "restitution", parse_number, offsetof(scene_wall_t, restitution), &R_UNIT, false },
+		{ "temperature", parse_number, offsetof(scene_wall_t, temperature), &R_POS, false },
+		{ "accommodation", parse_number, offsetof(scene_wall_t, accommodation), &R_UNIT, false },
+		{ "probability", parse_number, offsetof(scene_wall_t, probability), &R_UNIT, false },
+		{ "velocity", parse_vector, offsetof(scene_wall_t, velocity), NULL, false },
+		{ "tangential_restitution", parse_number, offsetof(scene_wall_t, tangential_restitution), &R_SIGNED_UNIT, false },
+		{ "coverage", parse_number, offsetof(scene_wall_t, coverage), &R_UNIT, false },
+		{ "amplitude", parse_number, offsetof(scene_wall_t, amplitude), &R_NONNEG, false },
+		{ "frequency", parse_number, offsetof(scene_wall_t, frequency), &R_POS, false },
+		{ "phase", parse_number, offsetof(scene_wall_t, phase), &R_ANY, false },
+		{ .name = NULL },
+	},
+	.check = check_wall,
+};
+
+static int check_axis(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_boundary_t *b = base;
+	int axis = (int)(b - c->s->boundary);
+	static const char *const ends[2] = { "lower", "upper" };
+	char sub[PATHLEN];
+	if (axis >= c->s->dim)
+		return fail(c, path, "no such axis in %d dimensions", c->s->dim);
+	for (int k = 0; k < 2; k++) {
+		bool has = json_object_get(v, ends[k]) != NULL;
+		join(sub, path, ends[k]);
+		if (has && !b->walled)
+			return fail(c, sub, "a wall on a periodic axis (%s.type is \"periodic\"; use \"walls\")", path);
+		if (!has && b->walled)
+			return fail(c, sub, "required with type \"walls\" (walls at both ends)");
+		const scene_wall_t *w = &b->wall[k];
+		if (has && (w->type == SCENE_WALL_MOVING || w->type == SCENE_WALL_THERMAL) && w->velocity[axis] != 0) {
+			char vel[PATHLEN + 32];
+			snprintf(vel, sizeof vel, "%s.velocity[%d]", sub, axis & 3);
+			return fail(c, vel, "the wall moves in its own plane: the component along the axis must be 0, got %s "
+			            "(a wall moving along its normal is \"vibrating\")", num(w->velocity[axis]).s);
+		}
+	}
+	return 0;
+}
+
+static const struct object axis_obj = {
+	.fields = (const struct field[]){
+		{ "type", parse_axis_kind, offsetof(scene_boundary_t, walled), NULL, true },
+		{ "lower", parse_object, offsetof(scene_boundary_t, wall[0]), &wall_obj, false },
+		{ "upper", parse_object, offsetof(scene_boundary_t, wall[1]), &wall_obj, false },
+		{ .name = NULL },
+	},
+	.check = check_axis,
+};
+
+static const struct object boundaries_obj = {
+	.fields = (const struct field[]){
+		{ "x", parse_object, offsetof(scene_t, boundary[0]), &axis_obj, false },
+		{ "y", parse_object, offsetof(scene_t, boundary[1]), &axis_obj, false },
+		{ "z", parse_object, offsetof(scene_t, boundary[2]), &axis_obj, false },
+		{ .name = NULL },
+	},
+};
+
+/* Rules of boundaries and gravity across the scene (after particles,
+ * collisions and output are parsed). */
+static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
+{
+	bool walls = scene_has_walls(s), grav = scene_has_gravity(s);
+	char path[PATHLEN];
+
+	if ((walls || grav) && s->method != SCENE_METHOD_ED)
+		return fail(c, walls ? "boundaries" : "gravity", "method \"%s\" does not support %s yet (only \"ed\" does)",
+			    method_names[s->method], walls ? "walls" : "gravity");
+	bool inelastic = s->restitution < 1, vibrating = false;
+	for (int a = 0; a < s->dim; a++) {
+		scene_boundary_t *b = &s->boundary[a];
+		if (!b->walled)
+			continue;
+		double room = s->box[a] - 2 * s->radius;
+		for (int k = 0; k < 2; k++) {
+			scene_wall_t *w = &b->wall[k];
+			if (w->coverage >= 0)
+				w->restitution = 1 - (1 - s->restitution) * w->coverage;
+			inelastic |= w->restitution < 1;
+			if (w->type == SCENE_WALL_VIBRATING) {
+				vibrating |= w->amplitude > 0;
+				room -= 2 * w->amplitude;
+			}
+		}
+		/* the walls' innermost positions must leave room for a particle */
+		if (!(room > 0)) {
+			snprintf(path, sizeof path, "boundaries.%s", axis_names[a]);
+			return fail(c, path, "the walls leave no room for a particle: box edge %s minus one diameter and twice "
+			            "the vibration amplitudes is %s", num(s->box[a]).s, num(room).s);
+		}
+	}
+	/* Gravity or a vibrating wall presses particles against a wall: with
+	 * any dissipation a bed at rest there would collide infinitely often in
+	 * finite time (inelastic collapse). The TC model with its minimum
+	 * rebound (docs/engine.md, "Walls and gravity") prevents it. */
+	if (walls && (grav || vibrating) && inelastic && s->tc == 0)
+		return fail(c, "collisions.tc", "must be > 0 with %s, walls and restitution below 1 (a bed at rest on a wall "
+		            "would collapse: infinitely many collisions in finite time); set collisions.tc, e.g. 1e-5 of "
+		            "the time a particle takes to fall one diameter", grav ? "gravity" : "a vibrating wall");
+	/* Observables that need what the scene has. */
+	json_t *obs = json_object_get(json_object_get(v, "output"), "observables");
+	size_t i;
+	json_t *o;
+	json_array_foreach(obs, i, o) {
+		const char *name = json_string_value(o);
+		snprintf(path, sizeof path, "output.observables[%zu]", i);
+		bool mine = !strcmp(name, "wall_force") || !strcmp(name, "center_of_mass_height") ||
+		            !strcmp(name, "potential_energy");
+		if (mine && s->replicas > 1)
+			return fail(c, path, "\"%s\" is not averaged over ensembles yet (run.replicas must be 1)", name);
+		/* cluster search, g(r), S(k) and the velocity correlations take
+		 * distances by the minimum image on every axis */
+		static const char *const periodic_only[] = { "clusters", "pair_correlation", "structure_factor",
+		                                             "velocity_correlations" };
+		for (size_t k = 0; k < sizeof periodic_only / sizeof periodic_only[0]; k++)
+			if (walls && !strcmp(name, periodic_only[k]))
+				return fail(c, path, "\"%s\" needs a periodic box (distances by the minimum image); "
+				            "not available with walls yet", name);
+		if (!strcmp(name, "wall_force") && !walls)
+			return fail(c, path, "\"wall_force\" needs walls (boundaries)");
+		if (!strcmp(name, "center_of_mass_height") || !strcmp(name, "potential_energy")) {
+			if (!grav)
+				return fail(c, path, "\"%s\" needs gravity", name);
+			for (int a = 0; a < s->dim; a++)
+				if (s->gravity[a] != 0 && !s->boundary[a].walled)
+					return fail(c, path, "\"%s\" needs gravity along walled axes only: gravity[%d] is %s along "
+					            "periodic axis %s, where heights wrap", name, a, num(s->gravity[a]).s,
+					            axis_names[a]);
+		}
+	}
+	return 0;
 }
 
 static const struct object when_obj = {
@@ -761,6 +987,8 @@ static const struct object scene_obj = {
 		{ "dimensions", parse_dimensions, offsetof(scene_t, dim), NULL, true },
 		{ "particles", parse_object, 0, &particles_obj, true },
 		{ "collisions", parse_object, 0, &collisions_obj, false },
+		{ "boundaries", parse_object, 0, &boundaries_obj, false },
+		{ "gravity", parse_vector, offsetof(scene_t, gravity), NULL, false },
 		{ "run", parse_object, 0, &run_obj, true },
 		{ "output", parse_object, 0, &output_obj, false },
 		{ "ed", parse_object, 0, &ed_obj, false },
@@ -788,6 +1016,10 @@ int scene_parse(const char *json, size_t len, scene_t *out, char *err, size_t er
 		.replicas = 1,
 		.compression = 0,
 	};
+	for (int a = 0; a < 3; a++)
+		for (int k = 0; k < 2; k++)
+			s.boundary[a].wall[k] = (scene_wall_t){ .restitution = 1, .accommodation = 1,
+			                                        .tangential_restitution = 1, .coverage = -1 };
 	ctx_t c = { &s, err, errlen };
 	json_error_t jerr;
 
@@ -819,6 +1051,22 @@ int scene_parse(const char *json, size_t len, scene_t *out, char *err, size_t er
 double scene_close_packing(int dim)
 {
 	return dim == 2 ? PI / (2 * sqrt(3.0)) : dim == 3 ? PI / (3 * sqrt(2.0)) : 0;
+}
+
+int scene_has_walls(const scene_t *s)
+{
+	for (int a = 0; a < s->dim && a < 3; a++)
+		if (s->boundary[a].walled)
+			return 1;
+	return 0;
+}
+
+int scene_has_gravity(const scene_t *s)
+{
+	for (int a = 0; a < s->dim && a < 3; a++)
+		if (s->gravity[a] != 0)
+			return 1;
+	return 0;
 }
 
 double scene_box_volume(const scene_t *s)

@@ -46,7 +46,44 @@ enum {
 	SCENE_OBS_GOFR = 1u << 6,           /* pair_correlation: contact values; g(r) at snapshot times */
 	SCENE_OBS_SOFK = 1u << 7,           /* structure_factor: S(k) at snapshot times */
 	SCENE_OBS_VCORR = 1u << 8,          /* velocity_correlations: G_par(r), G_perp(r), S_par(k), S_perp(k) at snapshot times */
+	/* scenes with walls and gravity (method ed; docs/scene.md) */
+	SCENE_OBS_WALL_FORCE = 1u << 9,     /* force on each wall: pressure and shear stress (needs walls) */
+	SCENE_OBS_COM_HEIGHT = 1u << 10,    /* centre-of-mass height along -gravity (needs gravity) */
+	SCENE_OBS_POTENTIAL = 1u << 11,     /* potential energy in the gravity field (needs gravity) */
 };
+
+/* Wall kinds (boundaries.AXIS.lower/upper.type; method ed only). Every wall
+ * has a normal restitution r_w: the normal velocity relative to the wall
+ * becomes -r_w times itself. */
+typedef enum {
+	SCENE_WALL_SPECULAR = 0,   /* v_n' = -r_w v_n, tangential unchanged */
+	SCENE_WALL_THERMAL,        /* with probability accommodation: re-emitted from a Maxwellian at temperature */
+	SCENE_WALL_ROUGH,          /* tangential velocity reversed with probability (seed 000 pipe) */
+	SCENE_WALL_MOVING,         /* tangential velocity u: v_t' - u = -beta (v_t - u) (seed 000 3.7-3.8 at beta = 1) */
+	SCENE_WALL_VIBRATING,      /* displaced along its inward normal by A sin(2 pi f t + phase) */
+} scene_wall_type_t;
+
+typedef struct {
+	scene_wall_type_t type;
+	double restitution;        /* r_w in [0, 1], default 1 (moving: or from coverage, seed 000 3.9) */
+	double temperature;        /* thermal: T_w > 0 */
+	double accommodation;      /* thermal: fraction of diffuse re-emissions, [0, 1], default 1 */
+	double probability;        /* rough: probability of reversing the tangential velocity, [0, 1] */
+	double velocity[3];        /* moving, thermal: wall velocity, normal component 0 (thermal: default 0) */
+	double tangential_restitution; /* moving: beta in [-1, 1], default 1 */
+	double amplitude;          /* vibrating: A >= 0 (length) */
+	double frequency;          /* vibrating: f > 0 (1/time) */
+	double phase;              /* vibrating: radians, default 0 */
+	double coverage;           /* moving, instead of restitution: r_w = 1 - (1 - restitution) coverage (seed 000
+	                            * 3.9, line coverage rho_l); -1 when not given */
+} scene_wall_t;
+
+/* One axis of the box: periodic, or walls at both ends (wall[0] at
+ * coordinate 0, wall[1] at the box edge; both at rest there on average). */
+typedef struct {
+	int walled;
+	scene_wall_t wall[2];
+} scene_boundary_t;
 
 typedef struct {
 	scene_clock_t kind;
@@ -70,6 +107,10 @@ typedef struct scene {
 	/* collisions */
 	double restitution;            /* 0..1, default 1 */
 	double tc;                     /* TC-model time >= 0, default 0 = off */
+
+	/* boundaries and fields (method ed only) */
+	scene_boundary_t boundary[3];  /* per axis; default periodic */
+	double gravity[3];             /* uniform acceleration, default 0 */
 
 	/* run */
 	uint64_t seed;                 /* default 1 */
@@ -123,6 +164,10 @@ int scene_check_start(const scene_t *s, char *err, size_t errlen);
 
 /* Close-packing volume fraction of disks (dim 2) or spheres (dim 3). */
 double scene_close_packing(int dim);
+
+/* Any walled axis; any non-zero gravity component. */
+int scene_has_walls(const scene_t *s);
+int scene_has_gravity(const scene_t *s);
 
 /* Volume of the box and of one particle (disk area in 2D). */
 double scene_box_volume(const scene_t *s);

@@ -82,6 +82,26 @@ cat >"$tmp/3d-dense.json" <<'JSON'
  "run":{"seed":34,"until":{"time":3}},
  "output":{"every":{"collisions_per_particle":15},"snapshots":{"every":{"time":1}},"checkpoint":{"every":{"time":0.4}}}}
 JSON
+# Walls and gravity (issue 12): wall phases, the wall random stream and the
+# wall impulse accumulators are state too.
+cat >"$tmp/2d-walls-gravity.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":1500,"volume_fraction":0.1,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9,"tc":0.0001},
+ "boundaries":{"y":{"type":"walls","lower":{"type":"vibrating","amplitude":0.3,"frequency":0.7,"restitution":0.9},
+   "upper":{"type":"thermal","temperature":1,"accommodation":0.5}}},
+ "gravity":[0,-0.5],"run":{"seed":39,"until":{"time":30}},
+ "output":{"every":{"time":1.5},"observables":["kinetic_energy","wall_force","center_of_mass_height","potential_energy"],
+   "snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":7}}}}
+JSON
+cat >"$tmp/3d-walls.json" <<'JSON'
+{"method":"ed","dimensions":3,"particles":{"count":1500,"volume_fraction":0.1,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9},
+ "boundaries":{"z":{"type":"walls","lower":{"type":"moving","velocity":[-0.5,0,0]},"upper":{"type":"moving","velocity":[0.5,0,0]}},
+   "x":{"type":"walls","lower":{"type":"rough","probability":0.5},"upper":{"type":"specular","restitution":0.8}}},
+ "run":{"seed":40,"until":{"time":12}},
+ "output":{"every":{"time":0.5},"observables":["kinetic_energy","wall_force","momentum"],
+   "snapshots":{"every":{"time":2}},"checkpoint":{"every":{"time":1.3}}}}
+JSON
 # Long enough to be killed: wall-clock checkpoints, ~2-3 s of work.
 cat >"$tmp/3d-kill.json" <<'JSON'
 {"method":"ed","dimensions":3,"particles":{"count":3000,"volume_fraction":0.4},
@@ -132,7 +152,7 @@ ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 }
 
 # (a) checkpoint at simulated time T, resume: identical to the uninterrupted run.
-for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc; do
+for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

@@ -10,6 +10,7 @@
 #include "ed.h"
 #include "rng.h"
 #include "lattice.h"
+#include "walltime.h"
 
 /* Hot particle record: everything a neighbour scan touches, one cache line
  * in 3D. Position r is valid at the particle's own time t (lazy update).
@@ -40,15 +41,38 @@ typedef struct {
 	uint32_t hpos;     /* heap slot while in the heap */
 } cnode_t;
 
+/* A wall (method ed, scenes with boundaries): its rule's parameters from
+ * the scene, its place in internal coordinates and its phase (state). Wall
+ * w = 2 axis + side (0: lower end, 1: upper end); its inward normal is +axis
+ * (lower) or -axis (upper), and it is displaced along it by A sin(theta). */
+typedef struct {
+	int type;              /* SCENE_WALL_* */
+	double r;              /* normal restitution */
+	double sv;             /* thermal: sqrt(T_w / m) */
+	double acc;            /* thermal: accommodation */
+	double p;              /* rough: probability of reversing the tangential velocity */
+	double u[3];           /* moving, thermal: velocity (in the wall's plane) */
+	double beta;           /* moving: tangential restitution */
+	double A, omega, phase0;   /* vibrating (A = 0: fixed) */
+	double ph;             /* state: theta at local time 0 (rebased with the clock) */
+	double rest;           /* internal coordinate of the wall plane at rest */
+	double vmin;           /* minimum rebound (normal speed relative to the wall) with TC; 0 without */
+} wall_t;
+
+/* Event codes in ev_t.cross at and above this: a wall (ED_WALL0 + w). */
+enum { ED_WALL0 = 8 };
+
 enum { NL_KMAX = 32 };   /* largest neighbour-list capacity (setup_mode) */
 /* Cell scans consult the occupancy bitmap above this many cells (heads of
  * 512 KiB and more: out of a core's L2 cache). */
 enum { OCC_MIN_CELLS = 1 << 17 };
 
+struct ed_ops;
+
 struct ed {
 	int dim;
 	uint32_t n;
-	double L[3], halfL[3];
+	double L[3], halfL[3];    /* internal box (walled axes: + vibration amplitudes); halfL = INFINITY on walled axes */
 	double sigma, sigma2, mass, e, tc;
 	int32_t nc[3];
 	double cw[3];
@@ -107,6 +131,27 @@ struct ed {
 	 * ends when it fires. */
 	double collapse_rate;     /* limit at T = 1, events per particle per unit time; 0: off */
 	ed_collapse_t collapse;   /* the window that fired */
+	/* The kernels of this scene's variant (dimension, walls, gravity),
+	 * chosen once; at the end, so that the hot fields above keep the
+	 * periodic engine's layout. */
+	const struct ed_ops *ops;
+	int variant;              /* 0 periodic homogeneous, 1 walls, 2 gravity (and maybe walls) */
+	/* Walls and gravity (variants 1, 2; unused in 0). Internal coordinates
+	 * on a walled axis are the scene's plus org (the lower wall's
+	 * amplitude), so that a vibrating wall never leaves [0, L]. */
+	int periodic[3];
+	double org[3];
+	double plo[3], phi[3];     /* where particle centres can be placed at the start */
+	double radius;
+	double g[3];
+	wall_t wall[6];
+	int32_t nzone[6];         /* cells from its end in which a particle can meet wall w */
+	int relaxing;             /* the elastic pre-run: walls specular, elastic, fixed */
+	double wimp[6][3];        /* momentum given to each wall over the output interval */
+	double wimp_tot[6][3];    /* ... since the start of the production run */
+	uint64_t whits[6], wall_collisions;
+	rng_t wrng;               /* thermal and rough walls */
+	double psum[3];           /* sum of the velocities at t_mark (gravity: energy bookkeeping) */
 };
 
 static inline bool hless(const hent_t *a, const hent_t *b)
@@ -386,10 +431,81 @@ static bool collapse_check(struct ed *ed, double dt)
 	return true;
 }
 
+/* Velocity v (dim components) of a particle meeting wall w at local time t,
+ * by the wall's rule; elastic: the TC model makes the normal restitution 1.
+ * Normal components are relative to the wall's own velocity. A rebound
+ * slower than the wall's vmin (TC scenes: a particle resting on a wall, or
+ * carried by a vibrating one) is raised to vmin: then two hits of one
+ * particle on one wall are at least tc apart and no bed collapses
+ * (docs/engine.md, "Walls and gravity"). */
+static void wall_rule(struct ed *ed, int w, double *v, double t, int elastic)
+{
+	const wall_t *W = &ed->wall[w];
+	const int a = w >> 1, dim = ed->dim;
+	const double s = (w & 1) ? -1.0 : 1.0;
+	const double un = W->A != 0.0 ? W->A * W->omega * cos(W->ph + W->omega * t) : 0.0;
+	double vn = s * v[a] - un;   /* < 0: approaching */
+	if (ed->relaxing) {
+		if (vn < 0.0)
+			vn = -vn;
+		v[a] = s * (un + vn);
+		return;
+	}
+	if (vn < 0.0) {
+		const double r = elastic ? 1.0 : W->r;
+		switch (W->type) {
+		case SCENE_WALL_THERMAL:
+			if (rng_uniform(&ed->wrng) < W->acc) {
+				/* diffuse: the flux-weighted Maxwellian of the wall, moving
+				 * with it (Rayleigh normal, Gaussian tangential about u) */
+				vn = W->sv * sqrt(-2.0 * log(1.0 - rng_uniform(&ed->wrng)));
+				for (int k = 0; k < dim; k++)
+					if (k != a)
+						v[k] = W->u[k] + W->sv * rng_gauss(&ed->wrng);
+			} else {
+				vn = -r * vn;
+			}
+			break;
+		case SCENE_WALL_ROUGH:
+			vn = -r * vn;
+			if (rng_uniform(&ed->wrng) < W->p)
+				for (int k = 0; k < dim; k++)
+					if (k != a)
+						v[k] = -v[k];
+			break;
+		case SCENE_WALL_MOVING:
+			vn = -r * vn;
+			for (int k = 0; k < dim; k++)
+				if (k != a)
+					v[k] = W->u[k] - W->beta * (v[k] - W->u[k]);
+			break;
+		default:
+			vn = -r * vn;
+			break;
+		}
+	}
+	if (vn < W->vmin && ed->tlast)
+		vn = W->vmin;
+	v[a] = s * (un + vn);
+}
+
+/* The clock moves its origin by t: wall phases follow (reduced mod 2 pi). */
+static void walls_rebase(struct ed *ed, double t)
+{
+	for (int w = 0; w < 6; w++)
+		if (ed->wall[w].A != 0.0)
+			ed->wall[w].ph = fmod(ed->wall[w].ph + ed->wall[w].omega * t, 6.28318530717958647692);
+}
+
 /* Loops over the D axes, unrolled (GCC does not at -O2 by itself; the
  * per-candidate arithmetic is the hot loop of the engine). */
 #define FOR_AXES(a) _Pragma("GCC unroll 3") for (int a = 0; a < D; a++)
 
+/* The kernels, once per dimension and variant: periodic homogeneous
+ * (_2d, _3d: the original engine, untouched by the features below), walls
+ * (_2w, _3w) and gravity with or without walls (_2g, _3g). */
+#define WALLS 0
+#define GRAV 0
 #define D 2
 #define P_T p2_t
 #define FN(x) x##_2d
@@ -404,8 +520,76 @@ static bool collapse_check(struct ed *ed, double dt)
 #undef D
 #undef P_T
 #undef FN
+#undef WALLS
+#define WALLS 1
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2w
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3w
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#undef GRAV
+#define GRAV 1
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2g
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3g
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#undef WALLS
+#undef GRAV
 
-#define DISPATCH(ed, fn, ...) ((ed)->dim == 2 ? fn##_2d(__VA_ARGS__) : fn##_3d(__VA_ARGS__))
+/* A variant's entry points, chosen once in ed_alloc(): nothing per event. */
+typedef struct ed_ops {
+	int (*run)(struct ed *, double, uint64_t, uint64_t);
+	int (*place_random)(struct ed *, rng_t *);
+	void (*place)(struct ed *, uint32_t);
+	double (*ekin)(const struct ed *, double *);
+	void (*state)(const struct ed *, double *, double *);
+	double (*min_gap)(const struct ed *);
+	int32_t (*cell_index)(const struct ed *, const int32_t *);
+	void (*rebase)(struct ed *);
+	void (*set_cross)(struct ed *, uint32_t);
+	void (*scan_full)(struct ed *, uint32_t);
+	/* periodic variant only (neighbour lists); NULL elsewhere */
+	void (*nl_build_all)(struct ed *);
+	void (*resync)(struct ed *);
+	void (*set_nl)(struct ed *, uint32_t);
+	void (*scan_nl)(struct ed *, uint32_t);
+	/* walls and gravity variants only */
+	void (*observe)(const struct ed *, double *, double *);
+	void (*energy_to)(struct ed *, double);
+} ed_ops_t;
+
+#define OPS_COMMON(x) \
+	.run = run_##x, .place_random = place_random_##x, .place = place_##x, .ekin = ekin_##x, .state = state_##x, \
+	.min_gap = min_gap_##x, .cell_index = cell_index_##x, .rebase = rebase_##x, .set_cross = set_cross_##x, \
+	.scan_full = scan_full_##x
+#define OPS_NL(x) .nl_build_all = nl_build_all_##x, .resync = resync_##x, .set_nl = set_nl_##x, .scan_nl = scan_nl_##x
+static const ed_ops_t ed_ops[2][3] = {
+	{ { OPS_COMMON(2d), OPS_NL(2d) }, { OPS_COMMON(2w), .observe = observe_2w },
+	  { OPS_COMMON(2g), .observe = observe_2g, .energy_to = energy_to_2g } },
+	{ { OPS_COMMON(3d), OPS_NL(3d) }, { OPS_COMMON(3w), .observe = observe_3w },
+	  { OPS_COMMON(3g), .observe = observe_3g, .energy_to = energy_to_3g } },
+};
+
+#define DISPATCH(ed, fn, ...) ((ed)->ops->fn(__VA_ARGS__))
 
 static void set_msg(char *msg, size_t len, const char *fmt, double a, double b)
 {
@@ -562,10 +746,17 @@ static int place_lattice(struct ed *ed, rng_t *rng, char *msg, size_t msglen)
 	size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
 	double d;
 	lattice_fill_t fill;
+	/* The lattice fills [plo, phi) as if periodic (walled axes: out of
+	 * reach of the walls; the periodic spacing keeps the first and last
+	 * layers a diameter apart too, which costs at most one layer). */
+	double Lp[3] = {ed->L[0], ed->L[1], ed->L[2]};
+	if (ed->variant)
+		for (int a = 0; a < ed->dim; a++)
+			Lp[a] = ed->phi[a] - ed->plo[a];
 	if (ed->dim == 2) {
 		int64_t nx = 1, ny = 1;
-		d = lattice_2d(ed->L, ed->n, &nx, &ny);
-		double ax = ed->L[0] / nx, ay = ed->L[1] / ny;
+		d = lattice_2d(Lp, ed->n, &nx, &ny);
+		double ax = Lp[0] / nx, ay = Lp[1] / ny;
 		lattice_fill_init(&fill, (uint64_t)(nx * ny), ed->n, rng);
 		for (uint32_t i = 0; i < ed->n; i++) {
 			int64_t j = (int64_t)lattice_fill_next(&fill), ix = j % nx, iy = j / nx;
@@ -576,8 +767,8 @@ static int place_lattice(struct ed *ed, rng_t *rng, char *msg, size_t msglen)
 	} else {
 		static const double site[4][3] = {{0, 0, 0}, {.5, .5, 0}, {.5, 0, .5}, {0, .5, .5}};
 		int64_t nn[3] = {1, 1, 1};
-		d = lattice_3d(ed->L, ed->n, nn);
-		double ax = ed->L[0] / nn[0], ay = ed->L[1] / nn[1], az = ed->L[2] / nn[2];
+		d = lattice_3d(Lp, ed->n, nn);
+		double ax = Lp[0] / nn[0], ay = Lp[1] / nn[1], az = Lp[2] / nn[2];
 		lattice_fill_init(&fill, (uint64_t)(4 * nn[0] * nn[1] * nn[2]), ed->n, rng);
 		for (uint32_t i = 0; i < ed->n; i++) {
 			int64_t j = (int64_t)lattice_fill_next(&fill), c = j / 4, s = j % 4;
@@ -590,6 +781,12 @@ static int place_lattice(struct ed *ed, rng_t *rng, char *msg, size_t msglen)
 	}
 	if (lattice_short(ed, d, msg, msglen))
 		return ED_EPLACE;
+	if (ed->variant)
+		for (uint32_t i = 0; i < ed->n; i++) {
+			r = (double *)((char *)ed->p + i * stride);
+			for (int a = 0; a < ed->dim; a++)
+				r[a] += ed->plo[a];
+		}
 	for (uint32_t i = 0; i < ed->n; i++)
 		DISPATCH(ed, place, ed, i);
 	return ED_OK;
@@ -606,16 +803,26 @@ static double rsa_jamming(int dim) { return dim == 2 ? 0.547 : 0.384; }
  * diameter, random placement at or above jamming. ED_OK or ED_EPLACE. */
 static int placement_check(const struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 {
+	/* Walled scenes place centres in [plo, phi) only (out of the walls'
+	 * reach): the lattice spans that, and random placement sees the volume
+	 * fraction of that region grown by one diameter (the particles' extent). */
+	double Lp[3] = {ed->L[0], ed->L[1], ed->L[2]}, phi_eff = s->volume_fraction;
+	if (ed->variant)
+		for (int a = 0; a < ed->dim; a++) {
+			Lp[a] = ed->phi[a] - ed->plo[a];
+			if (!ed->periodic[a])
+				phi_eff *= ed->L[a] / (Lp[a] + ed->sigma);
+		}
 	if (s->positions == SCENE_POS_RANDOM) {
-		if (s->volume_fraction < rsa_jamming(ed->dim))
+		if (phi_eff < rsa_jamming(ed->dim))
 			return ED_OK;
 		set_msg(msg, msglen, "particles.initial.positions: \"random\" cannot place particles at volume fraction "
-		        "%.4g (random sequential addition jams at %.3g); use \"lattice\"", s->volume_fraction,
+		        "%.4g (random sequential addition jams at %.3g); use \"lattice\"", phi_eff,
 		        rsa_jamming(ed->dim));
 		return ED_EPLACE;
 	}
 	int64_t b[3] = {1, 1, 1};
-	double d = ed->dim == 2 ? lattice_2d(ed->L, ed->n, &b[0], &b[1]) : lattice_3d(ed->L, ed->n, b);
+	double d = ed->dim == 2 ? lattice_2d(Lp, ed->n, &b[0], &b[1]) : lattice_3d(Lp, ed->n, b);
 	return lattice_short(ed, d, msg, msglen) ? ED_EPLACE : ED_OK;
 }
 
@@ -658,10 +865,8 @@ static void predict_all(struct ed *ed)
 	if (ed->nl)
 		DISPATCH(ed, nl_build_all, ed);
 	for (uint32_t i = 0; i < ed->n; i++) {
-		if (ed->nl && ed->dim == 2) { set_nl_2d(ed, i); scan_nl_2d(ed, i); }
-		else if (ed->nl) { set_nl_3d(ed, i); scan_nl_3d(ed, i); }
-		else if (ed->dim == 2) { set_cross_2d(ed, i); scan_full_2d(ed, i); }
-		else { set_cross_3d(ed, i); scan_full_3d(ed, i); }
+		if (ed->nl) { DISPATCH(ed, set_nl, ed, i); DISPATCH(ed, scan_nl, ed, i); }
+		else { DISPATCH(ed, set_cross, ed, i); DISPATCH(ed, scan_full, ed, i); }
 	}
 	cal_build(ed);
 }
@@ -669,7 +874,7 @@ static void predict_all(struct ed *ed)
 /* A neighbour list overflowed (denser locally than its capacity): go on in
  * cell mode on the same grid, everything predicted afresh from the present
  * state. Deterministic like any other event. */
-static void nl_abandon(struct ed *ed)
+__attribute__((noinline, cold)) static void nl_abandon(struct ed *ed)
 {
 	ed->nl = ed->nl_over = 0;
 	DISPATCH(ed, resync, ed);
@@ -680,7 +885,7 @@ static void nl_abandon(struct ed *ed)
  * statistics reset (used after the elastic pre-run). */
 static void reset_clock(struct ed *ed)
 {
-	if (ed->dim == 2) rebase_2d(ed); else rebase_3d(ed);
+	DISPATCH(ed, rebase, ed);
 	ed->epoch = ed->epoch_c = 0.0;
 	ed->t_abs_valid = 0;
 	ed->events = ed->collisions = ed->tc_elastic = ed->since_rebase = 0;
@@ -692,6 +897,15 @@ static void reset_clock(struct ed *ed)
 	if (ed->tlast)
 		for (uint32_t i = 0; i < ed->n; i++)
 			ed->tlast[i] = -INFINITY;
+	/* walls: phases as the scene says at time 0, accumulators empty */
+	for (int w = 0; w < 6; w++)
+		ed->wall[w].ph = ed->wall[w].phase0;
+	memset(ed->wimp, 0, sizeof ed->wimp);
+	memset(ed->wimp_tot, 0, sizeof ed->wimp_tot);
+	memset(ed->whits, 0, sizeof ed->whits);
+	ed->wall_collisions = 0;
+	for (int a = 0; a < 3; a++)
+		ed->psum[a] = mom[a] / ed->mass;
 }
 
 /* Per-particle arrays are read at random (neighbours, calendar): with 4 KiB
@@ -721,6 +935,78 @@ static void *big_alloc(size_t bytes, int zero)
 	if (p && zero)
 		memset(p, 0, bytes);
 	return p;
+}
+
+/* Walls and gravity from the scene: internal box, wall rules and places. */
+static void setup_walls(struct ed *ed, const scene_t *s)
+{
+	const double two_pi = 6.28318530717958647692;
+	ed->radius = s->radius;
+	for (int a = 0; a < 3; a++) {
+		ed->periodic[a] = 1;
+		ed->g[a] = a < s->dim ? s->gravity[a] : 0.0;
+		ed->plo[a] = 0.0;
+		ed->phi[a] = ed->L[a];
+	}
+	for (int a = 0; a < s->dim; a++) {
+		const scene_boundary_t *b = &s->boundary[a];
+		if (!b->walled)
+			continue;
+		const double alo = b->wall[0].type == SCENE_WALL_VIBRATING ? b->wall[0].amplitude : 0.0;
+		const double ahi = b->wall[1].type == SCENE_WALL_VIBRATING ? b->wall[1].amplitude : 0.0;
+		ed->periodic[a] = 0;
+		ed->org[a] = alo;
+		ed->L[a] = s->box[a] + alo + ahi;
+		ed->halfL[a] = INFINITY;   /* no minimum image along a walled axis */
+		ed->plo[a] = 2.0 * alo + s->radius;
+		ed->phi[a] = ed->L[a] - 2.0 * ahi - s->radius;
+		for (int k = 0; k < 2; k++) {
+			const scene_wall_t *sw = &b->wall[k];
+			wall_t *W = &ed->wall[2 * a + k];
+			const double sg = k ? -1.0 : 1.0;
+			W->type = sw->type;
+			W->r = sw->restitution;
+			W->sv = sw->type == SCENE_WALL_THERMAL ? sqrt(sw->temperature / s->mass) : 0.0;
+			W->acc = sw->accommodation;
+			W->p = sw->probability;
+			for (int j = 0; j < 3; j++)
+				W->u[j] = sw->type == SCENE_WALL_MOVING || sw->type == SCENE_WALL_THERMAL ? sw->velocity[j] : 0.0;
+			W->beta = sw->tangential_restitution;
+			if (sw->type == SCENE_WALL_VIBRATING && sw->amplitude > 0.0) {
+				W->A = sw->amplitude;
+				W->omega = two_pi * sw->frequency;
+				W->phase0 = W->ph = sw->phase;
+			}
+			W->rest = k ? ed->L[a] - ahi : alo;
+			/* the rebound that keeps two hits tc apart against the wall's
+			 * pull: gravity into it plus its largest acceleration */
+			double pull = fmax(0.0, -sg * ed->g[a]) + W->A * W->omega * W->omega;
+			W->vmin = 0.5 * s->tc * pull;
+		}
+	}
+	rng_init(&ed->wrng, s->seed, s->stream | (1ull << 62));
+}
+
+/* Walled axes: neighbour cells -1, 0, +1 clipped at the ends (no images);
+ * only small periodic axes need the minimum image; the cells each wall can
+ * reach. */
+static void setup_wall_cells(struct ed *ed)
+{
+	ed->minimg = 0;
+	for (int a = 0; a < ed->dim; a++) {
+		if (ed->periodic[a]) {
+			if (ed->nc[a] < 3)
+				ed->minimg = 1;
+			continue;
+		}
+		ed->no[a] = 3;
+		ed->off[a][0] = -1, ed->off[a][1] = 0, ed->off[a][2] = 1;
+		for (int k = 0; k < 2; k++) {
+			double reach = 2.0 * ed->wall[2 * a + k].A + ed->radius;
+			double z = floor(reach / ed->cw[a]) + 1.0;
+			ed->nzone[2 * a + k] = z < ed->nc[a] ? (int32_t)z : ed->nc[a];
+		}
+	}
 }
 
 /* The engine's arrays in bytes (ed_alloc() allocates exactly these, with
@@ -780,7 +1066,15 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 		ed->L[a] = a < s->dim ? s->box[a] : 1.0;
 		ed->halfL[a] = 0.5 * ed->L[a];
 	}
-	setup_mode(ed, s->ed_cell_size * ed->sigma);
+	ed->variant = scene_has_gravity(s) ? 2 : scene_has_walls(s) ? 1 : 0;
+	ed->ops = &ed_ops[ed->dim - 2][ed->variant];
+	if (ed->variant) {
+		setup_walls(ed, s);
+		setup_cells(ed, s->ed_cell_size * ed->sigma);   /* cell mode only */
+		setup_wall_cells(ed);
+	} else {
+		setup_mode(ed, s->ed_cell_size * ed->sigma);
+	}
 	if (too_many_cells(ed->ncells, ed->n)) {
 		set_msg(msg, msglen, "ed.cell_size: gives %.3g cells, more than 64 per particle (beyond the first %.0f); "
 		        "use a larger cell_size or 0 (automatic)", (double)ed->ncells, ED_CELLS_FREE);
@@ -884,14 +1178,23 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 	if (s->relax_cpp > 0.0) {
 		/* Elastic pre-run to an equilibrium fluid structure (seed 003, ch. 4);
 		 * elastic, so the temperature is unchanged. */
-		double e = ed->e;
+		double e = ed->e, omega[6];
 		double *tl = ed->tlast;
 		ed->e = 1.0;
 		ed->tlast = NULL;
+		/* walls: specular, elastic and standing still where they are at time 0 */
+		ed->relaxing = 1;
+		for (int w = 0; w < 6; w++) {
+			omega[w] = ed->wall[w].omega;
+			ed->wall[w].omega = 0.0;
+		}
 		uint64_t target = (uint64_t)ceil(s->relax_cpp * ed->n / 2.0);
 		DISPATCH(ed, run, ed, INFINITY, target, UINT64_MAX);
 		ed->e = e;
 		ed->tlast = tl;
+		ed->relaxing = 0;
+		for (int w = 0; w < 6; w++)
+			ed->wall[w].omega = omega[w];
 		reset_clock(ed);
 	}
 	*err = ED_OK;
@@ -930,6 +1233,18 @@ int ed_advance(ed_t *ed, double t_stop, uint64_t max_collisions, uint64_t max_ev
 	return DISPATCH(ed, run, ed, t_stop, max_collisions, max_events);
 }
 
+/* The wall and gravity fields of a sample (totals and the interval's
+ * impulses so far). */
+static void sample_walls(const struct ed *ed, ed_sample_t *out)
+{
+	out->wall_collisions = ed->wall_collisions;
+	memcpy(out->wall_hits, ed->whits, sizeof out->wall_hits);
+	memcpy(out->wall_impulse, ed->wimp, sizeof out->wall_impulse);
+	out->com_height = out->potential_energy = NAN;
+	if (ed->variant == 2)
+		ed->ops->observe(ed, &out->com_height, &out->potential_energy);
+}
+
 void ed_sample(ed_t *ed, ed_sample_t *out)
 {
 	memset(out, 0, sizeof(*out));
@@ -939,9 +1254,15 @@ void ed_sample(ed_t *ed, ed_sample_t *out)
 	out->collisions = ed->collisions;
 	out->interval_collisions = ed->collisions - ed->coll_int0;
 	out->elastic_by_tc = ed->tc_elastic;
+	if (ed->ops->energy_to)   /* gravity: E_kin changes between events */
+		ed->ops->energy_to(ed, ed->t);
 	out->kinetic_energy = DISPATCH(ed, ekin, ed, out->momentum);
 	out->ekin_time_integral = ed->ekin_int + ed->ekin_cur * (ed->t - ed->t_mark);
 	out->virial = ed->virial;
+	sample_walls(ed, out);
+	memset(ed->wimp, 0, sizeof ed->wimp);
+	for (int a = 0; a < 3; a++)
+		ed->psum[a] = out->momentum[a] / ed->mass;
 	/* New interval; the running energy is refreshed from the velocities so
 	 * that rounding in the incremental bookkeeping cannot accumulate. */
 	ed->ekin_cur = out->kinetic_energy;
@@ -1007,7 +1328,9 @@ const char *ed_strerror(int code)
 
 typedef enum {
 	F_R, F_V, F_TLOC, F_NEXT, F_COUNT, F_TCOLL, F_TCROSS, F_PARTNER, F_PCOUNT, F_CROSS, F_CELL,
-	F_ID, F_HEAD, F_TLAST, F_XN, F_NN, F_NB, F_SCALAR
+	F_ID, F_HEAD, F_TLAST, F_XN, F_NN, F_NB,
+	F_WPH, F_WIMP, F_WIMPTOT, F_WHITS, F_WCOLL, F_WRNG, F_PSUM,   /* walls and gravity variants only */
+	F_SCALAR
 } fid_t;
 
 static const struct {
@@ -1048,6 +1371,10 @@ static const struct {
 	{ "cross", F_CROSS, ED_T_I32 }, { "cell", F_CELL, ED_T_I32 },
 	{ "id", F_ID, ED_T_U32 }, { "head", F_HEAD, ED_T_I32 }, { "tlast", F_TLAST, ED_T_F64 },
 	{ "xn", F_XN, ED_T_F64 }, { "nn", F_NN, ED_T_U8 }, { "nb", F_NB, ED_T_I32 },
+	{ "wall_phase", F_WPH, ED_T_F64 }, { "wall_impulse", F_WIMP, ED_T_F64 },
+	{ "wall_impulse_total", F_WIMPTOT, ED_T_F64 }, { "wall_hits", F_WHITS, ED_T_U64 },
+	{ "wall_collisions", F_WCOLL, ED_T_U64 }, { "wall_rng", F_WRNG, ED_T_U64 },
+	{ "velocity_sum", F_PSUM, ED_T_F64 },
 };
 #define N_ARRAYS (sizeof arrays / sizeof arrays[0])
 
@@ -1062,16 +1389,18 @@ size_t ed_type_size(ed_type_t t)
 }
 
 /* Whether a field exists, for an engine with neighbour lists (nl) and TC times (tc). */
-static int field_exists(fid_t id, int nl, int tc)
+static int field_exists(fid_t id, int nl, int tc, int variant)
 {
 	if (id == F_TLAST)
 		return tc;
 	if (id == F_XN || id == F_NN || id == F_NB)
 		return nl;
+	if (id >= F_WPH && id <= F_PSUM)   /* periodic scenes keep their checkpoint layout */
+		return variant != 0;
 	return 1;
 }
 
-static int array_present(const struct ed *ed, fid_t id) { return field_exists(id, ed->xn != NULL, ed->tlast != NULL); }
+static int array_present(const struct ed *ed, fid_t id) { return field_exists(id, ed->xn != NULL, ed->tlast != NULL, ed->variant); }
 
 static size_t array_count(const struct ed *ed, fid_t id)
 {
@@ -1079,6 +1408,11 @@ static size_t array_count(const struct ed *ed, fid_t id)
 	case F_R: case F_V: case F_XN: return (size_t)ed->n * ed->dim;
 	case F_CELL: return (size_t)ed->n * 3;
 	case F_HEAD: return ed->ncells;
+	case F_WPH: case F_WHITS: return 6;
+	case F_WIMP: case F_WIMPTOT: return 18;
+	case F_WCOLL: return 1;
+	case F_WRNG: return 4;
+	case F_PSUM: return 3;
 	case F_NB: {
 		size_t k = 0;
 		for (uint32_t i = 0; i < ed->n; i++)
@@ -1121,7 +1455,7 @@ int ed_plan(const scene_t *s, ed_plan_t *out, char *msg, size_t msglen)
 		out->state += ed_type_size(scalars[a].type);
 	out->largest = 0;
 	for (size_t a = 0; a < N_ARRAYS; a++) {
-		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0))
+		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0, ed.variant))
 			continue;
 		double count = arrays[a].id == F_NB ? per * ed.n : (double)array_count(&ed, arrays[a].id);
 		uint64_t bytes = (uint64_t)(count * (double)ed_type_size(arrays[a].type));
@@ -1210,6 +1544,20 @@ static void field_copy(struct ed *ed, fid_t id, void *buf, int to_buf)
 	case F_TLAST: src = ed->tlast; bytes = ed->n * sizeof(double); break;
 	case F_XN: src = ed->xn; bytes = (size_t)ed->n * D * sizeof(double); break;
 	case F_NN: src = ed->nn; bytes = ed->n; break;
+	case F_WPH: {
+		double *ph = (double *)b;
+		for (int w = 0; w < 6; w++) {
+			if (to_buf) ph[w] = ed->wall[w].ph;
+			else ed->wall[w].ph = ph[w];
+		}
+		return;
+	}
+	case F_WIMP: src = ed->wimp; bytes = sizeof ed->wimp; break;
+	case F_WIMPTOT: src = ed->wimp_tot; bytes = sizeof ed->wimp_tot; break;
+	case F_WHITS: src = ed->whits; bytes = sizeof ed->whits; break;
+	case F_WCOLL: src = &ed->wall_collisions; bytes = sizeof ed->wall_collisions; break;
+	case F_WRNG: src = ed->wrng.s; bytes = sizeof ed->wrng.s; break;
+	case F_PSUM: src = ed->psum; bytes = sizeof ed->psum; break;
 	case F_NB: {
 		/* lists packed: the first nn[i] entries of each row */
 		size_t k = 0;
@@ -1276,6 +1624,14 @@ ed_t *ed_create_blank(const scene_t *s, int *err, char *msg, size_t msglen)
 
 static int in_range(int32_t x, uint32_t n) { return x >= -1 && x < (int32_t)n; }
 
+/* A boundary event code: none, a cell face, or (walls) a wall of a walled axis. */
+static int cross_valid(const struct ed *ed, int32_t c)
+{
+	if (c >= -1 && c < 2 * ed->dim)
+		return 1;
+	return ed->variant && c >= ED_WALL0 && c < ED_WALL0 + 2 * ed->dim && !ed->periodic[(c - ED_WALL0) >> 1];
+}
+
 int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 {
 	const uint32_t n = ed->n;
@@ -1293,7 +1649,7 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 			why = "scene indices are not a permutation";
 		else if (!in_range(e->partner, n) || !in_range(NEXT(i), n))
 			why = "particle index out of range";
-		else if (e->cross < -1 || e->cross >= 2 * ed->dim || isnan(e->t_coll) || isnan(e->t_cross))
+		else if (!cross_valid(ed, e->cross) || isnan(e->t_coll) || isnan(e->t_cross))
 			why = "bad event record";
 		for (int a = 0; a < 3 && !why; a++)
 			if (e->cc[a] < 0 || e->cc[a] >= ed->nc[a])
@@ -1357,6 +1713,7 @@ void ed_totals(const ed_t *ed, ed_sample_t *out)
 	out->collisions = ed->collisions;
 	out->elastic_by_tc = ed->tc_elastic;
 	out->kinetic_energy = DISPATCH(ed, ekin, ed, out->momentum);
+	sample_walls(ed, out);
 }
 
 void ed_watch_collapse(ed_t *ed, double rate)

@@ -1,4 +1,4 @@
-/* Exact event-driven simulation of inelastic hard disks (2D) and spheres (3D) in a periodic box. */
+/* Exact event-driven simulation of inelastic hard disks (2D) and spheres (3D) in a periodic box or between walls, optionally under gravity. */
 #pragma once
 
 #include <stdint.h>
@@ -95,6 +95,18 @@ typedef struct {
 	double momentum[3];      /* total, now */
 	double ekin_time_integral;  /* integral of E_kin dt over the interval */
 	double virial;           /* sum over collisions in the interval of r_ij . J_ij */
+	/* Scenes with walls (boundaries): wall w = 2 axis + end (0 lower, 1
+	 * upper). wall_impulse[w]: momentum given to wall w over the interval
+	 * (its time average force is wall_impulse / interval; the normal
+	 * component along the axis is positive for a push outwards at the
+	 * lower wall, negative at the upper). Zero without walls. */
+	uint64_t wall_collisions;       /* particle-wall collisions (total) */
+	uint64_t wall_hits[6];          /* ... per wall (total) */
+	double wall_impulse[6][3];
+	/* Scenes with gravity g: centre-of-mass height along -g (from the
+	 * lower walls' rest positions; scene coordinates) and potential energy
+	 * -m sum g.r, now. NAN without gravity. */
+	double com_height, potential_energy;
 } ed_sample_t;
 
 /* Fill *out and start a new interval. Does not change the dynamics. */
@@ -136,7 +148,7 @@ typedef struct {
 	ed_type_t type;
 	size_t count;        /* elements */
 } ed_field_t;
-#define ED_MAX_FIELDS 40
+#define ED_MAX_FIELDS 48
 
 size_t ed_type_size(ed_type_t t);
 /* Describe the fields of the current state into out[max]; returns how many

@@ -2,15 +2,28 @@
 
 /*
  * Expects: D (2 or 3), P_T (particle record type with r[D], v[D], t, next,
- * count) and FN(name) (name mangling), plus the shared declarations of ed.c.
+ * count), FN(name) (name mangling), and the variant flags WALLS (some axes
+ * may have walls: no wrap there, wall events, cell mode only) and GRAV
+ * (uniform gravity ed->g: ballistic flight; implies WALLS), plus the shared
+ * declarations of ed.c. WALLS = GRAV = 0 is the periodic homogeneous engine;
+ * the flags are compile-time, so it tests none of this per event.
  */
 
-/* Free flight of particle p to time t (lazy: only when the particle is touched). */
-static inline void FN(advance)(P_T *p, double t)
+/* Flight of particle p to time t (lazy: only when the particle is touched). */
+static inline void FN(advance)(const struct ed *ed, P_T *p, double t)
 {
 	double dt = t - p->t;
+#if GRAV
+	const double hdt = 0.5 * dt * dt;
+	FOR_AXES(a) {
+		p->r[a] += p->v[a] * dt + ed->g[a] * hdt;
+		p->v[a] += ed->g[a] * dt;
+	}
+#else
+	(void)ed;
 	FOR_AXES(a)
 		p->r[a] += p->v[a] * dt;
+#endif
 	p->t = t;
 }
 
@@ -49,6 +62,7 @@ static void FN(cell_remove)(struct ed *ed, uint32_t i)
 		ed->occ[c >> 6] &= ~((uint64_t)1 << (c & 63));
 }
 
+#if !WALLS
 /* Time at which particle i (synchronised at time t) leaves its cell, and
  * through which face. A position a rounding error outside its cell gives a
  * crossing at once (dt clamped to 0), never a negative time. */
@@ -79,6 +93,70 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
 	e->t_cross = p->t + best;
 	e->cross = best < INFINITY ? 2 * k + up[k] : -1;
 }
+#else
+/* Time from now (particle i synchronised) to its contact with wall w, no
+ * later than horizon (INFINITY if none before). Fixed walls: a quadratic
+ * (linear without gravity); vibrating ones: walltime_vibrating(). */
+static inline double FN(wall_time)(const struct ed *ed, const P_T *p, int w, double horizon)
+{
+	const wall_t *W = &ed->wall[w];
+	const int a = w >> 1;
+	const double s = (w & 1) ? -1.0 : 1.0;
+	const double gam = GRAV ? s * ed->g[a] : 0.0;
+	double d = s * (p->r[a] - W->rest) - ed->radius;
+	if (W->A == 0.0)
+		return walltime_plane(d, s * p->v[a], gam);
+	const double th = W->ph + W->omega * p->t;
+	d -= W->A * sin(th);
+	if (!(horizon < INFINITY))
+		horizon = 6.28318530717958647692 / W->omega;   /* only at rest along the axis: one period decides */
+	return walltime_vibrating(d, s * p->v[a], gam, W->A, W->omega, th, horizon);
+}
+
+/* The particle's next boundary event: leaving its cell through a face
+ * (walled axes have no face at their ends), or meeting a wall (particles
+ * in the cells a wall can reach). With gravity each face is a quadratic
+ * (walltime_plane: robust for grazing and resting particles). Code in
+ * e->cross: 2 axis + (upper face), or ED_WALL0 + wall. */
+static void FN(set_cross)(struct ed *ed, uint32_t i)
+{
+	const P_T *p = &((P_T *)ed->p)[i];
+	ev_t *e = &ed->ev[i];
+	double best = INFINITY;
+	int code = -1;
+	FOR_AXES(a) {
+		const double x = p->r[a], v = p->v[a], g = GRAV ? ed->g[a] : 0.0;
+		const int32_t c = e->cc[a], n = ed->nc[a];
+		if (c > 0 || ed->periodic[a]) {
+			double dt = walltime_plane(x - c * ed->cw[a], v, g);
+			if (dt < best)
+				best = dt, code = 2 * a;
+		}
+		if (c < n - 1 || ed->periodic[a]) {
+			double f1 = c + 1 == n ? ed->L[a] : (c + 1) * ed->cw[a];
+			double dt = walltime_plane(f1 - x, -v, -g);
+			if (dt < best)
+				best = dt, code = 2 * a + 1;
+		}
+	}
+	FOR_AXES(a) {
+		if (ed->periodic[a])
+			continue;
+		if (e->cc[a] < ed->nzone[2 * a]) {
+			double dt = FN(wall_time)(ed, p, 2 * a, best);
+			if (dt < best)
+				best = dt, code = ED_WALL0 + 2 * a;
+		}
+		if (e->cc[a] >= ed->nc[a] - ed->nzone[2 * a + 1]) {
+			double dt = FN(wall_time)(ed, p, 2 * a + 1, best);
+			if (dt < best)
+				best = dt, code = ED_WALL0 + 2 * a + 1;
+		}
+	}
+	e->t_cross = p->t + best;
+	e->cross = best < INFINITY ? code : -1;
+}
+#endif
 
 /* One candidate partner j for particle i (own data ri, vi at time t): if
  * they collide within *horizon (relative to t), shrink it and record j.
@@ -91,9 +169,19 @@ FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, co
              double *horizon, int32_t *found)
 {
 	double dtj = t - pj->t, dr[D], dv[D], b, r2;
+#if GRAV
+	/* j's position and velocity now; the relative motion is then free
+	 * flight (uniform gravity cancels), so the rest is unchanged */
+	const double hj = 0.5 * dtj * dtj;
+#endif
 	FOR_AXES(a) {
+#if GRAV
+		dv[a] = vi[a] - (pj->v[a] + ed->g[a] * dtj);
+		double x = ri[a] - (pj->r[a] + pj->v[a] * dtj + ed->g[a] * hj);
+#else
 		dv[a] = vi[a] - pj->v[a];
 		double x = ri[a] - (pj->r[a] + pj->v[a] * dtj);
+#endif
 		if (minimg) {
 			if (x > ed->halfL[a]) x -= ed->L[a];
 			else if (x < -ed->halfL[a]) x += ed->L[a];
@@ -154,7 +242,7 @@ static void FN(try_images)(const struct ed *ed, const P_T *pj, int32_t j, const 
 {
 	int k[3] = {0, 0, 0}, lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
 	FOR_AXES(a)
-		if (ed->nc[a] < 3)
+		if (ed->nc[a] < 3 && (!WALLS || ed->periodic[a]))
 			lo[a] = -1, hi[a] = 1;
 	for (k[2] = lo[2]; k[2] <= hi[2]; k[2]++)
 		for (k[1] = lo[1]; k[1] <= hi[1]; k[1]++)
@@ -185,6 +273,34 @@ FN(scan_impl)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[
 	int32_t cell[3][3] = {{0}};   /* per axis: contribution to the cell index */
 	double sh[3][3] = {{0.0}};    /* per axis: periodic shift */
 	int32_t stride = 1;
+#if WALLS
+	/* walled axes: neighbour cells beyond the ends do not exist */
+	int nk[3] = {1, 1, 1};
+	for (int a = 0; a < D; a++) {
+		const int32_t n = ed->nc[a];
+		int m = 0;
+		for (int k = 0; k < no[a]; k++) {
+			int32_t c = e->cc[a] + offs[a][k];
+			double s = 0.0;
+			if (!ed->periodic[a]) {
+				if (c < 0 || c >= n)
+					continue;
+			} else if (c < 0) {
+				c += n, s = -ed->L[a];
+			} else if (c >= n) {
+				c -= n, s = ed->L[a];
+			}
+			if (n < 3)
+				s = 0.0;
+			cell[a][m] = c * stride;
+			sh[a][m] = s;
+			m++;
+		}
+		nk[a] = m;
+		stride *= n;
+	}
+	no = nk;
+#else
 	for (int a = 0; a < D; a++) {
 		const int32_t n = ed->nc[a];
 		for (int k = 0; k < no[a]; k++) {
@@ -199,6 +315,7 @@ FN(scan_impl)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[
 		}
 		stride *= n;
 	}
+#endif
 	/* Own data in locals: nothing in the loop can alias them. */
 	const double t = P[i].t;
 	double r0[D], vi[D];
@@ -276,6 +393,10 @@ static inline void FN(schedule)(struct ed *ed, uint32_t i)
 	cal_update(ed, i, e->t_coll <= e->t_cross ? e->t_coll : e->t_cross);
 }
 
+/* Put particle i (in the box) into the cell of its position. */
+static void FN(place)(struct ed *ed, uint32_t i);
+
+#if !WALLS   /* neighbour lists: periodic homogeneous scenes only */
 /* Neighbour-list mode. Rebuild time of particle i (at its time): when it
  * has drifted nl_d from its build position. */
 static void FN(set_nl)(struct ed *ed, uint32_t i)
@@ -406,9 +527,6 @@ static void FN(nl_gather)(struct ed *ed, uint32_t i)
 	ed->nn[i] = (uint8_t)n;
 }
 
-/* Put particle i (in the box) into the cell of its position. */
-static void FN(place)(struct ed *ed, uint32_t i);
-
 /* Rebuild event of particle i at time t: new build position (wrapped into
  * the box), new cell, new list, new prediction. The lists stay symmetric:
  * most neighbours stay on the list (i drifted a fraction of the shell), and
@@ -422,7 +540,7 @@ static void FN(nl_rebuild)(struct ed *ed, uint32_t i, double t)
 	uint8_t *mark = ed->mark;
 	const int m_old = ed->nn[i];
 	memcpy(old, li, (size_t)m_old * sizeof(int32_t));
-	FN(advance)(p, t);
+	FN(advance)(ed, p, t);
 	FN(cell_remove)(ed, i);
 	FOR_AXES(a) {
 		if (p->r[a] < 0.0) p->r[a] += ed->L[a];
@@ -479,6 +597,8 @@ static void FN(nl_build_all)(struct ed *ed)
 		FN(nl_gather)(ed, i);
 }
 
+#endif
+
 /* A particle crosses a cell face: new cell, wrap at the box edge, then only
  * the newly adjacent layer of cells needs scanning (the stored collision,
  * even if stale, stays: a stale one is detected when it is popped). */
@@ -488,7 +608,7 @@ static void FN(do_cross)(struct ed *ed, uint32_t i, double t)
 	ev_t *e = &ed->ev[i];
 	int a = e->cross >> 1, dir = (e->cross & 1) ? 1 : -1;
 
-	FN(advance)(p, t);
+	FN(advance)(ed, p, t);
 	FN(cell_remove)(ed, i);
 	e->cc[a] += dir;
 	if (e->cc[a] >= ed->nc[a]) {
@@ -512,13 +632,37 @@ static void FN(do_cross)(struct ed *ed, uint32_t i, double t)
 	FN(schedule)(ed, i);
 }
 
+/* The running kinetic energy (and its time integral, for the interval
+ * averages) brought to time t before an event changes it. Without gravity
+ * E_kin is constant between events; with gravity E(t) = E + m g.P dt +
+ * m N g^2 dt^2 / 2 with P the sum of the velocities (kept in ed->psum),
+ * integrated exactly. */
+static inline void FN(energy_to)(struct ed *ed, double t)
+{
+#if GRAV
+	const double dt = t - ed->t_mark, m = ed->mass, n = (double)ed->n;
+	double gp = 0.0, g2 = 0.0;
+	FOR_AXES(a) {
+		gp += ed->g[a] * ed->psum[a];
+		g2 += ed->g[a] * ed->g[a];
+	}
+	ed->ekin_int += dt * (ed->ekin_cur + dt * (0.5 * m * gp + dt * m * n * g2 / 6.0));
+	ed->ekin_cur += dt * m * (gp + 0.5 * n * g2 * dt);
+	FOR_AXES(a)
+		ed->psum[a] += n * ed->g[a] * dt;
+#else
+	ed->ekin_int += ed->ekin_cur * (t - ed->t_mark);
+#endif
+	ed->t_mark = t;
+}
+
 /* Binary collision of i and j at time t with normal restitution (elastic
  * within the TC time of either partner's previous collision). */
-static void FN(collide)(struct ed *ed, uint32_t i, uint32_t j, double t)
+static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uint32_t i, uint32_t j, double t)
 {
 	P_T *P = ed->p, *pi = &P[i], *pj = &P[j];
-	FN(advance)(pi, t);
-	FN(advance)(pj, t);
+	FN(advance)(ed, pi, t);
+	FN(advance)(ed, pj, t);
 	double dr[D], dv[D], b = 0.0, r2 = 0.0;
 	FOR_AXES(a) {
 		double x = pi->r[a] - pj->r[a];
@@ -529,8 +673,7 @@ static void FN(collide)(struct ed *ed, uint32_t i, uint32_t j, double t)
 		b += x * dv[a];
 		r2 += x * x;
 	}
-	ed->ekin_int += ed->ekin_cur * (t - ed->t_mark);
-	ed->t_mark = t;
+	FN(energy_to)(ed, t);
 	if (b < 0.0) {
 		double e = ed->e;
 		if (ed->tlast) {
@@ -556,6 +699,94 @@ static void FN(collide)(struct ed *ed, uint32_t i, uint32_t j, double t)
 	ed->collisions++;
 }
 
+#if WALLS
+/* Particle i meets wall w (its event code) at time t: the wall's rule
+ * (wall_rule() in ed.c), with the TC model (the hit is elastic within tc of
+ * the particle's previous collision, wall or particle) and the minimum
+ * rebound; the momentum given to the wall is accumulated for its force. */
+static void FN(do_wall)(struct ed *ed, uint32_t i, double t)
+{
+	P_T *p = &((P_T *)ed->p)[i];
+	ev_t *e = &ed->ev[i];
+	const int w = e->cross - ED_WALL0, a = w >> 1;
+	const wall_t *W = &ed->wall[w];
+	const double s = (w & 1) ? -1.0 : 1.0;
+	FN(advance)(ed, p, t);
+	FN(energy_to)(ed, t);
+	int elastic = 0;
+	if (ed->tlast) {
+		elastic = t - ed->tlast[i] < ed->tc;
+		ed->tlast[i] = t;
+	}
+	double v0[D], de = 0.0;
+	FOR_AXES(k)
+		v0[k] = p->v[k];
+	wall_rule(ed, w, p->v, t, elastic);
+	FOR_AXES(k) {
+		const double dv = p->v[k] - v0[k];
+		ed->wimp[w][k] -= ed->mass * dv;
+		ed->wimp_tot[w][k] -= ed->mass * dv;
+		de += dv * (p->v[k] + v0[k]);
+#if GRAV
+		ed->psum[k] += dv;
+#endif
+	}
+	ed->ekin_cur += 0.5 * ed->mass * de;
+	/* Back on its side of the wall: rounding may leave the contact a hair beyond. */
+	double lim = W->rest + s * ed->radius;
+	if (W->A != 0.0)
+		lim += s * W->A * sin(W->ph + W->omega * t);
+	if (s * (p->r[a] - lim) < 0.0)
+		p->r[a] = lim;
+	p->count++;
+	ed->whits[w]++;
+	ed->wall_collisions++;
+	FN(set_cross)(ed, i);
+	FN(scan_full)(ed, i);
+	FN(schedule)(ed, i);
+}
+
+/* Cell mode only: a boundary event (face or wall), a collision or a
+ * cancelled one. */
+static void FN(step)(struct ed *ed)
+{
+	uint32_t i = ed->heap[0].i;
+	double t = ed->heap[0].t;
+	P_T *P = ed->p;
+	ev_t *e = &ed->ev[i];
+
+	if (ed->hn > 1) {
+		uint32_t k = ed->hn > 2 && hless(&ed->heap[2], &ed->heap[1]) ? ed->heap[2].i : ed->heap[1].i;
+		__builtin_prefetch(&P[k]);
+		__builtin_prefetch(&ed->ev[k]);
+	}
+	cal_prefetch(ed);
+	ed->t = t;
+	ed->t_abs_valid = 0;
+	ed->events++;
+	if (e->t_cross < e->t_coll) {
+		if (e->cross >= ED_WALL0)
+			FN(do_wall)(ed, i, t);
+		else
+			FN(do_cross)(ed, i, t);
+		return;
+	}
+	uint32_t j = (uint32_t)e->partner;
+	FN(advance)(ed, &P[i], t);
+	if (P[j].count != e->pcount) {
+		FN(scan_full)(ed, i);
+		FN(schedule)(ed, i);
+		return;
+	}
+	FN(collide)(ed, i, j, t);
+	FN(set_cross)(ed, i);
+	FN(scan_full)(ed, i);
+	FN(schedule)(ed, i);
+	FN(set_cross)(ed, j);
+	FN(scan_full)(ed, j);
+	FN(schedule)(ed, j);
+}
+#else
 static void FN(step)(struct ed *ed)
 {
 	uint32_t i = ed->heap[0].i;
@@ -594,7 +825,7 @@ static void FN(step)(struct ed *ed)
 		return;
 	}
 	uint32_t j = (uint32_t)e->partner;
-	FN(advance)(&P[i], t);
+	FN(advance)(ed, &P[i], t);
 	if (P[j].count != e->pcount) {
 		/* Cancelled: the partner changed course. Free flight, then rescan. */
 		if (ed->nl)
@@ -621,6 +852,7 @@ static void FN(step)(struct ed *ed)
 	FN(scan_full)(ed, j);
 	FN(schedule)(ed, j);
 }
+#endif
 
 /* Renumber particles in cell order (counting sort, stable) so that the
  * particles of neighbouring cells lie close in memory: a neighbour scan then
@@ -669,13 +901,16 @@ static void FN(rebase)(struct ed *ed)
 	P_T *P = ed->p;
 	double t = ed->t;
 	for (uint32_t i = 0; i < ed->n; i++) {
-		FN(advance)(&P[i], t);
+		FN(advance)(ed, &P[i], t);
 		P[i].t = 0.0;
 		ed->ev[i].t_coll -= t;
 		ed->ev[i].t_cross -= t;
 		if (ed->tlast)
 			ed->tlast[i] -= t;
 	}
+#if WALLS
+	walls_rebase(ed, t);
+#endif
 	FN(reorder)(ed);
 	cal_build(ed);
 	ed->t_mark -= t;
@@ -718,6 +953,77 @@ quiescent:
 	return ED_QUIESCENT;
 }
 
+#if WALLS
+/* Scene coordinates: periodic axes folded into the box, walled ones with
+ * the origin at the lower wall's rest position; velocities now. */
+static void FN(state)(const struct ed *ed, double *pos, double *vel)
+{
+	const P_T *P = ed->p;
+	for (uint32_t i = 0; i < ed->n; i++) {
+		const double dt = ed->t - P[i].t;
+		FOR_AXES(a) {
+			const double g = GRAV ? ed->g[a] : 0.0;
+			if (pos) {
+				double x = P[i].r[a] + P[i].v[a] * dt + 0.5 * g * dt * dt;
+				if (ed->periodic[a]) {
+					x = fmod(x, ed->L[a]);
+					if (x < 0.0)
+						x += ed->L[a];
+					if (x >= ed->L[a])
+						x = 0.0;
+				} else {
+					x -= ed->org[a];
+				}
+				pos[(size_t)ed->id[i] * D + a] = x;
+			}
+			if (vel)
+				vel[(size_t)ed->id[i] * D + a] = P[i].v[a] + g * dt;
+		}
+	}
+}
+
+/* Kinetic energy and momentum now (with gravity, velocities brought to the
+ * present). */
+static double FN(ekin)(const struct ed *ed, double mom[3])
+{
+	const P_T *P = ed->p;
+	double s = 0.0;
+	mom[0] = mom[1] = mom[2] = 0.0;
+	for (uint32_t i = 0; i < ed->n; i++) {
+		const double dt = ed->t - P[i].t;
+		FOR_AXES(a) {
+			const double v = P[i].v[a] + (GRAV ? ed->g[a] * dt : 0.0);
+			s += v * v;
+			mom[a] += v;
+		}
+	}
+	FOR_AXES(a)
+		mom[a] *= ed->mass;
+	return 0.5 * ed->mass * s;
+}
+
+/* Centre-of-mass height along -g (scene coordinates) and potential energy
+ * -m sum g.r, now. */
+static void FN(observe)(const struct ed *ed, double *height, double *epot)
+{
+	const P_T *P = ed->p;
+	double sum[D], g2 = 0.0;
+	FOR_AXES(a) {
+		sum[a] = 0.0;
+		g2 += ed->g[a] * ed->g[a];
+	}
+	for (uint32_t i = 0; i < ed->n; i++) {
+		const double dt = ed->t - P[i].t;
+		FOR_AXES(a)
+			sum[a] += P[i].r[a] + P[i].v[a] * dt + (GRAV ? 0.5 * ed->g[a] * dt * dt : 0.0) - ed->org[a];
+	}
+	double gr = 0.0;
+	FOR_AXES(a)
+		gr += ed->g[a] * sum[a];
+	*epot = -ed->mass * gr;
+	*height = g2 > 0.0 ? -gr / (sqrt(g2) * ed->n) : NAN;
+}
+#else
 static void FN(state)(const struct ed *ed, double *pos, double *vel)
 {
 	const P_T *P = ed->p;
@@ -752,8 +1058,42 @@ static double FN(ekin)(const struct ed *ed, double mom[3])
 		mom[a] *= ed->mass;
 	return 0.5 * ed->mass * s;
 }
+#endif
 
-/* Smallest surface gap over all neighbouring pairs at the current time. */
+/* Position of p on axis a at the present time (no wrap). */
+static inline double FN(pos_now)(const struct ed *ed, const P_T *p, int a)
+{
+	const double dt = ed->t - p->t;
+#if GRAV
+	return p->r[a] + p->v[a] * dt + 0.5 * ed->g[a] * dt * dt;
+#else
+	return p->r[a] + p->v[a] * dt;
+#endif
+}
+
+/* Minimum image of a difference on axis a (none on walled axes). */
+static inline double FN(min_image)(const struct ed *ed, int a, double x)
+{
+#if WALLS
+	if (!ed->periodic[a])
+		return x;
+#endif
+	return x - ed->L[a] * nearbyint(x / ed->L[a]);
+}
+
+/* Cell c (base coordinate plus an offset) on axis a, wrapped on periodic
+ * axes; -1 beyond the end of a walled axis. */
+static inline int32_t FN(cell_at)(const struct ed *ed, int a, int32_t c)
+{
+#if WALLS
+	if (!ed->periodic[a])
+		return c >= 0 && c < ed->nc[a] ? c : -1;
+#endif
+	return (c + ed->nc[a]) % ed->nc[a];
+}
+
+/* Smallest surface gap over all neighbouring pairs at the current time
+ * (and with walls, between particles and walls). */
 static double FN(min_gap)(const struct ed *ed)
 {
 	const P_T *P = ed->p;
@@ -763,22 +1103,39 @@ static double FN(min_gap)(const struct ed *ed)
 		int32_t cc[3] = {0, 0, 0};
 		double ri[D];
 		FOR_AXES(a)
-			ri[a] = P[i].r[a] + P[i].v[a] * (ed->t - P[i].t);
+			ri[a] = FN(pos_now)(ed, &P[i], a);
+#if WALLS
+		FOR_AXES(a) {
+			if (ed->periodic[a])
+				continue;
+			for (int w = 2 * a; w < 2 * a + 2; w++) {
+				const wall_t *W = &ed->wall[w];
+				const double s = (w & 1) ? -1.0 : 1.0;
+				double g = s * (ri[a] - W->rest) - ed->radius;
+				if (W->A != 0.0)
+					g -= W->A * sin(W->ph + W->omega * ed->t);
+				if (g < best)
+					best = g;
+			}
+		}
+#endif
 #if D == 3
 		for (int kz = 0; kz < ed->no[2]; kz++) {
-			cc[2] = (e->cc[2] + ed->off[2][kz] + ed->nc[2]) % ed->nc[2];
+			if ((cc[2] = FN(cell_at)(ed, 2, e->cc[2] + ed->off[2][kz])) < 0)
+				continue;
 #endif
 		for (int ky = 0; ky < ed->no[1]; ky++) {
-			cc[1] = (e->cc[1] + ed->off[1][ky] + ed->nc[1]) % ed->nc[1];
+			if ((cc[1] = FN(cell_at)(ed, 1, e->cc[1] + ed->off[1][ky])) < 0)
+				continue;
 			for (int kx = 0; kx < ed->no[0]; kx++) {
-				cc[0] = (e->cc[0] + ed->off[0][kx] + ed->nc[0]) % ed->nc[0];
+				if ((cc[0] = FN(cell_at)(ed, 0, e->cc[0] + ed->off[0][kx])) < 0)
+					continue;
 				for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = *FN(link)(ed, j)) {
 					if ((uint32_t)j <= i)
 						continue;
 					double r2 = 0.0;
 					FOR_AXES(a) {
-						double x = ri[a] - (P[j].r[a] + P[j].v[a] * (ed->t - P[j].t));
-						x -= ed->L[a] * nearbyint(x / ed->L[a]);
+						double x = FN(min_image)(ed, a, ri[a] - FN(pos_now)(ed, &P[j], a));
 						r2 += x * x;
 					}
 					double g = sqrt(r2) - ed->sigma;
@@ -794,6 +1151,7 @@ static double FN(min_gap)(const struct ed *ed)
 	return best;
 }
 
+#if !WALLS
 /* All particles to the present time, wrapped into the box, and filed in
  * the cells of their positions. */
 static void FN(resync)(struct ed *ed)
@@ -801,7 +1159,7 @@ static void FN(resync)(struct ed *ed)
 	P_T *P = ed->p;
 	cells_clear(ed);
 	for (uint32_t i = 0; i < ed->n; i++) {
-		FN(advance)(&P[i], ed->t);
+		FN(advance)(ed, &P[i], ed->t);
 		FOR_AXES(a) {
 			if (P[i].r[a] < 0.0) P[i].r[a] += ed->L[a];
 			else if (P[i].r[a] >= ed->L[a]) P[i].r[a] -= ed->L[a];
@@ -810,6 +1168,8 @@ static void FN(resync)(struct ed *ed)
 	for (uint32_t i = ed->n; i-- > 0;)
 		FN(place)(ed, i);
 }
+
+#endif
 
 /* Put particle i (position already set in P) into its cell; cell from the
  * position, clamped against rounding at the top edge. */
@@ -836,8 +1196,14 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
 		for (;;) {
 			if (++tries > max_tries)
 				return ED_EPLACE;
+#if WALLS
+			/* within reach of no wall (ed->plo, phi: the box on periodic axes) */
+			FOR_AXES(a)
+				P[i].r[a] = ed->plo[a] + rng_uniform(rng) * (ed->phi[a] - ed->plo[a]);
+#else
 			FOR_AXES(a)
 				P[i].r[a] = rng_uniform(rng) * ed->L[a];
+#endif
 			P[i].t = 0.0;
 			int32_t cc[3] = {0, 0, 0}, base[3] = {0, 0, 0};
 			FOR_AXES(a) {
@@ -847,17 +1213,19 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
 			int clash = 0;
 #if D == 3
 			for (int kz = 0; kz < ed->no[2] && !clash; kz++) {
-				cc[2] = (base[2] + ed->off[2][kz] + ed->nc[2]) % ed->nc[2];
+				if ((cc[2] = FN(cell_at)(ed, 2, base[2] + ed->off[2][kz])) < 0)
+					continue;
 #endif
 			for (int ky = 0; ky < ed->no[1] && !clash; ky++) {
-				cc[1] = (base[1] + ed->off[1][ky] + ed->nc[1]) % ed->nc[1];
+				if ((cc[1] = FN(cell_at)(ed, 1, base[1] + ed->off[1][ky])) < 0)
+					continue;
 				for (int kx = 0; kx < ed->no[0] && !clash; kx++) {
-					cc[0] = (base[0] + ed->off[0][kx] + ed->nc[0]) % ed->nc[0];
+					if ((cc[0] = FN(cell_at)(ed, 0, base[0] + ed->off[0][kx])) < 0)
+						continue;
 					for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = *FN(link)(ed, j)) {
 						double r2 = 0.0;
 						FOR_AXES(a) {
-							double x = P[i].r[a] - P[j].r[a];
-							x -= ed->L[a] * nearbyint(x / ed->L[a]);
+							double x = FN(min_image)(ed, a, P[i].r[a] - P[j].r[a]);
 							r2 += x * x;
 						}
 						if (r2 < ed->sigma2) {

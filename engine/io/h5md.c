@@ -37,6 +37,15 @@ static void g_pres(const run_record_t *r, void *o) { *(double *)o = r->have_inte
 static void g_comp(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->compressibility : NAN; }
 static void g_rate(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->collision_rate : NAN; }
 static void g_mom(const run_record_t *r, void *o) { memcpy(o, r->momentum, r->dim * sizeof(double)); }
+static void g_wcoll(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->wall_collisions; }
+/* per wall w = 2 axis + end; NaN where the scene has no such wall */
+static void g_wpres(const run_record_t *r, void *o)
+{
+	for (int w = 0; w < 6; w++)
+		((double *)o)[w] = r->have_interval && (r->walls & (1u << w)) ? r->wall_pressure[w] : NAN;
+}
+static void g_com(const run_record_t *r, void *o) { *(double *)o = r->com_height; }
+static void g_epot(const run_record_t *r, void *o) { *(double *)o = r->potential_energy / (double)r->n; }
 static void g_tc(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->elastic_by_tc; }
 static void g_ccount(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->clusters.n_clusters; }
 static void g_clargest(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->clusters.largest; }
@@ -81,6 +90,10 @@ static const obs_def_t obs_defs[] = {
 	{ "collision_rate", SCENE_OBS_COLLISION_RATE, 0, 0, "t0-1", g_rate },
 	{ "momentum", SCENE_OBS_MOMENTUM, 0, -1, "m0 l0 t0-1", g_mom },
 	{ "elastic_by_tc", NEED_TC, 1, 0, NULL, g_tc },
+	{ "wall_collisions", SCENE_OBS_WALL_FORCE, 1, 0, NULL, g_wcoll },
+	{ "wall_pressure", SCENE_OBS_WALL_FORCE, 0, 6, "pressure", g_wpres },
+	{ "center_of_mass_height", SCENE_OBS_COM_HEIGHT, 0, 0, "l0", g_com },
+	{ "potential_energy", SCENE_OBS_POTENTIAL, 0, 0, "e0", g_epot },
 	{ "clusters_count", SCENE_OBS_CLUSTERS, 1, 0, NULL, g_ccount },
 	{ "clusters_largest", SCENE_OBS_CLUSTERS, 1, 0, NULL, g_clargest },
 	{ "clusters_largest_fraction", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cfrac },
@@ -368,6 +381,9 @@ static int write_group(h5md_t *h, int k, const scene_t *s)
 	const hsize_t chunk_t[1] = {OBS_CHUNK};
 	hsize_t inner[2] = {h->n, (hsize_t)h->dim}, chunk[3] = {1, h->n < FRAME_CHUNK ? h->n : FRAME_CHUNK, (hsize_t)h->dim};
 	const char *bnd[3] = {"periodic", "periodic", "periodic"};
+	for (int a = 0; a < 3; a++)
+		if (s->boundary[a].walled)
+			bnd[a] = "none";   /* H5MD: a non-periodic axis */
 	int64_t dim = h->dim;
 	pgroup_t *pg = &h->grp[k];
 	char name[64];

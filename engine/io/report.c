@@ -85,6 +85,32 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 	}
 	if (r->elastic_by_tc)
 		u64(&o, "elastic_by_tc", r->elastic_by_tc);
+	if (r->have & SCENE_OBS_WALL_FORCE) {
+		static const char *const axis[3] = { "x", "y", "z" };
+		u64(&o, "wall_collisions", r->wall_collisions);
+		if (r->kind == RUN_PROGRESS) {
+			put(&o, ",\"wall_force\":[");
+			int first = 1;
+			for (int w = 0; w < 6; w++) {
+				if (!(r->walls & (1u << w)))
+					continue;
+				put(&o, "%s{\"wall\":\"%s.%s\"", first ? "" : ",", axis[w >> 1], (w & 1) ? "upper" : "lower");
+				num(&o, "pressure", r->have_interval ? r->wall_pressure[w] : NAN);
+				put(&o, ",\"force\":[");
+				for (int a = 0; a < r->dim; a++) {
+					double f = r->have_interval ? r->wall_force[w][a] : NAN;
+					put(&o, isfinite(f) ? "%s%.17g" : "%snull", a ? "," : "", f);
+				}
+				put(&o, "]}");
+				first = 0;
+			}
+			put(&o, "]");
+		}
+	}
+	if (r->have & SCENE_OBS_COM_HEIGHT)
+		num(&o, "center_of_mass_height", r->com_height);
+	if (r->have & SCENE_OBS_POTENTIAL)
+		num(&o, "potential_energy", r->potential_energy);
 	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_CLUSTERS)) {
 		const clusters_stats_t *c = &r->clusters;
 		put(&o, ",\"clusters\":{\"count\":%llu,\"largest\":%llu", (unsigned long long)c->n_clusters,

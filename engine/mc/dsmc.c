@@ -731,6 +731,17 @@ static int layout(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
 }
 
 /* Memory and constants for scene s, no state (positions, velocities, RNG). */
+/* Sizes of the sort's ring and overflow list (alloc() and dsmc_plan()):
+ * ring 1.25 planes of cells (a move along the last axis) + 512 records;
+ * overflow list 1/8 of that + 128. */
+static void ring_size(struct dsmc *d)
+{
+	size_t plane = d->dim == 3 ? (size_t)d->nc[0] * (size_t)d->nc[1] : (size_t)d->nc[0];
+	double ring = 1.25 * (double)d->n * (double)plane / (double)d->ncells + 512;
+	d->ring_n = ring < d->n ? (uint32_t)ring : d->n;
+	d->over_n = d->ring_n / 8 + 128 < d->n ? d->ring_n / 8 + 128 : d->n;
+}
+
 static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 {
 	struct dsmc *d = NULL;
@@ -758,12 +769,7 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 		d->chit = malloc(d->ncells * sizeof(float));
 	}
 	d->id = malloc(d->n * sizeof(uint32_t));
-	/* Ring: 1.25 planes of cells (a move along the last axis) + 512 records;
-	 * overflow list: 1/8 of that + 128. */
-	size_t plane = d->dim == 3 ? (size_t)d->nc[0] * (size_t)d->nc[1] : (size_t)d->nc[0];
-	double ring = 1.25 * (double)d->n * (double)plane / (double)d->ncells + 512;
-	d->ring_n = ring < d->n ? (uint32_t)ring : d->n;
-	d->over_n = d->ring_n / 8 + 128 < d->n ? d->ring_n / 8 + 128 : d->n;
+	ring_size(d);
 	d->ringp = malloc((size_t)d->ring_n * S * sizeof(double));
 	d->ringid = malloc((size_t)d->ring_n * sizeof(uint32_t));
 	d->ringtag = malloc((size_t)d->ring_n * sizeof(uint32_t));
@@ -1124,6 +1130,7 @@ int dsmc_plan(const scene_t *s, dsmc_plan_t *out, char *msg, size_t msglen)
 	int rc = layout(&d, s, msg, msglen);
 	if (rc != DSMC_OK || !out)
 		return rc;
+	ring_size(&d);
 	out->memory = dsmc_memory(&d);
 	out->state = out->largest = 0;
 	for (size_t k = 0; k < N_DFIELDS; k++) {
