@@ -131,7 +131,9 @@ cat >"$tmp/long.json" <<'JSON'
 JSON
 "$ENGINE" run "$tmp/long.json" >"$tmp/long.out" 2>/dev/null &
 pid=$!
-sleep 1
+# The handlers are installed after MPI_Init, before the first record: wait
+# for that record (MPI_Init alone can take seconds on a loaded machine).
+i=0; until [ -s "$tmp/long.out" ] || [ $i -ge 300 ]; do sleep 0.1; i=$((i + 1)); done
 kill -TERM $pid
 wait $pid
 rc=$?
