@@ -58,6 +58,12 @@ const char *__lsan_default_suppressions(void)
 	return "leak:libhdf5\n";
 }
 
+const char *__lsan_default_options(void);
+const char *__lsan_default_options(void)
+{
+	return "print_suppressions=0";
+}
+
 int LLVMFuzzerInitialize(int *argc, char ***argv)
 {
 	char err[256];
