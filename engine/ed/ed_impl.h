@@ -496,7 +496,8 @@ static void FN(nl_gather)(struct ed *ed, uint32_t i)
 		for (int ky = 0; ky < 3; ky++)
 			for (int kx = 0; kx < 3; kx++, m++) {
 				hd[m] = ed->head[cell[2][kz] + cell[1][ky] + cell[0][kx]];
-				__builtin_prefetch(ed->xn + (size_t)hd[m] * D);
+				if (hd[m] >= 0)   /* an empty cell (-1) has no address (UBSan: pointer overflow) */
+					__builtin_prefetch(ed->xn + (size_t)hd[m] * D);
 			}
 	m = 0;
 	int n = ed->nn[i];

@@ -327,7 +327,18 @@ int ensemble_load(const scene_t *s, uint64_t stream, const unsigned char *buf, s
 	while ((rc = ensemble_next_field(buf, len, &pos, &f, &data)) == 1) {
 		size_t k;
 		if (f.name[0] != '@') {
-			if (run_field_set(r, f.name, f.type, f.count, data) != RUN_OK) {
+			/* data lies in the blob at any offset; the engines read it as typed
+			 * arrays (int32_t, double), which need their alignment (UBSan). */
+			size_t bytes = f.count * ed_type_size(f.type);
+			void *al = malloc(bytes ? bytes : 1);
+			if (!al) {
+				run_destroy(r);
+				return RUN_ENOMEM;
+			}
+			memcpy(al, data, bytes);
+			rc = run_field_set(r, f.name, f.type, f.count, al);
+			free(al);
+			if (rc != RUN_OK) {
 				snprintf(msg, msglen, "state field %s does not fit the scene", f.name);
 				goto bad;
 			}
