@@ -77,6 +77,7 @@ typedef struct {
 		double time, collisions_per_particle, kinetic_energy, temperature, pressure,
 		       compressibility, collision_rate, largest_fraction, mean_size;
 		double a2, a3, g_pairs, g_rate, g_pressure, cluster_w, cluster_exponent;
+		double msd, diffusion;
 	} se;
 	/* summary only */
 	run_status_t status;

@@ -137,6 +137,12 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 		num_se(&o, r, "g_contact_pressure", r->have_interval ? r->obs.g_pressure : NAN,
 		       r->have_interval ? r->se.g_pressure : NAN);
 	}
+	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_MSD)) {
+		/* single runs: the standard error over particles; ensembles: over replicas */
+		num(&o, "msd", r->obs.msd);
+		num(&o, "msd_se", r->replicas > 1 ? r->se.msd : r->obs.msd_se);
+		num_se(&o, r, "diffusion", r->obs.diffusion, r->se.diffusion);
+	}
 	if (r->warning) {
 		/* Our own text: printable ASCII; quote the two JSON specials anyway. */
 		put(&o, ",\"warning\":\"");

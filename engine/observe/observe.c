@@ -23,6 +23,7 @@ struct obs {
 	double *mem;              /* one block: axes, values, standard errors, scratch */
 	double *gcount, *gpar, *gperp;   /* pair sums over the g(r) bins */
 	double *vhist;                   /* D * bins: the component histograms, axis-major */
+	double *bcount;                  /* impact parameters counted by the engine since the last curves */
 	obs_curves_t c;
 	size_t packed;
 };
@@ -99,8 +100,8 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 	static const char *const comp3[] = {"p_x", "p_y", "p_z", NULL}, *const comp2[] = {"p_x", "p_y", NULL};
 	static const char *const speed[] = {"p", NULL}, *const gcols[] = {"g", NULL}, *const scol[] = {"s", NULL};
 	static const char *const vpairs[] = {"g_par", "g_perp", "g_nn", NULL}, *const vmodes[] = {"s_par", "s_perp", NULL};
-	static const char *const ncol[] = {"n_s", NULL};
-	int vnb = s->vdist_bins, snb = 0;
+	static const char *const ncol[] = {"n_s", NULL}, *const bcols[] = {"p", "n", NULL};
+	int vnb = s->vdist_bins, snb = 0, bnb = (o->bits & SCENE_OBS_IMPACT) ? s->impact_bins : 0;
 	if (o->bits & SCENE_OBS_VDIST) {
 		table(o, "velocity_distribution", "components", "c", "1", vnb, D == 3 ? comp3 : comp2);
 		table(o, "velocity_distribution", "speed", "c", "1", vnb, speed);
@@ -117,10 +118,12 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 		snb = clusters_size_bins(s->count, NULL, NULL);
 		table(o, "clusters", "", "s", "1", snb, ncol);
 	}
+	if (o->bits & SCENE_OBS_IMPACT)
+		table(o, "impact_parameter", "", "b", "1", bnb, bcols);
 
 	/* One block: per table edges (nb+1) and centres (nb); per column value
 	 * and standard error (nb each); pair sums (3 gnb). */
-	size_t need = 3 * (size_t)gnb + 3 * (size_t)vnb;
+	size_t need = 3 * (size_t)gnb + 3 * (size_t)vnb + (size_t)bnb;
 	for (int i = 0; i < o->c.ntables; i++)
 		need += 2 * (size_t)o->c.t[i].nb + 1 + 2 * (size_t)o->c.t[i].nb * o->c.t[i].ncols;
 	o->mem = calloc(need ? need : 1, sizeof(double));
@@ -131,6 +134,7 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 	o->gpar = p, p += gnb;
 	o->gperp = p, p += gnb;
 	o->vhist = p, p += 3 * (size_t)vnb;
+	o->bcount = p, p += bnb;
 	for (int i = 0; i < o->c.ntables; i++) {
 		obs_table_t *t = &o->c.t[i];
 		double *edges = p, *centres = p + t->nb + 1;
@@ -149,6 +153,9 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 		} else if (!strcmp(t->x, "r")) {
 			for (int b = 0; b <= t->nb; b++)
 				edges[b] = rmax * b / t->nb;
+		} else if (!strcmp(t->x, "b")) {
+			for (int b = 0; b <= t->nb; b++)
+				edges[b] = (double)b / t->nb;
 		} else if (!strcmp(t->x, "k")) {
 			fgrid_axis(o->grid, edges, centres, NULL);
 			continue;
@@ -167,6 +174,13 @@ fail:
 }
 
 const obs_curves_t *obs_layout(const obs_t *o) { return &o->c; }
+
+double *obs_impact_counts(const obs_t *o, int *nb)
+{
+	int on = (o->bits & SCENE_OBS_IMPACT) && !o->layout_only;
+	*nb = on ? o->s.impact_bins : 0;
+	return on ? o->bcount : NULL;
+}
 size_t obs_packed_size(const obs_t *o) { return o->packed; }
 
 size_t obs_memory(const obs_t *o)
@@ -261,6 +275,17 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 		sofk_compute(o->grid, n, pos, t->val[0]);
 	if ((t = find(o, "velocity_correlations", "modes")))
 		vcorr_kspace(o->grid, D, n, pos, vel, m.mean, tm, t->val[0], t->val[1]);
+	if ((t = find(o, "impact_parameter", ""))) {
+		/* the collisions since the previous curves: counts, and the density in b / sigma */
+		double tot = 0.0, w = 1.0 / t->nb;
+		for (int b = 0; b < t->nb; b++)
+			tot += o->bcount[b];
+		for (int b = 0; b < t->nb; b++) {
+			t->val[1][b] = o->bcount[b];
+			t->val[0][b] = tot > 0.0 ? o->bcount[b] / (tot * w) : NAN;
+			o->bcount[b] = 0.0;
+		}
+	}
 	if ((t = find(o, "clusters", ""))) {
 		clusters_stats_t st;
 		if (!cl || clusters_compute(cl, pos, s->box, s->radius, s->cluster_delta * o->sigma, &st) != 0)
