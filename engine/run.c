@@ -291,6 +291,30 @@ int run_curves(run_t *r, run_record_t *rec)
 	return RUN_OK;
 }
 
+static void sched_skip(const scene_when_t *w, uint64_t *k, double t, uint64_t c, uint64_t n);
+
+size_t run_curves_packed_size(const run_t *r)
+{
+	return r->obs && obs_curve_bits(&r->s) ? obs_packed_size(r->obs) : 0;
+}
+
+int run_curves_pack(run_t *r, double *v)
+{
+	run_record_t rec;
+	int ret = run_curves(r, &rec);
+	if (ret == RUN_OK)
+		obs_pack(r->obs, rec.curves, v);
+	return ret;
+}
+
+void run_snap_taken(run_t *r)
+{
+	smp_t sm;
+	eng_totals(r, &sm);
+	r->st.snap_events = sm.events;
+	sched_skip(&r->s.snapshots, &r->st.k_snap, sm.time, sm.collisions, r->s.count);
+}
+
 static int curves_on(const run_t *r)
 {
 	return r->opts.curves && r->obs && obs_curve_bits(&r->s);

@@ -175,5 +175,48 @@ PY
 	ok $(( rc != 0 || $? != 0 )) "$m resumed run: MSD, D and P(b) equal the uninterrupted run's (rc $rc; $(tail -1 "$tmp/ck.res"))"
 done
 
+# ---- ensembles ----------------------------------------------------------------------------------------------
+# Curves of ensembles: per bin the mean over the replicas and its standard error. Replica r runs with random
+# stream r and a single run with stream 0, so with R = 2 every bin's se equals |mean - single run's value|
+# (sd / sqrt 2 of two values); the file does not depend on the number of ranks, and a resume rewrites it exactly.
+cat >"$tmp/ens.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":500,"volume_fraction":0.2,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9},"run":{"seed":8,"until":{"time":4},"replicas":2},
+ "output":{"every":{"time":0.5},"observables":["temperature","impact_parameter","pair_correlation","clusters"],
+   "snapshots":{"every":{"time":1.5}},"checkpoint":{"every":{"time":2}}}}
+JSON
+sed 's/"replicas":2/"replicas":1/' "$tmp/ens.json" >"$tmp/one.json"
+"$ENGINE" run "$tmp/ens.json" --out "$tmp/ens" >/dev/null 2>"$tmp/ens.err"
+rc=$?
+"$ENGINE" run "$tmp/one.json" --out "$tmp/one" >/dev/null 2>>"$tmp/ens.err"
+"$PY" - "$tmp/ens" "$tmp/one" <<'PY' >"$tmp/ens.res" 2>&1
+import json, sys
+ens = [json.loads(l) for l in open(sys.argv[1] + '/observables.jsonl')]
+one = {(c['name'], c['sample']): c for c in map(json.loads, open(sys.argv[2] + '/observables.jsonl'))}
+k = 0
+for c in ens:
+    assert c['replicas'] == 2 and (c['name'], c['sample']) in one, c['name']
+    for t, u in zip(c['tables'], one[(c['name'], c['sample'])]['tables']):
+        for col, m in t['columns'].items():
+            for b, (mu, se, x) in enumerate(zip(m, t['se'][col], u['columns'][col])):
+                if mu is None or x is None:
+                    continue
+                assert abs(se - abs(mu - x)) <= 1e-7 * max(1.0, abs(mu), abs(x)), (c['name'], col, b, mu, se, x)
+                k += 1
+print(len(ens), k)
+PY
+ok $(( rc != 0 || $? != 0 )) "ensemble curves (R = 2): every bin's se = |mean - replica 0 run alone| ($(tail -1 "$tmp/ens.res") lines, bins)"
+if command -v mpirun >/dev/null; then
+	mpirun -np 3 "$ENGINE" run "$tmp/ens.json" --out "$tmp/ens3" >/dev/null 2>&1
+	cmp -s "$tmp/ens/observables.jsonl" "$tmp/ens3/observables.jsonl"
+	ok $? "ensemble curves under mpirun -np 3 (a rank without replica) equal the serial run's"
+fi
+mkdir -p "$tmp/ensr"
+cp -r "$tmp/ens/." "$tmp/ensr/"
+"$ENGINE" run "$tmp/ens.json" --out "$tmp/ensr" --resume "$tmp/ensr/checkpoint.h5" >/dev/null 2>"$tmp/ensr.err"
+rc=$?
+cmp -s "$tmp/ens/observables.jsonl" "$tmp/ensr/observables.jsonl"
+ok $(( rc != 0 || $? != 0 )) "ensemble resumed from its checkpoint (time 2 of 4): observables.jsonl equals the uninterrupted run's (rc $rc)"
+
 echo "1..$n"
 [ "$failed" = 0 ]
