@@ -11,7 +11,8 @@
 #include "observe/vcorr.h"
 #include "observe/vdist.h"
 
-#define N_SCALARS 8   /* temperature, a2, a3, g_pairs, cluster_w, cluster_exponent, m2_reduced, mean_size */
+#define N_SCALARS 10  /* temperature, a2, a3, g_pairs, cluster_w, cluster_exponent, m2_reduced, mean_size,
+                        * impact_a, impact_c */
 
 struct obs {
 	scene_t s;
@@ -222,6 +223,36 @@ void obs_interval(const obs_t *o, double rate, double z, double t_avg, obs_scala
 	out->g_pressure = gofr_contact_virial(s->dim, s->volume_fraction, s->restitution, z);
 }
 
+/*
+ * Seed 000 sec. 3.6: P(b) = a / (1 - c b^2) (b in diameters; 3D: relative to
+ * molecular chaos 2b, so that chaos is a = 1, c = 0 in both dimensions).
+ * Linear in b^2 for y = 1 / q, q = P / P_chaos: y = 1/a - (c/a) b^2, least
+ * squares weighted by 1 / var(y) = n q^2 (Poisson counts n per bin). NaN
+ * with fewer than 3 non-empty bins.
+ */
+static void impact_fit(int D, const obs_table_t *t, double *a, double *c)
+{
+	double s = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+	int used = 0;
+	*a = *c = NAN;
+	for (int b = 0; b < t->nb; b++) {
+		double x = t->centres[b], n = t->val[1][b], q = t->val[0][b] / (D == 2 ? 1.0 : 2.0 * x);
+		if (!(n > 0) || !(q > 0))
+			continue;
+		double y = 1.0 / q, wt = n * q * q, x2 = x * x;
+		s += wt, sx += wt * x2, sy += wt * y, sxx += wt * x2 * x2, sxy += wt * x2 * y;
+		used++;
+	}
+	double det = s * sxx - sx * sx;
+	if (used < 3 || !(det > 0))
+		return;
+	double alpha = (sxx * sy - sx * sxy) / det, beta = (s * sxy - sx * sy) / det;
+	if (alpha == 0)
+		return;
+	*a = 1.0 / alpha;
+	*c = -beta / alpha;
+}
+
 static obs_table_t *find(obs_t *o, const char *family, const char *sub)
 {
 	for (int i = 0; i < o->c.ntables; i++)
@@ -242,6 +273,7 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 	double tm = m.temperature / s->mass;
 	c->temperature = m.temperature;
 	c->a2 = c->a3 = c->g_pairs = c->cluster_w = c->cluster_exponent = c->m2_reduced = c->mean_size = NAN;
+	c->impact_a = c->impact_c = NAN;
 	if ((t = find(o, "velocity_distribution", "components"))) {
 		obs_table_t *sp = find(o, "velocity_distribution", "speed");
 		vdist_histograms(D, n, s->mass, vel, &m, t->nb, s->vdist_range, o->vhist, sp->val[0]);
@@ -285,6 +317,7 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 			t->val[0][b] = tot > 0.0 ? o->bcount[b] / (tot * w) : NAN;
 			o->bcount[b] = 0.0;
 		}
+		impact_fit(D, t, &c->impact_a, &c->impact_c);
 	}
 	if ((t = find(o, "clusters", ""))) {
 		clusters_stats_t st;
@@ -304,9 +337,10 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 static double *scalar_slot(obs_curves_t *c, int k, int se)
 {
 	double *v[N_SCALARS] = {&c->temperature, &c->a2, &c->a3, &c->g_pairs, &c->cluster_w, &c->cluster_exponent,
-	                        &c->m2_reduced, &c->mean_size};
+	                        &c->m2_reduced, &c->mean_size, &c->impact_a, &c->impact_c};
 	double *e[N_SCALARS] = {&c->se_temperature, &c->se_a2, &c->se_a3, &c->se_g_pairs, &c->se_cluster_w,
-	                        &c->se_cluster_exponent, &c->se_m2_reduced, &c->se_mean_size};
+	                        &c->se_cluster_exponent, &c->se_m2_reduced, &c->se_mean_size, &c->se_impact_a,
+	                        &c->se_impact_c};
 	return se ? e[k] : v[k];
 }
 

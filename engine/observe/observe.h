@@ -58,9 +58,10 @@ typedef struct {
 	double a2, a3;            /* when velocity_distribution is asked */
 	double g_pairs;           /* when pair_correlation is asked */
 	double cluster_w, cluster_exponent, m2_reduced, mean_size;   /* when clusters is asked */
+	double impact_a, impact_c;  /* impact_parameter: P(b) / P_chaos(b) = a / (1 - c (b/sigma)^2), weighted fit */
 	/* ensembles: standard errors of the same scalars */
 	double se_temperature, se_a2, se_a3, se_g_pairs, se_cluster_w, se_cluster_exponent, se_m2_reduced,
-	       se_mean_size;
+	       se_mean_size, se_impact_a, se_impact_c;
 } obs_curves_t;
 
 typedef struct obs obs_t;
