@@ -425,7 +425,9 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 			goto nomem;
 	}
 	if (s->observables & SCENE_OBS_MSD) {
-		r->msd = msd_create(s->dim, s->count, s->box, s->mass);
+		/* ed stops exactly at the time asked for: 0.45 edges is strict; dsmc/hsmc stop at the end of the
+		 * step that reaches it: a quarter edge leaves room for that step */
+		r->msd = msd_create(s->dim, s->count, s->box, s->mass, r->ed ? 0.45 : 0.25);
 		if (!r->msd)
 			goto nomem;
 	}

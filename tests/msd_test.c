@@ -31,7 +31,7 @@ static void test_ballistic(int dim)
 			ekin += 0.5 * mass * v[i * dim + a] * v[i * dim + a];
 			v2 += v[i * dim + a] * v[i * dim + a] / n;
 		}
-	msd_t *m = msd_create(dim, n, box, mass);
+	msd_t *m = msd_create(dim, n, box, mass, 0.45);
 	msd_origin(m, 0.0, x0, ekin);
 	double t = 0;
 	int steps = 0;
@@ -45,16 +45,16 @@ static void test_ballistic(int dim)
 	double se, val = msd_value(m, &se), want = v2 * t * t;
 	ok(fabs(val - want) < 1e-9 * want, "%dD ballistic through ~%.0f box lengths in %d updates: MSD %.10g = <v^2> t^2 %.10g",
 	   dim, sqrt(v2) * t / box[0], steps, val, want);
-	/* the bound: a quarter of the smallest edge at the largest speed the energy allows */
+	/* the bound: 0.45 of the smallest edge at the largest speed the energy allows */
 	double due = msd_due(m) - t;
-	ok(fabs(due - 0.25 * 7.0 / sqrt(2 * ekin / mass)) < 1e-12, "%dD next update within a quarter edge at sqrt(2E/m): %.6g",
+	ok(fabs(due - 0.45 * 7.0 / sqrt(2 * ekin / mass)) < 1e-12, "%dD next update within 0.45 edges at sqrt(2E/m): %.6g",
 	   dim, due);
 
 	/* state round trip: a copy continues identically */
 	size_t k = msd_state_size(m);
 	double *st = malloc(k * sizeof(double));
 	msd_state_get(m, st);
-	msd_t *c = msd_create(dim, n, box, mass);
+	msd_t *c = msd_create(dim, n, box, mass, 0.45);
 	ok(msd_state_set(c, st) == 0 && msd_value(c, NULL) == val && msd_due(c) == msd_due(m),
 	   "%dD state of %zu doubles restores MSD and the next update time", dim, k);
 	st[0] = NAN;
@@ -73,7 +73,7 @@ static void test_too_rare(void)
 {
 	const double box[2] = {10.0, 10.0};
 	double x0[2] = {1.0, 1.0}, pos[2];
-	msd_t *m = msd_create(2, 1, box, 1.0);
+	msd_t *m = msd_create(2, 1, box, 1.0, 0.45);
 	msd_origin(m, 0.0, x0, 0.5 * 36.0);   /* speed 6 along x */
 	for (int s = 1; s <= 10; s++) {
 		pos[0] = fold(1.0 + 6.0 * s, 10.0);  /* 6 per update: more than half an edge */

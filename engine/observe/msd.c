@@ -8,13 +8,13 @@
 struct msd {
 	int dim;
 	size_t n;
-	double L[3], mass, lmin;
+	double L[3], iL[3], mass, lmin, reach;
 	double *r0;       /* N*D: positions at the origin */
 	double *u;        /* N*D: unwrapped positions at the last update */
 	double t0, t, ekin;
 };
 
-msd_t *msd_create(int dim, size_t n, const double *box, double mass)
+msd_t *msd_create(int dim, size_t n, const double *box, double mass, double reach)
 {
 	msd_t *m = calloc(1, sizeof(*m));
 	if (!m)
@@ -22,9 +22,11 @@ msd_t *msd_create(int dim, size_t n, const double *box, double mass)
 	m->dim = dim;
 	m->n = n;
 	m->mass = mass;
+	m->reach = reach;
 	m->lmin = INFINITY;
 	for (int a = 0; a < dim; a++) {
 		m->L[a] = box[a];
+		m->iL[a] = 1.0 / box[a];
 		m->lmin = fmin(m->lmin, box[a]);
 	}
 	m->r0 = malloc(2 * n * (size_t)dim * sizeof(double));
@@ -59,8 +61,8 @@ void msd_update(msd_t *m, double t, const double *pos, double ekin)
 	for (size_t i = 0; i < m->n; i++)
 		for (int a = 0; a < D; a++) {
 			/* u and the folded position differ by whole edges (up to rounding) */
-			double *u = &m->u[i * D + a], L = m->L[a], x = pos[i * D + a] - *u;
-			*u += x - L * nearbyint(x / L);
+			double *u = &m->u[i * D + a], x = pos[i * D + a] - *u;
+			*u += x - m->L[a] * nearbyint(x * m->iL[a]);
 		}
 	m->t = t;
 	m->ekin = ekin;
@@ -69,7 +71,7 @@ void msd_update(msd_t *m, double t, const double *pos, double ekin)
 double msd_due(const msd_t *m)
 {
 	double vmax = sqrt(2.0 * m->ekin / m->mass);
-	return vmax > 0.0 ? m->t + 0.25 * m->lmin / vmax : INFINITY;
+	return vmax > 0.0 ? m->t + m->reach * m->lmin / vmax : INFINITY;
 }
 
 double msd_value(const msd_t *m, double *se)

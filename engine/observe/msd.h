@@ -9,7 +9,8 @@
  *   update adds the minimum image of the change since the previous update
  *   to the particle's unwrapped position. That is exact when no particle
  *   moved half a box edge between two updates; msd_due() gives the latest
- *   time of the next update that guarantees a quarter edge: with the kinetic
+ *   time of the next update that guarantees `reach` edges (msd_create(),
+ *   below 1/2): with the kinetic
  *   energy E non-increasing (no walls, no gravity: restitution <= 1 only
  *   loses energy), no particle is faster than sqrt(2 E / m) at any later
  *   time. (dsmc/hsmc with the CBA correction also move colliding partners
@@ -21,8 +22,10 @@
 
 typedef struct msd msd_t;
 
-/* NULL when out of memory. box: D edge lengths. */
-msd_t *msd_create(int dim, size_t n, const double *box, double mass);
+/* NULL when out of memory. box: D edge lengths; reach in (0, 1/2): the largest move between updates
+ * msd_due() allows, in smallest box edges (less than 1/2 leaves room for an engine that stops after
+ * the time asked for). */
+msd_t *msd_create(int dim, size_t n, const double *box, double mass, double reach);
 void msd_destroy(msd_t *m);
 
 /* The origin: positions at time t, with total kinetic energy ekin (the speed bound). */
