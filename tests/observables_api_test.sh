@@ -37,5 +37,15 @@ api GET "/api/v1/jobs/999/observables?name=clusters" -H "$A" >/dev/null
 ok $([ "$(code)" = 404 ]; echo $?) "unknown job: 404"
 api GET "/api/v1/jobs/$id/observables?name=clusters" >/dev/null
 ok $([ "$(code)" = 401 ]; echo $?) "read_auth token: without the token 401, like the other GETs"
+# granularctl prints the curves as CSV (the last sample; --after K: every sample after K)
+: "${GRANULARCTL:=$BUILDDIR/client/granularctl}"
+"$GRANULARCTL" --state-dir "$tmp/state" observables "$id" impact_parameter >"$tmp/pb.csv" 2>"$tmp/ctl.err"
+rc=$?
+ok $([ $rc = 0 ] && [ "$(sed -n 2p "$tmp/pb.csv")" = "sample,time,table,b,p,n" ] && [ "$(grep -c '^4,2,,' "$tmp/pb.csv")" = 20 ]; echo $?) \
+	"granularctl observables ID impact_parameter: CSV of the last sample, 20 bins (rc $rc; $(sed -n 3p "$tmp/pb.csv"))"
+"$GRANULARCTL" --state-dir "$tmp/state" observables "$id" pair_correlation --after 2 >"$tmp/g.csv" 2>"$tmp/ctl.err"
+ok $([ "$(grep -c '^# pair_correlation sample' "$tmp/g.csv")" = 2 ]; echo $?) "granularctl observables --after 2: samples 3 and 4"
+"$GRANULARCTL" --state-dir "$tmp/state" observables "$id" 'clusters&last=2' >/dev/null 2>"$tmp/ctl.err"
+ok $([ $? = 2 ] && grep -q "NAME" "$tmp/ctl.err"; echo $?) "granularctl observables: a NAME that is not a family name is a usage error (exit 2)"
 gd_stop
 finish
