@@ -426,6 +426,8 @@ static void idle_until_rank0(void)
  * mode != 0 (ensemble: ENS_RUN | ENS_CKPT | ENS_RESUME | ENS_FRAMES) is
  * followed by the scene text, which every rank parses. */
 enum { ENS_RUN = 1, ENS_CKPT = 2, ENS_RESUME = 4, ENS_FRAMES = 8, ENS_CURVES = 16 };
+/* Bytes of packed curves of all replicas an ensemble may reduce (each rank holds them all). */
+#define ENS_CURVES_MAX (1024.0 * 1024 * 1024)
 typedef struct {
 	int sent;
 } announce_t;
@@ -899,6 +901,19 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	const int want_curves = outdir != NULL && obs_curve_bits(&scene) != 0;
 	run_opts_t opts = {.snapshots = outdir != NULL && stepped, .checkpoints = outdir != NULL && stepped,
 	                   .curves = want_curves && stepped};
+	if (want_curves && !stepped) {
+		/* every rank holds all replicas' packed curves for their reduction (ensemble_run()) */
+		obs_t *lay = obs_create(&scene, 1);
+		double need = lay ? (double)scene.replicas * (double)obs_packed_size(lay) * sizeof(double) : 0.0;
+		obs_destroy(lay);
+		if (need > ENS_CURVES_MAX) {
+			fprintf(stderr, "granular-engine: output.observables: the curves of %llu replicas need %.3g GiB on every "
+			        "rank to be combined (at most %.3g GiB): fewer replicas or fewer bins\n",
+			        (unsigned long long)scene.replicas, need / (1u << 30), ENS_CURVES_MAX / (1u << 30));
+			ret = EX_INPUT;
+			goto cleanup;
+		}
+	}
 	ckpt_output_t at = {0, 0, 0};
 	if (!stepped) {
 		ens.blobs = calloc(scene.replicas, sizeof(*ens.blobs));
