@@ -82,6 +82,24 @@ static int emit(const run_record_t *rec, void *ctx)
 	return 0;
 }
 
+/* The time of the last progress record in f (progress.jsonl cut back to a checkpoint; f is left at its
+ * end): an ensemble checkpoint is taken right after the record of its output time, whose time (the mean
+ * over the replicas) is that of the curves taken then. 0 when there is none. */
+static double last_progress_time(FILE *f)
+{
+	char line[REPORT_MAX + 2];
+	double t = 0.0;
+	if (fseek(f, 0, SEEK_SET) != 0)
+		return 0.0;
+	while (fgets(line, sizeof(line), f)) {
+		const char *p = strstr(line, "\"time\":");
+		if (!strncmp(line, "{\"type\":\"progress\",", 19) && p)
+			t = strtod(p + 7, NULL);
+	}
+	fseek(f, 0, SEEK_END);
+	return t;
+}
+
 /* DIR/observables.jsonl: new, or (resumed from a checkpoint at time t_ckpt) cut back to the samples taken
  * up to the checkpoint (lines are in time order; a sample at t_ckpt was written before the checkpoint and
  * is not taken again), counting the samples kept. A torn last line goes too. */
@@ -407,7 +425,9 @@ static void idle_until_rank0(void)
 /* Rank 0 tells the others, once, whether there is work: {mode, text length};
  * mode != 0 (ensemble: ENS_RUN | ENS_CKPT | ENS_RESUME | ENS_FRAMES) is
  * followed by the scene text, which every rank parses. */
-enum { ENS_RUN = 1, ENS_CKPT = 2, ENS_RESUME = 4, ENS_FRAMES = 8 };
+enum { ENS_RUN = 1, ENS_CKPT = 2, ENS_RESUME = 4, ENS_FRAMES = 8, ENS_CURVES = 16 };
+/* Bytes of packed curves of all replicas an ensemble may reduce (each rank holds them all). */
+#define ENS_CURVES_MAX (1024.0 * 1024 * 1024)
 typedef struct {
 	int sent;
 } announce_t;
@@ -598,8 +618,13 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 {
 	const int R = (int)s->replicas, NL = R / size + (rank < R % size);
 	const size_t NV = (size_t)R * ENSEMBLE_NV;
-	const int frames = (eo->mode & ENS_FRAMES) != 0;
-	const size_t NX = NV + 3 + (frames ? (size_t)R : 0);   /* reduced each output time */
+	const int frames = (eo->mode & ENS_FRAMES) != 0, curves = (eo->mode & ENS_CURVES) != 0;
+	const size_t NX = NV + 3 + (frames || curves ? (size_t)R : 0);   /* reduced each output time */
+	/* curves: every replica's packed sample, reduced to rank 0 at the output times where a replica's
+	 * snapshot schedule asks for one; rank 0 combines them on a layout-only obs (mean, se per bin) */
+	obs_t *lay = curves && rank == 0 ? obs_create(s, 1) : NULL;
+	size_t CP = 0;
+	double *cvals = NULL;
 	const size_t fsz = frames ? s->count * (size_t)s->dim : 0;
 	double *fpos = frames ? malloc(fsz * sizeof(double)) : NULL, *fvel = frames ? malloc(fsz * sizeof(double)) : NULL;
 	run_t **runs = calloc(NL > 0 ? NL : 1, sizeof(run_t *));
@@ -613,7 +638,7 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 	ckpt_ensemble_t es = {1, 0.0};
 	const int ckpt = (eo->mode & ENS_CKPT) != 0;
 
-	if (!runs || !last || !done || !vals || (frames && (!fpos || !fvel)))
+	if (!runs || !last || !done || !vals || (frames && (!fpos || !fvel)) || (curves && rank == 0 && !lay))
 		failed = 1;
 	if (eo->mode & ENS_RESUME) {
 		if (rank == 0)
@@ -631,6 +656,18 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 			ret = e;
 		}
 	}
+	if (curves && !failed && NL > 0) {
+		CP = run_curves_packed_size(runs[0]);
+		if (!(cvals = malloc((size_t)R * CP * sizeof(double))))
+			failed = 1;
+	} else if (curves && !failed) {
+		/* a rank without replicas (size > R) still takes part in the reduction */
+		obs_t *o = obs_create(s, 1);
+		CP = o ? obs_packed_size(o) : 0;
+		obs_destroy(o);
+		if (!o || !(cvals = malloc((size_t)R * CP * sizeof(double))))
+			failed = 1;
+	}
 	t0 = ckpt_wall = MPI_Wtime();   /* wall_seconds: the production run, as for one replica (set-up and relax excluded) */
 	for (;;) {
 		memset(vals, 0, NX * sizeof(double));
@@ -644,7 +681,7 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 						snprintf(err, errlen, "replica %d: %s", r, last[i].warning ? last[i].warning : "");
 					break;
 				}
-				if (frames)
+				if (frames || curves)
 					vals[NV + 3 + r] = run_frame_due(runs[i]);
 			}
 			ensemble_pack(&last[i], done[i], vals + (size_t)r * ENSEMBLE_NV);
@@ -674,6 +711,31 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 			out.wall_seconds = es.wall_before + MPI_Wtime() - t0;
 			if (emit(&out, sink))
 				emit_failed = 1;
+		}
+		if (curves) {
+			int due = 0;
+			for (int r = 0; r < R; r++)
+				due |= vals[NV + 3 + r] != 0;
+			if (due) {
+				memset(cvals, 0, (size_t)R * CP * sizeof(double));
+				for (int i = 0; i < NL; i++)
+					if (run_curves_pack(runs[i], cvals + (size_t)(rank + i * size) * CP) != RUN_OK)
+						emit_failed = 1;   /* out of memory: the next reduction stops the run */
+				MPI_Reduce(rank == 0 ? MPI_IN_PLACE : cvals, cvals, (int)((size_t)R * CP), MPI_DOUBLE, MPI_SUM, 0,
+				           MPI_COMM_WORLD);
+				if (rank == 0 && !emit_failed) {
+					run_record_t crec = out;
+					crec.kind = RUN_CURVES;
+					crec.curves = obs_combine(lay, cvals, R);
+					crec.replicas = (uint32_t)R;
+					if (emit(&crec, sink))
+						emit_failed = 1;
+				}
+				if (!frames)
+					for (int i = 0; i < NL; i++)
+						if (vals[NV + 3 + rank + i * size] != 0)
+							run_snap_taken(runs[i]);
+			}
 		}
 		if (frames)
 			ens_frames(s, rank, size, runs, vals + NV + 3, sink, fpos, fvel, &emit_failed);
@@ -729,6 +791,8 @@ cleanup:
 	free(vals);
 	free(fpos);
 	free(fvel);
+	free(cvals);
+	obs_destroy(lay);
 	return ret;
 }
 
@@ -833,9 +897,23 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		ret = EX_INPUT;
 		goto cleanup;
 	}
-	/* Curves (observables.jsonl) come with --out; single runs only in this version (docs/output.md). */
+	/* Curves (observables.jsonl) come with --out (ensembles: means and standard errors, ensemble_run()). */
+	const int want_curves = outdir != NULL && obs_curve_bits(&scene) != 0;
 	run_opts_t opts = {.snapshots = outdir != NULL && stepped, .checkpoints = outdir != NULL && stepped,
-	                   .curves = outdir != NULL && stepped && obs_curve_bits(&scene) != 0};
+	                   .curves = want_curves && stepped};
+	if (want_curves && !stepped) {
+		/* every rank holds all replicas' packed curves for their reduction (ensemble_run()) */
+		obs_t *lay = obs_create(&scene, 1);
+		double need = lay ? (double)scene.replicas * (double)obs_packed_size(lay) * sizeof(double) : 0.0;
+		obs_destroy(lay);
+		if (need > ENS_CURVES_MAX) {
+			fprintf(stderr, "granular-engine: output.observables: the curves of %llu replicas need %.3g GiB on every "
+			        "rank to be combined (at most %.3g GiB): fewer replicas or fewer bins\n",
+			        (unsigned long long)scene.replicas, need / (1u << 30), ENS_CURVES_MAX / (1u << 30));
+			ret = EX_INPUT;
+			goto cleanup;
+		}
+	}
 	ckpt_output_t at = {0, 0, 0};
 	if (!stepped) {
 		ens.blobs = calloc(scene.replicas, sizeof(*ens.blobs));
@@ -882,7 +960,9 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		uint64_t ev, co;
 		if (run)
 			run_totals(run, &t_ckpt, &ev, &co);
-		if (opts.curves && open_curves(outdir, resume_path != NULL, t_ckpt, &sink) != 0)
+		else if (resume_path)
+			t_ckpt = last_progress_time(sink.copy);   /* ensembles: the mean time of the checkpoint's record */
+		if (want_curves && open_curves(outdir, resume_path != NULL, t_ckpt, &sink) != 0)
 			goto cleanup;
 		snprintf(path, sizeof(path), "%s/trajectory.h5", outdir);
 		if (resume_path && resume_frames(&scene, &ens, &at, &frames) != 0) {
@@ -921,7 +1001,8 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 
 	if (scene.replicas > 1) {
 		ens_opts_t eo = {ENS_RUN | (outdir ? ENS_CKPT : 0) | (resume_path ? ENS_RESUME : 0) |
-		                 (outdir && h5md_groups(&scene) > 0 ? ENS_FRAMES : 0), outdir, text, len, &ens};
+		                 (outdir && h5md_groups(&scene) > 0 ? ENS_FRAMES : 0) | (want_curves ? ENS_CURVES : 0), outdir,
+		                 text, len, &ens};
 		announce(an, eo.mode, text, len);
 		rc = ensemble_run(&scene, 0, size, &sink, &eo, err, sizeof(err));
 		if (rc == RUN_STOPPED) {

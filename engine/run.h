@@ -77,6 +77,7 @@ typedef struct {
 		double time, collisions_per_particle, kinetic_energy, temperature, pressure,
 		       compressibility, collision_rate, largest_fraction, mean_size;
 		double a2, a3, g_pairs, g_rate, g_pressure, cluster_w, cluster_exponent;
+		double msd, diffusion;
 	} se;
 	/* summary only */
 	run_status_t status;
@@ -200,5 +201,13 @@ void run_frame(run_t *r, run_record_t *rec, double *pos, double *vel);
  * particle, changes no schedule. RUN_OK, or RUN_ENOMEM (cluster workspace), RUN_EMETHOD when the
  * scene asks for no curve observable. */
 int run_curves(run_t *r, run_record_t *rec);
+/* Ensembles: run_curves() packed (obs_pack()) into v[run_curves_packed_size()] for the reduction over
+ * replicas (obs_combine() on a layout_only obs_create() of the scene); size 0 and RUN_EMETHOD without
+ * curve observables. */
+size_t run_curves_packed_size(const run_t *r);
+int run_curves_pack(run_t *r, double *v);
+/* Ensembles without frames: the snapshot schedule moves on as run_frame() would move it (curves taken
+ * at this output time), without copying the state. */
+void run_snap_taken(run_t *r);
 
 const char *run_status_name(run_status_t st);

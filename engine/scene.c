@@ -84,6 +84,8 @@ static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "wall_force", SCENE_OBS_WALL_FORCE },
 	{ "center_of_mass_height", SCENE_OBS_COM_HEIGHT },
 	{ "potential_energy", SCENE_OBS_POTENTIAL },
+	{ "impact_parameter", SCENE_OBS_IMPACT },
+	{ "mean_square_displacement", SCENE_OBS_MSD },
 };
 #define N_OBSERVABLES (sizeof observables / sizeof observables[0])
 
@@ -435,6 +437,7 @@ static int check_structure(ctx_t *c, json_t *v, scene_t *s)
 		{ "velocity_distribution", SCENE_OBS_VDIST, "\"velocity_distribution\"" },
 		{ "pair_correlation", SCENE_OBS_GOFR | SCENE_OBS_VCORR, "\"pair_correlation\" or \"velocity_correlations\"" },
 		{ "structure_factor", SCENE_OBS_SOFK | SCENE_OBS_VCORR, "\"structure_factor\" or \"velocity_correlations\"" },
+		{ "impact_parameter", SCENE_OBS_IMPACT, "\"impact_parameter\"" },
 	};
 	json_t *out = json_object_get(v, "output");
 	char sub[PATHLEN];
@@ -746,6 +749,11 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 			if (walls && !strcmp(name, periodic_only[k]))
 				return fail(c, path, "\"%s\" needs a periodic box (distances by the minimum image); "
 				            "not available with walls yet", name);
+		/* unwrapped displacements rely on periodic images and on a speed bound from the kinetic
+		 * energy, which walls (thermal, vibrating) and gravity can raise (engine/observe/msd.h) */
+		if (!strcmp(name, "mean_square_displacement") && (walls || grav))
+			return fail(c, path, "\"mean_square_displacement\" needs a periodic box without gravity; "
+			            "not available with %s yet", walls ? "walls" : "gravity");
 		if (!strcmp(name, "wall_force") && !walls)
 			return fail(c, path, "\"wall_force\" needs walls (boundaries)");
 		if (!strcmp(name, "center_of_mass_height") || !strcmp(name, "potential_energy")) {
@@ -918,6 +926,13 @@ static const struct object sofk_obj = {
 	},
 };
 
+static const struct object impact_obj = {
+	.fields = (const struct field[]){
+		{ "bins", parse_bins, offsetof(scene_t, impact_bins), &R_BINS, false },
+		{ .name = NULL },
+	},
+};
+
 static const struct object output_obj = {
 	.fields = (const struct field[]){
 		{ "every", parse_object, offsetof(scene_t, every), &when_obj, false },
@@ -926,6 +941,7 @@ static const struct object output_obj = {
 		{ "velocity_distribution", parse_object, 0, &vdist_obj, false },
 		{ "pair_correlation", parse_object, 0, &gofr_obj, false },
 		{ "structure_factor", parse_object, 0, &sofk_obj, false },
+		{ "impact_parameter", parse_object, 0, &impact_obj, false },
 		{ "snapshots", parse_object, 0, &snapshots_obj, false },
 		{ "checkpoint", parse_object, 0, &checkpoint_obj, false },
 		{ .name = NULL },
@@ -1013,6 +1029,7 @@ int scene_parse(const char *json, size_t len, scene_t *out, char *err, size_t er
 		.vdist_bins = 80,
 		.vdist_range = 5,
 		.gofr_bins = 250,
+		.impact_bins = 20,
 		.replicas = 1,
 		.compression = 0,
 	};

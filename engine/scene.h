@@ -50,6 +50,8 @@ enum {
 	SCENE_OBS_WALL_FORCE = 1u << 9,     /* force on each wall: pressure and shear stress (needs walls) */
 	SCENE_OBS_COM_HEIGHT = 1u << 10,    /* centre-of-mass height along -gravity (needs gravity) */
 	SCENE_OBS_POTENTIAL = 1u << 11,     /* potential energy in the gravity field (needs gravity) */
+	SCENE_OBS_IMPACT = 1u << 12,        /* impact_parameter: P(b) of the collisions between snapshot times */
+	SCENE_OBS_MSD = 1u << 13,           /* mean_square_displacement: MSD and D (periodic, no gravity) */
 };
 
 /* Wall kinds (boundaries.AXIS.lower/upper.type; method ed only). Every wall
@@ -126,6 +128,7 @@ typedef struct scene {
 	int gofr_bins;                 /* pair correlation: bins over [0, range) (default 250) */
 	double gofr_range;             /* ... range in diameters (default min(5, half the smallest box edge)) */
 	int sofk_grid[3];              /* density grid per axis for S(k) and the velocity structure factors */
+	int impact_bins;               /* impact parameters: bins over b / sigma in [0, 1] (default 20) */
 	scene_when_t snapshots;        /* trajectory frames (time or cpp); NONE = first and last only */
 	int compression;               /* deflate level 0..9 of the HDF5 output, default 0 */
 	scene_when_t checkpoint;       /* checkpoint interval (simulated time or wall seconds); NONE = none */

@@ -152,6 +152,8 @@ struct ed {
 	uint64_t whits[6], wall_collisions;
 	rng_t wrng;               /* thermal and rough walls */
 	double psum[3];           /* sum of the velocities at t_mark (gravity: energy bookkeeping) */
+	double *bcount;           /* ed_count_impacts(): impact-parameter histogram, or NULL */
+	int bnb;
 };
 
 static inline bool hless(const hent_t *a, const hent_t *b)
@@ -1719,6 +1721,12 @@ void ed_totals(const ed_t *ed, ed_sample_t *out)
 void ed_watch_collapse(ed_t *ed, double rate)
 {
 	ed->collapse_rate = rate > 0.0 ? rate : 0.0;
+}
+
+void ed_count_impacts(ed_t *ed, double *counts, int nb)
+{
+	ed->bcount = nb > 0 ? counts : NULL;
+	ed->bnb = nb;
 }
 
 const ed_collapse_t *ed_collapse(const ed_t *ed)

@@ -83,6 +83,14 @@ typedef struct {
 void ed_watch_collapse(ed_t *ed, double rate);
 const ed_collapse_t *ed_collapse(const ed_t *ed);
 
+/* Impact parameters (issue 17, engine/observe): with counts != NULL each
+ * particle collision (an approaching pair) adds 1 to counts[k], k the bin of
+ * b / |r_ij| in [0, 1] over nb equal bins, b = |r_ij x g| / |g| the distance
+ * of the pre-collision relative trajectory from the centre (|r_ij| = sigma
+ * at contact). The caller owns counts (nb doubles) and resets it; NULL stops
+ * counting. Not state: changes nothing in the dynamics, not checkpointed. */
+void ed_count_impacts(ed_t *ed, double *counts, int nb);
+
 /* Interval statistics since the previous ed_sample() (or the start). */
 typedef struct {
 	double time;             /* current simulated time */

@@ -690,6 +690,15 @@ static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uin
 			pj->v[a] += f * dr[a];
 		}
 		ed->virial -= 0.5 * (1.0 + e) * ed->mass * b;
+		if (ed->bcount) {
+			/* impact parameter over |r|: sqrt(1 - (r.g)^2 / (r^2 g^2)) */
+			double g2 = 0.0;
+			FOR_AXES(a)
+				g2 += dv[a] * dv[a];
+			double q = 1.0 - b * b / (r2 * g2);
+			int k = (int)(sqrt(q > 0.0 ? q : 0.0) * ed->bnb);
+			ed->bcount[k < ed->bnb ? k : ed->bnb - 1] += 1.0;
+		}
 		if (e != 1.0)
 			ed->ekin_cur -= 0.25 * (1.0 - e * e) * ed->mass * b * b / r2;
 	}

@@ -68,6 +68,10 @@ static void g_a3(const run_record_t *r, void *o) { *(double *)o = r->obs.a3; }
 static void g_gpairs(const run_record_t *r, void *o) { *(double *)o = r->obs.g_pairs; }
 static void g_grate(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->obs.g_rate : NAN; }
 static void g_gpres(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->obs.g_pressure : NAN; }
+static void g_msd(const run_record_t *r, void *o) { *(double *)o = r->obs.msd; }
+static void g_diff(const run_record_t *r, void *o) { *(double *)o = r->obs.diffusion; }
+static void g_msd_se(const run_record_t *r, void *o) { *(double *)o = r->se.msd; }
+static void g_diff_se(const run_record_t *r, void *o) { *(double *)o = r->se.diffusion; }
 static void g_a2_se(const run_record_t *r, void *o) { *(double *)o = r->se.a2; }
 static void g_a3_se(const run_record_t *r, void *o) { *(double *)o = r->se.a3; }
 static void g_gpairs_se(const run_record_t *r, void *o) { *(double *)o = r->se.g_pairs; }
@@ -106,6 +110,8 @@ static const obs_def_t obs_defs[] = {
 	{ "g_contact_pairs", SCENE_OBS_GOFR, 0, 0, "1", g_gpairs },
 	{ "g_contact_rate", SCENE_OBS_GOFR, 0, 0, "1", g_grate },
 	{ "g_contact_pressure", SCENE_OBS_GOFR, 0, 0, "1", g_gpres },
+	{ "mean_square_displacement", SCENE_OBS_MSD, 0, 0, "l0+2", g_msd },
+	{ "diffusion_coefficient", SCENE_OBS_MSD, 0, 0, "l0+2 t0-1", g_diff },
 	/* ensembles: NAME_se beside NAME, as KEY_se in the progress stream */
 	{ "time_se", NEED_SE, 0, 0, "t0", g_time_se },
 	{ "kinetic_energy_se", NEED_SE | SCENE_OBS_ENERGY, 0, 0, "e0", g_ekin_se },
@@ -120,6 +126,8 @@ static const obs_def_t obs_defs[] = {
 	{ "g_contact_pairs_se", NEED_SE | SCENE_OBS_GOFR, 0, 0, "1", g_gpairs_se },
 	{ "g_contact_rate_se", NEED_SE | SCENE_OBS_GOFR, 0, 0, "1", g_grate_se },
 	{ "g_contact_pressure_se", NEED_SE | SCENE_OBS_GOFR, 0, 0, "1", g_gpres_se },
+	{ "mean_square_displacement_se", NEED_SE | SCENE_OBS_MSD, 0, 0, "l0+2", g_msd_se },
+	{ "diffusion_coefficient_se", NEED_SE | SCENE_OBS_MSD, 0, 0, "l0+2 t0-1", g_diff_se },
 };
 #define N_OBS_DEFS (sizeof obs_defs / sizeof obs_defs[0])
 

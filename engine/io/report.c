@@ -137,6 +137,12 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 		num_se(&o, r, "g_contact_pressure", r->have_interval ? r->obs.g_pressure : NAN,
 		       r->have_interval ? r->se.g_pressure : NAN);
 	}
+	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_MSD)) {
+		/* single runs: the standard error over particles; ensembles: over replicas */
+		num(&o, "msd", r->obs.msd);
+		num(&o, "msd_se", r->replicas > 1 ? r->se.msd : r->obs.msd_se);
+		num_se(&o, r, "diffusion", r->obs.diffusion, r->se.diffusion);
+	}
 	if (r->warning) {
 		/* Our own text: printable ASCII; quote the two JSON specials anyway. */
 		put(&o, ",\"warning\":\"");
@@ -230,6 +236,9 @@ int report_curves(const run_record_t *r, uint64_t sample, char *buf, size_t len)
 			scalar9(&o, ens, "m2_reduced", c->m2_reduced, c->se_m2_reduced);
 			scalar9(&o, ens, "w", c->cluster_w, c->se_cluster_w);
 			scalar9(&o, ens, "exponent", c->cluster_exponent, c->se_cluster_exponent);
+		} else if (!strcmp(t->family, "impact_parameter")) {
+			scalar9(&o, ens, "fit_a", c->impact_a, c->se_impact_a);
+			scalar9(&o, ens, "fit_c", c->impact_c, c->se_impact_c);
 		}
 		put(&o, ",\"tables\":[");
 		for (int j = i; j < c->ntables && !strcmp(c->t[j].family, t->family); j++) {
