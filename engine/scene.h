@@ -50,6 +50,7 @@ enum {
 	SCENE_OBS_WALL_FORCE = 1u << 9,     /* force on each wall: pressure and shear stress (needs walls) */
 	SCENE_OBS_COM_HEIGHT = 1u << 10,    /* centre-of-mass height along -gravity (needs gravity) */
 	SCENE_OBS_POTENTIAL = 1u << 11,     /* potential energy in the gravity field (needs gravity) */
+	SCENE_OBS_OBSTACLE_FORCE = 1u << 16, /* force on each obstacle: drag (needs obstacles) */
 };
 
 /* Wall kinds (boundaries.AXIS.lower/upper.type; method ed only). Every wall
@@ -85,6 +86,27 @@ typedef struct {
 	scene_wall_t wall[2];
 } scene_boundary_t;
 
+/* Obstacles (method ed only): fixed disks (2D) / spheres (3D). A particle
+ * touches obstacle k when its centre is radius + particle radius from the
+ * obstacle's centre. Normal restitution r_o as for walls. */
+#define SCENE_OBSTACLES_MAX 16
+typedef enum {
+	SCENE_OBST_SLIP = 0,       /* specular: v_n' = -r_o v_n, tangential unchanged */
+	SCENE_OBST_NO_SLIP,        /* thermal: with probability accommodation re-emitted from the flux-weighted
+	                            * Maxwellian at temperature (diffuse), else as slip */
+	SCENE_OBST_RANDOM_SIGN,    /* v_n' = -r_o v_n, tangential velocity reversed with probability 1/2 (seed 001:
+	                            * no-slip without heating) */
+} scene_obstacle_type_t;
+
+typedef struct {
+	scene_obstacle_type_t type;
+	double center[3];          /* scene coordinates (walled axes: from the lower wall's rest position) */
+	double radius;             /* R > 0 */
+	double restitution;        /* r_o in [0, 1], default 1 */
+	double temperature;        /* no_slip: T_o > 0 */
+	double accommodation;      /* no_slip: fraction of diffuse re-emissions, [0, 1], default 1 */
+} scene_obstacle_t;
+
 typedef struct {
 	scene_clock_t kind;
 	double value;        /* time, collisions per particle (2C/N), or wall-clock seconds */
@@ -111,6 +133,8 @@ typedef struct scene {
 	/* boundaries and fields (method ed only) */
 	scene_boundary_t boundary[3];  /* per axis; default periodic */
 	double gravity[3];             /* uniform acceleration, default 0 */
+	int n_obstacles;               /* 0..SCENE_OBSTACLES_MAX */
+	scene_obstacle_t obstacle[SCENE_OBSTACLES_MAX];
 
 	/* run */
 	uint64_t seed;                 /* default 1 */
@@ -165,8 +189,9 @@ int scene_check_start(const scene_t *s, char *err, size_t errlen);
 /* Close-packing volume fraction of disks (dim 2) or spheres (dim 3). */
 double scene_close_packing(int dim);
 
-/* Any walled axis; any non-zero gravity component. */
+/* Any walled axis; any non-zero gravity component; any obstacle. */
 int scene_has_walls(const scene_t *s);
+int scene_has_obstacles(const scene_t *s);
 int scene_has_gravity(const scene_t *s);
 
 /* Volume of the box and of one particle (disk area in 2D). */

@@ -113,6 +113,32 @@ static inline double FN(wall_time)(const struct ed *ed, const P_T *p, int w, dou
 	return walltime_vibrating(d, s * p->v[a], gam, W->A, W->omega, th, horizon);
 }
 
+/* Particle p (synchronised) relative to obstacle k's centre: the minimum
+ * image on periodic axes (one image is within reach: scene.c). */
+static inline void FN(obst_rel)(const struct ed *ed, const P_T *p, int k, double *x)
+{
+	FOR_AXES(a) {
+		double d = p->r[a] - ed->obst[k].c[a];
+		if (ed->periodic[a])
+			d -= ed->L[a] * nearbyint(d / ed->L[a]);
+		x[a] = d;
+	}
+}
+
+/* Time from now to particle p's contact with obstacle k, no later than
+ * horizon with gravity (obstacle.h). */
+static inline double FN(obst_time)(const struct ed *ed, const P_T *p, int k, double horizon)
+{
+	double x[D];
+	FN(obst_rel)(ed, p, k, x);
+#if GRAV
+	return obstacle_time_grav(x, p->v, ed->g, D, ed->obst[k].S, horizon);
+#else
+	(void)horizon;
+	return obstacle_time_free(x, p->v, D, ed->obst[k].S);
+#endif
+}
+
 /* The particle's next boundary event: leaving its cell through a face
  * (walled axes have no face at their ends), or meeting a wall (particles
  * in the cells a wall can reach). With gravity each face is a quadratic
@@ -151,6 +177,14 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
 			double dt = FN(wall_time)(ed, p, 2 * a + 1, best);
 			if (dt < best)
 				best = dt, code = ED_WALL0 + 2 * a + 1;
+		}
+	}
+	if (ed->ocell) {   /* NULL without obstacles */
+		for (unsigned m = ed->ocell[FN(cell_index)(ed, e->cc)]; m; m &= m - 1) {
+			const int k = __builtin_ctz(m);
+			double dt = FN(obst_time)(ed, p, k, best);
+			if (dt < best)
+				best = dt, code = ED_OBST0 + k;
 		}
 	}
 	e->t_cross = p->t + best;
@@ -746,6 +780,56 @@ static void FN(do_wall)(struct ed *ed, uint32_t i, double t)
 	FN(schedule)(ed, i);
 }
 
+/* Particle i meets obstacle k (its event code) at time t: the obstacle's
+ * rule (obst_rule() in ed.c) along the normal from the obstacle's centre,
+ * with the TC model as for walls; the momentum given to the obstacle is
+ * accumulated for its force (drag). */
+static void FN(do_obstacle)(struct ed *ed, uint32_t i, double t)
+{
+	P_T *p = &((P_T *)ed->p)[i];
+	ev_t *e = &ed->ev[i];
+	const int k = e->cross - ED_OBST0;
+	const obst_t *O = &ed->obst[k];
+	FN(advance)(ed, p, t);
+	FN(energy_to)(ed, t);
+	int elastic = 0;
+	if (ed->tlast) {
+		elastic = t - ed->tlast[i] < ed->tc;
+		ed->tlast[i] = t;
+	}
+	double x[D], nrm[3] = {0.0, 0.0, 0.0}, r2 = 0.0;
+	FN(obst_rel)(ed, p, k, x);
+	FOR_AXES(a)
+		r2 += x[a] * x[a];
+	const double r = sqrt(r2);
+	FOR_AXES(a)
+		nrm[a] = x[a] / r;
+	double v0[D], de = 0.0;
+	FOR_AXES(a)
+		v0[a] = p->v[a];
+	obst_rule(ed, k, nrm, p->v, elastic);
+	FOR_AXES(a) {
+		const double dv = p->v[a] - v0[a];
+		ed->oimp[k][a] -= ed->mass * dv;
+		ed->oimp_tot[k][a] -= ed->mass * dv;
+		de += dv * (p->v[a] + v0[a]);
+#if GRAV
+		ed->psum[a] += dv;
+#endif
+	}
+	ed->ekin_cur += 0.5 * ed->mass * de;
+	/* Back on the contact sphere: rounding may leave the centre a hair inside. */
+	if (r < O->S)
+		FOR_AXES(a)
+			p->r[a] += (O->S - r) * nrm[a];
+	p->count++;
+	ed->ohits[k]++;
+	ed->obst_collisions++;
+	FN(set_cross)(ed, i);
+	FN(scan_full)(ed, i);
+	FN(schedule)(ed, i);
+}
+
 /* Cell mode only: a boundary event (face or wall), a collision or a
  * cancelled one. */
 static void FN(step)(struct ed *ed)
@@ -765,7 +849,9 @@ static void FN(step)(struct ed *ed)
 	ed->t_abs_valid = 0;
 	ed->events++;
 	if (e->t_cross < e->t_coll) {
-		if (e->cross >= ED_WALL0)
+		if (e->cross >= ED_OBST0)
+			FN(do_obstacle)(ed, i, t);
+		else if (e->cross >= ED_WALL0)
 			FN(do_wall)(ed, i, t);
 		else
 			FN(do_cross)(ed, i, t);
@@ -1118,6 +1204,16 @@ static double FN(min_gap)(const struct ed *ed)
 					best = g;
 			}
 		}
+		for (int k = 0; k < ed->nobst; k++) {
+			double r2 = 0.0;
+			FOR_AXES(a) {
+				double x = FN(min_image)(ed, a, ri[a] - ed->obst[k].c[a]);
+				r2 += x * x;
+			}
+			double g = sqrt(r2) - ed->obst[k].S;
+			if (g < best)
+				best = g;
+		}
 #endif
 #if D == 3
 		for (int kz = 0; kz < ed->no[2]; kz++) {
@@ -1211,6 +1307,9 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
 				if (base[a] >= ed->nc[a]) base[a] = ed->nc[a] - 1;
 			}
 			int clash = 0;
+#if WALLS
+			clash = !obst_clear(ed, P[i].r);
+#endif
 #if D == 3
 			for (int kz = 0; kz < ed->no[2] && !clash; kz++) {
 				if ((cc[2] = FN(cell_at)(ed, 2, base[2] + ed->off[2][kz])) < 0)
