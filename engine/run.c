@@ -75,6 +75,8 @@ typedef struct {
 	uint64_t vmax_raised, cell_collisions, rejected_moves;
 	uint64_t wall_collisions;
 	double wall_impulse[6][3], com_height, potential_energy;
+	uint64_t obstacle_collisions;
+	double obstacle_impulse[SCENE_OBSTACLES_MAX][3];
 } smp_t;
 
 static void eng_sample(run_t *rc, smp_t *o)
@@ -91,6 +93,8 @@ static void eng_sample(run_t *rc, smp_t *o)
 		o->wall_collisions = sm.wall_collisions;
 		memcpy(o->wall_impulse, sm.wall_impulse, sizeof(o->wall_impulse));
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
+		o->obstacle_collisions = sm.obstacle_collisions;
+		memcpy(o->obstacle_impulse, sm.obstacle_impulse, sizeof(o->obstacle_impulse));
 	} else {
 		dsmc_sample_t sm;
 		dsmc_sample(rc->mc, &sm);
@@ -116,6 +120,7 @@ static void eng_totals(const run_t *rc, smp_t *o)
 		o->events = sm.events, o->collisions = sm.collisions, o->elastic_by_tc = sm.elastic_by_tc;
 		o->wall_collisions = sm.wall_collisions;
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
+		o->obstacle_collisions = sm.obstacle_collisions;
 	} else {
 		dsmc_sample_t sm;
 		dsmc_totals(rc->mc, &sm);
@@ -200,6 +205,12 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 	}
 	r->wall_collisions = sm.wall_collisions;
 	r->com_height = sm.com_height, r->potential_energy = sm.potential_energy;
+	r->n_obstacles = s->n_obstacles;
+	r->obstacle_collisions = sm.obstacle_collisions;
+	if (sm.interval > 0.0)
+		for (int k = 0; k < s->n_obstacles; k++)
+			for (int b = 0; b < 3; b++)
+				r->obstacle_force[k][b] = sm.obstacle_impulse[k][b] / sm.interval;
 	for (int a = 0; a < s->dim; a++) {
 		if (!s->boundary[a].walled)
 			continue;

@@ -845,6 +845,10 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 	int ret = check_obstacles(c, s);
 	if (ret)
 		return ret;
+	for (int a = 0; a < s->dim; a++)
+		if (s->flow[a] != 0 && s->method != SCENE_METHOD_ED)
+			return fail(c, "particles.initial.velocity", "method \"%s\" does not support a mean flow yet (only \"ed\" "
+			            "does)", method_names[s->method]);
 	if ((walls || obst) && (grav || vibrating) && inelastic && s->tc == 0)
 		return fail(c, "collisions.tc", "must be > 0 with %s, walls and restitution below 1 (a bed at rest on a wall "
 		            "would collapse: infinitely many collisions in finite time); set collisions.tc, e.g. 1e-5 of "
@@ -952,6 +956,7 @@ static const struct object initial_obj = {
 	.fields = (const struct field[]){
 		{ "positions", parse_positions, offsetof(scene_t, positions), NULL, false },
 		{ "temperature", parse_number, offsetof(scene_t, temperature), &R_NONNEG, false },
+		{ "velocity", parse_vector, offsetof(scene_t, flow), NULL, false },
 		{ "relax", parse_object, 0, &relax_obj, false },
 		{ .name = NULL },
 	},

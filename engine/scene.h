@@ -123,7 +123,8 @@ typedef struct scene {
 	double box[3];                 /* edge lengths; derived from volume_fraction if not given */
 	double volume_fraction;        /* always filled (derived from box if box given) */
 	scene_positions_t positions;   /* default lattice */
-	double temperature;            /* initial T >= 0, default 1 */
+	double temperature;            /* initial T >= 0, default 1 (of the velocities about the mean flow) */
+	double flow[3];                /* initial mean velocity (a stream; method ed), default 0 */
 	double relax_cpp;              /* elastic pre-run, collisions per particle (default 0) */
 
 	/* collisions */
