@@ -73,6 +73,9 @@ typedef struct {
 	int n_obstacles;
 	uint64_t obstacle_collisions;
 	double obstacle_force[SCENE_OBSTACLES_MAX][3];
+	/* Open walls (SCENE_OBS_OUTFLOW): particles still in the system and
+	 * those that left through each wall w (totals). */
+	uint64_t particles, wall_outflow[6];
 	const char *warning;         /* dsmc/hsmc validity warning (first record only), or NULL */
 	/* dsmc/hsmc diagnostics (totals; printed in the summary when non-zero) */
 	uint64_t vmax_raised, cell_collisions, rejected_moves;

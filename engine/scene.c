@@ -65,7 +65,7 @@ static const char *const correction_names[] = {
 static const char *const contact_names[] = { "global", "local" };
 static const char *const wall_names[] = {
 	[SCENE_WALL_SPECULAR] = "specular", [SCENE_WALL_THERMAL] = "thermal", [SCENE_WALL_ROUGH] = "rough",
-	[SCENE_WALL_MOVING] = "moving", [SCENE_WALL_VIBRATING] = "vibrating",
+	[SCENE_WALL_MOVING] = "moving", [SCENE_WALL_VIBRATING] = "vibrating", [SCENE_WALL_OPEN] = "open",
 };
 static const char *const obstacle_names[] = {
 	[SCENE_OBST_SLIP] = "slip", [SCENE_OBST_NO_SLIP] = "no_slip", [SCENE_OBST_RANDOM_SIGN] = "random_sign",
@@ -88,6 +88,7 @@ static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "center_of_mass_height", SCENE_OBS_COM_HEIGHT },
 	{ "potential_energy", SCENE_OBS_POTENTIAL },
 	{ "obstacle_force", SCENE_OBS_OBSTACLE_FORCE },
+	{ "outflow", SCENE_OBS_OUTFLOW },
 };
 #define N_OBSERVABLES (sizeof observables / sizeof observables[0])
 
@@ -855,13 +856,15 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 		            "the time a particle takes to fall one diameter", grav ? "gravity" : "a vibrating wall");
 	/* Observables that need what the scene has. */
 	json_t *obs = json_object_get(json_object_get(v, "output"), "observables");
+	if (!obs && scene_has_open_walls(s))
+		s->observables &= ~(unsigned)SCENE_OBS_PRESSURE;   /* default set: no virial pressure with outflow */
 	size_t i;
 	json_t *o;
 	json_array_foreach(obs, i, o) {
 		const char *name = json_string_value(o);
 		snprintf(path, sizeof path, "output.observables[%zu]", i);
 		bool mine = !strcmp(name, "wall_force") || !strcmp(name, "center_of_mass_height") ||
-		            !strcmp(name, "potential_energy") || !strcmp(name, "obstacle_force");
+		            !strcmp(name, "potential_energy") || !strcmp(name, "obstacle_force") || !strcmp(name, "outflow");
 		if (mine && s->replicas > 1)
 			return fail(c, path, "\"%s\" is not averaged over ensembles yet (run.replicas must be 1)", name);
 		/* cluster search, g(r), S(k) and the velocity correlations take
@@ -874,6 +877,12 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 				            "image, a homogeneous volume); not available with %s yet", name, walls ? "walls" : "obstacles");
 		if (!strcmp(name, "obstacle_force") && !obst)
 			return fail(c, path, "\"obstacle_force\" needs obstacles");
+		if (!strcmp(name, "outflow") && !scene_has_open_walls(s))
+			return fail(c, path, "\"outflow\" needs an \"open\" wall");
+		/* the virial pressure assumes a fixed particle set in the box */
+		if (!strcmp(name, "pressure") && scene_has_open_walls(s))
+			return fail(c, path, "\"pressure\" is not available with an \"open\" wall (particles leave); "
+			            "use \"wall_force\"");
 		if (!strcmp(name, "wall_force") && !walls)
 			return fail(c, path, "\"wall_force\" needs walls (boundaries)");
 		if (!strcmp(name, "center_of_mass_height") || !strcmp(name, "potential_energy")) {
@@ -1194,6 +1203,15 @@ int scene_has_walls(const scene_t *s)
 int scene_has_obstacles(const scene_t *s)
 {
 	return s->n_obstacles > 0;
+}
+
+int scene_has_open_walls(const scene_t *s)
+{
+	for (int a = 0; a < s->dim && a < 3; a++)
+		for (int k = 0; k < 2; k++)
+			if (s->boundary[a].walled && s->boundary[a].wall[k].type == SCENE_WALL_OPEN)
+				return 1;
+	return 0;
 }
 
 int scene_has_gravity(const scene_t *s)

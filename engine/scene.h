@@ -51,6 +51,7 @@ enum {
 	SCENE_OBS_COM_HEIGHT = 1u << 10,    /* centre-of-mass height along -gravity (needs gravity) */
 	SCENE_OBS_POTENTIAL = 1u << 11,     /* potential energy in the gravity field (needs gravity) */
 	SCENE_OBS_OBSTACLE_FORCE = 1u << 16, /* force on each obstacle: drag (needs obstacles) */
+	SCENE_OBS_OUTFLOW = 1u << 17,       /* particles present and particles out per wall (needs an open wall) */
 };
 
 /* Wall kinds (boundaries.AXIS.lower/upper.type; method ed only). Every wall
@@ -62,6 +63,7 @@ typedef enum {
 	SCENE_WALL_ROUGH,          /* tangential velocity reversed with probability (seed 000 pipe) */
 	SCENE_WALL_MOVING,         /* tangential velocity u: v_t' - u = -beta (v_t - u) (seed 000 3.7-3.8 at beta = 1) */
 	SCENE_WALL_VIBRATING,      /* displaced along its inward normal by A sin(2 pi f t + phase) */
+	SCENE_WALL_OPEN,           /* outflow: a particle touching it leaves the system (counted); no restitution */
 } scene_wall_type_t;
 
 typedef struct {
@@ -193,6 +195,8 @@ double scene_close_packing(int dim);
 /* Any walled axis; any non-zero gravity component; any obstacle. */
 int scene_has_walls(const scene_t *s);
 int scene_has_obstacles(const scene_t *s);
+/* Any wall of type "open" (particles leave through it). */
+int scene_has_open_walls(const scene_t *s);
 int scene_has_gravity(const scene_t *s);
 
 /* Volume of the box and of one particle (disk area in 2D). */

@@ -150,6 +150,7 @@ struct ed {
 	 * periodic engine's layout. */
 	const struct ed_ops *ops;
 	int variant;              /* 0 periodic homogeneous, 1 walls, 2 gravity (and maybe walls) */
+	int open;                 /* some wall is open (particles leave) */
 	/* Walls and gravity (variants 1, 2; unused in 0). Internal coordinates
 	 * on a walled axis are the scene's plus org (the lower wall's
 	 * amplitude), so that a vibrating wall never leaves [0, L]. */
@@ -175,6 +176,11 @@ struct ed {
 	double oimp[SCENE_OBSTACLES_MAX][3];      /* momentum given to each obstacle over the output interval */
 	double oimp_tot[SCENE_OBSTACLES_MAX][3];  /* ... since the start of the production run */
 	uint64_t ohits[SCENE_OBSTACLES_MAX], obst_collisions;
+	/* Open walls (walls variants only; gone NULL without): gone[i] = 1 once
+	 * particle i has left (out of the cell lists, no events, velocity 0). */
+	uint8_t *gone;
+	uint64_t n_gone;
+	uint64_t wout[6];         /* particles out through each wall (total) */
 };
 
 static inline bool hless(const hent_t *a, const hent_t *b)
@@ -446,8 +452,9 @@ static bool collapse_check(struct ed *ed, double dt)
 {
 	if (!(ed->collapse_rate > 0.0))
 		return false;
-	double temp = fmax(2.0 * ed->ekin_cur / (ed->dim * (double)ed->n), 0.0);
-	if (2.0 * (double)ed->rebase_every <= ed->collapse_rate * sqrt(temp) * (double)ed->n * dt)
+	const double n = (double)(ed->n - ed->n_gone);
+	double temp = n > 0.0 ? fmax(2.0 * ed->ekin_cur / (ed->dim * n), 0.0) : 0.0;
+	if (2.0 * (double)ed->rebase_every <= ed->collapse_rate * sqrt(temp) * n * dt)
 		return false;
 	ed->collapse = (ed_collapse_t){.time = ed_time(ed), .interval = dt, .events = ed->rebase_every,
 	                               .temperature = temp};
@@ -1098,6 +1105,7 @@ static void reset_clock(struct ed *ed)
 	memset(ed->oimp_tot, 0, sizeof ed->oimp_tot);
 	memset(ed->ohits, 0, sizeof ed->ohits);
 	ed->obst_collisions = 0;
+	memset(ed->wout, 0, sizeof ed->wout);
 	for (int a = 0; a < 3; a++)
 		ed->psum[a] = mom[a] / ed->mass;
 }
@@ -1280,7 +1288,7 @@ static void setup_wall_cells(struct ed *ed)
  * engine of ed's geometry with neighbour lists (nl) and TC times (tc);
  * absent arrays are 0. */
 enum { A_P, A_EV, A_HEAP, A_CN, A_CALHEAD, A_HEAD, A_OCC, A_NEXT, A_ID, A_SCRATCH_IDX, A_SCRATCH_CELL,
-       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_OCELL, A_COUNT };
+       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_OCELL, A_GONE, A_COUNT };
 static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 {
 	const size_t n = ed->n;
@@ -1300,6 +1308,7 @@ static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 	b[A_NN] = b[A_MARK] = nl ? n : 0;
 	b[A_TLAST] = tc ? n * sizeof(double) : 0;
 	b[A_OCELL] = ed->nobst ? ed->ncells * sizeof(uint16_t) : 0;
+	b[A_GONE] = ed->open ? n : 0;
 }
 
 /* Cells cost memory even when empty (~9 bytes each): a grid finer than this
@@ -1335,6 +1344,7 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 	}
 	/* obstacles live in the walls variants (all axes may be periodic there) */
 	ed->variant = scene_has_gravity(s) ? 2 : scene_has_walls(s) || scene_has_obstacles(s) ? 1 : 0;
+	ed->open = scene_has_open_walls(s);
 	ed->ops = &ed_ops[ed->dim - 2][ed->variant];
 	if (ed->variant) {
 		setup_walls(ed, s);
@@ -1402,6 +1412,8 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 			goto fail;
 		build_ocell(ed);
 	}
+	if (ed->open && !(ed->gone = big_alloc(b[A_GONE], 1)))
+		goto fail;
 	if (!ed->p || !ed->ev || !ed->heap || !ed->cn || !ed->cal_head || !ed->head || !ed->occ || !ed->next || !ed->id || !ed->scratch_idx || !ed->scratch_cell ||
 	    (s->tc > 0.0 && !ed->tlast))
 		goto fail;
@@ -1501,6 +1513,7 @@ void ed_destroy(ed_t *ed)
 	free(ed->nn);
 	free(ed->mark);
 	free(ed->ocell);
+	free(ed->gone);
 	free(ed);
 }
 
@@ -1516,6 +1529,8 @@ static void sample_walls(const struct ed *ed, ed_sample_t *out)
 	out->wall_collisions = ed->wall_collisions;
 	memcpy(out->wall_hits, ed->whits, sizeof out->wall_hits);
 	memcpy(out->wall_impulse, ed->wimp, sizeof out->wall_impulse);
+	out->particles = ed->n - ed->n_gone;
+	memcpy(out->wall_outflow, ed->wout, sizeof out->wall_outflow);
 	out->n_obstacles = ed->nobst;
 	out->obstacle_collisions = ed->obst_collisions;
 	memcpy(out->obstacle_hits, ed->ohits, sizeof out->obstacle_hits);
@@ -1578,7 +1593,7 @@ static size_t held(const struct ed *ed, int nl, int tc)
 	return sizeof(*ed) + (ed->cal_m + 1) * sizeof(int32_t) + (2 * ed->ncells + 1) * sizeof(int32_t) +
 	       (ed->ncells + 63) / 64 * sizeof(uint64_t) +
 	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + sizeof(cnode_t) + 3 * sizeof(uint32_t) + per_nl +
-	                (tc ? sizeof(double) : 0)) + (ed->nobst ? ed->ncells * sizeof(uint16_t) : 0);
+	                (tc ? sizeof(double) : 0) + (ed->open ? 1 : 0)) + (ed->nobst ? ed->ncells * sizeof(uint16_t) : 0);
 }
 
 size_t ed_memory(const ed_t *ed) { return held(ed, ed->xn != NULL, ed->tlast != NULL); }
@@ -1612,6 +1627,7 @@ typedef enum {
 	F_ID, F_HEAD, F_TLAST, F_XN, F_NN, F_NB,
 	F_WPH, F_WIMP, F_WIMPTOT, F_WHITS, F_WCOLL, F_WRNG, F_PSUM,   /* walls and gravity variants only */
 	F_OIMP, F_OIMPTOT, F_OHITS, F_OCOLL,                         /* with obstacles only */
+	F_GONE, F_WOUT,                                              /* with open walls only */
 	F_SCALAR
 } fid_t;
 
@@ -1659,6 +1675,7 @@ static const struct {
 	{ "velocity_sum", F_PSUM, ED_T_F64 },
 	{ "obstacle_impulse", F_OIMP, ED_T_F64 }, { "obstacle_impulse_total", F_OIMPTOT, ED_T_F64 },
 	{ "obstacle_hits", F_OHITS, ED_T_U64 }, { "obstacle_collisions", F_OCOLL, ED_T_U64 },
+	{ "gone", F_GONE, ED_T_U8 }, { "wall_outflow", F_WOUT, ED_T_U64 },
 };
 #define N_ARRAYS (sizeof arrays / sizeof arrays[0])
 
@@ -1673,8 +1690,10 @@ size_t ed_type_size(ed_type_t t)
 }
 
 /* Whether a field exists, for an engine with neighbour lists (nl) and TC times (tc). */
-static int field_exists(fid_t id, int nl, int tc, int variant, int nobst)
+static int field_exists(fid_t id, int nl, int tc, int variant, int nobst, int open)
 {
+	if (id == F_GONE || id == F_WOUT)   /* scenes without open walls keep their checkpoint layout */
+		return open;
 	if (id >= F_OIMP && id <= F_OCOLL)   /* scenes without obstacles keep their checkpoint layout */
 		return nobst > 0;
 	if (id == F_TLAST)
@@ -1688,7 +1707,7 @@ static int field_exists(fid_t id, int nl, int tc, int variant, int nobst)
 
 static int array_present(const struct ed *ed, fid_t id)
 {
-	return field_exists(id, ed->xn != NULL, ed->tlast != NULL, ed->variant, ed->nobst);
+	return field_exists(id, ed->xn != NULL, ed->tlast != NULL, ed->variant, ed->nobst, ed->open);
 }
 
 static size_t array_count(const struct ed *ed, fid_t id)
@@ -1705,6 +1724,7 @@ static size_t array_count(const struct ed *ed, fid_t id)
 	case F_OIMP: case F_OIMPTOT: return (size_t)ed->nobst * 3;
 	case F_OHITS: return (size_t)ed->nobst;
 	case F_OCOLL: return 1;
+	case F_WOUT: return 6;
 	case F_NB: {
 		size_t k = 0;
 		for (uint32_t i = 0; i < ed->n; i++)
@@ -1747,7 +1767,7 @@ int ed_plan(const scene_t *s, ed_plan_t *out, char *msg, size_t msglen)
 		out->state += ed_type_size(scalars[a].type);
 	out->largest = 0;
 	for (size_t a = 0; a < N_ARRAYS; a++) {
-		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0, ed.variant, ed.nobst))
+		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0, ed.variant, ed.nobst, ed.open))
 			continue;
 		double count = arrays[a].id == F_NB ? per * ed.n : (double)array_count(&ed, arrays[a].id);
 		uint64_t bytes = (uint64_t)(count * (double)ed_type_size(arrays[a].type));
@@ -1854,6 +1874,8 @@ static void field_copy(struct ed *ed, fid_t id, void *buf, int to_buf)
 	case F_OIMPTOT: src = ed->oimp_tot; bytes = (size_t)ed->nobst * sizeof ed->oimp_tot[0]; break;
 	case F_OHITS: src = ed->ohits; bytes = (size_t)ed->nobst * sizeof ed->ohits[0]; break;
 	case F_OCOLL: src = &ed->obst_collisions; bytes = sizeof ed->obst_collisions; break;
+	case F_GONE: src = ed->gone; bytes = ed->n; break;
+	case F_WOUT: src = ed->wout; bytes = sizeof ed->wout; break;
 	case F_NB: {
 		/* lists packed: the first nn[i] entries of each row */
 		size_t k = 0;
@@ -1970,9 +1992,20 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 				why = "particle filed in the wrong cell";
 		}
 	}
-	for (uint32_t i = 0; i < n && !why; i++)
-		if (!seen[i])
+	for (uint32_t i = 0; i < n && !why; i++) {
+		int out = ed->gone && ed->gone[i];
+		if (ed->gone && ed->gone[i] > 1)
+			why = "bad presence flag";
+		else if (!seen[i] && !out)
 			why = "particle missing from the cell lists";
+		else if (seen[i] && out)
+			why = "a particle that left is in the cell lists";
+	}
+	if (!why && ed->gone) {
+		ed->n_gone = 0;
+		for (uint32_t i = 0; i < n; i++)
+			ed->n_gone += ed->gone[i];
+	}
 	if (!why && (!(ed->cal_w > 0.0) || !isfinite(ed->cal_iw = 1.0 / ed->cal_w)))
 		why = "bad calendar width";
 	if (!why && (ed->nl != 0 && !(ed->nl == 1 && ed->xn)))

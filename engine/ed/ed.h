@@ -110,6 +110,10 @@ typedef struct {
 	/* Scenes with obstacles (scene.h): obstacle k's hits (total) and the
 	 * momentum given to it over the interval (its mean force, the drag, is
 	 * obstacle_impulse / interval). Zero without obstacles. */
+	/* Scenes with open walls: particles still in the system, and those
+	 * that left through each wall (total). particles = N otherwise. */
+	uint64_t particles;
+	uint64_t wall_outflow[6];
 	int n_obstacles;
 	uint64_t obstacle_collisions;   /* particle-obstacle collisions (total) */
 	uint64_t obstacle_hits[SCENE_OBSTACLES_MAX];

@@ -674,7 +674,7 @@ static void FN(do_cross)(struct ed *ed, uint32_t i, double t)
 static inline void FN(energy_to)(struct ed *ed, double t)
 {
 #if GRAV
-	const double dt = t - ed->t_mark, m = ed->mass, n = (double)ed->n;
+	const double dt = t - ed->t_mark, m = ed->mass, n = (double)(ed->n - ed->n_gone);
 	double gp = 0.0, g2 = 0.0;
 	FOR_AXES(a) {
 		gp += ed->g[a] * ed->psum[a];
@@ -734,6 +734,35 @@ static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uin
 }
 
 #if WALLS
+/* Particle i leaves through open wall w at time t: out of the cell lists
+ * and the calendar, its energy and momentum out of the running sums, its
+ * counter bumped (predictions with it as partner are cancelled). */
+static void FN(leave)(struct ed *ed, uint32_t i, int w, double t)
+{
+	P_T *p = &((P_T *)ed->p)[i];
+	ev_t *e = &ed->ev[i];
+	FN(advance)(ed, p, t);
+	FN(energy_to)(ed, t);
+	double v2 = 0.0;
+	FOR_AXES(a) {
+		v2 += p->v[a] * p->v[a];
+#if GRAV
+		ed->psum[a] -= p->v[a];
+#endif
+		p->v[a] = 0.0;
+	}
+	ed->ekin_cur -= 0.5 * ed->mass * v2;
+	FN(cell_remove)(ed, i);
+	ed->gone[i] = 1;
+	ed->n_gone++;
+	ed->wout[w]++;
+	p->count++;
+	e->t_coll = e->t_cross = INFINITY;
+	e->partner = -1;
+	e->cross = -1;
+	cal_update(ed, i, INFINITY);
+}
+
 /* Particle i meets wall w (its event code) at time t: the wall's rule
  * (wall_rule() in ed.c), with the TC model (the hit is elastic within tc of
  * the particle's previous collision, wall or particle) and the minimum
@@ -745,6 +774,10 @@ static void FN(do_wall)(struct ed *ed, uint32_t i, double t)
 	const int w = e->cross - ED_WALL0, a = w >> 1;
 	const wall_t *W = &ed->wall[w];
 	const double s = (w & 1) ? -1.0 : 1.0;
+	if (W->type == SCENE_WALL_OPEN && !ed->relaxing) {
+		FN(leave)(ed, i, w, t);
+		return;
+	}
 	FN(advance)(ed, p, t);
 	FN(energy_to)(ed, t);
 	int elastic = 0;
@@ -964,6 +997,10 @@ static void FN(reorder)(struct ed *ed)
 	permute(ed->id, sizeof(uint32_t), newidx, n);
 	if (ed->tlast)
 		permute(ed->tlast, sizeof(double), newidx, n);
+#if WALLS
+	if (ed->gone)
+		permute(ed->gone, 1, newidx, n);
+#endif
 	if (ed->nl) {
 		const uint32_t K = ed->nlk;
 		for (uint32_t i = 0; i < n; i++)
@@ -974,8 +1011,13 @@ static void FN(reorder)(struct ed *ed)
 		permute(ed->xn, D * sizeof(double), newidx, n);
 	}
 	cells_clear(ed);
-	for (uint32_t k = n; k-- > 0;)
+	for (uint32_t k = n; k-- > 0;) {
+#if WALLS
+		if (ed->gone && ed->gone[k])
+			continue;
+#endif
 		FN(cell_insert)(ed, k);
+	}
 }
 
 /* Bring every particle to the current time and move the time origin there,
@@ -987,6 +1029,12 @@ static void FN(rebase)(struct ed *ed)
 	P_T *P = ed->p;
 	double t = ed->t;
 	for (uint32_t i = 0; i < ed->n; i++) {
+#if WALLS
+		if (ed->gone && ed->gone[i]) {   /* left: nothing moves, no events */
+			P[i].t = 0.0;
+			continue;
+		}
+#endif
 		FN(advance)(ed, &P[i], t);
 		P[i].t = 0.0;
 		ed->ev[i].t_coll -= t;
@@ -1047,6 +1095,13 @@ static void FN(state)(const struct ed *ed, double *pos, double *vel)
 	const P_T *P = ed->p;
 	for (uint32_t i = 0; i < ed->n; i++) {
 		const double dt = ed->t - P[i].t;
+		if (ed->gone && ed->gone[i]) {   /* left through an open wall: NaN */
+			FOR_AXES(a) {
+				if (pos) pos[(size_t)ed->id[i] * D + a] = NAN;
+				if (vel) vel[(size_t)ed->id[i] * D + a] = NAN;
+			}
+			continue;
+		}
 		FOR_AXES(a) {
 			const double g = GRAV ? ed->g[a] : 0.0;
 			if (pos) {
@@ -1077,6 +1132,8 @@ static double FN(ekin)(const struct ed *ed, double mom[3])
 	mom[0] = mom[1] = mom[2] = 0.0;
 	for (uint32_t i = 0; i < ed->n; i++) {
 		const double dt = ed->t - P[i].t;
+		if (ed->gone && ed->gone[i])
+			continue;
 		FOR_AXES(a) {
 			const double v = P[i].v[a] + (GRAV ? ed->g[a] * dt : 0.0);
 			s += v * v;
@@ -1100,6 +1157,8 @@ static void FN(observe)(const struct ed *ed, double *height, double *epot)
 	}
 	for (uint32_t i = 0; i < ed->n; i++) {
 		const double dt = ed->t - P[i].t;
+		if (ed->gone && ed->gone[i])
+			continue;
 		FOR_AXES(a)
 			sum[a] += P[i].r[a] + P[i].v[a] * dt + (GRAV ? 0.5 * ed->g[a] * dt * dt : 0.0) - ed->org[a];
 	}
@@ -1107,7 +1166,7 @@ static void FN(observe)(const struct ed *ed, double *height, double *epot)
 	FOR_AXES(a)
 		gr += ed->g[a] * sum[a];
 	*epot = -ed->mass * gr;
-	*height = g2 > 0.0 ? -gr / (sqrt(g2) * ed->n) : NAN;
+	*height = g2 > 0.0 && ed->n > ed->n_gone ? -gr / (sqrt(g2) * (double)(ed->n - ed->n_gone)) : NAN;
 }
 #else
 static void FN(state)(const struct ed *ed, double *pos, double *vel)
@@ -1188,6 +1247,10 @@ static double FN(min_gap)(const struct ed *ed)
 		const ev_t *e = &ed->ev[i];
 		int32_t cc[3] = {0, 0, 0};
 		double ri[D];
+#if WALLS
+		if (ed->gone && ed->gone[i])
+			continue;
+#endif
 		FOR_AXES(a)
 			ri[a] = FN(pos_now)(ed, &P[i], a);
 #if WALLS

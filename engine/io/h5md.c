@@ -45,6 +45,12 @@ static void g_wpres(const run_record_t *r, void *o)
 	for (int w = 0; w < 6; w++)
 		((double *)o)[w] = r->have_interval && (r->walls & (1u << w)) ? r->wall_pressure[w] : NAN;
 }
+static void g_present(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->particles; }
+static void g_wout(const run_record_t *r, void *o)
+{
+	for (int w = 0; w < 6; w++)
+		((int64_t *)o)[w] = (int64_t)r->wall_outflow[w];
+}
 static void g_ocoll(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->obstacle_collisions; }
 static void g_oforce(const run_record_t *r, void *o)
 {
@@ -100,6 +106,8 @@ static const obs_def_t obs_defs[] = {
 	{ "elastic_by_tc", NEED_TC, 1, 0, NULL, g_tc },
 	{ "wall_collisions", SCENE_OBS_WALL_FORCE, 1, 0, NULL, g_wcoll },
 	{ "wall_pressure", SCENE_OBS_WALL_FORCE, 0, 6, "pressure", g_wpres },
+	{ "particles_present", SCENE_OBS_OUTFLOW, 1, 0, NULL, g_present },
+	{ "wall_outflow", SCENE_OBS_OUTFLOW, 1, 6, NULL, g_wout },
 	{ "obstacle_collisions", SCENE_OBS_OBSTACLE_FORCE, 1, 0, NULL, g_ocoll },
 	{ "obstacle_force", SCENE_OBS_OBSTACLE_FORCE, 0, -2, "m0 l0 t0-2", g_oforce },
 	{ "center_of_mass_height", SCENE_OBS_COM_HEIGHT, 0, 0, "l0", g_com },

@@ -122,6 +122,19 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 			put(&o, "]");
 		}
 	}
+	if (r->have & SCENE_OBS_OUTFLOW) {
+		u64(&o, "particles_present", r->particles);
+		put(&o, ",\"outflow\":{");
+		static const char *const ax[3] = { "x", "y", "z" };
+		int first = 1;
+		for (int w = 0; w < 6; w++)
+			if (r->walls & (1u << w) && r->wall_outflow[w]) {
+				put(&o, "%s\"%s.%s\":%llu", first ? "" : ",", ax[w >> 1], (w & 1) ? "upper" : "lower",
+				    (unsigned long long)r->wall_outflow[w]);
+				first = 0;
+			}
+		put(&o, "}");
+	}
 	if (r->have & SCENE_OBS_COM_HEIGHT)
 		num(&o, "center_of_mass_height", r->com_height);
 	if (r->have & SCENE_OBS_POTENTIAL)
