@@ -393,7 +393,8 @@ static void test_checkpoint(void)
 	                   "\"initial\":{\"positions\":\"random\",\"temperature\":1,\"velocity\":[0.3,0]}},"
 	                   "\"collisions\":{\"restitution\":0.9,\"tc\":1e-4},\"gravity\":[0,-0.2],"
 	                   "\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"thermal\",\"temperature\":1},"
-	                   "\"upper\":{\"type\":\"specular\"}}},"
+	                   "\"upper\":{\"type\":\"specular\"}},\"x\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},"
+	                   "\"upper\":{\"type\":\"open\"}}},"
 	                   "\"obstacles\":[{\"type\":\"slip\",\"center\":[10,20],\"radius\":3,\"restitution\":0.8},"
 	                   "{\"type\":\"no_slip\",\"center\":[30,20],\"radius\":3,\"temperature\":1},"
 	                   "{\"type\":\"random_sign\",\"center\":[20,40],\"radius\":4,\"restitution\":0.9}],"
@@ -440,13 +441,86 @@ static void test_checkpoint(void)
 	ok(sa.events == sb.events && sa.obstacle_collisions == sb.obstacle_collisions && sa.obstacle_collisions > 0 &&
 	   !memcmp(p, p + 2 * m, 2 * m * sizeof(double)) &&
 	   !memcmp(sa.obstacle_impulse, sb.obstacle_impulse, sizeof sa.obstacle_impulse) &&
-	   !memcmp(sa.obstacle_hits, sb.obstacle_hits, sizeof sa.obstacle_hits),
-	   "checkpoint (slip, no_slip, random_sign obstacles, walls, gravity, TC): restored run identical bit for bit "
-	   "after %llu events (%llu obstacle hits)", (unsigned long long)sa.events,
-	   (unsigned long long)sa.obstacle_collisions);
+	   !memcmp(sa.obstacle_hits, sb.obstacle_hits, sizeof sa.obstacle_hits) &&
+	   sa.particles == sb.particles && sa.particles < sc.count &&
+	   !memcmp(sa.wall_outflow, sb.wall_outflow, sizeof sa.wall_outflow),
+	   "checkpoint (slip, no_slip, random_sign obstacles, walls, an open wall, gravity, TC): restored run identical "
+	   "bit for bit after %llu events (%llu obstacle hits, %llu particles left)", (unsigned long long)sa.events,
+	   (unsigned long long)sa.obstacle_collisions, (unsigned long long)(sc.count - sa.particles));
 	free(p);
 	ed_destroy(a);
 	ed_destroy(b);
+}
+
+/* Open walls: a nearly collisionless gas (eta = 1e-6: mean free path
+ * 2.8e5 diameters, box 4e4: one particle in seven collides on its way out,
+ * which in equilibrium hardly changes the outflow)
+ * between two open walls drains ballistically. Centres start uniform in
+ * [a, L - a] (width l) and leave on touching a wall, so a particle with
+ * speed |v_x| is still in at time t with probability (1 - |v_x| t / l)+,
+ * averaged over the Maxwellian (quadrature). The count present is binomial
+ * about N f: tolerance 4 standard deviations; the few collisions change
+ * it by far less. Kinetic energy of those present = the running sum. */
+static double remain_theory(double t, double l, double T, double m)
+{
+	const double sg = sqrt(T / m);
+	const int M = 20000;
+	double sum = 0.0, vmax = 12.0 * sg, dv = vmax / M;
+	for (int i = 0; i < M; i++) {
+		double v = (i + 0.5) * dv, w = 2.0 * exp(-0.5 * v * v / (sg * sg)) / (sqrt(2.0 * M_PI) * sg);
+		sum += w * fmax(0.0, 1.0 - v * t / l) * dv;
+	}
+	return sum;
+}
+
+static void test_open(void)
+{
+	const char *json = "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":2000,\"volume_fraction\":1e-6,"
+	                   "\"initial\":{\"positions\":\"random\",\"temperature\":1}},"
+	                   "\"boundaries\":{\"x\":{\"type\":\"walls\",\"lower\":{\"type\":\"open\"},"
+	                   "\"upper\":{\"type\":\"open\"}}},\"ed\":{\"cell_size\":2000},"
+	                   "\"run\":{\"seed\":17,\"until\":{\"time\":1}},\"output\":{\"observables\":[\"outflow\"]}}";
+	scene_t sc;
+	ed_t *ed = make(json, &sc);
+	if (!ed) {
+		ok(0, "open walls: setup");
+		return;
+	}
+	const double l = sc.box[0] - 2.0 * sc.radius, N = (double)sc.count;
+	double worst = 0.0, ekin_err = 0.0;
+	int nan_ok = 1;
+	ed_sample_t sm;
+	double *v = malloc(sizeof(double) * 2 * sc.count);
+	for (int k = 1; k <= 6; k++) {
+		const double t = l * 0.25 * k;   /* up to 1.5 l: most have left */
+		ed_advance(ed, t, UINT64_MAX, UINT64_MAX);
+		ed_sample(ed, &sm);
+		double f = remain_theory(t, l, 1.0, sc.mass), sd = sqrt(N * f * (1.0 - f));
+		double z = fabs((double)sm.particles - N * f) / fmax(sd, 1.0);
+		worst = fmax(worst, z);
+		/* kinetic energy from the velocities of those present; NaN for the others */
+		ed_state(ed, NULL, v);
+		double e = 0.0;
+		uint64_t nan = 0;
+		for (uint64_t i = 0; i < sc.count; i++) {
+			if (isnan(v[2 * i])) {
+				nan++;
+				continue;
+			}
+			e += 0.5 * sc.mass * (v[2 * i] * v[2 * i] + v[2 * i + 1] * v[2 * i + 1]);
+		}
+		nan_ok &= nan == sc.count - sm.particles && nan == sm.wall_outflow[0] + sm.wall_outflow[1];
+		ekin_err = fmax(ekin_err, fabs(e - sm.kinetic_energy) / fmax(e, 1e-300));
+		if (k == 6)
+			diag("t = %.0f: %llu present, theory %.1f +- %.1f; out %llu / %llu", t,
+			     (unsigned long long)sm.particles, N * f, sd, (unsigned long long)sm.wall_outflow[0],
+			     (unsigned long long)sm.wall_outflow[1]);
+	}
+	free(v);
+	ok(worst < 4.0 && nan_ok && ekin_err < 1e-12,
+	   "open walls: ballistic drain follows E[(1 - |v_x| t / l)+] (worst %.2f standard deviations over 6 times); "
+	   "particles out = NaN rows = N - present; kinetic energy of those present exact", worst);
+	ed_destroy(ed);
 }
 
 /* Bad scenes name the key at fault. */
@@ -502,13 +576,14 @@ static void test_scene_errors(void)
 
 int main(void)
 {
-	plan(10);
+	plan(11);
 	test_times_analytic();
 	test_times_random();
 	test_drop();
 	test_energy();
 	test_drag();
 	test_thermal();
+	test_open();
 	test_checkpoint();
 	test_scene_errors();
 	return done_testing();
