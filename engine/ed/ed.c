@@ -400,6 +400,7 @@ static void cal_build(struct ed *ed)
 
 static void nl_abandon(struct ed *ed);
 
+
 /* All cells empty. */
 static void cells_clear(struct ed *ed)
 {
@@ -452,9 +453,10 @@ static bool collapse_check(struct ed *ed, double dt)
 {
 	if (!(ed->collapse_rate > 0.0))
 		return false;
-	const double n = (double)(ed->n - ed->n_gone);
-	double temp = n > 0.0 ? fmax(2.0 * ed->ekin_cur / (ed->dim * n), 0.0) : 0.0;
-	if (2.0 * (double)ed->rebase_every <= ed->collapse_rate * sqrt(temp) * n * dt)
+	/* (with open walls N counts the particles that left too: the watch
+	 * is then stricter; the periodic event loop keeps its code) */
+	double temp = fmax(2.0 * ed->ekin_cur / (ed->dim * (double)ed->n), 0.0);
+	if (2.0 * (double)ed->rebase_every <= ed->collapse_rate * sqrt(temp) * (double)ed->n * dt)
 		return false;
 	ed->collapse = (ed_collapse_t){.time = ed_time(ed), .interval = dt, .events = ed->rebase_every,
 	                               .temperature = temp};
