@@ -400,7 +400,6 @@ static void cal_build(struct ed *ed)
 
 static void nl_abandon(struct ed *ed);
 
-
 /* All cells empty. */
 static void cells_clear(struct ed *ed)
 {
@@ -453,8 +452,9 @@ static bool collapse_check(struct ed *ed, double dt)
 {
 	if (!(ed->collapse_rate > 0.0))
 		return false;
-	/* (with open walls N counts the particles that left too: the watch
-	 * is then stricter; the periodic event loop keeps its code) */
+	/* (with open walls N counts the particles that left too, which makes
+	 * the limit higher by sqrt(N / present): a looser watch; kept so that
+	 * the periodic event loop's code stays as it was) */
 	double temp = fmax(2.0 * ed->ekin_cur / (ed->dim * (double)ed->n), 0.0);
 	if (2.0 * (double)ed->rebase_every <= ed->collapse_rate * sqrt(temp) * (double)ed->n * dt)
 		return false;
