@@ -880,6 +880,9 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 		if (!strcmp(name, "outflow") && !scene_has_open_walls(s))
 			return fail(c, path, "\"outflow\" needs an \"open\" wall");
 		/* the virial pressure assumes a fixed particle set in the box */
+		if (!strcmp(name, "velocity_distribution") && scene_has_open_walls(s))
+			return fail(c, path, "\"velocity_distribution\" is not available with an \"open\" wall yet (it "
+			            "needs a fixed particle set)");
 		if (!strcmp(name, "pressure") && scene_has_open_walls(s))
 			return fail(c, path, "\"pressure\" is not available with an \"open\" wall (particles leave); "
 			            "use \"wall_force\"");
