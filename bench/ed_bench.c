@@ -29,7 +29,9 @@ static double cpu_now(void)
  * for restitution 1) is not timed. FEATURE (scene features, issue 12):
  * periodic (default), walls (specular walls on every axis), thermal
  * (thermal walls at T = 1 on the last axis), gravity (specular walls on the
- * last axis, gravity along it with scale height T/(m g) = half the box). */
+ * last axis, gravity along it with scale height T/(m g) = half the box),
+ * obstacle (periodic box, one slip obstacle of radius L/10 at the centre),
+ * walls-obstacle (walls on every axis and that obstacle). */
 int main(int argc, char **argv)
 {
 	if (argc < 7) {
@@ -56,8 +58,22 @@ int main(int argc, char **argv)
 		double L = pow(n * vp / phi, 1.0 / dim), g = 2.0 / L;
 		snprintf(extra, sizeof extra, ",\"boundaries\":{\"%s\":%s},\"gravity\":[0,%s%.17g]", ax, spec,
 		         dim == 3 ? "0,-" : "-", g);
+	} else if (!strcmp(feature, "obstacle") || !strcmp(feature, "walls-obstacle")) {
+		double vp = dim == 2 ? 3.14159265358979 / 4 : 3.14159265358979 / 6;
+		double L = pow(n * vp / phi, 1.0 / dim);
+		char walls[256] = "", center[128];
+		if (feature[0] == 'w')
+			snprintf(walls, sizeof walls, ",\"boundaries\":{\"x\":%s,\"y\":%s%s%s}", spec, spec,
+			         dim == 3 ? ",\"z\":" : "", dim == 3 ? spec : "");
+		if (dim == 2)
+			snprintf(center, sizeof center, "%.17g,%.17g", 0.5 * L, 0.5 * L);
+		else
+			snprintf(center, sizeof center, "%.17g,%.17g,%.17g", 0.5 * L, 0.5 * L, 0.5 * L);
+		snprintf(extra, sizeof extra, "%s,\"obstacles\":[{\"type\":\"slip\",\"center\":[%s],\"radius\":%.17g}]",
+		         walls, center, 0.1 * L);
 	} else if (strcmp(feature, "periodic")) {
-		fprintf(stderr, "ed_bench: unknown feature %s (periodic, walls, thermal, gravity)\n", feature);
+		fprintf(stderr, "ed_bench: unknown feature %s (periodic, walls, thermal, gravity, obstacle, walls-obstacle)\n",
+		        feature);
 		return 2;
 	}
 	snprintf(json, sizeof(json),

@@ -78,6 +78,9 @@ typedef struct {
 	uint64_t vmax_raised, cell_collisions, rejected_moves;
 	uint64_t wall_collisions;
 	double wall_impulse[6][3], com_height, potential_energy;
+	uint64_t obstacle_collisions;
+	double obstacle_impulse[SCENE_OBSTACLES_MAX][3];
+	uint64_t particles, wall_outflow[6];   /* present now (N without open walls); out per wall */
 } smp_t;
 
 static void eng_sample(run_t *rc, smp_t *o)
@@ -94,6 +97,10 @@ static void eng_sample(run_t *rc, smp_t *o)
 		o->wall_collisions = sm.wall_collisions;
 		memcpy(o->wall_impulse, sm.wall_impulse, sizeof(o->wall_impulse));
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
+		o->obstacle_collisions = sm.obstacle_collisions;
+		memcpy(o->obstacle_impulse, sm.obstacle_impulse, sizeof(o->obstacle_impulse));
+		o->particles = sm.particles;
+		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
 	} else {
 		dsmc_sample_t sm;
 		dsmc_sample(rc->mc, &sm);
@@ -119,6 +126,9 @@ static void eng_totals(const run_t *rc, smp_t *o)
 		o->events = sm.events, o->collisions = sm.collisions, o->elastic_by_tc = sm.elastic_by_tc;
 		o->wall_collisions = sm.wall_collisions;
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
+		o->obstacle_collisions = sm.obstacle_collisions;
+		o->particles = sm.particles;
+		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
 	} else {
 		dsmc_sample_t sm;
 		dsmc_totals(rc->mc, &sm);
@@ -201,12 +211,17 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 	r->rejected_moves = sm.rejected_moves;
 	r->have = s->observables;
 	r->kinetic_energy = sm.kinetic_energy;
-	r->temperature = 2.0 * sm.kinetic_energy / (s->dim * (double)s->count);
+	/* with open walls, over the particles still present (ed; the interval
+	 * mean divides by those present at its end) */
+	const double np = rc->ed && sm.particles ? (double)sm.particles : (double)s->count;
+	r->particles = rc->ed ? sm.particles : s->count;
+	memcpy(r->wall_outflow, sm.wall_outflow, sizeof(r->wall_outflow));
+	r->temperature = 2.0 * sm.kinetic_energy / (s->dim * np);
 	memcpy(r->momentum, sm.momentum, sizeof(r->momentum));
 	if (sm.interval > 0.0) {
 		/* Time-averaged temperature over the interval from the exact
 		 * integral of E_kin dt (E_kin is piecewise constant). */
-		double t_avg = 2.0 * sm.ekin_time_integral / (s->dim * (double)s->count * sm.interval);
+		double t_avg = 2.0 * sm.ekin_time_integral / (s->dim * np * sm.interval);
 		double vol = scene_box_volume(s);
 		r->have_interval = 1;
 		r->pressure = ((double)s->count * t_avg + sm.virial / (s->dim * sm.interval)) / vol;
@@ -215,6 +230,12 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 	}
 	r->wall_collisions = sm.wall_collisions;
 	r->com_height = sm.com_height, r->potential_energy = sm.potential_energy;
+	r->n_obstacles = s->n_obstacles;
+	r->obstacle_collisions = sm.obstacle_collisions;
+	if (sm.interval > 0.0)
+		for (int k = 0; k < s->n_obstacles; k++)
+			for (int b = 0; b < 3; b++)
+				r->obstacle_force[k][b] = sm.obstacle_impulse[k][b] / sm.interval;
 	for (int a = 0; a < s->dim; a++) {
 		if (!s->boundary[a].walled)
 			continue;

@@ -67,6 +67,15 @@ typedef struct {
 	uint64_t wall_collisions;
 	double wall_force[6][3], wall_pressure[6];
 	double com_height, potential_energy;
+	/* Obstacles (SCENE_OBS_OBSTACLE_FORCE): n_obstacles of them; hits in
+	 * all (total) and each one's mean force over the interval (momentum
+	 * given to it per unit time: the drag, and the lift across the flow). */
+	int n_obstacles;
+	uint64_t obstacle_collisions;
+	double obstacle_force[SCENE_OBSTACLES_MAX][3];
+	/* Open walls (SCENE_OBS_OUTFLOW): particles still in the system and
+	 * those that left through each wall w (totals). */
+	uint64_t particles, wall_outflow[6];
 	const char *warning;         /* dsmc/hsmc validity warning (first record only), or NULL */
 	/* dsmc/hsmc diagnostics (totals; printed in the summary when non-zero) */
 	uint64_t vmax_raised, cell_collisions, rejected_moves;

@@ -65,7 +65,10 @@ static const char *const correction_names[] = {
 static const char *const contact_names[] = { "global", "local" };
 static const char *const wall_names[] = {
 	[SCENE_WALL_SPECULAR] = "specular", [SCENE_WALL_THERMAL] = "thermal", [SCENE_WALL_ROUGH] = "rough",
-	[SCENE_WALL_MOVING] = "moving", [SCENE_WALL_VIBRATING] = "vibrating",
+	[SCENE_WALL_MOVING] = "moving", [SCENE_WALL_VIBRATING] = "vibrating", [SCENE_WALL_OPEN] = "open",
+};
+static const char *const obstacle_names[] = {
+	[SCENE_OBST_SLIP] = "slip", [SCENE_OBST_NO_SLIP] = "no_slip", [SCENE_OBST_RANDOM_SIGN] = "random_sign",
 };
 static const char *const axis_kinds[] = { "periodic", "walls" };
 static const char *const axis_names[] = { "x", "y", "z" };
@@ -86,6 +89,8 @@ static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "potential_energy", SCENE_OBS_POTENTIAL },
 	{ "impact_parameter", SCENE_OBS_IMPACT },
 	{ "mean_square_displacement", SCENE_OBS_MSD },
+	{ "obstacle_force", SCENE_OBS_OBSTACLE_FORCE },
+	{ "outflow", SCENE_OBS_OUTFLOW },
 };
 #define N_OBSERVABLES (sizeof observables / sizeof observables[0])
 
@@ -689,6 +694,117 @@ static const struct object boundaries_obj = {
 	},
 };
 
+/* ---- obstacles ------------------------------------------------------- */
+
+static int parse_obstacle_type(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	int i, ret = match(c, path, v, obstacle_names, sizeof obstacle_names / sizeof obstacle_names[0], &i);
+	if (ret == 0)
+		*(scene_obstacle_type_t *)dst = (scene_obstacle_type_t)i;
+	return ret;
+}
+
+static int check_obstacle(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	const scene_obstacle_t *o = base;
+	char sub[PATHLEN];
+	static const char *const thermal_keys[] = { "temperature", "accommodation" };
+	for (size_t k = 0; k < 2; k++) {
+		bool has = json_object_get(v, thermal_keys[k]) != NULL;
+		join(sub, path, thermal_keys[k]);
+		if (has && o->type != SCENE_OBST_NO_SLIP)
+			return fail(c, sub, "not a key of a \"%s\" obstacle (only \"no_slip\")", obstacle_names[o->type]);
+		if (!has && k == 0 && o->type == SCENE_OBST_NO_SLIP)
+			return fail(c, sub, "required for a \"no_slip\" obstacle (the wall temperature it re-emits at)");
+	}
+	return 0;
+}
+
+static const struct object obstacle_obj = {
+	.fields = (const struct field[]){
+		{ "type", parse_obstacle_type, offsetof(scene_obstacle_t, type), NULL, true },
+		{ "center", parse_vector, offsetof(scene_obstacle_t, center), NULL, true },
+		{ "radius", parse_number, offsetof(scene_obstacle_t, radius), &R_POS, true },
+		{ "restitution", parse_number, offsetof(scene_obstacle_t, restitution), &R_UNIT, false },
+		{ "temperature", parse_number, offsetof(scene_obstacle_t, temperature), &R_POS, false },
+		{ "accommodation", parse_number, offsetof(scene_obstacle_t, accommodation), &R_UNIT, false },
+		{ .name = NULL },
+	},
+	.check = check_obstacle,
+};
+
+static int parse_obstacles(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	scene_t *s = c->s;
+	size_t i;
+	json_t *o;
+	if (!json_is_array(v))
+		return fail(c, path, "must be an array of obstacle objects, got %s", type_name(v));
+	if (json_array_size(v) > SCENE_OBSTACLES_MAX)
+		return fail(c, path, "at most %d obstacles, got %zu", SCENE_OBSTACLES_MAX, json_array_size(v));
+	json_array_foreach(v, i, o) {
+		char sub[PATHLEN / 2];   /* "obstacles[k]": short, so keys below it fit a path */
+		snprintf(sub, sizeof sub, "%s[%zu]", path, i);
+		s->obstacle[i] = (scene_obstacle_t){ .restitution = 1, .accommodation = 1 };
+		int ret = walk(c, sub, o, &s->obstacle[i], &obstacle_obj);
+		if (ret)
+			return ret;
+		s->n_obstacles = (int)i + 1;
+	}
+	return 0;
+}
+
+/* Obstacles inside the box, clear of the walls' reach and of each other;
+ * on periodic axes one image of an obstacle at a time within a particle's
+ * reach (2 (R + a) < L). */
+static int check_obstacles(ctx_t *c, const scene_t *s)
+{
+	char path[PATHLEN];
+	for (int k = 0; k < s->n_obstacles; k++) {
+		const scene_obstacle_t *o = &s->obstacle[k];
+		for (int a = 0; a < s->dim; a++) {
+			const scene_boundary_t *b = &s->boundary[a];
+			snprintf(path, sizeof path, "obstacles[%d].center[%d]", k, a);
+			if (!(o->center[a] >= 0 && o->center[a] <= s->box[a]))
+				return fail(c, path, "%s is outside the box [0, %s]", num(o->center[a]).s, num(s->box[a]).s);
+			if (!b->walled) {
+				if (!(2 * (o->radius + s->radius) < s->box[a])) {
+					snprintf(path, sizeof path, "obstacles[%d].radius", k);
+					return fail(c, path, "2 (radius + particle radius) = %s must be less than the periodic box edge "
+					            "%s along %s (a particle would touch two images at once)",
+					            num(2 * (o->radius + s->radius)).s, num(s->box[a]).s, axis_names[a]);
+				}
+				continue;
+			}
+			/* the walls' innermost positions (vibrating: amplitude) */
+			double lo = b->wall[0].type == SCENE_WALL_VIBRATING ? b->wall[0].amplitude : 0;
+			double hi = s->box[a] - (b->wall[1].type == SCENE_WALL_VIBRATING ? b->wall[1].amplitude : 0);
+			if (o->center[a] - o->radius < lo || o->center[a] + o->radius > hi) {
+				snprintf(path, sizeof path, "obstacles[%d]", k);
+				return fail(c, path, "overlaps the wall boundaries.%s.%s: centre %s, radius %s, walls reach %s .. %s",
+				            axis_names[a], o->center[a] - o->radius < lo ? "lower" : "upper", num(o->center[a]).s,
+				            num(o->radius).s, num(lo).s, num(hi).s);
+			}
+		}
+		for (int j = 0; j < k; j++) {
+			const scene_obstacle_t *q = &s->obstacle[j];
+			double r2 = 0;
+			for (int a = 0; a < s->dim; a++) {
+				double x = o->center[a] - q->center[a];
+				if (!s->boundary[a].walled)
+					x -= s->box[a] * nearbyint(x / s->box[a]);
+				r2 += x * x;
+			}
+			if (sqrt(r2) < o->radius + q->radius) {
+				snprintf(path, sizeof path, "obstacles[%d]", k);
+				return fail(c, path, "overlaps obstacles[%d] (centre distance %s < sum of radii %s)", j,
+				            num(sqrt(r2)).s, num(o->radius + q->radius).s);
+			}
+		}
+	}
+	return 0;
+}
+
 /* Rules of boundaries and gravity across the scene (after particles,
  * collisions and output are parsed). */
 static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
@@ -696,10 +812,14 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 	bool walls = scene_has_walls(s), grav = scene_has_gravity(s);
 	char path[PATHLEN];
 
-	if ((walls || grav) && s->method != SCENE_METHOD_ED)
-		return fail(c, walls ? "boundaries" : "gravity", "method \"%s\" does not support %s yet (only \"ed\" does)",
-			    method_names[s->method], walls ? "walls" : "gravity");
+	bool obst = scene_has_obstacles(s);
+	if ((walls || grav || obst) && s->method != SCENE_METHOD_ED)
+		return fail(c, walls ? "boundaries" : grav ? "gravity" : "obstacles",
+		            "method \"%s\" does not support %s yet (only \"ed\" does)",
+			    method_names[s->method], walls ? "walls" : grav ? "gravity" : "obstacles");
 	bool inelastic = s->restitution < 1, vibrating = false;
+	for (int k = 0; k < s->n_obstacles; k++)
+		inelastic |= s->obstacle[k].restitution < 1;
 	for (int a = 0; a < s->dim; a++) {
 		scene_boundary_t *b = &s->boundary[a];
 		if (!b->walled)
@@ -726,19 +846,28 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 	 * any dissipation a bed at rest there would collide infinitely often in
 	 * finite time (inelastic collapse). The TC model with its minimum
 	 * rebound (docs/engine.md, "Walls and gravity") prevents it. */
-	if (walls && (grav || vibrating) && inelastic && s->tc == 0)
+	int ret = check_obstacles(c, s);
+	if (ret)
+		return ret;
+	for (int a = 0; a < s->dim; a++)
+		if (s->flow[a] != 0 && s->method != SCENE_METHOD_ED)
+			return fail(c, "particles.initial.velocity", "method \"%s\" does not support a mean flow yet (only \"ed\" "
+			            "does)", method_names[s->method]);
+	if ((walls || obst) && (grav || vibrating) && inelastic && s->tc == 0)
 		return fail(c, "collisions.tc", "must be > 0 with %s, walls and restitution below 1 (a bed at rest on a wall "
 		            "would collapse: infinitely many collisions in finite time); set collisions.tc, e.g. 1e-5 of "
 		            "the time a particle takes to fall one diameter", grav ? "gravity" : "a vibrating wall");
 	/* Observables that need what the scene has. */
 	json_t *obs = json_object_get(json_object_get(v, "output"), "observables");
+	if (!obs && scene_has_open_walls(s))
+		s->observables &= ~(unsigned)SCENE_OBS_PRESSURE;   /* default set: no virial pressure with outflow */
 	size_t i;
 	json_t *o;
 	json_array_foreach(obs, i, o) {
 		const char *name = json_string_value(o);
 		snprintf(path, sizeof path, "output.observables[%zu]", i);
 		bool mine = !strcmp(name, "wall_force") || !strcmp(name, "center_of_mass_height") ||
-		            !strcmp(name, "potential_energy");
+		            !strcmp(name, "potential_energy") || !strcmp(name, "obstacle_force") || !strcmp(name, "outflow");
 		if (mine && s->replicas > 1)
 			return fail(c, path, "\"%s\" is not averaged over ensembles yet (run.replicas must be 1)", name);
 		/* cluster search, g(r), S(k) and the velocity correlations take
@@ -746,14 +875,25 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 		static const char *const periodic_only[] = { "clusters", "pair_correlation", "structure_factor",
 		                                             "velocity_correlations" };
 		for (size_t k = 0; k < sizeof periodic_only / sizeof periodic_only[0]; k++)
-			if (walls && !strcmp(name, periodic_only[k]))
-				return fail(c, path, "\"%s\" needs a periodic box (distances by the minimum image); "
-				            "not available with walls yet", name);
+			if ((walls || obst) && !strcmp(name, periodic_only[k]))
+				return fail(c, path, "\"%s\" needs a periodic box without obstacles (distances by the minimum "
+				            "image, a homogeneous volume); not available with %s yet", name, walls ? "walls" : "obstacles");
 		/* unwrapped displacements rely on periodic images and on a speed bound from the kinetic
-		 * energy, which walls (thermal, vibrating) and gravity can raise (engine/observe/msd.h) */
-		if (!strcmp(name, "mean_square_displacement") && (walls || grav))
-			return fail(c, path, "\"mean_square_displacement\" needs a periodic box without gravity; "
-			            "not available with %s yet", walls ? "walls" : "gravity");
+		 * energy, which walls (thermal, vibrating), obstacles (thermal) and gravity can raise (engine/observe/msd.h) */
+		if (!strcmp(name, "mean_square_displacement") && (walls || obst || grav))
+			return fail(c, path, "\"mean_square_displacement\" needs a periodic box without gravity or obstacles; "
+			            "not available with %s yet", walls ? "walls" : obst ? "obstacles" : "gravity");
+		if (!strcmp(name, "obstacle_force") && !obst)
+			return fail(c, path, "\"obstacle_force\" needs obstacles");
+		if (!strcmp(name, "outflow") && !scene_has_open_walls(s))
+			return fail(c, path, "\"outflow\" needs an \"open\" wall");
+		/* the virial pressure assumes a fixed particle set in the box */
+		if (!strcmp(name, "velocity_distribution") && scene_has_open_walls(s))
+			return fail(c, path, "\"velocity_distribution\" is not available with an \"open\" wall yet (it "
+			            "needs a fixed particle set)");
+		if (!strcmp(name, "pressure") && scene_has_open_walls(s))
+			return fail(c, path, "\"pressure\" is not available with an \"open\" wall (particles leave); "
+			            "use \"wall_force\"");
 		if (!strcmp(name, "wall_force") && !walls)
 			return fail(c, path, "\"wall_force\" needs walls (boundaries)");
 		if (!strcmp(name, "center_of_mass_height") || !strcmp(name, "potential_energy")) {
@@ -836,6 +976,7 @@ static const struct object initial_obj = {
 	.fields = (const struct field[]){
 		{ "positions", parse_positions, offsetof(scene_t, positions), NULL, false },
 		{ "temperature", parse_number, offsetof(scene_t, temperature), &R_NONNEG, false },
+		{ "velocity", parse_vector, offsetof(scene_t, flow), NULL, false },
 		{ "relax", parse_object, 0, &relax_obj, false },
 		{ .name = NULL },
 	},
@@ -1005,6 +1146,7 @@ static const struct object scene_obj = {
 		{ "collisions", parse_object, 0, &collisions_obj, false },
 		{ "boundaries", parse_object, 0, &boundaries_obj, false },
 		{ "gravity", parse_vector, offsetof(scene_t, gravity), NULL, false },
+		{ "obstacles", parse_obstacles, 0, NULL, false },
 		{ "run", parse_object, 0, &run_obj, true },
 		{ "output", parse_object, 0, &output_obj, false },
 		{ "ed", parse_object, 0, &ed_obj, false },
@@ -1075,6 +1217,20 @@ int scene_has_walls(const scene_t *s)
 	for (int a = 0; a < s->dim && a < 3; a++)
 		if (s->boundary[a].walled)
 			return 1;
+	return 0;
+}
+
+int scene_has_obstacles(const scene_t *s)
+{
+	return s->n_obstacles > 0;
+}
+
+int scene_has_open_walls(const scene_t *s)
+{
+	for (int a = 0; a < s->dim && a < 3; a++)
+		for (int k = 0; k < 2; k++)
+			if (s->boundary[a].walled && s->boundary[a].wall[k].type == SCENE_WALL_OPEN)
+				return 1;
 	return 0;
 }
 

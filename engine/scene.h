@@ -52,6 +52,8 @@ enum {
 	SCENE_OBS_POTENTIAL = 1u << 11,     /* potential energy in the gravity field (needs gravity) */
 	SCENE_OBS_IMPACT = 1u << 12,        /* impact_parameter: P(b) of the collisions between snapshot times */
 	SCENE_OBS_MSD = 1u << 13,           /* mean_square_displacement: MSD and D (periodic, no gravity) */
+	SCENE_OBS_OBSTACLE_FORCE = 1u << 16, /* force on each obstacle: drag (needs obstacles) */
+	SCENE_OBS_OUTFLOW = 1u << 17,       /* particles present and particles out per wall (needs an open wall) */
 };
 
 /* Wall kinds (boundaries.AXIS.lower/upper.type; method ed only). Every wall
@@ -63,6 +65,7 @@ typedef enum {
 	SCENE_WALL_ROUGH,          /* tangential velocity reversed with probability (seed 000 pipe) */
 	SCENE_WALL_MOVING,         /* tangential velocity u: v_t' - u = -beta (v_t - u) (seed 000 3.7-3.8 at beta = 1) */
 	SCENE_WALL_VIBRATING,      /* displaced along its inward normal by A sin(2 pi f t + phase) */
+	SCENE_WALL_OPEN,           /* outflow: a particle touching it leaves the system (counted); no restitution */
 } scene_wall_type_t;
 
 typedef struct {
@@ -87,6 +90,27 @@ typedef struct {
 	scene_wall_t wall[2];
 } scene_boundary_t;
 
+/* Obstacles (method ed only): fixed disks (2D) / spheres (3D). A particle
+ * touches obstacle k when its centre is radius + particle radius from the
+ * obstacle's centre. Normal restitution r_o as for walls. */
+#define SCENE_OBSTACLES_MAX 16
+typedef enum {
+	SCENE_OBST_SLIP = 0,       /* specular: v_n' = -r_o v_n, tangential unchanged */
+	SCENE_OBST_NO_SLIP,        /* thermal: with probability accommodation re-emitted from the flux-weighted
+	                            * Maxwellian at temperature (diffuse), else as slip */
+	SCENE_OBST_RANDOM_SIGN,    /* v_n' = -r_o v_n, tangential velocity reversed with probability 1/2 (seed 001:
+	                            * no-slip without heating) */
+} scene_obstacle_type_t;
+
+typedef struct {
+	scene_obstacle_type_t type;
+	double center[3];          /* scene coordinates (walled axes: from the lower wall's rest position) */
+	double radius;             /* R > 0 */
+	double restitution;        /* r_o in [0, 1], default 1 */
+	double temperature;        /* no_slip: T_o > 0 */
+	double accommodation;      /* no_slip: fraction of diffuse re-emissions, [0, 1], default 1 */
+} scene_obstacle_t;
+
 typedef struct {
 	scene_clock_t kind;
 	double value;        /* time, collisions per particle (2C/N), or wall-clock seconds */
@@ -103,7 +127,8 @@ typedef struct scene {
 	double box[3];                 /* edge lengths; derived from volume_fraction if not given */
 	double volume_fraction;        /* always filled (derived from box if box given) */
 	scene_positions_t positions;   /* default lattice */
-	double temperature;            /* initial T >= 0, default 1 */
+	double temperature;            /* initial T >= 0, default 1 (of the velocities about the mean flow) */
+	double flow[3];                /* initial mean velocity (a stream; method ed), default 0 */
 	double relax_cpp;              /* elastic pre-run, collisions per particle (default 0) */
 
 	/* collisions */
@@ -113,6 +138,8 @@ typedef struct scene {
 	/* boundaries and fields (method ed only) */
 	scene_boundary_t boundary[3];  /* per axis; default periodic */
 	double gravity[3];             /* uniform acceleration, default 0 */
+	int n_obstacles;               /* 0..SCENE_OBSTACLES_MAX */
+	scene_obstacle_t obstacle[SCENE_OBSTACLES_MAX];
 
 	/* run */
 	uint64_t seed;                 /* default 1 */
@@ -168,8 +195,11 @@ int scene_check_start(const scene_t *s, char *err, size_t errlen);
 /* Close-packing volume fraction of disks (dim 2) or spheres (dim 3). */
 double scene_close_packing(int dim);
 
-/* Any walled axis; any non-zero gravity component. */
+/* Any walled axis; any non-zero gravity component; any obstacle. */
 int scene_has_walls(const scene_t *s);
+int scene_has_obstacles(const scene_t *s);
+/* Any wall of type "open" (particles leave through it). */
+int scene_has_open_walls(const scene_t *s);
 int scene_has_gravity(const scene_t *s);
 
 /* Volume of the box and of one particle (disk area in 2D). */

@@ -102,6 +102,20 @@ cat >"$tmp/3d-walls.json" <<'JSON'
  "output":{"every":{"time":0.5},"observables":["kinetic_energy","wall_force","momentum"],
    "snapshots":{"every":{"time":2}},"checkpoint":{"every":{"time":1.3}}}}
 JSON
+# Obstacles and open walls: the obstacles' impulses and hits, the particles
+# that left (NaN rows in the frames) and the outflow counts are state too.
+cat >"$tmp/2d-obstacles-open.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":1500,"box":[120,60],
+   "initial":{"positions":"random","temperature":0.5,"velocity":[0.6,0]}},
+ "collisions":{"restitution":0.95,"tc":0.0001},"gravity":[0,-0.01],
+ "boundaries":{"x":{"type":"walls","lower":{"type":"open"},"upper":{"type":"open"}},
+   "y":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"specular"}}},
+ "obstacles":[{"type":"slip","center":[40,30],"radius":6,"restitution":0.9},
+   {"type":"no_slip","center":[80,20],"radius":4,"temperature":0.5},{"type":"random_sign","center":[80,45],"radius":3}],
+ "run":{"seed":43,"until":{"time":60}},
+ "output":{"every":{"time":3},"observables":["kinetic_energy","obstacle_force","outflow","wall_force"],
+   "snapshots":{"every":{"time":20}},"checkpoint":{"every":{"time":13}}}}
+JSON
 # Long enough to be killed: wall-clock checkpoints, ~2-3 s of work.
 cat >"$tmp/3d-kill.json" <<'JSON'
 {"method":"ed","dimensions":3,"particles":{"count":3000,"volume_fraction":0.4},
@@ -152,7 +166,7 @@ ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 }
 
 # (a) checkpoint at simulated time T, resume: identical to the uninterrupted run.
-for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls; do
+for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

@@ -1,4 +1,4 @@
-/* Exact event-driven simulation of inelastic hard disks (2D) and spheres (3D) in a periodic box or between walls, optionally under gravity. */
+/* Exact event-driven simulation of inelastic hard disks (2D) and spheres (3D) in a periodic box or between walls, optionally under gravity and around fixed obstacles. */
 #pragma once
 
 #include <stdint.h>
@@ -115,6 +115,17 @@ typedef struct {
 	 * lower walls' rest positions; scene coordinates) and potential energy
 	 * -m sum g.r, now. NAN without gravity. */
 	double com_height, potential_energy;
+	/* Scenes with obstacles (scene.h): obstacle k's hits (total) and the
+	 * momentum given to it over the interval (its mean force, the drag, is
+	 * obstacle_impulse / interval). Zero without obstacles. */
+	/* Scenes with open walls: particles still in the system, and those
+	 * that left through each wall (total). particles = N otherwise. */
+	uint64_t particles;
+	uint64_t wall_outflow[6];
+	int n_obstacles;
+	uint64_t obstacle_collisions;   /* particle-obstacle collisions (total) */
+	uint64_t obstacle_hits[SCENE_OBSTACLES_MAX];
+	double obstacle_impulse[SCENE_OBSTACLES_MAX][3];
 } ed_sample_t;
 
 /* Fill *out and start a new interval. Does not change the dynamics. */
@@ -156,7 +167,7 @@ typedef struct {
 	ed_type_t type;
 	size_t count;        /* elements */
 } ed_field_t;
-#define ED_MAX_FIELDS 48
+#define ED_MAX_FIELDS 64
 
 size_t ed_type_size(ed_type_t t);
 /* Describe the fields of the current state into out[max]; returns how many

@@ -113,6 +113,32 @@ static inline double FN(wall_time)(const struct ed *ed, const P_T *p, int w, dou
 	return walltime_vibrating(d, s * p->v[a], gam, W->A, W->omega, th, horizon);
 }
 
+/* Particle p (synchronised) relative to obstacle k's centre: the minimum
+ * image on periodic axes (one image is within reach: scene.c). */
+static inline void FN(obst_rel)(const struct ed *ed, const P_T *p, int k, double *x)
+{
+	FOR_AXES(a) {
+		double d = p->r[a] - ed->obst[k].c[a];
+		if (ed->periodic[a])
+			d -= ed->L[a] * nearbyint(d / ed->L[a]);
+		x[a] = d;
+	}
+}
+
+/* Time from now to particle p's contact with obstacle k, no later than
+ * horizon with gravity (obstacle.h). */
+static inline double FN(obst_time)(const struct ed *ed, const P_T *p, int k, double horizon)
+{
+	double x[D];
+	FN(obst_rel)(ed, p, k, x);
+#if GRAV
+	return obstacle_time_grav(x, p->v, ed->g, D, ed->obst[k].S, horizon);
+#else
+	(void)horizon;
+	return obstacle_time_free(x, p->v, D, ed->obst[k].S);
+#endif
+}
+
 /* The particle's next boundary event: leaving its cell through a face
  * (walled axes have no face at their ends), or meeting a wall (particles
  * in the cells a wall can reach). With gravity each face is a quadratic
@@ -151,6 +177,14 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
 			double dt = FN(wall_time)(ed, p, 2 * a + 1, best);
 			if (dt < best)
 				best = dt, code = ED_WALL0 + 2 * a + 1;
+		}
+	}
+	if (ed->ocell) {   /* NULL without obstacles */
+		for (unsigned m = ed->ocell[FN(cell_index)(ed, e->cc)]; m; m &= m - 1) {
+			const int k = __builtin_ctz(m);
+			double dt = FN(obst_time)(ed, p, k, best);
+			if (dt < best)
+				best = dt, code = ED_OBST0 + k;
 		}
 	}
 	e->t_cross = p->t + best;
@@ -641,7 +675,7 @@ static void FN(do_cross)(struct ed *ed, uint32_t i, double t)
 static inline void FN(energy_to)(struct ed *ed, double t)
 {
 #if GRAV
-	const double dt = t - ed->t_mark, m = ed->mass, n = (double)ed->n;
+	const double dt = t - ed->t_mark, m = ed->mass, n = (double)(ed->n - ed->n_gone);
 	double gp = 0.0, g2 = 0.0;
 	FOR_AXES(a) {
 		gp += ed->g[a] * ed->psum[a];
@@ -710,6 +744,35 @@ static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uin
 }
 
 #if WALLS
+/* Particle i leaves through open wall w at time t: out of the cell lists
+ * and the calendar, its energy and momentum out of the running sums, its
+ * counter bumped (predictions with it as partner are cancelled). */
+static void FN(leave)(struct ed *ed, uint32_t i, int w, double t)
+{
+	P_T *p = &((P_T *)ed->p)[i];
+	ev_t *e = &ed->ev[i];
+	FN(advance)(ed, p, t);
+	FN(energy_to)(ed, t);
+	double v2 = 0.0;
+	FOR_AXES(a) {
+		v2 += p->v[a] * p->v[a];
+#if GRAV
+		ed->psum[a] -= p->v[a];
+#endif
+		p->v[a] = 0.0;
+	}
+	ed->ekin_cur -= 0.5 * ed->mass * v2;
+	FN(cell_remove)(ed, i);
+	ed->gone[i] = 1;
+	ed->n_gone++;
+	ed->wout[w]++;
+	p->count++;
+	e->t_coll = e->t_cross = INFINITY;
+	e->partner = -1;
+	e->cross = -1;
+	cal_update(ed, i, INFINITY);
+}
+
 /* Particle i meets wall w (its event code) at time t: the wall's rule
  * (wall_rule() in ed.c), with the TC model (the hit is elastic within tc of
  * the particle's previous collision, wall or particle) and the minimum
@@ -721,6 +784,10 @@ static void FN(do_wall)(struct ed *ed, uint32_t i, double t)
 	const int w = e->cross - ED_WALL0, a = w >> 1;
 	const wall_t *W = &ed->wall[w];
 	const double s = (w & 1) ? -1.0 : 1.0;
+	if (W->type == SCENE_WALL_OPEN && !ed->relaxing) {
+		FN(leave)(ed, i, w, t);
+		return;
+	}
 	FN(advance)(ed, p, t);
 	FN(energy_to)(ed, t);
 	int elastic = 0;
@@ -756,6 +823,56 @@ static void FN(do_wall)(struct ed *ed, uint32_t i, double t)
 	FN(schedule)(ed, i);
 }
 
+/* Particle i meets obstacle k (its event code) at time t: the obstacle's
+ * rule (obst_rule() in ed.c) along the normal from the obstacle's centre,
+ * with the TC model as for walls; the momentum given to the obstacle is
+ * accumulated for its force (drag). */
+static void FN(do_obstacle)(struct ed *ed, uint32_t i, double t)
+{
+	P_T *p = &((P_T *)ed->p)[i];
+	ev_t *e = &ed->ev[i];
+	const int k = e->cross - ED_OBST0;
+	const obst_t *O = &ed->obst[k];
+	FN(advance)(ed, p, t);
+	FN(energy_to)(ed, t);
+	int elastic = 0;
+	if (ed->tlast) {
+		elastic = t - ed->tlast[i] < ed->tc;
+		ed->tlast[i] = t;
+	}
+	double x[D], nrm[3] = {0.0, 0.0, 0.0}, r2 = 0.0;
+	FN(obst_rel)(ed, p, k, x);
+	FOR_AXES(a)
+		r2 += x[a] * x[a];
+	const double r = sqrt(r2);
+	FOR_AXES(a)
+		nrm[a] = x[a] / r;
+	double v0[D], de = 0.0;
+	FOR_AXES(a)
+		v0[a] = p->v[a];
+	obst_rule(ed, k, nrm, p->v, elastic);
+	FOR_AXES(a) {
+		const double dv = p->v[a] - v0[a];
+		ed->oimp[k][a] -= ed->mass * dv;
+		ed->oimp_tot[k][a] -= ed->mass * dv;
+		de += dv * (p->v[a] + v0[a]);
+#if GRAV
+		ed->psum[a] += dv;
+#endif
+	}
+	ed->ekin_cur += 0.5 * ed->mass * de;
+	/* Back on the contact sphere: rounding may leave the centre a hair inside. */
+	if (r < O->S)
+		FOR_AXES(a)
+			p->r[a] += (O->S - r) * nrm[a];
+	p->count++;
+	ed->ohits[k]++;
+	ed->obst_collisions++;
+	FN(set_cross)(ed, i);
+	FN(scan_full)(ed, i);
+	FN(schedule)(ed, i);
+}
+
 /* Cell mode only: a boundary event (face or wall), a collision or a
  * cancelled one. */
 static void FN(step)(struct ed *ed)
@@ -775,7 +892,9 @@ static void FN(step)(struct ed *ed)
 	ed->t_abs_valid = 0;
 	ed->events++;
 	if (e->t_cross < e->t_coll) {
-		if (e->cross >= ED_WALL0)
+		if (e->cross >= ED_OBST0)
+			FN(do_obstacle)(ed, i, t);
+		else if (e->cross >= ED_WALL0)
 			FN(do_wall)(ed, i, t);
 		else
 			FN(do_cross)(ed, i, t);
@@ -888,6 +1007,10 @@ static void FN(reorder)(struct ed *ed)
 	permute(ed->id, sizeof(uint32_t), newidx, n);
 	if (ed->tlast)
 		permute(ed->tlast, sizeof(double), newidx, n);
+#if WALLS
+	if (ed->gone)
+		permute(ed->gone, 1, newidx, n);
+#endif
 	if (ed->nl) {
 		const uint32_t K = ed->nlk;
 		for (uint32_t i = 0; i < n; i++)
@@ -898,8 +1021,13 @@ static void FN(reorder)(struct ed *ed)
 		permute(ed->xn, D * sizeof(double), newidx, n);
 	}
 	cells_clear(ed);
-	for (uint32_t k = n; k-- > 0;)
+	for (uint32_t k = n; k-- > 0;) {
+#if WALLS
+		if (ed->gone && ed->gone[k])
+			continue;
+#endif
 		FN(cell_insert)(ed, k);
+	}
 }
 
 /* Bring every particle to the current time and move the time origin there,
@@ -911,6 +1039,12 @@ static void FN(rebase)(struct ed *ed)
 	P_T *P = ed->p;
 	double t = ed->t;
 	for (uint32_t i = 0; i < ed->n; i++) {
+#if WALLS
+		if (ed->gone && ed->gone[i]) {   /* left: nothing moves, no events */
+			P[i].t = 0.0;
+			continue;
+		}
+#endif
 		FN(advance)(ed, &P[i], t);
 		P[i].t = 0.0;
 		ed->ev[i].t_coll -= t;
@@ -971,6 +1105,13 @@ static void FN(state)(const struct ed *ed, double *pos, double *vel)
 	const P_T *P = ed->p;
 	for (uint32_t i = 0; i < ed->n; i++) {
 		const double dt = ed->t - P[i].t;
+		if (ed->gone && ed->gone[i]) {   /* left through an open wall: NaN */
+			FOR_AXES(a) {
+				if (pos) pos[(size_t)ed->id[i] * D + a] = NAN;
+				if (vel) vel[(size_t)ed->id[i] * D + a] = NAN;
+			}
+			continue;
+		}
 		FOR_AXES(a) {
 			const double g = GRAV ? ed->g[a] : 0.0;
 			if (pos) {
@@ -1001,6 +1142,8 @@ static double FN(ekin)(const struct ed *ed, double mom[3])
 	mom[0] = mom[1] = mom[2] = 0.0;
 	for (uint32_t i = 0; i < ed->n; i++) {
 		const double dt = ed->t - P[i].t;
+		if (ed->gone && ed->gone[i])
+			continue;
 		FOR_AXES(a) {
 			const double v = P[i].v[a] + (GRAV ? ed->g[a] * dt : 0.0);
 			s += v * v;
@@ -1024,6 +1167,8 @@ static void FN(observe)(const struct ed *ed, double *height, double *epot)
 	}
 	for (uint32_t i = 0; i < ed->n; i++) {
 		const double dt = ed->t - P[i].t;
+		if (ed->gone && ed->gone[i])
+			continue;
 		FOR_AXES(a)
 			sum[a] += P[i].r[a] + P[i].v[a] * dt + (GRAV ? 0.5 * ed->g[a] * dt * dt : 0.0) - ed->org[a];
 	}
@@ -1031,7 +1176,7 @@ static void FN(observe)(const struct ed *ed, double *height, double *epot)
 	FOR_AXES(a)
 		gr += ed->g[a] * sum[a];
 	*epot = -ed->mass * gr;
-	*height = g2 > 0.0 ? -gr / (sqrt(g2) * ed->n) : NAN;
+	*height = g2 > 0.0 && ed->n > ed->n_gone ? -gr / (sqrt(g2) * (double)(ed->n - ed->n_gone)) : NAN;
 }
 #else
 static void FN(state)(const struct ed *ed, double *pos, double *vel)
@@ -1112,6 +1257,10 @@ static double FN(min_gap)(const struct ed *ed)
 		const ev_t *e = &ed->ev[i];
 		int32_t cc[3] = {0, 0, 0};
 		double ri[D];
+#if WALLS
+		if (ed->gone && ed->gone[i])
+			continue;
+#endif
 		FOR_AXES(a)
 			ri[a] = FN(pos_now)(ed, &P[i], a);
 #if WALLS
@@ -1127,6 +1276,16 @@ static double FN(min_gap)(const struct ed *ed)
 				if (g < best)
 					best = g;
 			}
+		}
+		for (int k = 0; k < ed->nobst; k++) {
+			double r2 = 0.0;
+			FOR_AXES(a) {
+				double x = FN(min_image)(ed, a, ri[a] - ed->obst[k].c[a]);
+				r2 += x * x;
+			}
+			double g = sqrt(r2) - ed->obst[k].S;
+			if (g < best)
+				best = g;
 		}
 #endif
 #if D == 3
@@ -1221,6 +1380,9 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
 				if (base[a] >= ed->nc[a]) base[a] = ed->nc[a] - 1;
 			}
 			int clash = 0;
+#if WALLS
+			clash = !obst_clear(ed, P[i].r);
+#endif
 #if D == 3
 			for (int kz = 0; kz < ed->no[2] && !clash; kz++) {
 				if ((cc[2] = FN(cell_at)(ed, 2, base[2] + ed->off[2][kz])) < 0)

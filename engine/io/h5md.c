@@ -17,7 +17,8 @@
 #define OBS_CHUNK 256u
 #define MAX_OBS 48
 
-/* What a value column holds: cols 0 = scalar per row, -1 = D components. */
+/* What a value column holds: cols 0 = scalar per row, -1 = D components,
+ * -2 = D components per obstacle (obstacle k's at k D .. k D + D - 1). */
 typedef struct {
 	const char *path;       /* under /observables */
 	unsigned need;          /* SCENE_OBS_* bit; 0 = always */
@@ -43,6 +44,19 @@ static void g_wpres(const run_record_t *r, void *o)
 {
 	for (int w = 0; w < 6; w++)
 		((double *)o)[w] = r->have_interval && (r->walls & (1u << w)) ? r->wall_pressure[w] : NAN;
+}
+static void g_present(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->particles; }
+static void g_wout(const run_record_t *r, void *o)
+{
+	for (int w = 0; w < 6; w++)
+		((int64_t *)o)[w] = (int64_t)r->wall_outflow[w];
+}
+static void g_ocoll(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->obstacle_collisions; }
+static void g_oforce(const run_record_t *r, void *o)
+{
+	for (int k = 0; k < r->n_obstacles; k++)
+		for (int a = 0; a < r->dim; a++)
+			((double *)o)[k * r->dim + a] = r->have_interval ? r->obstacle_force[k][a] : NAN;
 }
 static void g_com(const run_record_t *r, void *o) { *(double *)o = r->com_height; }
 static void g_epot(const run_record_t *r, void *o) { *(double *)o = r->potential_energy / (double)r->n; }
@@ -96,6 +110,10 @@ static const obs_def_t obs_defs[] = {
 	{ "elastic_by_tc", NEED_TC, 1, 0, NULL, g_tc },
 	{ "wall_collisions", SCENE_OBS_WALL_FORCE, 1, 0, NULL, g_wcoll },
 	{ "wall_pressure", SCENE_OBS_WALL_FORCE, 0, 6, "pressure", g_wpres },
+	{ "particles_present", SCENE_OBS_OUTFLOW, 1, 0, NULL, g_present },
+	{ "wall_outflow", SCENE_OBS_OUTFLOW, 1, 6, NULL, g_wout },
+	{ "obstacle_collisions", SCENE_OBS_OBSTACLE_FORCE, 1, 0, NULL, g_ocoll },
+	{ "obstacle_force", SCENE_OBS_OBSTACLE_FORCE, 0, -2, "m0 l0 t0-2", g_oforce },
 	{ "center_of_mass_height", SCENE_OBS_COM_HEIGHT, 0, 0, "l0", g_com },
 	{ "potential_energy", SCENE_OBS_POTENTIAL, 0, 0, "e0", g_epot },
 	{ "clusters_count", SCENE_OBS_CLUSTERS, 1, 0, NULL, g_ccount },
@@ -461,7 +479,7 @@ static int write_observables(h5md_t *h, const scene_t *s)
 		hid_t g = h5u_group(root, d->path);
 		if (g < 0)
 			goto out;
-		int cols = d->cols < 0 ? h->dim : d->cols;
+		int cols = d->cols == -1 ? h->dim : d->cols == -2 ? h->dim * s->n_obstacles : d->cols;
 		hsize_t inner[1] = {(hsize_t)cols}, chunk[2] = {OBS_CHUNK, (hsize_t)cols};
 		hid_t v = cols ? create_series(g, "value", d->i64 ? H5T_STD_I64LE : H5T_IEEE_F64LE, 2, inner, chunk, h->level)
 		               : create_series(g, "value", d->i64 ? H5T_STD_I64LE : H5T_IEEE_F64LE, 1, NULL, chunk1, h->level);
@@ -665,7 +683,8 @@ int h5md_destroy(h5md_t *h)
 int h5md_observables(h5md_t *h, const run_record_t *rec, char *msg, size_t msglen)
 {
 	int64_t step = (int64_t)rec->events;
-	double vbuf[CLUSTERS_MAX_BINS];
+	/* the widest row: the cluster histogram or the obstacles' forces */
+	double vbuf[CLUSTERS_MAX_BINS > 3 * SCENE_OBSTACLES_MAX ? CLUSTERS_MAX_BINS : 3 * SCENE_OBSTACLES_MAX];
 	int64_t ibuf[CLUSTERS_MAX_BINS];
 	if (append_row(h->obs_step, H5T_NATIVE_INT64, h->obs_rows, &step) ||
 	    append_row(h->obs_time, H5T_NATIVE_DOUBLE, h->obs_rows, &rec->time))

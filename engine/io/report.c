@@ -107,6 +107,34 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 			put(&o, "]");
 		}
 	}
+	if (r->have & SCENE_OBS_OBSTACLE_FORCE) {
+		u64(&o, "obstacle_collisions", r->obstacle_collisions);
+		if (r->kind == RUN_PROGRESS) {
+			put(&o, ",\"obstacle_force\":[");
+			for (int k = 0; k < r->n_obstacles; k++) {
+				put(&o, "%s[", k ? "," : "");
+				for (int a = 0; a < r->dim; a++) {
+					double f = r->have_interval ? r->obstacle_force[k][a] : NAN;
+					put(&o, isfinite(f) ? "%s%.17g" : "%snull", a ? "," : "", f);
+				}
+				put(&o, "]");
+			}
+			put(&o, "]");
+		}
+	}
+	if (r->have & SCENE_OBS_OUTFLOW) {
+		u64(&o, "particles_present", r->particles);
+		put(&o, ",\"outflow\":{");
+		static const char *const ax[3] = { "x", "y", "z" };
+		int first = 1;
+		for (int w = 0; w < 6; w++)
+			if (r->walls & (1u << w) && r->wall_outflow[w]) {
+				put(&o, "%s\"%s.%s\":%llu", first ? "" : ",", ax[w >> 1], (w & 1) ? "upper" : "lower",
+				    (unsigned long long)r->wall_outflow[w]);
+				first = 0;
+			}
+		put(&o, "}");
+	}
 	if (r->have & SCENE_OBS_COM_HEIGHT)
 		num(&o, "center_of_mass_height", r->com_height);
 	if (r->have & SCENE_OBS_POTENTIAL)
