@@ -54,6 +54,7 @@ struct sse {
 	int64_t job;
 	uint64_t after;
 	int done, suspended;
+	char *final;                  /* a finished job's state, sent after the replay a Last-Event-ID asked for */
 	double last_write;
 	char *buf;
 	size_t len, off, cap;
@@ -177,6 +178,11 @@ static void sse_fill(sse_t *s)
 		} else if (r == HUB_ECLOSED) {
 			s->done = 1;
 		} else {
+			/* replay over: a finished job's stream ends with its state, unless the replay carried it */
+			if (s->final && !s->done) {
+				sse_put(s, "id: %" PRIu64 "\nevent: state\ndata: %s\n\n", s->after, s->final);
+				s->done = 1;
+			}
 			break;
 		}
 	}
@@ -237,6 +243,7 @@ static void sse_free(void *cls)
 		s->next->prev = s->prev;
 	pthread_mutex_unlock(&h->lock);
 	atomic_fetch_sub(&h->gd->open_streams, 1);
+	free(s->final);
 	free(s->buf);
 	free(s);
 }
@@ -255,8 +262,11 @@ static sse_t *sse_prepare(http_t *h, req_t *rq)
 	s->fd = rq->fd;
 	s->job = rq->rs.sse_job;
 	s->after = hub_last(h->gd->hub);
-	if (!parse_u64(MHD_lookup_connection_value(rq->c, MHD_HEADER_KIND, "Last-Event-ID"), &lei) && lei <= s->after)
+	int resume = 0;
+	if (!parse_u64(MHD_lookup_connection_value(rq->c, MHD_HEADER_KIND, "Last-Event-ID"), &lei) && lei <= s->after) {
+		resume = lei < s->after;
 		s->after = lei;
+	}
 	sse_put(s, "retry: 2000\n");
 	if (s->job) {
 		json_t *j = NULL;
@@ -266,9 +276,18 @@ static sse_t *sse_prepare(http_t *h, req_t *rq)
 			return NULL;
 		}
 		char *txt = json_dumps(j, JSON_COMPACT);
-		sse_put(s, "id: %" PRIu64 "\nevent: state\ndata: %s\n\n", s->after, txt ? txt : "{}");
-		if (terminal(json_string_value(json_object_get(j, "state"))))
-			s->done = 1;
+		/* A client resuming a finished job gets what it missed (still in the hub), then the
+		 * final state; anyone else gets the state now, and a finished job's stream ends there. */
+		if (resume && terminal(json_string_value(json_object_get(j, "state")))) {
+			s->final = txt;
+			txt = NULL;
+			if (!s->final)
+				s->done = 1;
+		} else {
+			sse_put(s, "id: %" PRIu64 "\nevent: state\ndata: %s\n\n", s->after, txt ? txt : "{}");
+			if (terminal(json_string_value(json_object_get(j, "state"))))
+				s->done = 1;
+		}
 		free(txt);
 		json_decref(j);
 	} else {
@@ -367,6 +386,7 @@ static enum MHD_Result reply(http_t *h, struct MHD_Connection *c, req_t *rq, con
 		rq->sse = NULL;
 		r = MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 4096, sse_read, s, sse_free);
 		if (!r) {
+			free(s->final);
 			free(s->buf);
 			free(s);
 			return MHD_NO;
@@ -775,6 +795,7 @@ static void on_completed(void *cls, struct MHD_Connection *c, void **con_cls, en
 		json_decref(rq->rs.json);
 		free(rq->rs.owned);
 		if (rq->sse) {
+			free(rq->sse->final);
 			free(rq->sse->buf);
 			free(rq->sse);
 		}

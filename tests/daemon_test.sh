@@ -35,6 +35,11 @@ ok $([ "$(field "$cl" 'len(d["series"])')" = 11 ] && [ "$(field "$cl" 'd["series
 wait $sse
 grep -q '^event: progress' "$tmp/sse" && grep -q '"state":"succeeded"' "$tmp/sse"
 ok $? "event stream carried progress and ended with the succeeded state"
+# A client that reconnects after the job ended, with the last id it saw, gets what it missed, then the
+# final state, and the stream ends (curl exits 0, not 28 for its time limit).
+curl -sN -m 20 -H "Last-Event-ID: 1" "$URL/api/v1/jobs/$id/events" >"$tmp/sse2"
+ok $([ $? = 0 ] && grep -q '^event: progress' "$tmp/sse2" && tail -n 3 "$tmp/sse2" | grep -q '"state":"succeeded"'; echo $?) \
+	"Last-Event-ID on a finished job: the missed progress, then the final state, then the end"
 job=$(api GET "/api/v1/jobs/$id")
 ok $([ "$(field "$job" 'd["attempts"][0]["exit_status"]')" = 0 ] && [ "$(field "$job" 'd["progress"]')" = 1.0 ] &&
      [ "$(field "$job" 'd["scene"]["particles"]["count"]')" = 400 ]; echo $?) "job record: attempt exit 0, progress 1.0, scene kept"
