@@ -52,6 +52,7 @@ struct run {
 	clusters_t *cl;
 	obs_t *obs;              /* structure observables (observe.h), NULL when none is asked for */
 	double *pos, *vel;       /* sampling buffers (clusters, snapshots, structure observables) */
+	double *spin;            /* snapshots of rough particles: angular velocities */
 	double t0;               /* wall clock at the start of this process's part */
 	double ckpt_wall;        /* wall clock of the last checkpoint request */
 	char warning[512];       /* dsmc/hsmc validity warning for the first record */
@@ -75,6 +76,7 @@ typedef struct {
 	uint64_t vmax_raised, cell_collisions, rejected_moves;
 	uint64_t wall_collisions;
 	double wall_impulse[6][3], com_height, potential_energy;
+	double rotational_energy;
 } smp_t;
 
 static void eng_sample(run_t *rc, smp_t *o)
@@ -91,6 +93,7 @@ static void eng_sample(run_t *rc, smp_t *o)
 		o->wall_collisions = sm.wall_collisions;
 		memcpy(o->wall_impulse, sm.wall_impulse, sizeof(o->wall_impulse));
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
+		o->rotational_energy = sm.rotational_energy;
 	} else {
 		dsmc_sample_t sm;
 		dsmc_sample(rc->mc, &sm);
@@ -200,6 +203,10 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 	}
 	r->wall_collisions = sm.wall_collisions;
 	r->com_height = sm.com_height, r->potential_energy = sm.potential_energy;
+	if (s->rough) {
+		r->rotational_energy = sm.rotational_energy;
+		r->rotational_temperature = 2.0 * sm.rotational_energy / ((s->dim == 2 ? 1.0 : 3.0) * (double)s->count);
+	}
 	for (int a = 0; a < s->dim; a++) {
 		if (!s->boundary[a].walled)
 			continue;
@@ -311,6 +318,11 @@ static int emit_snapshot(run_t *r, run_emit_fn emit, void *ctx)
 	eng_state(r, r->pos, r->vel);
 	rec.pos = r->pos;
 	rec.vel = r->vel;
+	if (r->spin) {
+		ed_spins(r->ed, r->spin);
+		rec.spin = r->spin;
+		rec.spin_dim = ed_spin_dim(r->ed);
+	}
 	r->st.snap_events = sm.events;
 	return emit(&rec, ctx) ? RUN_EMIT : RUN_OK;
 }
@@ -390,6 +402,11 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		if (!r->vel)
 			goto nomem;
 	}
+	if (r->opts.snapshots && r->ed && ed_spin_dim(r->ed)) {
+		r->spin = malloc(s->count * ed_spin_dim(r->ed) * sizeof(double));
+		if (!r->spin)
+			goto nomem;
+	}
 	r->status = RUN_COMPLETED;
 	r->t0 = r->ckpt_wall = wall_now();
 	*err = RUN_OK;
@@ -433,6 +450,7 @@ void run_destroy(run_t *r)
 	obs_destroy(r->obs);
 	free(r->pos);
 	free(r->vel);
+	free(r->spin);
 	ed_destroy(r->ed);
 	dsmc_destroy(r->mc);
 	free(r);

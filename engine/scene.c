@@ -84,6 +84,8 @@ static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "wall_force", SCENE_OBS_WALL_FORCE },
 	{ "center_of_mass_height", SCENE_OBS_COM_HEIGHT },
 	{ "potential_energy", SCENE_OBS_POTENTIAL },
+	{ "rotational_energy", SCENE_OBS_ROTATION },
+	{ "rotational_temperature", SCENE_OBS_ROTATION },
 };
 #define N_OBSERVABLES (sizeof observables / sizeof observables[0])
 
@@ -476,6 +478,36 @@ static int check_structure(ctx_t *c, json_t *v, scene_t *s)
 
 static int check_boundaries(ctx_t *c, json_t *v, scene_t *s);
 
+/* Rough particles across the scene: method ed only, the initial spins and
+ * the rotational observables only with them. */
+static int check_rough_scene(ctx_t *c, json_t *v, scene_t *s)
+{
+	json_t *init = json_object_get(json_object_get(v, "particles"), "initial");
+	bool trot = json_object_get(init, "rotational_temperature") != NULL;
+	if (s->rough && s->method != SCENE_METHOD_ED)
+		return fail(c, "collisions.rough", "method \"%s\" does not support rough particles (only \"ed\" does)",
+		            method_names[s->method]);
+	if (trot && !s->rough)
+		return fail(c, "particles.initial.rotational_temperature", "needs rough particles (collisions.rough)");
+	if (s->rough && !trot)
+		s->rot_temperature = s->temperature;
+	json_t *obs = json_object_get(json_object_get(v, "output"), "observables");
+	size_t i;
+	json_t *o;
+	json_array_foreach(obs, i, o) {
+		const char *name = json_string_value(o);
+		if (strcmp(name, "rotational_energy") && strcmp(name, "rotational_temperature"))
+			continue;
+		char path[PATHLEN];
+		snprintf(path, sizeof path, "output.observables[%zu]", i);
+		if (!s->rough)
+			return fail(c, path, "\"%s\" needs rough particles (collisions.rough)", name);
+		if (s->replicas > 1)
+			return fail(c, path, "\"%s\" is not averaged over ensembles yet (run.replicas must be 1)", name);
+	}
+	return 0;
+}
+
 /* Rules that span objects, and the derived fields. */
 static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 {
@@ -556,6 +588,9 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 		return ret;
 
 	ret = check_boundaries(c, v, s);
+	if (ret)
+		return ret;
+	ret = check_rough_scene(c, v, s);
 	if (ret)
 		return ret;
 	if (s->every.kind == SCENE_CLOCK_NONE)
@@ -828,6 +863,7 @@ static const struct object initial_obj = {
 	.fields = (const struct field[]){
 		{ "positions", parse_positions, offsetof(scene_t, positions), NULL, false },
 		{ "temperature", parse_number, offsetof(scene_t, temperature), &R_NONNEG, false },
+		{ "rotational_temperature", parse_number, offsetof(scene_t, rot_temperature), &R_NONNEG, false },
 		{ "relax", parse_object, 0, &relax_obj, false },
 		{ .name = NULL },
 	},
@@ -846,10 +882,35 @@ static const struct object particles_obj = {
 	.check = check_particles,
 };
 
+/* collisions.rough: present means rough particles (scene_t.rough). */
+static int check_rough(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_t *s = base;
+	s->rough = 1;
+	if (json_object_get(v, "friction") == NULL)
+		s->rough_mu = -1;
+	if (json_object_get(v, "inertia_factor") == NULL)
+		s->rough_q = s->dim == 2 ? 0.5 : 0.4;
+	return 0;
+}
+
+static const struct range R_INERTIA = { 0, 1, true };
+
+static const struct object rough_obj = {
+	.fields = (const struct field[]){
+		{ "tangential_restitution", parse_number, offsetof(scene_t, rough_beta), &R_SIGNED_UNIT, true },
+		{ "friction", parse_number, offsetof(scene_t, rough_mu), &R_NONNEG, false },
+		{ "inertia_factor", parse_number, offsetof(scene_t, rough_q), &R_INERTIA, false },
+		{ .name = NULL },
+	},
+	.check = check_rough,
+};
+
 static const struct object collisions_obj = {
 	.fields = (const struct field[]){
 		{ "restitution", parse_number, offsetof(scene_t, restitution), &R_UNIT, false },
 		{ "tc", parse_number, offsetof(scene_t, tc), &R_NONNEG, false },
+		{ "rough", parse_object, 0, &rough_obj, false },
 		{ .name = NULL },
 	},
 };

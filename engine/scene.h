@@ -50,6 +50,7 @@ enum {
 	SCENE_OBS_WALL_FORCE = 1u << 9,     /* force on each wall: pressure and shear stress (needs walls) */
 	SCENE_OBS_COM_HEIGHT = 1u << 10,    /* centre-of-mass height along -gravity (needs gravity) */
 	SCENE_OBS_POTENTIAL = 1u << 11,     /* potential energy in the gravity field (needs gravity) */
+	SCENE_OBS_ROTATION = 1u << 12,      /* rotational_energy, rotational_temperature (needs collisions.rough) */
 };
 
 /* Wall kinds (boundaries.AXIS.lower/upper.type; method ed only). Every wall
@@ -107,6 +108,15 @@ typedef struct scene {
 	/* collisions */
 	double restitution;            /* 0..1, default 1 */
 	double tc;                     /* TC-model time >= 0, default 0 = off */
+	/* rough particles (collisions.rough; method ed only): spins, moment of
+	 * inertia I = rough_q m radius^2, tangential restitution beta (g_t' =
+	 * -beta g_t) or Walton's rule (rough_mu >= 0: Coulomb sliding with
+	 * friction mu where it gives less tangential impulse than beta_0) */
+	int rough;                     /* 0: smooth (default) */
+	double rough_beta;             /* beta or beta_0 in [-1, 1] (-1 smooth, +1 perfectly rough) */
+	double rough_mu;               /* Coulomb friction >= 0; -1: constant beta (not given) */
+	double rough_q;                /* (0, 1]; default 2/5 (3D spheres), 1/2 (2D disks) */
+	double rot_temperature;        /* initial rotational temperature >= 0, default = temperature */
 
 	/* boundaries and fields (method ed only) */
 	scene_boundary_t boundary[3];  /* per axis; default periodic */

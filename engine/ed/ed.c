@@ -11,6 +11,7 @@
 #include "rng.h"
 #include "lattice.h"
 #include "walltime.h"
+#include "rough.h"
 
 /* Hot particle record: everything a neighbour scan touches, one cache line
  * in 3D. Position r is valid at the particle's own time t (lazy update).
@@ -152,6 +153,14 @@ struct ed {
 	uint64_t whits[6], wall_collisions;
 	rng_t wrng;               /* thermal and rough walls */
 	double psum[3];           /* sum of the velocities at t_mark (gravity: energy bookkeeping) */
+	/* Rough particles (ROUGH kernels; collisions.rough): spins, one per
+	 * particle in 2D (about z), three in 3D, in storage order like the
+	 * records; the tangential rule's constants. NULL / 0 for smooth scenes. */
+	double *spin;
+	int rough;
+	double rbeta;             /* tangential restitution beta (Walton: beta_0), -1..1 */
+	double rmu;               /* Coulomb friction mu of Walton's rule; < 0: constant beta */
+	double rq;                /* moment of inertia factor q: I = q m (sigma/2)^2 */
 };
 
 static inline bool hless(const hent_t *a, const hent_t *b)
@@ -504,6 +513,7 @@ static void walls_rebase(struct ed *ed, double t)
 /* The kernels, once per dimension and variant: periodic homogeneous
  * (_2d, _3d: the original engine, untouched by the features below), walls
  * (_2w, _3w) and gravity with or without walls (_2g, _3g). */
+#define ROUGH 0
 #define WALLS 0
 #define GRAV 0
 #define D 2
@@ -554,6 +564,62 @@ static void walls_rebase(struct ed *ed, double t)
 #undef FN
 #undef WALLS
 #undef GRAV
+#undef ROUGH
+
+/* Rough particles: the same three variants with the rough collision rule
+ * (_2dr, _3dr periodic; _2wr, _3wr walls; _2gr, _3gr gravity). */
+#define ROUGH 1
+#define WALLS 0
+#define GRAV 0
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2dr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3dr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#undef WALLS
+#define WALLS 1
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2wr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3wr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#undef GRAV
+#define GRAV 1
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2gr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3gr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#undef WALLS
+#undef GRAV
+#undef ROUGH
 
 /* A variant's entry points, chosen once in ed_alloc(): nothing per event. */
 typedef struct ed_ops {
@@ -587,6 +653,12 @@ static const ed_ops_t ed_ops[2][3] = {
 	  { OPS_COMMON(2g), .observe = observe_2g, .energy_to = energy_to_2g } },
 	{ { OPS_COMMON(3d), OPS_NL(3d) }, { OPS_COMMON(3w), .observe = observe_3w },
 	  { OPS_COMMON(3g), .observe = observe_3g, .energy_to = energy_to_3g } },
+};
+static const ed_ops_t ed_ops_rough[2][3] = {
+	{ { OPS_COMMON(2dr), OPS_NL(2dr) }, { OPS_COMMON(2wr), .observe = observe_2wr },
+	  { OPS_COMMON(2gr), .observe = observe_2gr, .energy_to = energy_to_2gr } },
+	{ { OPS_COMMON(3dr), OPS_NL(3dr) }, { OPS_COMMON(3wr), .observe = observe_3wr },
+	  { OPS_COMMON(3gr), .observe = observe_3gr, .energy_to = energy_to_3gr } },
 };
 
 #define DISPATCH(ed, fn, ...) ((ed)->ops->fn(__VA_ARGS__))
@@ -856,6 +928,35 @@ static void init_velocities(struct ed *ed, double temp, rng_t *rng)
 	}
 }
 
+/* Spins of rough particles: Gaussian, scaled to exactly the rotational
+ * temperature T_rot = I sum w^2 / (D_r N) (D_r = 1 in 2D, 3 in 3D). The
+ * random numbers come after the velocities': smooth scenes are unchanged. */
+static void init_spins(struct ed *ed, double temp, rng_t *rng)
+{
+	const size_t k = (size_t)ed->n * (ed->dim == 2 ? 1 : 3);
+	double s2 = 0.0;
+	for (size_t i = 0; i < k; i++) {
+		ed->spin[i] = rng_gauss(rng);
+		s2 += ed->spin[i] * ed->spin[i];
+	}
+	const double inertia = ed->rq * ed->mass * 0.25 * ed->sigma2;
+	const double scale = s2 > 0.0 ? sqrt(temp * (double)k / (inertia * s2)) : 0.0;
+	for (size_t i = 0; i < k; i++)
+		ed->spin[i] *= scale;
+}
+
+/* Rotational energy I/2 sum w^2 (0 for smooth particles). */
+static double ed_erot(const struct ed *ed)
+{
+	if (!ed->rough)
+		return 0.0;
+	const size_t k = (size_t)ed->n * (ed->dim == 2 ? 1 : 3);
+	double s2 = 0.0;
+	for (size_t i = 0; i < k; i++)
+		s2 += ed->spin[i] * ed->spin[i];
+	return 0.5 * ed->rq * ed->mass * 0.25 * ed->sigma2 * s2;
+}
+
 static void predict_all(struct ed *ed)
 {
 	for (uint32_t i = 0; i < ed->n; i++) {
@@ -1014,7 +1115,7 @@ static void setup_wall_cells(struct ed *ed)
  * engine of ed's geometry with neighbour lists (nl) and TC times (tc);
  * absent arrays are 0. */
 enum { A_P, A_EV, A_HEAP, A_CN, A_CALHEAD, A_HEAD, A_OCC, A_NEXT, A_ID, A_SCRATCH_IDX, A_SCRATCH_CELL,
-       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_COUNT };
+       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_SPIN, A_COUNT };
 static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 {
 	const size_t n = ed->n;
@@ -1033,6 +1134,7 @@ static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 	b[A_NB] = nl ? n * ed->nlk * sizeof(int32_t) : 0;
 	b[A_NN] = b[A_MARK] = nl ? n : 0;
 	b[A_TLAST] = tc ? n * sizeof(double) : 0;
+	b[A_SPIN] = ed->rough ? n * (ed->dim == 2 ? 1 : 3) * sizeof(double) : 0;
 }
 
 /* Cells cost memory even when empty (~9 bytes each): a grid finer than this
@@ -1067,7 +1169,13 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 		ed->halfL[a] = 0.5 * ed->L[a];
 	}
 	ed->variant = scene_has_gravity(s) ? 2 : scene_has_walls(s) ? 1 : 0;
-	ed->ops = &ed_ops[ed->dim - 2][ed->variant];
+	ed->rough = s->rough;
+	ed->ops = ed->rough ? &ed_ops_rough[ed->dim - 2][ed->variant] : &ed_ops[ed->dim - 2][ed->variant];
+	if (ed->rough) {
+		ed->rbeta = s->rough_beta;
+		ed->rmu = s->rough_mu;
+		ed->rq = s->rough_q;
+	}
 	if (ed->variant) {
 		setup_walls(ed, s);
 		setup_cells(ed, s->ed_cell_size * ed->sigma);   /* cell mode only */
@@ -1128,6 +1236,8 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	if (s->tc > 0.0) {
 		ed->tlast = big_alloc(b[A_TLAST], 0);
 	}
+	if (ed->rough && !(ed->spin = big_alloc(b[A_SPIN], 1)))
+		goto fail;
 	if (!ed->p || !ed->ev || !ed->heap || !ed->cn || !ed->cal_head || !ed->head || !ed->occ || !ed->next || !ed->id || !ed->scratch_idx || !ed->scratch_cell ||
 	    (s->tc > 0.0 && !ed->tlast))
 		goto fail;
@@ -1172,6 +1282,8 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 			goto fail;
 	}
 	init_velocities(ed, s->temperature, &rng);
+	if (ed->rough)
+		init_spins(ed, s->rot_temperature, &rng);
 	predict_all(ed);
 	reset_clock(ed);
 
@@ -1218,6 +1330,7 @@ void ed_destroy(ed_t *ed)
 	free(ed->occ);
 	free(ed->next);
 	free(ed->tlast);
+	free(ed->spin);
 	free(ed->id);
 	free(ed->scratch_idx);
 	free(ed->scratch_cell);
@@ -1257,6 +1370,7 @@ void ed_sample(ed_t *ed, ed_sample_t *out)
 	if (ed->ops->energy_to)   /* gravity: E_kin changes between events */
 		ed->ops->energy_to(ed, ed->t);
 	out->kinetic_energy = DISPATCH(ed, ekin, ed, out->momentum);
+	out->rotational_energy = ed->rough ? ed_erot(ed) : NAN;
 	out->ekin_time_integral = ed->ekin_int + ed->ekin_cur * (ed->t - ed->t_mark);
 	out->virial = ed->virial;
 	sample_walls(ed, out);
@@ -1275,6 +1389,19 @@ void ed_sample(ed_t *ed, ed_sample_t *out)
 void ed_state(const ed_t *ed, double *pos, double *vel)
 {
 	DISPATCH(ed, state, ed, pos, vel);
+}
+
+int ed_spin_dim(const ed_t *ed)
+{
+	return ed->rough ? (ed->dim == 2 ? 1 : 3) : 0;
+}
+
+void ed_spins(const ed_t *ed, double *w)
+{
+	const int k = ed_spin_dim(ed);
+	for (uint32_t i = 0; i < ed->n; i++)
+		for (int c = 0; c < k; c++)
+			w[(size_t)ed->id[i] * k + c] = ed->spin[(size_t)i * k + c];
 }
 
 uint64_t ed_collisions(const ed_t *ed) { return ed->collisions; }
@@ -1297,7 +1424,7 @@ static size_t held(const struct ed *ed, int nl, int tc)
 	return sizeof(*ed) + (ed->cal_m + 1) * sizeof(int32_t) + (2 * ed->ncells + 1) * sizeof(int32_t) +
 	       (ed->ncells + 63) / 64 * sizeof(uint64_t) +
 	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + sizeof(cnode_t) + 3 * sizeof(uint32_t) + per_nl +
-	                (tc ? sizeof(double) : 0));
+	                (tc ? sizeof(double) : 0) + (ed->rough ? (ed->dim == 2 ? 1 : 3) * sizeof(double) : 0));
 }
 
 size_t ed_memory(const ed_t *ed) { return held(ed, ed->xn != NULL, ed->tlast != NULL); }
@@ -1330,6 +1457,7 @@ typedef enum {
 	F_R, F_V, F_TLOC, F_NEXT, F_COUNT, F_TCOLL, F_TCROSS, F_PARTNER, F_PCOUNT, F_CROSS, F_CELL,
 	F_ID, F_HEAD, F_TLAST, F_XN, F_NN, F_NB,
 	F_WPH, F_WIMP, F_WIMPTOT, F_WHITS, F_WCOLL, F_WRNG, F_PSUM,   /* walls and gravity variants only */
+	F_SPIN,   /* rough particles only */
 	F_SCALAR
 } fid_t;
 
@@ -1374,7 +1502,7 @@ static const struct {
 	{ "wall_phase", F_WPH, ED_T_F64 }, { "wall_impulse", F_WIMP, ED_T_F64 },
 	{ "wall_impulse_total", F_WIMPTOT, ED_T_F64 }, { "wall_hits", F_WHITS, ED_T_U64 },
 	{ "wall_collisions", F_WCOLL, ED_T_U64 }, { "wall_rng", F_WRNG, ED_T_U64 },
-	{ "velocity_sum", F_PSUM, ED_T_F64 },
+	{ "velocity_sum", F_PSUM, ED_T_F64 }, { "spin", F_SPIN, ED_T_F64 },
 };
 #define N_ARRAYS (sizeof arrays / sizeof arrays[0])
 
@@ -1389,8 +1517,10 @@ size_t ed_type_size(ed_type_t t)
 }
 
 /* Whether a field exists, for an engine with neighbour lists (nl) and TC times (tc). */
-static int field_exists(fid_t id, int nl, int tc, int variant)
+static int field_exists(fid_t id, int nl, int tc, int variant, int rough)
 {
+	if (id == F_SPIN)
+		return rough;
 	if (id == F_TLAST)
 		return tc;
 	if (id == F_XN || id == F_NN || id == F_NB)
@@ -1400,7 +1530,7 @@ static int field_exists(fid_t id, int nl, int tc, int variant)
 	return 1;
 }
 
-static int array_present(const struct ed *ed, fid_t id) { return field_exists(id, ed->xn != NULL, ed->tlast != NULL, ed->variant); }
+static int array_present(const struct ed *ed, fid_t id) { return field_exists(id, ed->xn != NULL, ed->tlast != NULL, ed->variant, ed->rough); }
 
 static size_t array_count(const struct ed *ed, fid_t id)
 {
@@ -1413,6 +1543,7 @@ static size_t array_count(const struct ed *ed, fid_t id)
 	case F_WCOLL: return 1;
 	case F_WRNG: return 4;
 	case F_PSUM: return 3;
+	case F_SPIN: return (size_t)ed->n * (ed->dim == 2 ? 1 : 3);
 	case F_NB: {
 		size_t k = 0;
 		for (uint32_t i = 0; i < ed->n; i++)
@@ -1455,7 +1586,7 @@ int ed_plan(const scene_t *s, ed_plan_t *out, char *msg, size_t msglen)
 		out->state += ed_type_size(scalars[a].type);
 	out->largest = 0;
 	for (size_t a = 0; a < N_ARRAYS; a++) {
-		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0, ed.variant))
+		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0, ed.variant, ed.rough))
 			continue;
 		double count = arrays[a].id == F_NB ? per * ed.n : (double)array_count(&ed, arrays[a].id);
 		uint64_t bytes = (uint64_t)(count * (double)ed_type_size(arrays[a].type));
@@ -1558,6 +1689,7 @@ static void field_copy(struct ed *ed, fid_t id, void *buf, int to_buf)
 	case F_WCOLL: src = &ed->wall_collisions; bytes = sizeof ed->wall_collisions; break;
 	case F_WRNG: src = ed->wrng.s; bytes = sizeof ed->wrng.s; break;
 	case F_PSUM: src = ed->psum; bytes = sizeof ed->psum; break;
+	case F_SPIN: src = ed->spin; bytes = (size_t)ed->n * (D == 2 ? 1 : 3) * sizeof(double); break;
 	case F_NB: {
 		/* lists packed: the first nn[i] entries of each row */
 		size_t k = 0;
@@ -1713,6 +1845,7 @@ void ed_totals(const ed_t *ed, ed_sample_t *out)
 	out->collisions = ed->collisions;
 	out->elastic_by_tc = ed->tc_elastic;
 	out->kinetic_energy = DISPATCH(ed, ekin, ed, out->momentum);
+	out->rotational_energy = ed->rough ? ed_erot(ed) : NAN;
 	sample_walls(ed, out);
 }
 

@@ -6,7 +6,9 @@
  * may have walls: no wrap there, wall events, cell mode only) and GRAV
  * (uniform gravity ed->g: ballistic flight; implies WALLS), plus the shared
  * declarations of ed.c. WALLS = GRAV = 0 is the periodic homogeneous engine;
- * the flags are compile-time, so it tests none of this per event.
+ * the flags are compile-time, so it tests none of this per event. ROUGH
+ * (rough particles: spins in ed->spin, the rough collision rule) is a
+ * further flag on top of any of them.
  */
 
 /* Flight of particle p to time t (lazy: only when the particle is touched). */
@@ -656,6 +658,24 @@ static inline void FN(energy_to)(struct ed *ed, double t)
 	ed->t_mark = t;
 }
 
+#if ROUGH
+/* Rough variant: the collision of i and j by the rough rule (rough.h) with
+ * normal restitution e; elastic (TC model, pre-run): smooth and elastic.
+ * dr = r_i - r_j, r2 = |dr|^2, b = dr . (v_i - v_j) < 0. */
+static inline void FN(rough_kick)(struct ed *ed, P_T *pi, P_T *pj, uint32_t i, uint32_t j, const double *dr,
+                                  double r2, double b, double e, int elastic)
+{
+	const rough_rule_t R = {.m = ed->mass, .a = 0.5 * ed->sigma, .e = e, .beta = elastic ? -1.0 : ed->rbeta,
+	                        .mu = elastic ? -1.0 : ed->rmu, .q = ed->rq};
+	const double rn = sqrt(r2);
+	double n[D];
+	FOR_AXES(k)
+		n[k] = dr[k] / rn;
+	const int k = D == 2 ? 1 : 3;
+	ed->ekin_cur += rough_collide(D, &R, n, b / rn, pi->v, pj->v, &ed->spin[(size_t)i * k], &ed->spin[(size_t)j * k]);
+}
+#endif
+
 /* Binary collision of i and j at time t with normal restitution (elastic
  * within the TC time of either partner's previous collision). */
 static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uint32_t i, uint32_t j, double t)
@@ -676,21 +696,33 @@ static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uin
 	FN(energy_to)(ed, t);
 	if (b < 0.0) {
 		double e = ed->e;
+#if ROUGH
+		int elastic = ed->relaxing;   /* elastic pre-run: smooth and elastic */
+		if (elastic)
+			e = 1.0;
+#endif
 		if (ed->tlast) {
 			if (t - ed->tlast[i] < ed->tc || t - ed->tlast[j] < ed->tc) {
 				e = 1.0;
 				ed->tc_elastic++;
+#if ROUGH
+				elastic = 1;
+#endif
 			}
 			ed->tlast[i] = ed->tlast[j] = t;
 		}
+#if ROUGH
+		FN(rough_kick)(ed, pi, pj, i, j, dr, r2, b, e, elastic);
+#else
 		double f = 0.5 * (1.0 + e) * b / r2;
 		FOR_AXES(a) {
 			pi->v[a] -= f * dr[a];
 			pj->v[a] += f * dr[a];
 		}
-		ed->virial -= 0.5 * (1.0 + e) * ed->mass * b;
 		if (e != 1.0)
 			ed->ekin_cur -= 0.25 * (1.0 - e * e) * ed->mass * b * b / r2;
+#endif
+		ed->virial -= 0.5 * (1.0 + e) * ed->mass * b;
 	}
 	/* A grazing pair that rounding made non-approaching is left alone, but
 	 * still counts as an event of both so that stale predictions go away. */
@@ -878,6 +910,9 @@ static void FN(reorder)(struct ed *ed)
 	permute(ed->id, sizeof(uint32_t), newidx, n);
 	if (ed->tlast)
 		permute(ed->tlast, sizeof(double), newidx, n);
+#if ROUGH
+	permute(ed->spin, (D == 2 ? 1 : 3) * sizeof(double), newidx, n);
+#endif
 	if (ed->nl) {
 		const uint32_t K = ed->nlk;
 		for (uint32_t i = 0; i < n; i++)
