@@ -35,7 +35,7 @@ static inline double rough_collide(int dim, const rough_rule_t *R, const double 
                                    double *w1, double *w2)
 {
 	const double m = R->m, M = 0.5 * m, a = R->a, q = R->q;
-	double dv[3], gt[3], J[3], gt2 = 0.0, de = 0.0;
+	double dv[3], gt[3], J[3], Jt[3], gt2 = 0.0, de = 0.0;
 	for (int k = 0; k < dim; k++)
 		dv[k] = v1[k] - v2[k];
 	/* g_t = dv - g_n n - a W x n (W x n is tangential) */
@@ -56,20 +56,22 @@ static inline double rough_collide(int dim, const rough_rule_t *R, const double 
 	if (R->mu >= 0.0 && ct * sqrt(gt2) > R->mu * jn)
 		ct = R->mu * jn / sqrt(gt2);                    /* sliding: |J_t| = mu |J_n| */
 	for (int k = 0; k < dim; k++) {
-		J[k] = jn * n[k] - ct * gt[k];
+		Jt[k] = -ct * gt[k];
+		J[k] = jn * n[k] + Jt[k];
 		de += J[k] * dv[k] + J[k] * J[k] / m;
 		v1[k] += J[k] / m;
 		v2[k] -= J[k] / m;
 	}
-	/* spins: -(a / I) n x J = -(1 / (q m a)) n x J_t */
+	/* spins: -(a / I) n x J = -(1 / (q m a)) n x J_t (from J_t alone, so
+	 * that a smooth collision leaves them exactly as they were) */
 	const double s = -1.0 / (q * m * a);
 	if (dim == 2) {
-		const double dw = s * (n[0] * J[1] - n[1] * J[0]);
+		const double dw = s * (n[0] * Jt[1] - n[1] * Jt[0]);
 		w1[0] += dw;
 		w2[0] += dw;
 	} else {
-		const double dw[3] = {s * (n[1] * J[2] - n[2] * J[1]), s * (n[2] * J[0] - n[0] * J[2]),
-		                      s * (n[0] * J[1] - n[1] * J[0])};
+		const double dw[3] = {s * (n[1] * Jt[2] - n[2] * Jt[1]), s * (n[2] * Jt[0] - n[0] * Jt[2]),
+		                      s * (n[0] * Jt[1] - n[1] * Jt[0])};
 		for (int k = 0; k < 3; k++) {
 			w1[k] += dw[k];
 			w2[k] += dw[k];
