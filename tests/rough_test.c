@@ -401,12 +401,163 @@ static void test_hcs(int dim, double e, double beta, int hcs, double tau_end)
 	ed_destroy(ed);
 }
 
+/* Checkpoint (every field of ed_fields(), "spin" among them) into a blank
+ * engine: the restored run is identical bit for bit, spins included; for
+ * the dense periodic variant (neighbour lists, TC model, Walton's rule) and
+ * for walls with gravity (2D). */
+static void test_checkpoint(void)
+{
+	static const char *const scenes[] = {
+		"{\"method\":\"ed\",\"dimensions\":3,\"particles\":{\"count\":1000,\"volume_fraction\":0.4,"
+		"\"initial\":{\"temperature\":1}},\"collisions\":{\"restitution\":0.8,\"tc\":1e-4,"
+		"\"rough\":{\"tangential_restitution\":0.4,\"friction\":0.2,\"inertia_factor\":0.35}},"
+		"\"run\":{\"seed\":3,\"until\":{\"time\":1}}}",
+		"{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":400,\"volume_fraction\":0.2,"
+		"\"initial\":{\"positions\":\"random\",\"temperature\":1,\"rotational_temperature\":2}},"
+		"\"collisions\":{\"restitution\":0.9,\"tc\":1e-4,\"rough\":{\"tangential_restitution\":0.6}},"
+		"\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},\"upper\":{\"type\":\"thermal\","
+		"\"temperature\":1}}},\"gravity\":[0,-0.5],\"run\":{\"seed\":4,\"until\":{\"time\":1}}}",
+	};
+	for (int sidx = 0; sidx < 2; sidx++) {
+		scene_t sc;
+		ed_t *a = make(scenes[sidx], &sc), *b = NULL;
+		int ok_fields = 0, has_spin = 0;
+		char msg[256] = "";
+		if (a) {
+			ed_advance(a, 2.5, UINT64_MAX, UINT64_MAX);
+			int rc;
+			b = ed_create_blank(&sc, &rc, msg, sizeof msg);
+			ed_field_t f[ED_MAX_FIELDS];
+			int nf = ed_fields(a, f, ED_MAX_FIELDS);
+			ok_fields = b && nf <= ED_MAX_FIELDS;
+			for (int k = 0; k < nf && ok_fields; k++) {
+				void *buf = malloc(f[k].count * ed_type_size(f[k].type) + 1);
+				has_spin |= !strcmp(f[k].name, "spin") && f[k].count == sc.count * (sc.dim == 2 ? 1 : 3);
+				ok_fields = ed_field_get(a, f[k].name, buf) == ED_OK &&
+				            ed_field_set(b, f[k].name, f[k].type, f[k].count, buf) == ED_OK;
+				free(buf);
+			}
+			ok_fields = ok_fields && ed_restore_finish(b, msg, sizeof msg) == ED_OK;
+		}
+		if (!ok_fields || !has_spin) {
+			ok(0, "checkpoint %dD rough: restore (%s; spin field %s)", sc.dim, msg, has_spin ? "present" : "missing");
+			ed_destroy(a);
+			ed_destroy(b);
+			continue;
+		}
+		ed_advance(a, 12.0, UINT64_MAX, UINT64_MAX);
+		ed_advance(b, 12.0, UINT64_MAX, UINT64_MAX);
+		ed_sample_t sa, sb;
+		ed_sample(a, &sa);
+		ed_sample(b, &sb);
+		const size_t m = sc.count * sc.dim, kw = sc.count * (sc.dim == 2 ? 1 : 3);
+		double *p = malloc(sizeof(double) * (4 * m + 2 * kw));
+		ed_state(a, p, p + m);
+		ed_state(b, p + 2 * m, p + 3 * m);
+		ed_spins(a, p + 4 * m);
+		ed_spins(b, p + 4 * m + kw);
+		ok(sa.events == sb.events && sa.collisions > 0 && !memcmp(p, p + 2 * m, 2 * m * sizeof(double)) &&
+		   !memcmp(p + 4 * m, p + 4 * m + kw, kw * sizeof(double)) && sa.rotational_energy == sb.rotational_energy,
+		   "checkpoint %dD rough (%s): restored run identical bit for bit, spins included, after %llu events",
+		   sc.dim, sidx ? "walls, gravity, TC" : "neighbour lists, Walton, TC", (unsigned long long)sa.events);
+		free(p);
+		ed_destroy(a);
+		ed_destroy(b);
+	}
+}
+
+/* Walton's rule at its limits: mu = 0 never gives a tangential impulse
+ * (spins stay as they were, like beta = -1); mu beyond any slip ratio is
+ * the constant rule, bit for bit (the same arithmetic). */
+static void test_walton_limits(void)
+{
+	const char *fmt = "{\"method\":\"ed\",\"dimensions\":3,\"particles\":{\"count\":500,\"volume_fraction\":0.1,"
+	                  "\"initial\":{\"positions\":\"random\",\"temperature\":1}},\"collisions\":{\"restitution\":0.9,"
+	                  "\"rough\":{\"tangential_restitution\":0.5%s}},\"run\":{\"seed\":9,\"until\":{\"time\":1}}}";
+	const char *opts[3] = {",\"friction\":0", ",\"friction\":1e300", ""};
+	double *st[3] = {NULL, NULL, NULL};
+	double *w0 = malloc(500 * 3 * sizeof(double));
+	int good = 1;
+	for (int k = 0; k < 3; k++) {
+		char json[1024];
+		snprintf(json, sizeof json, fmt, opts[k]);
+		scene_t sc;
+		ed_t *ed = make(json, &sc);
+		if (!ed) {
+			good = 0;
+			break;
+		}
+		st[k] = malloc(500 * 9 * sizeof(double));
+		if (k == 0)
+			ed_spins(ed, w0);
+		ed_advance(ed, INFINITY, 20000, UINT64_MAX);
+		ed_state(ed, st[k], st[k] + 1500);
+		ed_spins(ed, st[k] + 3000);
+		ed_destroy(ed);
+	}
+	ok(good && !memcmp(w0, st[0] + 3000, 1500 * sizeof(double)),
+	   "Walton with mu = 0: no tangential impulse, spins unchanged after 20000 collisions");
+	ok(good && !memcmp(st[1], st[2], 4500 * sizeof(double)),
+	   "Walton with mu = 1e300: identical bit for bit to the constant rule");
+	for (int k = 0; k < 3; k++)
+		free(st[k]);
+	free(w0);
+}
+
+/* Scene errors name the key. */
+static void test_scene_errors(void)
+{
+	static const struct { const char *frag, *key; } cases[] = {
+		{ "\"collisions\":{\"rough\":{\"tangential_restitution\":1.5}}", "collisions.rough.tangential_restitution:" },
+		{ "\"collisions\":{\"rough\":{}}", "collisions.rough.tangential_restitution: required" },
+		{ "\"collisions\":{\"rough\":{\"tangential_restitution\":0,\"friction\":-1}}", "collisions.rough.friction:" },
+		{ "\"collisions\":{\"rough\":{\"tangential_restitution\":0,\"inertia_factor\":0}}", "collisions.rough.inertia_factor:" },
+		{ "\"collisions\":{\"rough\":{\"tangential_restitution\":0,\"inertia\":0.4}}", "collisions.rough.inertia: unknown key" },
+		{ "\"output\":{\"observables\":[\"rotational_temperature\"]}", "output.observables[0]: \"rotational_temperature\" needs rough" },
+	};
+	const char *base = "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":100,\"volume_fraction\":0.1},"
+	                   "\"run\":{\"until\":{\"time\":1}},%s}";
+	int bad = 0;
+	for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+		char json[1024], err[512] = "";
+		scene_t sc;
+		snprintf(json, sizeof json, base, cases[k].frag);
+		if (scene_parse(json, strlen(json), &sc, err, sizeof err) != SCENE_EINVAL || strncmp(err, cases[k].key, strlen(cases[k].key))) {
+			diag("case %zu: got \"%s\"", k, err);
+			bad++;
+		}
+	}
+	char err[512] = "";
+	scene_t sc;
+	const char *j1 = "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":100,\"volume_fraction\":0.1,"
+	                 "\"initial\":{\"rotational_temperature\":1}},\"run\":{\"until\":{\"time\":1}}}";
+	if (scene_parse(j1, strlen(j1), &sc, err, sizeof err) != SCENE_EINVAL ||
+	    strncmp(err, "particles.initial.rotational_temperature: needs rough", 53)) {
+		diag("rotational_temperature without rough: got \"%s\"", err);
+		bad++;
+	}
+	const char *j2 = "{\"method\":\"dsmc\",\"dimensions\":2,\"particles\":{\"count\":100,\"volume_fraction\":0.1},"
+	                 "\"collisions\":{\"rough\":{\"tangential_restitution\":0}},\"run\":{\"until\":{\"time\":1}}}";
+	if (scene_parse(j2, strlen(j2), &sc, err, sizeof err) != SCENE_EINVAL || strncmp(err, "collisions.rough: method", 24)) {
+		diag("dsmc rough: got \"%s\"", err);
+		bad++;
+	}
+	const char *j3 = "{\"method\":\"ed\",\"dimensions\":3,\"particles\":{\"count\":100,\"volume_fraction\":0.1},"
+	                 "\"collisions\":{\"rough\":{\"tangential_restitution\":0.3}},\"run\":{\"until\":{\"time\":1}}}";
+	int good3 = scene_parse(j3, strlen(j3), &sc, err, sizeof err) == SCENE_OK && sc.rough && sc.rough_q == 0.4 &&
+	            sc.rough_mu < 0 && sc.rough_beta == 0.3 && sc.rot_temperature == sc.temperature;
+	ok(bad == 0 && good3, "scene: rough keys checked, errors name the key; defaults q = 2/5 (3D), T_rot(0) = T");
+}
+
 int main(void)
 {
-	plan(17);
+	plan(22);
 	test_rule();
 	test_walton_switch();
 	test_elastic_limits();
+	test_walton_limits();
+	test_checkpoint();
+	test_scene_errors();
 	test_hcs(3, 0.9, 0.0, 1, 16.0);
 	test_hcs(3, 0.95, -0.5, 0, 20.0);
 	test_hcs(2, 0.9, 0.5, 1, 16.0);
