@@ -29,7 +29,9 @@ static double cpu_now(void)
  * for restitution 1) is not timed. FEATURE (scene features, issue 12):
  * periodic (default), walls (specular walls on every axis), thermal
  * (thermal walls at T = 1 on the last axis), gravity (specular walls on the
- * last axis, gravity along it with scale height T/(m g) = half the box). */
+ * last axis, gravity along it with scale height T/(m g) = half the box),
+ * rough (periodic, rough particles with tangential restitution 0.5), walton
+ * (periodic, rough particles by Walton's rule: beta_0 0.5, mu 0.1). */
 int main(int argc, char **argv)
 {
 	if (argc < 7) {
@@ -42,6 +44,7 @@ int main(int argc, char **argv)
 	double tc = argc > 7 ? atof(argv[7]) : 0.0, cell = argc > 8 ? atof(argv[8]) : 0.0;
 	const char *feature = argc > 9 ? argv[9] : "periodic";
 	char json[1024], err[512], extra[512] = "";
+	const char *rough = "";
 	const char *ax = dim == 2 ? "y" : "z";
 	const char *spec = "{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},\"upper\":{\"type\":\"specular\"}}";
 	if (!strcmp(feature, "walls")) {
@@ -56,16 +59,20 @@ int main(int argc, char **argv)
 		double L = pow(n * vp / phi, 1.0 / dim), g = 2.0 / L;
 		snprintf(extra, sizeof extra, ",\"boundaries\":{\"%s\":%s},\"gravity\":[0,%s%.17g]", ax, spec,
 		         dim == 3 ? "0,-" : "-", g);
+	} else if (!strcmp(feature, "rough")) {
+		rough = ",\"rough\":{\"tangential_restitution\":0.5}";
+	} else if (!strcmp(feature, "walton")) {
+		rough = ",\"rough\":{\"tangential_restitution\":0.5,\"friction\":0.1}";
 	} else if (strcmp(feature, "periodic")) {
-		fprintf(stderr, "ed_bench: unknown feature %s (periodic, walls, thermal, gravity)\n", feature);
+		fprintf(stderr, "ed_bench: unknown feature %s (periodic, walls, thermal, gravity, rough, walton)\n", feature);
 		return 2;
 	}
 	snprintf(json, sizeof(json),
 	         "{\"method\":\"ed\",\"dimensions\":%d,\"particles\":{\"count\":%ld,\"volume_fraction\":%g,"
 	         "\"initial\":{\"relax\":{\"collisions_per_particle\":%g}}},"
-	         "\"collisions\":{\"restitution\":%g,\"tc\":%g},\"run\":{\"until\":{\"time\":1}},"
+	         "\"collisions\":{\"restitution\":%g,\"tc\":%g%s},\"run\":{\"until\":{\"time\":1}},"
 	         "\"ed\":{\"cell_size\":%g}%s}",
-	         dim, n, phi, warm, e, tc, cell, extra);
+	         dim, n, phi, warm, e, tc, rough, cell, extra);
 	scene_t sc;
 	int rc;
 	if (scene_parse(json, strlen(json), &sc, err, sizeof(err)) != SCENE_OK) {
