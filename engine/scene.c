@@ -68,6 +68,9 @@ static const char *const wall_names[] = {
 	[SCENE_WALL_MOVING] = "moving", [SCENE_WALL_VIBRATING] = "vibrating",
 };
 static const char *const axis_kinds[] = { "periodic", "walls" };
+static const char *const drive_names[] = {
+	[SCENE_DRIVE_NONE] = "none", [SCENE_DRIVE_STOCHASTIC] = "stochastic", [SCENE_DRIVE_WHITE_NOISE] = "white_noise",
+};
 static const char *const axis_names[] = { "x", "y", "z" };
 static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "kinetic_energy", SCENE_OBS_ENERGY },
@@ -1002,6 +1005,70 @@ static const struct object accuracy_obj = {
 	},
 };
 
+static int parse_drive_type(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	int i, ret = match(c, path, v, drive_names + 1, 2, &i);
+	if (ret == 0)
+		*(scene_drive_t *)dst = (scene_drive_t)(i + 1);
+	return ret;
+}
+
+/* One bin count for every axis of the local mean. */
+static int parse_drive_grid(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	static const struct irange r = { 1, 4096 };
+	uint64_t x = 0;
+	int ret = parse_integer(c, path, v, &x, &r);
+	if (ret == 0) {
+		int *g = dst;
+		g[0] = g[1] = g[2] = (int)x;
+	}
+	return ret;
+}
+
+/* Keys of each driving type: the others are mistakes. */
+static int check_driving(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_t *s = base;
+	static const struct { const char *key; scene_drive_t type; bool required; } keys[] = {
+		{ "temperature", SCENE_DRIVE_STOCHASTIC, true }, { "grid", SCENE_DRIVE_STOCHASTIC, false },
+		{ "average_time", SCENE_DRIVE_STOCHASTIC, false }, { "strength", SCENE_DRIVE_WHITE_NOISE, true },
+	};
+	char sub[PATHLEN];
+	for (size_t k = 0; k < sizeof keys / sizeof keys[0]; k++) {
+		bool has = json_object_get(v, keys[k].key) != NULL;
+		join(sub, path, keys[k].key);
+		if (has && keys[k].type != s->drive)
+			return fail(c, sub, "not a key of a \"%s\" thermostat", drive_names[s->drive]);
+		if (!has && keys[k].required && keys[k].type == s->drive)
+			return fail(c, sub, "required for a \"%s\" thermostat", drive_names[s->drive]);
+	}
+	if (s->drive_average_time == 0)
+		s->drive_average_time = 10 * s->drive_interval;
+	if (s->drive_grid[0] == 0)
+		s->drive_grid[0] = s->drive_grid[1] = s->drive_grid[2] = 1;
+	for (int a = s->dim; a < 3; a++)
+		s->drive_grid[a] = 1;
+	if ((double)s->drive_grid[0] * s->drive_grid[1] * s->drive_grid[2] > 1e6)
+		return fail(c, "driving.grid", "%d bins per axis make more than 10^6 bins in %dD", s->drive_grid[0], s->dim);
+	if (s->method != SCENE_METHOD_ED)
+		return fail(c, path, "method \"%s\" does not support driving (only \"ed\" does)", method_names[s->method]);
+	return 0;
+}
+
+static const struct object driving_obj = {
+	.fields = (const struct field[]){
+		{ "type", parse_drive_type, offsetof(scene_t, drive), NULL, true },
+		{ "interval", parse_number, offsetof(scene_t, drive_interval), &R_POS, true },
+		{ "temperature", parse_number, offsetof(scene_t, drive_temperature), &R_POS, false },
+		{ "strength", parse_number, offsetof(scene_t, drive_strength), &R_POS, false },
+		{ "grid", parse_drive_grid, offsetof(scene_t, drive_grid), NULL, false },
+		{ "average_time", parse_number, offsetof(scene_t, drive_average_time), &R_POS, false },
+		{ .name = NULL },
+	},
+	.check = check_driving,
+};
+
 static const struct object ed_obj = {
 	.fields = (const struct field[]){
 		{ "cell_size", parse_cell_size, offsetof(scene_t, ed_cell_size), NULL, false },
@@ -1050,6 +1117,7 @@ static const struct object scene_obj = {
 		{ "collisions", parse_object, 0, &collisions_obj, false },
 		{ "boundaries", parse_object, 0, &boundaries_obj, false },
 		{ "gravity", parse_vector, offsetof(scene_t, gravity), NULL, false },
+		{ "driving", parse_object, 0, &driving_obj, false },
 		{ "run", parse_object, 0, &run_obj, true },
 		{ "output", parse_object, 0, &output_obj, false },
 		{ "ed", parse_object, 0, &ed_obj, false },

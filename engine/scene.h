@@ -86,6 +86,14 @@ typedef struct {
 	scene_wall_t wall[2];
 } scene_boundary_t;
 
+/* Driving (method ed only; "driving"): kicks of random particles at Poisson
+ * times, each particle on average once per interval. */
+typedef enum {
+	SCENE_DRIVE_NONE = 0,
+	SCENE_DRIVE_STOCHASTIC,    /* seed 001: v' = local mean velocity + Maxwellian at temperature */
+	SCENE_DRIVE_WHITE_NOISE,   /* v' = v + sqrt(strength interval) (Gaussian per component) */
+} scene_drive_t;
+
 typedef struct {
 	scene_clock_t kind;
 	double value;        /* time, collisions per particle (2C/N), or wall-clock seconds */
@@ -117,6 +125,14 @@ typedef struct scene {
 	double rough_mu;               /* Coulomb friction >= 0; -1: constant beta (not given) */
 	double rough_q;                /* (0, 1]; default 2/5 (3D spheres), 1/2 (2D disks) */
 	double rot_temperature;        /* initial rotational temperature >= 0, default = temperature */
+
+	/* driving (method ed only) */
+	scene_drive_t drive;           /* default none */
+	double drive_interval;         /* mean time between two kicks of one particle, > 0 */
+	double drive_temperature;      /* stochastic: T_th > 0 */
+	double drive_strength;         /* white_noise: xi^2 > 0, velocity variance per component per unit time */
+	double drive_average_time;     /* stochastic: time constant of the local mean velocity, default 10 interval */
+	int drive_grid[3];             /* stochastic: bins per axis of the local mean, default 1 (global) */
 
 	/* boundaries and fields (method ed only) */
 	scene_boundary_t boundary[3];  /* per axis; default periodic */

@@ -161,6 +161,18 @@ struct ed {
 	double rbeta;             /* tangential restitution beta (Walton: beta_0), -1..1 */
 	double rmu;               /* Coulomb friction mu of Walton's rule; < 0: constant beta */
 	double rq;                /* moment of inertia factor q: I = q m (sigma/2)^2 */
+	/* Driving (scene "driving"; drive_* below): kicks of random particles
+	 * at Poisson times (rate N / interval), outside the event loop. */
+	int drive;                /* 0 none, SCENE_DRIVE_* */
+	double drv_interval, drv_temp, drv_xi2, drv_tavg;
+	int drv_grid[3];
+	size_t drv_bins;
+	double *drv_mean;         /* state: per bin, the running mean velocity (dim each) */
+	double *drv_sum;          /* scratch: per bin, velocity sums and count (dim + 1 each) */
+	double *drv_pos, *drv_vel;   /* scratch (grids of more than one bin): positions, velocities */
+	double drv_next[2];       /* state: absolute times of the next kick and of the next mean update */
+	uint64_t drv_kicks[1];    /* state: kicks so far */
+	rng_t drng;               /* state: the driving's random stream */
 };
 
 static inline bool hless(const hent_t *a, const hent_t *b)
@@ -641,12 +653,15 @@ typedef struct ed_ops {
 	/* walls and gravity variants only */
 	void (*observe)(const struct ed *, double *, double *);
 	void (*energy_to)(struct ed *, double);
+	/* driving (thermostats) */
+	void (*kick_get)(struct ed *, uint32_t, double *, double *);
+	void (*kick_set)(struct ed *, uint32_t, const double *);
 } ed_ops_t;
 
 #define OPS_COMMON(x) \
 	.run = run_##x, .place_random = place_random_##x, .place = place_##x, .ekin = ekin_##x, .state = state_##x, \
 	.min_gap = min_gap_##x, .cell_index = cell_index_##x, .rebase = rebase_##x, .set_cross = set_cross_##x, \
-	.scan_full = scan_full_##x
+	.scan_full = scan_full_##x, .kick_get = kick_get_##x, .kick_set = kick_set_##x
 #define OPS_NL(x) .nl_build_all = nl_build_all_##x, .resync = resync_##x, .set_nl = set_nl_##x, .scan_nl = scan_nl_##x
 static const ed_ops_t ed_ops[2][3] = {
 	{ { OPS_COMMON(2d), OPS_NL(2d) }, { OPS_COMMON(2w), .observe = observe_2w },
@@ -1115,7 +1130,7 @@ static void setup_wall_cells(struct ed *ed)
  * engine of ed's geometry with neighbour lists (nl) and TC times (tc);
  * absent arrays are 0. */
 enum { A_P, A_EV, A_HEAP, A_CN, A_CALHEAD, A_HEAD, A_OCC, A_NEXT, A_ID, A_SCRATCH_IDX, A_SCRATCH_CELL,
-       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_SPIN, A_COUNT };
+       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_SPIN, A_DMEAN, A_DSUM, A_DPOS, A_DVEL, A_COUNT };
 static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 {
 	const size_t n = ed->n;
@@ -1135,6 +1150,9 @@ static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 	b[A_NN] = b[A_MARK] = nl ? n : 0;
 	b[A_TLAST] = tc ? n * sizeof(double) : 0;
 	b[A_SPIN] = ed->rough ? n * (ed->dim == 2 ? 1 : 3) * sizeof(double) : 0;
+	b[A_DMEAN] = ed->drive ? ed->drv_bins * ed->dim * sizeof(double) : 0;
+	b[A_DSUM] = ed->drive ? ed->drv_bins * (ed->dim + 1) * sizeof(double) : 0;
+	b[A_DPOS] = b[A_DVEL] = ed->drive && ed->drv_bins > 1 ? n * ed->dim * sizeof(double) : 0;
 }
 
 /* Cells cost memory even when empty (~9 bytes each): a grid finer than this
@@ -1170,6 +1188,18 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 	}
 	ed->variant = scene_has_gravity(s) ? 2 : scene_has_walls(s) ? 1 : 0;
 	ed->rough = s->rough;
+	ed->drive = s->drive;
+	if (ed->drive) {
+		ed->drv_interval = s->drive_interval;
+		ed->drv_temp = s->drive_temperature;
+		ed->drv_xi2 = s->drive_strength;
+		ed->drv_tavg = s->drive_average_time;
+		ed->drv_bins = 1;
+		for (int a = 0; a < 3; a++) {
+			ed->drv_grid[a] = a < s->dim ? s->drive_grid[a] : 1;
+			ed->drv_bins *= (size_t)ed->drv_grid[a];
+		}
+	}
 	ed->ops = ed->rough ? &ed_ops_rough[ed->dim - 2][ed->variant] : &ed_ops[ed->dim - 2][ed->variant];
 	if (ed->rough) {
 		ed->rbeta = s->rough_beta;
@@ -1238,6 +1268,12 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	}
 	if (ed->rough && !(ed->spin = big_alloc(b[A_SPIN], 1)))
 		goto fail;
+	if (ed->drive && (!(ed->drv_mean = big_alloc(b[A_DMEAN], 1)) || !(ed->drv_sum = big_alloc(b[A_DSUM], 1))))
+		goto fail;
+	if (b[A_DPOS] && (!(ed->drv_pos = big_alloc(b[A_DPOS], 0)) || !(ed->drv_vel = big_alloc(b[A_DVEL], 0))))
+		goto fail;
+	if (ed->drive)
+		rng_init(&ed->drng, s->seed, s->stream | (1ull << 61));
 	if (!ed->p || !ed->ev || !ed->heap || !ed->cn || !ed->cal_head || !ed->head || !ed->occ || !ed->next || !ed->id || !ed->scratch_idx || !ed->scratch_cell ||
 	    (s->tc > 0.0 && !ed->tlast))
 		goto fail;
@@ -1256,6 +1292,8 @@ fail:
 		set_msg(msg, msglen, "out of memory for %.0f particles%.0s", (double)s->count, 0);
 	return NULL;
 }
+
+static void drive_start(struct ed *ed);
 
 ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 {
@@ -1309,6 +1347,8 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 			ed->wall[w].omega = omega[w];
 		reset_clock(ed);
 	}
+	if (ed->drive)
+		drive_start(ed);
 	*err = ED_OK;
 	return ed;
 fail:
@@ -1331,6 +1371,10 @@ void ed_destroy(ed_t *ed)
 	free(ed->next);
 	free(ed->tlast);
 	free(ed->spin);
+	free(ed->drv_mean);
+	free(ed->drv_sum);
+	free(ed->drv_pos);
+	free(ed->drv_vel);
 	free(ed->id);
 	free(ed->scratch_idx);
 	free(ed->scratch_cell);
@@ -1341,8 +1385,121 @@ void ed_destroy(ed_t *ed)
 	free(ed);
 }
 
+/* ---- driving (thermostats) ----------------------------------------------
+ *
+ * Kicks are not events of the calendar: the event loop (run) stops at the
+ * time of the next kick like at any t_stop (which changes nothing), the
+ * kick is applied, and the loop goes on. Kicks come at Poisson times of
+ * rate N / interval to particles drawn uniformly, from a random stream of
+ * their own; the times are absolute and part of the state, so where a
+ * caller stops changes nothing. Cost: O(1) per kick plus one prediction;
+ * the stochastic thermostat's local mean velocity is an exponential moving
+ * average over average_time of the bins' mean velocities, refreshed every
+ * average_time / 8 (O(N) each). */
+
+/* Bin of a position (scene coordinates) in the driving grid. */
+static size_t drive_bin(const struct ed *ed, const double *r)
+{
+	size_t b = 0;
+	for (int a = ed->dim - 1; a >= 0; a--) {
+		const double L = ed->variant && !ed->periodic[a] ? ed->L[a] - 2.0 * ed->org[a] : ed->L[a];
+		long k = (long)floor(r[a] / L * ed->drv_grid[a]);
+		if (k < 0) k = 0;
+		if (k >= ed->drv_grid[a]) k = ed->drv_grid[a] - 1;
+		b = b * (size_t)ed->drv_grid[a] + (size_t)k;
+	}
+	return b;
+}
+
+/* Bins' mean velocities now into the running means: weight w of the new
+ * sample (1: replace). Empty bins keep their mean. */
+static void drive_average(struct ed *ed, double w)
+{
+	const int D = ed->dim;
+	memset(ed->drv_sum, 0, ed->drv_bins * (D + 1) * sizeof(double));
+	if (ed->drv_bins == 1) {
+		double mom[3];
+		DISPATCH(ed, ekin, ed, mom);
+		for (int a = 0; a < D; a++)
+			ed->drv_sum[a] = mom[a] / ed->mass;
+		ed->drv_sum[D] = ed->n;
+	} else {
+		DISPATCH(ed, state, ed, ed->drv_pos, ed->drv_vel);
+		for (uint32_t i = 0; i < ed->n; i++) {
+			double *sum = ed->drv_sum + drive_bin(ed, ed->drv_pos + (size_t)i * D) * (D + 1);
+			for (int a = 0; a < D; a++)
+				sum[a] += ed->drv_vel[(size_t)i * D + a];
+			sum[D] += 1.0;
+		}
+	}
+	for (size_t b = 0; b < ed->drv_bins; b++) {
+		const double *sum = ed->drv_sum + b * (D + 1);
+		if (sum[D] > 0.0)
+			for (int a = 0; a < D; a++)
+				ed->drv_mean[b * D + a] += w * (sum[a] / sum[D] - ed->drv_mean[b * D + a]);
+	}
+}
+
+/* The kick due now: a random particle's velocity replaced (stochastic) or
+ * changed by a Gaussian step (white noise); the next kick time drawn. */
+static void drive_kick(struct ed *ed)
+{
+	const int D = ed->dim;
+	uint32_t i = (uint32_t)(rng_uniform(&ed->drng) * ed->n);
+	if (i >= ed->n)
+		i = ed->n - 1;
+	double r[3], v[3];
+	DISPATCH(ed, kick_get, ed, i, r, v);
+	if (ed->drive == SCENE_DRIVE_STOCHASTIC) {
+		const double *u = ed->drv_mean + drive_bin(ed, r) * D, s = sqrt(ed->drv_temp / ed->mass);
+		for (int a = 0; a < D; a++)
+			v[a] = u[a] + s * rng_gauss(&ed->drng);
+	} else {
+		const double s = sqrt(ed->drv_xi2 * ed->drv_interval);
+		for (int a = 0; a < D; a++)
+			v[a] += s * rng_gauss(&ed->drng);
+	}
+	DISPATCH(ed, kick_set, ed, i, v);
+	ed->drv_kicks[0]++;
+	ed->drv_next[0] -= ed->drv_interval / ed->n * log(1.0 - rng_uniform(&ed->drng));
+}
+
+/* At the start of the production run: the first kick time, the means. */
+static void drive_start(struct ed *ed)
+{
+	ed->drv_kicks[0] = 0;
+	ed->drv_next[0] = -ed->drv_interval / ed->n * log(1.0 - rng_uniform(&ed->drng));
+	ed->drv_next[1] = ed->drive == SCENE_DRIVE_STOCHASTIC ? 0.125 * ed->drv_tavg : INFINITY;
+	if (ed->drive == SCENE_DRIVE_STOCHASTIC)
+		drive_average(ed, 1.0);
+}
+
+static int drive_advance(struct ed *ed, double t_stop, uint64_t max_coll, uint64_t max_events)
+{
+	const uint64_t ev_end = ed->events + max_events < ed->events ? UINT64_MAX : ed->events + max_events;
+	for (;;) {
+		const int mean_next = ed->drv_next[1] < ed->drv_next[0];
+		const double tk = mean_next ? ed->drv_next[1] : ed->drv_next[0];
+		const double stop = tk < t_stop ? tk : t_stop;
+		int rc = DISPATCH(ed, run, ed, stop, max_coll, ev_end - ed->events);
+		if (rc == ED_COLLAPSE || ed->collisions >= max_coll || ed->events >= ev_end)
+			return rc == ED_QUIESCENT ? ED_OK : rc;
+		if (!(tk < t_stop))
+			return rc;
+		/* the clock stands at tk */
+		if (mean_next) {
+			drive_average(ed, 0.125);
+			ed->drv_next[1] += 0.125 * ed->drv_tavg;
+		} else {
+			drive_kick(ed);
+		}
+	}
+}
+
 int ed_advance(ed_t *ed, double t_stop, uint64_t max_collisions, uint64_t max_events)
 {
+	if (ed->drive)
+		return drive_advance(ed, t_stop, max_collisions, max_events);
 	return DISPATCH(ed, run, ed, t_stop, max_collisions, max_events);
 }
 
@@ -1424,7 +1581,9 @@ static size_t held(const struct ed *ed, int nl, int tc)
 	return sizeof(*ed) + (ed->cal_m + 1) * sizeof(int32_t) + (2 * ed->ncells + 1) * sizeof(int32_t) +
 	       (ed->ncells + 63) / 64 * sizeof(uint64_t) +
 	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + sizeof(cnode_t) + 3 * sizeof(uint32_t) + per_nl +
-	                (tc ? sizeof(double) : 0) + (ed->rough ? (ed->dim == 2 ? 1 : 3) * sizeof(double) : 0));
+	                (tc ? sizeof(double) : 0) + (ed->rough ? (ed->dim == 2 ? 1 : 3) * sizeof(double) : 0) +
+	                (ed->drive && ed->drv_bins > 1 ? 2 * ed->dim * sizeof(double) : 0)) +
+	       (ed->drive ? ed->drv_bins * (2 * ed->dim + 1) * sizeof(double) : 0);
 }
 
 size_t ed_memory(const ed_t *ed) { return held(ed, ed->xn != NULL, ed->tlast != NULL); }
@@ -1458,6 +1617,7 @@ typedef enum {
 	F_ID, F_HEAD, F_TLAST, F_XN, F_NN, F_NB,
 	F_WPH, F_WIMP, F_WIMPTOT, F_WHITS, F_WCOLL, F_WRNG, F_PSUM,   /* walls and gravity variants only */
 	F_SPIN,   /* rough particles only */
+	F_DMEAN, F_DNEXT, F_DKICKS, F_DRNG,   /* driving only */
 	F_SCALAR
 } fid_t;
 
@@ -1503,6 +1663,8 @@ static const struct {
 	{ "wall_impulse_total", F_WIMPTOT, ED_T_F64 }, { "wall_hits", F_WHITS, ED_T_U64 },
 	{ "wall_collisions", F_WCOLL, ED_T_U64 }, { "wall_rng", F_WRNG, ED_T_U64 },
 	{ "velocity_sum", F_PSUM, ED_T_F64 }, { "spin", F_SPIN, ED_T_F64 },
+	{ "drive_mean", F_DMEAN, ED_T_F64 }, { "drive_next", F_DNEXT, ED_T_F64 }, { "drive_kicks", F_DKICKS, ED_T_U64 },
+	{ "drive_rng", F_DRNG, ED_T_U64 },
 };
 #define N_ARRAYS (sizeof arrays / sizeof arrays[0])
 
@@ -1517,10 +1679,12 @@ size_t ed_type_size(ed_type_t t)
 }
 
 /* Whether a field exists, for an engine with neighbour lists (nl) and TC times (tc). */
-static int field_exists(fid_t id, int nl, int tc, int variant, int rough)
+static int field_exists(fid_t id, int nl, int tc, int variant, int rough, int drive)
 {
 	if (id == F_SPIN)
 		return rough;
+	if (id >= F_DMEAN && id <= F_DRNG)
+		return drive;
 	if (id == F_TLAST)
 		return tc;
 	if (id == F_XN || id == F_NN || id == F_NB)
@@ -1530,7 +1694,7 @@ static int field_exists(fid_t id, int nl, int tc, int variant, int rough)
 	return 1;
 }
 
-static int array_present(const struct ed *ed, fid_t id) { return field_exists(id, ed->xn != NULL, ed->tlast != NULL, ed->variant, ed->rough); }
+static int array_present(const struct ed *ed, fid_t id) { return field_exists(id, ed->xn != NULL, ed->tlast != NULL, ed->variant, ed->rough, ed->drive); }
 
 static size_t array_count(const struct ed *ed, fid_t id)
 {
@@ -1544,6 +1708,10 @@ static size_t array_count(const struct ed *ed, fid_t id)
 	case F_WRNG: return 4;
 	case F_PSUM: return 3;
 	case F_SPIN: return (size_t)ed->n * (ed->dim == 2 ? 1 : 3);
+	case F_DMEAN: return ed->drv_bins * ed->dim;
+	case F_DNEXT: return 2;
+	case F_DKICKS: return 1;
+	case F_DRNG: return 4;
 	case F_NB: {
 		size_t k = 0;
 		for (uint32_t i = 0; i < ed->n; i++)
@@ -1586,7 +1754,7 @@ int ed_plan(const scene_t *s, ed_plan_t *out, char *msg, size_t msglen)
 		out->state += ed_type_size(scalars[a].type);
 	out->largest = 0;
 	for (size_t a = 0; a < N_ARRAYS; a++) {
-		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0, ed.variant, ed.rough))
+		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0, ed.variant, ed.rough, ed.drive))
 			continue;
 		double count = arrays[a].id == F_NB ? per * ed.n : (double)array_count(&ed, arrays[a].id);
 		uint64_t bytes = (uint64_t)(count * (double)ed_type_size(arrays[a].type));
@@ -1690,6 +1858,10 @@ static void field_copy(struct ed *ed, fid_t id, void *buf, int to_buf)
 	case F_WRNG: src = ed->wrng.s; bytes = sizeof ed->wrng.s; break;
 	case F_PSUM: src = ed->psum; bytes = sizeof ed->psum; break;
 	case F_SPIN: src = ed->spin; bytes = (size_t)ed->n * (D == 2 ? 1 : 3) * sizeof(double); break;
+	case F_DMEAN: src = ed->drv_mean; bytes = ed->drv_bins * D * sizeof(double); break;
+	case F_DNEXT: src = ed->drv_next; bytes = sizeof ed->drv_next; break;
+	case F_DKICKS: src = ed->drv_kicks; bytes = sizeof ed->drv_kicks; break;
+	case F_DRNG: src = ed->drng.s; bytes = sizeof ed->drng.s; break;
 	case F_NB: {
 		/* lists packed: the first nn[i] entries of each row */
 		size_t k = 0;

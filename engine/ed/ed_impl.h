@@ -1280,3 +1280,57 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
 	}
 	return ED_OK;
 }
+
+/* Driving (thermostats, drive_* in ed.c): particle i brought to the
+ * present; its position (scene coordinates, periodic axes folded) and
+ * velocity now. */
+static void FN(kick_get)(struct ed *ed, uint32_t i, double *r, double *v)
+{
+	P_T *p = &((P_T *)ed->p)[i];
+	FN(advance)(ed, p, ed->t);
+	FOR_AXES(a) {
+		double x = p->r[a];
+#if WALLS
+		if (!ed->periodic[a]) {
+			r[a] = x - ed->org[a];
+			v[a] = p->v[a];
+			continue;
+		}
+#endif
+		x = fmod(x, ed->L[a]);
+		if (x < 0.0)
+			x += ed->L[a];
+		r[a] = x >= ed->L[a] ? 0.0 : x;
+		v[a] = p->v[a];
+	}
+}
+
+/* Particle i (at the present, kick_get()) gets velocity v: the running
+ * energy follows, stale predictions of others go (its counter moves on),
+ * and its own events are predicted afresh, as after a collision. */
+static void FN(kick_set)(struct ed *ed, uint32_t i, const double *v)
+{
+	P_T *p = &((P_T *)ed->p)[i];
+	FN(energy_to)(ed, ed->t);
+	double de = 0.0;
+	FOR_AXES(a) {
+		de += v[a] * v[a] - p->v[a] * p->v[a];
+#if GRAV
+		ed->psum[a] += v[a] - p->v[a];
+#endif
+		p->v[a] = v[a];
+	}
+	ed->ekin_cur += 0.5 * ed->mass * de;
+	p->count++;
+#if !WALLS
+	if (ed->nl) {
+		FN(set_nl)(ed, i);
+		FN(scan_nl)(ed, i);
+		FN(schedule)(ed, i);
+		return;
+	}
+#endif
+	FN(set_cross)(ed, i);
+	FN(scan_full)(ed, i);
+	FN(schedule)(ed, i);
+}
