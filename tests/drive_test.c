@@ -258,7 +258,7 @@ static void test_scene_errors(void)
 
 int main(void)
 {
-	plan(13);
+	plan(12);
 	test_scene_errors();
 	test_exact();
 	test_white_noise();

@@ -1306,8 +1306,7 @@ static void FN(kick_get)(struct ed *ed, uint32_t i, double *r, double *v)
 }
 
 /* Particle i (at the present, kick_get()) gets velocity v: the running
- * energy follows, stale predictions of others go (its counter moves on),
- * and its own events are predicted afresh, as after a collision. */
+ * energy follows, stale predictions of others go (its counter moves on). */
 static void FN(kick_set)(struct ed *ed, uint32_t i, const double *v)
 {
 	P_T *p = &((P_T *)ed->p)[i];
@@ -1322,15 +1321,7 @@ static void FN(kick_set)(struct ed *ed, uint32_t i, const double *v)
 	}
 	ed->ekin_cur += 0.5 * ed->mass * de;
 	p->count++;
-#if !WALLS
-	if (ed->nl) {
-		FN(set_nl)(ed, i);
-		FN(scan_nl)(ed, i);
-		FN(schedule)(ed, i);
-		return;
-	}
-#endif
-	FN(set_cross)(ed, i);
-	FN(scan_full)(ed, i);
-	FN(schedule)(ed, i);
+	/* The caller (drive_kick()) predicts i's events afresh through the ops
+	 * table: a direct call here would be one more caller of the hot
+	 * kernels and could change GCC's inlining of them into the event loop. */
 }
