@@ -165,6 +165,7 @@ struct ed {
 	 * at Poisson times (rate N / interval), outside the event loop. */
 	int drive;                /* 0 none, SCENE_DRIVE_* */
 	double drv_interval, drv_temp, drv_xi2, drv_tavg;
+	double drv_box[3];        /* the scene's box: positions of kick_get() lie in it */
 	int drv_grid[3];
 	size_t drv_bins;
 	double *drv_mean;         /* state: per bin, the running mean velocity (dim each) */
@@ -1203,6 +1204,7 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 		ed->drv_tavg = s->drive_average_time;
 		ed->drv_bins = 1;
 		for (int a = 0; a < 3; a++) {
+			ed->drv_box[a] = a < s->dim ? s->box[a] : 1.0;
 			ed->drv_grid[a] = a < s->dim ? s->drive_grid[a] : 1;
 			ed->drv_bins *= (size_t)ed->drv_grid[a];
 		}
@@ -1409,8 +1411,7 @@ static size_t drive_bin(const struct ed *ed, const double *r)
 {
 	size_t b = 0;
 	for (int a = ed->dim - 1; a >= 0; a--) {
-		const double L = ed->variant && !ed->periodic[a] ? ed->L[a] - 2.0 * ed->org[a] : ed->L[a];
-		long k = (long)floor(r[a] / L * ed->drv_grid[a]);
+		long k = (long)floor(r[a] / ed->drv_box[a] * ed->drv_grid[a]);
 		if (k < 0) k = 0;
 		if (k >= ed->drv_grid[a]) k = ed->drv_grid[a] - 1;
 		b = b * (size_t)ed->drv_grid[a] + (size_t)k;

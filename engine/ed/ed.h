@@ -158,7 +158,7 @@ typedef struct {
 	ed_type_t type;
 	size_t count;        /* elements */
 } ed_field_t;
-#define ED_MAX_FIELDS 48
+#define ED_MAX_FIELDS 64
 
 size_t ed_type_size(ed_type_t t);
 /* Describe the fields of the current state into out[max]; returns how many
