@@ -417,23 +417,40 @@ static void settings_text(const json_t *e, char *buf, size_t n)
 		snprintf(buf + k, n - k, isfinite(dt) ? "step %s" : "%s coll/step", FMT_NUM(isfinite(dt) ? dt : cps, "%.3g"));
 }
 
-static int c_advise(ctx_t *x)
+/* POST the command's scene (file or preset, --set, --ranks) to path, without
+ * submission_id (it makes no job), and priority where the endpoint takes
+ * none (drop_priority); *resp is the answer, the caller's to free. */
+static int post_scene(ctx_t *x, const char *path, int drop_priority, json_t **resp)
 {
-	json_t *doc = NULL, *body = NULL, *resp = NULL, *e;
+	json_t *doc = NULL, *body = NULL;
 	char *txt = NULL;
-	size_t i;
 	int rc = scene_body(x, &doc, &body);
 
 	if (rc)
 		goto cleanup;
-	json_object_del(body, "priority");
+	if (drop_priority)
+		json_object_del(body, "priority");
 	json_object_del(body, "submission_id");
 	if (!(txt = json_dumps(body, JSON_COMPACT))) {
 		errf("out of memory");
 		rc = CTL_EXIT_SERVER;
 		goto cleanup;
 	}
-	if ((rc = call(x, "POST", "/api/v1/advice", txt, &resp)))
+	rc = call(x, "POST", path, txt, resp);
+cleanup:
+	free(txt);
+	json_decref(doc);
+	json_decref(body);
+	return rc;
+}
+
+static int c_advise(ctx_t *x)
+{
+	json_t *resp = NULL, *e;
+	size_t i;
+	int rc = post_scene(x, "/api/v1/advice", 1, &resp);
+
+	if (rc)
 		goto cleanup;
 	if (x->json) {
 		print_json(resp);
@@ -468,9 +485,37 @@ static int c_advise(ctx_t *x)
 	if (json_is_string(json_object_get(resp, "choice")))
 		printf("choice: %s (%s)\n", str(resp, "choice_variant", str(resp, "choice", "?")), str(resp, "reason", ""));
 cleanup:
-	free(txt);
-	json_decref(doc);
-	json_decref(body);
+	json_decref(resp);
+	return rc;
+}
+
+/* ---- validate ---------------------------------------------------------------------- */
+
+/* The checks of a submission without submitting (POST /api/v1/scenes/validate):
+ * the engine's start checks and admission. Exit 0 when the scene would be
+ * accepted, the server's 400 (one line naming the key) otherwise. */
+static int c_validate(ctx_t *x)
+{
+	json_t *resp = NULL;
+	int rc = post_scene(x, "/api/v1/scenes/validate", 0, &resp);
+
+	if (rc)
+		goto cleanup;
+	if (x->json) {
+		print_json(resp);
+		goto cleanup;
+	}
+	const json_t *r = json_object_get(resp, "resources");
+	printf("valid: method %s; memory %s (rank 0 %s, one engine %s); output up to %s of %s allowed; "
+	       "%s frames, %s progress records (%s)\n",
+	       str(resp, "method", "?"), FMT_NUM(num(r, "memory_bytes") / 1048576.0, "%.1f MiB"),
+	       FMT_NUM(num(r, "memory_rank0_bytes") / 1048576.0, "%.1f MiB"),
+	       FMT_NUM(num(r, "engine_bytes") / 1048576.0, "%.1f MiB"),
+	       FMT_NUM(num(r, "output_bytes") / 1048576.0, "%.1f MiB"),
+	       FMT_NUM(num(r, "max_output_bytes") / 1048576.0, "%.0f MiB"), FMT_NUM(num(r, "frames"), "%.0f"),
+	       FMT_NUM(num(r, "records"), "%.0f"),
+	       !strcmp(str(r, "output_estimate", ""), "haff") ? "estimated with Haff's law" : "from the schedules");
+cleanup:
 	json_decref(resp);
 	return rc;
 }
@@ -865,6 +910,13 @@ static const cmd_t commands[] = {
 	         "  --set KEY.PATH=VALUE  override a scene key, as for submit; repeatable\n"
 	         "  --ranks R             MPI ranks the wall time assumes (default 1)\n",
 	 .fn = c_advise, .min_args = 0, .max_args = 1, .opts = O_PRESET | O_SET | O_RANKS},
+	{.name = "validate", .args = "SCENE.json | --preset NAME",
+	 .summary = "check a scene as a submission would (engine start checks, admission); no job is made",
+	 .help = "  --preset NAME         a built-in scene\n"
+	         "  --set KEY.PATH=VALUE  override a scene key, as for submit; repeatable\n"
+	         "  --ranks R             MPI ranks the estimate assumes (default 1)\n"
+	         "  exit status 0: the scene would be accepted; otherwise one line naming the key and why\n",
+	 .fn = c_validate, .min_args = 0, .max_args = 1, .opts = O_PRESET | O_SET | O_RANKS},
 	{.name = "list", .args = "", .summary = "list jobs, newest first",
 	 .help = "  --state S[,S...]      only these states (queued, running, succeeded, failed, cancelled)\n"
 	         "  --limit N             at most N jobs per page (default 100)\n"

@@ -582,10 +582,12 @@ static void finish(sched_t *s, child_t *k)
 			snprintf(reason, sizeof(reason), "%s", *ll ? ll : "could not execute the launcher");
 		else
 			snprintf(reason, sizeof(reason), "engine exited with status %d%s%s", code, *ll ? ": " : "", ll);
-		/* A failed attempt that left a checkpoint is retried from it. */
+		/* A failed attempt that left a checkpoint is retried from it, but
+		 * not exit 2: a bad scene or an inelastic collapse (docs/engine.md)
+		 * is deterministic and would only recur. */
 		char ckpt[4200];
 		snprintf(ckpt, sizeof(ckpt), "%s/%" PRId64 "/checkpoint.h5", s->c.jobs_dir, k->id);
-		if (access(ckpt, R_OK) == 0 && k->attempt < s->c.cfg->max_attempts) {
+		if (code != 2 && access(ckpt, R_OK) == 0 && k->attempt < s->c.cfg->max_attempts) {
 			next = JOB_QUEUED;
 			size_t l = strlen(reason);
 			snprintf(reason + l, sizeof(reason) - l, "; retrying from checkpoint (attempt %d of %ld)",

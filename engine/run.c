@@ -247,23 +247,29 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 	return RUN_OK;
 }
 
-/* Curves of the present state as a RUN_CURVES record (the dynamics are not touched). */
-int run_curves(run_t *r, run_record_t *rec)
+/* A record of kind with the run's totals now (clock, counters, energy). */
+static void totals_record(run_t *r, run_record_t *rec, run_kind_t kind)
 {
 	smp_t sm;
-	if (!r->obs || !obs_curve_bits(&r->s))
-		return RUN_EMETHOD;
 	eng_totals(r, &sm);
 	memset(rec, 0, sizeof(*rec));
-	rec->kind = RUN_CURVES;
+	rec->kind = kind;
 	rec->dim = r->s.dim;
 	rec->n = r->s.count;
 	rec->time = sm.time;
 	rec->events = sm.events;
 	rec->collisions = sm.collisions;
 	rec->collisions_per_particle = 2.0 * (double)sm.collisions / (double)r->s.count;
-	rec->wall_seconds = wall_seconds(r);
 	rec->kinetic_energy = sm.kinetic_energy;
+}
+
+/* Curves of the present state as a RUN_CURVES record (the dynamics are not touched). */
+int run_curves(run_t *r, run_record_t *rec)
+{
+	if (!r->obs || !obs_curve_bits(&r->s))
+		return RUN_EMETHOD;
+	totals_record(r, rec, RUN_CURVES);
+	rec->wall_seconds = wall_seconds(r);
 	rec->have = r->s.observables;
 	eng_state(r, r->pos, r->vel);
 	rec->curves = obs_curves(r->obs, r->cl, r->pos, r->vel);
@@ -777,23 +783,13 @@ int run_frame_due(const run_t *r)
 
 void run_frame(run_t *r, run_record_t *rec, double *pos, double *vel)
 {
-	smp_t sm;
-	eng_totals(r, &sm);
-	memset(rec, 0, sizeof(*rec));
-	rec->kind = RUN_SNAPSHOT;
-	rec->dim = r->s.dim;
-	rec->n = r->s.count;
-	rec->time = sm.time;
-	rec->events = sm.events;
-	rec->collisions = sm.collisions;
-	rec->collisions_per_particle = 2.0 * (double)sm.collisions / (double)r->s.count;
-	rec->kinetic_energy = sm.kinetic_energy;
+	totals_record(r, rec, RUN_SNAPSHOT);
 	eng_state(r, pos, vel);
 	rec->pos = pos;
 	rec->vel = vel;
-	r->st.snap_events = sm.events;
+	r->st.snap_events = rec->events;
 	r->st.frames++;
-	sched_skip(&r->s.snapshots, &r->st.k_snap, sm.time, sm.collisions, r->s.count);
+	sched_skip(&r->s.snapshots, &r->st.k_snap, rec->time, rec->collisions, r->s.count);
 }
 
 int run_scene(const scene_t *s, run_emit_fn emit, void *ctx,

@@ -23,7 +23,7 @@ echo "$LONG" >"$tmp/long.json"
 ctl --help
 ok $([ $RC = 0 ] && grep -q '^  submit' "$tmp/out" && grep -q 'Exit status' "$tmp/out"; echo $?) "--help lists the commands and exit statuses"
 bad=
-for c in submit advise list show watch cancel delete progress clusters files download cluster presets; do
+for c in submit advise validate list show watch cancel delete progress clusters files download cluster presets; do
 	ctl "$c" --help
 	[ $RC = 0 ] && grep -q "^usage: granularctl $c" "$tmp/out" || bad="$bad $c"
 done
@@ -183,7 +183,15 @@ ok $([ $RC = 0 ] && jsonok 'd["choice"] is None and d["target"] is None and all(
 	"advise --preset on a concrete scene: estimates without a target"
 ctl advise "$tmp/auto.json" --set accuracy.temperature=0
 ok $([ $RC = 2 ] && one_line && grep -q 'accuracy.temperature: must be between 0 and 1' "$tmp/err"; echo $?) "advise with a bad target: exit 2, $(head -1 "$tmp/err")"
-ok $([ "$("$GRANULARCTL" list --json | "$PY" -c 'import json,sys; print(len(json.load(sys.stdin)["jobs"]))')" = "$njobs" ]; echo $?) "advise made no job"
+# 8c. validate: the submission's checks without a job; a scene the engine would refuse names the key.
+ctl validate --preset cooling-2d
+ok $([ $RC = 0 ] && grep -q '^valid: method ed; memory [0-9.]* MiB' "$tmp/out"; echo $?) "validate --preset: $(head -n 1 "$tmp/out" | cut -c1-100)"
+ctl validate --preset cooling-2d --json
+ok $([ $RC = 0 ] && jsonok 'd["valid"] is True and d["resources"]["memory_bytes"] > 0'; echo $?) "validate --json: the server's answer with resources"
+echo '{"method":"dsmc","dimensions":2,"particles":{"count":2000,"volume_fraction":0.1},"dsmc":{"cell_size":1e-9},"run":{"until":{"time":1}}}' >"$tmp/tiny.json"
+ctl validate "$tmp/tiny.json"
+ok $([ $RC = 2 ] && one_line && grep -q 'dsmc.cell_size' "$tmp/err"; echo $?) "validate: a scene the engine would refuse, exit 2: $(head -1 "$tmp/err" | cut -c1-100)"
+ok $([ "$("$GRANULARCTL" list --json | "$PY" -c 'import json,sys; print(len(json.load(sys.stdin)["jobs"]))')" = "$njobs" ]; echo $?) "advise and validate made no job"
 
 # 9. The dashboard is served from the daemon, scripts from files only (CSP default-src 'self').
 curl -s -D "$tmp/hdr" -o "$tmp/index" "$URL/"

@@ -177,13 +177,16 @@ ok $([ $st = 0 ] && [ "$(field "$jc" 'len(d["attempts"])')" = 2 ] &&
 	"checkpoint.h5 with an altered stored scene: attempt 2 resumed from $(field "$jc" 'd["attempts"][1]["checkpoint"]'), job $(field "$jc" 'd["state"]')"
 
 # 3c. Inelastic collapse (issue 19.10): the job fails and its reason is the engine's message naming collisions.tc.
-COL='{"method":"ed","dimensions":2,"particles":{"count":500,"volume_fraction":0.3,"initial":{"positions":"random","temperature":1}},"collisions":{"restitution":0.3,"tc":0},"run":{"seed":1,"until":{"collisions_per_particle":2000}},"output":{"every":{"collisions_per_particle":100}}}'
+COL='{"method":"ed","dimensions":2,"particles":{"count":500,"volume_fraction":0.3,"initial":{"positions":"random","temperature":1}},"collisions":{"restitution":0.3,"tc":0},"run":{"seed":1,"until":{"collisions_per_particle":2000}},"output":{"every":{"collisions_per_particle":100},"checkpoint":{"every":{"time":0.001}}}}'
 idl=$(field "$(post /api/v1/jobs -d "$COL")" 'd["id"]')
 wait_state "$idl" failed 60
 st=$?
 jl=$(api GET "/api/v1/jobs/$idl")
 ok $([ $st = 0 ] && field "$jl" 'd["reason"]' | grep -q 'collisions.tc: inelastic collapse at time'; echo $?) \
 	"tc 0, e 0.3: job $(field "$jl" 'd["state"]'): $(field "$jl" 'd["reason"]' | cut -c1-160)"
+# deterministic: not retried although it left checkpoints (exit 2)
+ok $([ $st = 0 ] && [ "$(field "$jl" 'len(d["attempts"])')" = 1 ] && ls "$S/jobs/$idl/checkpoint.h5" >/dev/null; echo $?) \
+	"a collapsed job is not retried from its checkpoint: $(field "$jl" 'len(d["attempts"])') attempt(s)"
 
 # 4. kill -9 the daemon mid-run, restart: nothing lost, nothing duplicated, never two copies. The job writes
 # no record after its first for a long while: an engine that writes to the dead daemon's pipe dies of it (EPIPE),

@@ -143,10 +143,10 @@ static void test_admission(void)
 	submit(q, body, &rc, NULL, err);
 	ok(rc == JOBQ_EINVAL && !strncmp(err, "run.replicas: 1000000 exceeds", 29) && strstr(err, "max_replicas"),
 	   "1e6 replicas refused by max_replicas: %s", err);
-	mc_scene(body, sizeof body, 100000, 100, "");
+	mc_scene(body, sizeof body, 300000, 100, "");   /* ~46 B per particle (dsmc 2D): 1.4 GB in all */
 	submit(q, body, &rc, NULL, err);
 	ok(rc == JOBQ_EINVAL && !strncmp(err, "run.replicas: the job needs", 27),
-	   "100 replicas of 1e5 particles: the replicas named (one would fit): %s", err);
+	   "100 replicas of 3e5 particles: the replicas named (one would fit): %s", err);
 	snprintf(body, sizeof body, "{\"scene\":%s,\"ranks\":2}", BIG);
 	ok(validate(q, body, NULL, err) == JOBQ_EINVAL && !strncmp(err, "scene.particles.count", 21),
 	   "validation refuses it alike: %s", err);
