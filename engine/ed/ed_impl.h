@@ -713,16 +713,17 @@ static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uin
 		}
 #if ROUGH
 		FN(rough_kick)(ed, pi, pj, i, j, dr, r2, b, e, elastic);
+		ed->virial -= 0.5 * (1.0 + e) * ed->mass * b;   /* r . J: J_t is normal to r */
 #else
 		double f = 0.5 * (1.0 + e) * b / r2;
 		FOR_AXES(a) {
 			pi->v[a] -= f * dr[a];
 			pj->v[a] += f * dr[a];
 		}
+		ed->virial -= 0.5 * (1.0 + e) * ed->mass * b;
 		if (e != 1.0)
 			ed->ekin_cur -= 0.25 * (1.0 - e * e) * ed->mass * b * b / r2;
 #endif
-		ed->virial -= 0.5 * (1.0 + e) * ed->mass * b;
 	}
 	/* A grazing pair that rounding made non-approaching is left alone, but
 	 * still counts as an event of both so that stale predictions go away. */
