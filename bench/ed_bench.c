@@ -30,8 +30,10 @@ static double cpu_now(void)
  * periodic (default), walls (specular walls on every axis), thermal
  * (thermal walls at T = 1 on the last axis), gravity (specular walls on the
  * last axis, gravity along it with scale height T/(m g) = half the box),
- * rough (periodic, rough particles with tangential restitution 0.5), walton
- * (periodic, rough particles by Walton's rule: beta_0 0.5, mu 0.1). */
+ * rough (periodic, perfectly rough particles: tangential restitution 1, so
+ * with restitution 1 the gas stays elastic and only the rule's cost
+ * differs), walton (periodic, Walton's rule: beta_0 0.5, mu 0.1; this one
+ * dissipates, so its dynamics differ too). */
 int main(int argc, char **argv)
 {
 	if (argc < 7) {
@@ -60,7 +62,7 @@ int main(int argc, char **argv)
 		snprintf(extra, sizeof extra, ",\"boundaries\":{\"%s\":%s},\"gravity\":[0,%s%.17g]", ax, spec,
 		         dim == 3 ? "0,-" : "-", g);
 	} else if (!strcmp(feature, "rough")) {
-		rough = ",\"rough\":{\"tangential_restitution\":0.5}";
+		rough = ",\"rough\":{\"tangential_restitution\":1}";
 	} else if (!strcmp(feature, "walton")) {
 		rough = ",\"rough\":{\"tangential_restitution\":0.5,\"friction\":0.1}";
 	} else if (strcmp(feature, "periodic")) {
