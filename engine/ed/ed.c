@@ -585,8 +585,10 @@ static void walls_rebase(struct ed *ed, double t)
  * unit's inlining budget is shared, and six more variants inlined at will
  * took it from the smooth kernels (the periodic event loop lost inlined
  * calendar updates and ran up to 7% slower). */
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC push_options
 #pragma GCC optimize ("no-inline-functions")
+#endif
 #define ROUGH 1
 #define WALLS 0
 #define GRAV 0
@@ -639,7 +641,9 @@ static void walls_rebase(struct ed *ed, double t)
 #undef WALLS
 #undef GRAV
 #undef ROUGH
+#if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC pop_options
+#endif
 
 /* A variant's entry points, chosen once in ed_alloc(): nothing per event. */
 typedef struct ed_ops {
