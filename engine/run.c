@@ -55,6 +55,7 @@ struct run {
 	msd_t *msd;              /* mean_square_displacement (observe/msd.h), or NULL */
 	double msd_prev, msd_tprev; /* MSD and time of the previous progress record (the interval's D) */
 	double *pos, *vel;       /* sampling buffers (clusters, snapshots, structure observables) */
+	double *spin;            /* snapshots of rough particles: angular velocities */
 	double t0;               /* wall clock at the start of this process's part */
 	double ckpt_wall;        /* wall clock of the last checkpoint request */
 	char warning[512];       /* dsmc/hsmc validity warning for the first record */
@@ -81,6 +82,7 @@ typedef struct {
 	uint64_t obstacle_collisions;
 	double obstacle_impulse[SCENE_OBSTACLES_MAX][3];
 	uint64_t particles, wall_outflow[6];   /* present now (N without open walls); out per wall */
+	double rotational_energy;
 } smp_t;
 
 static void eng_sample(run_t *rc, smp_t *o)
@@ -101,6 +103,7 @@ static void eng_sample(run_t *rc, smp_t *o)
 		memcpy(o->obstacle_impulse, sm.obstacle_impulse, sizeof(o->obstacle_impulse));
 		o->particles = sm.particles;
 		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
+		o->rotational_energy = sm.rotational_energy;
 	} else {
 		dsmc_sample_t sm;
 		dsmc_sample(rc->mc, &sm);
@@ -236,6 +239,10 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 		for (int k = 0; k < s->n_obstacles; k++)
 			for (int b = 0; b < 3; b++)
 				r->obstacle_force[k][b] = sm.obstacle_impulse[k][b] / sm.interval;
+	if (s->rough) {
+		r->rotational_energy = sm.rotational_energy;
+		r->rotational_temperature = 2.0 * sm.rotational_energy / ((s->dim == 2 ? 1.0 : 3.0) * np);
+	}
 	for (int a = 0; a < s->dim; a++) {
 		if (!s->boundary[a].walled)
 			continue;
@@ -387,6 +394,11 @@ static int emit_snapshot(run_t *r, run_emit_fn emit, void *ctx)
 	eng_state(r, r->pos, r->vel);
 	rec.pos = r->pos;
 	rec.vel = r->vel;
+	if (r->spin) {
+		ed_spins(r->ed, r->spin);
+		rec.spin = r->spin;
+		rec.spin_dim = ed_spin_dim(r->ed);
+	}
 	r->st.snap_events = sm.events;
 	return emit(&rec, ctx) ? RUN_EMIT : RUN_OK;
 }
@@ -482,6 +494,11 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		if (!r->vel)
 			goto nomem;
 	}
+	if (r->opts.snapshots && r->ed && ed_spin_dim(r->ed)) {
+		r->spin = malloc(s->count * ed_spin_dim(r->ed) * sizeof(double));
+		if (!r->spin)
+			goto nomem;
+	}
 	r->status = RUN_COMPLETED;
 	r->t0 = r->ckpt_wall = wall_now();
 	*err = RUN_OK;
@@ -526,6 +543,7 @@ void run_destroy(run_t *r)
 	msd_destroy(r->msd);
 	free(r->pos);
 	free(r->vel);
+	free(r->spin);
 	ed_destroy(r->ed);
 	dsmc_destroy(r->mc);
 	free(r);

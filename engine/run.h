@@ -76,6 +76,10 @@ typedef struct {
 	/* Open walls (SCENE_OBS_OUTFLOW): particles still in the system and
 	 * those that left through each wall w (totals). */
 	uint64_t particles, wall_outflow[6];
+	/* Rough particles (SCENE_OBS_ROTATION): rotational energy I/2 sum w^2
+	 * and rotational temperature 2 E_rot / (D_r N), D_r = 1 (2D) or 3
+	 * (3D) rotational degrees of freedom, now. */
+	double rotational_energy, rotational_temperature;
 	const char *warning;         /* dsmc/hsmc validity warning (first record only), or NULL */
 	/* dsmc/hsmc diagnostics (totals; printed in the summary when non-zero) */
 	uint64_t vmax_raised, cell_collisions, rejected_moves;
@@ -96,6 +100,10 @@ typedef struct {
 	/* snapshot only: N*D positions (folded into the box) and velocities in
 	 * scene particle order; owned by the run, valid during emit() */
 	const double *pos, *vel;
+	/* snapshot only, rough particles: N*spin_dim angular velocities
+	 * (spin_dim 1 in 2D, 3 in 3D; 0 and NULL for smooth particles) */
+	const double *spin;
+	int spin_dim;
 	/* RUN_CURVES only: the structure curves of the present state (observe.h),
 	 * taken with the snapshots; owned by the run, valid during emit() */
 	const obs_curves_t *curves;

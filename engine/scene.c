@@ -71,6 +71,9 @@ static const char *const obstacle_names[] = {
 	[SCENE_OBST_SLIP] = "slip", [SCENE_OBST_NO_SLIP] = "no_slip", [SCENE_OBST_RANDOM_SIGN] = "random_sign",
 };
 static const char *const axis_kinds[] = { "periodic", "walls" };
+static const char *const drive_names[] = {
+	[SCENE_DRIVE_NONE] = "none", [SCENE_DRIVE_STOCHASTIC] = "stochastic", [SCENE_DRIVE_WHITE_NOISE] = "white_noise",
+};
 static const char *const axis_names[] = { "x", "y", "z" };
 static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "kinetic_energy", SCENE_OBS_ENERGY },
@@ -91,6 +94,8 @@ static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "mean_square_displacement", SCENE_OBS_MSD },
 	{ "obstacle_force", SCENE_OBS_OBSTACLE_FORCE },
 	{ "outflow", SCENE_OBS_OUTFLOW },
+	{ "rotational_energy", SCENE_OBS_ROTATION },
+	{ "rotational_temperature", SCENE_OBS_ROTATION },
 };
 #define N_OBSERVABLES (sizeof observables / sizeof observables[0])
 
@@ -484,6 +489,36 @@ static int check_structure(ctx_t *c, json_t *v, scene_t *s)
 
 static int check_boundaries(ctx_t *c, json_t *v, scene_t *s);
 
+/* Rough particles across the scene: method ed only, the initial spins and
+ * the rotational observables only with them. */
+static int check_rough_scene(ctx_t *c, json_t *v, scene_t *s)
+{
+	json_t *init = json_object_get(json_object_get(v, "particles"), "initial");
+	bool trot = json_object_get(init, "rotational_temperature") != NULL;
+	if (s->rough && s->method != SCENE_METHOD_ED)
+		return fail(c, "collisions.rough", "method \"%s\" does not support rough particles (only \"ed\" does)",
+		            method_names[s->method]);
+	if (trot && !s->rough)
+		return fail(c, "particles.initial.rotational_temperature", "needs rough particles (collisions.rough)");
+	if (s->rough && !trot)
+		s->rot_temperature = s->temperature;
+	json_t *obs = json_object_get(json_object_get(v, "output"), "observables");
+	size_t i;
+	json_t *o;
+	json_array_foreach(obs, i, o) {
+		const char *name = json_string_value(o);
+		if (strcmp(name, "rotational_energy") && strcmp(name, "rotational_temperature"))
+			continue;
+		char path[PATHLEN];
+		snprintf(path, sizeof path, "output.observables[%zu]", i);
+		if (!s->rough)
+			return fail(c, path, "\"%s\" needs rough particles (collisions.rough)", name);
+		if (s->replicas > 1)
+			return fail(c, path, "\"%s\" is not averaged over ensembles yet (run.replicas must be 1)", name);
+	}
+	return 0;
+}
+
 /* Rules that span objects, and the derived fields. */
 static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 {
@@ -564,6 +599,9 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 		return ret;
 
 	ret = check_boundaries(c, v, s);
+	if (ret)
+		return ret;
+	ret = check_rough_scene(c, v, s);
 	if (ret)
 		return ret;
 	if (s->every.kind == SCENE_CLOCK_NONE)
@@ -977,6 +1015,7 @@ static const struct object initial_obj = {
 		{ "positions", parse_positions, offsetof(scene_t, positions), NULL, false },
 		{ "temperature", parse_number, offsetof(scene_t, temperature), &R_NONNEG, false },
 		{ "velocity", parse_vector, offsetof(scene_t, flow), NULL, false },
+		{ "rotational_temperature", parse_number, offsetof(scene_t, rot_temperature), &R_NONNEG, false },
 		{ "relax", parse_object, 0, &relax_obj, false },
 		{ .name = NULL },
 	},
@@ -995,10 +1034,35 @@ static const struct object particles_obj = {
 	.check = check_particles,
 };
 
+/* collisions.rough: present means rough particles (scene_t.rough). */
+static int check_rough(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_t *s = base;
+	s->rough = 1;
+	if (json_object_get(v, "friction") == NULL)
+		s->rough_mu = -1;
+	if (json_object_get(v, "inertia_factor") == NULL)
+		s->rough_q = s->dim == 2 ? 0.5 : 0.4;
+	return 0;
+}
+
+static const struct range R_INERTIA = { 0, 1, true };
+
+static const struct object rough_obj = {
+	.fields = (const struct field[]){
+		{ "tangential_restitution", parse_number, offsetof(scene_t, rough_beta), &R_SIGNED_UNIT, true },
+		{ "friction", parse_number, offsetof(scene_t, rough_mu), &R_NONNEG, false },
+		{ "inertia_factor", parse_number, offsetof(scene_t, rough_q), &R_INERTIA, false },
+		{ .name = NULL },
+	},
+	.check = check_rough,
+};
+
 static const struct object collisions_obj = {
 	.fields = (const struct field[]){
 		{ "restitution", parse_number, offsetof(scene_t, restitution), &R_UNIT, false },
 		{ "tc", parse_number, offsetof(scene_t, tc), &R_NONNEG, false },
+		{ "rough", parse_object, 0, &rough_obj, false },
 		{ .name = NULL },
 	},
 };
@@ -1098,6 +1162,73 @@ static const struct object accuracy_obj = {
 	},
 };
 
+static int parse_drive_type(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	int i, ret = match(c, path, v, drive_names + 1, 2, &i);
+	if (ret == 0)
+		*(scene_drive_t *)dst = (scene_drive_t)(i + 1);
+	return ret;
+}
+
+/* One bin count for every axis of the local mean. */
+static int parse_drive_grid(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	static const struct irange r = { 1, 4096 };
+	uint64_t x = 0;
+	int ret = parse_integer(c, path, v, &x, &r);
+	if (ret == 0) {
+		int *g = dst;
+		g[0] = g[1] = g[2] = (int)x;
+	}
+	return ret;
+}
+
+/* Keys of each driving type: the others are mistakes. */
+static int check_driving(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_t *s = base;
+	static const struct { const char *key; scene_drive_t type; bool required; } keys[] = {
+		{ "temperature", SCENE_DRIVE_STOCHASTIC, true }, { "grid", SCENE_DRIVE_STOCHASTIC, false },
+		{ "average_time", SCENE_DRIVE_STOCHASTIC, false }, { "strength", SCENE_DRIVE_WHITE_NOISE, true },
+	};
+	char sub[PATHLEN];
+	for (size_t k = 0; k < sizeof keys / sizeof keys[0]; k++) {
+		bool has = json_object_get(v, keys[k].key) != NULL;
+		join(sub, path, keys[k].key);
+		if (has && keys[k].type != s->drive)
+			return fail(c, sub, "not a key of a \"%s\" thermostat", drive_names[s->drive]);
+		if (!has && keys[k].required && keys[k].type == s->drive)
+			return fail(c, sub, "required for a \"%s\" thermostat", drive_names[s->drive]);
+	}
+	if (s->drive_average_time == 0)
+		s->drive_average_time = 10 * s->drive_interval;
+	if (s->drive_grid[0] == 0)
+		s->drive_grid[0] = s->drive_grid[1] = s->drive_grid[2] = 1;
+	for (int a = s->dim; a < 3; a++)
+		s->drive_grid[a] = 1;
+	if ((double)s->drive_grid[0] * s->drive_grid[1] * s->drive_grid[2] > 1e6)
+		return fail(c, "driving.grid", "%d bins per axis make more than 10^6 bins in %dD", s->drive_grid[0], s->dim);
+	if (s->method != SCENE_METHOD_ED)
+		return fail(c, path, "method \"%s\" does not support driving (only \"ed\" does)", method_names[s->method]);
+	/* kicks go to particles drawn from all N: one that left cannot be kicked back in */
+	if (scene_has_open_walls(s))
+		return fail(c, path, "not available with an \"open\" wall (particles leave the system)");
+	return 0;
+}
+
+static const struct object driving_obj = {
+	.fields = (const struct field[]){
+		{ "type", parse_drive_type, offsetof(scene_t, drive), NULL, true },
+		{ "interval", parse_number, offsetof(scene_t, drive_interval), &R_POS, true },
+		{ "temperature", parse_number, offsetof(scene_t, drive_temperature), &R_POS, false },
+		{ "strength", parse_number, offsetof(scene_t, drive_strength), &R_POS, false },
+		{ "grid", parse_drive_grid, offsetof(scene_t, drive_grid), NULL, false },
+		{ "average_time", parse_number, offsetof(scene_t, drive_average_time), &R_POS, false },
+		{ .name = NULL },
+	},
+	.check = check_driving,
+};
+
 static const struct object ed_obj = {
 	.fields = (const struct field[]){
 		{ "cell_size", parse_cell_size, offsetof(scene_t, ed_cell_size), NULL, false },
@@ -1147,6 +1278,7 @@ static const struct object scene_obj = {
 		{ "boundaries", parse_object, 0, &boundaries_obj, false },
 		{ "gravity", parse_vector, offsetof(scene_t, gravity), NULL, false },
 		{ "obstacles", parse_obstacles, 0, NULL, false },
+		{ "driving", parse_object, 0, &driving_obj, false },
 		{ "run", parse_object, 0, &run_obj, true },
 		{ "output", parse_object, 0, &output_obj, false },
 		{ "ed", parse_object, 0, &ed_obj, false },

@@ -54,6 +54,7 @@ enum {
 	SCENE_OBS_MSD = 1u << 13,           /* mean_square_displacement: MSD and D (periodic, no gravity) */
 	SCENE_OBS_OBSTACLE_FORCE = 1u << 16, /* force on each obstacle: drag (needs obstacles) */
 	SCENE_OBS_OUTFLOW = 1u << 17,       /* particles present and particles out per wall (needs an open wall) */
+	SCENE_OBS_ROTATION = 1u << 14,      /* rotational_energy, rotational_temperature (needs collisions.rough) */
 };
 
 /* Wall kinds (boundaries.AXIS.lower/upper.type; method ed only). Every wall
@@ -111,6 +112,14 @@ typedef struct {
 	double accommodation;      /* no_slip: fraction of diffuse re-emissions, [0, 1], default 1 */
 } scene_obstacle_t;
 
+/* Driving (method ed only; "driving"): kicks of random particles at Poisson
+ * times, each particle on average once per interval. */
+typedef enum {
+	SCENE_DRIVE_NONE = 0,
+	SCENE_DRIVE_STOCHASTIC,    /* seed 001: v' = local mean velocity + Maxwellian at temperature */
+	SCENE_DRIVE_WHITE_NOISE,   /* v' = v + sqrt(strength interval) (Gaussian per component) */
+} scene_drive_t;
+
 typedef struct {
 	scene_clock_t kind;
 	double value;        /* time, collisions per particle (2C/N), or wall-clock seconds */
@@ -134,6 +143,23 @@ typedef struct scene {
 	/* collisions */
 	double restitution;            /* 0..1, default 1 */
 	double tc;                     /* TC-model time >= 0, default 0 = off */
+	/* rough particles (collisions.rough; method ed only): spins, moment of
+	 * inertia I = rough_q m radius^2, tangential restitution beta (g_t' =
+	 * -beta g_t) or Walton's rule (rough_mu >= 0: Coulomb sliding with
+	 * friction mu where it gives less tangential impulse than beta_0) */
+	int rough;                     /* 0: smooth (default) */
+	double rough_beta;             /* beta or beta_0 in [-1, 1] (-1 smooth, +1 perfectly rough) */
+	double rough_mu;               /* Coulomb friction >= 0; -1: constant beta (not given) */
+	double rough_q;                /* (0, 1]; default 2/5 (3D spheres), 1/2 (2D disks) */
+	double rot_temperature;        /* initial rotational temperature >= 0, default = temperature */
+
+	/* driving (method ed only) */
+	scene_drive_t drive;           /* default none */
+	double drive_interval;         /* mean time between two kicks of one particle, > 0 */
+	double drive_temperature;      /* stochastic: T_th > 0 */
+	double drive_strength;         /* white_noise: xi^2 > 0, velocity variance per component per unit time */
+	double drive_average_time;     /* stochastic: time constant of the local mean velocity, default 10 interval */
+	int drive_grid[3];             /* stochastic: bins per axis of the local mean, default 1 (global) */
 
 	/* boundaries and fields (method ed only) */
 	scene_boundary_t boundary[3];  /* per axis; default periodic */

@@ -12,6 +12,7 @@
 #include "lattice.h"
 #include "walltime.h"
 #include "obstacle.h"
+#include "rough.h"
 
 /* Hot particle record: everything a neighbour scan touches, one cache line
  * in 3D. Position r is valid at the particle's own time t (lazy update).
@@ -183,6 +184,27 @@ struct ed {
 	uint8_t *gone;
 	uint64_t n_gone;
 	uint64_t wout[6];         /* particles out through each wall (total) */
+	/* Rough particles (ROUGH kernels; collisions.rough): spins, one per
+	 * particle in 2D (about z), three in 3D, in storage order like the
+	 * records; the tangential rule's constants. NULL / 0 for smooth scenes. */
+	double *spin;
+	int rough;
+	double rbeta;             /* tangential restitution beta (Walton: beta_0), -1..1 */
+	double rmu;               /* Coulomb friction mu of Walton's rule; < 0: constant beta */
+	double rq;                /* moment of inertia factor q: I = q m (sigma/2)^2 */
+	/* Driving (scene "driving"; drive_* below): kicks of random particles
+	 * at Poisson times (rate N / interval), outside the event loop. */
+	int drive;                /* 0 none, SCENE_DRIVE_* */
+	double drv_interval, drv_temp, drv_xi2, drv_tavg;
+	double drv_box[3];        /* the scene's box: positions of kick_get() lie in it */
+	int drv_grid[3];
+	size_t drv_bins;
+	double *drv_mean;         /* state: per bin, the running mean velocity (dim each) */
+	double *drv_sum;          /* scratch: per bin, velocity sums and count (dim + 1 each) */
+	double *drv_pos, *drv_vel;   /* scratch (grids of more than one bin): positions, velocities */
+	double drv_next[2];       /* state: absolute times of the next kick and of the next mean update */
+	uint64_t drv_kicks[1];    /* state: kicks so far */
+	rng_t drng;               /* state: the driving's random stream */
 };
 
 static inline bool hless(const hent_t *a, const hent_t *b)
@@ -609,6 +631,7 @@ static int obst_clear(const struct ed *ed, const double *r)
 /* The kernels, once per dimension and variant: periodic homogeneous
  * (_2d, _3d: the original engine, untouched by the features below), walls
  * (_2w, _3w) and gravity with or without walls (_2g, _3g). */
+#define ROUGH 0
 #define WALLS 0
 #define GRAV 0
 #define D 2
@@ -659,6 +682,73 @@ static int obst_clear(const struct ed *ed, const double *r)
 #undef FN
 #undef WALLS
 #undef GRAV
+#undef ROUGH
+
+/* Rough particles: the same three variants with the rough collision rule
+ * (_2dr, _3dr periodic; _2wr, _3wr walls; _2gr, _3gr gravity). Compiled
+ * without GCC's heuristic inlining of functions not declared inline: this
+ * unit's inlining budget is shared, and six more variants inlined at will
+ * took it from the smooth kernels (the periodic event loop lost inlined
+ * calendar updates and ran up to 7% slower). */
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC push_options
+#pragma GCC optimize ("no-inline-functions")
+#endif
+#define ROUGH 1
+#define WALLS 0
+#define GRAV 0
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2dr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3dr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#undef WALLS
+#define WALLS 1
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2wr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3wr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#undef GRAV
+#define GRAV 1
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2gr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3gr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#undef WALLS
+#undef GRAV
+#undef ROUGH
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC pop_options
+#endif
 
 /* A variant's entry points, chosen once in ed_alloc(): nothing per event. */
 typedef struct ed_ops {
@@ -680,18 +770,27 @@ typedef struct ed_ops {
 	/* walls and gravity variants only */
 	void (*observe)(const struct ed *, double *, double *);
 	void (*energy_to)(struct ed *, double);
+	/* driving (thermostats) */
+	void (*kick_get)(struct ed *, uint32_t, double *, double *);
+	void (*kick_set)(struct ed *, uint32_t, const double *);
 } ed_ops_t;
 
 #define OPS_COMMON(x) \
 	.run = run_##x, .place_random = place_random_##x, .place = place_##x, .ekin = ekin_##x, .state = state_##x, \
 	.min_gap = min_gap_##x, .cell_index = cell_index_##x, .rebase = rebase_##x, .set_cross = set_cross_##x, \
-	.scan_full = scan_full_##x
+	.scan_full = scan_full_##x, .kick_get = kick_get_##x, .kick_set = kick_set_##x
 #define OPS_NL(x) .nl_build_all = nl_build_all_##x, .resync = resync_##x, .set_nl = set_nl_##x, .scan_nl = scan_nl_##x
 static const ed_ops_t ed_ops[2][3] = {
 	{ { OPS_COMMON(2d), OPS_NL(2d) }, { OPS_COMMON(2w), .observe = observe_2w },
 	  { OPS_COMMON(2g), .observe = observe_2g, .energy_to = energy_to_2g } },
 	{ { OPS_COMMON(3d), OPS_NL(3d) }, { OPS_COMMON(3w), .observe = observe_3w },
 	  { OPS_COMMON(3g), .observe = observe_3g, .energy_to = energy_to_3g } },
+};
+static const ed_ops_t ed_ops_rough[2][3] = {
+	{ { OPS_COMMON(2dr), OPS_NL(2dr) }, { OPS_COMMON(2wr), .observe = observe_2wr },
+	  { OPS_COMMON(2gr), .observe = observe_2gr, .energy_to = energy_to_2gr } },
+	{ { OPS_COMMON(3dr), OPS_NL(3dr) }, { OPS_COMMON(3wr), .observe = observe_3wr },
+	  { OPS_COMMON(3gr), .observe = observe_3gr, .energy_to = energy_to_3gr } },
 };
 
 #define DISPATCH(ed, fn, ...) ((ed)->ops->fn(__VA_ARGS__))
@@ -1057,6 +1156,35 @@ static void add_flow(struct ed *ed, const scene_t *s)
 	}
 }
 
+/* Spins of rough particles: Gaussian, scaled to exactly the rotational
+ * temperature T_rot = I sum w^2 / (D_r N) (D_r = 1 in 2D, 3 in 3D). The
+ * random numbers come after the velocities': smooth scenes are unchanged. */
+static void init_spins(struct ed *ed, double temp, rng_t *rng)
+{
+	const size_t k = (size_t)ed->n * (ed->dim == 2 ? 1 : 3);
+	double s2 = 0.0;
+	for (size_t i = 0; i < k; i++) {
+		ed->spin[i] = rng_gauss(rng);
+		s2 += ed->spin[i] * ed->spin[i];
+	}
+	const double inertia = ed->rq * ed->mass * 0.25 * ed->sigma2;
+	const double scale = s2 > 0.0 ? sqrt(temp * (double)k / (inertia * s2)) : 0.0;
+	for (size_t i = 0; i < k; i++)
+		ed->spin[i] *= scale;
+}
+
+/* Rotational energy I/2 sum w^2 (0 for smooth particles). */
+static double ed_erot(const struct ed *ed)
+{
+	if (!ed->rough)
+		return 0.0;
+	const size_t k = (size_t)ed->n * (ed->dim == 2 ? 1 : 3);
+	double s2 = 0.0;
+	for (size_t i = 0; i < k; i++)
+		s2 += ed->spin[i] * ed->spin[i];
+	return 0.5 * ed->rq * ed->mass * 0.25 * ed->sigma2 * s2;
+}
+
 static void predict_all(struct ed *ed)
 {
 	for (uint32_t i = 0; i < ed->n; i++) {
@@ -1292,7 +1420,7 @@ static void setup_wall_cells(struct ed *ed)
  * engine of ed's geometry with neighbour lists (nl) and TC times (tc);
  * absent arrays are 0. */
 enum { A_P, A_EV, A_HEAP, A_CN, A_CALHEAD, A_HEAD, A_OCC, A_NEXT, A_ID, A_SCRATCH_IDX, A_SCRATCH_CELL,
-       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_OCELL, A_GONE, A_COUNT };
+       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_OCELL, A_GONE, A_SPIN, A_DMEAN, A_DSUM, A_DPOS, A_DVEL, A_COUNT };
 static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 {
 	const size_t n = ed->n;
@@ -1313,6 +1441,10 @@ static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 	b[A_TLAST] = tc ? n * sizeof(double) : 0;
 	b[A_OCELL] = ed->nobst ? ed->ncells * sizeof(uint16_t) : 0;
 	b[A_GONE] = ed->open ? n : 0;
+	b[A_SPIN] = ed->rough ? n * (ed->dim == 2 ? 1 : 3) * sizeof(double) : 0;
+	b[A_DMEAN] = ed->drive ? ed->drv_bins * ed->dim * sizeof(double) : 0;
+	b[A_DSUM] = ed->drive ? ed->drv_bins * (ed->dim + 1) * sizeof(double) : 0;
+	b[A_DPOS] = b[A_DVEL] = ed->drive && ed->drv_bins > 1 ? n * ed->dim * sizeof(double) : 0;
 }
 
 /* Cells cost memory even when empty (~9 bytes each): a grid finer than this
@@ -1349,7 +1481,26 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 	/* obstacles live in the walls variants (all axes may be periodic there) */
 	ed->variant = scene_has_gravity(s) ? 2 : scene_has_walls(s) || scene_has_obstacles(s) ? 1 : 0;
 	ed->open = scene_has_open_walls(s);
-	ed->ops = &ed_ops[ed->dim - 2][ed->variant];
+	ed->rough = s->rough;
+	ed->drive = s->drive;
+	if (ed->drive) {
+		ed->drv_interval = s->drive_interval;
+		ed->drv_temp = s->drive_temperature;
+		ed->drv_xi2 = s->drive_strength;
+		ed->drv_tavg = s->drive_average_time;
+		ed->drv_bins = 1;
+		for (int a = 0; a < 3; a++) {
+			ed->drv_box[a] = a < s->dim ? s->box[a] : 1.0;
+			ed->drv_grid[a] = a < s->dim ? s->drive_grid[a] : 1;
+			ed->drv_bins *= (size_t)ed->drv_grid[a];
+		}
+	}
+	ed->ops = ed->rough ? &ed_ops_rough[ed->dim - 2][ed->variant] : &ed_ops[ed->dim - 2][ed->variant];
+	if (ed->rough) {
+		ed->rbeta = s->rough_beta;
+		ed->rmu = s->rough_mu;
+		ed->rq = s->rough_q;
+	}
 	if (ed->variant) {
 		setup_walls(ed, s);
 		setup_obstacles(ed, s);
@@ -1418,6 +1569,14 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	}
 	if (ed->open && !(ed->gone = big_alloc(b[A_GONE], 1)))
 		goto fail;
+	if (ed->rough && !(ed->spin = big_alloc(b[A_SPIN], 1)))
+		goto fail;
+	if (ed->drive && (!(ed->drv_mean = big_alloc(b[A_DMEAN], 1)) || !(ed->drv_sum = big_alloc(b[A_DSUM], 1))))
+		goto fail;
+	if (b[A_DPOS] && (!(ed->drv_pos = big_alloc(b[A_DPOS], 0)) || !(ed->drv_vel = big_alloc(b[A_DVEL], 0))))
+		goto fail;
+	if (ed->drive)
+		rng_init(&ed->drng, s->seed, s->stream | (1ull << 61));
 	if (!ed->p || !ed->ev || !ed->heap || !ed->cn || !ed->cal_head || !ed->head || !ed->occ || !ed->next || !ed->id || !ed->scratch_idx || !ed->scratch_cell ||
 	    (s->tc > 0.0 && !ed->tlast))
 		goto fail;
@@ -1436,6 +1595,8 @@ fail:
 		set_msg(msg, msglen, "out of memory for %.0f particles%.0s", (double)s->count, 0);
 	return NULL;
 }
+
+static void drive_start(struct ed *ed);
 
 ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 {
@@ -1463,6 +1624,8 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 	}
 	init_velocities(ed, s->temperature, &rng);
 	add_flow(ed, s);
+	if (ed->rough)
+		init_spins(ed, s->rot_temperature, &rng);
 	predict_all(ed);
 	reset_clock(ed);
 
@@ -1488,6 +1651,8 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 			ed->wall[w].omega = omega[w];
 		reset_clock(ed);
 	}
+	if (ed->drive)
+		drive_start(ed);
 	*err = ED_OK;
 	return ed;
 fail:
@@ -1509,6 +1674,11 @@ void ed_destroy(ed_t *ed)
 	free(ed->occ);
 	free(ed->next);
 	free(ed->tlast);
+	free(ed->spin);
+	free(ed->drv_mean);
+	free(ed->drv_sum);
+	free(ed->drv_pos);
+	free(ed->drv_vel);
 	free(ed->id);
 	free(ed->scratch_idx);
 	free(ed->scratch_cell);
@@ -1521,8 +1691,129 @@ void ed_destroy(ed_t *ed)
 	free(ed);
 }
 
+/* ---- driving (thermostats) ----------------------------------------------
+ *
+ * Kicks are not events of the calendar: the event loop (run) stops at the
+ * time of the next kick like at any t_stop (which changes nothing), the
+ * kick is applied, and the loop goes on. Kicks come at Poisson times of
+ * rate N / interval to particles drawn uniformly, from a random stream of
+ * their own; the times are absolute and part of the state, so where a
+ * caller stops changes nothing. Cost: O(1) per kick plus one prediction;
+ * the stochastic thermostat's local mean velocity is an exponential moving
+ * average over average_time of the bins' mean velocities, refreshed every
+ * average_time / 8 (O(N) each). */
+
+/* Bin of a position (scene coordinates) in the driving grid. */
+static size_t drive_bin(const struct ed *ed, const double *r)
+{
+	size_t b = 0;
+	for (int a = ed->dim - 1; a >= 0; a--) {
+		long k = (long)floor(r[a] / ed->drv_box[a] * ed->drv_grid[a]);
+		if (k < 0) k = 0;
+		if (k >= ed->drv_grid[a]) k = ed->drv_grid[a] - 1;
+		b = b * (size_t)ed->drv_grid[a] + (size_t)k;
+	}
+	return b;
+}
+
+/* Bins' mean velocities now into the running means: weight w of the new
+ * sample (1: replace). Empty bins keep their mean. */
+static void drive_average(struct ed *ed, double w)
+{
+	const int D = ed->dim;
+	memset(ed->drv_sum, 0, ed->drv_bins * (D + 1) * sizeof(double));
+	if (ed->drv_bins == 1) {
+		double mom[3];
+		DISPATCH(ed, ekin, ed, mom);
+		for (int a = 0; a < D; a++)
+			ed->drv_sum[a] = mom[a] / ed->mass;
+		ed->drv_sum[D] = ed->n;
+	} else {
+		DISPATCH(ed, state, ed, ed->drv_pos, ed->drv_vel);
+		for (uint32_t i = 0; i < ed->n; i++) {
+			double *sum = ed->drv_sum + drive_bin(ed, ed->drv_pos + (size_t)i * D) * (D + 1);
+			for (int a = 0; a < D; a++)
+				sum[a] += ed->drv_vel[(size_t)i * D + a];
+			sum[D] += 1.0;
+		}
+	}
+	for (size_t b = 0; b < ed->drv_bins; b++) {
+		const double *sum = ed->drv_sum + b * (D + 1);
+		if (sum[D] > 0.0)
+			for (int a = 0; a < D; a++)
+				ed->drv_mean[b * D + a] += w * (sum[a] / sum[D] - ed->drv_mean[b * D + a]);
+	}
+}
+
+/* The kick due now: a random particle's velocity replaced (stochastic) or
+ * changed by a Gaussian step (white noise); the next kick time drawn. */
+static void drive_kick(struct ed *ed)
+{
+	const int D = ed->dim;
+	uint32_t i = (uint32_t)(rng_uniform(&ed->drng) * ed->n);
+	if (i >= ed->n)
+		i = ed->n - 1;
+	double r[3], v[3];
+	DISPATCH(ed, kick_get, ed, i, r, v);
+	if (ed->drive == SCENE_DRIVE_STOCHASTIC) {
+		const double *u = ed->drv_mean + drive_bin(ed, r) * D, s = sqrt(ed->drv_temp / ed->mass);
+		for (int a = 0; a < D; a++)
+			v[a] = u[a] + s * rng_gauss(&ed->drng);
+	} else {
+		const double s = sqrt(ed->drv_xi2 * ed->drv_interval);
+		for (int a = 0; a < D; a++)
+			v[a] += s * rng_gauss(&ed->drng);
+	}
+	DISPATCH(ed, kick_set, ed, i, v);
+	/* its events afresh, as after a collision */
+	if (ed->nl) {
+		DISPATCH(ed, set_nl, ed, i);
+		DISPATCH(ed, scan_nl, ed, i);
+	} else {
+		DISPATCH(ed, set_cross, ed, i);
+		DISPATCH(ed, scan_full, ed, i);
+	}
+	cal_update(ed, i, ev_time(ed, i));
+	ed->drv_kicks[0]++;
+	ed->drv_next[0] -= ed->drv_interval / ed->n * log(1.0 - rng_uniform(&ed->drng));
+}
+
+/* At the start of the production run: the first kick time, the means. */
+static void drive_start(struct ed *ed)
+{
+	ed->drv_kicks[0] = 0;
+	ed->drv_next[0] = -ed->drv_interval / ed->n * log(1.0 - rng_uniform(&ed->drng));
+	ed->drv_next[1] = ed->drive == SCENE_DRIVE_STOCHASTIC ? 0.125 * ed->drv_tavg : INFINITY;
+	if (ed->drive == SCENE_DRIVE_STOCHASTIC)
+		drive_average(ed, 1.0);
+}
+
+static int drive_advance(struct ed *ed, double t_stop, uint64_t max_coll, uint64_t max_events)
+{
+	const uint64_t ev_end = ed->events + max_events < ed->events ? UINT64_MAX : ed->events + max_events;
+	for (;;) {
+		const int mean_next = ed->drv_next[1] < ed->drv_next[0];
+		const double tk = mean_next ? ed->drv_next[1] : ed->drv_next[0];
+		const double stop = tk < t_stop ? tk : t_stop;
+		int rc = DISPATCH(ed, run, ed, stop, max_coll, ev_end - ed->events);
+		if (rc == ED_COLLAPSE || ed->collisions >= max_coll || ed->events >= ev_end)
+			return rc == ED_QUIESCENT ? ED_OK : rc;
+		if (!(tk < t_stop))
+			return rc;
+		/* the clock stands at tk */
+		if (mean_next) {
+			drive_average(ed, 0.125);
+			ed->drv_next[1] += 0.125 * ed->drv_tavg;
+		} else {
+			drive_kick(ed);
+		}
+	}
+}
+
 int ed_advance(ed_t *ed, double t_stop, uint64_t max_collisions, uint64_t max_events)
 {
+	if (ed->drive)
+		return drive_advance(ed, t_stop, max_collisions, max_events);
 	return DISPATCH(ed, run, ed, t_stop, max_collisions, max_events);
 }
 
@@ -1556,6 +1847,7 @@ void ed_sample(ed_t *ed, ed_sample_t *out)
 	if (ed->ops->energy_to)   /* gravity: E_kin changes between events */
 		ed->ops->energy_to(ed, ed->t);
 	out->kinetic_energy = DISPATCH(ed, ekin, ed, out->momentum);
+	out->rotational_energy = ed->rough ? ed_erot(ed) : NAN;
 	out->ekin_time_integral = ed->ekin_int + ed->ekin_cur * (ed->t - ed->t_mark);
 	out->virial = ed->virial;
 	sample_walls(ed, out);
@@ -1575,6 +1867,19 @@ void ed_sample(ed_t *ed, ed_sample_t *out)
 void ed_state(const ed_t *ed, double *pos, double *vel)
 {
 	DISPATCH(ed, state, ed, pos, vel);
+}
+
+int ed_spin_dim(const ed_t *ed)
+{
+	return ed->rough ? (ed->dim == 2 ? 1 : 3) : 0;
+}
+
+void ed_spins(const ed_t *ed, double *w)
+{
+	const int k = ed_spin_dim(ed);
+	for (uint32_t i = 0; i < ed->n; i++)
+		for (int c = 0; c < k; c++)
+			w[(size_t)ed->id[i] * k + c] = ed->spin[(size_t)i * k + c];
 }
 
 uint64_t ed_collisions(const ed_t *ed) { return ed->collisions; }
@@ -1597,7 +1902,9 @@ static size_t held(const struct ed *ed, int nl, int tc)
 	return sizeof(*ed) + (ed->cal_m + 1) * sizeof(int32_t) + (2 * ed->ncells + 1) * sizeof(int32_t) +
 	       (ed->ncells + 63) / 64 * sizeof(uint64_t) +
 	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + sizeof(cnode_t) + 3 * sizeof(uint32_t) + per_nl +
-	                (tc ? sizeof(double) : 0) + (ed->open ? 1 : 0)) + (ed->nobst ? ed->ncells * sizeof(uint16_t) : 0);
+	                (tc ? sizeof(double) : 0) + (ed->open ? 1 : 0) + (ed->rough ? (ed->dim == 2 ? 1 : 3) * sizeof(double) : 0) +
+	                (ed->drive && ed->drv_bins > 1 ? 2 * ed->dim * sizeof(double) : 0)) +
+	       (ed->nobst ? ed->ncells * sizeof(uint16_t) : 0) + (ed->drive ? ed->drv_bins * (2 * ed->dim + 1) * sizeof(double) : 0);
 }
 
 size_t ed_memory(const ed_t *ed) { return held(ed, ed->xn != NULL, ed->tlast != NULL); }
@@ -1632,6 +1939,8 @@ typedef enum {
 	F_WPH, F_WIMP, F_WIMPTOT, F_WHITS, F_WCOLL, F_WRNG, F_PSUM,   /* walls and gravity variants only */
 	F_OIMP, F_OIMPTOT, F_OHITS, F_OCOLL,                         /* with obstacles only */
 	F_GONE, F_WOUT,                                              /* with open walls only */
+	F_SPIN,   /* rough particles only */
+	F_DMEAN, F_DNEXT, F_DKICKS, F_DRNG,   /* driving only */
 	F_SCALAR
 } fid_t;
 
@@ -1680,6 +1989,9 @@ static const struct {
 	{ "obstacle_impulse", F_OIMP, ED_T_F64 }, { "obstacle_impulse_total", F_OIMPTOT, ED_T_F64 },
 	{ "obstacle_hits", F_OHITS, ED_T_U64 }, { "obstacle_collisions", F_OCOLL, ED_T_U64 },
 	{ "gone", F_GONE, ED_T_U8 }, { "wall_outflow", F_WOUT, ED_T_U64 },
+	{ "spin", F_SPIN, ED_T_F64 },
+	{ "drive_mean", F_DMEAN, ED_T_F64 }, { "drive_next", F_DNEXT, ED_T_F64 }, { "drive_kicks", F_DKICKS, ED_T_U64 },
+	{ "drive_rng", F_DRNG, ED_T_U64 },
 };
 #define N_ARRAYS (sizeof arrays / sizeof arrays[0])
 
@@ -1694,12 +2006,16 @@ size_t ed_type_size(ed_type_t t)
 }
 
 /* Whether a field exists, for an engine with neighbour lists (nl) and TC times (tc). */
-static int field_exists(fid_t id, int nl, int tc, int variant, int nobst, int open)
+static int field_exists(fid_t id, int nl, int tc, int variant, int nobst, int open, int rough, int drive)
 {
 	if (id == F_GONE || id == F_WOUT)   /* scenes without open walls keep their checkpoint layout */
 		return open;
 	if (id >= F_OIMP && id <= F_OCOLL)   /* scenes without obstacles keep their checkpoint layout */
 		return nobst > 0;
+	if (id == F_SPIN)
+		return rough;
+	if (id >= F_DMEAN && id <= F_DRNG)
+		return drive;
 	if (id == F_TLAST)
 		return tc;
 	if (id == F_XN || id == F_NN || id == F_NB)
@@ -1711,7 +2027,7 @@ static int field_exists(fid_t id, int nl, int tc, int variant, int nobst, int op
 
 static int array_present(const struct ed *ed, fid_t id)
 {
-	return field_exists(id, ed->xn != NULL, ed->tlast != NULL, ed->variant, ed->nobst, ed->open);
+	return field_exists(id, ed->xn != NULL, ed->tlast != NULL, ed->variant, ed->nobst, ed->open, ed->rough, ed->drive);
 }
 
 static size_t array_count(const struct ed *ed, fid_t id)
@@ -1729,6 +2045,11 @@ static size_t array_count(const struct ed *ed, fid_t id)
 	case F_OHITS: return (size_t)ed->nobst;
 	case F_OCOLL: return 1;
 	case F_WOUT: return 6;
+	case F_SPIN: return (size_t)ed->n * (ed->dim == 2 ? 1 : 3);
+	case F_DMEAN: return ed->drv_bins * ed->dim;
+	case F_DNEXT: return 2;
+	case F_DKICKS: return 1;
+	case F_DRNG: return 4;
 	case F_NB: {
 		size_t k = 0;
 		for (uint32_t i = 0; i < ed->n; i++)
@@ -1771,7 +2092,7 @@ int ed_plan(const scene_t *s, ed_plan_t *out, char *msg, size_t msglen)
 		out->state += ed_type_size(scalars[a].type);
 	out->largest = 0;
 	for (size_t a = 0; a < N_ARRAYS; a++) {
-		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0, ed.variant, ed.nobst, ed.open))
+		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0, ed.variant, ed.nobst, ed.open, ed.rough, ed.drive))
 			continue;
 		double count = arrays[a].id == F_NB ? per * ed.n : (double)array_count(&ed, arrays[a].id);
 		uint64_t bytes = (uint64_t)(count * (double)ed_type_size(arrays[a].type));
@@ -1880,6 +2201,11 @@ static void field_copy(struct ed *ed, fid_t id, void *buf, int to_buf)
 	case F_OCOLL: src = &ed->obst_collisions; bytes = sizeof ed->obst_collisions; break;
 	case F_GONE: src = ed->gone; bytes = ed->n; break;
 	case F_WOUT: src = ed->wout; bytes = sizeof ed->wout; break;
+	case F_SPIN: src = ed->spin; bytes = (size_t)ed->n * (D == 2 ? 1 : 3) * sizeof(double); break;
+	case F_DMEAN: src = ed->drv_mean; bytes = ed->drv_bins * D * sizeof(double); break;
+	case F_DNEXT: src = ed->drv_next; bytes = sizeof ed->drv_next; break;
+	case F_DKICKS: src = ed->drv_kicks; bytes = sizeof ed->drv_kicks; break;
+	case F_DRNG: src = ed->drng.s; bytes = sizeof ed->drng.s; break;
 	case F_NB: {
 		/* lists packed: the first nn[i] entries of each row */
 		size_t k = 0;
@@ -2048,6 +2374,7 @@ void ed_totals(const ed_t *ed, ed_sample_t *out)
 	out->collisions = ed->collisions;
 	out->elastic_by_tc = ed->tc_elastic;
 	out->kinetic_energy = DISPATCH(ed, ekin, ed, out->momentum);
+	out->rotational_energy = ed->rough ? ed_erot(ed) : NAN;
 	sample_walls(ed, out);
 }
 

@@ -126,6 +126,10 @@ typedef struct {
 	uint64_t obstacle_collisions;   /* particle-obstacle collisions (total) */
 	uint64_t obstacle_hits[SCENE_OBSTACLES_MAX];
 	double obstacle_impulse[SCENE_OBSTACLES_MAX][3];
+	/* Rough particles (collisions.rough): rotational energy I/2 sum w^2,
+	 * I = q m (sigma/2)^2, now; NAN for smooth particles. kinetic_energy
+	 * is the translational part. */
+	double rotational_energy;
 } ed_sample_t;
 
 /* Fill *out and start a new interval. Does not change the dynamics. */
@@ -134,6 +138,12 @@ void ed_sample(ed_t *ed, ed_sample_t *out);
 /* Positions (wrapped into the box) and velocities at the current time, as
  * N*D doubles in particle order. Either pointer may be NULL. */
 void ed_state(const ed_t *ed, double *pos, double *vel);
+
+/* Rough particles: spin components per particle (1 in 2D: about z; 3 in
+ * 3D), 0 for smooth ones; ed_spins() writes N * ed_spin_dim() angular
+ * velocities (radians per unit time) in particle order. */
+int ed_spin_dim(const ed_t *ed);
+void ed_spins(const ed_t *ed, double *w);
 
 double ed_time(const ed_t *ed);
 uint64_t ed_collisions(const ed_t *ed);

@@ -6,7 +6,9 @@
  * may have walls: no wrap there, wall events, cell mode only) and GRAV
  * (uniform gravity ed->g: ballistic flight; implies WALLS), plus the shared
  * declarations of ed.c. WALLS = GRAV = 0 is the periodic homogeneous engine;
- * the flags are compile-time, so it tests none of this per event.
+ * the flags are compile-time, so it tests none of this per event. ROUGH
+ * (rough particles: spins in ed->spin, the rough collision rule) is a
+ * further flag on top of any of them.
  */
 
 /* Flight of particle p to time t (lazy: only when the particle is touched). */
@@ -691,6 +693,24 @@ static inline void FN(energy_to)(struct ed *ed, double t)
 	ed->t_mark = t;
 }
 
+#if ROUGH
+/* Rough variant: the collision of i and j by the rough rule (rough.h) with
+ * normal restitution e; elastic (TC model, pre-run): smooth and elastic.
+ * dr = r_i - r_j, r2 = |dr|^2, b = dr . (v_i - v_j) < 0. */
+static inline void FN(rough_kick)(struct ed *ed, P_T *pi, P_T *pj, uint32_t i, uint32_t j, const double *dr,
+                                  double r2, double b, double e, int elastic)
+{
+	const rough_rule_t R = {.m = ed->mass, .a = 0.5 * ed->sigma, .e = e, .beta = elastic ? -1.0 : ed->rbeta,
+	                        .mu = elastic ? -1.0 : ed->rmu, .q = ed->rq};
+	const double rn = sqrt(r2);
+	double n[D];
+	FOR_AXES(k)
+		n[k] = dr[k] / rn;
+	const int k = D == 2 ? 1 : 3;
+	ed->ekin_cur += rough_collide(D, &R, n, b / rn, pi->v, pj->v, &ed->spin[(size_t)i * k], &ed->spin[(size_t)j * k]);
+}
+#endif
+
 /* Binary collision of i and j at time t with normal restitution (elastic
  * within the TC time of either partner's previous collision). */
 static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uint32_t i, uint32_t j, double t)
@@ -711,21 +731,23 @@ static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uin
 	FN(energy_to)(ed, t);
 	if (b < 0.0) {
 		double e = ed->e;
+#if ROUGH
+		int elastic = ed->relaxing;   /* elastic pre-run: smooth and elastic */
+		if (elastic)
+			e = 1.0;
+#endif
 		if (ed->tlast) {
 			if (t - ed->tlast[i] < ed->tc || t - ed->tlast[j] < ed->tc) {
 				e = 1.0;
 				ed->tc_elastic++;
+#if ROUGH
+				elastic = 1;
+#endif
 			}
 			ed->tlast[i] = ed->tlast[j] = t;
 		}
-		double f = 0.5 * (1.0 + e) * b / r2;
-		FOR_AXES(a) {
-			pi->v[a] -= f * dr[a];
-			pj->v[a] += f * dr[a];
-		}
-		ed->virial -= 0.5 * (1.0 + e) * ed->mass * b;
 		if (ed->bcount) {
-			/* impact parameter over |r|: sqrt(1 - (r.g)^2 / (r^2 g^2)) */
+			/* impact parameter over |r| (before the kick, any rule): sqrt(1 - (r.g)^2 / (r^2 g^2)) */
 			double g2 = 0.0;
 			FOR_AXES(a)
 				g2 += dv[a] * dv[a];
@@ -733,8 +755,19 @@ static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uin
 			int k = (int)(sqrt(q > 0.0 ? q : 0.0) * ed->bnb);
 			ed->bcount[k < ed->bnb ? k : ed->bnb - 1] += 1.0;
 		}
+#if ROUGH
+		FN(rough_kick)(ed, pi, pj, i, j, dr, r2, b, e, elastic);
+		ed->virial -= 0.5 * (1.0 + e) * ed->mass * b;   /* r . J: J_t is normal to r */
+#else
+		double f = 0.5 * (1.0 + e) * b / r2;
+		FOR_AXES(a) {
+			pi->v[a] -= f * dr[a];
+			pj->v[a] += f * dr[a];
+		}
+		ed->virial -= 0.5 * (1.0 + e) * ed->mass * b;
 		if (e != 1.0)
 			ed->ekin_cur -= 0.25 * (1.0 - e * e) * ed->mass * b * b / r2;
+#endif
 	}
 	/* A grazing pair that rounding made non-approaching is left alone, but
 	 * still counts as an event of both so that stale predictions go away. */
@@ -762,6 +795,11 @@ static void FN(leave)(struct ed *ed, uint32_t i, int w, double t)
 		p->v[a] = 0.0;
 	}
 	ed->ekin_cur -= 0.5 * ed->mass * v2;
+#if ROUGH
+	/* its spin leaves with it: rotational sums count the particles present */
+	for (int k = 0; k < (D == 2 ? 1 : 3); k++)
+		ed->spin[(size_t)i * (D == 2 ? 1 : 3) + k] = 0.0;
+#endif
 	FN(cell_remove)(ed, i);
 	ed->gone[i] = 1;
 	ed->n_gone++;
@@ -1010,6 +1048,9 @@ static void FN(reorder)(struct ed *ed)
 #if WALLS
 	if (ed->gone)
 		permute(ed->gone, 1, newidx, n);
+#endif
+#if ROUGH
+	permute(ed->spin, (D == 2 ? 1 : 3) * sizeof(double), newidx, n);
 #endif
 	if (ed->nl) {
 		const uint32_t K = ed->nlk;
@@ -1416,4 +1457,49 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
 		FN(place)(ed, i);
 	}
 	return ED_OK;
+}
+
+/* Driving (thermostats, drive_* in ed.c): particle i brought to the
+ * present; its position (scene coordinates, periodic axes folded) and
+ * velocity now. */
+static void FN(kick_get)(struct ed *ed, uint32_t i, double *r, double *v)
+{
+	P_T *p = &((P_T *)ed->p)[i];
+	FN(advance)(ed, p, ed->t);
+	FOR_AXES(a) {
+		double x = p->r[a];
+#if WALLS
+		if (!ed->periodic[a]) {
+			r[a] = x - ed->org[a];
+			v[a] = p->v[a];
+			continue;
+		}
+#endif
+		x = fmod(x, ed->L[a]);
+		if (x < 0.0)
+			x += ed->L[a];
+		r[a] = x >= ed->L[a] ? 0.0 : x;
+		v[a] = p->v[a];
+	}
+}
+
+/* Particle i (at the present, kick_get()) gets velocity v: the running
+ * energy follows, stale predictions of others go (its counter moves on). */
+static void FN(kick_set)(struct ed *ed, uint32_t i, const double *v)
+{
+	P_T *p = &((P_T *)ed->p)[i];
+	FN(energy_to)(ed, ed->t);
+	double de = 0.0;
+	FOR_AXES(a) {
+		de += v[a] * v[a] - p->v[a] * p->v[a];
+#if GRAV
+		ed->psum[a] += v[a] - p->v[a];
+#endif
+		p->v[a] = v[a];
+	}
+	ed->ekin_cur += 0.5 * ed->mass * de;
+	p->count++;
+	/* The caller (drive_kick()) predicts i's events afresh through the ops
+	 * table: a direct call here would be one more caller of the hot
+	 * kernels and could change GCC's inlining of them into the event loop. */
 }

@@ -60,6 +60,8 @@ static void g_oforce(const run_record_t *r, void *o)
 }
 static void g_com(const run_record_t *r, void *o) { *(double *)o = r->com_height; }
 static void g_epot(const run_record_t *r, void *o) { *(double *)o = r->potential_energy / (double)r->n; }
+static void g_erot(const run_record_t *r, void *o) { *(double *)o = r->rotational_energy / (double)r->n; }
+static void g_trot(const run_record_t *r, void *o) { *(double *)o = r->rotational_temperature; }
 static void g_tc(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->elastic_by_tc; }
 static void g_ccount(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->clusters.n_clusters; }
 static void g_clargest(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->clusters.largest; }
@@ -116,6 +118,8 @@ static const obs_def_t obs_defs[] = {
 	{ "obstacle_force", SCENE_OBS_OBSTACLE_FORCE, 0, -2, "m0 l0 t0-2", g_oforce },
 	{ "center_of_mass_height", SCENE_OBS_COM_HEIGHT, 0, 0, "l0", g_com },
 	{ "potential_energy", SCENE_OBS_POTENTIAL, 0, 0, "e0", g_epot },
+	{ "rotational_energy", SCENE_OBS_ROTATION, 0, 0, "e0", g_erot },
+	{ "rotational_temperature", SCENE_OBS_ROTATION, 0, 0, "e0", g_trot },
 	{ "clusters_count", SCENE_OBS_CLUSTERS, 1, 0, NULL, g_ccount },
 	{ "clusters_largest", SCENE_OBS_CLUSTERS, 1, 0, NULL, g_clargest },
 	{ "clusters_largest_fraction", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cfrac },
@@ -153,6 +157,7 @@ static const obs_def_t obs_defs[] = {
  * /particles/replica_K (ensembles with output.snapshots). */
 typedef struct {
 	hid_t pos_step, pos_time, pos_value, vel_value, box_value;
+	hid_t spin_value;           /* rough particles (single runs): angular_velocity/value */
 	uint64_t rows;
 	double *frame_t;            /* times of the frames, for the XDMF */
 	size_t frame_cap;
@@ -163,6 +168,7 @@ struct h5md {
 	char *path, *xdmf_path;
 	const char *h5_name;        /* base name of path, as the XDMF refers to it */
 	int dim, level;
+	int spin_dim;               /* rough particles, single runs: 1 (2D) or 3 (3D); else 0 */
 	uint64_t n;
 	hid_t obs_step, obs_time;
 	hid_t obs[MAX_OBS];
@@ -296,6 +302,7 @@ static h5md_t *alloc_writer(const char *path, const scene_t *s)
 	for (int k = 0; k < h->n_grp; k++) {
 		pgroup_t *g = &h->grp[k];
 		g->pos_step = g->pos_time = g->pos_value = g->vel_value = g->box_value = H5I_INVALID_HID;
+		g->spin_value = H5I_INVALID_HID;
 	}
 	memcpy(h->box, s->box, sizeof(h->box));
 	for (int k = 0; k < MAX_OBS; k++)
@@ -303,6 +310,7 @@ static h5md_t *alloc_writer(const char *path, const scene_t *s)
 	h->dim = s->dim;
 	h->n = s->count;
 	h->level = s->compression;
+	h->spin_dim = s->rough && s->replicas <= 1 ? (s->dim == 2 ? 1 : 3) : 0;
 	size_t len = strlen(path);
 	h->path = strdup(path);
 	h->xdmf_path = malloc(len + 8);
@@ -443,6 +451,22 @@ static int write_group(h5md_t *h, int k, const scene_t *s)
 		goto out;
 	if (write_constant(all, "diameter", 2.0 * s->radius, h->n) || write_constant(all, "mass", s->mass, h->n))
 		goto out;
+	if (h->spin_dim) {
+		/* rough particles: angular velocities, [frames][N][1 or 3], with the
+		 * frames' step and time */
+		hsize_t sinner[2] = {h->n, (hsize_t)h->spin_dim};
+		hsize_t schunk[3] = {1, chunk[1], (hsize_t)h->spin_dim};
+		hid_t sp = h5u_group(all, "angular_velocity");
+		if (sp >= 0)
+			pg->spin_value = create_series(sp, "value", H5T_IEEE_F64LE, 3, sinner, schunk, h->level);
+		int bad = sp < 0 || pg->spin_value < 0 ||
+		          H5Lcreate_hard(pos, "step", sp, "step", H5P_DEFAULT, H5P_DEFAULT) < 0 ||
+		          H5Lcreate_hard(pos, "time", sp, "time", H5P_DEFAULT, H5P_DEFAULT) < 0;
+		if (sp >= 0)
+			H5Gclose(sp);
+		if (bad)
+			goto out;
+	}
 	ret = 0;
 out:
 	if (edges >= 0) H5Gclose(edges);
@@ -575,6 +599,14 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 		pgroup_t *g = &h->grp[k];
 		hid_t *dst[] = {&g->pos_step, &g->pos_time, &g->pos_value, &g->vel_value, &g->box_value};
 		group_name(h, k, name, sizeof name);
+		if (h->spin_dim) {
+			snprintf(p, sizeof p, "%s/angular_velocity/value", name);
+			g->spin_value = H5Dopen2(h->file, p, H5P_DEFAULT);
+			if (g->spin_value < 0) {
+				*err = h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: not a trajectory of this scene (missing /%s)", path, p);
+				goto fail;
+			}
+		}
 		for (size_t j = 0; j < sizeof sub / sizeof sub[0]; j++) {
 			snprintf(p, sizeof p, "%s/%s", name, sub[j]);
 			*dst[j] = H5Dopen2(h->file, p, H5P_DEFAULT);
@@ -628,7 +660,8 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 		}
 		bad = truncate_rows(g->pos_step, frames[k]) || truncate_rows(g->pos_time, frames[k]) ||
 		      truncate_rows(g->pos_value, frames[k]) || truncate_rows(g->vel_value, frames[k]) ||
-		      truncate_rows(g->box_value, frames[k]) || frame_times_reserve(g, frames[k] + 1);
+		      truncate_rows(g->box_value, frames[k]) || frame_times_reserve(g, frames[k] + 1) ||
+		      (g->spin_value >= 0 && truncate_rows(g->spin_value, frames[k]));
 		if (!bad && frames[k] > 0 &&
 		    H5Dread(g->pos_time, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, g->frame_t) < 0) {
 			*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot read frame times", path);
@@ -662,7 +695,7 @@ int h5md_destroy(h5md_t *h)
 	if (h->obs_time >= 0) H5Dclose(h->obs_time);
 	for (int k = 0; k < h->n_grp; k++) {
 		pgroup_t *g = &h->grp[k];
-		hid_t ds[] = {g->pos_step, g->pos_time, g->pos_value, g->vel_value, g->box_value};
+		hid_t ds[] = {g->pos_step, g->pos_time, g->pos_value, g->vel_value, g->box_value, g->spin_value};
 		for (size_t j = 0; j < sizeof ds / sizeof ds[0]; j++)
 			if (ds[j] >= 0)
 				H5Dclose(ds[j]);
@@ -768,7 +801,8 @@ int h5md_frame(h5md_t *h, int group, const run_record_t *rec, char *msg, size_t 
 	    append_row(g->pos_time, H5T_NATIVE_DOUBLE, g->rows, &rec->time) ||
 	    append_row(g->pos_value, H5T_NATIVE_DOUBLE, g->rows, rec->pos) ||
 	    append_row(g->vel_value, H5T_NATIVE_DOUBLE, g->rows, rec->vel) ||
-	    append_row(g->box_value, H5T_NATIVE_DOUBLE, g->rows, edges))
+	    append_row(g->box_value, H5T_NATIVE_DOUBLE, g->rows, edges) ||
+	    (g->spin_value >= 0 && rec->spin && append_row(g->spin_value, H5T_NATIVE_DOUBLE, g->rows, rec->spin)))
 		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot append a frame", h->path);
 	g->frame_t[g->rows++] = rec->time;
 	h->frames_pending = 1;

@@ -139,6 +139,10 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 		num(&o, "center_of_mass_height", r->com_height);
 	if (r->have & SCENE_OBS_POTENTIAL)
 		num(&o, "potential_energy", r->potential_energy);
+	if (r->have & SCENE_OBS_ROTATION) {
+		num(&o, "rotational_energy", r->rotational_energy);
+		num(&o, "rotational_temperature", r->rotational_temperature);
+	}
 	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_CLUSTERS)) {
 		const clusters_stats_t *c = &r->clusters;
 		put(&o, ",\"clusters\":{\"count\":%llu,\"largest\":%llu", (unsigned long long)c->n_clusters,
