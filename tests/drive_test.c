@@ -10,20 +10,7 @@
 #include "ed/ed.h"
 #include "scene.h"
 #include "tap.h"
-
-static ed_t *make(const char *json, scene_t *sc)
-{
-	char err[512];
-	int rc;
-	if (scene_parse(json, strlen(json), sc, err, sizeof(err)) != SCENE_OK) {
-		diag("scene rejected: %s", err);
-		return NULL;
-	}
-	ed_t *ed = ed_create(sc, &rc, err, sizeof(err));
-	if (!ed)
-		diag("ed_create: %s", err);
-	return ed;
-}
+#include "ed_util.h"
 
 /* Time-averaged temperature and collision rate per particle over [t0, t1]
  * (exact integrals of E_kin dt and collision counts). */
@@ -193,19 +180,10 @@ static void test_exact(void)
 		   "driving (%s): stopping every 0.37 changes nothing, bit for bit after %llu events",
 		   k ? "white noise, walls, rough" : "stochastic, grid 6x6", (unsigned long long)ed_events(a));
 		/* checkpoint of a into c */
-		int rc, good;
+		int good, has;
 		char msg[256] = "";
-		c = ed_create_blank(&sc, &rc, msg, sizeof msg);
-		ed_field_t f[ED_MAX_FIELDS];
-		int nf = ed_fields(a, f, ED_MAX_FIELDS), has = 0;
-		good = c && nf <= ED_MAX_FIELDS;
-		for (int q = 0; q < nf && good; q++) {
-			void *buf = malloc(f[q].count * ed_type_size(f[q].type) + 1);
-			has |= !strcmp(f[q].name, "drive_rng");
-			good = ed_field_get(a, f[q].name, buf) == ED_OK && ed_field_set(c, f[q].name, f[q].type, f[q].count, buf) == ED_OK;
-			free(buf);
-		}
-		good = good && has && ed_restore_finish(c, msg, sizeof msg) == ED_OK;
+		c = clone_fields(a, &sc, "drive_rng", 0, &has, msg, sizeof msg);
+		good = c != NULL && has;
 		if (good) {
 			ed_advance(a, 45.0, UINT64_MAX, UINT64_MAX);
 			ed_advance(c, 45.0, UINT64_MAX, UINT64_MAX);

@@ -7,20 +7,7 @@
 #include "ed/ed.h"
 #include "scene.h"
 #include "tap.h"
-
-static ed_t *make(const char *json, scene_t *sc)
-{
-	char err[512];
-	int rc;
-	if (scene_parse(json, strlen(json), sc, err, sizeof(err)) != SCENE_OK) {
-		diag("scene rejected: %s", err);
-		return NULL;
-	}
-	ed_t *ed = ed_create(sc, &rc, err, sizeof(err));
-	if (!ed)
-		diag("ed_create: %s", err);
-	return ed;
-}
+#include "ed_util.h"
 
 static double energy(ed_t *ed)
 {

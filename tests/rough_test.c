@@ -10,24 +10,11 @@
 #include "rng.h"
 #include "scene.h"
 #include "tap.h"
+#include "ed_util.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
 #endif
-
-static ed_t *make(const char *json, scene_t *sc)
-{
-	char err[512];
-	int rc;
-	if (scene_parse(json, strlen(json), sc, err, sizeof(err)) != SCENE_OK) {
-		diag("scene rejected: %s", err);
-		return NULL;
-	}
-	ed_t *ed = ed_create(sc, &rc, err, sizeof(err));
-	if (!ed)
-		diag("ed_create: %s", err);
-	return ed;
-}
 
 /* ---- the collision rule (rough.h) ------------------------------------ */
 
@@ -425,19 +412,8 @@ static void test_checkpoint(void)
 		char msg[256] = "";
 		if (a) {
 			ed_advance(a, 2.5, UINT64_MAX, UINT64_MAX);
-			int rc;
-			b = ed_create_blank(&sc, &rc, msg, sizeof msg);
-			ed_field_t f[ED_MAX_FIELDS];
-			int nf = ed_fields(a, f, ED_MAX_FIELDS);
-			ok_fields = b && nf <= ED_MAX_FIELDS;
-			for (int k = 0; k < nf && ok_fields; k++) {
-				void *buf = malloc(f[k].count * ed_type_size(f[k].type) + 1);
-				has_spin |= !strcmp(f[k].name, "spin") && f[k].count == sc.count * (sc.dim == 2 ? 1 : 3);
-				ok_fields = ed_field_get(a, f[k].name, buf) == ED_OK &&
-				            ed_field_set(b, f[k].name, f[k].type, f[k].count, buf) == ED_OK;
-				free(buf);
-			}
-			ok_fields = ok_fields && ed_restore_finish(b, msg, sizeof msg) == ED_OK;
+			b = clone_fields(a, &sc, "spin", sc.count * (sc.dim == 2 ? 1 : 3), &has_spin, msg, sizeof msg);
+			ok_fields = b != NULL;
 		}
 		if (!ok_fields || !has_spin) {
 			ok(0, "checkpoint %dD rough: restore (%s; spin field %s)", sc.dim, msg, has_spin ? "present" : "missing");

@@ -10,24 +10,11 @@
 #include "ed/ed.h"
 #include "scene.h"
 #include "tap.h"
+#include "ed_util.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
 #endif
-
-static ed_t *make(const char *json, scene_t *sc)
-{
-	char err[512];
-	int rc;
-	if (scene_parse(json, strlen(json), sc, err, sizeof(err)) != SCENE_OK) {
-		diag("scene rejected: %s", err);
-		return NULL;
-	}
-	ed_t *ed = ed_create(sc, &rc, err, sizeof(err));
-	if (!ed)
-		diag("ed_create: %s", err);
-	return ed;
-}
 
 /* Mean and standard error of k block means (blocks long against the
  * correlation time, so treated as independent). */
@@ -565,19 +552,9 @@ static void test_checkpoint(void)
 		ed_sample_t s0;
 		ed_sample(a, &s0);
 		ed_advance(a, 10.0, UINT64_MAX, UINT64_MAX);
-		int rc;
-		char msg[256];
-		b = ed_create_blank(&sc, &rc, msg, sizeof msg);
-		ed_field_t f[ED_MAX_FIELDS];
-		int nf = ed_fields(a, f, ED_MAX_FIELDS);
-		ok_fields = b && nf <= ED_MAX_FIELDS;
-		for (int k = 0; k < nf && ok_fields; k++) {
-			void *buf = malloc(f[k].count * ed_type_size(f[k].type) + 1);
-			ok_fields = ed_field_get(a, f[k].name, buf) == ED_OK &&
-			            ed_field_set(b, f[k].name, f[k].type, f[k].count, buf) == ED_OK;
-			free(buf);
-		}
-		ok_fields = ok_fields && ed_restore_finish(b, msg, sizeof msg) == ED_OK;
+		char msg[256] = "";
+		b = clone_fields(a, &sc, NULL, 0, NULL, msg, sizeof msg);
+		ok_fields = b != NULL;
 		if (!ok_fields)
 			diag("restore: %s", msg);
 	}

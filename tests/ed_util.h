@@ -1,0 +1,58 @@
+/* Helpers shared by the event-driven engine's unit tests: a scene made into an engine, and an engine copied through its state fields as a checkpoint copies it. */
+#ifndef GRANULAR_TESTS_ED_UTIL_H
+#define GRANULAR_TESTS_ED_UTIL_H
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "ed/ed.h"
+#include "scene.h"
+#include "tap.h"
+
+/* The engine of the scene given as JSON, parsed into *sc; NULL (with a TAP
+ * diagnostic naming the reason) when the parser or the engine refuses it.
+ * The caller destroys the engine. */
+static inline ed_t *make(const char *json, scene_t *sc)
+{
+	char err[512];
+	int rc;
+	if (scene_parse(json, strlen(json), sc, err, sizeof(err)) != SCENE_OK) {
+		diag("scene rejected: %s", err);
+		return NULL;
+	}
+	ed_t *ed = ed_create(sc, &rc, err, sizeof(err));
+	if (!ed)
+		diag("ed_create: %s", err);
+	return ed;
+}
+
+/* A blank engine of scene sc given every state field of a (ed_fields,
+ * ed_field_get, ed_field_set) and finished as a restore finishes: what a
+ * checkpoint and its reader do, without the file. With want, *has is set to
+ * whether a has a field of that name (and, with count > 0, that many
+ * elements). NULL with the reason in msg on failure; the caller destroys. */
+static inline ed_t *clone_fields(const ed_t *a, const scene_t *sc, const char *want, size_t count, int *has,
+                                 char *msg, size_t msglen)
+{
+	int rc, good;
+	ed_field_t f[ED_MAX_FIELDS];
+	ed_t *b = ed_create_blank(sc, &rc, msg, msglen);
+	int nf = ed_fields(a, f, ED_MAX_FIELDS);
+	if (has)
+		*has = 0;
+	good = b && nf <= ED_MAX_FIELDS;
+	for (int k = 0; k < nf && good; k++) {
+		void *buf = malloc(f[k].count * ed_type_size(f[k].type) + 1);
+		if (want && has && !strcmp(f[k].name, want) && (count == 0 || f[k].count == count))
+			*has = 1;
+		good = buf && ed_field_get(a, f[k].name, buf) == ED_OK &&
+		       ed_field_set(b, f[k].name, f[k].type, f[k].count, buf) == ED_OK;
+		free(buf);
+	}
+	if (good && ed_restore_finish(b, msg, msglen) == ED_OK)
+		return b;
+	ed_destroy(b);
+	return NULL;
+}
+
+#endif
