@@ -2,6 +2,7 @@
 #include <math.h>
 
 #include "obstacle.h"
+#include "roots.h"
 
 double obstacle_time_free(const double *x, const double *v, int dim, double S)
 {
@@ -28,8 +29,9 @@ typedef struct {
 	int dim;
 } orbit_t;
 
-static double of(const orbit_t *o, double t)
+static double of(const void *ctx, double t)
 {
+	const orbit_t *o = ctx;
 	double s = 0.0;
 	for (int a = 0; a < o->dim; a++) {
 		double d = o->x[a] + t * (o->v[a] + 0.5 * o->g[a] * t);
@@ -38,77 +40,15 @@ static double of(const orbit_t *o, double t)
 	return s - o->S2;
 }
 
-static double odf(const orbit_t *o, double t)
+static double odf(const void *ctx, double t)
 {
+	const orbit_t *o = ctx;
 	double s = 0.0;
 	for (int a = 0; a < o->dim; a++) {
 		double d = o->x[a] + t * (o->v[a] + 0.5 * o->g[a] * t);
 		s += d * (o->v[a] + o->g[a] * t);
 	}
 	return 2.0 * s;
-}
-
-/* Narrow [lo, hi] where lo is not "reached" and hi is (dir 1: f <= 0; dir
- * 2: f' < 0; dir 3: f' >= 0) to adjacent doubles (or 200 steps); returns
- * hi, the first time known to be reached. Illinois regula falsi
- * alternating with bisection (as walltime.c). */
-static double bracket(const orbit_t *o, double (*f)(const orbit_t *, double), double lo, double hi, int dir)
-{
-	double flo = f(o, lo), fhi = f(o, hi);
-	int side = 0;
-	for (int k = 0; k < 200; k++) {
-		double mid = 0.5 * (lo + hi);
-		if (!(mid > lo && mid < hi))
-			break;
-		double x = mid;
-		if ((k & 1) == 0 && flo != fhi) {
-			x = lo + (hi - lo) * (flo / (flo - fhi));
-			if (!(x > lo && x < hi))
-				x = mid;
-		}
-		double fx = f(o, x);
-		int below = dir == 1 ? fx <= 0.0 : dir == 2 ? fx < 0.0 : fx >= 0.0;
-		if (below) {
-			hi = x, fhi = fx;
-			if (side == -1) flo *= 0.5;
-			side = -1;
-		} else {
-			lo = x, flo = fx;
-			if (side == 1) fhi *= 0.5;
-			side = 1;
-		}
-	}
-	return hi;
-}
-
-/* First contact in [a, b], on which f is concave (f' does not increase) or
- * convex; INFINITY if none. */
-static double piece(const orbit_t *o, double a, double b, int concave)
-{
-	double fa = of(o, a), dfa = odf(o, a);
-	if (concave) {
-		if (dfa >= 0.0) {
-			if (odf(o, b) >= 0.0)
-				return INFINITY;
-			a = bracket(o, odf, a, b, 2);   /* where it turns towards the obstacle */
-			fa = of(o, a);
-		}
-		if (fa <= 0.0)
-			return a;
-		if (of(o, b) > 0.0)
-			return INFINITY;
-		return bracket(o, of, a, b, 1);
-	}
-	if (dfa >= 0.0)
-		return INFINITY;   /* convex and rising: rises on */
-	if (fa <= 0.0)
-		return a;
-	double m = b;
-	if (odf(o, b) >= 0.0)
-		m = bracket(o, odf, a, b, 3);   /* the closest approach */
-	if (of(o, m) > 0.0)
-		return INFINITY;
-	return bracket(o, of, a, m, 1);
 }
 
 double obstacle_time_grav(const double *x, const double *v, const double *g, int dim, double S, double horizon)
@@ -157,7 +97,7 @@ double obstacle_time_grav(const double *x, const double *v, const double *g, int
 		if (b > a) {
 			const double m = 0.5 * (a + b);
 			double f2 = v2 + xg + m * (3.0 * vg + 1.5 * g2 * m);
-			double t = piece(&o, a, b, f2 <= 0.0);
+			double t = roots_piece(of, odf, &o, a, b, f2 <= 0.0);
 			if (t < INFINITY)
 				return t;
 		} else if (a == 0.0 && b == 0.0) {

@@ -2,6 +2,7 @@
 #include <float.h>
 #include <math.h>
 
+#include "roots.h"
 #include "walltime.h"
 
 #define TWO_PI 6.28318530717958647692
@@ -12,89 +13,22 @@ typedef struct {
 
 /* h(t): sin(th0 + w t) - sin th0 = 2 cos(th0 + w t / 2) sin(w t / 2), so
  * that small t lose no digits against d. */
-static double h(const gap_t *g, double t)
+static double h(const void *ctx, double t)
 {
+	const gap_t *g = ctx;
 	double half = 0.5 * g->omega * t;
 	return g->d + t * (g->u + 0.5 * g->gam * t) - 2.0 * g->A * cos(g->th0 + half) * sin(half);
 }
 
-static double dh(const gap_t *g, double t)
+static double dh(const void *ctx, double t)
 {
+	const gap_t *g = ctx;
 	return g->u + g->gam * t - g->A * g->omega * cos(g->th0 + g->omega * t);
 }
 
 static double d2h(const gap_t *g, double t)
 {
 	return g->gam + g->A * g->omega * g->omega * sin(g->th0 + g->omega * t);
-}
-
-/* The ends of [lo, hi] bracket the first point where f is "reached":
- * f <= 0 (dir 1: the gap), f < 0 (dir 2: h' falling through 0), f >= 0
- * (dir 3: h' rising through 0); lo is not reached, hi is. Narrow it to
- * adjacent doubles (or 200 steps) and return hi, the first time known to be
- * reached. Regula falsi
- * (Illinois) alternating with bisection: fast on these smooth monotone
- * pieces, and never slower than halving every second step. */
-static double bracket(const gap_t *g, double (*f)(const gap_t *, double), double lo, double hi, int dir)
-{
-	double flo = f(g, lo), fhi = f(g, hi);
-	int side = 0;
-	for (int k = 0; k < 200; k++) {
-		double mid = 0.5 * (lo + hi);
-		if (!(mid > lo && mid < hi))
-			break;   /* adjacent doubles */
-		double x = mid;
-		if ((k & 1) == 0 && flo != fhi) {
-			x = lo + (hi - lo) * (flo / (flo - fhi));
-			if (!(x > lo && x < hi))
-				x = mid;
-		}
-		double fx = f(g, x);
-		int below = dir == 1 ? fx <= 0.0 : dir == 2 ? fx < 0.0 : fx >= 0.0;
-		if (below) {
-			hi = x, fhi = fx;
-			if (side == -1) flo *= 0.5;   /* Illinois: the stale end loses weight */
-			side = -1;
-		} else {
-			lo = x, flo = fx;
-			if (side == 1) fhi *= 0.5;
-			side = 1;
-		}
-	}
-	return hi;
-}
-
-/* First contact in [a, b], on which h is concave (concave = 1: h' does not
- * increase) or convex; INFINITY if none. */
-static double piece(const gap_t *g, double a, double b, int concave)
-{
-	double ha = h(g, a), dha = dh(g, a);
-	if (concave) {
-		if (dha >= 0.0) {
-			/* rising at a; h' only falls: find where it turns */
-			if (dh(g, b) >= 0.0)
-				return INFINITY;
-			a = bracket(g, dh, a, b, 2);
-			ha = h(g, a);
-		}
-		/* h' < 0 from a on: h falls */
-		if (ha <= 0.0)
-			return a;
-		if (h(g, b) > 0.0)
-			return INFINITY;
-		return bracket(g, h, a, b, 1);
-	}
-	/* convex: h' only rises; an approach can only be at the start */
-	if (dha >= 0.0)
-		return INFINITY;
-	if (ha <= 0.0)
-		return a;
-	double m = b;
-	if (dh(g, b) >= 0.0)
-		m = bracket(g, dh, a, b, 3);   /* h' turns at m: the lowest point */
-	if (h(g, m) > 0.0)
-		return INFINITY;
-	return bracket(g, h, a, m, 1);
 }
 
 double walltime_vibrating(double d, double u, double gam, double A, double omega, double theta0, double horizon)
@@ -139,7 +73,7 @@ double walltime_vibrating(double d, double u, double gam, double A, double omega
 		}
 		if (b > a) {
 			int concave = d2h(&g, 0.5 * (a + b)) <= 0.0;
-			double t = piece(&g, a, b, concave);
+			double t = roots_piece(h, dh, &g, a, b, concave);
 			if (t < INFINITY)
 				return t;
 		} else if (a == 0.0 && b == 0.0) {
