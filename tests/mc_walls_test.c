@@ -393,6 +393,107 @@ static void test_rest(void)
 	dsmc_destroy(d);
 }
 
+/* The seed-000 gravity box (A12, Figs 2.6/2.7), from its preset: 100
+ * inelastic disks (d = 0.001, e = 0.9) fall in a 0.02 x 0.04 box. The seed:
+ * all methods agree early; DSMC, with no excluded volume, piles every
+ * particle onto the floor; HSMC's full cells keep a bed, near the exact
+ * (ED) one, lower since particles sink to the bottom of their cells. Here
+ * R = 8 seeds per method; at each time the methods' means are compared
+ * with the standard error of the difference from the seed-to-seed spread.
+ * - t = 0.05 (before the gas reaches the floor in bulk): |m - ed| < 4 SE.
+ * - late (mean over t = 0.4, 0.45, 0.5): ED's bed is >= 4 rows of 20
+ *   disks (centre-of-mass height > 4 radii); DSMC's is on the floor
+ *   (height < 1.3 radii: a monolayer of overlapping points would be 1);
+ *   HSMC's height exceeds DSMC's by 4 SE and more than 1.5 times, and HSMC
+ *   is closer to ED than DSMC is (by 4 SE). ED's TC model (tc = 1e-4 in
+ *   the preset) keeps it from collapsing within t = 0.5 (the seed's ED
+ *   stopped at 0.3); a seed that does not reach the time fails the test. */
+static void test_gravity_box(void)
+{
+	char path[1024], err[512] = "";
+	const char *src = getenv("SRCDIR");
+	snprintf(path, sizeof path, "%s/presets/gravity-box-2d.json", src && *src ? src : ".");
+	FILE *f = fopen(path, "r");
+	static char text[8192];
+	size_t len = f ? fread(text, 1, sizeof text - 1, f) : 0;
+	if (f)
+		fclose(f);
+	text[len] = '\0';
+	enum { R = 8, K = 10 };
+	static const scene_method_t methods[3] = { SCENE_METHOD_ED, SCENE_METHOD_DSMC, SCENE_METHOD_HSMC };
+	double h[3][K][R];
+	int good = len > 0;
+	scene_t sc;
+	for (int m = 0; good && m < 3; m++)
+		for (int r = 0; good && r < R; r++) {
+			if (scene_parse(text, len, &sc, err, sizeof err) != SCENE_OK) {
+				good = 0;
+				break;
+			}
+			sc.method = methods[m];
+			sc.seed = 100 + (uint64_t)r;
+			int e;
+			ed_t *ed = m == 0 ? ed_create(&sc, &e, err, sizeof err) : NULL;
+			dsmc_t *d = m ? dsmc_create(&sc, 0, &e, err, sizeof err) : NULL;
+			if (!ed && !d) {
+				good = 0;
+				break;
+			}
+			for (int k = 0; k < K; k++) {
+				double t = 0.05 * (k + 1);
+				if (ed) {
+					ed_sample_t sm;
+					ed_advance(ed, t, UINT64_MAX, 50000000);
+					ed_totals(ed, &sm);
+					if (ed_time(ed) < t) {
+						snprintf(err, sizeof err, "ed seed %d stopped at t = %g", r, ed_time(ed));
+						good = 0;
+					}
+					h[m][k][r] = sm.com_height;
+				} else {
+					dsmc_sample_t sm;
+					dsmc_advance(d, t, UINT64_MAX, UINT64_MAX);
+					dsmc_totals(d, &sm);
+					h[m][k][r] = sm.com_height;
+				}
+			}
+			ed_destroy(ed);
+			dsmc_destroy(d);
+		}
+	if (!good) {
+		ok(0, "gravity box from %s: %s", path, err);
+		return;
+	}
+	double mean[3][K], se[3][K], late[3], late_se[3];
+	for (int m = 0; m < 3; m++) {
+		double lr[R];
+		for (int r = 0; r < R; r++)
+			lr[r] = (h[m][7][r] + h[m][8][r] + h[m][9][r]) / 3;
+		mean_se(lr, R, &late[m], &late_se[m]);
+		for (int k = 0; k < K; k++)
+			mean_se(h[m][k], R, &mean[m][k], &se[m][k]);
+		diag("%s: centre-of-mass height (1e-3) at t = 0.05..0.5: %.2f %.2f %.2f %.2f %.2f %.2f %.2f %.2f %.2f %.2f",
+		     scene_method_name(methods[m]), 1e3 * mean[m][0], 1e3 * mean[m][1], 1e3 * mean[m][2], 1e3 * mean[m][3],
+		     1e3 * mean[m][4], 1e3 * mean[m][5], 1e3 * mean[m][6], 1e3 * mean[m][7], 1e3 * mean[m][8],
+		     1e3 * mean[m][9]);
+	}
+	const double rad = sc.radius;
+	for (int m = 1; m < 3; m++) {
+		double sd = sqrt(se[0][0] * se[0][0] + se[m][0] * se[m][0]);
+		ok(fabs(mean[m][0] - mean[0][0]) < 4 * sd, "gravity box t = 0.05: %s %.4g, ed %.4g (4 SE = %.2g)",
+		   scene_method_name(methods[m]), mean[m][0], mean[0][0], 4 * sd);
+	}
+	ok(late[0] > 4 * rad, "gravity box late: ed keeps a bed, height %.4g > 4 radii", late[0]);
+	ok(late[1] < 1.3 * rad, "gravity box late: dsmc piles onto the floor, height %.4g < 1.3 radii", late[1]);
+	double s12 = sqrt(late_se[1] * late_se[1] + late_se[2] * late_se[2]);
+	double s02 = sqrt(late_se[0] * late_se[0] + late_se[2] * late_se[2]);
+	double s01 = sqrt(late_se[0] * late_se[0] + late_se[1] * late_se[1]);
+	ok(late[2] > late[1] + 4 * s12 && late[2] > 1.5 * late[1],
+	   "gravity box late: hsmc keeps excluded volume, height %.4g vs dsmc %.4g", late[2], late[1]);
+	ok(fabs(late[2] - late[0]) + 4 * (s02 + s01) < fabs(late[1] - late[0]),
+	   "gravity box late: hsmc (%.4g) is closer to ed (%.4g) than dsmc (%.4g) is", late[2], late[0], late[1]);
+}
+
 int main(void)
 {
 	test_refusals();
@@ -407,6 +508,7 @@ int main(void)
 	test_thermal("dsmc");
 	test_thermal("hsmc");
 	test_barometric();
+	test_gravity_box();
 	plan(tap_n);
 	return done_testing();
 }

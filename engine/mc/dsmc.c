@@ -698,13 +698,22 @@ static void local_chi(struct dsmc *d, const int D)
  * (an energy source under gravity: the offsets keep the pair's centre of
  * mass, hence its potential energy, only when both move). */
 static ALWAYS_INLINE int offset_fits(const struct dsmc *d, const double *xi, const double *xj, const double *sn,
-                                     const int D)
+                                     const int D, uint32_t c)
 {
-	for (int a = 0; a < D; a++)
+	double yi[3], yj[3];
+	for (int a = 0; a < D; a++) {
 		if (d->walled[a] && (xi[a] + sn[a] < d->lo[a] || xi[a] + sn[a] > d->hi[a] ||
 		                     xj[a] - sn[a] < d->lo[a] || xj[a] - sn[a] > d->hi[a]))
 			return 0;
-	return 1;
+		yi[a] = wrap(xi[a] + sn[a], d->L[a]);
+		yj[a] = wrap(xj[a] - sn[a], d->L[a]);
+	}
+	if (!d->hsmc)
+		return 1;
+	/* hsmc: nor may it carry a partner into another cell that is full */
+	uint32_t ci = cell_of(d, yi, D), cj = cell_of(d, yj, D);
+	return !((ci != c && d->start[ci + 1] - d->start[ci] >= d->nfull) ||
+	         (cj != c && d->start[cj + 1] - d->start[cj] >= d->nfull));
 }
 
 static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const int B)
@@ -815,7 +824,7 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 				double *xi = vi - D, *xj = vj - D, sn[3];
 				for (int a = 0; a < D; a++)
 					sn[a] = sigma * nrm[a];
-				if (!B || offset_fits(d, xi, xj, sn, D))
+				if (!B || offset_fits(d, xi, xj, sn, D, (uint32_t)c))
 					for (int a = 0; a < D; a++) {
 						xi[a] = wrap(xi[a] + sn[a], d->L[a]);   /* walled axes: inside, wrap is the identity */
 						xj[a] = wrap(xj[a] - sn[a], d->L[a]);
