@@ -49,16 +49,17 @@ int main(int argc, char **argv)
 	dsmc_advance(d, INFINITY, UINT64_MAX, 2);
 	uint64_t m0 = dsmc_moves(d), c0 = dsmc_collisions(d);
 	double t0 = now();
+	clock_t c_0 = clock();
 	dsmc_advance(d, INFINITY, UINT64_MAX, (uint64_t)steps);
-	double w = now() - t0;
+	double w = now() - t0, cpu = (double)(clock() - c_0) / CLOCKS_PER_SEC;
 	uint64_t moves = dsmc_moves(d) - m0, coll = dsmc_collisions(d) - c0;
 	int cells[3];
 	dsmc_cells(d, cells);
 	printf("{\"method\":\"%s\",\"correction\":\"%s\",\"dim\":%d,\"n\":%ld,\"phi\":%g,\"restitution\":%g,"
-	       "\"steps\":%ld,\"seconds\":%.3f,\"moves_per_second\":%.4g,\"collisions_per_second\":%.4g,"
+	       "\"steps\":%ld,\"seconds\":%.3f,\"cpu_seconds\":%.6f,\"moves\":%llu,\"moves_per_second\":%.4g,\"collisions_per_second\":%.4g,"
 	       "\"bytes_per_particle\":%.1f,\"cells\":[%d,%d,%d]}\n",
-	       method, corr, dim, n, phi, e, steps, w, moves / w, coll / w, (double)dsmc_memory(d) / n, cells[0],
-	       cells[1], cells[2]);
+	       method, corr, dim, n, phi, e, steps, w, cpu, (unsigned long long)moves, moves / w, coll / w,
+	       (double)dsmc_memory(d) / n, cells[0], cells[1], cells[2]);
 	dsmc_destroy(d);
 	return 0;
 }

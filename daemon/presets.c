@@ -22,6 +22,9 @@ static const struct { const char *name, *description; } descriptions[] = {
 	                                            "-+0.5: steady temperature and wall shear force (Bagnold: F ~ v^2)"},
 	{.name = "thermostat-balance-2d", .description = "4,000 disks at phi=0.65, e=0.97, held at T=0.02 by seed 001's "
 	                                                 "stochastic thermostat (T_th=0.0248, interval 3.48): thermostat balance"},
+	{.name = "gravity-box-2d", .description = "100 disks (d=0.001, e=0.9) falling in a 0.02 x 0.04 box under gravity "
+	                                          "(seed 000 Figs 2.6/2.7) with hsmc: centre-of-mass height; switch method "
+	                                          "to ed or dsmc (and drop the hsmc object) to compare: dsmc piles onto the floor"},
 };
 
 static const size_t npresets = sizeof(presets_embedded) / sizeof(presets_embedded[0]);

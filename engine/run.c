@@ -114,6 +114,9 @@ static void eng_sample(run_t *rc, smp_t *o)
 		o->interval_collisions = sm.interval_collisions;
 		o->vmax_raised = sm.vmax_raised, o->cell_collisions = sm.cell_collisions;
 		o->rejected_moves = sm.rejected_moves;
+		o->wall_collisions = sm.wall_collisions;
+		memcpy(o->wall_impulse, sm.wall_impulse, sizeof(o->wall_impulse));
+		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
 	}
 }
 
@@ -140,6 +143,8 @@ static void eng_totals(const run_t *rc, smp_t *o)
 		o->events = sm.moves, o->collisions = sm.collisions;
 		o->vmax_raised = sm.vmax_raised, o->cell_collisions = sm.cell_collisions;
 		o->rejected_moves = sm.rejected_moves;
+		o->wall_collisions = sm.wall_collisions;
+		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
 	}
 }
 

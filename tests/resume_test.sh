@@ -179,12 +179,36 @@ cat >"$tmp/3d-hsmc-kill.json" <<'JSON'
  "hsmc":{"cell_size":2}}
 JSON
 
+# dsmc/hsmc with walls and gravity: wall counters and impulses, and the
+# random draws of thermal and rough walls, are state too.
+cat >"$tmp/2d-hsmc-walls.json" <<'JSON'
+{"method":"hsmc","dimensions":2,"particles":{"count":2000,"volume_fraction":0.2,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9},
+ "boundaries":{"y":{"type":"walls","lower":{"type":"rough","probability":0.3,"restitution":0.8},
+   "upper":{"type":"thermal","temperature":1,"accommodation":0.5,"velocity":[0.2,0]}},
+   "x":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"moving","velocity":[0,0.3]}}},
+ "gravity":[0,-0.05],"run":{"seed":43,"until":{"time":30}},
+ "output":{"every":{"time":1.5},"observables":["kinetic_energy","wall_force","center_of_mass_height","potential_energy"],
+   "snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":7}}},
+ "hsmc":{"cell_size":2}}
+JSON
+cat >"$tmp/3d-dsmc-pipe.json" <<'JSON'
+{"method":"dsmc","dimensions":3,"particles":{"count":2000,"volume_fraction":0.05,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.95},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"rough","probability":0.1},"upper":{"type":"rough","probability":0.1}},
+   "y":{"type":"walls","lower":{"type":"thermal","temperature":0.5},"upper":{"type":"specular","restitution":0.9}}},
+ "gravity":[0,0,-0.02],"run":{"seed":44,"until":{"time":40}},
+ "output":{"every":{"time":2},"observables":["kinetic_energy","momentum","wall_force"],
+   "snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":9}}}}
+JSON
+
 ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 	"$ENGINE" run "$tmp/$1.json" --out "$tmp/$1.ref" >/dev/null 2>"$tmp/$1.ref.err"
 }
 
 # (a) checkpoint at simulated time T, resume: identical to the uninterrupted run.
-for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open 3d-rough-drive 2d-rough-noise; do
+for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open 3d-rough-drive \
+	2d-rough-noise 2d-hsmc-walls 3d-dsmc-pipe; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

@@ -8,9 +8,22 @@
 #include "dsmc.h"
 #include "rng.h"
 #include "lattice.h"
+#include "ed/walltime.h"
 
 #define PI 3.14159265358979323846
 #define ALWAYS_INLINE inline __attribute__((always_inline))
+/* Wall hits in one step's flight beyond which a particle rests on the wall
+ * for the rest of the step (an inelastic bounce series under gravity is
+ * infinite in finite time; an elastic one with v_n ~ 0 is as long). */
+#define MAX_WALL_HITS 64
+
+/* A wall's rule for dsmc/hsmc (scene.h, scene_wall_t; the same rules as ed's). */
+typedef struct {
+	int type;                      /* scene_wall_type_t */
+	double r, acc, p, beta;        /* restitution; thermal accommodation; rough probability; moving beta */
+	double sv;                     /* thermal: sqrt(T_w / m) */
+	double u[3];                   /* moving, thermal: wall velocity (tangential) */
+} mcwall_t;
 
 struct dsmc {
 	int dim, hsmc, cba;
@@ -21,6 +34,7 @@ struct dsmc {
 	int local_chi;                 /* chi per cell from the local volume fraction (chic) */
 	double nu_cap;                 /* local volume fraction is capped here (chi diverges at 1) */
 	double fcoef;                  /* collision frequency = fcoef * sqrt(T) */
+	double dt_grav;                /* adaptive step's bound under gravity (layout()) */
 	double dt_fixed, cps;          /* one of them is > 0 */
 
 	/* cells */
@@ -55,6 +69,17 @@ struct dsmc {
 
 	double *bcount;                /* dsmc_count_impacts(): impact-parameter histogram, or NULL */
 	int bnb;
+	/* Bounded scenes (walls, gravity; all zero in a periodic box without
+	 * gravity, which runs the original step: see step_dim()'s B). */
+	int bounded;                   /* any wall or gravity */
+	int walled[3];                 /* axis with walls at both ends */
+	int has_walls;                 /* any walled axis */
+	double g[3], gnorm;            /* uniform acceleration, |g| */
+	double lo[3], hi[3];           /* walled axes: the contact planes of the centres, one radius inside the walls */
+	mcwall_t wall[6];              /* wall w = 2 axis + end (0 lower, 1 upper) */
+	uint64_t wall_collisions, wall_hits[6], rested;
+	double wall_impulse[6][3];     /* momentum given to each wall over the interval */
+	void (*step)(struct dsmc *, double);   /* chosen at load: dimension and periodic or bounded */
 };
 
 /* ---- kinetic theory ------------------------------------------------------ */
@@ -244,7 +269,7 @@ static ALWAYS_INLINE void cell_return(struct dsmc *d, uint32_t k0, uint32_t n, c
  * the face normal; the macroscopic energy lost goes back into the thermal
  * motion of the two cells in proportion to their masses, so a cell
  * collision conserves momentum and energy exactly. */
-static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D)
+static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int B)
 {
 	uint32_t mark = (uint32_t)d->steps + 1;
 	int colour = (int)(d->steps & 1);
@@ -270,6 +295,8 @@ static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D)
 				stride *= (size_t)d->nc[b];
 			for (int sgn = -1; sgn <= 1; sgn += 2) {
 				int cj = ci[a] + sgn;
+				if (B && d->walled[a] && (cj < 0 || cj >= d->nc[a]))
+					continue;   /* a wall, not a neighbour */
 				cj = cj < 0 ? d->nc[a] - 1 : cj >= d->nc[a] ? 0 : cj;
 				size_t nb = c + ((size_t)cj - (size_t)ci[a]) * stride;
 				if (nb == c)
@@ -333,6 +360,187 @@ static ALWAYS_INLINE double move(struct dsmc *d, double dt, const int D)
 			d->cnt[cn]++;
 		}
 	}
+	return 0.5 * d->mass * ek;
+}
+
+/* ---- bounded scenes: walls and gravity ------------------------------------ */
+
+/* Velocity v of a particle that meets wall w: the wall's rule (as ed's
+ * wall_rule(): normal restitution r_w; thermal: with probability
+ * accommodation re-emitted from the wall's flux-weighted Maxwellian, a
+ * Rayleigh normal and Gaussian tangential speeds about the wall velocity;
+ * rough: tangential velocity reversed with probability p; moving:
+ * v_t' - u = -beta (v_t - u)). Random numbers from the engine's stream
+ * (the flights run in a fixed order). Returns the inward normal speed. */
+static ALWAYS_INLINE double wall_rule(struct dsmc *d, int w, double *v, const int D)
+{
+	const mcwall_t *W = &d->wall[w];
+	const int a = w >> 1;
+	const double s = (w & 1) ? -1.0 : 1.0;
+	double vn = s * v[a];   /* <= 0: approaching */
+	switch (W->type) {
+	case SCENE_WALL_THERMAL:
+		if (rng_uniform(&d->rng) < W->acc) {
+			vn = W->sv * sqrt(-2.0 * log(1.0 - rng_uniform(&d->rng)));
+			for (int k = 0; k < D; k++)
+				if (k != a)
+					v[k] = W->u[k] + W->sv * rng_gauss(&d->rng);
+		} else {
+			vn = -W->r * vn;
+		}
+		break;
+	case SCENE_WALL_ROUGH:
+		vn = -W->r * vn;
+		if (rng_uniform(&d->rng) < W->p)
+			for (int k = 0; k < D; k++)
+				if (k != a)
+					v[k] = -v[k];
+		break;
+	case SCENE_WALL_MOVING:
+		vn = -W->r * vn;
+		for (int k = 0; k < D; k++)
+			if (k != a)
+				v[k] = W->u[k] - W->beta * (v[k] - W->u[k]);
+		break;
+	default:
+		vn = -W->r * vn;
+		break;
+	}
+	v[a] = s * vn;
+	return vn;
+}
+
+/* Wall bookkeeping of one flight, committed only when the move is
+ * accepted (hsmc rejects moves into full cells: then nothing happened). */
+typedef struct {
+	unsigned touched;              /* bit per wall */
+	uint32_t hits[6];
+	uint32_t rested;
+	double imp[6][3];
+} flight_log_t;
+
+/* Exact flight of one particle over dt under constant acceleration g with
+ * walls: free parabolas between wall hits, each hit the earliest contact of
+ * the centre with a contact plane (walltime_plane(): a quadratic root,
+ * cancellation-free, never a missed or repeated contact for grazing and
+ * resting particles), the rest of the flight continuing from the wall with
+ * the velocity its rule gives. A particle that the wall leaves with no
+ * inward speed while gravity presses it there, or that hits walls
+ * MAX_WALL_HITS times in one flight, rests on that wall for the rest of
+ * the flight (normal velocity and acceleration 0: the wall carries it).
+ * x, v are updated in place (periodic axes wrapped). Returns the integral
+ * of |v|^2 over the flight (exact: |v + g t|^2 is a quadratic in t). */
+static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double dt, flight_log_t *lg, const int D)
+{
+	double left = dt, integ = 0, ga[3];
+	int pinned = 0;
+	for (int a = 0; a < D; a++)
+		ga[a] = d->g[a];
+	for (int hits = 0;; hits++) {
+		double th = left;
+		int w = -1;
+		for (int a = 0; a < D; a++) {
+			if (!d->walled[a] || (pinned >> a & 1))
+				continue;
+			double t0 = walltime_plane(x[a] - d->lo[a], v[a], ga[a]);
+			if (t0 < th)
+				th = t0, w = 2 * a;
+			double t1 = walltime_plane(d->hi[a] - x[a], -v[a], -ga[a]);
+			if (t1 < th)
+				th = t1, w = 2 * a + 1;
+		}
+		for (int a = 0; a < D; a++) {
+			integ += th * (v[a] * v[a] + th * (v[a] * ga[a] + th * ga[a] * ga[a] / 3));
+			x[a] += th * (v[a] + 0.5 * ga[a] * th);
+			v[a] += ga[a] * th;
+		}
+		left -= th;
+		if (w < 0)
+			break;
+		const int a = w >> 1;
+		x[a] = (w & 1) ? d->hi[a] : d->lo[a];
+		double before[3];
+		for (int k = 0; k < D; k++)
+			before[k] = v[k];
+		double vn = wall_rule(d, w, v, D);
+		for (int k = 0; k < D; k++)
+			lg->imp[w][k] += d->mass * (before[k] - v[k]);
+		lg->hits[w]++;
+		lg->touched |= 1u << w;
+		double press = (w & 1) ? ga[a] : -ga[a];   /* > 0: gravity pushes it onto this wall */
+		if ((vn <= 0 && press > 0) || hits + 1 >= MAX_WALL_HITS) {
+			/* resting: the wall takes the normal momentum and the weight
+			 * for the rest of the flight */
+			lg->imp[w][a] += d->mass * (v[a] + ga[a] * left);
+			v[a] = 0;
+			ga[a] = 0;
+			pinned |= 1 << a;
+			lg->rested++;
+		} else if (vn <= 0) {
+			v[a] = 0;   /* stays at the wall, no force on it */
+		}
+		if (!(left > 0))
+			break;
+	}
+	for (int a = 0; a < D; a++)
+		if (!d->walled[a])
+			x[a] = wrap(x[a], d->L[a]);
+	return integ;
+}
+
+/* move() for bounded scenes: the exact flight() of each particle; hsmc
+ * rejects moves into full cells as move() does (the particle keeps its
+ * position and velocity: no acceleration that step, seed 000 sec. 2.3.2).
+ * Adds the integral of E_kin dt over the step to *ekint; returns E_kin at
+ * the end of the flights. */
+static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekint, const int D)
+{
+	const int S = 2 * D;
+	double ek = 0, integ = 0;
+	flight_log_t lg;
+	memset(&lg, 0, sizeof lg);
+	memset(d->cnt, 0, (d->ncells + 1) * sizeof(uint32_t));
+	for (size_t c = 0; c < d->ncells; c++) {
+		for (uint32_t k = d->start[c]; k < d->start[c + 1]; k++) {
+			double *x = &d->p[(size_t)k * S], *v = x + D, xn[3], vn[3];
+			for (int a = 0; a < D; a++)
+				xn[a] = x[a], vn[a] = v[a];
+			double in = flight(d, xn, vn, dt, &lg, D);
+			uint32_t cn = cell_of(d, xn, D);
+			if (d->hsmc && cn != c && d->start[cn + 1] - d->start[cn] >= d->nfull) {
+				d->rejected++;
+				cn = (uint32_t)c;
+				double v2 = 0;   /* unchanged velocity over the step */
+				for (int a = 0; a < D; a++)
+					v2 += v[a] * v[a];
+				in = v2 * dt;
+				ek += v2;
+				if (lg.touched)
+					memset(&lg, 0, sizeof lg);
+			} else {
+				for (int a = 0; a < D; a++) {
+					x[a] = xn[a], v[a] = vn[a];
+					ek += vn[a] * vn[a];
+				}
+				if (lg.touched) {
+					for (int w = 0; w < 6; w++) {
+						if (!(lg.touched >> w & 1))
+							continue;
+						d->wall_hits[w] += lg.hits[w];
+						d->wall_collisions += lg.hits[w];
+						for (int b = 0; b < D; b++)
+							d->wall_impulse[w][b] += lg.imp[w][b];
+					}
+					d->rested += lg.rested;
+					memset(&lg, 0, sizeof lg);
+				}
+			}
+			integ += in;
+			d->cell[k] = cn;
+			d->cnt[cn]++;
+		}
+	}
+	*ekint += 0.5 * d->mass * integ;
 	return 0.5 * d->mass * ek;
 }
 
@@ -484,7 +692,31 @@ static void local_chi(struct dsmc *d, const int D)
 }
 
 /* Collisions in every cell (seed 000 eqs. 2.34-2.38, acceptance corrected). */
-static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D)
+/* CBA offset in a bounded scene: 0 when a partner would leave the contact
+ * planes of a walled axis, and the pair then keeps its places. Reflecting
+ * or clamping it instead would raise the pair's centre of mass off a floor
+ * (an energy source under gravity: the offsets keep the pair's centre of
+ * mass, hence its potential energy, only when both move). */
+static ALWAYS_INLINE int offset_fits(const struct dsmc *d, const double *xi, const double *xj, const double *sn,
+                                     const int D, uint32_t c)
+{
+	double yi[3], yj[3];
+	for (int a = 0; a < D; a++) {
+		if (d->walled[a] && (xi[a] + sn[a] < d->lo[a] || xi[a] + sn[a] > d->hi[a] ||
+		                     xj[a] - sn[a] < d->lo[a] || xj[a] - sn[a] > d->hi[a]))
+			return 0;
+		yi[a] = wrap(xi[a] + sn[a], d->L[a]);
+		yj[a] = wrap(xj[a] - sn[a], d->L[a]);
+	}
+	if (!d->hsmc)
+		return 1;
+	/* hsmc: nor may it carry a partner into another cell that is full */
+	uint32_t ci = cell_of(d, yi, D), cj = cell_of(d, yj, D);
+	return !((ci != c && d->start[ci + 1] - d->start[ci] >= d->nfull) ||
+	         (cj != c && d->start[cj + 1] - d->start[cj] >= d->nfull));
+}
+
+static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const int B)
 {
 	const int S = 2 * D;
 	const double coef = (d->local_chi ? 1.0 : d->chi) * d->sigma_t * dt / (2 * d->vcell);
@@ -589,11 +821,14 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D)
 			if (offset) {
 				/* CBA: each partner moves one diameter along its own
 				 * momentum change (seed 000 sec. 2.4.2). */
-				double *xi = vi - D, *xj = vj - D;
-				for (int a = 0; a < D; a++) {
-					xi[a] = wrap(xi[a] + sigma * nrm[a], d->L[a]);
-					xj[a] = wrap(xj[a] - sigma * nrm[a], d->L[a]);
-				}
+				double *xi = vi - D, *xj = vj - D, sn[3];
+				for (int a = 0; a < D; a++)
+					sn[a] = sigma * nrm[a];
+				if (!B || offset_fits(d, xi, xj, sn, D, (uint32_t)c))
+					for (int a = 0; a < D; a++) {
+						xi[a] = wrap(xi[a] + sn[a], d->L[a]);   /* walled axes: inside, wrap is the identity */
+						xj[a] = wrap(xj[a] - sn[a], d->L[a]);
+					}
 			}
 		}
 		d->rem[c] = (float)(b * vmax);
@@ -604,21 +839,31 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D)
 	d->candidates += ncand;
 }
 
-static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D)
+/* One step; B = 1 for bounded scenes (walls, gravity): exact flights and
+ * wall-aware neighbours and offsets. B = 0 compiles to the periodic step
+ * with no trace of walls (the variant is chosen once, at load). */
+static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const int B)
 {
 	if (d->hsmc)
-		cell_collisions(d, D);
-	double ek = move(d, dt, D);
+		cell_collisions(d, D, B);
+	double ek;
+	if (B) {
+		ek = move_bounded(d, dt, &d->ekin_int, D);
+	} else {
+		ek = move(d, dt, D);
+		d->ekin_int += ek * dt;
+	}
 	sort(d, D);
-	d->ekin_int += ek * dt;
 	d->e_loss = 0;
-	collide(d, dt, D);
+	collide(d, dt, D, B);
 	d->ekin_est = ek - d->e_loss;
 	d->steps++;
 }
 
-static void step2(struct dsmc *d, double dt) { step_dim(d, dt, 2); }
-static void step3(struct dsmc *d, double dt) { step_dim(d, dt, 3); }
+static void step2(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0); }
+static void step3(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0); }
+static void step2b(struct dsmc *d, double dt) { step_dim(d, dt, 2, 1); }
+static void step3b(struct dsmc *d, double dt) { step_dim(d, dt, 3, 1); }
 
 /* Initial sort (positions only). */
 static void initial_sort(struct dsmc *d)
@@ -664,6 +909,8 @@ int dsmc_advance_soft(dsmc_t *d, double t_stop, double t_soft, uint64_t max_coll
 		if (dt <= 0) {
 			double T = 2 * d->ekin_est / (d->dim * (double)d->n);
 			dt = T > 0 ? d->cps / (d->fcoef * sqrt(T)) : INFINITY;
+			if (d->gnorm > 0 && !(dt <= d->dt_grav))
+				dt = d->dt_grav;
 		}
 		if (!isfinite(dt) && !isfinite(t_stop))
 			return DSMC_QUIESCENT;
@@ -672,16 +919,71 @@ int dsmc_advance_soft(dsmc_t *d, double t_stop, double t_soft, uint64_t max_coll
 			dt = t_stop - d->t;
 			last = 1;
 		}
-		if (d->dim == 2)
-			step2(d, dt);
-		else
-			step3(d, dt);
+		d->step(d, dt);
 		d->t = last ? t_stop : d->t + dt;
 	}
 	return DSMC_OK;
 }
 
 /* ---- setup ------------------------------------------------------------------- */
+
+/* Walls and gravity of scene s in d (after the cell grid), and the step
+ * variant: the periodic one unless the scene has walls or gravity. The
+ * scene's wall kinds dsmc/hsmc cannot honour are refused here (naming the
+ * key), so that scene_parse() refuses them too. */
+static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
+{
+	static const char *const axis[3] = { "x", "y", "z" }, *const end[2] = { "lower", "upper" };
+	const char *method = d->hsmc ? "hsmc" : "dsmc";
+	d->has_walls = scene_has_walls(s);
+	d->bounded = d->has_walls || scene_has_gravity(s);
+	double g2 = 0, hmin = INFINITY;
+	for (int a = 0; a < d->dim; a++) {
+		d->g[a] = s->gravity[a];
+		g2 += d->g[a] * d->g[a];
+		hmin = fmin(hmin, d->h[a]);
+		d->walled[a] = s->boundary[a].walled;
+		if (!d->walled[a])
+			continue;
+		/* a particle touches a wall when its centre is one radius from it */
+		d->lo[a] = 0.5 * d->sigma;
+		d->hi[a] = d->L[a] - 0.5 * d->sigma;
+		for (int k = 0; k < 2; k++) {
+			const scene_wall_t *sw = &s->boundary[a].wall[k];
+			if (sw->type != SCENE_WALL_SPECULAR && sw->type != SCENE_WALL_THERMAL && sw->type != SCENE_WALL_ROUGH &&
+			    sw->type != SCENE_WALL_MOVING) {
+				if (msg && msglen)
+					snprintf(msg, msglen, "boundaries.%s.%s.type: \"%s\" walls are not supported by method \"%s\" "
+					         "(only \"ed\"); use \"specular\", \"thermal\", \"rough\" or \"moving\"", axis[a], end[k],
+					         sw->type == SCENE_WALL_VIBRATING ? "vibrating" : sw->type == SCENE_WALL_OPEN ? "open"
+					                                                                              : "these", method);
+				return DSMC_EINVAL;
+			}
+			mcwall_t *W = &d->wall[2 * a + k];
+			W->type = (int)sw->type;
+			W->r = sw->restitution;
+			W->acc = sw->accommodation;
+			W->p = sw->probability;
+			W->beta = sw->tangential_restitution;
+			W->sv = sw->type == SCENE_WALL_THERMAL ? sqrt(sw->temperature / s->mass) : 0.0;
+			for (int b = 0; b < 3; b++)
+				W->u[b] = b < d->dim && b != a ? sw->velocity[b] : 0.0;
+		}
+	}
+	if (scene_has_walls(s) && d->local_chi) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "%s.contact_value: \"local\" needs a periodic box (its cell blocks wrap), "
+			         "not available with walls yet; use \"global\"", method);
+		return DSMC_EINVAL;
+	}
+	d->gnorm = sqrt(g2);
+	/* Adaptive step under gravity: at most the time to fall collisions_per_step
+	 * of a cell from rest (a gas at T = 0 still falls, and a step should not
+	 * carry particles across many cells between collision steps). */
+	d->dt_grav = d->gnorm > 0 ? sqrt(2 * (d->cps > 0 ? d->cps : 0.2) * hmin / d->gnorm) : INFINITY;
+	d->step = d->dim == 2 ? (d->bounded ? step2b : step2) : (d->bounded ? step3b : step3);
+	return DSMC_OK;
+}
 
 /* Constants and the cell grid of scene s in d (no arrays): the checks a
  * scene must pass to start, shared by alloc() and dsmc_plan() so that a
@@ -736,7 +1038,7 @@ static int layout(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
 	d->nfull = (uint32_t)ceil(pr.max_volume_fraction * d->vcell / d->vp - 1e-9);
 	if (d->nfull < 2)
 		d->nfull = 2;
-	return DSMC_OK;
+	return layout_bounded(d, s, msg, msglen);
 }
 
 /* Memory and constants for scene s, no state (positions, velocities, RNG). */
@@ -820,7 +1122,8 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 	if (s->positions == SCENE_POS_RANDOM) {
 		for (uint32_t i = 0; i < d->n; i++)
 			for (int a = 0; a < d->dim; a++)
-				d->p[i * S + a] = wrap(rng_uniform(&d->rng) * d->L[a], d->L[a]);
+				d->p[i * S + a] = d->walled[a] ? d->lo[a] + rng_uniform(&d->rng) * (d->hi[a] - d->lo[a])
+				                               : wrap(rng_uniform(&d->rng) * d->L[a], d->L[a]);
 	} else {
 		/* A k^D grid; when N does not fill it the vacancies are spread over
 		 * the box (lattice.h), not left as an empty slab at the top. */
@@ -832,7 +1135,9 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 		for (uint32_t i = 0; i < d->n; i++) {
 			uint64_t r = lattice_fill_next(&fill);
 			for (int a = 0; a < d->dim; a++) {
-				d->p[i * S + a] = ((double)(r % k) + 0.5) * d->L[a] / (double)k;
+				double f = ((double)(r % k) + 0.5) / (double)k;
+				/* walled axes: the grid spans the contact planes */
+				d->p[i * S + a] = d->walled[a] ? d->lo[a] + f * (d->hi[a] - d->lo[a]) : f * d->L[a];
 				r /= k;
 			}
 		}
@@ -876,6 +1181,9 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 		d->steps = d->collisions = d->candidates = d->vmax_raised = 0;
 		d->cell_collisions = d->rejected = 0;
 		d->virial = d->ekin_int = 0;
+		d->wall_collisions = d->rested = 0;
+		memset(d->wall_hits, 0, sizeof d->wall_hits);
+		memset(d->wall_impulse, 0, sizeof d->wall_impulse);
 		d->ekin_est = ekin_exact(d, NULL);
 	}
 	return d;
@@ -903,6 +1211,27 @@ void dsmc_destroy(dsmc_t *d)
 	free(d);
 }
 
+/* Wall counters and, with gravity, the centre-of-mass height along -g and
+ * the potential energy -m sum g.r (scene coordinates, as ed reports them). */
+static void walls_out(const struct dsmc *d, dsmc_sample_t *out)
+{
+	const int D = d->dim, S = 2 * D;
+	out->wall_collisions = d->wall_collisions;
+	out->rested = d->rested;
+	memcpy(out->wall_hits, d->wall_hits, sizeof out->wall_hits);
+	out->com_height = out->potential_energy = NAN;
+	if (!(d->gnorm > 0))
+		return;
+	double sum[3] = {0, 0, 0}, gr = 0;
+	for (uint32_t k = 0; k < d->n; k++)
+		for (int a = 0; a < D; a++)
+			sum[a] += d->p[(size_t)k * S + a];
+	for (int a = 0; a < D; a++)
+		gr += d->g[a] * sum[a];
+	out->potential_energy = -d->mass * gr;
+	out->com_height = -gr / (d->gnorm * d->n);
+}
+
 void dsmc_sample(dsmc_t *d, dsmc_sample_t *out)
 {
 	memset(out, 0, sizeof(*out));
@@ -919,6 +1248,9 @@ void dsmc_sample(dsmc_t *d, dsmc_sample_t *out)
 	out->kinetic_energy = ekin_exact(d, out->momentum);
 	out->ekin_time_integral = d->ekin_int;
 	out->virial = d->virial;
+	walls_out(d, out);
+	memcpy(out->wall_impulse, d->wall_impulse, sizeof out->wall_impulse);
+	memset(d->wall_impulse, 0, sizeof d->wall_impulse);
 	d->t_sample = d->t;
 	d->coll_sample = d->collisions;
 	d->ekin_int = 0;
@@ -951,6 +1283,7 @@ void dsmc_totals(const dsmc_t *d, dsmc_sample_t *out)
 	out->cell_collisions = d->cell_collisions;
 	out->rejected_moves = d->rejected;
 	out->kinetic_energy = ekin_exact(d, out->momentum);
+	walls_out(d, out);
 }
 
 /* ---- state fields (checkpoints) ------------------------------------------
@@ -962,7 +1295,7 @@ void dsmc_totals(const dsmc_t *d, dsmc_sample_t *out)
  * estimate and the interval accumulators. Not stored: the sort scratch
  * cell, cnt (rewritten before they are read in every step) and v_max
  * (recomputed per cell and step from the velocities). */
-enum { F_SCALAR, F_PART, F_ID, F_START, F_REM, F_STAMP, F_RNG };
+enum { F_SCALAR, F_PART, F_ID, F_START, F_REM, F_STAMP, F_RNG, F_WALL, F_WHITS, F_WIMP };
 typedef struct {
 	const char *name;
 	ed_type_t type;
@@ -990,6 +1323,11 @@ static const dfield_t dfields[] = {
 	{ "ekin_int", ED_T_F64, F_SCALAR, offsetof(struct dsmc, ekin_int) },
 	{ "virial", ED_T_F64, F_SCALAR, offsetof(struct dsmc, virial) },
 	{ "coll_sample", ED_T_U64, F_SCALAR, offsetof(struct dsmc, coll_sample) },
+	/* scenes with walls only (as stamp for hsmc: field counts depend on the scene) */
+	{ "wall_collisions", ED_T_U64, F_WALL, offsetof(struct dsmc, wall_collisions) },
+	{ "wall_rested", ED_T_U64, F_WALL, offsetof(struct dsmc, rested) },
+	{ "wall_hits", ED_T_U64, F_WHITS, 0 },
+	{ "wall_impulse", ED_T_F64, F_WIMP, 0 },
 };
 #define N_DFIELDS (sizeof dfields / sizeof dfields[0])
 
@@ -1002,8 +1340,17 @@ static size_t dfield_count(const struct dsmc *d, const dfield_t *f)
 	case F_REM: return d->ncells;
 	case F_STAMP: return d->hsmc ? d->ncells : 0;
 	case F_RNG: return 4;
+	case F_WALL: return d->has_walls ? 1 : 0;
+	case F_WHITS: return d->has_walls ? 6 : 0;
+	case F_WIMP: return d->has_walls ? 18 : 0;
 	default: return 1;
 	}
+}
+
+/* Fields a scene's engine has (stamp: hsmc; wall state: scenes with walls). */
+static int dfield_present(const struct dsmc *d, const dfield_t *f)
+{
+	return f->kind == F_STAMP ? d->hsmc : f->kind >= F_WALL ? d->has_walls : 1;
 }
 
 static const dfield_t *dfield_find(const char *name)
@@ -1019,7 +1366,7 @@ int dsmc_fields(const dsmc_t *d, ed_field_t *out, int max)
 	int n = 0;
 	for (size_t k = 0; k < N_DFIELDS; k++) {
 		size_t count = dfield_count(d, &dfields[k]);
-		if (dfields[k].kind == F_STAMP && !d->hsmc)
+		if (!dfield_present(d, &dfields[k]))
 			continue;
 		if (n < max)
 			out[n] = (ed_field_t){dfields[k].name, dfields[k].type, count};
@@ -1031,7 +1378,7 @@ int dsmc_fields(const dsmc_t *d, ed_field_t *out, int max)
 int dsmc_field_get(const dsmc_t *d, const char *name, void *buf)
 {
 	const dfield_t *f = dfield_find(name);
-	if (!f || (f->kind == F_STAMP && !d->hsmc))
+	if (!f || !dfield_present(d, f))
 		return DSMC_EINVAL;
 	size_t count = dfield_count(d, f);
 	switch (f->kind) {
@@ -1040,6 +1387,8 @@ int dsmc_field_get(const dsmc_t *d, const char *name, void *buf)
 	case F_START: memcpy(buf, d->start, count * sizeof(uint32_t)); break;
 	case F_STAMP: memcpy(buf, d->stamp, count * sizeof(uint32_t)); break;
 	case F_RNG: memcpy(buf, d->rng.s, sizeof(d->rng.s)); break;
+	case F_WHITS: memcpy(buf, d->wall_hits, sizeof d->wall_hits); break;
+	case F_WIMP: memcpy(buf, d->wall_impulse, sizeof d->wall_impulse); break;
 	case F_REM:
 		for (size_t c = 0; c < count; c++)
 			((double *)buf)[c] = d->rem[c];   /* float -> double -> float is exact */
@@ -1052,7 +1401,7 @@ int dsmc_field_get(const dsmc_t *d, const char *name, void *buf)
 int dsmc_field_set(dsmc_t *d, const char *name, ed_type_t type, size_t count, const void *buf)
 {
 	const dfield_t *f = dfield_find(name);
-	if (!f || (f->kind == F_STAMP && !d->hsmc) || type != f->type || count != dfield_count(d, f))
+	if (!f || !dfield_present(d, f) || type != f->type || count != dfield_count(d, f))
 		return DSMC_EINVAL;
 	switch (f->kind) {
 	case F_PART: memcpy(d->p, buf, count * sizeof(double)); break;
@@ -1060,6 +1409,8 @@ int dsmc_field_set(dsmc_t *d, const char *name, ed_type_t type, size_t count, co
 	case F_START: memcpy(d->start, buf, count * sizeof(uint32_t)); break;
 	case F_STAMP: memcpy(d->stamp, buf, count * sizeof(uint32_t)); break;
 	case F_RNG: memcpy(d->rng.s, buf, sizeof(d->rng.s)); break;
+	case F_WHITS: memcpy(d->wall_hits, buf, sizeof d->wall_hits); break;
+	case F_WIMP: memcpy(d->wall_impulse, buf, sizeof d->wall_impulse); break;
 	case F_REM:
 		for (size_t c = 0; c < count; c++) {
 			double r = ((const double *)buf)[c];

@@ -10,7 +10,14 @@
  * Contract
  * - Pure computation: no I/O, no globals, no allocation after dsmc_create().
  * - Units are the scene's: diameter sigma = 2 * radius, mass m, k_B = 1,
- *   T = 2 E_kin / (D N). Periodic box.
+ *   T = 2 E_kin / (D N). Periodic box, or walls on some axes and a uniform
+ *   gravity (scene.h): then free flight is exact (parabolas, wall hits at
+ *   the roots of a quadratic, the rest of the flight reflected by the
+ *   wall's rule; a particle touches a wall when its centre is one radius
+ *   from it, as in ed) and the cells tile the box; collisions stay cell-local.
+ *   Walls: specular, thermal, rough, moving; vibrating ones are refused
+ *   (dsmc_plan(): "boundaries.AXIS.END.type: ..."). A scene without walls
+ *   and gravity runs the periodic step, which has no wall code at all.
  * - One step of length dt (operator splitting, seed 000 eq. 2.19):
  *   [hsmc only: coarse-grain cells, cell-cell pseudo-collisions, return of
  *   their lost energy as thermal motion]; free flight (hsmc: moves into
@@ -111,6 +118,15 @@ typedef struct {
 	double momentum[3];        /* total, now */
 	double ekin_time_integral; /* integral of E_kin dt over the interval */
 	double virial;             /* sum over collisions in the interval of (sigma n) . J */
+	/* Scenes with walls, as ed_sample_t: wall w = 2 axis + end (0 lower,
+	 * 1 upper); wall_impulse[w]: momentum given to wall w over the interval
+	 * (zero without walls). rested: flights that ended resting on a wall
+	 * (dsmc.c, flight()), total. */
+	uint64_t wall_collisions, wall_hits[6], rested;
+	double wall_impulse[6][3];
+	/* Scenes with gravity g: centre-of-mass height along -g (scene
+	 * coordinates) and potential energy -m sum g.r, now. NAN without gravity. */
+	double com_height, potential_energy;
 } dsmc_sample_t;
 
 /* Fill *out and start a new interval. Does not change the dynamics. */
