@@ -2,7 +2,7 @@
 # Build bench/ed_pair: this tree's engine against the event-driven engine of another tree (OLD: a git
 # revision, checked out to a temporary directory, or a source directory), linked into one program.
 # usage: bench/ed_pair.sh OLD [OUT]   (run from a configured and built source tree; OUT: /tmp/ed_pair)
-# Then: OUT DIM N PHI RESTITUTION WARMUP_CPP SEGMENT_CPP PAIRS
+# Then: OUT DIM N PHI RESTITUTION WARMUP_CPP SEGMENT_CPP PAIRS [new-first]
 set -eu
 old=$1
 out=${2:-/tmp/ed_pair}
