@@ -281,12 +281,25 @@ const OBS = ['walls', 'obstacles', 'outflow', 'height', 'energies', 'msd', 'diff
     ok(/^scene: /.test(bad) && (await page.textContent('#submit-msg')) === '', 'an error about the scene goes when the scene is edited: ' + bad);
 
     // Cancelling asks first: dismissed, the job runs on; accepted, it is cancelled.
+    // Its walls: until its first interval ends (in 1e7 time units) the only record, at time 0, has no wall pressure.
     await page.fill('#scene', JSON.stringify({ method: 'ed', dimensions: 2, particles: { count: 400, volume_fraction: 0.2 },
-      run: { seed: 1, until: { time: 1e9 } }, output: { every: { time: 1e7 } } }));   // rare records: the daemon keeps up
+      boundaries: { y: { type: 'walls', lower: { type: 'specular' }, upper: { type: 'specular' } } },
+      run: { seed: 1, until: { time: 1e9 } }, output: { every: { time: 1e7 }, observables: ['temperature', 'wall_force'] } }));   // rare records: the daemon keeps up
     await page.click('#submit-form button[type=submit]');
     await page.waitForFunction((i) => (document.getElementById('submit-msg').textContent.match(/^job (\d+)/) || [])[1] > i, nid,
       { timeout: 10000 });
     const cid = Number((await page.textContent('#submit-msg')).match(/^job (\d+)/)[1]);
+    await page.evaluate((i) => { location.hash = '#/job/' + i; }, cid);
+    await page.waitForFunction(() => !document.getElementById('panel-walls').hidden && !document.getElementById('plot-walls-nodata').hidden &&
+      document.getElementById('job-state').textContent === 'running' && document.getElementById('plot-energy-nodata').hidden, null, { timeout: 15000 })
+      .catch(() => {});
+    const wnd = await page.evaluate(() => ({ walls: !document.getElementById('panel-walls').hidden, nodata: document.getElementById('plot-walls-nodata').textContent,
+      shown: !document.getElementById('plot-walls-nodata').hidden, T: document.getElementById('plot-energy-nodata').hidden,
+      legend: [...document.querySelectorAll('#plot-walls .u-legend .u-label')].map((l) => l.textContent).slice(1) }));
+    ok(wnd.walls && wnd.shown && wnd.nodata === 'no data' && wnd.T && wnd.legend.join() === 'y.lower,y.upper',
+      'running job ' + cid + ' with walls, its first record only: "no data" on the wall pressure (legend y.lower, y.upper), not on T(t) ' + JSON.stringify(wnd));
+    await page.evaluate(() => { location.hash = '#/'; });
+    await page.waitForFunction(() => !document.getElementById('list-view').hidden, null, { timeout: 10000 });
     const button = '#jobs tbody tr[data-id="' + cid + '"] button';
     await page.waitForSelector(button, { timeout: 10000 });
     const asked = [];
