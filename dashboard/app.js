@@ -321,6 +321,7 @@
     if (!series) return;
     const { t, T, rate, cl } = series;
     noData('plot-energy', T); noData('plot-rate', rate); noData('plot-cluster', cl);
+    $('plot-energy').dataset.records = t.length;   // the progress records drawn (tests/browser_test.js counts them)
     drawObs();
     if (plots.length < 3) return;
     // log axes: drop t = 0 (the initial record) from the log-log plot
@@ -498,14 +499,18 @@
   }
   const fetchSeries = throttle(async () => {
     if (!series) return;
-    const id = series.job;
+    const id = series.job, s = series;
     try {
       const r = await api('GET', '/api/v1/jobs/' + id + '/progress?after=' + series.after);
-      if (!series || series.job !== id) return;
+      // the same page, not a later visit of the same job (whose series starts again)
+      if (series !== s) return;
       series.loaded = true;
       setError('job-msg', 'series', '');
       for (const rec of r.records) {
-        series.after = Math.max(series.after, rec.seq);
+        // A fetch can start while the previous one is still waiting for its answer (a slow daemon): both then
+        // bring the same records, and the second must not append them again.
+        if (rec.seq <= series.after) continue;
+        series.after = rec.seq;
         if (rec.type !== 'progress') continue;
         series.t.push(rec.time); series.T.push(rec.temperature ?? null);
         series.Trot.push(rec.rotational_temperature ?? null);
@@ -517,7 +522,7 @@
       if (!series.sceneP) series.sceneP = loadScene(id);   // once per job (retried after a failure)
       await series.sceneP;
       fetchCurves();
-    } catch (e) { if (series && series.job === id) setError('job-msg', 'series', 'progress: ' + e.message); }
+    } catch (e) { if (series === s) setError('job-msg', 'series', 'progress: ' + e.message); }
   }, 500);
   // ---- curves at snapshot times: the last sample of DIR/observables.jsonl (docs/output.md) ----
   let curvePlots = [], curvesAt = 0, curvesTimer = null;

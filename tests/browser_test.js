@@ -196,6 +196,8 @@ const OBS = ['walls', 'obstacles', 'outflow', 'height', 'energies', 'msd', 'diff
       await page.waitForFunction(() => document.getElementById('job-state').textContent === 'succeeded', null, { timeout: 60000 });
       return jid;
     };
+    // Slow answers to /progress (1.5 s): the page asks again while its first request waits; no record may be drawn twice.
+    await page.route('**/progress?*', async (route) => { await new Promise((r) => setTimeout(r, 1500)); await route.continue().catch(() => {}); });
     const wid = await submitScene({ method: 'ed', dimensions: 2,
       particles: { count: 800, box: [80, 40], initial: { positions: 'random', temperature: 0.5, velocity: [0.5, 0] } },
       collisions: { restitution: 0.9, tc: 0.001, rough: { tangential_restitution: 0.4, friction: 0.3 } }, gravity: [0, -0.01],
@@ -210,6 +212,10 @@ const OBS = ['walls', 'obstacles', 'outflow', 'height', 'energies', 'msd', 'diff
     // The last records arrive after the final state: wait until the outflow panel names the last one's count.
     await page.waitForFunction((c) => document.getElementById('plot-outflow-info').textContent.startsWith(c + ' particles present'),
       String(lastRec.particles_present), { timeout: 10000 }).catch(() => {});
+    await page.waitForTimeout(3000);   // and any request still delayed
+    await page.unroute('**/progress?*');
+    const drawn = Number(await page.getAttribute('#plot-energy', 'data-records'));
+    ok(drawn === recs.length, 'job ' + wid + ' with slow /progress answers: ' + drawn + ' records drawn, ' + recs.length + ' stored');
     const shown = await page.evaluate((ids) => ids.map((id) => !document.getElementById('panel-' + id).hidden), OBS);
     ok(JSON.stringify(shown) === JSON.stringify([true, true, true, true, true, false, false]) && await page.isHidden('#curves'),
       'job ' + wid + ' (walls, gravity, obstacle, open wall, rough): its panels shown, not MSD/diffusion nor the empty curve panels ' + JSON.stringify(shown));
