@@ -6,7 +6,7 @@
   const TERMINAL = new Set(['succeeded', 'failed', 'cancelled']);
   const jobs = new Map();          // id -> job JSON (without scene)
   let view = { job: 0 };           // the open job page, 0 = list
-  let series = null;               // {job, after, t, T, rate, cl, until}
+  let series = null;               // {job, after, t, T, Trot, rate, cl, recs, scene, panels, rot}
   let plots = [];
 
   // ---- HTTP: every request carries the saved token as a header, never in the URL (reads may need it: read_auth) ----
@@ -306,7 +306,10 @@
       // log axes: decades as 1e-4 rather than uPlot's rounded "0"
       axes: [{ label: 'time' }, logy ? { values: (u, vals) => vals.map((v) => (v == null ? '' : v >= 0.01 && v < 1e4 ? String(+v.toPrecision(3)) : v.toExponential(0))) } : {}], series: [{ label: 't' }, { label, stroke: '#2f6fde', width: 2, points: { show: false } }].concat(extra || []),
     });
-    plots.push(new uPlot(base('T', true, [{ label: "Haff", stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }]), [[], [], []], $('plot-energy')));
+    // rough particles: T_rot beside T (series 3), once the scene is known to ask for it
+    const rot = series && series.rot ? [{ label: 'T_rot', stroke: TROT, width: 2, points: { show: false } }] : [];
+    plots.push(new uPlot(base('T', true, [{ label: "Haff", stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }].concat(rot)),
+      [[], [], []].concat(rot.map(() => [])), $('plot-energy')));
     plots.push(new uPlot(base('collisions/particle/time', false), [[], []], $('plot-rate')));
     plots.push(new uPlot(base('largest fraction', false), [[], []], $('plot-cluster')));
   }
@@ -318,35 +321,208 @@
     if (!series) return;
     const { t, T, rate, cl } = series;
     noData('plot-energy', T); noData('plot-rate', rate); noData('plot-cluster', cl);
+    $('plot-energy').dataset.records = t.length;   // the progress records drawn (tests/browser_test.js counts them)
+    drawObs();
     if (plots.length < 3) return;
     // log axes: drop t = 0 (the initial record) from the log-log plot
     const i0 = t.length && t[0] <= 0 ? 1 : 0;
     const fit = haff(t, T), tl = t.slice(i0);
     const H = tl.map((x) => (fit ? fit.T0 / Math.pow(1 + x / fit.tau, 2) : null));
-    plots[0].setData([tl, T.slice(i0), H]);
+    plots[0].setData([tl, T.slice(i0), H].concat(series.rot ? [series.Trot.slice(i0).map(pos)] : []));
     plots[1].setData([t, rate]);
     plots[2].setData([t, cl]);
     $('haff').textContent = fit ? 'Haff fit: T0 = ' + fit.T0.toPrecision(3) + ', tau = ' + fit.tau.toPrecision(3) +
       ' (early records with T > T0/4); departures at late times mark clustering' : '';
+    const k = T.length - 1;
+    if (series.rot && k >= 0 && T[k] > 0 && Number.isFinite(series.Trot[k]))
+      $('haff').textContent += (fit ? '. ' : '') + 'T_rot/T = ' + (series.Trot[k] / T[k]).toPrecision(3) + ' at time ' + (+t[k].toPrecision(4)) + ' (1 in equipartition)';
+  }
+  // ---- progress series of walls, gravity, obstacles, open walls, rough particles and diffusion (docs/engine.md) ----
+  // Once per job: which plotted curves and panels does its scene ask for (output.observables)?
+  async function loadScene(id) {
+    let j;
+    try { j = await api('GET', '/api/v1/jobs/' + id); } catch (e) { if (series && series.job === id) series.sceneP = null; return; }
+    if (!series || series.job !== id) return;
+    const sc = j.scene || {}, obs = (sc.output && sc.output.observables) || [];
+    series.scene = sc; series.dim = sc.dimensions;
+    series.curves = CURVE_OBS.filter((o) => obs.includes(o));
+    series.panels = OBS_PANELS.filter((p) => p.shown(obs));
+    for (const p of OBS_PANELS) $('panel-' + p.id).hidden = !series.panels.includes(p);
+    series.rot = obs.includes('rotational_temperature');
+    $('trot-title').hidden = !series.rot;
+    if (series.rot) makePlots();
+    drawPlots();
+  }
+
+  const TROT = '#2a9d4a';
+  const COLORS = ['#2f6fde', '#d2691e', TROT, '#9b59b6', '#c0392b', '#16a0a8', '#7a5a00', '#6b7385'];
+  const fin = (v) => (Number.isFinite(v) ? v : null);
+  const fmt = (v) => (Number.isFinite(v) ? String(+v.toPrecision(3)) : '-');
+  const cnt = (v) => (Number.isFinite(v) ? String(v) : '-');   // counts in full: they are compared with the records
+  const last = (recs) => recs[recs.length - 1] || {};
+  const AXES = ['x', 'y', 'z'];
+  // The mean flow that defines drag and lift: the initial stream (particles.initial.velocity), else gravity.
+  function flow(sc) {
+    const cands = [[(sc.particles && sc.particles.initial && sc.particles.initial.velocity), 'the initial stream'], [sc.gravity, 'gravity']];
+    for (const [v, what] of cands) {
+      const n = Array.isArray(v) ? Math.hypot(...v) : 0;
+      if (n > 0) return { dir: v.map((x) => x / n), what };
+    }
+    return null;
+  }
+  // The open walls of the scene ("x.upper"), in the engine's order: the outflow object has only those passed so far.
+  function openWalls(sc) {
+    const names = [];
+    for (const a of AXES) {
+      const b = sc.boundaries && sc.boundaries[a];
+      if (b && b.type === 'walls') for (const end of ['lower', 'upper']) if (b[end] && b[end].type === 'open') names.push(a + '.' + end);
+    }
+    return names;
+  }
+  // One panel per progress observable: shown(observables), then lines(records, scene) -> {labels, cols, info};
+  // log: log-log axes (t = 0 and values <= 0 left out); dash: per series.
+  const OBS_PANELS = [
+    { id: 'walls', ylabel: 'pressure', shown: (o) => o.includes('wall_force'),
+      lines(recs) {
+        const labels = [];
+        for (const r of recs) for (const w of r.wall_force || []) if (!labels.includes(w.wall)) labels.push(w.wall);
+        const cols = labels.map((nm) => recs.map((r) => fin(((r.wall_force || []).find((w) => w.wall === nm) || {}).pressure)));
+        const l = last(recs);
+        const force = (l.wall_force || []).filter((w) => (w.force || []).some(Number.isFinite))
+          .map((w) => w.wall + ' (' + w.force.map(fmt).join(', ') + ')');
+        return { labels, cols, info: recs.length ? cnt(l.wall_collisions) + ' wall collisions so far' + (force.length ? '; mean force on each wall over the last interval: ' + force.join(', ') : '') : '' };
+      } },
+    { id: 'obstacles', ylabel: 'force', shown: (o) => o.includes('obstacle_force'),
+      lines(recs, sc) {
+        const fl = flow(sc), D = sc.dimensions || 2;
+        let k = 0;
+        for (const r of recs) k = Math.max(k, (r.obstacle_force || []).length);
+        const labels = [], cols = [];
+        const at = (r, i) => { const f = (r.obstacle_force || [])[i]; return f && f.length && f.every(Number.isFinite) ? f : null; };
+        for (let i = 0; i < k; i++) {
+          if (fl) {
+            const d = fl.dir, along = (f) => f.reduce((a, x, j) => a + x * d[j], 0);
+            labels.push('obstacle ' + i + ' drag', 'obstacle ' + i + ' lift');
+            cols.push(recs.map((r) => { const f = at(r, i); return f ? along(f) : null; }));
+            // 2D: the signed component 90 degrees anticlockwise from the flow; 3D: the magnitude across it
+            cols.push(recs.map((r) => {
+              const f = at(r, i);
+              if (!f) return null;
+              if (f.length === 2) return f[1] * d[0] - f[0] * d[1];
+              const a = along(f);
+              return Math.hypot(...f.map((x, j) => x - a * d[j]));
+            }));
+          } else {
+            for (let j = 0; j < D; j++) {
+              labels.push('obstacle ' + i + ' F_' + AXES[j]);
+              cols.push(recs.map((r) => { const f = at(r, i); return f ? f[j] : null; }));
+            }
+          }
+        }
+        const l = last(recs);
+        return { labels, cols, info: (recs.length ? cnt(l.obstacle_collisions) + ' particle-obstacle hits so far; ' : '') +
+          (fl ? 'flow along (' + fl.dir.map(fmt).join(', ') + '), the direction of ' + fl.what + (D === 2 ? '; lift: the component 90\u00b0 anticlockwise from it' : '; lift: the magnitude across it')
+            : 'no mean flow in the scene: the force\'s components') };
+      } },
+    { id: 'outflow', ylabel: 'particles', shown: (o) => o.includes('outflow'),
+      lines(recs, sc) {
+        const names = openWalls(sc);
+        for (const r of recs) for (const w of Object.keys(r.outflow || {})) if (!names.includes(w)) names.push(w);
+        const cols = [recs.map((r) => fin(r.particles_present))]
+          .concat(names.map((w) => recs.map((r) => (r.outflow ? fin(r.outflow[w] ?? 0) : null))));
+        const l = last(recs);
+        return { labels: ['present'].concat(names.map((w) => 'out ' + w)), cols,
+          info: recs.length ? cnt(l.particles_present) + ' particles present at time ' + fmt(l.time) : '' };
+      } },
+    { id: 'height', ylabel: 'height', shown: (o) => o.includes('center_of_mass_height'),
+      lines(recs) {
+        return { labels: ['centre of mass'], cols: [recs.map((r) => fin(r.center_of_mass_height))] };
+      } },
+    { id: 'energies', ylabel: 'energy', shown: (o) => o.includes('potential_energy') || o.includes('rotational_energy'),
+      lines(recs, sc) {
+        const o = (sc.output && sc.output.observables) || [];
+        const parts = [['E_kin', 'kinetic_energy', o.includes('kinetic_energy') || o.includes('temperature')],
+          ['E_pot', 'potential_energy', o.includes('potential_energy')], ['E_rot', 'rotational_energy', o.includes('rotational_energy')]]
+          .filter((p) => p[2]);
+        const labels = parts.map((p) => p[0]), cols = parts.map((p) => recs.map((r) => fin(r[p[1]])));
+        if (parts.length > 1) {
+          labels.push('sum');
+          cols.push(recs.map((r, i) => { const v = cols.reduce((a, c) => a + c[i], 0); return Number.isFinite(v) ? v : null; }));
+        }
+        return { labels, cols, dash: labels.map((l) => (l === 'sum' ? [6, 4] : undefined)),
+          info: parts.length > 1 ? 'sum: conserved when collisions are elastic (restitution 1' + (o.includes('rotational_energy') ? ', tangential_restitution \u00b11)' : ')') : '' };
+      } },
+    { id: 'msd', ylabel: 'MSD', log: true, shown: (o) => o.includes('mean_square_displacement'),
+      lines(recs) {
+        const m = recs.map((r) => fin(r.msd)), se = recs.map((r) => fin(r.msd_se));
+        return { labels: ['MSD', 'MSD + se', 'MSD \u2212 se'], cols: [m, m.map((v, i) => (v != null && se[i] != null ? v + se[i] : null)),
+          m.map((v, i) => (v != null && se[i] != null ? v - se[i] : null))], dash: [undefined, [4, 3], [4, 3]] };
+      } },
+    { id: 'diffusion', ylabel: 'D(t)', shown: (o) => o.includes('mean_square_displacement'),
+      lines(recs) {
+        const l = last(recs);
+        return { labels: ['D(t)'], cols: [recs.map((r) => fin(r.diffusion))], info: Number.isFinite(l.diffusion) ? 'last: ' + fmt(l.diffusion) + ' (the self-diffusion coefficient once t spans many collision times)' : '' };
+      } },
+  ];
+  let obsPlots = {};   // panel id -> {key: its series labels, plot}
+  const logValues = (u, vals) => vals.map((v) => (v == null ? '' : v >= 0.01 && v < 1e4 ? String(+v.toPrecision(3)) : v.toExponential(0)));
+  function obsPlot(spec, labels, dash) {
+    const node = $('plot-' + spec.id);
+    const w = Math.max(380, node.clientWidth || 420);
+    return new uPlot({
+      width: w, height: 240, scales: { x: { time: false, distr: spec.log ? 3 : 1 }, y: { distr: spec.log ? 3 : 1 } },
+      axes: [{ label: 'time' }, Object.assign({ label: spec.ylabel }, spec.log ? { values: logValues } : {})],
+      series: [{ label: 't' }].concat(labels.map((l, k) => Object.assign({ label: l, stroke: COLORS[k % COLORS.length], width: 2, points: { show: false } },
+        dash && dash[k] ? { dash: dash[k], width: 1.5 } : {}))),
+    }, [[]].concat(labels.map(() => [])), node);
+  }
+  // The series change with the records (a wall's first outflow, more obstacles): a plot whose labels changed is rebuilt.
+  function drawObs() {
+    if (!series || !series.panels) return;
+    for (const spec of series.panels) {
+      const l = spec.lines(series.recs, series.scene);
+      let x = series.t, cols = l.cols, labels = l.labels;
+      if (!labels.length) { labels = [spec.ylabel]; cols = [x.map(() => null)]; }
+      if (spec.log) {
+        const keep = x.map((t) => t > 0);
+        x = x.filter((_, i) => keep[i]);
+        cols = cols.map((c) => c.filter((_, i) => keep[i]).map(pos));
+      }
+      $('plot-' + spec.id + '-nodata').hidden = !series.loaded || cols.some((c) => c.some(Number.isFinite));
+      $('plot-' + spec.id + '-info').textContent = l.info || '';
+      if (!window.uPlot) continue;
+      const key = labels.join('\n');
+      let o = obsPlots[spec.id];
+      if (!o || o.key !== key) { if (o) o.plot.destroy(); o = obsPlots[spec.id] = { key, plot: obsPlot(spec, labels, l.dash) }; }
+      o.plot.setData([x].concat(cols));
+    }
   }
   const fetchSeries = throttle(async () => {
     if (!series) return;
-    const id = series.job;
+    const id = series.job, s = series;
     try {
       const r = await api('GET', '/api/v1/jobs/' + id + '/progress?after=' + series.after);
-      if (!series || series.job !== id) return;
+      // the same page, not a later visit of the same job (whose series starts again)
+      if (series !== s) return;
       series.loaded = true;
       setError('job-msg', 'series', '');
       for (const rec of r.records) {
-        series.after = Math.max(series.after, rec.seq);
+        // A fetch can start while the previous one is still waiting for its answer (a slow daemon): both then
+        // bring the same records, and the second must not append them again.
+        if (rec.seq <= series.after) continue;
+        series.after = rec.seq;
         if (rec.type !== 'progress') continue;
         series.t.push(rec.time); series.T.push(rec.temperature ?? null);
+        series.Trot.push(rec.rotational_temperature ?? null);
+        series.recs.push(rec);
         series.rate.push(rec.collision_rate ?? null);
         series.cl.push(rec.clusters ? rec.clusters.largest_fraction : null);
       }
       drawPlots();
+      if (!series.sceneP) series.sceneP = loadScene(id);   // once per job (retried after a failure)
+      await series.sceneP;
       fetchCurves();
-    } catch (e) { if (series && series.job === id) setError('job-msg', 'series', 'progress: ' + e.message); }
+    } catch (e) { if (series === s) setError('job-msg', 'series', 'progress: ' + e.message); }
   }, 500);
   // ---- curves at snapshot times: the last sample of DIR/observables.jsonl (docs/output.md) ----
   let curvePlots = [], curvesAt = 0, curvesTimer = null;
@@ -363,16 +539,8 @@
   async function fetchCurves() {
     if (!series || !window.uPlot) return;
     const id = series.job, now = Date.now();
-    if (series.curves === undefined) {   // once per job: which plotted curves does its scene ask for?
-      series.curves = [];
-      try {
-        const j = await api('GET', '/api/v1/jobs/' + id);
-        const obs = (j.scene && j.scene.output && j.scene.output.observables) || [];
-        if (series && series.job === id) { series.curves = CURVE_OBS.filter((o) => obs.includes(o)); series.dim = j.scene.dimensions; }
-      } catch (e) { return; }
-    }
     // the engine creates the file before its first progress record
-    if (!series || series.job !== id || !series.curves.length || !series.t.length) return;
+    if (!series.curves || !series.curves.length || !series.t.length) return;
     if (now - curvesAt < 5000) {   // at most every 5 s (the file grows), but always once more after the last call
       if (!curvesTimer) curvesTimer = setTimeout(() => { curvesTimer = null; fetchCurves(); }, 5000 - (now - curvesAt));
       return;
@@ -442,12 +610,16 @@
     $('job-attempts-none').hidden = true; $('job-files-none').hidden = true;
     for (const p of curvePlots) p.destroy();
     curvePlots = []; curvesAt = 0; $('curves').hidden = true; $('curves-info').textContent = '';
+    for (const o of Object.values(obsPlots)) o.plot.destroy();
+    obsPlots = {};
+    for (const p of OBS_PANELS) { $('panel-' + p.id).hidden = true; $('plot-' + p.id + '-info').textContent = ''; }
+    $('trot-title').hidden = true;
   }
   async function openJob(id) {
     view.job = id;
     $('list-view').hidden = true; $('job-view').hidden = false;
     clearJobPage(id);
-    series = { job: id, after: -1, t: [], T: [], rate: [], cl: [], loaded: false };
+    series = { job: id, after: -1, t: [], T: [], Trot: [], rate: [], cl: [], recs: [], loaded: false };
     makePlots();
     drawPlots();
     await loadJob(id);

@@ -1,13 +1,26 @@
 // Dashboard in a real browser: headless Chromium (playwright-core) against a live granulard; submits a preset,
 // follows the job to the end, checks the plots received data, saves a screenshot; asks for advice on the preset
 // (the candidates table) and shows an auto job's advice panel; the job page's files and attempts, "no data" on
-// an empty plot, nothing stale kept (advice, errors, another job's page), and a confirmation before cancelling. With a 4th argument "read-auth-token" (a daemon run
+// an empty plot, nothing stale kept (advice, errors, another job's page), and a confirmation before cancelling;
+// the progress panels of a scene with walls, gravity, an obstacle, an open wall and rough particles (pressure per wall, drag
+// and lift, outflow, height, energies, T_rot beside T) and of a periodic one (MSD and D(t) only). With a 4th argument "read-auth-token" (a daemon run
 // with --read-auth token): the page asks for the token, then lists jobs and follows the event stream with it.
 'use strict';
 const { chromium } = require('playwright-core');
 const [url, token, shot, mode] = process.argv.slice(2);
 let n = 0, failed = 0;
 const ok = (c, d) => { n++; if (!c) failed++; console.log(`${c ? '' : 'not '}ok ${n} - ${d}`); };
+// Pixels of a series colour (default the first series' #2f6fde) on each plot's canvas: the plot drew data.
+const pixels = (page, ids, rgb) => page.evaluate(([list, c]) => list.map((id) => {
+  const cv = document.querySelector('#' + id + ' canvas');
+  if (!cv) return 0;
+  const d = cv.getContext('2d').getImageData(0, 0, cv.width, cv.height).data;
+  let k = 0;
+  for (let i = 0; i < d.length; i += 4) if (Math.abs(d[i] - c[0]) < 30 && Math.abs(d[i + 1] - c[1]) < 30 && Math.abs(d[i + 2] - c[2]) < 30 && d[i + 3] > 100) k++;
+  return k;
+}), [ids, rgb || [47, 111, 222]]);
+// The progress panels of walls, gravity, obstacles, open walls, rough particles and diffusion (dashboard/app.js OBS_PANELS).
+const OBS = ['walls', 'obstacles', 'outflow', 'height', 'energies', 'msd', 'diffusion'];
 (async () => {
   const browser = await chromium.launch({
     executablePath: '/usr/bin/chromium',
@@ -169,14 +182,75 @@ const ok = (c, d) => { n++; if (!c) failed++; console.log(`${c ? '' : 'not '}ok 
     await page.waitForFunction(() => document.getElementById('job-state').textContent === 'succeeded', null, { timeout: 10000 });
     ok(await page.isHidden('#job-msg') && (await page.textContent('#job-msg')) === '', 'the error is gone on the next job\'s page');
 
+    // A scene with walls, gravity, an obstacle, an open wall and rough particles: the job page adds a panel for each
+    // of their progress series, and T_rot beside T. Their data are the job's records (/progress), drawn.
+    const submitScene = async (scene, after) => {
+      await page.evaluate(() => { location.hash = '#/'; });
+      await page.waitForFunction(() => !document.getElementById('list-view').hidden, null, { timeout: 10000 });
+      await page.fill('#scene', JSON.stringify(scene));
+      await page.click('#submit-form button[type=submit]');
+      await page.waitForFunction((i) => (document.getElementById('submit-msg').textContent.match(/^job (\d+)/) || [])[1] > i, after,
+        { timeout: 10000 });
+      const jid = Number((await page.textContent('#submit-msg')).match(/^job (\d+)/)[1]);
+      await page.evaluate((i) => { location.hash = '#/job/' + i; }, jid);
+      await page.waitForFunction(() => document.getElementById('job-state').textContent === 'succeeded', null, { timeout: 60000 });
+      return jid;
+    };
+    // Slow answers to /progress (1.5 s): the page asks again while its first request waits; no record may be drawn twice.
+    await page.route('**/progress?*', async (route) => { await new Promise((r) => setTimeout(r, 1500)); await route.continue().catch(() => {}); });
+    const wid = await submitScene({ method: 'ed', dimensions: 2,
+      particles: { count: 800, box: [80, 40], initial: { positions: 'random', temperature: 0.5, velocity: [0.5, 0] } },
+      collisions: { restitution: 0.9, tc: 0.001, rough: { tangential_restitution: 0.4, friction: 0.3 } }, gravity: [0, -0.01],
+      boundaries: { x: { type: 'walls', lower: { type: 'specular' }, upper: { type: 'open' } },
+        y: { type: 'walls', lower: { type: 'specular' }, upper: { type: 'specular' } } },
+      obstacles: [{ type: 'random_sign', center: [40, 20], radius: 5 }], run: { seed: 3, until: { time: 100 } },
+      output: { every: { time: 10 }, observables: ['temperature', 'rotational_temperature', 'rotational_energy', 'outflow', 'obstacle_force',
+        'wall_force', 'center_of_mass_height', 'potential_energy'] } }, aid);
+    const recs = (await page.evaluate(async (i) => (await (await fetch('/api/v1/jobs/' + i + '/progress')).json()), wid))
+      .records.filter((r) => r.type === 'progress');
+    const lastRec = recs[recs.length - 1];
+    // The last records arrive after the final state: wait until the outflow panel names the last one's count.
+    await page.waitForFunction((c) => document.getElementById('plot-outflow-info').textContent.startsWith(c + ' particles present'),
+      String(lastRec.particles_present), { timeout: 10000 }).catch(() => {});
+    await page.waitForTimeout(3000);   // and any request still delayed
+    await page.unroute('**/progress?*');
+    const drawn = Number(await page.getAttribute('#plot-energy', 'data-records'));
+    ok(drawn === recs.length, 'job ' + wid + ' with slow /progress answers: ' + drawn + ' records drawn, ' + recs.length + ' stored');
+    const shown = await page.evaluate((ids) => ids.map((id) => !document.getElementById('panel-' + id).hidden), OBS);
+    ok(JSON.stringify(shown) === JSON.stringify([true, true, true, true, true, false, false]) && await page.isHidden('#curves'),
+      'job ' + wid + ' (walls, gravity, obstacle, open wall, rough): its panels shown, not MSD/diffusion nor the empty curve panels ' + JSON.stringify(shown));
+    const opx = await pixels(page, OBS.slice(0, 5).map((id) => 'plot-' + id));
+    const nod = await page.evaluate((ids) => ids.filter((id) => !document.getElementById('plot-' + id + '-nodata').hidden), OBS.slice(0, 5));
+    ok(opx.every((k) => k > 50) && !nod.length, `wall pressure, obstacle force, outflow, height, energies drew their first series (${opx.join(', ')} px)` +
+      (nod.length ? '; "no data" on ' + nod.join(', ') : ''));
+    const legend = (id) => page.$$eval('#plot-' + id + ' .u-legend .u-series .u-label', (ls) => ls.map((l) => l.textContent));
+    const lw = await legend('walls'), lo = await legend('obstacles'), lf = await legend('outflow'), le = await legend('energies');
+    ok(['x.lower', 'x.upper', 'y.lower', 'y.upper'].every((w) => lw.includes(w)) && lo.includes('obstacle 0 drag') && lo.includes('obstacle 0 lift') &&
+      lf.includes('present') && lf.includes('out x.upper') && ['E_kin', 'E_pot', 'E_rot', 'sum'].every((e) => le.includes(e)),
+      'legends name the walls, the obstacle and the open wall: ' + [lw, lo, lf, le].map((l) => l.slice(1).join('/')).join('; '));
+    // The numbers shown are the records': particles present and the hit counts of the last record.
+    const infos = await page.evaluate(() => ['walls', 'obstacles', 'outflow'].map((id) => document.getElementById('plot-' + id + '-info').textContent));
+    ok(lastRec.particles_present < 800 && lastRec.outflow['x.upper'] === 800 - lastRec.particles_present &&
+      infos[2].startsWith(lastRec.particles_present + ' particles present') && infos[1].startsWith(lastRec.obstacle_collisions + ' particle-obstacle hits') &&
+      infos[0].startsWith(lastRec.wall_collisions + ' wall collisions') && infos[1].includes('flow along (1, 0)'),
+      'panel notes match the last record (' + recs.length + ' records): ' + infos.map((t) => t.slice(0, 60)).join(' | '));
+    // Rough: T_rot (#2a9d4a) on the temperature plot, named in its title and legend, and T_rot/T of the last record.
+    const tpx = (await pixels(page, ['plot-energy'], [42, 157, 74]))[0];
+    const lt = await legend('energy');
+    const ratio = (lastRec.rotational_temperature / lastRec.temperature).toPrecision(3);
+    ok(tpx > 50 && lt.includes('T_rot') && await page.isVisible('#trot-title') && (await page.textContent('#haff')).includes('T_rot/T = ' + ratio),
+      `T_rot drawn beside T (${tpx} px, legend ${lt.slice(1).join('/')}): ${await page.textContent('#haff')}`);
+    await page.screenshot({ path: shot.replace(/\.png$/, '') + '-observables.png', fullPage: true });
+
     // "no data" on a plot whose observable the scene did not ask for; the plot that has data does not say it.
+    // A periodic scene: no wall, obstacle, outflow or gravity panel, no T_rot; MSD and D(t) for mean_square_displacement.
     await page.evaluate(() => { location.hash = '#/'; });
     await page.waitForFunction(() => !document.getElementById('list-view').hidden, null, { timeout: 10000 });
     await page.fill('#scene', JSON.stringify({ method: 'ed', dimensions: 2, particles: { count: 400, volume_fraction: 0.2 },
       collisions: { restitution: 0.9 }, run: { seed: 3, until: { time: 0.5 } },
-      output: { every: { time: 0.05 }, observables: ['kinetic_energy', 'temperature'] } }));
+      output: { every: { time: 0.05 }, observables: ['kinetic_energy', 'temperature', 'mean_square_displacement'] } }));
     await page.click('#submit-form button[type=submit]');
-    await page.waitForFunction((i) => (document.getElementById('submit-msg').textContent.match(/^job (\d+)/) || [])[1] > i, aid,
+    await page.waitForFunction((i) => (document.getElementById('submit-msg').textContent.match(/^job (\d+)/) || [])[1] > i, wid,
       { timeout: 10000 });
     const nid = Number((await page.textContent('#submit-msg')).match(/^job (\d+)/)[1]);
     await page.evaluate((i) => { location.hash = '#/job/' + i; }, nid);
@@ -190,6 +264,13 @@ const ok = (c, d) => { n++; if (!c) failed++; console.log(`${c ? '' : 'not '}ok 
     }));
     ok(!nodata[0] && nodata[1] && nodata[2], 'job ' + nid + ' without collision_rate and clusters: "no data" on those plots, not on T(t) ' +
       JSON.stringify(nodata));
+    await page.waitForFunction(() => document.getElementById('plot-diffusion-info').textContent.startsWith('last:'), null, { timeout: 10000 }).catch(() => {});
+    const pshown = await page.evaluate((ids) => ids.map((id) => !document.getElementById('panel-' + id).hidden), OBS);
+    const mpx = await pixels(page, ['plot-msd', 'plot-diffusion']);
+    ok(JSON.stringify(pshown) === JSON.stringify([false, false, false, false, false, true, true]) && await page.isHidden('#trot-title') &&
+      !(await legend('energy')).includes('T_rot') && mpx.every((k) => k > 50),
+      'periodic job ' + nid + ': no wall, obstacle, outflow, gravity panel nor T_rot; MSD and D(t) drawn (' + mpx.join(', ') + ' px) ' + JSON.stringify(pshown) +
+      ' ' + await page.textContent('#job-msg') + ' ' + await page.textContent('#plot-diffusion-info'));
 
     // Advice and an error describe the form as it was: editing it takes them away.
     await page.evaluate(() => { location.hash = '#/'; });
@@ -206,12 +287,25 @@ const ok = (c, d) => { n++; if (!c) failed++; console.log(`${c ? '' : 'not '}ok 
     ok(/^scene: /.test(bad) && (await page.textContent('#submit-msg')) === '', 'an error about the scene goes when the scene is edited: ' + bad);
 
     // Cancelling asks first: dismissed, the job runs on; accepted, it is cancelled.
+    // Its walls: until its first interval ends (in 1e7 time units) the only record, at time 0, has no wall pressure.
     await page.fill('#scene', JSON.stringify({ method: 'ed', dimensions: 2, particles: { count: 400, volume_fraction: 0.2 },
-      run: { seed: 1, until: { time: 1e9 } }, output: { every: { time: 1e7 } } }));   // rare records: the daemon keeps up
+      boundaries: { y: { type: 'walls', lower: { type: 'specular' }, upper: { type: 'specular' } } },
+      run: { seed: 1, until: { time: 1e9 } }, output: { every: { time: 1e7 }, observables: ['temperature', 'wall_force'] } }));   // rare records: the daemon keeps up
     await page.click('#submit-form button[type=submit]');
     await page.waitForFunction((i) => (document.getElementById('submit-msg').textContent.match(/^job (\d+)/) || [])[1] > i, nid,
       { timeout: 10000 });
     const cid = Number((await page.textContent('#submit-msg')).match(/^job (\d+)/)[1]);
+    await page.evaluate((i) => { location.hash = '#/job/' + i; }, cid);
+    await page.waitForFunction(() => !document.getElementById('panel-walls').hidden && !document.getElementById('plot-walls-nodata').hidden &&
+      document.getElementById('job-state').textContent === 'running' && document.getElementById('plot-energy-nodata').hidden, null, { timeout: 15000 })
+      .catch(() => {});
+    const wnd = await page.evaluate(() => ({ walls: !document.getElementById('panel-walls').hidden, nodata: document.getElementById('plot-walls-nodata').textContent,
+      shown: !document.getElementById('plot-walls-nodata').hidden, T: document.getElementById('plot-energy-nodata').hidden,
+      legend: [...document.querySelectorAll('#plot-walls .u-legend .u-label')].map((l) => l.textContent).slice(1) }));
+    ok(wnd.walls && wnd.shown && wnd.nodata === 'no data' && wnd.T && wnd.legend.join() === 'y.lower,y.upper',
+      'running job ' + cid + ' with walls, its first record only: "no data" on the wall pressure (legend y.lower, y.upper), not on T(t) ' + JSON.stringify(wnd));
+    await page.evaluate(() => { location.hash = '#/'; });
+    await page.waitForFunction(() => !document.getElementById('list-view').hidden, null, { timeout: 10000 });
     const button = '#jobs tbody tr[data-id="' + cid + '"] button';
     await page.waitForSelector(button, { timeout: 10000 });
     const asked = [];
