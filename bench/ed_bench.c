@@ -29,7 +29,13 @@ static double cpu_now(void)
  * for restitution 1) is not timed. FEATURE (scene features, issue 12):
  * periodic (default), walls (specular walls on every axis), thermal
  * (thermal walls at T = 1 on the last axis), gravity (specular walls on the
- * last axis, gravity along it with scale height T/(m g) = half the box). */
+ * last axis, gravity along it with scale height T/(m g) = half the box),
+ * obstacle (periodic box, one slip obstacle of radius L/10 at the centre),
+ * walls-obstacle (walls on every axis and that obstacle),
+ * rough (periodic, perfectly rough particles: tangential restitution 1, so
+ * with restitution 1 the gas stays elastic and only the rule's cost
+ * differs), walton (periodic, Walton's rule: beta_0 0.5, mu 0.1; this one
+ * dissipates, so its dynamics differ too). */
 int main(int argc, char **argv)
 {
 	if (argc < 7) {
@@ -42,6 +48,7 @@ int main(int argc, char **argv)
 	double tc = argc > 7 ? atof(argv[7]) : 0.0, cell = argc > 8 ? atof(argv[8]) : 0.0;
 	const char *feature = argc > 9 ? argv[9] : "periodic";
 	char json[1024], err[512], extra[512] = "";
+	const char *rough = "";
 	const char *ax = dim == 2 ? "y" : "z";
 	const char *spec = "{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},\"upper\":{\"type\":\"specular\"}}";
 	if (!strcmp(feature, "walls")) {
@@ -56,16 +63,34 @@ int main(int argc, char **argv)
 		double L = pow(n * vp / phi, 1.0 / dim), g = 2.0 / L;
 		snprintf(extra, sizeof extra, ",\"boundaries\":{\"%s\":%s},\"gravity\":[0,%s%.17g]", ax, spec,
 		         dim == 3 ? "0,-" : "-", g);
+	} else if (!strcmp(feature, "obstacle") || !strcmp(feature, "walls-obstacle")) {
+		double vp = dim == 2 ? 3.14159265358979 / 4 : 3.14159265358979 / 6;
+		double L = pow(n * vp / phi, 1.0 / dim);
+		char walls[256] = "", center[128];
+		if (feature[0] == 'w')
+			snprintf(walls, sizeof walls, ",\"boundaries\":{\"x\":%s,\"y\":%s%s%s}", spec, spec,
+			         dim == 3 ? ",\"z\":" : "", dim == 3 ? spec : "");
+		if (dim == 2)
+			snprintf(center, sizeof center, "%.17g,%.17g", 0.5 * L, 0.5 * L);
+		else
+			snprintf(center, sizeof center, "%.17g,%.17g,%.17g", 0.5 * L, 0.5 * L, 0.5 * L);
+		snprintf(extra, sizeof extra, "%s,\"obstacles\":[{\"type\":\"slip\",\"center\":[%s],\"radius\":%.17g}]",
+		         walls, center, 0.1 * L);
+	} else if (!strcmp(feature, "rough")) {
+		rough = ",\"rough\":{\"tangential_restitution\":1}";
+	} else if (!strcmp(feature, "walton")) {
+		rough = ",\"rough\":{\"tangential_restitution\":0.5,\"friction\":0.1}";
 	} else if (strcmp(feature, "periodic")) {
-		fprintf(stderr, "ed_bench: unknown feature %s (periodic, walls, thermal, gravity)\n", feature);
+		fprintf(stderr, "ed_bench: unknown feature %s (periodic, walls, thermal, gravity, obstacle, walls-obstacle, "
+		        "rough, walton)\n", feature);
 		return 2;
 	}
 	snprintf(json, sizeof(json),
 	         "{\"method\":\"ed\",\"dimensions\":%d,\"particles\":{\"count\":%ld,\"volume_fraction\":%g,"
 	         "\"initial\":{\"relax\":{\"collisions_per_particle\":%g}}},"
-	         "\"collisions\":{\"restitution\":%g,\"tc\":%g},\"run\":{\"until\":{\"time\":1}},"
+	         "\"collisions\":{\"restitution\":%g,\"tc\":%g%s},\"run\":{\"until\":{\"time\":1}},"
 	         "\"ed\":{\"cell_size\":%g}%s}",
-	         dim, n, phi, warm, e, tc, cell, extra);
+	         dim, n, phi, warm, e, tc, rough, cell, extra);
 	scene_t sc;
 	int rc;
 	if (scene_parse(json, strlen(json), &sc, err, sizeof(err)) != SCENE_OK) {

@@ -1,5 +1,5 @@
 #!/bin/sh
-# Scene-feature rows of docs/benchmarks.md: periodic, walls, thermal walls, gravity; rounds interleaved, median of R.
+# Scene-feature rows of docs/benchmarks.md: periodic, walls, thermal walls, gravity, an obstacle, rough particles (constant beta, Walton); rounds interleaved, median of R.
 # usage: bench/features.sh ED_BENCH [R]  (prints markdown table rows)
 set -eu
 bench=$1
@@ -9,13 +9,13 @@ trap 'rm -rf "$tmp"' EXIT
 cases="2:10000 3:10976"
 for r in $(seq "$reps"); do
 	for c in $cases; do
-		for f in periodic walls thermal gravity; do
+		for f in ${FEATURES:-periodic walls thermal gravity obstacle walls-obstacle rough walton}; do
 			"$bench" "${c%%:*}" "${c##*:}" 0.3 1 20 200 0 0 $f >>"$tmp/${c%%:*}-$f"
 		done
 	done
 done
 for c in $cases; do
-	for f in periodic walls thermal gravity; do
+	for f in ${FEATURES:-periodic walls thermal gravity obstacle walls-obstacle rough walton}; do
 		/usr/bin/python3 -c '
 import json, sys
 runs = sorted((json.loads(l) for l in open(sys.argv[1]) if l.strip()), key=lambda d: d["collisions_per_second"])

@@ -735,6 +735,66 @@ cleanup:
 	return rc;
 }
 
+/* Curves of one observable family as CSV: one row per bin of each table of each sample,
+ * sample,time,table,x,<columns>[,<column>_se...] (ensembles add the standard errors). */
+static int c_observables(ctx_t *x)
+{
+	long long id;
+	json_t *j = NULL, *smp;
+	size_t i;
+	const char *name = x->args[1];
+	for (const char *p = name; *p; p++)
+		if (!((*p >= 'a' && *p <= 'z') || (*p >= '0' && *p <= '9') || *p == '_')) {
+			fprintf(stderr, "granularctl: observables: NAME '%s' is not an observable family name "
+			        "(velocity_distribution, pair_correlation, ...)\n", name);
+			return 2;
+		}
+	int rc = (x->given & O_AFTER) ? job_request(x, "GET", &id, &j, "/observables?name=%s&after=%lld", name, x->after)
+	                              : job_request(x, "GET", &id, &j, "/observables?name=%s&last=1", name);
+	if (rc)
+		return rc;
+	if (x->json) {
+		print_json(j);
+		goto cleanup;
+	}
+	json_array_foreach(json_object_get(j, "samples"), i, smp) {
+		size_t k;
+		json_t *t;
+		json_array_foreach(json_object_get(smp, "tables"), k, t) {
+			json_t *cols = json_object_get(t, "columns"), *se = json_object_get(t, "se"), *v;
+			const json_t *centres = json_object_get(t, "centres");
+			const char *key;
+			printf("# %s sample %lld, time %.9g, table \"%s\"\nsample,time,table,%s", name,
+			       (long long)json_integer_value(json_object_get(smp, "sample")), num(smp, "time"), str(t, "table", ""),
+			       str(t, "x", "x"));
+			json_object_foreach(cols, key, v)
+				printf(",%s", key);
+			json_object_foreach(se, key, v)
+				printf(",%s_se", key);
+			printf("\n");
+			for (size_t b = 0; b < json_array_size(centres); b++) {
+				printf("%lld,%.9g,%s,%.9g", (long long)json_integer_value(json_object_get(smp, "sample")),
+				       num(smp, "time"), str(t, "table", ""), json_number_value(json_array_get(centres, b)));
+				json_object_foreach(cols, key, v) {
+					json_t *e = json_array_get(v, b);
+					json_is_number(e) ? printf(",%.9g", json_number_value(e)) : printf(",");
+				}
+				json_object_foreach(se, key, v) {
+					json_t *e = json_array_get(v, b);
+					json_is_number(e) ? printf(",%.9g", json_number_value(e)) : printf(",");
+				}
+				printf("\n");
+			}
+		}
+	}
+	if (json_is_true(json_object_get(j, "truncated")))
+		fprintf(stderr, "granularctl: more samples follow: --after %lld\n",
+		        (long long)json_integer_value(json_object_get(j, "next")));
+cleanup:
+	json_decref(j);
+	return rc;
+}
+
 /* ---- files ------------------------------------------------------------------------- */
 
 static int c_files(ctx_t *x)
@@ -934,6 +994,10 @@ static const cmd_t commands[] = {
 	 .fn = c_progress, .min_args = 1, .max_args = 1, .opts = O_AFTER},
 	{.name = "clusters", .args = "ID", .summary = "the job's particle-cluster statistics over time", .fn = c_clusters,
 	 .min_args = 1, .max_args = 1},
+	{.name = "observables", .args = "ID NAME",
+	 .summary = "curves of an observable family (e.g. pair_correlation, impact_parameter) as CSV: the last sample",
+	 .help = "  --after K             every sample after sample index K instead (up to 100 per call)\n",
+	 .fn = c_observables, .min_args = 2, .max_args = 2, .opts = O_AFTER},
 	{.name = "files", .args = "ID", .summary = "the job's output files with sizes and SHA-256", .fn = c_files,
 	 .min_args = 1, .max_args = 1},
 	{.name = "download", .args = "ID NAME", .summary = "download a job file (to NAME, or -o FILE; -o - for stdout)",

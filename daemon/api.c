@@ -8,6 +8,7 @@
 #include <string.h>
 #include <unistd.h>
 #include "api.h"
+#include "curves.h"
 #include "dashboard.h"
 #include "files.h"
 #include "presets.h"
@@ -382,6 +383,39 @@ static void h_file(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 	snprintf(rs->disposition, sizeof(rs->disposition), "attachment; filename=\"%s\"", rq->params[1]);
 }
 
+/* The curves of one observable family (DIR/observables.jsonl): ?name= (required), after= (sample index),
+ * limit= (the first N after it) or last= (the last N). */
+static void h_observables(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
+{
+	char dir[4200], err[600];
+	long long after = -1, limit = 0, last = 0;
+	if (!job_dir(gd, rq, rs, dir, sizeof(dir)))
+		return;
+	const char *name = rq->query(rq->conn, "name");
+	if (!name) {
+		char known[400] = "";
+		for (int i = 0; curves_families[i]; i++)
+			snprintf(known + strlen(known), sizeof(known) - strlen(known), "%s%s", i ? ", " : "", curves_families[i]);
+		snprintf(err, sizeof(err), "name: required, one of %s", known);
+		api_error(rs, 400, err);
+		return;
+	}
+	if (!query_int(rq, rs, "after", -1, INT64_MAX, &after) || !query_int(rq, rs, "limit", 1, 1000, &limit) ||
+	    !query_int(rq, rs, "last", 1, 1000, &last))
+		return;
+	if (limit && last) {
+		api_error(rs, 400, "last: not with limit (the first N samples or the last N, not both)");
+		return;
+	}
+	int r = curves_read(dir, name, after, last ? (int)last : limit ? (int)limit : 100, last != 0, &rs->json, err,
+	                    sizeof(err));
+	if (r) {
+		api_error(rs, r == CURVES_ENAME ? 400 : r == CURVES_ENOMEM ? 503 : 500, err);
+		return;
+	}
+	rs->status = 200;
+}
+
 /* ---- service --------------------------------------------------------------- */
 
 static void h_cluster(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
@@ -552,6 +586,7 @@ const api_route_t api_routes[] = {
 	{.method = "GET", .pattern = "/api/v1/jobs/{id}/progress", .fn = h_progress},
 	{.method = "GET", .pattern = "/api/v1/jobs/{id}/clusters", .fn = h_clusters},
 	{.method = "GET", .pattern = "/api/v1/jobs/{id}/events", .fn = h_events_job},
+	{.method = "GET", .pattern = "/api/v1/jobs/{id}/observables", .fn = h_observables},
 	{.method = "GET", .pattern = "/api/v1/jobs/{id}/files", .fn = h_files},
 	{.method = "GET", .pattern = "/api/v1/jobs/{id}/files/{name}", .fn = h_file},
 	{.method = "GET", .pattern = "/api/v1/events", .fn = h_events_all},

@@ -97,6 +97,17 @@ static const char *find_end(const char *b, size_t n, size_t *end)
 	return NULL;
 }
 
+int gate_scan(const char *buf, size_t n, size_t line_max, size_t head_max, size_t *end)
+{
+	const char *nl = memchr(buf, '\n', n);
+	*end = 0;
+	if ((nl ? (size_t)(nl - buf) : n) > line_max)
+		return 414;
+	if (!find_end(buf, n, end))
+		return n > head_max ? 431 : GATE_WAIT;
+	return *end > head_max ? 431 : GATE_HEAD;
+}
+
 static void ready(gate_t *g, int fd)
 {
 	pend_t *p = g->p[fd];
@@ -119,20 +130,18 @@ static void ready(gate_t *g, int fd)
 	if (n <= 0)
 		return;
 	p->got_bytes = 1;
-	const char *nl = memchr(g->buf, '\n', (size_t)n);
-	if ((nl ? (size_t)(nl - g->buf) : (size_t)n) > g->c.line_max) {
+	size_t end;
+	switch (gate_scan(g->buf, (size_t)n, g->c.line_max, g->c.head_max, &end)) {
+	case GATE_WAIT:
+		return;   /* wait for more (edge-triggered: the next arrival wakes us) */
+	case 414:
 		answer(g, fd, g->c.resp_414, 414);
 		return;
-	}
-	size_t end = 0;
-	if (!find_end(g->buf, (size_t)n, &end)) {
-		if ((size_t)n > g->c.head_max)
-			answer(g, fd, g->c.resp_431, 431);
-		return;   /* wait for more (edge-triggered: the next arrival wakes us) */
-	}
-	if (end > g->c.head_max) {
+	case 431:
 		answer(g, fd, g->c.resp_431, 431);
 		return;
+	default:
+		break;
 	}
 	struct sockaddr_storage sa = p->sa;
 	socklen_t salen = p->salen;

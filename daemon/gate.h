@@ -44,3 +44,11 @@ gate_t *gate_start(const gate_conf_t *conf, char *err, size_t errlen);
 
 /* Stop accepting, close the connections still at the gate and the listening socket, join. */
 void gate_stop(gate_t *g);
+
+enum { GATE_WAIT = 0, GATE_HEAD = 1 };
+
+/* The check on the first bytes of a connection (n of them, as peeked), pure:
+ * 414 when the request line is over line_max bytes, 431 when the head is
+ * (or, incomplete, already is) over head_max, GATE_HEAD when the head is
+ * complete (*end: its length, blank line included), else GATE_WAIT. */
+int gate_scan(const char *buf, size_t n, size_t line_max, size_t head_max, size_t *end);

@@ -54,6 +54,7 @@ struct sse {
 	int64_t job;
 	uint64_t after;
 	int done, suspended;
+	char *final;                  /* a finished job's state, sent after the replay a Last-Event-ID asked for */
 	double last_write;
 	char *buf;
 	size_t len, off, cap;
@@ -177,6 +178,11 @@ static void sse_fill(sse_t *s)
 		} else if (r == HUB_ECLOSED) {
 			s->done = 1;
 		} else {
+			/* replay over: a finished job's stream ends with its state, unless the replay carried it */
+			if (s->final && !s->done) {
+				sse_put(s, "id: %" PRIu64 "\nevent: state\ndata: %s\n\n", s->after, s->final);
+				s->done = 1;
+			}
 			break;
 		}
 	}
@@ -237,6 +243,7 @@ static void sse_free(void *cls)
 		s->next->prev = s->prev;
 	pthread_mutex_unlock(&h->lock);
 	atomic_fetch_sub(&h->gd->open_streams, 1);
+	free(s->final);
 	free(s->buf);
 	free(s);
 }
@@ -255,8 +262,11 @@ static sse_t *sse_prepare(http_t *h, req_t *rq)
 	s->fd = rq->fd;
 	s->job = rq->rs.sse_job;
 	s->after = hub_last(h->gd->hub);
-	if (!parse_u64(MHD_lookup_connection_value(rq->c, MHD_HEADER_KIND, "Last-Event-ID"), &lei) && lei <= s->after)
+	int resume = 0;
+	if (!parse_u64(MHD_lookup_connection_value(rq->c, MHD_HEADER_KIND, "Last-Event-ID"), &lei) && lei <= s->after) {
+		resume = lei < s->after;
 		s->after = lei;
+	}
 	sse_put(s, "retry: 2000\n");
 	if (s->job) {
 		json_t *j = NULL;
@@ -266,9 +276,18 @@ static sse_t *sse_prepare(http_t *h, req_t *rq)
 			return NULL;
 		}
 		char *txt = json_dumps(j, JSON_COMPACT);
-		sse_put(s, "id: %" PRIu64 "\nevent: state\ndata: %s\n\n", s->after, txt ? txt : "{}");
-		if (terminal(json_string_value(json_object_get(j, "state"))))
-			s->done = 1;
+		/* A client resuming a finished job gets what it missed (still in the hub), then the
+		 * final state; anyone else gets the state now, and a finished job's stream ends there. */
+		if (resume && terminal(json_string_value(json_object_get(j, "state")))) {
+			s->final = txt;
+			txt = NULL;
+			if (!s->final)
+				s->done = 1;
+		} else {
+			sse_put(s, "id: %" PRIu64 "\nevent: state\ndata: %s\n\n", s->after, txt ? txt : "{}");
+			if (terminal(json_string_value(json_object_get(j, "state"))))
+				s->done = 1;
+		}
 		free(txt);
 		json_decref(j);
 	} else {
@@ -367,6 +386,7 @@ static enum MHD_Result reply(http_t *h, struct MHD_Connection *c, req_t *rq, con
 		rq->sse = NULL;
 		r = MHD_create_response_from_callback(MHD_SIZE_UNKNOWN, 4096, sse_read, s, sse_free);
 		if (!r) {
+			free(s->final);
 			free(s->buf);
 			free(s);
 			return MHD_NO;
@@ -448,12 +468,6 @@ static enum MHD_Result reply(http_t *h, struct MHD_Connection *c, req_t *rq, con
 	return ret;
 }
 
-static enum MHD_Result fail(http_t *h, struct MHD_Connection *c, req_t *rq, int status, const char *msg)
-{
-	api_error(&rq->rs, status, msg);
-	return reply(h, c, rq, NULL);
-}
-
 /* A complete response with a JSON error body, for the gate (which answers before libmicrohttpd sees a request). */
 static void render_error(char *out, size_t n, int status, const char *reason, const char *code, const char *msg)
 {
@@ -475,20 +489,19 @@ typedef struct {
 	size_t bytes;
 } heads_t;
 
-static enum MHD_Result collect(void *cls, enum MHD_ValueKind kind, const char *key, const char *value)
+static void collect(void *cls, const char *key, const char *value)
 {
 	heads_t *hs = cls;
-	(void)kind;
 	hs->bytes += strlen(key) + (value ? strlen(value) : 0) + 4;
 	if (!strcasecmp(key, "Forwarded") || !strcasecmp(key, "X-Forwarded-For") || !strcasecmp(key, "X-Real-IP"))
 		hs->g.forwarded = 1;
 	if (!guard_single_header(key))
-		return MHD_YES;
+		return;
 	for (int i = 0; i < hs->nseen; i++)
 		if (!strcasecmp(hs->seen[i], key)) {
 			if (!hs->g.duplicate)
 				hs->g.duplicate = hs->seen[i];
-			return MHD_YES;
+			return;
 		}
 	if (hs->nseen < 8)
 		hs->seen[hs->nseen++] = key;
@@ -498,14 +511,11 @@ static enum MHD_Result collect(void *cls, enum MHD_ValueKind kind, const char *k
 		hs->g.origin = value;
 	else if (!strcasecmp(key, "Authorization"))
 		hs->g.authorization = value;
-	return MHD_YES;
 }
 
-static enum MHD_Result count_args(void *cls, enum MHD_ValueKind kind, const char *key, const char *value)
+static void count_args(void *cls, const char *key, const char *value)
 {
-	(void)kind;
 	*(size_t *)cls += strlen(key) + (value ? strlen(value) : 0) + 2;
-	return MHD_YES;
 }
 
 static int is_json(const char *ct)
@@ -570,58 +580,123 @@ static void *worker(void *arg)
 
 /* ---- request handling ---------------------------------------------------------- */
 
+/* libmicrohttpd's iteration over headers or arguments, for http_head_t.each. */
+typedef struct {
+	void (*fn)(void *cls, const char *key, const char *value);
+	void *cls;
+} each_t;
+
+static enum MHD_Result each_cb(void *cls, enum MHD_ValueKind kind, const char *key, const char *value)
+{
+	each_t *e = cls;
+	(void)kind;
+	e->fn(e->cls, key, value);
+	return MHD_YES;
+}
+
+static void conn_each(void *conn, int kind, void (*fn)(void *cls, const char *key, const char *value), void *cls)
+{
+	each_t e = {fn, cls};
+	MHD_get_connection_values(conn, kind == HTTP_EACH_QUERY ? MHD_GET_ARGUMENT_KIND : MHD_HEADER_KIND, each_cb, &e);
+}
+
+int http_admit(gd_t *gd, const guard_t *guard, const http_head_t *hd, const api_route_t **rt, api_req_t *ar,
+               char store[][128], api_resp_t *rs, char *allow, size_t allowlen, int *too_large)
+{
+	const char *method = hd->method, *url = hd->url;
+	char msg[256];
+	heads_t hs = {0};
+	size_t line = strlen(method) + strlen(url) + 12;
+	*rt = NULL;
+	*allow = '\0';
+	hd->each(hd->conn, HTTP_EACH_QUERY, count_args, &line);
+	hd->each(hd->conn, HTTP_EACH_HEADER, collect, &hs);
+	/* The gate checked the first request of a connection; these are the later ones. */
+	if (line > LINE_MAX_BYTES) {
+		snprintf(msg, sizeof(msg), "request line longer than %d bytes", LINE_MAX_BYTES);
+		api_error(rs, 414, msg);
+		return 414;
+	}
+	if (line + hs.bytes > HEAD_MAX_BYTES) {
+		snprintf(msg, sizeof(msg), "request head longer than %d bytes", HEAD_MAX_BYTES);
+		api_error(rs, 431, msg);
+		return 431;
+	}
+	hs.g.peer_loopback = hd->peer_loopback;
+	int known = 0;
+	*ar = (api_req_t){.method = method, .path = url, .query = hd->query, .header = hd->header, .conn = hd->conn};
+	*rt = api_match(method, url, ar, store, &known, allow, allowlen);
+	guard_route_t kind = !*rt || ((*rt)->flags & API_OPEN) ? GUARD_ROUTE_OPEN
+	                     : (*rt)->flags & API_MUTATES       ? GUARD_ROUTE_MUTATES
+	                                                         : GUARD_ROUTE_READ;
+	int st = guard_check(guard, &hs.g, kind, msg, sizeof(msg));
+	if (st) {
+		*allow = '\0';
+		api_error(rs, st, msg);
+		return st;
+	}
+	if (!*rt) {
+		if (known) {
+			snprintf(msg, sizeof(msg), "method %s not allowed on %.100s (allowed: %s)", method, url, allow);
+			api_error(rs, 405, msg);
+			return 405;
+		}
+		snprintf(msg, sizeof(msg), "no such resource: %.200s", url);
+		api_error(rs, 404, msg);
+		return 404;
+	}
+	/* Refuse an announced oversized body before reading any of it. */
+	const char *cl = hd->header(hd->conn, "Content-Length");
+	if (cl && strtoull(cl, NULL, 10) > (unsigned long long)gd->cfg->max_body) {
+		*too_large = 1;
+		snprintf(msg, sizeof(msg), "request body of %.20s bytes exceeds the limit of %ld", cl, gd->cfg->max_body);
+		api_error(rs, 413, msg);
+		return 413;
+	}
+	if (((*rt)->flags & API_MUTATES) && atomic_load(&gd->stopping)) {
+		api_error(rs, 503, "the daemon is shutting down");
+		rs->retry_after = 5;
+		return 503;
+	}
+	return 0;
+}
+
+int http_body_check(const gd_t *gd, const api_route_t *rt, const http_head_t *hd, size_t len, int too_large,
+                    api_resp_t *rs)
+{
+	char msg[256];
+	if (too_large) {
+		snprintf(msg, sizeof(msg), "request body exceeds the limit of %ld bytes", gd->cfg->max_body);
+		api_error(rs, 413, msg);
+		return 413;
+	}
+	if (len && !is_json(hd->header(hd->conn, "Content-Type"))) {
+		api_error(rs, 415, "request body must be Content-Type: application/json");
+		return 415;
+	}
+	if (!strcmp(hd->method, "POST") && !strcmp(rt->pattern, "/api/v1/jobs") && !len) {
+		api_error(rs, 400, "body: empty; send a scene (application/json)");
+		return 400;
+	}
+	return 0;
+}
+
+/* The head of the request on connection c, for http_admit() and http_body_check(). */
+static http_head_t conn_head(struct MHD_Connection *c, const char *url, const char *method)
+{
+	const union MHD_ConnectionInfo *ci = MHD_get_connection_info(c, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
+	return (http_head_t){.method = method, .url = url, .conn = c, .header = header_get, .query = query_get,
+	                     .each = conn_each, .peer_loopback = ci && guard_addr_loopback(ci->client_addr)};
+}
+
 /* First call for a request (its head is complete): limits and admission. Answers
  * at once when the request is refused; returns MHD_YES with rq->rs.status == 0 otherwise. */
 static enum MHD_Result admit(http_t *h, struct MHD_Connection *c, req_t *rq, const char *url, const char *method)
 {
-	gd_t *gd = h->gd;
-	char allow[128], msg[256];
-	heads_t hs = {0};
-	size_t line = strlen(method) + strlen(url) + 12;
-	MHD_get_connection_values(c, MHD_GET_ARGUMENT_KIND, count_args, &line);
-	MHD_get_connection_values(c, MHD_HEADER_KIND, collect, &hs);
-	/* The gate checked the first request of a connection; these are the later ones. */
-	if (line > LINE_MAX_BYTES) {
-		snprintf(msg, sizeof(msg), "request line longer than %d bytes", LINE_MAX_BYTES);
-		return fail(h, c, rq, 414, msg);
-	}
-	if (line + hs.bytes > HEAD_MAX_BYTES) {
-		snprintf(msg, sizeof(msg), "request head longer than %d bytes", HEAD_MAX_BYTES);
-		return fail(h, c, rq, 431, msg);
-	}
-	const union MHD_ConnectionInfo *ci = MHD_get_connection_info(c, MHD_CONNECTION_INFO_CLIENT_ADDRESS);
-	hs.g.peer_loopback = ci && guard_addr_loopback(ci->client_addr);
-	int known = 0;
-	rq->ar = (api_req_t){.method = method, .path = url, .query = query_get, .header = header_get, .conn = c};
-	rq->rt = api_match(method, url, &rq->ar, rq->store, &known, allow, sizeof(allow));
-	guard_route_t kind = !rq->rt || (rq->rt->flags & API_OPEN) ? GUARD_ROUTE_OPEN
-	                     : rq->rt->flags & API_MUTATES         ? GUARD_ROUTE_MUTATES
-	                                                           : GUARD_ROUTE_READ;
-	int st = guard_check(h->guard, &hs.g, kind, msg, sizeof(msg));
-	if (st)
-		return fail(h, c, rq, st, msg);
-	if (!rq->rt) {
-		if (known) {
-			snprintf(msg, sizeof(msg), "method %s not allowed on %.100s (allowed: %s)", method, url, allow);
-			api_error(&rq->rs, 405, msg);
-		} else {
-			snprintf(msg, sizeof(msg), "no such resource: %.200s", url);
-			api_error(&rq->rs, 404, msg);
-		}
-		return reply(h, c, rq, allow);
-	}
-	/* Refuse an announced oversized body before reading any of it. */
-	const char *cl = MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Content-Length");
-	if (cl && strtoull(cl, NULL, 10) > (unsigned long long)gd->cfg->max_body) {
-		rq->too_large = 1;
-		snprintf(msg, sizeof(msg), "request body of %.20s bytes exceeds the limit of %ld", cl, gd->cfg->max_body);
-		return fail(h, c, rq, 413, msg);
-	}
-	if ((rq->rt->flags & API_MUTATES) && atomic_load(&gd->stopping)) {
-		api_error(&rq->rs, 503, "the daemon is shutting down");
-		rq->rs.retry_after = 5;
-		return reply(h, c, rq, NULL);
-	}
+	char allow[128];
+	http_head_t hd = conn_head(c, url, method);
+	if (http_admit(h->gd, h->guard, &hd, &rq->rt, &rq->ar, rq->store, &rq->rs, allow, sizeof(allow), &rq->too_large))
+		return reply(h, c, rq, *allow ? allow : NULL);
 	return MHD_YES;
 }
 
@@ -674,15 +749,9 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *c, const cha
 	if (rq->state == RQ_QUEUED)
 		return MHD_YES;
 	conns_set_phase(h->conns, rq->fd, CONN_BUSY, mono());
-	char msg[256];
-	if (rq->too_large) {
-		snprintf(msg, sizeof(msg), "request body exceeds the limit of %ld bytes", gd->cfg->max_body);
-		return fail(h, c, rq, 413, msg);
-	}
-	if (rq->len && !is_json(MHD_lookup_connection_value(c, MHD_HEADER_KIND, "Content-Type")))
-		return fail(h, c, rq, 415, "request body must be Content-Type: application/json");
-	if (!strcmp(method, "POST") && !strcmp(rq->rt->pattern, "/api/v1/jobs") && !rq->len)
-		return fail(h, c, rq, 400, "body: empty; send a scene (application/json)");
+	http_head_t hd = conn_head(c, url, method);
+	if (http_body_check(gd, rq->rt, &hd, rq->len, rq->too_large, &rq->rs))
+		return reply(h, c, rq, NULL);
 	rq->ar.body = rq->body ? rq->body : "";
 	rq->ar.body_len = rq->len;
 	if (rq->rt->flags & API_INLINE) {
@@ -726,6 +795,7 @@ static void on_completed(void *cls, struct MHD_Connection *c, void **con_cls, en
 		json_decref(rq->rs.json);
 		free(rq->rs.owned);
 		if (rq->sse) {
+			free(rq->sse->final);
 			free(rq->sse->buf);
 			free(rq->sse);
 		}
@@ -764,7 +834,7 @@ static void gate_count(void *arg, int status)
 }
 /* Percent-decoding that leaves %00 and %2F encoded: a NUL would cut a name
  * short ("a.h5%00x" would serve a.h5) and a slash would invent path segments. */
-static size_t unescape(void *cls, struct MHD_Connection *c, char *s)
+size_t http_unescape(char *s)
 {
 	char *w = s;
 	for (const char *r = s; *r; r++) {
@@ -781,6 +851,13 @@ static size_t unescape(void *cls, struct MHD_Connection *c, char *s)
 	}
 	*w = '\0';
 	return (size_t)(w - s);
+}
+
+static size_t unescape(void *cls, struct MHD_Connection *c, char *s)
+{
+	(void)cls;
+	(void)c;
+	return http_unescape(s);
 }
 
 static void mhd_log(void *cls, const char *fmt, va_list ap)

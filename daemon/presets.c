@@ -20,6 +20,8 @@ static const struct { const char *name, *description; } descriptions[] = {
 	                                          "the cheapest method expected to keep T(t) within 2% of exact dynamics"},
 	{.name = "bagnold-shear-2d", .description = "Couette shear of 400 disks (phi=0.1, e=0.9) between walls moving at "
 	                                            "-+0.5: steady temperature and wall shear force (Bagnold: F ~ v^2)"},
+	{.name = "thermostat-balance-2d", .description = "4,000 disks at phi=0.65, e=0.97, held at T=0.02 by seed 001's "
+	                                                 "stochastic thermostat (T_th=0.0248, interval 3.48): thermostat balance"},
 };
 
 static const size_t npresets = sizeof(presets_embedded) / sizeof(presets_embedded[0]);

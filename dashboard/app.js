@@ -350,69 +350,83 @@
   }, 500);
   // ---- curves at snapshot times: the last sample of DIR/observables.jsonl (docs/output.md) ----
   let curvePlots = [], curvesAt = 0, curvesTimer = null;
-  function curvePlot(node, label, logx, logy, extra) {
+  function curvePlot(node, label, logx, logy, extra, xlabel) {
     const w = Math.max(380, node.clientWidth || 420);
     return new uPlot({
       width: w, height: 240, scales: { x: { time: false, distr: logx ? 3 : 1 }, y: { distr: logy ? 3 : 1 } },
-      axes: [{ label: logx ? 'k' : '' }, logy ? { values: (u, vals) => vals.map((v) => (v == null ? '' : v >= 0.01 && v < 1e4 ? String(+v.toPrecision(3)) : v.toExponential(0))) } : {}],
+      axes: [{ label: xlabel || '' }, logy ? { values: (u, vals) => vals.map((v) => (v == null ? '' : v >= 0.01 && v < 1e4 ? String(+v.toPrecision(3)) : v.toExponential(0))) } : {}],
       series: [{}, { label, stroke: '#2f6fde', width: 2, points: { show: false } }].concat(extra || []),
     }, [[], []].concat((extra || []).map(() => [])), node);
   }
   const pos = (v) => (v > 0 ? v : null);   // log scales: no zeros
-  const CURVE_OBS = ['velocity_distribution', 'pair_correlation', 'structure_factor'];
+  const CURVE_OBS = ['velocity_distribution', 'pair_correlation', 'structure_factor', 'clusters', 'impact_parameter'];
   async function fetchCurves() {
     if (!series || !window.uPlot) return;
     const id = series.job, now = Date.now();
-    if (series.curves === undefined) {   // once per job: does its scene ask for a plotted curve?
-      series.curves = false;
+    if (series.curves === undefined) {   // once per job: which plotted curves does its scene ask for?
+      series.curves = [];
       try {
         const j = await api('GET', '/api/v1/jobs/' + id);
         const obs = (j.scene && j.scene.output && j.scene.output.observables) || [];
-        if (series && series.job === id) series.curves = CURVE_OBS.some((o) => obs.includes(o));
+        if (series && series.job === id) { series.curves = CURVE_OBS.filter((o) => obs.includes(o)); series.dim = j.scene.dimensions; }
       } catch (e) { return; }
     }
     // the engine creates the file before its first progress record
-    if (!series || series.job !== id || !series.curves || !series.t.length) return;
+    if (!series || series.job !== id || !series.curves.length || !series.t.length) return;
     if (now - curvesAt < 5000) {   // at most every 5 s (the file grows), but always once more after the last call
       if (!curvesTimer) curvesTimer = setTimeout(() => { curvesTimer = null; fetchCurves(); }, 5000 - (now - curvesAt));
       return;
     }
     curvesAt = now;
-    let text;
+    // the last sample of each family: GET /api/v1/jobs/{id}/observables?name=...&last=1 (docs/daemon.md)
+    const last = {};
     try {
-      const r = await fetch('/api/v1/jobs/' + id + '/files/observables.jsonl');
-      if (!r.ok) return;   // no curve observables asked for (or not yet written)
-      text = await r.text();
+      for (const name of series.curves) {
+        const r = await api('GET', '/api/v1/jobs/' + id + '/observables?name=' + name + '&last=1');
+        if (r.samples.length) last[name] = r.samples[0];
+      }
     } catch (e) { return; }
     if (!series || series.job !== id) return;
-    const last = {};
-    for (const line of text.split('\n')) {
-      if (!line) continue;
-      try { const c = JSON.parse(line); last[c.name] = c; } catch (e) { /* a line being written */ }
-    }
     const tab = (name, sub) => (last[name] ? last[name].tables.find((t) => t.table === sub) : null);
     const sp = tab('velocity_distribution', 'speed'), comp = tab('velocity_distribution', 'components');
     const g = tab('pair_correlation', ''), sk = tab('structure_factor', '');
-    if (!sp && !g && !sk) return;
+    const ns = tab('clusters', ''), pb = tab('impact_parameter', '');
+    if (!sp && !g && !sk && !ns && !pb) return;
     $('curves').hidden = false;
     if (!curvePlots.length) {
       curvePlots = [
-        curvePlot($('plot-vdist'), 'P(c)', false, true, [{ label: 'Maxwellian', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }]),
-        curvePlot($('plot-gofr'), 'g(r)', false, false),
-        curvePlot($('plot-sofk'), 'S(k)', true, true),
+        curvePlot($('plot-vdist'), 'P(c)', false, true, [{ label: 'Maxwellian', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }], 'c'),
+        curvePlot($('plot-gofr'), 'g(r)', false, false, [], 'r'),
+        curvePlot($('plot-sofk'), 'S(k)', true, true, [], 'k'),
+        curvePlot($('plot-clusters'), 'n_s', true, true, [{ label: 'fit s^-τ', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }], 's'),
+        curvePlot($('plot-impact'), 'P(b)', false, false, [{ label: 'molecular chaos', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }], 'b/σ'),
       ];
     }
+    const D = series.dim || (comp ? Object.keys(comp.columns).length : 2);
     if (sp) {
-      const D = comp ? Object.keys(comp.columns).length : 2;
       const mw = sp.centres.map((c) => pos(D === 2 ? 2 * c * Math.exp(-c * c) : 4 / Math.sqrt(Math.PI) * c * c * Math.exp(-c * c)));
       curvePlots[0].setData([sp.centres, sp.columns.p.map(pos), mw]);
     }
     if (g) curvePlots[1].setData([g.centres, g.columns.g]);
     if (sk) curvePlots[2].setData([sk.centres, sk.columns.s.map(pos)]);
-    const any = last.velocity_distribution || last.pair_correlation || last.structure_factor;
-    $('curves-info').textContent = 'sample ' + any.sample + ' at time ' + (+any.time.toPrecision(4)) +
-      (last.velocity_distribution ? ', a2 = ' + (last.velocity_distribution.a2 ?? NaN).toPrecision(3) : '') +
-      (last.pair_correlation ? ', g(σ) = ' + (last.pair_correlation.g_contact_pairs ?? NaN).toPrecision(4) : '');
+    if (ns) {
+      // the power law n_s ~ s^-exponent (engine fit, sizes >= 2), drawn through the first sampled size >= 2
+      const tau = last.clusters.exponent, y = ns.columns.n_s;
+      const k0 = ns.centres.findIndex((s, k) => s >= 2 && y[k] > 0);
+      let k1 = y.length - 1;
+      while (k1 > 0 && !(y[k1] > 0)) k1--;   // over the sizes present only
+      const fit = ns.centres.map((s, k) => (Number.isFinite(tau) && k0 >= 0 && k >= k0 && k <= k1 ? pos(y[k0] * Math.pow(s / ns.centres[k0], -tau)) : null));
+      curvePlots[3].setData([ns.centres, y.map(pos), fit]);
+    }
+    if (pb) curvePlots[4].setData([pb.centres, pb.columns.p, pb.centres.map((b) => (D === 2 ? 1 : 2 * b))]);
+    const info = [];
+    const any = CURVE_OBS.map((n) => last[n]).find((x) => x);
+    info.push('sample ' + any.sample + ' at time ' + (+any.time.toPrecision(4)));
+    if (last.velocity_distribution) info.push('a2 = ' + (last.velocity_distribution.a2 ?? NaN).toPrecision(3));
+    if (last.pair_correlation) info.push('g(σ) = ' + (last.pair_correlation.g_contact_pairs ?? NaN).toPrecision(4));
+    if (last.clusters) info.push('n_s exponent τ = ' + (last.clusters.exponent ?? NaN).toPrecision(3) + ', w = ' + (last.clusters.w ?? NaN).toPrecision(3));
+    if (pb) info.push('P(b) of ' + pb.columns.n.reduce((a, x) => a + x, 0) + ' collisions since the previous sample');
+    $('curves-info').textContent = info.join(', ');
   }
   // Nothing of the job shown before may stay on the page of the next one.
   function clearJobPage(id) {

@@ -83,6 +83,24 @@ static int emit(const run_record_t *rec, void *ctx)
 	return 0;
 }
 
+/* The time of the last progress record in f (progress.jsonl cut back to a checkpoint; f is left at its
+ * end): an ensemble checkpoint is taken right after the record of its output time, whose time (the mean
+ * over the replicas) is that of the curves taken then. 0 when there is none. */
+static double last_progress_time(FILE *f)
+{
+	char line[REPORT_MAX + 2];
+	double t = 0.0;
+	if (fseek(f, 0, SEEK_SET) != 0)
+		return 0.0;
+	while (fgets(line, sizeof(line), f)) {
+		const char *p = strstr(line, "\"time\":");
+		if (!strncmp(line, "{\"type\":\"progress\",", 19) && p)
+			t = strtod(p + 7, NULL);
+	}
+	fseek(f, 0, SEEK_END);
+	return t;
+}
+
 /* DIR/observables.jsonl: new, or (resumed from a checkpoint at time t_ckpt) cut back to the samples taken
  * up to the checkpoint (lines are in time order; a sample at t_ckpt was written before the checkpoint and
  * is not taken again), counting the samples kept. A torn last line goes too. */
@@ -411,7 +429,9 @@ static void idle_until_rank0(void)
 /* Rank 0 tells the others, once, whether there is work: {mode, text length};
  * mode != 0 (ensemble: ENS_RUN | ENS_CKPT | ENS_RESUME | ENS_FRAMES) is
  * followed by the scene text, which every rank parses. */
-enum { ENS_RUN = 1, ENS_CKPT = 2, ENS_RESUME = 4, ENS_FRAMES = 8 };
+enum { ENS_RUN = 1, ENS_CKPT = 2, ENS_RESUME = 4, ENS_FRAMES = 8, ENS_CURVES = 16 };
+/* Bytes of packed curves of all replicas an ensemble may reduce (each rank holds them all). */
+#define ENS_CURVES_MAX (1024.0 * 1024 * 1024)
 typedef struct {
 	int sent;
 } announce_t;
@@ -602,8 +622,13 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 {
 	const int R = (int)s->replicas, NL = R / size + (rank < R % size);
 	const size_t NV = (size_t)R * ENSEMBLE_NV;
-	const int frames = (eo->mode & ENS_FRAMES) != 0;
-	const size_t NX = NV + 3 + (frames ? (size_t)R : 0);   /* reduced each output time */
+	const int frames = (eo->mode & ENS_FRAMES) != 0, curves = (eo->mode & ENS_CURVES) != 0;
+	const size_t NX = NV + 3 + (frames || curves ? (size_t)R : 0);   /* reduced each output time */
+	/* curves: every replica's packed sample, reduced to rank 0 at the output times where a replica's
+	 * snapshot schedule asks for one; rank 0 combines them on a layout-only obs (mean, se per bin) */
+	obs_t *lay = curves && rank == 0 ? obs_create(s, 1) : NULL;
+	size_t CP = 0;
+	double *cvals = NULL;
 	const size_t fsz = frames ? s->count * (size_t)s->dim : 0;
 	double *fpos = frames ? malloc(fsz * sizeof(double)) : NULL, *fvel = frames ? malloc(fsz * sizeof(double)) : NULL;
 	run_t **runs = calloc(NL > 0 ? NL : 1, sizeof(run_t *));
@@ -617,7 +642,7 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 	ckpt_ensemble_t es = {1, 0.0};
 	const int ckpt = (eo->mode & ENS_CKPT) != 0;
 
-	if (!runs || !last || !done || !vals || (frames && (!fpos || !fvel)))
+	if (!runs || !last || !done || !vals || (frames && (!fpos || !fvel)) || (curves && rank == 0 && !lay))
 		failed = 1;
 	if (eo->mode & ENS_RESUME) {
 		if (rank == 0)
@@ -635,6 +660,18 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 			ret = e;
 		}
 	}
+	if (curves && !failed && NL > 0) {
+		CP = run_curves_packed_size(runs[0]);
+		if (!(cvals = malloc((size_t)R * CP * sizeof(double))))
+			failed = 1;
+	} else if (curves && !failed) {
+		/* a rank without replicas (size > R) still takes part in the reduction */
+		obs_t *o = obs_create(s, 1);
+		CP = o ? obs_packed_size(o) : 0;
+		obs_destroy(o);
+		if (!o || !(cvals = malloc((size_t)R * CP * sizeof(double))))
+			failed = 1;
+	}
 	t0 = ckpt_wall = MPI_Wtime();   /* wall_seconds: the production run, as for one replica (set-up and relax excluded) */
 	for (;;) {
 		memset(vals, 0, NX * sizeof(double));
@@ -648,7 +685,7 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 						snprintf(err, errlen, "replica %d: %s", r, last[i].warning ? last[i].warning : "");
 					break;
 				}
-				if (frames)
+				if (frames || curves)
 					vals[NV + 3 + r] = run_frame_due(runs[i]);
 			}
 			ensemble_pack(&last[i], done[i], vals + (size_t)r * ENSEMBLE_NV);
@@ -678,6 +715,31 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 			out.wall_seconds = es.wall_before + MPI_Wtime() - t0;
 			if (emit(&out, sink))
 				emit_failed = 1;
+		}
+		if (curves) {
+			int due = 0;
+			for (int r = 0; r < R; r++)
+				due |= vals[NV + 3 + r] != 0;
+			if (due) {
+				memset(cvals, 0, (size_t)R * CP * sizeof(double));
+				for (int i = 0; i < NL; i++)
+					if (run_curves_pack(runs[i], cvals + (size_t)(rank + i * size) * CP) != RUN_OK)
+						emit_failed = 1;   /* out of memory: the next reduction stops the run */
+				MPI_Reduce(rank == 0 ? MPI_IN_PLACE : cvals, cvals, (int)((size_t)R * CP), MPI_DOUBLE, MPI_SUM, 0,
+				           MPI_COMM_WORLD);
+				if (rank == 0 && !emit_failed) {
+					run_record_t crec = out;
+					crec.kind = RUN_CURVES;
+					crec.curves = obs_combine(lay, cvals, R);
+					crec.replicas = (uint32_t)R;
+					if (emit(&crec, sink))
+						emit_failed = 1;
+				}
+				if (!frames)
+					for (int i = 0; i < NL; i++)
+						if (vals[NV + 3 + rank + i * size] != 0)
+							run_snap_taken(runs[i]);
+			}
 		}
 		if (frames)
 			ens_frames(s, rank, size, runs, vals + NV + 3, sink, fpos, fvel, &emit_failed);
@@ -733,6 +795,8 @@ cleanup:
 	free(vals);
 	free(fpos);
 	free(fvel);
+	free(cvals);
+	obs_destroy(lay);
 	return ret;
 }
 
@@ -770,7 +834,8 @@ static int run_other(int rank, int size)
  * from the scene file's directory; a job from --jobs-dir) loaded into
  * *pos, *vel and given to the engines through the scene. EX_DONE, or
  * EX_INPUT/EX_FAIL with the one line printed. */
-static int load_from(scene_t *s, const char *scene_path, const char *jobs_dir, double **pos, double **vel)
+static int load_from(scene_t *s, const char *scene_path, const char *jobs_dir, double **pos, double **vel,
+                     double **spin)
 {
 	char path[2 * SCENE_PATH_MAX + 64], err[2 * SCENE_PATH_MAX + 512];
 	if (s->from_job) {
@@ -787,20 +852,21 @@ static int load_from(scene_t *s, const char *scene_path, const char *jobs_dir, d
 		int dirlen = slash ? (int)(slash - scene_path) : 1;
 		snprintf(path, sizeof path, "%.*s/%s", dirlen, slash ? scene_path : ".", s->from_file);
 	}
-	int rc = frame_load(s, path, pos, vel, err, sizeof err);
+	int rc = frame_load(s, path, pos, vel, spin, err, sizeof err);
 	if (rc != FRAME_OK) {
 		fprintf(stderr, "%s\n", err);
 		return rc == FRAME_ENOMEM ? EX_FAIL : EX_INPUT;
 	}
 	s->init_pos = *pos;
 	s->init_vel = *vel;
+	s->init_spin = *spin;
 	return EX_DONE;
 }
 
 static int run_rank0(int argc, char **argv, announce_t *an, int size)
 {
 	const char *cmd = argv[1], *scene_path = NULL, *outdir = NULL, *resume_path = NULL, *jobs_dir = NULL;
-	double *from_pos = NULL, *from_vel = NULL;
+	double *from_pos = NULL, *from_vel = NULL, *from_spin = NULL;
 	int progress_fd = 1, ret = EX_FAIL;
 	char err[512] = "", *text = NULL, *advice_line = NULL;
 	size_t len = 0;
@@ -861,7 +927,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	}
 	/* An earlier run's frame (not when resuming: the checkpoint has the state). */
 	if (scene.has_from && !resume_path &&
-	    (ret = load_from(&scene, scene_path, jobs_dir, &from_pos, &from_vel)) != EX_DONE)
+	    (ret = load_from(&scene, scene_path, jobs_dir, &from_pos, &from_vel, &from_spin)) != EX_DONE)
 		goto cleanup;
 	if (!strcmp(cmd, "validate")) {
 		ret = EX_DONE;
@@ -875,9 +941,23 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		ret = EX_INPUT;
 		goto cleanup;
 	}
-	/* Curves (observables.jsonl) come with --out; single runs only in this version (docs/output.md). */
+	/* Curves (observables.jsonl) come with --out (ensembles: means and standard errors, ensemble_run()). */
+	const int want_curves = outdir != NULL && obs_curve_bits(&scene) != 0;
 	run_opts_t opts = {.snapshots = outdir != NULL && stepped, .checkpoints = outdir != NULL && stepped,
-	                   .curves = outdir != NULL && stepped && obs_curve_bits(&scene) != 0};
+	                   .curves = want_curves && stepped};
+	if (want_curves && !stepped) {
+		/* every rank holds all replicas' packed curves for their reduction (ensemble_run()) */
+		obs_t *lay = obs_create(&scene, 1);
+		double need = lay ? (double)scene.replicas * (double)obs_packed_size(lay) * sizeof(double) : 0.0;
+		obs_destroy(lay);
+		if (need > ENS_CURVES_MAX) {
+			fprintf(stderr, "granular-engine: output.observables: the curves of %llu replicas need %.3g GiB on every "
+			        "rank to be combined (at most %.3g GiB): fewer replicas or fewer bins\n",
+			        (unsigned long long)scene.replicas, need / (1u << 30), ENS_CURVES_MAX / (1u << 30));
+			ret = EX_INPUT;
+			goto cleanup;
+		}
+	}
 	ckpt_output_t at = {0, 0, 0};
 	if (!stepped) {
 		ens.blobs = calloc(scene.replicas, sizeof(*ens.blobs));
@@ -924,7 +1004,9 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		uint64_t ev, co;
 		if (run)
 			run_totals(run, &t_ckpt, &ev, &co);
-		if (opts.curves && open_curves(outdir, resume_path != NULL, t_ckpt, &sink) != 0)
+		else if (resume_path)
+			t_ckpt = last_progress_time(sink.copy);   /* ensembles: the mean time of the checkpoint's record */
+		if (want_curves && open_curves(outdir, resume_path != NULL, t_ckpt, &sink) != 0)
 			goto cleanup;
 		snprintf(path, sizeof(path), "%s/trajectory.h5", outdir);
 		if (resume_path && resume_frames(&scene, &ens, &at, &frames) != 0) {
@@ -963,7 +1045,8 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 
 	if (scene.replicas > 1) {
 		ens_opts_t eo = {ENS_RUN | (outdir ? ENS_CKPT : 0) | (resume_path ? ENS_RESUME : 0) |
-		                 (outdir && h5md_groups(&scene) > 0 ? ENS_FRAMES : 0), outdir, text, len, &ens};
+		                 (outdir && h5md_groups(&scene) > 0 ? ENS_FRAMES : 0) | (want_curves ? ENS_CURVES : 0), outdir,
+		                 text, len, &ens};
 		announce(an, eo.mode, text, len);
 		rc = ensemble_run(&scene, 0, size, &sink, &eo, err, sizeof(err));
 		if (rc == RUN_STOPPED) {
@@ -1008,6 +1091,7 @@ cleanup:
 	run_destroy(run);
 	free(from_pos);
 	free(from_vel);
+	free(from_spin);
 	free(frames);
 	for (uint64_t r = 0; ens.blobs && r < scene.replicas; r++)
 		free(ens.blobs[r]);
@@ -1027,6 +1111,17 @@ cleanup:
 		fclose(sink.progress);
 	return ret;
 }
+
+#if defined(__SANITIZE_ADDRESS__)
+/* Under AddressSanitizer (./configure --enable-sanitizers): Open MPI's and
+ * PMIx's components keep allocations until exit and are dlclose'd by then,
+ * and they have no frame pointers, so the fast unwinder's two-frame stacks
+ * name an "<unknown module>" that no suppression in tests/lsan.supp can
+ * match and every run ended in a leak report (exit 1). The slow unwinder
+ * reaches libmpi & co. Allocation is rare in the engine after its start. */
+const char *__asan_default_options(void);
+const char *__asan_default_options(void) { return "fast_unwind_on_malloc=0"; }
+#endif
 
 int main(int argc, char **argv)
 {

@@ -143,6 +143,104 @@ static double particle_volume(const scene_t *s)
  * (Torquato, Random Heterogeneous Materials, sec. 3.4; as engine/ed/ed.c). */
 static double rsa_jamming(int dim) { return dim == 2 ? 0.547 : 0.384; }
 
+/* The obstacle whose excluded zone (centre distance below its radius plus
+ * the particle radius, less tol) holds centre x, or -1. Minimum image on
+ * periodic axes. */
+static int in_obstacle(const scene_t *s, const double *x, double tol)
+{
+	for (int k = 0; k < s->n_obstacles; k++) {
+		const scene_obstacle_t *o = &s->obstacle[k];
+		double r2 = 0.0, reach = o->radius + s->radius - tol;
+		for (int a = 0; a < s->dim; a++) {
+			double d = x[a] - o->center[a];
+			if (!s->boundary[a].walled)
+				d -= s->box[a] * nearbyint(d / s->box[a]);
+			r2 += d * d;
+		}
+		if (r2 < reach * reach)
+			return k;
+	}
+	return -1;
+}
+
+/* A lattice of the region: its shape, and site j's centre. */
+typedef struct {
+	int dim;
+	int64_t n[3];      /* 2D: columns, rows; 3D: FCC cells per axis */
+	double a[3];       /* spacing */
+	double lo[3];
+	uint64_t sites;
+	double nearest;    /* nearest-neighbour distance */
+} lat_t;
+
+static void lat_shape(lat_t *l, const scene_t *s, const span_t *sp, uint64_t want)
+{
+	double Lp[3];
+	lattice_edges(s, sp, Lp);
+	l->dim = s->dim;
+	l->n[0] = l->n[1] = l->n[2] = 1;
+	if (s->dim == 2) {
+		l->nearest = lattice_2d(Lp, want, &l->n[0], &l->n[1]);
+		l->sites = (uint64_t)(l->n[0] * l->n[1]);
+	} else {
+		l->nearest = lattice_3d(Lp, want, l->n);
+		l->sites = (uint64_t)(4 * l->n[0] * l->n[1] * l->n[2]);
+	}
+	for (int a = 0; a < 3; a++) {
+		l->a[a] = Lp[a] / l->n[a];
+		l->lo[a] = sp[a].lo;
+	}
+}
+
+static void lat_site(const lat_t *l, uint64_t j, double *x)
+{
+	if (l->dim == 2) {
+		int64_t ix = (int64_t)j % l->n[0], iy = (int64_t)j / l->n[0];
+		x[0] = l->lo[0] + (ix + 0.25 + 0.5 * (iy & 1)) * l->a[0];
+		x[1] = l->lo[1] + (iy + 0.5) * l->a[1];
+	} else {
+		static const double site[4][3] = { { 0, 0, 0 }, { .5, .5, 0 }, { .5, 0, .5 }, { 0, .5, .5 } };
+		int64_t c = (int64_t)j / 4, k = (int64_t)j % 4;
+		int64_t ix = c % l->n[0], iy = (c / l->n[0]) % l->n[1], iz = c / (l->n[0] * l->n[1]);
+		x[0] = l->lo[0] + (ix + site[k][0] + 0.25) * l->a[0];
+		x[1] = l->lo[1] + (iy + site[k][1] + 0.25) * l->a[1];
+		x[2] = l->lo[2] + (iz + site[k][2] + 0.25) * l->a[2];
+	}
+}
+
+static uint64_t lat_free(const lat_t *l, const scene_t *s);
+
+/* The lattice for N particles: N sites, or with obstacles the smallest
+ * lattice (in steps of the sites they block) with N sites clear of them,
+ * as long as its nearest distance stays at least a diameter. */
+static void lat_init(lat_t *l, const scene_t *s, const span_t *sp)
+{
+	uint64_t want = s->count;
+	for (int round = 0; round < 64; round++) {
+		lat_shape(l, s, sp, want);
+		if (!s->n_obstacles || l->nearest < 2.0 * s->radius * (1.0 - 1e-12))
+			return;
+		uint64_t nfree = lat_free(l, s);
+		if (nfree >= s->count)
+			return;
+		want = (want > l->sites ? want : l->sites) + (s->count - nfree);
+	}
+}
+
+/* Sites of the lattice clear of every obstacle. */
+static uint64_t lat_free(const lat_t *l, const scene_t *s)
+{
+	if (!s->n_obstacles)
+		return l->sites;
+	uint64_t nfree = 0;
+	double x[3];
+	for (uint64_t j = 0; j < l->sites; j++) {
+		lat_site(l, j, x);
+		nfree += in_obstacle(s, x, 0.0) < 0;
+	}
+	return nfree;
+}
+
 int place_check(const scene_t *s, char *msg, size_t msglen)
 {
 	span_t sp[3];
@@ -168,47 +266,41 @@ int place_check(const scene_t *s, char *msg, size_t msglen)
 		            "in the region: volume fraction %.4g there (random sequential addition jams at %.3g); use "
 		            "\"lattice\" or a larger region", (unsigned long long)s->count, phi, rsa_jamming(s->dim));
 	}
-	double Lp[3];
-	int64_t b[3] = { 1, 1, 1 };
-	lattice_edges(s, sp, Lp);
-	double d = s->dim == 2 ? lattice_2d(Lp, s->count, &b[0], &b[1]) : lattice_3d(Lp, s->count, b);
-	if (d >= sigma * (1.0 - 1e-12))
-		return PLACE_OK;
-	return fail(msg, msglen, PLACE_EINVAL, "particles.initial.region: no lattice of %llu particles fits the region "
-	            "(nearest distance %.6g < diameter %.6g); use a larger region or fewer particles",
-	            (unsigned long long)s->count, d, sigma);
+	lat_t l;
+	lat_init(&l, s, sp);
+	if (l.nearest < sigma * (1.0 - 1e-12))
+		return fail(msg, msglen, PLACE_EINVAL, "particles.initial.region: no lattice of %llu particles fits the region%s "
+		            "(nearest distance %.6g < diameter %.6g); use a larger region or fewer particles",
+		            (unsigned long long)s->count, s->n_obstacles ? " clear of the obstacles" : "", l.nearest, sigma);
+	uint64_t nfree = lat_free(&l, s);
+	if (nfree < s->count)
+		return fail(msg, msglen, PLACE_EINVAL, "particles.initial.region: the obstacles leave room for only %llu of "
+		            "%llu particles on a lattice in the region; use a larger region or fewer particles",
+		            (unsigned long long)nfree, (unsigned long long)s->count);
+	return PLACE_OK;
 }
 
+/* N of the lattice's sites clear of the obstacles, the vacancies spread
+ * over them (lattice.h); place_check() made sure there are enough. */
 static void place_lattice(const scene_t *s, const span_t *sp, rng_t *rng, double *pos)
 {
 	const int D = s->dim;
-	const uint32_t n = (uint32_t)s->count;
-	double Lp[3];
+	lat_t l;
 	lattice_fill_t fill;
-	lattice_edges(s, sp, Lp);
-	if (D == 2) {
-		int64_t nx = 1, ny = 1;
-		lattice_2d(Lp, n, &nx, &ny);
-		double ax = Lp[0] / nx, ay = Lp[1] / ny;
-		lattice_fill_init(&fill, (uint64_t)(nx * ny), n, rng);
-		for (uint32_t i = 0; i < n; i++) {
-			int64_t j = (int64_t)lattice_fill_next(&fill), ix = j % nx, iy = j / nx;
-			pos[2 * i] = sp[0].lo + (ix + 0.25 + 0.5 * (iy & 1)) * ax;
-			pos[2 * i + 1] = sp[1].lo + (iy + 0.5) * ay;
-		}
-	} else {
-		static const double site[4][3] = { { 0, 0, 0 }, { .5, .5, 0 }, { .5, 0, .5 }, { 0, .5, .5 } };
-		int64_t nn[3] = { 1, 1, 1 };
-		lattice_3d(Lp, n, nn);
-		double ax = Lp[0] / nn[0], ay = Lp[1] / nn[1], az = Lp[2] / nn[2];
-		lattice_fill_init(&fill, (uint64_t)(4 * nn[0] * nn[1] * nn[2]), n, rng);
-		for (uint32_t i = 0; i < n; i++) {
-			int64_t j = (int64_t)lattice_fill_next(&fill), c = j / 4, k = j % 4;
-			int64_t ix = c % nn[0], iy = (c / nn[0]) % nn[1], iz = c / (nn[0] * nn[1]);
-			pos[3 * i] = sp[0].lo + (ix + site[k][0] + 0.25) * ax;
-			pos[3 * i + 1] = sp[1].lo + (iy + site[k][1] + 0.25) * ay;
-			pos[3 * i + 2] = sp[2].lo + (iz + site[k][2] + 0.25) * az;
-		}
+	double x[3];
+	lat_init(&l, s, sp);
+	lattice_fill_init(&fill, lat_free(&l, s), s->count, rng);
+	uint64_t f = 0, want = lattice_fill_next(&fill);
+	uint32_t i = 0;
+	for (uint64_t j = 0; j < l.sites && i < s->count; j++) {
+		lat_site(&l, j, x);
+		if (s->n_obstacles && in_obstacle(s, x, 0.0) >= 0)
+			continue;
+		if (f++ != want)
+			continue;
+		memcpy(&pos[(size_t)i * D], x, (size_t)D * sizeof(double));
+		if (++i < s->count)
+			want = lattice_fill_next(&fill);
 	}
 }
 
@@ -355,6 +447,8 @@ static int place_random(const scene_t *s, const span_t *sp, rng_t *rng, double *
 			double *x = &pos[(size_t)i * D], r2;
 			for (int a = 0; a < D; a++)
 				x[a] = sp[a].lo + rng_uniform(rng) * (sp[a].hi - sp[a].lo);
+			if (s->n_obstacles && in_obstacle(s, x, 0.0) >= 0)
+				continue;
 			if (grid_clash(&g, x, sigma * sigma, -1, &r2) < 0)
 				break;
 		}
@@ -429,6 +523,13 @@ int place_check_state(const scene_t *s, double *pos, const double *vel, const ch
 			return fail(msg, msglen, PLACE_EINVAL, "%s: particle %u is outside the box along %s (%.15g not in "
 			            "[0, %.15g])", key, i, axis_names[a], *x, L);
 		}
+	}
+	for (uint32_t i = 0; i < n && s->n_obstacles; i++) {
+		int k = in_obstacle(s, &pos[(size_t)i * D], tol);
+		if (k >= 0)
+			return fail(msg, msglen, PLACE_EINVAL, "%s: particle %u overlaps obstacles[%d] (closer than its radius "
+			            "plus the particle radius to its centre by more than %g diameters)", key, i, k,
+			            PLACE_OVERLAP_TOL);
 	}
 	if (s->method != SCENE_METHOD_ED)
 		return PLACE_OK;   /* point particles may overlap */

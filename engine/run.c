@@ -6,6 +6,7 @@
 #include <time.h>
 
 #include "mc/dsmc.h"
+#include "observe/msd.h"
 #include "ed/ed.h"
 #include "run.h"
 #include "place.h"
@@ -52,8 +53,11 @@ struct run {
 	uint64_t mc_chunk;       /* dsmc steps between polls of the stop flag */
 	clusters_t *cl;
 	obs_t *obs;              /* structure observables (observe.h), NULL when none is asked for */
+	msd_t *msd;              /* mean_square_displacement (observe/msd.h), or NULL */
+	double msd_prev, msd_tprev; /* MSD and time of the previous progress record (the interval's D) */
 	double *pos, *vel;       /* sampling buffers (clusters, snapshots, structure observables) */
 	double *placed;          /* positions placed in particles.initial.region (s.init_pos), or NULL */
+	double *spin;            /* snapshots of rough particles: angular velocities */
 	double t0;               /* wall clock at the start of this process's part */
 	double ckpt_wall;        /* wall clock of the last checkpoint request */
 	char warning[512];       /* dsmc/hsmc validity warning for the first record */
@@ -77,6 +81,10 @@ typedef struct {
 	uint64_t vmax_raised, cell_collisions, rejected_moves;
 	uint64_t wall_collisions;
 	double wall_impulse[6][3], com_height, potential_energy;
+	uint64_t obstacle_collisions;
+	double obstacle_impulse[SCENE_OBSTACLES_MAX][3];
+	uint64_t particles, wall_outflow[6];   /* present now (N without open walls); out per wall */
+	double rotational_energy;
 } smp_t;
 
 static void eng_sample(run_t *rc, smp_t *o)
@@ -93,6 +101,11 @@ static void eng_sample(run_t *rc, smp_t *o)
 		o->wall_collisions = sm.wall_collisions;
 		memcpy(o->wall_impulse, sm.wall_impulse, sizeof(o->wall_impulse));
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
+		o->obstacle_collisions = sm.obstacle_collisions;
+		memcpy(o->obstacle_impulse, sm.obstacle_impulse, sizeof(o->obstacle_impulse));
+		o->particles = sm.particles;
+		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
+		o->rotational_energy = sm.rotational_energy;
 	} else {
 		dsmc_sample_t sm;
 		dsmc_sample(rc->mc, &sm);
@@ -118,6 +131,9 @@ static void eng_totals(const run_t *rc, smp_t *o)
 		o->events = sm.events, o->collisions = sm.collisions, o->elastic_by_tc = sm.elastic_by_tc;
 		o->wall_collisions = sm.wall_collisions;
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
+		o->obstacle_collisions = sm.obstacle_collisions;
+		o->particles = sm.particles;
+		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
 	} else {
 		dsmc_sample_t sm;
 		dsmc_totals(rc->mc, &sm);
@@ -168,6 +184,18 @@ static uint64_t eng_collisions(const run_t *rc)
 	return rc->ed ? ed_collisions(rc->ed) : dsmc_collisions(rc->mc);
 }
 
+/* mean_square_displacement: unwrap the present positions (or take them as the origin). */
+static void msd_follow(run_t *rc)
+{
+	smp_t sm;
+	eng_totals(rc, &sm);
+	eng_state(rc, rc->pos, NULL);
+	if (rc->st.started)
+		msd_update(rc->msd, sm.time, rc->pos, sm.kinetic_energy);
+	else
+		msd_origin(rc->msd, sm.time, rc->pos, sm.kinetic_energy);
+}
+
 static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 {
 	const scene_t *s = &rc->s;
@@ -188,12 +216,17 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 	r->rejected_moves = sm.rejected_moves;
 	r->have = s->observables;
 	r->kinetic_energy = sm.kinetic_energy;
-	r->temperature = 2.0 * sm.kinetic_energy / (s->dim * (double)s->count);
+	/* with open walls, over the particles still present (ed; the interval
+	 * mean divides by those present at its end) */
+	const double np = rc->ed && sm.particles ? (double)sm.particles : (double)s->count;
+	r->particles = rc->ed ? sm.particles : s->count;
+	memcpy(r->wall_outflow, sm.wall_outflow, sizeof(r->wall_outflow));
+	r->temperature = 2.0 * sm.kinetic_energy / (s->dim * np);
 	memcpy(r->momentum, sm.momentum, sizeof(r->momentum));
 	if (sm.interval > 0.0) {
 		/* Time-averaged temperature over the interval from the exact
 		 * integral of E_kin dt (E_kin is piecewise constant). */
-		double t_avg = 2.0 * sm.ekin_time_integral / (s->dim * (double)s->count * sm.interval);
+		double t_avg = 2.0 * sm.ekin_time_integral / (s->dim * np * sm.interval);
 		double vol = scene_box_volume(s);
 		r->have_interval = 1;
 		r->pressure = ((double)s->count * t_avg + sm.virial / (s->dim * sm.interval)) / vol;
@@ -202,6 +235,16 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 	}
 	r->wall_collisions = sm.wall_collisions;
 	r->com_height = sm.com_height, r->potential_energy = sm.potential_energy;
+	r->n_obstacles = s->n_obstacles;
+	r->obstacle_collisions = sm.obstacle_collisions;
+	if (sm.interval > 0.0)
+		for (int k = 0; k < s->n_obstacles; k++)
+			for (int b = 0; b < 3; b++)
+				r->obstacle_force[k][b] = sm.obstacle_impulse[k][b] / sm.interval;
+	if (s->rough) {
+		r->rotational_energy = sm.rotational_energy;
+		r->rotational_temperature = 2.0 * sm.rotational_energy / ((s->dim == 2 ? 1.0 : 3.0) * np);
+	}
 	for (int a = 0; a < s->dim; a++) {
 		if (!s->boundary[a].walled)
 			continue;
@@ -231,6 +274,16 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 			return RUN_ENOMEM;
 	}
 	r->obs.a2 = r->obs.a3 = r->obs.g_pairs = r->obs.g_pairs_se = r->obs.g_rate = r->obs.g_pressure = NAN;
+	r->obs.msd = r->obs.msd_se = r->obs.diffusion = NAN;
+	if (rc->msd) {
+		msd_follow(rc);
+		r->obs.msd = msd_value(rc->msd, &r->obs.msd_se);
+		double dt = sm.time - rc->msd_tprev;
+		if (rc->st.started && dt > 0.0)
+			r->obs.diffusion = (r->obs.msd - rc->msd_prev) / (2.0 * s->dim * dt);
+		rc->msd_prev = r->obs.msd;
+		rc->msd_tprev = sm.time;
+	}
 	if (rc->obs && (s->observables & (SCENE_OBS_VDIST | SCENE_OBS_GOFR))) {
 		if (obs_scalars(rc->obs, rc->pos, rc->vel, &r->obs) != 0)
 			return RUN_ENOMEM;
@@ -272,6 +325,30 @@ int run_curves(run_t *r, run_record_t *rec)
 		return RUN_ENOMEM;
 	rec->temperature = rec->curves->temperature;
 	return RUN_OK;
+}
+
+static void sched_skip(const scene_when_t *w, uint64_t *k, double t, uint64_t c, uint64_t n);
+
+size_t run_curves_packed_size(const run_t *r)
+{
+	return r->obs && obs_curve_bits(&r->s) ? obs_packed_size(r->obs) : 0;
+}
+
+int run_curves_pack(run_t *r, double *v)
+{
+	run_record_t rec;
+	int ret = run_curves(r, &rec);
+	if (ret == RUN_OK)
+		obs_pack(r->obs, rec.curves, v);
+	return ret;
+}
+
+void run_snap_taken(run_t *r)
+{
+	smp_t sm;
+	eng_totals(r, &sm);
+	r->st.snap_events = sm.events;
+	sched_skip(&r->s.snapshots, &r->st.k_snap, sm.time, sm.collisions, r->s.count);
 }
 
 static int curves_on(const run_t *r)
@@ -319,6 +396,11 @@ static int emit_snapshot(run_t *r, run_emit_fn emit, void *ctx)
 	eng_state(r, r->pos, r->vel);
 	rec.pos = r->pos;
 	rec.vel = r->vel;
+	if (r->spin) {
+		ed_spins(r->ed, r->spin);
+		rec.spin = r->spin;
+		rec.spin_dim = ed_spin_dim(r->ed);
+	}
 	r->st.snap_events = sm.events;
 	return emit(&rec, ctx) ? RUN_EMIT : RUN_OK;
 }
@@ -396,7 +478,23 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		if (!r->obs)
 			goto nomem;
 	}
-	if ((s->observables & SCENE_OBS_CLUSTERS) || r->opts.snapshots || r->obs) {
+	if (s->observables & SCENE_OBS_MSD) {
+		/* ed stops exactly at the time asked for: 0.45 edges is strict; dsmc/hsmc stop at the end of the
+		 * step that reaches it: a quarter edge leaves room for that step */
+		r->msd = msd_create(s->dim, s->count, s->box, s->mass, r->ed ? 0.45 : 0.25);
+		if (!r->msd)
+			goto nomem;
+	}
+	if (r->obs) {
+		/* impact parameters: the engine counts into the observables' histogram */
+		int nb;
+		double *bc = obs_impact_counts(r->obs, &nb);
+		if (bc && r->ed)
+			ed_count_impacts(r->ed, bc, nb);
+		else if (bc)
+			dsmc_count_impacts(r->mc, bc, nb);
+	}
+	if ((s->observables & (SCENE_OBS_CLUSTERS | SCENE_OBS_MSD)) || r->opts.snapshots || r->obs) {
 		r->pos = malloc(s->count * s->dim * sizeof(double));
 		if (!r->pos)
 			goto nomem;
@@ -409,6 +507,11 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 	if (r->opts.snapshots || r->obs) {
 		r->vel = malloc(s->count * s->dim * sizeof(double));
 		if (!r->vel)
+			goto nomem;
+	}
+	if (r->opts.snapshots && r->ed && ed_spin_dim(r->ed)) {
+		r->spin = malloc(s->count * ed_spin_dim(r->ed) * sizeof(double));
+		if (!r->spin)
 			goto nomem;
 	}
 	r->status = RUN_COMPLETED;
@@ -453,8 +556,10 @@ void run_destroy(run_t *r)
 	free(r->placed);
 	clusters_destroy(r->cl);
 	obs_destroy(r->obs);
+	msd_destroy(r->msd);
 	free(r->pos);
 	free(r->vel);
+	free(r->spin);
 	ed_destroy(r->ed);
 	dsmc_destroy(r->mc);
 	free(r);
@@ -464,19 +569,72 @@ struct ed *run_ed(run_t *r) { return r->ed; }
 
 const char *run_engine_name(const run_t *r) { return r->ed ? "ed" : "dsmc"; }
 
+/* Run-level state besides the engine's (checkpoints): the observables that
+ * accumulate between samples. */
+#define F_MSD "obs_msd"          /* msd state, then the previous record's MSD and time */
+#define F_IMPACT "obs_impact"    /* impact-parameter counts since the last curves */
+
+static size_t impact_count(const run_t *r)
+{
+	int nb = 0;
+	if (r->obs)
+		obs_impact_counts(r->obs, &nb);
+	return (size_t)nb;
+}
+
 int run_fields(const run_t *r, ed_field_t *out, int max)
 {
-	return r->ed ? ed_fields(r->ed, out, max) : dsmc_fields(r->mc, out, max);
+	int n = r->ed ? ed_fields(r->ed, out, max) : dsmc_fields(r->mc, out, max);
+	if (r->msd && n++ < max)
+		out[n - 1] = (ed_field_t){F_MSD, ED_T_F64, msd_state_size(r->msd) + 2};
+	if (impact_count(r) && n++ < max)
+		out[n - 1] = (ed_field_t){F_IMPACT, ED_T_F64, impact_count(r)};
+	return n;
 }
 
 int run_field_get(const run_t *r, const char *name, void *buf)
 {
+	if (r->msd && !strcmp(name, F_MSD)) {
+		double *v = buf;
+		size_t k = msd_state_size(r->msd);
+		msd_state_get(r->msd, v);
+		v[k] = r->msd_prev;
+		v[k + 1] = r->msd_tprev;
+		return RUN_OK;
+	}
+	if (impact_count(r) && !strcmp(name, F_IMPACT)) {
+		int nb;
+		memcpy(buf, obs_impact_counts(r->obs, &nb), impact_count(r) * sizeof(double));
+		return RUN_OK;
+	}
 	int rc = r->ed ? ed_field_get(r->ed, name, buf) : dsmc_field_get(r->mc, name, buf);
 	return rc == 0 ? RUN_OK : RUN_ERESTORE;
 }
 
 int run_field_set(run_t *r, const char *name, ed_type_t type, size_t count, const void *buf)
 {
+	if (r->msd && !strcmp(name, F_MSD)) {
+		const double *v = buf;
+		size_t k = msd_state_size(r->msd);
+		if (type != ED_T_F64 || count != k + 2 || msd_state_set(r->msd, v) != 0)
+			return RUN_ERESTORE;
+		r->msd_prev = v[k];
+		r->msd_tprev = v[k + 1];
+		return RUN_OK;
+	}
+	if (impact_count(r) && !strcmp(name, F_IMPACT)) {
+		int nb;
+		const double *v = buf;
+		if (type != ED_T_F64 || count != impact_count(r))
+			return RUN_ERESTORE;
+		double *bc = obs_impact_counts(r->obs, &nb);
+		for (int k = 0; k < nb; k++) {
+			if (!(v[k] >= 0.0))
+				return RUN_ERESTORE;
+			bc[k] = v[k];
+		}
+		return RUN_OK;
+	}
 	int rc = r->ed ? ed_field_set(r->ed, name, type, count, buf) : dsmc_field_set(r->mc, name, type, count, buf);
 	return rc == 0 ? RUN_OK : RUN_ERESTORE;
 }
@@ -613,8 +771,13 @@ static void note_collapse(run_t *r)
 static int advance(run_t *r, double t_stop, double t_soft, uint64_t c_stop, int until_time, double t_until,
                    uint64_t c_until, double *t, uint64_t *c)
 {
-	int adv = eng_advance(r, t_stop, t_soft, c_stop);
+	/* mean_square_displacement: the engine stops for an unwrapping update by msd_due() (a soft stop:
+	 * the dynamics do not change) */
+	double t_msd = r->msd ? msd_due(r->msd) : INFINITY;
+	int adv = eng_advance(r, t_stop, fmin(t_soft, t_msd), c_stop);
 	*t = eng_time(r);
+	if (r->msd && *t >= t_msd)
+		msd_follow(r);
 	*c = eng_collisions(r);
 	int done = (until_time && *t >= t_until) || (!until_time && *c >= c_until);
 	if (adv == 1 && !done && !until_time) {

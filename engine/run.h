@@ -67,6 +67,19 @@ typedef struct {
 	uint64_t wall_collisions;
 	double wall_force[6][3], wall_pressure[6];
 	double com_height, potential_energy;
+	/* Obstacles (SCENE_OBS_OBSTACLE_FORCE): n_obstacles of them; hits in
+	 * all (total) and each one's mean force over the interval (momentum
+	 * given to it per unit time: the drag, and the lift across the flow). */
+	int n_obstacles;
+	uint64_t obstacle_collisions;
+	double obstacle_force[SCENE_OBSTACLES_MAX][3];
+	/* Open walls (SCENE_OBS_OUTFLOW): particles still in the system and
+	 * those that left through each wall w (totals). */
+	uint64_t particles, wall_outflow[6];
+	/* Rough particles (SCENE_OBS_ROTATION): rotational energy I/2 sum w^2
+	 * and rotational temperature 2 E_rot / (D_r N), D_r = 1 (2D) or 3
+	 * (3D) rotational degrees of freedom, now. */
+	double rotational_energy, rotational_temperature;
 	const char *warning;         /* dsmc/hsmc validity warning (first record only), or NULL */
 	/* dsmc/hsmc diagnostics (totals; printed in the summary when non-zero) */
 	uint64_t vmax_raised, cell_collisions, rejected_moves;
@@ -77,6 +90,7 @@ typedef struct {
 		double time, collisions_per_particle, kinetic_energy, temperature, pressure,
 		       compressibility, collision_rate, largest_fraction, mean_size;
 		double a2, a3, g_pairs, g_rate, g_pressure, cluster_w, cluster_exponent;
+		double msd, diffusion;
 	} se;
 	/* summary only */
 	run_status_t status;
@@ -86,6 +100,10 @@ typedef struct {
 	/* snapshot only: N*D positions (folded into the box) and velocities in
 	 * scene particle order; owned by the run, valid during emit() */
 	const double *pos, *vel;
+	/* snapshot only, rough particles: N*spin_dim angular velocities
+	 * (spin_dim 1 in 2D, 3 in 3D; 0 and NULL for smooth particles) */
+	const double *spin;
+	int spin_dim;
 	/* RUN_CURVES only: the structure curves of the present state (observe.h),
 	 * taken with the snapshots; owned by the run, valid during emit() */
 	const obs_curves_t *curves;
@@ -200,5 +218,13 @@ void run_frame(run_t *r, run_record_t *rec, double *pos, double *vel);
  * particle, changes no schedule. RUN_OK, or RUN_ENOMEM (cluster workspace), RUN_EMETHOD when the
  * scene asks for no curve observable. */
 int run_curves(run_t *r, run_record_t *rec);
+/* Ensembles: run_curves() packed (obs_pack()) into v[run_curves_packed_size()] for the reduction over
+ * replicas (obs_combine() on a layout_only obs_create() of the scene); size 0 and RUN_EMETHOD without
+ * curve observables. */
+size_t run_curves_packed_size(const run_t *r);
+int run_curves_pack(run_t *r, double *v);
+/* Ensembles without frames: the snapshot schedule moves on as run_frame() would move it (curves taken
+ * at this output time), without copying the state. */
+void run_snap_taken(run_t *r);
 
 const char *run_status_name(run_status_t st);

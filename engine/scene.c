@@ -66,9 +66,15 @@ static const char *const correction_names[] = {
 static const char *const contact_names[] = { "global", "local" };
 static const char *const wall_names[] = {
 	[SCENE_WALL_SPECULAR] = "specular", [SCENE_WALL_THERMAL] = "thermal", [SCENE_WALL_ROUGH] = "rough",
-	[SCENE_WALL_MOVING] = "moving", [SCENE_WALL_VIBRATING] = "vibrating",
+	[SCENE_WALL_MOVING] = "moving", [SCENE_WALL_VIBRATING] = "vibrating", [SCENE_WALL_OPEN] = "open",
+};
+static const char *const obstacle_names[] = {
+	[SCENE_OBST_SLIP] = "slip", [SCENE_OBST_NO_SLIP] = "no_slip", [SCENE_OBST_RANDOM_SIGN] = "random_sign",
 };
 static const char *const axis_kinds[] = { "periodic", "walls" };
+static const char *const drive_names[] = {
+	[SCENE_DRIVE_NONE] = "none", [SCENE_DRIVE_STOCHASTIC] = "stochastic", [SCENE_DRIVE_WHITE_NOISE] = "white_noise",
+};
 static const char *const axis_names[] = { "x", "y", "z" };
 static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "kinetic_energy", SCENE_OBS_ENERGY },
@@ -85,6 +91,12 @@ static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "wall_force", SCENE_OBS_WALL_FORCE },
 	{ "center_of_mass_height", SCENE_OBS_COM_HEIGHT },
 	{ "potential_energy", SCENE_OBS_POTENTIAL },
+	{ "impact_parameter", SCENE_OBS_IMPACT },
+	{ "mean_square_displacement", SCENE_OBS_MSD },
+	{ "obstacle_force", SCENE_OBS_OBSTACLE_FORCE },
+	{ "outflow", SCENE_OBS_OUTFLOW },
+	{ "rotational_energy", SCENE_OBS_ROTATION },
+	{ "rotational_temperature", SCENE_OBS_ROTATION },
 };
 #define N_OBSERVABLES (sizeof observables / sizeof observables[0])
 
@@ -436,6 +448,7 @@ static int check_structure(ctx_t *c, json_t *v, scene_t *s)
 		{ "velocity_distribution", SCENE_OBS_VDIST, "\"velocity_distribution\"" },
 		{ "pair_correlation", SCENE_OBS_GOFR | SCENE_OBS_VCORR, "\"pair_correlation\" or \"velocity_correlations\"" },
 		{ "structure_factor", SCENE_OBS_SOFK | SCENE_OBS_VCORR, "\"structure_factor\" or \"velocity_correlations\"" },
+		{ "impact_parameter", SCENE_OBS_IMPACT, "\"impact_parameter\"" },
 	};
 	json_t *out = json_object_get(v, "output");
 	char sub[PATHLEN];
@@ -476,6 +489,36 @@ static int check_structure(ctx_t *c, json_t *v, scene_t *s)
 }
 
 static int check_boundaries(ctx_t *c, json_t *v, scene_t *s);
+
+/* Rough particles across the scene: method ed only, the initial spins and
+ * the rotational observables only with them. */
+static int check_rough_scene(ctx_t *c, json_t *v, scene_t *s)
+{
+	json_t *init = json_object_get(json_object_get(v, "particles"), "initial");
+	bool trot = json_object_get(init, "rotational_temperature") != NULL;
+	if (s->rough && s->method != SCENE_METHOD_ED)
+		return fail(c, "collisions.rough", "method \"%s\" does not support rough particles (only \"ed\" does)",
+		            method_names[s->method]);
+	if (trot && !s->rough)
+		return fail(c, "particles.initial.rotational_temperature", "needs rough particles (collisions.rough)");
+	if (s->rough && !trot)
+		s->rot_temperature = s->temperature;
+	json_t *obs = json_object_get(json_object_get(v, "output"), "observables");
+	size_t i;
+	json_t *o;
+	json_array_foreach(obs, i, o) {
+		const char *name = json_string_value(o);
+		if (strcmp(name, "rotational_energy") && strcmp(name, "rotational_temperature"))
+			continue;
+		char path[PATHLEN];
+		snprintf(path, sizeof path, "output.observables[%zu]", i);
+		if (!s->rough)
+			return fail(c, path, "\"%s\" needs rough particles (collisions.rough)", name);
+		if (s->replicas > 1)
+			return fail(c, path, "\"%s\" is not averaged over ensembles yet (run.replicas must be 1)", name);
+	}
+	return 0;
+}
 
 /* Rules that span objects, and the derived fields. */
 static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
@@ -565,6 +608,9 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 		return ret;
 
 	ret = check_boundaries(c, v, s);
+	if (ret)
+		return ret;
+	ret = check_rough_scene(c, v, s);
 	if (ret)
 		return ret;
 	if (s->every.kind == SCENE_CLOCK_NONE)
@@ -697,6 +743,117 @@ static const struct object boundaries_obj = {
 	},
 };
 
+/* ---- obstacles ------------------------------------------------------- */
+
+static int parse_obstacle_type(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	int i, ret = match(c, path, v, obstacle_names, sizeof obstacle_names / sizeof obstacle_names[0], &i);
+	if (ret == 0)
+		*(scene_obstacle_type_t *)dst = (scene_obstacle_type_t)i;
+	return ret;
+}
+
+static int check_obstacle(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	const scene_obstacle_t *o = base;
+	char sub[PATHLEN];
+	static const char *const thermal_keys[] = { "temperature", "accommodation" };
+	for (size_t k = 0; k < 2; k++) {
+		bool has = json_object_get(v, thermal_keys[k]) != NULL;
+		join(sub, path, thermal_keys[k]);
+		if (has && o->type != SCENE_OBST_NO_SLIP)
+			return fail(c, sub, "not a key of a \"%s\" obstacle (only \"no_slip\")", obstacle_names[o->type]);
+		if (!has && k == 0 && o->type == SCENE_OBST_NO_SLIP)
+			return fail(c, sub, "required for a \"no_slip\" obstacle (the wall temperature it re-emits at)");
+	}
+	return 0;
+}
+
+static const struct object obstacle_obj = {
+	.fields = (const struct field[]){
+		{ "type", parse_obstacle_type, offsetof(scene_obstacle_t, type), NULL, true },
+		{ "center", parse_vector, offsetof(scene_obstacle_t, center), NULL, true },
+		{ "radius", parse_number, offsetof(scene_obstacle_t, radius), &R_POS, true },
+		{ "restitution", parse_number, offsetof(scene_obstacle_t, restitution), &R_UNIT, false },
+		{ "temperature", parse_number, offsetof(scene_obstacle_t, temperature), &R_POS, false },
+		{ "accommodation", parse_number, offsetof(scene_obstacle_t, accommodation), &R_UNIT, false },
+		{ .name = NULL },
+	},
+	.check = check_obstacle,
+};
+
+static int parse_obstacles(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	scene_t *s = c->s;
+	size_t i;
+	json_t *o;
+	if (!json_is_array(v))
+		return fail(c, path, "must be an array of obstacle objects, got %s", type_name(v));
+	if (json_array_size(v) > SCENE_OBSTACLES_MAX)
+		return fail(c, path, "at most %d obstacles, got %zu", SCENE_OBSTACLES_MAX, json_array_size(v));
+	json_array_foreach(v, i, o) {
+		char sub[PATHLEN / 2];   /* "obstacles[k]": short, so keys below it fit a path */
+		snprintf(sub, sizeof sub, "%s[%zu]", path, i);
+		s->obstacle[i] = (scene_obstacle_t){ .restitution = 1, .accommodation = 1 };
+		int ret = walk(c, sub, o, &s->obstacle[i], &obstacle_obj);
+		if (ret)
+			return ret;
+		s->n_obstacles = (int)i + 1;
+	}
+	return 0;
+}
+
+/* Obstacles inside the box, clear of the walls' reach and of each other;
+ * on periodic axes one image of an obstacle at a time within a particle's
+ * reach (2 (R + a) < L). */
+static int check_obstacles(ctx_t *c, const scene_t *s)
+{
+	char path[PATHLEN];
+	for (int k = 0; k < s->n_obstacles; k++) {
+		const scene_obstacle_t *o = &s->obstacle[k];
+		for (int a = 0; a < s->dim; a++) {
+			const scene_boundary_t *b = &s->boundary[a];
+			snprintf(path, sizeof path, "obstacles[%d].center[%d]", k, a);
+			if (!(o->center[a] >= 0 && o->center[a] <= s->box[a]))
+				return fail(c, path, "%s is outside the box [0, %s]", num(o->center[a]).s, num(s->box[a]).s);
+			if (!b->walled) {
+				if (!(2 * (o->radius + s->radius) < s->box[a])) {
+					snprintf(path, sizeof path, "obstacles[%d].radius", k);
+					return fail(c, path, "2 (radius + particle radius) = %s must be less than the periodic box edge "
+					            "%s along %s (a particle would touch two images at once)",
+					            num(2 * (o->radius + s->radius)).s, num(s->box[a]).s, axis_names[a]);
+				}
+				continue;
+			}
+			/* the walls' innermost positions (vibrating: amplitude) */
+			double lo = b->wall[0].type == SCENE_WALL_VIBRATING ? b->wall[0].amplitude : 0;
+			double hi = s->box[a] - (b->wall[1].type == SCENE_WALL_VIBRATING ? b->wall[1].amplitude : 0);
+			if (o->center[a] - o->radius < lo || o->center[a] + o->radius > hi) {
+				snprintf(path, sizeof path, "obstacles[%d]", k);
+				return fail(c, path, "overlaps the wall boundaries.%s.%s: centre %s, radius %s, walls reach %s .. %s",
+				            axis_names[a], o->center[a] - o->radius < lo ? "lower" : "upper", num(o->center[a]).s,
+				            num(o->radius).s, num(lo).s, num(hi).s);
+			}
+		}
+		for (int j = 0; j < k; j++) {
+			const scene_obstacle_t *q = &s->obstacle[j];
+			double r2 = 0;
+			for (int a = 0; a < s->dim; a++) {
+				double x = o->center[a] - q->center[a];
+				if (!s->boundary[a].walled)
+					x -= s->box[a] * nearbyint(x / s->box[a]);
+				r2 += x * x;
+			}
+			if (sqrt(r2) < o->radius + q->radius) {
+				snprintf(path, sizeof path, "obstacles[%d]", k);
+				return fail(c, path, "overlaps obstacles[%d] (centre distance %s < sum of radii %s)", j,
+				            num(sqrt(r2)).s, num(o->radius + q->radius).s);
+			}
+		}
+	}
+	return 0;
+}
+
 /* Rules of boundaries and gravity across the scene (after particles,
  * collisions and output are parsed). */
 static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
@@ -704,10 +861,14 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 	bool walls = scene_has_walls(s), grav = scene_has_gravity(s);
 	char path[PATHLEN];
 
-	if ((walls || grav) && s->method != SCENE_METHOD_ED)
-		return fail(c, walls ? "boundaries" : "gravity", "method \"%s\" does not support %s yet (only \"ed\" does)",
-			    method_names[s->method], walls ? "walls" : "gravity");
+	bool obst = scene_has_obstacles(s);
+	if ((walls || grav || obst) && s->method != SCENE_METHOD_ED)
+		return fail(c, walls ? "boundaries" : grav ? "gravity" : "obstacles",
+		            "method \"%s\" does not support %s yet (only \"ed\" does)",
+			    method_names[s->method], walls ? "walls" : grav ? "gravity" : "obstacles");
 	bool inelastic = s->restitution < 1, vibrating = false;
+	for (int k = 0; k < s->n_obstacles; k++)
+		inelastic |= s->obstacle[k].restitution < 1;
 	for (int a = 0; a < s->dim; a++) {
 		scene_boundary_t *b = &s->boundary[a];
 		if (!b->walled)
@@ -734,19 +895,28 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 	 * any dissipation a bed at rest there would collide infinitely often in
 	 * finite time (inelastic collapse). The TC model with its minimum
 	 * rebound (docs/engine.md, "Walls and gravity") prevents it. */
-	if (walls && (grav || vibrating) && inelastic && s->tc == 0)
+	int ret = check_obstacles(c, s);
+	if (ret)
+		return ret;
+	for (int a = 0; a < s->dim; a++)
+		if (s->flow[a] != 0 && s->method != SCENE_METHOD_ED)
+			return fail(c, "particles.initial.velocity", "method \"%s\" does not support a mean flow yet (only \"ed\" "
+			            "does)", method_names[s->method]);
+	if ((walls || obst) && (grav || vibrating) && inelastic && s->tc == 0)
 		return fail(c, "collisions.tc", "must be > 0 with %s, walls and restitution below 1 (a bed at rest on a wall "
 		            "would collapse: infinitely many collisions in finite time); set collisions.tc, e.g. 1e-5 of "
 		            "the time a particle takes to fall one diameter", grav ? "gravity" : "a vibrating wall");
 	/* Observables that need what the scene has. */
 	json_t *obs = json_object_get(json_object_get(v, "output"), "observables");
+	if (!obs && scene_has_open_walls(s))
+		s->observables &= ~(unsigned)SCENE_OBS_PRESSURE;   /* default set: no virial pressure with outflow */
 	size_t i;
 	json_t *o;
 	json_array_foreach(obs, i, o) {
 		const char *name = json_string_value(o);
 		snprintf(path, sizeof path, "output.observables[%zu]", i);
 		bool mine = !strcmp(name, "wall_force") || !strcmp(name, "center_of_mass_height") ||
-		            !strcmp(name, "potential_energy");
+		            !strcmp(name, "potential_energy") || !strcmp(name, "obstacle_force") || !strcmp(name, "outflow");
 		if (mine && s->replicas > 1)
 			return fail(c, path, "\"%s\" is not averaged over ensembles yet (run.replicas must be 1)", name);
 		/* cluster search, g(r), S(k) and the velocity correlations take
@@ -754,9 +924,25 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 		static const char *const periodic_only[] = { "clusters", "pair_correlation", "structure_factor",
 		                                             "velocity_correlations" };
 		for (size_t k = 0; k < sizeof periodic_only / sizeof periodic_only[0]; k++)
-			if (walls && !strcmp(name, periodic_only[k]))
-				return fail(c, path, "\"%s\" needs a periodic box (distances by the minimum image); "
-				            "not available with walls yet", name);
+			if ((walls || obst) && !strcmp(name, periodic_only[k]))
+				return fail(c, path, "\"%s\" needs a periodic box without obstacles (distances by the minimum "
+				            "image, a homogeneous volume); not available with %s yet", name, walls ? "walls" : "obstacles");
+		/* unwrapped displacements rely on periodic images and on a speed bound from the kinetic
+		 * energy, which walls (thermal, vibrating), obstacles (thermal) and gravity can raise (engine/observe/msd.h) */
+		if (!strcmp(name, "mean_square_displacement") && (walls || obst || grav))
+			return fail(c, path, "\"mean_square_displacement\" needs a periodic box without gravity or obstacles; "
+			            "not available with %s yet", walls ? "walls" : obst ? "obstacles" : "gravity");
+		if (!strcmp(name, "obstacle_force") && !obst)
+			return fail(c, path, "\"obstacle_force\" needs obstacles");
+		if (!strcmp(name, "outflow") && !scene_has_open_walls(s))
+			return fail(c, path, "\"outflow\" needs an \"open\" wall");
+		/* the virial pressure assumes a fixed particle set in the box */
+		if (!strcmp(name, "velocity_distribution") && scene_has_open_walls(s))
+			return fail(c, path, "\"velocity_distribution\" is not available with an \"open\" wall yet (it "
+			            "needs a fixed particle set)");
+		if (!strcmp(name, "pressure") && scene_has_open_walls(s))
+			return fail(c, path, "\"pressure\" is not available with an \"open\" wall (particles leave); "
+			            "use \"wall_force\"");
 		if (!strcmp(name, "wall_force") && !walls)
 			return fail(c, path, "\"wall_force\" needs walls (boundaries)");
 		if (!strcmp(name, "center_of_mass_height") || !strcmp(name, "potential_energy")) {
@@ -906,14 +1092,15 @@ static const struct object region_obj = {
  * is an error beside it, not silently ignored. */
 static int check_initial(ctx_t *c, const char *path, json_t *v, void *base)
 {
-	static const char *const placing[] = { "positions", "temperature", "region" };
+	static const char *const placing[] = { "positions", "temperature", "velocity", "rotational_temperature",
+	                                       "region" };
 	char sub[PATHLEN];
 	if (!json_object_get(v, "from"))
 		return 0;
 	for (size_t k = 0; k < sizeof placing / sizeof placing[0]; k++)
 		if (json_object_get(v, placing[k])) {
 			join(sub, path, placing[k]);
-			return fail(c, sub, "not with from (positions and velocities come from the frame)");
+			return fail(c, sub, "not with from (positions, velocities and spins come from the frame)");
 		}
 	return 0;
 }
@@ -922,6 +1109,8 @@ static const struct object initial_obj = {
 	.fields = (const struct field[]){
 		{ "positions", parse_positions, offsetof(scene_t, positions), NULL, false },
 		{ "temperature", parse_number, offsetof(scene_t, temperature), &R_NONNEG, false },
+		{ "velocity", parse_vector, offsetof(scene_t, flow), NULL, false },
+		{ "rotational_temperature", parse_number, offsetof(scene_t, rot_temperature), &R_NONNEG, false },
 		{ "relax", parse_object, 0, &relax_obj, false },
 		{ "region", parse_object, 0, &region_obj, false },
 		{ "from", parse_object, 0, &from_obj, false },
@@ -943,10 +1132,35 @@ static const struct object particles_obj = {
 	.check = check_particles,
 };
 
+/* collisions.rough: present means rough particles (scene_t.rough). */
+static int check_rough(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_t *s = base;
+	s->rough = 1;
+	if (json_object_get(v, "friction") == NULL)
+		s->rough_mu = -1;
+	if (json_object_get(v, "inertia_factor") == NULL)
+		s->rough_q = s->dim == 2 ? 0.5 : 0.4;
+	return 0;
+}
+
+static const struct range R_INERTIA = { 0, 1, true };
+
+static const struct object rough_obj = {
+	.fields = (const struct field[]){
+		{ "tangential_restitution", parse_number, offsetof(scene_t, rough_beta), &R_SIGNED_UNIT, true },
+		{ "friction", parse_number, offsetof(scene_t, rough_mu), &R_NONNEG, false },
+		{ "inertia_factor", parse_number, offsetof(scene_t, rough_q), &R_INERTIA, false },
+		{ .name = NULL },
+	},
+	.check = check_rough,
+};
+
 static const struct object collisions_obj = {
 	.fields = (const struct field[]){
 		{ "restitution", parse_number, offsetof(scene_t, restitution), &R_UNIT, false },
 		{ "tc", parse_number, offsetof(scene_t, tc), &R_NONNEG, false },
+		{ "rough", parse_object, 0, &rough_obj, false },
 		{ .name = NULL },
 	},
 };
@@ -1015,6 +1229,13 @@ static const struct object sofk_obj = {
 	},
 };
 
+static const struct object impact_obj = {
+	.fields = (const struct field[]){
+		{ "bins", parse_bins, offsetof(scene_t, impact_bins), &R_BINS, false },
+		{ .name = NULL },
+	},
+};
+
 static const struct object output_obj = {
 	.fields = (const struct field[]){
 		{ "every", parse_object, offsetof(scene_t, every), &when_obj, false },
@@ -1023,6 +1244,7 @@ static const struct object output_obj = {
 		{ "velocity_distribution", parse_object, 0, &vdist_obj, false },
 		{ "pair_correlation", parse_object, 0, &gofr_obj, false },
 		{ "structure_factor", parse_object, 0, &sofk_obj, false },
+		{ "impact_parameter", parse_object, 0, &impact_obj, false },
 		{ "snapshots", parse_object, 0, &snapshots_obj, false },
 		{ "checkpoint", parse_object, 0, &checkpoint_obj, false },
 		{ .name = NULL },
@@ -1036,6 +1258,73 @@ static const struct object accuracy_obj = {
 		{ "temperature", parse_number, offsetof(scene_t, accuracy_temperature), &R_ACCURACY, true },
 		{ .name = NULL },
 	},
+};
+
+static int parse_drive_type(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	int i, ret = match(c, path, v, drive_names + 1, 2, &i);
+	if (ret == 0)
+		*(scene_drive_t *)dst = (scene_drive_t)(i + 1);
+	return ret;
+}
+
+/* One bin count for every axis of the local mean. */
+static int parse_drive_grid(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	static const struct irange r = { 1, 4096 };
+	uint64_t x = 0;
+	int ret = parse_integer(c, path, v, &x, &r);
+	if (ret == 0) {
+		int *g = dst;
+		g[0] = g[1] = g[2] = (int)x;
+	}
+	return ret;
+}
+
+/* Keys of each driving type: the others are mistakes. */
+static int check_driving(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_t *s = base;
+	static const struct { const char *key; scene_drive_t type; bool required; } keys[] = {
+		{ "temperature", SCENE_DRIVE_STOCHASTIC, true }, { "grid", SCENE_DRIVE_STOCHASTIC, false },
+		{ "average_time", SCENE_DRIVE_STOCHASTIC, false }, { "strength", SCENE_DRIVE_WHITE_NOISE, true },
+	};
+	char sub[PATHLEN];
+	for (size_t k = 0; k < sizeof keys / sizeof keys[0]; k++) {
+		bool has = json_object_get(v, keys[k].key) != NULL;
+		join(sub, path, keys[k].key);
+		if (has && keys[k].type != s->drive)
+			return fail(c, sub, "not a key of a \"%s\" thermostat", drive_names[s->drive]);
+		if (!has && keys[k].required && keys[k].type == s->drive)
+			return fail(c, sub, "required for a \"%s\" thermostat", drive_names[s->drive]);
+	}
+	if (s->drive_average_time == 0)
+		s->drive_average_time = 10 * s->drive_interval;
+	if (s->drive_grid[0] == 0)
+		s->drive_grid[0] = s->drive_grid[1] = s->drive_grid[2] = 1;
+	for (int a = s->dim; a < 3; a++)
+		s->drive_grid[a] = 1;
+	if ((double)s->drive_grid[0] * s->drive_grid[1] * s->drive_grid[2] > 1e6)
+		return fail(c, "driving.grid", "%d bins per axis make more than 10^6 bins in %dD", s->drive_grid[0], s->dim);
+	if (s->method != SCENE_METHOD_ED)
+		return fail(c, path, "method \"%s\" does not support driving (only \"ed\" does)", method_names[s->method]);
+	/* kicks go to particles drawn from all N: one that left cannot be kicked back in */
+	if (scene_has_open_walls(s))
+		return fail(c, path, "not available with an \"open\" wall (particles leave the system)");
+	return 0;
+}
+
+static const struct object driving_obj = {
+	.fields = (const struct field[]){
+		{ "type", parse_drive_type, offsetof(scene_t, drive), NULL, true },
+		{ "interval", parse_number, offsetof(scene_t, drive_interval), &R_POS, true },
+		{ "temperature", parse_number, offsetof(scene_t, drive_temperature), &R_POS, false },
+		{ "strength", parse_number, offsetof(scene_t, drive_strength), &R_POS, false },
+		{ "grid", parse_drive_grid, offsetof(scene_t, drive_grid), NULL, false },
+		{ "average_time", parse_number, offsetof(scene_t, drive_average_time), &R_POS, false },
+		{ .name = NULL },
+	},
+	.check = check_driving,
 };
 
 static const struct object ed_obj = {
@@ -1086,6 +1375,8 @@ static const struct object scene_obj = {
 		{ "collisions", parse_object, 0, &collisions_obj, false },
 		{ "boundaries", parse_object, 0, &boundaries_obj, false },
 		{ "gravity", parse_vector, offsetof(scene_t, gravity), NULL, false },
+		{ "obstacles", parse_obstacles, 0, NULL, false },
+		{ "driving", parse_object, 0, &driving_obj, false },
 		{ "run", parse_object, 0, &run_obj, true },
 		{ "output", parse_object, 0, &output_obj, false },
 		{ "ed", parse_object, 0, &ed_obj, false },
@@ -1110,6 +1401,7 @@ int scene_parse(const char *json, size_t len, scene_t *out, char *err, size_t er
 		.vdist_bins = 80,
 		.vdist_range = 5,
 		.gofr_bins = 250,
+		.impact_bins = 20,
 		.replicas = 1,
 		.compression = 0,
 		.region_hi = { NAN, NAN, NAN },
@@ -1158,6 +1450,20 @@ int scene_has_walls(const scene_t *s)
 	for (int a = 0; a < s->dim && a < 3; a++)
 		if (s->boundary[a].walled)
 			return 1;
+	return 0;
+}
+
+int scene_has_obstacles(const scene_t *s)
+{
+	return s->n_obstacles > 0;
+}
+
+int scene_has_open_walls(const scene_t *s)
+{
+	for (int a = 0; a < s->dim && a < 3; a++)
+		for (int k = 0; k < 2; k++)
+			if (s->boundary[a].walled && s->boundary[a].wall[k].type == SCENE_WALL_OPEN)
+				return 1;
 	return 0;
 }
 

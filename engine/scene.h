@@ -52,6 +52,11 @@ enum {
 	SCENE_OBS_WALL_FORCE = 1u << 9,     /* force on each wall: pressure and shear stress (needs walls) */
 	SCENE_OBS_COM_HEIGHT = 1u << 10,    /* centre-of-mass height along -gravity (needs gravity) */
 	SCENE_OBS_POTENTIAL = 1u << 11,     /* potential energy in the gravity field (needs gravity) */
+	SCENE_OBS_IMPACT = 1u << 12,        /* impact_parameter: P(b) of the collisions between snapshot times */
+	SCENE_OBS_MSD = 1u << 13,           /* mean_square_displacement: MSD and D (periodic, no gravity) */
+	SCENE_OBS_OBSTACLE_FORCE = 1u << 16, /* force on each obstacle: drag (needs obstacles) */
+	SCENE_OBS_OUTFLOW = 1u << 17,       /* particles present and particles out per wall (needs an open wall) */
+	SCENE_OBS_ROTATION = 1u << 14,      /* rotational_energy, rotational_temperature (needs collisions.rough) */
 };
 
 /* Wall kinds (boundaries.AXIS.lower/upper.type; method ed only). Every wall
@@ -63,6 +68,7 @@ typedef enum {
 	SCENE_WALL_ROUGH,          /* tangential velocity reversed with probability (seed 000 pipe) */
 	SCENE_WALL_MOVING,         /* tangential velocity u: v_t' - u = -beta (v_t - u) (seed 000 3.7-3.8 at beta = 1) */
 	SCENE_WALL_VIBRATING,      /* displaced along its inward normal by A sin(2 pi f t + phase) */
+	SCENE_WALL_OPEN,           /* outflow: a particle touching it leaves the system (counted); no restitution */
 } scene_wall_type_t;
 
 typedef struct {
@@ -87,6 +93,35 @@ typedef struct {
 	scene_wall_t wall[2];
 } scene_boundary_t;
 
+/* Obstacles (method ed only): fixed disks (2D) / spheres (3D). A particle
+ * touches obstacle k when its centre is radius + particle radius from the
+ * obstacle's centre. Normal restitution r_o as for walls. */
+#define SCENE_OBSTACLES_MAX 16
+typedef enum {
+	SCENE_OBST_SLIP = 0,       /* specular: v_n' = -r_o v_n, tangential unchanged */
+	SCENE_OBST_NO_SLIP,        /* thermal: with probability accommodation re-emitted from the flux-weighted
+	                            * Maxwellian at temperature (diffuse), else as slip */
+	SCENE_OBST_RANDOM_SIGN,    /* v_n' = -r_o v_n, tangential velocity reversed with probability 1/2 (seed 001:
+	                            * no-slip without heating) */
+} scene_obstacle_type_t;
+
+typedef struct {
+	scene_obstacle_type_t type;
+	double center[3];          /* scene coordinates (walled axes: from the lower wall's rest position) */
+	double radius;             /* R > 0 */
+	double restitution;        /* r_o in [0, 1], default 1 */
+	double temperature;        /* no_slip: T_o > 0 */
+	double accommodation;      /* no_slip: fraction of diffuse re-emissions, [0, 1], default 1 */
+} scene_obstacle_t;
+
+/* Driving (method ed only; "driving"): kicks of random particles at Poisson
+ * times, each particle on average once per interval. */
+typedef enum {
+	SCENE_DRIVE_NONE = 0,
+	SCENE_DRIVE_STOCHASTIC,    /* seed 001: v' = local mean velocity + Maxwellian at temperature */
+	SCENE_DRIVE_WHITE_NOISE,   /* v' = v + sqrt(strength interval) (Gaussian per component) */
+} scene_drive_t;
+
 typedef struct {
 	scene_clock_t kind;
 	double value;        /* time, collisions per particle (2C/N), or wall-clock seconds */
@@ -103,7 +138,8 @@ typedef struct scene {
 	double box[3];                 /* edge lengths; derived from volume_fraction if not given */
 	double volume_fraction;        /* always filled (derived from box if box given) */
 	scene_positions_t positions;   /* default lattice */
-	double temperature;            /* initial T >= 0, default 1 */
+	double temperature;            /* initial T >= 0, default 1 (of the velocities about the mean flow) */
+	double flow[3];                /* initial mean velocity (a stream; method ed), default 0 */
 	double relax_cpp;              /* elastic pre-run, collisions per particle (default 0) */
 	/* particles.initial.region: centres placed so that every particle lies
 	 * in [region_lo, region_hi] (scene coordinates, per axis; default the
@@ -123,14 +159,34 @@ typedef struct scene {
 	 * [i * dim]; not owned, must outlive the engine; NULL: as the scene
 	 * says). Set by the run driver (region) or the program (from). */
 	const double *init_pos, *init_vel;
+	const double *init_spin;       /* rough particles: N * (1 in 2D, 3 in 3D) angular velocities, or NULL */
 
 	/* collisions */
 	double restitution;            /* 0..1, default 1 */
 	double tc;                     /* TC-model time >= 0, default 0 = off */
+	/* rough particles (collisions.rough; method ed only): spins, moment of
+	 * inertia I = rough_q m radius^2, tangential restitution beta (g_t' =
+	 * -beta g_t) or Walton's rule (rough_mu >= 0: Coulomb sliding with
+	 * friction mu where it gives less tangential impulse than beta_0) */
+	int rough;                     /* 0: smooth (default) */
+	double rough_beta;             /* beta or beta_0 in [-1, 1] (-1 smooth, +1 perfectly rough) */
+	double rough_mu;               /* Coulomb friction >= 0; -1: constant beta (not given) */
+	double rough_q;                /* (0, 1]; default 2/5 (3D spheres), 1/2 (2D disks) */
+	double rot_temperature;        /* initial rotational temperature >= 0, default = temperature */
+
+	/* driving (method ed only) */
+	scene_drive_t drive;           /* default none */
+	double drive_interval;         /* mean time between two kicks of one particle, > 0 */
+	double drive_temperature;      /* stochastic: T_th > 0 */
+	double drive_strength;         /* white_noise: xi^2 > 0, velocity variance per component per unit time */
+	double drive_average_time;     /* stochastic: time constant of the local mean velocity, default 10 interval */
+	int drive_grid[3];             /* stochastic: bins per axis of the local mean, default 1 (global) */
 
 	/* boundaries and fields (method ed only) */
 	scene_boundary_t boundary[3];  /* per axis; default periodic */
 	double gravity[3];             /* uniform acceleration, default 0 */
+	int n_obstacles;               /* 0..SCENE_OBSTACLES_MAX */
+	scene_obstacle_t obstacle[SCENE_OBSTACLES_MAX];
 
 	/* run */
 	uint64_t seed;                 /* default 1 */
@@ -146,6 +202,7 @@ typedef struct scene {
 	int gofr_bins;                 /* pair correlation: bins over [0, range) (default 250) */
 	double gofr_range;             /* ... range in diameters (default min(5, half the smallest box edge)) */
 	int sofk_grid[3];              /* density grid per axis for S(k) and the velocity structure factors */
+	int impact_bins;               /* impact parameters: bins over b / sigma in [0, 1] (default 20) */
 	scene_when_t snapshots;        /* trajectory frames (time or cpp); NONE = first and last only */
 	int compression;               /* deflate level 0..9 of the HDF5 output, default 0 */
 	scene_when_t checkpoint;       /* checkpoint interval (simulated time or wall seconds); NONE = none */
@@ -185,8 +242,11 @@ int scene_check_start(const scene_t *s, char *err, size_t errlen);
 /* Close-packing volume fraction of disks (dim 2) or spheres (dim 3). */
 double scene_close_packing(int dim);
 
-/* Any walled axis; any non-zero gravity component. */
+/* Any walled axis; any non-zero gravity component; any obstacle. */
 int scene_has_walls(const scene_t *s);
+int scene_has_obstacles(const scene_t *s);
+/* Any wall of type "open" (particles leave through it). */
+int scene_has_open_walls(const scene_t *s);
 int scene_has_gravity(const scene_t *s);
 
 /* Volume of the box and of one particle (disk area in 2D). */

@@ -77,7 +77,8 @@ const ok = (c, d) => { n++; if (!c) failed++; console.log(`${c ? '' : 'not '}ok 
       const s = JSON.parse(document.getElementById('scene').value);
       s.output = s.output || {};
       s.output.observables = (s.output.observables || ['kinetic_energy', 'temperature', 'pressure', 'compressibility', 'collision_rate'])
-        .concat(['velocity_distribution', 'pair_correlation', 'structure_factor']);
+        .concat(['velocity_distribution', 'pair_correlation', 'structure_factor', 'clusters', 'impact_parameter'])
+        .filter((o, k, a) => a.indexOf(o) === k);
       document.getElementById('scene').value = JSON.stringify(s);
     });
     await page.click('#submit-form button[type=submit]');
@@ -106,7 +107,7 @@ const ok = (c, d) => { n++; if (!c) failed++; console.log(`${c ? '' : 'not '}ok 
     ok(px[2] > 50, `largest-cluster plot drew its series (${px[2]} px)`);
     await page.waitForFunction(() => !document.getElementById('curves').hidden &&
       /sample [1-9]/.test(document.getElementById('curves-info').textContent), null, { timeout: 15000 });
-    const cpx = await page.evaluate(() => ['plot-vdist', 'plot-gofr', 'plot-sofk'].map((id) => {
+    const cpx = await page.evaluate(() => ['plot-vdist', 'plot-gofr', 'plot-sofk', 'plot-clusters', 'plot-impact'].map((id) => {
       const c = document.querySelector('#' + id + ' canvas');
       if (!c) return 0;
       const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
@@ -114,7 +115,7 @@ const ok = (c, d) => { n++; if (!c) failed++; console.log(`${c ? '' : 'not '}ok 
       for (let i = 0; i < d.length; i += 4) if (Math.abs(d[i] - 47) < 30 && Math.abs(d[i + 1] - 111) < 30 && Math.abs(d[i + 2] - 222) < 30 && d[i + 3] > 100) k++;
       return k;
     }));
-    ok(cpx.every((k) => k > 50), `P(c), g(r), S(k) plots drew the last sample (${cpx.join(', ')} px): ${await page.textContent('#curves-info')}`);
+    ok(cpx.every((k) => k > 50), `P(c), g(r), S(k), n_s, P(b) plots drew the last sample (${cpx.join(', ')} px): ${await page.textContent('#curves-info')}`);
     await page.screenshot({ path: shot, fullPage: true });
     ok(true, 'screenshot saved: ' + shot);
     ok(!(await page.isVisible('#job-advice')), 'a job with a concrete method shows no advice panel');

@@ -4,8 +4,8 @@ set -u
 : "${SRCDIR:=$(cd "$(dirname "$0")/.." && pwd)}"
 : "${BUILDDIR:=$SRCDIR}"
 # Short by design (make check); docs/fuzzing.md has the long campaigns.
-: "${FUZZ_RUNS:=3000}"   # api_fuzz: a tenth (a request costs ~10 ms: SQLite, scheduler)
-HARNESSES="scene cfg api"
+: "${FUZZ_RUNS:=3000}"   # ckpt_fuzz: a tenth (each input is an HDF5 file written and opened, ~10 ms)
+HARNESSES="scene cfg api http ckpt"
 
 missing=
 for h in $HARNESSES; do
@@ -40,7 +40,7 @@ for h in $HARNESSES; do
 	[ "$r" = 0 ] || sed 's/^/# /' "$tmp/$h.replay" | tail -40
 	# 2. A short mutation run from the corpus (new inputs go to a scratch dir).
 	mkdir "$tmp/$h"
-	runs=$FUZZ_RUNS; [ "$h" = api ] && runs=$((FUZZ_RUNS / 10))
+	runs=$FUZZ_RUNS; [ "$h" = ckpt ] && runs=$((FUZZ_RUNS / 10))
 	"$bin" -runs="$runs" -seed=1 -artifact_prefix="$tmp/" -print_final_stats=1 "$tmp/$h" "$corpus" >"$tmp/$h.run" 2>&1
 	r=$?
 	ok "$r" "${h}_fuzz: $runs mutated inputs without a crash, leak or UB ($(grep -o 'cov: [0-9]*' "$tmp/$h.run" | tail -1))"

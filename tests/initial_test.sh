@@ -18,8 +18,9 @@ frames() {
 	h5dump -H -d /particles/all/position/value "$1" 2>/dev/null | sed -n 's/.*DATASPACE *SIMPLE { ( \([0-9]*\),.*/\1/p'
 }
 
-# continued NAME N D A.json B.json KA: B (from A's frame KA) starts in A's
-# frame KA bit for bit: B's first frame equals it, positions and velocities.
+# continued NAME N D A.json B.json KA [DW]: B (from A's frame KA) starts in A's
+# frame KA bit for bit: B's first frame equals it, positions and velocities
+# (and with DW, rough particles, the DW components of the angular velocities).
 continued() {
 	name=$1 np=$2 d=$3
 	mkdir -p "$tmp/$name"
@@ -31,9 +32,10 @@ continued() {
 	k=$6
 	if [ "$k" -lt 0 ]; then k=$(( $(frames "$tmp/$name/A/trajectory.h5") + k )); fi
 	same=0
-	for what in position velocity; do
-		frame "$tmp/$name/A/trajectory.h5" all $what "$k" "$np" "$d" "$tmp/$name/a.$what" &&
-		frame "$tmp/$name/B/trajectory.h5" all $what 0 "$np" "$d" "$tmp/$name/b.$what" &&
+	for what in position velocity ${7:+angular_velocity}; do
+		dd=$d; [ $what = angular_velocity ] && dd=$7
+		frame "$tmp/$name/A/trajectory.h5" all $what "$k" "$np" "$dd" "$tmp/$name/a.$what" &&
+		frame "$tmp/$name/B/trajectory.h5" all $what 0 "$np" "$dd" "$tmp/$name/b.$what" &&
 		[ -s "$tmp/$name/a.$what" ] && cmp -s "$tmp/$name/a.$what" "$tmp/$name/b.$what" || same=1
 	done
 	[ $rc -eq 0 ] && [ $same -eq 0 ]
@@ -115,7 +117,18 @@ EOF
 	continued "$m" 400 2 "$tmp/a-$m.json" "$tmp/b-$m.json" -2
 done
 
-# 5. Bad cases: exit 2, one line on stderr naming the key.
+# 5. Rough spheres with an obstacle: spins come from the frame too; A places in a region around the obstacle.
+cat >"$tmp/a-rough.json" <<'EOF'
+{"method":"ed","dimensions":3,
+ "particles":{"count":150,"box":[12,12,12],"initial":{"positions":"random","region":{"upper":[12,12,8]}}},
+ "collisions":{"restitution":0.9,"tc":1e-6,"rough":{"tangential_restitution":0.4}},
+ "obstacles":[{"type":"slip","center":[6,6,4],"radius":2}],
+ "run":{"seed":8,"until":{"time":1}},"output":{"every":{"time":0.5},"snapshots":{"every":{"time":0.5}}}}
+EOF
+sed 's/"positions":"random","region":{"upper":\[12,12,8\]}/"from":{"file":"A\/trajectory.h5"}/' "$tmp/a-rough.json" >"$tmp/b-rough.json"
+continued rough3d-obstacle 150 3 "$tmp/a-rough.json" "$tmp/b-rough.json" -1 3
+
+# 6. Bad cases: exit 2, one line on stderr naming the key.
 bad() {
 	want=$1 what=$2
 	"$ENGINE" run "$tmp/bad.json" >"$tmp/bad.out" 2>"$tmp/bad.err"
@@ -168,6 +181,18 @@ from_scene '{"file":"x.h5"}' ',"volume_fraction":0.1' 2 300
 sed -i 's/"box":\[30,30\],//' "$tmp/bad.json"
 sed -i 's/"from":{"file":"x.h5"}/"from":{"file":"x.h5"},"temperature":2/' "$tmp/bad.json"
 bad particles.initial.temperature "temperature beside from"
+
+# rough particles from a smooth run's frame: no spins to start from
+from_scene "{\"file\":\"$A1\"}" ''
+sed -i 's/"tc":1e-6}/"tc":1e-6,"rough":{"tangential_restitution":0.5}}/' "$tmp/bad.json"
+bad particles.initial.from "rough particles from a smooth run's frame (no angular velocities)"
+# an obstacle where the frame has particles
+from_scene "{\"file\":\"$A1\"}" ''
+sed -i 's/"run"/"obstacles":[{"type":"slip","center":[15,15],"radius":4}],"run"/' "$tmp/bad.json"
+bad particles.initial.from "an obstacle where the frame has particles"
+from_scene '{"file":"x.h5"}' ',"volume_fraction":0.1' 2 300
+sed -i 's/"box":\[30,30\],//; s/"from":{"file":"x.h5"}/"from":{"file":"x.h5"},"velocity":[1,0]/' "$tmp/bad.json"
+bad particles.initial.velocity "a mean flow beside from"
 
 # The validate command makes the same checks (a scene validate accepts is one run starts).
 from_scene "{\"file\":\"$A1\"}" '' 2 301

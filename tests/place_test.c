@@ -163,5 +163,58 @@ int main(void)
 	           "\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"vibrating\",\"amplitude\":1,\"frequency\":1,"
 	           "\"phase\":1.5707963267948966},\"upper\":{\"type\":\"specular\"}}},\"run\":{\"until\":{\"time\":1}}}",
 	           (double[]){2, 1.2, 5, 5}, v0, PLACE_EINVAL, "closer than a radius to a wall along y");
+	/* obstacles: region placement keeps out of them, a given state may not overlap them */
+	static const char *const obst_scenes[] = {
+		"{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":150,\"box\":[30,30],\"initial\":"
+		"{\"positions\":\"random\",\"region\":{\"upper\":[30,20]}}},\"obstacles\":[{\"type\":\"slip\","
+		"\"center\":[15,10],\"radius\":5},{\"type\":\"slip\",\"center\":[1,1],\"radius\":2}],"
+		"\"run\":{\"until\":{\"time\":1}}}",
+		"{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":150,\"box\":[30,30],\"initial\":"
+		"{\"region\":{\"upper\":[30,20]}}},\"obstacles\":[{\"type\":\"slip\","
+		"\"center\":[15,10],\"radius\":5},{\"type\":\"slip\",\"center\":[1,1],\"radius\":2}],"
+		"\"run\":{\"until\":{\"time\":1}}}",
+	};
+	for (size_t c = 0; c < 2; c++) {
+		scene_t s = parse(obst_scenes[c]);
+		double *p = s.count ? malloc(s.count * 2 * sizeof(double)) : NULL;
+		char err[512] = "";
+		int rc = p ? place_region(&s, 0, p, err, sizeof err) : -99;
+		/* closest approach of a centre to an obstacle's centre less (R + r), minimum image in x and y */
+		double worst = INFINITY;
+		for (uint64_t i = 0; rc == PLACE_OK && i < s.count; i++)
+			for (int k = 0; k < s.n_obstacles; k++) {
+				double dx = p[2 * i] - s.obstacle[k].center[0], dy = p[2 * i + 1] - s.obstacle[k].center[1];
+				dx -= 30 * nearbyint(dx / 30);
+				dy -= 30 * nearbyint(dy / 30);
+				worst = fmin(worst, sqrt(dx * dx + dy * dy) - s.obstacle[k].radius - s.radius);
+			}
+		ok(rc == PLACE_OK && worst >= 0 && min_pair(&s, p) >= 1.0,
+		   "%s in a region with two obstacles (one across the periodic corner): clear of them by %.4g (%s)",
+		   c ? "lattice" : "random", worst, err);
+		free(p);
+	}
+	scene_t crowded = parse("{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":200,\"box\":[30,30]},"
+	                        "\"obstacles\":[{\"type\":\"slip\",\"center\":[15,5],\"radius\":6}],"
+	                        "\"run\":{\"until\":{\"time\":1}}}");
+	if (crowded.count) {
+		char err[512] = "";
+		crowded.has_region = 1;
+		crowded.region_hi[0] = 30;
+		crowded.region_hi[1] = 8;
+		int rc = place_check(&crowded, err, sizeof err);
+		ok(rc == PLACE_EINVAL && !strncmp(err, "particles.initial.region: ", 26) && strstr(err, "obstacles"),
+		   "a lattice region mostly covered by an obstacle: %s", err);
+	} else {
+		ok(0, "crowded scene parses");
+	}
+	test_state("a particle inside an obstacle",
+	           "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":2,\"box\":[10,10]},"
+	           "\"obstacles\":[{\"type\":\"slip\",\"center\":[9.5,5],\"radius\":1}],\"run\":{\"until\":{\"time\":1}}}",
+	           (double[]){0.2, 5, 5, 5}, v0, PLACE_EINVAL, "particle 0 overlaps obstacles[0]");
+	test_state("a particle touching an obstacle",
+	           "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":2,\"box\":[10,10]},"
+	           "\"obstacles\":[{\"type\":\"slip\",\"center\":[8,5],\"radius\":1}],\"run\":{\"until\":{\"time\":1}}}",
+	           (double[]){6.5, 5, 2, 5}, v0, PLACE_OK, NULL);
+	plan(tap_n);
 	return done_testing();
 }

@@ -102,6 +102,38 @@ cat >"$tmp/3d-walls.json" <<'JSON'
  "output":{"every":{"time":0.5},"observables":["kinetic_energy","wall_force","momentum"],
    "snapshots":{"every":{"time":2}},"checkpoint":{"every":{"time":1.3}}}}
 JSON
+# Obstacles and open walls: the obstacles' impulses and hits, the particles
+# that left (NaN rows in the frames) and the outflow counts are state too.
+cat >"$tmp/2d-obstacles-open.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":1500,"box":[120,60],
+   "initial":{"positions":"random","temperature":0.5,"velocity":[0.6,0]}},
+ "collisions":{"restitution":0.95,"tc":0.0001},"gravity":[0,-0.01],
+ "boundaries":{"x":{"type":"walls","lower":{"type":"open"},"upper":{"type":"open"}},
+   "y":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"specular"}}},
+ "obstacles":[{"type":"slip","center":[40,30],"radius":6,"restitution":0.9},
+   {"type":"no_slip","center":[80,20],"radius":4,"temperature":0.5},{"type":"random_sign","center":[80,45],"radius":3}],
+ "run":{"seed":43,"until":{"time":60}},
+ "output":{"every":{"time":3},"observables":["kinetic_energy","obstacle_force","outflow","wall_force"],
+   "snapshots":{"every":{"time":20}},"checkpoint":{"every":{"time":13}}}}
+JSON
+# Rough particles (spins, angular_velocity frames) and driving (kick times,
+# the thermostat's random stream and local means) are state too.
+cat >"$tmp/3d-rough-drive.json" <<'JSON'
+{"method":"ed","dimensions":3,"particles":{"count":1500,"volume_fraction":0.2,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9,"tc":0.001,"rough":{"tangential_restitution":0.4,"friction":0.3}},
+ "driving":{"type":"stochastic","temperature":1,"interval":2,"grid":3,"average_time":4},
+ "run":{"seed":43,"until":{"time":12}},
+ "output":{"every":{"time":0.5},"observables":["kinetic_energy","rotational_energy","rotational_temperature"],
+   "snapshots":{"every":{"time":2}},"checkpoint":{"every":{"time":1.3}}}}
+JSON
+cat >"$tmp/2d-rough-noise.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":1600,"volume_fraction":0.7},
+ "collisions":{"restitution":0.8,"tc":0.0001,"rough":{"tangential_restitution":0.5}},
+ "driving":{"type":"white_noise","strength":0.2,"interval":0.5},
+ "run":{"seed":44,"until":{"collisions_per_particle":100}},
+ "output":{"every":{"collisions_per_particle":10},"observables":["temperature","rotational_temperature"],
+   "snapshots":{"every":{"collisions_per_particle":40}},"checkpoint":{"every":{"time":3}}}}
+JSON
 # Long enough to be killed: wall-clock checkpoints, ~2-3 s of work.
 cat >"$tmp/3d-kill.json" <<'JSON'
 {"method":"ed","dimensions":3,"particles":{"count":3000,"volume_fraction":0.4},
@@ -152,7 +184,7 @@ ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 }
 
 # (a) checkpoint at simulated time T, resume: identical to the uninterrupted run.
-for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls; do
+for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open 3d-rough-drive 2d-rough-noise; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

@@ -11,6 +11,8 @@
 #include "rng.h"
 #include "lattice.h"
 #include "walltime.h"
+#include "obstacle.h"
+#include "rough.h"
 
 /* Hot particle record: everything a neighbour scan touches, one cache line
  * in 3D. Position r is valid at the particle's own time t (lazy update).
@@ -59,8 +61,21 @@ typedef struct {
 	double vmin;           /* minimum rebound (normal speed relative to the wall) with TC; 0 without */
 } wall_t;
 
-/* Event codes in ev_t.cross at and above this: a wall (ED_WALL0 + w). */
-enum { ED_WALL0 = 8 };
+/* Event codes in ev_t.cross at and above this: a wall (ED_WALL0 + w);
+ * at and above ED_OBST0: an obstacle (ED_OBST0 + k). */
+enum { ED_WALL0 = 8, ED_OBST0 = 16 };
+
+/* An obstacle (walls variants): a fixed disk/sphere, its rule from the
+ * scene, its centre in internal coordinates. */
+typedef struct {
+	int type;              /* SCENE_OBST_* */
+	double c[3];           /* centre (internal coordinates) */
+	double S;              /* contact distance: obstacle radius + particle radius */
+	double r;              /* normal restitution */
+	double sv;             /* no_slip: sqrt(T_o / m) */
+	double acc;            /* no_slip: accommodation */
+	double vmin;           /* minimum rebound with TC (against gravity); 0 without */
+} obst_t;
 
 enum { NL_KMAX = 32 };   /* largest neighbour-list capacity (setup_mode) */
 /* Cell scans consult the occupancy bitmap above this many cells (heads of
@@ -136,6 +151,7 @@ struct ed {
 	 * periodic engine's layout. */
 	const struct ed_ops *ops;
 	int variant;              /* 0 periodic homogeneous, 1 walls, 2 gravity (and maybe walls) */
+	int open;                 /* some wall is open (particles leave) */
 	/* Walls and gravity (variants 1, 2; unused in 0). Internal coordinates
 	 * on a walled axis are the scene's plus org (the lower wall's
 	 * amplitude), so that a vibrating wall never leaves [0, L]. */
@@ -152,6 +168,43 @@ struct ed {
 	uint64_t whits[6], wall_collisions;
 	rng_t wrng;               /* thermal and rough walls */
 	double psum[3];           /* sum of the velocities at t_mark (gravity: energy bookkeeping) */
+	double *bcount;           /* ed_count_impacts(): impact-parameter histogram, or NULL */
+	int bnb;
+	/* Obstacles (walls variants only; nobst = 0 and ocell NULL without):
+	 * ocell[c] has bit k set when a particle centred in cell c can touch
+	 * obstacle k (its contact sphere meets the cell). */
+	int nobst;
+	obst_t obst[SCENE_OBSTACLES_MAX];
+	uint16_t *ocell;
+	double oimp[SCENE_OBSTACLES_MAX][3];      /* momentum given to each obstacle over the output interval */
+	double oimp_tot[SCENE_OBSTACLES_MAX][3];  /* ... since the start of the production run */
+	uint64_t ohits[SCENE_OBSTACLES_MAX], obst_collisions;
+	/* Open walls (walls variants only; gone NULL without): gone[i] = 1 once
+	 * particle i has left (out of the cell lists, no events, velocity 0). */
+	uint8_t *gone;
+	uint64_t n_gone;
+	uint64_t wout[6];         /* particles out through each wall (total) */
+	/* Rough particles (ROUGH kernels; collisions.rough): spins, one per
+	 * particle in 2D (about z), three in 3D, in storage order like the
+	 * records; the tangential rule's constants. NULL / 0 for smooth scenes. */
+	double *spin;
+	int rough;
+	double rbeta;             /* tangential restitution beta (Walton: beta_0), -1..1 */
+	double rmu;               /* Coulomb friction mu of Walton's rule; < 0: constant beta */
+	double rq;                /* moment of inertia factor q: I = q m (sigma/2)^2 */
+	/* Driving (scene "driving"; drive_* below): kicks of random particles
+	 * at Poisson times (rate N / interval), outside the event loop. */
+	int drive;                /* 0 none, SCENE_DRIVE_* */
+	double drv_interval, drv_temp, drv_xi2, drv_tavg;
+	double drv_box[3];        /* the scene's box: positions of kick_get() lie in it */
+	int drv_grid[3];
+	size_t drv_bins;
+	double *drv_mean;         /* state: per bin, the running mean velocity (dim each) */
+	double *drv_sum;          /* scratch: per bin, velocity sums and count (dim + 1 each) */
+	double *drv_pos, *drv_vel;   /* scratch (grids of more than one bin): positions, velocities */
+	double drv_next[2];       /* state: absolute times of the next kick and of the next mean update */
+	uint64_t drv_kicks[1];    /* state: kicks so far */
+	rng_t drng;               /* state: the driving's random stream */
 };
 
 static inline bool hless(const hent_t *a, const hent_t *b)
@@ -423,6 +476,9 @@ static bool collapse_check(struct ed *ed, double dt)
 {
 	if (!(ed->collapse_rate > 0.0))
 		return false;
+	/* (with open walls N counts the particles that left too, which makes
+	 * the limit higher by sqrt(N / present): a looser watch; kept so that
+	 * the periodic event loop's code stays as it was) */
 	double temp = fmax(2.0 * ed->ekin_cur / (ed->dim * (double)ed->n), 0.0);
 	if (2.0 * (double)ed->rebase_every <= ed->collapse_rate * sqrt(temp) * (double)ed->n * dt)
 		return false;
@@ -497,6 +553,77 @@ static void walls_rebase(struct ed *ed, double t)
 			ed->wall[w].ph = fmod(ed->wall[w].ph + ed->wall[w].omega * t, 6.28318530717958647692);
 }
 
+/* Velocity v (dim components) of a particle meeting obstacle k with unit
+ * normal nrm (from the obstacle's centre to the particle's) by the
+ * obstacle's rule (scene.h); elastic: the TC model makes the restitution 1.
+ * Like walls, a rebound slower than vmin (TC scenes with gravity: a
+ * particle resting on an obstacle) is raised to it. */
+static void obst_rule(struct ed *ed, int k, const double *nrm, double *v, int elastic)
+{
+	const obst_t *O = &ed->obst[k];
+	const int dim = ed->dim;
+	double vn = 0.0, vt[3] = {0.0, 0.0, 0.0};
+	for (int a = 0; a < dim; a++)
+		vn += v[a] * nrm[a];
+	for (int a = 0; a < dim; a++)
+		vt[a] = v[a] - vn * nrm[a];
+	if (ed->relaxing) {
+		vn = fabs(vn);
+	} else if (vn < 0.0) {
+		const double r = elastic ? 1.0 : O->r;
+		switch (O->type) {
+		case SCENE_OBST_NO_SLIP:
+			if (rng_uniform(&ed->wrng) < O->acc) {
+				/* diffuse: flux-weighted Maxwellian of the obstacle at rest
+				 * (Rayleigh normal; an isotropic Gaussian projected on the
+				 * tangent plane is the tangential Gaussian) */
+				vn = O->sv * sqrt(-2.0 * log(1.0 - rng_uniform(&ed->wrng)));
+				double gn = 0.0, gs[3] = {0.0, 0.0, 0.0};
+				for (int a = 0; a < dim; a++) {
+					gs[a] = O->sv * rng_gauss(&ed->wrng);
+					gn += gs[a] * nrm[a];
+				}
+				for (int a = 0; a < dim; a++)
+					vt[a] = gs[a] - gn * nrm[a];
+			} else {
+				vn = -r * vn;
+			}
+			break;
+		case SCENE_OBST_RANDOM_SIGN:
+			vn = -r * vn;
+			if (rng_uniform(&ed->wrng) < 0.5)
+				for (int a = 0; a < dim; a++)
+					vt[a] = -vt[a];
+			break;
+		default:
+			vn = -r * vn;
+			break;
+		}
+	}
+	if (!ed->relaxing && vn < O->vmin && ed->tlast)
+		vn = O->vmin;
+	for (int a = 0; a < dim; a++)
+		v[a] = vt[a] + vn * nrm[a];
+}
+
+/* Whether a particle centred at r (internal coordinates) is clear of
+ * every obstacle (at least the contact distance from each centre). */
+static int obst_clear(const struct ed *ed, const double *r)
+{
+	for (int k = 0; k < ed->nobst; k++) {
+		double r2 = 0.0;
+		for (int a = 0; a < ed->dim; a++) {
+			double x = r[a] - ed->obst[k].c[a];
+			if (ed->periodic[a])
+				x -= ed->L[a] * nearbyint(x / ed->L[a]);
+			r2 += x * x;
+		}
+		if (r2 < ed->obst[k].S * ed->obst[k].S)
+			return 0;
+	}
+	return 1;
+}
+
 /* Loops over the D axes, unrolled (GCC does not at -O2 by itself; the
  * per-candidate arithmetic is the hot loop of the engine). */
 #define FOR_AXES(a) _Pragma("GCC unroll 3") for (int a = 0; a < D; a++)
@@ -504,6 +631,7 @@ static void walls_rebase(struct ed *ed, double t)
 /* The kernels, once per dimension and variant: periodic homogeneous
  * (_2d, _3d: the original engine, untouched by the features below), walls
  * (_2w, _3w) and gravity with or without walls (_2g, _3g). */
+#define ROUGH 0
 #define WALLS 0
 #define GRAV 0
 #define D 2
@@ -554,6 +682,73 @@ static void walls_rebase(struct ed *ed, double t)
 #undef FN
 #undef WALLS
 #undef GRAV
+#undef ROUGH
+
+/* Rough particles: the same three variants with the rough collision rule
+ * (_2dr, _3dr periodic; _2wr, _3wr walls; _2gr, _3gr gravity). Compiled
+ * without GCC's heuristic inlining of functions not declared inline: this
+ * unit's inlining budget is shared, and six more variants inlined at will
+ * took it from the smooth kernels (the periodic event loop lost inlined
+ * calendar updates and ran up to 7% slower). */
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC push_options
+#pragma GCC optimize ("no-inline-functions")
+#endif
+#define ROUGH 1
+#define WALLS 0
+#define GRAV 0
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2dr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3dr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#undef WALLS
+#define WALLS 1
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2wr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3wr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#undef GRAV
+#define GRAV 1
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2gr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3gr
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#undef WALLS
+#undef GRAV
+#undef ROUGH
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC pop_options
+#endif
 
 /* A variant's entry points, chosen once in ed_alloc(): nothing per event. */
 typedef struct ed_ops {
@@ -575,18 +770,27 @@ typedef struct ed_ops {
 	/* walls and gravity variants only */
 	void (*observe)(const struct ed *, double *, double *);
 	void (*energy_to)(struct ed *, double);
+	/* driving (thermostats) */
+	void (*kick_get)(struct ed *, uint32_t, double *, double *);
+	void (*kick_set)(struct ed *, uint32_t, const double *);
 } ed_ops_t;
 
 #define OPS_COMMON(x) \
 	.run = run_##x, .place_random = place_random_##x, .place = place_##x, .ekin = ekin_##x, .state = state_##x, \
 	.min_gap = min_gap_##x, .cell_index = cell_index_##x, .rebase = rebase_##x, .set_cross = set_cross_##x, \
-	.scan_full = scan_full_##x
+	.scan_full = scan_full_##x, .kick_get = kick_get_##x, .kick_set = kick_set_##x
 #define OPS_NL(x) .nl_build_all = nl_build_all_##x, .resync = resync_##x, .set_nl = set_nl_##x, .scan_nl = scan_nl_##x
 static const ed_ops_t ed_ops[2][3] = {
 	{ { OPS_COMMON(2d), OPS_NL(2d) }, { OPS_COMMON(2w), .observe = observe_2w },
 	  { OPS_COMMON(2g), .observe = observe_2g, .energy_to = energy_to_2g } },
 	{ { OPS_COMMON(3d), OPS_NL(3d) }, { OPS_COMMON(3w), .observe = observe_3w },
 	  { OPS_COMMON(3g), .observe = observe_3g, .energy_to = energy_to_3g } },
+};
+static const ed_ops_t ed_ops_rough[2][3] = {
+	{ { OPS_COMMON(2dr), OPS_NL(2dr) }, { OPS_COMMON(2wr), .observe = observe_2wr },
+	  { OPS_COMMON(2gr), .observe = observe_2gr, .energy_to = energy_to_2gr } },
+	{ { OPS_COMMON(3dr), OPS_NL(3dr) }, { OPS_COMMON(3wr), .observe = observe_3wr },
+	  { OPS_COMMON(3gr), .observe = observe_3gr, .energy_to = energy_to_3gr } },
 };
 
 #define DISPATCH(ed, fn, ...) ((ed)->ops->fn(__VA_ARGS__))
@@ -740,53 +944,116 @@ static int lattice_short(const struct ed *ed, double d, char *msg, size_t msglen
 	return 1;
 }
 
-static int place_lattice(struct ed *ed, rng_t *rng, char *msg, size_t msglen)
+/* The lattice for n sites in Lp (nearest distance returned; b: cells per
+ * axis) and its site j (internal coordinates, offset plo). */
+static double lattice_dims(const struct ed *ed, const double *Lp, uint64_t n, int64_t b[3], uint64_t *sites)
 {
-	double *r = NULL;
-	size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
 	double d;
-	lattice_fill_t fill;
-	/* The lattice fills [plo, phi) as if periodic (walled axes: out of
-	 * reach of the walls; the periodic spacing keeps the first and last
-	 * layers a diameter apart too, which costs at most one layer). */
-	double Lp[3] = {ed->L[0], ed->L[1], ed->L[2]};
+	b[0] = b[1] = b[2] = 1;
+	if (ed->dim == 2) {
+		d = lattice_2d(Lp, n, &b[0], &b[1]);
+		*sites = (uint64_t)(b[0] * b[1]);
+	} else {
+		d = lattice_3d(Lp, n, b);
+		*sites = (uint64_t)(4 * b[0] * b[1] * b[2]);
+	}
+	return d;
+}
+
+static void lattice_site(const struct ed *ed, const double *Lp, const int64_t b[3], uint64_t j, double *r)
+{
+	static const double site[4][3] = {{0, 0, 0}, {.5, .5, 0}, {.5, 0, .5}, {0, .5, .5}};
+	if (ed->dim == 2) {
+		int64_t ix = (int64_t)j % b[0], iy = (int64_t)j / b[0];
+		r[0] = (ix + 0.25 + 0.5 * (iy & 1)) * (Lp[0] / b[0]);
+		r[1] = (iy + 0.5) * (Lp[1] / b[1]);
+	} else {
+		int64_t c = (int64_t)j / 4, s = (int64_t)j % 4;
+		int64_t ix = c % b[0], iy = (c / b[0]) % b[1], iz = c / (b[0] * b[1]);
+		r[0] = (ix + site[s][0] + 0.25) * (Lp[0] / b[0]);
+		r[1] = (iy + site[s][1] + 0.25) * (Lp[1] / b[1]);
+		r[2] = (iz + site[s][2] + 0.25) * (Lp[2] / b[2]);
+	}
 	if (ed->variant)
 		for (int a = 0; a < ed->dim; a++)
-			Lp[a] = ed->phi[a] - ed->plo[a];
-	if (ed->dim == 2) {
-		int64_t nx = 1, ny = 1;
-		d = lattice_2d(Lp, ed->n, &nx, &ny);
-		double ax = Lp[0] / nx, ay = Lp[1] / ny;
-		lattice_fill_init(&fill, (uint64_t)(nx * ny), ed->n, rng);
-		for (uint32_t i = 0; i < ed->n; i++) {
-			int64_t j = (int64_t)lattice_fill_next(&fill), ix = j % nx, iy = j / nx;
-			r = (double *)((char *)ed->p + i * stride);
-			r[0] = (ix + 0.25 + 0.5 * (iy & 1)) * ax;
-			r[1] = (iy + 0.5) * ay;
+			r[a] += ed->plo[a];
+}
+
+/* The region the lattice fills: [plo, phi) as if periodic (walled axes: out
+ * of reach of the walls; the periodic spacing keeps the first and last
+ * layers a diameter apart too, which costs at most one layer). */
+static void lattice_region(const struct ed *ed, double Lp[3])
+{
+	for (int a = 0; a < 3; a++)
+		Lp[a] = ed->variant && a < ed->dim ? ed->phi[a] - ed->plo[a] : ed->L[a];
+}
+
+/* With obstacles the lattice has more sites than particles: grown until
+ * enough sites are clear of the obstacles (a site is at least the contact
+ * distance from every obstacle centre). Returns the nearest distance; *free
+ * the clear sites (all without obstacles). O(sites) per try, few tries. */
+static double lattice_plan(const struct ed *ed, int64_t b[3], uint64_t *sites, uint64_t *nfree)
+{
+	double Lp[3], r[3] = {0, 0, 0};
+	lattice_region(ed, Lp);
+	uint64_t want = ed->n;
+	double d = lattice_dims(ed, Lp, want, b, sites);
+	*nfree = *sites;
+	for (int tries = 0; ed->nobst && tries < 64; tries++) {
+		*nfree = 0;
+		for (uint64_t j = 0; j < *sites; j++) {
+			lattice_site(ed, Lp, b, j, r);
+			*nfree += obst_clear(ed, r);
 		}
-	} else {
-		static const double site[4][3] = {{0, 0, 0}, {.5, .5, 0}, {.5, 0, .5}, {0, .5, .5}};
-		int64_t nn[3] = {1, 1, 1};
-		d = lattice_3d(Lp, ed->n, nn);
-		double ax = Lp[0] / nn[0], ay = Lp[1] / nn[1], az = Lp[2] / nn[2];
-		lattice_fill_init(&fill, (uint64_t)(4 * nn[0] * nn[1] * nn[2]), ed->n, rng);
-		for (uint32_t i = 0; i < ed->n; i++) {
-			int64_t j = (int64_t)lattice_fill_next(&fill), c = j / 4, s = j % 4;
-			int64_t ix = c % nn[0], iy = (c / nn[0]) % nn[1], iz = c / (nn[0] * nn[1]);
-			r = (double *)((char *)ed->p + i * stride);
-			r[0] = (ix + site[s][0] + 0.25) * ax;
-			r[1] = (iy + site[s][1] + 0.25) * ay;
-			r[2] = (iz + site[s][2] + 0.25) * az;
+		if (*nfree >= ed->n)
+			break;
+		want += (ed->n - *nfree) + want / 32 + 1;
+		d = lattice_dims(ed, Lp, want, b, sites);
+	}
+	return d;
+}
+
+/* "particles.initial.positions" when the obstacles leave too few lattice sites. */
+static int lattice_blocked(const struct ed *ed, uint64_t nfree, char *msg, size_t msglen)
+{
+	if (nfree >= ed->n)
+		return 0;
+	set_msg(msg, msglen, "particles.initial.positions: the obstacles leave room for only %.0f of %.0f particles on a "
+	        "lattice; use fewer particles, smaller obstacles or a larger box", (double)nfree, (double)ed->n);
+	return 1;
+}
+
+static int place_lattice(struct ed *ed, rng_t *rng, char *msg, size_t msglen)
+{
+	size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
+	lattice_fill_t fill;
+	int64_t b[3];
+	uint64_t sites, nfree, *clear = NULL;
+	double Lp[3];
+	lattice_region(ed, Lp);
+	double d = lattice_plan(ed, b, &sites, &nfree);
+	if (lattice_short(ed, d, msg, msglen) || lattice_blocked(ed, nfree, msg, msglen))
+		return ED_EPLACE;
+	if (ed->nobst) {
+		/* the clear sites, in site order; the fill picks among them */
+		if (!(clear = malloc(nfree * sizeof(uint64_t)))) {
+			set_msg(msg, msglen, "out of memory for %.0f lattice sites%.0s", (double)nfree, 0);
+			return ED_ENOMEM;
+		}
+		double r[3] = {0, 0, 0};
+		uint64_t m = 0;
+		for (uint64_t j = 0; j < sites; j++) {
+			lattice_site(ed, Lp, b, j, r);
+			if (obst_clear(ed, r))
+				clear[m++] = j;
 		}
 	}
-	if (lattice_short(ed, d, msg, msglen))
-		return ED_EPLACE;
-	if (ed->variant)
-		for (uint32_t i = 0; i < ed->n; i++) {
-			r = (double *)((char *)ed->p + i * stride);
-			for (int a = 0; a < ed->dim; a++)
-				r[a] += ed->plo[a];
-		}
+	lattice_fill_init(&fill, nfree, ed->n, rng);
+	for (uint32_t i = 0; i < ed->n; i++) {
+		uint64_t j = lattice_fill_next(&fill);
+		lattice_site(ed, Lp, b, clear ? clear[j] : j, (double *)((char *)ed->p + i * stride));
+	}
+	free(clear);
 	for (uint32_t i = 0; i < ed->n; i++)
 		DISPATCH(ed, place, ed, i);
 	return ED_OK;
@@ -813,6 +1080,19 @@ static int placement_check(const struct ed *ed, const scene_t *s, char *msg, siz
 			if (!ed->periodic[a])
 				phi_eff *= ed->L[a] / (Lp[a] + ed->sigma);
 		}
+	/* obstacles: their excluded volume (contact distance; within the box
+	 * by the scene's checks) is not available either */
+	if (ed->nobst) {
+		double vol = 1.0, excl = 0.0;
+		for (int a = 0; a < ed->dim; a++)
+			vol *= ed->L[a];
+		for (int k = 0; k < ed->nobst; k++) {
+			const double S = ed->obst[k].S;
+			excl += ed->dim == 2 ? 3.14159265358979323846 * S * S : 4.18879020478639098461 * S * S * S;
+		}
+		phi_eff = excl < vol ? phi_eff * vol / (vol - excl) : INFINITY;
+	}
+	(void)Lp;
 	if (s->positions == SCENE_POS_RANDOM) {
 		if (phi_eff < rsa_jamming(ed->dim))
 			return ED_OK;
@@ -822,8 +1102,9 @@ static int placement_check(const struct ed *ed, const scene_t *s, char *msg, siz
 		return ED_EPLACE;
 	}
 	int64_t b[3] = {1, 1, 1};
-	double d = ed->dim == 2 ? lattice_2d(Lp, ed->n, &b[0], &b[1]) : lattice_3d(Lp, ed->n, b);
-	return lattice_short(ed, d, msg, msglen) ? ED_EPLACE : ED_OK;
+	uint64_t sites, nfree;
+	double d = lattice_plan(ed, b, &sites, &nfree);
+	return lattice_short(ed, d, msg, msglen) || lattice_blocked(ed, nfree, msg, msglen) ? ED_EPLACE : ED_OK;
 }
 
 /* A state from outside (scene_t.init_pos, init_vel: scene coordinates,
@@ -871,6 +1152,54 @@ static void init_velocities(struct ed *ed, double temp, rng_t *rng)
 		for (int a = 0; a < ed->dim; a++)
 			v[a] *= scale;
 	}
+}
+
+/* The scene's initial mean flow (particles.initial.velocity) added to the
+ * thermal velocities; nothing at all without one (the periodic start stays
+ * bit for bit as before). */
+static void add_flow(struct ed *ed, const scene_t *s)
+{
+	int any = 0;
+	for (int a = 0; a < ed->dim; a++)
+		any |= s->flow[a] != 0.0;
+	if (!any)
+		return;
+	size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
+	size_t voff = ed->dim == 2 ? offsetof(p2_t, v) : offsetof(p3_t, v);
+	for (uint32_t i = 0; i < ed->n; i++) {
+		double *v = (double *)((char *)ed->p + i * stride + voff);
+		for (int a = 0; a < ed->dim; a++)
+			v[a] += s->flow[a];
+	}
+}
+
+/* Spins of rough particles: Gaussian, scaled to exactly the rotational
+ * temperature T_rot = I sum w^2 / (D_r N) (D_r = 1 in 2D, 3 in 3D). The
+ * random numbers come after the velocities': smooth scenes are unchanged. */
+static void init_spins(struct ed *ed, double temp, rng_t *rng)
+{
+	const size_t k = (size_t)ed->n * (ed->dim == 2 ? 1 : 3);
+	double s2 = 0.0;
+	for (size_t i = 0; i < k; i++) {
+		ed->spin[i] = rng_gauss(rng);
+		s2 += ed->spin[i] * ed->spin[i];
+	}
+	const double inertia = ed->rq * ed->mass * 0.25 * ed->sigma2;
+	const double scale = s2 > 0.0 ? sqrt(temp * (double)k / (inertia * s2)) : 0.0;
+	for (size_t i = 0; i < k; i++)
+		ed->spin[i] *= scale;
+}
+
+/* Rotational energy I/2 sum w^2 (0 for smooth particles). */
+static double ed_erot(const struct ed *ed)
+{
+	if (!ed->rough)
+		return 0.0;
+	const size_t k = (size_t)ed->n * (ed->dim == 2 ? 1 : 3);
+	double s2 = 0.0;
+	for (size_t i = 0; i < k; i++)
+		s2 += ed->spin[i] * ed->spin[i];
+	return 0.5 * ed->rq * ed->mass * 0.25 * ed->sigma2 * s2;
 }
 
 static void predict_all(struct ed *ed)
@@ -921,6 +1250,11 @@ static void reset_clock(struct ed *ed)
 	memset(ed->wimp_tot, 0, sizeof ed->wimp_tot);
 	memset(ed->whits, 0, sizeof ed->whits);
 	ed->wall_collisions = 0;
+	memset(ed->oimp, 0, sizeof ed->oimp);
+	memset(ed->oimp_tot, 0, sizeof ed->oimp_tot);
+	memset(ed->ohits, 0, sizeof ed->ohits);
+	ed->obst_collisions = 0;
+	memset(ed->wout, 0, sizeof ed->wout);
 	for (int a = 0; a < 3; a++)
 		ed->psum[a] = mom[a] / ed->mass;
 }
@@ -1004,6 +1338,78 @@ static void setup_walls(struct ed *ed, const scene_t *s)
 	rng_init(&ed->wrng, s->seed, s->stream | (1ull << 62));
 }
 
+/* Obstacles from the scene: internal centres, rules, minimum rebound. */
+static void setup_obstacles(struct ed *ed, const scene_t *s)
+{
+	double g2 = 0.0;
+	for (int a = 0; a < s->dim; a++)
+		g2 += ed->g[a] * ed->g[a];
+	ed->nobst = s->n_obstacles;
+	for (int k = 0; k < s->n_obstacles; k++) {
+		const scene_obstacle_t *so = &s->obstacle[k];
+		obst_t *O = &ed->obst[k];
+		O->type = so->type;
+		for (int a = 0; a < 3; a++)
+			O->c[a] = a < s->dim ? so->center[a] + (ed->periodic[a] ? 0.0 : ed->org[a]) : 0.0;
+		O->S = so->radius + s->radius;
+		O->r = so->restitution;
+		O->sv = so->type == SCENE_OBST_NO_SLIP ? sqrt(so->temperature / s->mass) : 0.0;
+		O->acc = so->accommodation;
+		/* two hits tc apart against gravity's pull into the obstacle */
+		O->vmin = 0.5 * s->tc * sqrt(g2);
+	}
+}
+
+/* Cells from which a particle can touch each obstacle: the cell box (a
+ * hair larger, against rounding at faces) within the contact distance of
+ * the centre, images on periodic axes. Only the obstacle's bounding box of
+ * cells is visited. */
+static void build_ocell(struct ed *ed)
+{
+	memset(ed->ocell, 0, ed->ncells * sizeof(uint16_t));
+	for (int k = 0; k < ed->nobst; k++) {
+		const obst_t *O = &ed->obst[k];
+		int32_t lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
+		for (int a = 0; a < ed->dim; a++) {
+			lo[a] = (int32_t)floor((O->c[a] - O->S) / ed->cw[a]) - 1;
+			hi[a] = (int32_t)floor((O->c[a] + O->S) / ed->cw[a]) + 1;
+			if (ed->periodic[a]) {
+				if (hi[a] - lo[a] + 1 >= ed->nc[a])
+					lo[a] = 0, hi[a] = ed->nc[a] - 1;   /* all of the axis: every cell once */
+			} else {
+				if (lo[a] < 0) lo[a] = 0;
+				if (hi[a] > ed->nc[a] - 1) hi[a] = ed->nc[a] - 1;
+			}
+		}
+		int32_t q[3];
+		for (q[2] = lo[2]; q[2] <= hi[2]; q[2]++)
+			for (q[1] = lo[1]; q[1] <= hi[1]; q[1]++)
+				for (q[0] = lo[0]; q[0] <= hi[0]; q[0]++) {
+					int32_t cc[3] = {0, 0, 0};
+					double d2 = 0.0;
+					for (int a = 0; a < ed->dim; a++) {
+						int32_t c = q[a];
+						if (c < 0) c += ed->nc[a];
+						else if (c >= ed->nc[a]) c -= ed->nc[a];
+						cc[a] = c;
+						const double eps = 1e-9 * ed->cw[a];
+						double best = INFINITY;
+						for (int sh = -1; sh <= 1; sh++) {   /* images: periodic axes only */
+							if (sh && !ed->periodic[a])
+								continue;
+							double f0 = c * ed->cw[a] + sh * ed->L[a] - eps, f1 = (c + 1) * ed->cw[a] + sh * ed->L[a] + eps;
+							double x = O->c[a] < f0 ? f0 - O->c[a] : O->c[a] > f1 ? O->c[a] - f1 : 0.0;
+							if (x < best)
+								best = x;
+						}
+						d2 += best * best;
+					}
+					if (d2 <= O->S * O->S * (1.0 + 1e-9))
+						ed->ocell[DISPATCH(ed, cell_index, ed, cc)] |= (uint16_t)(1u << k);
+				}
+	}
+}
+
 /* Walled axes: neighbour cells -1, 0, +1 clipped at the ends (no images);
  * only small periodic axes need the minimum image; the cells each wall can
  * reach. */
@@ -1031,7 +1437,7 @@ static void setup_wall_cells(struct ed *ed)
  * engine of ed's geometry with neighbour lists (nl) and TC times (tc);
  * absent arrays are 0. */
 enum { A_P, A_EV, A_HEAP, A_CN, A_CALHEAD, A_HEAD, A_OCC, A_NEXT, A_ID, A_SCRATCH_IDX, A_SCRATCH_CELL,
-       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_COUNT };
+       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_OCELL, A_GONE, A_SPIN, A_DMEAN, A_DSUM, A_DPOS, A_DVEL, A_COUNT };
 static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 {
 	const size_t n = ed->n;
@@ -1050,6 +1456,12 @@ static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 	b[A_NB] = nl ? n * ed->nlk * sizeof(int32_t) : 0;
 	b[A_NN] = b[A_MARK] = nl ? n : 0;
 	b[A_TLAST] = tc ? n * sizeof(double) : 0;
+	b[A_OCELL] = ed->nobst ? ed->ncells * sizeof(uint16_t) : 0;
+	b[A_GONE] = ed->open ? n : 0;
+	b[A_SPIN] = ed->rough ? n * (ed->dim == 2 ? 1 : 3) * sizeof(double) : 0;
+	b[A_DMEAN] = ed->drive ? ed->drv_bins * ed->dim * sizeof(double) : 0;
+	b[A_DSUM] = ed->drive ? ed->drv_bins * (ed->dim + 1) * sizeof(double) : 0;
+	b[A_DPOS] = b[A_DVEL] = ed->drive && ed->drv_bins > 1 ? n * ed->dim * sizeof(double) : 0;
 }
 
 /* Cells cost memory even when empty (~9 bytes each): a grid finer than this
@@ -1083,10 +1495,32 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 		ed->L[a] = a < s->dim ? s->box[a] : 1.0;
 		ed->halfL[a] = 0.5 * ed->L[a];
 	}
-	ed->variant = scene_has_gravity(s) ? 2 : scene_has_walls(s) ? 1 : 0;
-	ed->ops = &ed_ops[ed->dim - 2][ed->variant];
+	/* obstacles live in the walls variants (all axes may be periodic there) */
+	ed->variant = scene_has_gravity(s) ? 2 : scene_has_walls(s) || scene_has_obstacles(s) ? 1 : 0;
+	ed->open = scene_has_open_walls(s);
+	ed->rough = s->rough;
+	ed->drive = s->drive;
+	if (ed->drive) {
+		ed->drv_interval = s->drive_interval;
+		ed->drv_temp = s->drive_temperature;
+		ed->drv_xi2 = s->drive_strength;
+		ed->drv_tavg = s->drive_average_time;
+		ed->drv_bins = 1;
+		for (int a = 0; a < 3; a++) {
+			ed->drv_box[a] = a < s->dim ? s->box[a] : 1.0;
+			ed->drv_grid[a] = a < s->dim ? s->drive_grid[a] : 1;
+			ed->drv_bins *= (size_t)ed->drv_grid[a];
+		}
+	}
+	ed->ops = ed->rough ? &ed_ops_rough[ed->dim - 2][ed->variant] : &ed_ops[ed->dim - 2][ed->variant];
+	if (ed->rough) {
+		ed->rbeta = s->rough_beta;
+		ed->rmu = s->rough_mu;
+		ed->rq = s->rough_q;
+	}
 	if (ed->variant) {
 		setup_walls(ed, s);
+		setup_obstacles(ed, s);
 		setup_cells(ed, s->ed_cell_size * ed->sigma);   /* cell mode only */
 		setup_wall_cells(ed);
 	} else {
@@ -1145,6 +1579,21 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	if (s->tc > 0.0) {
 		ed->tlast = big_alloc(b[A_TLAST], 0);
 	}
+	if (ed->nobst) {
+		if (!(ed->ocell = big_alloc(b[A_OCELL], 0)))
+			goto fail;
+		build_ocell(ed);
+	}
+	if (ed->open && !(ed->gone = big_alloc(b[A_GONE], 1)))
+		goto fail;
+	if (ed->rough && !(ed->spin = big_alloc(b[A_SPIN], 1)))
+		goto fail;
+	if (ed->drive && (!(ed->drv_mean = big_alloc(b[A_DMEAN], 1)) || !(ed->drv_sum = big_alloc(b[A_DSUM], 1))))
+		goto fail;
+	if (b[A_DPOS] && (!(ed->drv_pos = big_alloc(b[A_DPOS], 0)) || !(ed->drv_vel = big_alloc(b[A_DVEL], 0))))
+		goto fail;
+	if (ed->drive)
+		rng_init(&ed->drng, s->seed, s->stream | (1ull << 61));
 	if (!ed->p || !ed->ev || !ed->heap || !ed->cn || !ed->cal_head || !ed->head || !ed->occ || !ed->next || !ed->id || !ed->scratch_idx || !ed->scratch_cell ||
 	    (s->tc > 0.0 && !ed->tlast))
 		goto fail;
@@ -1163,6 +1612,8 @@ fail:
 		set_msg(msg, msglen, "out of memory for %.0f particles%.0s", (double)s->count, 0);
 	return NULL;
 }
+
+static void drive_start(struct ed *ed);
 
 ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 {
@@ -1190,8 +1641,14 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 		if (rc != ED_OK)
 			goto fail;
 	}
-	if (!s->init_vel)
+	if (!s->init_vel) {
 		init_velocities(ed, s->temperature, &rng);
+		add_flow(ed, s);
+	}
+	if (ed->rough && s->init_spin)
+		memcpy(ed->spin, s->init_spin, (size_t)ed->n * (ed->dim == 2 ? 1 : 3) * sizeof(double));
+	else if (ed->rough)
+		init_spins(ed, s->rot_temperature, &rng);
 	predict_all(ed);
 	reset_clock(ed);
 
@@ -1217,6 +1674,8 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 			ed->wall[w].omega = omega[w];
 		reset_clock(ed);
 	}
+	if (ed->drive)
+		drive_start(ed);
 	*err = ED_OK;
 	return ed;
 fail:
@@ -1238,6 +1697,11 @@ void ed_destroy(ed_t *ed)
 	free(ed->occ);
 	free(ed->next);
 	free(ed->tlast);
+	free(ed->spin);
+	free(ed->drv_mean);
+	free(ed->drv_sum);
+	free(ed->drv_pos);
+	free(ed->drv_vel);
 	free(ed->id);
 	free(ed->scratch_idx);
 	free(ed->scratch_cell);
@@ -1245,11 +1709,134 @@ void ed_destroy(ed_t *ed)
 	free(ed->nb);
 	free(ed->nn);
 	free(ed->mark);
+	free(ed->ocell);
+	free(ed->gone);
 	free(ed);
+}
+
+/* ---- driving (thermostats) ----------------------------------------------
+ *
+ * Kicks are not events of the calendar: the event loop (run) stops at the
+ * time of the next kick like at any t_stop (which changes nothing), the
+ * kick is applied, and the loop goes on. Kicks come at Poisson times of
+ * rate N / interval to particles drawn uniformly, from a random stream of
+ * their own; the times are absolute and part of the state, so where a
+ * caller stops changes nothing. Cost: O(1) per kick plus one prediction;
+ * the stochastic thermostat's local mean velocity is an exponential moving
+ * average over average_time of the bins' mean velocities, refreshed every
+ * average_time / 8 (O(N) each). */
+
+/* Bin of a position (scene coordinates) in the driving grid. */
+static size_t drive_bin(const struct ed *ed, const double *r)
+{
+	size_t b = 0;
+	for (int a = ed->dim - 1; a >= 0; a--) {
+		long k = (long)floor(r[a] / ed->drv_box[a] * ed->drv_grid[a]);
+		if (k < 0) k = 0;
+		if (k >= ed->drv_grid[a]) k = ed->drv_grid[a] - 1;
+		b = b * (size_t)ed->drv_grid[a] + (size_t)k;
+	}
+	return b;
+}
+
+/* Bins' mean velocities now into the running means: weight w of the new
+ * sample (1: replace). Empty bins keep their mean. */
+static void drive_average(struct ed *ed, double w)
+{
+	const int D = ed->dim;
+	memset(ed->drv_sum, 0, ed->drv_bins * (D + 1) * sizeof(double));
+	if (ed->drv_bins == 1) {
+		double mom[3];
+		DISPATCH(ed, ekin, ed, mom);
+		for (int a = 0; a < D; a++)
+			ed->drv_sum[a] = mom[a] / ed->mass;
+		ed->drv_sum[D] = ed->n;
+	} else {
+		DISPATCH(ed, state, ed, ed->drv_pos, ed->drv_vel);
+		for (uint32_t i = 0; i < ed->n; i++) {
+			double *sum = ed->drv_sum + drive_bin(ed, ed->drv_pos + (size_t)i * D) * (D + 1);
+			for (int a = 0; a < D; a++)
+				sum[a] += ed->drv_vel[(size_t)i * D + a];
+			sum[D] += 1.0;
+		}
+	}
+	for (size_t b = 0; b < ed->drv_bins; b++) {
+		const double *sum = ed->drv_sum + b * (D + 1);
+		if (sum[D] > 0.0)
+			for (int a = 0; a < D; a++)
+				ed->drv_mean[b * D + a] += w * (sum[a] / sum[D] - ed->drv_mean[b * D + a]);
+	}
+}
+
+/* The kick due now: a random particle's velocity replaced (stochastic) or
+ * changed by a Gaussian step (white noise); the next kick time drawn. */
+static void drive_kick(struct ed *ed)
+{
+	const int D = ed->dim;
+	uint32_t i = (uint32_t)(rng_uniform(&ed->drng) * ed->n);
+	if (i >= ed->n)
+		i = ed->n - 1;
+	double r[3], v[3];
+	DISPATCH(ed, kick_get, ed, i, r, v);
+	if (ed->drive == SCENE_DRIVE_STOCHASTIC) {
+		const double *u = ed->drv_mean + drive_bin(ed, r) * D, s = sqrt(ed->drv_temp / ed->mass);
+		for (int a = 0; a < D; a++)
+			v[a] = u[a] + s * rng_gauss(&ed->drng);
+	} else {
+		const double s = sqrt(ed->drv_xi2 * ed->drv_interval);
+		for (int a = 0; a < D; a++)
+			v[a] += s * rng_gauss(&ed->drng);
+	}
+	DISPATCH(ed, kick_set, ed, i, v);
+	/* its events afresh, as after a collision */
+	if (ed->nl) {
+		DISPATCH(ed, set_nl, ed, i);
+		DISPATCH(ed, scan_nl, ed, i);
+	} else {
+		DISPATCH(ed, set_cross, ed, i);
+		DISPATCH(ed, scan_full, ed, i);
+	}
+	cal_update(ed, i, ev_time(ed, i));
+	ed->drv_kicks[0]++;
+	ed->drv_next[0] -= ed->drv_interval / ed->n * log(1.0 - rng_uniform(&ed->drng));
+}
+
+/* At the start of the production run: the first kick time, the means. */
+static void drive_start(struct ed *ed)
+{
+	ed->drv_kicks[0] = 0;
+	ed->drv_next[0] = -ed->drv_interval / ed->n * log(1.0 - rng_uniform(&ed->drng));
+	ed->drv_next[1] = ed->drive == SCENE_DRIVE_STOCHASTIC ? 0.125 * ed->drv_tavg : INFINITY;
+	if (ed->drive == SCENE_DRIVE_STOCHASTIC)
+		drive_average(ed, 1.0);
+}
+
+static int drive_advance(struct ed *ed, double t_stop, uint64_t max_coll, uint64_t max_events)
+{
+	const uint64_t ev_end = ed->events + max_events < ed->events ? UINT64_MAX : ed->events + max_events;
+	for (;;) {
+		const int mean_next = ed->drv_next[1] < ed->drv_next[0];
+		const double tk = mean_next ? ed->drv_next[1] : ed->drv_next[0];
+		const double stop = tk < t_stop ? tk : t_stop;
+		int rc = DISPATCH(ed, run, ed, stop, max_coll, ev_end - ed->events);
+		if (rc == ED_COLLAPSE || ed->collisions >= max_coll || ed->events >= ev_end)
+			return rc == ED_QUIESCENT ? ED_OK : rc;
+		if (!(tk < t_stop))
+			return rc;
+		/* the clock stands at tk */
+		if (mean_next) {
+			drive_average(ed, 0.125);
+			ed->drv_next[1] += 0.125 * ed->drv_tavg;
+		} else {
+			drive_kick(ed);
+		}
+	}
 }
 
 int ed_advance(ed_t *ed, double t_stop, uint64_t max_collisions, uint64_t max_events)
 {
+	if (ed->drive)
+		return drive_advance(ed, t_stop, max_collisions, max_events);
 	return DISPATCH(ed, run, ed, t_stop, max_collisions, max_events);
 }
 
@@ -1260,6 +1847,12 @@ static void sample_walls(const struct ed *ed, ed_sample_t *out)
 	out->wall_collisions = ed->wall_collisions;
 	memcpy(out->wall_hits, ed->whits, sizeof out->wall_hits);
 	memcpy(out->wall_impulse, ed->wimp, sizeof out->wall_impulse);
+	out->particles = ed->n - ed->n_gone;
+	memcpy(out->wall_outflow, ed->wout, sizeof out->wall_outflow);
+	out->n_obstacles = ed->nobst;
+	out->obstacle_collisions = ed->obst_collisions;
+	memcpy(out->obstacle_hits, ed->ohits, sizeof out->obstacle_hits);
+	memcpy(out->obstacle_impulse, ed->oimp, sizeof out->obstacle_impulse);
 	out->com_height = out->potential_energy = NAN;
 	if (ed->variant == 2)
 		ed->ops->observe(ed, &out->com_height, &out->potential_energy);
@@ -1277,10 +1870,12 @@ void ed_sample(ed_t *ed, ed_sample_t *out)
 	if (ed->ops->energy_to)   /* gravity: E_kin changes between events */
 		ed->ops->energy_to(ed, ed->t);
 	out->kinetic_energy = DISPATCH(ed, ekin, ed, out->momentum);
+	out->rotational_energy = ed->rough ? ed_erot(ed) : NAN;
 	out->ekin_time_integral = ed->ekin_int + ed->ekin_cur * (ed->t - ed->t_mark);
 	out->virial = ed->virial;
 	sample_walls(ed, out);
 	memset(ed->wimp, 0, sizeof ed->wimp);
+	memset(ed->oimp, 0, sizeof ed->oimp);
 	for (int a = 0; a < 3; a++)
 		ed->psum[a] = out->momentum[a] / ed->mass;
 	/* New interval; the running energy is refreshed from the velocities so
@@ -1295,6 +1890,19 @@ void ed_sample(ed_t *ed, ed_sample_t *out)
 void ed_state(const ed_t *ed, double *pos, double *vel)
 {
 	DISPATCH(ed, state, ed, pos, vel);
+}
+
+int ed_spin_dim(const ed_t *ed)
+{
+	return ed->rough ? (ed->dim == 2 ? 1 : 3) : 0;
+}
+
+void ed_spins(const ed_t *ed, double *w)
+{
+	const int k = ed_spin_dim(ed);
+	for (uint32_t i = 0; i < ed->n; i++)
+		for (int c = 0; c < k; c++)
+			w[(size_t)ed->id[i] * k + c] = ed->spin[(size_t)i * k + c];
 }
 
 uint64_t ed_collisions(const ed_t *ed) { return ed->collisions; }
@@ -1317,7 +1925,9 @@ static size_t held(const struct ed *ed, int nl, int tc)
 	return sizeof(*ed) + (ed->cal_m + 1) * sizeof(int32_t) + (2 * ed->ncells + 1) * sizeof(int32_t) +
 	       (ed->ncells + 63) / 64 * sizeof(uint64_t) +
 	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + sizeof(cnode_t) + 3 * sizeof(uint32_t) + per_nl +
-	                (tc ? sizeof(double) : 0));
+	                (tc ? sizeof(double) : 0) + (ed->open ? 1 : 0) + (ed->rough ? (ed->dim == 2 ? 1 : 3) * sizeof(double) : 0) +
+	                (ed->drive && ed->drv_bins > 1 ? 2 * ed->dim * sizeof(double) : 0)) +
+	       (ed->nobst ? ed->ncells * sizeof(uint16_t) : 0) + (ed->drive ? ed->drv_bins * (2 * ed->dim + 1) * sizeof(double) : 0);
 }
 
 size_t ed_memory(const ed_t *ed) { return held(ed, ed->xn != NULL, ed->tlast != NULL); }
@@ -1350,6 +1960,10 @@ typedef enum {
 	F_R, F_V, F_TLOC, F_NEXT, F_COUNT, F_TCOLL, F_TCROSS, F_PARTNER, F_PCOUNT, F_CROSS, F_CELL,
 	F_ID, F_HEAD, F_TLAST, F_XN, F_NN, F_NB,
 	F_WPH, F_WIMP, F_WIMPTOT, F_WHITS, F_WCOLL, F_WRNG, F_PSUM,   /* walls and gravity variants only */
+	F_OIMP, F_OIMPTOT, F_OHITS, F_OCOLL,                         /* with obstacles only */
+	F_GONE, F_WOUT,                                              /* with open walls only */
+	F_SPIN,   /* rough particles only */
+	F_DMEAN, F_DNEXT, F_DKICKS, F_DRNG,   /* driving only */
 	F_SCALAR
 } fid_t;
 
@@ -1395,6 +2009,12 @@ static const struct {
 	{ "wall_impulse_total", F_WIMPTOT, ED_T_F64 }, { "wall_hits", F_WHITS, ED_T_U64 },
 	{ "wall_collisions", F_WCOLL, ED_T_U64 }, { "wall_rng", F_WRNG, ED_T_U64 },
 	{ "velocity_sum", F_PSUM, ED_T_F64 },
+	{ "obstacle_impulse", F_OIMP, ED_T_F64 }, { "obstacle_impulse_total", F_OIMPTOT, ED_T_F64 },
+	{ "obstacle_hits", F_OHITS, ED_T_U64 }, { "obstacle_collisions", F_OCOLL, ED_T_U64 },
+	{ "gone", F_GONE, ED_T_U8 }, { "wall_outflow", F_WOUT, ED_T_U64 },
+	{ "spin", F_SPIN, ED_T_F64 },
+	{ "drive_mean", F_DMEAN, ED_T_F64 }, { "drive_next", F_DNEXT, ED_T_F64 }, { "drive_kicks", F_DKICKS, ED_T_U64 },
+	{ "drive_rng", F_DRNG, ED_T_U64 },
 };
 #define N_ARRAYS (sizeof arrays / sizeof arrays[0])
 
@@ -1409,8 +2029,16 @@ size_t ed_type_size(ed_type_t t)
 }
 
 /* Whether a field exists, for an engine with neighbour lists (nl) and TC times (tc). */
-static int field_exists(fid_t id, int nl, int tc, int variant)
+static int field_exists(fid_t id, int nl, int tc, int variant, int nobst, int open, int rough, int drive)
 {
+	if (id == F_GONE || id == F_WOUT)   /* scenes without open walls keep their checkpoint layout */
+		return open;
+	if (id >= F_OIMP && id <= F_OCOLL)   /* scenes without obstacles keep their checkpoint layout */
+		return nobst > 0;
+	if (id == F_SPIN)
+		return rough;
+	if (id >= F_DMEAN && id <= F_DRNG)
+		return drive;
 	if (id == F_TLAST)
 		return tc;
 	if (id == F_XN || id == F_NN || id == F_NB)
@@ -1420,7 +2048,10 @@ static int field_exists(fid_t id, int nl, int tc, int variant)
 	return 1;
 }
 
-static int array_present(const struct ed *ed, fid_t id) { return field_exists(id, ed->xn != NULL, ed->tlast != NULL, ed->variant); }
+static int array_present(const struct ed *ed, fid_t id)
+{
+	return field_exists(id, ed->xn != NULL, ed->tlast != NULL, ed->variant, ed->nobst, ed->open, ed->rough, ed->drive);
+}
 
 static size_t array_count(const struct ed *ed, fid_t id)
 {
@@ -1433,6 +2064,15 @@ static size_t array_count(const struct ed *ed, fid_t id)
 	case F_WCOLL: return 1;
 	case F_WRNG: return 4;
 	case F_PSUM: return 3;
+	case F_OIMP: case F_OIMPTOT: return (size_t)ed->nobst * 3;
+	case F_OHITS: return (size_t)ed->nobst;
+	case F_OCOLL: return 1;
+	case F_WOUT: return 6;
+	case F_SPIN: return (size_t)ed->n * (ed->dim == 2 ? 1 : 3);
+	case F_DMEAN: return ed->drv_bins * ed->dim;
+	case F_DNEXT: return 2;
+	case F_DKICKS: return 1;
+	case F_DRNG: return 4;
 	case F_NB: {
 		size_t k = 0;
 		for (uint32_t i = 0; i < ed->n; i++)
@@ -1475,7 +2115,7 @@ int ed_plan(const scene_t *s, ed_plan_t *out, char *msg, size_t msglen)
 		out->state += ed_type_size(scalars[a].type);
 	out->largest = 0;
 	for (size_t a = 0; a < N_ARRAYS; a++) {
-		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0, ed.variant))
+		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0, ed.variant, ed.nobst, ed.open, ed.rough, ed.drive))
 			continue;
 		double count = arrays[a].id == F_NB ? per * ed.n : (double)array_count(&ed, arrays[a].id);
 		uint64_t bytes = (uint64_t)(count * (double)ed_type_size(arrays[a].type));
@@ -1578,6 +2218,17 @@ static void field_copy(struct ed *ed, fid_t id, void *buf, int to_buf)
 	case F_WCOLL: src = &ed->wall_collisions; bytes = sizeof ed->wall_collisions; break;
 	case F_WRNG: src = ed->wrng.s; bytes = sizeof ed->wrng.s; break;
 	case F_PSUM: src = ed->psum; bytes = sizeof ed->psum; break;
+	case F_OIMP: src = ed->oimp; bytes = (size_t)ed->nobst * sizeof ed->oimp[0]; break;
+	case F_OIMPTOT: src = ed->oimp_tot; bytes = (size_t)ed->nobst * sizeof ed->oimp_tot[0]; break;
+	case F_OHITS: src = ed->ohits; bytes = (size_t)ed->nobst * sizeof ed->ohits[0]; break;
+	case F_OCOLL: src = &ed->obst_collisions; bytes = sizeof ed->obst_collisions; break;
+	case F_GONE: src = ed->gone; bytes = ed->n; break;
+	case F_WOUT: src = ed->wout; bytes = sizeof ed->wout; break;
+	case F_SPIN: src = ed->spin; bytes = (size_t)ed->n * (D == 2 ? 1 : 3) * sizeof(double); break;
+	case F_DMEAN: src = ed->drv_mean; bytes = ed->drv_bins * D * sizeof(double); break;
+	case F_DNEXT: src = ed->drv_next; bytes = sizeof ed->drv_next; break;
+	case F_DKICKS: src = ed->drv_kicks; bytes = sizeof ed->drv_kicks; break;
+	case F_DRNG: src = ed->drng.s; bytes = sizeof ed->drng.s; break;
 	case F_NB: {
 		/* lists packed: the first nn[i] entries of each row */
 		size_t k = 0;
@@ -1649,6 +2300,8 @@ static int cross_valid(const struct ed *ed, int32_t c)
 {
 	if (c >= -1 && c < 2 * ed->dim)
 		return 1;
+	if (ed->variant && c >= ED_OBST0)
+		return c < ED_OBST0 + ed->nobst;
 	return ed->variant && c >= ED_WALL0 && c < ED_WALL0 + 2 * ed->dim && !ed->periodic[(c - ED_WALL0) >> 1];
 }
 
@@ -1692,9 +2345,20 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 				why = "particle filed in the wrong cell";
 		}
 	}
-	for (uint32_t i = 0; i < n && !why; i++)
-		if (!seen[i])
+	for (uint32_t i = 0; i < n && !why; i++) {
+		int out = ed->gone && ed->gone[i];
+		if (ed->gone && ed->gone[i] > 1)
+			why = "bad presence flag";
+		else if (!seen[i] && !out)
 			why = "particle missing from the cell lists";
+		else if (seen[i] && out)
+			why = "a particle that left is in the cell lists";
+	}
+	if (!why && ed->gone) {
+		ed->n_gone = 0;
+		for (uint32_t i = 0; i < n; i++)
+			ed->n_gone += ed->gone[i];
+	}
 	if (!why && (!(ed->cal_w > 0.0) || !isfinite(ed->cal_iw = 1.0 / ed->cal_w)))
 		why = "bad calendar width";
 	if (!why && (ed->nl != 0 && !(ed->nl == 1 && ed->xn)))
@@ -1733,12 +2397,19 @@ void ed_totals(const ed_t *ed, ed_sample_t *out)
 	out->collisions = ed->collisions;
 	out->elastic_by_tc = ed->tc_elastic;
 	out->kinetic_energy = DISPATCH(ed, ekin, ed, out->momentum);
+	out->rotational_energy = ed->rough ? ed_erot(ed) : NAN;
 	sample_walls(ed, out);
 }
 
 void ed_watch_collapse(ed_t *ed, double rate)
 {
 	ed->collapse_rate = rate > 0.0 ? rate : 0.0;
+}
+
+void ed_count_impacts(ed_t *ed, double *counts, int nb)
+{
+	ed->bcount = nb > 0 ? counts : NULL;
+	ed->bnb = nb;
 }
 
 const ed_collapse_t *ed_collapse(const ed_t *ed)

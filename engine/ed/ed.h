@@ -1,4 +1,4 @@
-/* Exact event-driven simulation of inelastic hard disks (2D) and spheres (3D) in a periodic box or between walls, optionally under gravity. */
+/* Exact event-driven simulation of inelastic hard disks (2D) and spheres (3D) in a periodic box or between walls, optionally under gravity and around fixed obstacles. */
 #pragma once
 
 #include <stdint.h>
@@ -83,6 +83,14 @@ typedef struct {
 void ed_watch_collapse(ed_t *ed, double rate);
 const ed_collapse_t *ed_collapse(const ed_t *ed);
 
+/* Impact parameters (issue 17, engine/observe): with counts != NULL each
+ * particle collision (an approaching pair) adds 1 to counts[k], k the bin of
+ * b / |r_ij| in [0, 1] over nb equal bins, b = |r_ij x g| / |g| the distance
+ * of the pre-collision relative trajectory from the centre (|r_ij| = sigma
+ * at contact). The caller owns counts (nb doubles) and resets it; NULL stops
+ * counting. Not state: changes nothing in the dynamics, not checkpointed. */
+void ed_count_impacts(ed_t *ed, double *counts, int nb);
+
 /* Interval statistics since the previous ed_sample() (or the start). */
 typedef struct {
 	double time;             /* current simulated time */
@@ -107,6 +115,21 @@ typedef struct {
 	 * lower walls' rest positions; scene coordinates) and potential energy
 	 * -m sum g.r, now. NAN without gravity. */
 	double com_height, potential_energy;
+	/* Scenes with obstacles (scene.h): obstacle k's hits (total) and the
+	 * momentum given to it over the interval (its mean force, the drag, is
+	 * obstacle_impulse / interval). Zero without obstacles. */
+	/* Scenes with open walls: particles still in the system, and those
+	 * that left through each wall (total). particles = N otherwise. */
+	uint64_t particles;
+	uint64_t wall_outflow[6];
+	int n_obstacles;
+	uint64_t obstacle_collisions;   /* particle-obstacle collisions (total) */
+	uint64_t obstacle_hits[SCENE_OBSTACLES_MAX];
+	double obstacle_impulse[SCENE_OBSTACLES_MAX][3];
+	/* Rough particles (collisions.rough): rotational energy I/2 sum w^2,
+	 * I = q m (sigma/2)^2, now; NAN for smooth particles. kinetic_energy
+	 * is the translational part. */
+	double rotational_energy;
 } ed_sample_t;
 
 /* Fill *out and start a new interval. Does not change the dynamics. */
@@ -115,6 +138,12 @@ void ed_sample(ed_t *ed, ed_sample_t *out);
 /* Positions (wrapped into the box) and velocities at the current time, as
  * N*D doubles in particle order. Either pointer may be NULL. */
 void ed_state(const ed_t *ed, double *pos, double *vel);
+
+/* Rough particles: spin components per particle (1 in 2D: about z; 3 in
+ * 3D), 0 for smooth ones; ed_spins() writes N * ed_spin_dim() angular
+ * velocities (radians per unit time) in particle order. */
+int ed_spin_dim(const ed_t *ed);
+void ed_spins(const ed_t *ed, double *w);
 
 double ed_time(const ed_t *ed);
 uint64_t ed_collisions(const ed_t *ed);
@@ -148,7 +177,7 @@ typedef struct {
 	ed_type_t type;
 	size_t count;        /* elements */
 } ed_field_t;
-#define ED_MAX_FIELDS 48
+#define ED_MAX_FIELDS 64
 
 size_t ed_type_size(ed_type_t t);
 /* Describe the fields of the current state into out[max]; returns how many

@@ -6,7 +6,9 @@
  * may have walls: no wrap there, wall events, cell mode only) and GRAV
  * (uniform gravity ed->g: ballistic flight; implies WALLS), plus the shared
  * declarations of ed.c. WALLS = GRAV = 0 is the periodic homogeneous engine;
- * the flags are compile-time, so it tests none of this per event.
+ * the flags are compile-time, so it tests none of this per event. ROUGH
+ * (rough particles: spins in ed->spin, the rough collision rule) is a
+ * further flag on top of any of them.
  */
 
 /* Flight of particle p to time t (lazy: only when the particle is touched). */
@@ -113,6 +115,32 @@ static inline double FN(wall_time)(const struct ed *ed, const P_T *p, int w, dou
 	return walltime_vibrating(d, s * p->v[a], gam, W->A, W->omega, th, horizon);
 }
 
+/* Particle p (synchronised) relative to obstacle k's centre: the minimum
+ * image on periodic axes (one image is within reach: scene.c). */
+static inline void FN(obst_rel)(const struct ed *ed, const P_T *p, int k, double *x)
+{
+	FOR_AXES(a) {
+		double d = p->r[a] - ed->obst[k].c[a];
+		if (ed->periodic[a])
+			d -= ed->L[a] * nearbyint(d / ed->L[a]);
+		x[a] = d;
+	}
+}
+
+/* Time from now to particle p's contact with obstacle k, no later than
+ * horizon with gravity (obstacle.h). */
+static inline double FN(obst_time)(const struct ed *ed, const P_T *p, int k, double horizon)
+{
+	double x[D];
+	FN(obst_rel)(ed, p, k, x);
+#if GRAV
+	return obstacle_time_grav(x, p->v, ed->g, D, ed->obst[k].S, horizon);
+#else
+	(void)horizon;
+	return obstacle_time_free(x, p->v, D, ed->obst[k].S);
+#endif
+}
+
 /* The particle's next boundary event: leaving its cell through a face
  * (walled axes have no face at their ends), or meeting a wall (particles
  * in the cells a wall can reach). With gravity each face is a quadratic
@@ -151,6 +179,14 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
 			double dt = FN(wall_time)(ed, p, 2 * a + 1, best);
 			if (dt < best)
 				best = dt, code = ED_WALL0 + 2 * a + 1;
+		}
+	}
+	if (ed->ocell) {   /* NULL without obstacles */
+		for (unsigned m = ed->ocell[FN(cell_index)(ed, e->cc)]; m; m &= m - 1) {
+			const int k = __builtin_ctz(m);
+			double dt = FN(obst_time)(ed, p, k, best);
+			if (dt < best)
+				best = dt, code = ED_OBST0 + k;
 		}
 	}
 	e->t_cross = p->t + best;
@@ -496,7 +532,8 @@ static void FN(nl_gather)(struct ed *ed, uint32_t i)
 		for (int ky = 0; ky < 3; ky++)
 			for (int kx = 0; kx < 3; kx++, m++) {
 				hd[m] = ed->head[cell[2][kz] + cell[1][ky] + cell[0][kx]];
-				__builtin_prefetch(ed->xn + (size_t)hd[m] * D);
+				if (hd[m] >= 0)   /* an empty cell (-1) has no address (UBSan: pointer overflow) */
+					__builtin_prefetch(ed->xn + (size_t)hd[m] * D);
 			}
 	m = 0;
 	int n = ed->nn[i];
@@ -640,7 +677,7 @@ static void FN(do_cross)(struct ed *ed, uint32_t i, double t)
 static inline void FN(energy_to)(struct ed *ed, double t)
 {
 #if GRAV
-	const double dt = t - ed->t_mark, m = ed->mass, n = (double)ed->n;
+	const double dt = t - ed->t_mark, m = ed->mass, n = (double)(ed->n - ed->n_gone);
 	double gp = 0.0, g2 = 0.0;
 	FOR_AXES(a) {
 		gp += ed->g[a] * ed->psum[a];
@@ -655,6 +692,24 @@ static inline void FN(energy_to)(struct ed *ed, double t)
 #endif
 	ed->t_mark = t;
 }
+
+#if ROUGH
+/* Rough variant: the collision of i and j by the rough rule (rough.h) with
+ * normal restitution e; elastic (TC model, pre-run): smooth and elastic.
+ * dr = r_i - r_j, r2 = |dr|^2, b = dr . (v_i - v_j) < 0. */
+static inline void FN(rough_kick)(struct ed *ed, P_T *pi, P_T *pj, uint32_t i, uint32_t j, const double *dr,
+                                  double r2, double b, double e, int elastic)
+{
+	const rough_rule_t R = {.m = ed->mass, .a = 0.5 * ed->sigma, .e = e, .beta = elastic ? -1.0 : ed->rbeta,
+	                        .mu = elastic ? -1.0 : ed->rmu, .q = ed->rq};
+	const double rn = sqrt(r2);
+	double n[D];
+	FOR_AXES(k)
+		n[k] = dr[k] / rn;
+	const int k = D == 2 ? 1 : 3;
+	ed->ekin_cur += rough_collide(D, &R, n, b / rn, pi->v, pj->v, &ed->spin[(size_t)i * k], &ed->spin[(size_t)j * k]);
+}
+#endif
 
 /* Binary collision of i and j at time t with normal restitution (elastic
  * within the TC time of either partner's previous collision). */
@@ -676,13 +731,34 @@ static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uin
 	FN(energy_to)(ed, t);
 	if (b < 0.0) {
 		double e = ed->e;
+#if ROUGH
+		int elastic = ed->relaxing;   /* elastic pre-run: smooth and elastic */
+		if (elastic)
+			e = 1.0;
+#endif
 		if (ed->tlast) {
 			if (t - ed->tlast[i] < ed->tc || t - ed->tlast[j] < ed->tc) {
 				e = 1.0;
 				ed->tc_elastic++;
+#if ROUGH
+				elastic = 1;
+#endif
 			}
 			ed->tlast[i] = ed->tlast[j] = t;
 		}
+		if (ed->bcount) {
+			/* impact parameter over |r| (before the kick, any rule): sqrt(1 - (r.g)^2 / (r^2 g^2)) */
+			double g2 = 0.0;
+			FOR_AXES(a)
+				g2 += dv[a] * dv[a];
+			double q = 1.0 - b * b / (r2 * g2);
+			int k = (int)(sqrt(q > 0.0 ? q : 0.0) * ed->bnb);
+			ed->bcount[k < ed->bnb ? k : ed->bnb - 1] += 1.0;
+		}
+#if ROUGH
+		FN(rough_kick)(ed, pi, pj, i, j, dr, r2, b, e, elastic);
+		ed->virial -= 0.5 * (1.0 + e) * ed->mass * b;   /* r . J: J_t is normal to r */
+#else
 		double f = 0.5 * (1.0 + e) * b / r2;
 		FOR_AXES(a) {
 			pi->v[a] -= f * dr[a];
@@ -691,6 +767,7 @@ static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uin
 		ed->virial -= 0.5 * (1.0 + e) * ed->mass * b;
 		if (e != 1.0)
 			ed->ekin_cur -= 0.25 * (1.0 - e * e) * ed->mass * b * b / r2;
+#endif
 	}
 	/* A grazing pair that rounding made non-approaching is left alone, but
 	 * still counts as an event of both so that stale predictions go away. */
@@ -700,6 +777,40 @@ static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uin
 }
 
 #if WALLS
+/* Particle i leaves through open wall w at time t: out of the cell lists
+ * and the calendar, its energy and momentum out of the running sums, its
+ * counter bumped (predictions with it as partner are cancelled). */
+static void FN(leave)(struct ed *ed, uint32_t i, int w, double t)
+{
+	P_T *p = &((P_T *)ed->p)[i];
+	ev_t *e = &ed->ev[i];
+	FN(advance)(ed, p, t);
+	FN(energy_to)(ed, t);
+	double v2 = 0.0;
+	FOR_AXES(a) {
+		v2 += p->v[a] * p->v[a];
+#if GRAV
+		ed->psum[a] -= p->v[a];
+#endif
+		p->v[a] = 0.0;
+	}
+	ed->ekin_cur -= 0.5 * ed->mass * v2;
+#if ROUGH
+	/* its spin leaves with it: rotational sums count the particles present */
+	for (int k = 0; k < (D == 2 ? 1 : 3); k++)
+		ed->spin[(size_t)i * (D == 2 ? 1 : 3) + k] = 0.0;
+#endif
+	FN(cell_remove)(ed, i);
+	ed->gone[i] = 1;
+	ed->n_gone++;
+	ed->wout[w]++;
+	p->count++;
+	e->t_coll = e->t_cross = INFINITY;
+	e->partner = -1;
+	e->cross = -1;
+	cal_update(ed, i, INFINITY);
+}
+
 /* Particle i meets wall w (its event code) at time t: the wall's rule
  * (wall_rule() in ed.c), with the TC model (the hit is elastic within tc of
  * the particle's previous collision, wall or particle) and the minimum
@@ -711,6 +822,10 @@ static void FN(do_wall)(struct ed *ed, uint32_t i, double t)
 	const int w = e->cross - ED_WALL0, a = w >> 1;
 	const wall_t *W = &ed->wall[w];
 	const double s = (w & 1) ? -1.0 : 1.0;
+	if (W->type == SCENE_WALL_OPEN && !ed->relaxing) {
+		FN(leave)(ed, i, w, t);
+		return;
+	}
 	FN(advance)(ed, p, t);
 	FN(energy_to)(ed, t);
 	int elastic = 0;
@@ -746,6 +861,56 @@ static void FN(do_wall)(struct ed *ed, uint32_t i, double t)
 	FN(schedule)(ed, i);
 }
 
+/* Particle i meets obstacle k (its event code) at time t: the obstacle's
+ * rule (obst_rule() in ed.c) along the normal from the obstacle's centre,
+ * with the TC model as for walls; the momentum given to the obstacle is
+ * accumulated for its force (drag). */
+static void FN(do_obstacle)(struct ed *ed, uint32_t i, double t)
+{
+	P_T *p = &((P_T *)ed->p)[i];
+	ev_t *e = &ed->ev[i];
+	const int k = e->cross - ED_OBST0;
+	const obst_t *O = &ed->obst[k];
+	FN(advance)(ed, p, t);
+	FN(energy_to)(ed, t);
+	int elastic = 0;
+	if (ed->tlast) {
+		elastic = t - ed->tlast[i] < ed->tc;
+		ed->tlast[i] = t;
+	}
+	double x[D], nrm[3] = {0.0, 0.0, 0.0}, r2 = 0.0;
+	FN(obst_rel)(ed, p, k, x);
+	FOR_AXES(a)
+		r2 += x[a] * x[a];
+	const double r = sqrt(r2);
+	FOR_AXES(a)
+		nrm[a] = x[a] / r;
+	double v0[D], de = 0.0;
+	FOR_AXES(a)
+		v0[a] = p->v[a];
+	obst_rule(ed, k, nrm, p->v, elastic);
+	FOR_AXES(a) {
+		const double dv = p->v[a] - v0[a];
+		ed->oimp[k][a] -= ed->mass * dv;
+		ed->oimp_tot[k][a] -= ed->mass * dv;
+		de += dv * (p->v[a] + v0[a]);
+#if GRAV
+		ed->psum[a] += dv;
+#endif
+	}
+	ed->ekin_cur += 0.5 * ed->mass * de;
+	/* Back on the contact sphere: rounding may leave the centre a hair inside. */
+	if (r < O->S)
+		FOR_AXES(a)
+			p->r[a] += (O->S - r) * nrm[a];
+	p->count++;
+	ed->ohits[k]++;
+	ed->obst_collisions++;
+	FN(set_cross)(ed, i);
+	FN(scan_full)(ed, i);
+	FN(schedule)(ed, i);
+}
+
 /* Cell mode only: a boundary event (face or wall), a collision or a
  * cancelled one. */
 static void FN(step)(struct ed *ed)
@@ -765,7 +930,9 @@ static void FN(step)(struct ed *ed)
 	ed->t_abs_valid = 0;
 	ed->events++;
 	if (e->t_cross < e->t_coll) {
-		if (e->cross >= ED_WALL0)
+		if (e->cross >= ED_OBST0)
+			FN(do_obstacle)(ed, i, t);
+		else if (e->cross >= ED_WALL0)
 			FN(do_wall)(ed, i, t);
 		else
 			FN(do_cross)(ed, i, t);
@@ -878,6 +1045,13 @@ static void FN(reorder)(struct ed *ed)
 	permute(ed->id, sizeof(uint32_t), newidx, n);
 	if (ed->tlast)
 		permute(ed->tlast, sizeof(double), newidx, n);
+#if WALLS
+	if (ed->gone)
+		permute(ed->gone, 1, newidx, n);
+#endif
+#if ROUGH
+	permute(ed->spin, (D == 2 ? 1 : 3) * sizeof(double), newidx, n);
+#endif
 	if (ed->nl) {
 		const uint32_t K = ed->nlk;
 		for (uint32_t i = 0; i < n; i++)
@@ -888,8 +1062,13 @@ static void FN(reorder)(struct ed *ed)
 		permute(ed->xn, D * sizeof(double), newidx, n);
 	}
 	cells_clear(ed);
-	for (uint32_t k = n; k-- > 0;)
+	for (uint32_t k = n; k-- > 0;) {
+#if WALLS
+		if (ed->gone && ed->gone[k])
+			continue;
+#endif
 		FN(cell_insert)(ed, k);
+	}
 }
 
 /* Bring every particle to the current time and move the time origin there,
@@ -901,6 +1080,12 @@ static void FN(rebase)(struct ed *ed)
 	P_T *P = ed->p;
 	double t = ed->t;
 	for (uint32_t i = 0; i < ed->n; i++) {
+#if WALLS
+		if (ed->gone && ed->gone[i]) {   /* left: nothing moves, no events */
+			P[i].t = 0.0;
+			continue;
+		}
+#endif
 		FN(advance)(ed, &P[i], t);
 		P[i].t = 0.0;
 		ed->ev[i].t_coll -= t;
@@ -961,6 +1146,13 @@ static void FN(state)(const struct ed *ed, double *pos, double *vel)
 	const P_T *P = ed->p;
 	for (uint32_t i = 0; i < ed->n; i++) {
 		const double dt = ed->t - P[i].t;
+		if (ed->gone && ed->gone[i]) {   /* left through an open wall: NaN */
+			FOR_AXES(a) {
+				if (pos) pos[(size_t)ed->id[i] * D + a] = NAN;
+				if (vel) vel[(size_t)ed->id[i] * D + a] = NAN;
+			}
+			continue;
+		}
 		FOR_AXES(a) {
 			const double g = GRAV ? ed->g[a] : 0.0;
 			if (pos) {
@@ -991,6 +1183,8 @@ static double FN(ekin)(const struct ed *ed, double mom[3])
 	mom[0] = mom[1] = mom[2] = 0.0;
 	for (uint32_t i = 0; i < ed->n; i++) {
 		const double dt = ed->t - P[i].t;
+		if (ed->gone && ed->gone[i])
+			continue;
 		FOR_AXES(a) {
 			const double v = P[i].v[a] + (GRAV ? ed->g[a] * dt : 0.0);
 			s += v * v;
@@ -1014,6 +1208,8 @@ static void FN(observe)(const struct ed *ed, double *height, double *epot)
 	}
 	for (uint32_t i = 0; i < ed->n; i++) {
 		const double dt = ed->t - P[i].t;
+		if (ed->gone && ed->gone[i])
+			continue;
 		FOR_AXES(a)
 			sum[a] += P[i].r[a] + P[i].v[a] * dt + (GRAV ? 0.5 * ed->g[a] * dt * dt : 0.0) - ed->org[a];
 	}
@@ -1021,7 +1217,7 @@ static void FN(observe)(const struct ed *ed, double *height, double *epot)
 	FOR_AXES(a)
 		gr += ed->g[a] * sum[a];
 	*epot = -ed->mass * gr;
-	*height = g2 > 0.0 ? -gr / (sqrt(g2) * ed->n) : NAN;
+	*height = g2 > 0.0 && ed->n > ed->n_gone ? -gr / (sqrt(g2) * (double)(ed->n - ed->n_gone)) : NAN;
 }
 #else
 static void FN(state)(const struct ed *ed, double *pos, double *vel)
@@ -1102,6 +1298,10 @@ static double FN(min_gap)(const struct ed *ed)
 		const ev_t *e = &ed->ev[i];
 		int32_t cc[3] = {0, 0, 0};
 		double ri[D];
+#if WALLS
+		if (ed->gone && ed->gone[i])
+			continue;
+#endif
 		FOR_AXES(a)
 			ri[a] = FN(pos_now)(ed, &P[i], a);
 #if WALLS
@@ -1117,6 +1317,16 @@ static double FN(min_gap)(const struct ed *ed)
 				if (g < best)
 					best = g;
 			}
+		}
+		for (int k = 0; k < ed->nobst; k++) {
+			double r2 = 0.0;
+			FOR_AXES(a) {
+				double x = FN(min_image)(ed, a, ri[a] - ed->obst[k].c[a]);
+				r2 += x * x;
+			}
+			double g = sqrt(r2) - ed->obst[k].S;
+			if (g < best)
+				best = g;
 		}
 #endif
 #if D == 3
@@ -1211,6 +1421,9 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
 				if (base[a] >= ed->nc[a]) base[a] = ed->nc[a] - 1;
 			}
 			int clash = 0;
+#if WALLS
+			clash = !obst_clear(ed, P[i].r);
+#endif
 #if D == 3
 			for (int kz = 0; kz < ed->no[2] && !clash; kz++) {
 				if ((cc[2] = FN(cell_at)(ed, 2, base[2] + ed->off[2][kz])) < 0)
@@ -1244,4 +1457,49 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
 		FN(place)(ed, i);
 	}
 	return ED_OK;
+}
+
+/* Driving (thermostats, drive_* in ed.c): particle i brought to the
+ * present; its position (scene coordinates, periodic axes folded) and
+ * velocity now. */
+static void FN(kick_get)(struct ed *ed, uint32_t i, double *r, double *v)
+{
+	P_T *p = &((P_T *)ed->p)[i];
+	FN(advance)(ed, p, ed->t);
+	FOR_AXES(a) {
+		double x = p->r[a];
+#if WALLS
+		if (!ed->periodic[a]) {
+			r[a] = x - ed->org[a];
+			v[a] = p->v[a];
+			continue;
+		}
+#endif
+		x = fmod(x, ed->L[a]);
+		if (x < 0.0)
+			x += ed->L[a];
+		r[a] = x >= ed->L[a] ? 0.0 : x;
+		v[a] = p->v[a];
+	}
+}
+
+/* Particle i (at the present, kick_get()) gets velocity v: the running
+ * energy follows, stale predictions of others go (its counter moves on). */
+static void FN(kick_set)(struct ed *ed, uint32_t i, const double *v)
+{
+	P_T *p = &((P_T *)ed->p)[i];
+	FN(energy_to)(ed, ed->t);
+	double de = 0.0;
+	FOR_AXES(a) {
+		de += v[a] * v[a] - p->v[a] * p->v[a];
+#if GRAV
+		ed->psum[a] += v[a] - p->v[a];
+#endif
+		p->v[a] = v[a];
+	}
+	ed->ekin_cur += 0.5 * ed->mass * de;
+	p->count++;
+	/* The caller (drive_kick()) predicts i's events afresh through the ops
+	 * table: a direct call here would be one more caller of the hot
+	 * kernels and could change GCC's inlining of them into the event loop. */
 }

@@ -15,6 +15,13 @@
  *   the previous DIR/checkpoint.h5 as DIR/checkpoint.prev.h5 (hard link, so
  *   checkpoint.h5 never disappears), renames the new file over
  *   DIR/checkpoint.h5 and fsyncs DIR.
+ * - The file begins with a 512-byte HDF5 user block: a magic string, the
+ *   file's length and a digest of the rest (written after HDF5 closed the
+ *   file). ckpt_read() checks it before HDF5 reads the file, so a damaged or
+ *   truncated file is refused without HDF5 parsing it (HDF5 1.10 crashes on
+ *   some damaged files). A file crafted with a matching digest still reaches
+ *   HDF5: the digest guards against damage, not against an attacker. Files
+ *   of format 1 (no user block) are refused as CKPT_ECORRUPT.
  * - ckpt_read() refuses a file whose scene differs from the given one
  *   (CKPT_ESCENE: an intact file, digest verified against its own stored
  *   scene) and reports a damaged or truncated one as CKPT_ECORRUPT

@@ -2,6 +2,7 @@
 #include <errno.h>
 #include <hdf5.h>
 #include <inttypes.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -46,16 +47,17 @@ static int extent(hid_t g, const char *name, hsize_t dims[3])
 	return ret;
 }
 
-int frame_load(const scene_t *s, const char *path, double **pos, double **vel, char *msg, size_t msglen)
+int frame_load(const scene_t *s, const char *path, double **pos, double **vel, double **spin, char *msg,
+               size_t msglen)
 {
 	const char *key = s->from_job ? "particles.initial.from.job" : "particles.initial.from.file";
 	int ret = FRAME_EINVAL;
 	hid_t f = H5I_INVALID_HID, g = H5I_INVALID_HID;
-	double *p = NULL, *v = NULL;
+	double *p = NULL, *v = NULL, *w = NULL;
 	char group[64];
 	hsize_t dp[3], dv[3];
 
-	*pos = *vel = NULL;
+	*pos = *vel = *spin = NULL;
 	h5u_quiet();
 	if (access(path, R_OK) != 0) {
 		h5u_fail(msg, msglen, 0, "%s: cannot read %s: %s", key, path, strerror(errno));
@@ -84,8 +86,8 @@ int frame_load(const scene_t *s, const char *path, double **pos, double **vel, c
 		         group);
 		goto out;
 	}
-	const int64_t frames = (int64_t)dp[0], k = s->from_frame < 0 ? frames + s->from_frame : s->from_frame;
-	if (k < 0 || k >= frames) {
+	const int64_t frames = (int64_t)dp[0], k_frame = s->from_frame < 0 ? frames + s->from_frame : s->from_frame;
+	if (k_frame < 0 || k_frame >= frames) {
 		h5u_fail(msg, msglen, 0, "particles.initial.from.frame: %" PRId64 " is out of range: %s has %" PRId64
 		         " frame%s%s", s->from_frame, path, frames, frames == 1 ? "" : "s",
 		         frames ? " (0 .. frames-1, or -frames .. -1 from the end)" : "");
@@ -108,10 +110,37 @@ int frame_load(const scene_t *s, const char *path, double **pos, double **vel, c
 		h5u_fail(msg, msglen, 0, "out of memory reading %llu particles", (unsigned long long)s->count);
 		goto out;
 	}
-	if (read_frame(g, "position/value", (hsize_t)k, dp[1], dp[2], p) ||
-	    read_frame(g, "velocity/value", (hsize_t)k, dp[1], dp[2], v)) {
-		h5u_fail(msg, msglen, 0, "%s: %s: cannot read frame %" PRId64 " (damaged?)", key, path, k);
+	if (read_frame(g, "position/value", (hsize_t)k_frame, dp[1], dp[2], p) ||
+	    read_frame(g, "velocity/value", (hsize_t)k_frame, dp[1], dp[2], v)) {
+		h5u_fail(msg, msglen, 0, "%s: %s: cannot read frame %" PRId64 " (damaged?)", key, path, k_frame);
 		goto out;
+	}
+	if (s->rough) {
+		/* rough particles: the frame's angular velocities, [frames, N, 1 (2D) or 3 (3D)] */
+		hsize_t dw[3];
+		const hsize_t k = s->dim == 2 ? 1 : 3;
+		if (H5Lexists(g, "angular_velocity", H5P_DEFAULT) <= 0 || extent(g, "angular_velocity/value", dw) ||
+		    dw[0] != dp[0] || dw[1] != dp[1] || dw[2] != k) {
+			h5u_fail(msg, msglen, 0, "particles.initial.from: the frame in %s has no angular velocities (/%s/"
+			         "angular_velocity: a smooth run's trajectory), which rough particles (collisions.rough) start "
+			         "from", path, group);
+			goto out;
+		}
+		if (!(w = malloc(s->count * k * sizeof(double)))) {
+			ret = FRAME_ENOMEM;
+			h5u_fail(msg, msglen, 0, "out of memory reading %llu particles", (unsigned long long)s->count);
+			goto out;
+		}
+		if (read_frame(g, "angular_velocity/value", (hsize_t)k_frame, dp[1], k, w)) {
+			h5u_fail(msg, msglen, 0, "%s: %s: cannot read frame %" PRId64 " (damaged?)", key, path, k_frame);
+			goto out;
+		}
+		for (size_t i = 0; i < s->count * k; i++)
+			if (!isfinite(w[i])) {
+				h5u_fail(msg, msglen, 0, "particles.initial.from: particle %zu has a non-finite angular velocity",
+				         (size_t)(i / k));
+				goto out;
+			}
 	}
 	int rc = place_check_state(s, p, v, "particles.initial.from", msg, msglen);
 	if (rc != PLACE_OK) {
@@ -120,11 +149,13 @@ int frame_load(const scene_t *s, const char *path, double **pos, double **vel, c
 	}
 	*pos = p;
 	*vel = v;
-	p = v = NULL;
+	*spin = w;
+	p = v = w = NULL;
 	ret = FRAME_OK;
 out:
 	free(p);
 	free(v);
+	free(w);
 	if (g >= 0) H5Gclose(g);
 	if (f >= 0) H5Fclose(f);
 	return ret;

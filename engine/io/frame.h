@@ -17,7 +17,12 @@
  *   dimension and particle count equal to the scene's, and the state usable
  *   (place_check_state(): finite, inside the box, no overlap for ed) (key:
  *   particles.initial.from).
- * - *pos and *vel are malloc()ed on success (caller frees), NULL otherwise.
+ * - Rough particles (s->rough): also the frame's angular velocities
+ *   (/angular_velocity, N * (1 in 2D, 3 in 3D)) into *spin; a frame
+ *   without them is refused. Smooth scenes: *spin is NULL (a rough run's
+ *   spins are not read).
+ * - *pos, *vel (and *spin) are malloc()ed on success (caller frees), NULL
+ *   otherwise.
  * - No output on stderr; HDF5's error printing is silenced.
  */
 
@@ -27,6 +32,7 @@ enum {
 	FRAME_ENOMEM = -2,
 };
 
-int frame_load(const scene_t *s, const char *path, double **pos, double **vel, char *msg, size_t msglen);
+int frame_load(const scene_t *s, const char *path, double **pos, double **vel, double **spin, char *msg,
+               size_t msglen);
 
 const char *frame_strerror(int code);

@@ -17,7 +17,8 @@
 #define OBS_CHUNK 256u
 #define MAX_OBS 48
 
-/* What a value column holds: cols 0 = scalar per row, -1 = D components. */
+/* What a value column holds: cols 0 = scalar per row, -1 = D components,
+ * -2 = D components per obstacle (obstacle k's at k D .. k D + D - 1). */
 typedef struct {
 	const char *path;       /* under /observables */
 	unsigned need;          /* SCENE_OBS_* bit; 0 = always */
@@ -44,8 +45,23 @@ static void g_wpres(const run_record_t *r, void *o)
 	for (int w = 0; w < 6; w++)
 		((double *)o)[w] = r->have_interval && (r->walls & (1u << w)) ? r->wall_pressure[w] : NAN;
 }
+static void g_present(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->particles; }
+static void g_wout(const run_record_t *r, void *o)
+{
+	for (int w = 0; w < 6; w++)
+		((int64_t *)o)[w] = (int64_t)r->wall_outflow[w];
+}
+static void g_ocoll(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->obstacle_collisions; }
+static void g_oforce(const run_record_t *r, void *o)
+{
+	for (int k = 0; k < r->n_obstacles; k++)
+		for (int a = 0; a < r->dim; a++)
+			((double *)o)[k * r->dim + a] = r->have_interval ? r->obstacle_force[k][a] : NAN;
+}
 static void g_com(const run_record_t *r, void *o) { *(double *)o = r->com_height; }
 static void g_epot(const run_record_t *r, void *o) { *(double *)o = r->potential_energy / (double)r->n; }
+static void g_erot(const run_record_t *r, void *o) { *(double *)o = r->rotational_energy / (double)r->n; }
+static void g_trot(const run_record_t *r, void *o) { *(double *)o = r->rotational_temperature; }
 static void g_tc(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->elastic_by_tc; }
 static void g_ccount(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->clusters.n_clusters; }
 static void g_clargest(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->clusters.largest; }
@@ -68,6 +84,10 @@ static void g_a3(const run_record_t *r, void *o) { *(double *)o = r->obs.a3; }
 static void g_gpairs(const run_record_t *r, void *o) { *(double *)o = r->obs.g_pairs; }
 static void g_grate(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->obs.g_rate : NAN; }
 static void g_gpres(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->obs.g_pressure : NAN; }
+static void g_msd(const run_record_t *r, void *o) { *(double *)o = r->obs.msd; }
+static void g_diff(const run_record_t *r, void *o) { *(double *)o = r->obs.diffusion; }
+static void g_msd_se(const run_record_t *r, void *o) { *(double *)o = r->se.msd; }
+static void g_diff_se(const run_record_t *r, void *o) { *(double *)o = r->se.diffusion; }
 static void g_a2_se(const run_record_t *r, void *o) { *(double *)o = r->se.a2; }
 static void g_a3_se(const run_record_t *r, void *o) { *(double *)o = r->se.a3; }
 static void g_gpairs_se(const run_record_t *r, void *o) { *(double *)o = r->se.g_pairs; }
@@ -92,8 +112,14 @@ static const obs_def_t obs_defs[] = {
 	{ "elastic_by_tc", NEED_TC, 1, 0, NULL, g_tc },
 	{ "wall_collisions", SCENE_OBS_WALL_FORCE, 1, 0, NULL, g_wcoll },
 	{ "wall_pressure", SCENE_OBS_WALL_FORCE, 0, 6, "pressure", g_wpres },
+	{ "particles_present", SCENE_OBS_OUTFLOW, 1, 0, NULL, g_present },
+	{ "wall_outflow", SCENE_OBS_OUTFLOW, 1, 6, NULL, g_wout },
+	{ "obstacle_collisions", SCENE_OBS_OBSTACLE_FORCE, 1, 0, NULL, g_ocoll },
+	{ "obstacle_force", SCENE_OBS_OBSTACLE_FORCE, 0, -2, "m0 l0 t0-2", g_oforce },
 	{ "center_of_mass_height", SCENE_OBS_COM_HEIGHT, 0, 0, "l0", g_com },
 	{ "potential_energy", SCENE_OBS_POTENTIAL, 0, 0, "e0", g_epot },
+	{ "rotational_energy", SCENE_OBS_ROTATION, 0, 0, "e0", g_erot },
+	{ "rotational_temperature", SCENE_OBS_ROTATION, 0, 0, "e0", g_trot },
 	{ "clusters_count", SCENE_OBS_CLUSTERS, 1, 0, NULL, g_ccount },
 	{ "clusters_largest", SCENE_OBS_CLUSTERS, 1, 0, NULL, g_clargest },
 	{ "clusters_largest_fraction", SCENE_OBS_CLUSTERS, 0, 0, "1", g_cfrac },
@@ -106,6 +132,8 @@ static const obs_def_t obs_defs[] = {
 	{ "g_contact_pairs", SCENE_OBS_GOFR, 0, 0, "1", g_gpairs },
 	{ "g_contact_rate", SCENE_OBS_GOFR, 0, 0, "1", g_grate },
 	{ "g_contact_pressure", SCENE_OBS_GOFR, 0, 0, "1", g_gpres },
+	{ "mean_square_displacement", SCENE_OBS_MSD, 0, 0, "l0+2", g_msd },
+	{ "diffusion_coefficient", SCENE_OBS_MSD, 0, 0, "l0+2 t0-1", g_diff },
 	/* ensembles: NAME_se beside NAME, as KEY_se in the progress stream */
 	{ "time_se", NEED_SE, 0, 0, "t0", g_time_se },
 	{ "kinetic_energy_se", NEED_SE | SCENE_OBS_ENERGY, 0, 0, "e0", g_ekin_se },
@@ -120,6 +148,8 @@ static const obs_def_t obs_defs[] = {
 	{ "g_contact_pairs_se", NEED_SE | SCENE_OBS_GOFR, 0, 0, "1", g_gpairs_se },
 	{ "g_contact_rate_se", NEED_SE | SCENE_OBS_GOFR, 0, 0, "1", g_grate_se },
 	{ "g_contact_pressure_se", NEED_SE | SCENE_OBS_GOFR, 0, 0, "1", g_gpres_se },
+	{ "mean_square_displacement_se", NEED_SE | SCENE_OBS_MSD, 0, 0, "l0+2", g_msd_se },
+	{ "diffusion_coefficient_se", NEED_SE | SCENE_OBS_MSD, 0, 0, "l0+2 t0-1", g_diff_se },
 };
 #define N_OBS_DEFS (sizeof obs_defs / sizeof obs_defs[0])
 
@@ -127,6 +157,7 @@ static const obs_def_t obs_defs[] = {
  * /particles/replica_K (ensembles with output.snapshots). */
 typedef struct {
 	hid_t pos_step, pos_time, pos_value, vel_value, box_value;
+	hid_t spin_value;           /* rough particles (single runs): angular_velocity/value */
 	uint64_t rows;
 	double *frame_t;            /* times of the frames, for the XDMF */
 	size_t frame_cap;
@@ -137,6 +168,7 @@ struct h5md {
 	char *path, *xdmf_path;
 	const char *h5_name;        /* base name of path, as the XDMF refers to it */
 	int dim, level;
+	int spin_dim;               /* rough particles, single runs: 1 (2D) or 3 (3D); else 0 */
 	uint64_t n;
 	hid_t obs_step, obs_time;
 	hid_t obs[MAX_OBS];
@@ -270,6 +302,7 @@ static h5md_t *alloc_writer(const char *path, const scene_t *s)
 	for (int k = 0; k < h->n_grp; k++) {
 		pgroup_t *g = &h->grp[k];
 		g->pos_step = g->pos_time = g->pos_value = g->vel_value = g->box_value = H5I_INVALID_HID;
+		g->spin_value = H5I_INVALID_HID;
 	}
 	memcpy(h->box, s->box, sizeof(h->box));
 	for (int k = 0; k < MAX_OBS; k++)
@@ -277,6 +310,7 @@ static h5md_t *alloc_writer(const char *path, const scene_t *s)
 	h->dim = s->dim;
 	h->n = s->count;
 	h->level = s->compression;
+	h->spin_dim = s->rough && s->replicas <= 1 ? (s->dim == 2 ? 1 : 3) : 0;
 	size_t len = strlen(path);
 	h->path = strdup(path);
 	h->xdmf_path = malloc(len + 8);
@@ -417,6 +451,22 @@ static int write_group(h5md_t *h, int k, const scene_t *s)
 		goto out;
 	if (write_constant(all, "diameter", 2.0 * s->radius, h->n) || write_constant(all, "mass", s->mass, h->n))
 		goto out;
+	if (h->spin_dim) {
+		/* rough particles: angular velocities, [frames][N][1 or 3], with the
+		 * frames' step and time */
+		hsize_t sinner[2] = {h->n, (hsize_t)h->spin_dim};
+		hsize_t schunk[3] = {1, chunk[1], (hsize_t)h->spin_dim};
+		hid_t sp = h5u_group(all, "angular_velocity");
+		if (sp >= 0)
+			pg->spin_value = create_series(sp, "value", H5T_IEEE_F64LE, 3, sinner, schunk, h->level);
+		int bad = sp < 0 || pg->spin_value < 0 ||
+		          H5Lcreate_hard(pos, "step", sp, "step", H5P_DEFAULT, H5P_DEFAULT) < 0 ||
+		          H5Lcreate_hard(pos, "time", sp, "time", H5P_DEFAULT, H5P_DEFAULT) < 0;
+		if (sp >= 0)
+			H5Gclose(sp);
+		if (bad)
+			goto out;
+	}
 	ret = 0;
 out:
 	if (edges >= 0) H5Gclose(edges);
@@ -453,7 +503,7 @@ static int write_observables(h5md_t *h, const scene_t *s)
 		hid_t g = h5u_group(root, d->path);
 		if (g < 0)
 			goto out;
-		int cols = d->cols < 0 ? h->dim : d->cols;
+		int cols = d->cols == -1 ? h->dim : d->cols == -2 ? h->dim * s->n_obstacles : d->cols;
 		hsize_t inner[1] = {(hsize_t)cols}, chunk[2] = {OBS_CHUNK, (hsize_t)cols};
 		hid_t v = cols ? create_series(g, "value", d->i64 ? H5T_STD_I64LE : H5T_IEEE_F64LE, 2, inner, chunk, h->level)
 		               : create_series(g, "value", d->i64 ? H5T_STD_I64LE : H5T_IEEE_F64LE, 1, NULL, chunk1, h->level);
@@ -549,6 +599,14 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 		pgroup_t *g = &h->grp[k];
 		hid_t *dst[] = {&g->pos_step, &g->pos_time, &g->pos_value, &g->vel_value, &g->box_value};
 		group_name(h, k, name, sizeof name);
+		if (h->spin_dim) {
+			snprintf(p, sizeof p, "%s/angular_velocity/value", name);
+			g->spin_value = H5Dopen2(h->file, p, H5P_DEFAULT);
+			if (g->spin_value < 0) {
+				*err = h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: not a trajectory of this scene (missing /%s)", path, p);
+				goto fail;
+			}
+		}
 		for (size_t j = 0; j < sizeof sub / sizeof sub[0]; j++) {
 			snprintf(p, sizeof p, "%s/%s", name, sub[j]);
 			*dst[j] = H5Dopen2(h->file, p, H5P_DEFAULT);
@@ -602,7 +660,8 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 		}
 		bad = truncate_rows(g->pos_step, frames[k]) || truncate_rows(g->pos_time, frames[k]) ||
 		      truncate_rows(g->pos_value, frames[k]) || truncate_rows(g->vel_value, frames[k]) ||
-		      truncate_rows(g->box_value, frames[k]) || frame_times_reserve(g, frames[k] + 1);
+		      truncate_rows(g->box_value, frames[k]) || frame_times_reserve(g, frames[k] + 1) ||
+		      (g->spin_value >= 0 && truncate_rows(g->spin_value, frames[k]));
 		if (!bad && frames[k] > 0 &&
 		    H5Dread(g->pos_time, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, g->frame_t) < 0) {
 			*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot read frame times", path);
@@ -636,7 +695,7 @@ int h5md_destroy(h5md_t *h)
 	if (h->obs_time >= 0) H5Dclose(h->obs_time);
 	for (int k = 0; k < h->n_grp; k++) {
 		pgroup_t *g = &h->grp[k];
-		hid_t ds[] = {g->pos_step, g->pos_time, g->pos_value, g->vel_value, g->box_value};
+		hid_t ds[] = {g->pos_step, g->pos_time, g->pos_value, g->vel_value, g->box_value, g->spin_value};
 		for (size_t j = 0; j < sizeof ds / sizeof ds[0]; j++)
 			if (ds[j] >= 0)
 				H5Dclose(ds[j]);
@@ -657,7 +716,8 @@ int h5md_destroy(h5md_t *h)
 int h5md_observables(h5md_t *h, const run_record_t *rec, char *msg, size_t msglen)
 {
 	int64_t step = (int64_t)rec->events;
-	double vbuf[CLUSTERS_MAX_BINS];
+	/* the widest row: the cluster histogram or the obstacles' forces */
+	double vbuf[CLUSTERS_MAX_BINS > 3 * SCENE_OBSTACLES_MAX ? CLUSTERS_MAX_BINS : 3 * SCENE_OBSTACLES_MAX];
 	int64_t ibuf[CLUSTERS_MAX_BINS];
 	if (append_row(h->obs_step, H5T_NATIVE_INT64, h->obs_rows, &step) ||
 	    append_row(h->obs_time, H5T_NATIVE_DOUBLE, h->obs_rows, &rec->time))
@@ -741,7 +801,8 @@ int h5md_frame(h5md_t *h, int group, const run_record_t *rec, char *msg, size_t 
 	    append_row(g->pos_time, H5T_NATIVE_DOUBLE, g->rows, &rec->time) ||
 	    append_row(g->pos_value, H5T_NATIVE_DOUBLE, g->rows, rec->pos) ||
 	    append_row(g->vel_value, H5T_NATIVE_DOUBLE, g->rows, rec->vel) ||
-	    append_row(g->box_value, H5T_NATIVE_DOUBLE, g->rows, edges))
+	    append_row(g->box_value, H5T_NATIVE_DOUBLE, g->rows, edges) ||
+	    (g->spin_value >= 0 && rec->spin && append_row(g->spin_value, H5T_NATIVE_DOUBLE, g->rows, rec->spin)))
 		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot append a frame", h->path);
 	g->frame_t[g->rows++] = rec->time;
 	h->frames_pending = 1;

@@ -107,10 +107,42 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 			put(&o, "]");
 		}
 	}
+	if (r->have & SCENE_OBS_OBSTACLE_FORCE) {
+		u64(&o, "obstacle_collisions", r->obstacle_collisions);
+		if (r->kind == RUN_PROGRESS) {
+			put(&o, ",\"obstacle_force\":[");
+			for (int k = 0; k < r->n_obstacles; k++) {
+				put(&o, "%s[", k ? "," : "");
+				for (int a = 0; a < r->dim; a++) {
+					double f = r->have_interval ? r->obstacle_force[k][a] : NAN;
+					put(&o, isfinite(f) ? "%s%.17g" : "%snull", a ? "," : "", f);
+				}
+				put(&o, "]");
+			}
+			put(&o, "]");
+		}
+	}
+	if (r->have & SCENE_OBS_OUTFLOW) {
+		u64(&o, "particles_present", r->particles);
+		put(&o, ",\"outflow\":{");
+		static const char *const ax[3] = { "x", "y", "z" };
+		int first = 1;
+		for (int w = 0; w < 6; w++)
+			if (r->walls & (1u << w) && r->wall_outflow[w]) {
+				put(&o, "%s\"%s.%s\":%llu", first ? "" : ",", ax[w >> 1], (w & 1) ? "upper" : "lower",
+				    (unsigned long long)r->wall_outflow[w]);
+				first = 0;
+			}
+		put(&o, "}");
+	}
 	if (r->have & SCENE_OBS_COM_HEIGHT)
 		num(&o, "center_of_mass_height", r->com_height);
 	if (r->have & SCENE_OBS_POTENTIAL)
 		num(&o, "potential_energy", r->potential_energy);
+	if (r->have & SCENE_OBS_ROTATION) {
+		num(&o, "rotational_energy", r->rotational_energy);
+		num(&o, "rotational_temperature", r->rotational_temperature);
+	}
 	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_CLUSTERS)) {
 		const clusters_stats_t *c = &r->clusters;
 		put(&o, ",\"clusters\":{\"count\":%llu,\"largest\":%llu", (unsigned long long)c->n_clusters,
@@ -136,6 +168,12 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 		num_se(&o, r, "g_contact_rate", r->have_interval ? r->obs.g_rate : NAN, r->have_interval ? r->se.g_rate : NAN);
 		num_se(&o, r, "g_contact_pressure", r->have_interval ? r->obs.g_pressure : NAN,
 		       r->have_interval ? r->se.g_pressure : NAN);
+	}
+	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_MSD)) {
+		/* single runs: the standard error over particles; ensembles: over replicas */
+		num(&o, "msd", r->obs.msd);
+		num(&o, "msd_se", r->replicas > 1 ? r->se.msd : r->obs.msd_se);
+		num_se(&o, r, "diffusion", r->obs.diffusion, r->se.diffusion);
 	}
 	if (r->warning) {
 		/* Our own text: printable ASCII; quote the two JSON specials anyway. */
@@ -230,6 +268,9 @@ int report_curves(const run_record_t *r, uint64_t sample, char *buf, size_t len)
 			scalar9(&o, ens, "m2_reduced", c->m2_reduced, c->se_m2_reduced);
 			scalar9(&o, ens, "w", c->cluster_w, c->se_cluster_w);
 			scalar9(&o, ens, "exponent", c->cluster_exponent, c->se_cluster_exponent);
+		} else if (!strcmp(t->family, "impact_parameter")) {
+			scalar9(&o, ens, "fit_a", c->impact_a, c->se_impact_a);
+			scalar9(&o, ens, "fit_c", c->impact_c, c->se_impact_c);
 		}
 		put(&o, ",\"tables\":[");
 		for (int j = i; j < c->ntables && !strcmp(c->t[j].family, t->family); j++) {

@@ -52,6 +52,9 @@ struct dsmc {
 	/* interval accumulators */
 	double t_sample, ekin_int, virial;
 	uint64_t coll_sample;
+
+	double *bcount;                /* dsmc_count_impacts(): impact-parameter histogram, or NULL */
+	int bnb;
 };
 
 /* ---- kinetic theory ------------------------------------------------------ */
@@ -533,12 +536,13 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D)
 			/* Accepted: contact normal n (from j to i) from an impact
 			 * parameter uniform on [-sigma, sigma] (2D) or the disk of
 			 * radius sigma (3D) perpendicular to g. */
-			double gm = sqrt(g2), gh[3], nrm[3], cth;
+			double gm = sqrt(g2), gh[3], nrm[3], cth, bimp;
 			for (int a = 0; a < D; a++)
 				gh[a] = g[a] / gm;
 			if (D == 2) {
 				double bp = 2 * rng_uniform_fast(&d->rng) - 1;
 				cth = sqrt(1 - bp * bp);
+				bimp = fabs(bp);
 				nrm[0] = -bp * gh[1] - cth * gh[0];
 				nrm[1] = bp * gh[0] - cth * gh[1];
 			} else {
@@ -549,12 +553,17 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D)
 					bb = b1 * b1 + b2 * b2;
 				} while (bb >= 1);
 				cth = sqrt(1 - bb);
+				bimp = sqrt(bb);
 				/* orthonormal basis e1, e2 perpendicular to gh (Duff et al. 2017) */
 				double sg = gh[2] >= 0 ? 1.0 : -1.0, aa = -1 / (sg + gh[2]), bq = gh[0] * gh[1] * aa;
 				double e1[3] = {1 + sg * gh[0] * gh[0] * aa, sg * bq, -sg * gh[0]};
 				double e2[3] = {bq, sg + gh[1] * gh[1] * aa, -gh[1]};
 				for (int a = 0; a < 3; a++)
 					nrm[a] = b1 * e1[a] + b2 * e2[a] - cth * gh[a];
+			}
+			if (d->bcount) {
+				int kb = (int)(bimp * d->bnb);
+				d->bcount[kb < d->bnb ? kb : d->bnb - 1] += 1.0;
 			}
 			double gn = gm * cth;            /* -g.n > 0 */
 			double dv = ehalf * gn;
@@ -1117,6 +1126,12 @@ void dsmc_cells(const dsmc_t *d, int cells[3])
 {
 	for (int a = 0; a < 3; a++)
 		cells[a] = a < d->dim ? d->nc[a] : 1;
+}
+
+void dsmc_count_impacts(dsmc_t *d, double *counts, int nb)
+{
+	d->bcount = nb > 0 ? counts : NULL;
+	d->bnb = nb;
 }
 
 size_t dsmc_memory(const dsmc_t *d)

@@ -131,6 +131,14 @@ uint64_t dsmc_moves(const dsmc_t *d);
 void dsmc_cells(const dsmc_t *d, int cells[3]);
 size_t dsmc_memory(const dsmc_t *d);
 
+/* Impact parameters (issue 17, engine/observe): with counts != NULL each
+ * accepted binary collision adds 1 to counts[k], k the bin of b / sigma in
+ * [0, 1] over nb equal bins (the impact parameter the collision drew; full-cell
+ * collisions of hsmc have none and are not counted). The caller owns counts
+ * (nb doubles) and resets it; NULL stops counting. Not state: draws no
+ * random numbers, not checkpointed. */
+void dsmc_count_impacts(dsmc_t *d, double *counts, int nb);
+
 /* Kinetic theory used for the defaults and the corrections (also handy for
  * tests): contact value of the pair correlation, Henderson (2D) or
  * Carnahan-Starling (3D); Enskog collision frequency per particle

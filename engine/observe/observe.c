@@ -11,7 +11,8 @@
 #include "observe/vcorr.h"
 #include "observe/vdist.h"
 
-#define N_SCALARS 8   /* temperature, a2, a3, g_pairs, cluster_w, cluster_exponent, m2_reduced, mean_size */
+#define N_SCALARS 10  /* temperature, a2, a3, g_pairs, cluster_w, cluster_exponent, m2_reduced, mean_size,
+                        * impact_a, impact_c */
 
 struct obs {
 	scene_t s;
@@ -23,6 +24,7 @@ struct obs {
 	double *mem;              /* one block: axes, values, standard errors, scratch */
 	double *gcount, *gpar, *gperp;   /* pair sums over the g(r) bins */
 	double *vhist;                   /* D * bins: the component histograms, axis-major */
+	double *bcount;                  /* impact parameters counted by the engine since the last curves */
 	obs_curves_t c;
 	size_t packed;
 };
@@ -99,8 +101,8 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 	static const char *const comp3[] = {"p_x", "p_y", "p_z", NULL}, *const comp2[] = {"p_x", "p_y", NULL};
 	static const char *const speed[] = {"p", NULL}, *const gcols[] = {"g", NULL}, *const scol[] = {"s", NULL};
 	static const char *const vpairs[] = {"g_par", "g_perp", "g_nn", NULL}, *const vmodes[] = {"s_par", "s_perp", NULL};
-	static const char *const ncol[] = {"n_s", NULL};
-	int vnb = s->vdist_bins, snb = 0;
+	static const char *const ncol[] = {"n_s", NULL}, *const bcols[] = {"p", "n", NULL};
+	int vnb = s->vdist_bins, snb = 0, bnb = (o->bits & SCENE_OBS_IMPACT) ? s->impact_bins : 0;
 	if (o->bits & SCENE_OBS_VDIST) {
 		table(o, "velocity_distribution", "components", "c", "1", vnb, D == 3 ? comp3 : comp2);
 		table(o, "velocity_distribution", "speed", "c", "1", vnb, speed);
@@ -117,10 +119,12 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 		snb = clusters_size_bins(s->count, NULL, NULL);
 		table(o, "clusters", "", "s", "1", snb, ncol);
 	}
+	if (o->bits & SCENE_OBS_IMPACT)
+		table(o, "impact_parameter", "", "b", "1", bnb, bcols);
 
 	/* One block: per table edges (nb+1) and centres (nb); per column value
 	 * and standard error (nb each); pair sums (3 gnb). */
-	size_t need = 3 * (size_t)gnb + 3 * (size_t)vnb;
+	size_t need = 3 * (size_t)gnb + 3 * (size_t)vnb + (size_t)bnb;
 	for (int i = 0; i < o->c.ntables; i++)
 		need += 2 * (size_t)o->c.t[i].nb + 1 + 2 * (size_t)o->c.t[i].nb * o->c.t[i].ncols;
 	o->mem = calloc(need ? need : 1, sizeof(double));
@@ -131,6 +135,7 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 	o->gpar = p, p += gnb;
 	o->gperp = p, p += gnb;
 	o->vhist = p, p += 3 * (size_t)vnb;
+	o->bcount = p, p += bnb;
 	for (int i = 0; i < o->c.ntables; i++) {
 		obs_table_t *t = &o->c.t[i];
 		double *edges = p, *centres = p + t->nb + 1;
@@ -149,6 +154,9 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 		} else if (!strcmp(t->x, "r")) {
 			for (int b = 0; b <= t->nb; b++)
 				edges[b] = rmax * b / t->nb;
+		} else if (!strcmp(t->x, "b")) {
+			for (int b = 0; b <= t->nb; b++)
+				edges[b] = (double)b / t->nb;
 		} else if (!strcmp(t->x, "k")) {
 			fgrid_axis(o->grid, edges, centres, NULL);
 			continue;
@@ -167,6 +175,13 @@ fail:
 }
 
 const obs_curves_t *obs_layout(const obs_t *o) { return &o->c; }
+
+double *obs_impact_counts(const obs_t *o, int *nb)
+{
+	int on = (o->bits & SCENE_OBS_IMPACT) && !o->layout_only;
+	*nb = on ? o->s.impact_bins : 0;
+	return on ? o->bcount : NULL;
+}
 size_t obs_packed_size(const obs_t *o) { return o->packed; }
 
 size_t obs_memory(const obs_t *o)
@@ -208,6 +223,36 @@ void obs_interval(const obs_t *o, double rate, double z, double t_avg, obs_scala
 	out->g_pressure = gofr_contact_virial(s->dim, s->volume_fraction, s->restitution, z);
 }
 
+/*
+ * Seed 000 sec. 3.6: P(b) = a / (1 - c b^2) (b in diameters; 3D: relative to
+ * molecular chaos 2b, so that chaos is a = 1, c = 0 in both dimensions).
+ * Linear in b^2 for y = 1 / q, q = P / P_chaos: y = 1/a - (c/a) b^2, least
+ * squares weighted by 1 / var(y) = n q^2 (Poisson counts n per bin). NaN
+ * with fewer than 3 non-empty bins.
+ */
+static void impact_fit(int D, const obs_table_t *t, double *a, double *c)
+{
+	double s = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+	int used = 0;
+	*a = *c = NAN;
+	for (int b = 0; b < t->nb; b++) {
+		double x = t->centres[b], n = t->val[1][b], q = t->val[0][b] / (D == 2 ? 1.0 : 2.0 * x);
+		if (!(n > 0) || !(q > 0))
+			continue;
+		double y = 1.0 / q, wt = n * q * q, x2 = x * x;
+		s += wt, sx += wt * x2, sy += wt * y, sxx += wt * x2 * x2, sxy += wt * x2 * y;
+		used++;
+	}
+	double det = s * sxx - sx * sx;
+	if (used < 3 || !(det > 0))
+		return;
+	double alpha = (sxx * sy - sx * sxy) / det, beta = (s * sxy - sx * sy) / det;
+	if (alpha == 0)
+		return;
+	*a = 1.0 / alpha;
+	*c = -beta / alpha;
+}
+
 static obs_table_t *find(obs_t *o, const char *family, const char *sub)
 {
 	for (int i = 0; i < o->c.ntables; i++)
@@ -228,6 +273,7 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 	double tm = m.temperature / s->mass;
 	c->temperature = m.temperature;
 	c->a2 = c->a3 = c->g_pairs = c->cluster_w = c->cluster_exponent = c->m2_reduced = c->mean_size = NAN;
+	c->impact_a = c->impact_c = NAN;
 	if ((t = find(o, "velocity_distribution", "components"))) {
 		obs_table_t *sp = find(o, "velocity_distribution", "speed");
 		vdist_histograms(D, n, s->mass, vel, &m, t->nb, s->vdist_range, o->vhist, sp->val[0]);
@@ -261,6 +307,18 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 		sofk_compute(o->grid, n, pos, t->val[0]);
 	if ((t = find(o, "velocity_correlations", "modes")))
 		vcorr_kspace(o->grid, D, n, pos, vel, m.mean, tm, t->val[0], t->val[1]);
+	if ((t = find(o, "impact_parameter", ""))) {
+		/* the collisions since the previous curves: counts, and the density in b / sigma */
+		double tot = 0.0, w = 1.0 / t->nb;
+		for (int b = 0; b < t->nb; b++)
+			tot += o->bcount[b];
+		for (int b = 0; b < t->nb; b++) {
+			t->val[1][b] = o->bcount[b];
+			t->val[0][b] = tot > 0.0 ? o->bcount[b] / (tot * w) : NAN;
+			o->bcount[b] = 0.0;
+		}
+		impact_fit(D, t, &c->impact_a, &c->impact_c);
+	}
 	if ((t = find(o, "clusters", ""))) {
 		clusters_stats_t st;
 		if (!cl || clusters_compute(cl, pos, s->box, s->radius, s->cluster_delta * o->sigma, &st) != 0)
@@ -279,9 +337,10 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 static double *scalar_slot(obs_curves_t *c, int k, int se)
 {
 	double *v[N_SCALARS] = {&c->temperature, &c->a2, &c->a3, &c->g_pairs, &c->cluster_w, &c->cluster_exponent,
-	                        &c->m2_reduced, &c->mean_size};
+	                        &c->m2_reduced, &c->mean_size, &c->impact_a, &c->impact_c};
 	double *e[N_SCALARS] = {&c->se_temperature, &c->se_a2, &c->se_a3, &c->se_g_pairs, &c->se_cluster_w,
-	                        &c->se_cluster_exponent, &c->se_m2_reduced, &c->se_mean_size};
+	                        &c->se_cluster_exponent, &c->se_m2_reduced, &c->se_mean_size, &c->se_impact_a,
+	                        &c->se_impact_c};
 	return se ? e[k] : v[k];
 }
 

@@ -10,7 +10,8 @@
  * Contract
  * - obs_create() allocates everything for the scene's observables
  *   (velocity_distribution, pair_correlation, structure_factor,
- *   velocity_correlations, and the cluster-size distribution of clusters);
+ *   velocity_correlations, the cluster-size distribution of clusters and
+ *   impact_parameter);
  *   sampling allocates nothing. No I/O, no globals (FFTW keeps its own
  *   planner state; plans are made once, FFTW_ESTIMATE, deterministic).
  * - The curves are described by a fixed list of tables (obs_curves_t): one
@@ -28,6 +29,8 @@ typedef struct {
 	double g_pairs, g_pairs_se; /* pair_correlation: contact value from the pair histogram, its fit error */
 	double g_rate;            /* ... from the collision rate over the interval (Enskog) */
 	double g_pressure;        /* ... from the pressure (collision virial) over the interval */
+	double msd, msd_se;       /* mean_square_displacement: since the run's start (length^2), its se over particles */
+	double diffusion;         /* ... (MSD(t) - MSD(t_prev)) / (2 D (t - t_prev)) over the output interval */
 } obs_scalars_t;
 
 #define OBS_MAX_COLS 3
@@ -55,15 +58,17 @@ typedef struct {
 	double a2, a3;            /* when velocity_distribution is asked */
 	double g_pairs;           /* when pair_correlation is asked */
 	double cluster_w, cluster_exponent, m2_reduced, mean_size;   /* when clusters is asked */
+	double impact_a, impact_c;  /* impact_parameter: P(b) / P_chaos(b) = a / (1 - c (b/sigma)^2), weighted fit */
 	/* ensembles: standard errors of the same scalars */
 	double se_temperature, se_a2, se_a3, se_g_pairs, se_cluster_w, se_cluster_exponent, se_m2_reduced,
-	       se_mean_size;
+	       se_mean_size, se_impact_a, se_impact_c;
 } obs_curves_t;
 
 typedef struct obs obs_t;
 
 /* The observables of scene s that make curves (what obs_create() lays out). */
-#define OBS_CURVE_BITS (SCENE_OBS_VDIST | SCENE_OBS_GOFR | SCENE_OBS_SOFK | SCENE_OBS_VCORR | SCENE_OBS_CLUSTERS)
+#define OBS_CURVE_BITS (SCENE_OBS_VDIST | SCENE_OBS_GOFR | SCENE_OBS_SOFK | SCENE_OBS_VCORR | SCENE_OBS_CLUSTERS | \
+                        SCENE_OBS_IMPACT)
 unsigned obs_curve_bits(const scene_t *s);
 
 /* Workspaces for scene s. layout_only: only the curve description (axes, zeroed values), no
@@ -82,6 +87,12 @@ void obs_interval(const obs_t *o, double rate, double z, double t_avg, obs_scala
  * workspace, recomputed here. Returns the tables (owned by o, valid until the next call), or NULL
  * when out of memory in the cluster code. */
 const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, const double *vel);
+
+/* impact_parameter: the histogram (nb doubles, owned by o) that the engine fills
+ * (ed_count_impacts(), dsmc_count_impacts()); obs_curves() turns it into the
+ * table "impact_parameter" (columns p: density in b / sigma, n: counts) and
+ * zeroes it. NULL and *nb = 0 when not asked for or layout_only. */
+double *obs_impact_counts(const obs_t *o, int *nb);
 
 /* The table description without sampling (layout_only objects too). */
 const obs_curves_t *obs_layout(const obs_t *o);

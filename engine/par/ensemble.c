@@ -13,6 +13,7 @@ enum {
 	V_VMAX, V_CELLC, V_REJ, V_TC, V_HIST,
 	/* after the histogram: absent (zero) in records packed by older versions */
 	V_A2 = V_HIST + CLUSTERS_MAX_BINS, V_A3, V_GPAIRS, V_GRATE, V_GPRES, V_CW, V_CEXP,
+	V_MSD, V_DIFF,
 };
 
 void ensemble_pack(const run_record_t *r, int done, double *v)
@@ -52,6 +53,8 @@ void ensemble_pack(const run_record_t *r, int done, double *v)
 	v[V_GPRES] = r->obs.g_pressure;
 	v[V_CW] = r->clusters.w;
 	v[V_CEXP] = r->clusters.exponent;
+	v[V_MSD] = r->obs.msd;
+	v[V_DIFF] = r->obs.diffusion;
 }
 
 static void stat(const double *vals, int R, int idx, double *mean, double *se)
@@ -108,6 +111,9 @@ int ensemble_combine(const double *vals, int R, const run_record_t *proto, run_r
 	stat(vals, R, V_GPRES, &out->obs.g_pressure, &out->se.g_pressure);
 	stat(vals, R, V_CW, &out->clusters.w, &out->se.cluster_w);
 	stat(vals, R, V_CEXP, &out->clusters.exponent, &out->se.cluster_exponent);
+	stat(vals, R, V_MSD, &out->obs.msd, &out->se.msd);
+	stat(vals, R, V_DIFF, &out->obs.diffusion, &out->se.diffusion);
+	out->obs.msd_se = NAN;
 	out->obs.g_pairs_se = NAN;
 	out->clusters.n_particles = proto->n;
 	out->clusters.n_clusters = (uint64_t)llround(sum(vals, R, V_NCL) / R);
@@ -180,6 +186,9 @@ void ensemble_unpack(const double *v, const scene_t *s, run_record_t *r)
 	r->obs.g_pairs_se = NAN;
 	r->clusters.w = v[V_CW];
 	r->clusters.exponent = v[V_CEXP];
+	r->obs.msd = v[V_MSD];
+	r->obs.diffusion = v[V_DIFF];
+	r->obs.msd_se = NAN;
 }
 
 /* ---- replica state as a byte string ----------------------------------------
@@ -327,7 +336,18 @@ int ensemble_load(const scene_t *s, uint64_t stream, const unsigned char *buf, s
 	while ((rc = ensemble_next_field(buf, len, &pos, &f, &data)) == 1) {
 		size_t k;
 		if (f.name[0] != '@') {
-			if (run_field_set(r, f.name, f.type, f.count, data) != RUN_OK) {
+			/* data lies in the blob at any offset; the engines read it as typed
+			 * arrays (int32_t, double), which need their alignment (UBSan). */
+			size_t bytes = f.count * ed_type_size(f.type);
+			void *al = malloc(bytes ? bytes : 1);
+			if (!al) {
+				run_destroy(r);
+				return RUN_ENOMEM;
+			}
+			memcpy(al, data, bytes);
+			rc = run_field_set(r, f.name, f.type, f.count, al);
+			free(al);
+			if (rc != RUN_OK) {
 				snprintf(msg, msglen, "state field %s does not fit the scene", f.name);
 				goto bad;
 			}
@@ -345,7 +365,7 @@ int ensemble_load(const scene_t *s, uint64_t stream, const unsigned char *buf, s
 			memcpy(&status, data, 8);
 			got++;
 		} else if (!strcmp(f.name, "@last") && f.type == ED_T_F64 &&
-		           (f.count == ENSEMBLE_NV || f.count == ENSEMBLE_NV_V1)) {
+		           (f.count == ENSEMBLE_NV || f.count == ENSEMBLE_NV_V2 || f.count == ENSEMBLE_NV_V1)) {
 			/* an older version's record has no structure observables: zeros */
 			double v[ENSEMBLE_NV] = {0};
 			memcpy(v, data, f.count * sizeof(double));

@@ -14,7 +14,9 @@
  *   only on the replica records, never on which rank produced them.
  */
 
-#define ENSEMBLE_NV (33 + CLUSTERS_MAX_BINS)   /* doubles per replica record */
+#define ENSEMBLE_NV (35 + CLUSTERS_MAX_BINS)   /* doubles per replica record */
+/* Packed records of versions before mean_square_displacement (checkpoints' "@last"). */
+#define ENSEMBLE_NV_V2 (33 + CLUSTERS_MAX_BINS)
 /* Packed records of versions before the structure observables (checkpoints' "@last"). */
 #define ENSEMBLE_NV_V1 (26 + CLUSTERS_MAX_BINS)
 

@@ -62,8 +62,10 @@ static char *fz_line(char **p, char *end)
 	return s;
 }
 
-/* buf: len bytes plus one spare for a NUL; modified in place. 0, or -1 without a request line. */
-static int fz_parse(char *buf, size_t len, fz_req_t *r)
+/* buf: len bytes plus one spare for a NUL; modified in place. 0, or -1
+ * without a request line. decode(s, plus) percent-decodes the path (plus 0)
+ * and each query key and value (plus 1: '+' is a space) in place. */
+static int fz_parse_as(char *buf, size_t len, fz_req_t *r, void (*decode)(char *s, int plus))
 {
 	char *p = buf, *end = buf + len, *line;
 	memset(r, 0, sizeof(*r));
@@ -85,14 +87,14 @@ static int fz_parse(char *buf, size_t len, fz_req_t *r)
 			char *eq = strchr(t, '=');
 			if (eq)
 				*eq++ = '\0';
-			fz_unescape(t, 1);
+			decode(t, 1);
 			if (eq)
-				fz_unescape(eq, 1);
+				decode(eq, 1);
 			r->qkey[r->nq] = t;
 			r->qval[r->nq++] = eq ? eq : "";
 		}
 	}
-	fz_unescape(target, 0);
+	decode(target, 0);
 	r->path = target;
 	while ((line = fz_line(&p, end)) && *line) {
 		char *colon = strchr(line, ':');
@@ -107,6 +109,11 @@ static int fz_parse(char *buf, size_t len, fz_req_t *r)
 	r->body = p < end ? p : "";
 	r->body_len = p < end ? (size_t)(end - p) : 0;
 	return 0;
+}
+
+static inline int fz_parse(char *buf, size_t len, fz_req_t *r)
+{
+	return fz_parse_as(buf, len, r, fz_unescape);
 }
 
 static const char *fz_header(const fz_req_t *r, const char *name)

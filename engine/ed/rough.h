@@ -1,0 +1,81 @@
+/* The collision rule of rough disks and spheres (normal and tangential restitution, Walton's Coulomb rule): pure, inlined into the engine's rough kernels. */
+#pragma once
+
+#include <math.h>
+
+/*
+ * Contract
+ * - Pure arithmetic on the caller's arrays; no state, no allocation.
+ * - dim is 2 or 3 (a compile-time constant in the engine, so the branches
+ *   on it vanish). Vectors have dim components; spins have 1 component in
+ *   2D (about z) and 3 in 3D.
+ * - Units: equal masses m, radius a (contact at distance 2a), moment of
+ *   inertia I = q m a^2; n is the unit vector from particle 2 to particle 1.
+ *
+ * The rule (seed 001, Baryshev 2003, eqs. 3.56-3.69, after Walton 1993 and
+ * Luding et al., PRE 58, 3416 (1998)), with M = m / 2:
+ *   g   = v1 - v2 - a (w1 + w2) x n          slip velocity at the contact
+ *   J_n = -(1 + e) M (g . n) n               so that g_n' = -e g_n
+ *   J_t = -M q / (1 + q) (1 + beta) g_t      so that g_t' = -beta g_t (sticking)
+ * Walton's rule (mu >= 0): where that tangential impulse exceeds mu |J_n|
+ * the contact slides, J_t = -mu |J_n| g_t / |g_t|; i.e. the effective beta
+ * is min(beta_0, -1 + mu (1 + e)(1 + 1/q) |g_n| / |g_t|). mu < 0: constant
+ * beta. v1 += J / m, v2 -= J / m, and both spins change by -(a / I) n x J.
+ * beta = -1 is smooth (J_t = 0); beta = +1 with e = 1 conserves the
+ * translational plus rotational energy.
+ */
+typedef struct {
+	double m, a, e, beta, mu, q;
+} rough_rule_t;
+
+/* Apply the collision to v1, v2 (dim each) and w1, w2 (1 or 3 each) for
+ * approaching particles (gn = (v1 - v2) . n < 0). Returns the change of
+ * the translational kinetic energy (J . (v1 - v2) + |J|^2 / m). */
+static inline double rough_collide(int dim, const rough_rule_t *R, const double *n, double gn, double *v1, double *v2,
+                                   double *w1, double *w2)
+{
+	const double m = R->m, M = 0.5 * m, a = R->a, q = R->q;
+	double dv[3], gt[3], J[3], Jt[3], gt2 = 0.0, de = 0.0;
+	for (int k = 0; k < dim; k++)
+		dv[k] = v1[k] - v2[k];
+	/* g_t = dv - g_n n - a W x n (W x n is tangential) */
+	if (dim == 2) {
+		const double W = w1[0] + w2[0];
+		gt[0] = dv[0] - gn * n[0] + a * W * n[1];
+		gt[1] = dv[1] - gn * n[1] - a * W * n[0];
+	} else {
+		const double W[3] = {w1[0] + w2[0], w1[1] + w2[1], w1[2] + w2[2]};
+		gt[0] = dv[0] - gn * n[0] - a * (W[1] * n[2] - W[2] * n[1]);
+		gt[1] = dv[1] - gn * n[1] - a * (W[2] * n[0] - W[0] * n[2]);
+		gt[2] = dv[2] - gn * n[2] - a * (W[0] * n[1] - W[1] * n[0]);
+	}
+	for (int k = 0; k < dim; k++)
+		gt2 += gt[k] * gt[k];
+	const double jn = -(1.0 + R->e) * M * gn;           /* |J_n| */
+	double ct = M * q / (1.0 + q) * (1.0 + R->beta);   /* J_t = -ct g_t (sticking) */
+	if (R->mu >= 0.0 && ct * sqrt(gt2) > R->mu * jn)
+		ct = R->mu * jn / sqrt(gt2);                    /* sliding: |J_t| = mu |J_n| */
+	for (int k = 0; k < dim; k++) {
+		Jt[k] = -ct * gt[k];
+		J[k] = jn * n[k] + Jt[k];
+		de += J[k] * dv[k] + J[k] * J[k] / m;
+		v1[k] += J[k] / m;
+		v2[k] -= J[k] / m;
+	}
+	/* spins: -(a / I) n x J = -(1 / (q m a)) n x J_t (from J_t alone, so
+	 * that a smooth collision leaves them exactly as they were) */
+	const double s = -1.0 / (q * m * a);
+	if (dim == 2) {
+		const double dw = s * (n[0] * Jt[1] - n[1] * Jt[0]);
+		w1[0] += dw;
+		w2[0] += dw;
+	} else {
+		const double dw[3] = {s * (n[1] * Jt[2] - n[2] * Jt[1]), s * (n[2] * Jt[0] - n[0] * Jt[2]),
+		                      s * (n[0] * Jt[1] - n[1] * Jt[0])};
+		for (int k = 0; k < 3; k++) {
+			w1[k] += dw[k];
+			w2[k] += dw[k];
+		}
+	}
+	return de;
+}

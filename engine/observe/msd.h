@@ -1,0 +1,50 @@
+/* Mean-square displacement from unwrapped positions: the displacement of each particle since the run's start, followed across periodic images. */
+#pragma once
+
+#include <stddef.h>
+
+/*
+ * Contract
+ * - The engines keep positions folded into the box. msd_t unwraps them: each
+ *   update adds the minimum image of the change since the previous update
+ *   to the particle's unwrapped position. That is exact when no particle
+ *   moved half a box edge between two updates; msd_due() gives the latest
+ *   time of the next update that guarantees `reach` edges (msd_create(),
+ *   below 1/2): with the kinetic
+ *   energy E non-increasing (no walls, no gravity: restitution <= 1 only
+ *   loses energy), no particle is faster than sqrt(2 E / m) at any later
+ *   time. (dsmc/hsmc with the CBA correction also move colliding partners
+ *   by a diameter: not in the bound; docs/output.md.)
+ * - pos: N*D doubles in scene particle order, folded into [0, L). Times are
+ *   the run's clock; units of the scene (diameter from the scene radius).
+ * - No I/O, no globals; msd_create() allocates everything (2 N D doubles).
+ */
+
+typedef struct msd msd_t;
+
+/* NULL when out of memory. box: D edge lengths; reach in (0, 1/2): the largest move between updates
+ * msd_due() allows, in smallest box edges (less than 1/2 leaves room for an engine that stops after
+ * the time asked for). */
+msd_t *msd_create(int dim, size_t n, const double *box, double mass, double reach);
+void msd_destroy(msd_t *m);
+
+/* The origin: positions at time t, with total kinetic energy ekin (the speed bound). */
+void msd_origin(msd_t *m, double t, const double *pos, double ekin);
+/* Follow the particles to pos at time t (t >= the previous update's). */
+void msd_update(msd_t *m, double t, const double *pos, double ekin);
+/* Latest time of the next update (INFINITY when nothing moves). */
+double msd_due(const msd_t *m);
+
+/* Mean over particles of |r(t) - r(0)|^2 (length^2) at the last update, and
+ * its standard error (sample standard deviation / sqrt(N): particles taken
+ * as independent) into *se (may be NULL). */
+double msd_value(const msd_t *m, double *se);
+/* Time of the origin and of the last update. */
+double msd_time0(const msd_t *m);
+double msd_time(const msd_t *m);
+
+/* State for checkpoints: msd_state_size() doubles (origin, unwrapped positions, times, energy). */
+size_t msd_state_size(const msd_t *m);
+void msd_state_get(const msd_t *m, double *v);
+/* 0, or -1 when a value is not finite. */
+int msd_state_set(msd_t *m, const double *v);
