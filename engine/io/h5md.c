@@ -578,23 +578,14 @@ static int frame_times_reserve(pgroup_t *g, size_t n)
 
 static int write_xdmf(h5md_t *h);
 
-h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, const uint64_t *frames,
-                         int *err, char *msg, size_t msglen)
+/* Opens every dataset an append needs on h->file (the frames' groups, the
+ * observables the scene asks for); on failure the message names what is
+ * missing and the caller destroys h (which closes what was opened). */
+static int attach(h5md_t *h, const scene_t *s, const char *path, char *msg, size_t msglen)
 {
 	static const char *const sub[] = {"position/step", "position/time", "position/value", "velocity/value",
 	                                  "box/edges/value"};
 	char name[64], p[160];
-	h5u_quiet();
-	h5md_t *h = alloc_writer(path, s);
-	if (!h) {
-		*err = h5u_fail(msg, msglen, H5MD_ENOMEM, "%s: out of memory", path);
-		return NULL;
-	}
-	h->file = H5Fopen(path, H5F_ACC_RDWR, H5P_DEFAULT);
-	if (h->file < 0) {
-		*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot open for appending (missing or damaged)", path);
-		goto fail;
-	}
 	for (int k = 0; k < h->n_grp; k++) {
 		pgroup_t *g = &h->grp[k];
 		hid_t *dst[] = {&g->pos_step, &g->pos_time, &g->pos_value, &g->vel_value, &g->box_value};
@@ -602,18 +593,14 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 		if (h->spin_dim) {
 			snprintf(p, sizeof p, "%s/angular_velocity/value", name);
 			g->spin_value = H5Dopen2(h->file, p, H5P_DEFAULT);
-			if (g->spin_value < 0) {
-				*err = h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: not a trajectory of this scene (missing /%s)", path, p);
-				goto fail;
-			}
+			if (g->spin_value < 0)
+				return h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: not a trajectory of this scene (missing /%s)", path, p);
 		}
 		for (size_t j = 0; j < sizeof sub / sizeof sub[0]; j++) {
 			snprintf(p, sizeof p, "%s/%s", name, sub[j]);
 			*dst[j] = H5Dopen2(h->file, p, H5P_DEFAULT);
-			if (*dst[j] < 0) {
-				*err = h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: not a trajectory of this scene (missing /%s)", path, p);
-				goto fail;
-			}
+			if (*dst[j] < 0)
+				return h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: not a trajectory of this scene (missing /%s)", path, p);
 		}
 	}
 	int64_t first = -1;
@@ -622,10 +609,8 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 			continue;
 		snprintf(p, sizeof p, "observables/%s/value", obs_defs[k].path);
 		h->obs[h->n_obs] = H5Dopen2(h->file, p, H5P_DEFAULT);
-		if (h->obs[h->n_obs] < 0) {
-			*err = h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: missing dataset /%s", path, p);
-			goto fail;
-		}
+		if (h->obs[h->n_obs] < 0)
+			return h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: missing dataset /%s", path, p);
 		h->obs_def[h->n_obs++] = (int)k;
 		if (first < 0) {
 			first = (int64_t)k;
@@ -635,9 +620,34 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 			h->obs_time = H5Dopen2(h->file, p, H5P_DEFAULT);
 		}
 	}
-	if (h->obs_step < 0 || h->obs_time < 0) {
-		*err = h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: not a trajectory of this scene (datasets missing)", path);
-		goto fail;
+	if (h->obs_step < 0 || h->obs_time < 0)
+		return h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: not a trajectory of this scene (datasets missing)", path);
+	return H5MD_OK;
+}
+
+h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, const uint64_t *frames,
+                         int *err, char *msg, size_t msglen)
+{
+	char name[64];
+	h5md_t *h = NULL;
+	h5u_quiet();
+	/* First read-only: a file that is not this scene's trajectory is refused
+	 * without ever being opened for writing (HDF5 cannot close a damaged file
+	 * it opened read-write: the handle would stay open for the process). */
+	for (int pass = 0; pass < 2; pass++) {
+		h5md_destroy(h);
+		h = alloc_writer(path, s);
+		if (!h) {
+			*err = h5u_fail(msg, msglen, H5MD_ENOMEM, "%s: out of memory", path);
+			return NULL;
+		}
+		h->file = H5Fopen(path, pass ? H5F_ACC_RDWR : H5F_ACC_RDONLY, H5P_DEFAULT);
+		if (h->file < 0) {
+			*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot open for appending (missing or damaged)", path);
+			goto fail;
+		}
+		if ((*err = attach(h, s, path, msg, msglen)) != H5MD_OK)
+			goto fail;
 	}
 	int64_t have_obs = rows_of(h->obs_time);
 	if (have_obs < (int64_t)obs_rows) {
