@@ -461,6 +461,71 @@ typedef struct {
 
 #define MIN_OUTPUT_LIMIT (1u << 20)   /* smaller cannot hold a run's first files */
 
+/* Whether a relative file name, taken from a job's directory (JOBS/ID),
+ * leaves the jobs directory JOBS: by being absolute or by more ".." than
+ * it went down. Lexical: the job directories hold only what the engine
+ * wrote (no links a user could plant). */
+static int path_escapes(const char *p)
+{
+	int depth = 1;   /* JOBS/ID */
+	if (*p == '/')
+		return 1;
+	while (*p) {
+		size_t n = strcspn(p, "/");
+		if (n == 2 && p[0] == '.' && p[1] == '.') {
+			if (--depth < 0)
+				return 1;
+		} else if (n && !(n == 1 && p[0] == '.')) {
+			depth++;
+		}
+		p += n;
+		while (*p == '/')
+			p++;
+	}
+	return 0;
+}
+
+/* particles.initial.from over HTTP (docs/scene.md, "Initial state"): a file
+ * stays inside the daemon's job directories; a job exists and has ended,
+ * so that its trajectory is complete. The engine checks the frame itself. */
+static int check_from(jobq_t *q, const body_t *b, char *err, size_t errlen)
+{
+	const scene_t *s = &b->sc;
+	if (!s->has_from)
+		return JOBQ_OK;
+	if (s->from_file[0]) {
+		if (!path_escapes(s->from_file))
+			return JOBQ_OK;
+		snprintf(err, errlen, "%sparticles.initial.from.file: \"%.200s\" leaves the daemon's job directories: a "
+		         "file is taken from the job's own directory and may only name another job's (e.g. "
+		         "\"../17/trajectory.h5\"); use \"job\": 17", b->prefix, s->from_file);
+		return JOBQ_EINVAL;
+	}
+	sqlite3_stmt *st = NULL;
+	int ret = JOBQ_EDB, rc;
+	pthread_mutex_lock(&q->lock);
+	if (sqlite3_prepare_v2(q->db, "SELECT state FROM jobs WHERE id=?", -1, &st, NULL) == SQLITE_OK) {
+		sqlite3_bind_int64(st, 1, (sqlite3_int64)s->from_job);
+		rc = sqlite3_step(st);
+		const char *state = rc == SQLITE_ROW ? (const char *)sqlite3_column_text(st, 0) : NULL;
+		if (rc == SQLITE_DONE) {
+			ret = JOBQ_EINVAL;
+			snprintf(err, errlen, "%sparticles.initial.from.job: no job %" PRIu64, b->prefix, s->from_job);
+		} else if (state && (!strcmp(state, "queued") || !strcmp(state, "running"))) {
+			ret = JOBQ_EINVAL;
+			snprintf(err, errlen, "%sparticles.initial.from.job: job %" PRIu64 " is %s; its trajectory is complete "
+			         "only when it has ended", b->prefix, s->from_job, state);
+		} else if (state) {
+			ret = JOBQ_OK;
+		}
+	}
+	if (ret == JOBQ_EDB)
+		DBERR(q, err, errlen);
+	sqlite3_finalize(st);
+	pthread_mutex_unlock(&q->lock);
+	return ret;
+}
+
 static int parse_body(jobq_t *q, const char *body, size_t len, body_t *b, char *err, size_t errlen)
 {
 	json_error_t jerr;
@@ -553,6 +618,9 @@ static int parse_body(jobq_t *q, const char *body, size_t len, body_t *b, char *
 			goto cleanup;
 		}
 	}
+	if ((ret = check_from(q, b, err, errlen)))
+		goto cleanup;
+	ret = JOBQ_EINVAL;
 	if (b->sc.count > q->lim.max_particles) {
 		snprintf(err, errlen, "%sparticles.count: %" PRIu64 " exceeds this server's limit of %" PRIu64, b->prefix,
 		         b->sc.count, q->lim.max_particles);

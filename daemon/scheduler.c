@@ -3,6 +3,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <inttypes.h>
+#include <limits.h>
 #include <poll.h>
 #include <pthread.h>
 #include <signal.h>
@@ -16,6 +17,7 @@
 #include "ingest.h"
 #include "log.h"
 #include "quota.h"
+#include "scene.h"
 #include "scheduler.h"
 #include "util.h"
 
@@ -166,7 +168,8 @@ void sched_stats(sched_t *s, sched_stats_t *out)
 /* ---- launching ------------------------------------------------------------- */
 
 /* Expand the launch template into argv (malloc'd strings, NULL-terminated). */
-static char **build_argv(const sched_t *s, const child_t *k, const char *scene, const char *dir, const char *resume)
+static char **build_argv(const sched_t *s, const child_t *k, const char *scene, const char *dir, const char *resume,
+                         const char *jobs_dir)
 {
 	const char *tpl = s->c.cfg->launch;
 	size_t cap = 8, n = 0;
@@ -202,6 +205,10 @@ static char **build_argv(const sched_t *s, const child_t *k, const char *scene, 
 	if (av && resume) {
 		av[n++] = strdup("--resume");
 		av[n++] = strdup(resume);
+	}
+	if (av && jobs_dir) {
+		av[n++] = strdup("--jobs-dir");
+		av[n++] = strdup(jobs_dir);
 	}
 	if (av)
 		av[n] = NULL;
@@ -332,7 +339,15 @@ static int launch(sched_t *s, const jobq_claim_t *cl)
 	k->ranks = cl->ranks;
 	k->until = cl->until;
 	k->until_cpp = cl->until_cpp;
-	av = build_argv(s, k, scene, dir, resume);
+	/* particles.initial.from.job: the engine finds JOBS/ID/trajectory.h5
+	 * (docs/scene.md); absolute, since the engine runs in the job's directory */
+	scene_t sc;
+	char jobs_abs[PATH_MAX];
+	const char *jobs = NULL;
+	if (strstr(cl->scene, "\"from\"") && scene_parse(cl->scene, strlen(cl->scene), &sc, NULL, 0) == SCENE_OK &&
+	    sc.from_job)
+		jobs = realpath(s->c.jobs_dir, jobs_abs) ? jobs_abs : s->c.jobs_dir;
+	av = build_argv(s, k, scene, dir, resume, jobs);
 	env = child_env();
 	if (!av || !env || pipe2(po, O_CLOEXEC) || pipe2(pe, O_CLOEXEC)) {
 		snprintf(err, sizeof(err), "cannot launch: %s", strerror(errno ? errno : ENOMEM));

@@ -13,6 +13,7 @@
 #include "io/checkpoint.h"
 #include "config.h"
 #include "par/ensemble.h"
+#include "io/frame.h"
 #include "io/h5md.h"
 #include "io/report.h"
 #include "run.h"
@@ -387,7 +388,8 @@ static void usage(FILE *f)
 {
 	fprintf(f,
 	        "usage: granular-engine run SCENE.json [--out DIR [--resume CHECKPOINT.h5]] [--progress-fd N]\n"
-	        "       granular-engine validate SCENE.json\n"
+	        "                                      [--jobs-dir DIR]\n"
+	        "       granular-engine validate SCENE.json [--jobs-dir DIR]\n"
 	        "       granular-engine advise SCENE.json [--ranks P] [--model MODEL.json]\n"
 	        "       granular-engine --version | --help\n"
 	        "Runs a granular-gas scene (docs/scene.md) and writes one JSON progress\n"
@@ -397,7 +399,9 @@ static void usage(FILE *f)
 	        "Exit status: 0 done, 1 failure, 2 bad input or usage, 3 interrupted,\n"
 	        "4 checkpointed and stopped (SIGTERM/SIGINT with --out).\n"
 	        "advise prints the estimated cost and expected error of each method\n"
-	        "(docs/engine.md); \"method\": \"auto\" scenes run the method it chooses.\n");
+	        "(docs/engine.md); \"method\": \"auto\" scenes run the method it chooses.\n"
+	        "--jobs-dir DIR: where particles.initial.from.job ID finds DIR/ID/trajectory.h5\n"
+	        "(the daemon's job directories; docs/scene.md).\n");
 }
 
 /* Complete a non-blocking collective without spinning a core (a blocking
@@ -826,9 +830,43 @@ static int run_other(int rank, int size)
 	return ret;
 }
 
+/* particles.initial.from: the file it names (a relative file name is taken
+ * from the scene file's directory; a job from --jobs-dir) loaded into
+ * *pos, *vel and given to the engines through the scene. EX_DONE, or
+ * EX_INPUT/EX_FAIL with the one line printed. */
+static int load_from(scene_t *s, const char *scene_path, const char *jobs_dir, double **pos, double **vel,
+                     double **spin)
+{
+	char path[2 * SCENE_PATH_MAX + 64], err[2 * SCENE_PATH_MAX + 512];
+	if (s->from_job) {
+		if (!jobs_dir) {
+			fprintf(stderr, "particles.initial.from.job: a job reference is resolved by the daemon "
+			        "(granular-engine --jobs-dir DIR); use from.file outside it\n");
+			return EX_INPUT;
+		}
+		snprintf(path, sizeof path, "%s/%llu/trajectory.h5", jobs_dir, (unsigned long long)s->from_job);
+	} else if (s->from_file[0] == '/') {
+		snprintf(path, sizeof path, "%s", s->from_file);
+	} else {
+		const char *slash = strrchr(scene_path, '/');
+		int dirlen = slash ? (int)(slash - scene_path) : 1;
+		snprintf(path, sizeof path, "%.*s/%s", dirlen, slash ? scene_path : ".", s->from_file);
+	}
+	int rc = frame_load(s, path, pos, vel, spin, err, sizeof err);
+	if (rc != FRAME_OK) {
+		fprintf(stderr, "%s\n", err);
+		return rc == FRAME_ENOMEM ? EX_FAIL : EX_INPUT;
+	}
+	s->init_pos = *pos;
+	s->init_vel = *vel;
+	s->init_spin = *spin;
+	return EX_DONE;
+}
+
 static int run_rank0(int argc, char **argv, announce_t *an, int size)
 {
-	const char *cmd = argv[1], *scene_path = NULL, *outdir = NULL, *resume_path = NULL;
+	const char *cmd = argv[1], *scene_path = NULL, *outdir = NULL, *resume_path = NULL, *jobs_dir = NULL;
+	double *from_pos = NULL, *from_vel = NULL, *from_spin = NULL;
 	int progress_fd = 1, ret = EX_FAIL;
 	char err[512] = "", *text = NULL, *advice_line = NULL;
 	size_t len = 0;
@@ -842,6 +880,8 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			outdir = argv[++i];
 		} else if (!strcmp(argv[i], "--resume") && i + 1 < argc) {
 			resume_path = argv[++i];
+		} else if (!strcmp(argv[i], "--jobs-dir") && i + 1 < argc) {
+			jobs_dir = argv[++i];
 		} else if (!strcmp(argv[i], "--progress-fd") && i + 1 < argc) {
 			char *end;
 			long v = strtol(argv[++i], &end, 10);
@@ -885,6 +925,10 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			goto cleanup;
 		}
 	}
+	/* An earlier run's frame (not when resuming: the checkpoint has the state). */
+	if (scene.has_from && !resume_path &&
+	    (ret = load_from(&scene, scene_path, jobs_dir, &from_pos, &from_vel, &from_spin)) != EX_DONE)
+		goto cleanup;
 	if (!strcmp(cmd, "validate")) {
 		ret = EX_DONE;
 		goto cleanup;
@@ -1045,6 +1089,9 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	}
 cleanup:
 	run_destroy(run);
+	free(from_pos);
+	free(from_vel);
+	free(from_spin);
 	free(frames);
 	for (uint64_t r = 0; ens.blobs && r < scene.replicas; r++)
 		free(ens.blobs[r]);

@@ -9,6 +9,7 @@
 #include "observe/msd.h"
 #include "ed/ed.h"
 #include "run.h"
+#include "place.h"
 
 /* Work between polls of the stop flag: ~0.1 s (events for ed, particle moves for dsmc). */
 #define RUN_CHUNK_EVENTS 200000u
@@ -55,6 +56,7 @@ struct run {
 	msd_t *msd;              /* mean_square_displacement (observe/msd.h), or NULL */
 	double msd_prev, msd_tprev; /* MSD and time of the previous progress record (the interval's D) */
 	double *pos, *vel;       /* sampling buffers (clusters, snapshots, structure observables) */
+	double *placed;          /* positions placed in particles.initial.region (s.init_pos), or NULL */
 	double *spin;            /* snapshots of rough particles: angular velocities */
 	double t0;               /* wall clock at the start of this process's part */
 	double ckpt_wall;        /* wall clock of the last checkpoint request */
@@ -441,6 +443,19 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 	if (opts)
 		r->opts = *opts;
 	r->st = (run_state_t){.k_out = 1, .k_snap = 1, .k_ckpt = 1, .snap_events = UINT64_MAX};
+	if (!blank && s->has_region && !s->init_pos) {
+		/* placed here, per replica stream; the engines take the positions */
+		r->placed = malloc(s->count * s->dim * sizeof(double));
+		if (!r->placed)
+			goto nomem;
+		e = place_region(&r->s, stream, r->placed, msg, msglen);
+		if (e != PLACE_OK) {
+			*err = e == PLACE_ENOMEM ? RUN_ENOMEM : RUN_ESETUP;
+			run_destroy(r);
+			return NULL;
+		}
+		r->s.init_pos = r->placed;
+	}
 	if (s->method == SCENE_METHOD_ED) {
 		r->ed = blank ? ed_create_blank(&r->s, &e, msg, msglen) : ed_create(&r->s, &e, msg, msglen);
 		if (!r->ed) {
@@ -543,6 +558,7 @@ void run_destroy(run_t *r)
 {
 	if (!r)
 		return;
+	free(r->placed);
 	clusters_destroy(r->cl);
 	obs_destroy(r->obs);
 	msd_destroy(r->msd);

@@ -11,6 +11,7 @@
 #include "scene.h"
 #include "ed/ed.h"
 #include "mc/dsmc.h"
+#include "place.h"
 
 #define PI 3.14159265358979323846
 #define PATHLEN 256
@@ -594,6 +595,14 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 		return fail(c, "hsmc.max_volume_fraction", "%s is at or above the close-packing limit %.4f of %s",
 			    num(s->mc_max_volume_fraction).s, cp, shape);
 
+	/* region.upper defaults to the box, known only now */
+	for (int a = 0; a < s->dim && s->has_region; a++)
+		if (isnan(s->region_hi[a]))
+			s->region_hi[a] = s->box[a];
+	if (s->has_from && s->replicas > 1)
+		return fail(c, "particles.initial.from", "not with run.replicas > 1 yet (every replica would start from "
+		            "the same frame)");
+
 	int ret = check_structure(c, v, s);
 	if (ret)
 		return ret;
@@ -621,6 +630,8 @@ int scene_check_start(const scene_t *s, char *err, size_t errlen)
 		bad = ed_plan(s, NULL, why, sizeof why) != ED_OK;
 	else if (s->method == SCENE_METHOD_DSMC || s->method == SCENE_METHOD_HSMC)
 		bad = dsmc_plan(s, NULL, why, sizeof why) != DSMC_OK;
+	if (!bad && s->method != SCENE_METHOD_AUTO)
+		bad = place_check(s, why, sizeof why) != PLACE_OK;
 	if (!bad)
 		return SCENE_OK;
 	/* why is "KEY: reason" */
@@ -1017,6 +1028,90 @@ static const struct object relax_obj = {
 	},
 };
 
+/* ---- particles.initial.region and .from (docs/scene.md, "Initial state") */
+
+/* A file name: non-empty, shorter than SCENE_PATH_MAX, no control characters. */
+static int parse_path(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	if (!json_is_string(v))
+		return fail(c, path, "must be a string, got %s", type_name(v));
+	const char *p = json_string_value(v);
+	size_t n = json_string_length(v);
+	if (n == 0 || n >= SCENE_PATH_MAX)
+		return fail(c, path, "must be a file name of 1 to %d bytes, got %zu", SCENE_PATH_MAX - 1, n);
+	for (size_t i = 0; i < n; i++)
+		if ((unsigned char)p[i] < 0x20 || p[i] == 0x7f)
+			return fail(c, path, "must not contain control characters");
+	memcpy(dst, p, n + 1);
+	return 0;
+}
+
+static int parse_i64(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	uint64_t x = 0;
+	int ret = parse_integer(c, path, v, &x, arg);
+	if (ret == 0)
+		*(int64_t *)dst = (int64_t)x;
+	return ret;
+}
+
+static const struct irange R_FRAME = { -SEED_MAX, SEED_MAX };
+static const struct irange R_JOB = { 1, SEED_MAX };
+static const struct irange R_REPLICA = { 0, 999999 };
+
+static int check_from(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_t *s = base;
+	if ((json_object_get(v, "file") != NULL) == (json_object_get(v, "job") != NULL))
+		return fail(c, path, "must have exactly one of file (an earlier run's trajectory.h5) or job (a job's "
+		            "trajectory, through the daemon)");
+	s->has_from = 1;
+	return 0;
+}
+
+static const struct object from_obj = {
+	.fields = (const struct field[]){
+		{ "file", parse_path, offsetof(scene_t, from_file), NULL, false },
+		{ "job", parse_integer, offsetof(scene_t, from_job), &R_JOB, false },
+		{ "frame", parse_i64, offsetof(scene_t, from_frame), &R_FRAME, false },
+		{ "replica", parse_i64, offsetof(scene_t, from_replica), &R_REPLICA, false },
+		{ .name = NULL },
+	},
+	.check = check_from,
+};
+
+static int check_region(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	c->s->has_region = 1;
+	return 0;
+}
+
+static const struct object region_obj = {
+	.fields = (const struct field[]){
+		{ "lower", parse_vector, offsetof(scene_t, region_lo), NULL, false },
+		{ "upper", parse_vector, offsetof(scene_t, region_hi), NULL, false },
+		{ .name = NULL },
+	},
+	.check = check_region,
+};
+
+/* A frame brings positions and velocities: what would place or draw them
+ * is an error beside it, not silently ignored. */
+static int check_initial(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	static const char *const placing[] = { "positions", "temperature", "velocity", "rotational_temperature",
+	                                       "region" };
+	char sub[PATHLEN];
+	if (!json_object_get(v, "from"))
+		return 0;
+	for (size_t k = 0; k < sizeof placing / sizeof placing[0]; k++)
+		if (json_object_get(v, placing[k])) {
+			join(sub, path, placing[k]);
+			return fail(c, sub, "not with from (positions, velocities and spins come from the frame)");
+		}
+	return 0;
+}
+
 static const struct object initial_obj = {
 	.fields = (const struct field[]){
 		{ "positions", parse_positions, offsetof(scene_t, positions), NULL, false },
@@ -1024,8 +1119,11 @@ static const struct object initial_obj = {
 		{ "velocity", parse_vector, offsetof(scene_t, flow), NULL, false },
 		{ "rotational_temperature", parse_number, offsetof(scene_t, rot_temperature), &R_NONNEG, false },
 		{ "relax", parse_object, 0, &relax_obj, false },
+		{ "region", parse_object, 0, &region_obj, false },
+		{ "from", parse_object, 0, &from_obj, false },
 		{ .name = NULL },
 	},
+	.check = check_initial,
 };
 
 static const struct object particles_obj = {
@@ -1313,6 +1411,9 @@ int scene_parse(const char *json, size_t len, scene_t *out, char *err, size_t er
 		.impact_bins = 20,
 		.replicas = 1,
 		.compression = 0,
+		.region_hi = { NAN, NAN, NAN },
+		.from_frame = -1,
+		.from_replica = -1,
 	};
 	for (int a = 0; a < 3; a++)
 		for (int k = 0; k < 2; k++)

@@ -26,6 +26,8 @@ enum {
  * before the scene runs; the engines never see it. */
 /* Largest particles.count scene_parse() accepts: particle indices are 32-bit in the engines. */
 #define SCENE_COUNT_MAX 2147483647LL
+/* Longest particles.initial.from.file, bytes including the NUL. */
+#define SCENE_PATH_MAX 1024
 
 typedef enum { SCENE_METHOD_ED = 0, SCENE_METHOD_DSMC, SCENE_METHOD_HSMC, SCENE_METHOD_AUTO } scene_method_t;
 typedef enum { SCENE_POS_LATTICE = 0, SCENE_POS_RANDOM } scene_positions_t;
@@ -139,6 +141,25 @@ typedef struct scene {
 	double temperature;            /* initial T >= 0, default 1 (of the velocities about the mean flow) */
 	double flow[3];                /* initial mean velocity (a stream; method ed), default 0 */
 	double relax_cpp;              /* elastic pre-run, collisions per particle (default 0) */
+	/* particles.initial.region: centres placed so that every particle lies
+	 * in [region_lo, region_hi] (scene coordinates, per axis; default the
+	 * box); checked and placed by engine/place.h */
+	int has_region;
+	double region_lo[3], region_hi[3];
+	/* particles.initial.from: an earlier run's frame (engine/io/frame.h
+	 * loads it; the parser does no I/O). Exactly one of from_file ("" =
+	 * none) and from_job (0 = none) when has_from. */
+	int has_from;
+	char from_file[SCENE_PATH_MAX];  /* as written: relative to the scene file's directory */
+	uint64_t from_job;             /* a daemon job's trajectory.h5 (granular-engine --jobs-dir) */
+	int64_t from_frame;            /* frame index, negative from the end; default -1 (the last) */
+	int64_t from_replica;          /* -1: /particles/all; K: /particles/replica_K of an ensemble */
+	/* Not from JSON: a state given to the engines instead of placing and
+	 * drawing (N * dim doubles each, scene coordinates, particle i at
+	 * [i * dim]; not owned, must outlive the engine; NULL: as the scene
+	 * says). Set by the run driver (region) or the program (from). */
+	const double *init_pos, *init_vel;
+	const double *init_spin;       /* rough particles: N * (1 in 2D, 3 in 3D) angular velocities, or NULL */
 
 	/* collisions */
 	double restitution;            /* 0..1, default 1 */

@@ -339,6 +339,109 @@ static void test_start_checks(void)
 	}
 }
 
+/* particles.initial.region and .from (docs/scene.md, "Initial state"). */
+static void test_initial(void)
+{
+	scene_t s;
+	char err[512] = "";
+	int ret = parse("{" HEAD ",'particles':{'count':100,'box':[20,40],'initial':{'positions':'random',"
+	                "'region':{'upper':[20,12]}}}," RUN "}", &s, err, sizeof err);
+	ok(ret == 0 && s.has_region && s.region_lo[0] == 0 && s.region_lo[1] == 0 && s.region_hi[0] == 20 &&
+	   s.region_hi[1] == 12 && !s.has_from, "region: lower defaults to 0, upper as given (%s)", err);
+	ret = parse("{" HEAD ",'particles':{'count':100,'box':[20,40],'initial':{'region':{'lower':[0,5]}}}," RUN "}",
+	            &s, err, sizeof err);
+	ok(ret == 0 && s.has_region && s.region_lo[1] == 5 && s.region_hi[0] == 20 && s.region_hi[1] == 40,
+	   "region: upper defaults to the box (%s)", err);
+	ret = parse("{" BASE "}", &s, err, sizeof err);
+	ok(ret == 0 && !s.has_region && !s.has_from && s.from_frame == -1 && s.from_replica == -1 && !s.init_pos &&
+	   !s.init_vel, "no region, no from: the engines place as before");
+	ret = parse("{" HEAD "," PART_WITH("'initial':{'from':{'file':'../run1/trajectory.h5'}}") "," RUN "}", &s, err,
+	            sizeof err);
+	ok(ret == 0 && s.has_from && !strcmp(s.from_file, "../run1/trajectory.h5") && s.from_job == 0 &&
+	   s.from_frame == -1 && s.from_replica == -1, "from.file, frame defaults to -1 (the last) (%s)", err);
+	ret = parse("{" HEAD "," PART_WITH("'initial':{'from':{'job':17,'frame':3,'replica':2},'relax':"
+	            "{'collisions_per_particle':1}}") "," RUN "}", &s, err, sizeof err);
+	ok(ret == 0 && s.has_from && !s.from_file[0] && s.from_job == 17 && s.from_frame == 3 && s.from_replica == 2 &&
+	   s.relax_cpp == 1, "from.job, frame, replica; relax allowed beside from (%s)", err);
+	ret = parse("{" HEAD "," PART_WITH("'initial':{'from':{'file':'a.h5','frame':-9007199254740992}}") "," RUN "}",
+	            &s, err, sizeof err);
+	ok(ret == 0 && s.from_frame == -9007199254740992LL, "frame -2^53 parses (range is the file's business)");
+
+	static const struct { const char *name, *initial, *key; } bad_initial[] = {
+		{ "from with file and job", "'from':{'file':'a.h5','job':3}", "particles.initial.from" },
+		{ "from with neither", "'from':{'frame':-1}", "particles.initial.from" },
+		{ "from unknown key", "'from':{'file':'a.h5','step':3}", "particles.initial.from.step" },
+		{ "from.file empty", "'from':{'file':''}", "particles.initial.from.file" },
+		{ "from.file a number", "'from':{'file':3}", "particles.initial.from.file" },
+		{ "from.file with a control character", "'from':{'file':'a\\nb.h5'}", "particles.initial.from.file" },
+		{ "from.job 0", "'from':{'job':0}", "particles.initial.from.job" },
+		{ "from.job a string", "'from':{'job':'12'}", "particles.initial.from.job" },
+		{ "from.frame 1.0", "'from':{'file':'a.h5','frame':1.0}", "particles.initial.from.frame" },
+		{ "from.replica -1", "'from':{'file':'a.h5','replica':-1}", "particles.initial.from.replica" },
+		{ "positions beside from", "'positions':'random','from':{'file':'a.h5'}", "particles.initial.positions" },
+		{ "temperature beside from", "'temperature':2,'from':{'file':'a.h5'}", "particles.initial.temperature" },
+		{ "region beside from", "'region':{'upper':[5,5]},'from':{'file':'a.h5'}", "particles.initial.region" },
+		{ "velocity beside from", "'velocity':[1,0],'from':{'file':'a.h5'}", "particles.initial.velocity" },
+		{ "rotational_temperature beside from", "'rotational_temperature':1,'from':{'file':'a.h5'}",
+		  "particles.initial.rotational_temperature" },
+		{ "region lower of 3 in 2D", "'region':{'lower':[0,0,0]}", "particles.initial.region.lower" },
+		{ "region upper not numbers", "'region':{'upper':['a',1]}", "particles.initial.region.upper[0]" },
+		{ "region unknown key", "'region':{'top':3}", "particles.initial.region.top" },
+		{ "region below the box", "'region':{'lower':[-1,0]}", "particles.initial.region.lower[0]" },
+		{ "region beyond the box", "'region':{'upper':[20,40.5]}", "particles.initial.region.upper[1]" },
+		{ "region upper at lower", "'region':{'lower':[0,10],'upper':[20,10]}", "particles.initial.region.upper[1]" },
+		{ "region too thin", "'region':{'upper':[20,0.9]}", "particles.initial.region" },
+		{ "region too small for the lattice", "'region':{'upper':[20,5]}", "particles.initial.region" },
+		{ "region too small for random placement", "'positions':'random','region':{'upper':[20,6]}",
+		  "particles.initial.region" },
+	};
+	for (size_t i = 0; i < sizeof bad_initial / sizeof bad_initial[0]; i++) {
+		char text[1024];
+		snprintf(text, sizeof text, "{" HEAD ",'particles':{'count':100,'box':[20,40],'initial':{%s}}," RUN "}",
+		         bad_initial[i].initial);
+		ret = parse(text, &s, err, sizeof err);
+		ok(ret == SCENE_EINVAL && has_path(err, bad_initial[i].key), "%s: %s", bad_initial[i].name, err);
+	}
+	ret = parse("{" HEAD "," PART_WITH("'initial':{'from':{'file':'a.h5'}}") ",'run':{'until':{'time':1},"
+	            "'replicas':2}}", &s, err, sizeof err);
+	ok(ret == SCENE_EINVAL && has_path(err, "particles.initial.from"), "from with replicas: %s", err);
+
+	/* The parser's verdict on a region is the engine's (run_create() places
+	 * it): a scene parsed without one gets it set, then both judge. */
+	static const struct { const char *head; double lo[3], hi[3]; const char *pos; } region_cases[] = {
+		{ "'method':'ed','dimensions':2", {0, 0}, {20, 5}, "lattice" },
+		{ "'method':'ed','dimensions':2", {0, 0}, {20, 7}, "lattice" },
+		{ "'method':'ed','dimensions':2", {0, 0}, {20, 6}, "random" },
+		{ "'method':'ed','dimensions':2", {0, 0}, {20, 8}, "random" },
+		{ "'method':'hsmc','dimensions':2", {0, 20}, {20, 40}, "random" },
+		{ "'method':'dsmc','dimensions':2", {0, 0}, {20, 4}, "random" },
+		{ "'method':'ed','dimensions':2", {0, 0}, {20, 0.5}, "lattice" },
+	};
+	int refused = 0, started = 0;
+	for (size_t i = 0; i < sizeof region_cases / sizeof region_cases[0]; i++) {
+		char text[1024], perr[512] = "", rerr[512] = "";
+		snprintf(text, sizeof text, "{%s,'particles':{'count':100,'box':[20,40],'initial':{'positions':'%s'}},"
+		         "'run':{'until':{'time':0.01}}}", region_cases[i].head, region_cases[i].pos);
+		if (parse(text, &s, perr, sizeof perr)) {
+			ok(0, "region case %zu parses without its region: %s", i, perr);
+			continue;
+		}
+		s.has_region = 1;
+		memcpy(s.region_lo, region_cases[i].lo, sizeof s.region_lo);
+		memcpy(s.region_hi, region_cases[i].hi, sizeof s.region_hi);
+		int pv = scene_check_start(&s, perr, sizeof perr), e = 0;
+		run_t *r = run_create(&s, NULL, &e, rerr, sizeof rerr);
+		run_destroy(r);
+		refused += pv != SCENE_OK;
+		started += r != NULL;
+		ok((pv == SCENE_OK) == (r != NULL) && (r || (!strcmp(perr, rerr) && has_path(perr, "particles.initial.region"))),
+		   "region case %zu (%s, %s, up to y = %g): parser %s, engine %s%s%s", i, scene_method_name(s.method),
+		   region_cases[i].pos, region_cases[i].hi[1], pv == SCENE_OK ? "accepts" : "refuses",
+		   r ? "starts" : "refuses", r ? "" : ": ", r ? "" : rerr);
+	}
+	ok(refused >= 3 && started >= 3, "region cases on both sides: %d refused, %d started", refused, started);
+}
+
 static void test_api(void)
 {
 	scene_t s, keep;
@@ -418,6 +521,7 @@ int main(void)
 	test_all_keys();
 	test_bad();
 	test_start_checks();
+	test_initial();
 	test_api();
 	const char *srcdir = getenv("SRCDIR");
 	if (srcdir && *srcdir)

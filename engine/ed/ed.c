@@ -1107,6 +1107,23 @@ static int placement_check(const struct ed *ed, const scene_t *s, char *msg, siz
 	return lattice_short(ed, d, msg, msglen) || lattice_blocked(ed, nfree, msg, msglen) ? ED_EPLACE : ED_OK;
 }
 
+/* A state from outside (scene_t.init_pos, init_vel: scene coordinates,
+ * checked by the caller, place.h): into internal coordinates and cells. */
+static void given_state(struct ed *ed, const double *pos, const double *vel)
+{
+	size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
+	size_t voff = ed->dim == 2 ? offsetof(p2_t, v) : offsetof(p3_t, v);
+	for (uint32_t i = 0; i < ed->n; i++) {
+		double *r = (double *)((char *)ed->p + i * stride), *v = (double *)((char *)ed->p + i * stride + voff);
+		for (int a = 0; a < ed->dim; a++) {
+			r[a] = pos[(size_t)i * ed->dim + a] + (ed->variant ? ed->org[a] : 0.0);
+			if (vel)
+				v[a] = vel[(size_t)i * ed->dim + a];
+		}
+		DISPATCH(ed, place, ed, i);
+	}
+}
+
 static void init_velocities(struct ed *ed, double temp, rng_t *rng)
 {
 	size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
@@ -1607,9 +1624,11 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 		return NULL;
 
 	rng_init(&rng, s->seed, s->stream);
-	if ((rc = placement_check(ed, s, msg, msglen)) != ED_OK)
+	if (s->init_pos) {
+		given_state(ed, s->init_pos, s->init_vel);   /* a region (place.h) or an earlier run's frame */
+	} else if ((rc = placement_check(ed, s, msg, msglen)) != ED_OK) {
 		goto fail;
-	if (s->positions == SCENE_POS_RANDOM) {
+	} else if (s->positions == SCENE_POS_RANDOM) {
 		rc = DISPATCH(ed, place_random, ed, &rng);
 		if (rc != ED_OK) {
 			set_msg(msg, msglen, "particles.initial.positions: random placement failed at volume fraction %.4g "
@@ -1622,9 +1641,13 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 		if (rc != ED_OK)
 			goto fail;
 	}
-	init_velocities(ed, s->temperature, &rng);
-	add_flow(ed, s);
-	if (ed->rough)
+	if (!s->init_vel) {
+		init_velocities(ed, s->temperature, &rng);
+		add_flow(ed, s);
+	}
+	if (ed->rough && s->init_spin)
+		memcpy(ed->spin, s->init_spin, (size_t)ed->n * (ed->dim == 2 ? 1 : 3) * sizeof(double));
+	else if (ed->rough)
 		init_spins(ed, s->rot_temperature, &rng);
 	predict_all(ed);
 	reset_clock(ed);
@@ -2067,7 +2090,7 @@ int ed_plan(const scene_t *s, ed_plan_t *out, char *msg, size_t msglen)
 	if (msg && msglen)
 		msg[0] = '\0';
 	int rc = geometry(&ed, s, msg, msglen);
-	if (rc == ED_OK)
+	if (rc == ED_OK && !s->has_region && !s->has_from)   /* those: place_check(), frame checks */
 		rc = placement_check(&ed, s, msg, msglen);
 	if (rc != ED_OK || !out)
 		return rc;

@@ -1118,8 +1118,12 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 	const size_t S = 2 * (size_t)d->dim;
 
 	rng_init(&d->rng, s->seed, stream);
-	/* positions */
-	if (s->positions == SCENE_POS_RANDOM) {
+	/* positions: given (a region, place.h, or an earlier run's frame), or placed */
+	if (s->init_pos) {
+		for (uint32_t i = 0; i < d->n; i++)
+			for (int a = 0; a < d->dim; a++)
+				d->p[i * S + a] = wrap(s->init_pos[(size_t)i * d->dim + a], d->L[a]);
+	} else if (s->positions == SCENE_POS_RANDOM) {
 		for (uint32_t i = 0; i < d->n; i++)
 			for (int a = 0; a < d->dim; a++)
 				d->p[i * S + a] = d->walled[a] ? d->lo[a] + rng_uniform(&d->rng) * (d->hi[a] - d->lo[a])
@@ -1144,22 +1148,25 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 	}
 	for (uint32_t i = 0; i < d->n; i++)
 		d->id[i] = i;
-	/* Maxwellian velocities, zero momentum, exactly T. */
+	/* Maxwellian velocities, zero momentum, exactly T (or given). */
 	double mean[3] = {0, 0, 0}, s2 = 0;
-	for (uint32_t i = 0; i < d->n; i++)
+	for (uint32_t i = 0; i < d->n && s->init_vel; i++)
+		for (int a = 0; a < d->dim; a++)
+			d->p[i * S + d->dim + a] = s->init_vel[(size_t)i * d->dim + a];
+	for (uint32_t i = 0; i < d->n && !s->init_vel; i++)
 		for (int a = 0; a < d->dim; a++) {
 			double v = rng_gauss(&d->rng);
 			d->p[i * S + d->dim + a] = v;
 			mean[a] += v;
 		}
-	for (uint32_t i = 0; i < d->n; i++)
+	for (uint32_t i = 0; i < d->n && !s->init_vel; i++)
 		for (int a = 0; a < d->dim; a++) {
 			double *v = &d->p[i * S + d->dim + a];
 			*v -= mean[a] / d->n;
 			s2 += *v * *v;
 		}
 	double scale = s2 > 0 ? sqrt(s->temperature * d->dim * d->n / (d->mass * s2)) : 0;
-	for (uint32_t i = 0; i < d->n; i++)
+	for (uint32_t i = 0; i < d->n && !s->init_vel; i++)
 		for (int a = 0; a < d->dim; a++)
 			d->p[i * S + d->dim + a] *= scale;
 	initial_sort(d);
