@@ -38,3 +38,12 @@ typedef struct {
 void lattice_fill_init(lattice_fill_t *f, uint64_t sites, uint64_t n, rng_t *rng);
 /* The next occupied site (increasing); call it exactly n times. */
 uint64_t lattice_fill_next(lattice_fill_t *f);
+
+/* Lattice shapes for N sites in a box of edges L (the ed engine's starts and
+ * engine/place.c's region placement use the same ones). 2D: nx columns by ny
+ * staggered rows (ny even when > 1, so rows stay periodic), a near-hexagonal
+ * lattice; 3D: an FCC lattice of nx*ny*nz cubic cells of 4 sites. Each
+ * returns the largest nearest-neighbour distance over the shapes with at
+ * least n sites and stores that shape in bx/by or bn[3]. n >= 1, L > 0. */
+double lattice_shape_2d(const double *L, uint64_t n, int64_t *bx, int64_t *by);
+double lattice_shape_3d(const double *L, uint64_t n, int64_t *bn);

@@ -83,57 +83,6 @@ static void lattice_edges(const scene_t *s, const span_t *sp, double *Lp)
 		Lp[a] = a < s->dim ? sp[a].hi - sp[a].lo : 1.0;
 }
 
-/* The ed engine's lattices (engine/ed/ed.c): nearest-neighbour distance
- * maximised over the lattice shapes of N sites. */
-static double lattice_2d(const double *L, uint64_t n, int64_t *bx, int64_t *by)
-{
-	double best = -1.0;
-	for (int64_t nx = 1; nx <= (int64_t)n; nx++) {
-		int64_t ny = ((int64_t)n + nx - 1) / nx;
-		if (ny > 1 && (ny & 1))
-			ny++;
-		double ax = L[0] / nx, ay = L[1] / ny;
-		double d = ax;
-		if (ny > 1) {
-			double diag = sqrt(0.25 * ax * ax + ay * ay);
-			if (diag < d) d = diag;
-			if (2 * ay < d) d = 2 * ay;
-		}
-		if (d > best) {
-			best = d;
-			*bx = nx, *by = ny;
-		}
-		if (nx > 1 && ax < 0.25 * best)
-			break;
-	}
-	return best;
-}
-
-static double lattice_3d(const double *L, uint64_t n, int64_t *bn)
-{
-	double best = -1.0;
-	uint64_t cells = (n + 3) / 4;
-	for (int64_t nx = 1; nx <= (int64_t)cells; nx++) {
-		if (L[0] / nx < 0.25 * best)
-			break;
-		for (int64_t ny = 1; (uint64_t)(nx * ny) <= cells; ny++) {
-			if (L[1] / ny < 0.25 * best)
-				break;
-			int64_t nz = (int64_t)((cells + nx * ny - 1) / (nx * ny));
-			double ax = L[0] / nx, ay = L[1] / ny, az = L[2] / nz;
-			double d = fmin(fmin(ax, ay), az);
-			d = fmin(d, 0.5 * sqrt(ax * ax + ay * ay));
-			d = fmin(d, 0.5 * sqrt(ay * ay + az * az));
-			d = fmin(d, 0.5 * sqrt(ax * ax + az * az));
-			if (d > best) {
-				best = d;
-				bn[0] = nx, bn[1] = ny, bn[2] = nz;
-			}
-		}
-	}
-	return best;
-}
-
 static double particle_volume(const scene_t *s)
 {
 	return scene_particle_volume(s);
@@ -180,10 +129,10 @@ static void lat_shape(lat_t *l, const scene_t *s, const span_t *sp, uint64_t wan
 	l->dim = s->dim;
 	l->n[0] = l->n[1] = l->n[2] = 1;
 	if (s->dim == 2) {
-		l->nearest = lattice_2d(Lp, want, &l->n[0], &l->n[1]);
+		l->nearest = lattice_shape_2d(Lp, want, &l->n[0], &l->n[1]);
 		l->sites = (uint64_t)(l->n[0] * l->n[1]);
 	} else {
-		l->nearest = lattice_3d(Lp, want, l->n);
+		l->nearest = lattice_shape_3d(Lp, want, l->n);
 		l->sites = (uint64_t)(4 * l->n[0] * l->n[1] * l->n[2]);
 	}
 	for (int a = 0; a < 3; a++) {

@@ -884,57 +884,10 @@ static void setup_mode(struct ed *ed, double min_edge)
 /* Lattice start: a rectangular (2D, staggered rows ~ hexagonal) or FCC (3D)
  * lattice chosen to maximise the nearest-neighbour distance for N sites in
  * the box; when N does not fill it, the vacancies are spread over the box
- * (lattice.h), not left as an empty slab at the top. */
-static double lattice_2d(const double *L, uint64_t n, int64_t *bx, int64_t *by)
-{
-	double best = -1.0;
-	for (int64_t nx = 1; nx <= (int64_t)n; nx++) {
-		int64_t ny = ((int64_t)n + nx - 1) / nx;
-		if (ny > 1 && (ny & 1))
-			ny++;          /* staggered rows need an even count to be periodic */
-		double ax = L[0] / nx, ay = L[1] / ny;
-		double d = ax;
-		if (ny > 1) {
-			double diag = sqrt(0.25 * ax * ax + ay * ay);
-			if (diag < d) d = diag;
-			if (2 * ay < d) d = 2 * ay;
-		}
-		if (d > best) {
-			best = d;
-			*bx = nx, *by = ny;
-		}
-		if (nx > 1 && ax < 0.25 * best)
-			break;
-	}
-	return best;
-}
-
-static double lattice_3d(const double *L, uint64_t n, int64_t *bn)
-{
-	double best = -1.0;
-	uint64_t cells = (n + 3) / 4;
-	for (int64_t nx = 1; nx <= (int64_t)cells; nx++) {
-		if (L[0] / nx < 0.25 * best)
-			break;
-		for (int64_t ny = 1; (uint64_t)(nx * ny) <= cells; ny++) {
-			if (L[1] / ny < 0.25 * best)
-				break;
-			int64_t nz = (int64_t)((cells + nx * ny - 1) / (nx * ny));
-			double ax = L[0] / nx, ay = L[1] / ny, az = L[2] / nz;
-			double d = fmin(fmin(ax, ay), az);
-			d = fmin(d, 0.5 * sqrt(ax * ax + ay * ay));
-			d = fmin(d, 0.5 * sqrt(ay * ay + az * az));
-			d = fmin(d, 0.5 * sqrt(ax * ax + az * az));
-			if (d > best) {
-				best = d;
-				bn[0] = nx, bn[1] = ny, bn[2] = nz;
-			}
-		}
-	}
-	return best;
-}
-
-/* Whether a lattice of nearest distance d is too tight for the diameter (msg says so). */
+ * (lattice.h), not left as an empty slab at the top. The shapes come from
+ * lattice_shape_2d/3d (engine/lattice.c), shared with region placement.
+ *
+ * Whether a lattice of nearest distance d is too tight for the diameter (msg says so). */
 static int lattice_short(const struct ed *ed, double d, char *msg, size_t msglen)
 {
 	if (d >= ed->sigma * (1.0 + 1e-12))
@@ -951,10 +904,10 @@ static double lattice_dims(const struct ed *ed, const double *Lp, uint64_t n, in
 	double d;
 	b[0] = b[1] = b[2] = 1;
 	if (ed->dim == 2) {
-		d = lattice_2d(Lp, n, &b[0], &b[1]);
+		d = lattice_shape_2d(Lp, n, &b[0], &b[1]);
 		*sites = (uint64_t)(b[0] * b[1]);
 	} else {
-		d = lattice_3d(Lp, n, b);
+		d = lattice_shape_3d(Lp, n, b);
 		*sites = (uint64_t)(4 * b[0] * b[1] * b[2]);
 	}
 	return d;
