@@ -2,6 +2,7 @@
 #ifndef GRANULAR_TESTS_ED_UTIL_H
 #define GRANULAR_TESTS_ED_UTIL_H
 
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -53,6 +54,33 @@ static inline ed_t *clone_fields(const ed_t *a, const scene_t *sc, const char *w
 		return b;
 	ed_destroy(b);
 	return NULL;
+}
+
+/* The scene's engine a run to t_ckpt (sampled once at t_sample < t_ckpt, so
+ * the sampling state is in the copy too) and b its copy through the state
+ * fields (clone_fields). 1 with both set; 0 with both NULL and a TAP
+ * diagnostic when the scene, the engine or the copy fails. The caller
+ * destroys both. */
+static inline int checkpoint_pair(const char *json, scene_t *sc, double t_sample, double t_ckpt, ed_t **pa,
+                                  ed_t **pb)
+{
+	char msg[256] = "";
+	ed_t *a = make(json, sc), *b = NULL;
+	if (a) {
+		ed_sample_t s0;
+		ed_advance(a, t_sample, UINT64_MAX, UINT64_MAX);
+		ed_sample(a, &s0);
+		ed_advance(a, t_ckpt, UINT64_MAX, UINT64_MAX);
+		b = clone_fields(a, sc, NULL, 0, NULL, msg, sizeof msg);
+		if (!b)
+			diag("restore: %s", msg);
+	}
+	if (!b) {
+		ed_destroy(a);
+		a = NULL;
+	}
+	*pa = a, *pb = b;
+	return b != NULL;
 }
 
 #endif

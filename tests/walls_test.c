@@ -545,23 +545,9 @@ static void test_checkpoint(void)
 	                   "\"upper\":{\"type\":\"moving\",\"velocity\":[0,0.5,0]}}},"
 	                   "\"gravity\":[0,0,-0.3],\"run\":{\"seed\":16,\"until\":{\"time\":1}}}";
 	scene_t sc;
-	ed_t *a = make(json, &sc), *b = NULL;
-	int ok_fields = 0;
-	if (a) {
-		ed_advance(a, 7.5, UINT64_MAX, UINT64_MAX);
-		ed_sample_t s0;
-		ed_sample(a, &s0);
-		ed_advance(a, 10.0, UINT64_MAX, UINT64_MAX);
-		char msg[256] = "";
-		b = clone_fields(a, &sc, NULL, 0, NULL, msg, sizeof msg);
-		ok_fields = b != NULL;
-		if (!ok_fields)
-			diag("restore: %s", msg);
-	}
-	if (!ok_fields) {
+	ed_t *a, *b;
+	if (!checkpoint_pair(json, &sc, 7.5, 10.0, &a, &b)) {
 		ok(0, "checkpoint with walls and gravity: restore");
-		ed_destroy(a);
-		ed_destroy(b);
 		return;
 	}
 	ed_advance(a, 40.0, UINT64_MAX, UINT64_MAX);
