@@ -9,6 +9,7 @@
 #include "mc/dsmc.h"
 #include "scene.h"
 #include "tap.h"
+#include "stats.h"
 
 static dsmc_t *make(const char *json, scene_t *sc)
 {
@@ -142,19 +143,6 @@ static void test_pipe(void)
 			   s1.momentum[1]);
 		dsmc_destroy(d);
 	}
-}
-
-/* Mean and standard error of k block means (blocks long against the
- * correlation time, so treated as independent). */
-static void mean_se(const double *x, int k, double *mean, double *se)
-{
-	double s = 0.0, s2 = 0.0;
-	for (int i = 0; i < k; i++)
-		s += x[i];
-	*mean = s / k;
-	for (int i = 0; i < k; i++)
-		s2 += (x[i] - *mean) * (x[i] - *mean);
-	*se = sqrt(s2 / (k - 1) / k);
 }
 
 /* An elastic dilute gas in gravity between specular walls settles into

@@ -10,22 +10,12 @@
 #include "rng.h"
 #include "scene.h"
 #include "tap.h"
+#include "stats.h"
 #include "ed_util.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
 #endif
-
-static void mean_se(const double *x, int k, double *mean, double *se)
-{
-	double s = 0.0, s2 = 0.0;
-	for (int i = 0; i < k; i++)
-		s += x[i];
-	*mean = s / k;
-	for (int i = 0; i < k; i++)
-		s2 += (x[i] - *mean) * (x[i] - *mean);
-	*se = sqrt(s2 / (k - 1) / k);
-}
 
 /* ---- contact times (obstacle.h) ---------------------------------------- */
 

@@ -10,24 +10,12 @@
 #include "ed/ed.h"
 #include "scene.h"
 #include "tap.h"
+#include "stats.h"
 #include "ed_util.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
 #endif
-
-/* Mean and standard error of k block means (blocks long against the
- * correlation time, so treated as independent). */
-static void mean_se(const double *x, int k, double *mean, double *se)
-{
-	double s = 0.0, s2 = 0.0;
-	for (int i = 0; i < k; i++)
-		s += x[i];
-	*mean = s / k;
-	for (int i = 0; i < k; i++)
-		s2 += (x[i] - *mean) * (x[i] - *mean);
-	*se = sqrt(s2 / (k - 1) / k);
-}
 
 /* Henderson's equation of state of hard disks, Z = (1 + eta^2/8)/(1 - eta)^2
  * (within 1e-4 of simulations at eta = 0.05). */
