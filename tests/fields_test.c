@@ -169,6 +169,7 @@ static void test_maxwell(int dim)
 
 int main(void)
 {
+	plan(27);
 	test_cells();
 	test_uniform(2);
 	test_uniform(3);
