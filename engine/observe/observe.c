@@ -187,9 +187,12 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 			for (int b = 0; b <= t->nb; b++)
 				edges[b] = (double)b / t->nb;
 		} else if (!strcmp(t->x, "cell")) {
-			/* the flat cell index c = i_x + n_x (i_y + n_y i_z); bin c is [c, c + 1) */
+			/* the flat cell index c = i_x + n_x (i_y + n_y i_z) as centre, edges c -+ 1/2 */
 			for (int b = 0; b <= t->nb; b++)
-				edges[b] = b;
+				edges[b] = b - 0.5;
+			for (int b = 0; b < t->nb; b++)
+				centres[b] = b;
+			continue;
 		} else if (!strcmp(t->x, "k")) {
 			fgrid_axis(o->grid, edges, centres, NULL);
 			continue;
