@@ -386,7 +386,7 @@ int run_curves(run_t *r, run_record_t *rec)
 	rec->have = r->s.observables;
 	eng_state(r, r->pos, r->vel);
 	if (r->fld && r->fld_last != rec->time)
-		fields_sample(r, rec->time, 0);   /* the curves' instant itself (the last of its exposure) */
+		fields_sample(r, rec->time, 1);   /* the curves' instant itself (the last of its exposure) */
 	rec->curves = obs_curves(r->obs, r->cl, r->pos, r->vel);
 	if (!rec->curves)
 		return RUN_ENOMEM;
