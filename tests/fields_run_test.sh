@@ -14,14 +14,15 @@ n=0; failed=0
 ok() { n=$((n + 1)); if [ "$1" = 0 ]; then echo "ok $n - $2"; else echo "not ok $n - $2"; failed=$((failed + 1)); fi; }
 run() { "$ENGINE" run "$1" --out "$2" >"$2.log" 2>&1; }
 
-# Homogeneous elastic hard disks, eta = 0.05, 8 x 8 cells of about 22 diameters: snapshots 80 time units
-# apart (about 20 collision times), each the mean of 8 instants over an exposure of 40.
+# Homogeneous elastic hard disks, eta = 0.05, 8 x 8 cells of about 22 diameters: snapshots 240 time units
+# apart (about 60 collision times, three times the heat-diffusion time across a cell, h^2 / kappa ~ 80 with
+# kappa ~ mean free path x thermal speed ~ 6), each the mean of 8 instants over an exposure of 40.
 cat >"$tmp/uniform.json" <<'JSON'
 {"method":"ed","dimensions":2,"particles":{"count":2000,"volume_fraction":0.05,
    "initial":{"positions":"random","relax":{"collisions_per_particle":10}}},
- "run":{"seed":3,"until":{"time":2400}},
- "output":{"every":{"time":80},"observables":["temperature","fields"],
-   "fields":{"cells":[8,8],"exposure":40,"samples":8},"snapshots":{"every":{"time":80}}}}
+ "run":{"seed":3,"until":{"time":7200}},
+ "output":{"every":{"time":240},"observables":["temperature","fields"],
+   "fields":{"cells":[8,8],"exposure":40,"samples":8},"snapshots":{"every":{"time":240}}}}
 JSON
 # The same gas with dsmc (point particles: an ideal gas), the instant of each snapshot alone.
 sed -e 's/"method":"ed"/"method":"dsmc"/' -e 's/"relax":{"collisions_per_particle":10}/"temperature":1/' \
@@ -86,7 +87,7 @@ def blocked(x, b=5):
 S = samples('uniform')
 N, K = 2000, 64
 check(len(S) == 31 and S[0]['t']['density']['shape'] == [8, 8],
-      'uniform: 31 samples (time 0 and every 80) of an 8 x 8 grid')
+      'uniform: 31 samples (time 0 and every 240) of an 8 x 8 grid')
 check(S[0]['samples'] == 1 and all(s['samples'] == 8 for s in S[1:]),
       'uniform: the first sample is the instant t = 0, the others average 8 instants')
 worst = max(abs(sum(s['t']['density']['columns']['count']) - N) for s in S)
@@ -115,7 +116,7 @@ lo, hi = chi2_q(K - 1, -3.090), chi2_q(K - 1, 3.090)
 check(lo < x2 < hi, 'uniform: instant t = 0: X^2 / S(0) = %.1f (S(0) = %.3f, Henderson) within the 0.1%% tails '
       '[%.1f, %.1f] of chi-square(%d)' % (x2, S0, lo, hi, K - 1))
 # Each cell's mean occupation over the 30 exposures equals N / K: z from the cell's own spread over the
-# snapshots (80 time units apart, about 20 collision times, close to independent). All 64 cells within 4.5
+# snapshots (240 time units apart, close to independent). All 64 cells within 4.5
 # standard errors (t with 29 degrees of freedom: P(|t| > 4.5) = 1e-4, 0.6% for all 64 cells).
 zs = []
 for i in range(K):
