@@ -49,7 +49,10 @@ cat >"$tmp/couette.json" <<'JSON'
    "fields":{"cells":[1,10],"exposure":100,"samples":20},"snapshots":{"every":{"time":100}}}}
 JSON
 
-for s in uniform dsmc baro couette; do
+# The same atmosphere with dsmc (time steps; points, so an ideal gas at any density).
+sed -e 's/"method":"ed"/"method":"dsmc"/' "$tmp/baro.json" >"$tmp/bdsmc.json"
+
+for s in uniform dsmc baro bdsmc couette; do
 	run "$tmp/$s.json" "$tmp/$s"
 	ok $? "$s: the run completes ($(tail -c 300 "$tmp/$s.log" | tr '\n' ' ' | cut -c1-120))"
 done
@@ -145,32 +148,34 @@ check(S[-1]['samples'] == 1 and abs(sum(c) - N) < 1e-6 and lo < x2 < hi,
       'dsmc: last snapshot (t = %g): counts sum to N, X^2 = %.1f within the 0.1%% tails [%.1f, %.1f] of '
       'chi-square(%d) (multinomial counts of an ideal gas)' % (S[-1]['time'], x2, lo, hi, K - 1))
 
-# ---- barometric ---------------------------------------------------------------------------------
-S = [s for s in samples('baro') if s['time'] >= 1000]
-r, L, H, nb, Nb = 0.05, 100.0, 1.0 / 0.02, 10, 1000
-# centres in [r, L - r]: p_j = integral of exp(-y / H) over cell j within that range, normalised
-F = lambda y: -H * math.exp(-y / H)
-cell = lambda j: (max(j * L / nb, r), min((j + 1) * L / nb, L - r))
-Zt = F(L - r) - F(r)
-p = [(F(cell(j)[1]) - F(cell(j)[0])) / Zt for j in range(nb)]
-# Blocks of 5 consecutive snapshots (500 time units, about five flights to the scale height and back) are
-# close to independent; 14 blocks. Every cell within 5 standard errors (t with 13 degrees of freedom:
-# P(|t| > 5) = 2.4e-4, 0.24% for the 10 cells).
-worst = 0
-txt = []
-for j in range(nb):
-    x = [s['t']['density']['columns']['count'][j] / Nb for s in S]
-    m, se = blocked(x)
-    worst = max(worst, abs(m - p[j]) / se)
-    txt.append('%.4f/%.4f' % (m, p[j]))
-check(len(S) == 71 and worst < 5, 'barometric n(y) ~ exp(-m g y / T), T = 1 of the floor, scale height 50: cell '
-      'fractions (measured/theory) %s; largest deviation %.2f se (< 5)' % (' '.join(txt), worst))
-# Isothermal atmosphere: every cell at the floor's T = 1 within 5 se plus the pooled estimator's bias, at
-# most T / (particles in the cell at one instant) (fields.h).
-Tc = [blocked([s['t']['temperature']['columns']['T'][j] for s in S]) for j in range(nb)]
-occ = [sum(s['t']['density']['columns']['count'][j] for s in S) / len(S) for j in range(nb)]
-check(all(abs(Tc[j][0] - 1) < 5 * Tc[j][1] + 1 / occ[j] for j in range(nb)),
-      'barometric: cell temperatures %s equal the floor\'s 1 (isothermal)' % ' '.join('%.3f' % t[0] for t in Tc))
+# ---- barometric ----------------------------------------------------------------------------------
+def barometric(name):
+    S = [s for s in samples(name) if s['time'] >= 1000]
+    r, L, H, nb, Nb = 0.05, 100.0, 1.0 / 0.02, 10, 1000
+    # centres in [r, L - r]: p_j = integral of exp(-y / H) over cell j within that range, normalised
+    F = lambda y: -H * math.exp(-y / H)
+    cell = lambda j: (max(j * L / nb, r), min((j + 1) * L / nb, L - r))
+    Zt = F(L - r) - F(r)
+    p = [(F(cell(j)[1]) - F(cell(j)[0])) / Zt for j in range(nb)]
+    # Blocks of 5 consecutive snapshots (500 time units, about five flights to the scale height and back)
+    # are close to independent; 14 blocks. Every cell within 5 standard errors (t with 13 degrees of
+    # freedom: P(|t| > 5) = 2.4e-4, 0.24% for the 10 cells).
+    worst = 0
+    txt = []
+    for j in range(nb):
+        m, se = blocked([s['t']['density']['columns']['count'][j] / Nb for s in S])
+        worst = max(worst, abs(m - p[j]) / se)
+        txt.append('%.4f/%.4f' % (m, p[j]))
+    check(len(S) == 71 and worst < 5, '%s: barometric n(y) ~ exp(-m g y / T), T = 1 of the floor, scale height 50: '
+          'cell fractions (measured/theory) %s; largest deviation %.2f se (< 5)' % (name, ' '.join(txt), worst))
+    # Isothermal atmosphere: every cell at the floor's T = 1 within 5 se plus the pooled estimator's bias,
+    # at most T / (particles in the cell at one instant) (fields.h).
+    Tc = [blocked([s['t']['temperature']['columns']['T'][j] for s in S]) for j in range(nb)]
+    occ = [sum(s['t']['density']['columns']['count'][j] for s in S) / len(S) for j in range(nb)]
+    check(all(abs(Tc[j][0] - 1) < 5 * Tc[j][1] + 1 / occ[j] for j in range(nb)),
+          '%s: cell temperatures %s equal the floor\'s 1 (isothermal)' % (name, ' '.join('%.3f' % t[0] for t in Tc)))
+barometric('baro')
+barometric('bdsmc')
 
 # ---- Couette --------------------------------------------------------------------------------------
 S = [s for s in samples('couette') if s['time'] > 1500]
