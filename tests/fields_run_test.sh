@@ -1,9 +1,10 @@
 #!/bin/sh
 # Coarse-grained fields (output.fields) of whole engine runs against theory (issue 12; TAP): a homogeneous
-# elastic gas (cell counts against the equation of state's S(0) and, for dsmc's point particles, a
-# chi-square test; equal cell temperatures; the grid sums to N), the barometric profile of a dilute gas over
-# a thermal floor, the linear velocity profile of Couette flow between moving thermal walls; the fields do
-# not change the trajectory; a resumed run writes the same fields.
+# elastic gas (cell counts against the equation of state's S(0) and, for dsmc's point particles, a chi-square
+# test; equal cell temperatures; the grid sums to N), the barometric profile of a dilute gas over a thermal
+# floor (ed and dsmc), the linear velocity profile of Couette flow between moving thermal walls; each sample
+# equals the fields of its trajectory frame (also in trajectory.h5); the fields do not change the trajectory;
+# a resumed run writes the same fields.
 set -u
 : "${SRCDIR:=$(cd "$(dirname "$0")/.." && pwd)}"
 : "${ENGINE:=$SRCDIR/engine/granular-engine}"
