@@ -568,8 +568,11 @@
     const lo = fin.length ? Math.min(...fin) : 0, hi = fin.length ? Math.max(...fin) : 1;
     const cv = $('fields-map'), ctx = cv.getContext('2d');
     const box = (series && series.scene && series.scene.particles && series.scene.particles.box) || [1, 1];
-    const W = Math.max(320, cv.parentNode.clientWidth - 30 || 480);
-    const H = Math.max(80, Math.min(480, Math.round(W * box[1] / box[0])));
+    // the box's aspect ratio, at most 480 px high
+    const ratio = box[1] / box[0];
+    let W = Math.max(320, cv.parentNode.clientWidth - 30 || 480), H = Math.round(W * ratio);
+    if (H > 480) { H = 480; W = Math.max(80, Math.round(H / ratio)); }
+    H = Math.max(80, H);
     if (cv.width !== W || cv.height !== H) { cv.width = W; cv.height = H; }
     ctx.clearRect(0, 0, W, H);
     for (let j = 0; j < ny; j++)
