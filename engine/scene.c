@@ -527,7 +527,8 @@ static int check_fields(ctx_t *c, json_t *v, scene_t *s)
 		total *= s->fields_cells[a];
 	}
 	if (total > FIELDS_MAX_CELLS)
-		return fail(c, "output.fields.cells", "%.0f cells in all, more than %d (memory)", total, FIELDS_MAX_CELLS);
+		return fail(c, "output.fields.cells", "%.0f cells in all, more than %d (each sample is one line of "
+		            "observables.jsonl, at most 16 MiB for the daemon)", total, FIELDS_MAX_CELLS);
 	bool exposure = json_object_get(f, "exposure") != NULL;
 	if (json_object_get(f, "samples") && !exposure)
 		return fail(c, "output.fields.samples", "needs output.fields.exposure (without it the fields are the "

@@ -32,9 +32,9 @@ static void test_cells(void)
 		}
 	ok(good, "x fastest; periodic x wraps (-0.25 -> last cell, L -> first); walled y clamps (below 0, at L)");
 	fields_destroy(f);
-	int bad[3] = {0, 2, 2}, big[3] = {1024, 1025, 1};
+	int bad[3] = {0, 2, 2}, big[3] = {128, 257, 1};
 	ok(!fields_create(2, box, bad, per, 0) && !fields_create(2, box, big, per, 0) && !fields_create(4, box, cells, per, 0) &&
-	   !fields_create(2, box, cells, per, 2), "refused: a zero cell count, more than 2^20 cells, dim 4, spin_dim 2");
+	   !fields_create(2, box, cells, per, 2), "refused: a zero cell count, more than 2^15 cells, dim 4, spin_dim 2");
 }
 
 /*

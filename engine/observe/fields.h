@@ -30,7 +30,9 @@
  *   visit has T 0.
  */
 
-#define FIELDS_MAX_CELLS (1 << 20)   /* cells in all: 2^20 (tens of MiB of sums at most) */
+/* Cells in all: 2^15, so that one sample (observables.jsonl: about 17 numbers per cell in 3D with spins,
+ * at most 17 characters each) stays within the 16 MiB line the daemon serves (daemon/curves.h). */
+#define FIELDS_MAX_CELLS (1 << 15)
 
 typedef struct fields fields_t;
 
