@@ -213,14 +213,15 @@ static json_t *attempts_of(jobq_t *q, int64_t id)
 	json_t *a = json_array();
 	if (sqlite3_prepare_v2(q->db,
 	                       "SELECT n, pid, started_at, ended_at, exit_status, signal, reason, checkpoint, "
-	                       "stderr_tail FROM attempts WHERE job_id=? ORDER BY n", -1, &st, NULL) != SQLITE_OK)
+	                       "stderr_tail, slurm_job, slurm_state FROM attempts WHERE job_id=? ORDER BY n", -1, &st,
+	                       NULL) != SQLITE_OK)
 		return a;
 	sqlite3_bind_int64(st, 1, id);
 	while (sqlite3_step(st) == SQLITE_ROW) {
 		static const char *const names[] = {"n", "pid", "started_at", "ended_at", "exit_status", "signal",
-		                                    "reason", "checkpoint", "stderr_tail"};
+		                                    "reason", "checkpoint", "stderr_tail", "slurm_job", "slurm_state"};
 		json_t *o = json_object();
-		for (int i = 0; i < 9; i++)
+		for (int i = 0; i < 11; i++)
 			json_object_set_new(o, names[i], col_json(st, i));
 		json_array_append_new(a, o);
 	}
@@ -1280,6 +1281,49 @@ int jobq_attempt_launched(jobq_t *q, int64_t id, int attempt, int pid, uint64_t 
 	return rc == SQLITE_OK ? JOBQ_OK : JOBQ_EDB;
 }
 
+int jobq_attempt_slurm(jobq_t *q, int64_t id, int attempt, int64_t slurm_job, const char *checkpoint)
+{
+	pthread_mutex_lock(&q->lock);
+	int rc = exec_bind(q, "UPDATE attempts SET slurm_job=?, slurm_state='pending', checkpoint=? WHERE job_id=? AND n=?",
+	                   "isii", slurm_job, checkpoint, id, (int64_t)attempt);
+	pthread_mutex_unlock(&q->lock);
+	return rc == SQLITE_OK ? JOBQ_OK : JOBQ_EDB;
+}
+
+int jobq_attempt_slurm_state(jobq_t *q, int64_t id, int attempt, const char *state, double now)
+{
+	pthread_mutex_lock(&q->lock);
+	int rc = exec_bind(q, "UPDATE attempts SET slurm_state=? WHERE job_id=? AND n=?", "sii", state, id,
+	                   (int64_t)attempt);
+	if (rc == SQLITE_OK)
+		rc = exec_bind(q, "UPDATE jobs SET updated_at=? WHERE id=?", "di", now, id);
+	pthread_mutex_unlock(&q->lock);
+	return rc == SQLITE_OK ? JOBQ_OK : JOBQ_EDB;
+}
+
+int jobq_last_record(jobq_t *q, int64_t id, int attempt, char **line)
+{
+	sqlite3_stmt *st = NULL;
+	int ret = JOBQ_EDB, rc;
+	*line = NULL;
+	pthread_mutex_lock(&q->lock);
+	if (sqlite3_prepare_v2(q->db, "SELECT record FROM progress WHERE job_id=? AND attempt=? ORDER BY seq DESC LIMIT 1",
+	                       -1, &st, NULL) == SQLITE_OK) {
+		sqlite3_bind_int64(st, 1, id);
+		sqlite3_bind_int64(st, 2, attempt);
+		rc = sqlite3_step(st);
+		if (rc == SQLITE_ROW) {
+			*line = strdup((const char *)sqlite3_column_text(st, 0));
+			ret = *line ? JOBQ_OK : JOBQ_ENOMEM;
+		} else if (rc == SQLITE_DONE) {
+			ret = JOBQ_ENOTFOUND;
+		}
+	}
+	sqlite3_finalize(st);
+	pthread_mutex_unlock(&q->lock);
+	return ret;
+}
+
 int jobq_attempt_checkpoint(jobq_t *q, int64_t id, int attempt, const char *checkpoint)
 {
 	pthread_mutex_lock(&q->lock);
@@ -1503,7 +1547,8 @@ int jobq_list_running(jobq_t *q, jobq_running_t **out, size_t *n)
 	*n = 0;
 	pthread_mutex_lock(&q->lock);
 	sqlite3_prepare_v2(q->db,
-	                   "SELECT j.id, a.n, coalesce(a.pid,0), coalesce(a.pid_start,0) FROM jobs j "
+	                   "SELECT j.id, a.n, coalesce(a.pid,0), coalesce(a.pid_start,0), coalesce(a.slurm_job,0), "
+	                   "j.ranks, a.checkpoint IS NOT NULL, j.scene FROM jobs j "
 	                   "LEFT JOIN attempts a ON a.job_id=j.id AND a.n=(SELECT max(n) FROM attempts WHERE job_id=j.id) "
 	                   "WHERE j.state='running' ORDER BY j.id", -1, &st, NULL);
 	while (sqlite3_step(st) == SQLITE_ROW) {
@@ -1518,6 +1563,17 @@ int jobq_list_running(jobq_t *q, jobq_running_t **out, size_t *n)
 		(*out)[*n].attempt = sqlite3_column_int(st, 1);
 		(*out)[*n].pid = sqlite3_column_int(st, 2);
 		(*out)[*n].pid_start = (uint64_t)sqlite3_column_int64(st, 3);
+		(*out)[*n].slurm_job = sqlite3_column_int64(st, 4);
+		(*out)[*n].ranks = sqlite3_column_int(st, 5);
+		(*out)[*n].resumed = sqlite3_column_int(st, 6);
+		(*out)[*n].until = 0;
+		(*out)[*n].until_cpp = 0;
+		scene_t sc;
+		const char *txt = (const char *)sqlite3_column_text(st, 7);
+		if (txt && scene_parse(txt, strlen(txt), &sc, NULL, 0) == SCENE_OK) {
+			(*out)[*n].until = sc.until.value;
+			(*out)[*n].until_cpp = sc.until.kind == SCENE_CLOCK_CPP;
+		}
 		(*n)++;
 	}
 	sqlite3_finalize(st);

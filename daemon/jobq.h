@@ -144,6 +144,15 @@ int jobq_claim(jobq_t *q, int free_slots, double now, jobq_claim_t *out, char *e
 /* Record the launch (pid of the process-group leader and its start time) and
  * the checkpoint the attempt resumes from (NULL = fresh). */
 int jobq_attempt_launched(jobq_t *q, int64_t id, int attempt, int pid, uint64_t pid_start, const char *checkpoint);
+/* launcher = slurm: record the Slurm job id of the attempt (sbatch's answer;
+ * its Slurm state becomes "pending") and the checkpoint it resumes from. */
+int jobq_attempt_slurm(jobq_t *q, int64_t id, int attempt, int64_t slurm_job, const char *checkpoint);
+/* The attempt's Slurm state as granulard names it (docs/daemon.md, "Running on a cluster"). */
+int jobq_attempt_slurm_state(jobq_t *q, int64_t id, int attempt, const char *state, double now);
+/* The last stored progress record of an attempt (malloc'd line in *line):
+ * where a restarted daemon resumes reading the attempt's output file.
+ * JOBQ_ENOTFOUND when the attempt stored none. */
+int jobq_last_record(jobq_t *q, int64_t id, int attempt, char **line);
 /* The engine fell back to another checkpoint than the one it was launched
  * with (its stderr says so): record that file name (relative to the job
  * directory) as the attempt's checkpoint. */
@@ -188,6 +197,11 @@ typedef struct {
 	int attempt;
 	int pid;
 	uint64_t pid_start;
+	int64_t slurm_job;  /* 0: not submitted to Slurm */
+	int ranks;
+	int resumed;        /* the attempt resumes from a checkpoint */
+	double until;       /* as in jobq_claim_t */
+	int until_cpp;
 } jobq_running_t;
 /* *out malloc'd (caller frees), *n entries. */
 int jobq_list_running(jobq_t *q, jobq_running_t **out, size_t *n);
