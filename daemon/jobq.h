@@ -59,7 +59,9 @@ const char *job_state_name(job_state_t s);
 int job_state_parse(const char *name);
 
 /* Submit: body is the scene JSON itself or {"scene": {...}, "priority": p,
- * "ranks": r, "submission_id": "...", "max_output_bytes": b}. The scene is
+ * "ranks": r, "submission_id": "...", "max_output_bytes": b, "slurm": {"nodes":
+ * n <= r, "time_limit": seconds, "partition": name}} (the Slurm options are
+ * stored and shown as "slurm"; only launcher = slurm uses them). The scene is
  * validated by the engine's own parser, which makes the engine's start
  * checks too (scene.h), and admitted by its budget (engine/budget.h) on the
  * job's ranks: JOBQ_EINVAL naming the key and the estimate when its memory
@@ -126,6 +128,7 @@ typedef struct {
 	int attempt;        /* number of the attempt just created */
 	int ranks;
 	char *scene;        /* malloc'd scene JSON; caller frees */
+	char *slurm;        /* malloc'd "slurm" options of the submission (JSON), NULL = none; caller frees */
 	double until;       /* stop condition value, with until_cpp telling its kind */
 	int until_cpp;      /* 1: collisions per particle, 0: simulated time */
 	uint64_t particles;

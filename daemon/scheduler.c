@@ -69,6 +69,7 @@ typedef struct {
 	slurm_state_t sstate;
 	char sstate_text[160];       /* as stored: "pending (Resources)" */
 	double spoll_at;             /* next look at its Slurm state */
+	int wall_own;                /* its Slurm time limit is max_wall_seconds: a timeout fails the job */
 	int sretry;                  /* ended by Slurm, not by the engine (timeout, node failure, ...): retry */
 	char swhy[200];              /* what Slurm said, for the reason */
 	char *skip;                  /* adopted after a restart: the last stored record; output up to it was read */
@@ -374,14 +375,22 @@ static int launch_slurm(sched_t *s, child_t *k, const jobq_claim_t *cl, const ch
 	snprintf(name, sizeof(name), "%s-%" PRId64 "-%d", s->tag, cl->id, cl->attempt);
 	snprintf(out, sizeof(out), "attempt-%d.out", cl->attempt);
 	snprintf(errf, sizeof(errf), "attempt-%d.err", cl->attempt);
-	/* max_wall_seconds bounds an attempt whatever the launcher: here as Slurm's time limit. */
-	long limit = c->slurm_time_limit;
+	/* The job's own options (validated at submission) within the config's:
+	 * a job may ask for less time than slurm_time_limit, not more; and
+	 * max_wall_seconds bounds an attempt whatever the launcher. */
+	json_t *opt = cl->slurm ? json_loads(cl->slurm, 0, NULL) : NULL;
+	long limit = c->slurm_time_limit, want = (long)json_integer_value(json_object_get(opt, "time_limit"));
+	if (want > 0 && (limit == 0 || want < limit))
+		limit = want;
 	if (c->max_wall_seconds > 0 && (limit == 0 || c->max_wall_seconds < limit))
 		limit = c->max_wall_seconds;
+	const char *part = json_string_value(json_object_get(opt, "partition"));
 	const slurm_script_t sc = {.name = name, .ranks = cl->ranks, .time_limit = limit,
-	                           .partition = c->slurm_partition, .account = c->slurm_account, .dir = dir,
+	                           .nodes = (int)json_integer_value(json_object_get(opt, "nodes")),
+	                           .partition = part ? part : c->slurm_partition, .account = c->slurm_account, .dir = dir,
 	                           .out = out, .err = errf, .srun = c->srun, .mpi = c->slurm_mpi, .argv = argv};
 	char *text = slurm_script(&sc);
+	json_decref(opt);
 	snprintf(path, sizeof(path), "%s/attempt-%d.sbatch", dir, cl->attempt);
 	if (!text) {
 		snprintf(err, errlen, "out of memory");
@@ -399,6 +408,7 @@ static int launch_slurm(sched_t *s, child_t *k, const jobq_claim_t *cl, const ch
 	k->out = k->err = -1;
 	k->started = mono();
 	k->spoll_at = k->started + c->slurm_poll;
+	k->wall_own = c->max_wall_seconds > 0 && limit == c->max_wall_seconds;
 	if (jobq_attempt_slurm(s->c.q, cl->id, cl->attempt, job, resume ? "checkpoint.h5" : NULL) != JOBQ_OK)
 		log_error("job %" PRId64 " attempt %d: could not record Slurm job %" PRId64
 		          " (a restarted daemon finds it by its name %s)", cl->id, cl->attempt, job, name);
@@ -874,7 +884,6 @@ static int slurm_turn(sched_t *s, child_t *k, double now)
 	flush_progress(s, k, now);
 	/* The batch script exec's srun: its ExitCode is srun's, i.e. the ranks'. */
 	k->status = sj.exit_signal ? (sj.exit_signal & 0x7f) : ((sj.exit_code & 0xff) << 8);
-	long own = c->max_wall_seconds > 0 && (c->slurm_time_limit == 0 || c->max_wall_seconds <= c->slurm_time_limit);
 	switch (sj.state) {
 	case SLURM_CANCELLED:
 		if (!k->cancel && !k->over_output) {
@@ -883,7 +892,7 @@ static int slurm_turn(sched_t *s, child_t *k, double now)
 		}
 		break;
 	case SLURM_TIMEOUT:
-		if (own)   /* the limit was granulard's own max_wall_seconds: fails as with mpirun */
+		if (k->wall_own)   /* the limit was granulard's own max_wall_seconds: fails as with mpirun */
 			k->walllimit = 1;
 		else {
 			k->sretry = 1;
@@ -919,6 +928,7 @@ static int slurm_turn(sched_t *s, child_t *k, double now)
 /* sched_recover(): follow a Slurm job of the previous daemon again. */
 static int adopt(sched_t *s, const jobq_running_t *r, int64_t job)
 {
+	const cfg_t *c = s->c.cfg;
 	child_t *k = NULL;
 	for (size_t i = 0; i < MAX_CHILDREN && !k; i++)
 		if (!busy(&s->kids[i]) && !s->kids[i].id)
@@ -937,6 +947,8 @@ static int adopt(sched_t *s, const jobq_running_t *r, int64_t job)
 	k->sstate = SLURM_PENDING;
 	k->out = k->err = -1;
 	k->started = mono();
+	/* Whether a job option made the limit shorter is not known here: judged by the config. */
+	k->wall_own = c->max_wall_seconds > 0 && (c->slurm_time_limit == 0 || c->max_wall_seconds <= c->slurm_time_limit);
 	if (jobq_last_record(s->c.q, r->id, r->attempt, &k->skip) != JOBQ_OK)
 		k->skip = NULL;
 	if (jobq_cancel_requested(s->c.q, r->id) == 1) {
@@ -1088,6 +1100,7 @@ static void *loop(void *arg)
 					local += !s->slurm;
 				}
 				free(cl.scene);
+				free(cl.slurm);
 			}
 		}
 		pthread_mutex_lock(&s->lock);

@@ -106,6 +106,8 @@ char *slurm_script(const slurm_script_t *sc)
 		return NULL;
 	fprintf(f, "#!/bin/sh\n# Written by granulard for one attempt of a job (docs/daemon.md, \"Running on a cluster\").\n");
 	fprintf(f, "#SBATCH --job-name=%s\n#SBATCH --ntasks=%d\n", sc->name, sc->ranks);
+	if (sc->nodes > 0)
+		fprintf(f, "#SBATCH --nodes=%d\n", sc->nodes);
 	if (sc->time_limit > 0)   /* minutes, rounded up: Slurm's granularity */
 		fprintf(f, "#SBATCH --time=%ld\n", (sc->time_limit + 59) / 60);
 	if (sc->partition && *sc->partition)

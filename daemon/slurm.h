@@ -57,6 +57,7 @@ int slurm_parse_show_job(const char *text, slurm_job_t *out);
 typedef struct {
 	const char *name;       /* --job-name */
 	int ranks;              /* --ntasks */
+	int nodes;              /* --nodes, 0 = Slurm's choice */
 	long time_limit;        /* seconds, 0 = none given */
 	const char *partition, *account;   /* "" or NULL = none given */
 	const char *dir;        /* job directory: --chdir; out/err files live there */

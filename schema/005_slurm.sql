@@ -6,3 +6,5 @@
 -- completing, completed, failed, timeout, node_fail, preempted, cancelled, ...), with Slurm's reason.
 ALTER TABLE attempts ADD COLUMN slurm_job INTEGER;
 ALTER TABLE attempts ADD COLUMN slurm_state TEXT;
+-- jobs.slurm: the submission's "slurm" options as JSON ({"nodes", "time_limit", "partition"}, validated); NULL: none.
+ALTER TABLE jobs ADD COLUMN slurm TEXT;

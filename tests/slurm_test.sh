@@ -132,6 +132,14 @@ fl=$(api GET "/api/v1/jobs/$id/files")
 ok $([ "$(field "$fl" '"trajectory.h5" in [f["name"] for f in d["files"]] and "attempt-1.out" in [f["name"] for f in d["files"]]')" = True ]; echo $?) \
 	"the files endpoint lists the engine's output and the attempt's Slurm output"
 
+# Slurm options of a job: validated at submission, 400 naming the key.
+for bad in '{"nodes":2}|slurm.nodes' '{"qos":"high"}|slurm.qos' '{"partition":"a b"}|slurm.partition' '{"time_limit":0}|slurm.time_limit'; do
+	opt=${bad%|*} key=${bad#*|}
+	r=$(post /api/v1/jobs -d "{\"scene\":$SHORT,\"slurm\":$opt}")
+	ok $([ "$(code)" = 400 ] && [ "$(field "$r" 'd["error"]["message"].split(":")[0]')" = "$key" ]; echo $?) \
+		"slurm $opt refused: 400 naming $key ($(field "$r" 'd["error"]["message"]'))"
+done
+
 # 2. a 2-rank job: one MPI world of 2 ranks (2 singletons would write every record twice).
 id2=$(field "$(post /api/v1/jobs -d "{\"scene\":$SHORT,\"ranks\":2}")" 'd["id"]')
 wait_state "$id2" succeeded 60
@@ -187,7 +195,17 @@ ok $([ -z "$(squeue -h -j "$sj4" -o %i 2>/dev/null)" ] && scontrol show job -o "
 	"Slurm job $sj4 is CANCELLED and gone from the queue; one attempt"
 kill "$sse" 2>/dev/null; wait "$sse" 2>/dev/null
 
-# 5. scancel --signal=KILL from outside: retried from the checkpoint like a local crash, and the result is
+# 5. Slurm's time limit (a minute at least; Slurm looks every 30 s or so): the job's own "slurm" options make
+# the sbatch options, and a job killed at its limit is retried from its checkpoint. It runs beside steps 5 and 6.
+TL='{"method":"ed","dimensions":2,"particles":{"count":2000,"volume_fraction":0.3},"run":{"seed":5,"until":{"time":1e7}},"output":{"every":{"time":50},"checkpoint":{"every":{"wall_seconds":5}}}}'
+idt=$(field "$(post /api/v1/jobs -d "{\"scene\":$TL,\"slurm\":{\"time_limit\":60,\"nodes\":1,\"partition\":\"gtest\"}}")" 'd["id"]')
+wait_file "$S/jobs/$idt/attempt-1.sbatch" 30
+ok $(grep -q '^#SBATCH --time=1$' "$S/jobs/$idt/attempt-1.sbatch" && grep -q '^#SBATCH --nodes=1$' "$S/jobs/$idt/attempt-1.sbatch" &&
+     grep -q '^#SBATCH --partition=gtest$' "$S/jobs/$idt/attempt-1.sbatch" &&
+     [ "$(field "$(api GET "/api/v1/jobs/$idt")" 'd["slurm"]["time_limit"]')" = 60 ]; echo $?) \
+	"job $idt's slurm options: --time=1 (minutes), --nodes=1, --partition=gtest in its batch script, and on the job"
+
+# 6. scancel --signal=KILL from outside: retried from the checkpoint like a local crash, and the result is
 # the uninterrupted run's (the engine's resume is exact: docs/output.md, "Checkpoints").
 mkdir -p "$tmp/ref" && echo "$CK" >"$tmp/ck.json"
 "$ENGINE" run "$tmp/ck.json" --out "$tmp/ref" >"$tmp/ref.out" 2>"$tmp/ref.err"
@@ -207,7 +225,7 @@ got=$(field "$(api GET "/api/v1/jobs/$id5/progress")" 'json.dumps([d["records"][
 want=$(field "$ref" 'json.dumps([d[k] for k in ("events","collisions","kinetic_energy")])')
 ok $([ -n "$want" ] && [ "$got" = "$want" ]; echo $?) "killed and resumed: events, collisions, kinetic energy equal the uninterrupted run's ($got)"
 
-# 6. daemon kill -9 and restart while a Slurm job runs: the job runs on in Slurm, the new daemon follows it
+# 7. daemon kill -9 and restart while a Slurm job runs: the job runs on in Slurm, the new daemon follows it
 # again; one attempt (none run twice) and a progress series without a gap or a repeat.
 id6=$(field "$(post /api/v1/jobs -d "$MID")" 'd["id"]')
 wait_file "$S/jobs/$id6/attempt-1.out" 60
@@ -226,6 +244,20 @@ ok $([ "$(field "$j6" 'len(d["attempts"])')" = 1 ] && [ "$(field "$j6" 'd["attem
 	"one attempt (Slurm job $sj6), progress t = 0, 10, ..., 300 each once across the restart"
 grep -q "job $id6: following Slurm job $sj6 again" "$S.log"
 ok $? "the restarted daemon logged that it follows Slurm job $sj6 again"
+
+# 5, the end: attempt 1 ended at its time limit, attempt 2 resumed from the checkpoint.
+i=0
+while [ $i -lt 1500 ]; do
+	jt=$(api GET "/api/v1/jobs/$idt")
+	[ "$(field "$jt" 'len(d["attempts"]) >= 2 and d["attempts"][1]["slurm_job"] is not None')" = True ] && break
+	sleep 0.1; i=$((i + 1))
+done
+ok $([ "$(field "$jt" 'd["attempts"][0]["slurm_state"]')" = "timeout (TimeLimit)" ] && [ "$(field "$jt" 'd["attempts"][1]["checkpoint"]')" = checkpoint.h5 ] &&
+     [ "$(field "$jt" 'd["state"]')" = running ]; echo $?) \
+	"job $idt: Slurm's time limit ended attempt 1 ($(field "$jt" 'd["attempts"][0]["reason"]')); attempt 2 resumes from checkpoint.h5"
+post "/api/v1/jobs/$idt/cancel" >/dev/null
+wait_state "$idt" cancelled 30
+ok $? "job $idt cancelled"
 
 gd_stop
 finish
