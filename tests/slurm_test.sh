@@ -140,6 +140,12 @@ for bad in '{"nodes":2}|slurm.nodes' '{"qos":"high"}|slurm.qos' '{"partition":"a
 		"slurm $opt refused: 400 naming $key ($(field "$r" 'd["error"]["message"]'))"
 done
 
+# A partition the cluster does not have: sbatch refuses, the job fails with sbatch's message.
+idn=$(field "$(post /api/v1/jobs -d "{\"scene\":$SHORT,\"slurm\":{\"partition\":\"nosuch\"}}")" 'd["id"]')
+wait_state "$idn" failed 30
+rn=$(field "$(api GET "/api/v1/jobs/$idn")" 'd["reason"]')
+ok $(case $rn in sbatch*"invalid partition"*) true ;; *) false ;; esac; echo $?) "partition nosuch: job $idn failed: $rn"
+
 # 2. a 2-rank job: one MPI world of 2 ranks (2 singletons would write every record twice).
 id2=$(field "$(post /api/v1/jobs -d "{\"scene\":$SHORT,\"ranks\":2}")" 'd["id"]')
 wait_state "$id2" succeeded 60
@@ -231,8 +237,12 @@ id6=$(field "$(post /api/v1/jobs -d "$MID")" 'd["id"]')
 wait_file "$S/jobs/$id6/attempt-1.out" 60
 sleep 1
 sj6=$(sjob "$id6")
+sjt=$(sjob "$idt")
 kill -9 "$GD_PID"; wait "$GD_PID" 2>/dev/null; GD_PID=
 ok $([ "$(squeue -h -j "$sj6" -o %T)" = RUNNING ]; echo $?) "granulard killed -9: Slurm job $sj6 still RUNNING"
+# As if the daemon had died between sbatch's answer and the database: the time-limited job's Slurm id is
+# erased; the next daemon must find its Slurm job by name (squeue), not submit it again.
+/usr/bin/python3 -c 'import sqlite3,sys; c=sqlite3.connect(sys.argv[1]); c.execute("UPDATE attempts SET slurm_job=NULL, slurm_state=NULL WHERE job_id=? AND n=1", (int(sys.argv[2]),)); c.commit()' "$S/granulard.db" "$idt"
 sleep 1
 gd_start "$S" --launcher slurm --slots 4 --slurm-poll 0.2
 wait_state "$id6" succeeded 90
@@ -244,6 +254,9 @@ ok $([ "$(field "$j6" 'len(d["attempts"])')" = 1 ] && [ "$(field "$j6" 'd["attem
 	"one attempt (Slurm job $sj6), progress t = 0, 10, ..., 300 each once across the restart"
 grep -q "job $id6: following Slurm job $sj6 again" "$S.log"
 ok $? "the restarted daemon logged that it follows Slurm job $sj6 again"
+jt=$(api GET "/api/v1/jobs/$idt")
+ok $([ "$(field "$jt" 'd["attempts"][0]["slurm_job"]')" = "$sjt" ] && grep -q "job $idt: following Slurm job $sjt again" "$S.log"; echo $?) \
+	"job $idt, whose Slurm id was not stored: found by its job name, Slurm job $sjt followed again (not submitted twice)"
 
 # 5, the end: attempt 1 ended at its time limit, attempt 2 resumed from the checkpoint.
 i=0
