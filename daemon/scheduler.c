@@ -98,6 +98,7 @@ struct sched {
 	double claim_at;             /* last look at the queue (monotonic s) */
 	int slurm;                   /* launcher = slurm */
 	char tag[32];                /* "granulard-XXXXXXXX": Slurm job names of this state dir */
+	char swarned[512];           /* the last squeue failure logged (logged once) */
 	char rbuf[READ_BYTES];
 };
 
@@ -827,10 +828,11 @@ static void open_outputs(sched_t *s, child_t *k)
 	}
 }
 
-/* One turn for a Slurm attempt: tail its files, act on a cancel, and every
- * slurm_poll seconds ask Slurm for its state; at a final state, decide the
- * outcome (finish()). Returns 1 when the attempt ended. */
-static int slurm_turn(sched_t *s, child_t *k, double now)
+/* One turn for a Slurm attempt: tail its files, act on a cancel, and when
+ * polled (its state from this turn's squeue, slurm_poll_all()) follow its
+ * state; at a final state (exit code from scontrol), decide the outcome
+ * (finish()). Returns 1 when the attempt ended. */
+static int slurm_turn(sched_t *s, child_t *k, double now, const slurm_job_t *polled)
 {
 	const cfg_t *c = s->c.cfg;
 	char err[512];
@@ -849,16 +851,19 @@ static int slurm_turn(sched_t *s, child_t *k, double now)
 		}
 		k->spoll_at = now + 0.2;
 	}
-	if (now < k->spoll_at)
+	if (!polled)
 		return 0;
-	k->spoll_at = now + c->slurm_poll;
-	slurm_job_t sj;
-	if (slurm_query(c, k->sjob, &sj, err, sizeof(err)) == SLURM_EFAIL) {
-		if (strcmp(err, k->swarned)) {
-			log_warning("job %" PRId64 ": Slurm job %" PRId64 ": %s", k->id, k->sjob, err);
-			snprintf(k->swarned, sizeof(k->swarned), "%s", err);
+	slurm_job_t sj = *polled;
+	/* An end: its exit code (and a job squeue no longer lists) from scontrol. */
+	if (slurm_state_final(sj.state)) {
+		int r = slurm_query(c, k->sjob, &sj, err, sizeof(err));
+		if (r == SLURM_EFAIL) {
+			if (strcmp(err, k->swarned)) {
+				log_warning("job %" PRId64 ": Slurm job %" PRId64 ": %s", k->id, k->sjob, err);
+				snprintf(k->swarned, sizeof(k->swarned), "%s", err);
+			}
+			return 0;
 		}
-		return 0;
 	}
 	char text[160];
 	snprintf(text, sizeof(text), "%s%s%s%s", slurm_state_name(sj.state), *sj.reason ? " (" : "", sj.reason,
@@ -923,6 +928,49 @@ static int slurm_turn(sched_t *s, child_t *k, double now)
 	}
 	finish(s, k);
 	return 1;
+}
+
+/* A turn for every Slurm attempt; those due a look (slurm_poll) get their
+ * state from one squeue for all of them. 1 when one ended. */
+static int slurm_poll_all(sched_t *s, double now)
+{
+	const cfg_t *c = s->c.cfg;
+	size_t n = 0, j = 0;
+	int ended = 0, polled = 0;
+	char err[512];
+	for (size_t i = 0; i < s->nkids; i++)
+		if (s->kids[i].sjob && now >= s->kids[i].spoll_at)
+			n++;
+	int64_t *ids = n ? malloc(n * sizeof(*ids)) : NULL;
+	slurm_job_t *res = n ? malloc(n * sizeof(*res)) : NULL;
+	if (n && ids && res) {
+		for (size_t i = 0; i < s->nkids; i++)
+			if (s->kids[i].sjob && now >= s->kids[i].spoll_at)
+				ids[j++] = s->kids[i].sjob;
+		if (slurm_states(c, ids, n, res, err, sizeof(err)) == SLURM_OK) {
+			polled = 1;
+			s->swarned[0] = '\0';
+		} else if (strcmp(err, s->swarned)) {
+			log_warning("following Slurm jobs: %s", err);
+			snprintf(s->swarned, sizeof(s->swarned), "%s", err);
+		}
+	}
+	j = 0;
+	for (size_t i = 0; i < s->nkids; i++) {
+		child_t *k = &s->kids[i];
+		if (!k->sjob)
+			continue;
+		const slurm_job_t *p = NULL;
+		if (n && ids && res && now >= k->spoll_at) {
+			p = polled ? &res[j] : NULL;
+			j++;
+			k->spoll_at = now + c->slurm_poll;
+		}
+		ended |= slurm_turn(s, k, now, p);
+	}
+	free(ids);
+	free(res);
+	return ended;
 }
 
 /* sched_recover(): follow a Slurm job of the previous daemon again. */
@@ -1050,9 +1098,8 @@ static void *loop(void *arg)
 		}
 		/* Slurm jobs: tail their files, follow their state, cancel. Not
 		 * while stopping: an end seen then is the next daemon's to record. */
-		for (size_t i = 0; i < s->nkids && !stopping; i++)
-			if (s->kids[i].sjob && slurm_turn(s, &s->kids[i], now))
-				claim = 1;
+		if (s->slurm && !stopping && slurm_poll_all(s, now))
+			claim = 1;
 		/* Launch what fits. */
 		int used = 0, running = 0, local = 0;
 		double rate = 0;

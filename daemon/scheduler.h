@@ -28,7 +28,7 @@
  *   sbatch, its id stored with the attempt before it is followed; its
  *   stdout/stderr are files in the job directory (shared file system),
  *   tailed each turn into the same ingestion. Its state is asked for every
- *   slurm_poll seconds (scontrol); cancel and output limits are scancel;
+ *   slurm_poll seconds (one squeue for all); cancel and output limits are scancel;
  *   a Slurm end that is not the engine's (time limit, node failure,
  *   preemption, a cancel from outside) is retried from the checkpoint
  *   within max_attempts. Slurm jobs outlive the daemon: sched_stop() leaves

@@ -266,6 +266,59 @@ int slurm_query(const cfg_t *c, int64_t job, slurm_job_t *out, char *err, size_t
 	return SLURM_OK;
 }
 
+void slurm_parse_squeue(const char *text, const int64_t *ids, size_t n, slurm_job_t *out)
+{
+	for (size_t i = 0; i < n; i++) {
+		memset(&out[i], 0, sizeof(out[i]));
+		out[i].state = SLURM_GONE;
+	}
+	for (const char *p = text; *p;) {
+		size_t len = strcspn(p, "\n");
+		char line[256], word[32], reason[96] = "";
+		long long id;
+		snprintf(line, sizeof(line), "%.*s", (int)len, p);
+		p += len + (p[len] == '\n');
+		if (sscanf(line, "%lld|%31[^|]|%95[^\n]", &id, word, reason) < 2)
+			continue;
+		for (size_t i = 0; i < n; i++)
+			if (ids[i] == id) {
+				out[i].state = slurm_state_parse(word);
+				snprintf(out[i].word, sizeof(out[i].word), "%s", word);
+				if (strcmp(reason, "None"))
+					snprintf(out[i].reason, sizeof(out[i].reason), "%s", reason);
+			}
+	}
+}
+
+int slurm_states(const cfg_t *c, const int64_t *ids, size_t n, slurm_job_t *out, char *err, size_t errlen)
+{
+	size_t cap = n * 24 + 1;
+	char *list = malloc(cap), *text = malloc(OUT_MAX);
+	int ret = SLURM_EFAIL;
+	if (!list || !text) {
+		snprintf(err, errlen, "out of memory");
+		goto cleanup;
+	}
+	list[0] = '\0';
+	for (size_t i = 0, o = 0; i < n; i++)
+		o += (size_t)snprintf(list + o, cap - o, "%s%" PRId64, i ? "," : "", ids[i]);
+	char *const argv[] = {c->squeue, "-h", "-t", "all", "-j", list, "-o", "%i|%T|%r", NULL};
+	int rc = run(argv, NULL, text, OUT_MAX, err, errlen);
+	if (rc < 0)
+		goto cleanup;
+	/* Every id unknown: squeue says so and fails; some unknown: they are left out. */
+	if (rc != 0 && !strstr(text, "Invalid job id")) {
+		said(err, errlen, c->squeue, text, rc);
+		goto cleanup;
+	}
+	slurm_parse_squeue(rc ? "" : text, ids, n, out);
+	ret = SLURM_OK;
+cleanup:
+	free(list);
+	free(text);
+	return ret;
+}
+
 int slurm_cancel(const cfg_t *c, int64_t job, const char *sig, char *err, size_t errlen)
 {
 	char out[4096], id[32], sigopt[48];

@@ -69,6 +69,14 @@ typedef struct {
  * single-quoted for the shell. */
 char *slurm_script(const slurm_script_t *sc);
 
+/* squeue -h -t all -j ID,... -o "%i|%T|%r" output: out[i] for ids[i]: state,
+ * word and reason of the listed jobs; SLURM_GONE for ids not listed (Slurm
+ * does not know them: to be confirmed with slurm_query()). Exit codes are
+ * not in squeue's answer (0). */
+void slurm_parse_squeue(const char *text, const int64_t *ids, size_t n, slurm_job_t *out);
+/* The states of n jobs with one squeue (slurm_parse_squeue()). */
+int slurm_states(const cfg_t *c, const int64_t *ids, size_t n, slurm_job_t *out, char *err, size_t errlen);
+
 /* sbatch --parsable FILE: *job = the new job's id. */
 int slurm_submit(const cfg_t *c, const char *script_path, int64_t *job, char *err, size_t errlen);
 /* scontrol show job -o ID: SLURM_EGONE when Slurm does not know the id. */

@@ -53,6 +53,14 @@ int main(void)
 	ok(slurm_parse_show_job("slurm_load_jobs error: Invalid job id specified\n", &j) == SLURM_EFAIL,
 	   "no JobState: an error");
 
+	/* squeue -h -t all -j 7,8,9,10 -o "%i|%T|%r": job 10 is not listed (unknown to Slurm) */
+	const int64_t ids[] = {7, 8, 9, 10};
+	slurm_job_t js[4];
+	slurm_parse_squeue("8|PENDING|Resources\n7|RUNNING|None\n9|TIMEOUT|TimeLimit\nnot a line\n", ids, 4, js);
+	ok(js[0].state == SLURM_RUNNING && !*js[0].reason && js[1].state == SLURM_PENDING &&
+	   !strcmp(js[1].reason, "Resources") && js[2].state == SLURM_TIMEOUT && !strcmp(js[2].word, "TIMEOUT") &&
+	   js[3].state == SLURM_GONE, "squeue lines matched to ids in any order; an id not listed is gone");
+
 	/* 3. sinfo -o "%P|%D|%T|%C" and squeue -t pending -o %P */
 	const char *si = "debug*|2|mixed|6/2/0/8\n"
 	                 "debug*|1|idle|0/4/0/4\n"
