@@ -402,8 +402,14 @@ static int launch_slurm(sched_t *s, child_t *k, const jobq_claim_t *cl, const ch
 	if (r)
 		return -1;
 	int64_t job = 0;
-	if (slurm_submit(c, path, &job, err, errlen))
+	if (slurm_submit(c, path, &job, err, errlen)) {
+		/* sbatch may have submitted before its answer was lost (timeout):
+		 * a job of this attempt's name must not run behind a failed job. */
+		char e2[256];
+		if (slurm_cancel_name(c, name, e2, sizeof(e2)))
+			log_warning("job %" PRId64 ": %s", cl->id, e2);
 		return -1;
+	}
 	k->sjob = job;
 	k->sstate = SLURM_PENDING;
 	k->out = k->err = -1;

@@ -336,6 +336,21 @@ int slurm_cancel(const cfg_t *c, int64_t job, const char *sig, char *err, size_t
 	return SLURM_OK;
 }
 
+int slurm_cancel_name(const cfg_t *c, const char *name, char *err, size_t errlen)
+{
+	char out[4096], opt[160];
+	snprintf(opt, sizeof(opt), "--name=%s", name);
+	char *const argv[] = {c->scancel, opt, NULL};
+	int rc = run(argv, NULL, out, sizeof(out), err, errlen);
+	if (rc < 0)
+		return SLURM_EFAIL;
+	if (rc != 0) {
+		said(err, errlen, c->scancel, out, rc);
+		return SLURM_EFAIL;
+	}
+	return SLURM_OK;
+}
+
 int slurm_find(const cfg_t *c, const char *name, int64_t *job, char *err, size_t errlen)
 {
 	char out[4096];

@@ -83,6 +83,9 @@ int slurm_submit(const cfg_t *c, const char *script_path, int64_t *job, char *er
 int slurm_query(const cfg_t *c, int64_t job, slurm_job_t *out, char *err, size_t errlen);
 /* scancel [--signal=SIG] ID (sig NULL: Slurm's cancel: SIGTERM to the steps, SIGKILL after KillWait). */
 int slurm_cancel(const cfg_t *c, int64_t job, const char *sig, char *err, size_t errlen);
+/* scancel --name=NAME: every job of that name (after an sbatch whose answer
+ * was lost, e.g. past the timeout: it may have submitted). */
+int slurm_cancel_name(const cfg_t *c, const char *name, char *err, size_t errlen);
 /* squeue -h -n NAME -o %i: the id of a pending or running job of that name, 0 when none. */
 int slurm_find(const cfg_t *c, const char *name, int64_t *job, char *err, size_t errlen);
 

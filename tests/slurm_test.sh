@@ -2,6 +2,7 @@
 # Integration test of granulard's Slurm launcher against a real single-machine Slurm (munged, slurmctld, slurmd on loopback).
 set -u
 . "$(dirname "$0")/daemon_lib.sh"
+: "${GRANULARCTL:=$BUILDDIR/client/granularctl}"
 
 # ---- a Slurm of our own, in $tmp/slurm -----------------------------------------
 need=""
@@ -174,6 +175,9 @@ ok $([ "$(field "$cl" 'd["launcher"]')" = slurm ] && [ "$(field "$cl" 'd["slurm"
      [ "$(field "$cl" 'd["slurm"]["cpus"]["allocated"]')" = 4 ] && [ "$(field "$cl" 'd["slurm"]["cpus"]["idle"]')" = 0 ] &&
      [ "$(field "$cl" 'd["slurm"]["pending_jobs"]')" = 1 ]; echo $?) \
 	"GET /cluster: partition gtest, 1 node allocated, 4/4 CPUs allocated, 1 pending job ($(field "$cl" 'd["slurm"]'))"
+"$GRANULARCTL" cluster --url "$URL" >"$tmp/ctl" 2>&1
+ok $(grep -q '^  slurm      partition gtest: 1 nodes (0 idle), CPUs 4 allocated of 4 (0 idle), 1 pending jobs$' "$tmp/ctl"; echo $?) \
+	"granularctl cluster shows the partition: $(grep slurm "$tmp/ctl" | sed 's/^ *//')"
 scancel "$blk"
 wait_state "$id3" succeeded 60
 ok $? "the blocker cancelled: job $id3 ran and succeeded"
