@@ -276,5 +276,20 @@ post "/api/v1/jobs/$idt/cancel" >/dev/null
 wait_state "$idt" cancelled 30
 ok $? "job $idt cancelled"
 
+# 8. The same state directory under launcher = mpirun: a Slurm job left by the Slurm daemon is cancelled in
+# Slurm before the job runs here (never two copies).
+id8=$(field "$(post /api/v1/jobs -d "$LONG")" 'd["id"]')
+wait_file "$S/jobs/$id8/attempt-1.out" 60
+sj8=$(sjob "$id8")
+kill -9 "$GD_PID"; wait "$GD_PID" 2>/dev/null; GD_PID=
+gd_start "$S" --slots 4
+i=0; until [ "$(field "$(api GET "/api/v1/jobs/$id8")" 'd["attempts"][-1]["pid"] is not None')" = True ] || [ $i -ge 300 ]; do sleep 0.1; i=$((i + 1)); done
+j8=$(api GET "/api/v1/jobs/$id8")
+ok $(scontrol show job -o "$sj8" | grep -Eq 'JobState=(CANCELLED|COMPLETING)' && [ "$(field "$j8" 'len(d["attempts"])')" = 2 ] &&
+     [ "$(field "$j8" 'd["attempts"][1]["slurm_job"]')" = None ]; echo $?) \
+	"restarted with launcher = mpirun: Slurm job $sj8 cancelled, attempt 2 runs locally (pid $(field "$j8" 'd["attempts"][-1]["pid"]'))"
+post "/api/v1/jobs/$id8/cancel" >/dev/null
+wait_state "$id8" cancelled 30
+
 gd_stop
 finish
