@@ -66,7 +66,6 @@ typedef struct {
 	/* launcher = slurm (pid stays 0): the attempt is Slurm job sjob; out and
 	 * err are its output files in the job directory, tailed, not pipes. */
 	int64_t sjob;
-	slurm_state_t sstate;
 	char sstate_text[160];       /* as stored: "pending (Resources)" */
 	double spoll_at;             /* next look at its Slurm state */
 	int wall_own;                /* its Slurm time limit is max_wall_seconds: a timeout fails the job */
@@ -411,7 +410,6 @@ static int launch_slurm(sched_t *s, child_t *k, const jobq_claim_t *cl, const ch
 		return -1;
 	}
 	k->sjob = job;
-	k->sstate = SLURM_PENDING;
 	k->out = k->err = -1;
 	k->started = mono();
 	k->spoll_at = k->started + c->slurm_poll;
@@ -876,7 +874,6 @@ static int slurm_turn(sched_t *s, child_t *k, double now, const slurm_job_t *pol
 	         *sj.reason ? ")" : "");
 	if (strcmp(text, k->sstate_text)) {
 		snprintf(k->sstate_text, sizeof(k->sstate_text), "%s", text);
-		k->sstate = sj.state;
 		if (jobq_attempt_slurm_state(s->c.q, k->id, k->attempt, text, util_now()) != JOBQ_OK)
 			log_warning("job %" PRId64 ": could not record its Slurm state", k->id);
 		log_info("job %" PRId64 " attempt %d: Slurm job %" PRId64 " %s", k->id, k->attempt, k->sjob, text);
@@ -998,7 +995,6 @@ static int adopt(sched_t *s, const jobq_running_t *r, int64_t job)
 	k->resumed = r->resumed;
 	k->ckpt_noted = 1;   /* its first stderr lines were read by the previous daemon */
 	k->sjob = job;
-	k->sstate = SLURM_PENDING;
 	k->out = k->err = -1;
 	k->started = mono();
 	/* Whether a job option made the limit shorter is not known here: judged by the config. */
