@@ -252,18 +252,20 @@ static void test_thermal(const char *method)
 /* Bit-identical continuation through the state fields, for walled scenes
  * with gravity, thermal, rough and moving walls (their random draws and
  * wall counters included), restored every few steps. */
-static void test_restore(const char *method)
+static void test_restore(const char *method, int vib)
 {
 	char json[1536];
+	/* vib: the floor vibrates (r_w = 0.7, A omega^2 = 0.79 > g: hits,
+	 * rides and take-offs, flight_vib()) */
 	snprintf(json, sizeof json,
 	         "{\"method\":\"%s\",\"dimensions\":2,\"particles\":{\"count\":1500,\"volume_fraction\":0.25,"
 	         "\"initial\":{\"positions\":\"random\",\"temperature\":1}},\"collisions\":{\"restitution\":0.8},"
-	         "\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"rough\",\"probability\":0.3,"
-	         "\"restitution\":0.7},\"upper\":{\"type\":\"thermal\",\"temperature\":1,\"accommodation\":0.5,"
+	         "\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":%s,\"upper\":{\"type\":\"thermal\",\"temperature\":1,\"accommodation\":0.5,"
 	         "\"velocity\":[0.3,0]}},\"x\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\",\"restitution\":0.9},"
 	         "\"upper\":{\"type\":\"moving\",\"velocity\":[0,0.5]}}},"
 	         "\"gravity\":[0,-0.05],\"run\":{\"seed\":17,\"until\":{\"time\":100}},\"%s\":{\"cell_size\":2}}",
-	         method, method);
+	         method, vib ? "{\"type\":\"vibrating\",\"amplitude\":0.5,\"frequency\":0.2,\"phase\":0.3,\"restitution\":0.7}"
+	                     : "{\"type\":\"rough\",\"probability\":0.3,\"restitution\":0.7}", method);
 	scene_t sc;
 	char err[512] = "";
 	int e;
@@ -311,7 +313,8 @@ static void test_restore(const char *method)
 		free(pa), free(pb), free(va), free(vb);
 	}
 	ok(same && same_samples && x.wall_hits[2] > 0 && x.wall_hits[3] > 0,
-	   "%s walls+gravity: %d restores: state %s, samples %s (%llu wall hits, %llu rests) %s", method, restores,
+	   "%s walls%s+gravity: %d restores: state %s, samples %s (%llu wall hits, %llu rests) %s", method,
+	   vib ? " (vibrating floor)" : "", restores,
 	   same ? "bit-identical" : "differ", same_samples ? "identical" : "differ", (unsigned long long)x.wall_collisions,
 	   (unsigned long long)x.rested, err);
 	dsmc_destroy(a);
@@ -326,11 +329,11 @@ static void test_refusals(void)
 	} bad[] = {
 		{ "{\"method\":\"dsmc\",\"dimensions\":2,\"particles\":{\"count\":100,\"volume_fraction\":0.1},"
 		  "\"run\":{\"until\":{\"time\":5}},\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},"
-		  "\"upper\":{\"type\":\"vibrating\",\"amplitude\":0.1,\"frequency\":3}}}}", "boundaries.y.upper.type: " },
+		  "\"upper\":{\"type\":\"open\"}}}}", "boundaries.y.upper.type: " },
 		{ "{\"method\":\"hsmc\",\"dimensions\":3,\"particles\":{\"count\":1000,\"volume_fraction\":0.1},"
 		  "\"run\":{\"until\":{\"time\":5}},\"boundaries\":{\"z\":{\"type\":\"walls\",\"lower\":{\"type\":\"vibrating\","
-		  "\"amplitude\":0.1,\"frequency\":3},\"upper\":{\"type\":\"specular\"}}},\"gravity\":[0,0,-1]}",
-		  "boundaries.z.lower.type: " },
+		  "\"amplitude\":0.1,\"frequency\":3},\"upper\":{\"type\":\"open\"}}},\"gravity\":[0,0,-1]}",
+		  "boundaries.z.upper.type: " },
 		{ "{\"method\":\"dsmc\",\"dimensions\":2,\"particles\":{\"count\":100,\"volume_fraction\":0.1},"
 		  "\"run\":{\"until\":{\"time\":5}},\"boundaries\":{\"x\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},"
 		  "\"upper\":{\"type\":\"specular\"}}},\"dsmc\":{\"correction\":\"enskog\",\"contact_value\":\"local\"}}",
@@ -482,6 +485,163 @@ static void test_gravity_box(void)
 	   "gravity box late: hsmc (%.4g) is closer to ed (%.4g) than dsmc (%.4g) is", late[2], late[0], late[1]);
 }
 
+/* Stochastic (Fermi-Ulam) heating by a vibrating wall, as for ed
+ * (walls_test.c): elastic disks, no gravity, a floor vibrating with
+ * velocity u = A w cos(phase), hit at phases uniform in time (flights
+ * between hits ~20 against the period 1). A hit at normal speed |v| > |u|
+ * gives dE = 2 m (u^2 - u v); weighted by the hit rate (u - v) and averaged
+ * over the phase, <dE> = 2 m (A w)^2 per hit (|v| > A w for all but ~0.2%
+ * of the hits). Pair collisions are elastic (hsmc's cell collisions
+ * conserve energy), so all of the change is the wall's. Tolerance: 4
+ * standard errors of K = 40 block means (~4000 hits each). */
+static void test_fermi(const char *method)
+{
+	char json[1024];
+	snprintf(json, sizeof json,
+	         "{\"method\":\"%s\",\"dimensions\":2,\"particles\":{\"count\":200,\"box\":[200,10],"
+	         "\"initial\":{\"positions\":\"random\",\"temperature\":1}},"
+	         "\"boundaries\":{\"y\":{\"type\":\"walls\","
+	         "\"lower\":{\"type\":\"vibrating\",\"amplitude\":0.01,\"frequency\":1},"
+	         "\"upper\":{\"type\":\"specular\"}}},\"run\":{\"seed\":19,\"until\":{\"time\":1}}}", method);
+	scene_t sc;
+	dsmc_t *d = make(json, &sc);
+	if (!d) {
+		ok(0, "%s fermi heating: setup", method);
+		return;
+	}
+	enum { K = 40 };
+	const double tau = 500.0;
+	double gain[K];
+	dsmc_sample_t sm;
+	dsmc_sample(d, &sm);
+	double e = sm.kinetic_energy;
+	uint64_t hits = sm.wall_hits[2];
+	for (int k = 0; k < K; k++) {
+		dsmc_advance(d, (k + 1) * tau, UINT64_MAX, UINT64_MAX);
+		dsmc_sample(d, &sm);
+		gain[k] = (sm.kinetic_energy - e) / (double)(sm.wall_hits[2] - hits);
+		e = sm.kinetic_energy;
+		hits = sm.wall_hits[2];
+	}
+	double m, se;
+	mean_se(gain, K, &m, &se);
+	const double aw = 0.01 * 2.0 * 3.14159265358979323846, theory = 2.0 * sc.mass * aw * aw;
+	ok(fabs(m - theory) < 4.0 * se && se < 0.1 * theory && sm.collisions > 10000,
+	   "%s vibrating wall: energy gain per hit %.5g +- %.2g over %llu hits, theory 2 m (A w)^2 = %.5g "
+	   "(%llu pair collisions)", method, m, se, (unsigned long long)hits, theory,
+	   (unsigned long long)sm.collisions);
+	dsmc_destroy(d);
+}
+
+/* A floor vibrating with a tiny amplitude (A = 1e-10, wall speed 6e-10)
+ * and r_w = 1 acts as the static specular floor: the same scene (elastic
+ * disks under gravity) with each floor, same seed, gives the same wall hits and positions within 1e-6
+ * after 300 steps (the difference is of order the wall's displacement and
+ * speed times the hits, ~1e-8; a difference in any decision (a collision
+ * accepted, a cell, a hit) would show as O(1)). */
+static void test_tiny_amplitude(const char *method)
+{
+	static const char *floors[2] = { "{\"type\":\"specular\"}",
+	                                 "{\"type\":\"vibrating\",\"amplitude\":1e-10,\"frequency\":1,\"restitution\":1}" };
+	double *pos[2] = { NULL, NULL };
+	dsmc_sample_t sm[2];
+	scene_t sc;
+	int good = 1;
+	for (int k = 0; k < 2; k++) {
+		char json[1024];
+		snprintf(json, sizeof json,
+		         "{\"method\":\"%s\",\"dimensions\":2,\"particles\":{\"count\":500,\"box\":[40,60],"
+		         "\"initial\":{\"positions\":\"random\",\"temperature\":1}},"
+		         "\"boundaries\":{\"x\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},\"upper\":{\"type\":"
+		         "\"specular\"}},\"y\":{\"type\":\"walls\",\"lower\":%s,\"upper\":{\"type\":\"specular\"}}},"
+		         "\"gravity\":[0,-1],\"run\":{\"seed\":5,\"until\":{\"time\":100}},\"%s\":{\"cell_size\":2}}",
+		         method, floors[k], method);
+		dsmc_t *d = make(json, &sc);
+		if (!d) {
+			good = 0;
+			break;
+		}
+		dsmc_advance(d, INFINITY, UINT64_MAX, 300);
+		pos[k] = malloc(sc.count * 2 * sizeof(double));
+		dsmc_state(d, pos[k], NULL);
+		dsmc_totals(d, &sm[k]);
+		dsmc_destroy(d);
+	}
+	double worst = 0;
+	for (size_t i = 0; good && i < 2 * sc.count; i++)
+		worst = fmax(worst, fabs(pos[0][i] - pos[1][i]));
+	ok(good && worst < 1e-6 && sm[0].wall_hits[2] == sm[1].wall_hits[2] && sm[0].wall_hits[2] > 1000 &&
+	       sm[0].collisions == sm[1].collisions,
+	   "%s: a floor vibrating with A = 1e-10 acts as the static one: largest position difference %.3g (< 1e-6), "
+	   "floor hits %llu and %llu, collisions %llu and %llu", method, worst,
+	   (unsigned long long)sm[0].wall_hits[2], (unsigned long long)sm[1].wall_hits[2],
+	   (unsigned long long)sm[0].collisions, (unsigned long long)sm[1].collisions);
+	free(pos[0]);
+	free(pos[1]);
+}
+
+/* Inelastic disks (r = 0.9) on an elastic floor vibrating at Gamma = A w^2
+ * / g = 2, from nearly at rest (T = 0.01): the wall's energy input balances
+ * the dissipation, a steady state. Over t = 1000..3000 (after ~100
+ * relaxation times 1/(collision rate)) the mean kinetic energy of the first
+ * and second halves agree within 4 standard errors of their difference (10
+ * block means of 100 samples each, one per time unit), and the steady
+ * kinetic energy is far above the initial one (> 10 times). At every one of the 3000 samples no centre is below the
+ * contact plane of the floor where it is at that time (1e-9 rounding). */
+static void test_vibrated_steady(void)
+{
+	for (int m = 0; m < 2; m++) {
+		const char *method = m ? "hsmc" : "dsmc";
+		char json[1024];
+		snprintf(json, sizeof json,
+		         "{\"method\":\"%s\",\"dimensions\":2,\"particles\":{\"count\":200,\"box\":[40,400],"
+		         "\"initial\":{\"positions\":\"random\",\"temperature\":0.01,\"region\":{\"upper\":[40,30]}}},"
+		         "\"collisions\":{\"restitution\":0.9},\"boundaries\":{\"x\":{\"type\":\"walls\",\"lower\":{\"type\":"
+		         "\"specular\"},\"upper\":{\"type\":\"specular\"}},\"y\":{\"type\":\"walls\",\"lower\":{\"type\":"
+		         "\"vibrating\",\"amplitude\":0.5,\"frequency\":0.3183098861837907,\"phase\":0.7},"
+		         "\"upper\":{\"type\":\"specular\"}}},\"gravity\":[0,-1],\"run\":{\"seed\":8,\"until\":{\"time\":3000}},"
+		         "\"%s\":{\"cell_size\":2}}", method, method);
+		scene_t sc;
+		dsmc_t *d = make(json, &sc);
+		if (!d) {
+			ok(0, "%s vibrated bed: setup", method);
+			continue;
+		}
+		dsmc_sample_t sm;
+		dsmc_totals(d, &sm);
+		double e0 = sm.kinetic_energy, blocks[2][10], below = INFINITY;
+		double *pos = malloc(sc.count * 2 * sizeof(double));
+		const double A = 0.5, w = 2.0;   /* omega = 2 pi f = 2 */
+		int k = 0;
+		for (int b = 0; b < 30; b++) {
+			double acc = 0;
+			for (int j = 0; j < 100; j++) {
+				double t = 100.0 * b + j + 1;
+				dsmc_advance(d, t, UINT64_MAX, UINT64_MAX);
+				dsmc_state(d, pos, NULL);
+				double floor_y = A * sin(w * t + 0.7) + sc.radius;
+				for (size_t i = 0; i < sc.count; i++)
+					below = fmin(below, pos[2 * i + 1] - floor_y);
+				dsmc_totals(d, &sm);
+				acc += sm.kinetic_energy;
+			}
+			if (b >= 10)
+				blocks[(b - 10) / 10][(b - 10) % 10] = acc / 100, k++;
+		}
+		double m1, s1, m2, s2;
+		mean_se(blocks[0], 10, &m1, &s1);
+		mean_se(blocks[1], 10, &m2, &s2);
+		dsmc_totals(d, &sm);
+		ok(fabs(m1 - m2) < 4 * sqrt(s1 * s1 + s2 * s2) && m1 > 10 * e0 && below > -1e-9 && sm.collisions > 100000,
+		   "%s vibrated bed: steady kinetic energy %.4g +- %.2g then %.4g +- %.2g (from %.4g), lowest centre %.3g above "
+		   "the floor's contact plane, %llu collisions, %llu floor hits, %llu rides", method, m1, s1, m2, s2, e0,
+		   below, (unsigned long long)sm.collisions, (unsigned long long)sm.wall_hits[2],
+		   (unsigned long long)sm.rested);
+		free(pos);
+		dsmc_destroy(d);
+	}
+}
+
 int main(void)
 {
 	test_refusals();
@@ -490,8 +650,15 @@ int main(void)
 	test_energy("hsmc", 2);
 	test_energy("hsmc", 3);
 	test_pipe();
-	test_restore("dsmc");
-	test_restore("hsmc");
+	test_restore("dsmc", 0);
+	test_restore("hsmc", 0);
+	test_restore("dsmc", 1);
+	test_restore("hsmc", 1);
+	test_fermi("dsmc");
+	test_fermi("hsmc");
+	test_tiny_amplitude("dsmc");
+	test_tiny_amplitude("hsmc");
+	test_vibrated_steady();
 	test_rest();
 	test_thermal("dsmc");
 	test_thermal("hsmc");

@@ -15,9 +15,16 @@
  *   the roots of a quadratic, the rest of the flight reflected by the
  *   wall's rule; a particle touches a wall when its centre is one radius
  *   from it, as in ed) and the cells tile the box; collisions stay cell-local.
- *   Walls: specular, thermal, rough, moving; vibrating ones are refused
- *   (dsmc_plan(): "boundaries.AXIS.END.type: ..."). A scene without walls
- *   and gravity runs the periodic step, which has no wall code at all.
+ *   Walls: specular, thermal, rough, moving, vibrating (contact times by
+ *   walltime_vibrating(), the rule applied relative to the wall's velocity;
+ *   the wall's phase is a function of the clock, so checkpoints hold
+ *   nothing more); open ones are refused (dsmc_plan():
+ *   "boundaries.AXIS.END.type: ..."). A scene without walls and gravity
+ *   runs the periodic step, which has no wall code at all; one without a
+ *   vibrating wall runs the fixed-wall step, which has no vibrating-wall
+ *   code (the variant is chosen at load). With a vibrating lower wall the
+ *   engine's internal coordinates are the scene's shifted by its amplitude
+ *   (as ed's); every output is in scene coordinates.
  * - One step of length dt (operator splitting, seed 000 eq. 2.19):
  *   [hsmc only: coarse-grain cells, cell-cell pseudo-collisions, return of
  *   their lost energy as thermal motion]; free flight (hsmc: moves into
