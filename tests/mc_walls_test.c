@@ -494,19 +494,23 @@ static void test_gravity_box(void)
  * of the hits). Pair collisions are elastic (hsmc's cell collisions
  * conserve energy), so all of the change is the wall's. Tolerance: 4
  * standard errors of K = 40 block means (~4000 hits each). */
-static void test_fermi(const char *method)
+static void test_fermi(const char *method, int dim, int upper)
 {
+	/* the vibrating wall: the lower or upper end of the last axis (y in 2D, z in 3D) */
 	char json[1024];
+	const char *vib = "{\"type\":\"vibrating\",\"amplitude\":0.01,\"frequency\":1,\"phase\":0.4}",
+	           *spec = "{\"type\":\"specular\"}";
 	snprintf(json, sizeof json,
-	         "{\"method\":\"%s\",\"dimensions\":2,\"particles\":{\"count\":200,\"box\":[200,10],"
+	         "{\"method\":\"%s\",\"dimensions\":%d,\"particles\":{\"count\":%d,\"box\":%s,"
 	         "\"initial\":{\"positions\":\"random\",\"temperature\":1}},"
-	         "\"boundaries\":{\"y\":{\"type\":\"walls\","
-	         "\"lower\":{\"type\":\"vibrating\",\"amplitude\":0.01,\"frequency\":1},"
-	         "\"upper\":{\"type\":\"specular\"}}},\"run\":{\"seed\":19,\"until\":{\"time\":1}}}", method);
+	         "\"boundaries\":{\"%s\":{\"type\":\"walls\",\"lower\":%s,\"upper\":%s}},"
+	         "\"run\":{\"seed\":19,\"until\":{\"time\":1}}}", method, dim, dim == 2 ? 200 : 400,
+	         dim == 2 ? "[200,10]" : "[40,40,10]", dim == 2 ? "y" : "z", upper ? spec : vib, upper ? vib : spec);
+	const int w = 2 * (dim - 1) + upper;
 	scene_t sc;
 	dsmc_t *d = make(json, &sc);
 	if (!d) {
-		ok(0, "%s fermi heating: setup", method);
+		ok(0, "%s %dD fermi heating: setup", method, dim);
 		return;
 	}
 	enum { K = 40 };
@@ -515,20 +519,20 @@ static void test_fermi(const char *method)
 	dsmc_sample_t sm;
 	dsmc_sample(d, &sm);
 	double e = sm.kinetic_energy;
-	uint64_t hits = sm.wall_hits[2];
+	uint64_t hits = sm.wall_hits[w];
 	for (int k = 0; k < K; k++) {
 		dsmc_advance(d, (k + 1) * tau, UINT64_MAX, UINT64_MAX);
 		dsmc_sample(d, &sm);
-		gain[k] = (sm.kinetic_energy - e) / (double)(sm.wall_hits[2] - hits);
+		gain[k] = (sm.kinetic_energy - e) / (double)(sm.wall_hits[w] - hits);
 		e = sm.kinetic_energy;
-		hits = sm.wall_hits[2];
+		hits = sm.wall_hits[w];
 	}
 	double m, se;
 	mean_se(gain, K, &m, &se);
 	const double aw = 0.01 * 2.0 * 3.14159265358979323846, theory = 2.0 * sc.mass * aw * aw;
 	ok(fabs(m - theory) < 4.0 * se && se < 0.1 * theory && sm.collisions > 10000,
-	   "%s vibrating wall: energy gain per hit %.5g +- %.2g over %llu hits, theory 2 m (A w)^2 = %.5g "
-	   "(%llu pair collisions)", method, m, se, (unsigned long long)hits, theory,
+	   "%s %dD vibrating %s wall: energy gain per hit %.5g +- %.2g over %llu hits, theory 2 m (A w)^2 = %.5g "
+	   "(%llu pair collisions)", method, dim, upper ? "upper" : "lower", m, se, (unsigned long long)hits, theory,
 	   (unsigned long long)sm.collisions);
 	dsmc_destroy(d);
 }
@@ -836,8 +840,10 @@ int main(void)
 	test_restore("hsmc", 0);
 	test_restore("dsmc", 1);
 	test_restore("hsmc", 1);
-	test_fermi("dsmc");
-	test_fermi("hsmc");
+	test_fermi("dsmc", 2, 0);
+	test_fermi("hsmc", 2, 1);
+	test_fermi("dsmc", 3, 1);
+	test_fermi("hsmc", 3, 0);
 	test_tiny_amplitude("dsmc");
 	test_tiny_amplitude("hsmc");
 	test_vibrated_steady();
