@@ -1397,6 +1397,17 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 		d->wall_collisions = d->rested = 0;
 		memset(d->wall_hits, 0, sizeof d->wall_hits);
 		memset(d->wall_impulse, 0, sizeof d->wall_impulse);
+		/* the clock restarts at 0, and with it the vibrating walls' phases:
+		 * keep the centres inside the walls where they are at time 0 */
+		for (int a = 0; a < d->dim; a++) {
+			if (!d->walled[a] || (d->wall[2 * a].A == 0.0 && d->wall[2 * a + 1].A == 0.0))
+				continue;
+			const double lo = vib_plane(d, 2 * a, d->wall[2 * a].ph), hi = vib_plane(d, 2 * a + 1, d->wall[2 * a + 1].ph);
+			for (uint32_t k = 0; k < d->n; k++) {
+				double *x = &d->p[k * S + a];
+				*x = *x < lo ? lo : *x > hi ? hi : *x;
+			}
+		}
 		d->ekin_est = ekin_exact(d, NULL);
 	}
 	return d;
