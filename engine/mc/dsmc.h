@@ -128,7 +128,7 @@ typedef struct {
 	/* Scenes with walls, as ed_sample_t: wall w = 2 axis + end (0 lower,
 	 * 1 upper); wall_impulse[w]: momentum given to wall w over the interval
 	 * (zero without walls). rested: flights that ended resting on a wall
-	 * (dsmc.c, flight()), total. */
+	 * or rode a vibrating one (dsmc.c, flight(), flight_vib()), total. */
 	uint64_t wall_collisions, wall_hits[6], rested;
 	double wall_impulse[6][3];
 	/* Scenes with gravity g: centre-of-mass height along -g (scene
