@@ -254,18 +254,20 @@ static void test_thermal(const char *method)
  * wall counters included), restored every few steps. */
 static void test_restore(const char *method, int vib)
 {
+	/* vib 2: and the lid is open (particles leave: present count, outflow) */
 	char json[1536];
 	/* vib: the floor vibrates (r_w = 0.7, A omega^2 = 0.79 > g: hits,
 	 * rides and take-offs, flight_vib()) */
 	snprintf(json, sizeof json,
 	         "{\"method\":\"%s\",\"dimensions\":2,\"particles\":{\"count\":1500,\"volume_fraction\":0.25,"
 	         "\"initial\":{\"positions\":\"random\",\"temperature\":1}},\"collisions\":{\"restitution\":0.8},"
-	         "\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":%s,\"upper\":{\"type\":\"thermal\",\"temperature\":1,\"accommodation\":0.5,"
-	         "\"velocity\":[0.3,0]}},\"x\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\",\"restitution\":0.9},"
+	         "\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":%s,\"upper\":%s},\"x\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\",\"restitution\":0.9},"
 	         "\"upper\":{\"type\":\"moving\",\"velocity\":[0,0.5]}}},"
 	         "\"gravity\":[0,-0.05],\"run\":{\"seed\":17,\"until\":{\"time\":100}},\"%s\":{\"cell_size\":2}}",
 	         method, vib ? "{\"type\":\"vibrating\",\"amplitude\":0.5,\"frequency\":0.2,\"phase\":0.3,\"restitution\":0.7}"
-	                     : "{\"type\":\"rough\",\"probability\":0.3,\"restitution\":0.7}", method);
+	                     : "{\"type\":\"rough\",\"probability\":0.3,\"restitution\":0.7}",
+	         vib == 2 ? "{\"type\":\"open\"}"
+	                  : "{\"type\":\"thermal\",\"temperature\":1,\"accommodation\":0.5,\"velocity\":[0.3,0]}", method);
 	scene_t sc;
 	char err[512] = "";
 	int e;
@@ -312,11 +314,12 @@ static void test_restore(const char *method, int vib)
 		same = !memcmp(pa, pb, bytes) && !memcmp(va, vb, bytes) && !memcmp(&x, &y, sizeof x);
 		free(pa), free(pb), free(va), free(vb);
 	}
-	ok(same && same_samples && x.wall_hits[2] > 0 && x.wall_hits[3] > 0,
-	   "%s walls%s+gravity: %d restores: state %s, samples %s (%llu wall hits, %llu rests) %s", method,
-	   vib ? " (vibrating floor)" : "", restores,
+	ok(same && same_samples && x.wall_hits[2] > 0 && (vib == 2 ? x.wall_outflow[3] > 0 && x.particles < sc.count
+	                                                                : x.wall_hits[3] > 0),
+	   "%s walls%s+gravity: %d restores: state %s, samples %s (%llu wall hits, %llu rests, %llu left) %s", method,
+	   vib == 2 ? " (vibrating floor, open lid)" : vib ? " (vibrating floor)" : "", restores,
 	   same ? "bit-identical" : "differ", same_samples ? "identical" : "differ", (unsigned long long)x.wall_collisions,
-	   (unsigned long long)x.rested, err);
+	   (unsigned long long)x.rested, (unsigned long long)x.wall_outflow[3], err);
 	dsmc_destroy(a);
 	dsmc_destroy(b);
 }
@@ -329,11 +332,11 @@ static void test_refusals(void)
 	} bad[] = {
 		{ "{\"method\":\"dsmc\",\"dimensions\":2,\"particles\":{\"count\":100,\"volume_fraction\":0.1},"
 		  "\"run\":{\"until\":{\"time\":5}},\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},"
-		  "\"upper\":{\"type\":\"open\"}}}}", "boundaries.y.upper.type: " },
+		  "\"upper\":{\"type\":\"open\"}}},\"output\":{\"observables\":[\"pressure\"]}}", "output.observables[0]: " },
 		{ "{\"method\":\"hsmc\",\"dimensions\":3,\"particles\":{\"count\":1000,\"volume_fraction\":0.1},"
 		  "\"run\":{\"until\":{\"time\":5}},\"boundaries\":{\"z\":{\"type\":\"walls\",\"lower\":{\"type\":\"vibrating\","
-		  "\"amplitude\":0.1,\"frequency\":3},\"upper\":{\"type\":\"open\"}}},\"gravity\":[0,0,-1]}",
-		  "boundaries.z.upper.type: " },
+		  "\"amplitude\":0.1,\"frequency\":3},\"upper\":{\"type\":\"open\"}}},\"gravity\":[0,0,-1],"
+		  "\"output\":{\"observables\":[\"velocity_distribution\"]}}", "output.observables[0]: " },
 		{ "{\"method\":\"dsmc\",\"dimensions\":2,\"particles\":{\"count\":100,\"volume_fraction\":0.1},"
 		  "\"run\":{\"until\":{\"time\":5}},\"boundaries\":{\"x\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},"
 		  "\"upper\":{\"type\":\"specular\"}}},\"dsmc\":{\"correction\":\"enskog\",\"contact_value\":\"local\"}}",
@@ -483,6 +486,60 @@ static void test_gravity_box(void)
 	   "gravity box late: hsmc keeps excluded volume, height %.4g vs dsmc %.4g", late[2], late[1]);
 	ok(fabs(late[2] - late[0]) + 4 * (s02 + s01) < fabs(late[1] - late[0]),
 	   "gravity box late: hsmc (%.4g) is closer to ed (%.4g) than dsmc (%.4g) is", late[2], late[0], late[1]);
+}
+
+/* Effusion through an open wall: a dilute elastic gas (uniform, Maxwellian
+ * at T = 1, m = 1) in a box 400 x 200 with an open lid, no gravity. In a
+ * time tau short against the crossing time (tau = 2, height 200) the
+ * number that leave is N tau <v_y+> / (L_y - 2 r) with <v_y+> =
+ * sqrt(T / (2 pi m)) (the flux of a Maxwellian through a plane; centres
+ * are uniform between the contact planes). Radius 0.01: the mean free path
+ * (~28) is long against v tau, so collisions do not matter (a dense gas
+ * would evaporate more slowly: no particle comes back from the wall to
+ * refill the outgoing half of the distribution near it). The count
+ * over R = 10 seeds of N = 50000 (~2000 expected) is Poisson: within 4
+ * sqrt(expected). And particles present + left = N, positions of the ones
+ * that left NaN, the rest inside. */
+static void test_effusion(const char *method)
+{
+	enum { R = 10 };
+	uint64_t out = 0, bad = 0;
+	double expect = 0;
+	for (int r = 0; r < R; r++) {
+		char json[1024];
+		snprintf(json, sizeof json,
+		         "{\"method\":\"%s\",\"dimensions\":2,\"particles\":{\"count\":50000,\"radius\":0.01,\"box\":[400,200],"
+		         "\"initial\":{\"positions\":\"random\",\"temperature\":1}},\"boundaries\":{\"y\":{\"type\":\"walls\","
+		         "\"lower\":{\"type\":\"specular\"},\"upper\":{\"type\":\"open\"}}},\"run\":{\"seed\":%d,"
+		         "\"until\":{\"time\":2}}}", method, 60 + r);
+		scene_t sc;
+		dsmc_t *d = make(json, &sc);
+		if (!d) {
+			bad++;
+			continue;
+		}
+		dsmc_advance(d, 2.0, UINT64_MAX, UINT64_MAX);
+		dsmc_sample_t sm;
+		dsmc_totals(d, &sm);
+		out += sm.wall_outflow[3];
+		expect += sc.count * 2.0 * sqrt(1.0 / (2 * 3.14159265358979323846)) / (sc.box[1] - 2 * sc.radius);
+		double *pos = malloc(sc.count * 2 * sizeof(double));
+		dsmc_state(d, pos, NULL);
+		uint64_t nan = 0;
+		for (size_t i = 0; i < sc.count; i++) {
+			if (isnan(pos[2 * i + 1]))
+				nan++;
+			else if (!(pos[2 * i + 1] >= sc.radius && pos[2 * i + 1] <= sc.box[1] - sc.radius))
+				bad++;
+		}
+		bad += nan != sm.wall_outflow[3] || sm.particles + sm.wall_outflow[3] != sc.count;
+		free(pos);
+		dsmc_destroy(d);
+	}
+	ok(fabs((double)out - expect) < 4 * sqrt(expect) && bad == 0,
+	   "%s: effusion through an open lid: %llu left in tau = 2 over %d runs, theory N tau sqrt(T/2 pi m)/(L - 2r) "
+	   "= %.1f (4 sqrt = %.1f); %llu inconsistencies (present + left = N, NaN rows)", method,
+	   (unsigned long long)out, R, expect, 4 * sqrt(expect), (unsigned long long)bad);
 }
 
 /* Stochastic (Fermi-Ulam) heating by a vibrating wall, as for ed
@@ -840,6 +897,10 @@ int main(void)
 	test_restore("hsmc", 0);
 	test_restore("dsmc", 1);
 	test_restore("hsmc", 1);
+	test_restore("dsmc", 2);
+	test_restore("hsmc", 2);
+	test_effusion("dsmc");
+	test_effusion("hsmc");
 	test_fermi("dsmc", 2, 0);
 	test_fermi("hsmc", 2, 1);
 	test_fermi("dsmc", 3, 1);

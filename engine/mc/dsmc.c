@@ -84,6 +84,14 @@ struct dsmc {
 	 * contact planes where the walls are at the end of the current step. */
 	double org[3];
 	double cur_lo[3], cur_hi[3];
+	/* Open walls (step variant B = 2): a particle that touches one leaves;
+	 * its record goes after the na records still present (sort() puts the
+	 * records of the extra cell index ncells there), velocity 0, its last
+	 * position kept. na = n without open walls. relaxing: open walls
+	 * reflect during the elastic pre-run. */
+	uint32_t na;
+	int open, relaxing;
+	uint64_t wout[6];              /* particles out through each wall, total */
 	uint64_t wall_collisions, wall_hits[6], rested;
 	double wall_impulse[6][3];     /* momentum given to each wall over the interval */
 	void (*step)(struct dsmc *, double);   /* chosen at load: dimension and periodic or bounded */
@@ -423,6 +431,7 @@ typedef struct {
 	unsigned touched;              /* bit per wall */
 	uint32_t hits[6];
 	uint32_t rested;
+	int out;                       /* flight_vib(): 1 + the open wall the particle left through, or 0 */
 	double imp[6][3];
 } flight_log_t;
 
@@ -599,6 +608,12 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 			const double s = (w & 1) ? -1.0 : 1.0, thc = W->ph + W->omega * (t0 + (dt - left));
 			const double un = W->A != 0.0 ? W->A * W->omega * cos(thc) : 0.0;
 			x[a] = vib_plane(d, w, thc);
+			if (W->type == SCENE_WALL_OPEN && !d->relaxing) {
+				lg->out = 1 + w;   /* leaves: the flight ends here */
+				for (int k = 0; k < D; k++)
+					v[k] = 0;
+				return integ;
+			}
 			double before[3];
 			for (int k = 0; k < D; k++)
 				before[k] = v[k];
@@ -680,10 +695,18 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 			double in = V ? flight_vib(d, xn, vn, dt, d->t, &lg, D) : flight(d, xn, vn, dt, &lg, D);
 			uint32_t cn = cell_of(d, xn, D);
 			int stays = 1;
-			if (V)
+			if (V) {
 				for (int a = 0; a < D; a++)
 					if (d->walled[a] && (x[a] < d->cur_lo[a] || x[a] > d->cur_hi[a]))
 						stays = 0;
+				if (lg.out) {
+					/* it left through an open wall: to the extra cell ncells, after the present ones */
+					d->wout[lg.out - 1]++;
+					lg.out = 0;
+					cn = (uint32_t)d->ncells;
+					stays = 0;
+				}
+			}
 			if (d->hsmc && cn != c && d->start[cn + 1] - d->start[cn] >= d->nfull && stays) {
 				d->rejected++;
 				cn = (uint32_t)c;
@@ -738,7 +761,7 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 static ALWAYS_INLINE void sort(struct dsmc *d, const int D)
 {
 	const int S = 2 * D;
-	const uint32_t n = d->n, W = d->ring_n;
+	const uint32_t n = d->na, W = d->ring_n;
 	uint32_t acc = 0;
 	for (size_t c = 0; c < d->ncells; c++) {
 		uint32_t k = d->cnt[c];
@@ -746,6 +769,10 @@ static ALWAYS_INLINE void sort(struct dsmc *d, const int D)
 		acc += k;
 	}
 	d->start[d->ncells] = acc;
+	/* records that left through an open wall (extra cell ncells; none without
+	 * open walls) go after the present ones */
+	d->cnt[d->ncells] = acc;
+	d->na = acc;
 	uint32_t *dst = d->cell, far = 0;
 	for (uint32_t k = 0; k < n; k++) {
 		uint32_t j = d->cnt[dst[k]]++;
@@ -1088,7 +1115,7 @@ int dsmc_advance_soft(dsmc_t *d, double t_stop, double t_soft, uint64_t max_coll
 	for (uint64_t k = 0; k < max_steps && d->t < t_stop && d->t < t_soft && d->collisions < max_collisions; k++) {
 		double dt = d->dt_fixed;
 		if (dt <= 0) {
-			double T = 2 * d->ekin_est / (d->dim * (double)d->n);
+			double T = 2 * d->ekin_est / (d->dim * (double)(d->na ? d->na : 1));   /* present particles */
 			dt = T > 0 ? d->cps / (d->fcoef * sqrt(T)) : INFINITY;
 			if (d->gnorm > 0 && !(dt <= d->dt_grav))
 				dt = d->dt_grav;
@@ -1121,6 +1148,7 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 	d->bounded = d->has_walls || scene_has_gravity(s);
 	double g2 = 0, hmin = INFINITY;
 	int vib = 0;
+	d->open = 0;
 	for (int a = 0; a < d->dim; a++) {
 		d->g[a] = s->gravity[a];
 		g2 += d->g[a] * d->g[a];
@@ -1137,11 +1165,10 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 		for (int k = 0; k < 2; k++) {
 			const scene_wall_t *sw = &s->boundary[a].wall[k];
 			if (sw->type != SCENE_WALL_SPECULAR && sw->type != SCENE_WALL_THERMAL && sw->type != SCENE_WALL_ROUGH &&
-			    sw->type != SCENE_WALL_MOVING && sw->type != SCENE_WALL_VIBRATING) {
+			    sw->type != SCENE_WALL_MOVING && sw->type != SCENE_WALL_VIBRATING && sw->type != SCENE_WALL_OPEN) {
 				if (msg && msglen)
-					snprintf(msg, msglen, "boundaries.%s.%s.type: \"%s\" walls are not supported by method \"%s\" "
-					         "(only \"ed\"); use \"specular\", \"thermal\", \"rough\", \"moving\" or \"vibrating\"",
-					         axis[a], end[k], sw->type == SCENE_WALL_OPEN ? "open" : "these", method);
+					snprintf(msg, msglen, "boundaries.%s.%s.type: these walls are not supported by method \"%s\"",
+					         axis[a], end[k], method);
 				return DSMC_EINVAL;
 			}
 			mcwall_t *W = &d->wall[2 * a + k];
@@ -1154,6 +1181,10 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 			for (int b = 0; b < 3; b++)
 				W->u[b] = b < d->dim && b != a ? sw->velocity[b] : 0.0;
 			W->A = W->omega = W->ph = 0.0;
+			if (sw->type == SCENE_WALL_OPEN) {
+				W->r = 1.0;   /* reflects (specular) during relax only */
+				d->open = 1;
+			}
 			if (sw->type == SCENE_WALL_VIBRATING && sw->amplitude > 0.0) {
 				/* its rule is specular with r_w, relative to the wall (flight_vib()) */
 				W->A = sw->amplitude;
@@ -1174,6 +1205,7 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 	 * of a cell from rest (a gas at T = 0 still falls, and a step should not
 	 * carry particles across many cells between collision steps). */
 	d->dt_grav = d->gnorm > 0 ? sqrt(2 * (d->cps > 0 ? d->cps : 0.2) * hmin / d->gnorm) : INFINITY;
+	vib |= d->open;   /* open walls take the vibrating-wall step too (flight_vib()) */
 	d->step = d->dim == 2 ? (vib ? step2v : d->bounded ? step2b : step2) : (vib ? step3v : d->bounded ? step3b : step3);
 	return DSMC_OK;
 }
@@ -1191,7 +1223,7 @@ static int layout(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
 		return DSMC_EINVAL;
 	}
 	d->dim = s->dim;
-	d->n = (uint32_t)s->count;
+	d->n = d->na = (uint32_t)s->count;
 	d->hsmc = pr.hsmc;
 	d->cba = pr.correction == SCENE_MC_CBA;
 	d->sigma = 2 * s->radius;
@@ -1387,9 +1419,11 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 	if (s->relax_cpp > 0) {
 		double e = d->e;
 		d->e = 1;
+		d->relaxing = 1;   /* open walls reflect */
 		uint64_t target = (uint64_t)ceil(s->relax_cpp * d->n / 2.0);
 		(void)dsmc_advance(d, INFINITY, target, UINT64_MAX);   /* QUIESCENT at T = 0: nothing to relax */
 		d->e = e;
+		d->relaxing = 0;
 		d->t = 0;
 		d->steps = d->collisions = d->candidates = d->vmax_raised = 0;
 		d->cell_collisions = d->rejected = 0;
@@ -1442,18 +1476,20 @@ static void walls_out(const struct dsmc *d, dsmc_sample_t *out)
 	const int D = d->dim, S = 2 * D;
 	out->wall_collisions = d->wall_collisions;
 	out->rested = d->rested;
+	out->particles = d->na;
+	memcpy(out->wall_outflow, d->wout, sizeof out->wall_outflow);
 	memcpy(out->wall_hits, d->wall_hits, sizeof out->wall_hits);
 	out->com_height = out->potential_energy = NAN;
 	if (!(d->gnorm > 0))
 		return;
 	double sum[3] = {0, 0, 0}, gr = 0;
-	for (uint32_t k = 0; k < d->n; k++)
+	for (uint32_t k = 0; k < d->na; k++)   /* the particles present */
 		for (int a = 0; a < D; a++)
 			sum[a] += d->p[(size_t)k * S + a];
 	for (int a = 0; a < D; a++)
-		gr += d->g[a] * (sum[a] - d->n * d->org[a]);   /* scene coordinates */
+		gr += d->g[a] * (sum[a] - d->na * d->org[a]);   /* scene coordinates */
 	out->potential_energy = -d->mass * gr;
-	out->com_height = -gr / (d->gnorm * d->n);
+	out->com_height = d->na ? -gr / (d->gnorm * d->na) : NAN;
 }
 
 void dsmc_sample(dsmc_t *d, dsmc_sample_t *out)
@@ -1487,10 +1523,11 @@ void dsmc_state(const dsmc_t *d, double *pos, double *vel)
 	for (uint32_t k = 0; k < d->n; k++) {
 		size_t i = d->id[k];
 		for (int a = 0; a < D; a++) {
+			/* scene coordinates; NaN for a particle that left through an open wall */
 			if (pos)
-				pos[i * D + a] = d->p[(size_t)k * S + a] - d->org[a];   /* scene coordinates */
+				pos[i * D + a] = k < d->na ? d->p[(size_t)k * S + a] - d->org[a] : NAN;
 			if (vel)
-				vel[i * D + a] = d->p[(size_t)k * S + D + a];
+				vel[i * D + a] = k < d->na ? d->p[(size_t)k * S + D + a] : NAN;
 		}
 	}
 }
@@ -1519,7 +1556,7 @@ void dsmc_totals(const dsmc_t *d, dsmc_sample_t *out)
  * estimate and the interval accumulators. Not stored: the sort scratch
  * cell, cnt (rewritten before they are read in every step) and v_max
  * (recomputed per cell and step from the velocities). */
-enum { F_SCALAR, F_PART, F_ID, F_START, F_REM, F_STAMP, F_RNG, F_WALL, F_WHITS, F_WIMP };
+enum { F_SCALAR, F_PART, F_ID, F_START, F_REM, F_STAMP, F_RNG, F_WALL, F_WHITS, F_WIMP, F_PRESENT, F_WOUT };
 typedef struct {
 	const char *name;
 	ed_type_t type;
@@ -1552,6 +1589,9 @@ static const dfield_t dfields[] = {
 	{ "wall_rested", ED_T_U64, F_WALL, offsetof(struct dsmc, rested) },
 	{ "wall_hits", ED_T_U64, F_WHITS, 0 },
 	{ "wall_impulse", ED_T_F64, F_WIMP, 0 },
+	/* scenes with open walls only */
+	{ "present", ED_T_U64, F_PRESENT, 0 },
+	{ "wall_outflow", ED_T_U64, F_WOUT, 0 },
 };
 #define N_DFIELDS (sizeof dfields / sizeof dfields[0])
 
@@ -1567,6 +1607,8 @@ static size_t dfield_count(const struct dsmc *d, const dfield_t *f)
 	case F_WALL: return d->has_walls ? 1 : 0;
 	case F_WHITS: return d->has_walls ? 6 : 0;
 	case F_WIMP: return d->has_walls ? 18 : 0;
+	case F_PRESENT: return d->open ? 1 : 0;
+	case F_WOUT: return d->open ? 6 : 0;
 	default: return 1;
 	}
 }
@@ -1574,7 +1616,7 @@ static size_t dfield_count(const struct dsmc *d, const dfield_t *f)
 /* Fields a scene's engine has (stamp: hsmc; wall state: scenes with walls). */
 static int dfield_present(const struct dsmc *d, const dfield_t *f)
 {
-	return f->kind == F_STAMP ? d->hsmc : f->kind >= F_WALL ? d->has_walls : 1;
+	return f->kind == F_STAMP ? d->hsmc : f->kind >= F_PRESENT ? d->open : f->kind >= F_WALL ? d->has_walls : 1;
 }
 
 static const dfield_t *dfield_find(const char *name)
@@ -1613,6 +1655,8 @@ int dsmc_field_get(const dsmc_t *d, const char *name, void *buf)
 	case F_RNG: memcpy(buf, d->rng.s, sizeof(d->rng.s)); break;
 	case F_WHITS: memcpy(buf, d->wall_hits, sizeof d->wall_hits); break;
 	case F_WIMP: memcpy(buf, d->wall_impulse, sizeof d->wall_impulse); break;
+	case F_PRESENT: *(uint64_t *)buf = d->na; break;
+	case F_WOUT: memcpy(buf, d->wout, sizeof d->wout); break;
 	case F_REM:
 		for (size_t c = 0; c < count; c++)
 			((double *)buf)[c] = d->rem[c];   /* float -> double -> float is exact */
@@ -1635,6 +1679,12 @@ int dsmc_field_set(dsmc_t *d, const char *name, ed_type_t type, size_t count, co
 	case F_RNG: memcpy(d->rng.s, buf, sizeof(d->rng.s)); break;
 	case F_WHITS: memcpy(d->wall_hits, buf, sizeof d->wall_hits); break;
 	case F_WIMP: memcpy(d->wall_impulse, buf, sizeof d->wall_impulse); break;
+	case F_PRESENT:
+		if (*(const uint64_t *)buf > d->n)
+			return DSMC_EINVAL;
+		d->na = (uint32_t)*(const uint64_t *)buf;
+		break;
+	case F_WOUT: memcpy(d->wout, buf, sizeof d->wout); break;
 	case F_REM:
 		for (size_t c = 0; c < count; c++) {
 			double r = ((const double *)buf)[c];
@@ -1652,8 +1702,8 @@ int dsmc_restore_finish(dsmc_t *d, char *msg, size_t msglen)
 {
 	const int D = d->dim, S = 2 * D;
 	const char *why = NULL;
-	if (d->start[0] != 0 || d->start[d->ncells] != d->n)
-		why = "cell offsets do not cover the particles";
+	if (d->start[0] != 0 || d->start[d->ncells] != d->na || d->na > d->n || (!d->open && d->na != d->n))
+		why = "cell offsets do not cover the particles present";
 	for (size_t c = 0; !why && c < d->ncells; c++)
 		if (d->start[c + 1] < d->start[c])
 			why = "cell offsets decrease";
