@@ -125,6 +125,8 @@ static void eng_sample(run_t *rc, smp_t *o)
 		o->wall_collisions = sm.wall_collisions;
 		memcpy(o->wall_impulse, sm.wall_impulse, sizeof(o->wall_impulse));
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
+		o->particles = sm.particles;
+		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
 	}
 }
 
@@ -153,6 +155,8 @@ static void eng_totals(const run_t *rc, smp_t *o)
 		o->rejected_moves = sm.rejected_moves;
 		o->wall_collisions = sm.wall_collisions;
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
+		o->particles = sm.particles;
+		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
 	}
 }
 
@@ -227,10 +231,10 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 	r->rejected_moves = sm.rejected_moves;
 	r->have = s->observables;
 	r->kinetic_energy = sm.kinetic_energy;
-	/* with open walls, over the particles still present (ed; the interval
+	/* with open walls, over the particles still present (the interval
 	 * mean divides by those present at its end) */
-	const double np = rc->ed && sm.particles ? (double)sm.particles : (double)s->count;
-	r->particles = rc->ed ? sm.particles : s->count;
+	const double np = sm.particles ? (double)sm.particles : (double)s->count;
+	r->particles = sm.particles;
 	memcpy(r->wall_outflow, sm.wall_outflow, sizeof(r->wall_outflow));
 	r->temperature = 2.0 * sm.kinetic_energy / (s->dim * np);
 	memcpy(r->momentum, sm.momentum, sizeof(r->momentum));
