@@ -8,7 +8,10 @@
  * declarations of ed.c. WALLS = GRAV = 0 is the periodic homogeneous engine;
  * the flags are compile-time, so it tests none of this per event. ROUGH
  * (rough particles: spins in ed->spin, the rough collision rule) is a
- * further flag on top of any of them.
+ * further flag on top of any of them. SPEC (species: contact distance,
+ * restitution and masses from the pair tables by ed->spc; periodic smooth
+ * scenes only) replaces ed->sigma2, ed->e and ed->mass in predictions,
+ * collisions and energies; without it they are the one species' constants.
  */
 
 /* Flight of particle p to time t (lazy: only when the particle is touched). */
@@ -202,7 +205,7 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
  * of every scan (GCC's -O2 heuristics otherwise may not). */
 static inline __attribute__((always_inline)) void
 FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, const double *vi, double t, int minimg,
-             double *horizon, int32_t *found)
+             const double *sg2, double *horizon, int32_t *found)
 {
 	double dtj = t - pj->t, dr[D], dv[D], b, r2;
 #if GRAV
@@ -232,7 +235,12 @@ FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, co
 	r2 = dr[0] * dr[0];
 	_Pragma("GCC unroll 3") for (int a = 1; a < D; a++)
 		r2 += dr[a] * dr[a];
+#if SPEC
+	double c = r2 - sg2[ed->spc[j]], dt;   /* sg2: i's row of squared contact distances */
+#else
+	(void)sg2;
 	double c = r2 - ed->sigma2, dt;
+#endif
 	if (__builtin_expect(c <= 0.0, 0)) {
 		if (b >= 0.0)
 			return;      /* separating (or itself): no collision */
@@ -274,7 +282,7 @@ FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, co
  * image while receding in the other). Try every image on those axes; the
  * raw difference lies in (-L, L), so shifts of -L, 0, +L cover them all. */
 static void FN(try_images)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri,
-                           const double *vi, double t, double *horizon, int32_t *found)
+                           const double *vi, double t, const double *sg2, double *horizon, int32_t *found)
 {
 	int k[3] = {0, 0, 0}, lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
 	FOR_AXES(a)
@@ -286,7 +294,7 @@ static void FN(try_images)(const struct ed *ed, const P_T *pj, int32_t j, const 
 				double rk[D];
 				FOR_AXES(a)
 					rk[a] = ri[a] + k[a] * ed->L[a];
-				FN(try_pair)(ed, pj, j, rk, vi, t, 0, horizon, found);
+				FN(try_pair)(ed, pj, j, rk, vi, t, 0, sg2, horizon, found);
 			}
 }
 
@@ -361,6 +369,7 @@ FN(scan_impl)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[
 	}
 	double horizon = e->t_coll - t;
 	int32_t found = -1;
+	const double *sg2 = SPEC ? ed->sp_sig2 + ed->spc[i] * ed->nsp : NULL;
 	/* First the non-empty cells, with their first particles' records
 	 * requested at once (in a large system each is a cache miss, and the
 	 * tests below would let only one or two be under way at a time); then
@@ -390,9 +399,9 @@ FN(scan_impl)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[
 			if ((uint32_t)j == i)
 				continue;
 			if (minimg)
-				FN(try_images)(ed, &P[j], j, ri, vi, t, &horizon, &found);
+				FN(try_images)(ed, &P[j], j, ri, vi, t, sg2, &horizon, &found);
 			else
-				FN(try_pair)(ed, &P[j], j, ri, vi, t, 0, &horizon, &found);
+				FN(try_pair)(ed, &P[j], j, ri, vi, t, 0, sg2, &horizon, &found);
 		}
 	}
 	/* Only a partner found by this scan gets its counter recorded: a kept
@@ -486,12 +495,13 @@ static void FN(scan_nl)(struct ed *ed, uint32_t i)
 		__builtin_prefetch(&P[nb[k]]);
 	double horizon = e->t_cross - t;
 	int32_t found = -1;
+	const double *sg2 = SPEC ? ed->sp_sig2 + ed->spc[i] * ed->nsp : NULL;
 	if (edge)
 		for (int k = 0; k < m; k++)
-			FN(try_pair)(ed, &P[nb[k]], nb[k], ri, vi, t, 1, &horizon, &found);
+			FN(try_pair)(ed, &P[nb[k]], nb[k], ri, vi, t, 1, sg2, &horizon, &found);
 	else
 		for (int k = 0; k < m; k++)
-			FN(try_pair)(ed, &P[nb[k]], nb[k], ri, vi, t, 0, &horizon, &found);
+			FN(try_pair)(ed, &P[nb[k]], nb[k], ri, vi, t, 0, sg2, &horizon, &found);
 	e->partner = found;
 	if (found >= 0) {
 		e->t_coll = t + horizon;
@@ -730,7 +740,13 @@ static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uin
 	}
 	FN(energy_to)(ed, t);
 	if (b < 0.0) {
+#if SPEC
+		/* the pair's restitution (elastic in the pre-run, which sets relaxing) */
+		const int pq = ed->spc[i] * ed->nsp + ed->spc[j], qr = ed->spc[j] * ed->nsp + ed->spc[i];
+		double e = ed->relaxing ? 1.0 : ed->mix->e[pq];
+#else
 		double e = ed->e;
+#endif
 #if ROUGH
 		int elastic = ed->relaxing;   /* elastic pre-run: smooth and elastic */
 		if (elastic)
@@ -758,6 +774,19 @@ static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uin
 #if ROUGH
 		FN(rough_kick)(ed, pi, pj, i, j, dr, r2, b, e, elastic);
 		ed->virial -= 0.5 * (1.0 + e) * ed->mass * b;   /* r . J: J_t is normal to r */
+#elif SPEC
+		/* unequal masses: impulse J = -(1 + e) mu (b / r2) dr on i, mu the
+		 * reduced mass; i's velocity changes by J / m_i = -(1 + e) w_ij
+		 * (b / r2) dr with w_ij = m_j / (m_i + m_j), j's by the opposite
+		 * impulse over m_j */
+		double f = (1.0 + e) * b / r2, fi = f * ed->mix->w[pq], fj = f * ed->mix->w[qr];
+		FOR_AXES(a) {
+			pi->v[a] -= fi * dr[a];
+			pj->v[a] += fj * dr[a];
+		}
+		ed->virial -= (1.0 + e) * ed->mix->mu[pq] * b;
+		if (e != 1.0)
+			ed->ekin_cur -= 0.5 * (1.0 - e * e) * ed->mix->mu[pq] * b * b / r2;
 #else
 		double f = 0.5 * (1.0 + e) * b / r2;
 		FOR_AXES(a) {
@@ -1052,6 +1081,9 @@ static void FN(reorder)(struct ed *ed)
 #if ROUGH
 	permute(ed->spin, (D == 2 ? 1 : 3) * sizeof(double), newidx, n);
 #endif
+#if SPEC
+	permute(ed->spc, 1, newidx, n);
+#endif
 	if (ed->nl) {
 		const uint32_t K = ed->nlk;
 		for (uint32_t i = 0; i < n; i++)
@@ -1245,6 +1277,16 @@ static double FN(ekin)(const struct ed *ed, double mom[3])
 	const P_T *P = ed->p;
 	double s = 0.0;
 	mom[0] = mom[1] = mom[2] = 0.0;
+#if SPEC
+	for (uint32_t i = 0; i < ed->n; i++) {
+		const double m = ed->mix->m[ed->spc[i]];
+		FOR_AXES(a) {
+			s += m * P[i].v[a] * P[i].v[a];
+			mom[a] += m * P[i].v[a];
+		}
+	}
+	return 0.5 * s;
+#else
 	for (uint32_t i = 0; i < ed->n; i++)
 		FOR_AXES(a) {
 			s += P[i].v[a] * P[i].v[a];
@@ -1253,6 +1295,7 @@ static double FN(ekin)(const struct ed *ed, double mom[3])
 	FOR_AXES(a)
 		mom[a] *= ed->mass;
 	return 0.5 * ed->mass * s;
+#endif
 }
 #endif
 
@@ -1348,7 +1391,11 @@ static double FN(min_gap)(const struct ed *ed)
 						double x = FN(min_image)(ed, a, ri[a] - FN(pos_now)(ed, &P[j], a));
 						r2 += x * x;
 					}
+#if SPEC
+					double g = sqrt(r2) - ed->mix->sig[ed->spc[i] * ed->nsp + ed->spc[j]];
+#else
 					double g = sqrt(r2) - ed->sigma;
+#endif
 					if (g < best)
 						best = g;
 				}
@@ -1441,7 +1488,12 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
 							double x = FN(min_image)(ed, a, P[i].r[a] - P[j].r[a]);
 							r2 += x * x;
 						}
-						if (r2 < ed->sigma2) {
+#if SPEC
+						const double s2 = ed->sp_sig2[ed->spc[i] * ed->nsp + ed->spc[j]];
+#else
+						const double s2 = ed->sigma2;
+#endif
+						if (r2 < s2) {
 							clash = 1;
 							break;
 						}
