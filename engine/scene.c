@@ -618,12 +618,12 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 	};
 	for (size_t k = 0; k < sizeof keys / sizeof keys[0]; k++)
 		if (json_object_get(v, keys[k].key))
-			return fail(c, keys[k].key, "%s with more than one particle species (particles.species) are not "
-				    "supported yet", keys[k].what);
+			return fail(c, keys[k].key, "%s: not supported yet with more than one particle species "
+				    "(particles.species)", keys[k].what);
 	json_t *col = json_object_get(v, "collisions");
 	if (json_object_get(col, "rough"))
-		return fail(c, "collisions.rough", "rough particles with more than one species (particles.species) are "
-			    "not supported yet");
+		return fail(c, "collisions.rough", "rough particles: not supported yet with more than one particle "
+			    "species (particles.species)");
 	json_t *ini = json_object_get(json_object_get(v, "particles"), "initial");
 	static const char *const inits[] = { "from", "region" };
 	for (size_t k = 0; k < sizeof inits / sizeof inits[0]; k++)
