@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "ed/ed.h"
+#include "mc/dsmc.h"
 #include "scene.h"
 #include "tap.h"
 #include "ed_util.h"
@@ -41,6 +42,15 @@ static void test_parse(void)
 	   fabs(s.box[0] * s.box[1] * 0.2 - 40 * vp) < 1e-9 * 40 * vp,
 	   "volume fraction from the species' volumes (box %g)", s.box[0]);
 	ok(scene_has_species(&s), "scene_has_species()");
+	/* the Monte Carlo engines refuse a mixture themselves (not only through the parser) */
+	scene_t m = s;
+	m.method = SCENE_METHOD_DSMC;
+	char why[256] = "";
+	int dc;
+	dsmc_t *d = dsmc_create(&m, 0, &dc, why, sizeof why);
+	ok(!d && dc == DSMC_EINVAL && !strncmp(why, "particles.species:", 18), "dsmc_create() refuses two species: %s",
+	   why);
+	dsmc_destroy(d);
 
 	static const struct { const char *what, *json, *key; } bad[] = {
 		{ "both count and species", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":4,\"species\":"
@@ -418,7 +428,7 @@ static void test_checkpoint(void)
 
 int main(void)
 {
-	plan(28);
+	plan(29);
 	test_parse();
 	test_placement();
 	test_one_species();
