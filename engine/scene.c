@@ -12,6 +12,7 @@
 #include "ed/ed.h"
 #include "mc/dsmc.h"
 #include "place.h"
+#include "rng.h"
 
 #define PI 3.14159265358979323846
 #define PATHLEN 256
@@ -485,14 +486,55 @@ static int parse_name(ctx_t *c, const char *path, json_t *v, void *dst, const vo
 
 static const struct irange R_SPECIES_COUNT = { 1, COUNT_MAX };
 
+/* particles.species[k].radius_range: [lo, hi], 0 < lo < hi (into radius_lo, radius_hi). */
+static int parse_radius_range(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	(void)arg;
+	double *r = dst;
+	char sub[PATHLEN];
+	if (!json_is_array(v) || json_array_size(v) != 2)
+		return fail(c, path, "must be an array [smallest, largest] of two radii");
+	for (size_t k = 0; k < 2; k++) {
+		snprintf(sub, sizeof sub, "%s[%zu]", path, k);
+		int ret = get_number(c, sub, json_array_get(v, k), &R_POS, &r[k]);
+		if (ret)
+			return ret;
+	}
+	if (!(r[0] < r[1]))
+		return fail(c, path, "the smallest radius %s must be less than the largest %s (a single radius: use radius)",
+			    num(r[0]).s, num(r[1]).s);
+	return 0;
+}
+
+/* A species has exactly one of radius and radius_range. */
+static int check_species(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_species_t *q = base;
+	bool one = json_object_get(v, "radius") != NULL, range = json_object_get(v, "radius_range") != NULL;
+	char sub[PATHLEN];
+	if (one && range) {
+		join(sub, path, "radius_range");
+		return fail(c, sub, "not with radius (a species has one radius or a range)");
+	}
+	if (!one && !range) {
+		join(sub, path, "radius");
+		return fail(c, sub, "required key missing (or radius_range)");
+	}
+	if (range)
+		q->radius = q->radius_hi;
+	return 0;
+}
+
 static const struct object species_obj = {
 	.fields = (const struct field[]){
 		{ "name", parse_name, offsetof(scene_species_t, name), NULL, false },
 		{ "count", parse_integer, offsetof(scene_species_t, count), &R_SPECIES_COUNT, true },
-		{ "radius", parse_number, offsetof(scene_species_t, radius), &R_POS, true },
+		{ "radius", parse_number, offsetof(scene_species_t, radius), &R_POS, false },
+		{ "radius_range", parse_radius_range, offsetof(scene_species_t, radius_lo), NULL, false },
 		{ "mass", parse_number, offsetof(scene_species_t, mass), &R_POS, true },
 		{ .name = NULL },
 	},
+	.check = check_species,
 };
 
 /* particles.species: an array of 1 .. SCENE_SPECIES_MAX species with distinct names. */
@@ -605,35 +647,34 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 		for (int b = 0; b < s->n_species; b++)
 			if (isnan(s->restitution_pair[a][b]))
 				s->restitution_pair[a][b] = s->restitution;
-	if (s->n_species == 1) {
+	if (s->n_species == 1)
 		s->restitution = s->restitution_pair[0][0];   /* the one-species scene */
+	if (!scene_has_species(s))
 		return 0;
-	}
+	const char *what = s->n_species > 1 ? "more than one particle species" : "polydisperse particles";
 	if (s->method != SCENE_METHOD_ED)
-		return fail(c, "particles.species", "method \"%s\" simulates one species only; use method \"ed\" for "
-			    "%d species", method_names[s->method], s->n_species);
+		return fail(c, "particles.species", "method \"%s\" simulates one species of one radius only; use method "
+			    "\"ed\" for %s", method_names[s->method], what);
 	static const struct { const char *key, *what; } keys[] = {
 		{ "boundaries", "walls" }, { "gravity", "gravity" }, { "obstacles", "obstacles" },
 		{ "driving", "driving" },
 	};
 	for (size_t k = 0; k < sizeof keys / sizeof keys[0]; k++)
 		if (json_object_get(v, keys[k].key))
-			return fail(c, keys[k].key, "%s: not supported yet with more than one particle species "
-				    "(particles.species)", keys[k].what);
+			return fail(c, keys[k].key, "%s: not supported yet with %s (particles.species)", keys[k].what, what);
 	json_t *col = json_object_get(v, "collisions");
 	if (json_object_get(col, "rough"))
-		return fail(c, "collisions.rough", "rough particles: not supported yet with more than one particle "
-			    "species (particles.species)");
+		return fail(c, "collisions.rough", "rough particles: not supported yet with %s (particles.species)", what);
 	json_t *ini = json_object_get(json_object_get(v, "particles"), "initial");
 	static const char *const inits[] = { "from", "region" };
 	for (size_t k = 0; k < sizeof inits / sizeof inits[0]; k++)
 		if (json_object_get(ini, inits[k])) {
 			char sub[PATHLEN];
 			snprintf(sub, sizeof sub, "particles.initial.%s", inits[k]);
-			return fail(c, sub, "not with more than one particle species (particles.species) yet");
+			return fail(c, sub, "not with %s (particles.species) yet", what);
 		}
 	if (s->replicas > 1)
-		return fail(c, "run.replicas", "ensembles of mixtures (particles.species) are not supported yet");
+		return fail(c, "run.replicas", "ensembles with %s (particles.species) are not supported yet", what);
 	static const struct { unsigned bit; const char *name; } obs[] = {
 		{ SCENE_OBS_CLUSTERS, "clusters" }, { SCENE_OBS_VDIST, "velocity_distribution" },
 		{ SCENE_OBS_GOFR, "pair_correlation" }, { SCENE_OBS_VCORR, "velocity_correlations" },
@@ -641,8 +682,8 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 	};
 	for (size_t k = 0; k < sizeof obs / sizeof obs[0]; k++)
 		if (s->observables & obs[k].bit)
-			return fail(c, "output.observables", "\"%s\" is defined for one species only (particles.species "
-				    "has %d)", obs[k].name, s->n_species);
+			return fail(c, "output.observables", "\"%s\" is defined for one species of one radius only, not for "
+				    "%s (particles.species)", obs[k].name, what);
 	if (s->tc == 0)
 		for (int a = 0; a < s->n_species; a++)
 			for (int b = a; b < s->n_species; b++)
@@ -1715,12 +1756,38 @@ double scene_box_volume(const scene_t *s)
 
 int scene_has_species(const scene_t *s)
 {
+	for (int k = 0; k < s->n_species; k++)
+		if (s->species[k].radius_hi > 0)
+			return 1;
 	return s->n_species > 1;
+}
+
+void scene_species_radii(const scene_t *s, double *r)
+{
+	rng_t rng;
+	rng_init(&rng, s->seed, s->stream | (1ull << 60));
+	uint64_t i = 0;
+	for (int k = 0; k < s->n_species; k++) {
+		const scene_species_t *q = &s->species[k];
+		for (uint64_t j = 0; j < q->count; j++, i++)
+			r[i] = q->radius_hi > 0 ? q->radius_lo + (q->radius_hi - q->radius_lo) * rng_uniform(&rng) : q->radius;
+	}
 }
 
 static double ball_volume(int dim, double r)
 {
 	return dim == 3 ? 4.0 / 3.0 * PI * r * r * r : PI * r * r;
+}
+
+/* Mean particle volume of a species: of its radius, or the expectation over
+ * radii uniform in [lo, hi]: E[r^D] = (hi^(D+1) - lo^(D+1)) / ((D+1)(hi - lo)). */
+static double species_volume(int dim, const scene_species_t *q)
+{
+	if (!(q->radius_hi > 0))
+		return ball_volume(dim, q->radius);
+	const double lo = q->radius_lo, hi = q->radius_hi;
+	const double erd = (pow(hi, dim + 1) - pow(lo, dim + 1)) / ((dim + 1) * (hi - lo));
+	return ball_volume(dim, 1.0) * erd;
 }
 
 double scene_particle_volume(const scene_t *s)
@@ -1729,7 +1796,7 @@ double scene_particle_volume(const scene_t *s)
 		return ball_volume(s->dim, s->radius);
 	double v = 0.0;
 	for (int k = 0; k < s->n_species; k++)
-		v += (double)s->species[k].count * ball_volume(s->dim, s->species[k].radius);
+		v += (double)s->species[k].count * species_volume(s->dim, &s->species[k]);
 	return v / (double)s->count;
 }
 

@@ -133,7 +133,11 @@ typedef struct {
 #define SCENE_NAME_MAX 32
 typedef struct {
 	uint64_t count;                /* >= 1 */
-	double radius, mass;           /* > 0 */
+	double radius, mass;           /* > 0; radius: the largest (radius_hi) when polydisperse */
+	/* polydisperse (radius_range): radii uniform in [radius_lo, radius_hi],
+	 * drawn per particle from the seed (scene_species_radii()); 0, 0 when
+	 * all particles of the species have radius */
+	double radius_lo, radius_hi;
 	char name[SCENE_NAME_MAX];     /* as given, or its index ("0", "1", ...) */
 } scene_species_t;
 
@@ -270,8 +274,14 @@ int scene_has_obstacles(const scene_t *s);
 int scene_has_open_walls(const scene_t *s);
 int scene_has_gravity(const scene_t *s);
 
-/* More than one particle species (particles.species with >= 2 entries). */
+/* A mixture: more than one particle species, or polydisperse radii
+ * (particles.species[k].radius_range): the engine's species path. */
 int scene_has_species(const scene_t *s);
+/* The radius of every particle, in scene order (count doubles): each
+ * species' radius, or for a polydisperse species uniform draws in its
+ * radius_range from the scene's seed and stream (a stream of their own:
+ * the same radii for every reader of the scene). Pure. */
+void scene_species_radii(const scene_t *s, double *r);
 
 /* Volume of the box and of one particle (disk area in 2D; with species the
  * mean over the particles). */

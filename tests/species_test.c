@@ -77,6 +77,12 @@ static void test_parse(void)
 		  "[{\"count\":20,\"radius\":0.5,\"mass\":1},{\"count\":20,\"radius\":0.5,\"mass\":2}],"
 		  "\"volume_fraction\":0.1},\"gravity\":[0,-1],\"run\":{\"until\":{\"time\":1}}}",
 		  "gravity:" },
+		{ "radius and radius_range", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":"
+		  "[{\"count\":20,\"radius\":0.5,\"radius_range\":[0.4,0.6],\"mass\":1}],\"volume_fraction\":0.1},"
+		  "\"run\":{\"until\":{\"time\":1}}}", "particles.species[0].radius_range:" },
+		{ "radius_range reversed", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":"
+		  "[{\"count\":20,\"radius_range\":[0.6,0.4],\"mass\":1}],\"volume_fraction\":0.1},"
+		  "\"run\":{\"until\":{\"time\":1}}}", "particles.species[0].radius_range:" },
 		{ "g(r) of a mixture", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":"
 		  "[{\"count\":20,\"radius\":0.5,\"mass\":1},{\"count\":20,\"radius\":0.5,\"mass\":2}],"
 		  "\"volume_fraction\":0.1},\"run\":{\"until\":{\"time\":1}},\"output\":{\"observables\":"
@@ -363,6 +369,69 @@ static void test_hcs(void)
 	ok(fabs(hcs_ratio(m, n, sig, e1, 2) - 1.0) < 1e-9, "theory at e = 1: ratio 1 (equipartition)");
 }
 
+/* ---- polydisperse radii ------------------------------------------------ */
+
+/* One polydisperse species (2D, 2000 disks, radii uniform in [0.3, 0.7],
+ * volume fraction 0.3, random start), elastic: the radii lie in the range
+ * with the mean of the uniform distribution, 0.5, within 5 standard errors
+ * ((0.7 - 0.3) / sqrt(12 N)); the parser's box holds the expected volume
+ * fraction (E[r^2] = (0.7^3 - 0.3^3) / (3 x 0.4)); no pair overlaps by more
+ * than rounding (brute force with the drawn radii) at the start and after
+ * 50 collisions per particle; energy conserved to 1e-12 relative. */
+static void test_polydisperse(void)
+{
+	const char *j = "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":[{\"count\":2000,"
+	                "\"radius_range\":[0.3,0.7],\"mass\":1}],\"volume_fraction\":0.3,\"initial\":{\"positions\":"
+	                "\"random\"}},\"run\":{\"until\":{\"time\":1},\"seed\":5}}";
+	scene_t s;
+	ed_t *ed = make(j, &s);
+	if (!ed) {
+		ok(0, "polydisperse scene");
+		return;
+	}
+	const uint64_t n = s.count;
+	double *rad = malloc(n * sizeof(double)), *pos = malloc(n * 2 * sizeof(double)), sum = 0.0, lo = 1, hi = 0;
+	scene_species_radii(&s, rad);
+	for (uint64_t i = 0; i < n; i++) {
+		sum += rad[i];
+		lo = fmin(lo, rad[i]);
+		hi = fmax(hi, rad[i]);
+	}
+	const double se = 0.4 / sqrt(12.0 * n), er2 = (0.343 - 0.027) / 1.2;
+	ok(lo >= 0.3 && hi <= 0.7 && fabs(sum / n - 0.5) < 5 * se && s.radius == 0.7,
+	   "radii in [%.4f, %.4f], mean %.4f (0.5 +- %.4f), largest radius 0.7 for the cells", lo, hi, sum / n, se);
+	ok(fabs(s.box[0] * s.box[1] * 0.3 - n * M_PI * er2) < 1e-9 * n, "box from the expected particle area (edge %.4f)",
+	   s.box[0]);
+	/* brute force with the drawn radii */
+	double g0 = INFINITY, g1 = INFINITY;
+	for (int pass = 0; pass < 2; pass++) {
+		if (pass)
+			ed_advance(ed, INFINITY, (uint64_t)cpp_coll(50, n), UINT64_MAX);
+		ed_state(ed, pos, NULL);
+		double g = INFINITY;
+		for (uint64_t a = 0; a < n; a++)
+			for (uint64_t b = a + 1; b < n; b++) {
+				double r2 = 0.0;
+				for (int d = 0; d < 2; d++) {
+					double x = pos[a * 2 + d] - pos[b * 2 + d];
+					x -= s.box[d] * nearbyint(x / s.box[d]);
+					r2 += x * x;
+				}
+				g = fmin(g, sqrt(r2) - rad[a] - rad[b]);
+			}
+		*(pass ? &g1 : &g0) = g;
+	}
+	ed_sample_t s1;
+	ed_totals(ed, &s1);
+	double de = fabs(s1.kinetic_energy - 0.5 * 2 * n * s.temperature) / (0.5 * 2 * n * s.temperature);
+	ok(g0 >= -1e-12 && g1 > -1e-9 && fabs(ed_min_gap(ed) - g1) < 1e-9,
+	   "no overlap with the drawn radii: smallest gap %.3g at the start, %.3g after 50 collisions per particle", g0, g1);
+	ok(de < 1e-12, "polydisperse elastic gas: energy conserved to %.2g relative", de);
+	free(rad);
+	free(pos);
+	ed_destroy(ed);
+}
+
 /* ---- one species, checkpoints ------------------------------------------ */
 
 /* particles.species with one entry is the one-species scene: the same
@@ -392,13 +461,14 @@ static void test_one_species(void)
 	ed_destroy(b);
 }
 
-/* A mixture copied through its state fields (what a checkpoint holds)
- * continues bit for bit: positions, velocities, species temperatures. */
+/* A mixture (one species polydisperse) copied through its state fields
+ * (what a checkpoint holds) continues bit for bit: positions, velocities,
+ * species temperatures. */
 static void test_checkpoint(void)
 {
 	const char *j = "{\"method\":\"ed\",\"dimensions\":3,\"particles\":{\"species\":["
 	                "{\"count\":300,\"radius\":0.5,\"mass\":1},{\"count\":100,\"radius\":0.75,\"mass\":3},"
-	                "{\"count\":50,\"radius\":0.3,\"mass\":0.2}],\"volume_fraction\":0.25,"
+	                "{\"count\":50,\"radius_range\":[0.2,0.4],\"mass\":0.2}],\"volume_fraction\":0.25,"
 	                "\"initial\":{\"positions\":\"random\"}},"
 	                "\"collisions\":{\"restitution\":0.95,\"restitution_pairs\":[{\"a\":0,\"b\":2,\"restitution\":0.7}]},"
 	                "\"run\":{\"until\":{\"time\":1}}}";
@@ -428,9 +498,10 @@ static void test_checkpoint(void)
 
 int main(void)
 {
-	plan(29);
+	plan(35);
 	test_parse();
 	test_placement();
+	test_polydisperse();
 	test_one_species();
 	test_checkpoint();
 	test_equipartition();

@@ -205,26 +205,27 @@ struct ed {
 	double drv_next[2];       /* state: absolute times of the next kick and of the next mean update */
 	uint64_t drv_kicks[1];    /* state: kicks so far */
 	rng_t drng;               /* state: the driving's random stream */
-	/* Species (SPEC kernels; particles.species with >= 2 entries, periodic
-	 * smooth scenes): spc[i] the species of particle i in storage order
-	 * (permuted with the records by reorder(), rebuilt from id on restore:
-	 * not a state field of its own); species k holds the scene indices
-	 * [sp_first[k], sp_first[k + 1]). Per ordered pair q = a * nsp + b:
-	 * contact distance (and its square), restitution, the share
-	 * m_b / (m_a + m_b) of the velocity change that falls on a, and the
-	 * reduced mass. nsp = 1 and spc NULL for one species. */
-	int nsp;
+	/* Mixtures (SPEC kernels; scene_has_species(): two or more species or
+	 * polydisperse radii; periodic smooth scenes): spc[i] the species and
+	 * prad[i] the radius of particle i in storage order (permuted with the
+	 * records by reorder(), rebuilt from id on restore: not state fields of
+	 * their own); species k holds the scene indices [first[k], first[k + 1]).
+	 * mixture = 0, nsp = 1 and spc, prad, mix NULL for one species. */
+	int nsp, mixture;
 	uint8_t *spc;
-	const double *sp_sig2;    /* = mix->sig2: the scans' table one load away */
-	struct ed_mix *mix;       /* the tables, allocated for mixtures only (one species: NULL) */
+	double *prad;
+	struct ed_mix *mix;
 };
 
+/* Per ordered pair of species q = a * nsp + b: restitution, the share
+ * m_b / (m_a + m_b) of the velocity change that falls on a, the reduced
+ * mass; and every particle's radius in scene order (scene_species_radii()). */
 struct ed_mix {
 	uint32_t first[SCENE_SPECIES_MAX + 1];
 	double m[SCENE_SPECIES_MAX];
-	double sig[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX], sig2[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX];
 	double e[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX], w[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX];
 	double mu[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX];
+	double *rscene;
 };
 
 static inline bool hless(const hent_t *a, const hent_t *b)
@@ -1064,7 +1065,7 @@ static int place_lattice(struct ed *ed, rng_t *rng, char *msg, size_t msglen)
 		lattice_site(ed, Lp, b, clear ? clear[j] : j, (double *)((char *)ed->p + i * stride));
 	}
 	free(clear);
-	if (ed->nsp > 1)   /* species are blocks of indices: sites shuffled among particles so they mix */
+	if (ed->mixture)   /* species are blocks of indices: sites shuffled among particles so they mix */
 		for (uint32_t i = ed->n - 1; i > 0; i--) {
 			uint32_t j = (uint32_t)(rng_uniform(rng) * (i + 1.0));
 			if (j > i)
@@ -1211,8 +1212,8 @@ static void init_velocities_species(struct ed *ed, double temp, rng_t *rng)
 /* Kinetic energy per species now (0 fields for one species). */
 static void species_ekin(const struct ed *ed, ed_sample_t *out)
 {
-	out->n_species = ed->nsp > 1 ? ed->nsp : 0;
-	if (ed->nsp <= 1)
+	out->n_species = ed->mixture && ed->nsp > 1 ? ed->nsp : 0;
+	if (!out->n_species)
 		return;
 	size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
 	size_t voff = ed->dim == 2 ? offsetof(p2_t, v) : offsetof(p3_t, v);
@@ -1511,7 +1512,7 @@ static void setup_wall_cells(struct ed *ed)
  * engine of ed's geometry with neighbour lists (nl) and TC times (tc);
  * absent arrays are 0. */
 enum { A_P, A_EV, A_HEAP, A_CN, A_CALHEAD, A_HEAD, A_OCC, A_NEXT, A_ID, A_SCRATCH_IDX, A_SCRATCH_CELL,
-       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_OCELL, A_GONE, A_SPIN, A_DMEAN, A_DSUM, A_DPOS, A_DVEL, A_SPC, A_MIX, A_COUNT };
+       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_OCELL, A_GONE, A_SPIN, A_DMEAN, A_DSUM, A_DPOS, A_DVEL, A_SPC, A_MIX, A_PRAD, A_RSCENE, A_COUNT };
 static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 {
 	const size_t n = ed->n;
@@ -1536,8 +1537,9 @@ static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 	b[A_DMEAN] = ed->drive ? ed->drv_bins * ed->dim * sizeof(double) : 0;
 	b[A_DSUM] = ed->drive ? ed->drv_bins * (ed->dim + 1) * sizeof(double) : 0;
 	b[A_DPOS] = b[A_DVEL] = ed->drive && ed->drv_bins > 1 ? n * ed->dim * sizeof(double) : 0;
-	b[A_SPC] = ed->nsp > 1 ? n : 0;
-	b[A_MIX] = ed->nsp > 1 ? sizeof(struct ed_mix) : 0;
+	b[A_SPC] = ed->mixture ? n : 0;
+	b[A_MIX] = ed->mixture ? sizeof(struct ed_mix) : 0;
+	b[A_PRAD] = b[A_RSCENE] = ed->mixture ? n * sizeof(double) : 0;
 }
 
 /* Cells cost memory even when empty (~9 bytes each): a grid finer than this
@@ -1553,7 +1555,6 @@ static int too_many_cells(size_t ncells, uint32_t n) { return (double)ncells > 6
 static void setup_species(struct ed *ed, const scene_t *s)
 {
 	const int ns = s->n_species;
-	ed->sp_sig2 = ed->mix->sig2;
 	ed->mix->first[0] = 0;
 	for (int a = 0; a < ns; a++) {
 		ed->mix->m[a] = s->species[a].mass;
@@ -1564,15 +1565,14 @@ static void setup_species(struct ed *ed, const scene_t *s)
 			const int q = a * ns + b;
 			const double ma = s->species[a].mass, mb = s->species[b].mass;
 			struct ed_mix *x = ed->mix;
-			x->sig[q] = s->species[a].radius + s->species[b].radius;
-			x->sig2[q] = x->sig[q] * x->sig[q];
 			x->e[q] = s->restitution_pair[a][b];
 			x->w[q] = mb / (ma + mb);
 			x->mu[q] = ma * mb / (ma + mb);
 		}
 }
 
-/* spc from the scene indices (id): species are blocks of scene indices. */
+/* spc and prad from the scene indices (id): species are blocks of scene
+ * indices, radii drawn in scene order. */
 static void species_from_id(struct ed *ed)
 {
 	for (uint32_t i = 0; i < ed->n; i++) {
@@ -1580,6 +1580,7 @@ static void species_from_id(struct ed *ed)
 		while (k + 1 < ed->nsp && ed->id[i] >= ed->mix->first[k + 1])
 			k++;
 		ed->spc[i] = k;
+		ed->prad[i] = ed->mix->rscene[ed->id[i]];
 	}
 }
 
@@ -1628,11 +1629,12 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 	ed->nsp = 1;
 	if (scene_has_species(s)) {
 		if (ed->variant || ed->rough || ed->drive) {
-			set_msg(msg, msglen, "particles.species: more than one species only in periodic scenes of smooth "
-			        "particles without driving%.0s%.0s", 0, 0);
+			set_msg(msg, msglen, "particles.species: mixtures and polydisperse particles only in periodic scenes of "
+			        "smooth particles without driving%.0s%.0s", 0, 0);
 			return ED_EINVAL;
 		}
 		ed->nsp = s->n_species;   /* tables: setup_species() in ed_alloc() */
+		ed->mixture = 1;
 		ed->ops = &ed_ops_species[ed->dim - 2];
 	}
 	if (ed->rough) {
@@ -1710,10 +1712,12 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 		goto fail;
 	if (ed->rough && !(ed->spin = big_alloc(b[A_SPIN], 1)))
 		goto fail;
-	if (ed->nsp > 1) {
-		if (!(ed->spc = big_alloc(b[A_SPC], 0)) || !(ed->mix = big_alloc(b[A_MIX], 1)))
+	if (ed->mixture) {
+		if (!(ed->spc = big_alloc(b[A_SPC], 0)) || !(ed->prad = big_alloc(b[A_PRAD], 0)) ||
+		    !(ed->mix = big_alloc(b[A_MIX], 1)) || !(ed->mix->rscene = big_alloc(b[A_RSCENE], 0)))
 			goto fail;
 		setup_species(ed, s);
+		scene_species_radii(s, ed->mix->rscene);
 	}
 	if (ed->drive && (!(ed->drv_mean = big_alloc(b[A_DMEAN], 1)) || !(ed->drv_sum = big_alloc(b[A_DSUM], 1))))
 		goto fail;
@@ -1770,7 +1774,7 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 		if (rc != ED_OK)
 			goto fail;
 	}
-	if (!s->init_vel && ed->nsp > 1) {
+	if (!s->init_vel && ed->mixture) {
 		init_velocities_species(ed, s->temperature, &rng);
 		add_flow(ed, s);
 	} else if (!s->init_vel) {
@@ -1831,6 +1835,9 @@ void ed_destroy(ed_t *ed)
 	free(ed->tlast);
 	free(ed->spin);
 	free(ed->spc);
+	free(ed->prad);
+	if (ed->mix)
+		free(ed->mix->rscene);
 	free(ed->mix);
 	free(ed->drv_mean);
 	free(ed->drv_sum);
@@ -2063,7 +2070,7 @@ static size_t held(const struct ed *ed, int nl, int tc)
 	                (tc ? sizeof(double) : 0) + (ed->open ? 1 : 0) + (ed->rough ? (ed->dim == 2 ? 1 : 3) * sizeof(double) : 0) +
 	                (ed->drive && ed->drv_bins > 1 ? 2 * ed->dim * sizeof(double) : 0)) +
 	       (ed->nobst ? ed->ncells * sizeof(uint16_t) : 0) + (ed->drive ? ed->drv_bins * (2 * ed->dim + 1) * sizeof(double) : 0) +
-	       (ed->nsp > 1 ? ed->n + sizeof(struct ed_mix) : 0);
+	       (ed->mixture ? ed->n * (1 + 2 * sizeof(double)) + sizeof(struct ed_mix) : 0);
 }
 
 size_t ed_memory(const ed_t *ed) { return held(ed, ed->xn != NULL, ed->tlast != NULL); }

@@ -8,10 +8,11 @@
  * declarations of ed.c. WALLS = GRAV = 0 is the periodic homogeneous engine;
  * the flags are compile-time, so it tests none of this per event. ROUGH
  * (rough particles: spins in ed->spin, the rough collision rule) is a
- * further flag on top of any of them. SPEC (species: contact distance,
- * restitution and masses from the pair tables by ed->spc; periodic smooth
- * scenes only) replaces ed->sigma2, ed->e and ed->mass in predictions,
- * collisions and energies; without it they are the one species' constants.
+ * further flag on top of any of them. SPEC (mixtures: contact distance
+ * from the particles' radii ed->prad, restitution and masses from the pair
+ * tables by ed->spc; periodic smooth scenes only) replaces ed->sigma2, ed->e
+ * and ed->mass in predictions, collisions and energies; without it they are
+ * the one species' constants.
  */
 
 /* Flight of particle p to time t (lazy: only when the particle is touched). */
@@ -205,7 +206,7 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
  * of every scan (GCC's -O2 heuristics otherwise may not). */
 static inline __attribute__((always_inline)) void
 FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, const double *vi, double t, int minimg,
-             const double *sg2, double *horizon, int32_t *found)
+             double rad_i, double *horizon, int32_t *found)
 {
 	double dtj = t - pj->t, dr[D], dv[D], b, r2;
 #if GRAV
@@ -236,9 +237,10 @@ FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, co
 	_Pragma("GCC unroll 3") for (int a = 1; a < D; a++)
 		r2 += dr[a] * dr[a];
 #if SPEC
-	double c = r2 - sg2[ed->spc[j]], dt;   /* sg2: i's row of squared contact distances */
+	const double sij = rad_i + ed->prad[j];   /* the pair's contact distance */
+	double c = r2 - sij * sij, dt;
 #else
-	(void)sg2;
+	(void)rad_i;
 	double c = r2 - ed->sigma2, dt;
 #endif
 	if (__builtin_expect(c <= 0.0, 0)) {
@@ -282,7 +284,7 @@ FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, co
  * image while receding in the other). Try every image on those axes; the
  * raw difference lies in (-L, L), so shifts of -L, 0, +L cover them all. */
 static void FN(try_images)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri,
-                           const double *vi, double t, const double *sg2, double *horizon, int32_t *found)
+                           const double *vi, double t, double rad_i, double *horizon, int32_t *found)
 {
 	int k[3] = {0, 0, 0}, lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
 	FOR_AXES(a)
@@ -294,7 +296,7 @@ static void FN(try_images)(const struct ed *ed, const P_T *pj, int32_t j, const 
 				double rk[D];
 				FOR_AXES(a)
 					rk[a] = ri[a] + k[a] * ed->L[a];
-				FN(try_pair)(ed, pj, j, rk, vi, t, 0, sg2, horizon, found);
+				FN(try_pair)(ed, pj, j, rk, vi, t, 0, rad_i, horizon, found);
 			}
 }
 
@@ -369,7 +371,7 @@ FN(scan_impl)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[
 	}
 	double horizon = e->t_coll - t;
 	int32_t found = -1;
-	const double *sg2 = SPEC ? ed->sp_sig2 + ed->spc[i] * ed->nsp : NULL;
+	const double rad_i = SPEC ? ed->prad[i] : 0.0;
 	/* First the non-empty cells, with their first particles' records
 	 * requested at once (in a large system each is a cache miss, and the
 	 * tests below would let only one or two be under way at a time); then
@@ -399,9 +401,9 @@ FN(scan_impl)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[
 			if ((uint32_t)j == i)
 				continue;
 			if (minimg)
-				FN(try_images)(ed, &P[j], j, ri, vi, t, sg2, &horizon, &found);
+				FN(try_images)(ed, &P[j], j, ri, vi, t, rad_i, &horizon, &found);
 			else
-				FN(try_pair)(ed, &P[j], j, ri, vi, t, 0, sg2, &horizon, &found);
+				FN(try_pair)(ed, &P[j], j, ri, vi, t, 0, rad_i, &horizon, &found);
 		}
 	}
 	/* Only a partner found by this scan gets its counter recorded: a kept
@@ -495,13 +497,13 @@ static void FN(scan_nl)(struct ed *ed, uint32_t i)
 		__builtin_prefetch(&P[nb[k]]);
 	double horizon = e->t_cross - t;
 	int32_t found = -1;
-	const double *sg2 = SPEC ? ed->sp_sig2 + ed->spc[i] * ed->nsp : NULL;
+	const double rad_i = SPEC ? ed->prad[i] : 0.0;
 	if (edge)
 		for (int k = 0; k < m; k++)
-			FN(try_pair)(ed, &P[nb[k]], nb[k], ri, vi, t, 1, sg2, &horizon, &found);
+			FN(try_pair)(ed, &P[nb[k]], nb[k], ri, vi, t, 1, rad_i, &horizon, &found);
 	else
 		for (int k = 0; k < m; k++)
-			FN(try_pair)(ed, &P[nb[k]], nb[k], ri, vi, t, 0, sg2, &horizon, &found);
+			FN(try_pair)(ed, &P[nb[k]], nb[k], ri, vi, t, 0, rad_i, &horizon, &found);
 	e->partner = found;
 	if (found >= 0) {
 		e->t_coll = t + horizon;
@@ -1083,6 +1085,7 @@ static void FN(reorder)(struct ed *ed)
 #endif
 #if SPEC
 	permute(ed->spc, 1, newidx, n);
+	permute(ed->prad, sizeof(double), newidx, n);
 #endif
 	if (ed->nl) {
 		const uint32_t K = ed->nlk;
@@ -1392,7 +1395,7 @@ static double FN(min_gap)(const struct ed *ed)
 						r2 += x * x;
 					}
 #if SPEC
-					double g = sqrt(r2) - ed->mix->sig[ed->spc[i] * ed->nsp + ed->spc[j]];
+					double g = sqrt(r2) - (ed->prad[i] + ed->prad[j]);
 #else
 					double g = sqrt(r2) - ed->sigma;
 #endif
@@ -1489,7 +1492,7 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
 							r2 += x * x;
 						}
 #if SPEC
-						const double s2 = ed->sp_sig2[ed->spc[i] * ed->nsp + ed->spc[j]];
+						const double sij = ed->prad[i] + ed->prad[j], s2 = sij * sij;
 #else
 						const double s2 = ed->sigma2;
 #endif

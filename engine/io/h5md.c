@@ -207,7 +207,7 @@ static int def_wanted(const obs_def_t *d, const scene_t *s)
 	unsigned need = d->need & ~(NEED_SE | NEED_MIX);
 	if ((d->need & NEED_SE) && s->replicas <= 1)
 		return 0;
-	if ((d->need & NEED_MIX) && !scene_has_species(s))
+	if ((d->need & NEED_MIX) && s->n_species < 2)
 		return 0;
 	if (need == 0)
 		return 1;
@@ -443,19 +443,21 @@ out:
 }
 
 /* Mixtures: species (H5MD's per-particle integer), diameter and mass of
- * each particle, time-independent (species are blocks of indices). */
+ * each particle, time-independent (species are blocks of indices; radii
+ * of polydisperse species drawn as the engine draws them). */
 static int write_species(hid_t all, const scene_t *s, uint64_t n)
 {
 	int ret = -1;
 	int32_t *sp = malloc(n * sizeof(int32_t));
 	double *diam = malloc(n * sizeof(double)), *mass = malloc(n * sizeof(double));
-	if (!sp || !diam || !mass)
+	if (!sp || !diam || !mass || n != s->count)
 		goto out;
+	scene_species_radii(s, diam);   /* the engine's radii: the same draws */
 	uint64_t i = 0;
 	for (int k = 0; k < s->n_species; k++)
 		for (uint64_t j = 0; j < s->species[k].count && i < n; j++, i++) {
 			sp[i] = k;
-			diam[i] = 2.0 * s->species[k].radius;
+			diam[i] *= 2.0;
 			mass[i] = s->species[k].mass;
 		}
 	if (i == n && !write_array(all, "species", H5T_STD_I32LE, H5T_NATIVE_INT32, sp, n) &&

@@ -993,8 +993,8 @@ static int layout(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
 {
 	dsmc_params_t pr;
 	if (scene_has_species(s)) {   /* the parser refuses this too; the engines do not rely on it */
-		set_msg(msg, msglen, "particles.species: %.0f species, but dsmc/hsmc simulate one species only; use "
-		        "method \"ed\"", (double)s->n_species);
+		set_msg(msg, msglen, "particles.species: %.0f species (or polydisperse), but dsmc/hsmc simulate one "
+		        "species of one radius only; use method \"ed\"", (double)s->n_species);
 		return DSMC_EINVAL;
 	}
 	if ((s->dim != 2 && s->dim != 3) || s->count < 2 || s->count > INT32_MAX ||
