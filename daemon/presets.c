@@ -25,6 +25,9 @@ static const struct { const char *name, *description; } descriptions[] = {
 	{.name = "gravity-box-2d", .description = "100 disks (d=0.001, e=0.9) falling in a 0.02 x 0.04 box under gravity "
 	                                          "(seed 000 Figs 2.6/2.7) with hsmc: centre-of-mass height; switch method "
 	                                          "to ed or dsmc (and drop the hsmc object) to compare: dsmc piles onto the floor"},
+	{.name = "binary-mixture-2d", .description = "Homogeneous cooling of a binary mixture, 1,000 + 1,000 disks of masses "
+	                                             "1 and 4 (phi=0.02, e=0.9): no equipartition, T_light/T_heavy settles "
+	                                             "near 0.865 (Maxwellian theory; temperature_species)"},
 };
 
 static const size_t npresets = sizeof(presets_embedded) / sizeof(presets_embedded[0]);

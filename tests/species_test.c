@@ -5,6 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <jansson.h>
+
 #include "ed/ed.h"
 #include "mc/dsmc.h"
 #include "scene.h"
@@ -312,8 +314,9 @@ static double hcs_ratio(const double *m, const double *n, const double sig[2][2]
 }
 
 #define HCS_RUNS 12
-/* Homogeneous cooling of a binary mixture (2D, 1000 + 1000 disks of equal
- * radius 0.5, masses 1 and 4, restitution 0.9, volume fraction 0.02): the
+/* Homogeneous cooling of a binary mixture (the preset binary-mixture-2d:
+ * 2D, 1000 + 1000 disks of equal radius 0.5, masses 1 and 4, restitution
+ * 0.9, volume fraction 0.02, random start): the
  * temperature ratio T_light / T_heavy settles to a constant below 1 (no
  * equipartition: the heavy species is hotter), the ratio at which both
  * species cool at the same rate (Garzo and Dufty's Maxwellian
@@ -328,19 +331,35 @@ static double hcs_ratio(const double *m, const double *n, const double sig[2][2]
  * (about 0.01 at e = 0.9), below the tolerance. */
 static void test_hcs(void)
 {
-	double x[HCS_RUNS];
+	double x[HCS_RUNS], m[2] = {0, 0}, nf[2] = {0, 0}, sig[2][2] = {{0}}, e[2][2] = {{0}};
 	int made = 0;
+	char path[4096];
+	const char *src = getenv("SRCDIR");
+	snprintf(path, sizeof path, "%s/presets/binary-mixture-2d.json", src ? src : ".");
+	json_error_t jerr;
+	json_t *preset = json_load_file(path, 0, &jerr);
+	if (!preset) {
+		ok(0, "preset %s: %s", path, jerr.text);
+		return;
+	}
 	for (int run = 0; run < HCS_RUNS; run++) {
-		char j[1024];
-		snprintf(j, sizeof j, "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":["
-		         "{\"name\":\"light\",\"count\":1000,\"radius\":0.5,\"mass\":1},"
-		         "{\"name\":\"heavy\",\"count\":1000,\"radius\":0.5,\"mass\":4}],\"volume_fraction\":0.02,"
-		         "\"initial\":{\"positions\":\"random\"}},\"collisions\":{\"restitution\":0.9},"
-		         "\"run\":{\"until\":{\"time\":1},\"seed\":%d}}", 101 + run);
+		/* the preset, with seed 101 + run */
+		json_object_set_new(json_object_get(preset, "run"), "seed", json_integer(101 + run));
+		char *j = json_dumps(preset, JSON_REAL_PRECISION(17));
 		scene_t s;
-		ed_t *ed = make(j, &s);
+		ed_t *ed = j ? make(j, &s) : NULL;
+		free(j);
 		if (!ed)
 			break;
+		/* the theory's parameters from the preset: masses, number fractions, contact distances, restitution */
+		for (int a = 0; a < 2 && s.n_species == 2; a++) {
+			m[a] = s.species[a].mass;
+			nf[a] = (double)s.species[a].count / (double)s.count;
+			for (int b = 0; b < 2; b++) {
+				sig[a][b] = s.species[a].radius + s.species[b].radius;
+				e[a][b] = s.restitution_pair[a][b];
+			}
+		}
 		double sum = 0.0, t0, t1, t;
 		ed_advance(ed, INFINITY, (uint64_t)cpp_coll(10, s.count), UINT64_MAX);
 		for (int k = 1; k <= 50; k++) {
@@ -352,12 +371,12 @@ static void test_hcs(void)
 		ed_destroy(ed);
 		made++;
 	}
+	json_decref(preset);
 	if (made < HCS_RUNS) {
 		ok(0, "cooling mixture: %d of %d runs made", made, HCS_RUNS);
 		return;
 	}
-	const double m[2] = {1, 4}, n[2] = {0.5, 0.5}, sig[2][2] = {{1, 1}, {1, 1}}, e[2][2] = {{0.9, 0.9}, {0.9, 0.9}};
-	const double theory = hcs_ratio(m, n, sig, e, 2);
+	const double theory = hcs_ratio(m, nf, sig, e, 2);
 	double mean, se;
 	mean_se(x, HCS_RUNS, &mean, &se);
 	ok(mean < 1.0 - 5.0 * se, "cooling mixture: the heavy species is hotter, T_light / T_heavy = %.4f +- %.4f < 1",
@@ -366,7 +385,8 @@ static void test_hcs(void)
 	   "runs)", mean, se, theory, HCS_RUNS);
 	/* the elastic limit of the theory: equipartition */
 	const double e1[2][2] = {{1, 1}, {1, 1}};
-	ok(fabs(hcs_ratio(m, n, sig, e1, 2) - 1.0) < 1e-9, "theory at e = 1: ratio 1 (equipartition)");
+	ok(fabs(hcs_ratio(m, nf, sig, e1, 2) - 1.0) < 1e-9 && fabs(theory - 0.8646) < 1e-4,
+	   "theory: ratio 1 at e = 1 (equipartition); %.4f for the preset (masses 1, 4, e = 0.9)", theory);
 }
 
 /* ---- polydisperse radii ------------------------------------------------ */
