@@ -452,6 +452,107 @@ static void test_polydisperse(void)
 	ed_destroy(ed);
 }
 
+/* ---- walls and obstacles ---------------------------------------------- */
+
+/* A mixture (2D, 400 + 400 disks of radii 0.4 and 0.8, masses 1 and 5, box
+ * 60 x 40) between specular walls on y around a slip obstacle of radius 5
+ * at the centre, elastic: energy conserved to 1e-12 relative, and every
+ * particle keeps its own radius from the walls and its own contact
+ * distance (5 + radius) from the obstacle (sampled every collision per
+ * particle for 100), while light disks come closer to a wall and to the
+ * obstacle than a heavy radius would allow: each particle's own radius is
+ * used, not the largest. */
+static void test_walls(void)
+{
+	const char *j = "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":["
+	                "{\"count\":400,\"radius\":0.4,\"mass\":1},{\"count\":400,\"radius\":0.8,\"mass\":5}],"
+	                "\"box\":[60,40],\"initial\":{\"positions\":\"random\"}},\"boundaries\":{\"y\":{\"type\":"
+	                "\"walls\",\"lower\":{\"type\":\"specular\"},\"upper\":{\"type\":\"specular\"}}},"
+	                "\"obstacles\":[{\"type\":\"slip\",\"center\":[30,20],\"radius\":5}],"
+	                "\"run\":{\"until\":{\"time\":1},\"seed\":9}}";
+	scene_t s;
+	ed_t *ed = make(j, &s);
+	if (!ed) {
+		ok(0, "mixture with walls and an obstacle");
+		return;
+	}
+	double *pos = malloc(s.count * 2 * sizeof(double));
+	double gap = INFINITY, wall_light = INFINITY, obst_light = INFINITY;
+	ed_sample_t s0, s1;
+	ed_totals(ed, &s0);
+	for (int k = 1; k <= 100; k++) {
+		ed_advance(ed, INFINITY, (uint64_t)cpp_coll(k, s.count), UINT64_MAX);
+		ed_state(ed, pos, NULL);
+		for (uint32_t i = 0; i < s.count; i++) {
+			const double a = i < 400 ? 0.4 : 0.8, y = pos[i * 2 + 1];
+			const double dw = fmin(y, 40.0 - y), dx = pos[i * 2] - 30.0, dy = y - 20.0;
+			const double dob = sqrt(dx * dx + dy * dy);
+			gap = fmin(gap, fmin(dw - a, dob - 5.0 - a));
+			if (i < 400) {
+				wall_light = fmin(wall_light, dw);
+				obst_light = fmin(obst_light, dob - 5.0);
+			}
+		}
+	}
+	ed_totals(ed, &s1);
+	double de = fabs(s1.kinetic_energy - s0.kinetic_energy) / s0.kinetic_energy;
+	ok(de < 1e-12, "mixture between walls, around an obstacle: energy conserved to %.2g relative", de);
+	ok(gap > -1e-9 && ed_min_gap(ed) > -1e-9 && ed_min_gap(ed) <= gap + 1e-9 && wall_light < 0.8 && obst_light < 0.8,
+	   "walls and obstacle at each particle's own radius: smallest gap %.3g; light disks reach %.3f from a wall, "
+	   "%.3f from the obstacle (< 0.8)", gap, wall_light, obst_light);
+	free(pos);
+	ed_destroy(ed);
+}
+
+#define TW_RUNS 6
+/* Thermal walls (both ends of y, T_w = 2, full accommodation) hold an
+ * elastic mixture (400 + 400 disks, masses 1 and 5) in equilibrium at the
+ * walls' temperature: each species' temperature is T_w on average (a diffuse
+ * wall re-emits a particle of mass m from the Maxwellian of temperature T_w,
+ * sqrt(T_w / m) per component: the engine scales the wall's speed by the
+ * particle's mass). Measured: the mean of T_s over 60 samples (collisions
+ * per particle 45 .. 300, every 5; started at T = 2) per run, over TW_RUNS
+ * independent runs; within 5 standard errors of the mean over the runs. */
+static void test_thermal_walls(void)
+{
+	double tl[TW_RUNS], th[TW_RUNS];
+	int made = 0;
+	for (int run = 0; run < TW_RUNS; run++) {
+		char j[1024];
+		snprintf(j, sizeof j, "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":["
+		         "{\"count\":400,\"radius\":0.5,\"mass\":1},{\"count\":400,\"radius\":0.5,\"mass\":5}],"
+		         "\"box\":[40,40],\"initial\":{\"positions\":\"random\",\"temperature\":2}},"
+		         "\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"thermal\",\"temperature\":2},"
+		         "\"upper\":{\"type\":\"thermal\",\"temperature\":2}}},\"run\":{\"until\":{\"time\":1},"
+		         "\"seed\":%d}}", 201 + run);
+		scene_t s;
+		ed_t *ed = make(j, &s);
+		if (!ed)
+			break;
+		double sl = 0.0, sh = 0.0, t0, t1, t;
+		for (int k = 0; k < 60; k++) {
+			ed_advance(ed, INFINITY, (uint64_t)cpp_coll(45 + 5 * k, s.count), UINT64_MAX);
+			temps(ed, &s, &t0, &t1, &t);
+			sl += t0;
+			sh += t1;
+		}
+		tl[run] = sl / 60;
+		th[run] = sh / 60;
+		ed_destroy(ed);
+		made++;
+	}
+	if (made < TW_RUNS) {
+		ok(0, "thermal walls: %d of %d runs made", made, TW_RUNS);
+		return;
+	}
+	double ml, sel, mh, seh;
+	mean_se(tl, TW_RUNS, &ml, &sel);
+	mean_se(th, TW_RUNS, &mh, &seh);
+	ok(fabs(ml - 2.0) < 5 * sel && fabs(mh - 2.0) < 5 * seh,
+	   "thermal walls at T_w = 2: T_light = %.4f +- %.4f, T_heavy = %.4f +- %.4f (5 SE over %d runs)", ml, sel, mh,
+	   seh, TW_RUNS);
+}
+
 /* ---- one species, checkpoints ------------------------------------------ */
 
 /* particles.species with one entry is the one-species scene: the same
@@ -518,10 +619,12 @@ static void test_checkpoint(void)
 
 int main(void)
 {
-	plan(35);
+	plan(38);
 	test_parse();
 	test_placement();
 	test_polydisperse();
+	test_walls();
+	test_thermal_walls();
 	test_one_species();
 	test_checkpoint();
 	test_equipartition();

@@ -515,7 +515,7 @@ static bool collapse_check(struct ed *ed, double dt)
  * carried by a vibrating one) is raised to vmin: then two hits of one
  * particle on one wall are at least tc apart and no bed collapses
  * (docs/engine.md, "Walls and gravity"). */
-static void wall_rule(struct ed *ed, int w, double *v, double t, int elastic)
+static void wall_rule(struct ed *ed, int w, double *v, double t, int elastic, double svs)
 {
 	const wall_t *W = &ed->wall[w];
 	const int a = w >> 1, dim = ed->dim;
@@ -535,10 +535,11 @@ static void wall_rule(struct ed *ed, int w, double *v, double t, int elastic)
 			if (rng_uniform(&ed->wrng) < W->acc) {
 				/* diffuse: the flux-weighted Maxwellian of the wall, moving
 				 * with it (Rayleigh normal, Gaussian tangential about u) */
-				vn = W->sv * sqrt(-2.0 * log(1.0 - rng_uniform(&ed->wrng)));
+				const double sv = W->sv * svs;
+				vn = sv * sqrt(-2.0 * log(1.0 - rng_uniform(&ed->wrng)));
 				for (int k = 0; k < dim; k++)
 					if (k != a)
-						v[k] = W->u[k] + W->sv * rng_gauss(&ed->wrng);
+						v[k] = W->u[k] + sv * rng_gauss(&ed->wrng);
 			} else {
 				vn = -r * vn;
 			}
@@ -579,7 +580,7 @@ static void walls_rebase(struct ed *ed, double t)
  * obstacle's rule (scene.h); elastic: the TC model makes the restitution 1.
  * Like walls, a rebound slower than vmin (TC scenes with gravity: a
  * particle resting on an obstacle) is raised to it. */
-static void obst_rule(struct ed *ed, int k, const double *nrm, double *v, int elastic)
+static void obst_rule(struct ed *ed, int k, const double *nrm, double *v, int elastic, double svs)
 {
 	const obst_t *O = &ed->obst[k];
 	const int dim = ed->dim;
@@ -598,10 +599,11 @@ static void obst_rule(struct ed *ed, int k, const double *nrm, double *v, int el
 				/* diffuse: flux-weighted Maxwellian of the obstacle at rest
 				 * (Rayleigh normal; an isotropic Gaussian projected on the
 				 * tangent plane is the tangential Gaussian) */
-				vn = O->sv * sqrt(-2.0 * log(1.0 - rng_uniform(&ed->wrng)));
+				const double sv = O->sv * svs;
+				vn = sv * sqrt(-2.0 * log(1.0 - rng_uniform(&ed->wrng)));
 				double gn = 0.0, gs[3] = {0.0, 0.0, 0.0};
 				for (int a = 0; a < dim; a++) {
-					gs[a] = O->sv * rng_gauss(&ed->wrng);
+					gs[a] = sv * rng_gauss(&ed->wrng);
 					gn += gs[a] * nrm[a];
 				}
 				for (int a = 0; a < dim; a++)
@@ -773,9 +775,10 @@ static int obst_clear(const struct ed *ed, const double *r)
 #endif
 #undef SPEC
 
-/* Species (mixtures): the periodic variant with pair tables for contact
- * distances, restitution and masses (_2ds, _3ds). Chosen at load for
- * scenes of two or more species; one species keeps the kernels above.
+/* Species (mixtures): the periodic and walls variants with the particles'
+ * own radii and the pair tables of restitution and masses (_2ds, _3ds
+ * periodic; _2ws, _3ws walls and obstacles, no gravity). Chosen at load for
+ * mixtures; one species keeps the kernels above.
  * Without heuristic inlining like the rough ones, for the same reason. */
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC push_options
@@ -795,6 +798,22 @@ static int obst_clear(const struct ed *ed, const double *r)
 #define D 3
 #define P_T p3_t
 #define FN(x) x##_3ds
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#undef WALLS
+#define WALLS 1
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2ws
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3ws
 #include "ed_impl.h"
 #undef D
 #undef P_T
@@ -843,7 +862,10 @@ static const ed_ops_t ed_ops[2][3] = {
 	{ { OPS_COMMON(3d), OPS_NL(3d) }, { OPS_COMMON(3w), .observe = observe_3w },
 	  { OPS_COMMON(3g), .observe = observe_3g, .energy_to = energy_to_3g } },
 };
-static const ed_ops_t ed_ops_species[2] = { { OPS_COMMON(2ds), OPS_NL(2ds) }, { OPS_COMMON(3ds), OPS_NL(3ds) } };
+static const ed_ops_t ed_ops_species[2][2] = {
+	{ { OPS_COMMON(2ds), OPS_NL(2ds) }, { OPS_COMMON(2ws), .observe = observe_2ws } },
+	{ { OPS_COMMON(3ds), OPS_NL(3ds) }, { OPS_COMMON(3ws), .observe = observe_3ws } },
+};
 static const ed_ops_t ed_ops_rough[2][3] = {
 	{ { OPS_COMMON(2dr), OPS_NL(2dr) }, { OPS_COMMON(2wr), .observe = observe_2wr },
 	  { OPS_COMMON(2gr), .observe = observe_2gr, .energy_to = energy_to_2gr } },
@@ -1628,14 +1650,14 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 	ed->ops = ed->rough ? &ed_ops_rough[ed->dim - 2][ed->variant] : &ed_ops[ed->dim - 2][ed->variant];
 	ed->nsp = 1;
 	if (scene_has_species(s)) {
-		if (ed->variant || ed->rough || ed->drive) {
-			set_msg(msg, msglen, "particles.species: mixtures and polydisperse particles only in periodic scenes of "
-			        "smooth particles without driving%.0s%.0s", 0, 0);
+		if (ed->variant > 1 || ed->rough || ed->drive) {
+			set_msg(msg, msglen, "particles.species: mixtures and polydisperse particles only for smooth particles "
+			        "without gravity or driving%.0s%.0s", 0, 0);
 			return ED_EINVAL;
 		}
 		ed->nsp = s->n_species;   /* tables: setup_species() in ed_alloc() */
 		ed->mixture = 1;
-		ed->ops = &ed_ops_species[ed->dim - 2];
+		ed->ops = &ed_ops_species[ed->dim - 2][ed->variant];
 	}
 	if (ed->rough) {
 		ed->rbeta = s->rough_beta;

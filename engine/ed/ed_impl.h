@@ -33,6 +33,28 @@ static inline void FN(advance)(const struct ed *ed, P_T *p, double t)
 	p->t = t;
 }
 
+/* Radius and mass of particle i: its own with species (SPEC), else the
+ * one species' (compile-time: no test per event). */
+static inline double FN(rad)(const struct ed *ed, uint32_t i)
+{
+#if SPEC
+	return ed->prad[i];
+#else
+	(void)i;
+	return ed->radius;
+#endif
+}
+
+static inline double FN(mass)(const struct ed *ed, uint32_t i)
+{
+#if SPEC
+	return ed->mix->m[ed->spc[i]];
+#else
+	(void)i;
+	return ed->mass;
+#endif
+}
+
 static inline int32_t FN(cell_index)(const struct ed *ed, const int32_t *cc)
 {
 #if D == 2
@@ -103,13 +125,13 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
 /* Time from now (particle i synchronised) to its contact with wall w, no
  * later than horizon (INFINITY if none before). Fixed walls: a quadratic
  * (linear without gravity); vibrating ones: walltime_vibrating(). */
-static inline double FN(wall_time)(const struct ed *ed, const P_T *p, int w, double horizon)
+static inline double FN(wall_time)(const struct ed *ed, const P_T *p, double rad, int w, double horizon)
 {
 	const wall_t *W = &ed->wall[w];
 	const int a = w >> 1;
 	const double s = (w & 1) ? -1.0 : 1.0;
 	const double gam = GRAV ? s * ed->g[a] : 0.0;
-	double d = s * (p->r[a] - W->rest) - ed->radius;
+	double d = s * (p->r[a] - W->rest) - rad;
 	if (W->A == 0.0)
 		return walltime_plane(d, s * p->v[a], gam);
 	const double th = W->ph + W->omega * p->t;
@@ -133,15 +155,27 @@ static inline void FN(obst_rel)(const struct ed *ed, const P_T *p, int k, double
 
 /* Time from now to particle p's contact with obstacle k, no later than
  * horizon with gravity (obstacle.h). */
-static inline double FN(obst_time)(const struct ed *ed, const P_T *p, int k, double horizon)
+static inline double FN(obst_time)(const struct ed *ed, const P_T *p, double S, int k, double horizon)
 {
 	double x[D];
 	FN(obst_rel)(ed, p, k, x);
 #if GRAV
-	return obstacle_time_grav(x, p->v, ed->g, D, ed->obst[k].S, horizon);
+	return obstacle_time_grav(x, p->v, ed->g, D, S, horizon);
 #else
 	(void)horizon;
-	return obstacle_time_free(x, p->v, D, ed->obst[k].S);
+	return obstacle_time_free(x, p->v, D, S);
+#endif
+}
+
+/* Contact distance of particle i from obstacle k's centre: the obstacle's
+ * radius plus the particle's (S holds it for the largest radius). */
+static inline double FN(obst_S)(const struct ed *ed, uint32_t i, int k)
+{
+#if SPEC
+	return ed->obst[k].S - ed->radius + ed->prad[i];
+#else
+	(void)i;
+	return ed->obst[k].S;
 #endif
 }
 
@@ -175,12 +209,12 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
 		if (ed->periodic[a])
 			continue;
 		if (e->cc[a] < ed->nzone[2 * a]) {
-			double dt = FN(wall_time)(ed, p, 2 * a, best);
+			double dt = FN(wall_time)(ed, p, FN(rad)(ed, i), 2 * a, best);
 			if (dt < best)
 				best = dt, code = ED_WALL0 + 2 * a;
 		}
 		if (e->cc[a] >= ed->nc[a] - ed->nzone[2 * a + 1]) {
-			double dt = FN(wall_time)(ed, p, 2 * a + 1, best);
+			double dt = FN(wall_time)(ed, p, FN(rad)(ed, i), 2 * a + 1, best);
 			if (dt < best)
 				best = dt, code = ED_WALL0 + 2 * a + 1;
 		}
@@ -188,7 +222,7 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
 	if (ed->ocell) {   /* NULL without obstacles */
 		for (unsigned m = ed->ocell[FN(cell_index)(ed, e->cc)]; m; m &= m - 1) {
 			const int k = __builtin_ctz(m);
-			double dt = FN(obst_time)(ed, p, k, best);
+			double dt = FN(obst_time)(ed, p, FN(obst_S)(ed, i, k), k, best);
 			if (dt < best)
 				best = dt, code = ED_OBST0 + k;
 		}
@@ -825,7 +859,7 @@ static void FN(leave)(struct ed *ed, uint32_t i, int w, double t)
 #endif
 		p->v[a] = 0.0;
 	}
-	ed->ekin_cur -= 0.5 * ed->mass * v2;
+	ed->ekin_cur -= 0.5 * FN(mass)(ed, i) * v2;
 #if ROUGH
 	/* its spin leaves with it: rotational sums count the particles present */
 	for (int k = 0; k < (D == 2 ? 1 : 3); k++)
@@ -867,19 +901,20 @@ static void FN(do_wall)(struct ed *ed, uint32_t i, double t)
 	double v0[D], de = 0.0;
 	FOR_AXES(k)
 		v0[k] = p->v[k];
-	wall_rule(ed, w, p->v, t, elastic);
+	const double m = FN(mass)(ed, i);
+	wall_rule(ed, w, p->v, t, elastic, SPEC ? sqrt(ed->mass / m) : 1.0);
 	FOR_AXES(k) {
 		const double dv = p->v[k] - v0[k];
-		ed->wimp[w][k] -= ed->mass * dv;
-		ed->wimp_tot[w][k] -= ed->mass * dv;
+		ed->wimp[w][k] -= m * dv;
+		ed->wimp_tot[w][k] -= m * dv;
 		de += dv * (p->v[k] + v0[k]);
 #if GRAV
 		ed->psum[k] += dv;
 #endif
 	}
-	ed->ekin_cur += 0.5 * ed->mass * de;
+	ed->ekin_cur += 0.5 * m * de;
 	/* Back on its side of the wall: rounding may leave the contact a hair beyond. */
-	double lim = W->rest + s * ed->radius;
+	double lim = W->rest + s * FN(rad)(ed, i);
 	if (W->A != 0.0)
 		lim += s * W->A * sin(W->ph + W->omega * t);
 	if (s * (p->r[a] - lim) < 0.0)
@@ -901,7 +936,7 @@ static void FN(do_obstacle)(struct ed *ed, uint32_t i, double t)
 	P_T *p = &((P_T *)ed->p)[i];
 	ev_t *e = &ed->ev[i];
 	const int k = e->cross - ED_OBST0;
-	const obst_t *O = &ed->obst[k];
+	const double S = FN(obst_S)(ed, i, k);
 	FN(advance)(ed, p, t);
 	FN(energy_to)(ed, t);
 	int elastic = 0;
@@ -919,21 +954,22 @@ static void FN(do_obstacle)(struct ed *ed, uint32_t i, double t)
 	double v0[D], de = 0.0;
 	FOR_AXES(a)
 		v0[a] = p->v[a];
-	obst_rule(ed, k, nrm, p->v, elastic);
+	const double m = FN(mass)(ed, i);
+	obst_rule(ed, k, nrm, p->v, elastic, SPEC ? sqrt(ed->mass / m) : 1.0);
 	FOR_AXES(a) {
 		const double dv = p->v[a] - v0[a];
-		ed->oimp[k][a] -= ed->mass * dv;
-		ed->oimp_tot[k][a] -= ed->mass * dv;
+		ed->oimp[k][a] -= m * dv;
+		ed->oimp_tot[k][a] -= m * dv;
 		de += dv * (p->v[a] + v0[a]);
 #if GRAV
 		ed->psum[a] += dv;
 #endif
 	}
-	ed->ekin_cur += 0.5 * ed->mass * de;
+	ed->ekin_cur += 0.5 * m * de;
 	/* Back on the contact sphere: rounding may leave the centre a hair inside. */
-	if (r < O->S)
+	if (r < S)
 		FOR_AXES(a)
-			p->r[a] += (O->S - r) * nrm[a];
+			p->r[a] += (S - r) * nrm[a];
 	p->count++;
 	ed->ohits[k]++;
 	ed->obst_collisions++;
@@ -1220,15 +1256,28 @@ static double FN(ekin)(const struct ed *ed, double mom[3])
 		const double dt = ed->t - P[i].t;
 		if (ed->gone && ed->gone[i])
 			continue;
+#if SPEC
+		const double m = FN(mass)(ed, i);
+		FOR_AXES(a) {
+			const double v = P[i].v[a] + (GRAV ? ed->g[a] * dt : 0.0);
+			s += m * v * v;
+			mom[a] += m * v;
+		}
+#else
 		FOR_AXES(a) {
 			const double v = P[i].v[a] + (GRAV ? ed->g[a] * dt : 0.0);
 			s += v * v;
 			mom[a] += v;
 		}
+#endif
 	}
+#if SPEC
+	return 0.5 * s;
+#else
 	FOR_AXES(a)
 		mom[a] *= ed->mass;
 	return 0.5 * ed->mass * s;
+#endif
 }
 
 /* Centre-of-mass height along -g (scene coordinates) and potential energy
@@ -1357,7 +1406,7 @@ static double FN(min_gap)(const struct ed *ed)
 			for (int w = 2 * a; w < 2 * a + 2; w++) {
 				const wall_t *W = &ed->wall[w];
 				const double s = (w & 1) ? -1.0 : 1.0;
-				double g = s * (ri[a] - W->rest) - ed->radius;
+				double g = s * (ri[a] - W->rest) - FN(rad)(ed, i);
 				if (W->A != 0.0)
 					g -= W->A * sin(W->ph + W->omega * ed->t);
 				if (g < best)
@@ -1370,7 +1419,7 @@ static double FN(min_gap)(const struct ed *ed)
 				double x = FN(min_image)(ed, a, ri[a] - ed->obst[k].c[a]);
 				r2 += x * x;
 			}
-			double g = sqrt(r2) - ed->obst[k].S;
+			double g = sqrt(r2) - FN(obst_S)(ed, i, k);
 			if (g < best)
 				best = g;
 		}
