@@ -152,6 +152,17 @@ cat >"$tmp/3d-mixture-dilute.json" <<'JSON'
  "output":{"every":{"time":0.5},"observables":["kinetic_energy","temperature","momentum"],
    "snapshots":{"every":{"time":2}},"checkpoint":{"every":{"time":1.3}}}}
 JSON
+cat >"$tmp/2d-mixture-walls.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"species":[{"count":600,"radius":0.4,"mass":1},
+   {"count":300,"radius_range":[0.6,1],"mass":4}],"box":[80,50],"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9,"tc":0.0001},
+ "boundaries":{"y":{"type":"walls","lower":{"type":"thermal","temperature":1,"accommodation":0.5},
+   "upper":{"type":"vibrating","amplitude":0.3,"frequency":0.7}}},
+ "obstacles":[{"type":"no_slip","center":[40,25],"radius":5,"temperature":0.5}],
+ "run":{"seed":47,"until":{"time":30}},
+ "output":{"every":{"time":1.5},"observables":["kinetic_energy","temperature","wall_force","obstacle_force"],
+   "snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":7}}}}
+JSON
 # Long enough to be killed: wall-clock checkpoints, ~2-3 s of work.
 cat >"$tmp/3d-kill.json" <<'JSON'
 {"method":"ed","dimensions":3,"particles":{"count":3000,"volume_fraction":0.4},
@@ -226,7 +237,7 @@ ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 
 # (a) checkpoint at simulated time T, resume: identical to the uninterrupted run.
 for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open 3d-rough-drive \
-	2d-rough-noise 2d-hsmc-walls 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute; do
+	2d-rough-noise 2d-hsmc-walls 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute 2d-mixture-walls; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do
