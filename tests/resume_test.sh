@@ -157,10 +157,10 @@ cat >"$tmp/2d-mixture-walls.json" <<'JSON'
    {"count":300,"radius_range":[0.6,1],"mass":4}],"box":[80,50],"initial":{"positions":"random"}},
  "collisions":{"restitution":0.9,"tc":0.0001},
  "boundaries":{"y":{"type":"walls","lower":{"type":"thermal","temperature":1,"accommodation":0.5},
-   "upper":{"type":"vibrating","amplitude":0.3,"frequency":0.7}}},
- "obstacles":[{"type":"no_slip","center":[40,25],"radius":5,"temperature":0.5}],
+   "upper":{"type":"vibrating","amplitude":0.3,"frequency":0.7}},"x":{"type":"walls","lower":{"type":"open"},"upper":{"type":"specular"}}},
+ "obstacles":[{"type":"no_slip","center":[40,25],"radius":5,"temperature":0.5}],"gravity":[0,-0.02],
  "run":{"seed":47,"until":{"time":30}},
- "output":{"every":{"time":1.5},"observables":["kinetic_energy","temperature","wall_force","obstacle_force"],
+ "output":{"every":{"time":1.5},"observables":["kinetic_energy","temperature","wall_force","obstacle_force","center_of_mass_height","potential_energy","outflow"],
    "snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":7}}}}
 JSON
 # Long enough to be killed: wall-clock checkpoints, ~2-3 s of work.

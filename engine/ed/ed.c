@@ -226,6 +226,7 @@ struct ed_mix {
 	double e[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX], w[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX];
 	double mu[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX];
 	double *rscene;
+	double mtot, mgone;       /* total mass; mass of the particles that left (open walls; rebuilt on restore) */
 };
 
 static inline bool hless(const hent_t *a, const hent_t *b)
@@ -818,6 +819,22 @@ static int obst_clear(const struct ed *ed, const double *r)
 #undef D
 #undef P_T
 #undef FN
+#undef GRAV
+#define GRAV 1
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2gs
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3gs
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
 #undef WALLS
 #undef GRAV
 #undef ROUGH
@@ -862,9 +879,11 @@ static const ed_ops_t ed_ops[2][3] = {
 	{ { OPS_COMMON(3d), OPS_NL(3d) }, { OPS_COMMON(3w), .observe = observe_3w },
 	  { OPS_COMMON(3g), .observe = observe_3g, .energy_to = energy_to_3g } },
 };
-static const ed_ops_t ed_ops_species[2][2] = {
-	{ { OPS_COMMON(2ds), OPS_NL(2ds) }, { OPS_COMMON(2ws), .observe = observe_2ws } },
-	{ { OPS_COMMON(3ds), OPS_NL(3ds) }, { OPS_COMMON(3ws), .observe = observe_3ws } },
+static const ed_ops_t ed_ops_species[2][3] = {
+	{ { OPS_COMMON(2ds), OPS_NL(2ds) }, { OPS_COMMON(2ws), .observe = observe_2ws },
+	  { OPS_COMMON(2gs), .observe = observe_2gs, .energy_to = energy_to_2gs } },
+	{ { OPS_COMMON(3ds), OPS_NL(3ds) }, { OPS_COMMON(3ws), .observe = observe_3ws },
+	  { OPS_COMMON(3gs), .observe = observe_3gs, .energy_to = energy_to_3gs } },
 };
 static const ed_ops_t ed_ops_rough[2][3] = {
 	{ { OPS_COMMON(2dr), OPS_NL(2dr) }, { OPS_COMMON(2wr), .observe = observe_2wr },
@@ -1240,14 +1259,22 @@ static void species_ekin(const struct ed *ed, ed_sample_t *out)
 	size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
 	size_t voff = ed->dim == 2 ? offsetof(p2_t, v) : offsetof(p3_t, v);
 	double s2[SCENE_SPECIES_MAX] = {0};
+	uint64_t cnt[SCENE_SPECIES_MAX] = {0};
 	for (uint32_t i = 0; i < ed->n; i++) {
+		if (ed->gone && ed->gone[i])   /* left through an open wall: not counted */
+			continue;
 		const double *v = (const double *)((const char *)ed->p + i * stride + voff);
-		for (int a = 0; a < ed->dim; a++)
-			s2[ed->spc[i]] += v[a] * v[a];
+		const double dt = ed->t - ((const double *)((const char *)ed->p + i * stride +
+		                  (ed->dim == 2 ? offsetof(p2_t, t) : offsetof(p3_t, t))))[0];
+		for (int a = 0; a < ed->dim; a++) {
+			const double va = v[a] + ed->g[a] * dt;   /* with gravity: the velocity now (g = 0 otherwise) */
+			s2[ed->spc[i]] += va * va;
+		}
+		cnt[ed->spc[i]]++;
 	}
 	for (int k = 0; k < ed->nsp; k++) {
 		out->species_kinetic_energy[k] = 0.5 * ed->mix->m[k] * s2[k];
-		out->species_count[k] = ed->mix->first[k + 1] - ed->mix->first[k];
+		out->species_count[k] = cnt[k];   /* present (open walls: fewer than the species' count) */
 	}
 }
 
@@ -1580,6 +1607,7 @@ static void setup_species(struct ed *ed, const scene_t *s)
 	ed->mix->first[0] = 0;
 	for (int a = 0; a < ns; a++) {
 		ed->mix->m[a] = s->species[a].mass;
+		ed->mix->mtot += (double)s->species[a].count * s->species[a].mass;
 		ed->mix->first[a + 1] = ed->mix->first[a] + (uint32_t)s->species[a].count;
 	}
 	for (int a = 0; a < ns; a++)
@@ -1650,9 +1678,9 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 	ed->ops = ed->rough ? &ed_ops_rough[ed->dim - 2][ed->variant] : &ed_ops[ed->dim - 2][ed->variant];
 	ed->nsp = 1;
 	if (scene_has_species(s)) {
-		if (ed->variant > 1 || ed->rough || ed->drive) {
+		if (ed->rough || ed->drive) {
 			set_msg(msg, msglen, "particles.species: mixtures and polydisperse particles only for smooth particles "
-			        "without gravity or driving%.0s%.0s", 0, 0);
+			        "without driving%.0s%.0s", 0, 0);
 			return ED_EINVAL;
 		}
 		ed->nsp = s->n_species;   /* tables: setup_species() in ed_alloc() */
@@ -2523,6 +2551,16 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 		ed->n_gone = 0;
 		for (uint32_t i = 0; i < n; i++)
 			ed->n_gone += ed->gone[i];
+	}
+	if (!why && ed->gone && ed->mix) {   /* the mass that left (species from the scene indices) */
+		ed->mix->mgone = 0.0;
+		for (uint32_t i = 0; i < n; i++) {
+			uint32_t k = 0;
+			while (k + 1 < (uint32_t)ed->nsp && ed->id[i] >= ed->mix->first[k + 1])
+				k++;
+			if (ed->gone[i])
+				ed->mix->mgone += ed->mix->m[k];
+		}
 	}
 	if (!why && (!(ed->cal_w > 0.0) || !isfinite(ed->cal_iw = 1.0 / ed->cal_w)))
 		why = "bad calendar width";

@@ -723,7 +723,12 @@ static void FN(do_cross)(struct ed *ed, uint32_t i, double t)
 static inline void FN(energy_to)(struct ed *ed, double t)
 {
 #if GRAV
+#if SPEC
+	/* mixtures: psum holds sum (m_i / m) v_i (m the mean mass), n the mass present over m */
+	const double dt = t - ed->t_mark, m = ed->mass, n = (ed->mix->mtot - ed->mix->mgone) / m;
+#else
 	const double dt = t - ed->t_mark, m = ed->mass, n = (double)(ed->n - ed->n_gone);
+#endif
 	double gp = 0.0, g2 = 0.0;
 	FOR_AXES(a) {
 		gp += ed->g[a] * ed->psum[a];
@@ -852,14 +857,19 @@ static void FN(leave)(struct ed *ed, uint32_t i, int w, double t)
 	FN(advance)(ed, p, t);
 	FN(energy_to)(ed, t);
 	double v2 = 0.0;
+	const double m = FN(mass)(ed, i), mw = SPEC ? m / ed->mass : 1.0;
 	FOR_AXES(a) {
 		v2 += p->v[a] * p->v[a];
 #if GRAV
-		ed->psum[a] -= p->v[a];
+		ed->psum[a] -= mw * p->v[a];
 #endif
 		p->v[a] = 0.0;
 	}
-	ed->ekin_cur -= 0.5 * FN(mass)(ed, i) * v2;
+	(void)mw;
+#if SPEC
+	ed->mix->mgone += m;
+#endif
+	ed->ekin_cur -= 0.5 * m * v2;
 #if ROUGH
 	/* its spin leaves with it: rotational sums count the particles present */
 	for (int k = 0; k < (D == 2 ? 1 : 3); k++)
@@ -909,7 +919,7 @@ static void FN(do_wall)(struct ed *ed, uint32_t i, double t)
 		ed->wimp_tot[w][k] -= m * dv;
 		de += dv * (p->v[k] + v0[k]);
 #if GRAV
-		ed->psum[k] += dv;
+		ed->psum[k] += SPEC ? m / ed->mass * dv : dv;
 #endif
 	}
 	ed->ekin_cur += 0.5 * m * de;
@@ -962,7 +972,7 @@ static void FN(do_obstacle)(struct ed *ed, uint32_t i, double t)
 		ed->oimp_tot[k][a] -= m * dv;
 		de += dv * (p->v[a] + v0[a]);
 #if GRAV
-		ed->psum[a] += dv;
+		ed->psum[a] += SPEC ? m / ed->mass * dv : dv;
 #endif
 	}
 	ed->ekin_cur += 0.5 * m * de;
@@ -1290,18 +1300,32 @@ static void FN(observe)(const struct ed *ed, double *height, double *epot)
 		sum[a] = 0.0;
 		g2 += ed->g[a] * ed->g[a];
 	}
+	double mp = 0.0;   /* mixtures: mass present; sums weighted by mass */
 	for (uint32_t i = 0; i < ed->n; i++) {
 		const double dt = ed->t - P[i].t;
 		if (ed->gone && ed->gone[i])
 			continue;
+#if SPEC
+		const double m = FN(mass)(ed, i);
+		mp += m;
+		FOR_AXES(a)
+			sum[a] += m * (P[i].r[a] + P[i].v[a] * dt + (GRAV ? 0.5 * ed->g[a] * dt * dt : 0.0) - ed->org[a]);
+#else
 		FOR_AXES(a)
 			sum[a] += P[i].r[a] + P[i].v[a] * dt + (GRAV ? 0.5 * ed->g[a] * dt * dt : 0.0) - ed->org[a];
+#endif
 	}
 	double gr = 0.0;
 	FOR_AXES(a)
 		gr += ed->g[a] * sum[a];
+#if SPEC
+	*epot = -gr;
+	*height = g2 > 0.0 && mp > 0.0 ? -gr / (sqrt(g2) * mp) : NAN;
+#else
+	(void)mp;
 	*epot = -ed->mass * gr;
 	*height = g2 > 0.0 && ed->n > ed->n_gone ? -gr / (sqrt(g2) * (double)(ed->n - ed->n_gone)) : NAN;
+#endif
 }
 #else
 static void FN(state)(const struct ed *ed, double *pos, double *vel)
