@@ -923,6 +923,15 @@ static int c_cluster(ctx_t *x)
 		printf("  running    job %lld, %s, %lld rank%s\n", (long long)json_integer_value(json_object_get(r, "id")),
 		       FMT_NUM(100 * num(r, "progress"), "%.1f%%"), (long long)json_integer_value(json_object_get(r, "ranks")),
 		       json_integer_value(json_object_get(r, "ranks")) == 1 ? "" : "s");
+	/* launcher = slurm: the partition the jobs go to (docs/daemon.md, "Running on a cluster"). */
+	const json_t *sl = json_object_get(j, "slurm"), *sn = json_object_get(sl, "nodes"), *sc = json_object_get(sl, "cpus");
+	if (json_is_string(json_object_get(sl, "error")))
+		printf("  slurm      %s\n", str(sl, "error", "?"));
+	else if (sl)
+		printf("  slurm      partition %s: %s nodes (%s idle), CPUs %s allocated of %s (%s idle), %s pending jobs\n",
+		       str(sl, "partition", "?"), FMT_NUM(num(sn, "total"), "%.0f"), FMT_NUM(num(sn, "idle"), "%.0f"),
+		       FMT_NUM(num(sc, "allocated"), "%.0f"), FMT_NUM(num(sc, "total"), "%.0f"), FMT_NUM(num(sc, "idle"), "%.0f"),
+		       FMT_NUM(num(sl, "pending_jobs"), "%.0f"));
 cleanup:
 	json_decref(j);
 	return rc;

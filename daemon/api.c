@@ -3,6 +3,7 @@
 #include <errno.h>
 #include <inttypes.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -12,6 +13,7 @@
 #include "dashboard.h"
 #include "files.h"
 #include "presets.h"
+#include "slurm.h"
 #include "daemon/openapi_yaml.h"   /* generated from schema/openapi.yaml: openapi_yaml[] */
 #include "util.h"
 
@@ -418,6 +420,28 @@ static void h_observables(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 
 /* ---- service --------------------------------------------------------------- */
 
+/* The Slurm partition (slurm.h), asked for at most once a second whatever
+ * the number of clients (each answer runs sinfo and squeue); a failure is
+ * shown as {"error": "..."}. A new reference. */
+static json_t *slurm_summary(const cfg_t *cfg, double now)
+{
+	static pthread_mutex_t lock = PTHREAD_MUTEX_INITIALIZER;
+	static json_t *cached;
+	static double at;
+	json_t *j = NULL;
+	pthread_mutex_lock(&lock);
+	if (!cached || now - at >= 1.0 || now < at) {
+		char err[512];
+		json_decref(cached);
+		if (slurm_partition(cfg, &cached, err, sizeof(err)))
+			cached = json_pack("{s:s}", "error", err);
+		at = now;
+	}
+	j = json_incref(cached);
+	pthread_mutex_unlock(&lock);
+	return j;
+}
+
 static void h_cluster(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 {
 	char err[256];
@@ -434,6 +458,9 @@ static void h_cluster(gd_t *gd, const api_req_t *rq, api_resp_t *rs)
 	json_object_set_new(rs->json, "events_per_second", json_real(st.events_per_second));
 	json_object_set_new(rs->json, "uptime_seconds", json_real(now - gd->started));
 	json_object_set_new(rs->json, "version", json_string(PACKAGE_VERSION));
+	json_object_set_new(rs->json, "launcher", json_string(gd->cfg->launcher));
+	if (!strcmp(gd->cfg->launcher, "slurm"))
+		json_object_set_new(rs->json, "slurm", slurm_summary(gd->cfg, now));
 	rs->status = 200;
 }
 

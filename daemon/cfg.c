@@ -73,6 +73,19 @@ static int check_launch(const char *tpl, char *err, size_t errlen)
 
 static const char *const read_auth_choices[] = {"auto", "open", "token", NULL};
 static const char *const log_choices[] = {"error", "warning", "info", "debug", NULL};
+static const char *const launcher_choices[] = {"mpirun", "slurm", NULL};
+static const char *const slurm_mpi_choices[] = {"pmix", "pmi2", "none", NULL};
+
+/* Slurm names (partition, account): written into a batch script, so no
+ * characters a shell or sbatch would read otherwise. */
+static int check_slurm_name(const char *v, char *err, size_t errlen)
+{
+	if (strlen(v) > 64 || strspn(v, "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_.-") != strlen(v)) {
+		snprintf(err, errlen, "'%s': at most 64 characters from A-Z a-z 0-9 _ . -", v);
+		return CFG_EINVAL;
+	}
+	return CFG_OK;
+}
 
 #define K(n, t, mn, mx, d, h, ...) {.name = #n, .type = t, .off = offsetof(cfg_t, n), .min = mn, .max = mx, \
 	.def = d, .help = h, __VA_ARGS__}
@@ -89,6 +102,27 @@ static const key_t_ keys[] = {
 	K(launch, T_STR, 0, 0, "{mpirun} --stdin none -np {ranks} {engine} run {scene} --out {dir}",
 	  "launch command template; placeholders {mpirun} {ranks} {engine} {scene} {dir}, each a word of its own",
 	  .arg = "TEMPLATE", .check = check_launch),
+	K(launcher, T_STR, 0, 0, "mpirun",
+	  "how jobs run: mpirun on this host (the launch template), or slurm: each attempt submitted with sbatch "
+	  "(docs/daemon.md, \"Running on a cluster\")", .choices = launcher_choices),
+	K(slurm_partition, T_STR, 0, 0, "", "launcher = slurm: the partition jobs are submitted to", .arg = "NAME",
+	  .def_text = "none (Slurm picks)", .check = check_slurm_name),
+	K(slurm_account, T_STR, 0, 0, "", "launcher = slurm: the account jobs are charged to", .arg = "NAME",
+	  .def_text = "none (Slurm picks)", .check = check_slurm_name),
+	K(slurm_time_limit, T_INT, 0, 1e8, "0",
+	  "launcher = slurm: time limit of one attempt (sbatch --time; 0: the partition's limit); a job killed at "
+	  "its limit is retried from its checkpoint", .unit = U_SECONDS),
+	K(slurm_mpi, T_STR, 0, 0, "pmix", "launcher = slurm: the MPI plugin the engine runs under (srun --mpi)",
+	  .choices = slurm_mpi_choices),
+	K(slurm_poll, T_REAL, 0.1, 3600, "1", "launcher = slurm: time between looks at a job's Slurm state",
+	  .unit = U_SECONDS),
+	K(sbatch, T_STR, 0, 0, "sbatch", "launcher = slurm: sbatch program", .arg = "PROGRAM"),
+	K(srun, T_STR, 0, 0, "srun", "launcher = slurm: srun program (run by the batch script on the cluster)",
+	  .arg = "PROGRAM"),
+	K(squeue, T_STR, 0, 0, "squeue", "launcher = slurm: squeue program", .arg = "PROGRAM"),
+	K(scontrol, T_STR, 0, 0, "scontrol", "launcher = slurm: scontrol program", .arg = "PROGRAM"),
+	K(scancel, T_STR, 0, 0, "scancel", "launcher = slurm: scancel program", .arg = "PROGRAM"),
+	K(sinfo, T_STR, 0, 0, "sinfo", "launcher = slurm: sinfo program", .arg = "PROGRAM"),
 	K(token, T_STR, 0, 0, "", "bearer token for mutating requests (as a flag it shows in ps: prefer the file)",
 	  .arg = "TOKEN", .def_text = "read from STATE_DIR/token, generated on first start"),
 	K(read_auth, T_STR, 0, 0, "auto",

@@ -26,6 +26,13 @@ typedef struct {
 	char *engine;            /* granular-engine path ("" = search) */
 	char *mpirun;            /* launcher program */
 	char *launch;            /* launch template, placeholders {mpirun} {ranks} {engine} {scene} {dir} */
+	char *launcher;          /* mpirun | slurm */
+	char *slurm_partition;   /* "" = the cluster's default */
+	char *slurm_account;     /* "" = the user's default */
+	long slurm_time_limit;   /* seconds per attempt, 0 = the partition's default */
+	char *slurm_mpi;         /* srun --mpi plugin: pmix | pmi2 | none */
+	double slurm_poll;       /* seconds between state queries of a job */
+	char *sbatch, *srun, *squeue, *scontrol, *scancel, *sinfo;   /* Slurm programs */
 	char *token;             /* bearer token ("" = state_dir/token, generated) */
 	char *read_auth;         /* auto | open | token */
 	char *allowed_hosts;     /* extra Host values this server answers to */

@@ -10,7 +10,7 @@
 
 const char *const curves_families[] = {
 	"velocity_distribution", "pair_correlation", "structure_factor", "velocity_correlations", "clusters",
-	"impact_parameter", NULL,
+	"impact_parameter", "fields", NULL,
 };
 
 int curves_known(const char *name)
@@ -89,13 +89,13 @@ int curves_read(const char *dir, const char *name, long long after, int count, i
 	for (ssize_t n; f && (n = getdelim(&line, &lcap, '\n', f)) > 0;) {
 		if (line[n - 1] != '\n')
 			break;                         /* being written */
+		if (strncmp(line, prefix, strlen(prefix)))
+			continue;                      /* another family's line, however long (a large fields grid) */
 		if ((size_t)n > CURVES_MAX_LINE) {
 			snprintf(err, errlen, "observables.jsonl: a line of %zd bytes (more than %u)", n, CURVES_MAX_LINE);
 			ret = CURVES_EIO;
 			goto cleanup;
 		}
-		if (strncmp(line, prefix, strlen(prefix)))
-			continue;
 		json_error_t je;
 		json_t *o = json_loadb(line, (size_t)n, 0, &je);
 		json_t *s = o ? json_object_get(o, "sample") : NULL;

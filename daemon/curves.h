@@ -14,8 +14,9 @@
  * - Memory: lines are read one at a time and only those of the family asked
  *   for are parsed; at most `count` samples are kept, and at most
  *   CURVES_MAX_BYTES of their text: beyond it the answer is cut
- *   ("truncated": true, "next" says where to go on). A line longer than
- *   CURVES_MAX_LINE is an error (CURVES_EIO), not read.
+ *   ("truncated": true, "next" says where to go on). A line of the family
+ *   longer than CURVES_MAX_LINE is an error (CURVES_EIO), not parsed; other
+ *   families' lines are skipped whatever their length.
  * - No HTTP: the handler parses the query and serialises the result.
  */
 

@@ -16,7 +16,7 @@
  *   handle with sqlite3_close_v2().
  */
 
-#define DB_SCHEMA_VERSION 4
+#define DB_SCHEMA_VERSION 5
 #define DB_APPLICATION_ID 0x47524e4c  /* "GRNL": lets file(1) and tools tell our database apart */
 
 sqlite3 *db_open(const char *path, char *err, size_t errlen);

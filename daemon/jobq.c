@@ -172,7 +172,7 @@ static json_t *col_json(sqlite3_stmt *st, int i)
 #define JOB_COLS "id, submission_id, state, priority, ranks, method, particles, reason, created_at, " \
 	"updated_at, started_at, finished_at, progress, sim_time, events, collisions, cancel_requested, scene, advice, " \
 	"progress_received, progress_stored, progress_thinned, progress_dropped, progress_stride, " \
-	"memory_bytes, output_bytes, max_output"
+	"memory_bytes, output_bytes, max_output, slurm"
 
 /* Job object from a row selected with JOB_COLS. */
 static json_t *job_from_row(sqlite3_stmt *st, int with_scene)
@@ -200,6 +200,10 @@ static json_t *job_from_row(sqlite3_stmt *st, int with_scene)
 	json_object_set_new(j, "resources", json_pack("{s:o, s:o, s:o}", "memory_bytes", col_json(st, 24),
 	                                              "output_bytes", col_json(st, 25), "max_output_bytes",
 	                                              col_json(st, 26)));
+	/* The submission's Slurm options (launcher = slurm), null when none. */
+	json_t *so = sqlite3_column_type(st, 27) == SQLITE_TEXT
+	                     ? json_loads((const char *)sqlite3_column_text(st, 27), 0, NULL) : NULL;
+	json_object_set_new(j, "slurm", so ? so : json_null());
 	if (with_scene) {
 		json_t *sc = json_loads((const char *)sqlite3_column_text(st, 17), 0, NULL);
 		json_object_set_new(j, "scene", sc ? sc : json_null());
@@ -213,14 +217,15 @@ static json_t *attempts_of(jobq_t *q, int64_t id)
 	json_t *a = json_array();
 	if (sqlite3_prepare_v2(q->db,
 	                       "SELECT n, pid, started_at, ended_at, exit_status, signal, reason, checkpoint, "
-	                       "stderr_tail FROM attempts WHERE job_id=? ORDER BY n", -1, &st, NULL) != SQLITE_OK)
+	                       "stderr_tail, slurm_job, slurm_state FROM attempts WHERE job_id=? ORDER BY n", -1, &st,
+	                       NULL) != SQLITE_OK)
 		return a;
 	sqlite3_bind_int64(st, 1, id);
 	while (sqlite3_step(st) == SQLITE_ROW) {
 		static const char *const names[] = {"n", "pid", "started_at", "ended_at", "exit_status", "signal",
-		                                    "reason", "checkpoint", "stderr_tail"};
+		                                    "reason", "checkpoint", "stderr_tail", "slurm_job", "slurm_state"};
 		json_t *o = json_object();
-		for (int i = 0; i < 9; i++)
+		for (int i = 0; i < 11; i++)
 			json_object_set_new(o, names[i], col_json(st, i));
 		json_array_append_new(a, o);
 	}
@@ -300,7 +305,7 @@ static int valid_submission_id(const char *s)
 
 /* One validated submission waiting for its transaction. */
 typedef struct sub {
-	const char *sub_id, *scene, *hash, *method, *advice;
+	const char *sub_id, *scene, *hash, *method, *advice, *slurm;
 	uint64_t count, memory, output, max_output;   /* max_output 0: NULL (the server's limit) */
 	json_int_t priority, ranks;
 	double now;
@@ -360,8 +365,8 @@ static void run_batch(jobq_t *q, sub_t *batch)
 		}
 		int rc = sqlite3_prepare_v2(q->db,
 		                            "INSERT INTO jobs(submission_id, scene, scene_hash, method, particles, priority, "
-		                            "ranks, created_at, updated_at, advice, memory_bytes, output_bytes, max_output) "
-		                            "VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?)", -1, &st, NULL);
+		                            "ranks, created_at, updated_at, advice, memory_bytes, output_bytes, max_output, "
+		                            "slurm) VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?)", -1, &st, NULL);
 		if (rc == SQLITE_OK) {
 			if (it->sub_id)
 				sqlite3_bind_text(st, 1, it->sub_id, -1, SQLITE_STATIC);
@@ -379,6 +384,8 @@ static void run_batch(jobq_t *q, sub_t *batch)
 			sqlite3_bind_int64(st, 12, i64(it->output));
 			if (it->max_output)
 				sqlite3_bind_int64(st, 13, i64(it->max_output));
+			if (it->slurm)
+				sqlite3_bind_text(st, 14, it->slurm, -1, SQLITE_STATIC);
 			rc = sqlite3_step(st);
 		}
 		sqlite3_finalize(st);
@@ -455,11 +462,49 @@ typedef struct {
 	const char *sub_id;
 	json_int_t priority, ranks;
 	uint64_t max_output;         /* asked for by the submission; 0 = the server's limit */
+	json_t *slurm;               /* the "slurm" options (borrowed from doc), NULL = none */
 	scene_t sc;
 	budget_t bud;                /* set by admit() */
 } body_t;
 
 #define MIN_OUTPUT_LIMIT (1u << 20)   /* smaller cannot hold a run's first files */
+
+/* A submission's "slurm" options (docs/daemon.md, "Running on a cluster"):
+ * {"nodes": 1..4096, "time_limit": seconds 1..100000000, "partition": name},
+ * each optional; used by launcher = slurm only. */
+static int slurm_options(const json_t *v, char *err, size_t errlen)
+{
+	const char *k;
+	json_t *x;
+	if (!json_is_object(v)) {
+		snprintf(err, errlen, "slurm: must be an object (nodes, time_limit, partition)");
+		return JOBQ_EINVAL;
+	}
+	json_object_foreach((json_t *)v, k, x) {
+		if (!strcmp(k, "nodes")) {
+			if (!json_is_integer(x) || json_integer_value(x) < 1 || json_integer_value(x) > 4096) {
+				snprintf(err, errlen, "slurm.nodes: must be an integer in 1..4096");
+				return JOBQ_EINVAL;
+			}
+		} else if (!strcmp(k, "time_limit")) {
+			if (!json_is_integer(x) || json_integer_value(x) < 1 || json_integer_value(x) > 100000000) {
+				snprintf(err, errlen, "slurm.time_limit: must be an integer number of seconds in 1..100000000");
+				return JOBQ_EINVAL;
+			}
+		} else if (!strcmp(k, "partition")) {
+			const char *p = json_string_value(x);
+			if (!p || !*p || strlen(p) > 64 ||
+			    strspn(p, "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_.-") != strlen(p)) {
+				snprintf(err, errlen, "slurm.partition: must be a string of 1..64 characters from A-Z a-z 0-9 _ . -");
+				return JOBQ_EINVAL;
+			}
+		} else {
+			snprintf(err, errlen, "slurm.%s: unknown key (expected nodes, time_limit, partition)", k);
+			return JOBQ_EINVAL;
+		}
+	}
+	return JOBQ_OK;
+}
 
 /* Whether a relative file name, taken from a job's directory (JOBS/ID),
  * leaves the jobs directory JOBS: by being absolute or by more ".." than
@@ -596,11 +641,21 @@ static int parse_body(jobq_t *q, const char *body, size_t len, body_t *b, char *
 					goto cleanup;
 				}
 				b->max_output = (uint64_t)m;
+			} else if (!strcmp(k, "slurm")) {
+				if (slurm_options(v, err, errlen))
+					goto cleanup;
+				b->slurm = v;
 			} else {
 				snprintf(err, errlen, "%s: unknown key (expected scene, priority, ranks, submission_id, "
-				         "max_output_bytes)", k);
+				         "max_output_bytes, slurm)", k);
 				goto cleanup;
 			}
+		}
+		json_t *nodes = b->slurm ? json_object_get(b->slurm, "nodes") : NULL;
+		if (nodes && json_integer_value(nodes) > b->ranks) {
+			snprintf(err, errlen, "slurm.nodes: %" JSON_INTEGER_FORMAT " exceeds the job's ranks (%" JSON_INTEGER_FORMAT
+			         "): each node runs at least one rank", json_integer_value(nodes), b->ranks);
+			goto cleanup;
 		}
 	} else {
 		b->scene_obj = b->doc;
@@ -790,7 +845,7 @@ int jobq_validate(jobq_t *q, const char *body, size_t len, json_t **out, char *e
 int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **out, int *created, char *err,
                 size_t errlen)
 {
-	char *scene_txt = NULL, *advice_txt = NULL, hash[17];
+	char *scene_txt = NULL, *advice_txt = NULL, *slurm_txt = NULL, hash[17];
 	body_t b;
 	int ret;
 
@@ -832,9 +887,12 @@ int jobq_submit(jobq_t *q, const char *body, size_t len, double now, json_t **ou
 	if ((ret = admit(q, &b, err, errlen)))
 		goto cleanup;
 	{
+		if (b.slurm && !(slurm_txt = json_dumps(b.slurm, JSON_COMPACT | JSON_SORT_KEYS)))
+			goto nomem;
 		sub_t it = {.sub_id = b.sub_id, .scene = scene_txt, .hash = hash, .method = scene_method_name(b.sc.method),
 		            .advice = advice_txt, .count = b.sc.count, .priority = b.priority, .ranks = b.ranks, .now = now,
-		            .memory = b.bud.memory, .output = b.bud.output, .max_output = b.max_output};
+		            .memory = b.bud.memory, .output = b.bud.output, .max_output = b.max_output,
+		            .slurm = slurm_txt};
 		submit_batched(q, &it);
 		ret = it.ret;
 		*out = it.out;
@@ -849,6 +907,7 @@ nomem:
 cleanup:
 	free(scene_txt);
 	free(advice_txt);
+	free(slurm_txt);
 	json_decref(b.doc);
 	return ret;
 }
@@ -1180,8 +1239,8 @@ int jobq_claim(jobq_t *q, int free_slots, double now, jobq_claim_t *out, char *e
 		goto out;
 	}
 	for (;;) {
-		sqlite3_prepare_v2(q->db, "SELECT id, ranks, scene, coalesce(memory_bytes, 0) FROM jobs WHERE state='queued' "
-		                   "ORDER BY priority DESC, id LIMIT 1", -1, &st, NULL);
+		sqlite3_prepare_v2(q->db, "SELECT id, ranks, scene, coalesce(memory_bytes, 0), slurm FROM jobs "
+		                   "WHERE state='queued' ORDER BY priority DESC, id LIMIT 1", -1, &st, NULL);
 		rc = sqlite3_step(st);
 		int never = 0;
 		if (rc == SQLITE_ROW && sqlite3_column_int(st, 1) <= free_slots &&
@@ -1189,6 +1248,8 @@ int jobq_claim(jobq_t *q, int free_slots, double now, jobq_claim_t *out, char *e
 			out->id = sqlite3_column_int64(st, 0);
 			out->ranks = sqlite3_column_int(st, 1);
 			out->scene = strdup((const char *)sqlite3_column_text(st, 2));
+			if (sqlite3_column_type(st, 4) == SQLITE_TEXT)
+				out->slurm = strdup((const char *)sqlite3_column_text(st, 4));
 			ret = JOBQ_OK;
 		} else if (rc != SQLITE_ROW && rc != SQLITE_DONE) {
 			ret = JOBQ_EDB;
@@ -1235,7 +1296,8 @@ int jobq_claim(jobq_t *q, int free_slots, double now, jobq_claim_t *out, char *e
 	if (ret != JOBQ_OK) {
 		rollback(q);
 		free(out->scene);
-		out->scene = NULL;
+		free(out->slurm);
+		out->scene = out->slurm = NULL;
 	} else {
 		scene_t sc;
 		if (scene_parse(out->scene, strlen(out->scene), &sc, NULL, 0) == SCENE_OK) {
@@ -1278,6 +1340,49 @@ int jobq_attempt_launched(jobq_t *q, int64_t id, int attempt, int pid, uint64_t 
 	                   (int64_t)pid, (int64_t)pid_start, checkpoint, id, (int64_t)attempt);
 	pthread_mutex_unlock(&q->lock);
 	return rc == SQLITE_OK ? JOBQ_OK : JOBQ_EDB;
+}
+
+int jobq_attempt_slurm(jobq_t *q, int64_t id, int attempt, int64_t slurm_job, const char *checkpoint)
+{
+	pthread_mutex_lock(&q->lock);
+	int rc = exec_bind(q, "UPDATE attempts SET slurm_job=?, slurm_state='pending', checkpoint=? WHERE job_id=? AND n=?",
+	                   "isii", slurm_job, checkpoint, id, (int64_t)attempt);
+	pthread_mutex_unlock(&q->lock);
+	return rc == SQLITE_OK ? JOBQ_OK : JOBQ_EDB;
+}
+
+int jobq_attempt_slurm_state(jobq_t *q, int64_t id, int attempt, const char *state, double now)
+{
+	pthread_mutex_lock(&q->lock);
+	int rc = exec_bind(q, "UPDATE attempts SET slurm_state=? WHERE job_id=? AND n=?", "sii", state, id,
+	                   (int64_t)attempt);
+	if (rc == SQLITE_OK)
+		rc = exec_bind(q, "UPDATE jobs SET updated_at=? WHERE id=?", "di", now, id);
+	pthread_mutex_unlock(&q->lock);
+	return rc == SQLITE_OK ? JOBQ_OK : JOBQ_EDB;
+}
+
+int jobq_last_record(jobq_t *q, int64_t id, int attempt, char **line)
+{
+	sqlite3_stmt *st = NULL;
+	int ret = JOBQ_EDB, rc;
+	*line = NULL;
+	pthread_mutex_lock(&q->lock);
+	if (sqlite3_prepare_v2(q->db, "SELECT record FROM progress WHERE job_id=? AND attempt=? ORDER BY seq DESC LIMIT 1",
+	                       -1, &st, NULL) == SQLITE_OK) {
+		sqlite3_bind_int64(st, 1, id);
+		sqlite3_bind_int64(st, 2, attempt);
+		rc = sqlite3_step(st);
+		if (rc == SQLITE_ROW) {
+			*line = strdup((const char *)sqlite3_column_text(st, 0));
+			ret = *line ? JOBQ_OK : JOBQ_ENOMEM;
+		} else if (rc == SQLITE_DONE) {
+			ret = JOBQ_ENOTFOUND;
+		}
+	}
+	sqlite3_finalize(st);
+	pthread_mutex_unlock(&q->lock);
+	return ret;
 }
 
 int jobq_attempt_checkpoint(jobq_t *q, int64_t id, int attempt, const char *checkpoint)
@@ -1503,7 +1608,8 @@ int jobq_list_running(jobq_t *q, jobq_running_t **out, size_t *n)
 	*n = 0;
 	pthread_mutex_lock(&q->lock);
 	sqlite3_prepare_v2(q->db,
-	                   "SELECT j.id, a.n, coalesce(a.pid,0), coalesce(a.pid_start,0) FROM jobs j "
+	                   "SELECT j.id, a.n, coalesce(a.pid,0), coalesce(a.pid_start,0), coalesce(a.slurm_job,0), "
+	                   "j.ranks, a.checkpoint IS NOT NULL, j.scene FROM jobs j "
 	                   "LEFT JOIN attempts a ON a.job_id=j.id AND a.n=(SELECT max(n) FROM attempts WHERE job_id=j.id) "
 	                   "WHERE j.state='running' ORDER BY j.id", -1, &st, NULL);
 	while (sqlite3_step(st) == SQLITE_ROW) {
@@ -1518,6 +1624,17 @@ int jobq_list_running(jobq_t *q, jobq_running_t **out, size_t *n)
 		(*out)[*n].attempt = sqlite3_column_int(st, 1);
 		(*out)[*n].pid = sqlite3_column_int(st, 2);
 		(*out)[*n].pid_start = (uint64_t)sqlite3_column_int64(st, 3);
+		(*out)[*n].slurm_job = sqlite3_column_int64(st, 4);
+		(*out)[*n].ranks = sqlite3_column_int(st, 5);
+		(*out)[*n].resumed = sqlite3_column_int(st, 6);
+		(*out)[*n].until = 0;
+		(*out)[*n].until_cpp = 0;
+		scene_t sc;
+		const char *txt = (const char *)sqlite3_column_text(st, 7);
+		if (txt && scene_parse(txt, strlen(txt), &sc, NULL, 0) == SCENE_OK) {
+			(*out)[*n].until = sc.until.value;
+			(*out)[*n].until_cpp = sc.until.kind == SCENE_CLOCK_CPP;
+		}
 		(*n)++;
 	}
 	sqlite3_finalize(st);

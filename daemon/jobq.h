@@ -59,7 +59,9 @@ const char *job_state_name(job_state_t s);
 int job_state_parse(const char *name);
 
 /* Submit: body is the scene JSON itself or {"scene": {...}, "priority": p,
- * "ranks": r, "submission_id": "...", "max_output_bytes": b}. The scene is
+ * "ranks": r, "submission_id": "...", "max_output_bytes": b, "slurm": {"nodes":
+ * n <= r, "time_limit": seconds, "partition": name}} (the Slurm options are
+ * stored and shown as "slurm"; only launcher = slurm uses them). The scene is
  * validated by the engine's own parser, which makes the engine's start
  * checks too (scene.h), and admitted by its budget (engine/budget.h) on the
  * job's ranks: JOBQ_EINVAL naming the key and the estimate when its memory
@@ -126,6 +128,7 @@ typedef struct {
 	int attempt;        /* number of the attempt just created */
 	int ranks;
 	char *scene;        /* malloc'd scene JSON; caller frees */
+	char *slurm;        /* malloc'd "slurm" options of the submission (JSON), NULL = none; caller frees */
 	double until;       /* stop condition value, with until_cpp telling its kind */
 	int until_cpp;      /* 1: collisions per particle, 0: simulated time */
 	uint64_t particles;
@@ -144,6 +147,15 @@ int jobq_claim(jobq_t *q, int free_slots, double now, jobq_claim_t *out, char *e
 /* Record the launch (pid of the process-group leader and its start time) and
  * the checkpoint the attempt resumes from (NULL = fresh). */
 int jobq_attempt_launched(jobq_t *q, int64_t id, int attempt, int pid, uint64_t pid_start, const char *checkpoint);
+/* launcher = slurm: record the Slurm job id of the attempt (sbatch's answer;
+ * its Slurm state becomes "pending") and the checkpoint it resumes from. */
+int jobq_attempt_slurm(jobq_t *q, int64_t id, int attempt, int64_t slurm_job, const char *checkpoint);
+/* The attempt's Slurm state as granulard names it (docs/daemon.md, "Running on a cluster"). */
+int jobq_attempt_slurm_state(jobq_t *q, int64_t id, int attempt, const char *state, double now);
+/* The last stored progress record of an attempt (malloc'd line in *line):
+ * where a restarted daemon resumes reading the attempt's output file.
+ * JOBQ_ENOTFOUND when the attempt stored none. */
+int jobq_last_record(jobq_t *q, int64_t id, int attempt, char **line);
 /* The engine fell back to another checkpoint than the one it was launched
  * with (its stderr says so): record that file name (relative to the job
  * directory) as the attempt's checkpoint. */
@@ -188,6 +200,11 @@ typedef struct {
 	int attempt;
 	int pid;
 	uint64_t pid_start;
+	int64_t slurm_job;  /* 0: not submitted to Slurm */
+	int ranks;
+	int resumed;        /* the attempt resumes from a checkpoint */
+	double until;       /* as in jobq_claim_t */
+	int until_cpp;
 } jobq_running_t;
 /* *out malloc'd (caller frees), *n entries. */
 int jobq_list_running(jobq_t *q, jobq_running_t **out, size_t *n);

@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -19,6 +20,7 @@
 #include "quota.h"
 #include "scene.h"
 #include "scheduler.h"
+#include "slurm.h"
 #include "util.h"
 
 #define MAX_CHILDREN 4096
@@ -61,7 +63,20 @@ typedef struct {
 	size_t nhead;
 	int over_output;             /* stopped for its output limit (quota.h): over_msg says why */
 	char over_msg[320];
+	/* launcher = slurm (pid stays 0): the attempt is Slurm job sjob; out and
+	 * err are its output files in the job directory, tailed, not pipes. */
+	int64_t sjob;
+	char sstate_text[160];       /* as stored: "pending (Resources)" */
+	double spoll_at;             /* next look at its Slurm state */
+	int wall_own;                /* its Slurm time limit is max_wall_seconds: a timeout fails the job */
+	int sretry;                  /* ended by Slurm, not by the engine (timeout, node failure, ...): retry */
+	char swhy[200];              /* what Slurm said, for the reason */
+	char *skip;                  /* adopted after a restart: the last stored record; output up to it was read */
+	char swarned[200];           /* the last query error logged (logged once) */
 } child_t;
+
+/* A slot in use: a local launch (pid) or a Slurm job (sjob). */
+static int busy(const child_t *k) { return k->pid || k->sjob; }
 
 struct sched {
 	sched_conf_t c;
@@ -80,6 +95,9 @@ struct sched {
 	int warned_full;
 	quota_t *quota;              /* output limits of running jobs */
 	double claim_at;             /* last look at the queue (monotonic s) */
+	int slurm;                   /* launcher = slurm */
+	char tag[32];                /* "granulard-XXXXXXXX": Slurm job names of this state dir */
+	char swarned[512];           /* the last squeue failure logged (logged once) */
 	char rbuf[READ_BYTES];
 };
 
@@ -119,6 +137,15 @@ sched_t *sched_create(const sched_conf_t *conf)
 	}
 	pthread_mutex_init(&s->lock, NULL);
 	s->stats.slots = (int)conf->cfg->slots;
+	s->slurm = conf->cfg->launcher && !strcmp(conf->cfg->launcher, "slurm");
+	/* Job names tell this daemon's jobs from others' on the same cluster:
+	 * FNV-1a of the jobs directory's absolute path. */
+	char abs[PATH_MAX];
+	const char *d = realpath(conf->jobs_dir, abs) ? abs : conf->jobs_dir;
+	uint32_t h = 2166136261u;
+	for (const char *p = d; *p; p++)
+		h = (h ^ (unsigned char)*p) * 16777619u;
+	snprintf(s->tag, sizeof(s->tag), "granulard-%08x", h);
 	return s;
 }
 
@@ -130,6 +157,8 @@ void sched_destroy(sched_t *s)
 	close(s->wake[1]);
 	pthread_mutex_destroy(&s->lock);
 	free(s->cancels);
+	for (size_t i = 0; s->kids && i < s->nkids; i++)
+		free(s->kids[i].skip);
 	free(s->kids);
 	quota_destroy(s->quota);
 	free(s);
@@ -306,6 +335,93 @@ static char **child_env(void)
 	return env;
 }
 
+/* Progress ingestion of a launched attempt (its ingest; the rate clock). */
+static void follow(sched_t *s, child_t *k, double now)
+{
+	const ingest_conf_t ic = {.rate = s->c.cfg->progress_rate, .burst = (double)s->c.cfg->progress_burst,
+	                          .flush = s->c.cfg->progress_flush, .max_batch = 4096,
+	                          .max_line = LINE_MAX_BYTES, .chatter = chatter, .ctx = k};
+	k->ing = ingest_create(&ic, now);
+	if (!k->ing)
+		log_warning("job %" PRId64 ": no memory to follow its progress", k->id);
+	k->last_wall = now;
+}
+
+/* launcher = slurm: the attempt becomes a Slurm job. The batch script
+ * (DIR/attempt-N.sbatch) runs the engine under srun; its stdout and stderr
+ * go to DIR/attempt-N.out and .err, which the daemon tails (docs/daemon.md,
+ * "Running on a cluster"). 0, or -1 with err (nothing submitted). */
+static int launch_slurm(sched_t *s, child_t *k, const jobq_claim_t *cl, const char *dir, const char *scene,
+                        const char *resume, const char *jobs, char *err, size_t errlen)
+{
+	char name[96], out[64], errf[64], path[4200];
+	const cfg_t *c = s->c.cfg;
+	char *argv[12];
+	int n = 0;
+	argv[n++] = (char *)s->c.engine;
+	argv[n++] = "run";
+	argv[n++] = (char *)scene;
+	argv[n++] = "--out";
+	argv[n++] = (char *)dir;
+	if (resume) {
+		argv[n++] = "--resume";
+		argv[n++] = (char *)resume;
+	}
+	if (jobs) {
+		argv[n++] = "--jobs-dir";
+		argv[n++] = (char *)jobs;
+	}
+	argv[n] = NULL;
+	snprintf(name, sizeof(name), "%s-%" PRId64 "-%d", s->tag, cl->id, cl->attempt);
+	snprintf(out, sizeof(out), "attempt-%d.out", cl->attempt);
+	snprintf(errf, sizeof(errf), "attempt-%d.err", cl->attempt);
+	/* The job's own options (validated at submission) within the config's:
+	 * a job may ask for less time than slurm_time_limit, not more; and
+	 * max_wall_seconds bounds an attempt whatever the launcher. */
+	json_t *opt = cl->slurm ? json_loads(cl->slurm, 0, NULL) : NULL;
+	long limit = c->slurm_time_limit, want = (long)json_integer_value(json_object_get(opt, "time_limit"));
+	if (want > 0 && (limit == 0 || want < limit))
+		limit = want;
+	if (c->max_wall_seconds > 0 && (limit == 0 || c->max_wall_seconds < limit))
+		limit = c->max_wall_seconds;
+	const char *part = json_string_value(json_object_get(opt, "partition"));
+	const slurm_script_t sc = {.name = name, .ranks = cl->ranks, .time_limit = limit,
+	                           .nodes = (int)json_integer_value(json_object_get(opt, "nodes")),
+	                           .partition = part ? part : c->slurm_partition, .account = c->slurm_account, .dir = dir,
+	                           .out = out, .err = errf, .srun = c->srun, .mpi = c->slurm_mpi, .argv = argv};
+	char *text = slurm_script(&sc);
+	json_decref(opt);
+	snprintf(path, sizeof(path), "%s/attempt-%d.sbatch", dir, cl->attempt);
+	if (!text) {
+		snprintf(err, errlen, "out of memory");
+		return -1;
+	}
+	int r = util_write_atomic(path, text, strlen(text), err, errlen);
+	free(text);
+	if (r)
+		return -1;
+	int64_t job = 0;
+	if (slurm_submit(c, path, &job, err, errlen)) {
+		/* sbatch may have submitted before its answer was lost (timeout):
+		 * a job of this attempt's name must not run behind a failed job. */
+		char e2[256];
+		if (slurm_cancel_name(c, name, e2, sizeof(e2)))
+			log_warning("job %" PRId64 ": %s", cl->id, e2);
+		return -1;
+	}
+	k->sjob = job;
+	k->out = k->err = -1;
+	k->started = mono();
+	k->spoll_at = k->started + c->slurm_poll;
+	k->wall_own = c->max_wall_seconds > 0 && limit == c->max_wall_seconds;
+	if (jobq_attempt_slurm(s->c.q, cl->id, cl->attempt, job, resume ? "checkpoint.h5" : NULL) != JOBQ_OK)
+		log_error("job %" PRId64 " attempt %d: could not record Slurm job %" PRId64
+		          " (a restarted daemon finds it by its name %s)", cl->id, cl->attempt, job, name);
+	log_info("job %" PRId64 " attempt %d: submitted as Slurm job %" PRId64 " (%s) with %d rank(s)%s", cl->id,
+	         cl->attempt, job, name, cl->ranks, resume ? ", resuming from checkpoint.h5" : "");
+	return 0;
+}
+
 static int launch(sched_t *s, const jobq_claim_t *cl)
 {
 	char dir[4096], scene[4200], ckpt[4200], err[512];
@@ -347,6 +463,14 @@ static int launch(sched_t *s, const jobq_claim_t *cl)
 	if (strstr(cl->scene, "\"from\"") && scene_parse(cl->scene, strlen(cl->scene), &sc, NULL, 0) == SCENE_OK &&
 	    sc.from_job)
 		jobs = realpath(s->c.jobs_dir, jobs_abs) ? jobs_abs : s->c.jobs_dir;
+	if (s->slurm) {
+		if (launch_slurm(s, k, cl, dir, scene, resume, jobs, err, sizeof(err)))
+			goto fail;
+		follow(s, k, k->started);
+		if (s->nkids < (size_t)(k - s->kids) + 1)
+			s->nkids = (size_t)(k - s->kids) + 1;
+		return 0;
+	}
 	av = build_argv(s, k, scene, dir, resume, jobs);
 	env = child_env();
 	if (!av || !env || pipe2(po, O_CLOEXEC) || pipe2(pe, O_CLOEXEC)) {
@@ -390,15 +514,7 @@ static int launch(sched_t *s, const jobq_claim_t *cl)
 	k->out = po[0];
 	k->err = pe[0];
 	k->started = mono();
-	{
-		const ingest_conf_t ic = {.rate = s->c.cfg->progress_rate, .burst = (double)s->c.cfg->progress_burst,
-		                          .flush = s->c.cfg->progress_flush, .max_batch = 4096,
-		                          .max_line = LINE_MAX_BYTES, .chatter = chatter, .ctx = k};
-		k->ing = ingest_create(&ic, k->started);
-		if (!k->ing)
-			log_warning("job %" PRId64 ": no memory to follow its progress", cl->id);
-	}
-	k->last_wall = k->started;
+	follow(s, k, k->started);
 	if (s->c.cfg->max_wall_seconds > 0)
 		k->term_at = k->started + (double)s->c.cfg->max_wall_seconds;
 	if (s->nkids < (size_t)(k - s->kids) + 1)
@@ -540,6 +656,9 @@ static void read_fd(sched_t *s, child_t *k, int *fd, int is_out, size_t budget, 
 			budget -= (size_t)n < budget ? (size_t)n : budget;
 			continue;
 		}
+		/* A Slurm attempt's output file: its end is only "nothing yet". */
+		if (k->sjob && n == 0)
+			return;
 		if (n == 0 || (errno != EAGAIN && errno != EINTR)) {
 			close(*fd);
 			*fd = -1;
@@ -576,6 +695,23 @@ static void finish(sched_t *s, child_t *k)
 	} else if (k->walllimit) {
 		next = JOB_FAILED;
 		snprintf(reason, sizeof(reason), "wall-time limit of %ld s exceeded", s->c.cfg->max_wall_seconds);
+	} else if (k->sretry) {
+		/* Slurm ended the attempt (time limit, node failure, preemption, a
+		 * cancel from outside granulard): like a local crash, the job goes
+		 * on from its checkpoint, within max_attempts. */
+		char ckpt[4200];
+		snprintf(ckpt, sizeof(ckpt), "%s/%" PRId64 "/checkpoint.h5", s->c.jobs_dir, k->id);
+		int have = access(ckpt, R_OK) == 0;
+		if (k->attempt < s->c.cfg->max_attempts) {
+			next = JOB_QUEUED;
+			snprintf(reason, sizeof(reason), "%s; %s (attempt %d of %ld)", k->swhy,
+			         have ? "retrying from checkpoint" : "restarting (no checkpoint yet)", k->attempt + 1,
+			         s->c.cfg->max_attempts);
+		} else {
+			next = JOB_FAILED;
+			snprintf(reason, sizeof(reason), "%s; no attempts left (max_attempts %ld)", k->swhy,
+			         s->c.cfg->max_attempts);
+		}
 	} else if (code == 4 && k->attempt < s->c.cfg->max_attempts) {
 		/* Exit 4: the engine was told to stop (SIGTERM from outside the
 		 * daemon), wrote a checkpoint and stopped: continue from it. */
@@ -617,6 +753,13 @@ static void finish(sched_t *s, child_t *k)
 	sched_publish_state(s->c.q, s->c.hub, k->id);
 	free(tail);
 	ingest_destroy(k->ing);
+	if (k->sjob) {
+		if (k->out >= 0)
+			close(k->out);
+		if (k->err >= 0)
+			close(k->err);
+	}
+	free(k->skip);
 	memset(k, 0, sizeof(*k));
 }
 
@@ -651,6 +794,223 @@ static void signal_child(child_t *k, int sig, double now)
 		kill(-k->pid, sig);
 }
 
+/* A Slurm attempt's output file, once it exists (-1 before). An adopted
+ * attempt's stdout (skip: the last record stored) is read from just after
+ * that record: what came before is stored already, what came after is not. */
+static int open_output(const char *dir, const char *name, const char *skip)
+{
+	char path[4200];
+	snprintf(path, sizeof(path), "%s/%s", dir, name);
+	int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+	struct stat st;
+	if (fd < 0 || !skip || fstat(fd, &st) || st.st_size <= 0)
+		return fd;
+	size_t size = (size_t)st.st_size, sl = strlen(skip);
+	char *m = mmap(NULL, size, PROT_READ, MAP_PRIVATE, fd, 0);
+	if (m == MAP_FAILED)
+		return fd;
+	off_t at = 0;
+	for (const char *p = m; (p = memmem(p, size - (size_t)(p - m), skip, sl)); p++)
+		if ((p == m || p[-1] == '\n') && (size_t)(p - m) + sl < size && p[sl] == '\n')
+			at = (off_t)(p - m) + (off_t)sl + 1;
+	munmap(m, size);
+	lseek(fd, at, SEEK_SET);
+	return fd;
+}
+
+static void open_outputs(sched_t *s, child_t *k)
+{
+	char dir[4096], name[64];
+	snprintf(dir, sizeof(dir), "%s/%" PRId64, s->c.jobs_dir, k->id);
+	if (k->out < 0) {
+		snprintf(name, sizeof(name), "attempt-%d.out", k->attempt);
+		k->out = open_output(dir, name, k->skip);
+	}
+	if (k->err < 0) {
+		snprintf(name, sizeof(name), "attempt-%d.err", k->attempt);
+		k->err = open_output(dir, name, NULL);
+	}
+}
+
+/* One turn for a Slurm attempt: tail its files, act on a cancel, and when
+ * polled (its state from this turn's squeue, slurm_poll_all()) follow its
+ * state; at a final state (exit code from scontrol), decide the outcome
+ * (finish()). Returns 1 when the attempt ended. */
+static int slurm_turn(sched_t *s, child_t *k, double now, const slurm_job_t *polled)
+{
+	const cfg_t *c = s->c.cfg;
+	char err[512];
+	open_outputs(s, k);
+	if (k->out >= 0)
+		read_fd(s, k, &k->out, 1, READ_BYTES, now);
+	if (k->err >= 0)
+		read_fd(s, k, &k->err, 0, READ_BYTES, now);
+	/* Cancel, output limit: scancel (Slurm sends SIGTERM, the engine
+	 * checkpoints; SIGKILL after the cluster's KillWait). */
+	if (k->term_at > 0 && now >= k->term_at) {
+		k->term_at = 0;
+		if (slurm_cancel(c, k->sjob, NULL, err, sizeof(err))) {
+			log_error("job %" PRId64 ": %s", k->id, err);
+			k->term_at = now + 5.0;   /* try again */
+		}
+		k->spoll_at = now + 0.2;
+	}
+	if (!polled)
+		return 0;
+	slurm_job_t sj = *polled;
+	/* An end: its exit code (and a job squeue no longer lists) from scontrol. */
+	if (slurm_state_final(sj.state)) {
+		int r = slurm_query(c, k->sjob, &sj, err, sizeof(err));
+		if (r == SLURM_EFAIL) {
+			if (strcmp(err, k->swarned)) {
+				log_warning("job %" PRId64 ": Slurm job %" PRId64 ": %s", k->id, k->sjob, err);
+				snprintf(k->swarned, sizeof(k->swarned), "%s", err);
+			}
+			return 0;
+		}
+	}
+	char text[160];
+	snprintf(text, sizeof(text), "%s%s%s%s", slurm_state_name(sj.state), *sj.reason ? " (" : "", sj.reason,
+	         *sj.reason ? ")" : "");
+	if (strcmp(text, k->sstate_text)) {
+		snprintf(k->sstate_text, sizeof(k->sstate_text), "%s", text);
+		if (jobq_attempt_slurm_state(s->c.q, k->id, k->attempt, text, util_now()) != JOBQ_OK)
+			log_warning("job %" PRId64 ": could not record its Slurm state", k->id);
+		log_info("job %" PRId64 " attempt %d: Slurm job %" PRId64 " %s", k->id, k->attempt, k->sjob, text);
+		sched_publish_state(s->c.q, s->c.hub, k->id);
+	}
+	if (!slurm_state_final(sj.state))
+		return 0;
+	/* The end: what is left in the files (written before Slurm saw the end), then the outcome. */
+	open_outputs(s, k);
+	if (k->out >= 0)
+		read_fd(s, k, &k->out, 1, FINAL_READ_BYTES, now);
+	if (k->err >= 0)
+		read_fd(s, k, &k->err, 0, FINAL_READ_BYTES, now);
+	if (k->ing)
+		ingest_finish(k->ing, now);
+	flush_progress(s, k, now);
+	/* The batch script exec's srun: its ExitCode is srun's, i.e. the ranks'. */
+	k->status = sj.exit_signal ? (sj.exit_signal & 0x7f) : ((sj.exit_code & 0xff) << 8);
+	switch (sj.state) {
+	case SLURM_CANCELLED:
+		if (!k->cancel && !k->over_output) {
+			k->sretry = 1;
+			snprintf(k->swhy, sizeof(k->swhy), "Slurm job %" PRId64 " cancelled outside granulard", k->sjob);
+		}
+		break;
+	case SLURM_TIMEOUT:
+		if (k->wall_own)   /* the limit was granulard's own max_wall_seconds: fails as with mpirun */
+			k->walllimit = 1;
+		else {
+			k->sretry = 1;
+			snprintf(k->swhy, sizeof(k->swhy), "Slurm job %" PRId64 " reached its time limit", k->sjob);
+		}
+		break;
+	case SLURM_NODE_FAIL:
+		k->sretry = 1;
+		snprintf(k->swhy, sizeof(k->swhy), "Slurm job %" PRId64 " ended by a node failure", k->sjob);
+		break;
+	case SLURM_PREEMPTED:
+		k->sretry = 1;
+		snprintf(k->swhy, sizeof(k->swhy), "Slurm job %" PRId64 " preempted", k->sjob);
+		break;
+	case SLURM_GONE:
+		/* Slurm forgot the job (it ended longer than MinJobAge ago, while
+		 * granulard was down): its output says how the engine ended. */
+		if (k->summary_seen && strcmp(k->status_word, "interrupted"))
+			k->status = 0;
+		else {
+			k->sretry = 1;
+			snprintf(k->swhy, sizeof(k->swhy),
+			         "Slurm job %" PRId64 " is unknown to Slurm and its output has no summary", k->sjob);
+		}
+		break;
+	default:
+		break;
+	}
+	finish(s, k);
+	return 1;
+}
+
+/* A turn for every Slurm attempt; those due a look (slurm_poll) get their
+ * state from one squeue for all of them. 1 when one ended. */
+static int slurm_poll_all(sched_t *s, double now)
+{
+	const cfg_t *c = s->c.cfg;
+	size_t n = 0, j = 0;
+	int ended = 0, polled = 0;
+	char err[512];
+	for (size_t i = 0; i < s->nkids; i++)
+		if (s->kids[i].sjob && now >= s->kids[i].spoll_at)
+			n++;
+	int64_t *ids = n ? malloc(n * sizeof(*ids)) : NULL;
+	slurm_job_t *res = n ? malloc(n * sizeof(*res)) : NULL;
+	if (n && ids && res) {
+		for (size_t i = 0; i < s->nkids; i++)
+			if (s->kids[i].sjob && now >= s->kids[i].spoll_at)
+				ids[j++] = s->kids[i].sjob;
+		if (slurm_states(c, ids, n, res, err, sizeof(err)) == SLURM_OK) {
+			polled = 1;
+			s->swarned[0] = '\0';
+		} else if (strcmp(err, s->swarned)) {
+			log_warning("following Slurm jobs: %s", err);
+			snprintf(s->swarned, sizeof(s->swarned), "%s", err);
+		}
+	}
+	j = 0;
+	for (size_t i = 0; i < s->nkids; i++) {
+		child_t *k = &s->kids[i];
+		if (!k->sjob)
+			continue;
+		const slurm_job_t *p = NULL;
+		if (n && ids && res && now >= k->spoll_at) {
+			p = polled ? &res[j] : NULL;
+			j++;
+			k->spoll_at = now + c->slurm_poll;
+		}
+		ended |= slurm_turn(s, k, now, p);
+	}
+	free(ids);
+	free(res);
+	return ended;
+}
+
+/* sched_recover(): follow a Slurm job of the previous daemon again. */
+static int adopt(sched_t *s, const jobq_running_t *r, int64_t job)
+{
+	const cfg_t *c = s->c.cfg;
+	child_t *k = NULL;
+	for (size_t i = 0; i < MAX_CHILDREN && !k; i++)
+		if (!busy(&s->kids[i]) && !s->kids[i].id)
+			k = &s->kids[i];
+	if (!k)
+		return -1;
+	memset(k, 0, sizeof(*k));
+	k->id = r->id;
+	k->attempt = r->attempt;
+	k->ranks = r->ranks;
+	k->until = r->until;
+	k->until_cpp = r->until_cpp;
+	k->resumed = r->resumed;
+	k->ckpt_noted = 1;   /* its first stderr lines were read by the previous daemon */
+	k->sjob = job;
+	k->out = k->err = -1;
+	k->started = mono();
+	/* Whether a job option made the limit shorter is not known here: judged by the config. */
+	k->wall_own = c->max_wall_seconds > 0 && (c->slurm_time_limit == 0 || c->max_wall_seconds <= c->slurm_time_limit);
+	if (jobq_last_record(s->c.q, r->id, r->attempt, &k->skip) != JOBQ_OK)
+		k->skip = NULL;
+	if (jobq_cancel_requested(s->c.q, r->id) == 1) {
+		k->cancel = 1;
+		k->term_at = k->started;
+	}
+	follow(s, k, k->started);
+	if (s->nkids < (size_t)(k - s->kids) + 1)
+		s->nkids = (size_t)(k - s->kids) + 1;
+	return 0;
+}
+
 static void *loop(void *arg)
 {
 	sched_t *s = arg;
@@ -676,7 +1036,7 @@ static void *loop(void *arg)
 		/* Requests: cancellations, stop. */
 		for (size_t c = 0; c < nc; c++)
 			for (size_t i = 0; i < s->nkids; i++)
-				if (s->kids[i].id == cancels[c] && s->kids[i].pid && !s->kids[i].cancel) {
+				if (s->kids[i].id == cancels[c] && busy(&s->kids[i]) && !s->kids[i].cancel) {
 					s->kids[i].cancel = 1;
 					s->kids[i].term_at = now;
 				}
@@ -691,7 +1051,7 @@ static void *loop(void *arg)
 		}
 		/* Output limits (quota.h): a job whose directory outgrew its limit is stopped and fails. */
 		for (size_t i = 0; i < s->nkids; i++)
-			if (s->kids[i].pid && !s->kids[i].over_output && !s->kids[i].cancel &&
+			if (busy(&s->kids[i]) && !s->kids[i].over_output && !s->kids[i].cancel &&
 			    quota_exceeded(s->quota, s->kids[i].id, now, s->kids[i].over_msg, sizeof(s->kids[i].over_msg)))
 				s->kids[i].over_output = 1, s->kids[i].term_at = now;
 		/* Deadlines: SIGTERM (the engine checkpoints), then SIGKILL. */
@@ -738,13 +1098,18 @@ static void *loop(void *arg)
 				claim = 1;   /* slots were freed */
 			}
 		}
+		/* Slurm jobs: tail their files, follow their state, cancel. Not
+		 * while stopping: an end seen then is the next daemon's to record. */
+		if (s->slurm && !stopping && slurm_poll_all(s, now))
+			claim = 1;
 		/* Launch what fits. */
-		int used = 0, running = 0;
+		int used = 0, running = 0, local = 0;
 		double rate = 0;
 		for (size_t i = 0; i < s->nkids; i++)
-			if (s->kids[i].pid) {
+			if (busy(&s->kids[i])) {
 				used += s->kids[i].ranks;
 				running++;
+				local += s->kids[i].pid != 0;
 				rate += s->kids[i].rate;
 			}
 		/* Disk-full protection: restore the ballast when there is room again;
@@ -781,8 +1146,10 @@ static void *loop(void *arg)
 				if (launch(s, &cl) == 0) {
 					used += cl.ranks;
 					running++;
+					local += !s->slurm;
 				}
 				free(cl.scene);
+				free(cl.slurm);
 			}
 		}
 		pthread_mutex_lock(&s->lock);
@@ -790,14 +1157,15 @@ static void *loop(void *arg)
 		s->stats.running = running;
 		s->stats.events_per_second = rate;
 		pthread_mutex_unlock(&s->lock);
-		if (stopping && running == 0)
+		/* Slurm jobs run on without the daemon: the next one adopts them (sched_recover()). */
+		if (stopping && local == 0)
 			break;
 
 		/* Progress: held records whose token came, batches whose interval is up. */
 		double wait = 0.2;
 		for (size_t i = 0; i < s->nkids; i++) {
 			child_t *k = &s->kids[i];
-			if (!k->pid || !k->ing)
+			if (!busy(k) || !k->ing)
 				continue;
 			ingest_tick(k->ing, now);
 			if (ingest_due(k->ing, now))
@@ -839,6 +1207,20 @@ static void *loop(void *arg)
 				read_fd(s, k, &k->err, 0, READ_BYTES, now);
 		}
 	}
+	/* Slurm jobs left running: store what was read, let go of the files. */
+	for (size_t i = 0; i < s->nkids; i++) {
+		child_t *k = &s->kids[i];
+		if (!k->sjob)
+			continue;
+		flush_progress(s, k, mono());
+		ingest_destroy(k->ing);
+		if (k->out >= 0)
+			close(k->out);
+		if (k->err >= 0)
+			close(k->err);
+		free(k->skip);
+		memset(k, 0, sizeof(*k));
+	}
 	free(pf);
 	free(who);
 	return NULL;
@@ -875,6 +1257,36 @@ int sched_recover(sched_t *s, char *log, size_t loglen)
 	log[0] = '\0';
 	for (size_t i = 0; i < n; i++) {
 		const char *what = "its process was gone";
+		char err[512];
+		if (s->slurm && r[i].pid == 0) {
+			/* A Slurm attempt: follow it again. One whose id was not recorded
+			 * (the daemon died right after sbatch) is found by its name. */
+			int64_t job = r[i].slurm_job;
+			if (!job) {
+				char name[96];
+				snprintf(name, sizeof(name), "%s-%" PRId64 "-%d", s->tag, r[i].id, r[i].attempt);
+				if (slurm_find(s->c.cfg, name, &job, err, sizeof(err))) {
+					/* Cannot tell whether it runs: leave it as running rather than risk two copies. */
+					o += (size_t)snprintf(log + o, o < loglen ? loglen - o : 0,
+					                      "job %" PRId64 ": %s; left as running. ", r[i].id, err);
+					continue;
+				}
+				if (job)
+					jobq_attempt_slurm(s->c.q, r[i].id, r[i].attempt, job, NULL);
+			}
+			if (job && adopt(s, &r[i], job) == 0) {
+				o += (size_t)snprintf(log + o, o < loglen ? loglen - o : 0,
+				                      "job %" PRId64 ": following Slurm job %" PRId64 " again. ", r[i].id, job);
+				continue;
+			}
+			what = "it was never submitted to Slurm";
+		} else if (r[i].slurm_job > 0) {
+			/* Submitted by a daemon with launcher = slurm, and this one runs
+			 * jobs with mpirun: cancel the Slurm job before the job runs here. */
+			what = "its Slurm job was cancelled: launcher is now mpirun";
+			if (slurm_cancel(s->c.cfg, r[i].slurm_job, NULL, err, sizeof(err)))
+				log_warning("job %" PRId64 ": %s", r[i].id, err);
+		}
 		if (r[i].pid > 0 && util_pid_alive(r[i].pid, r[i].pid_start)) {
 			/* Still running from the previous daemon, but nobody reads its
 			 * output any more: stop it (it checkpoints on SIGTERM) before the

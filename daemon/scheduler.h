@@ -24,6 +24,17 @@
  *   running belong to a previous daemon; a live process with the recorded
  *   pid and start time is stopped (SIGTERM, then SIGKILL) and waited for,
  *   then the job is requeued. So a job never runs twice at once.
+ * - launcher = slurm (slurm.h): an attempt is a Slurm job submitted with
+ *   sbatch, its id stored with the attempt before it is followed; its
+ *   stdout/stderr are files in the job directory (shared file system),
+ *   tailed each turn into the same ingestion. Its state is asked for every
+ *   slurm_poll seconds (one squeue for all); cancel and output limits are scancel;
+ *   a Slurm end that is not the engine's (time limit, node failure,
+ *   preemption, a cancel from outside) is retried from the checkpoint
+ *   within max_attempts. Slurm jobs outlive the daemon: sched_stop() leaves
+ *   them running, and sched_recover() follows them again (reading their
+ *   output on from the last record stored), or finds one whose id was not
+ *   stored by its job name. So no job is lost and none runs twice.
  */
 
 typedef struct sched sched_t;
@@ -42,7 +53,8 @@ void sched_destroy(sched_t *s);
 int sched_recover(sched_t *s, char *log, size_t loglen);
 int sched_start(sched_t *s);
 /* Stop launching, SIGTERM running jobs (they checkpoint), wait up to grace
- * seconds, SIGKILL what is left, requeue them all, join the thread. */
+ * seconds, SIGKILL what is left, requeue them all, join the thread. Slurm
+ * jobs are left running (the next daemon follows them). */
 void sched_stop(sched_t *s, double grace);
 
 void sched_wake(sched_t *s);

@@ -535,7 +535,60 @@
     }, [[], []].concat((extra || []).map(() => [])), node);
   }
   const pos = (v) => (v > 0 ? v : null);   // log scales: no zeros
-  const CURVE_OBS = ['velocity_distribution', 'pair_correlation', 'structure_factor', 'clusters', 'impact_parameter'];
+  const CURVE_OBS = ['velocity_distribution', 'pair_correlation', 'structure_factor', 'clusters', 'impact_parameter', 'fields'];
+  // ---- fields (output.fields): a heat map of one quantity on the grid, 3D grids averaged over z ----
+  let fieldsLast = null;
+  function fieldColour(f) {   // a blue-green-yellow ramp (viridis-like) for f in [0, 1]
+    const stops = [[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98], [253, 231, 37]];
+    const x = Math.min(Math.max(f, 0), 1) * (stops.length - 1), k = Math.min(Math.floor(x), stops.length - 2), r = x - k;
+    return 'rgb(' + stops[k].map((c, i) => Math.round(c + r * (stops[k + 1][i] - c))).join(',') + ')';
+  }
+  function drawFields() {
+    const smp = fieldsLast;
+    if (!smp) return;
+    const tab = (sub) => smp.tables.find((t) => t.table === sub);
+    const dens = tab('density'), vel = tab('velocity'), temp = tab('temperature'), spin = tab('spin');
+    if (!dens || !dens.shape) return;
+    const q = $('fields-q');
+    q.querySelector('option[value=w]').hidden = !spin;
+    if (q.value === 'w' && !spin) q.value = 'n';
+    const [nx, ny] = dens.shape, nz = dens.shape[2] || 1, nc = nx * ny;
+    let cell;   // the value of flat cell index c
+    if (q.value === 'speed') cell = (c) => Math.hypot(...Object.values(vel.columns).map((u) => u[c]));
+    else if (q.value === 'T') cell = (c) => temp.columns.T[c];
+    else if (q.value === 'w') cell = (c) => Math.hypot(...Object.values(spin.columns).map((w) => w[c]));
+    else cell = (c) => dens.columns.n[c];
+    const v = new Array(nc).fill(0), k = new Array(nc).fill(0);
+    for (let z = 0; z < nz; z++)
+      for (let c = 0; c < nc; c++) {
+        const x = cell(c + nc * z);
+        if (x != null && Number.isFinite(x)) { v[c] += x; k[c]++; }
+      }
+    const val = v.map((x, c) => (k[c] ? x / k[c] : null)), fin = val.filter((x) => x != null);
+    const lo = fin.length ? Math.min(...fin) : 0, hi = fin.length ? Math.max(...fin) : 1;
+    const cv = $('fields-map'), ctx = cv.getContext('2d');
+    const box = (series && series.scene && series.scene.particles && series.scene.particles.box) || [1, 1];
+    // the box's aspect ratio, at most 480 px high
+    const ratio = box[1] / box[0];
+    let W = Math.max(320, cv.parentNode.clientWidth - 30 || 480), H = Math.round(W * ratio);
+    if (H > 480) { H = 480; W = Math.max(80, Math.round(H / ratio)); }
+    H = Math.max(80, H);
+    if (cv.width !== W || cv.height !== H) { cv.width = W; cv.height = H; }
+    ctx.clearRect(0, 0, W, H);
+    for (let j = 0; j < ny; j++)
+      for (let i = 0; i < nx; i++) {
+        const x = val[i + nx * j];
+        ctx.fillStyle = x == null ? '#c8ccd4' : fieldColour(hi > lo ? (x - lo) / (hi - lo) : 0.5);
+        const x0 = Math.floor(i * W / nx), x1 = Math.floor((i + 1) * W / nx);
+        const y0 = Math.floor(H - (j + 1) * H / ny), y1 = Math.floor(H - j * H / ny);
+        ctx.fillRect(x0, y0, x1 - x0, y1 - y0);
+      }
+    const name = q.options[q.selectedIndex].textContent;
+    $('fields-info').textContent = name + ' from ' + (+lo.toPrecision(4)) + ' (dark) to ' + (+hi.toPrecision(4)) +
+      ' (bright) on ' + dens.shape.join(' x ') + ' cells' + (nz > 1 ? ' (mean over z)' : '') + ', sample ' + smp.sample +
+      ' at time ' + (+smp.time.toPrecision(4)) + ', ' + smp.samples + ' instant' + (smp.samples === 1 ? '' : 's') +
+      (fin.length < nc ? '; grey: empty cells' : '');
+  }
   async function fetchCurves() {
     if (!series || !window.uPlot) return;
     const id = series.job, now = Date.now();
@@ -559,6 +612,11 @@
     const sp = tab('velocity_distribution', 'speed'), comp = tab('velocity_distribution', 'components');
     const g = tab('pair_correlation', ''), sk = tab('structure_factor', '');
     const ns = tab('clusters', ''), pb = tab('impact_parameter', '');
+    if (last.fields) {
+      fieldsLast = last.fields;
+      $('fields').hidden = false;
+      drawFields();
+    }
     if (!sp && !g && !sk && !ns && !pb) return;
     $('curves').hidden = false;
     if (!curvePlots.length) {
@@ -588,7 +646,7 @@
     }
     if (pb) curvePlots[4].setData([pb.centres, pb.columns.p, pb.centres.map((b) => (D === 2 ? 1 : 2 * b))]);
     const info = [];
-    const any = CURVE_OBS.map((n) => last[n]).find((x) => x);
+    const any = CURVE_OBS.filter((n) => n !== 'fields').map((n) => last[n]).find((x) => x);
     info.push('sample ' + any.sample + ' at time ' + (+any.time.toPrecision(4)));
     if (last.velocity_distribution) info.push('a2 = ' + (last.velocity_distribution.a2 ?? NaN).toPrecision(3));
     if (last.pair_correlation) info.push('g(σ) = ' + (last.pair_correlation.g_contact_pairs ?? NaN).toPrecision(4));
@@ -610,6 +668,7 @@
     $('job-attempts-none').hidden = true; $('job-files-none').hidden = true;
     for (const p of curvePlots) p.destroy();
     curvePlots = []; curvesAt = 0; $('curves').hidden = true; $('curves-info').textContent = '';
+    fieldsLast = null; $('fields').hidden = true; $('fields-info').textContent = '';
     for (const o of Object.values(obsPlots)) o.plot.destroy();
     obsPlots = {};
     for (const p of OBS_PANELS) { $('panel-' + p.id).hidden = true; $('plot-' + p.id + '-info').textContent = ''; }
@@ -706,6 +765,7 @@
   });
 
   $('preset').addEventListener('change', showPreset);
+  $('fields-q').addEventListener('change', drawFields);
   for (const id of ['scene', 'priority', 'ranks']) $(id).addEventListener('input', formChanged);
   $('submit-form').addEventListener('submit', submit);
   $('advise').addEventListener('click', advise);

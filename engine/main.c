@@ -67,7 +67,7 @@ static int emit(const run_record_t *rec, void *ctx)
 	if (rec->kind == RUN_SNAPSHOT)
 		return sk->traj ? h5md_snapshot(sk->traj, rec, sk->err, sizeof(sk->err)) : 0;
 	if (rec->kind == RUN_CURVES)
-		return emit_curves(sk, rec);
+		return (sk->traj && h5md_fields(sk->traj, rec, sk->err, sizeof(sk->err))) || emit_curves(sk, rec) ? -1 : 0;
 	if (rec->kind == RUN_PROGRESS && sk->traj && h5md_observables(sk->traj, rec, sk->err, sizeof(sk->err)))
 		return -1;
 	if (rec->kind == RUN_SUMMARY && rec->status == RUN_COLLAPSED && sk->traj && rec->warning &&
@@ -1017,7 +1017,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		}
 		sink.traj = resume_path ? h5md_open_append(path, &scene, at.obs_rows, frames, &rc, err, sizeof(err))
 		                        : h5md_create(path, &scene, text, len, &rc, err, sizeof(err));
-		if (!sink.traj) {
+		if (!sink.traj || (resume_path && h5md_fields_cut(sink.traj, t_ckpt, err, sizeof(err)) != H5MD_OK)) {
 			fprintf(stderr, "granular-engine: %s\n", err);
 			goto cleanup;
 		}

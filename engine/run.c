@@ -6,6 +6,7 @@
 #include <time.h>
 
 #include "mc/dsmc.h"
+#include "observe/fields.h"
 #include "observe/msd.h"
 #include "ed/ed.h"
 #include "run.h"
@@ -57,7 +58,12 @@ struct run {
 	double msd_prev, msd_tprev; /* MSD and time of the previous progress record (the interval's D) */
 	double *pos, *vel;       /* sampling buffers (clusters, snapshots, structure observables) */
 	double *placed;          /* positions placed in particles.initial.region (s.init_pos), or NULL */
-	double *spin;            /* snapshots of rough particles: angular velocities */
+	double *spin;            /* snapshots and fields of rough particles: angular velocities */
+	/* fields (output.fields): the exposure before the next curves, at fld_end; its instants
+	 * fld_end - exposure + k exposure / samples, k = fld_k .. samples (the next at fld_next, INFINITY when
+	 * none is left); fld_last: the time of the last instant added (-INFINITY: none) */
+	int fld;                 /* fields are sampled (asked for, and curves emitted) */
+	double fld_k, fld_end, fld_next, fld_last;
 	double t0;               /* wall clock at the start of this process's part */
 	double ckpt_wall;        /* wall clock of the last checkpoint request */
 	char warning[512];       /* dsmc/hsmc validity warning for the first record */
@@ -130,6 +136,8 @@ static void eng_sample(run_t *rc, smp_t *o)
 		o->wall_collisions = sm.wall_collisions;
 		memcpy(o->wall_impulse, sm.wall_impulse, sizeof(o->wall_impulse));
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
+		o->particles = sm.particles;
+		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
 	}
 }
 
@@ -159,6 +167,8 @@ static void eng_totals(const run_t *rc, smp_t *o)
 		o->rejected_moves = sm.rejected_moves;
 		o->wall_collisions = sm.wall_collisions;
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
+		o->particles = sm.particles;
+		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
 	}
 }
 
@@ -233,10 +243,10 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 	r->rejected_moves = sm.rejected_moves;
 	r->have = s->observables;
 	r->kinetic_energy = sm.kinetic_energy;
-	/* with open walls, over the particles still present (ed; the interval
+	/* with open walls, over the particles still present (the interval
 	 * mean divides by those present at its end) */
-	const double np = rc->ed && sm.particles ? (double)sm.particles : (double)s->count;
-	r->particles = rc->ed ? sm.particles : s->count;
+	const double np = sm.particles ? (double)sm.particles : (double)s->count;
+	r->particles = sm.particles;
 	memcpy(r->wall_outflow, sm.wall_outflow, sizeof(r->wall_outflow));
 	r->temperature = 2.0 * sm.kinetic_energy / (s->dim * np);
 	r->n_species = sm.n_species;
@@ -331,6 +341,60 @@ static void totals_record(run_t *r, run_record_t *rec, run_kind_t kind)
 	rec->kinetic_energy = sm.kinetic_energy;
 }
 
+/* ---- fields (output.fields) ----------------------------------------------- */
+
+/* Add the state at time t (pos, vel: read now unless have_state) to the exposure. */
+static void fields_sample(run_t *r, double t, int have_state)
+{
+	if (have_state == 0)
+		eng_state(r, r->pos, r->vel);
+	if (r->spin)
+		ed_spins(r->ed, r->spin);
+	obs_fields_add(r->obs, r->pos, r->vel, r->spin);
+	r->fld_last = t;
+}
+
+/* The next instant of the exposure at or after index fld_k that lies after t (INFINITY: none left). */
+static void fields_next(run_t *r, double t)
+{
+	const scene_t *s = &r->s;
+	r->fld_next = INFINITY;
+	if (s->fields_exposure <= 0.0)
+		return;   /* the curves' instant alone */
+	for (; r->fld_k <= s->fields_samples; r->fld_k++) {
+		double ti = r->fld_end - s->fields_exposure + r->fld_k * s->fields_exposure / s->fields_samples;
+		if (ti > t) {
+			r->fld_next = ti;
+			return;
+		}
+	}
+}
+
+/* A new exposure after curves at time t: it ends at the next snapshot time or the run's end time. */
+static double sched_time(const scene_when_t *w, uint64_t k);
+static void fields_plan(run_t *r, double t)
+{
+	const scene_t *s = &r->s;
+	if (!r->fld)
+		return;
+	double end = sched_time(&s->snapshots, r->st.k_snap);
+	if (s->until.kind == SCENE_CLOCK_TIME)
+		end = fmin(end, s->until.value);
+	r->fld_end = end;
+	r->fld_k = 1;
+	fields_next(r, t);
+}
+
+/* After the engine reached time t: add it when it is the exposure's next instant (ed stops there exactly;
+ * dsmc/hsmc at the end of the step that reaches it: instants passed in one step count once). */
+static void fields_follow(run_t *r, double t)
+{
+	if (!r->fld || t < r->fld_next)
+		return;
+	fields_sample(r, t, 0);
+	fields_next(r, t);
+}
+
 /* Curves of the present state as a RUN_CURVES record (the dynamics are not touched). */
 int run_curves(run_t *r, run_record_t *rec)
 {
@@ -340,6 +404,8 @@ int run_curves(run_t *r, run_record_t *rec)
 	rec->wall_seconds = wall_seconds(r);
 	rec->have = r->s.observables;
 	eng_state(r, r->pos, r->vel);
+	if (r->fld && r->fld_last != rec->time)
+		fields_sample(r, rec->time, 1);   /* the curves' instant itself (the last of its exposure) */
 	rec->curves = obs_curves(r->obs, r->cl, r->pos, r->vel);
 	if (!rec->curves)
 		return RUN_ENOMEM;
@@ -529,7 +595,10 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		if (!r->vel)
 			goto nomem;
 	}
-	if (r->opts.snapshots && r->ed && ed_spin_dim(r->ed)) {
+	r->fld = curves_on(r) && obs_fields(r->obs) != NULL;
+	r->fld_next = INFINITY;
+	r->fld_last = -INFINITY;
+	if ((r->opts.snapshots || r->fld) && r->ed && ed_spin_dim(r->ed)) {
 		r->spin = malloc(s->count * ed_spin_dim(r->ed) * sizeof(double));
 		if (!r->spin)
 			goto nomem;
@@ -593,6 +662,8 @@ const char *run_engine_name(const run_t *r) { return r->ed ? "ed" : "dsmc"; }
  * accumulate between samples. */
 #define F_MSD "obs_msd"          /* msd state, then the previous record's MSD and time */
 #define F_IMPACT "obs_impact"    /* impact-parameter counts since the last curves */
+#define F_FIELDS "obs_fields"    /* fields: the exposure's sums (fields.h), then fld_k, fld_end, fld_next, fld_last */
+#define FLD_EXTRA 4
 
 static size_t impact_count(const run_t *r)
 {
@@ -609,6 +680,8 @@ int run_fields(const run_t *r, ed_field_t *out, int max)
 		out[n - 1] = (ed_field_t){F_MSD, ED_T_F64, msd_state_size(r->msd) + 2};
 	if (impact_count(r) && n++ < max)
 		out[n - 1] = (ed_field_t){F_IMPACT, ED_T_F64, impact_count(r)};
+	if (r->fld && n++ < max)
+		out[n - 1] = (ed_field_t){F_FIELDS, ED_T_F64, fields_state_size(obs_fields(r->obs)) + FLD_EXTRA};
 	return n;
 }
 
@@ -625,6 +698,13 @@ int run_field_get(const run_t *r, const char *name, void *buf)
 	if (impact_count(r) && !strcmp(name, F_IMPACT)) {
 		int nb;
 		memcpy(buf, obs_impact_counts(r->obs, &nb), impact_count(r) * sizeof(double));
+		return RUN_OK;
+	}
+	if (r->fld && !strcmp(name, F_FIELDS)) {
+		double *v = buf;
+		size_t k = fields_state_size(obs_fields(r->obs));
+		fields_state_get(obs_fields(r->obs), v);
+		v[k] = r->fld_k, v[k + 1] = r->fld_end, v[k + 2] = r->fld_next, v[k + 3] = r->fld_last;
 		return RUN_OK;
 	}
 	int rc = r->ed ? ed_field_get(r->ed, name, buf) : dsmc_field_get(r->mc, name, buf);
@@ -653,6 +733,15 @@ int run_field_set(run_t *r, const char *name, ed_type_t type, size_t count, cons
 				return RUN_ERESTORE;
 			bc[k] = v[k];
 		}
+		return RUN_OK;
+	}
+	if (r->fld && !strcmp(name, F_FIELDS)) {
+		const double *v = buf;
+		size_t k = fields_state_size(obs_fields(r->obs));
+		if (type != ED_T_F64 || count != k + FLD_EXTRA || fields_state_set(obs_fields(r->obs), v) != 0 ||
+		    !(v[k] >= 1) || v[k] != floor(v[k]) || isnan(v[k + 1]) || isnan(v[k + 2]) || isnan(v[k + 3]))
+			return RUN_ERESTORE;
+		r->fld_k = v[k], r->fld_end = v[k + 1], r->fld_next = v[k + 2], r->fld_last = v[k + 3];
 		return RUN_OK;
 	}
 	int rc = r->ed ? ed_field_set(r->ed, name, type, count, buf) : dsmc_field_set(r->mc, name, type, count, buf);
@@ -834,6 +923,7 @@ int run_go(run_t *r, run_emit_fn emit, void *ctx, const volatile sig_atomic_t *s
 			goto cleanup;
 		if (structure && (ret = emit_structure(r, emit, ctx)) != RUN_OK)
 			goto cleanup;
+		fields_plan(r, eng_time(r));
 		r->st.started = 1;
 	}
 	for (;;) {
@@ -844,10 +934,13 @@ int run_go(run_t *r, run_emit_fn emit, void *ctx, const volatile sig_atomic_t *s
 		if (sched_coll(snaps, r->st.k_snap, n) < c_stop) c_stop = sched_coll(snaps, r->st.k_snap, n);
 		if (ckpt_time)
 			t_soft = fmin(t_soft, sched_time(&s->checkpoint, r->st.k_ckpt));
+		if (r->fld)
+			t_soft = fmin(t_soft, r->fld_next);
 
 		double t;
 		uint64_t c;
 		int done = advance(r, t_stop, t_soft, c_stop, until_time, t_until, c_until, &t, &c);
+		fields_follow(r, t);
 		int due = s->every.kind == SCENE_CLOCK_TIME ? t >= sched_time(&s->every, r->st.k_out)
 		                                            : c >= sched_coll(&s->every, r->st.k_out, n);
 		int due_snap = snaps->kind == SCENE_CLOCK_TIME ? t >= sched_time(snaps, r->st.k_snap)
@@ -869,6 +962,7 @@ int run_go(run_t *r, run_emit_fn emit, void *ctx, const volatile sig_atomic_t *s
 			if ((ret = emit_structure(r, emit, ctx)) != RUN_OK)
 				goto cleanup;
 			sched_skip(snaps, &r->st.k_snap, t, c, n);
+			fields_plan(r, t);
 		}
 		if (done) {
 			ret = run_summary(r, emit, ctx);

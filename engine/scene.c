@@ -12,6 +12,7 @@
 #include "ed/ed.h"
 #include "mc/dsmc.h"
 #include "place.h"
+#include "observe/fields.h"
 #include "rng.h"
 
 #define PI 3.14159265358979323846
@@ -98,6 +99,7 @@ static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "outflow", SCENE_OBS_OUTFLOW },
 	{ "rotational_energy", SCENE_OBS_ROTATION },
 	{ "rotational_temperature", SCENE_OBS_ROTATION },
+	{ "fields", SCENE_OBS_FIELDS },
 };
 #define N_OBSERVABLES (sizeof observables / sizeof observables[0])
 
@@ -676,6 +678,7 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 		{ SCENE_OBS_CLUSTERS, "clusters" }, { SCENE_OBS_VDIST, "velocity_distribution" },
 		{ SCENE_OBS_GOFR, "pair_correlation" }, { SCENE_OBS_VCORR, "velocity_correlations" },
 		{ SCENE_OBS_MSD, "mean_square_displacement" }, { SCENE_OBS_IMPACT, "impact_parameter" },
+		{ SCENE_OBS_FIELDS, "fields" },
 	};
 	for (size_t k = 0; k < sizeof obs / sizeof obs[0]; k++)
 		if (s->observables & obs[k].bit)
@@ -705,6 +708,7 @@ static int check_structure(ctx_t *c, json_t *v, scene_t *s)
 		{ "pair_correlation", SCENE_OBS_GOFR | SCENE_OBS_VCORR, "\"pair_correlation\" or \"velocity_correlations\"" },
 		{ "structure_factor", SCENE_OBS_SOFK | SCENE_OBS_VCORR, "\"structure_factor\" or \"velocity_correlations\"" },
 		{ "impact_parameter", SCENE_OBS_IMPACT, "\"impact_parameter\"" },
+		{ "fields", SCENE_OBS_FIELDS, "\"fields\"" },
 	};
 	json_t *out = json_object_get(v, "output");
 	char sub[PATHLEN];
@@ -745,6 +749,61 @@ static int check_structure(ctx_t *c, json_t *v, scene_t *s)
 }
 
 static int check_boundaries(ctx_t *c, json_t *v, scene_t *s);
+
+/* output.fields (engine/observe/fields.h): with the "fields" observable only (check_structure) and then
+ * required; one cell count per axis, at most FIELDS_MAX_CELLS in all; an exposure looks back from each
+ * snapshot time, so it needs snapshots on a time schedule no shorter than itself. */
+static int check_fields(ctx_t *c, json_t *v, scene_t *s)
+{
+	json_t *out = json_object_get(v, "output"), *f = json_object_get(out, "fields");
+	if (!(s->observables & SCENE_OBS_FIELDS))
+		return 0;
+	size_t i;
+	json_t *o;
+	json_array_foreach(json_object_get(out, "observables"), i, o) {
+		char path[PATHLEN];
+		snprintf(path, sizeof path, "output.observables[%zu]", i);
+		if (strcmp(json_string_value(o), "fields"))
+			continue;
+		if (s->replicas > 1)
+			return fail(c, path, "\"fields\" is not averaged over ensembles yet (run.replicas must be 1)");
+		if (scene_has_open_walls(s))
+			return fail(c, path, "\"fields\" is not available with an \"open\" wall yet (it needs a fixed "
+			            "particle set)");
+	}
+	if (!f)
+		return fail(c, "output.fields", "required with the \"fields\" observable (at least \"cells\")");
+	json_t *cells = json_object_get(f, "cells");
+	if (json_is_array(cells) && json_array_size(cells) != (size_t)s->dim)
+		return fail(c, "output.fields.cells", "must have %d entries (one per axis of a %dD scene), got %zu", s->dim,
+		            s->dim, json_array_size(cells));
+	double total = 1.0;
+	for (int a = 0; a < 3; a++) {
+		if (a >= s->dim)
+			s->fields_cells[a] = 1;
+		total *= s->fields_cells[a];
+	}
+	if (total > FIELDS_MAX_CELLS)
+		return fail(c, "output.fields.cells", "%.0f cells in all, more than %d (each sample is one line of "
+		            "observables.jsonl, at most 16 MiB for the daemon)", total, FIELDS_MAX_CELLS);
+	bool exposure = json_object_get(f, "exposure") != NULL;
+	if (json_object_get(f, "samples") && !exposure)
+		return fail(c, "output.fields.samples", "needs output.fields.exposure (without it the fields are the "
+		            "snapshot instant alone)");
+	if (!exposure) {
+		s->fields_samples = 1;
+		return 0;
+	}
+	if (s->fields_samples == 0)
+		s->fields_samples = 10;
+	if (s->snapshots.kind != SCENE_CLOCK_TIME)
+		return fail(c, "output.fields.exposure", "needs output.snapshots.every.time (the exposure ends at each snapshot "
+		            "time, known in advance only on a time schedule)");
+	if (s->fields_exposure > s->snapshots.value)
+		return fail(c, "output.fields.exposure", "%s is longer than the snapshot interval output.snapshots.every.time = %s",
+		            num(s->fields_exposure).s, num(s->snapshots.value).s);
+	return 0;
+}
 
 /* Rough particles across the scene: method ed only, the initial spins and
  * the rotational observables only with them. */
@@ -870,6 +929,9 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 	if (ret)
 		return ret;
 	ret = check_rough_scene(c, v, s);
+	if (ret)
+		return ret;
+	ret = check_fields(c, v, s);
 	if (ret)
 		return ret;
 	if (s->every.kind == SCENE_CLOCK_NONE)
@@ -1504,6 +1566,49 @@ static const struct object impact_obj = {
 	},
 };
 
+/* output.fields.cells: one count for every axis, or an array of one per axis (checked against the dimension
+ * and the total in check_fields). */
+static int parse_field_cells(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	static const struct irange r = { 1, FIELDS_MAX_CELLS };
+	int *g = dst;
+	uint64_t x = 0;
+	if (!json_is_array(v)) {
+		if (!json_is_number(v))
+			return fail(c, path, "must be a positive integer or an array of one per axis, got %s", type_name(v));
+		int ret = parse_integer(c, path, v, &x, &r);
+		if (ret == 0)
+			g[0] = g[1] = g[2] = (int)x;
+		return ret;
+	}
+	size_t n = json_array_size(v), i;
+	json_t *o;
+	if (n < 2 || n > 3)
+		return fail(c, path, "must have one positive integer per axis (2 or 3), got %zu", n);
+	json_array_foreach(v, i, o) {
+		char sub[PATHLEN];
+		snprintf(sub, sizeof sub, "%s[%zu]", path, i);
+		int ret = parse_integer(c, sub, o, &x, &r);
+		if (ret)
+			return ret;
+		g[i] = (int)x;
+	}
+	g[2] = n == 3 ? g[2] : -1;   /* -1: not given (a 2D scene needs 2) */
+	return 0;
+}
+
+static const struct range R_FIELD_EXPOSURE = { 0, INFINITY, true };
+static const struct irange R_FIELD_SAMPLES = { 1, 10000 };
+
+static const struct object fields_obj = {
+	.fields = (const struct field[]){
+		{ "cells", parse_field_cells, offsetof(scene_t, fields_cells), NULL, true },
+		{ "exposure", parse_number, offsetof(scene_t, fields_exposure), &R_FIELD_EXPOSURE, false },
+		{ "samples", parse_bins, offsetof(scene_t, fields_samples), &R_FIELD_SAMPLES, false },
+		{ .name = NULL },
+	},
+};
+
 static const struct object output_obj = {
 	.fields = (const struct field[]){
 		{ "every", parse_object, offsetof(scene_t, every), &when_obj, false },
@@ -1513,6 +1618,7 @@ static const struct object output_obj = {
 		{ "pair_correlation", parse_object, 0, &gofr_obj, false },
 		{ "structure_factor", parse_object, 0, &sofk_obj, false },
 		{ "impact_parameter", parse_object, 0, &impact_obj, false },
+		{ "fields", parse_object, 0, &fields_obj, false },
 		{ "snapshots", parse_object, 0, &snapshots_obj, false },
 		{ "checkpoint", parse_object, 0, &checkpoint_obj, false },
 		{ .name = NULL },

@@ -57,6 +57,7 @@ enum {
 	SCENE_OBS_OBSTACLE_FORCE = 1u << 16, /* force on each obstacle: drag (needs obstacles) */
 	SCENE_OBS_OUTFLOW = 1u << 17,       /* particles present and particles out per wall (needs an open wall) */
 	SCENE_OBS_ROTATION = 1u << 14,      /* rotational_energy, rotational_temperature (needs collisions.rough) */
+	SCENE_OBS_FIELDS = 1u << 15,        /* fields: density, velocity, temperature (spin) per grid cell at snapshot times */
 };
 
 /* Wall kinds (boundaries.AXIS.lower/upper.type; method ed only). Every wall
@@ -228,6 +229,12 @@ typedef struct scene {
 	double gofr_range;             /* ... range in diameters (default min(5, half the smallest box edge)) */
 	int sofk_grid[3];              /* density grid per axis for S(k) and the velocity structure factors */
 	int impact_bins;               /* impact parameters: bins over b / sigma in [0, 1] (default 20) */
+	/* coarse-grained fields (output.fields, engine/observe/fields.h): cells per axis (1 beyond dim); the
+	 * exposure: the fields at a snapshot time t average the instants t - exposure + k exposure / samples,
+	 * k = 1 .. samples (0: the snapshot instant alone, samples 1) */
+	int fields_cells[3];
+	double fields_exposure;
+	int fields_samples;
 	scene_when_t snapshots;        /* trajectory frames (time or cpp); NONE = first and last only */
 	int compression;               /* deflate level 0..9 of the HDF5 output, default 0 */
 	scene_when_t checkpoint;       /* checkpoint interval (simulated time or wall seconds); NONE = none */

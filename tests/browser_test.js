@@ -90,8 +90,9 @@ const OBS = ['walls', 'obstacles', 'outflow', 'height', 'energies', 'msd', 'diff
       const s = JSON.parse(document.getElementById('scene').value);
       s.output = s.output || {};
       s.output.observables = (s.output.observables || ['kinetic_energy', 'temperature', 'pressure', 'compressibility', 'collision_rate'])
-        .concat(['velocity_distribution', 'pair_correlation', 'structure_factor', 'clusters', 'impact_parameter'])
+        .concat(['velocity_distribution', 'pair_correlation', 'structure_factor', 'clusters', 'impact_parameter', 'fields'])
         .filter((o, k, a) => a.indexOf(o) === k);
+      s.output.fields = { cells: [16, 16] };
       document.getElementById('scene').value = JSON.stringify(s);
     });
     await page.click('#submit-form button[type=submit]');
@@ -129,6 +130,20 @@ const OBS = ['walls', 'obstacles', 'outflow', 'height', 'energies', 'msd', 'diff
       return k;
     }));
     ok(cpx.every((k) => k > 50), `P(c), g(r), S(k), n_s, P(b) plots drew the last sample (${cpx.join(', ')} px): ${await page.textContent('#curves-info')}`);
+    // Fields: a heat map of the 16 x 16 grid, each cell one colour of the ramp; the selector redraws it.
+    const heat = () => page.evaluate(() => {
+      const c = document.getElementById('fields-map'), d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+      const colours = new Set();
+      let painted = 0;
+      for (let i = 0; i < d.length; i += 4) if (d[i + 3] > 200) { painted++; colours.add(d[i] + ',' + d[i + 1] + ',' + d[i + 2]); }
+      return { painted: painted / (c.width * c.height), colours: colours.size, info: document.getElementById('fields-info').textContent };
+    });
+    const h1 = await heat();
+    ok(!(await page.isHidden('#fields')) && h1.painted > 0.99 && h1.colours > 10 && /^number density .* 16 x 16 cells/.test(h1.info),
+      `fields heat map: ${(100 * h1.painted).toFixed(1)}% of the canvas painted in ${h1.colours} colours: ${h1.info}`);
+    await page.selectOption('#fields-q', 'T');
+    const h2 = await heat();
+    ok(h2.painted > 0.99 && /^temperature/.test(h2.info), `fields selector: temperature drawn: ${h2.info}`);
     await page.screenshot({ path: shot, fullPage: true });
     ok(true, 'screenshot saved: ' + shot);
     ok(!(await page.isVisible('#job-advice')), 'a job with a concrete method shows no advice panel');

@@ -36,7 +36,7 @@ int main(void)
 {
 	char err[600];
 	json_t *j = NULL;
-	plan(11);
+	plan(12);
 	if (!mkdtemp(dir))
 		return 1;
 
@@ -93,6 +93,13 @@ int main(void)
 	fclose(f);
 	ok(curves_read(dir, "clusters", -1, 5, 0, &j, err, sizeof(err)) == CURVES_EIO && strstr(err, "line"),
 	   "a line over %u bytes: CURVES_EIO, '%s'", CURVES_MAX_LINE, err);
+	/* ... but only for its own family: another family's samples are read past it (a large fields grid) */
+	f = fopen(p, "a");
+	fputs("{\"name\":\"fields\",\"sample\":0}\n", f);
+	fclose(f);
+	ok(curves_read(dir, "fields", -1, 5, 0, &j, err, sizeof(err)) == CURVES_OK && !strcmp(samples(j), "0"),
+	   "another family's line over the bound is skipped: fields samples %s", samples(j));
+	json_decref(j);
 	ok(!strcmp(curves_strerror(CURVES_ENAME), "unknown observable"), "curves_strerror");
 	unlink(p);
 	rmdir(dir);

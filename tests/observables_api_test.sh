@@ -5,7 +5,7 @@ set -u
 . "$(dirname "$0")/daemon_lib.sh"
 gd_start "$tmp/state" --slots 1 --read-auth token
 A="Authorization: Bearer $TOKEN"
-SC='{"method":"ed","dimensions":2,"particles":{"count":400,"volume_fraction":0.2,"initial":{"positions":"random"}},"collisions":{"restitution":0.9},"run":{"seed":3,"until":{"time":2}},"output":{"every":{"time":0.25},"observables":["temperature","impact_parameter","pair_correlation","mean_square_displacement"],"snapshots":{"every":{"time":0.5}}}}'
+SC='{"method":"ed","dimensions":2,"particles":{"count":400,"volume_fraction":0.2,"initial":{"positions":"random"}},"collisions":{"restitution":0.9},"run":{"seed":3,"until":{"time":2}},"output":{"every":{"time":0.25},"observables":["temperature","impact_parameter","pair_correlation","mean_square_displacement","fields"],"fields":{"cells":[4,4],"exposure":0.5,"samples":5},"snapshots":{"every":{"time":0.5}}}}'
 id=$(field "$(post /api/v1/jobs -d "$SC")" 'd["id"]')
 wait_state "$id" succeeded 60 || true
 ok $([ "$(field "$(api GET "/api/v1/jobs/$id" -H "$A")" 'd["state"]')" = succeeded ]; echo $?) "job $id with curves succeeded"
@@ -14,6 +14,11 @@ b=$(api GET "/api/v1/jobs/$id/observables?name=impact_parameter" -H "$A")
 ok $([ "$(code)" = 200 ] && [ "$(field "$b" '",".join(str(s["sample"]) for s in d["samples"])')" = 0,1,2,3,4 ] &&
 	[ "$(field "$b" 'd["samples"][1]["tables"][0]["x"]')" = b ] && [ "$(field "$b" 'd["truncated"]')" = False ]; echo $?) \
 	"name=impact_parameter: samples 0..4 (t = 0, 0.5, ..., 2), table over b: $(code) $(echo "$b" | head -c 150)"
+b=$(api GET "/api/v1/jobs/$id/observables?name=fields&last=1" -H "$A")
+ok $([ "$(code)" = 200 ] && [ "$(field "$b" '[t["table"] for t in d["samples"][0]["tables"]]')" = "['density', 'velocity', 'temperature']" ] &&
+	[ "$(field "$b" 'd["samples"][0]["tables"][0]["shape"]')" = "[4, 4]" ] && [ "$(field "$b" 'd["samples"][0]["samples"]')" = 5 ] &&
+	[ "$(field "$b" 'round(sum(d["samples"][0]["tables"][0]["columns"]["count"]), 6)')" = 400.0 ]; echo $?) \
+	"name=fields: the last sample's density, velocity and temperature on the 4 x 4 grid, 5 instants, counts summing to N: $(code)"
 b=$(api GET "/api/v1/jobs/$id/observables?name=pair_correlation&last=1" -H "$A")
 ok $([ "$(field "$b" '[s["sample"] for s in d["samples"]]')" = "[4]" ] && [ "$(field "$b" 'd["next"]')" = 4 ]; echo $?) \
 	"last=1: the last sample only, next = 4"
@@ -43,6 +48,10 @@ ok $([ "$(code)" = 401 ]; echo $?) "read_auth token: without the token 401, like
 rc=$?
 ok $([ $rc = 0 ] && [ "$(sed -n 2p "$tmp/pb.csv")" = "sample,time,table,b,p,n" ] && [ "$(grep -c '^4,2,,' "$tmp/pb.csv")" = 20 ]; echo $?) \
 	"granularctl observables ID impact_parameter: CSV of the last sample, 20 bins (rc $rc; $(sed -n 3p "$tmp/pb.csv"))"
+"$GRANULARCTL" --state-dir "$tmp/state" observables "$id" fields >"$tmp/f.csv" 2>"$tmp/ctl.err"
+ok $([ "$(sed -n 2p "$tmp/f.csv")" = "sample,time,table,cell,n,count" ] && [ "$(grep -c '^4,2,density,' "$tmp/f.csv")" = 16 ] &&
+	[ "$(grep -c '^4,2,temperature,' "$tmp/f.csv")" = 16 ]; echo $?) \
+	"granularctl observables ID fields: CSV, one row per cell and table ($(sed -n 3p "$tmp/f.csv"))"
 "$GRANULARCTL" --state-dir "$tmp/state" observables "$id" pair_correlation --after 2 >"$tmp/g.csv" 2>"$tmp/ctl.err"
 ok $([ "$(grep -c '^# pair_correlation sample' "$tmp/g.csv")" = 2 ]; echo $?) "granularctl observables --after 2: samples 3 and 4"
 "$GRANULARCTL" --state-dir "$tmp/state" observables "$id" 'clusters&last=2' >/dev/null 2>"$tmp/ctl.err"

@@ -221,6 +221,28 @@ cat >"$tmp/2d-hsmc-walls.json" <<'JSON'
    "snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":7}}},
  "hsmc":{"cell_size":2}}
 JSON
+# dsmc with vibrating walls (a floor with r_w < 1, so particles ride it, and
+# a lid): the walls' phases follow the clock, which the checkpoint holds.
+cat >"$tmp/2d-dsmc-vib.json" <<'JSON'
+{"method":"dsmc","dimensions":2,"particles":{"count":1000,"box":[40,60],"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9},
+ "boundaries":{"y":{"type":"walls","lower":{"type":"vibrating","amplitude":0.8,"frequency":0.3,"phase":0.2,"restitution":0.6},
+   "upper":{"type":"vibrating","amplitude":0.5,"frequency":0.17}}},
+ "gravity":[0,-0.5],"run":{"seed":45,"until":{"time":30}},
+ "output":{"every":{"time":1.5},"observables":["kinetic_energy","wall_force","center_of_mass_height","potential_energy"],
+   "snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":7}}},
+ "dsmc":{"cell_size":2}}
+JSON
+# hsmc with an open lid: particles leave (present count, outflow counters).
+cat >"$tmp/2d-hsmc-open.json" <<'JSON'
+{"method":"hsmc","dimensions":2,"particles":{"count":1000,"box":[40,60],"initial":{"positions":"random","temperature":2}},
+ "collisions":{"restitution":0.95},
+ "boundaries":{"y":{"type":"walls","lower":{"type":"vibrating","amplitude":0.5,"frequency":0.3},"upper":{"type":"open"}}},
+ "gravity":[0,-0.1],"run":{"seed":46,"until":{"time":30}},
+ "output":{"every":{"time":1.5},"observables":["kinetic_energy","wall_force","outflow","center_of_mass_height"],
+   "snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":7}}},
+ "hsmc":{"cell_size":2}}
+JSON
 cat >"$tmp/3d-dsmc-pipe.json" <<'JSON'
 {"method":"dsmc","dimensions":3,"particles":{"count":2000,"volume_fraction":0.05,"initial":{"positions":"random"}},
  "collisions":{"restitution":0.95},
@@ -237,7 +259,8 @@ ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 
 # (a) checkpoint at simulated time T, resume: identical to the uninterrupted run.
 for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open 3d-rough-drive \
-	2d-rough-noise 2d-hsmc-walls 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute 2d-mixture-walls; do
+	2d-rough-noise 2d-hsmc-walls 2d-dsmc-vib 2d-hsmc-open 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute \
+	2d-mixture-walls; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

@@ -16,6 +16,10 @@
 /* Rows per chunk of an observable time series. */
 #define OBS_CHUNK 256u
 #define MAX_OBS 48
+/* fields: fields_samples, fields_count, fields_density, fields_velocity, fields_temperature, fields_spin */
+#define FLD_MAX 6
+static const char *const fld_names[FLD_MAX] = {"fields_samples", "fields_count", "fields_density", "fields_velocity",
+                                               "fields_temperature", "fields_spin"};
 
 /* What a value column holds: cols 0 = scalar per row, -1 = D components,
  * -2 = D components per obstacle (obstacle k's at k D .. k D + D - 1),
@@ -184,6 +188,11 @@ struct h5md {
 	int n_grp;
 	pgroup_t *grp;
 	int frames_pending;         /* frames appended since the last flush + XDMF */
+	/* fields (output.fields): one row per sample of the fields (RUN_CURVES), own step and time */
+	int n_fld;                  /* datasets in fld[] (0: no fields) */
+	hid_t fld_step, fld_time, fld[FLD_MAX];
+	uint64_t fld_rows, fld_cells;
+	double *fld_buf;            /* fld_cells * 3 */
 };
 
 int h5md_groups(const scene_t *s)
@@ -297,11 +306,23 @@ static h5md_t *alloc_writer(const char *path, const scene_t *s)
 	h5md_t *h = calloc(1, sizeof(*h));
 	if (!h)
 		return NULL;
-	h->file = h->obs_step = h->obs_time = H5I_INVALID_HID;
+	h->file = h->obs_step = h->obs_time = h->fld_step = h->fld_time = H5I_INVALID_HID;
+	for (int k = 0; k < FLD_MAX; k++)
+		h->fld[k] = H5I_INVALID_HID;
+	if ((s->observables & SCENE_OBS_FIELDS) && s->replicas <= 1) {
+		h->fld_cells = (uint64_t)s->fields_cells[0] * (uint64_t)s->fields_cells[1] * (uint64_t)s->fields_cells[2];
+		h->n_fld = s->rough ? FLD_MAX : FLD_MAX - 1;
+		h->fld_buf = malloc(h->fld_cells * 3 * sizeof(double));
+		if (!h->fld_buf) {
+			free(h);
+			return NULL;
+		}
+	}
 	h->ensemble = s->replicas > 1;
 	h->n_grp = h5md_groups(s);
 	h->grp = calloc(h->n_grp > 0 ? (size_t)h->n_grp : 1, sizeof(*h->grp));
 	if (!h->grp) {
+		free(h->fld_buf);
 		free(h);
 		return NULL;
 	}
@@ -602,6 +623,61 @@ out:
 	return ret;
 }
 
+/* Columns per cell of fields dataset k (0: a scalar per row, fields_samples). */
+static int fld_cols(const h5md_t *h, int k)
+{
+	return k == 0 ? 0 : k == 3 ? h->dim : k == 5 ? (h->dim == 2 ? 1 : 3) : 1;
+}
+
+/* The fields' series under /observables (docs/output.md): value [rows][cells] or [rows][cells][K], the
+ * cell index c = i_x + n_x (i_y + n_y i_z); step and time of their own, hard-linked among them. */
+static int write_fields(h5md_t *h, const scene_t *s)
+{
+	static const char *const units[FLD_MAX] = {NULL, NULL, NULL, "l0 t0-1", "e0", "t0-1"};
+	const hsize_t chunk1[1] = {OBS_CHUNK};
+	int ret = -1;
+	hid_t root = H5Gopen2(h->file, "observables", H5P_DEFAULT), first = H5I_INVALID_HID;
+	if (root < 0)
+		return -1;
+	int64_t cells[3] = {s->fields_cells[0], s->fields_cells[1], s->fields_cells[2]};
+	double edges[3];
+	for (int a = 0; a < 3; a++)
+		edges[a] = a < s->dim ? s->box[a] / s->fields_cells[a] : 0.0;
+	for (int k = 0; k < h->n_fld; k++) {
+		hid_t g = h5u_group(root, fld_names[k]);
+		if (g < 0)
+			goto out;
+		int K = fld_cols(h, k);
+		hsize_t inner[2] = {(hsize_t)h->fld_cells, (hsize_t)K};
+		hsize_t chunk[3] = {1, (hsize_t)(h->fld_cells < 65536 ? h->fld_cells : 65536), (hsize_t)K};
+		hid_t v = k == 0 ? create_series(g, "value", H5T_STD_I64LE, 1, NULL, chunk1, 0)
+		        : create_series(g, "value", H5T_IEEE_F64LE, K > 1 || k == 5 ? 3 : 2, inner, chunk, h->level);
+		const char *unit = k == 2 ? (h->dim == 2 ? "l0-2" : "l0-3") : units[k];
+		int bad = v < 0 || (unit && h5u_attr_str(v, "unit", unit)) ||
+		          (k > 0 && (h5u_attr_i64(v, "cells", cells, (size_t)s->dim) ||
+		                     h5u_attr_f64(v, "cell_edges", edges, (size_t)s->dim)));
+		if (!bad && first < 0) {
+			first = g;
+			h->fld_step = create_series(g, "step", H5T_STD_I64LE, 1, NULL, chunk1, 0);
+			h->fld_time = create_series(g, "time", H5T_IEEE_F64LE, 1, NULL, chunk1, 0);
+			bad = h->fld_step < 0 || h->fld_time < 0 || h5u_attr_str(h->fld_time, "unit", "t0");
+		} else if (!bad) {
+			bad = H5Lcreate_hard(first, "step", g, "step", H5P_DEFAULT, H5P_DEFAULT) < 0 ||
+			      H5Lcreate_hard(first, "time", g, "time", H5P_DEFAULT, H5P_DEFAULT) < 0;
+		}
+		if (g != first)
+			H5Gclose(g);
+		h->fld[k] = v;
+		if (bad)
+			goto out;
+	}
+	ret = 0;
+out:
+	if (first >= 0) H5Gclose(first);
+	H5Gclose(root);
+	return ret;
+}
+
 h5md_t *h5md_create(const char *path, const scene_t *s, const char *scene_text, size_t len,
                     int *err, char *msg, size_t msglen)
 {
@@ -617,7 +693,7 @@ h5md_t *h5md_create(const char *path, const scene_t *s, const char *scene_text, 
 		goto fail;
 	}
 	if (write_header(h->file) || write_parameters(h->file, s, scene_text, len) || write_particles(h, s) ||
-	    write_observables(h, s) || H5Fflush(h->file, H5F_SCOPE_GLOBAL) < 0) {
+	    write_observables(h, s) || (h->n_fld && write_fields(h, s)) || H5Fflush(h->file, H5F_SCOPE_GLOBAL) < 0) {
 		*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot write the H5MD layout", path);
 		goto fail;
 	}
@@ -689,6 +765,19 @@ static int attach(h5md_t *h, const scene_t *s, const char *path, char *msg, size
 	}
 	if (h->obs_step < 0 || h->obs_time < 0)
 		return h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: not a trajectory of this scene (datasets missing)", path);
+	for (int k = 0; k < h->n_fld; k++) {
+		snprintf(p, sizeof p, "observables/%s/value", fld_names[k]);
+		if ((h->fld[k] = H5Dopen2(h->file, p, H5P_DEFAULT)) < 0)
+			return h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: missing dataset /%s", path, p);
+	}
+	if (h->n_fld) {
+		h->fld_step = H5Dopen2(h->file, "observables/fields_samples/step", H5P_DEFAULT);
+		h->fld_time = H5Dopen2(h->file, "observables/fields_samples/time", H5P_DEFAULT);
+		if (h->fld_step < 0 || h->fld_time < 0)
+			return h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: missing /observables/fields_samples/step or time", path);
+		int64_t r = rows_of(h->fld_time);
+		h->fld_rows = r > 0 ? (uint64_t)r : 0;
+	}
 	return H5MD_OK;
 }
 
@@ -781,6 +870,12 @@ int h5md_destroy(h5md_t *h)
 	for (int k = 0; k < MAX_OBS; k++)
 		if (h->obs[k] >= 0)
 			H5Dclose(h->obs[k]);
+	for (int k = 0; k < FLD_MAX; k++)
+		if (h->fld[k] >= 0)
+			H5Dclose(h->fld[k]);
+	if (h->fld_step >= 0) H5Dclose(h->fld_step);
+	if (h->fld_time >= 0) H5Dclose(h->fld_time);
+	free(h->fld_buf);
 	if (h->file >= 0 && H5Fclose(h->file) < 0)
 		ret = H5MD_EIO;
 	free(h->grp);
@@ -810,6 +905,63 @@ int h5md_observables(h5md_t *h, const run_record_t *rec, char *msg, size_t msgle
 	return H5MD_OK;
 fail:
 	return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot append observables", h->path);
+}
+
+static const obs_table_t *fld_table(const obs_curves_t *c, const char *sub)
+{
+	for (int i = 0; c && i < c->ntables; i++)
+		if (!strcmp(c->t[i].family, "fields") && !strcmp(c->t[i].table, sub))
+			return &c->t[i];
+	return NULL;
+}
+
+int h5md_fields(h5md_t *h, const run_record_t *rec, char *msg, size_t msglen)
+{
+	static const char *const sub[FLD_MAX] = {"", "density", "density", "velocity", "temperature", "spin"};
+	if (!h->n_fld || !fld_table(rec->curves, "density"))
+		return H5MD_OK;
+	int64_t step = (int64_t)rec->events, samples = rec->curves->fields_samples;
+	if (append_row(h->fld_step, H5T_NATIVE_INT64, h->fld_rows, &step) ||
+	    append_row(h->fld_time, H5T_NATIVE_DOUBLE, h->fld_rows, &rec->time) ||
+	    append_row(h->fld[0], H5T_NATIVE_INT64, h->fld_rows, &samples))
+		goto fail;
+	for (int k = 1; k < h->n_fld; k++) {
+		const obs_table_t *t = fld_table(rec->curves, sub[k]);
+		int K = fld_cols(h, k), col = k == 1 ? 1 : 0;   /* density table: n (density), count */
+		if (!t || (uint64_t)t->nb != h->fld_cells)
+			goto fail;
+		for (uint64_t c = 0; c < h->fld_cells; c++)
+			for (int a = 0; a < K; a++)
+				h->fld_buf[c * K + a] = t->val[k == 3 || k == 5 ? a : col][c];
+		if (append_row(h->fld[k], H5T_NATIVE_DOUBLE, h->fld_rows, h->fld_buf))
+			goto fail;
+	}
+	h->fld_rows++;
+	return H5MD_OK;
+fail:
+	return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot append the fields", h->path);
+}
+
+int h5md_fields_cut(h5md_t *h, double t_ckpt, char *msg, size_t msglen)
+{
+	if (!h->n_fld || h->fld_rows == 0)
+		return H5MD_OK;
+	double *t = malloc(h->fld_rows * sizeof(double));
+	uint64_t keep = 0;
+	if (!t || H5Dread(h->fld_time, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, t) < 0) {
+		free(t);
+		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot read the fields' times", h->path);
+	}
+	while (keep < h->fld_rows && t[keep] <= t_ckpt)
+		keep++;
+	free(t);
+	int bad = truncate_rows(h->fld_step, keep) || truncate_rows(h->fld_time, keep);
+	for (int k = 0; k < h->n_fld && !bad; k++)
+		bad = truncate_rows(h->fld[k], keep);
+	if (bad)
+		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot truncate the fields to the checkpoint", h->path);
+	h->fld_rows = keep;
+	return H5MD_OK;
 }
 
 /* The XDMF sidecar: per particles group a temporal collection (named after

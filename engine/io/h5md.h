@@ -62,6 +62,11 @@ int h5md_flush(h5md_t *h, char *msg, size_t msglen);
  * attributes inelastic_collapse (message) and inelastic_collapse_time on
  * /observables (replacing earlier ones), flushed. */
 int h5md_collapse(h5md_t *h, double time, const char *message, char *msg, size_t msglen);
+/* fields (output.fields, single runs): a RUN_CURVES record's fields tables as one row of
+ * /observables/fields_* (docs/output.md); a no-op without fields. h5md_fields_cut(): after
+ * h5md_open_append(), drop the rows after time t_ckpt (a resumed run writes them again). */
+int h5md_fields(h5md_t *h, const run_record_t *rec, char *msg, size_t msglen);
+int h5md_fields_cut(h5md_t *h, double t_ckpt, char *msg, size_t msglen);
 /* Rows of observables and frames appended so far (frames: all groups together). */
 void h5md_rows(const h5md_t *h, uint64_t *obs_rows, uint64_t *snap_rows);
 

@@ -278,11 +278,17 @@ int report_curves(const run_record_t *r, uint64_t sample, char *buf, size_t len)
 		} else if (!strcmp(t->family, "impact_parameter")) {
 			scalar9(&o, ens, "fit_a", c->impact_a, c->se_impact_a);
 			scalar9(&o, ens, "fit_c", c->impact_c, c->se_impact_c);
+		} else if (!strcmp(t->family, "fields")) {
+			put(&o, ",\"samples\":%d", c->fields_samples);
 		}
 		put(&o, ",\"tables\":[");
 		for (int j = i; j < c->ntables && !strcmp(c->t[j].family, t->family); j++) {
 			const obs_table_t *u = &c->t[j];
 			put(&o, "%s{\"table\":\"%s\",\"x\":\"%s\",", j > i ? "," : "", u->table, u->x);
+			if (u->shape[0] > 0)
+				put(&o, "\"shape\":[%d,%d%s", u->shape[0], u->shape[1], u->shape[2] > 0 ? "," : "],");
+			if (u->shape[0] > 0 && u->shape[2] > 0)
+				put(&o, "%d],", u->shape[2]);
 			array9(&o, "edges", u->edges, u->nb + 1);
 			put(&o, ",");
 			array9(&o, "centres", u->centres, u->nb);

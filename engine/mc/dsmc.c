@@ -23,6 +23,7 @@ typedef struct {
 	double r, acc, p, beta;        /* restitution; thermal accommodation; rough probability; moving beta */
 	double sv;                     /* thermal: sqrt(T_w / m) */
 	double u[3];                   /* moving, thermal: wall velocity (tangential) */
+	double A, omega, ph;           /* vibrating: displacement A sin(ph + omega t) along the inward normal (A = 0: fixed) */
 } mcwall_t;
 
 struct dsmc {
@@ -77,6 +78,20 @@ struct dsmc {
 	double g[3], gnorm;            /* uniform acceleration, |g| */
 	double lo[3], hi[3];           /* walled axes: the contact planes of the centres, one radius inside the walls */
 	mcwall_t wall[6];              /* wall w = 2 axis + end (0 lower, 1 upper) */
+	/* Vibrating walls (step variant B = 2 only): the internal box is the
+	 * scene's widened by each vibrating wall's amplitude below its rest
+	 * position, as ed does (internal = scene + org); cur_lo/cur_hi are the
+	 * contact planes where the walls are at the end of the current step. */
+	double org[3];
+	double cur_lo[3], cur_hi[3];
+	/* Open walls (step variant B = 2): a particle that touches one leaves;
+	 * its record goes after the na records still present (sort() puts the
+	 * records of the extra cell index ncells there), velocity 0, its last
+	 * position kept. na = n without open walls. relaxing: open walls
+	 * reflect during the elastic pre-run. */
+	uint32_t na;
+	int open, relaxing;
+	uint64_t wout[6];              /* particles out through each wall, total */
 	uint64_t wall_collisions, wall_hits[6], rested;
 	double wall_impulse[6][3];     /* momentum given to each wall over the interval */
 	void (*step)(struct dsmc *, double);   /* chosen at load: dimension and periodic or bounded */
@@ -416,6 +431,7 @@ typedef struct {
 	unsigned touched;              /* bit per wall */
 	uint32_t hits[6];
 	uint32_t rested;
+	int out;                       /* flight_vib(): 1 + the open wall the particle left through, or 0 */
 	double imp[6][3];
 } flight_log_t;
 
@@ -488,26 +504,210 @@ static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double 
 	return integ;
 }
 
+/* ---- vibrating walls (step variant B = 2, chosen at load) ---------------- */
+
+/* Contact plane of the centres on wall w's side when the wall's phase is th
+ * (fixed walls: lo/hi). */
+static ALWAYS_INLINE double vib_plane(const struct dsmc *d, int w, double th)
+{
+	const mcwall_t *W = &d->wall[w];
+	const int a = w >> 1;
+	const double disp = W->A != 0.0 ? W->A * sin(th) : 0.0;
+	return (w & 1) ? d->hi[a] - disp : d->lo[a] + disp;
+}
+
+/* Time from phase th until a particle carried by vibrating wall w (pressed
+ * on it: the wall accelerates inward faster than gravity, h'' = gam + A
+ * omega^2 sin th < 0 with gam gravity along the inward normal) leaves it:
+ * the next phase where sin rises through q = -gam / (A omega^2). INFINITY
+ * when q >= 1 (the wall never decelerates faster than gravity: A omega^2 <= g). */
+static double vib_detach(const mcwall_t *W, double gam, double th)
+{
+	const double two_pi = 6.28318530717958647692;
+	const double q = -gam / (W->A * W->omega * W->omega);
+	if (q >= 1.0)
+		return INFINITY;
+	double delta = asin(q > -1.0 ? q : -1.0) - th;
+	delta -= two_pi * floor(delta / two_pi);
+	return delta / W->omega;
+}
+
+/* flight() with vibrating walls: the same exact parabolas, a vibrating
+ * wall's contact found by walltime_vibrating() (the time axis cut at the
+ * gap's inflection points, then bracketed monotone root searches: the
+ * first contact within the flight, never a missed or a repeated one), the
+ * wall's rule applied to the velocity relative to the wall,
+ *     v_n' = -r_w (v_n - w) + w,   w = A omega cos(theta) at contact,
+ * the centre put on the contact plane. t0 is the time at the start of the
+ * flight (the wall phases are ph + omega t: a function of the clock, so a
+ * checkpoint needs nothing more). A particle that the rule leaves with no
+ * speed away from the wall while the wall presses it (h'' < 0) rides the
+ * wall (position and velocity the wall's) until the wall's deceleration
+ * exceeds gravity's (vib_detach(): the completely inelastic bouncing ball,
+ * exact), then flies off from the wall with the wall's velocity. A flight
+ * with MAX_WALL_HITS hits rides its wall (vibrating) or rests on it (fixed)
+ * for the rest of the flight. Fixed walls as in flight(). Returns the
+ * integral of |v|^2 over the flight (exact, riding included). */
+static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, double dt, double t0, flight_log_t *lg,
+                                       const int D)
+{
+	double left = dt, integ = 0, ga[3];
+	int pinned = 0, ride = -1;     /* ride: the vibrating wall carrying the particle, or -1 */
+	double tdet = INFINITY;        /* riding: time left until it leaves the wall */
+	for (int a = 0; a < D; a++)
+		ga[a] = d->g[a];
+	for (int hits = 0;; hits++) {
+		const double tnow = t0 + (dt - left);
+		double th = left;
+		int w = -1, detach = 0;
+		for (int a = 0; a < D; a++) {
+			if (!d->walled[a] || (pinned >> a & 1) || (ride >= 0 && ride >> 1 == a))
+				continue;
+			for (int k = 0; k < 2; k++) {
+				const mcwall_t *W = &d->wall[2 * a + k];
+				const double gap = k ? d->hi[a] - x[a] : x[a] - d->lo[a];
+				const double u = k ? -v[a] : v[a], gam = k ? -ga[a] : ga[a];
+				double t;
+				if (W->A != 0.0) {
+					const double th0 = W->ph + W->omega * tnow;
+					t = walltime_vibrating(gap - W->A * sin(th0), u, gam, W->A, W->omega, th0, th);
+				} else {
+					t = walltime_plane(gap, u, gam);
+				}
+				if (t < th)
+					th = t, w = 2 * a + k;
+			}
+		}
+		if (ride >= 0 && tdet <= th)
+			th = tdet, w = -1, detach = 1;
+		for (int a = 0; a < D; a++) {
+			if (ride >= 0 && ride >> 1 == a) {
+				/* riding: the wall's motion; |v_a|^2 = (A omega cos)^2 integrated exactly */
+				const mcwall_t *W = &d->wall[ride];
+				const double s = (ride & 1) ? -1.0 : 1.0, th0 = W->ph + W->omega * tnow;
+				const double th1 = th0 + W->omega * th, aw = W->A * W->omega;
+				integ += aw * aw * (0.5 * th + 0.5 * cos(th0 + th1) * sin(W->omega * th) / W->omega);
+				const double vb = v[a];
+				x[a] = vib_plane(d, ride, th1);
+				v[a] = s * aw * cos(th1);
+				/* the wall's push: the momentum change less gravity's share */
+				lg->imp[ride][a] += d->mass * (ga[a] * th - (v[a] - vb));
+				tdet -= th;
+				continue;
+			}
+			integ += th * (v[a] * v[a] + th * (v[a] * ga[a] + th * ga[a] * ga[a] / 3));
+			x[a] += th * (v[a] + 0.5 * ga[a] * th);
+			v[a] += ga[a] * th;
+		}
+		left -= th;
+		if (detach) {
+			ride = -1, tdet = INFINITY;   /* leaves with the wall's velocity; the gap now opens */
+		} else if (w >= 0) {
+			const int a = w >> 1;
+			const mcwall_t *W = &d->wall[w];
+			const double s = (w & 1) ? -1.0 : 1.0, thc = W->ph + W->omega * (t0 + (dt - left));
+			const double un = W->A != 0.0 ? W->A * W->omega * cos(thc) : 0.0;
+			x[a] = vib_plane(d, w, thc);
+			if (W->type == SCENE_WALL_OPEN && !d->relaxing) {
+				lg->out = 1 + w;   /* leaves: the flight ends here */
+				for (int k = 0; k < D; k++)
+					v[k] = 0;
+				return integ;
+			}
+			double before[3];
+			for (int k = 0; k < D; k++)
+				before[k] = v[k];
+			v[a] -= s * un;   /* the rule acts on the velocity relative to the wall */
+			double vn = wall_rule(d, w, v, D);
+			v[a] += s * un;
+			for (int k = 0; k < D; k++)
+				lg->imp[w][k] += d->mass * (before[k] - v[k]);
+			lg->hits[w]++;
+			lg->touched |= 1u << w;
+			if (W->A != 0.0) {
+				const double gam = s * ga[a];
+				const int pressed = gam + W->A * W->omega * W->omega * sin(thc) < 0.0;
+				if ((vn <= 0 && pressed) || hits + 1 >= MAX_WALL_HITS) {
+					ride = w;
+					tdet = hits + 1 >= MAX_WALL_HITS ? INFINITY : vib_detach(W, gam, thc);
+					v[a] = s * un;
+					lg->rested++;
+				} else if (vn <= 0) {
+					v[a] = s * un;   /* leaves with the wall: the gap opens */
+				}
+			} else {
+				double press = (w & 1) ? ga[a] : -ga[a];
+				if ((vn <= 0 && press > 0) || hits + 1 >= MAX_WALL_HITS) {
+					lg->imp[w][a] += d->mass * (v[a] + ga[a] * left);
+					v[a] = 0;
+					ga[a] = 0;
+					pinned |= 1 << a;
+					lg->rested++;
+				} else if (vn <= 0) {
+					v[a] = 0;
+				}
+			}
+		} else {
+			break;
+		}
+		if (!(left > 0))
+			break;
+	}
+	for (int a = 0; a < D; a++) {
+		if (!d->walled[a]) {
+			x[a] = wrap(x[a], d->L[a]);
+			continue;
+		}
+		/* inside the walls where they are now (rounding of the roots) */
+		if (x[a] < d->cur_lo[a])
+			x[a] = d->cur_lo[a];
+		if (x[a] > d->cur_hi[a])
+			x[a] = d->cur_hi[a];
+	}
+	return integ;
+}
+
 /* move() for bounded scenes: the exact flight() of each particle; hsmc
  * rejects moves into full cells as move() does (the particle keeps its
  * position and velocity: no acceleration that step, seed 000 sec. 2.3.2).
- * Adds the integral of E_kin dt over the step to *ekint; returns E_kin at
- * the end of the flights. */
-static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekint, const int D)
+ * V = 1 (vibrating walls): flight_vib(), and a move is not rejected when
+ * the kept position would be beyond a wall where it is at the end of the
+ * step (the wall carries the particle). Adds the integral of E_kin dt over
+ * the step to *ekint; returns E_kin at the end of the flights. */
+static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekint, const int D, const int V)
 {
 	const int S = 2 * D;
 	double ek = 0, integ = 0;
 	flight_log_t lg;
 	memset(&lg, 0, sizeof lg);
 	memset(d->cnt, 0, (d->ncells + 1) * sizeof(uint32_t));
+	if (V)
+		for (int a = 0; a < D; a++)
+			if (d->walled[a]) {
+				d->cur_lo[a] = vib_plane(d, 2 * a, d->wall[2 * a].ph + d->wall[2 * a].omega * (d->t + dt));
+				d->cur_hi[a] = vib_plane(d, 2 * a + 1, d->wall[2 * a + 1].ph + d->wall[2 * a + 1].omega * (d->t + dt));
+			}
 	for (size_t c = 0; c < d->ncells; c++) {
 		for (uint32_t k = d->start[c]; k < d->start[c + 1]; k++) {
 			double *x = &d->p[(size_t)k * S], *v = x + D, xn[3], vn[3];
 			for (int a = 0; a < D; a++)
 				xn[a] = x[a], vn[a] = v[a];
-			double in = flight(d, xn, vn, dt, &lg, D);
+			double in = V ? flight_vib(d, xn, vn, dt, d->t, &lg, D) : flight(d, xn, vn, dt, &lg, D);
 			uint32_t cn = cell_of(d, xn, D);
-			if (d->hsmc && cn != c && d->start[cn + 1] - d->start[cn] >= d->nfull) {
+			int stays = 1;
+			if (V) {
+				for (int a = 0; a < D; a++)
+					if (d->walled[a] && (x[a] < d->cur_lo[a] || x[a] > d->cur_hi[a]))
+						stays = 0;
+				if (lg.out) {
+					/* it left through an open wall: to the extra cell ncells, after the present ones */
+					d->wout[lg.out - 1]++;
+					lg.out = 0;
+					cn = (uint32_t)d->ncells;
+					stays = 0;
+				}
+			}
+			if (d->hsmc && cn != c && d->start[cn + 1] - d->start[cn] >= d->nfull && stays) {
 				d->rejected++;
 				cn = (uint32_t)c;
 				double v2 = 0;   /* unchanged velocity over the step */
@@ -561,7 +761,7 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 static ALWAYS_INLINE void sort(struct dsmc *d, const int D)
 {
 	const int S = 2 * D;
-	const uint32_t n = d->n, W = d->ring_n;
+	const uint32_t n = d->na, W = d->ring_n;
 	uint32_t acc = 0;
 	for (size_t c = 0; c < d->ncells; c++) {
 		uint32_t k = d->cnt[c];
@@ -569,6 +769,10 @@ static ALWAYS_INLINE void sort(struct dsmc *d, const int D)
 		acc += k;
 	}
 	d->start[d->ncells] = acc;
+	/* records that left through an open wall (extra cell ncells; none without
+	 * open walls) go after the present ones */
+	d->cnt[d->ncells] = acc;
+	d->na = acc;
 	uint32_t *dst = d->cell, far = 0;
 	for (uint32_t k = 0; k < n; k++) {
 		uint32_t j = d->cnt[dst[k]]++;
@@ -698,12 +902,13 @@ static void local_chi(struct dsmc *d, const int D)
  * (an energy source under gravity: the offsets keep the pair's centre of
  * mass, hence its potential energy, only when both move). */
 static ALWAYS_INLINE int offset_fits(const struct dsmc *d, const double *xi, const double *xj, const double *sn,
-                                     const int D, uint32_t c)
+                                     const int D, uint32_t c, const int B)
 {
 	double yi[3], yj[3];
 	for (int a = 0; a < D; a++) {
-		if (d->walled[a] && (xi[a] + sn[a] < d->lo[a] || xi[a] + sn[a] > d->hi[a] ||
-		                     xj[a] - sn[a] < d->lo[a] || xj[a] - sn[a] > d->hi[a]))
+		/* B = 2: the planes where the (vibrating) walls are after this step's flights */
+		const double lo = B == 2 ? d->cur_lo[a] : d->lo[a], hi = B == 2 ? d->cur_hi[a] : d->hi[a];
+		if (d->walled[a] && (xi[a] + sn[a] < lo || xi[a] + sn[a] > hi || xj[a] - sn[a] < lo || xj[a] - sn[a] > hi))
 			return 0;
 		yi[a] = wrap(xi[a] + sn[a], d->L[a]);
 		yj[a] = wrap(xj[a] - sn[a], d->L[a]);
@@ -824,7 +1029,7 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 				double *xi = vi - D, *xj = vj - D, sn[3];
 				for (int a = 0; a < D; a++)
 					sn[a] = sigma * nrm[a];
-				if (!B || offset_fits(d, xi, xj, sn, D, (uint32_t)c))
+				if (!B || offset_fits(d, xi, xj, sn, D, (uint32_t)c, B))
 					for (int a = 0; a < D; a++) {
 						xi[a] = wrap(xi[a] + sn[a], d->L[a]);   /* walled axes: inside, wrap is the identity */
 						xj[a] = wrap(xj[a] - sn[a], d->L[a]);
@@ -840,7 +1045,8 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 }
 
 /* One step; B = 1 for bounded scenes (walls, gravity): exact flights and
- * wall-aware neighbours and offsets. B = 0 compiles to the periodic step
+ * wall-aware neighbours and offsets; B = 2 for bounded scenes with a
+ * vibrating wall (flight_vib()). B = 0 compiles to the periodic step
  * with no trace of walls (the variant is chosen once, at load). */
 static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const int B)
 {
@@ -848,7 +1054,7 @@ static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const
 		cell_collisions(d, D, B);
 	double ek;
 	if (B) {
-		ek = move_bounded(d, dt, &d->ekin_int, D);
+		ek = move_bounded(d, dt, &d->ekin_int, D, B == 2);
 	} else {
 		ek = move(d, dt, D);
 		d->ekin_int += ek * dt;
@@ -864,6 +1070,8 @@ static void step2(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0); }
 static void step3(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0); }
 static void step2b(struct dsmc *d, double dt) { step_dim(d, dt, 2, 1); }
 static void step3b(struct dsmc *d, double dt) { step_dim(d, dt, 3, 1); }
+static void step2v(struct dsmc *d, double dt) { step_dim(d, dt, 2, 2); }
+static void step3v(struct dsmc *d, double dt) { step_dim(d, dt, 3, 2); }
 
 /* Initial sort (positions only). */
 static void initial_sort(struct dsmc *d)
@@ -907,7 +1115,7 @@ int dsmc_advance_soft(dsmc_t *d, double t_stop, double t_soft, uint64_t max_coll
 	for (uint64_t k = 0; k < max_steps && d->t < t_stop && d->t < t_soft && d->collisions < max_collisions; k++) {
 		double dt = d->dt_fixed;
 		if (dt <= 0) {
-			double T = 2 * d->ekin_est / (d->dim * (double)d->n);
+			double T = 2 * d->ekin_est / (d->dim * (double)(d->na ? d->na : 1));   /* present particles */
 			dt = T > 0 ? d->cps / (d->fcoef * sqrt(T)) : INFINITY;
 			if (d->gnorm > 0 && !(dt <= d->dt_grav))
 				dt = d->dt_grav;
@@ -928,9 +1136,10 @@ int dsmc_advance_soft(dsmc_t *d, double t_stop, double t_soft, uint64_t max_coll
 /* ---- setup ------------------------------------------------------------------- */
 
 /* Walls and gravity of scene s in d (after the cell grid), and the step
- * variant: the periodic one unless the scene has walls or gravity. The
- * scene's wall kinds dsmc/hsmc cannot honour are refused here (naming the
- * key), so that scene_parse() refuses them too. */
+ * variant: the periodic one unless the scene has walls or gravity, the
+ * vibrating-wall one (B = 2) only when a wall vibrates (amplitude > 0).
+ * The scene's wall kinds dsmc/hsmc cannot honour are refused here (naming
+ * the key), so that scene_parse() refuses them too. */
 static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
 {
 	static const char *const axis[3] = { "x", "y", "z" }, *const end[2] = { "lower", "upper" };
@@ -938,6 +1147,8 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 	d->has_walls = scene_has_walls(s);
 	d->bounded = d->has_walls || scene_has_gravity(s);
 	double g2 = 0, hmin = INFINITY;
+	int vib = 0;
+	d->open = 0;
 	for (int a = 0; a < d->dim; a++) {
 		d->g[a] = s->gravity[a];
 		g2 += d->g[a] * d->g[a];
@@ -946,17 +1157,18 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 		if (!d->walled[a])
 			continue;
 		/* a particle touches a wall when its centre is one radius from it */
-		d->lo[a] = 0.5 * d->sigma;
-		d->hi[a] = d->L[a] - 0.5 * d->sigma;
+		/* at rest (internal coordinates: org below the scene's 0) */
+		d->lo[a] = d->org[a] + 0.5 * d->sigma;
+		d->hi[a] = d->org[a] + s->box[a] - 0.5 * d->sigma;
+		d->cur_lo[a] = d->lo[a];
+		d->cur_hi[a] = d->hi[a];
 		for (int k = 0; k < 2; k++) {
 			const scene_wall_t *sw = &s->boundary[a].wall[k];
 			if (sw->type != SCENE_WALL_SPECULAR && sw->type != SCENE_WALL_THERMAL && sw->type != SCENE_WALL_ROUGH &&
-			    sw->type != SCENE_WALL_MOVING) {
+			    sw->type != SCENE_WALL_MOVING && sw->type != SCENE_WALL_VIBRATING && sw->type != SCENE_WALL_OPEN) {
 				if (msg && msglen)
-					snprintf(msg, msglen, "boundaries.%s.%s.type: \"%s\" walls are not supported by method \"%s\" "
-					         "(only \"ed\"); use \"specular\", \"thermal\", \"rough\" or \"moving\"", axis[a], end[k],
-					         sw->type == SCENE_WALL_VIBRATING ? "vibrating" : sw->type == SCENE_WALL_OPEN ? "open"
-					                                                                              : "these", method);
+					snprintf(msg, msglen, "boundaries.%s.%s.type: these walls are not supported by method \"%s\"",
+					         axis[a], end[k], method);
 				return DSMC_EINVAL;
 			}
 			mcwall_t *W = &d->wall[2 * a + k];
@@ -968,6 +1180,18 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 			W->sv = sw->type == SCENE_WALL_THERMAL ? sqrt(sw->temperature / s->mass) : 0.0;
 			for (int b = 0; b < 3; b++)
 				W->u[b] = b < d->dim && b != a ? sw->velocity[b] : 0.0;
+			W->A = W->omega = W->ph = 0.0;
+			if (sw->type == SCENE_WALL_OPEN) {
+				W->r = 1.0;   /* reflects (specular) during relax only */
+				d->open = 1;
+			}
+			if (sw->type == SCENE_WALL_VIBRATING && sw->amplitude > 0.0) {
+				/* its rule is specular with r_w, relative to the wall (flight_vib()) */
+				W->A = sw->amplitude;
+				W->omega = 2 * PI * sw->frequency;
+				W->ph = sw->phase;
+				vib = 1;
+			}
 		}
 	}
 	if (scene_has_walls(s) && d->local_chi) {
@@ -981,7 +1205,8 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 	 * of a cell from rest (a gas at T = 0 still falls, and a step should not
 	 * carry particles across many cells between collision steps). */
 	d->dt_grav = d->gnorm > 0 ? sqrt(2 * (d->cps > 0 ? d->cps : 0.2) * hmin / d->gnorm) : INFINITY;
-	d->step = d->dim == 2 ? (d->bounded ? step2b : step2) : (d->bounded ? step3b : step3);
+	vib |= d->open;   /* open walls take the vibrating-wall step too (flight_vib()) */
+	d->step = d->dim == 2 ? (vib ? step2v : d->bounded ? step2b : step2) : (vib ? step3v : d->bounded ? step3b : step3);
 	return DSMC_OK;
 }
 
@@ -1003,7 +1228,7 @@ static int layout(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
 		return DSMC_EINVAL;
 	}
 	d->dim = s->dim;
-	d->n = (uint32_t)s->count;
+	d->n = d->na = (uint32_t)s->count;
 	d->hsmc = pr.hsmc;
 	d->cba = pr.correction == SCENE_MC_CBA;
 	d->sigma = 2 * s->radius;
@@ -1022,6 +1247,13 @@ static int layout(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
 	d->vcell = 1;
 	for (int a = 0; a < 3; a++) {
 		d->L[a] = a < d->dim ? s->box[a] : 1.0;
+		/* vibrating walls: the internal box reaches each wall's lowest position */
+		d->org[a] = 0.0;
+		if (a < d->dim && s->boundary[a].walled) {
+			const scene_wall_t *w = s->boundary[a].wall;
+			d->org[a] = w[0].type == SCENE_WALL_VIBRATING ? w[0].amplitude : 0.0;
+			d->L[a] += d->org[a] + (w[1].type == SCENE_WALL_VIBRATING ? w[1].amplitude : 0.0);
+		}
 		double k = a < d->dim ? floor(d->L[a] / pr.cell_edge) : 1;
 		k = k < 1 ? 1 : k;
 		ncell *= k;
@@ -1115,6 +1347,12 @@ dsmc_t *dsmc_create_blank(const scene_t *s, int *err, char *msg, size_t msglen)
 	return alloc(s, err, msg, msglen);
 }
 
+/* Walled axis a: the range of centres no wall can reach (the contact
+ * planes at rest, moved in by the vibrating walls' amplitudes), where
+ * particles are placed. */
+static double reach_lo(const struct dsmc *d, int a) { return d->lo[a] + d->wall[2 * a].A; }
+static double reach_hi(const struct dsmc *d, int a) { return d->hi[a] - d->wall[2 * a + 1].A; }
+
 dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size_t msglen)
 {
 	struct dsmc *d = alloc(s, err, msg, msglen);
@@ -1127,11 +1365,11 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 	if (s->init_pos) {
 		for (uint32_t i = 0; i < d->n; i++)
 			for (int a = 0; a < d->dim; a++)
-				d->p[i * S + a] = wrap(s->init_pos[(size_t)i * d->dim + a], d->L[a]);
+				d->p[i * S + a] = wrap(s->init_pos[(size_t)i * d->dim + a] + d->org[a], d->L[a]);
 	} else if (s->positions == SCENE_POS_RANDOM) {
 		for (uint32_t i = 0; i < d->n; i++)
 			for (int a = 0; a < d->dim; a++)
-				d->p[i * S + a] = d->walled[a] ? d->lo[a] + rng_uniform(&d->rng) * (d->hi[a] - d->lo[a])
+				d->p[i * S + a] = d->walled[a] ? reach_lo(d, a) + rng_uniform(&d->rng) * (reach_hi(d, a) - reach_lo(d, a))
 				                               : wrap(rng_uniform(&d->rng) * d->L[a], d->L[a]);
 	} else {
 		/* A k^D grid; when N does not fill it the vacancies are spread over
@@ -1146,7 +1384,7 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 			for (int a = 0; a < d->dim; a++) {
 				double f = ((double)(r % k) + 0.5) / (double)k;
 				/* walled axes: the grid spans the contact planes */
-				d->p[i * S + a] = d->walled[a] ? d->lo[a] + f * (d->hi[a] - d->lo[a]) : f * d->L[a];
+				d->p[i * S + a] = d->walled[a] ? reach_lo(d, a) + f * (reach_hi(d, a) - reach_lo(d, a)) : f * d->L[a];
 				r /= k;
 			}
 		}
@@ -1186,9 +1424,11 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 	if (s->relax_cpp > 0) {
 		double e = d->e;
 		d->e = 1;
+		d->relaxing = 1;   /* open walls reflect */
 		uint64_t target = (uint64_t)ceil(s->relax_cpp * d->n / 2.0);
 		(void)dsmc_advance(d, INFINITY, target, UINT64_MAX);   /* QUIESCENT at T = 0: nothing to relax */
 		d->e = e;
+		d->relaxing = 0;
 		d->t = 0;
 		d->steps = d->collisions = d->candidates = d->vmax_raised = 0;
 		d->cell_collisions = d->rejected = 0;
@@ -1196,6 +1436,17 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 		d->wall_collisions = d->rested = 0;
 		memset(d->wall_hits, 0, sizeof d->wall_hits);
 		memset(d->wall_impulse, 0, sizeof d->wall_impulse);
+		/* the clock restarts at 0, and with it the vibrating walls' phases:
+		 * keep the centres inside the walls where they are at time 0 */
+		for (int a = 0; a < d->dim; a++) {
+			if (!d->walled[a] || (d->wall[2 * a].A == 0.0 && d->wall[2 * a + 1].A == 0.0))
+				continue;
+			const double lo = vib_plane(d, 2 * a, d->wall[2 * a].ph), hi = vib_plane(d, 2 * a + 1, d->wall[2 * a + 1].ph);
+			for (uint32_t k = 0; k < d->n; k++) {
+				double *x = &d->p[k * S + a];
+				*x = *x < lo ? lo : *x > hi ? hi : *x;
+			}
+		}
 		d->ekin_est = ekin_exact(d, NULL);
 	}
 	return d;
@@ -1230,18 +1481,20 @@ static void walls_out(const struct dsmc *d, dsmc_sample_t *out)
 	const int D = d->dim, S = 2 * D;
 	out->wall_collisions = d->wall_collisions;
 	out->rested = d->rested;
+	out->particles = d->na;
+	memcpy(out->wall_outflow, d->wout, sizeof out->wall_outflow);
 	memcpy(out->wall_hits, d->wall_hits, sizeof out->wall_hits);
 	out->com_height = out->potential_energy = NAN;
 	if (!(d->gnorm > 0))
 		return;
 	double sum[3] = {0, 0, 0}, gr = 0;
-	for (uint32_t k = 0; k < d->n; k++)
+	for (uint32_t k = 0; k < d->na; k++)   /* the particles present */
 		for (int a = 0; a < D; a++)
 			sum[a] += d->p[(size_t)k * S + a];
 	for (int a = 0; a < D; a++)
-		gr += d->g[a] * sum[a];
+		gr += d->g[a] * (sum[a] - d->na * d->org[a]);   /* scene coordinates */
 	out->potential_energy = -d->mass * gr;
-	out->com_height = -gr / (d->gnorm * d->n);
+	out->com_height = d->na ? -gr / (d->gnorm * d->na) : NAN;
 }
 
 void dsmc_sample(dsmc_t *d, dsmc_sample_t *out)
@@ -1275,10 +1528,11 @@ void dsmc_state(const dsmc_t *d, double *pos, double *vel)
 	for (uint32_t k = 0; k < d->n; k++) {
 		size_t i = d->id[k];
 		for (int a = 0; a < D; a++) {
+			/* scene coordinates; NaN for a particle that left through an open wall */
 			if (pos)
-				pos[i * D + a] = d->p[(size_t)k * S + a];
+				pos[i * D + a] = k < d->na ? d->p[(size_t)k * S + a] - d->org[a] : NAN;
 			if (vel)
-				vel[i * D + a] = d->p[(size_t)k * S + D + a];
+				vel[i * D + a] = k < d->na ? d->p[(size_t)k * S + D + a] : NAN;
 		}
 	}
 }
@@ -1307,7 +1561,7 @@ void dsmc_totals(const dsmc_t *d, dsmc_sample_t *out)
  * estimate and the interval accumulators. Not stored: the sort scratch
  * cell, cnt (rewritten before they are read in every step) and v_max
  * (recomputed per cell and step from the velocities). */
-enum { F_SCALAR, F_PART, F_ID, F_START, F_REM, F_STAMP, F_RNG, F_WALL, F_WHITS, F_WIMP };
+enum { F_SCALAR, F_PART, F_ID, F_START, F_REM, F_STAMP, F_RNG, F_WALL, F_WHITS, F_WIMP, F_PRESENT, F_WOUT };
 typedef struct {
 	const char *name;
 	ed_type_t type;
@@ -1340,6 +1594,9 @@ static const dfield_t dfields[] = {
 	{ "wall_rested", ED_T_U64, F_WALL, offsetof(struct dsmc, rested) },
 	{ "wall_hits", ED_T_U64, F_WHITS, 0 },
 	{ "wall_impulse", ED_T_F64, F_WIMP, 0 },
+	/* scenes with open walls only */
+	{ "present", ED_T_U64, F_PRESENT, 0 },
+	{ "wall_outflow", ED_T_U64, F_WOUT, 0 },
 };
 #define N_DFIELDS (sizeof dfields / sizeof dfields[0])
 
@@ -1355,6 +1612,8 @@ static size_t dfield_count(const struct dsmc *d, const dfield_t *f)
 	case F_WALL: return d->has_walls ? 1 : 0;
 	case F_WHITS: return d->has_walls ? 6 : 0;
 	case F_WIMP: return d->has_walls ? 18 : 0;
+	case F_PRESENT: return d->open ? 1 : 0;
+	case F_WOUT: return d->open ? 6 : 0;
 	default: return 1;
 	}
 }
@@ -1362,7 +1621,7 @@ static size_t dfield_count(const struct dsmc *d, const dfield_t *f)
 /* Fields a scene's engine has (stamp: hsmc; wall state: scenes with walls). */
 static int dfield_present(const struct dsmc *d, const dfield_t *f)
 {
-	return f->kind == F_STAMP ? d->hsmc : f->kind >= F_WALL ? d->has_walls : 1;
+	return f->kind == F_STAMP ? d->hsmc : f->kind >= F_PRESENT ? d->open : f->kind >= F_WALL ? d->has_walls : 1;
 }
 
 static const dfield_t *dfield_find(const char *name)
@@ -1401,6 +1660,8 @@ int dsmc_field_get(const dsmc_t *d, const char *name, void *buf)
 	case F_RNG: memcpy(buf, d->rng.s, sizeof(d->rng.s)); break;
 	case F_WHITS: memcpy(buf, d->wall_hits, sizeof d->wall_hits); break;
 	case F_WIMP: memcpy(buf, d->wall_impulse, sizeof d->wall_impulse); break;
+	case F_PRESENT: *(uint64_t *)buf = d->na; break;
+	case F_WOUT: memcpy(buf, d->wout, sizeof d->wout); break;
 	case F_REM:
 		for (size_t c = 0; c < count; c++)
 			((double *)buf)[c] = d->rem[c];   /* float -> double -> float is exact */
@@ -1423,6 +1684,12 @@ int dsmc_field_set(dsmc_t *d, const char *name, ed_type_t type, size_t count, co
 	case F_RNG: memcpy(d->rng.s, buf, sizeof(d->rng.s)); break;
 	case F_WHITS: memcpy(d->wall_hits, buf, sizeof d->wall_hits); break;
 	case F_WIMP: memcpy(d->wall_impulse, buf, sizeof d->wall_impulse); break;
+	case F_PRESENT:
+		if (*(const uint64_t *)buf > d->n)
+			return DSMC_EINVAL;
+		d->na = (uint32_t)*(const uint64_t *)buf;
+		break;
+	case F_WOUT: memcpy(d->wout, buf, sizeof d->wout); break;
 	case F_REM:
 		for (size_t c = 0; c < count; c++) {
 			double r = ((const double *)buf)[c];
@@ -1440,8 +1707,8 @@ int dsmc_restore_finish(dsmc_t *d, char *msg, size_t msglen)
 {
 	const int D = d->dim, S = 2 * D;
 	const char *why = NULL;
-	if (d->start[0] != 0 || d->start[d->ncells] != d->n)
-		why = "cell offsets do not cover the particles";
+	if (d->start[0] != 0 || d->start[d->ncells] != d->na || d->na > d->n || (!d->open && d->na != d->n))
+		why = "cell offsets do not cover the particles present";
 	for (size_t c = 0; !why && c < d->ncells; c++)
 		if (d->start[c + 1] < d->start[c])
 			why = "cell offsets decrease";

@@ -15,9 +15,18 @@
  *   the roots of a quadratic, the rest of the flight reflected by the
  *   wall's rule; a particle touches a wall when its centre is one radius
  *   from it, as in ed) and the cells tile the box; collisions stay cell-local.
- *   Walls: specular, thermal, rough, moving; vibrating ones are refused
- *   (dsmc_plan(): "boundaries.AXIS.END.type: ..."). A scene without walls
- *   and gravity runs the periodic step, which has no wall code at all.
+ *   Walls: specular, thermal, rough, moving, vibrating (contact times by
+ *   walltime_vibrating(), the rule applied relative to the wall's velocity;
+ *   the wall's phase is a function of the clock, so checkpoints hold
+ *   nothing more), open (a particle that reaches one leaves: its record
+ *   goes after the particles present, dsmc_state() gives NaN for it,
+ *   energies and heights are over the particles present; ed's semantics,
+ *   docs/scene.md). A scene without walls and gravity
+ *   runs the periodic step, which has no wall code at all; one without a
+ *   vibrating or open wall runs the fixed-wall step, which has no code for
+ *   them (the variant is chosen at load). With a vibrating lower wall the
+ *   engine's internal coordinates are the scene's shifted by its amplitude
+ *   (as ed's); every output is in scene coordinates.
  * - One step of length dt (operator splitting, seed 000 eq. 2.19):
  *   [hsmc only: coarse-grain cells, cell-cell pseudo-collisions, return of
  *   their lost energy as thermal motion]; free flight (hsmc: moves into
@@ -121,9 +130,12 @@ typedef struct {
 	/* Scenes with walls, as ed_sample_t: wall w = 2 axis + end (0 lower,
 	 * 1 upper); wall_impulse[w]: momentum given to wall w over the interval
 	 * (zero without walls). rested: flights that ended resting on a wall
-	 * (dsmc.c, flight()), total. */
+	 * or rode a vibrating one (dsmc.c, flight(), flight_vib()), total. */
 	uint64_t wall_collisions, wall_hits[6], rested;
 	double wall_impulse[6][3];
+	/* Open walls: particles present now (N without open walls) and the
+	 * number that left through each wall, totals (as ed_sample_t). */
+	uint64_t particles, wall_outflow[6];
 	/* Scenes with gravity g: centre-of-mass height along -g (scene
 	 * coordinates) and potential energy -m sum g.r, now. NAN without gravity. */
 	double com_height, potential_energy;
@@ -136,9 +148,11 @@ void dsmc_sample(dsmc_t *d, dsmc_sample_t *out);
  * new interval: changes nothing. Interval fields 0. */
 void dsmc_totals(const dsmc_t *d, dsmc_sample_t *out);
 
-/* Positions in [0, L) and velocities as N*D doubles in particle order:
+/* Positions in [0, L) (scene coordinates: near a vibrating wall they may
+ * be slightly outside) and velocities as N*D doubles in particle order:
  * index i is the i-th particle created, in every call (the engine keeps
- * each record's identity through its cell sorts). Either pointer may be NULL. */
+ * each record's identity through its cell sorts); NaN for a particle that
+ * left through an open wall. Either pointer may be NULL. */
 void dsmc_state(const dsmc_t *d, double *pos, double *vel);
 
 double dsmc_time(const dsmc_t *d);
@@ -171,7 +185,7 @@ double dsmc_mean_speed(int dim, double mass, double temp);
  * states and samples are bit-for-bit those of the original. Field counts
  * depend only on the scene. Native-endian data.
  */
-#define DSMC_MAX_FIELDS 24
+#define DSMC_MAX_FIELDS 32
 /* Describe the fields into out[max]; returns how many there are. */
 int dsmc_fields(const dsmc_t *d, ed_field_t *out, int max);
 /* Copy field name into buf (count * ed_type_size(type) bytes). DSMC_EINVAL if unknown. */

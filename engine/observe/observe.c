@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "observe/fgrid.h"
+#include "observe/fields.h"
 #include "observe/gofr.h"
 #include "observe/sofk.h"
 #include "observe/vcorr.h"
@@ -21,6 +22,7 @@ struct obs {
 	double sigma, volume;
 	gofr_t *gofr;             /* pair_correlation, velocity_correlations */
 	fgrid_t *grid;            /* structure_factor, velocity_correlations */
+	fields_t *fields;         /* fields */
 	double *mem;              /* one block: axes, values, standard errors, scratch */
 	double *gcount, *gpar, *gperp;   /* pair sums over the g(r) bins */
 	double *vhist;                   /* D * bins: the component histograms, axis-major */
@@ -48,6 +50,7 @@ void obs_destroy(obs_t *o)
 		return;
 	gofr_destroy(o->gofr);
 	fgrid_destroy(o->grid);
+	fields_destroy(o->fields);
 	free(o->mem);
 	free(o);
 }
@@ -97,6 +100,16 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 			goto fail;
 	}
 
+	const int spin_dim = s->rough ? (D == 2 ? 1 : 3) : 0;
+	if (!layout_only && (o->bits & SCENE_OBS_FIELDS)) {
+		int per[3];
+		for (int a = 0; a < 3; a++)
+			per[a] = !s->boundary[a].walled;
+		o->fields = fields_create(D, s->box, s->fields_cells, per, spin_dim);
+		if (!o->fields)
+			goto fail;
+	}
+
 	/* Tables (values assigned below from one block). */
 	static const char *const comp3[] = {"p_x", "p_y", "p_z", NULL}, *const comp2[] = {"p_x", "p_y", NULL};
 	static const char *const speed[] = {"p", NULL}, *const gcols[] = {"g", NULL}, *const scol[] = {"s", NULL};
@@ -121,6 +134,22 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 	}
 	if (o->bits & SCENE_OBS_IMPACT)
 		table(o, "impact_parameter", "", "b", "1", bnb, bcols);
+	if (o->bits & SCENE_OBS_FIELDS) {
+		static const char *const dcols[] = {"n", "count", NULL}, *const u3[] = {"u_x", "u_y", "u_z", NULL},
+		                         *const u2[] = {"u_x", "u_y", NULL}, *const tcols[] = {"T", NULL},
+		                         *const w3[] = {"w_x", "w_y", "w_z", NULL}, *const w1[] = {"w", NULL};
+		int nc = s->fields_cells[0] * s->fields_cells[1] * s->fields_cells[2];
+		obs_table_t *ft[4];
+		int k = 0;
+		ft[k++] = table(o, "fields", "density", "cell", "1", nc, dcols);
+		ft[k++] = table(o, "fields", "velocity", "cell", "1", nc, D == 3 ? u3 : u2);
+		ft[k++] = table(o, "fields", "temperature", "cell", "1", nc, tcols);
+		if (spin_dim)
+			ft[k++] = table(o, "fields", "spin", "cell", "1", nc, D == 3 ? w3 : w1);
+		for (int i = 0; i < k; i++)
+			for (int a = 0; a < 3; a++)
+				ft[i]->shape[a] = a < D ? s->fields_cells[a] : 0;
+	}
 
 	/* One block: per table edges (nb+1) and centres (nb); per column value
 	 * and standard error (nb each); pair sums (3 gnb). */
@@ -157,6 +186,13 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 		} else if (!strcmp(t->x, "b")) {
 			for (int b = 0; b <= t->nb; b++)
 				edges[b] = (double)b / t->nb;
+		} else if (!strcmp(t->x, "cell")) {
+			/* the flat cell index c = i_x + n_x (i_y + n_y i_z) as centre, edges c -+ 1/2 */
+			for (int b = 0; b <= t->nb; b++)
+				edges[b] = b - 0.5;
+			for (int b = 0; b < t->nb; b++)
+				centres[b] = b;
+			continue;
 		} else if (!strcmp(t->x, "k")) {
 			fgrid_axis(o->grid, edges, centres, NULL);
 			continue;
@@ -189,6 +225,8 @@ size_t obs_memory(const obs_t *o)
 	size_t b = sizeof(*o) + o->packed * 2 * sizeof(double);
 	if (o->grid)
 		b += fgrid_memory(o->grid);
+	if (o->fields)
+		b += fields_memory(o->fields);
 	if (o->gofr)
 		b += (size_t)o->s.count * (2 * o->s.dim * sizeof(double) + sizeof(uint32_t)) +
 		     (3 * (size_t)o->s.count + 28) * sizeof(uint32_t);
@@ -319,6 +357,13 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 		}
 		impact_fit(D, t, &c->impact_a, &c->impact_c);
 	}
+	if ((t = find(o, "fields", "density")) && o->fields) {
+		obs_table_t *tu = find(o, "fields", "velocity"), *tt = find(o, "fields", "temperature");
+		obs_table_t *tw = find(o, "fields", "spin");
+		c->fields_samples = fields_result(o->fields, s->mass, t->val[1], t->val[0], tu->val, tt->val[0],
+		                                  tw ? tw->val : NULL);
+		fields_reset(o->fields);
+	}
 	if ((t = find(o, "clusters", ""))) {
 		clusters_stats_t st;
 		if (!cl || clusters_compute(cl, pos, s->box, s->radius, s->cluster_delta * o->sigma, &st) != 0)
@@ -330,6 +375,14 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 		c->mean_size = st.mean_size;
 	}
 	return c;
+}
+
+struct fields *obs_fields(const obs_t *o) { return o->fields; }
+
+void obs_fields_add(obs_t *o, const double *pos, const double *vel, const double *spin)
+{
+	if (o->fields)
+		fields_add(o->fields, o->s.count, pos, vel, spin);
 }
 
 /* ---- ensembles ------------------------------------------------------------- */

@@ -18,6 +18,7 @@
  *   x axis (bin edges and centres, fixed by the scene) and one to three
  *   value columns each. Writers (H5MD, JSON lines) and ensembles use the
  *   description and need no knowledge of the families.
+ *   fields are a grid of cells (obs_table_t.shape), one table per quantity.
  * - Every method (ed, dsmc, hsmc): the input is the particle state only.
  *   For dsmc/hsmc, whose particles are points, g(r) has no excluded volume
  *   (see docs/output.md for what each contact value means there).
@@ -34,7 +35,7 @@ typedef struct {
 } obs_scalars_t;
 
 #define OBS_MAX_COLS 3
-#define OBS_MAX_TABLES 8
+#define OBS_MAX_TABLES 12
 
 typedef struct {
 	const char *family;       /* observable name (output.observables; "clusters" for n_s) */
@@ -48,6 +49,7 @@ typedef struct {
 	const char *col[OBS_MAX_COLS];   /* column names, e.g. "g", "p_x" */
 	double *val[OBS_MAX_COLS];       /* nb each: the sample (ensembles: the mean) */
 	double *se[OBS_MAX_COLS];        /* nb each: ensembles only (standard error), else unused */
+	int shape[3];             /* fields: cells per axis (x is the flat cell index, x fastest); else 0 */
 } obs_table_t;
 
 typedef struct {
@@ -58,6 +60,7 @@ typedef struct {
 	double a2, a3;            /* when velocity_distribution is asked */
 	double g_pairs;           /* when pair_correlation is asked */
 	double cluster_w, cluster_exponent, m2_reduced, mean_size;   /* when clusters is asked */
+	int fields_samples;       /* fields: instants averaged (observe/fields.h) */
 	double impact_a, impact_c;  /* impact_parameter: P(b) / P_chaos(b) = a / (1 - c (b/sigma)^2), weighted fit */
 	/* ensembles: standard errors of the same scalars */
 	double se_temperature, se_a2, se_a3, se_g_pairs, se_cluster_w, se_cluster_exponent, se_m2_reduced,
@@ -68,7 +71,7 @@ typedef struct obs obs_t;
 
 /* The observables of scene s that make curves (what obs_create() lays out). */
 #define OBS_CURVE_BITS (SCENE_OBS_VDIST | SCENE_OBS_GOFR | SCENE_OBS_SOFK | SCENE_OBS_VCORR | SCENE_OBS_CLUSTERS | \
-                        SCENE_OBS_IMPACT)
+                        SCENE_OBS_IMPACT | SCENE_OBS_FIELDS)
 unsigned obs_curve_bits(const scene_t *s);
 
 /* Workspaces for scene s. layout_only: only the curve description (axes, zeroed values), no
@@ -93,6 +96,16 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
  * table "impact_parameter" (columns p: density in b / sigma, n: counts) and
  * zeroes it. NULL and *nb = 0 when not asked for or layout_only. */
 double *obs_impact_counts(const obs_t *o, int *nb);
+
+/* fields (output.fields): the accumulator (observe/fields.h; NULL when not asked for or layout_only).
+ * obs_fields_add() adds one instant (spin: N * spin_dim angular velocities, or NULL for smooth
+ * particles); obs_curves() turns the instants added since the previous curves into the tables "fields"
+ * "density" (n: particles per unit area/volume, count: mean occupation), "velocity" (u_x, u_y(, u_z)),
+ * "temperature" (T) and, for rough particles, "spin" (w in 2D; w_x, w_y, w_z in 3D), over x = "cell", and
+ * starts a new exposure. */
+struct fields;
+struct fields *obs_fields(const obs_t *o);
+void obs_fields_add(obs_t *o, const double *pos, const double *vel, const double *spin);
 
 /* The table description without sampling (layout_only objects too). */
 const obs_curves_t *obs_layout(const obs_t *o);
