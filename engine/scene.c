@@ -657,10 +657,6 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 	if (s->method != SCENE_METHOD_ED)
 		return fail(c, "particles.species", "method \"%s\" simulates one species of one radius only; use method "
 			    "\"ed\" for %s", method_names[s->method], what);
-	static const char *const keys[] = { "driving" };
-	for (size_t k = 0; k < sizeof keys / sizeof keys[0]; k++)
-		if (json_object_get(v, keys[k]))
-			return fail(c, keys[k], "not supported yet with %s (particles.species)", what);
 	json_t *col = json_object_get(v, "collisions");
 	if (json_object_get(col, "rough"))
 		return fail(c, "collisions.rough", "rough particles: not supported yet with %s (particles.species)", what);

@@ -148,7 +148,8 @@ cat >"$tmp/3d-mixture-dilute.json" <<'JSON'
 {"method":"ed","dimensions":3,"particles":{"species":[{"count":1000,"radius":0.5,"mass":1},
    {"count":300,"radius":1,"mass":8},{"count":200,"radius":0.3,"mass":0.2}],"volume_fraction":0.1,
    "initial":{"positions":"random"}},
- "collisions":{"restitution":0.9,"tc":0.001},"run":{"seed":46,"until":{"time":12}},
+ "collisions":{"restitution":0.9,"tc":0.001},"driving":{"type":"stochastic","temperature":1,"interval":2,"grid":2,"average_time":4},
+ "run":{"seed":46,"until":{"time":12}},
  "output":{"every":{"time":0.5},"observables":["kinetic_energy","temperature","momentum"],
    "snapshots":{"every":{"time":2}},"checkpoint":{"every":{"time":1.3}}}}
 JSON

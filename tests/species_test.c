@@ -75,10 +75,10 @@ static void test_parse(void)
 		{ "duplicate names", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":"
 		  "[{\"name\":\"a\",\"count\":20,\"radius\":0.5,\"mass\":1},{\"name\":\"a\",\"count\":20,\"radius\":0.5,"
 		  "\"mass\":2}],\"volume_fraction\":0.1},\"run\":{\"until\":{\"time\":1}}}", "particles.species[1].name:" },
-		{ "driving with two species", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":"
+		{ "rough mixture", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":"
 		  "[{\"count\":20,\"radius\":0.5,\"mass\":1},{\"count\":20,\"radius\":0.5,\"mass\":2}],"
-		  "\"volume_fraction\":0.1},\"driving\":{\"type\":\"white_noise\",\"strength\":0.1,\"interval\":1},"
-		  "\"run\":{\"until\":{\"time\":1}}}", "driving:" },
+		  "\"volume_fraction\":0.1},\"collisions\":{\"rough\":{\"tangential_restitution\":0.5}},"
+		  "\"run\":{\"until\":{\"time\":1}}}", "collisions.rough:" },
 		{ "radius and radius_range", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":"
 		  "[{\"count\":20,\"radius\":0.5,\"radius_range\":[0.4,0.6],\"mass\":1}],\"volume_fraction\":0.1},"
 		  "\"run\":{\"until\":{\"time\":1}}}", "particles.species[0].radius_range:" },
@@ -609,6 +609,55 @@ static void test_thermal_walls(void)
 	   seh, TW_RUNS);
 }
 
+#define DR_RUNS 6
+/* seed 001's stochastic thermostat (T_th = 2, each particle kicked once per
+ * unit time on average, one global mean velocity) drives an elastic mixture
+ * (2D, 400 + 400 disks, masses 1 and 5, volume fraction 0.1, periodic) to
+ * equilibrium at T_th for each species: a kick draws the velocity about the
+ * mean from the Maxwellian of T_th for the particle's own mass. Measured:
+ * the mean of T_s over 50 samples (times 11 .. 60; started at T = 1) per
+ * run, over DR_RUNS independent runs; within 5 standard errors of the mean
+ * over the runs. */
+static void test_driving(void)
+{
+	double tl[DR_RUNS], th[DR_RUNS];
+	int made = 0;
+	for (int run = 0; run < DR_RUNS; run++) {
+		char j[1024];
+		snprintf(j, sizeof j, "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":["
+		         "{\"count\":400,\"radius\":0.5,\"mass\":1},{\"count\":400,\"radius\":0.5,\"mass\":5}],"
+		         "\"volume_fraction\":0.1,\"initial\":{\"positions\":\"random\"}},"
+		         "\"driving\":{\"type\":\"stochastic\",\"temperature\":2,\"interval\":1},"
+		         "\"run\":{\"until\":{\"time\":1},\"seed\":%d}}", 301 + run);
+		scene_t s;
+		ed_t *ed = make(j, &s);
+		if (!ed)
+			break;
+		double sl = 0.0, sh = 0.0, t0, t1, t;
+		ed_advance(ed, 10.0, UINT64_MAX, UINT64_MAX);
+		for (int k = 1; k <= 50; k++) {
+			ed_advance(ed, 10.0 + k, UINT64_MAX, UINT64_MAX);
+			temps(ed, &s, &t0, &t1, &t);
+			sl += t0;
+			sh += t1;
+		}
+		tl[run] = sl / 50;
+		th[run] = sh / 50;
+		ed_destroy(ed);
+		made++;
+	}
+	if (made < DR_RUNS) {
+		ok(0, "driven mixture: %d of %d runs made", made, DR_RUNS);
+		return;
+	}
+	double ml, sel, mh, seh;
+	mean_se(tl, DR_RUNS, &ml, &sel);
+	mean_se(th, DR_RUNS, &mh, &seh);
+	ok(fabs(ml - 2.0) < 5 * sel && fabs(mh - 2.0) < 5 * seh,
+	   "stochastic thermostat at T_th = 2: T_light = %.4f +- %.4f, T_heavy = %.4f +- %.4f (5 SE over %d runs)", ml,
+	   sel, mh, seh, DR_RUNS);
+}
+
 /* ---- one species, checkpoints ------------------------------------------ */
 
 /* particles.species with one entry is the one-species scene: the same
@@ -675,13 +724,14 @@ static void test_checkpoint(void)
 
 int main(void)
 {
-	plan(41);
+	plan(42);
 	test_parse();
 	test_placement();
 	test_polydisperse();
 	test_walls();
 	test_thermal_walls();
 	test_gravity();
+	test_driving();
 	test_one_species();
 	test_checkpoint();
 	test_equipartition();

@@ -1678,9 +1678,9 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 	ed->ops = ed->rough ? &ed_ops_rough[ed->dim - 2][ed->variant] : &ed_ops[ed->dim - 2][ed->variant];
 	ed->nsp = 1;
 	if (scene_has_species(s)) {
-		if (ed->rough || ed->drive) {
-			set_msg(msg, msglen, "particles.species: mixtures and polydisperse particles only for smooth particles "
-			        "without driving%.0s%.0s", 0, 0);
+		if (ed->rough) {
+			set_msg(msg, msglen, "particles.species: mixtures and polydisperse particles only for smooth "
+			        "particles%.0s%.0s", 0, 0);
 			return ED_EINVAL;
 		}
 		ed->nsp = s->n_species;   /* tables: setup_species() in ed_alloc() */
@@ -1970,7 +1970,9 @@ static void drive_kick(struct ed *ed)
 	double r[3], v[3];
 	DISPATCH(ed, kick_get, ed, i, r, v);
 	if (ed->drive == SCENE_DRIVE_STOCHASTIC) {
-		const double *u = ed->drv_mean + drive_bin(ed, r) * D, s = sqrt(ed->drv_temp / ed->mass);
+		/* the particle's own mass (mixtures: its species'), so every species is driven towards T_th */
+		const double m = ed->mixture ? ed->mix->m[ed->spc[i]] : ed->mass;
+		const double *u = ed->drv_mean + drive_bin(ed, r) * D, s = sqrt(ed->drv_temp / m);
 		for (int a = 0; a < D; a++)
 			v[a] = u[a] + s * rng_gauss(&ed->drng);
 	} else {

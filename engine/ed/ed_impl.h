@@ -1618,14 +1618,15 @@ static void FN(kick_set)(struct ed *ed, uint32_t i, const double *v)
 	P_T *p = &((P_T *)ed->p)[i];
 	FN(energy_to)(ed, ed->t);
 	double de = 0.0;
+	const double m = FN(mass)(ed, i);
 	FOR_AXES(a) {
 		de += v[a] * v[a] - p->v[a] * p->v[a];
 #if GRAV
-		ed->psum[a] += v[a] - p->v[a];
+		ed->psum[a] += (SPEC ? m / ed->mass : 1.0) * (v[a] - p->v[a]);
 #endif
 		p->v[a] = v[a];
 	}
-	ed->ekin_cur += 0.5 * ed->mass * de;
+	ed->ekin_cur += 0.5 * m * de;
 	p->count++;
 	/* The caller (drive_kick()) predicts i's events afresh through the ops
 	 * table: a direct call here would be one more caller of the hot
