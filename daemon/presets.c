@@ -28,6 +28,9 @@ static const struct { const char *name, *description; } descriptions[] = {
 	{.name = "vibrated-bed-2d", .description = "56 disks (d=0.001, e=0.9) in a 0.01-wide column on a floor vibrating "
 	                                           "at 100 Hz with V = 2 pi f A = 1 m/s (seed 000 A11) with hsmc: "
 	                                           "centre-of-mass height H(V); bench/vibrated_bed.sh sweeps V for ed, dsmc, hsmc"},
+	{.name = "binary-mixture-2d", .description = "Homogeneous cooling of a binary mixture, 1,000 + 1,000 disks of masses "
+	                                             "1 and 4 (phi=0.02, e=0.9): no equipartition, T_light/T_heavy settles "
+	                                             "near 0.865 (Maxwellian theory; temperature_species)"},
 };
 
 static const size_t npresets = sizeof(presets_embedded) / sizeof(presets_embedded[0]);
