@@ -89,6 +89,8 @@ static void g_gpairs(const run_record_t *r, void *o) { *(double *)o = r->obs.g_p
 static void g_grate(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->obs.g_rate : NAN; }
 static void g_gpres(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->obs.g_pressure : NAN; }
 static void g_msd(const run_record_t *r, void *o) { *(double *)o = r->obs.msd; }
+static void g_flux(const run_record_t *r, void *o) { *(double *)o = r->obs.flux; }
+static void g_flux_err(const run_record_t *r, void *o) { *(double *)o = r->obs.flux_se; }
 static void g_diff(const run_record_t *r, void *o) { *(double *)o = r->obs.diffusion; }
 static void g_msd_se(const run_record_t *r, void *o) { *(double *)o = r->se.msd; }
 static void g_diff_se(const run_record_t *r, void *o) { *(double *)o = r->se.diffusion; }
@@ -138,6 +140,8 @@ static const obs_def_t obs_defs[] = {
 	{ "g_contact_pressure", SCENE_OBS_GOFR, 0, 0, "1", g_gpres },
 	{ "mean_square_displacement", SCENE_OBS_MSD, 0, 0, "l0+2", g_msd },
 	{ "diffusion_coefficient", SCENE_OBS_MSD, 0, 0, "l0+2 t0-1", g_diff },
+	{ "flux", SCENE_OBS_FLUX, 0, 0, "flux", g_flux },
+	{ "flux_error", SCENE_OBS_FLUX, 0, 0, "flux", g_flux_err },
 	/* ensembles: NAME_se beside NAME, as KEY_se in the progress stream */
 	{ "time_se", NEED_SE, 0, 0, "t0", g_time_se },
 	{ "kinetic_energy_se", NEED_SE | SCENE_OBS_ENERGY, 0, 0, "e0", g_ekin_se },
@@ -353,6 +357,8 @@ static const char *unit_of(const obs_def_t *d, int dim)
 {
 	if (d->unit && !strcmp(d->unit, "pressure"))
 		return dim == 2 ? "e0 l0-2" : "e0 l0-3";
+	if (d->unit && !strcmp(d->unit, "flux"))
+		return dim == 2 ? "l0-1 t0-1" : "l0-2 t0-1";
 	return d->unit;
 }
 
