@@ -115,5 +115,28 @@ cmp -s "$tmp/pipe/observables.jsonl" "$tmp/part/observables.jsonl"
 r1=$?
 ok $(( rc != 0 || r1 != 0 )) "pipe: resumed from time 5.3, observables.jsonl equals the uninterrupted run's (rc $rc, alpha $(grep -o '"alpha":[^,]*' "$tmp/pipe/observables.jsonl" | tr '\n' ' ')) $(head -c 200 "$tmp/ck.err")"
 
+# 5. trajectory.h5: one row of /observables/density_spectrum_* per spectrum, equal to observables.jsonl (17
+# significant digits), and the resumed run's rows equal the uninterrupted run's.
+same=0
+for q in samples power alpha alpha_se; do
+	h5dump -m %.17g -y -w 0 -d /observables/density_spectrum_$q/value "$tmp/pipe/trajectory.h5" >"$tmp/h5.$q" 2>&1 || same=1
+	h5dump -m %.17g -y -w 0 -d /observables/density_spectrum_$q/value "$tmp/part/trajectory.h5" >"$tmp/h5p.$q" 2>&1 || same=1
+	sed 1d "$tmp/h5.$q" >"$tmp/a"; sed 1d "$tmp/h5p.$q" >"$tmp/b"
+	cmp -s "$tmp/a" "$tmp/b" || same=1
+done
+"$PY" - "$tmp/pipe/observables.jsonl" "$tmp/h5.power" "$tmp/h5.alpha" <<'PY' >"$tmp/h5cmp.out" 2>&1
+import json, math, re, sys
+num = lambda f: [float(x) for x in re.findall(r'[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?|nan', open(f).read().split('DATA {', 1)[1].split('}', 1)[0])]
+recs = [json.loads(l) for l in open(sys.argv[1])]
+P = [x for r in recs for x in r['tables'][0]['columns']['P']]
+A = [r['alpha'] for r in recs]
+hp, ha = num(sys.argv[2]), num(sys.argv[3])
+eq = lambda a, b: (a is None and math.isnan(b)) or (a is not None and abs(a - b) <= 1e-8 * abs(a))
+print(int(len(hp) == len(P) and len(ha) == len(A) and all(map(eq, P, hp)) and all(map(eq, A, ha))), "%d rows" % len(A))
+PY
+read -r good rest <"$tmp/h5cmp.out"
+[ "$good" = 1 ] && [ $same = 0 ]
+ok $? "pipe: trajectory.h5 density_spectrum_* equal observables.jsonl ($rest), and the resumed run's rows equal the uninterrupted run's"
+
 echo "1..$n"
 [ $failed -eq 0 ]
