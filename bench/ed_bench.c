@@ -35,7 +35,9 @@ static double cpu_now(void)
  * rough (periodic, perfectly rough particles: tangential restitution 1, so
  * with restitution 1 the gas stays elastic and only the rule's cost
  * differs), walton (periodic, Walton's rule: beta_0 0.5, mu 0.1; this one
- * dissipates, so its dynamics differ too). */
+ * dissipates, so its dynamics differ too), mixture (periodic, two species
+ * of N/2 particles, radius 0.5, masses 1 and 2: the species kernels at the
+ * same packing). */
 int main(int argc, char **argv)
 {
 	if (argc < 7) {
@@ -80,17 +82,23 @@ int main(int argc, char **argv)
 		rough = ",\"rough\":{\"tangential_restitution\":1}";
 	} else if (!strcmp(feature, "walton")) {
 		rough = ",\"rough\":{\"tangential_restitution\":0.5,\"friction\":0.1}";
-	} else if (strcmp(feature, "periodic")) {
+	} else if (strcmp(feature, "periodic") && strcmp(feature, "mixture")) {
 		fprintf(stderr, "ed_bench: unknown feature %s (periodic, walls, thermal, gravity, obstacle, walls-obstacle, "
-		        "rough, walton)\n", feature);
+		        "rough, walton, mixture)\n", feature);
 		return 2;
 	}
+	char count[256];
+	if (!strcmp(feature, "mixture"))
+		snprintf(count, sizeof count, "\"species\":[{\"count\":%ld,\"radius\":0.5,\"mass\":1},"
+		         "{\"count\":%ld,\"radius\":0.5,\"mass\":2}]", n / 2, n - n / 2);
+	else
+		snprintf(count, sizeof count, "\"count\":%ld", n);
 	snprintf(json, sizeof(json),
-	         "{\"method\":\"ed\",\"dimensions\":%d,\"particles\":{\"count\":%ld,\"volume_fraction\":%g,"
+	         "{\"method\":\"ed\",\"dimensions\":%d,\"particles\":{%s,\"volume_fraction\":%g,"
 	         "\"initial\":{\"relax\":{\"collisions_per_particle\":%g}}},"
 	         "\"collisions\":{\"restitution\":%g,\"tc\":%g%s},\"run\":{\"until\":{\"time\":1}},"
 	         "\"ed\":{\"cell_size\":%g}%s}",
-	         dim, n, phi, warm, e, tc, rough, cell, extra);
+	         dim, count, phi, warm, e, tc, rough, cell, extra);
 	scene_t sc;
 	int rc;
 	if (scene_parse(json, strlen(json), &sc, err, sizeof(err)) != SCENE_OK) {

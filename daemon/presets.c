@@ -28,6 +28,9 @@ static const struct { const char *name, *description; } descriptions[] = {
 	{.name = "vibrated-bed-2d", .description = "56 disks (d=0.001, e=0.9) in a 0.01-wide column on a floor vibrating "
 	                                           "at 100 Hz with V = 2 pi f A = 1 m/s (seed 000 A11) with hsmc: "
 	                                           "centre-of-mass height H(V); bench/vibrated_bed.sh sweeps V for ed, dsmc, hsmc"},
+	{.name = "binary-mixture-2d", .description = "Homogeneous cooling of a binary mixture, 1,000 + 1,000 disks of masses "
+	                                             "1 and 4 (phi=0.02, e=0.9): no equipartition, T_light/T_heavy settles "
+	                                             "near 0.865 (Maxwellian theory; temperature_species)"},
 	{.name = "pipe-flow-2d", .description = "Vertical 2D pipe, periodic along gravity, rough walls (p=0.1), "
 	                                        "1935 disks at nu=0.38, r=0, hsmc (seed 000 A8/A9): density waves, the "
 	                                        "density_spectrum slope alpha and the flux; bench/pipe.sh sweeps r and nu"},

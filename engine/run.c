@@ -95,7 +95,17 @@ typedef struct {
 	double obstacle_impulse[SCENE_OBSTACLES_MAX][3];
 	uint64_t particles, wall_outflow[6];   /* present now (N without open walls); out per wall */
 	double rotational_energy;
+	int n_species;                         /* ed mixtures: kinetic energy and count per species */
+	double species_ekin[SCENE_SPECIES_MAX];
+	uint64_t species_count[SCENE_SPECIES_MAX];
 } smp_t;
+
+static void eng_species(smp_t *o, const ed_sample_t *sm)
+{
+	o->n_species = sm->n_species;
+	memcpy(o->species_ekin, sm->species_kinetic_energy, sizeof o->species_ekin);
+	memcpy(o->species_count, sm->species_count, sizeof o->species_count);
+}
 
 static void eng_sample(run_t *rc, smp_t *o)
 {
@@ -116,6 +126,7 @@ static void eng_sample(run_t *rc, smp_t *o)
 		o->particles = sm.particles;
 		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
 		o->rotational_energy = sm.rotational_energy;
+		eng_species(o, &sm);
 	} else {
 		dsmc_sample_t sm;
 		dsmc_sample(rc->mc, &sm);
@@ -149,6 +160,7 @@ static void eng_totals(const run_t *rc, smp_t *o)
 		o->obstacle_collisions = sm.obstacle_collisions;
 		o->particles = sm.particles;
 		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
+		eng_species(o, &sm);
 	} else {
 		dsmc_sample_t sm;
 		dsmc_totals(rc->mc, &sm);
@@ -266,6 +278,9 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 	r->particles = sm.particles;
 	memcpy(r->wall_outflow, sm.wall_outflow, sizeof(r->wall_outflow));
 	r->temperature = 2.0 * sm.kinetic_energy / (s->dim * np);
+	r->n_species = sm.n_species;
+	for (int k = 0; k < sm.n_species; k++)
+		r->temperature_species[k] = 2.0 * sm.species_ekin[k] / (s->dim * (double)sm.species_count[k]);
 	memcpy(r->momentum, sm.momentum, sizeof(r->momentum));
 	if (sm.interval > 0.0) {
 		/* Time-averaged temperature over the interval from the exact

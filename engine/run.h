@@ -80,6 +80,11 @@ typedef struct {
 	 * and rotational temperature 2 E_rot / (D_r N), D_r = 1 (2D) or 3
 	 * (3D) rotational degrees of freedom, now. */
 	double rotational_energy, rotational_temperature;
+	/* Mixtures (particles.species, two or more; with SCENE_OBS_ENERGY):
+	 * temperature of each species now, T_s = 2 E_s / (D N_s); n_species = 0
+	 * for one species. */
+	int n_species;
+	double temperature_species[SCENE_SPECIES_MAX];
 	const char *warning;         /* dsmc/hsmc validity warning (first record only), or NULL */
 	/* dsmc/hsmc diagnostics (totals; printed in the summary when non-zero) */
 	uint64_t vmax_raised, cell_collisions, rejected_moves;

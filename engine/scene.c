@@ -13,6 +13,7 @@
 #include "mc/dsmc.h"
 #include "place.h"
 #include "observe/fields.h"
+#include "rng.h"
 
 #define PI 3.14159265358979323846
 #define PATHLEN 256
@@ -434,8 +435,260 @@ static int check_when(ctx_t *c, const char *path, json_t *v, void *base)
 
 static int check_particles(ctx_t *c, const char *path, json_t *v, void *base)
 {
+	scene_t *s = base;
+	char sub[PATHLEN];
 	if ((json_object_get(v, "volume_fraction") == NULL) == (json_object_get(v, "box") == NULL))
 		return fail(c, path, "exactly one of volume_fraction or box is required");
+	if (!json_object_get(v, "species")) {
+		if (!json_object_get(v, "count")) {
+			join(sub, path, "count");
+			return fail(c, sub, "required key missing");
+		}
+		return 0;
+	}
+	static const char *const single[] = { "count", "radius", "mass" };
+	for (size_t k = 0; k < sizeof single / sizeof single[0]; k++)
+		if (json_object_get(v, single[k])) {
+			join(sub, path, single[k]);
+			return fail(c, sub, "not with particles.species (each species gives its own count, radius and mass)");
+		}
+	/* what species-blind code sees: the total, the largest radius, the mean mass */
+	uint64_t n = 0;
+	double rmax = 0.0, msum = 0.0;
+	for (int k = 0; k < s->n_species; k++) {
+		const scene_species_t *q = &s->species[k];
+		n += q->count;
+		rmax = fmax(rmax, q->radius);
+		msum += (double)q->count * q->mass;
+	}
+	join(sub, path, "species");
+	if (n < 2 || n > (uint64_t)COUNT_MAX)
+		return fail(c, sub, "the species' counts add up to %llu; the total must be 2 .. %lld",
+			    (unsigned long long)n, COUNT_MAX);
+	s->count = n;
+	s->radius = rmax;
+	s->mass = msum / (double)n;
+	return 0;
+}
+
+/* particles.species[k].name: 1 .. SCENE_NAME_MAX - 1 printable bytes. */
+static int parse_name(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	(void)arg;
+	if (!json_is_string(v))
+		return fail(c, path, "must be a string, got %s", type_name(v));
+	const char *p = json_string_value(v);
+	size_t n = json_string_length(v);
+	if (n == 0 || n >= SCENE_NAME_MAX)
+		return fail(c, path, "must be a name of 1 to %d bytes, got %zu", SCENE_NAME_MAX - 1, n);
+	for (size_t i = 0; i < n; i++)
+		if ((unsigned char)p[i] < 0x20 || p[i] == 0x7f)
+			return fail(c, path, "must not contain control characters");
+	memcpy(dst, p, n + 1);
+	return 0;
+}
+
+static const struct irange R_SPECIES_COUNT = { 1, COUNT_MAX };
+
+/* particles.species[k].radius_range: [lo, hi], 0 < lo < hi (into radius_lo, radius_hi). */
+static int parse_radius_range(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	(void)arg;
+	double *r = dst;
+	char sub[PATHLEN];
+	if (!json_is_array(v) || json_array_size(v) != 2)
+		return fail(c, path, "must be an array [smallest, largest] of two radii");
+	for (size_t k = 0; k < 2; k++) {
+		snprintf(sub, sizeof sub, "%s[%zu]", path, k);
+		int ret = get_number(c, sub, json_array_get(v, k), &R_POS, &r[k]);
+		if (ret)
+			return ret;
+	}
+	if (!(r[0] < r[1]))
+		return fail(c, path, "the smallest radius %s must be less than the largest %s (a single radius: use radius)",
+			    num(r[0]).s, num(r[1]).s);
+	return 0;
+}
+
+/* A species has exactly one of radius and radius_range. */
+static int check_species(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_species_t *q = base;
+	bool one = json_object_get(v, "radius") != NULL, range = json_object_get(v, "radius_range") != NULL;
+	char sub[PATHLEN];
+	if (one && range) {
+		join(sub, path, "radius_range");
+		return fail(c, sub, "not with radius (a species has one radius or a range)");
+	}
+	if (!one && !range) {
+		join(sub, path, "radius");
+		return fail(c, sub, "required key missing (or radius_range)");
+	}
+	if (range)
+		q->radius = q->radius_hi;
+	return 0;
+}
+
+static const struct object species_obj = {
+	.fields = (const struct field[]){
+		{ "name", parse_name, offsetof(scene_species_t, name), NULL, false },
+		{ "count", parse_integer, offsetof(scene_species_t, count), &R_SPECIES_COUNT, true },
+		{ "radius", parse_number, offsetof(scene_species_t, radius), &R_POS, false },
+		{ "radius_range", parse_radius_range, offsetof(scene_species_t, radius_lo), NULL, false },
+		{ "mass", parse_number, offsetof(scene_species_t, mass), &R_POS, true },
+		{ .name = NULL },
+	},
+	.check = check_species,
+};
+
+/* particles.species: an array of 1 .. SCENE_SPECIES_MAX species with distinct names. */
+static int parse_species(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	(void)dst, (void)arg;
+	scene_t *s = c->s;
+	size_t i;
+	json_t *o;
+	if (!json_is_array(v))
+		return fail(c, path, "must be an array of species objects, got %s", type_name(v));
+	if (json_array_size(v) < 1 || json_array_size(v) > SCENE_SPECIES_MAX)
+		return fail(c, path, "must have 1 to %d species, got %zu", SCENE_SPECIES_MAX, json_array_size(v));
+	json_array_foreach(v, i, o) {
+		char sub[PATHLEN / 2];
+		snprintf(sub, sizeof sub, "%s[%zu]", path, i);
+		scene_species_t *q = &s->species[i];
+		*q = (scene_species_t){ .count = 0 };
+		int ret = walk(c, sub, o, q, &species_obj);
+		if (ret)
+			return ret;
+		if (!q->name[0])
+			snprintf(q->name, sizeof q->name, "%zu", i);
+		for (size_t k = 0; k < i; k++)
+			if (strcmp(s->species[k].name, q->name) == 0) {
+				char key[PATHLEN];
+				snprintf(key, sizeof key, "%s.name", sub);
+				return fail(c, key, "\"%s\" is the name of species %zu too (names must differ)", q->name, k);
+			}
+		s->n_species = (int)i + 1;
+	}
+	return 0;
+}
+
+/* A species named in collisions.restitution_pairs: its name or its index. */
+static int species_ref(ctx_t *c, const char *path, const json_t *v, int *out)
+{
+	const scene_t *s = c->s;
+	if (json_is_integer(v)) {
+		json_int_t k = json_integer_value(v);
+		if (k < 0 || k >= s->n_species)
+			return fail(c, path, "species index %lld is not in 0 .. %d", (long long)k, s->n_species - 1);
+		*out = (int)k;
+		return 0;
+	}
+	if (!json_is_string(v))
+		return fail(c, path, "must be a species name or index, got %s", type_name(v));
+	for (int k = 0; k < s->n_species; k++)
+		if (strcmp(s->species[k].name, json_string_value(v)) == 0) {
+			*out = k;
+			return 0;
+		}
+	return fail(c, path, "no species named %s in particles.species", describe(v).s);
+}
+
+/* collisions.restitution_pairs: [{"a": A, "b": B, "restitution": r}, ...],
+ * A and B species names or indices; each unordered pair at most once. */
+static int parse_pairs(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	(void)dst, (void)arg;
+	scene_t *s = c->s;
+	size_t i;
+	json_t *o;
+	if (s->n_species == 0)
+		return fail(c, path, "needs particles.species (restitution per pair of species)");
+	if (!json_is_array(v))
+		return fail(c, path, "must be an array of {\"a\", \"b\", \"restitution\"} objects, got %s", type_name(v));
+	json_array_foreach(v, i, o) {
+		char sub[PATHLEN / 2], key[PATHLEN];
+		snprintf(sub, sizeof sub, "%s[%zu]", path, i);
+		if (!json_is_object(o))
+			return fail(c, sub, "must be an object, got %s", type_name(o));
+		const char *k;
+		json_t *x;
+		json_object_foreach(o, k, x)
+			if (strcmp(k, "a") && strcmp(k, "b") && strcmp(k, "restitution")) {
+				join(key, sub, k);
+				return fail(c, key, "unknown key (known: a, b, restitution)");
+			}
+		static const char *const need[] = { "a", "b", "restitution" };
+		for (int q = 0; q < 3; q++)
+			if (!json_object_get(o, need[q])) {
+				join(key, sub, need[q]);
+				return fail(c, key, "required key missing");
+			}
+		int a, b, ret;
+		double r;
+		join(key, sub, "a");
+		if ((ret = species_ref(c, key, json_object_get(o, "a"), &a)))
+			return ret;
+		join(key, sub, "b");
+		if ((ret = species_ref(c, key, json_object_get(o, "b"), &b)))
+			return ret;
+		join(key, sub, "restitution");
+		if ((ret = get_number(c, key, json_object_get(o, "restitution"), &R_UNIT, &r)))
+			return ret;
+		if (!isnan(s->restitution_pair[a][b]))
+			return fail(c, sub, "the pair (%s, %s) is given twice", s->species[a].name, s->species[b].name);
+		s->restitution_pair[a][b] = s->restitution_pair[b][a] = r;
+	}
+	return 0;
+}
+
+/* Observables and features a mixture does not have yet: refused by name. */
+static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
+{
+	if (s->n_species == 0)
+		return 0;
+	for (int a = 0; a < s->n_species; a++)
+		for (int b = 0; b < s->n_species; b++)
+			if (isnan(s->restitution_pair[a][b]))
+				s->restitution_pair[a][b] = s->restitution;
+	if (s->n_species == 1)
+		s->restitution = s->restitution_pair[0][0];   /* the one-species scene */
+	if (!scene_has_species(s))
+		return 0;
+	const char *what = s->n_species > 1 ? "more than one particle species" : "polydisperse particles";
+	if (s->method != SCENE_METHOD_ED)
+		return fail(c, "particles.species", "method \"%s\" simulates one species of one radius only; use method "
+			    "\"ed\" for %s", method_names[s->method], what);
+	json_t *col = json_object_get(v, "collisions");
+	if (json_object_get(col, "rough"))
+		return fail(c, "collisions.rough", "rough particles: not supported yet with %s (particles.species)", what);
+	json_t *ini = json_object_get(json_object_get(v, "particles"), "initial");
+	static const char *const inits[] = { "from", "region" };
+	for (size_t k = 0; k < sizeof inits / sizeof inits[0]; k++)
+		if (json_object_get(ini, inits[k])) {
+			char sub[PATHLEN];
+			snprintf(sub, sizeof sub, "particles.initial.%s", inits[k]);
+			return fail(c, sub, "not with %s (particles.species) yet", what);
+		}
+	if (s->replicas > 1)
+		return fail(c, "run.replicas", "ensembles with %s (particles.species) are not supported yet", what);
+	static const struct { unsigned bit; const char *name; } obs[] = {
+		{ SCENE_OBS_CLUSTERS, "clusters" }, { SCENE_OBS_VDIST, "velocity_distribution" },
+		{ SCENE_OBS_GOFR, "pair_correlation" }, { SCENE_OBS_VCORR, "velocity_correlations" },
+		{ SCENE_OBS_MSD, "mean_square_displacement" }, { SCENE_OBS_IMPACT, "impact_parameter" },
+		{ SCENE_OBS_FIELDS, "fields" },
+	};
+	for (size_t k = 0; k < sizeof obs / sizeof obs[0]; k++)
+		if (s->observables & obs[k].bit)
+			return fail(c, "output.observables", "\"%s\" is defined for one species of one radius only, not for "
+				    "%s (particles.species)", obs[k].name, what);
+	if (s->tc == 0)
+		for (int a = 0; a < s->n_species; a++)
+			for (int b = a; b < s->n_species; b++)
+				if (s->restitution_pair[a][b] == 0)
+					return fail(c, "collisions.restitution_pairs", "0 for (%s, %s) leads to inelastic collapse "
+						    "unless collisions.tc > 0; set collisions.tc", s->species[a].name,
+						    s->species[b].name);
 	return 0;
 }
 
@@ -694,6 +947,9 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 			    "use more particles or a lower volume_fraction", s->box[i], num(4 * s->radius).s);
 	}
 
+	int sret = check_species_scene(c, v, s);
+	if (sret)
+		return sret;
 	/* Perfectly inelastic hard spheres collapse in finite time (infinitely many
 	 * collisions); the TC model makes close repeat collisions elastic. */
 	if (s->restitution == 0 && s->tc == 0)
@@ -1261,9 +1517,10 @@ static const struct object initial_obj = {
 
 static const struct object particles_obj = {
 	.fields = (const struct field[]){
-		{ "count", parse_integer, offsetof(scene_t, count), &R_COUNT, true },
+		{ "count", parse_integer, offsetof(scene_t, count), &R_COUNT, false },
 		{ "radius", parse_number, offsetof(scene_t, radius), &R_POS, false },
 		{ "mass", parse_number, offsetof(scene_t, mass), &R_POS, false },
+		{ "species", parse_species, 0, NULL, false },
 		{ "volume_fraction", parse_number, offsetof(scene_t, volume_fraction), &R_POS, false },
 		{ "box", parse_box, offsetof(scene_t, box), NULL, false },
 		{ "initial", parse_object, 0, &initial_obj, false },
@@ -1301,6 +1558,7 @@ static const struct object collisions_obj = {
 		{ "restitution", parse_number, offsetof(scene_t, restitution), &R_UNIT, false },
 		{ "tc", parse_number, offsetof(scene_t, tc), &R_NONNEG, false },
 		{ "rough", parse_object, 0, &rough_obj, false },
+		{ "restitution_pairs", parse_pairs, 0, NULL, false },
 		{ .name = NULL },
 	},
 };
@@ -1638,6 +1896,9 @@ int scene_parse(const char *json, size_t len, scene_t *out, char *err, size_t er
 		for (int k = 0; k < 2; k++)
 			s.boundary[a].wall[k] = (scene_wall_t){ .restitution = 1, .accommodation = 1,
 			                                        .tangential_restitution = 1, .coverage = -1 };
+	for (int a = 0; a < SCENE_SPECIES_MAX; a++)
+		for (int b = 0; b < SCENE_SPECIES_MAX; b++)
+			s.restitution_pair[a][b] = NAN;
 	ctx_t c = { &s, err, errlen };
 	json_error_t jerr;
 
@@ -1706,10 +1967,50 @@ double scene_box_volume(const scene_t *s)
 	return s->box[0] * s->box[1] * (s->dim == 3 ? s->box[2] : 1);
 }
 
+int scene_has_species(const scene_t *s)
+{
+	for (int k = 0; k < s->n_species; k++)
+		if (s->species[k].radius_hi > 0)
+			return 1;
+	return s->n_species > 1;
+}
+
+void scene_species_radii(const scene_t *s, double *r)
+{
+	rng_t rng;
+	rng_init(&rng, s->seed, s->stream | (1ull << 60));
+	uint64_t i = 0;
+	for (int k = 0; k < s->n_species; k++) {
+		const scene_species_t *q = &s->species[k];
+		for (uint64_t j = 0; j < q->count; j++, i++)
+			r[i] = q->radius_hi > 0 ? q->radius_lo + (q->radius_hi - q->radius_lo) * rng_uniform(&rng) : q->radius;
+	}
+}
+
+static double ball_volume(int dim, double r)
+{
+	return dim == 3 ? 4.0 / 3.0 * PI * r * r * r : PI * r * r;
+}
+
+/* Mean particle volume of a species: of its radius, or the expectation over
+ * radii uniform in [lo, hi]: E[r^D] = (hi^(D+1) - lo^(D+1)) / ((D+1)(hi - lo)). */
+static double species_volume(int dim, const scene_species_t *q)
+{
+	if (!(q->radius_hi > 0))
+		return ball_volume(dim, q->radius);
+	const double lo = q->radius_lo, hi = q->radius_hi;
+	const double erd = (pow(hi, dim + 1) - pow(lo, dim + 1)) / ((dim + 1) * (hi - lo));
+	return ball_volume(dim, 1.0) * erd;
+}
+
 double scene_particle_volume(const scene_t *s)
 {
-	double r = s->radius;
-	return s->dim == 3 ? 4.0 / 3.0 * PI * r * r * r : PI * r * r;
+	if (s->n_species == 0)
+		return ball_volume(s->dim, s->radius);
+	double v = 0.0;
+	for (int k = 0; k < s->n_species; k++)
+		v += (double)s->species[k].count * species_volume(s->dim, &s->species[k]);
+	return v / (double)s->count;
 }
 
 const char *scene_strerror(int code)

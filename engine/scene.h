@@ -130,6 +130,20 @@ typedef struct {
 	double value;        /* time, collisions per particle (2C/N), or wall-clock seconds */
 } scene_when_t;
 
+/* Particle species (particles.species; method ed only beyond one): a scene
+ * without the key has one species from particles.count/radius/mass. */
+#define SCENE_SPECIES_MAX 16
+#define SCENE_NAME_MAX 32
+typedef struct {
+	uint64_t count;                /* >= 1 */
+	double radius, mass;           /* > 0; radius: the largest (radius_hi) when polydisperse */
+	/* polydisperse (radius_range): radii uniform in [radius_lo, radius_hi],
+	 * drawn per particle from the seed (scene_species_radii()); 0, 0 when
+	 * all particles of the species have radius */
+	double radius_lo, radius_hi;
+	char name[SCENE_NAME_MAX];     /* as given, or its index ("0", "1", ...) */
+} scene_species_t;
+
 typedef struct scene {
 	scene_method_t method;
 	int dim;                       /* 2 or 3 */
@@ -138,6 +152,13 @@ typedef struct scene {
 	uint64_t count;                /* N >= 2 */
 	double radius;                 /* > 0, default 0.5 */
 	double mass;                   /* > 0, default 1 */
+	/* particles.species: n_species = 0 without the key (one species:
+	 * count, radius, mass above). With it, count is the sum of the species'
+	 * counts, radius the largest radius and mass the mean mass (what
+	 * species-blind code sees); particles 0 .. count_0 - 1 are species 0,
+	 * the next count_1 species 1, and so on (scene order). */
+	int n_species;
+	scene_species_t species[SCENE_SPECIES_MAX];
 	double box[3];                 /* edge lengths; derived from volume_fraction if not given */
 	double volume_fraction;        /* always filled (derived from box if box given) */
 	scene_positions_t positions;   /* default lattice */
@@ -167,6 +188,10 @@ typedef struct scene {
 	/* collisions */
 	double restitution;            /* 0..1, default 1 */
 	double tc;                     /* TC-model time >= 0, default 0 = off */
+	/* collisions.restitution_pairs: normal restitution of each pair of
+	 * species (symmetric; pairs not listed: restitution). Filled for
+	 * n_species > 0 only. */
+	double restitution_pair[SCENE_SPECIES_MAX][SCENE_SPECIES_MAX];
 	/* rough particles (collisions.rough; method ed only): spins, moment of
 	 * inertia I = rough_q m radius^2, tangential restitution beta (g_t' =
 	 * -beta g_t) or Walton's rule (rough_mu >= 0: Coulomb sliding with
@@ -264,7 +289,17 @@ int scene_has_obstacles(const scene_t *s);
 int scene_has_open_walls(const scene_t *s);
 int scene_has_gravity(const scene_t *s);
 
-/* Volume of the box and of one particle (disk area in 2D). */
+/* A mixture: more than one particle species, or polydisperse radii
+ * (particles.species[k].radius_range): the engine's species path. */
+int scene_has_species(const scene_t *s);
+/* The radius of every particle, in scene order (count doubles): each
+ * species' radius, or for a polydisperse species uniform draws in its
+ * radius_range from the scene's seed and stream (a stream of their own:
+ * the same radii for every reader of the scene). Pure. */
+void scene_species_radii(const scene_t *s, double *r);
+
+/* Volume of the box and of one particle (disk area in 2D; with species the
+ * mean over the particles). */
 double scene_box_volume(const scene_t *s);
 double scene_particle_volume(const scene_t *s);
 

@@ -40,7 +40,18 @@ ok $([ "$(field "$ja" 'd["progress_records"]["received"] > d["progress_records"]
 ok $([ "$(field "$ja" 'd["progress_records"]["stored"] <= 50 + 20 * (d["updated_at"] - d["started_at"]) + 20')" = True ]; echo $?) \
 	"stored records respect progress_rate and progress_burst"
 
-# Cancel lands within a second although the job never stops writing.
+# Cancel lands within a second although the job never stops writing. Under --enable-sanitizers the engine's
+# own exit takes longer (LeakSanitizer scans its heap at exit, ~1.5 s here): that time, measured on the same
+# scene run directly and stopped the same way, is added to the second, so the bound stays on the daemon's delay.
+allow=1.0
+if grep -q __asan_init "$GRANULARD" 2>/dev/null; then
+	printf '%s\n' "$CHATTY" >"$tmp/chatty.json"
+	"$ENGINE" run "$tmp/chatty.json" >"$tmp/direct.out" 2>/dev/null &
+	ep=$!
+	i=0; while [ ! -s "$tmp/direct.out" ] && [ $i -lt 100 ]; do sleep 0.1; i=$((i + 1)); done
+	e0=$(now); kill -TERM $ep; wait $ep; e1=$(now)
+	allow=$(/usr/bin/python3 -c 'import sys; print("%.2f" % (1.0 + float(sys.argv[2]) - float(sys.argv[1])))' "$e0" "$e1")
+fi
 t0=$(now)
 post "/api/v1/jobs/$a/cancel" >/dev/null
 wait_state "$a" cancelled 10
@@ -48,7 +59,7 @@ ok $? "the chatty job is cancelled"
 # The latency is the daemon's own record (finished_at, wall clock of this machine) less the time just before
 # the request: the test's polling (a curl and a python3 per 0.1 s turn) is not the daemon's delay.
 t1=$(field "$(api GET "/api/v1/jobs/$a")" 'd["finished_at"]')
-ok $(lt "$(elapsed "$t0" "$t1")" 1.0; echo $?) "cancel of the chatty job took $(elapsed "$t0" "$t1") s (< 1 s)"
+ok $(lt "$(elapsed "$t0" "$t1")" "$allow"; echo $?) "cancel of the chatty job took $(elapsed "$t0" "$t1") s (< $allow s)"
 
 # A chatty job that ends is recorded as it ended: succeeded, with its summary and its last record stored.
 c=$(field "$(post /api/v1/jobs -d "$CHATTY_END")" 'd["id"]')

@@ -36,7 +36,9 @@ api() {
 }
 post() { p=$1; shift; api POST "$p" -H "Authorization: Bearer $TOKEN" -H 'Content-Type: application/json' "$@"; }
 # jq-like field access with python: field JSON-TEXT EXPR
-field() { /usr/bin/python3 -c 'import json,sys; d=json.loads(sys.argv[1]); print(eval(sys.argv[2]))' "$1" "$2" 2>/dev/null; }
+# The JSON goes through a pipe from the shell's printf (a builtin), not argv: a long job's progress series
+# exceeds the kernel's 128 KiB limit on one argument.
+field() { printf '%s' "$1" | /usr/bin/python3 -c 'import json,sys; d=json.load(sys.stdin); print(eval(sys.argv[1]))' "$2" 2>/dev/null; }
 # wait_state ID STATE [seconds]: poll until the job reaches STATE.
 wait_state() {
 	i=0; lim=$(( ${3:-60} * 10 ))

@@ -56,7 +56,7 @@ for p in prog:
         assert sum(c["histogram"]) == c["count"]
 times = [p["time"] for p in prog]
 assert times == sorted(times) and len(prog) >= 2
-n = scene["particles"]["count"]
+n = scene["particles"].get("count") or sum(k["count"] for k in scene["particles"]["species"])   # mixtures: the total
 for p in prog:
     if "replicas" in p:   # means over replicas; collisions are totals
         assert p["replicas"] == scene["run"]["replicas"] and "temperature_se" in p

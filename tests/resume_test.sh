@@ -134,6 +134,36 @@ cat >"$tmp/2d-rough-noise.json" <<'JSON'
  "output":{"every":{"collisions_per_particle":10},"observables":["temperature","rotational_temperature"],
    "snapshots":{"every":{"collisions_per_particle":40}},"checkpoint":{"every":{"time":3}}}}
 JSON
+# Mixtures (particles.species): the species kernels; species rebuilt from
+# the scene indices on restore. Dense 2D (neighbour lists), dilute 3D with TC.
+cat >"$tmp/2d-mixture-dense.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"species":[{"name":"a","count":800,"radius":0.5,"mass":1},
+   {"name":"b","count":800,"radius":0.7,"mass":2}],"volume_fraction":0.47,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9,"tc":0.0001,"restitution_pairs":[{"a":"a","b":"b","restitution":0.8}]},
+ "run":{"seed":45,"until":{"collisions_per_particle":100}},
+ "output":{"every":{"collisions_per_particle":10},"observables":["kinetic_energy","temperature","pressure"],
+   "snapshots":{"every":{"collisions_per_particle":40}},"checkpoint":{"every":{"time":3}}}}
+JSON
+cat >"$tmp/3d-mixture-dilute.json" <<'JSON'
+{"method":"ed","dimensions":3,"particles":{"species":[{"count":1000,"radius":0.5,"mass":1},
+   {"count":300,"radius":1,"mass":8},{"count":200,"radius":0.3,"mass":0.2}],"volume_fraction":0.1,
+   "initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9,"tc":0.001},"driving":{"type":"stochastic","temperature":1,"interval":2,"grid":2,"average_time":4},
+ "run":{"seed":46,"until":{"time":12}},
+ "output":{"every":{"time":0.5},"observables":["kinetic_energy","temperature","momentum"],
+   "snapshots":{"every":{"time":2}},"checkpoint":{"every":{"time":1.3}}}}
+JSON
+cat >"$tmp/2d-mixture-walls.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"species":[{"count":600,"radius":0.4,"mass":1},
+   {"count":300,"radius_range":[0.6,1],"mass":4}],"box":[80,50],"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9,"tc":0.0001},
+ "boundaries":{"y":{"type":"walls","lower":{"type":"thermal","temperature":1,"accommodation":0.5},
+   "upper":{"type":"vibrating","amplitude":0.3,"frequency":0.7}},"x":{"type":"walls","lower":{"type":"open"},"upper":{"type":"specular"}}},
+ "obstacles":[{"type":"no_slip","center":[40,25],"radius":5,"temperature":0.5}],"gravity":[0,-0.02],
+ "run":{"seed":47,"until":{"time":30}},
+ "output":{"every":{"time":1.5},"observables":["kinetic_energy","temperature","wall_force","obstacle_force","center_of_mass_height","potential_energy","outflow"],
+   "snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":7}}}}
+JSON
 # Long enough to be killed: wall-clock checkpoints, ~2-3 s of work.
 cat >"$tmp/3d-kill.json" <<'JSON'
 {"method":"ed","dimensions":3,"particles":{"count":3000,"volume_fraction":0.4},
@@ -230,7 +260,8 @@ ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 
 # (a) checkpoint at simulated time T, resume: identical to the uninterrupted run.
 for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open 3d-rough-drive \
-	2d-rough-noise 2d-hsmc-walls 2d-dsmc-vib 2d-hsmc-open 3d-dsmc-pipe; do
+	2d-rough-noise 2d-hsmc-walls 2d-dsmc-vib 2d-hsmc-open 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute \
+	2d-mixture-walls; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

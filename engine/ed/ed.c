@@ -205,6 +205,28 @@ struct ed {
 	double drv_next[2];       /* state: absolute times of the next kick and of the next mean update */
 	uint64_t drv_kicks[1];    /* state: kicks so far */
 	rng_t drng;               /* state: the driving's random stream */
+	/* Mixtures (SPEC kernels; scene_has_species(): two or more species or
+	 * polydisperse radii; periodic smooth scenes): spc[i] the species and
+	 * prad[i] the radius of particle i in storage order (permuted with the
+	 * records by reorder(), rebuilt from id on restore: not state fields of
+	 * their own); species k holds the scene indices [first[k], first[k + 1]).
+	 * mixture = 0, nsp = 1 and spc, prad, mix NULL for one species. */
+	int nsp, mixture;
+	uint8_t *spc;
+	double *prad;
+	struct ed_mix *mix;
+};
+
+/* Per ordered pair of species q = a * nsp + b: restitution, the share
+ * m_b / (m_a + m_b) of the velocity change that falls on a, the reduced
+ * mass; and every particle's radius in scene order (scene_species_radii()). */
+struct ed_mix {
+	uint32_t first[SCENE_SPECIES_MAX + 1];
+	double m[SCENE_SPECIES_MAX];
+	double e[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX], w[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX];
+	double mu[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX];
+	double *rscene;
+	double mtot, mgone;       /* total mass; mass of the particles that left (open walls; rebuilt on restore) */
 };
 
 static inline bool hless(const hent_t *a, const hent_t *b)
@@ -494,7 +516,7 @@ static bool collapse_check(struct ed *ed, double dt)
  * carried by a vibrating one) is raised to vmin: then two hits of one
  * particle on one wall are at least tc apart and no bed collapses
  * (docs/engine.md, "Walls and gravity"). */
-static void wall_rule(struct ed *ed, int w, double *v, double t, int elastic)
+static void wall_rule(struct ed *ed, int w, double *v, double t, int elastic, double svs)
 {
 	const wall_t *W = &ed->wall[w];
 	const int a = w >> 1, dim = ed->dim;
@@ -514,10 +536,11 @@ static void wall_rule(struct ed *ed, int w, double *v, double t, int elastic)
 			if (rng_uniform(&ed->wrng) < W->acc) {
 				/* diffuse: the flux-weighted Maxwellian of the wall, moving
 				 * with it (Rayleigh normal, Gaussian tangential about u) */
-				vn = W->sv * sqrt(-2.0 * log(1.0 - rng_uniform(&ed->wrng)));
+				const double sv = W->sv * svs;
+				vn = sv * sqrt(-2.0 * log(1.0 - rng_uniform(&ed->wrng)));
 				for (int k = 0; k < dim; k++)
 					if (k != a)
-						v[k] = W->u[k] + W->sv * rng_gauss(&ed->wrng);
+						v[k] = W->u[k] + sv * rng_gauss(&ed->wrng);
 			} else {
 				vn = -r * vn;
 			}
@@ -558,7 +581,7 @@ static void walls_rebase(struct ed *ed, double t)
  * obstacle's rule (scene.h); elastic: the TC model makes the restitution 1.
  * Like walls, a rebound slower than vmin (TC scenes with gravity: a
  * particle resting on an obstacle) is raised to it. */
-static void obst_rule(struct ed *ed, int k, const double *nrm, double *v, int elastic)
+static void obst_rule(struct ed *ed, int k, const double *nrm, double *v, int elastic, double svs)
 {
 	const obst_t *O = &ed->obst[k];
 	const int dim = ed->dim;
@@ -577,10 +600,11 @@ static void obst_rule(struct ed *ed, int k, const double *nrm, double *v, int el
 				/* diffuse: flux-weighted Maxwellian of the obstacle at rest
 				 * (Rayleigh normal; an isotropic Gaussian projected on the
 				 * tangent plane is the tangential Gaussian) */
-				vn = O->sv * sqrt(-2.0 * log(1.0 - rng_uniform(&ed->wrng)));
+				const double sv = O->sv * svs;
+				vn = sv * sqrt(-2.0 * log(1.0 - rng_uniform(&ed->wrng)));
 				double gn = 0.0, gs[3] = {0.0, 0.0, 0.0};
 				for (int a = 0; a < dim; a++) {
-					gs[a] = O->sv * rng_gauss(&ed->wrng);
+					gs[a] = sv * rng_gauss(&ed->wrng);
 					gn += gs[a] * nrm[a];
 				}
 				for (int a = 0; a < dim; a++)
@@ -631,6 +655,7 @@ static int obst_clear(const struct ed *ed, const double *r)
 /* The kernels, once per dimension and variant: periodic homogeneous
  * (_2d, _3d: the original engine, untouched by the features below), walls
  * (_2w, _3w) and gravity with or without walls (_2g, _3g). */
+#define SPEC 0
 #define ROUGH 0
 #define WALLS 0
 #define GRAV 0
@@ -749,6 +774,74 @@ static int obst_clear(const struct ed *ed, const double *r)
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC pop_options
 #endif
+#undef SPEC
+
+/* Species (mixtures): the periodic and walls variants with the particles'
+ * own radii and the pair tables of restitution and masses (_2ds, _3ds
+ * periodic; _2ws, _3ws walls and obstacles, no gravity). Chosen at load for
+ * mixtures; one species keeps the kernels above.
+ * Without heuristic inlining like the rough ones, for the same reason. */
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC push_options
+#pragma GCC optimize ("no-inline-functions")
+#endif
+#define SPEC 1
+#define ROUGH 0
+#define WALLS 0
+#define GRAV 0
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2ds
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3ds
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#undef WALLS
+#define WALLS 1
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2ws
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3ws
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#undef GRAV
+#define GRAV 1
+#define D 2
+#define P_T p2_t
+#define FN(x) x##_2gs
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#define D 3
+#define P_T p3_t
+#define FN(x) x##_3gs
+#include "ed_impl.h"
+#undef D
+#undef P_T
+#undef FN
+#undef WALLS
+#undef GRAV
+#undef ROUGH
+#undef SPEC
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC pop_options
+#endif
 
 /* A variant's entry points, chosen once in ed_alloc(): nothing per event. */
 typedef struct ed_ops {
@@ -785,6 +878,12 @@ static const ed_ops_t ed_ops[2][3] = {
 	  { OPS_COMMON(2g), .observe = observe_2g, .energy_to = energy_to_2g } },
 	{ { OPS_COMMON(3d), OPS_NL(3d) }, { OPS_COMMON(3w), .observe = observe_3w },
 	  { OPS_COMMON(3g), .observe = observe_3g, .energy_to = energy_to_3g } },
+};
+static const ed_ops_t ed_ops_species[2][3] = {
+	{ { OPS_COMMON(2ds), OPS_NL(2ds) }, { OPS_COMMON(2ws), .observe = observe_2ws },
+	  { OPS_COMMON(2gs), .observe = observe_2gs, .energy_to = energy_to_2gs } },
+	{ { OPS_COMMON(3ds), OPS_NL(3ds) }, { OPS_COMMON(3ws), .observe = observe_3ws },
+	  { OPS_COMMON(3gs), .observe = observe_3gs, .energy_to = energy_to_3gs } },
 };
 static const ed_ops_t ed_ops_rough[2][3] = {
 	{ { OPS_COMMON(2dr), OPS_NL(2dr) }, { OPS_COMMON(2wr), .observe = observe_2wr },
@@ -1007,6 +1106,18 @@ static int place_lattice(struct ed *ed, rng_t *rng, char *msg, size_t msglen)
 		lattice_site(ed, Lp, b, clear ? clear[j] : j, (double *)((char *)ed->p + i * stride));
 	}
 	free(clear);
+	if (ed->mixture)   /* species are blocks of indices: sites shuffled among particles so they mix */
+		for (uint32_t i = ed->n - 1; i > 0; i--) {
+			uint32_t j = (uint32_t)(rng_uniform(rng) * (i + 1.0));
+			if (j > i)
+				j = i;
+			double *ri = (double *)((char *)ed->p + i * stride), *rj = (double *)((char *)ed->p + j * stride);
+			for (int a = 0; a < ed->dim; a++) {
+				double x = ri[a];
+				ri[a] = rj[a];
+				rj[a] = x;
+			}
+		}
 	for (uint32_t i = 0; i < ed->n; i++)
 		DISPATCH(ed, place, ed, i);
 	return ED_OK;
@@ -1104,6 +1215,66 @@ static void init_velocities(struct ed *ed, double temp, rng_t *rng)
 		double *v = (double *)((char *)ed->p + i * stride + voff);
 		for (int a = 0; a < ed->dim; a++)
 			v[a] *= scale;
+	}
+}
+
+/* Mixtures: Gaussian velocities of variance T / m_s per component for
+ * species s, the centre-of-mass velocity removed (total momentum zero),
+ * scaled to exactly T = sum m v^2 / (D N) over all particles (each
+ * species' own temperature is T up to sampling noise). */
+static void init_velocities_species(struct ed *ed, double temp, rng_t *rng)
+{
+	size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
+	size_t voff = ed->dim == 2 ? offsetof(p2_t, v) : offsetof(p3_t, v);
+	double mom[3] = {0, 0, 0}, mtot = 0.0, s2 = 0.0;
+	for (uint32_t i = 0; i < ed->n; i++) {
+		double *v = (double *)((char *)ed->p + i * stride + voff), m = ed->mix->m[ed->spc[i]], sd = 1.0 / sqrt(m);
+		for (int a = 0; a < ed->dim; a++) {
+			v[a] = sd * rng_gauss(rng);
+			mom[a] += m * v[a];
+		}
+		mtot += m;
+	}
+	for (uint32_t i = 0; i < ed->n; i++) {
+		double *v = (double *)((char *)ed->p + i * stride + voff), m = ed->mix->m[ed->spc[i]];
+		for (int a = 0; a < ed->dim; a++) {
+			v[a] -= mom[a] / mtot;
+			s2 += m * v[a] * v[a];
+		}
+	}
+	double scale = s2 > 0.0 ? sqrt(temp * ed->dim * ed->n / s2) : 0.0;
+	for (uint32_t i = 0; i < ed->n; i++) {
+		double *v = (double *)((char *)ed->p + i * stride + voff);
+		for (int a = 0; a < ed->dim; a++)
+			v[a] *= scale;
+	}
+}
+
+/* Kinetic energy per species now (0 fields for one species). */
+static void species_ekin(const struct ed *ed, ed_sample_t *out)
+{
+	out->n_species = ed->mixture && ed->nsp > 1 ? ed->nsp : 0;
+	if (!out->n_species)
+		return;
+	size_t stride = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
+	size_t voff = ed->dim == 2 ? offsetof(p2_t, v) : offsetof(p3_t, v);
+	double s2[SCENE_SPECIES_MAX] = {0};
+	uint64_t cnt[SCENE_SPECIES_MAX] = {0};
+	for (uint32_t i = 0; i < ed->n; i++) {
+		if (ed->gone && ed->gone[i])   /* left through an open wall: not counted */
+			continue;
+		const double *v = (const double *)((const char *)ed->p + i * stride + voff);
+		const double dt = ed->t - ((const double *)((const char *)ed->p + i * stride +
+		                  (ed->dim == 2 ? offsetof(p2_t, t) : offsetof(p3_t, t))))[0];
+		for (int a = 0; a < ed->dim; a++) {
+			const double va = v[a] + ed->g[a] * dt;   /* with gravity: the velocity now (g = 0 otherwise) */
+			s2[ed->spc[i]] += va * va;
+		}
+		cnt[ed->spc[i]]++;
+	}
+	for (int k = 0; k < ed->nsp; k++) {
+		out->species_kinetic_energy[k] = 0.5 * ed->mix->m[k] * s2[k];
+		out->species_count[k] = cnt[k];   /* present (open walls: fewer than the species' count) */
 	}
 }
 
@@ -1390,7 +1561,7 @@ static void setup_wall_cells(struct ed *ed)
  * engine of ed's geometry with neighbour lists (nl) and TC times (tc);
  * absent arrays are 0. */
 enum { A_P, A_EV, A_HEAP, A_CN, A_CALHEAD, A_HEAD, A_OCC, A_NEXT, A_ID, A_SCRATCH_IDX, A_SCRATCH_CELL,
-       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_OCELL, A_GONE, A_SPIN, A_DMEAN, A_DSUM, A_DPOS, A_DVEL, A_COUNT };
+       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_OCELL, A_GONE, A_SPIN, A_DMEAN, A_DSUM, A_DPOS, A_DVEL, A_SPC, A_MIX, A_PRAD, A_RSCENE, A_COUNT };
 static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 {
 	const size_t n = ed->n;
@@ -1415,6 +1586,9 @@ static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 	b[A_DMEAN] = ed->drive ? ed->drv_bins * ed->dim * sizeof(double) : 0;
 	b[A_DSUM] = ed->drive ? ed->drv_bins * (ed->dim + 1) * sizeof(double) : 0;
 	b[A_DPOS] = b[A_DVEL] = ed->drive && ed->drv_bins > 1 ? n * ed->dim * sizeof(double) : 0;
+	b[A_SPC] = ed->mixture ? n : 0;
+	b[A_MIX] = ed->mixture ? sizeof(struct ed_mix) : 0;
+	b[A_PRAD] = b[A_RSCENE] = ed->mixture ? n * sizeof(double) : 0;
 }
 
 /* Cells cost memory even when empty (~9 bytes each): a grid finer than this
@@ -1423,6 +1597,42 @@ static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
  * start. A million cells (9 MB) are always allowed. */
 #define ED_CELLS_FREE 1048576.0
 static int too_many_cells(size_t ncells, uint32_t n) { return (double)ncells > 64.0 * n + ED_CELLS_FREE; }
+
+/* Pair tables of a mixture (struct ed, "Species"). ed->sigma is the
+ * largest diameter: cells, neighbour-list radii and lattice spacing are set
+ * by it, so every pair's contact lies within one cell layer. */
+static void setup_species(struct ed *ed, const scene_t *s)
+{
+	const int ns = s->n_species;
+	ed->mix->first[0] = 0;
+	for (int a = 0; a < ns; a++) {
+		ed->mix->m[a] = s->species[a].mass;
+		ed->mix->mtot += (double)s->species[a].count * s->species[a].mass;
+		ed->mix->first[a + 1] = ed->mix->first[a] + (uint32_t)s->species[a].count;
+	}
+	for (int a = 0; a < ns; a++)
+		for (int b = 0; b < ns; b++) {
+			const int q = a * ns + b;
+			const double ma = s->species[a].mass, mb = s->species[b].mass;
+			struct ed_mix *x = ed->mix;
+			x->e[q] = s->restitution_pair[a][b];
+			x->w[q] = mb / (ma + mb);
+			x->mu[q] = ma * mb / (ma + mb);
+		}
+}
+
+/* spc and prad from the scene indices (id): species are blocks of scene
+ * indices, radii drawn in scene order. */
+static void species_from_id(struct ed *ed)
+{
+	for (uint32_t i = 0; i < ed->n; i++) {
+		uint8_t k = 0;
+		while (k + 1 < ed->nsp && ed->id[i] >= ed->mix->first[k + 1])
+			k++;
+		ed->spc[i] = k;
+		ed->prad[i] = ed->mix->rscene[ed->id[i]];
+	}
+}
 
 /* Constants, mode and grid of scene s in ed (no arrays): the checks a
  * scene must pass before allocating, shared by ed_alloc() and ed_plan().
@@ -1466,6 +1676,17 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 		}
 	}
 	ed->ops = ed->rough ? &ed_ops_rough[ed->dim - 2][ed->variant] : &ed_ops[ed->dim - 2][ed->variant];
+	ed->nsp = 1;
+	if (scene_has_species(s)) {
+		if (ed->rough) {
+			set_msg(msg, msglen, "particles.species: mixtures and polydisperse particles only for smooth "
+			        "particles%.0s%.0s", 0, 0);
+			return ED_EINVAL;
+		}
+		ed->nsp = s->n_species;   /* tables: setup_species() in ed_alloc() */
+		ed->mixture = 1;
+		ed->ops = &ed_ops_species[ed->dim - 2][ed->variant];
+	}
 	if (ed->rough) {
 		ed->rbeta = s->rough_beta;
 		ed->rmu = s->rough_mu;
@@ -1541,6 +1762,13 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 		goto fail;
 	if (ed->rough && !(ed->spin = big_alloc(b[A_SPIN], 1)))
 		goto fail;
+	if (ed->mixture) {
+		if (!(ed->spc = big_alloc(b[A_SPC], 0)) || !(ed->prad = big_alloc(b[A_PRAD], 0)) ||
+		    !(ed->mix = big_alloc(b[A_MIX], 1)) || !(ed->mix->rscene = big_alloc(b[A_RSCENE], 0)))
+			goto fail;
+		setup_species(ed, s);
+		scene_species_radii(s, ed->mix->rscene);
+	}
 	if (ed->drive && (!(ed->drv_mean = big_alloc(b[A_DMEAN], 1)) || !(ed->drv_sum = big_alloc(b[A_DSUM], 1))))
 		goto fail;
 	if (b[A_DPOS] && (!(ed->drv_pos = big_alloc(b[A_DPOS], 0)) || !(ed->drv_vel = big_alloc(b[A_DVEL], 0))))
@@ -1552,6 +1780,8 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 		goto fail;
 	for (uint32_t i = 0; i < ed->n; i++)
 		ed->id[i] = i;
+	if (ed->spc)
+		species_from_id(ed);
 	memset(ed->p, 0, ed->n * psz);
 	cells_clear(ed);
 	/* Rebase often enough to keep times small, rarely enough to cost nothing. */
@@ -1594,7 +1824,10 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 		if (rc != ED_OK)
 			goto fail;
 	}
-	if (!s->init_vel) {
+	if (!s->init_vel && ed->mixture) {
+		init_velocities_species(ed, s->temperature, &rng);
+		add_flow(ed, s);
+	} else if (!s->init_vel) {
 		init_velocities(ed, s->temperature, &rng);
 		add_flow(ed, s);
 	}
@@ -1651,6 +1884,11 @@ void ed_destroy(ed_t *ed)
 	free(ed->next);
 	free(ed->tlast);
 	free(ed->spin);
+	free(ed->spc);
+	free(ed->prad);
+	if (ed->mix)
+		free(ed->mix->rscene);
+	free(ed->mix);
 	free(ed->drv_mean);
 	free(ed->drv_sum);
 	free(ed->drv_pos);
@@ -1732,7 +1970,9 @@ static void drive_kick(struct ed *ed)
 	double r[3], v[3];
 	DISPATCH(ed, kick_get, ed, i, r, v);
 	if (ed->drive == SCENE_DRIVE_STOCHASTIC) {
-		const double *u = ed->drv_mean + drive_bin(ed, r) * D, s = sqrt(ed->drv_temp / ed->mass);
+		/* the particle's own mass (mixtures: its species'), so every species is driven towards T_th */
+		const double m = ed->mixture ? ed->mix->m[ed->spc[i]] : ed->mass;
+		const double *u = ed->drv_mean + drive_bin(ed, r) * D, s = sqrt(ed->drv_temp / m);
 		for (int a = 0; a < D; a++)
 			v[a] = u[a] + s * rng_gauss(&ed->drng);
 	} else {
@@ -1824,6 +2064,7 @@ void ed_sample(ed_t *ed, ed_sample_t *out)
 		ed->ops->energy_to(ed, ed->t);
 	out->kinetic_energy = DISPATCH(ed, ekin, ed, out->momentum);
 	out->rotational_energy = ed->rough ? ed_erot(ed) : NAN;
+	species_ekin(ed, out);
 	out->ekin_time_integral = ed->ekin_int + ed->ekin_cur * (ed->t - ed->t_mark);
 	out->virial = ed->virial;
 	sample_walls(ed, out);
@@ -1880,7 +2121,8 @@ static size_t held(const struct ed *ed, int nl, int tc)
 	       ed->n * (psz + sizeof(ev_t) + sizeof(hent_t) + sizeof(cnode_t) + 3 * sizeof(uint32_t) + per_nl +
 	                (tc ? sizeof(double) : 0) + (ed->open ? 1 : 0) + (ed->rough ? (ed->dim == 2 ? 1 : 3) * sizeof(double) : 0) +
 	                (ed->drive && ed->drv_bins > 1 ? 2 * ed->dim * sizeof(double) : 0)) +
-	       (ed->nobst ? ed->ncells * sizeof(uint16_t) : 0) + (ed->drive ? ed->drv_bins * (2 * ed->dim + 1) * sizeof(double) : 0);
+	       (ed->nobst ? ed->ncells * sizeof(uint16_t) : 0) + (ed->drive ? ed->drv_bins * (2 * ed->dim + 1) * sizeof(double) : 0) +
+	       (ed->mixture ? ed->n * (1 + 2 * sizeof(double)) + sizeof(struct ed_mix) : 0);
 }
 
 size_t ed_memory(const ed_t *ed) { return held(ed, ed->xn != NULL, ed->tlast != NULL); }
@@ -2312,6 +2554,16 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 		for (uint32_t i = 0; i < n; i++)
 			ed->n_gone += ed->gone[i];
 	}
+	if (!why && ed->gone && ed->mix) {   /* the mass that left (species from the scene indices) */
+		ed->mix->mgone = 0.0;
+		for (uint32_t i = 0; i < n; i++) {
+			uint32_t k = 0;
+			while (k + 1 < (uint32_t)ed->nsp && ed->id[i] >= ed->mix->first[k + 1])
+				k++;
+			if (ed->gone[i])
+				ed->mix->mgone += ed->mix->m[k];
+		}
+	}
 	if (!why && (!(ed->cal_w > 0.0) || !isfinite(ed->cal_iw = 1.0 / ed->cal_w)))
 		why = "bad calendar width";
 	if (!why && (ed->nl != 0 && !(ed->nl == 1 && ed->xn)))
@@ -2325,6 +2577,9 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 			snprintf(msg, msglen, "inconsistent engine state: %s", why);
 		return ED_EINVAL;
 	}
+	/* Species of each stored particle from its scene index (now a valid permutation). */
+	if (ed->spc)
+		species_from_id(ed);
 	/* The occupancy bitmap from the cell heads. */
 	memset(ed->occ, 0, (ed->ncells + 63) / 64 * sizeof(uint64_t));
 	for (size_t c = 0; c < ed->ncells; c++)
@@ -2351,6 +2606,7 @@ void ed_totals(const ed_t *ed, ed_sample_t *out)
 	out->elastic_by_tc = ed->tc_elastic;
 	out->kinetic_energy = DISPATCH(ed, ekin, ed, out->momentum);
 	out->rotational_energy = ed->rough ? ed_erot(ed) : NAN;
+	species_ekin(ed, out);
 	sample_walls(ed, out);
 }
 

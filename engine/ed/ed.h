@@ -130,6 +130,12 @@ typedef struct {
 	 * I = q m (sigma/2)^2, now; NAN for smooth particles. kinetic_energy
 	 * is the translational part. */
 	double rotational_energy;
+	/* Mixtures (particles.species, two or more): kinetic energy of each
+	 * species now (T_s = 2 E_s / (D N_s)) and its particle count;
+	 * n_species = 0 for one species. */
+	int n_species;
+	double species_kinetic_energy[SCENE_SPECIES_MAX];
+	uint64_t species_count[SCENE_SPECIES_MAX];
 } ed_sample_t;
 
 /* Fill *out and start a new interval. Does not change the dynamics. */

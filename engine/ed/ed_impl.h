@@ -8,7 +8,11 @@
  * declarations of ed.c. WALLS = GRAV = 0 is the periodic homogeneous engine;
  * the flags are compile-time, so it tests none of this per event. ROUGH
  * (rough particles: spins in ed->spin, the rough collision rule) is a
- * further flag on top of any of them.
+ * further flag on top of any of them. SPEC (mixtures: contact distance
+ * from the particles' radii ed->prad, restitution and masses from the pair
+ * tables by ed->spc; periodic smooth scenes only) replaces ed->sigma2, ed->e
+ * and ed->mass in predictions, collisions and energies; without it they are
+ * the one species' constants.
  */
 
 /* Flight of particle p to time t (lazy: only when the particle is touched). */
@@ -27,6 +31,28 @@ static inline void FN(advance)(const struct ed *ed, P_T *p, double t)
 		p->r[a] += p->v[a] * dt;
 #endif
 	p->t = t;
+}
+
+/* Radius and mass of particle i: its own with species (SPEC), else the
+ * one species' (compile-time: no test per event). */
+static inline double FN(rad)(const struct ed *ed, uint32_t i)
+{
+#if SPEC
+	return ed->prad[i];
+#else
+	(void)i;
+	return ed->radius;
+#endif
+}
+
+static inline double FN(mass)(const struct ed *ed, uint32_t i)
+{
+#if SPEC
+	return ed->mix->m[ed->spc[i]];
+#else
+	(void)i;
+	return ed->mass;
+#endif
 }
 
 static inline int32_t FN(cell_index)(const struct ed *ed, const int32_t *cc)
@@ -99,13 +125,13 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
 /* Time from now (particle i synchronised) to its contact with wall w, no
  * later than horizon (INFINITY if none before). Fixed walls: a quadratic
  * (linear without gravity); vibrating ones: walltime_vibrating(). */
-static inline double FN(wall_time)(const struct ed *ed, const P_T *p, int w, double horizon)
+static inline double FN(wall_time)(const struct ed *ed, const P_T *p, double rad, int w, double horizon)
 {
 	const wall_t *W = &ed->wall[w];
 	const int a = w >> 1;
 	const double s = (w & 1) ? -1.0 : 1.0;
 	const double gam = GRAV ? s * ed->g[a] : 0.0;
-	double d = s * (p->r[a] - W->rest) - ed->radius;
+	double d = s * (p->r[a] - W->rest) - rad;
 	if (W->A == 0.0)
 		return walltime_plane(d, s * p->v[a], gam);
 	const double th = W->ph + W->omega * p->t;
@@ -129,15 +155,27 @@ static inline void FN(obst_rel)(const struct ed *ed, const P_T *p, int k, double
 
 /* Time from now to particle p's contact with obstacle k, no later than
  * horizon with gravity (obstacle.h). */
-static inline double FN(obst_time)(const struct ed *ed, const P_T *p, int k, double horizon)
+static inline double FN(obst_time)(const struct ed *ed, const P_T *p, double S, int k, double horizon)
 {
 	double x[D];
 	FN(obst_rel)(ed, p, k, x);
 #if GRAV
-	return obstacle_time_grav(x, p->v, ed->g, D, ed->obst[k].S, horizon);
+	return obstacle_time_grav(x, p->v, ed->g, D, S, horizon);
 #else
 	(void)horizon;
-	return obstacle_time_free(x, p->v, D, ed->obst[k].S);
+	return obstacle_time_free(x, p->v, D, S);
+#endif
+}
+
+/* Contact distance of particle i from obstacle k's centre: the obstacle's
+ * radius plus the particle's (S holds it for the largest radius). */
+static inline double FN(obst_S)(const struct ed *ed, uint32_t i, int k)
+{
+#if SPEC
+	return ed->obst[k].S - ed->radius + ed->prad[i];
+#else
+	(void)i;
+	return ed->obst[k].S;
 #endif
 }
 
@@ -171,12 +209,12 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
 		if (ed->periodic[a])
 			continue;
 		if (e->cc[a] < ed->nzone[2 * a]) {
-			double dt = FN(wall_time)(ed, p, 2 * a, best);
+			double dt = FN(wall_time)(ed, p, FN(rad)(ed, i), 2 * a, best);
 			if (dt < best)
 				best = dt, code = ED_WALL0 + 2 * a;
 		}
 		if (e->cc[a] >= ed->nc[a] - ed->nzone[2 * a + 1]) {
-			double dt = FN(wall_time)(ed, p, 2 * a + 1, best);
+			double dt = FN(wall_time)(ed, p, FN(rad)(ed, i), 2 * a + 1, best);
 			if (dt < best)
 				best = dt, code = ED_WALL0 + 2 * a + 1;
 		}
@@ -184,7 +222,7 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
 	if (ed->ocell) {   /* NULL without obstacles */
 		for (unsigned m = ed->ocell[FN(cell_index)(ed, e->cc)]; m; m &= m - 1) {
 			const int k = __builtin_ctz(m);
-			double dt = FN(obst_time)(ed, p, k, best);
+			double dt = FN(obst_time)(ed, p, FN(obst_S)(ed, i, k), k, best);
 			if (dt < best)
 				best = dt, code = ED_OBST0 + k;
 		}
@@ -202,7 +240,7 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
  * of every scan (GCC's -O2 heuristics otherwise may not). */
 static inline __attribute__((always_inline)) void
 FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, const double *vi, double t, int minimg,
-             double *horizon, int32_t *found)
+             double rad_i, double *horizon, int32_t *found)
 {
 	double dtj = t - pj->t, dr[D], dv[D], b, r2;
 #if GRAV
@@ -232,7 +270,13 @@ FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, co
 	r2 = dr[0] * dr[0];
 	_Pragma("GCC unroll 3") for (int a = 1; a < D; a++)
 		r2 += dr[a] * dr[a];
+#if SPEC
+	const double sij = rad_i + ed->prad[j];   /* the pair's contact distance */
+	double c = r2 - sij * sij, dt;
+#else
+	(void)rad_i;
 	double c = r2 - ed->sigma2, dt;
+#endif
 	if (__builtin_expect(c <= 0.0, 0)) {
 		if (b >= 0.0)
 			return;      /* separating (or itself): no collision */
@@ -274,7 +318,7 @@ FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, co
  * image while receding in the other). Try every image on those axes; the
  * raw difference lies in (-L, L), so shifts of -L, 0, +L cover them all. */
 static void FN(try_images)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri,
-                           const double *vi, double t, double *horizon, int32_t *found)
+                           const double *vi, double t, double rad_i, double *horizon, int32_t *found)
 {
 	int k[3] = {0, 0, 0}, lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
 	FOR_AXES(a)
@@ -286,7 +330,7 @@ static void FN(try_images)(const struct ed *ed, const P_T *pj, int32_t j, const 
 				double rk[D];
 				FOR_AXES(a)
 					rk[a] = ri[a] + k[a] * ed->L[a];
-				FN(try_pair)(ed, pj, j, rk, vi, t, 0, horizon, found);
+				FN(try_pair)(ed, pj, j, rk, vi, t, 0, rad_i, horizon, found);
 			}
 }
 
@@ -361,6 +405,7 @@ FN(scan_impl)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[
 	}
 	double horizon = e->t_coll - t;
 	int32_t found = -1;
+	const double rad_i = SPEC ? ed->prad[i] : 0.0;
 	/* First the non-empty cells, with their first particles' records
 	 * requested at once (in a large system each is a cache miss, and the
 	 * tests below would let only one or two be under way at a time); then
@@ -390,9 +435,9 @@ FN(scan_impl)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[
 			if ((uint32_t)j == i)
 				continue;
 			if (minimg)
-				FN(try_images)(ed, &P[j], j, ri, vi, t, &horizon, &found);
+				FN(try_images)(ed, &P[j], j, ri, vi, t, rad_i, &horizon, &found);
 			else
-				FN(try_pair)(ed, &P[j], j, ri, vi, t, 0, &horizon, &found);
+				FN(try_pair)(ed, &P[j], j, ri, vi, t, 0, rad_i, &horizon, &found);
 		}
 	}
 	/* Only a partner found by this scan gets its counter recorded: a kept
@@ -486,12 +531,13 @@ static void FN(scan_nl)(struct ed *ed, uint32_t i)
 		__builtin_prefetch(&P[nb[k]]);
 	double horizon = e->t_cross - t;
 	int32_t found = -1;
+	const double rad_i = SPEC ? ed->prad[i] : 0.0;
 	if (edge)
 		for (int k = 0; k < m; k++)
-			FN(try_pair)(ed, &P[nb[k]], nb[k], ri, vi, t, 1, &horizon, &found);
+			FN(try_pair)(ed, &P[nb[k]], nb[k], ri, vi, t, 1, rad_i, &horizon, &found);
 	else
 		for (int k = 0; k < m; k++)
-			FN(try_pair)(ed, &P[nb[k]], nb[k], ri, vi, t, 0, &horizon, &found);
+			FN(try_pair)(ed, &P[nb[k]], nb[k], ri, vi, t, 0, rad_i, &horizon, &found);
 	e->partner = found;
 	if (found >= 0) {
 		e->t_coll = t + horizon;
@@ -677,7 +723,12 @@ static void FN(do_cross)(struct ed *ed, uint32_t i, double t)
 static inline void FN(energy_to)(struct ed *ed, double t)
 {
 #if GRAV
+#if SPEC
+	/* mixtures: psum holds sum (m_i / m) v_i (m the mean mass), n the mass present over m */
+	const double dt = t - ed->t_mark, m = ed->mass, n = (ed->mix->mtot - ed->mix->mgone) / m;
+#else
 	const double dt = t - ed->t_mark, m = ed->mass, n = (double)(ed->n - ed->n_gone);
+#endif
 	double gp = 0.0, g2 = 0.0;
 	FOR_AXES(a) {
 		gp += ed->g[a] * ed->psum[a];
@@ -730,7 +781,13 @@ static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uin
 	}
 	FN(energy_to)(ed, t);
 	if (b < 0.0) {
+#if SPEC
+		/* the pair's restitution (elastic in the pre-run, which sets relaxing) */
+		const int pq = ed->spc[i] * ed->nsp + ed->spc[j], qr = ed->spc[j] * ed->nsp + ed->spc[i];
+		double e = ed->relaxing ? 1.0 : ed->mix->e[pq];
+#else
 		double e = ed->e;
+#endif
 #if ROUGH
 		int elastic = ed->relaxing;   /* elastic pre-run: smooth and elastic */
 		if (elastic)
@@ -758,6 +815,19 @@ static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uin
 #if ROUGH
 		FN(rough_kick)(ed, pi, pj, i, j, dr, r2, b, e, elastic);
 		ed->virial -= 0.5 * (1.0 + e) * ed->mass * b;   /* r . J: J_t is normal to r */
+#elif SPEC
+		/* unequal masses: impulse J = -(1 + e) mu (b / r2) dr on i, mu the
+		 * reduced mass; i's velocity changes by J / m_i = -(1 + e) w_ij
+		 * (b / r2) dr with w_ij = m_j / (m_i + m_j), j's by the opposite
+		 * impulse over m_j */
+		double f = (1.0 + e) * b / r2, fi = f * ed->mix->w[pq], fj = f * ed->mix->w[qr];
+		FOR_AXES(a) {
+			pi->v[a] -= fi * dr[a];
+			pj->v[a] += fj * dr[a];
+		}
+		ed->virial -= (1.0 + e) * ed->mix->mu[pq] * b;
+		if (e != 1.0)
+			ed->ekin_cur -= 0.5 * (1.0 - e * e) * ed->mix->mu[pq] * b * b / r2;
 #else
 		double f = 0.5 * (1.0 + e) * b / r2;
 		FOR_AXES(a) {
@@ -787,14 +857,19 @@ static void FN(leave)(struct ed *ed, uint32_t i, int w, double t)
 	FN(advance)(ed, p, t);
 	FN(energy_to)(ed, t);
 	double v2 = 0.0;
+	const double m = FN(mass)(ed, i), mw = SPEC ? m / ed->mass : 1.0;
 	FOR_AXES(a) {
 		v2 += p->v[a] * p->v[a];
 #if GRAV
-		ed->psum[a] -= p->v[a];
+		ed->psum[a] -= mw * p->v[a];
 #endif
 		p->v[a] = 0.0;
 	}
-	ed->ekin_cur -= 0.5 * ed->mass * v2;
+	(void)mw;
+#if SPEC
+	ed->mix->mgone += m;
+#endif
+	ed->ekin_cur -= 0.5 * m * v2;
 #if ROUGH
 	/* its spin leaves with it: rotational sums count the particles present */
 	for (int k = 0; k < (D == 2 ? 1 : 3); k++)
@@ -836,19 +911,20 @@ static void FN(do_wall)(struct ed *ed, uint32_t i, double t)
 	double v0[D], de = 0.0;
 	FOR_AXES(k)
 		v0[k] = p->v[k];
-	wall_rule(ed, w, p->v, t, elastic);
+	const double m = FN(mass)(ed, i);
+	wall_rule(ed, w, p->v, t, elastic, SPEC ? sqrt(ed->mass / m) : 1.0);
 	FOR_AXES(k) {
 		const double dv = p->v[k] - v0[k];
-		ed->wimp[w][k] -= ed->mass * dv;
-		ed->wimp_tot[w][k] -= ed->mass * dv;
+		ed->wimp[w][k] -= m * dv;
+		ed->wimp_tot[w][k] -= m * dv;
 		de += dv * (p->v[k] + v0[k]);
 #if GRAV
-		ed->psum[k] += dv;
+		ed->psum[k] += SPEC ? m / ed->mass * dv : dv;
 #endif
 	}
-	ed->ekin_cur += 0.5 * ed->mass * de;
+	ed->ekin_cur += 0.5 * m * de;
 	/* Back on its side of the wall: rounding may leave the contact a hair beyond. */
-	double lim = W->rest + s * ed->radius;
+	double lim = W->rest + s * FN(rad)(ed, i);
 	if (W->A != 0.0)
 		lim += s * W->A * sin(W->ph + W->omega * t);
 	if (s * (p->r[a] - lim) < 0.0)
@@ -870,7 +946,7 @@ static void FN(do_obstacle)(struct ed *ed, uint32_t i, double t)
 	P_T *p = &((P_T *)ed->p)[i];
 	ev_t *e = &ed->ev[i];
 	const int k = e->cross - ED_OBST0;
-	const obst_t *O = &ed->obst[k];
+	const double S = FN(obst_S)(ed, i, k);
 	FN(advance)(ed, p, t);
 	FN(energy_to)(ed, t);
 	int elastic = 0;
@@ -888,21 +964,22 @@ static void FN(do_obstacle)(struct ed *ed, uint32_t i, double t)
 	double v0[D], de = 0.0;
 	FOR_AXES(a)
 		v0[a] = p->v[a];
-	obst_rule(ed, k, nrm, p->v, elastic);
+	const double m = FN(mass)(ed, i);
+	obst_rule(ed, k, nrm, p->v, elastic, SPEC ? sqrt(ed->mass / m) : 1.0);
 	FOR_AXES(a) {
 		const double dv = p->v[a] - v0[a];
-		ed->oimp[k][a] -= ed->mass * dv;
-		ed->oimp_tot[k][a] -= ed->mass * dv;
+		ed->oimp[k][a] -= m * dv;
+		ed->oimp_tot[k][a] -= m * dv;
 		de += dv * (p->v[a] + v0[a]);
 #if GRAV
-		ed->psum[a] += dv;
+		ed->psum[a] += SPEC ? m / ed->mass * dv : dv;
 #endif
 	}
-	ed->ekin_cur += 0.5 * ed->mass * de;
+	ed->ekin_cur += 0.5 * m * de;
 	/* Back on the contact sphere: rounding may leave the centre a hair inside. */
-	if (r < O->S)
+	if (r < S)
 		FOR_AXES(a)
-			p->r[a] += (O->S - r) * nrm[a];
+			p->r[a] += (S - r) * nrm[a];
 	p->count++;
 	ed->ohits[k]++;
 	ed->obst_collisions++;
@@ -1052,6 +1129,10 @@ static void FN(reorder)(struct ed *ed)
 #if ROUGH
 	permute(ed->spin, (D == 2 ? 1 : 3) * sizeof(double), newidx, n);
 #endif
+#if SPEC
+	permute(ed->spc, 1, newidx, n);
+	permute(ed->prad, sizeof(double), newidx, n);
+#endif
 	if (ed->nl) {
 		const uint32_t K = ed->nlk;
 		for (uint32_t i = 0; i < n; i++)
@@ -1185,15 +1266,28 @@ static double FN(ekin)(const struct ed *ed, double mom[3])
 		const double dt = ed->t - P[i].t;
 		if (ed->gone && ed->gone[i])
 			continue;
+#if SPEC
+		const double m = FN(mass)(ed, i);
+		FOR_AXES(a) {
+			const double v = P[i].v[a] + (GRAV ? ed->g[a] * dt : 0.0);
+			s += m * v * v;
+			mom[a] += m * v;
+		}
+#else
 		FOR_AXES(a) {
 			const double v = P[i].v[a] + (GRAV ? ed->g[a] * dt : 0.0);
 			s += v * v;
 			mom[a] += v;
 		}
+#endif
 	}
+#if SPEC
+	return 0.5 * s;
+#else
 	FOR_AXES(a)
 		mom[a] *= ed->mass;
 	return 0.5 * ed->mass * s;
+#endif
 }
 
 /* Centre-of-mass height along -g (scene coordinates) and potential energy
@@ -1206,18 +1300,32 @@ static void FN(observe)(const struct ed *ed, double *height, double *epot)
 		sum[a] = 0.0;
 		g2 += ed->g[a] * ed->g[a];
 	}
+	double mp = 0.0;   /* mixtures: mass present; sums weighted by mass */
 	for (uint32_t i = 0; i < ed->n; i++) {
 		const double dt = ed->t - P[i].t;
 		if (ed->gone && ed->gone[i])
 			continue;
+#if SPEC
+		const double m = FN(mass)(ed, i);
+		mp += m;
+		FOR_AXES(a)
+			sum[a] += m * (P[i].r[a] + P[i].v[a] * dt + (GRAV ? 0.5 * ed->g[a] * dt * dt : 0.0) - ed->org[a]);
+#else
 		FOR_AXES(a)
 			sum[a] += P[i].r[a] + P[i].v[a] * dt + (GRAV ? 0.5 * ed->g[a] * dt * dt : 0.0) - ed->org[a];
+#endif
 	}
 	double gr = 0.0;
 	FOR_AXES(a)
 		gr += ed->g[a] * sum[a];
+#if SPEC
+	*epot = -gr;
+	*height = g2 > 0.0 && mp > 0.0 ? -gr / (sqrt(g2) * mp) : NAN;
+#else
+	(void)mp;
 	*epot = -ed->mass * gr;
 	*height = g2 > 0.0 && ed->n > ed->n_gone ? -gr / (sqrt(g2) * (double)(ed->n - ed->n_gone)) : NAN;
+#endif
 }
 #else
 static void FN(state)(const struct ed *ed, double *pos, double *vel)
@@ -1245,6 +1353,16 @@ static double FN(ekin)(const struct ed *ed, double mom[3])
 	const P_T *P = ed->p;
 	double s = 0.0;
 	mom[0] = mom[1] = mom[2] = 0.0;
+#if SPEC
+	for (uint32_t i = 0; i < ed->n; i++) {
+		const double m = ed->mix->m[ed->spc[i]];
+		FOR_AXES(a) {
+			s += m * P[i].v[a] * P[i].v[a];
+			mom[a] += m * P[i].v[a];
+		}
+	}
+	return 0.5 * s;
+#else
 	for (uint32_t i = 0; i < ed->n; i++)
 		FOR_AXES(a) {
 			s += P[i].v[a] * P[i].v[a];
@@ -1253,6 +1371,7 @@ static double FN(ekin)(const struct ed *ed, double mom[3])
 	FOR_AXES(a)
 		mom[a] *= ed->mass;
 	return 0.5 * ed->mass * s;
+#endif
 }
 #endif
 
@@ -1311,7 +1430,7 @@ static double FN(min_gap)(const struct ed *ed)
 			for (int w = 2 * a; w < 2 * a + 2; w++) {
 				const wall_t *W = &ed->wall[w];
 				const double s = (w & 1) ? -1.0 : 1.0;
-				double g = s * (ri[a] - W->rest) - ed->radius;
+				double g = s * (ri[a] - W->rest) - FN(rad)(ed, i);
 				if (W->A != 0.0)
 					g -= W->A * sin(W->ph + W->omega * ed->t);
 				if (g < best)
@@ -1324,7 +1443,7 @@ static double FN(min_gap)(const struct ed *ed)
 				double x = FN(min_image)(ed, a, ri[a] - ed->obst[k].c[a]);
 				r2 += x * x;
 			}
-			double g = sqrt(r2) - ed->obst[k].S;
+			double g = sqrt(r2) - FN(obst_S)(ed, i, k);
 			if (g < best)
 				best = g;
 		}
@@ -1348,7 +1467,11 @@ static double FN(min_gap)(const struct ed *ed)
 						double x = FN(min_image)(ed, a, ri[a] - FN(pos_now)(ed, &P[j], a));
 						r2 += x * x;
 					}
+#if SPEC
+					double g = sqrt(r2) - (ed->prad[i] + ed->prad[j]);
+#else
 					double g = sqrt(r2) - ed->sigma;
+#endif
 					if (g < best)
 						best = g;
 				}
@@ -1441,7 +1564,12 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
 							double x = FN(min_image)(ed, a, P[i].r[a] - P[j].r[a]);
 							r2 += x * x;
 						}
-						if (r2 < ed->sigma2) {
+#if SPEC
+						const double sij = ed->prad[i] + ed->prad[j], s2 = sij * sij;
+#else
+						const double s2 = ed->sigma2;
+#endif
+						if (r2 < s2) {
 							clash = 1;
 							break;
 						}
@@ -1490,14 +1618,15 @@ static void FN(kick_set)(struct ed *ed, uint32_t i, const double *v)
 	P_T *p = &((P_T *)ed->p)[i];
 	FN(energy_to)(ed, ed->t);
 	double de = 0.0;
+	const double m = FN(mass)(ed, i);
 	FOR_AXES(a) {
 		de += v[a] * v[a] - p->v[a] * p->v[a];
 #if GRAV
-		ed->psum[a] += v[a] - p->v[a];
+		ed->psum[a] += (SPEC ? m / ed->mass : 1.0) * (v[a] - p->v[a]);
 #endif
 		p->v[a] = v[a];
 	}
-	ed->ekin_cur += 0.5 * ed->mass * de;
+	ed->ekin_cur += 0.5 * m * de;
 	p->count++;
 	/* The caller (drive_kick()) predicts i's events afresh through the ops
 	 * table: a direct call here would be one more caller of the hot

@@ -26,7 +26,8 @@ static const char *const dsp_names[DSP_MAX] = {"density_spectrum_samples", "dens
                                                "density_spectrum_alpha", "density_spectrum_alpha_se"};
 
 /* What a value column holds: cols 0 = scalar per row, -1 = D components,
- * -2 = D components per obstacle (obstacle k's at k D .. k D + D - 1). */
+ * -2 = D components per obstacle (obstacle k's at k D .. k D + D - 1),
+ * -3 = one per species (mixtures). */
 typedef struct {
 	const char *path;       /* under /observables */
 	unsigned need;          /* SCENE_OBS_* bit; 0 = always */
@@ -38,10 +39,12 @@ typedef struct {
 
 #define NEED_TC 0x80000000u   /* only with the TC model */
 #define NEED_SE 0x40000000u   /* flag: only in ensembles (standard error of the mean over the replicas) */
+#define NEED_MIX 0x20000000u  /* flag: only for mixtures (two or more particles.species) */
 
 static void g_coll(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->collisions; }
 static void g_ekin(const run_record_t *r, void *o) { *(double *)o = r->kinetic_energy / (double)r->n; }
 static void g_temp(const run_record_t *r, void *o) { *(double *)o = r->temperature; }
+static void g_temp_sp(const run_record_t *r, void *o) { memcpy(o, r->temperature_species, r->n_species * sizeof(double)); }
 static void g_pres(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->pressure : NAN; }
 static void g_comp(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->compressibility : NAN; }
 static void g_rate(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->collision_rate : NAN; }
@@ -115,6 +118,7 @@ static const obs_def_t obs_defs[] = {
 	{ "collision_count", 0, 1, 0, NULL, g_coll },
 	{ "kinetic_energy", SCENE_OBS_ENERGY, 0, 0, "e0", g_ekin },
 	{ "temperature", SCENE_OBS_ENERGY, 0, 0, "e0", g_temp },
+	{ "temperature_species", SCENE_OBS_ENERGY | NEED_MIX, 0, -3, "e0", g_temp_sp },
 	{ "pressure", SCENE_OBS_PRESSURE, 0, 0, "pressure", g_pres },
 	{ "compressibility", SCENE_OBS_PRESSURE, 0, 0, "1", g_comp },
 	{ "collision_rate", SCENE_OBS_COLLISION_RATE, 0, 0, "t0-1", g_rate },
@@ -222,8 +226,10 @@ static void group_name(const h5md_t *h, int k, char *buf, size_t len)
 
 static int def_wanted(const obs_def_t *d, const scene_t *s)
 {
-	unsigned need = d->need & ~NEED_SE;
+	unsigned need = d->need & ~(NEED_SE | NEED_MIX);
 	if ((d->need & NEED_SE) && s->replicas <= 1)
+		return 0;
+	if ((d->need & NEED_MIX) && s->n_species < 2)
 		return 0;
 	if (need == 0)
 		return 1;
@@ -392,6 +398,14 @@ static int write_parameters(hid_t f, const scene_t *s, const char *text, size_t 
 	    h5u_attr_u64(g, "seed", s->seed) || h5u_attr_f64(g, "volume_fraction", &s->volume_fraction, 1) ||
 	    h5u_attr_f64(g, "box", s->box, (size_t)s->dim) || h5u_attr_str(g, "method", scene_method_name(s->method)))
 		goto out;
+	if (scene_has_species(s)) {
+		/* mixtures: the species' names, in index order (diameter: the largest, mass: the mean) */
+		const char *names[SCENE_SPECIES_MAX];
+		for (int k = 0; k < s->n_species; k++)
+			names[k] = s->species[k].name;
+		if (h5u_attr_strs(g, "species", names, (size_t)s->n_species))
+			goto out;
+	}
 	ret = 0;
 out:
 	if (g >= 0) H5Gclose(g);
@@ -452,6 +466,54 @@ out:
 	return ret;
 }
 
+/* A per-particle array [N] of mixtures (species index, diameter, mass), compressed. */
+static int write_array(hid_t g, const char *name, hid_t ftype, hid_t mtype, const void *buf, uint64_t n)
+{
+	int ret = -1;
+	hsize_t dims[1] = {n}, chunk[1] = {n < FRAME_CHUNK ? n : FRAME_CHUNK};
+	hid_t sp = H5Screate_simple(1, dims, NULL), dcpl = H5Pcreate(H5P_DATASET_CREATE), d = H5I_INVALID_HID;
+	if (sp < 0 || dcpl < 0 || H5Pset_chunk(dcpl, 1, chunk) < 0 || H5Pset_deflate(dcpl, 1) < 0)
+		goto out;
+	d = H5Dcreate2(g, name, ftype, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+	if (d < 0 || H5Dwrite(d, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0)
+		goto out;
+	ret = 0;
+out:
+	if (d >= 0) H5Dclose(d);
+	if (sp >= 0) H5Sclose(sp);
+	if (dcpl >= 0) H5Pclose(dcpl);
+	return ret;
+}
+
+/* Mixtures: species (H5MD's per-particle integer), diameter and mass of
+ * each particle, time-independent (species are blocks of indices; radii
+ * of polydisperse species drawn as the engine draws them). */
+static int write_species(hid_t all, const scene_t *s, uint64_t n)
+{
+	int ret = -1;
+	int32_t *sp = malloc(n * sizeof(int32_t));
+	double *diam = malloc(n * sizeof(double)), *mass = malloc(n * sizeof(double));
+	if (!sp || !diam || !mass || n != s->count)
+		goto out;
+	scene_species_radii(s, diam);   /* the engine's radii: the same draws */
+	uint64_t i = 0;
+	for (int k = 0; k < s->n_species; k++)
+		for (uint64_t j = 0; j < s->species[k].count && i < n; j++, i++) {
+			sp[i] = k;
+			diam[i] *= 2.0;
+			mass[i] = s->species[k].mass;
+		}
+	if (i == n && !write_array(all, "species", H5T_STD_I32LE, H5T_NATIVE_INT32, sp, n) &&
+	    !write_array(all, "diameter", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, diam, n) &&
+	    !write_array(all, "mass", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, mass, n))
+		ret = 0;
+out:
+	free(sp);
+	free(diam);
+	free(mass);
+	return ret;
+}
+
 static int write_group(h5md_t *h, int k, const scene_t *s)
 {
 	int ret = -1;
@@ -492,8 +554,12 @@ static int write_group(h5md_t *h, int k, const scene_t *s)
 	    H5Lcreate_hard(pos, "step", vel, "step", H5P_DEFAULT, H5P_DEFAULT) < 0 ||
 	    H5Lcreate_hard(pos, "time", vel, "time", H5P_DEFAULT, H5P_DEFAULT) < 0)
 		goto out;
-	if (write_constant(all, "diameter", 2.0 * s->radius, h->n) || write_constant(all, "mass", s->mass, h->n))
+	if (scene_has_species(s)) {
+		if (write_species(all, s, h->n))
+			goto out;
+	} else if (write_constant(all, "diameter", 2.0 * s->radius, h->n) || write_constant(all, "mass", s->mass, h->n)) {
 		goto out;
+	}
 	if (h->spin_dim) {
 		/* rough particles: angular velocities, [frames][N][1 or 3], with the
 		 * frames' step and time */
@@ -546,7 +612,8 @@ static int write_observables(h5md_t *h, const scene_t *s)
 		hid_t g = h5u_group(root, d->path);
 		if (g < 0)
 			goto out;
-		int cols = d->cols == -1 ? h->dim : d->cols == -2 ? h->dim * s->n_obstacles : d->cols;
+		int cols = d->cols == -1 ? h->dim : d->cols == -2 ? h->dim * s->n_obstacles : d->cols == -3 ? s->n_species
+		         : d->cols;
 		hsize_t inner[1] = {(hsize_t)cols}, chunk[2] = {OBS_CHUNK, (hsize_t)cols};
 		hid_t v = cols ? create_series(g, "value", d->i64 ? H5T_STD_I64LE : H5T_IEEE_F64LE, 2, inner, chunk, h->level)
 		               : create_series(g, "value", d->i64 ? H5T_STD_I64LE : H5T_IEEE_F64LE, 1, NULL, chunk1, h->level);

@@ -68,6 +68,13 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 	if (r->have & SCENE_OBS_ENERGY) {
 		num_se(&o, r, "kinetic_energy", r->kinetic_energy, r->se.kinetic_energy);
 		num_se(&o, r, "temperature", r->temperature, r->se.temperature);
+		if (r->n_species > 1) {
+			put(&o, ",\"temperature_species\":[");
+			for (int k = 0; k < r->n_species; k++)
+				put(&o, isfinite(r->temperature_species[k]) ? "%s%.17g" : "%snull", k ? "," : "",
+				    r->temperature_species[k]);
+			put(&o, "]");
+		}
 	}
 	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_PRESSURE)) {
 		num_se(&o, r, "pressure", r->have_interval ? r->pressure : NAN, r->have_interval ? r->se.pressure : NAN);

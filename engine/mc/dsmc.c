@@ -1217,6 +1217,11 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 static int layout(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
 {
 	dsmc_params_t pr;
+	if (scene_has_species(s)) {   /* the parser refuses this too; the engines do not rely on it */
+		set_msg(msg, msglen, "particles.species: %.0f species (or polydisperse), but dsmc/hsmc simulate one "
+		        "species of one radius only; use method \"ed\"", (double)s->n_species);
+		return DSMC_EINVAL;
+	}
 	if ((s->dim != 2 && s->dim != 3) || s->count < 2 || s->count > INT32_MAX ||
 	    dsmc_params(s, &pr, NULL, 0) != DSMC_OK) {
 		set_msg(msg, msglen, "method: scene not usable by dsmc/hsmc (count %.0f)", (double)s->count);
