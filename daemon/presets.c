@@ -31,6 +31,9 @@ static const struct { const char *name, *description; } descriptions[] = {
 	{.name = "binary-mixture-2d", .description = "Homogeneous cooling of a binary mixture, 1,000 + 1,000 disks of masses "
 	                                             "1 and 4 (phi=0.02, e=0.9): no equipartition, T_light/T_heavy settles "
 	                                             "near 0.865 (Maxwellian theory; temperature_species)"},
+	{.name = "pipe-flow-2d", .description = "Vertical 2D pipe, periodic along gravity, rough walls (p=0.1), "
+	                                        "1935 disks at nu=0.38, r=0, hsmc (seed 000 A8/A9): density waves, the "
+	                                        "density_spectrum slope alpha and the flux; bench/pipe.sh sweeps r and nu"},
 };
 
 static const size_t npresets = sizeof(presets_embedded) / sizeof(presets_embedded[0]);

@@ -458,6 +458,13 @@
         return { labels: ['MSD', 'MSD + se', 'MSD \u2212 se'], cols: [m, m.map((v, i) => (v != null && se[i] != null ? v + se[i] : null)),
           m.map((v, i) => (v != null && se[i] != null ? v - se[i] : null))], dash: [undefined, [4, 3], [4, 3]] };
       } },
+    { id: 'flux', ylabel: 'flux', shown: (o) => o.includes('flux'),
+      lines(recs) {
+        const f = recs.map((r) => fin(r.flux)), se = recs.map((r) => fin(r.flux_se)), l = last(recs);
+        return { labels: ['flux', 'flux + se', 'flux \u2212 se'], cols: [f, f.map((v, i) => (v != null && se[i] != null ? v + se[i] : null)),
+          f.map((v, i) => (v != null && se[i] != null ? v - se[i] : null))], dash: [undefined, [4, 3], [4, 3]],
+          info: Number.isFinite(l.flux) ? 'last: ' + fmt(l.flux) + ' \u00b1 ' + fmt(l.flux_se) : '' };
+      } },
     { id: 'diffusion', ylabel: 'D(t)', shown: (o) => o.includes('mean_square_displacement'),
       lines(recs) {
         const l = last(recs);
@@ -535,7 +542,7 @@
     }, [[], []].concat((extra || []).map(() => [])), node);
   }
   const pos = (v) => (v > 0 ? v : null);   // log scales: no zeros
-  const CURVE_OBS = ['velocity_distribution', 'pair_correlation', 'structure_factor', 'clusters', 'impact_parameter', 'fields'];
+  const CURVE_OBS = ['velocity_distribution', 'pair_correlation', 'structure_factor', 'clusters', 'impact_parameter', 'density_spectrum', 'fields'];
   // ---- fields (output.fields): a heat map of one quantity on the grid, 3D grids averaged over z ----
   let fieldsLast = null;
   function fieldColour(f) {   // a blue-green-yellow ramp (viridis-like) for f in [0, 1]
@@ -611,13 +618,13 @@
     const tab = (name, sub) => (last[name] ? last[name].tables.find((t) => t.table === sub) : null);
     const sp = tab('velocity_distribution', 'speed'), comp = tab('velocity_distribution', 'components');
     const g = tab('pair_correlation', ''), sk = tab('structure_factor', '');
-    const ns = tab('clusters', ''), pb = tab('impact_parameter', '');
+    const ns = tab('clusters', ''), pb = tab('impact_parameter', ''), ds = tab('density_spectrum', '');
     if (last.fields) {
       fieldsLast = last.fields;
       $('fields').hidden = false;
       drawFields();
     }
-    if (!sp && !g && !sk && !ns && !pb) return;
+    if (!sp && !g && !sk && !ns && !pb && !ds) return;
     $('curves').hidden = false;
     if (!curvePlots.length) {
       curvePlots = [
@@ -626,6 +633,7 @@
         curvePlot($('plot-sofk'), 'S(k)', true, true, [], 'k'),
         curvePlot($('plot-clusters'), 'n_s', true, true, [{ label: 'fit s^-τ', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }], 's'),
         curvePlot($('plot-impact'), 'P(b)', false, false, [{ label: 'molecular chaos', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }], 'b/σ'),
+        curvePlot($('plot-dspec'), 'P(f)', true, true, [{ label: 'fit f^α', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }], 'f'),
       ];
     }
     const D = series.dim || (comp ? Object.keys(comp.columns).length : 2);
@@ -645,6 +653,17 @@
       curvePlots[3].setData([ns.centres, y.map(pos), fit]);
     }
     if (pb) curvePlots[4].setData([pb.centres, pb.columns.p, pb.centres.map((b) => (D === 2 ? 1 : 2 * b))]);
+    if (ds) {
+      // the engine's slope alpha drawn through the mean of log f and log P over the fit range (output.density_spectrum.fit)
+      const sc = (series.scene && series.scene.output && series.scene.output.density_spectrum) || {};
+      const [lo, hi] = sc.fit || [0, Infinity], a = last.density_spectrum.alpha, P = ds.columns.P;
+      const inr = ds.centres.map((f, k) => f >= lo && f <= hi && P[k] > 0);
+      const n = inr.filter((x) => x).length;
+      const mf = ds.centres.reduce((s, f, k) => s + (inr[k] ? Math.log(f) : 0), 0) / n;
+      const mp = P.reduce((s, p, k) => s + (inr[k] ? Math.log(p) : 0), 0) / n;
+      const fit = ds.centres.map((f, k) => (Number.isFinite(a) && n && inr[k] ? Math.exp(mp + a * (Math.log(f) - mf)) : null));
+      curvePlots[5].setData([ds.centres, P.map(pos), fit]);
+    }
     const info = [];
     const any = CURVE_OBS.filter((n) => n !== 'fields').map((n) => last[n]).find((x) => x);
     info.push('sample ' + any.sample + ' at time ' + (+any.time.toPrecision(4)));
@@ -652,6 +671,7 @@
     if (last.pair_correlation) info.push('g(σ) = ' + (last.pair_correlation.g_contact_pairs ?? NaN).toPrecision(4));
     if (last.clusters) info.push('n_s exponent τ = ' + (last.clusters.exponent ?? NaN).toPrecision(3) + ', w = ' + (last.clusters.w ?? NaN).toPrecision(3));
     if (pb) info.push('P(b) of ' + pb.columns.n.reduce((a, x) => a + x, 0) + ' collisions since the previous sample');
+    if (ds) info.push('density spectrum slope α = ' + (last.density_spectrum.alpha ?? NaN).toPrecision(3) + ' \u00b1 ' + (last.density_spectrum.alpha_se ?? NaN).toPrecision(2) + ' over ' + last.density_spectrum.samples + ' samples');
     $('curves-info').textContent = info.join(', ');
   }
   // Nothing of the job shown before may stay on the page of the next one.

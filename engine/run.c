@@ -6,6 +6,7 @@
 #include <time.h>
 
 #include "mc/dsmc.h"
+#include "observe/dspec.h"
 #include "observe/fields.h"
 #include "observe/msd.h"
 #include "ed/ed.h"
@@ -64,6 +65,9 @@ struct run {
 	 * none is left); fld_last: the time of the last instant added (-INFINITY: none) */
 	int fld;                 /* fields are sampled (asked for, and curves emitted) */
 	double fld_k, fld_end, fld_next, fld_last;
+	/* density_spectrum: slice counts sampled at dsp_k * interval (the next), k = 1, 2, ... */
+	int dsp;
+	double dsp_k;
 	double t0;               /* wall clock at the start of this process's part */
 	double ckpt_wall;        /* wall clock of the last checkpoint request */
 	char warning[512];       /* dsmc/hsmc validity warning for the first record */
@@ -223,6 +227,31 @@ static void msd_follow(run_t *rc)
 		msd_origin(rc->msd, sm.time, rc->pos, sm.kinetic_energy);
 }
 
+/* flux: sum_i v_i . g_hat / volume and its standard error over particles (observe.h). */
+static void flux_compute(const scene_t *s, const double *vel, double *flux, double *se)
+{
+	const int D = s->dim;
+	double g[3] = {0, 0, 0}, gn = 0.0;
+	for (int a = 0; a < D; a++)
+		gn += s->gravity[a] * s->gravity[a];
+	gn = sqrt(gn);
+	for (int a = 0; a < D; a++)
+		g[a] = gn > 0.0 ? s->gravity[a] / gn : (a == D - 1);
+	double sum = 0.0, sum2 = 0.0;
+	const uint64_t n = s->count;
+	for (uint64_t i = 0; i < n; i++) {
+		double u = 0.0;
+		for (int a = 0; a < D; a++)
+			u += vel[i * D + a] * g[a];
+		sum += u;
+		sum2 += u * u;
+	}
+	double vol = scene_box_volume(s), mean = sum / (double)n;
+	double var = n > 1 ? fmax(0.0, (sum2 - n * mean * mean) / (double)(n - 1)) : NAN;
+	*flux = sum / vol;
+	*se = sqrt((double)n * var) / vol;
+}
+
 static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 {
 	const scene_t *s = &rc->s;
@@ -305,6 +334,11 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 	}
 	r->obs.a2 = r->obs.a3 = r->obs.g_pairs = r->obs.g_pairs_se = r->obs.g_rate = r->obs.g_pressure = NAN;
 	r->obs.msd = r->obs.msd_se = r->obs.diffusion = NAN;
+	r->obs.flux = r->obs.flux_se = NAN;
+	if (s->observables & SCENE_OBS_FLUX) {
+		eng_state(rc, rc->pos, rc->vel);
+		flux_compute(s, rc->vel, &r->obs.flux, &r->obs.flux_se);
+	}
 	if (rc->msd) {
 		msd_follow(rc);
 		r->obs.msd = msd_value(rc->msd, &r->obs.msd_se);
@@ -393,6 +427,22 @@ static void fields_follow(run_t *r, double t)
 		return;
 	fields_sample(r, t, 0);
 	fields_next(r, t);
+}
+
+/* ---- density_spectrum (output.density_spectrum) ---------------------------- */
+
+/* After the engine reached time t: one sample of the slice counts when the next sampling time has come
+ * (ed stops there exactly; dsmc/hsmc at the end of the step that reaches it: instants passed in one step
+ * count once). */
+static void dspec_follow(run_t *r, double t)
+{
+	const double dt = r->s.dspec_interval;
+	if (!r->dsp || t < r->dsp_k * dt)
+		return;
+	eng_state(r, r->pos, NULL);
+	obs_dspec_add(r->obs, r->pos);
+	while (r->dsp_k * dt <= t)
+		r->dsp_k += 1.0;
 }
 
 /* Curves of the present state as a RUN_CURVES record (the dynamics are not touched). */
@@ -580,7 +630,7 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		else if (bc)
 			dsmc_count_impacts(r->mc, bc, nb);
 	}
-	if ((s->observables & (SCENE_OBS_CLUSTERS | SCENE_OBS_MSD)) || r->opts.snapshots || r->obs) {
+	if ((s->observables & (SCENE_OBS_CLUSTERS | SCENE_OBS_MSD | SCENE_OBS_FLUX)) || r->opts.snapshots || r->obs) {
 		r->pos = malloc(s->count * s->dim * sizeof(double));
 		if (!r->pos)
 			goto nomem;
@@ -590,12 +640,14 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		if (!r->cl)
 			goto nomem;
 	}
-	if (r->opts.snapshots || r->obs) {
+	if (r->opts.snapshots || r->obs || (s->observables & SCENE_OBS_FLUX)) {
 		r->vel = malloc(s->count * s->dim * sizeof(double));
 		if (!r->vel)
 			goto nomem;
 	}
 	r->fld = curves_on(r) && obs_fields(r->obs) != NULL;
+	r->dsp = curves_on(r) && obs_dspec(r->obs) != NULL;
+	r->dsp_k = 1.0;
 	r->fld_next = INFINITY;
 	r->fld_last = -INFINITY;
 	if ((r->opts.snapshots || r->fld) && r->ed && ed_spin_dim(r->ed)) {
@@ -664,6 +716,7 @@ const char *run_engine_name(const run_t *r) { return r->ed ? "ed" : "dsmc"; }
 #define F_IMPACT "obs_impact"    /* impact-parameter counts since the last curves */
 #define F_FIELDS "obs_fields"    /* fields: the exposure's sums (fields.h), then fld_k, fld_end, fld_next, fld_last */
 #define FLD_EXTRA 4
+#define F_DSPEC "obs_density_spectrum" /* density_spectrum: the ring (dspec.h), then dsp_k */
 
 static size_t impact_count(const run_t *r)
 {
@@ -682,6 +735,8 @@ int run_fields(const run_t *r, ed_field_t *out, int max)
 		out[n - 1] = (ed_field_t){F_IMPACT, ED_T_F64, impact_count(r)};
 	if (r->fld && n++ < max)
 		out[n - 1] = (ed_field_t){F_FIELDS, ED_T_F64, fields_state_size(obs_fields(r->obs)) + FLD_EXTRA};
+	if (r->dsp && n++ < max)
+		out[n - 1] = (ed_field_t){F_DSPEC, ED_T_F64, dspec_state_size(obs_dspec(r->obs)) + 1};
 	return n;
 }
 
@@ -705,6 +760,13 @@ int run_field_get(const run_t *r, const char *name, void *buf)
 		size_t k = fields_state_size(obs_fields(r->obs));
 		fields_state_get(obs_fields(r->obs), v);
 		v[k] = r->fld_k, v[k + 1] = r->fld_end, v[k + 2] = r->fld_next, v[k + 3] = r->fld_last;
+		return RUN_OK;
+	}
+	if (r->dsp && !strcmp(name, F_DSPEC)) {
+		double *v = buf;
+		size_t k = dspec_state_size(obs_dspec(r->obs));
+		dspec_state_get(obs_dspec(r->obs), v);
+		v[k] = r->dsp_k;
 		return RUN_OK;
 	}
 	int rc = r->ed ? ed_field_get(r->ed, name, buf) : dsmc_field_get(r->mc, name, buf);
@@ -742,6 +804,15 @@ int run_field_set(run_t *r, const char *name, ed_type_t type, size_t count, cons
 		    !(v[k] >= 1) || v[k] != floor(v[k]) || isnan(v[k + 1]) || isnan(v[k + 2]) || isnan(v[k + 3]))
 			return RUN_ERESTORE;
 		r->fld_k = v[k], r->fld_end = v[k + 1], r->fld_next = v[k + 2], r->fld_last = v[k + 3];
+		return RUN_OK;
+	}
+	if (r->dsp && !strcmp(name, F_DSPEC)) {
+		const double *v = buf;
+		size_t k = dspec_state_size(obs_dspec(r->obs));
+		if (type != ED_T_F64 || count != k + 1 || dspec_state_set(obs_dspec(r->obs), v) != 0 || !(v[k] >= 1) ||
+		    v[k] != floor(v[k]))
+			return RUN_ERESTORE;
+		r->dsp_k = v[k];
 		return RUN_OK;
 	}
 	int rc = r->ed ? ed_field_set(r->ed, name, type, count, buf) : dsmc_field_set(r->mc, name, type, count, buf);
@@ -936,11 +1007,14 @@ int run_go(run_t *r, run_emit_fn emit, void *ctx, const volatile sig_atomic_t *s
 			t_soft = fmin(t_soft, sched_time(&s->checkpoint, r->st.k_ckpt));
 		if (r->fld)
 			t_soft = fmin(t_soft, r->fld_next);
+		if (r->dsp)
+			t_soft = fmin(t_soft, r->dsp_k * s->dspec_interval);
 
 		double t;
 		uint64_t c;
 		int done = advance(r, t_stop, t_soft, c_stop, until_time, t_until, c_until, &t, &c);
 		fields_follow(r, t);
+		dspec_follow(r, t);
 		int due = s->every.kind == SCENE_CLOCK_TIME ? t >= sched_time(&s->every, r->st.k_out)
 		                                            : c >= sched_coll(&s->every, r->st.k_out, n);
 		int due_snap = snaps->kind == SCENE_CLOCK_TIME ? t >= sched_time(snaps, r->st.k_snap)

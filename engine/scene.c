@@ -100,6 +100,8 @@ static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "rotational_energy", SCENE_OBS_ROTATION },
 	{ "rotational_temperature", SCENE_OBS_ROTATION },
 	{ "fields", SCENE_OBS_FIELDS },
+	{ "density_spectrum", SCENE_OBS_DSPEC },
+	{ "flux", SCENE_OBS_FLUX },
 };
 #define N_OBSERVABLES (sizeof observables / sizeof observables[0])
 
@@ -705,6 +707,7 @@ static int check_structure(ctx_t *c, json_t *v, scene_t *s)
 		{ "structure_factor", SCENE_OBS_SOFK | SCENE_OBS_VCORR, "\"structure_factor\" or \"velocity_correlations\"" },
 		{ "impact_parameter", SCENE_OBS_IMPACT, "\"impact_parameter\"" },
 		{ "fields", SCENE_OBS_FIELDS, "\"fields\"" },
+		{ "density_spectrum", SCENE_OBS_DSPEC, "\"density_spectrum\"" },
 	};
 	json_t *out = json_object_get(v, "output");
 	char sub[PATHLEN];
@@ -798,6 +801,72 @@ static int check_fields(ctx_t *c, json_t *v, scene_t *s)
 	if (s->fields_exposure > s->snapshots.value)
 		return fail(c, "output.fields.exposure", "%s is longer than the snapshot interval output.snapshots.every.time = %s",
 		            num(s->fields_exposure).s, num(s->snapshots.value).s);
+	return 0;
+}
+
+/* Largest ring of density_spectrum samples (slices * samples per snapshot interval) and samples per
+ * spectrum (the DFT costs slices * samples^2 at each snapshot). */
+#define DSPEC_MAX_VALUES (1 << 24)
+#define DSPEC_MAX_SAMPLES 16384
+
+/* density_spectrum and flux (engine/observe/dspec.h, docs/scene.md): single runs without open walls (a fixed
+ * particle set); the spectrum needs output.density_spectrum (interval) and snapshots on a time schedule that
+ * is a whole number of intervals; slices >= 2; the axis within the dimension (default: gravity's axis, else
+ * the last axis). */
+static int check_pipe(ctx_t *c, json_t *v, scene_t *s)
+{
+	json_t *out = json_object_get(v, "output"), *d = json_object_get(out, "density_spectrum");
+	size_t i;
+	json_t *o;
+	json_array_foreach(json_object_get(out, "observables"), i, o) {
+		char path[PATHLEN];
+		const char *name = json_string_value(o);
+		snprintf(path, sizeof path, "output.observables[%zu]", i);
+		if (strcmp(name, "density_spectrum") && strcmp(name, "flux"))
+			continue;
+		if (s->replicas > 1)
+			return fail(c, path, "\"%s\" is not averaged over ensembles yet (run.replicas must be 1)", name);
+		if (scene_has_open_walls(s))
+			return fail(c, path, "\"%s\" is not available with an \"open\" wall yet (it needs a fixed particle "
+			            "set)", name);
+	}
+	if (!(s->observables & SCENE_OBS_DSPEC))
+		return 0;
+	if (!d)
+		return fail(c, "output.density_spectrum", "required with the \"density_spectrum\" observable (at least "
+		            "\"interval\")");
+	int g = s->dim - 1;
+	for (int a = 0; a < s->dim; a++)
+		if (s->gravity[a] != 0) {
+			g = a;
+			break;
+		}
+	if (!json_object_get(d, "axis"))
+		s->dspec_axis = g;
+	else if (s->dspec_axis >= s->dim)
+		return fail(c, "output.density_spectrum.axis", "\"%s\" is out of range in a %dD scene", axis_names[s->dspec_axis],
+		            s->dim);
+	double len = s->box[s->dspec_axis], sigma = 2 * s->radius;
+	if (!json_object_get(d, "slices"))
+		s->dspec_slices = (int)fmax(2.0, fmin(1000.0, floor(len / sigma)));   /* about one diameter high */
+	else if (s->dspec_slices < 2)
+		return fail(c, "output.density_spectrum.slices", "must be at least 2 (a spectrum of density differences "
+		            "along the axis), got %d", s->dspec_slices);
+	if (s->snapshots.kind != SCENE_CLOCK_TIME)
+		return fail(c, "output.density_spectrum.interval", "needs output.snapshots.every.time (each spectrum is "
+		            "made from the samples of one snapshot interval)");
+	double m = s->snapshots.value / s->dspec_interval;
+	if (fabs(m - round(m)) > 1e-9 * m || round(m) < 8 || round(m) > DSPEC_MAX_SAMPLES)
+		return fail(c, "output.density_spectrum.interval", "the snapshot interval %s must be a whole number of "
+		            "intervals between 8 and %d, got %.6g", num(s->snapshots.value).s, DSPEC_MAX_SAMPLES, m);
+	s->dspec_m = (int)round(m);
+	if ((double)s->dspec_m * s->dspec_slices > DSPEC_MAX_VALUES)
+		return fail(c, "output.density_spectrum.slices", "%d slices times %d samples is more than %d values "
+		            "(memory)", s->dspec_slices, s->dspec_m, DSPEC_MAX_VALUES);
+	if (!json_object_get(d, "fit")) {
+		s->dspec_fit[0] = 0;
+		s->dspec_fit[1] = INFINITY;
+	}
 	return 0;
 }
 
@@ -928,6 +997,9 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 	if (ret)
 		return ret;
 	ret = check_fields(c, v, s);
+	if (ret)
+		return ret;
+	ret = check_pipe(c, v, s);
 	if (ret)
 		return ret;
 	if (s->every.kind == SCENE_CLOCK_NONE)
@@ -1605,6 +1677,47 @@ static const struct object fields_obj = {
 	},
 };
 
+/* output.density_spectrum.axis: "x", "y" or "z" (within the dimension: check_pipe). */
+static int parse_dspec_axis(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	int i, ret = match(c, path, v, axis_names, 3, &i);
+	if (ret == 0)
+		*(int *)dst = i;
+	return ret;
+}
+
+/* output.density_spectrum.fit: [f_min, f_max], 0 <= f_min < f_max. */
+static int parse_dspec_fit(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	static const struct range r = { 0, INFINITY, false };
+	double *f = dst;
+	if (!json_is_array(v) || json_array_size(v) != 2)
+		return fail(c, path, "must be an array [f_min, f_max] of two frequencies, got %s", describe(v).s);
+	for (size_t i = 0; i < 2; i++) {
+		char sub[PATHLEN];
+		snprintf(sub, sizeof sub, "%s[%zu]", path, i);
+		int ret = get_number(c, sub, json_array_get(v, i), &r, &f[i]);
+		if (ret)
+			return ret;
+	}
+	if (!(f[0] < f[1]))
+		return fail(c, path, "f_min must be below f_max, got [%s, %s]", num(f[0]).s, num(f[1]).s);
+	return 0;
+}
+
+static const struct irange R_DSPEC_SLICES = { 2, 100000 };
+static const struct range R_DSPEC_INTERVAL = { 0, INFINITY, true };
+
+static const struct object dspec_obj = {
+	.fields = (const struct field[]){
+		{ "slices", parse_bins, offsetof(scene_t, dspec_slices), &R_DSPEC_SLICES, false },
+		{ "axis", parse_dspec_axis, offsetof(scene_t, dspec_axis), NULL, false },
+		{ "interval", parse_number, offsetof(scene_t, dspec_interval), &R_DSPEC_INTERVAL, true },
+		{ "fit", parse_dspec_fit, offsetof(scene_t, dspec_fit), NULL, false },
+		{ .name = NULL },
+	},
+};
+
 static const struct object output_obj = {
 	.fields = (const struct field[]){
 		{ "every", parse_object, offsetof(scene_t, every), &when_obj, false },
@@ -1615,6 +1728,7 @@ static const struct object output_obj = {
 		{ "structure_factor", parse_object, 0, &sofk_obj, false },
 		{ "impact_parameter", parse_object, 0, &impact_obj, false },
 		{ "fields", parse_object, 0, &fields_obj, false },
+		{ "density_spectrum", parse_object, 0, &dspec_obj, false },
 		{ "snapshots", parse_object, 0, &snapshots_obj, false },
 		{ "checkpoint", parse_object, 0, &checkpoint_obj, false },
 		{ .name = NULL },

@@ -58,6 +58,8 @@ enum {
 	SCENE_OBS_OUTFLOW = 1u << 17,       /* particles present and particles out per wall (needs an open wall) */
 	SCENE_OBS_ROTATION = 1u << 14,      /* rotational_energy, rotational_temperature (needs collisions.rough) */
 	SCENE_OBS_FIELDS = 1u << 15,        /* fields: density, velocity, temperature (spin) per grid cell at snapshot times */
+	SCENE_OBS_DSPEC = 1u << 24,         /* density_spectrum: slice counts along an axis, P(f) and its slope at snapshot times */
+	SCENE_OBS_FLUX = 1u << 25,          /* flux: sum of v along gravity / volume in the progress stream */
 };
 
 /* Wall kinds (boundaries.AXIS.lower/upper.type; method ed only). Every wall
@@ -235,6 +237,12 @@ typedef struct scene {
 	int fields_cells[3];
 	double fields_exposure;
 	int fields_samples;
+	/* density_spectrum (output.density_spectrum, engine/observe/dspec.h): slices along axis dspec_axis
+	 * (default: the gravity axis, else the last), counted every dspec_interval; the spectrum at each
+	 * snapshot from the dspec_m = snapshot interval / dspec_interval samples before it; the slope fitted
+	 * over frequencies in [dspec_fit[0], dspec_fit[1]] (default: all) */
+	int dspec_slices, dspec_axis, dspec_m;
+	double dspec_interval, dspec_fit[2];
 	scene_when_t snapshots;        /* trajectory frames (time or cpp); NONE = first and last only */
 	int compression;               /* deflate level 0..9 of the HDF5 output, default 0 */
 	scene_when_t checkpoint;       /* checkpoint interval (simulated time or wall seconds); NONE = none */

@@ -5,7 +5,7 @@ set -u
 . "$(dirname "$0")/daemon_lib.sh"
 gd_start "$tmp/state" --slots 1 --read-auth token
 A="Authorization: Bearer $TOKEN"
-SC='{"method":"ed","dimensions":2,"particles":{"count":400,"volume_fraction":0.2,"initial":{"positions":"random"}},"collisions":{"restitution":0.9},"run":{"seed":3,"until":{"time":2}},"output":{"every":{"time":0.25},"observables":["temperature","impact_parameter","pair_correlation","mean_square_displacement","fields"],"fields":{"cells":[4,4],"exposure":0.5,"samples":5},"snapshots":{"every":{"time":0.5}}}}'
+SC='{"method":"ed","dimensions":2,"particles":{"count":400,"volume_fraction":0.2,"initial":{"positions":"random"}},"collisions":{"restitution":0.9},"run":{"seed":3,"until":{"time":2}},"output":{"every":{"time":0.25},"observables":["temperature","impact_parameter","pair_correlation","mean_square_displacement","fields","density_spectrum","flux"],"fields":{"cells":[4,4],"exposure":0.5,"samples":5},"density_spectrum":{"interval":0.05,"slices":8},"snapshots":{"every":{"time":0.5}}}}'
 id=$(field "$(post /api/v1/jobs -d "$SC")" 'd["id"]')
 wait_state "$id" succeeded 60 || true
 ok $([ "$(field "$(api GET "/api/v1/jobs/$id" -H "$A")" 'd["state"]')" = succeeded ]; echo $?) "job $id with curves succeeded"
@@ -19,6 +19,11 @@ ok $([ "$(code)" = 200 ] && [ "$(field "$b" '[t["table"] for t in d["samples"][0
 	[ "$(field "$b" 'd["samples"][0]["tables"][0]["shape"]')" = "[4, 4]" ] && [ "$(field "$b" 'd["samples"][0]["samples"]')" = 5 ] &&
 	[ "$(field "$b" 'round(sum(d["samples"][0]["tables"][0]["columns"]["count"]), 6)')" = 400.0 ]; echo $?) \
 	"name=fields: the last sample's density, velocity and temperature on the 4 x 4 grid, 5 instants, counts summing to N: $(code)"
+b=$(api GET "/api/v1/jobs/$id/observables?name=density_spectrum&last=1" -H "$A")
+ok $([ "$(code)" = 200 ] && [ "$(field "$b" 'd["samples"][0]["tables"][0]["x"]')" = f ] &&
+	[ "$(field "$b" 'len(d["samples"][0]["tables"][0]["columns"]["P"])')" = 4 ] && [ "$(field "$b" 'd["samples"][0]["samples"]')" = 10 ] &&
+	[ "$(field "$b" 'type(d["samples"][0]["alpha"]).__name__')" = float ]; echo $?) \
+	"name=density_spectrum: the last spectrum over f (m = 10 samples of 0.05, 4 frequencies) with its slope alpha: $(code)"
 b=$(api GET "/api/v1/jobs/$id/observables?name=pair_correlation&last=1" -H "$A")
 ok $([ "$(field "$b" '[s["sample"] for s in d["samples"]]')" = "[4]" ] && [ "$(field "$b" 'd["next"]')" = 4 ]; echo $?) \
 	"last=1: the last sample only, next = 4"

@@ -20,6 +20,10 @@
 #define FLD_MAX 6
 static const char *const fld_names[FLD_MAX] = {"fields_samples", "fields_count", "fields_density", "fields_velocity",
                                                "fields_temperature", "fields_spin"};
+/* density_spectrum: samples (int), power [rows][K], alpha, alpha_se; one row per spectrum (snapshot times) */
+#define DSP_MAX 4
+static const char *const dsp_names[DSP_MAX] = {"density_spectrum_samples", "density_spectrum_power",
+                                               "density_spectrum_alpha", "density_spectrum_alpha_se"};
 
 /* What a value column holds: cols 0 = scalar per row, -1 = D components,
  * -2 = D components per obstacle (obstacle k's at k D .. k D + D - 1),
@@ -92,6 +96,8 @@ static void g_gpairs(const run_record_t *r, void *o) { *(double *)o = r->obs.g_p
 static void g_grate(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->obs.g_rate : NAN; }
 static void g_gpres(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->obs.g_pressure : NAN; }
 static void g_msd(const run_record_t *r, void *o) { *(double *)o = r->obs.msd; }
+static void g_flux(const run_record_t *r, void *o) { *(double *)o = r->obs.flux; }
+static void g_flux_err(const run_record_t *r, void *o) { *(double *)o = r->obs.flux_se; }
 static void g_diff(const run_record_t *r, void *o) { *(double *)o = r->obs.diffusion; }
 static void g_msd_se(const run_record_t *r, void *o) { *(double *)o = r->se.msd; }
 static void g_diff_se(const run_record_t *r, void *o) { *(double *)o = r->se.diffusion; }
@@ -142,6 +148,8 @@ static const obs_def_t obs_defs[] = {
 	{ "g_contact_pressure", SCENE_OBS_GOFR, 0, 0, "1", g_gpres },
 	{ "mean_square_displacement", SCENE_OBS_MSD, 0, 0, "l0+2", g_msd },
 	{ "diffusion_coefficient", SCENE_OBS_MSD, 0, 0, "l0+2 t0-1", g_diff },
+	{ "flux", SCENE_OBS_FLUX, 0, 0, "flux", g_flux },
+	{ "flux_error", SCENE_OBS_FLUX, 0, 0, "flux", g_flux_err },
 	/* ensembles: NAME_se beside NAME, as KEY_se in the progress stream */
 	{ "time_se", NEED_SE, 0, 0, "t0", g_time_se },
 	{ "kinetic_energy_se", NEED_SE | SCENE_OBS_ENERGY, 0, 0, "e0", g_ekin_se },
@@ -193,6 +201,11 @@ struct h5md {
 	hid_t fld_step, fld_time, fld[FLD_MAX];
 	uint64_t fld_rows, fld_cells;
 	double *fld_buf;            /* fld_cells * 3 */
+	/* density_spectrum: like the fields, one row per spectrum, own step and time */
+	int dsp_on;
+	hid_t dsp_step, dsp_time, dsp[DSP_MAX];
+	uint64_t dsp_rows;
+	int dsp_k;                  /* frequencies per row */
 };
 
 int h5md_groups(const scene_t *s)
@@ -309,6 +322,13 @@ static h5md_t *alloc_writer(const char *path, const scene_t *s)
 	h->file = h->obs_step = h->obs_time = h->fld_step = h->fld_time = H5I_INVALID_HID;
 	for (int k = 0; k < FLD_MAX; k++)
 		h->fld[k] = H5I_INVALID_HID;
+	h->dsp_step = h->dsp_time = H5I_INVALID_HID;
+	for (int k = 0; k < DSP_MAX; k++)
+		h->dsp[k] = H5I_INVALID_HID;
+	if ((s->observables & SCENE_OBS_DSPEC) && s->replicas <= 1) {
+		h->dsp_on = 1;
+		h->dsp_k = s->dspec_m / 2 - 1;
+	}
 	if ((s->observables & SCENE_OBS_FIELDS) && s->replicas <= 1) {
 		h->fld_cells = (uint64_t)s->fields_cells[0] * (uint64_t)s->fields_cells[1] * (uint64_t)s->fields_cells[2];
 		h->n_fld = s->rough ? FLD_MAX : FLD_MAX - 1;
@@ -359,6 +379,8 @@ static const char *unit_of(const obs_def_t *d, int dim)
 {
 	if (d->unit && !strcmp(d->unit, "pressure"))
 		return dim == 2 ? "e0 l0-2" : "e0 l0-3";
+	if (d->unit && !strcmp(d->unit, "flux"))
+		return dim == 2 ? "l0-1 t0-1" : "l0-2 t0-1";
 	return d->unit;
 }
 
@@ -678,6 +700,54 @@ out:
 	return ret;
 }
 
+/* The density spectrum's series under /observables (docs/output.md): samples, power [rows][K] (attribute
+ * frequencies: f_k, k = 1 .. K), alpha and alpha_se; step and time of their own, hard-linked among them. */
+static int write_dspec(h5md_t *h, const scene_t *s)
+{
+	const hsize_t chunk1[1] = {OBS_CHUNK};
+	int ret = -1;
+	hid_t root = H5Gopen2(h->file, "observables", H5P_DEFAULT), first = H5I_INVALID_HID;
+	if (root < 0)
+		return -1;
+	double *f = malloc((size_t)(h->dsp_k > 0 ? h->dsp_k : 1) * sizeof(double));
+	if (!f)
+		goto out;
+	for (int k = 0; k < h->dsp_k; k++)
+		f[k] = (k + 1) / (s->dspec_m * s->dspec_interval);
+	for (int k = 0; k < DSP_MAX; k++) {
+		hid_t g = h5u_group(root, dsp_names[k]);
+		if (g < 0)
+			goto out;
+		hsize_t inner[1] = {(hsize_t)h->dsp_k}, chunk[2] = {1, (hsize_t)h->dsp_k};
+		hid_t v = k == 0 ? create_series(g, "value", H5T_STD_I64LE, 1, NULL, chunk1, 0)
+		        : k == 1 ? create_series(g, "value", H5T_IEEE_F64LE, 2, inner, chunk, h->level)
+		                 : create_series(g, "value", H5T_IEEE_F64LE, 1, NULL, chunk1, 0);
+		int bad = v < 0 || (k == 1 && (h5u_attr_f64(v, "frequencies", f, (size_t)h->dsp_k) ||
+		                               h5u_attr_str(v, "unit", "1"))) ||
+		          (k >= 2 && h5u_attr_str(v, "unit", "1"));
+		if (!bad && first < 0) {
+			first = g;
+			h->dsp_step = create_series(g, "step", H5T_STD_I64LE, 1, NULL, chunk1, 0);
+			h->dsp_time = create_series(g, "time", H5T_IEEE_F64LE, 1, NULL, chunk1, 0);
+			bad = h->dsp_step < 0 || h->dsp_time < 0 || h5u_attr_str(h->dsp_time, "unit", "t0");
+		} else if (!bad) {
+			bad = H5Lcreate_hard(first, "step", g, "step", H5P_DEFAULT, H5P_DEFAULT) < 0 ||
+			      H5Lcreate_hard(first, "time", g, "time", H5P_DEFAULT, H5P_DEFAULT) < 0;
+		}
+		if (g != first)
+			H5Gclose(g);
+		h->dsp[k] = v;
+		if (bad)
+			goto out;
+	}
+	ret = 0;
+out:
+	free(f);
+	if (first >= 0) H5Gclose(first);
+	H5Gclose(root);
+	return ret;
+}
+
 h5md_t *h5md_create(const char *path, const scene_t *s, const char *scene_text, size_t len,
                     int *err, char *msg, size_t msglen)
 {
@@ -693,7 +763,7 @@ h5md_t *h5md_create(const char *path, const scene_t *s, const char *scene_text, 
 		goto fail;
 	}
 	if (write_header(h->file) || write_parameters(h->file, s, scene_text, len) || write_particles(h, s) ||
-	    write_observables(h, s) || (h->n_fld && write_fields(h, s)) || H5Fflush(h->file, H5F_SCOPE_GLOBAL) < 0) {
+	    write_observables(h, s) || (h->n_fld && write_fields(h, s)) || (h->dsp_on && write_dspec(h, s)) || H5Fflush(h->file, H5F_SCOPE_GLOBAL) < 0) {
 		*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot write the H5MD layout", path);
 		goto fail;
 	}
@@ -777,6 +847,20 @@ static int attach(h5md_t *h, const scene_t *s, const char *path, char *msg, size
 			return h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: missing /observables/fields_samples/step or time", path);
 		int64_t r = rows_of(h->fld_time);
 		h->fld_rows = r > 0 ? (uint64_t)r : 0;
+	}
+	for (int k = 0; k < DSP_MAX && h->dsp_on; k++) {
+		snprintf(p, sizeof p, "observables/%s/value", dsp_names[k]);
+		if ((h->dsp[k] = H5Dopen2(h->file, p, H5P_DEFAULT)) < 0)
+			return h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: missing dataset /%s", path, p);
+	}
+	if (h->dsp_on) {
+		h->dsp_step = H5Dopen2(h->file, "observables/density_spectrum_samples/step", H5P_DEFAULT);
+		h->dsp_time = H5Dopen2(h->file, "observables/density_spectrum_samples/time", H5P_DEFAULT);
+		if (h->dsp_step < 0 || h->dsp_time < 0)
+			return h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: missing /observables/density_spectrum_samples/step or time",
+			                path);
+		int64_t r = rows_of(h->dsp_time);
+		h->dsp_rows = r > 0 ? (uint64_t)r : 0;
 	}
 	return H5MD_OK;
 }
@@ -875,6 +959,11 @@ int h5md_destroy(h5md_t *h)
 			H5Dclose(h->fld[k]);
 	if (h->fld_step >= 0) H5Dclose(h->fld_step);
 	if (h->fld_time >= 0) H5Dclose(h->fld_time);
+	for (int k = 0; k < DSP_MAX; k++)
+		if (h->dsp[k] >= 0)
+			H5Dclose(h->dsp[k]);
+	if (h->dsp_step >= 0) H5Dclose(h->dsp_step);
+	if (h->dsp_time >= 0) H5Dclose(h->dsp_time);
 	free(h->fld_buf);
 	if (h->file >= 0 && H5Fclose(h->file) < 0)
 		ret = H5MD_EIO;
@@ -915,9 +1004,33 @@ static const obs_table_t *fld_table(const obs_curves_t *c, const char *sub)
 	return NULL;
 }
 
+/* One row of the density spectrum (a no-op without it). */
+static int dspec_row(h5md_t *h, const run_record_t *rec, char *msg, size_t msglen)
+{
+	const obs_curves_t *c = rec->curves;
+	const obs_table_t *t = NULL;
+	for (int i = 0; c && i < c->ntables; i++)
+		if (!strcmp(c->t[i].family, "density_spectrum"))
+			t = &c->t[i];
+	if (!h->dsp_on || !t)
+		return H5MD_OK;
+	int64_t step = (int64_t)rec->events, samples = c->dspec_samples;
+	if (t->nb != h->dsp_k || append_row(h->dsp_step, H5T_NATIVE_INT64, h->dsp_rows, &step) ||
+	    append_row(h->dsp_time, H5T_NATIVE_DOUBLE, h->dsp_rows, &rec->time) ||
+	    append_row(h->dsp[0], H5T_NATIVE_INT64, h->dsp_rows, &samples) ||
+	    append_row(h->dsp[1], H5T_NATIVE_DOUBLE, h->dsp_rows, t->val[0]) ||
+	    append_row(h->dsp[2], H5T_NATIVE_DOUBLE, h->dsp_rows, &c->dspec_alpha) ||
+	    append_row(h->dsp[3], H5T_NATIVE_DOUBLE, h->dsp_rows, &c->dspec_alpha_se))
+		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot append the density spectrum", h->path);
+	h->dsp_rows++;
+	return H5MD_OK;
+}
+
 int h5md_fields(h5md_t *h, const run_record_t *rec, char *msg, size_t msglen)
 {
 	static const char *const sub[FLD_MAX] = {"", "density", "density", "velocity", "temperature", "spin"};
+	if (dspec_row(h, rec, msg, msglen) != H5MD_OK)
+		return H5MD_EIO;
 	if (!h->n_fld || !fld_table(rec->curves, "density"))
 		return H5MD_OK;
 	int64_t step = (int64_t)rec->events, samples = rec->curves->fields_samples;
@@ -942,8 +1055,33 @@ fail:
 	return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot append the fields", h->path);
 }
 
+/* Cut the density spectrum's rows after t_ckpt. */
+static int dspec_cut(h5md_t *h, double t_ckpt, char *msg, size_t msglen)
+{
+	if (!h->dsp_on || h->dsp_rows == 0)
+		return H5MD_OK;
+	double *t = malloc(h->dsp_rows * sizeof(double));
+	uint64_t keep = 0;
+	if (!t || H5Dread(h->dsp_time, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, t) < 0) {
+		free(t);
+		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot read the density spectrum's times", h->path);
+	}
+	while (keep < h->dsp_rows && t[keep] <= t_ckpt)
+		keep++;
+	free(t);
+	int bad = truncate_rows(h->dsp_step, keep) || truncate_rows(h->dsp_time, keep);
+	for (int k = 0; k < DSP_MAX && !bad; k++)
+		bad = truncate_rows(h->dsp[k], keep);
+	if (bad)
+		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot truncate the density spectrum to the checkpoint", h->path);
+	h->dsp_rows = keep;
+	return H5MD_OK;
+}
+
 int h5md_fields_cut(h5md_t *h, double t_ckpt, char *msg, size_t msglen)
 {
+	if (dspec_cut(h, t_ckpt, msg, msglen) != H5MD_OK)
+		return H5MD_EIO;
 	if (!h->n_fld || h->fld_rows == 0)
 		return H5MD_OK;
 	double *t = malloc(h->fld_rows * sizeof(double));

@@ -63,7 +63,8 @@ int h5md_flush(h5md_t *h, char *msg, size_t msglen);
  * /observables (replacing earlier ones), flushed. */
 int h5md_collapse(h5md_t *h, double time, const char *message, char *msg, size_t msglen);
 /* fields (output.fields, single runs): a RUN_CURVES record's fields tables as one row of
- * /observables/fields_* (docs/output.md); a no-op without fields. h5md_fields_cut(): after
+ * /observables/fields_* (docs/output.md), and its density_spectrum as one row of
+ * /observables/density_spectrum_*; a no-op without them. h5md_fields_cut(): after
  * h5md_open_append(), drop the rows after time t_ckpt (a resumed run writes them again). */
 int h5md_fields(h5md_t *h, const run_record_t *rec, char *msg, size_t msglen);
 int h5md_fields_cut(h5md_t *h, double t_ckpt, char *msg, size_t msglen);

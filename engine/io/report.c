@@ -182,6 +182,11 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 		num(&o, "msd_se", r->replicas > 1 ? r->se.msd : r->obs.msd_se);
 		num_se(&o, r, "diffusion", r->obs.diffusion, r->se.diffusion);
 	}
+	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_FLUX)) {
+		/* the standard error over particles of the instantaneous sum (single runs only) */
+		num(&o, "flux", r->obs.flux);
+		num(&o, "flux_se", r->obs.flux_se);
+	}
 	if (r->warning) {
 		/* Our own text: printable ASCII; quote the two JSON specials anyway. */
 		put(&o, ",\"warning\":\"");
@@ -278,6 +283,10 @@ int report_curves(const run_record_t *r, uint64_t sample, char *buf, size_t len)
 		} else if (!strcmp(t->family, "impact_parameter")) {
 			scalar9(&o, ens, "fit_a", c->impact_a, c->se_impact_a);
 			scalar9(&o, ens, "fit_c", c->impact_c, c->se_impact_c);
+		} else if (!strcmp(t->family, "density_spectrum")) {
+			put(&o, ",\"samples\":%d", c->dspec_samples);
+			scalar9(&o, 0, "alpha", c->dspec_alpha, NAN);
+			scalar9(&o, 0, "alpha_se", c->dspec_alpha_se, NAN);
 		} else if (!strcmp(t->family, "fields")) {
 			put(&o, ",\"samples\":%d", c->fields_samples);
 		}

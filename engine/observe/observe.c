@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "observe/dspec.h"
 #include "observe/fgrid.h"
 #include "observe/fields.h"
 #include "observe/gofr.h"
@@ -23,6 +24,7 @@ struct obs {
 	gofr_t *gofr;             /* pair_correlation, velocity_correlations */
 	fgrid_t *grid;            /* structure_factor, velocity_correlations */
 	fields_t *fields;         /* fields */
+	dspec_t *dspec;           /* density_spectrum */
 	double *mem;              /* one block: axes, values, standard errors, scratch */
 	double *gcount, *gpar, *gperp;   /* pair sums over the g(r) bins */
 	double *vhist;                   /* D * bins: the component histograms, axis-major */
@@ -51,6 +53,7 @@ void obs_destroy(obs_t *o)
 	gofr_destroy(o->gofr);
 	fgrid_destroy(o->grid);
 	fields_destroy(o->fields);
+	dspec_destroy(o->dspec);
 	free(o->mem);
 	free(o);
 }
@@ -110,6 +113,13 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 			goto fail;
 	}
 
+	if (!layout_only && (o->bits & SCENE_OBS_DSPEC)) {
+		o->dspec = dspec_create(D, s->dspec_axis, s->dspec_slices, s->box[s->dspec_axis], s->dspec_m,
+		                        s->dspec_interval, s->dspec_fit[0], s->dspec_fit[1]);
+		if (!o->dspec)
+			goto fail;
+	}
+
 	/* Tables (values assigned below from one block). */
 	static const char *const comp3[] = {"p_x", "p_y", "p_z", NULL}, *const comp2[] = {"p_x", "p_y", NULL};
 	static const char *const speed[] = {"p", NULL}, *const gcols[] = {"g", NULL}, *const scol[] = {"s", NULL};
@@ -149,6 +159,11 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 		for (int i = 0; i < k; i++)
 			for (int a = 0; a < 3; a++)
 				ft[i]->shape[a] = a < D ? s->fields_cells[a] : 0;
+	}
+
+	if (o->bits & SCENE_OBS_DSPEC) {
+		static const char *const pcols[] = {"P", NULL};
+		table(o, "density_spectrum", "", "f", "t0-1", dspec_bins(s->dspec_m), pcols);
 	}
 
 	/* One block: per table edges (nb+1) and centres (nb); per column value
@@ -193,6 +208,14 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 			for (int b = 0; b < t->nb; b++)
 				centres[b] = b;
 			continue;
+		} else if (!strcmp(t->x, "f")) {
+			/* f_k = k / (m interval), k = 1 .. m/2 - 1 (observe/dspec.h) */
+			double df = 1.0 / (s->dspec_m * s->dspec_interval);
+			for (int b = 0; b <= t->nb; b++)
+				edges[b] = (b + 0.5) * df;
+			for (int b = 0; b < t->nb; b++)
+				centres[b] = (b + 1) * df;
+			continue;
 		} else if (!strcmp(t->x, "k")) {
 			fgrid_axis(o->grid, edges, centres, NULL);
 			continue;
@@ -227,6 +250,8 @@ size_t obs_memory(const obs_t *o)
 		b += fgrid_memory(o->grid);
 	if (o->fields)
 		b += fields_memory(o->fields);
+	if (o->dspec)
+		b += dspec_memory(o->dspec);
 	if (o->gofr)
 		b += (size_t)o->s.count * (2 * o->s.dim * sizeof(double) + sizeof(uint32_t)) +
 		     (3 * (size_t)o->s.count + 28) * sizeof(uint32_t);
@@ -312,6 +337,8 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 	c->temperature = m.temperature;
 	c->a2 = c->a3 = c->g_pairs = c->cluster_w = c->cluster_exponent = c->m2_reduced = c->mean_size = NAN;
 	c->impact_a = c->impact_c = NAN;
+	c->dspec_alpha = c->dspec_alpha_se = NAN;
+	c->dspec_samples = 0;
 	if ((t = find(o, "velocity_distribution", "components"))) {
 		obs_table_t *sp = find(o, "velocity_distribution", "speed");
 		vdist_histograms(D, n, s->mass, vel, &m, t->nb, s->vdist_range, o->vhist, sp->val[0]);
@@ -364,6 +391,8 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 		                                  tw ? tw->val : NULL);
 		fields_reset(o->fields);
 	}
+	if ((t = find(o, "density_spectrum", "")) && o->dspec)
+		c->dspec_samples = dspec_result(o->dspec, t->val[0], &c->dspec_alpha, &c->dspec_alpha_se);
 	if ((t = find(o, "clusters", ""))) {
 		clusters_stats_t st;
 		if (!cl || clusters_compute(cl, pos, s->box, s->radius, s->cluster_delta * o->sigma, &st) != 0)
@@ -383,6 +412,14 @@ void obs_fields_add(obs_t *o, const double *pos, const double *vel, const double
 {
 	if (o->fields)
 		fields_add(o->fields, o->s.count, pos, vel, spin);
+}
+
+struct dspec *obs_dspec(const obs_t *o) { return o->dspec; }
+
+void obs_dspec_add(obs_t *o, const double *pos)
+{
+	if (o->dspec)
+		dspec_add(o->dspec, o->s.count, pos);
 }
 
 /* ---- ensembles ------------------------------------------------------------- */

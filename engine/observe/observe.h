@@ -32,6 +32,8 @@ typedef struct {
 	double g_pressure;        /* ... from the pressure (collision virial) over the interval */
 	double msd, msd_se;       /* mean_square_displacement: since the run's start (length^2), its se over particles */
 	double diffusion;         /* ... (MSD(t) - MSD(t_prev)) / (2 D (t - t_prev)) over the output interval */
+	double flux, flux_se;     /* flux: sum_i v_i . g_hat / volume now (g_hat: gravity's direction, else the last
+	                           * axis), its standard error sqrt(N var(v . g_hat)) / volume over particles */
 } obs_scalars_t;
 
 #define OBS_MAX_COLS 3
@@ -62,6 +64,8 @@ typedef struct {
 	double cluster_w, cluster_exponent, m2_reduced, mean_size;   /* when clusters is asked */
 	int fields_samples;       /* fields: instants averaged (observe/fields.h) */
 	double impact_a, impact_c;  /* impact_parameter: P(b) / P_chaos(b) = a / (1 - c (b/sigma)^2), weighted fit */
+	double dspec_alpha, dspec_alpha_se; /* density_spectrum: slope of log P(f) over the fit range, its se */
+	int dspec_samples;        /* density_spectrum: samples behind the spectrum (NaN values below m) */
 	/* ensembles: standard errors of the same scalars */
 	double se_temperature, se_a2, se_a3, se_g_pairs, se_cluster_w, se_cluster_exponent, se_m2_reduced,
 	       se_mean_size, se_impact_a, se_impact_c;
@@ -71,7 +75,7 @@ typedef struct obs obs_t;
 
 /* The observables of scene s that make curves (what obs_create() lays out). */
 #define OBS_CURVE_BITS (SCENE_OBS_VDIST | SCENE_OBS_GOFR | SCENE_OBS_SOFK | SCENE_OBS_VCORR | SCENE_OBS_CLUSTERS | \
-                        SCENE_OBS_IMPACT | SCENE_OBS_FIELDS)
+                        SCENE_OBS_IMPACT | SCENE_OBS_FIELDS | SCENE_OBS_DSPEC)
 unsigned obs_curve_bits(const scene_t *s);
 
 /* Workspaces for scene s. layout_only: only the curve description (axes, zeroed values), no
@@ -106,6 +110,14 @@ double *obs_impact_counts(const obs_t *o, int *nb);
 struct fields;
 struct fields *obs_fields(const obs_t *o);
 void obs_fields_add(obs_t *o, const double *pos, const double *vel, const double *spin);
+
+/* density_spectrum (output.density_spectrum): the sampler (observe/dspec.h; NULL when not asked for or
+ * layout_only). obs_dspec_add() adds one sample of the slice counts (pos: N*D, scene order); obs_curves()
+ * turns the last m samples into the table "density_spectrum" (x = "f", column P) with dspec_alpha,
+ * dspec_alpha_se and dspec_samples. */
+struct dspec;
+struct dspec *obs_dspec(const obs_t *o);
+void obs_dspec_add(obs_t *o, const double *pos);
 
 /* The table description without sampling (layout_only objects too). */
 const obs_curves_t *obs_layout(const obs_t *o);
