@@ -225,6 +225,20 @@ static void said(char *err, size_t errlen, const char *prog, const char *out, in
 	snprintf(err, errlen, "%s exited with status %d%s%.*s", prog, rc, len ? ": " : "", (int)len, out);
 }
 
+/* run() for a command whose only answer is its exit status: SLURM_OK on 0, else SLURM_EFAIL with err set
+ * (by run() when it could not run it, by said() when it failed). */
+static int run_ok(char *const argv[], char *out, size_t n, char *err, size_t errlen)
+{
+	int rc = run(argv, NULL, out, n, err, errlen);
+	if (rc < 0)
+		return SLURM_EFAIL;
+	if (rc != 0) {
+		said(err, errlen, argv[0], out, rc);
+		return SLURM_EFAIL;
+	}
+	return SLURM_OK;
+}
+
 int slurm_submit(const cfg_t *c, const char *script_path, int64_t *job, char *err, size_t errlen)
 {
 	char out[4096], dir[4096];
@@ -326,14 +340,7 @@ int slurm_cancel(const cfg_t *c, int64_t job, const char *sig, char *err, size_t
 	snprintf(sigopt, sizeof(sigopt), "--signal=%s", sig ? sig : "");
 	char *const with[] = {c->scancel, sigopt, id, NULL};
 	char *const plain[] = {c->scancel, id, NULL};
-	int rc = run(sig ? with : plain, NULL, out, sizeof(out), err, errlen);
-	if (rc < 0)
-		return SLURM_EFAIL;
-	if (rc != 0) {
-		said(err, errlen, c->scancel, out, rc);
-		return SLURM_EFAIL;
-	}
-	return SLURM_OK;
+	return run_ok(sig ? with : plain, out, sizeof(out), err, errlen);
 }
 
 int slurm_cancel_name(const cfg_t *c, const char *name, char *err, size_t errlen)
@@ -341,28 +348,16 @@ int slurm_cancel_name(const cfg_t *c, const char *name, char *err, size_t errlen
 	char out[4096], opt[160];
 	snprintf(opt, sizeof(opt), "--name=%s", name);
 	char *const argv[] = {c->scancel, opt, NULL};
-	int rc = run(argv, NULL, out, sizeof(out), err, errlen);
-	if (rc < 0)
-		return SLURM_EFAIL;
-	if (rc != 0) {
-		said(err, errlen, c->scancel, out, rc);
-		return SLURM_EFAIL;
-	}
-	return SLURM_OK;
+	return run_ok(argv, out, sizeof(out), err, errlen);
 }
 
 int slurm_find(const cfg_t *c, const char *name, int64_t *job, char *err, size_t errlen)
 {
 	char out[4096];
 	char *const argv[] = {c->squeue, "-h", "-n", (char *)name, "-o", "%i", NULL};
-	int rc = run(argv, NULL, out, sizeof(out), err, errlen);
 	*job = 0;
-	if (rc < 0)
+	if (run_ok(argv, out, sizeof(out), err, errlen) != SLURM_OK)
 		return SLURM_EFAIL;
-	if (rc != 0) {
-		said(err, errlen, c->squeue, out, rc);
-		return SLURM_EFAIL;
-	}
 	*job = strtoll(out, NULL, 10);
 	return SLURM_OK;
 }
