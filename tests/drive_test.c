@@ -9,6 +9,7 @@
 
 #include "ed/ed.h"
 #include "scene.h"
+#include "presets.h"
 #include "tap.h"
 #include "ed_util.h"
 
@@ -48,9 +49,8 @@ static void average(ed_t *ed, const scene_t *sc, double t0, double t1, double *t
  */
 static void test_balance(void)
 {
-	const char *src = getenv("SRCDIR");
 	char path[4096];
-	snprintf(path, sizeof path, "%s/presets/thermostat-balance-2d.json", src ? src : ".");
+	preset_path("thermostat-balance-2d.json", path, sizeof path);
 	json_error_t jerr;
 	json_t *base = json_load_file(path, 0, &jerr);
 	if (!base) {

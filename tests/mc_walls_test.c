@@ -8,6 +8,7 @@
 #include "ed/ed.h"
 #include "mc/dsmc.h"
 #include "scene.h"
+#include "presets.h"
 #include "tap.h"
 #include "stats.h"
 
@@ -404,15 +405,9 @@ static void test_rest(void)
  *   stopped at 0.3); a seed that does not reach the time fails the test. */
 static void test_gravity_box(void)
 {
-	char path[1024], err[512] = "";
-	const char *src = getenv("SRCDIR");
-	snprintf(path, sizeof path, "%s/presets/gravity-box-2d.json", src && *src ? src : ".");
-	FILE *f = fopen(path, "r");
+	char err[512] = "";
 	static char text[8192];
-	size_t len = f ? fread(text, 1, sizeof text - 1, f) : 0;
-	if (f)
-		fclose(f);
-	text[len] = '\0';
+	size_t len = preset_text("gravity-box-2d.json", text, sizeof text);
 	enum { R = 8, K = 10 };
 	static const scene_method_t methods[3] = { SCENE_METHOD_ED, SCENE_METHOD_DSMC, SCENE_METHOD_HSMC };
 	double h[3][K][R];
@@ -455,7 +450,7 @@ static void test_gravity_box(void)
 			dsmc_destroy(d);
 		}
 	if (!good) {
-		ok(0, "gravity box from %s: %s", path, err);
+		ok(0, "gravity box from presets/gravity-box-2d.json: %s", len ? err : "cannot read it");
 		return;
 	}
 	double mean[3][K], se[3][K], late[3], late_se[3];
@@ -805,15 +800,9 @@ static void test_vibrated_methods(void)
  * above its rest height (one radius above the floor would be 0.5 mm). */
 static void test_vibrated_preset(void)
 {
-	char path[1024], err[512] = "";
-	const char *src = getenv("SRCDIR");
-	snprintf(path, sizeof path, "%s/presets/vibrated-bed-2d.json", src && *src ? src : ".");
-	FILE *f = fopen(path, "r");
+	char err[512] = "";
 	static char text[8192];
-	size_t len = f ? fread(text, 1, sizeof text - 1, f) : 0;
-	if (f)
-		fclose(f);
-	text[len] = '\0';
+	size_t len = preset_text("vibrated-bed-2d.json", text, sizeof text);
 	static const double V[2] = { 1.0, 0.2 };
 	double h[2][2], se[2][2];   /* [V][ed, dsmc] */
 	int good = len > 0;

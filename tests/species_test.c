@@ -10,6 +10,7 @@
 #include "ed/ed.h"
 #include "mc/dsmc.h"
 #include "scene.h"
+#include "presets.h"
 #include "tap.h"
 #include "ed_util.h"
 #include "stats.h"
@@ -334,8 +335,7 @@ static void test_hcs(void)
 	double x[HCS_RUNS], m[2] = {0, 0}, nf[2] = {0, 0}, sig[2][2] = {{0}}, e[2][2] = {{0}};
 	int made = 0;
 	char path[4096];
-	const char *src = getenv("SRCDIR");
-	snprintf(path, sizeof path, "%s/presets/binary-mixture-2d.json", src ? src : ".");
+	preset_path("binary-mixture-2d.json", path, sizeof path);
 	json_error_t jerr;
 	json_t *preset = json_load_file(path, 0, &jerr);
 	if (!preset) {

@@ -9,6 +9,7 @@
 
 #include "ed/ed.h"
 #include "scene.h"
+#include "presets.h"
 #include "tap.h"
 #include "stats.h"
 #include "ed_util.h"
@@ -468,9 +469,8 @@ static void test_bagnold(void)
 	const double v[3] = {0.2, 2.0, 20.0};
 	double lf[3], sl[3];
 	/* the preset presets/bagnold-shear-2d.json at three wall speeds */
-	const char *src = getenv("SRCDIR");
 	char path[4096];
-	snprintf(path, sizeof path, "%s/presets/bagnold-shear-2d.json", src ? src : ".");
+	preset_path("bagnold-shear-2d.json", path, sizeof path);
 	json_error_t jerr;
 	json_t *preset = json_load_file(path, 0, &jerr);
 	json_t *y = json_object_get(json_object_get(preset, "boundaries"), "y");
