@@ -560,102 +560,85 @@ static void test_gravity(void)
 	ed_destroy(ed);
 }
 
-#define TW_RUNS 6
+#define HOLD_RUNS 6
+/* An elastic mixture held at temperature 2 by its boundaries or its driving:
+ * the scene SCENE_FMT (a %d for the seed, seed0 + run) run HOLD_RUNS times;
+ * per run the mean of each species' temperature over `samples` samples, the
+ * k-th (k = 1 .. samples) taken at first + k step collisions per particle
+ * (by_cpp) or at time first + k step; passes when both species' means over
+ * the runs are 2 within 5 standard errors of the mean over the runs. */
+static void equilibrium_at_2(const char *what, const char *scene_fmt, int seed0, int by_cpp, double first, double step,
+                             int samples)
+{
+	double tl[HOLD_RUNS], th[HOLD_RUNS];
+	int made = 0;
+	for (int run = 0; run < HOLD_RUNS; run++) {
+		char j[1024];
+		snprintf(j, sizeof j, scene_fmt, seed0 + run);
+		scene_t s;
+		ed_t *ed = make(j, &s);
+		if (!ed)
+			break;
+		double sl = 0.0, sh = 0.0, t0, t1, t;
+		for (int k = 1; k <= samples; k++) {
+			if (by_cpp)
+				ed_advance(ed, INFINITY, (uint64_t)cpp_coll(first + step * k, s.count), UINT64_MAX);
+			else
+				ed_advance(ed, first + step * k, UINT64_MAX, UINT64_MAX);
+			temps(ed, &s, &t0, &t1, &t);
+			sl += t0;
+			sh += t1;
+		}
+		tl[run] = sl / samples;
+		th[run] = sh / samples;
+		ed_destroy(ed);
+		made++;
+	}
+	if (made < HOLD_RUNS) {
+		ok(0, "%s: %d of %d runs made", what, made, HOLD_RUNS);
+		return;
+	}
+	double ml, sel, mh, seh;
+	mean_se(tl, HOLD_RUNS, &ml, &sel);
+	mean_se(th, HOLD_RUNS, &mh, &seh);
+	ok(fabs(ml - 2.0) < 5 * sel && fabs(mh - 2.0) < 5 * seh,
+	   "%s: T_light = %.4f +- %.4f, T_heavy = %.4f +- %.4f (5 SE over %d runs)", what, ml, sel, mh, seh, HOLD_RUNS);
+}
+
 /* Thermal walls (both ends of y, T_w = 2, full accommodation) hold an
  * elastic mixture (400 + 400 disks, masses 1 and 5) in equilibrium at the
  * walls' temperature: each species' temperature is T_w on average (a diffuse
  * wall re-emits a particle of mass m from the Maxwellian of temperature T_w,
  * sqrt(T_w / m) per component: the engine scales the wall's speed by the
- * particle's mass). Measured: the mean of T_s over 60 samples (collisions
- * per particle 45 .. 300, every 5; started at T = 2) per run, over TW_RUNS
- * independent runs; within 5 standard errors of the mean over the runs. */
+ * particle's mass). 60 samples at collisions per particle 45 .. 340, every
+ * 5 (started at T = 2). */
 static void test_thermal_walls(void)
 {
-	double tl[TW_RUNS], th[TW_RUNS];
-	int made = 0;
-	for (int run = 0; run < TW_RUNS; run++) {
-		char j[1024];
-		snprintf(j, sizeof j, "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":["
-		         "{\"count\":400,\"radius\":0.5,\"mass\":1},{\"count\":400,\"radius\":0.5,\"mass\":5}],"
-		         "\"box\":[40,40],\"initial\":{\"positions\":\"random\",\"temperature\":2}},"
-		         "\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"thermal\",\"temperature\":2},"
-		         "\"upper\":{\"type\":\"thermal\",\"temperature\":2}}},\"run\":{\"until\":{\"time\":1},"
-		         "\"seed\":%d}}", 201 + run);
-		scene_t s;
-		ed_t *ed = make(j, &s);
-		if (!ed)
-			break;
-		double sl = 0.0, sh = 0.0, t0, t1, t;
-		for (int k = 0; k < 60; k++) {
-			ed_advance(ed, INFINITY, (uint64_t)cpp_coll(45 + 5 * k, s.count), UINT64_MAX);
-			temps(ed, &s, &t0, &t1, &t);
-			sl += t0;
-			sh += t1;
-		}
-		tl[run] = sl / 60;
-		th[run] = sh / 60;
-		ed_destroy(ed);
-		made++;
-	}
-	if (made < TW_RUNS) {
-		ok(0, "thermal walls: %d of %d runs made", made, TW_RUNS);
-		return;
-	}
-	double ml, sel, mh, seh;
-	mean_se(tl, TW_RUNS, &ml, &sel);
-	mean_se(th, TW_RUNS, &mh, &seh);
-	ok(fabs(ml - 2.0) < 5 * sel && fabs(mh - 2.0) < 5 * seh,
-	   "thermal walls at T_w = 2: T_light = %.4f +- %.4f, T_heavy = %.4f +- %.4f (5 SE over %d runs)", ml, sel, mh,
-	   seh, TW_RUNS);
+	equilibrium_at_2("thermal walls at T_w = 2",
+	                 "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":["
+	                 "{\"count\":400,\"radius\":0.5,\"mass\":1},{\"count\":400,\"radius\":0.5,\"mass\":5}],"
+	                 "\"box\":[40,40],\"initial\":{\"positions\":\"random\",\"temperature\":2}},"
+	                 "\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"thermal\",\"temperature\":2},"
+	                 "\"upper\":{\"type\":\"thermal\",\"temperature\":2}}},\"run\":{\"until\":{\"time\":1},"
+	                 "\"seed\":%d}}",
+	                 201, 1, 40, 5, 60);
 }
 
-#define DR_RUNS 6
 /* seed 001's stochastic thermostat (T_th = 2, each particle kicked once per
  * unit time on average, one global mean velocity) drives an elastic mixture
  * (2D, 400 + 400 disks, masses 1 and 5, volume fraction 0.1, periodic) to
  * equilibrium at T_th for each species: a kick draws the velocity about the
- * mean from the Maxwellian of T_th for the particle's own mass. Measured:
- * the mean of T_s over 50 samples (times 11 .. 60; started at T = 1) per
- * run, over DR_RUNS independent runs; within 5 standard errors of the mean
- * over the runs. */
+ * mean from the Maxwellian of T_th for the particle's own mass. 50 samples
+ * at times 11 .. 60 (started at T = 1). */
 static void test_driving(void)
 {
-	double tl[DR_RUNS], th[DR_RUNS];
-	int made = 0;
-	for (int run = 0; run < DR_RUNS; run++) {
-		char j[1024];
-		snprintf(j, sizeof j, "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":["
-		         "{\"count\":400,\"radius\":0.5,\"mass\":1},{\"count\":400,\"radius\":0.5,\"mass\":5}],"
-		         "\"volume_fraction\":0.1,\"initial\":{\"positions\":\"random\"}},"
-		         "\"driving\":{\"type\":\"stochastic\",\"temperature\":2,\"interval\":1},"
-		         "\"run\":{\"until\":{\"time\":1},\"seed\":%d}}", 301 + run);
-		scene_t s;
-		ed_t *ed = make(j, &s);
-		if (!ed)
-			break;
-		double sl = 0.0, sh = 0.0, t0, t1, t;
-		ed_advance(ed, 10.0, UINT64_MAX, UINT64_MAX);
-		for (int k = 1; k <= 50; k++) {
-			ed_advance(ed, 10.0 + k, UINT64_MAX, UINT64_MAX);
-			temps(ed, &s, &t0, &t1, &t);
-			sl += t0;
-			sh += t1;
-		}
-		tl[run] = sl / 50;
-		th[run] = sh / 50;
-		ed_destroy(ed);
-		made++;
-	}
-	if (made < DR_RUNS) {
-		ok(0, "driven mixture: %d of %d runs made", made, DR_RUNS);
-		return;
-	}
-	double ml, sel, mh, seh;
-	mean_se(tl, DR_RUNS, &ml, &sel);
-	mean_se(th, DR_RUNS, &mh, &seh);
-	ok(fabs(ml - 2.0) < 5 * sel && fabs(mh - 2.0) < 5 * seh,
-	   "stochastic thermostat at T_th = 2: T_light = %.4f +- %.4f, T_heavy = %.4f +- %.4f (5 SE over %d runs)", ml,
-	   sel, mh, seh, DR_RUNS);
+	equilibrium_at_2("stochastic thermostat at T_th = 2",
+	                 "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":["
+	                 "{\"count\":400,\"radius\":0.5,\"mass\":1},{\"count\":400,\"radius\":0.5,\"mass\":5}],"
+	                 "\"volume_fraction\":0.1,\"initial\":{\"positions\":\"random\"}},"
+	                 "\"driving\":{\"type\":\"stochastic\",\"temperature\":2,\"interval\":1},"
+	                 "\"run\":{\"until\":{\"time\":1},\"seed\":%d}}",
+	                 301, 0, 10, 1, 50);
 }
 
 /* ---- one species, checkpoints ------------------------------------------ */
