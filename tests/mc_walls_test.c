@@ -388,6 +388,50 @@ static void test_rest(void)
 	dsmc_destroy(d);
 }
 
+/* One engine of either kind for the bed checks below: ed for method ed,
+ * else dsmc (which runs dsmc and hsmc). */
+typedef struct {
+	ed_t *ed;
+	dsmc_t *d;
+} bed_t;
+
+/* Creates the engine of sc's method; 0, or -1 with err set. */
+static int bed_make(bed_t *b, const scene_t *sc, char *err, size_t errlen)
+{
+	int e;
+	b->ed = sc->method == SCENE_METHOD_ED ? ed_create(sc, &e, err, errlen) : NULL;
+	b->d = sc->method == SCENE_METHOD_ED ? NULL : dsmc_create(sc, 0, &e, err, errlen);
+	return b->ed || b->d ? 0 : -1;
+}
+
+/* Advances to time t (ed: at most max_events events) and returns the
+ * centre-of-mass height then; an ed run that stops short of t (its event
+ * budget spent: a collapse) sets err naming `who` and *good = 0. */
+static double bed_height_at(bed_t *b, double t, uint64_t max_events, const char *who, int *good, char *err,
+                            size_t errlen)
+{
+	if (b->ed) {
+		ed_sample_t sm;
+		ed_advance(b->ed, t, UINT64_MAX, max_events);
+		ed_totals(b->ed, &sm);
+		if (ed_time(b->ed) < t) {
+			snprintf(err, errlen, "ed %s stopped at t = %g", who, ed_time(b->ed));
+			*good = 0;
+		}
+		return sm.com_height;
+	}
+	dsmc_sample_t sm;
+	dsmc_advance(b->d, t, UINT64_MAX, UINT64_MAX);
+	dsmc_totals(b->d, &sm);
+	return sm.com_height;
+}
+
+static void bed_free(bed_t *b)
+{
+	ed_destroy(b->ed);
+	dsmc_destroy(b->d);
+}
+
 /* The seed-000 gravity box (A12, Figs 2.6/2.7), from its preset: 100
  * inelastic disks (d = 0.001, e = 0.9) fall in a 0.02 x 0.04 box. The seed:
  * all methods agree early; DSMC, with no excluded volume, piles every
@@ -421,33 +465,16 @@ static void test_gravity_box(void)
 			}
 			sc.method = methods[m];
 			sc.seed = 100 + (uint64_t)r;
-			int e;
-			ed_t *ed = m == 0 ? ed_create(&sc, &e, err, sizeof err) : NULL;
-			dsmc_t *d = m ? dsmc_create(&sc, 0, &e, err, sizeof err) : NULL;
-			if (!ed && !d) {
+			bed_t b;
+			if (bed_make(&b, &sc, err, sizeof err)) {
 				good = 0;
 				break;
 			}
-			for (int k = 0; k < K; k++) {
-				double t = 0.05 * (k + 1);
-				if (ed) {
-					ed_sample_t sm;
-					ed_advance(ed, t, UINT64_MAX, 50000000);
-					ed_totals(ed, &sm);
-					if (ed_time(ed) < t) {
-						snprintf(err, sizeof err, "ed seed %d stopped at t = %g", r, ed_time(ed));
-						good = 0;
-					}
-					h[m][k][r] = sm.com_height;
-				} else {
-					dsmc_sample_t sm;
-					dsmc_advance(d, t, UINT64_MAX, UINT64_MAX);
-					dsmc_totals(d, &sm);
-					h[m][k][r] = sm.com_height;
-				}
-			}
-			ed_destroy(ed);
-			dsmc_destroy(d);
+			char who[32];
+			snprintf(who, sizeof who, "seed %d", r);
+			for (int k = 0; k < K; k++)
+				h[m][k][r] = bed_height_at(&b, 0.05 * (k + 1), 50000000, who, &good, err, sizeof err);
+			bed_free(&b);
 		}
 	if (!good) {
 		ok(0, "gravity box from presets/gravity-box-2d.json: %s", len ? err : "cannot read it");
@@ -739,37 +766,19 @@ static void test_vibrated_methods(void)
 				good = 0;
 				break;
 			}
-			int e;
-			ed_t *ed = m == 0 ? ed_create(&sc, &e, err, sizeof err) : NULL;
-			dsmc_t *d = m ? dsmc_create(&sc, 0, &e, err, sizeof err) : NULL;
-			if (!ed && !d) {
+			bed_t b;
+			if (bed_make(&b, &sc, err, sizeof err)) {
 				good = 0;
 				break;
 			}
+			char who[32];
+			snprintf(who, sizeof who, "seed %d", r);
 			double acc = 0;
 			int n = 0;
-			for (int k = 200; k <= 2000; k++) {
-				if (ed) {
-					ed_sample_t sm;
-					ed_advance(ed, k, UINT64_MAX, 100000000);
-					ed_totals(ed, &sm);
-					if (ed_time(ed) < k) {
-						snprintf(err, sizeof err, "ed seed %d stopped at t = %g", r, ed_time(ed));
-						good = 0;
-						break;
-					}
-					acc += sm.com_height;
-				} else {
-					dsmc_sample_t sm;
-					dsmc_advance(d, k, UINT64_MAX, UINT64_MAX);
-					dsmc_totals(d, &sm);
-					acc += sm.com_height;
-				}
-				n++;
-			}
+			for (int k = 200; good && k <= 2000; k++, n++)
+				acc += bed_height_at(&b, k, 100000000, who, &good, err, sizeof err);
 			h[m][r] = acc / n;
-			ed_destroy(ed);
-			dsmc_destroy(d);
+			bed_free(&b);
 		}
 	if (!good) {
 		ok(0, "vibrated bed ed/dsmc/hsmc: %s", err);
@@ -815,39 +824,22 @@ static void test_vibrated_preset(void)
 			}
 			sc.method = m ? SCENE_METHOD_DSMC : SCENE_METHOD_ED;
 			sc.boundary[1].wall[0].amplitude = V[k] / (2 * 3.14159265358979323846 * sc.boundary[1].wall[0].frequency);
-			int e;
-			ed_t *ed = m == 0 ? ed_create(&sc, &e, err, sizeof err) : NULL;
-			dsmc_t *d = m ? dsmc_create(&sc, 0, &e, err, sizeof err) : NULL;
-			if (!ed && !d) {
+			bed_t bed;
+			if (bed_make(&bed, &sc, err, sizeof err)) {
 				good = 0;
 				break;
 			}
+			char who[32];
+			snprintf(who, sizeof who, "at V = %g", V[k]);
 			double blocks[10];
 			for (int b = 0; good && b < 10; b++) {
 				double acc = 0;
-				for (int j = 1; j <= 20; j++) {
-					double t = 1.0 + 0.2 * b + 0.01 * j;
-					if (ed) {
-						ed_sample_t sm;
-						ed_advance(ed, t, UINT64_MAX, 100000000);
-						ed_totals(ed, &sm);
-						if (ed_time(ed) < t) {
-							snprintf(err, sizeof err, "ed at V = %g stopped at t = %g", V[k], ed_time(ed));
-							good = 0;
-						}
-						acc += sm.com_height;
-					} else {
-						dsmc_sample_t sm;
-						dsmc_advance(d, t, UINT64_MAX, UINT64_MAX);
-						dsmc_totals(d, &sm);
-						acc += sm.com_height;
-					}
-				}
+				for (int j = 1; j <= 20; j++)
+					acc += bed_height_at(&bed, 1.0 + 0.2 * b + 0.01 * j, 100000000, who, &good, err, sizeof err);
 				blocks[b] = acc / 20;
 			}
 			mean_se(blocks, 10, &h[k][m], &se[k][m]);
-			ed_destroy(ed);
-			dsmc_destroy(d);
+			bed_free(&bed);
 		}
 	/* the preset as it stands (hsmc, V = 1 m/s) */
 	dsmc_sample_t sm = {0};
