@@ -435,6 +435,27 @@ typedef struct {
 	double imp[6][3];
 } flight_log_t;
 
+/* After a particle's rebound off fixed wall w (axis a): vn its normal speed
+ * away from the wall (<= 0: it does not leave it), hits the hits before this
+ * one, `left` the time of its flight to go. A particle that gravity presses onto the
+ * wall, or that has hit MAX_WALL_HITS times, rests on it for the rest of the
+ * flight (the wall takes its normal momentum and its weight; the axis is
+ * pinned); one not pressed stays at the wall with no force on it. */
+static ALWAYS_INLINE void rest_or_stop(const struct dsmc *d, flight_log_t *lg, int w, int a, double vn, int hits,
+                                       double left, double *v, double *ga, int *pinned)
+{
+	double press = (w & 1) ? ga[a] : -ga[a];   /* > 0: gravity pushes it onto this wall */
+	if ((vn <= 0 && press > 0) || hits + 1 >= MAX_WALL_HITS) {
+		lg->imp[w][a] += d->mass * (v[a] + ga[a] * left);
+		v[a] = 0;
+		ga[a] = 0;
+		*pinned |= 1 << a;
+		lg->rested++;
+	} else if (vn <= 0) {
+		v[a] = 0;
+	}
+}
+
 /* Exact flight of one particle over dt under constant acceleration g with
  * walls: free parabolas between wall hits, each hit the earliest contact of
  * the centre with a contact plane (walltime_plane(): a quadratic root,
@@ -483,18 +504,7 @@ static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double 
 			lg->imp[w][k] += d->mass * (before[k] - v[k]);
 		lg->hits[w]++;
 		lg->touched |= 1u << w;
-		double press = (w & 1) ? ga[a] : -ga[a];   /* > 0: gravity pushes it onto this wall */
-		if ((vn <= 0 && press > 0) || hits + 1 >= MAX_WALL_HITS) {
-			/* resting: the wall takes the normal momentum and the weight
-			 * for the rest of the flight */
-			lg->imp[w][a] += d->mass * (v[a] + ga[a] * left);
-			v[a] = 0;
-			ga[a] = 0;
-			pinned |= 1 << a;
-			lg->rested++;
-		} else if (vn <= 0) {
-			v[a] = 0;   /* stays at the wall, no force on it */
-		}
+		rest_or_stop(d, lg, w, a, vn, hits, left, v, ga, &pinned);
 		if (!(left > 0))
 			break;
 	}
@@ -636,16 +646,7 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 					v[a] = s * un;   /* leaves with the wall: the gap opens */
 				}
 			} else {
-				double press = (w & 1) ? ga[a] : -ga[a];
-				if ((vn <= 0 && press > 0) || hits + 1 >= MAX_WALL_HITS) {
-					lg->imp[w][a] += d->mass * (v[a] + ga[a] * left);
-					v[a] = 0;
-					ga[a] = 0;
-					pinned |= 1 << a;
-					lg->rested++;
-				} else if (vn <= 0) {
-					v[a] = 0;
-				}
+				rest_or_stop(d, lg, w, a, vn, hits, left, v, ga, &pinned);
 			}
 		} else {
 			break;
