@@ -667,6 +667,20 @@ static void read_fd(sched_t *s, child_t *k, int *fd, int is_out, size_t budget, 
 	}
 }
 
+/* Releases what a child slot holds (its ingestion; a Slurm attempt's output files) and empties the slot. */
+static void kid_clear(child_t *k)
+{
+	ingest_destroy(k->ing);
+	if (k->sjob) {
+		if (k->out >= 0)
+			close(k->out);
+		if (k->err >= 0)
+			close(k->err);
+	}
+	free(k->skip);
+	memset(k, 0, sizeof(*k));
+}
+
 /* Decide the outcome of an ended attempt and record it. */
 static void finish(sched_t *s, child_t *k)
 {
@@ -752,15 +766,7 @@ static void finish(sched_t *s, child_t *k)
 	         reason);
 	sched_publish_state(s->c.q, s->c.hub, k->id);
 	free(tail);
-	ingest_destroy(k->ing);
-	if (k->sjob) {
-		if (k->out >= 0)
-			close(k->out);
-		if (k->err >= 0)
-			close(k->err);
-	}
-	free(k->skip);
-	memset(k, 0, sizeof(*k));
+	kid_clear(k);
 }
 
 static void refresh_desc(child_t *k, double now, int force)
@@ -1213,13 +1219,7 @@ static void *loop(void *arg)
 		if (!k->sjob)
 			continue;
 		flush_progress(s, k, mono());
-		ingest_destroy(k->ing);
-		if (k->out >= 0)
-			close(k->out);
-		if (k->err >= 0)
-			close(k->err);
-		free(k->skip);
-		memset(k, 0, sizeof(*k));
+		kid_clear(k);
 	}
 	free(pf);
 	free(who);
