@@ -22,7 +22,7 @@
 enum {
 	O_STATE = 1u << 0, O_LIMIT = 1u << 1, O_ALL = 1u << 2, O_PRESET = 1u << 3, O_SET = 1u << 4,
 	O_PRIORITY = 1u << 5, O_RANKS = 1u << 6, O_SUBID = 1u << 7, O_WAIT = 1u << 8, O_OUTPUT = 1u << 9,
-	O_AFTER = 1u << 10, O_FORCE = 1u << 11,
+	O_AFTER = 1u << 10, O_FORCE = 1u << 11, O_NODES = 1u << 12, O_TLIMIT = 1u << 13, O_PARTITION = 1u << 14,
 };
 
 #define MAX_SETS 64
@@ -31,10 +31,10 @@ typedef struct {
 	const char *url, *token, *token_file, *state_dir;
 	int json, help;
 	unsigned given;              /* O_* seen on the command line */
-	const char *state, *preset, *subid, *output;
+	const char *state, *preset, *subid, *output, *partition;
 	const char *sets[MAX_SETS];
 	int nsets;
-	long long limit, priority, ranks, after;
+	long long limit, priority, ranks, after, nodes, time_limit;
 	char **args;                 /* positional arguments after the command */
 	int nargs;
 	conn_t *conn;
@@ -374,6 +374,19 @@ static int c_submit(ctx_t *x)
 		json_object_set_new(body, "priority", json_integer(x->priority));
 	if (x->subid)
 		json_object_set_new(body, "submission_id", json_string(x->subid));
+	if (x->given & (O_NODES | O_TLIMIT | O_PARTITION)) {
+		/* The submission's "slurm" object (docs/daemon.md, "Running on a cluster"): the
+		 * flags go over the keys of a whole submission given as SCENE.json. */
+		json_t *so = json_object_get(body, "slurm");
+		if (!json_is_object(so))
+			json_object_set_new(body, "slurm", so = json_object());
+		if (x->given & O_NODES)
+			json_object_set_new(so, "nodes", json_integer(x->nodes));
+		if (x->given & O_TLIMIT)
+			json_object_set_new(so, "time_limit", json_integer(x->time_limit));
+		if (x->partition)
+			json_object_set_new(so, "partition", json_string(x->partition));
+	}
 	if (!(txt = json_dumps(body, JSON_COMPACT))) {
 		errf("out of memory");
 		rc = CTL_EXIT_SERVER;
@@ -635,13 +648,33 @@ static int c_show(ctx_t *x)
 	when("finished", num(j, "finished_at"), now);
 	if (json_string_value(json_object_get(j, "reason")))
 		printf("  %-12s %s\n", "reason", str(j, "reason", ""));
+	/* The submission's Slurm options (null when it gave none). */
+	const json_t *so = json_object_get(j, "slurm");
+	if (json_is_object(so) && json_object_size(so)) {
+		printf("  %-12s", "slurm");
+		if (json_is_integer(json_object_get(so, "nodes")))
+			printf(" nodes %lld", (long long)json_integer_value(json_object_get(so, "nodes")));
+		if (json_is_integer(json_object_get(so, "time_limit")))
+			printf(" time limit %lld s", (long long)json_integer_value(json_object_get(so, "time_limit")));
+		if (json_is_string(json_object_get(so, "partition")))
+			printf(" partition %s", str(so, "partition", ""));
+		putchar('\n');
+	}
 	json_array_foreach(json_object_get(j, "attempts"), i, a) {
-		printf("  attempt %lld  pid %lld", (long long)json_integer_value(json_object_get(a, "n")),
-		       (long long)json_integer_value(json_object_get(a, "pid")));
+		printf("  attempt %lld", (long long)json_integer_value(json_object_get(a, "n")));
+		if (json_is_integer(json_object_get(a, "pid")))  /* none under Slurm: the job runs elsewhere */
+			printf("  pid %lld", (long long)json_integer_value(json_object_get(a, "pid")));
 		if (json_is_integer(json_object_get(a, "exit_status")))
 			printf("  exit %lld", (long long)json_integer_value(json_object_get(a, "exit_status")));
 		if (json_is_integer(json_object_get(a, "signal")))
 			printf("  signal %lld", (long long)json_integer_value(json_object_get(a, "signal")));
+		const json_t *sj = json_object_get(a, "slurm_job");
+		if (json_is_integer(sj))
+			printf("  slurm job %lld", (long long)json_integer_value(sj));
+		else if (json_is_string(sj))
+			printf("  slurm job %s", json_string_value(sj));
+		if (json_is_string(json_object_get(a, "slurm_state")))
+			printf(" %s", str(a, "slurm_state", ""));
 		printf("%s%s\n", json_is_string(json_object_get(a, "reason")) ? "  " : "", str(a, "reason", ""));
 	}
 cleanup:
@@ -971,8 +1004,13 @@ static const cmd_t commands[] = {
 	         "  --priority P          -1000..1000, higher runs first (default 0)\n"
 	         "  --ranks R             MPI ranks (default 1)\n"
 	         "  --submission-id ID    idempotency key: resubmitting returns the same job\n"
-	         "  --wait                follow the job to its end; exit status 0 succeeded, 1 failed/cancelled\n",
-	 .fn = c_submit, .min_args = 0, .max_args = 1, .opts = O_PRESET | O_SET | O_PRIORITY | O_RANKS | O_SUBID | O_WAIT},
+	         "  --wait                follow the job to its end; exit status 0 succeeded, 1 failed/cancelled\n"
+	         "  With launcher = slurm (the daemon's; ignored by mpirun):\n"
+	         "  --nodes N             1..4096 and at most the ranks (sbatch --nodes; default: Slurm places the ranks)\n"
+	         "  --time-limit SECONDS  1..100000000 per attempt, when shorter than the daemon's slurm_time_limit\n"
+	         "  --partition NAME      1..64 of A-Z a-z 0-9 _ . - (default: the daemon's slurm_partition)\n",
+	 .fn = c_submit, .min_args = 0, .max_args = 1,
+	 .opts = O_PRESET | O_SET | O_PRIORITY | O_RANKS | O_SUBID | O_WAIT | O_NODES | O_TLIMIT | O_PARTITION},
 	{.name = "advise", .args = "SCENE.json | --preset NAME",
 	 .summary = "estimated cost and expected error of each method for a scene (no job is made)",
 	 .help = "  --preset NAME         a built-in scene\n"
@@ -1080,7 +1118,9 @@ static const struct option long_opts[] = {
 	{"ranks", required_argument, NULL, 'r'},     {"submission-id", required_argument, NULL, 'i'},
 	{"wait", no_argument, NULL, 'w'},            {"output", required_argument, NULL, 'o'},
 	{"after", required_argument, NULL, 'A'},     {"token-file", required_argument, NULL, 'F'},
-	{"force", no_argument, NULL, 'f'},           {NULL, 0, NULL, 0},
+	{"force", no_argument, NULL, 'f'},           {"nodes", required_argument, NULL, 'N'},
+	{"time-limit", required_argument, NULL, 'L'}, {"partition", required_argument, NULL, 'Q'},
+	{NULL, 0, NULL, 0},
 };
 
 /* Which bit each command-specific option sets, for the per-command check. */
@@ -1089,6 +1129,7 @@ static const struct { int ch; unsigned bit; const char *name; } opt_bits[] = {
 	{'p', O_PRESET, "--preset"}, {'S', O_SET, "--set"},           {'P', O_PRIORITY, "--priority"},
 	{'r', O_RANKS, "--ranks"},   {'i', O_SUBID, "--submission-id"}, {'w', O_WAIT, "--wait"},
 	{'o', O_OUTPUT, "--output"}, {'A', O_AFTER, "--after"},         {'f', O_FORCE, "--force"},
+	{'N', O_NODES, "--nodes"},   {'L', O_TLIMIT, "--time-limit"},   {'Q', O_PARTITION, "--partition"},
 };
 
 static int int_opt(const ctx_t *x, const char *name, const char *s, long long lo, long long hi, long long *v)
@@ -1132,6 +1173,15 @@ static int parse(ctx_t *x, int argc, char **argv)
 		case 'w': break;
 		case 'o': x->output = optarg; break;
 		case 'f': break;
+		case 'N': if ((rc = int_opt(x, "--nodes", optarg, 1, 4096, &x->nodes))) return rc; break;
+		case 'L': if ((rc = int_opt(x, "--time-limit", optarg, 1, 100000000, &x->time_limit))) return rc; break;
+		case 'Q':
+			/* The daemon's check (slurm.partition), so that a typo fails before any server is looked for. */
+			x->partition = optarg;
+			if (!*optarg || strlen(optarg) > 64 || strspn(optarg, "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
+			                                                     "0123456789_.-") != strlen(optarg))
+				return usage_error(x, "--partition '%s': expected 1..64 characters from A-Z a-z 0-9 _ . -", optarg);
+			break;
 		case 'A': if ((rc = int_opt(x, "--after", optarg, -1, INT64_MAX, &x->after))) return rc; break;
 		case ':': return usage_error(x, "%s: needs an argument", argv[optind - 1]);
 		default: return usage_error(x, "%s: unknown option", argv[optind - 1]);

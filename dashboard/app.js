@@ -123,16 +123,29 @@
   }
 
   // ---- compute cluster ----
+  // With launcher = slurm, GET /api/v1/cluster adds the partition (docs/daemon.md, "Running on a cluster"),
+  // or {"error": ...} when sinfo or squeue did not answer.
+  function slurmRows(s) {
+    if (!s) return [];
+    if (s.error) return [['partition', 'unknown: ' + s.error]];
+    const n = s.nodes || {}, c = s.cpus || {};
+    return [
+      ['partition', s.partition + ', ' + plural(n.total, 'node')],
+      ['nodes', n.idle + ' idle, ' + n.allocated + ' allocated' + (n.mixed ? ', ' + n.mixed + ' mixed' : '') + (n.other ? ', ' + n.other + ' other' : '')],
+      ['CPUs', c.idle + ' idle, ' + c.allocated + ' allocated of ' + c.total],
+      ['pending', plural(s.pending_jobs, 'Slurm job')],
+    ];
+  }
   const loadCluster = throttle(async () => {
     try {
       const c = await api('GET', '/api/v1/cluster');
       const byState = Object.entries(c.jobs || {}).map(([k, v]) => k + ' ' + v).join(', ');
       dl($('cluster-stats'), [
-        ['version', c.version], ['uptime', Math.round(c.uptime_seconds) + ' s'],
+        ['version', c.version], ['uptime', Math.round(c.uptime_seconds) + ' s'], ['launcher', c.launcher || '-'],
         ['slots', c.slots.used + ' / ' + c.slots.total + ' used'], ['jobs', byState],
         ['running', (c.running || []).map((r) => '#' + r.id + ' ' + pct(r.progress)).join(', ') || '-'],
         ['last hour', c.finished_last_hour + ' finished'], ['events/s', si(c.events_per_second)],
-      ]);
+      ].concat(slurmRows(c.slurm)));
     } catch (e) { dl($('cluster-stats'), [['error', e.message]]); }
   }, 2000);
 
@@ -239,6 +252,8 @@
       const result = a.exit_status != null ? 'exit ' + a.exit_status : a.signal != null ? 'signal ' + a.signal
         : a.ended_at == null ? 'running' : '-';
       const cell = el('td', {}, result + (a.reason ? ': ' + a.reason : ''));
+      // launcher = slurm: the attempt's Slurm job and its state as granulard names it (with Slurm's reason).
+      if (a.slurm_job != null) cell.append(el('div', { class: 'slurm' }, 'Slurm job ' + a.slurm_job + (a.slurm_state ? ': ' + a.slurm_state : '')));
       if (a.stderr_tail) cell.append(el('pre', { class: 'stderr' }, a.stderr_tail.trim().split('\n').slice(-3).join('\n')));
       return el('tr', { 'data-n': a.n }, el('td', {}, a.n), el('td', {}, when(a.started_at)), el('td', {}, when(a.ended_at)),
         cell, el('td', {}, a.checkpoint || '-'));

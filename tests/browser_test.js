@@ -2,6 +2,7 @@
 // follows the job to the end, checks the plots received data, saves a screenshot; asks for advice on the preset
 // (the candidates table) and shows an auto job's advice panel; the job page's files and attempts, "no data" on
 // an empty plot, nothing stale kept (advice, errors, another job's page), and a confirmation before cancelling;
+// the compute-cluster panel's launcher, and (on answers put in by the browser) its Slurm partition and the attempts' Slurm jobs;
 // the progress panels of a scene with walls, gravity, an obstacle, an open wall and rough particles (pressure per wall, drag
 // and lift, outflow, height, energies, T_rot beside T) and of a periodic one (MSD and D(t) only). With a 4th argument "read-auth-token" (a daemon run
 // with --read-auth token): the page asks for the token, then lists jobs and follows the event stream with it.
@@ -196,6 +197,37 @@ const OBS = ['walls', 'obstacles', 'outflow', 'height', 'energies', 'msd', 'diff
     await page.evaluate((i) => { location.hash = '#/job/' + i; }, id);
     await page.waitForFunction(() => document.getElementById('job-state').textContent === 'succeeded', null, { timeout: 10000 });
     ok(await page.isHidden('#job-msg') && (await page.textContent('#job-msg')) === '', 'the error is gone on the next job\'s page');
+
+    // The compute-cluster panel names the launcher: this daemon's is mpirun, the default.
+    const dd = (key) => page.evaluate((k) => {
+      const t = [...document.querySelectorAll('#cluster-stats dt')].find((d) => d.textContent === k);
+      return t ? t.nextElementSibling.textContent : null;
+    }, key);
+    const launcher = await dd('launcher');
+    ok(launcher === 'mpirun' && (await dd('partition')) === null, 'cluster panel: launcher ' + launcher + ', no partition rows');
+    // With launcher = slurm (no Slurm here: tests/slurm_test.sh runs a real one and checks the API): the answers such a
+    // daemon gives, put in by the browser (page.route) on this daemon's own, and how the page renders them.
+    const real = await page.evaluate(async () => (await fetch('/api/v1/cluster')).json());
+    const slurm = { partition: 'gtest', nodes: { total: 3, idle: 1, allocated: 2, mixed: 0, other: 0 },
+      cpus: { allocated: 8, idle: 4, other: 0, total: 12 }, pending_jobs: 5 };
+    await page.route(url + '/api/v1/cluster', (r) => r.fulfill({ contentType: 'application/json',
+      body: JSON.stringify(Object.assign({}, real, { launcher: 'slurm', slurm })) }));
+    await page.route(url + '/api/v1/jobs/' + id + '?scene=0', async (r) => {
+      const resp = await r.fetch(), j = await resp.json();
+      j.attempts = j.attempts.map((a) => Object.assign({}, a, { pid: null, slurm_job: 4242, slurm_state: 'completed' }));
+      await r.fulfill({ response: resp, body: JSON.stringify(j) });
+    });
+    await page.reload({ waitUntil: 'load' });
+    await page.waitForFunction(() => /gtest/.test(document.getElementById('cluster-stats').textContent) &&
+      /Slurm job/.test(document.getElementById('job-attempts').textContent), null, { timeout: 10000 });
+    const sl = { launcher: await dd('launcher'), partition: await dd('partition'), nodes: await dd('nodes'), cpus: await dd('CPUs'),
+      pending: await dd('pending') };
+    ok(sl.launcher === 'slurm' && sl.partition === 'gtest, 3 nodes' && sl.nodes === '1 idle, 2 allocated' &&
+      sl.cpus === '4 idle, 8 allocated of 12' && sl.pending === '5 Slurm jobs', 'cluster panel with Slurm: ' + JSON.stringify(sl));
+    const sa = await page.$$eval('#job-attempts tbody tr', (rs) => rs.map((r) => r.textContent));
+    ok(sa.length === 1 && /exit 0/.test(sa[0]) && sa[0].includes('Slurm job 4242: completed'), 'attempts with Slurm: ' + sa.join(' | '));
+    await page.unroute(url + '/api/v1/cluster');
+    await page.unroute(url + '/api/v1/jobs/' + id + '?scene=0');
 
     // A scene with walls, gravity, an obstacle, an open wall and rough particles: the job page adds a panel for each
     // of their progress series, and T_rot beside T. Their data are the job's records (/progress), drawn.

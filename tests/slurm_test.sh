@@ -169,6 +169,9 @@ done
 jst=$(field "$(api GET "/api/v1/jobs/$id3")" 'd["state"]')
 ok $(case $st in "pending (Resources)"|"pending (Priority)") [ "$jst" = running ] ;; *) false ;; esac; echo $?) \
 	"while a blocker holds the CPUs: job $id3 is $jst, its Slurm state '$st'"
+"$GRANULARCTL" show "$id3" --url "$URL" >"$tmp/ctl" 2>&1
+ok $(grep -Eq "^  attempt 1  slurm job $(sjob "$id3") pending \((Resources|Priority)\)$" "$tmp/ctl"; echo $?) \
+	"granularctl show: the attempt's Slurm job and state: $(grep '^  attempt' "$tmp/ctl" | sed 's/^ *//')"
 cl=$(api GET /api/v1/cluster)
 ok $([ "$(field "$cl" 'd["launcher"]')" = slurm ] && [ "$(field "$cl" 'd["slurm"]["partition"]')" = gtest ] &&
      [ "$(field "$cl" 'd["slurm"]["nodes"]["total"]')" = 1 ] && [ "$(field "$cl" 'd["slurm"]["nodes"]["allocated"]')" = 1 ] &&
@@ -208,7 +211,9 @@ kill "$sse" 2>/dev/null; wait "$sse" 2>/dev/null
 # 5. Slurm's time limit (a minute at least; Slurm looks every 30 s or so): the job's own "slurm" options make
 # the sbatch options, and a job killed at its limit is retried from its checkpoint. It runs beside steps 5 and 6.
 TL='{"method":"ed","dimensions":2,"particles":{"count":2000,"volume_fraction":0.3},"run":{"seed":5,"until":{"time":1e7}},"output":{"every":{"time":50},"checkpoint":{"every":{"wall_seconds":5}}}}'
-idt=$(field "$(post /api/v1/jobs -d "{\"scene\":$TL,\"slurm\":{\"time_limit\":60,\"nodes\":1,\"partition\":\"gtest\"}}")" 'd["id"]')
+# Submitted with granularctl's flags: they reach sbatch through the submission's "slurm" object.
+echo "$TL" >"$tmp/tl.json"
+idt=$(field "$("$GRANULARCTL" submit "$tmp/tl.json" --url "$URL" --token-file "$S/token" --time-limit 60 --nodes 1 --partition gtest --json)" 'd["id"]')
 wait_file "$S/jobs/$idt/attempt-1.sbatch" 30
 ok $(grep -q '^#SBATCH --time=1$' "$S/jobs/$idt/attempt-1.sbatch" && grep -q '^#SBATCH --nodes=1$' "$S/jobs/$idt/attempt-1.sbatch" &&
      grep -q '^#SBATCH --partition=gtest$' "$S/jobs/$idt/attempt-1.sbatch" &&
