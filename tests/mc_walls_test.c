@@ -8,7 +8,7 @@
 #include "ed/ed.h"
 #include "mc/dsmc.h"
 #include "scene.h"
-#include "presets.h"
+#include "preset_file.h"
 #include "tap.h"
 #include "stats.h"
 

@@ -10,7 +10,7 @@
 #include "ed/ed.h"
 #include "mc/dsmc.h"
 #include "scene.h"
-#include "presets.h"
+#include "preset_file.h"
 #include "tap.h"
 #include "ed_util.h"
 #include "stats.h"

@@ -9,7 +9,7 @@
 
 #include "ed/ed.h"
 #include "scene.h"
-#include "presets.h"
+#include "preset_file.h"
 #include "tap.h"
 #include "stats.h"
 #include "ed_util.h"

@@ -1,6 +1,6 @@
 /* Where the unit tests that check a preset's published result find the preset: presets/FILE under $SRCDIR. */
-#ifndef GRANULAR_TESTS_PRESETS_H
-#define GRANULAR_TESTS_PRESETS_H
+#ifndef GRANULAR_TESTS_PRESET_FILE_H
+#define GRANULAR_TESTS_PRESET_FILE_H
 
 #include <stdio.h>
 #include <stdlib.h>
