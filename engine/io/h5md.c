@@ -250,6 +250,8 @@ static hid_t create_series(hid_t loc, const char *name, hid_t ftype, int rank, c
 		goto out;
 	if (level > 0 && (H5Pset_shuffle(dcpl) < 0 || H5Pset_deflate(dcpl, (unsigned)level) < 0))
 		goto out;
+	if (H5Pset_fletcher32(dcpl) < 0)   /* last: it checksums the stored (compressed) chunk; see h5md_create() */
+		goto out;
 	d = H5Dcreate2(loc, name, ftype, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT);
 out:
 	if (sp >= 0) H5Sclose(sp);
@@ -439,7 +441,8 @@ static int write_constant(hid_t g, const char *name, double v, uint64_t n)
 	double *buf = malloc(chunk[0] * sizeof(double));
 	hid_t sp = H5Screate_simple(1, dims, NULL), dcpl = H5Pcreate(H5P_DATASET_CREATE), d = H5I_INVALID_HID;
 	hid_t fs = H5I_INVALID_HID, ms = H5I_INVALID_HID;
-	if (!buf || sp < 0 || dcpl < 0 || H5Pset_chunk(dcpl, 1, chunk) < 0 || H5Pset_deflate(dcpl, 1) < 0)
+	if (!buf || sp < 0 || dcpl < 0 || H5Pset_chunk(dcpl, 1, chunk) < 0 || H5Pset_deflate(dcpl, 1) < 0 ||
+	    H5Pset_fletcher32(dcpl) < 0)
 		goto out;
 	d = H5Dcreate2(g, name, H5T_IEEE_F64LE, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT);
 	if (d < 0)
@@ -472,7 +475,8 @@ static int write_array(hid_t g, const char *name, hid_t ftype, hid_t mtype, cons
 	int ret = -1;
 	hsize_t dims[1] = {n}, chunk[1] = {n < FRAME_CHUNK ? n : FRAME_CHUNK};
 	hid_t sp = H5Screate_simple(1, dims, NULL), dcpl = H5Pcreate(H5P_DATASET_CREATE), d = H5I_INVALID_HID;
-	if (sp < 0 || dcpl < 0 || H5Pset_chunk(dcpl, 1, chunk) < 0 || H5Pset_deflate(dcpl, 1) < 0)
+	if (sp < 0 || dcpl < 0 || H5Pset_chunk(dcpl, 1, chunk) < 0 || H5Pset_deflate(dcpl, 1) < 0 ||
+	    H5Pset_fletcher32(dcpl) < 0)
 		goto out;
 	d = H5Dcreate2(g, name, ftype, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT);
 	if (d < 0 || H5Dwrite(d, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0)
@@ -757,7 +761,20 @@ h5md_t *h5md_create(const char *path, const scene_t *s, const char *scene_text, 
 		*err = h5u_fail(msg, msglen, H5MD_ENOMEM, "%s: out of memory", path);
 		return NULL;
 	}
-	h->file = H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+	/* Checksums on what a resume trusts before it appends: the file format
+	 * of HDF5 1.8 (superblock 2, object headers 2, new-style groups)
+	 * checksums the metadata, and Fletcher-32 each stored chunk. Without them
+	 * a damaged file sent HDF5 1.10 itself out of bounds when a resume cut the
+	 * series back (ckpt_fuzz: a chunk size changed in an object header,
+	 * heap overflow in H5Dset_extent); h5md_open_append() refuses such files.
+	 * Not the 1.10 format: its superblock 3 marks the file open for writing,
+	 * so a trajectory whose engine was killed could not be opened again
+	 * (by the resume, h5py or ParaView) without h5clear. */
+	hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
+	if (fapl >= 0 && H5Pset_libver_bounds(fapl, H5F_LIBVER_V18, H5F_LIBVER_LATEST) >= 0)
+		h->file = H5Fcreate(path, H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+	if (fapl >= 0)
+		H5Pclose(fapl);
 	if (h->file < 0) {
 		*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot create HDF5 file", path);
 		goto fail;
@@ -884,6 +901,15 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 		h->file = H5Fopen(path, pass ? H5F_ACC_RDWR : H5F_ACC_RDONLY, H5P_DEFAULT);
 		if (h->file < 0) {
 			*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot open for appending (missing or damaged)", path);
+			goto fail;
+		}
+		H5F_info2_t info;
+		memset(&info, 0, sizeof info);
+		if (H5Fget_info2(h->file, &info) < 0 || info.super.version < 2) {
+			*err = h5u_fail(msg, msglen, H5MD_EFORMAT,
+			                "%s: written without HDF5's metadata checksums (superblock version %u, a granulard "
+			                "before 2026-11-27): it cannot be appended to safely; resume into a new --out",
+			                path, (unsigned)info.super.version);
 			goto fail;
 		}
 		if ((*err = attach(h, s, path, msg, msglen)) != H5MD_OK)
