@@ -659,54 +659,17 @@ static int obst_clear(const struct ed *ed, const double *r)
 #define ROUGH 0
 #define WALLS 0
 #define GRAV 0
-#define D 2
-#define P_T p2_t
-#define FN(x) x##_2d
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#define D 3
-#define P_T p3_t
-#define FN(x) x##_3d
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#undef WALLS
+#define VARIANT d
+#include "ed_inst.h"
 #define WALLS 1
-#define D 2
-#define P_T p2_t
-#define FN(x) x##_2w
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#define D 3
-#define P_T p3_t
-#define FN(x) x##_3w
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#undef GRAV
+#define GRAV 0
+#define VARIANT w
+#include "ed_inst.h"
+#define WALLS 1
 #define GRAV 1
-#define D 2
-#define P_T p2_t
-#define FN(x) x##_2g
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#define D 3
-#define P_T p3_t
-#define FN(x) x##_3g
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#undef WALLS
-#undef GRAV
+#define VARIANT g
+#include "ed_inst.h"
+#undef SPEC
 #undef ROUGH
 
 /* Rough particles: the same three variants with the rough collision rule
@@ -719,62 +682,25 @@ static int obst_clear(const struct ed *ed, const double *r)
 #pragma GCC push_options
 #pragma GCC optimize ("no-inline-functions")
 #endif
+#define SPEC 0
 #define ROUGH 1
 #define WALLS 0
 #define GRAV 0
-#define D 2
-#define P_T p2_t
-#define FN(x) x##_2dr
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#define D 3
-#define P_T p3_t
-#define FN(x) x##_3dr
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#undef WALLS
+#define VARIANT dr
+#include "ed_inst.h"
 #define WALLS 1
-#define D 2
-#define P_T p2_t
-#define FN(x) x##_2wr
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#define D 3
-#define P_T p3_t
-#define FN(x) x##_3wr
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#undef GRAV
+#define GRAV 0
+#define VARIANT wr
+#include "ed_inst.h"
+#define WALLS 1
 #define GRAV 1
-#define D 2
-#define P_T p2_t
-#define FN(x) x##_2gr
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#define D 3
-#define P_T p3_t
-#define FN(x) x##_3gr
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#undef WALLS
-#undef GRAV
+#define VARIANT gr
+#include "ed_inst.h"
+#undef SPEC
 #undef ROUGH
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC pop_options
 #endif
-#undef SPEC
 
 /* Species (mixtures): the periodic and walls variants with the particles'
  * own radii and the pair tables of restitution and masses (_2ds, _3ds
@@ -789,56 +715,18 @@ static int obst_clear(const struct ed *ed, const double *r)
 #define ROUGH 0
 #define WALLS 0
 #define GRAV 0
-#define D 2
-#define P_T p2_t
-#define FN(x) x##_2ds
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#define D 3
-#define P_T p3_t
-#define FN(x) x##_3ds
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#undef WALLS
+#define VARIANT ds
+#include "ed_inst.h"
 #define WALLS 1
-#define D 2
-#define P_T p2_t
-#define FN(x) x##_2ws
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#define D 3
-#define P_T p3_t
-#define FN(x) x##_3ws
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#undef GRAV
+#define GRAV 0
+#define VARIANT ws
+#include "ed_inst.h"
+#define WALLS 1
 #define GRAV 1
-#define D 2
-#define P_T p2_t
-#define FN(x) x##_2gs
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#define D 3
-#define P_T p3_t
-#define FN(x) x##_3gs
-#include "ed_impl.h"
-#undef D
-#undef P_T
-#undef FN
-#undef WALLS
-#undef GRAV
-#undef ROUGH
+#define VARIANT gs
+#include "ed_inst.h"
 #undef SPEC
+#undef ROUGH
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC pop_options
 #endif
