@@ -1,7 +1,7 @@
 #!/bin/sh
 # Pipe flow (seed 000 A8, A9): the density_spectrum slope alpha against the restitution r at nu = 0.38, p = 0.1, and the fundamental diagram Phi(nu) at r = 0, from presets/pipe-flow-2d.json (hsmc).
 # usage: bench/pipe.sh [ENGINE]   (default engine/granular-engine; prints a markdown report)
-# Settings (environment): RS="0 0.5 0.9 0.99" (restitutions for alpha), NUS="0.2 0.38 0.6 0.75" (area fractions for
+# Settings (environment): RS="0 0.5 0.9 0.99" (restitutions for alpha), NUS="0.2 0.38 0.6 0.7 0.75 0.8" (area fractions for
 # Phi; empty: skip), T_SKIP (default 204.8: the transient from rest left out), T_END (default 409.6), SEED (1).
 # alpha: the mean of the fitted slopes of the spectra of the snapshot windows after T_SKIP (non-overlapping windows
 # of 20.48 time units, 2048 samples each), its standard error the scatter of those slopes / sqrt(windows); twice:
