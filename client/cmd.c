@@ -23,6 +23,7 @@ enum {
 	O_STATE = 1u << 0, O_LIMIT = 1u << 1, O_ALL = 1u << 2, O_PRESET = 1u << 3, O_SET = 1u << 4,
 	O_PRIORITY = 1u << 5, O_RANKS = 1u << 6, O_SUBID = 1u << 7, O_WAIT = 1u << 8, O_OUTPUT = 1u << 9,
 	O_AFTER = 1u << 10, O_FORCE = 1u << 11, O_NODES = 1u << 12, O_TLIMIT = 1u << 13, O_PARTITION = 1u << 14,
+	O_ACCOUNT = 1u << 15,
 };
 
 #define MAX_SETS 64
@@ -31,7 +32,7 @@ typedef struct {
 	const char *url, *token, *token_file, *state_dir;
 	int json, help;
 	unsigned given;              /* O_* seen on the command line */
-	const char *state, *preset, *subid, *output, *partition;
+	const char *state, *preset, *subid, *output, *partition, *account;
 	const char *sets[MAX_SETS];
 	int nsets;
 	long long limit, priority, ranks, after, nodes, time_limit;
@@ -374,7 +375,7 @@ static int c_submit(ctx_t *x)
 		json_object_set_new(body, "priority", json_integer(x->priority));
 	if (x->subid)
 		json_object_set_new(body, "submission_id", json_string(x->subid));
-	if (x->given & (O_NODES | O_TLIMIT | O_PARTITION)) {
+	if (x->given & (O_NODES | O_TLIMIT | O_PARTITION | O_ACCOUNT)) {
 		/* The submission's "slurm" object (docs/daemon.md, "Running on a cluster"): the
 		 * flags go over the keys of a whole submission given as SCENE.json. */
 		json_t *so = json_object_get(body, "slurm");
@@ -386,6 +387,8 @@ static int c_submit(ctx_t *x)
 			json_object_set_new(so, "time_limit", json_integer(x->time_limit));
 		if (x->partition)
 			json_object_set_new(so, "partition", json_string(x->partition));
+		if (x->account)
+			json_object_set_new(so, "account", json_string(x->account));
 	}
 	if (!(txt = json_dumps(body, JSON_COMPACT))) {
 		errf("out of memory");
@@ -658,6 +661,8 @@ static int c_show(ctx_t *x)
 			printf(" time limit %lld s", (long long)json_integer_value(json_object_get(so, "time_limit")));
 		if (json_is_string(json_object_get(so, "partition")))
 			printf(" partition %s", str(so, "partition", ""));
+		if (json_is_string(json_object_get(so, "account")))
+			printf(" account %s", str(so, "account", ""));
 		putchar('\n');
 	}
 	json_array_foreach(json_object_get(j, "attempts"), i, a) {
@@ -1008,9 +1013,10 @@ static const cmd_t commands[] = {
 	         "  With launcher = slurm (the daemon's; ignored by mpirun):\n"
 	         "  --nodes N             1..4096 and at most the ranks (sbatch --nodes; default: Slurm places the ranks)\n"
 	         "  --time-limit SECONDS  1..100000000 per attempt, when shorter than the daemon's slurm_time_limit\n"
-	         "  --partition NAME      1..64 of A-Z a-z 0-9 _ . - (default: the daemon's slurm_partition)\n",
+	         "  --partition NAME      1..64 of A-Z a-z 0-9 _ . - (default: the daemon's slurm_partition)\n"
+	         "  --account NAME        1..64 of A-Z a-z 0-9 _ . - (default: the daemon's slurm_account)\n",
 	 .fn = c_submit, .min_args = 0, .max_args = 1,
-	 .opts = O_PRESET | O_SET | O_PRIORITY | O_RANKS | O_SUBID | O_WAIT | O_NODES | O_TLIMIT | O_PARTITION},
+	 .opts = O_PRESET | O_SET | O_PRIORITY | O_RANKS | O_SUBID | O_WAIT | O_NODES | O_TLIMIT | O_PARTITION | O_ACCOUNT},
 	{.name = "advise", .args = "SCENE.json | --preset NAME",
 	 .summary = "estimated cost and expected error of each method for a scene (no job is made)",
 	 .help = "  --preset NAME         a built-in scene\n"
@@ -1120,6 +1126,7 @@ static const struct option long_opts[] = {
 	{"after", required_argument, NULL, 'A'},     {"token-file", required_argument, NULL, 'F'},
 	{"force", no_argument, NULL, 'f'},           {"nodes", required_argument, NULL, 'N'},
 	{"time-limit", required_argument, NULL, 'L'}, {"partition", required_argument, NULL, 'Q'},
+	{"account", required_argument, NULL, 'C'},
 	{NULL, 0, NULL, 0},
 };
 
@@ -1130,6 +1137,7 @@ static const struct { int ch; unsigned bit; const char *name; } opt_bits[] = {
 	{'r', O_RANKS, "--ranks"},   {'i', O_SUBID, "--submission-id"}, {'w', O_WAIT, "--wait"},
 	{'o', O_OUTPUT, "--output"}, {'A', O_AFTER, "--after"},         {'f', O_FORCE, "--force"},
 	{'N', O_NODES, "--nodes"},   {'L', O_TLIMIT, "--time-limit"},   {'Q', O_PARTITION, "--partition"},
+	{'C', O_ACCOUNT, "--account"},
 };
 
 static int int_opt(const ctx_t *x, const char *name, const char *s, long long lo, long long hi, long long *v)
@@ -1176,11 +1184,14 @@ static int parse(ctx_t *x, int argc, char **argv)
 		case 'N': if ((rc = int_opt(x, "--nodes", optarg, 1, 4096, &x->nodes))) return rc; break;
 		case 'L': if ((rc = int_opt(x, "--time-limit", optarg, 1, 100000000, &x->time_limit))) return rc; break;
 		case 'Q':
-			/* The daemon's check (slurm.partition), so that a typo fails before any server is looked for. */
-			x->partition = optarg;
+		case 'C':
+			/* The daemon's check (slurm.partition, slurm.account), so that a typo fails before any server is
+			 * looked for. */
+			*(ch == 'Q' ? &x->partition : &x->account) = optarg;
 			if (!*optarg || strlen(optarg) > 64 || strspn(optarg, "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz"
 			                                                     "0123456789_.-") != strlen(optarg))
-				return usage_error(x, "--partition '%s': expected 1..64 characters from A-Z a-z 0-9 _ . -", optarg);
+				return usage_error(x, "%s '%s': expected 1..64 characters from A-Z a-z 0-9 _ . -",
+				                   ch == 'Q' ? "--partition" : "--account", optarg);
 			break;
 		case 'A': if ((rc = int_opt(x, "--after", optarg, -1, INT64_MAX, &x->after))) return rc; break;
 		case ':': return usage_error(x, "%s: needs an argument", argv[optind - 1]);

@@ -470,14 +470,14 @@ typedef struct {
 #define MIN_OUTPUT_LIMIT (1u << 20)   /* smaller cannot hold a run's first files */
 
 /* A submission's "slurm" options (docs/daemon.md, "Running on a cluster"):
- * {"nodes": 1..4096, "time_limit": seconds 1..100000000, "partition": name},
- * each optional; used by launcher = slurm only. */
+ * {"nodes": 1..4096, "time_limit": seconds 1..100000000, "partition": name,
+ * "account": name}, each optional; used by launcher = slurm only. */
 static int slurm_options(const json_t *v, char *err, size_t errlen)
 {
 	const char *k;
 	json_t *x;
 	if (!json_is_object(v)) {
-		snprintf(err, errlen, "slurm: must be an object (nodes, time_limit, partition)");
+		snprintf(err, errlen, "slurm: must be an object (nodes, time_limit, partition, account)");
 		return JOBQ_EINVAL;
 	}
 	json_object_foreach((json_t *)v, k, x) {
@@ -491,15 +491,16 @@ static int slurm_options(const json_t *v, char *err, size_t errlen)
 				snprintf(err, errlen, "slurm.time_limit: must be an integer number of seconds in 1..100000000");
 				return JOBQ_EINVAL;
 			}
-		} else if (!strcmp(k, "partition")) {
+		} else if (!strcmp(k, "partition") || !strcmp(k, "account")) {
+			/* written into the batch script: a name, nothing a shell or sbatch would read otherwise */
 			const char *p = json_string_value(x);
 			if (!p || !*p || strlen(p) > 64 ||
 			    strspn(p, "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_.-") != strlen(p)) {
-				snprintf(err, errlen, "slurm.partition: must be a string of 1..64 characters from A-Z a-z 0-9 _ . -");
+				snprintf(err, errlen, "slurm.%s: must be a string of 1..64 characters from A-Z a-z 0-9 _ . -", k);
 				return JOBQ_EINVAL;
 			}
 		} else {
-			snprintf(err, errlen, "slurm.%s: unknown key (expected nodes, time_limit, partition)", k);
+			snprintf(err, errlen, "slurm.%s: unknown key (expected nodes, time_limit, partition, account)", k);
 			return JOBQ_EINVAL;
 		}
 	}

@@ -385,9 +385,10 @@ static int launch_slurm(sched_t *s, child_t *k, const jobq_claim_t *cl, const ch
 	if (c->max_wall_seconds > 0 && (limit == 0 || c->max_wall_seconds < limit))
 		limit = c->max_wall_seconds;
 	const char *part = json_string_value(json_object_get(opt, "partition"));
+	const char *acct = json_string_value(json_object_get(opt, "account"));
 	const slurm_script_t sc = {.name = name, .ranks = cl->ranks, .time_limit = limit,
 	                           .nodes = (int)json_integer_value(json_object_get(opt, "nodes")),
-	                           .partition = part ? part : c->slurm_partition, .account = c->slurm_account, .dir = dir,
+	                           .partition = part ? part : c->slurm_partition, .account = acct ? acct : c->slurm_account, .dir = dir,
 	                           .out = out, .err = errf, .srun = c->srun, .mpi = c->slurm_mpi, .argv = argv};
 	char *text = slurm_script(&sc);
 	json_decref(opt);

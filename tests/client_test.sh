@@ -92,25 +92,28 @@ ok $([ $RC = 4 ] && grep -q "no-such-preset" "$tmp/err"; echo $?) "unknown prese
 
 # 5b. The submission's Slurm options: the flags become its "slurm" object (kept, and shown, whatever the
 # launcher); a bad value is refused by the client before any request, or by the daemon (400) with the key named.
-ctl submit "$tmp/short.json" --nodes 1 --time-limit 60 --partition debug --json
+ctl submit "$tmp/short.json" --nodes 1 --time-limit 60 --partition debug --account proj_1 --json
 sid=$("$PY" -c 'import json,sys; print(json.load(open(sys.argv[1]))["id"])' "$tmp/out" 2>/dev/null)
-ok $([ $RC = 0 ] && jsonok 'd["slurm"] == {"nodes": 1, "time_limit": 60, "partition": "debug"}'; echo $?) "submit --nodes --time-limit --partition: the job's slurm options $(tr -d '\n ' <"$tmp/out" | grep -o '"slurm":{[^}]*}')"
+ok $([ $RC = 0 ] && jsonok 'd["slurm"] == {"nodes": 1, "time_limit": 60, "partition": "debug", "account": "proj_1"}'; echo $?) "submit --nodes --time-limit --partition --account: the job's slurm options $(tr -d '\n ' <"$tmp/out" | grep -o '"slurm":{[^}]*}')"
 ctl show "$sid"
-ok $([ $RC = 0 ] && grep -q '^  slurm  *nodes 1 time limit 60 s partition debug$' "$tmp/out"; echo $?) "show prints them: $(grep '^  slurm' "$tmp/out")"
+ok $([ $RC = 0 ] && grep -q '^  slurm  *nodes 1 time limit 60 s partition debug account proj_1$' "$tmp/out"; echo $?) "show prints them: $(grep '^  slurm' "$tmp/out")"
 echo '{"scene":'"$SHORT"',"slurm":{"partition":"long","nodes":1}}' >"$tmp/sub.json"
 ctl submit "$tmp/sub.json" --partition short --json
 ok $([ $RC = 0 ] && jsonok 'd["slurm"] == {"nodes": 1, "partition": "short"}'; echo $?) "a flag goes over the same key of a whole submission, the others stay"
 ctl submit "$tmp/short.json" --nodes 2
 ok $([ $RC = 2 ] && one_line && grep -q 'slurm.nodes' "$tmp/err"; echo $?) "--nodes above the ranks, refused by the daemon (400): exit 2, $(head -1 "$tmp/err")"
+echo '{"scene":'"$SHORT"',"slurm":{"account":"a b"}}' >"$tmp/sub.json"
+ctl submit "$tmp/sub.json"
+ok $([ $RC = 2 ] && one_line && grep -q 'slurm.account' "$tmp/err"; echo $?) "an account that is not a name, refused by the daemon (400): exit 2, $(head -1 "$tmp/err")"
 n0=$("$GRANULARCTL" list --json | "$PY" -c 'import json,sys; print(len(json.load(sys.stdin)["jobs"]))')
 bad=
-for a in "--nodes 0" "--nodes 4097" "--nodes two" "--time-limit 0" "--time-limit 1e3" "--time-limit 100000001" "--partition a/b" "--partition="; do
+for a in "--nodes 0" "--nodes 4097" "--nodes two" "--time-limit 0" "--time-limit 1e3" "--time-limit 100000001" "--partition a/b" "--partition=" "--account a/b" "--account="; do
 	# shellcheck disable=SC2086 # the flag and its value are two words
 	ctl submit "$tmp/short.json" $a
 	[ $RC = 2 ] && one_line && grep -q -- "granularctl: ${a%%[ =]*} " "$tmp/err" || bad="$bad [$a]"
 done
 ok $([ -z "$bad" ] && [ "$("$GRANULARCTL" list --json | "$PY" -c 'import json,sys; print(len(json.load(sys.stdin)["jobs"]))')" = "$n0" ]; echo $?) \
-	"bad --nodes, --time-limit, --partition: exit 2, one line naming the flag, no job${bad:+ (not:$bad)}"
+	"bad --nodes, --time-limit, --partition, --account: exit 2, one line naming the flag, no job${bad:+ (not:$bad)}"
 ctl list --partition x; ok $([ $RC = 2 ] && grep -q -- "--partition: not an option of 'list'" "$tmp/err"; echo $?) "--partition is submit's only"
 
 # 4b. Fields the server sends as null (an observable not asked for) print as "-", never "nan".

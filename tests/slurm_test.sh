@@ -213,12 +213,13 @@ kill "$sse" 2>/dev/null; wait "$sse" 2>/dev/null
 TL='{"method":"ed","dimensions":2,"particles":{"count":2000,"volume_fraction":0.3},"run":{"seed":5,"until":{"time":1e7}},"output":{"every":{"time":50},"checkpoint":{"every":{"wall_seconds":5}}}}'
 # Submitted with granularctl's flags: they reach sbatch through the submission's "slurm" object.
 echo "$TL" >"$tmp/tl.json"
-idt=$(field "$("$GRANULARCTL" submit "$tmp/tl.json" --url "$URL" --token-file "$S/token" --time-limit 60 --nodes 1 --partition gtest --json)" 'd["id"]')
+idt=$(field "$("$GRANULARCTL" submit "$tmp/tl.json" --url "$URL" --token-file "$S/token" --time-limit 60 --nodes 1 --partition gtest --account gacct --json)" 'd["id"]')
 wait_file "$S/jobs/$idt/attempt-1.sbatch" 30
 ok $(grep -q '^#SBATCH --time=1$' "$S/jobs/$idt/attempt-1.sbatch" && grep -q '^#SBATCH --nodes=1$' "$S/jobs/$idt/attempt-1.sbatch" &&
      grep -q '^#SBATCH --partition=gtest$' "$S/jobs/$idt/attempt-1.sbatch" &&
+     grep -q '^#SBATCH --account=gacct$' "$S/jobs/$idt/attempt-1.sbatch" &&
      [ "$(field "$(api GET "/api/v1/jobs/$idt")" 'd["slurm"]["time_limit"]')" = 60 ]; echo $?) \
-	"job $idt's slurm options: --time=1 (minutes), --nodes=1, --partition=gtest in its batch script, and on the job"
+	"job $idt's slurm options: --time=1 (minutes), --nodes=1, --partition=gtest, --account=gacct in its batch script, and on the job"
 
 # 6. scancel --signal=KILL from outside: retried from the checkpoint like a local crash, and the result is
 # the uninterrupted run's (the engine's resume is exact: docs/output.md, "Checkpoints").
