@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "report.h"
+#include "observe/tables.h"
 
 typedef struct {
 	char *buf;
@@ -246,12 +247,7 @@ static void scalar9(out_t *o, int ens, const char *key, double v, double se)
 
 size_t report_curves_max(const obs_curves_t *c)
 {
-	/* each number at most 16 characters (-1.23456789e-123) plus a comma;
-	 * per table: edges, centres, a value and a standard error per column */
-	size_t n = 1024;
-	for (int i = 0; i < c->ntables; i++)
-		n += 256 + 17 * (size_t)(2 * c->t[i].nb + 1 + 2 * c->t[i].nb * c->t[i].ncols);
-	return n;
+	return tables_json_max(c, 1);   /* either kind of run */
 }
 
 int report_curves(const run_record_t *r, uint64_t sample, char *buf, size_t len)

@@ -10,6 +10,7 @@
 #include "observe/fields.h"
 #include "observe/gofr.h"
 #include "observe/sofk.h"
+#include "observe/tables.h"
 #include "observe/vcorr.h"
 #include "observe/vdist.h"
 
@@ -33,11 +34,6 @@ struct obs {
 	size_t packed;
 };
 
-unsigned obs_curve_bits(const scene_t *s)
-{
-	return s->observables & OBS_CURVE_BITS;
-}
-
 static size_t n_vals(const obs_curves_t *c)
 {
 	size_t k = 0;
@@ -56,24 +52,6 @@ void obs_destroy(obs_t *o)
 	dspec_destroy(o->dspec);
 	free(o->mem);
 	free(o);
-}
-
-/* Table i with nb bins and ncols columns named by cols (NULL-terminated). */
-static obs_table_t *table(obs_t *o, const char *family, const char *sub, const char *x, const char *x_unit, int nb,
-                          const char *const *cols)
-{
-	obs_table_t *t = &o->c.t[o->c.ntables++];
-	t->family = family;
-	t->table = sub;
-	t->x = x;
-	t->x_unit = x_unit;
-	t->nb = nb;
-	t->ncols = 0;
-	while (cols[t->ncols] && t->ncols < OBS_MAX_COLS) {
-		t->col[t->ncols] = cols[t->ncols];
-		t->ncols++;
-	}
-	return t;
 }
 
 obs_t *obs_create(const scene_t *s, int layout_only)
@@ -121,50 +99,8 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 	}
 
 	/* Tables (values assigned below from one block). */
-	static const char *const comp3[] = {"p_x", "p_y", "p_z", NULL}, *const comp2[] = {"p_x", "p_y", NULL};
-	static const char *const speed[] = {"p", NULL}, *const gcols[] = {"g", NULL}, *const scol[] = {"s", NULL};
-	static const char *const vpairs[] = {"g_par", "g_perp", "g_nn", NULL}, *const vmodes[] = {"s_par", "s_perp", NULL};
-	static const char *const ncol[] = {"n_s", NULL}, *const bcols[] = {"p", "n", NULL};
-	int vnb = s->vdist_bins, snb = 0, bnb = (o->bits & SCENE_OBS_IMPACT) ? s->impact_bins : 0;
-	if (o->bits & SCENE_OBS_VDIST) {
-		table(o, "velocity_distribution", "components", "c", "1", vnb, D == 3 ? comp3 : comp2);
-		table(o, "velocity_distribution", "speed", "c", "1", vnb, speed);
-	}
-	if (o->bits & SCENE_OBS_GOFR)
-		table(o, "pair_correlation", "", "r", "l0", gnb, gcols);
-	if (o->bits & SCENE_OBS_SOFK)
-		table(o, "structure_factor", "", "k", "l0-1", J, scol);
-	if (o->bits & SCENE_OBS_VCORR) {
-		table(o, "velocity_correlations", "pairs", "r", "l0", gnb, vpairs);
-		table(o, "velocity_correlations", "modes", "k", "l0-1", J, vmodes);
-	}
-	if (o->bits & SCENE_OBS_CLUSTERS) {
-		snb = clusters_size_bins(s->count, NULL, NULL);
-		table(o, "clusters", "", "s", "1", snb, ncol);
-	}
-	if (o->bits & SCENE_OBS_IMPACT)
-		table(o, "impact_parameter", "", "b", "1", bnb, bcols);
-	if (o->bits & SCENE_OBS_FIELDS) {
-		static const char *const dcols[] = {"n", "count", NULL}, *const u3[] = {"u_x", "u_y", "u_z", NULL},
-		                         *const u2[] = {"u_x", "u_y", NULL}, *const tcols[] = {"T", NULL},
-		                         *const w3[] = {"w_x", "w_y", "w_z", NULL}, *const w1[] = {"w", NULL};
-		int nc = s->fields_cells[0] * s->fields_cells[1] * s->fields_cells[2];
-		obs_table_t *ft[4];
-		int k = 0;
-		ft[k++] = table(o, "fields", "density", "cell", "1", nc, dcols);
-		ft[k++] = table(o, "fields", "velocity", "cell", "1", nc, D == 3 ? u3 : u2);
-		ft[k++] = table(o, "fields", "temperature", "cell", "1", nc, tcols);
-		if (spin_dim)
-			ft[k++] = table(o, "fields", "spin", "cell", "1", nc, D == 3 ? w3 : w1);
-		for (int i = 0; i < k; i++)
-			for (int a = 0; a < 3; a++)
-				ft[i]->shape[a] = a < D ? s->fields_cells[a] : 0;
-	}
-
-	if (o->bits & SCENE_OBS_DSPEC) {
-		static const char *const pcols[] = {"P", NULL};
-		table(o, "density_spectrum", "", "f", "t0-1", dspec_bins(s->dspec_m), pcols);
-	}
+	tables_layout(&o->c, s, J);
+	int vnb = s->vdist_bins, bnb = (o->bits & SCENE_OBS_IMPACT) ? s->impact_bins : 0;
 
 	/* One block: per table edges (nb+1) and centres (nb); per column value
 	 * and standard error (nb each); pair sums (3 gnb). */
