@@ -808,71 +808,7 @@ static int frame_times_reserve(pgroup_t *g, size_t n)
 
 static int write_xdmf(h5md_t *h);
 
-/* The chunk index of dataset d is plausible: every chunk of its extent that
- * is stored lies inside the file (eof bytes) and is no larger than its raw
- * bytes could become (deflate's worst case, 0.1% and a few bytes, and
- * Fletcher-32's four). The 1.8 file format's chunk index (a version-1
- * B-tree) carries no checksum, and HDF5 1.10.8 allocates a chunk's recorded
- * size before it reads and verifies the chunk: a damaged index would make
- * it allocate up to 4 GiB (found by ckpt_fuzz). Lookups by coordinate
- * (H5Dget_chunk_info_by_coord: one B-tree descent each) over the chunk
- * grid of the extent. 0, or -1 (damaged or unreadable). */
-static int chunks_sane(hid_t d, hsize_t eof)
-{
-	hid_t dcpl = H5Dget_create_plist(d), fs = H5Dget_space(d), ft = H5Dget_type(d);
-	hsize_t dims[3] = {0, 0, 0}, chunk[3] = {1, 1, 1}, off[3] = {0, 0, 0};
-	int ret = -1, rank = fs >= 0 ? H5Sget_simple_extent_ndims(fs) : -1;
-	size_t esize = ft >= 0 ? H5Tget_size(ft) : 0;
-	if (dcpl < 0 || rank < 1 || rank > 3 || esize == 0 || H5Sget_simple_extent_dims(fs, dims, NULL) < 0)
-		goto done;
-	if (H5Pget_layout(dcpl) != H5D_CHUNKED) {
-		ret = 0;   /* contiguous or compact: no chunk index */
-		goto done;
-	}
-	if (H5Pget_chunk(dcpl, rank, chunk) != rank)
-		goto done;
-	hsize_t raw = esize;
-	for (int a = 0; a < rank; a++) {
-		if (chunk[a] == 0 || chunk[a] > ((hsize_t)1 << 32))
-			goto done;
-		raw *= chunk[a];
-	}
-	const hsize_t bound = raw + raw / 1000 + 64;
-	for (;;) {
-		unsigned mask = 0;
-		haddr_t addr = HADDR_UNDEF;
-		hsize_t size = 0;
-		int empty = 0;
-		for (int a = 0; a < rank; a++)
-			empty |= off[a] >= dims[a];
-		if (empty)
-			break;   /* an extent of 0 rows: nothing stored */
-		if (H5Dget_chunk_info_by_coord(d, off, &mask, &addr, &size) < 0)
-			goto done;
-		if (addr != HADDR_UNDEF && (size > bound || addr > eof || size > eof - addr))
-			goto done;
-		int a = rank - 1;
-		for (; a >= 0; a--) {
-			off[a] += chunk[a];
-			if (off[a] < dims[a])
-				break;
-			off[a] = 0;
-		}
-		if (a < 0)
-			break;
-	}
-	ret = 0;
-done:
-	if (dcpl >= 0)
-		H5Pclose(dcpl);
-	if (fs >= 0)
-		H5Sclose(fs);
-	if (ft >= 0)
-		H5Tclose(ft);
-	return ret;
-}
-
-/* Every dataset attach() opened passes chunks_sane(). */
+/* Every dataset attach() opened passes h5u_chunks_sane() (h5util.h: why). */
 static int indexes_sane(const h5md_t *h, const char *path, char *msg, size_t msglen)
 {
 	hsize_t eof = 0;
@@ -889,13 +825,13 @@ static int indexes_sane(const h5md_t *h, const char *path, char *msg, size_t msg
 		ds[n++] = h->dsp[k];
 	ds[n++] = h->fld_step, ds[n++] = h->fld_time, ds[n++] = h->dsp_step, ds[n++] = h->dsp_time;
 	for (int k = 0; k < n; k++)
-		if (ds[k] >= 0 && chunks_sane(ds[k], eof))
+		if (ds[k] >= 0 && h5u_chunks_sane(ds[k], eof, 0, H5U_ALL_ROWS))
 			return h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: damaged chunk index of an observable series", path);
 	for (int k = 0; k < h->n_grp; k++) {
 		const pgroup_t *g = &h->grp[k];
 		hid_t gs[] = {g->pos_step, g->pos_time, g->pos_value, g->vel_value, g->box_value, g->spin_value};
 		for (size_t j = 0; j < sizeof gs / sizeof gs[0]; j++)
-			if (gs[j] >= 0 && chunks_sane(gs[j], eof))
+			if (gs[j] >= 0 && h5u_chunks_sane(gs[j], eof, 0, H5U_ALL_ROWS))
 				return h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: damaged chunk index of the frames", path);
 	}
 	return H5MD_OK;
