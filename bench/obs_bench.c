@@ -95,7 +95,7 @@ int main(int argc, char **argv)
 			} else {
 				if (!strcmp(families[f], "fields"))
 					obs_fields_add(o[f], pos, vel, NULL);
-				if (!obs_curves(o[f], cl, pos, vel)) {
+				if (!obs_curves(o[f], cl, pos, vel, NULL)) {
 					fprintf(stderr, "obs_bench: %s: out of memory\n", families[f]);
 					goto out;
 				}

@@ -683,6 +683,8 @@
     const any = CURVE_OBS.filter((n) => n !== 'fields').map((n) => last[n]).find((x) => x);
     info.push('sample ' + any.sample + ' at time ' + (+any.time.toPrecision(4)));
     if (last.velocity_distribution) info.push('a2 = ' + (last.velocity_distribution.a2 ?? NaN).toPrecision(3));
+    if (last.velocity_distribution && last.velocity_distribution.a2_spin !== undefined)
+      info.push('spins: a2 = ' + (last.velocity_distribution.a2_spin ?? NaN).toPrecision(3) + ', T_rot = ' + (last.velocity_distribution.temperature_rot ?? NaN).toPrecision(4));
     if (last.pair_correlation) info.push('g(σ) = ' + (last.pair_correlation.g_contact_pairs ?? NaN).toPrecision(4));
     if (last.clusters) info.push('n_s exponent τ = ' + (last.clusters.exponent ?? NaN).toPrecision(3) + ', w = ' + (last.clusters.w ?? NaN).toPrecision(3));
     if (pb) info.push('P(b) of ' + pb.columns.n.reduce((a, x) => a + x, 0) + ' collisions since the previous sample');

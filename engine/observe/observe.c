@@ -14,8 +14,8 @@
 #include "observe/vcorr.h"
 #include "observe/vdist.h"
 
-#define N_SCALARS 10  /* temperature, a2, a3, g_pairs, cluster_w, cluster_exponent, m2_reduced, mean_size,
-                        * impact_a, impact_c */
+#define N_SCALARS 12  /* temperature, a2, a3, g_pairs, cluster_w, cluster_exponent, m2_reduced, mean_size,
+                        * impact_a, impact_c, a2_spin, temperature_rot */
 
 struct obs {
 	scene_t s;
@@ -28,7 +28,7 @@ struct obs {
 	dspec_t *dspec;           /* density_spectrum */
 	double *mem;              /* one block: axes, values, standard errors, scratch */
 	double *gcount, *gpar, *gperp;   /* pair sums over the g(r) bins */
-	double *vhist;                   /* D * bins: the component histograms, axis-major */
+	double *vhist;                   /* 4 * bins: the component histograms, axis-major, and the spins' |c| */
 	double *bcount;                  /* impact parameters counted by the engine since the last curves */
 	obs_curves_t c;
 	size_t packed;
@@ -104,7 +104,7 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 
 	/* One block: per table edges (nb+1) and centres (nb); per column value
 	 * and standard error (nb each); pair sums (3 gnb). */
-	size_t need = 3 * (size_t)gnb + 3 * (size_t)vnb + (size_t)bnb;
+	size_t need = 3 * (size_t)gnb + 4 * (size_t)vnb + (size_t)bnb;
 	for (int i = 0; i < o->c.ntables; i++)
 		need += 2 * (size_t)o->c.t[i].nb + 1 + 2 * (size_t)o->c.t[i].nb * o->c.t[i].ncols;
 	o->mem = calloc(need ? need : 1, sizeof(double));
@@ -114,7 +114,7 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 	o->gcount = p, p += gnb;
 	o->gpar = p, p += gnb;
 	o->gperp = p, p += gnb;
-	o->vhist = p, p += 3 * (size_t)vnb;
+	o->vhist = p, p += 4 * (size_t)vnb;
 	o->bcount = p, p += bnb;
 	for (int i = 0; i < o->c.ntables; i++) {
 		obs_table_t *t = &o->c.t[i];
@@ -260,7 +260,7 @@ static obs_table_t *find(obs_t *o, const char *family, const char *sub)
 	return NULL;
 }
 
-const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, const double *vel)
+const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, const double *vel, const double *spin)
 {
 	const scene_t *s = &o->s;
 	const int D = s->dim;
@@ -282,6 +282,25 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 			memcpy(t->val[a], o->vhist + (size_t)a * t->nb, (size_t)t->nb * sizeof(double));
 		c->a2 = m.a2;
 		c->a3 = m.a3;
+	}
+	c->a2_spin = c->temperature_rot = NAN;
+	if ((t = find(o, "velocity_distribution", "spin"))) {
+		/* c_w = (w - <w>) / sqrt(2 T_rot / I), T_rot = I <(w - <w>)^2> / spin_dim: the same scaling and
+		 * moments as the velocities, with I = q m a^2 for the mass (vdist.h works in any dimension) */
+		const int sd = t->ncols;
+		const double inertia = s->rough_q * s->mass * s->radius * s->radius;
+		for (int a = 0; a < sd; a++)
+			for (int b = 0; b < t->nb; b++)
+				t->val[a][b] = NAN;
+		if (spin) {
+			vdist_moments_t mw;
+			vdist_moments(sd, n, inertia, spin, &mw);
+			vdist_histograms(sd, n, inertia, spin, &mw, t->nb, s->vdist_range, o->vhist, o->vhist + 3 * t->nb);
+			for (int a = 0; a < sd; a++)
+				memcpy(t->val[a], o->vhist + (size_t)a * t->nb, (size_t)t->nb * sizeof(double));
+			c->a2_spin = mw.a2;
+			c->temperature_rot = mw.temperature;
+		}
 	}
 	obs_table_t *tg = find(o, "pair_correlation", ""), *tv = find(o, "velocity_correlations", "pairs");
 	if (o->gofr && (tg || tv)) {
@@ -363,10 +382,11 @@ void obs_dspec_add(obs_t *o, const double *pos)
 static double *scalar_slot(obs_curves_t *c, int k, int se)
 {
 	double *v[N_SCALARS] = {&c->temperature, &c->a2, &c->a3, &c->g_pairs, &c->cluster_w, &c->cluster_exponent,
-	                        &c->m2_reduced, &c->mean_size, &c->impact_a, &c->impact_c};
+	                        &c->m2_reduced, &c->mean_size, &c->impact_a, &c->impact_c, &c->a2_spin,
+	                        &c->temperature_rot};
 	double *e[N_SCALARS] = {&c->se_temperature, &c->se_a2, &c->se_a3, &c->se_g_pairs, &c->se_cluster_w,
 	                        &c->se_cluster_exponent, &c->se_m2_reduced, &c->se_mean_size, &c->se_impact_a,
-	                        &c->se_impact_c};
+	                        &c->se_impact_c, &c->se_a2_spin, &c->se_temperature_rot};
 	return se ? e[k] : v[k];
 }
 

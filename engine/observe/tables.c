@@ -43,8 +43,11 @@ void tables_layout(obs_curves_t *c, const scene_t *s, int J)
 	const unsigned bits = obs_curve_bits(s);
 	int vnb = s->vdist_bins, gnb = s->gofr_bins, bnb = (bits & SCENE_OBS_IMPACT) ? s->impact_bins : 0;
 	if (bits & SCENE_OBS_VDIST) {
+		static const char *const wcomp3[] = {"p_x", "p_y", "p_z", NULL}, *const wcomp1[] = {"p", NULL};
 		table(c, "velocity_distribution", "components", "c", "1", vnb, D == 3 ? comp3 : comp2);
 		table(c, "velocity_distribution", "speed", "c", "1", vnb, speed);
+		if (spin_dim)   /* rough particles: the angular velocities, scaled by their thermal value */
+			table(c, "velocity_distribution", "spin", "c", "1", vnb, spin_dim == 3 ? wcomp3 : wcomp1);
 	}
 	if (bits & SCENE_OBS_GOFR)
 		table(c, "pair_correlation", "", "r", "l0", gnb, gcols);
