@@ -1255,11 +1255,9 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 		return fail(c, "obstacles", "method \"%s\" does not support obstacles yet (only \"ed\" does)",
 			    method_names[s->method]);
 	/* dsmc/hsmc: the wall kinds they cannot honour are refused by
-	 * dsmc_plan() (scene_check_start()), naming the key. "auto" has no
-	 * advice for bounded scenes yet. */
-	if ((walls || grav) && s->method == SCENE_METHOD_AUTO)
-		return fail(c, walls ? "boundaries" : "gravity", "method \"auto\" does not support %s yet (choose \"ed\", "
-			    "\"dsmc\" or \"hsmc\")", walls ? "walls" : "gravity");
+	 * dsmc_plan() (scene_check_start()), naming the key. "auto" advises on
+	 * bounded scenes too (advice.h: ed, since the MC error model is the
+	 * periodic gas's); the resolved scene is checked again. */
 	bool inelastic = s->restitution < 1, vibrating = false;
 	for (int k = 0; k < s->n_obstacles; k++)
 		inelastic |= s->obstacle[k].restitution < 1;
