@@ -427,6 +427,9 @@ with open(md, "w") as f:
                 "(MC: sqrt(predicted^2 + ref SE^2), as the measured error carries the reference's noise): %s%s.\n" % (
                     math.exp(sum(math.log(x) for x in cr) / len(cr)), min(cr), max(cr), summary("pred_err"),
                     "; before: " + summary("base_err") if bl else ""))
+    bounded = os.path.join(DOCDIR, "tradeoff-bounded.md")   # bench/tradeoff_bounded.py, run before this
+    if os.path.exists(bounded):
+        f.write("\n" + open(bounded).read())
     notes = os.path.join(DOCDIR, "tradeoff-notes.md")
     if os.path.exists(notes):
         f.write("\n" + open(notes).read())
