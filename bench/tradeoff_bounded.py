@@ -4,7 +4,7 @@
 usage: bench/tradeoff_bounded.py ENGINE DOCDIR [--quick]
 
 For each scene: event-driven MD (exact for hard disks) with SEEDS seeds is the reference; dsmc (correction
-none and enskog) and hsmc (cba) run the same scene, same seeds, at the scene's settings and at coarser and
+none, enskog, and cba: the seed's DSMC2) and hsmc (cba) run the same scene, same seeds, at the scene's settings and at coarser and
 finer ones. Writes DOCDIR/tradeoff-bounded.md (one table per scene, the Pareto front marked) and
 DOCDIR/tradeoff-bounded.png (error against cost per scene, the front drawn as a line); bench/tradeoff.py
 includes the table in docs/tradeoff.md.
@@ -20,7 +20,7 @@ includes the table in docs/tradeoff.md.
   time), mean over the seeds.
 - ref SE: the relative standard error of ED's mean over its seeds: an MC error at or below it is not resolved.
 """
-import json, math, os, subprocess, sys, tempfile, time
+import json, math, os, statistics, subprocess, sys, tempfile, time
 
 args = [a for a in sys.argv[1:] if not a.startswith("--")]
 QUICK = "--quick" in sys.argv
@@ -51,18 +51,16 @@ def run(scene):
 
 
 def mean_se(xs):
-    m = sum(xs) / len(xs)
-    if len(xs) < 2:
-        return m, float("nan")
-    v = sum((x - m) ** 2 for x in xs) / (len(xs) - 1)
-    return m, math.sqrt(v / len(xs))
+    """Mean and its standard error (sample standard deviation / sqrt(n))."""
+    return statistics.fmean(xs), statistics.stdev(xs) / math.sqrt(len(xs)) if len(xs) > 1 else float("nan")
 
 
 # Variants: (method, correction, label of the setting, method settings)
 def variants(base_mc):
     cell = base_mc.get("cell_size", 2)
     out = []
-    for method, corr in (("dsmc", "none"), ("dsmc", "enskog"), ("hsmc", "cba")):
+    # dsmc/cba is the seed's DSMC2 (the Enskog rate and the CBA offset, seed 000 sec. 3.7)
+    for method, corr in (("dsmc", "none"), ("dsmc", "enskog"), ("dsmc", "cba"), ("hsmc", "cba")):
         settings = [("scene's (cell %g)" % cell, dict(base_mc)),
                     ("cell %g" % (2 * cell), dict(base_mc, cell_size=2 * cell))]
         if "time_step" in base_mc:
@@ -189,7 +187,8 @@ try:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, len(scenes), figsize=(5 * len(scenes), 4.6))
-    colour = {"ed": "black", "dsmc/none": "tab:red", "dsmc/enskog": "tab:orange", "hsmc/cba": "tab:blue"}
+    colour = {"ed": "black", "dsmc/none": "tab:red", "dsmc/enskog": "tab:orange", "dsmc/cba": "tab:purple",
+              "hsmc/cba": "tab:blue"}
     for ax, (_, short, rows) in zip(axes, scenes):
         for r in rows:
             ax.scatter(r["cost"], max(r["err"], 1e-4), color=colour[r["method"]], marker="*" if r["method"] == "ed" else "o",

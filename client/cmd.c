@@ -481,15 +481,16 @@ static int c_advise(ctx_t *x)
 	       FMT_NUM(num(sc, "collisions_per_particle"), "%.3g"));
 	if (isfinite(target))
 		printf("; target: temperature error <= %.3g", target);
-	printf("\n%-6s %-32s %10s %10s %9s %-6s %s\n", "METHOD", "SETTINGS", "CPU", "WALL", "ERROR", "MEETS",
+	printf("\n%-6s %-32s %10s %10s %9s %-7s %s\n", "METHOD", "SETTINGS", "CPU", "WALL", "ERROR", "MEETS",
 	       "EXTRAPOLATED");
 	json_array_foreach(json_object_get(resp, "estimates"), i, e) {
 		char set[96];
 		const json_t *m = json_object_get(e, "meets_target");
 		settings_text(e, set, sizeof(set));
-		printf("%-6s %-32s %10s %10s %9s %-6s %s\n", str(e, "method", "?"), set, FMT_NUM(num(e, "cpu_seconds"), "%.3gs"),
+		printf("%-6s %-32s %10s %10s %9s %-7s %s\n", str(e, "method", "?"), set, FMT_NUM(num(e, "cpu_seconds"), "%.3gs"),
 		       FMT_NUM(num(e, "wall_seconds"), "%.3gs"), FMT_NUM(num(json_object_get(e, "error"), "temperature"), "%.3g"),
-		       json_is_boolean(m) ? (json_is_true(m) ? "yes" : "no") : "-",
+		       json_is_true(json_object_get(e, "refused")) ? "refused"
+		       : json_is_boolean(m) ? (json_is_true(m) ? "yes" : "no") : "-",
 		       json_is_true(json_object_get(e, "extrapolated")) ? "yes" : "");
 	}
 	json_array_foreach(json_object_get(resp, "estimates"), i, e) {

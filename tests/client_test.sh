@@ -207,6 +207,13 @@ ok $([ $RC = 0 ] && grep -q ' x 1 replica, 1 rank;' "$tmp/out"; echo $?) "advise
 ctl advise --preset cooling-2d --json
 ok $([ $RC = 0 ] && jsonok 'd["choice"] is None and d["target"] is None and all(e["meets_target"] is None for e in d["estimates"])'; echo $?) \
 	"advise --preset on a concrete scene: estimates without a target"
+# on a bed under gravity (the gravity-box preset, made auto): ed chosen, dsmc refused with the reason
+"$PY" -c 'import json, sys
+s = json.load(open(sys.argv[1])); s["method"] = "auto"; s.pop("hsmc"); s["accuracy"] = {"temperature": 0.05}
+json.dump(s, open(sys.argv[2], "w"))' "$SRCDIR/presets/gravity-box-2d.json" "$tmp/gb.json"
+ctl advise "$tmp/gb.json"
+ok $([ $RC = 0 ] && grep -q '^dsmc *none, cell.* refused ' "$tmp/out" && grep -q '^  dsmc: refused: gravity pulls the particles onto a wall' "$tmp/out" &&
+     grep -q '^choice: ed ' "$tmp/out"; echo $?) "advise on a bed under gravity: $(grep '^dsmc ' "$tmp/out" | head -n 1 | tr -s ' ' | cut -c1-80); $(grep '^choice' "$tmp/out" | cut -c1-40)"
 ctl advise "$tmp/auto.json" --set accuracy.temperature=0
 ok $([ $RC = 2 ] && one_line && grep -q 'accuracy.temperature: must be between 0 and 1' "$tmp/err"; echo $?) "advise with a bad target: exit 2, $(head -1 "$tmp/err")"
 # 8c. validate: the submission's checks without a job; a scene the engine would refuse names the key.
