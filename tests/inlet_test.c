@@ -10,6 +10,7 @@
 #include "tap.h"
 #include "stats.h"
 #include "ed_util.h"
+#include "preset_file.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -415,14 +416,76 @@ static void test_checkpoint(void)
 	ed_destroy(b);
 }
 
+/* The preset presets/obstacle-stream-2d.json (seed 001's obstacle in a
+ * stream, anchors 4 and 10, at the seed's D = 74, U = 0.05, kT = 0.02, but
+ * eta = 0.04: the low-density boundary). The seed gives no drag numbers
+ * (Fig. 4.19 only); what is checked: after one flow-through time the
+ * particle count is steady (the means of the third and fourth quarters of
+ * the run agree within 5 standard errors of their block means), the drag
+ * (the obstacle's mean force along the flow, momentum per unit time) is
+ * positive by more than 5 standard errors, and the lift (across the flow;
+ * the obstacle is on the channel's axis, y periodic) is 0 within 5
+ * standard errors. Blocks of 1100 time units, 0.75 of the obstacle's
+ * passage time D / U. */
+static void test_preset(void)
+{
+	static char text[8192];
+	scene_t sc;
+	char err[512];
+	int rc;
+	if (!preset_text("obstacle-stream-2d.json", text, sizeof text) ||
+	    scene_parse(text, strlen(text), &sc, err, sizeof err) != SCENE_OK) {
+		ok(0, "preset obstacle-stream-2d: read and parsed (%s)", err);
+		ok(0, "preset obstacle-stream-2d: drag");
+		return;
+	}
+	ed_t *ed = ed_create(&sc, &rc, err, sizeof err);
+	if (!ed) {
+		ok(0, "preset obstacle-stream-2d: engine (%s)", err);
+		ok(0, "preset obstacle-stream-2d: drag");
+		return;
+	}
+	enum { K = 8 };
+	const double t1 = sc.until.value / 2.0, tb = (sc.until.value - t1) / K;
+	double np[K], fx[K], fy[K];
+	ed_sample_t sm;
+	ed_advance(ed, t1, UINT64_MAX, UINT64_MAX);
+	ed_sample(ed, &sm);
+	for (int k = 0; k < K; k++) {
+		double sn = 0.0;
+		for (int j = 1; j <= 20; j++) {
+			ed_advance(ed, t1 + k * tb + j * tb / 20, UINT64_MAX, UINT64_MAX);
+			ed_totals(ed, &sm);
+			sn += (double)sm.particles / 20;
+		}
+		ed_sample(ed, &sm);
+		np[k] = sn;
+		fx[k] = sm.obstacle_impulse[0][0] / sm.interval;
+		fy[k] = sm.obstacle_impulse[0][1] / sm.interval;
+	}
+	double m3, s3, m4, s4, mx, sx, my, sy;
+	mean_se(np, K / 2, &m3, &s3);
+	mean_se(np + K / 2, K / 2, &m4, &s4);
+	mean_se(fx, K, &mx, &sx);
+	mean_se(fy, K, &my, &sy);
+	ok(fabs(m3 - m4) < 5.0 * sqrt(s3 * s3 + s4 * s4),
+	   "preset obstacle-stream-2d: steady, %.1f +- %.1f then %.1f +- %.1f particles (n_res A = %.0f)", m3, s3, m4, s4,
+	   density_2d(0.04, sc.radius) * sc.box[0] * sc.box[1]);
+	ok(mx > 5.0 * sx && fabs(my) < 5.0 * sy,
+	   "preset obstacle-stream-2d: drag %.4f +- %.4f (along the flow), lift %.4f +- %.4f, over %d blocks of %g",
+	   mx, sx, my, sy, K, tb);
+	ed_destroy(ed);
+}
+
 int main(void)
 {
-	plan(12);
+	plan(14);
 	test_flux();
 	test_velocities();
 	test_equilibrium();
 	test_stream();
 	test_slots();
 	test_checkpoint();
+	test_preset();
 	return tap_failed ? 1 : 0;
 }
