@@ -767,9 +767,6 @@ static int check_fields(ctx_t *c, json_t *v, scene_t *s)
 			continue;
 		if (s->replicas > 1)
 			return fail(c, path, "\"fields\" is not averaged over ensembles yet (run.replicas must be 1)");
-		if (scene_has_open_walls(s))
-			return fail(c, path, "\"fields\" is not available with an \"open\" wall yet (it needs a fixed "
-			            "particle set)");
 	}
 	if (!f)
 		return fail(c, "output.fields", "required with the \"fields\" observable (at least \"cells\")");

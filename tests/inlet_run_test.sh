@@ -99,6 +99,37 @@ else
 	n=$((n + 1)); echo "ok $n # SKIP python3-h5py not installed"
 fi
 
+# 1b. fields with reservoir walls: empty slots count nowhere, so at each snapshot instant (no exposure)
+# the cells' occupations add up to the particles present in the progress record of the same time.
+cat >"$tmp/fields.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":120,"box":[60,40],"initial":{"positions":"random","temperature":0.02,"velocity":[0.05,0]}},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"reservoir","volume_fraction":0.04,"velocity":[0.05,0],"temperature":0.02},
+   "upper":{"type":"reservoir","volume_fraction":0.04,"velocity":[0.05,0],"temperature":0.02}}},
+ "run":{"seed":53,"until":{"time":2000}},
+ "output":{"every":{"time":100},"observables":["temperature","outflow","fields"],"snapshots":{"every":{"time":100}},
+   "fields":{"cells":[6,1]}}}
+JSON
+"$ENGINE" run "$tmp/fields.json" --out "$tmp/fields" >/dev/null 2>"$tmp/err"
+rc=$?
+why=$("$PY" - "$tmp/fields" <<'PYEOF'
+import json, sys
+d = sys.argv[1]
+present = {r["time"]: r["particles_present"] for r in map(json.loads, open(d + "/progress.jsonl")) if r["type"] == "progress"}
+bad, n = [], 0
+for l in open(d + "/observables.jsonl"):
+    o = json.loads(l)
+    if o["name"] != "fields":
+        continue
+    n += 1
+    count = {t["table"]: t for t in o["tables"]}["density"]["columns"]["count"]
+    if o["time"] not in present or abs(sum(count) - present[o["time"]]) > 1e-9:
+        bad.append("t=%s: cells hold %s, present %s" % (o["time"], sum(count), present.get(o["time"])))
+print("; ".join(bad[:3]) if bad else "%d samples, occupations = particles present in each" % n)
+sys.exit(1 if bad or n < 20 else 0)
+PYEOF
+)
+ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "fields with reservoir walls: exit $rc, $why $(head -c 200 "$tmp/err")"
+
 # 2. Slots run out: a reservoir far denser than 12 slots allow. Exit 2, one line on stderr naming
 # particles.capacity, the last progress record and the summary (status "full") carry it.
 cat >"$tmp/full.json" <<'JSON'
