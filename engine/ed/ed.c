@@ -1830,7 +1830,7 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 			omega[w] = ed->wall[w].omega;
 			ed->wall[w].omega = 0.0;
 		}
-		uint64_t target = (uint64_t)ceil(s->relax_cpp * ed->n / 2.0);
+		uint64_t target = (uint64_t)ceil(s->relax_cpp * (double)(ed->n - ed->n_gone) / 2.0);   /* particles present (reservoir scenes: not the empty slots) */
 		DISPATCH(ed, run, ed, INFINITY, target, UINT64_MAX);
 		ed->e = e;
 		ed->tlast = tl;
