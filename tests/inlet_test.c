@@ -88,6 +88,28 @@ static void test_flux(void)
 		   (unsigned long long)sm.wall_rejected[k], t_end, expect, tol);
 	}
 	ed_destroy(ed);
+	/* 3D, a reservoir on each end of z with a flow across it (U = (0.4, 0, 0.3)): F_+ times the face
+	 * area 20 x 15 at U_n = +0.3 (lower) and -0.3 (upper), the tangential flow not counting */
+	const char *json3 = "{\"method\":\"ed\",\"dimensions\":3,\"particles\":{\"count\":10,\"box\":[20,15,30],"
+	                    "\"initial\":{\"positions\":\"random\",\"temperature\":1}},"
+	                    "\"boundaries\":{\"z\":{\"type\":\"walls\","
+	                    "\"lower\":{\"type\":\"reservoir\",\"volume_fraction\":0.002,\"velocity\":[0.4,0,0.3],\"temperature\":1},"
+	                    "\"upper\":{\"type\":\"reservoir\",\"volume_fraction\":0.002,\"velocity\":[0.4,0,0.3],\"temperature\":1}}},"
+	                    "\"run\":{\"seed\":28,\"until\":{\"time\":1}}}";
+	ed = make(json3, &sc);
+	rc = ed ? ed_advance(ed, 2000.0, UINT64_MAX, UINT64_MAX) : -99;
+	if (ed)
+		ed_sample(ed, &sm);
+	const double n3 = 0.002 / (4.0 / 3.0 * M_PI * pow(sc.radius, 3));
+	for (int k = 0; k < 2; k++) {
+		const double a = k ? -0.3 : 0.3, expect = flux_plus(n3, a, 1.0) * sc.box[0] * sc.box[1] * 2000.0;
+		const double got = ed ? (double)(sm.wall_inflow[4 + k] + sm.wall_rejected[4 + k]) : -1.0;
+		const double tol = 4.0 * sqrt(expect);
+		ok(rc == ED_OK && fabs(got - expect) < tol,
+		   "flux 3D, U_n %s 0 (tangential flow 0.4): %.0f entries tried over t = 2000, F_+ A t = %.1f, tolerance %.1f",
+		   k ? "<" : ">", got, expect, tol);
+	}
+	ed_destroy(ed);
 }
 
 /* Test 3, entry velocities: in a very dilute box (eta 5e-4: a particle
@@ -479,7 +501,7 @@ static void test_preset(void)
 
 int main(void)
 {
-	plan(14);
+	plan(16);
 	test_flux();
 	test_velocities();
 	test_equilibrium();
