@@ -34,6 +34,10 @@ static const struct { const char *name, *description; } descriptions[] = {
 	{.name = "pipe-flow-2d", .description = "Vertical 2D pipe, periodic along gravity, rough walls (p=0.1), "
 	                                        "1935 disks at nu=0.38, r=0, hsmc (seed 000 A8/A9): density waves, the "
 	                                        "density_spectrum slope alpha and the flux; bench/pipe.sh sweeps r and nu"},
+	{.name = "obstacle-stream-2d", .description = "2D stream past a slip obstacle of diameter 74 (seed 001): "
+	                                              "reservoir walls at both ends of x (eta=0.04, kT=0.02, U=0.05), y "
+	                                              "periodic, 440 x 440 diameters, two flow-through times: drag "
+	                                              "(obstacle_force), inflow and outflow"},
 };
 
 static const size_t npresets = sizeof(presets_embedded) / sizeof(presets_embedded[0]);

@@ -120,7 +120,8 @@ int budget_estimate(const scene_t *s, int ranks, budget_t *out, char *err, size_
 		chi = pr.chi;
 	}
 
-	const double N = (double)s->count, D = s->dim, R = (double)s->replicas;
+	/* rows of the frames and sampling buffers: the particle slots (reservoir walls: particles.capacity) */
+	const double N = (double)scene_slots(s), D = s->dim, R = (double)s->replicas;
 	const int ensemble = s->replicas > 1;
 	const int clusters = (s->observables & SCENE_OBS_CLUSTERS) != 0;
 	/* run.c: the sampling copy of positions (clusters, snapshots) and of
@@ -176,7 +177,7 @@ int budget_estimate(const scene_t *s, int ranks, budget_t *out, char *err, size_
 	/* a frame's positions and velocities fill whole chunks of FRAME_CHUNK
 	 * particles (io/h5md.c) once N exceeds one chunk */
 	double nc = N <= FRAME_CHUNK ? N : ceil(N / FRAME_CHUNK) * FRAME_CHUNK;
-	double frame_bytes = (2 * nc * D + D * D + 2) * 8;
+	double frame_bytes = (2 * nc * D + D * D + 2 + (scene_has_reservoir(s) ? nc : 0)) * 8;   /* + id per slot */
 	double trajectory = TRAJ_FIXED + groups * TRAJ_GROUP + frames * (frame_bytes + XDMF_FRAME) +
 	                    ceil(records / OBS_CHUNK) * OBS_CHUNK * row_doubles(s, ensemble) * 8;
 	double line = LINE_BASE + (s->observables & SCENE_OBS_MOMENTUM ? LINE_MOMENTUM : 0) + (clusters ? LINE_CLUSTERS : 0) + (ensemble ? LINE_SE : 0);

@@ -58,6 +58,7 @@ struct run {
 	msd_t *msd;              /* mean_square_displacement (observe/msd.h), or NULL */
 	double msd_prev, msd_tprev; /* MSD and time of the previous progress record (the interval's D) */
 	double *pos, *vel;       /* sampling buffers (clusters, snapshots, structure observables) */
+	int64_t *ids;            /* reservoir scenes with snapshots: each row's particle id */
 	double *placed;          /* positions placed in particles.initial.region (s.init_pos), or NULL */
 	double *spin;            /* snapshots and fields of rough particles: angular velocities */
 	/* fields (output.fields): the exposure before the next curves, at fld_end; its instants
@@ -94,6 +95,7 @@ typedef struct {
 	uint64_t obstacle_collisions;
 	double obstacle_impulse[SCENE_OBSTACLES_MAX][3];
 	uint64_t particles, wall_outflow[6];   /* present now (N without open walls); out per wall */
+	uint64_t wall_inflow[6], wall_rejected[6];   /* reservoir walls: in per wall, rejected entries */
 	double rotational_energy;
 	int n_species;                         /* ed mixtures: kinetic energy and count per species */
 	double species_ekin[SCENE_SPECIES_MAX];
@@ -125,6 +127,8 @@ static void eng_sample(run_t *rc, smp_t *o)
 		memcpy(o->obstacle_impulse, sm.obstacle_impulse, sizeof(o->obstacle_impulse));
 		o->particles = sm.particles;
 		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
+		memcpy(o->wall_inflow, sm.wall_inflow, sizeof(o->wall_inflow));
+		memcpy(o->wall_rejected, sm.wall_rejected, sizeof(o->wall_rejected));
 		o->rotational_energy = sm.rotational_energy;
 		eng_species(o, &sm);
 	} else {
@@ -160,6 +164,8 @@ static void eng_totals(const run_t *rc, smp_t *o)
 		o->obstacle_collisions = sm.obstacle_collisions;
 		o->particles = sm.particles;
 		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
+		memcpy(o->wall_inflow, sm.wall_inflow, sizeof(o->wall_inflow));
+		memcpy(o->wall_rejected, sm.wall_rejected, sizeof(o->wall_rejected));
 		eng_species(o, &sm);
 	} else {
 		dsmc_sample_t sm;
@@ -187,7 +193,7 @@ static int eng_advance(run_t *rc, double t_stop, double t_soft, uint64_t c_stop)
 {
 	if (rc->ed) {
 		int e = ed_advance(rc->ed, fmin(t_stop, t_soft), c_stop, RUN_CHUNK_EVENTS);
-		return e == ED_QUIESCENT ? 1 : e == ED_COLLAPSE ? 2 : 0;
+		return e == ED_QUIESCENT ? 1 : e == ED_COLLAPSE ? 2 : e == ED_FULL ? 3 : 0;
 	}
 	return dsmc_advance_soft(rc->mc, t_stop, t_soft, c_stop, rc->mc_chunk) == DSMC_QUIESCENT;
 }
@@ -277,6 +283,8 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 	const double np = sm.particles ? (double)sm.particles : (double)s->count;
 	r->particles = sm.particles;
 	memcpy(r->wall_outflow, sm.wall_outflow, sizeof(r->wall_outflow));
+	memcpy(r->wall_inflow, sm.wall_inflow, sizeof(r->wall_inflow));
+	memcpy(r->wall_rejected, sm.wall_rejected, sizeof(r->wall_rejected));
 	r->temperature = 2.0 * sm.kinetic_energy / (s->dim * np);
 	r->n_species = sm.n_species;
 	for (int k = 0; k < sm.n_species; k++)
@@ -315,6 +323,8 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 		for (int k = 0; k < 2; k++) {
 			int w = 2 * a + k;
 			r->walls |= 1u << w;
+			if (s->boundary[a].wall[k].type == SCENE_WALL_RESERVOIR)
+				r->reservoirs |= 1u << w;
 			if (!(sm.interval > 0.0))
 				continue;
 			for (int b = 0; b < 3; b++)
@@ -501,7 +511,7 @@ static int sample_progress(run_t *r)
 	int ret = sample(r, &r->rec, RUN_PROGRESS);
 	if (ret == RUN_OK && first && r->warning[0])
 		r->rec.warning = r->warning;
-	if (ret == RUN_OK && r->status == RUN_COLLAPSED)
+	if (ret == RUN_OK && (r->status == RUN_COLLAPSED || r->status == RUN_FULL))
 		r->rec.warning = r->collapse;
 	return ret;
 }
@@ -524,7 +534,7 @@ static int emit_snapshot(run_t *r, run_emit_fn emit, void *ctx)
 	memset(&rec, 0, sizeof(rec));
 	rec.kind = RUN_SNAPSHOT;
 	rec.dim = r->s.dim;
-	rec.n = r->s.count;
+	rec.n = scene_slots(&r->s);
 	rec.time = sm.time;
 	rec.events = sm.events;
 	rec.collisions = sm.collisions;
@@ -534,6 +544,8 @@ static int emit_snapshot(run_t *r, run_emit_fn emit, void *ctx)
 	eng_state(r, r->pos, r->vel);
 	rec.pos = r->pos;
 	rec.vel = r->vel;
+	if (r->ids && ed_labels(r->ed, r->ids) == ED_OK)
+		rec.ids = r->ids;
 	if (r->spin) {
 		ed_spins(r->ed, r->spin);
 		rec.spin = r->spin;
@@ -633,7 +645,7 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 			dsmc_count_impacts(r->mc, bc, nb);
 	}
 	if ((s->observables & (SCENE_OBS_CLUSTERS | SCENE_OBS_MSD | SCENE_OBS_FLUX)) || r->opts.snapshots || r->obs) {
-		r->pos = malloc(s->count * s->dim * sizeof(double));
+		r->pos = malloc(scene_slots(s) * s->dim * sizeof(double));
 		if (!r->pos)
 			goto nomem;
 	}
@@ -643,8 +655,13 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 			goto nomem;
 	}
 	if (r->opts.snapshots || r->obs || (s->observables & SCENE_OBS_FLUX)) {
-		r->vel = malloc(s->count * s->dim * sizeof(double));
+		r->vel = malloc(scene_slots(s) * s->dim * sizeof(double));
 		if (!r->vel)
+			goto nomem;
+	}
+	if (r->opts.snapshots && r->ed && scene_has_reservoir(s)) {
+		r->ids = malloc(scene_slots(s) * sizeof(int64_t));
+		if (!r->ids)
 			goto nomem;
 	}
 	r->fld = curves_on(r) && obs_fields(r->obs) != NULL;
@@ -703,6 +720,7 @@ void run_destroy(run_t *r)
 	msd_destroy(r->msd);
 	free(r->pos);
 	free(r->vel);
+	free(r->ids);
 	free(r->spin);
 	ed_destroy(r->ed);
 	dsmc_destroy(r->mc);
@@ -900,7 +918,7 @@ void run_summary_record(run_t *r, run_record_t *sum)
 	sum->n = r->s.count;
 	sum->have = r->s.observables;
 	sum->have_interval = 0;
-	sum->warning = r->status == RUN_COLLAPSED ? r->collapse : NULL;
+	sum->warning = r->status == RUN_COLLAPSED || r->status == RUN_FULL ? r->collapse : NULL;
 	sum->status = r->status;
 	sum->wall_seconds = wall_seconds(r);
 	sum->events_per_second = sum->wall_seconds > 0 ? sum->events / sum->wall_seconds : 0.0;
@@ -969,6 +987,13 @@ static int advance(run_t *r, double t_stop, double t_soft, uint64_t c_stop, int 
 	}
 	if (adv == 2) {
 		note_collapse(r);
+		done = 1;
+	}
+	if (adv == 3) {   /* reservoir walls: no free slot for an entry */
+		snprintf(r->collapse, sizeof(r->collapse), "particles.capacity: all %llu particle slots are taken at time "
+		         "%.9g when a particle was due to enter through a reservoir wall; raise particles.capacity",
+		         (unsigned long long)scene_slots(&r->s), *t);
+		r->status = RUN_FULL;
 		done = 1;
 	}
 	return done;
@@ -1043,7 +1068,7 @@ int run_go(run_t *r, run_emit_fn emit, void *ctx, const volatile sig_atomic_t *s
 		}
 		if (done) {
 			ret = run_summary(r, emit, ctx);
-			if (ret == RUN_OK && r->status == RUN_COLLAPSED) {
+			if (ret == RUN_OK && (r->status == RUN_COLLAPSED || r->status == RUN_FULL)) {
 				ret = RUN_ECOLLAPSE;
 				if (msg && msglen)
 					snprintf(msg, msglen, "%s", r->collapse);
@@ -1109,7 +1134,7 @@ int run_next(run_t *r, const volatile sig_atomic_t *stop, run_record_t *rec, int
 			r->done = done;
 			*done_out = done;
 			*rec = r->rec;
-			return r->status == RUN_COLLAPSED ? RUN_ECOLLAPSE : RUN_OK;
+			return r->status == RUN_COLLAPSED || r->status == RUN_FULL ? RUN_ECOLLAPSE : RUN_OK;
 		}
 	}
 }
@@ -1163,6 +1188,7 @@ const char *run_status_name(run_status_t st)
 		[RUN_QUIESCENT] = "quiescent",
 		[RUN_INTERRUPTED] = "interrupted",
 		[RUN_COLLAPSED] = "collapsed",
+		[RUN_FULL] = "full",
 	};
 	return (unsigned)st < sizeof(names) / sizeof(names[0]) ? names[st] : "unknown";
 }

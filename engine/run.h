@@ -20,7 +20,7 @@
  */
 
 typedef enum { RUN_PROGRESS = 0, RUN_SUMMARY, RUN_SNAPSHOT, RUN_CURVES } run_kind_t;
-typedef enum { RUN_COMPLETED = 0, RUN_QUIESCENT, RUN_INTERRUPTED, RUN_COLLAPSED } run_status_t;
+typedef enum { RUN_COMPLETED = 0, RUN_QUIESCENT, RUN_INTERRUPTED, RUN_COLLAPSED, RUN_FULL } run_status_t;
 
 enum {
 	RUN_OK = 0,
@@ -76,6 +76,10 @@ typedef struct {
 	/* Open walls (SCENE_OBS_OUTFLOW): particles still in the system and
 	 * those that left through each wall w (totals). */
 	uint64_t particles, wall_outflow[6];
+	/* Reservoir walls (with SCENE_OBS_OUTFLOW): particles that entered
+	 * through each wall w and entries rejected there (totals). */
+	uint64_t wall_inflow[6], wall_rejected[6];
+	unsigned reservoirs;         /* bit w: wall w is a reservoir */
 	/* Rough particles (SCENE_OBS_ROTATION): rotational energy I/2 sum w^2
 	 * and rotational temperature 2 E_rot / (D_r N), D_r = 1 (2D) or 3
 	 * (3D) rotational degrees of freedom, now. */
@@ -109,6 +113,10 @@ typedef struct {
 	 * (spin_dim 1 in 2D, 3 in 3D; 0 and NULL for smooth particles) */
 	const double *spin;
 	int spin_dim;
+	/* snapshot only, scenes with a reservoir wall: n = scene_slots() rows
+	 * (empty slots NaN) and each row's particle id (-1 when empty);
+	 * NULL otherwise */
+	const int64_t *ids;
 	/* RUN_CURVES only: the structure curves of the present state (observe.h),
 	 * taken with the snapshots; owned by the run, valid during emit() */
 	const obs_curves_t *curves;

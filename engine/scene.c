@@ -69,6 +69,7 @@ static const char *const contact_names[] = { "global", "local" };
 static const char *const wall_names[] = {
 	[SCENE_WALL_SPECULAR] = "specular", [SCENE_WALL_THERMAL] = "thermal", [SCENE_WALL_ROUGH] = "rough",
 	[SCENE_WALL_MOVING] = "moving", [SCENE_WALL_VIBRATING] = "vibrating", [SCENE_WALL_OPEN] = "open",
+	[SCENE_WALL_RESERVOIR] = "reservoir",
 };
 static const char *const obstacle_names[] = {
 	[SCENE_OBST_SLIP] = "slip", [SCENE_OBST_NO_SLIP] = "no_slip", [SCENE_OBST_RANDOM_SIGN] = "random_sign",
@@ -766,9 +767,6 @@ static int check_fields(ctx_t *c, json_t *v, scene_t *s)
 			continue;
 		if (s->replicas > 1)
 			return fail(c, path, "\"fields\" is not averaged over ensembles yet (run.replicas must be 1)");
-		if (scene_has_open_walls(s))
-			return fail(c, path, "\"fields\" is not available with an \"open\" wall yet (it needs a fixed "
-			            "particle set)");
 	}
 	if (!f)
 		return fail(c, "output.fields", "required with the \"fields\" observable (at least \"cells\")");
@@ -1041,10 +1039,13 @@ static const struct {
 	unsigned required;   /* bit per type that requires it */
 } wall_keys[] = {
 	{ "restitution", 0x1f, 0 },
-	{ "temperature", 1u << SCENE_WALL_THERMAL, 1u << SCENE_WALL_THERMAL },
+	{ "temperature", 1u << SCENE_WALL_THERMAL | 1u << SCENE_WALL_RESERVOIR,
+	  1u << SCENE_WALL_THERMAL | 1u << SCENE_WALL_RESERVOIR },
 	{ "accommodation", 1u << SCENE_WALL_THERMAL, 0 },
 	{ "probability", 1u << SCENE_WALL_ROUGH, 1u << SCENE_WALL_ROUGH },
-	{ "velocity", 1u << SCENE_WALL_MOVING | 1u << SCENE_WALL_THERMAL, 1u << SCENE_WALL_MOVING },
+	{ "velocity", 1u << SCENE_WALL_MOVING | 1u << SCENE_WALL_THERMAL | 1u << SCENE_WALL_RESERVOIR,
+	  1u << SCENE_WALL_MOVING },
+	{ "volume_fraction", 1u << SCENE_WALL_RESERVOIR, 1u << SCENE_WALL_RESERVOIR },
 	{ "tangential_restitution", 1u << SCENE_WALL_MOVING, 0 },
 	{ "coverage", 1u << SCENE_WALL_MOVING, 0 },
 	{ "amplitude", 1u << SCENE_WALL_VIBRATING, 1u << SCENE_WALL_VIBRATING },
@@ -1082,6 +1083,7 @@ static const struct object wall_obj = {
 		{ "amplitude", parse_number, offsetof(scene_wall_t, amplitude), &R_NONNEG, false },
 		{ "frequency", parse_number, offsetof(scene_wall_t, frequency), &R_POS, false },
 		{ "phase", parse_number, offsetof(scene_wall_t, phase), &R_ANY, false },
+		{ "volume_fraction", parse_number, offsetof(scene_wall_t, volume_fraction), &R_POS, false },
 		{ .name = NULL },
 	},
 	.check = check_wall,
@@ -1243,6 +1245,56 @@ static int check_obstacles(ctx_t *c, const scene_t *s)
 	return 0;
 }
 
+/* Reservoir walls (method ed): what the inlet supports, and the particle
+ * slots (particles.capacity, docs/scene.md). Without a reservoir the
+ * capacity is the count and the key is refused. */
+static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
+{
+	char path[PATHLEN];
+	bool given = json_object_get(json_object_get(v, "particles"), "capacity") != NULL;
+	if (!scene_has_reservoir(s)) {
+		if (given)
+			return fail(c, "particles.capacity", "only with a \"reservoir\" wall (particles enter)");
+		s->capacity = s->count;
+		return 0;
+	}
+	const double vp = scene_particle_volume(s), cp = scene_close_packing(s->dim);
+	double nmax = 0.0;   /* the largest reservoir number density */
+	for (int a = 0; a < s->dim; a++)
+		for (int k = 0; k < 2; k++) {
+			const scene_wall_t *w = &s->boundary[a].wall[k];
+			if (!s->boundary[a].walled || w->type != SCENE_WALL_RESERVOIR)
+				continue;
+			snprintf(path, sizeof path, "boundaries.%s.%s", axis_names[a], k ? "upper" : "lower");
+			if (s->method != SCENE_METHOD_ED)
+				return fail(c, path, "method \"%s\" does not support \"reservoir\" walls (only \"ed\" does)",
+				            method_names[s->method]);
+			if (w->volume_fraction >= cp) {
+				snprintf(path, sizeof path, "boundaries.%s.%s.volume_fraction", axis_names[a], k ? "upper" : "lower");
+				return fail(c, path, "%s is at or above the close-packing limit %.4f", num(w->volume_fraction).s, cp);
+			}
+			nmax = fmax(nmax, w->volume_fraction / vp);
+			if (scene_has_species(s))
+				return fail(c, path, "\"reservoir\" walls take one species of smooth particles (particles.species "
+				            "is not supported with them yet)");
+			if (s->rough)
+				return fail(c, path, "\"reservoir\" walls take smooth particles (collisions.rough is not "
+				            "supported with them yet)");
+			if (s->replicas > 1)
+				return fail(c, path, "\"reservoir\" walls are not supported in ensembles yet (run.replicas must "
+				            "be 1)");
+		}
+	/* default: room for twice the larger of the initial count and what the
+	 * box holds at the densest reservoir's density, plus 64 */
+	double fill = nmax * scene_box_volume(s), def = 2.0 * fmax((double)s->count, fill) + 64.0;
+	if (!given)
+		s->capacity = def < (double)COUNT_MAX ? (uint64_t)ceil(def) : (uint64_t)COUNT_MAX;
+	if (s->capacity < s->count)
+		return fail(c, "particles.capacity", "%llu is below particles.count %llu (slots for the particles present)",
+		            (unsigned long long)s->capacity, (unsigned long long)s->count);
+	return 0;
+}
+
 /* Rules of boundaries and gravity across the scene (after particles,
  * collisions and output are parsed). */
 static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
@@ -1289,6 +1341,8 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 	 * rebound (docs/engine.md, "Walls and gravity") prevents it. */
 	int ret = check_obstacles(c, s);
 	if (ret)
+		return ret;
+	if ((ret = check_reservoirs(c, v, s)))
 		return ret;
 	for (int a = 0; a < s->dim; a++)
 		if (s->flow[a] != 0 && s->method != SCENE_METHOD_ED)
@@ -1518,6 +1572,7 @@ static const struct object initial_obj = {
 static const struct object particles_obj = {
 	.fields = (const struct field[]){
 		{ "count", parse_integer, offsetof(scene_t, count), &R_COUNT, false },
+		{ "capacity", parse_integer, offsetof(scene_t, capacity), &R_COUNT, false },
 		{ "radius", parse_number, offsetof(scene_t, radius), &R_POS, false },
 		{ "mass", parse_number, offsetof(scene_t, mass), &R_POS, false },
 		{ "species", parse_species, 0, NULL, false },
@@ -1949,9 +2004,24 @@ int scene_has_open_walls(const scene_t *s)
 {
 	for (int a = 0; a < s->dim && a < 3; a++)
 		for (int k = 0; k < 2; k++)
-			if (s->boundary[a].walled && s->boundary[a].wall[k].type == SCENE_WALL_OPEN)
+			if (s->boundary[a].walled && (s->boundary[a].wall[k].type == SCENE_WALL_OPEN ||
+			                              s->boundary[a].wall[k].type == SCENE_WALL_RESERVOIR))
 				return 1;
 	return 0;
+}
+
+int scene_has_reservoir(const scene_t *s)
+{
+	for (int a = 0; a < s->dim && a < 3; a++)
+		for (int k = 0; k < 2; k++)
+			if (s->boundary[a].walled && s->boundary[a].wall[k].type == SCENE_WALL_RESERVOIR)
+				return 1;
+	return 0;
+}
+
+uint64_t scene_slots(const scene_t *s)
+{
+	return scene_has_reservoir(s) && s->capacity > s->count ? s->capacity : s->count;
 }
 
 int scene_has_gravity(const scene_t *s)

@@ -72,6 +72,8 @@ typedef enum {
 	SCENE_WALL_MOVING,         /* tangential velocity u: v_t' - u = -beta (v_t - u) (seed 000 3.7-3.8 at beta = 1) */
 	SCENE_WALL_VIBRATING,      /* displaced along its inward normal by A sin(2 pi f t + phase) */
 	SCENE_WALL_OPEN,           /* outflow: a particle touching it leaves the system (counted); no restitution */
+	SCENE_WALL_RESERVOIR,      /* open wall backed by an ideal-gas reservoir (volume_fraction, velocity,
+	                            * temperature): leaves like "open", and particles enter at the one-sided flux */
 } scene_wall_type_t;
 
 typedef struct {
@@ -85,6 +87,8 @@ typedef struct {
 	double amplitude;          /* vibrating: A >= 0 (length) */
 	double frequency;          /* vibrating: f > 0 (1/time) */
 	double phase;              /* vibrating: radians, default 0 */
+	double volume_fraction;    /* reservoir: eta of the reservoir gas in (0, close packing); number density
+	                            * eta / (particle volume) */
 	double coverage;           /* moving, instead of restitution: r_w = 1 - (1 - restitution) coverage (seed 000
 	                            * 3.9, line coverage rho_l); -1 when not given */
 } scene_wall_t;
@@ -150,6 +154,8 @@ typedef struct scene {
 
 	/* particles */
 	uint64_t count;                /* N >= 2 */
+	uint64_t capacity;             /* particle slots (particles.capacity): >= count with a reservoir wall
+	                                * (default from the reservoirs, docs/scene.md), = count otherwise */
 	double radius;                 /* > 0, default 0.5 */
 	double mass;                   /* > 0, default 1 */
 	/* particles.species: n_species = 0 without the key (one species:
@@ -285,8 +291,13 @@ double scene_close_packing(int dim);
 /* Any walled axis; any non-zero gravity component; any obstacle. */
 int scene_has_walls(const scene_t *s);
 int scene_has_obstacles(const scene_t *s);
-/* Any wall of type "open" (particles leave through it). */
+/* Any wall of type "open" or "reservoir" (particles leave through it). */
 int scene_has_open_walls(const scene_t *s);
+/* Any wall of type "reservoir" (particles enter too; ed only). Such
+ * scenes have capacity particle slots, count of them filled at the start:
+ * per-particle arrays of the run and its output have scene_slots() rows. */
+int scene_has_reservoir(const scene_t *s);
+uint64_t scene_slots(const scene_t *s);
 int scene_has_gravity(const scene_t *s);
 
 /* A mixture: more than one particle species, or polydisperse radii

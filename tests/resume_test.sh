@@ -116,6 +116,19 @@ cat >"$tmp/2d-obstacles-open.json" <<'JSON'
  "output":{"every":{"time":3},"observables":["kinetic_energy","obstacle_force","outflow","wall_force"],
    "snapshots":{"every":{"time":20}},"checkpoint":{"every":{"time":13}}}}
 JSON
+# Reservoir walls (inlet): the slots, the free-slot stack, the particle ids
+# (H5MD particles/all/id), the entry timers and their random stream are state.
+cat >"$tmp/2d-reservoir.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":800,"box":[120,60],
+   "initial":{"positions":"random","temperature":0.5,"velocity":[0.3,0]}},
+ "collisions":{"restitution":0.95,"tc":0.0001},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"reservoir","volume_fraction":0.05,"velocity":[0.3,0],"temperature":0.5},
+   "upper":{"type":"reservoir","volume_fraction":0.05,"velocity":[0.3,0],"temperature":0.5}}},
+ "obstacles":[{"type":"slip","center":[60,30],"radius":6}],
+ "run":{"seed":47,"until":{"time":60}},
+ "output":{"every":{"time":3},"observables":["kinetic_energy","obstacle_force","outflow"],
+   "snapshots":{"every":{"time":20}},"checkpoint":{"every":{"time":13}}}}
+JSON
 # Rough particles (spins, angular_velocity frames) and driving (kick times,
 # the thermostat's random stream and local means) are state too.
 cat >"$tmp/3d-rough-drive.json" <<'JSON'
@@ -261,7 +274,7 @@ ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 # (a) checkpoint at simulated time T, resume: identical to the uninterrupted run.
 for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open 3d-rough-drive \
 	2d-rough-noise 2d-hsmc-walls 2d-dsmc-vib 2d-hsmc-open 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute \
-	2d-mixture-walls; do
+	2d-mixture-walls 2d-reservoir; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

@@ -215,6 +215,22 @@ struct ed {
 	uint8_t *spc;
 	double *prad;
 	struct ed_mix *mix;
+	/* Reservoir walls (walls variants; scene_has_reservoir(); inlet = 0
+	 * and the arrays NULL without): the n slots hold the particles present
+	 * and the empty slots (gone), which form the stack freei (its n_gone
+	 * entries, storage indices, remapped by reorder()); label[row] is the
+	 * unique id of the particle in row (scene index) row, -1 when empty.
+	 * Entries come at Poisson times per reservoir wall (inlet_* below). */
+	int inlet;
+	uint32_t n_init;          /* particles placed at the start (slots n_init.. start empty) */
+	uint32_t *freei;          /* state: empty slots, a stack of n_gone storage indices */
+	int64_t *label;           /* state: per row, the particle's id or -1 */
+	double in_next[6];        /* state: absolute time of each wall's next entry (INFINITY: not a reservoir) */
+	uint64_t in_count[13];    /* state: entered per wall [0..5], rejected per wall [6..11], next id [12] */
+	rng_t irng;               /* state: the entries' random stream */
+	double in_rate[6];        /* entries per unit time: F_+ times the face area */
+	double in_a[6], in_s[6];  /* mean inward normal velocity U_n; thermal speed sqrt(T / m) */
+	double in_u[6][3];        /* the reservoir's velocity */
 };
 
 /* Per ordered pair of species q = a * nsp + b: restitution, the share
@@ -754,6 +770,8 @@ typedef struct ed_ops {
 	/* driving (thermostats) */
 	void (*kick_get)(struct ed *, uint32_t, double *, double *);
 	void (*kick_set)(struct ed *, uint32_t, const double *);
+	/* reservoir walls (walls and gravity variants) */
+	int (*enter)(struct ed *, uint32_t, const double *, const double *);
 } ed_ops_t;
 
 #define OPS_COMMON(x) \
@@ -762,22 +780,22 @@ typedef struct ed_ops {
 	.scan_full = scan_full_##x, .kick_get = kick_get_##x, .kick_set = kick_set_##x
 #define OPS_NL(x) .nl_build_all = nl_build_all_##x, .resync = resync_##x, .set_nl = set_nl_##x, .scan_nl = scan_nl_##x
 static const ed_ops_t ed_ops[2][3] = {
-	{ { OPS_COMMON(2d), OPS_NL(2d) }, { OPS_COMMON(2w), .observe = observe_2w },
-	  { OPS_COMMON(2g), .observe = observe_2g, .energy_to = energy_to_2g } },
-	{ { OPS_COMMON(3d), OPS_NL(3d) }, { OPS_COMMON(3w), .observe = observe_3w },
-	  { OPS_COMMON(3g), .observe = observe_3g, .energy_to = energy_to_3g } },
+	{ { OPS_COMMON(2d), OPS_NL(2d) }, { OPS_COMMON(2w), .observe = observe_2w, .enter = enter_2w },
+	  { OPS_COMMON(2g), .observe = observe_2g, .energy_to = energy_to_2g, .enter = enter_2g } },
+	{ { OPS_COMMON(3d), OPS_NL(3d) }, { OPS_COMMON(3w), .observe = observe_3w, .enter = enter_3w },
+	  { OPS_COMMON(3g), .observe = observe_3g, .energy_to = energy_to_3g, .enter = enter_3g } },
 };
 static const ed_ops_t ed_ops_species[2][3] = {
-	{ { OPS_COMMON(2ds), OPS_NL(2ds) }, { OPS_COMMON(2ws), .observe = observe_2ws },
-	  { OPS_COMMON(2gs), .observe = observe_2gs, .energy_to = energy_to_2gs } },
-	{ { OPS_COMMON(3ds), OPS_NL(3ds) }, { OPS_COMMON(3ws), .observe = observe_3ws },
-	  { OPS_COMMON(3gs), .observe = observe_3gs, .energy_to = energy_to_3gs } },
+	{ { OPS_COMMON(2ds), OPS_NL(2ds) }, { OPS_COMMON(2ws), .observe = observe_2ws, .enter = enter_2ws },
+	  { OPS_COMMON(2gs), .observe = observe_2gs, .energy_to = energy_to_2gs, .enter = enter_2gs } },
+	{ { OPS_COMMON(3ds), OPS_NL(3ds) }, { OPS_COMMON(3ws), .observe = observe_3ws, .enter = enter_3ws },
+	  { OPS_COMMON(3gs), .observe = observe_3gs, .energy_to = energy_to_3gs, .enter = enter_3gs } },
 };
 static const ed_ops_t ed_ops_rough[2][3] = {
-	{ { OPS_COMMON(2dr), OPS_NL(2dr) }, { OPS_COMMON(2wr), .observe = observe_2wr },
-	  { OPS_COMMON(2gr), .observe = observe_2gr, .energy_to = energy_to_2gr } },
-	{ { OPS_COMMON(3dr), OPS_NL(3dr) }, { OPS_COMMON(3wr), .observe = observe_3wr },
-	  { OPS_COMMON(3gr), .observe = observe_3gr, .energy_to = energy_to_3gr } },
+	{ { OPS_COMMON(2dr), OPS_NL(2dr) }, { OPS_COMMON(2wr), .observe = observe_2wr, .enter = enter_2wr },
+	  { OPS_COMMON(2gr), .observe = observe_2gr, .energy_to = energy_to_2gr, .enter = enter_2gr } },
+	{ { OPS_COMMON(3dr), OPS_NL(3dr) }, { OPS_COMMON(3wr), .observe = observe_3wr, .enter = enter_3wr },
+	  { OPS_COMMON(3gr), .observe = observe_3gr, .energy_to = energy_to_3gr, .enter = enter_3gr } },
 };
 
 #define DISPATCH(ed, fn, ...) ((ed)->ops->fn(__VA_ARGS__))
@@ -1223,6 +1241,11 @@ static void predict_all(struct ed *ed)
 	if (ed->nl)
 		DISPATCH(ed, nl_build_all, ed);
 	for (uint32_t i = 0; i < ed->n; i++) {
+		if (ed->gone && ed->gone[i]) {   /* an empty slot: no events */
+			ed->ev[i].t_cross = INFINITY;
+			ed->ev[i].cross = -1;
+			continue;
+		}
 		if (ed->nl) { DISPATCH(ed, set_nl, ed, i); DISPATCH(ed, scan_nl, ed, i); }
 		else { DISPATCH(ed, set_cross, ed, i); DISPATCH(ed, scan_full, ed, i); }
 	}
@@ -1267,6 +1290,7 @@ static void reset_clock(struct ed *ed)
 	memset(ed->ohits, 0, sizeof ed->ohits);
 	ed->obst_collisions = 0;
 	memset(ed->wout, 0, sizeof ed->wout);
+	memset(ed->in_count, 0, 12 * sizeof ed->in_count[0]);   /* (the next id [12] stays) */
 	for (int a = 0; a < 3; a++)
 		ed->psum[a] = mom[a] / ed->mass;
 }
@@ -1348,6 +1372,45 @@ static void setup_walls(struct ed *ed, const scene_t *s)
 		}
 	}
 	rng_init(&ed->wrng, s->seed, s->stream | (1ull << 62));
+}
+
+/* Reservoir walls from the scene (after setup_walls()): each one's entry
+ * rate and velocity parameters. The reservoir is an ideal gas of number
+ * density n = eta / v_p (v_p the particle volume) moving with velocity U
+ * at temperature T; with c = m / (2 T) and a = U_n the component of U
+ * along the wall's inward normal, the one-sided flux into the box is
+ * (seed 001, eq. 3.15)
+ *     F_+ = n / (2 sqrt(pi c)) f(sqrt(c) a),  f(t) = exp(-t^2) + sqrt(pi) t erfc(-t),
+ * which is n sqrt(T / (2 pi m)) at a = 0; entries per unit time are F_+
+ * times the face area (the box's cross-section). Other walls: rate 0. */
+static void setup_inlet(struct ed *ed, const scene_t *s)
+{
+	const double pi = 3.14159265358979323846;
+	ed->inlet = scene_has_reservoir(s);
+	for (int w = 0; w < 6; w++)
+		ed->in_rate[w] = 0.0;
+	if (!ed->inlet)
+		return;
+	const double vp = s->dim == 2 ? pi * s->radius * s->radius : 4.0 / 3.0 * pi * s->radius * s->radius * s->radius;
+	for (int a = 0; a < s->dim; a++)
+		for (int k = 0; k < 2; k++) {
+			const scene_wall_t *sw = &s->boundary[a].wall[k];
+			const int w = 2 * a + k;
+			if (!s->boundary[a].walled || sw->type != SCENE_WALL_RESERVOIR)
+				continue;
+			const double n = sw->volume_fraction / vp, c = s->mass / (2.0 * sw->temperature);
+			const double ua = (k ? -1.0 : 1.0) * sw->velocity[a], t = sqrt(c) * ua;
+			const double f = exp(-t * t) + sqrt(pi) * t * erfc(-t);
+			double area = 1.0;
+			for (int j = 0; j < s->dim; j++)
+				if (j != a)
+					area *= s->box[j];
+			ed->in_rate[w] = n / (2.0 * sqrt(pi * c)) * f * area;
+			ed->in_a[w] = ua;
+			ed->in_s[w] = sqrt(sw->temperature / s->mass);
+			for (int j = 0; j < 3; j++)
+				ed->in_u[w][j] = j < s->dim ? sw->velocity[j] : 0.0;
+		}
 }
 
 /* Obstacles from the scene: internal centres, rules, minimum rebound. */
@@ -1449,7 +1512,7 @@ static void setup_wall_cells(struct ed *ed)
  * engine of ed's geometry with neighbour lists (nl) and TC times (tc);
  * absent arrays are 0. */
 enum { A_P, A_EV, A_HEAP, A_CN, A_CALHEAD, A_HEAD, A_OCC, A_NEXT, A_ID, A_SCRATCH_IDX, A_SCRATCH_CELL,
-       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_OCELL, A_GONE, A_SPIN, A_DMEAN, A_DSUM, A_DPOS, A_DVEL, A_SPC, A_MIX, A_PRAD, A_RSCENE, A_COUNT };
+       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_OCELL, A_GONE, A_SPIN, A_DMEAN, A_DSUM, A_DPOS, A_DVEL, A_SPC, A_MIX, A_PRAD, A_RSCENE, A_FREE, A_LABEL, A_COUNT };
 static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 {
 	const size_t n = ed->n;
@@ -1477,6 +1540,8 @@ static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 	b[A_SPC] = ed->mixture ? n : 0;
 	b[A_MIX] = ed->mixture ? sizeof(struct ed_mix) : 0;
 	b[A_PRAD] = b[A_RSCENE] = ed->mixture ? n * sizeof(double) : 0;
+	b[A_FREE] = ed->inlet ? n * sizeof(uint32_t) : 0;
+	b[A_LABEL] = ed->inlet ? n * sizeof(int64_t) : 0;
 }
 
 /* Cells cost memory even when empty (~9 bytes each): a grid finer than this
@@ -1537,6 +1602,20 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 	}
 	ed->dim = s->dim;
 	ed->n = (uint32_t)s->count;
+	ed->n_init = ed->n;
+	ed->inlet = scene_has_reservoir(s);
+	if (ed->inlet) {
+		if (s->capacity < s->count || s->capacity > INT32_MAX) {
+			set_msg(msg, msglen, "particles.capacity: %.0f is outside particles.count .. 2^31-1%.0s",
+			        (double)s->capacity, 0);
+			return ED_EINVAL;
+		}
+		if (s->rough || scene_has_species(s)) {
+			set_msg(msg, msglen, "boundaries: \"reservoir\" walls take one species of smooth particles%.0s%.0s", 0, 0);
+			return ED_EINVAL;
+		}
+		ed->n = (uint32_t)s->capacity;   /* slots; n_init of them filled at the start */
+	}
 	ed->sigma = 2.0 * s->radius;
 	ed->sigma2 = ed->sigma * ed->sigma;
 	ed->mass = s->mass;
@@ -1582,6 +1661,7 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 	}
 	if (ed->variant) {
 		setup_walls(ed, s);
+		setup_inlet(ed, s);
 		setup_obstacles(ed, s);
 		setup_cells(ed, s->ed_cell_size * ed->sigma);   /* cell mode only */
 		setup_wall_cells(ed);
@@ -1648,6 +1728,10 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	}
 	if (ed->open && !(ed->gone = big_alloc(b[A_GONE], 1)))
 		goto fail;
+	if (ed->inlet && (!(ed->freei = big_alloc(b[A_FREE], 0)) || !(ed->label = big_alloc(b[A_LABEL], 0))))
+		goto fail;
+	if (ed->inlet)
+		rng_init(&ed->irng, s->seed, s->stream | (1ull << 60));
 	if (ed->rough && !(ed->spin = big_alloc(b[A_SPIN], 1)))
 		goto fail;
 	if (ed->mixture) {
@@ -1685,6 +1769,8 @@ fail:
 }
 
 static void drive_start(struct ed *ed);
+static void inlet_slots(struct ed *ed);
+static void inlet_start(struct ed *ed);
 
 ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 {
@@ -1695,6 +1781,8 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 		return NULL;
 
 	rng_init(&rng, s->seed, s->stream);
+	const uint32_t slots = ed->n;
+	ed->n = ed->n_init;   /* reservoir scenes: place and draw the initial particles only */
 	if (s->init_pos) {
 		given_state(ed, s->init_pos, s->init_vel);   /* a region (place.h) or an earlier run's frame */
 	} else if ((rc = placement_check(ed, s, msg, msglen)) != ED_OK) {
@@ -1723,6 +1811,9 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 		memcpy(ed->spin, s->init_spin, (size_t)ed->n * (ed->dim == 2 ? 1 : 3) * sizeof(double));
 	else if (ed->rough)
 		init_spins(ed, s->rot_temperature, &rng);
+	ed->n = slots;
+	if (ed->inlet)
+		inlet_slots(ed);
 	predict_all(ed);
 	reset_clock(ed);
 
@@ -1739,7 +1830,7 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 			omega[w] = ed->wall[w].omega;
 			ed->wall[w].omega = 0.0;
 		}
-		uint64_t target = (uint64_t)ceil(s->relax_cpp * ed->n / 2.0);
+		uint64_t target = (uint64_t)ceil(s->relax_cpp * (double)(ed->n - ed->n_gone) / 2.0);   /* particles present (reservoir scenes: not the empty slots) */
 		DISPATCH(ed, run, ed, INFINITY, target, UINT64_MAX);
 		ed->e = e;
 		ed->tlast = tl;
@@ -1750,6 +1841,8 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 	}
 	if (ed->drive)
 		drive_start(ed);
+	if (ed->inlet)
+		inlet_start(ed);
 	*err = ED_OK;
 	return ed;
 fail:
@@ -1790,6 +1883,8 @@ void ed_destroy(ed_t *ed)
 	free(ed->mark);
 	free(ed->ocell);
 	free(ed->gone);
+	free(ed->freei);
+	free(ed->label);
 	free(ed);
 }
 
@@ -1914,10 +2009,161 @@ static int drive_advance(struct ed *ed, double t_stop, uint64_t max_coll, uint64
 	}
 }
 
+/* ---- reservoir walls (inlet) -------------------------------------------
+ *
+ * Like the driving's kicks, entries are not events of the calendar: the
+ * event loop (run) stops at the time of the next entry (which changes
+ * nothing), the entry is made, and the loop goes on. Each reservoir wall
+ * has its own timer (absolute times of a Poisson process of rate
+ * in_rate[w], drawn from the scene's seed on a stream of its own, as are
+ * the entries' positions and velocities); the timers are state. An entry
+ * takes the top of the free-slot stack; one that would overlap a particle,
+ * an obstacle or a side wall is rejected and counted (docs/engine.md,
+ * "Reservoir walls"). Cost: O(1) per entry plus one prediction. */
+
+/* Slots beyond the initial particles: empty, on the free stack (slot
+ * n_init on top), their rows unlabelled; rows of the initial particles
+ * get ids 0 .. n_init - 1. At creation, before the first prediction. */
+static void inlet_slots(struct ed *ed)
+{
+	const size_t psz = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
+	ed->n_gone = 0;
+	for (uint32_t i = ed->n; i-- > ed->n_init;) {
+		memset((char *)ed->p + i * psz, 0, psz);
+		ed->gone[i] = 1;
+		ed->freei[ed->n_gone++] = i;
+		ed->ev[i].t_coll = ed->ev[i].t_cross = INFINITY;
+		ed->ev[i].partner = -1;
+		ed->ev[i].cross = -1;
+	}
+	for (uint32_t r = 0; r < ed->n; r++)
+		ed->label[r] = r < ed->n_init ? (int64_t)r : -1;
+	ed->in_count[12] = ed->n_init;
+}
+
+/* Waiting time of wall w's next entry. */
+static double inlet_wait(struct ed *ed, int w)
+{
+	return -log(1.0 - rng_uniform(&ed->irng)) / ed->in_rate[w];
+}
+
+/* At the start of the production run: the first entry times. */
+static void inlet_start(struct ed *ed)
+{
+	for (int w = 0; w < 6; w++)
+		ed->in_next[w] = ed->in_rate[w] > 0.0 ? inlet_wait(ed, w) : INFINITY;
+}
+
+/* Normal speed w >= 0 of an entering particle: density proportional to
+ * w exp(-(w - a)^2 / (2 s^2)) (seed 001, eq. 3.29), exact rejection
+ * sampling. a <= 0: Rayleigh proposal w exp(-w^2 / 2 s^2), accepted with
+ * exp(a w / s^2) <= 1. a > 0: proposal ((w - a)_+ + a) exp(-(w - a)^2 /
+ * 2 s^2), a mixture of a normal about a cut at 0 (weight a s sqrt(2 pi)
+ * Phi(a / s)) and a Rayleigh above a (weight s^2), accepted with
+ * w / ((w - a)_+ + a) <= 1. */
+static double inlet_normal(rng_t *g, double a, double s)
+{
+	if (a <= 0.0) {
+		for (;;) {
+			const double w = s * sqrt(-2.0 * log(1.0 - rng_uniform(g)));
+			if (rng_uniform(g) < exp(a * w / (s * s)))
+				return w;
+		}
+	}
+	const double w1 = a * s * 2.50662827463100050242 * 0.5 * erfc(-a / (s * 1.41421356237309504880)), w2 = s * s;
+	for (;;) {
+		double w;
+		if (rng_uniform(g) * (w1 + w2) < w1) {
+			do
+				w = a + s * rng_gauss(g);
+			while (w < 0.0);
+		} else {
+			w = a + s * sqrt(-2.0 * log(1.0 - rng_uniform(g)));
+		}
+		if (w >= a || rng_uniform(g) * a < w)
+			return w;
+	}
+}
+
+/* The entry due now at wall w: a position uniform on the face, one radius
+ * inside the wall, the flux-weighted normal velocity and Maxwellian
+ * tangential ones about the reservoir's; made or rejected; the next entry
+ * time drawn. ED_FULL (nothing changed) when no slot is free. */
+static int inlet_enter(struct ed *ed, int w)
+{
+	if (ed->n_gone == 0)
+		return ED_FULL;
+	const int a = w >> 1, D = ed->dim;
+	const double sg = (w & 1) ? -1.0 : 1.0, s = ed->in_s[w];
+	double r[3] = {0.0, 0.0, 0.0}, v[3] = {0.0, 0.0, 0.0};
+	int clash = 0;
+	for (int k = 0; k < D; k++) {
+		if (k == a)
+			continue;
+		/* the scene's box on this axis (internal: + org); a walled side
+		 * axis: only centres a radius clear of its walls */
+		const double lo = ed->periodic[k] ? 0.0 : ed->wall[2 * k].rest;
+		const double hi = ed->periodic[k] ? ed->L[k] : ed->wall[2 * k + 1].rest;
+		r[k] = lo + rng_uniform(&ed->irng) * (hi - lo);
+		if (!ed->periodic[k] && (r[k] < ed->plo[k] || r[k] > ed->phi[k]))
+			clash = 1;
+		v[k] = ed->in_u[w][k] + s * rng_gauss(&ed->irng);
+	}
+	r[a] = ed->wall[w].rest + sg * ed->radius;
+	v[a] = sg * inlet_normal(&ed->irng, ed->in_a[w], s);
+	const uint32_t i = ed->freei[ed->n_gone - 1];
+	if (!clash)
+		clash = ed->ops->enter(ed, i, r, v);
+	if (clash) {
+		ed->in_count[6 + w]++;
+	} else {
+		ed->label[ed->id[i]] = (int64_t)ed->in_count[12]++;
+		ed->in_count[w]++;
+		DISPATCH(ed, set_cross, ed, i);
+		DISPATCH(ed, scan_full, ed, i);
+		cal_update(ed, i, ev_time(ed, i));
+	}
+	ed->in_next[w] += inlet_wait(ed, w);
+	return ED_OK;
+}
+
+static int inlet_advance(struct ed *ed, double t_stop, uint64_t max_coll, uint64_t max_events)
+{
+	const uint64_t ev_end = ed->events + max_events < ed->events ? UINT64_MAX : ed->events + max_events;
+	for (;;) {
+		int w = 0;
+		for (int k = 1; k < 6; k++)
+			if (ed->in_next[k] < ed->in_next[w])
+				w = k;
+		const double tk = ed->in_next[w];
+		const double stop = tk < t_stop ? tk : t_stop;
+		int rc = DISPATCH(ed, run, ed, stop, max_coll, ev_end - ed->events);
+		if (rc == ED_COLLAPSE || ed->collisions >= max_coll || ed->events >= ev_end)
+			return rc == ED_QUIESCENT ? ED_OK : rc;
+		if (!(tk < t_stop))
+			return rc;
+		/* the clock stands at tk */
+		if (inlet_enter(ed, w) == ED_FULL)
+			return ED_FULL;
+	}
+}
+
+uint32_t ed_slots(const ed_t *ed) { return ed->n; }
+
+int ed_labels(const ed_t *ed, int64_t *ids)
+{
+	if (!ed->inlet)
+		return ED_EINVAL;
+	memcpy(ids, ed->label, (size_t)ed->n * sizeof(int64_t));
+	return ED_OK;
+}
+
 int ed_advance(ed_t *ed, double t_stop, uint64_t max_collisions, uint64_t max_events)
 {
 	if (ed->drive)
 		return drive_advance(ed, t_stop, max_collisions, max_events);
+	if (ed->inlet)
+		return inlet_advance(ed, t_stop, max_collisions, max_events);
 	return DISPATCH(ed, run, ed, t_stop, max_collisions, max_events);
 }
 
@@ -1930,6 +2176,8 @@ static void sample_walls(const struct ed *ed, ed_sample_t *out)
 	memcpy(out->wall_impulse, ed->wimp, sizeof out->wall_impulse);
 	out->particles = ed->n - ed->n_gone;
 	memcpy(out->wall_outflow, ed->wout, sizeof out->wall_outflow);
+	memcpy(out->wall_inflow, ed->in_count, sizeof out->wall_inflow);
+	memcpy(out->wall_rejected, ed->in_count + 6, sizeof out->wall_rejected);
 	out->n_obstacles = ed->nobst;
 	out->obstacle_collisions = ed->obst_collisions;
 	memcpy(out->obstacle_hits, ed->ohits, sizeof out->obstacle_hits);
@@ -2047,6 +2295,7 @@ typedef enum {
 	F_GONE, F_WOUT,                                              /* with open walls only */
 	F_SPIN,   /* rough particles only */
 	F_DMEAN, F_DNEXT, F_DKICKS, F_DRNG,   /* driving only */
+	F_FREE, F_LABEL, F_INEXT, F_ICOUNT, F_IRNG,   /* reservoir walls only */
 	F_SCALAR
 } fid_t;
 
@@ -2098,6 +2347,8 @@ static const struct {
 	{ "spin", F_SPIN, ED_T_F64 },
 	{ "drive_mean", F_DMEAN, ED_T_F64 }, { "drive_next", F_DNEXT, ED_T_F64 }, { "drive_kicks", F_DKICKS, ED_T_U64 },
 	{ "drive_rng", F_DRNG, ED_T_U64 },
+	{ "free_slots", F_FREE, ED_T_U32 }, { "label", F_LABEL, ED_T_I64 }, { "inlet_next", F_INEXT, ED_T_F64 },
+	{ "inlet_counts", F_ICOUNT, ED_T_U64 }, { "inlet_rng", F_IRNG, ED_T_U64 },
 };
 #define N_ARRAYS (sizeof arrays / sizeof arrays[0])
 
@@ -2112,8 +2363,10 @@ size_t ed_type_size(ed_type_t t)
 }
 
 /* Whether a field exists, for an engine with neighbour lists (nl) and TC times (tc). */
-static int field_exists(fid_t id, int nl, int tc, int variant, int nobst, int open, int rough, int drive)
+static int field_exists(fid_t id, int nl, int tc, int variant, int nobst, int open, int rough, int drive, int inlet)
 {
+	if (id >= F_FREE && id <= F_IRNG)   /* scenes without reservoir walls keep their checkpoint layout */
+		return inlet;
 	if (id == F_GONE || id == F_WOUT)   /* scenes without open walls keep their checkpoint layout */
 		return open;
 	if (id >= F_OIMP && id <= F_OCOLL)   /* scenes without obstacles keep their checkpoint layout */
@@ -2133,7 +2386,7 @@ static int field_exists(fid_t id, int nl, int tc, int variant, int nobst, int op
 
 static int array_present(const struct ed *ed, fid_t id)
 {
-	return field_exists(id, ed->xn != NULL, ed->tlast != NULL, ed->variant, ed->nobst, ed->open, ed->rough, ed->drive);
+	return field_exists(id, ed->xn != NULL, ed->tlast != NULL, ed->variant, ed->nobst, ed->open, ed->rough, ed->drive, ed->inlet);
 }
 
 static size_t array_count(const struct ed *ed, fid_t id)
@@ -2156,6 +2409,9 @@ static size_t array_count(const struct ed *ed, fid_t id)
 	case F_DNEXT: return 2;
 	case F_DKICKS: return 1;
 	case F_DRNG: return 4;
+	case F_INEXT: return 6;
+	case F_ICOUNT: return 13;
+	case F_IRNG: return 4;
 	case F_NB: {
 		size_t k = 0;
 		for (uint32_t i = 0; i < ed->n; i++)
@@ -2173,8 +2429,11 @@ int ed_plan(const scene_t *s, ed_plan_t *out, char *msg, size_t msglen)
 	if (msg && msglen)
 		msg[0] = '\0';
 	int rc = geometry(&ed, s, msg, msglen);
+	const uint32_t slots = ed.n;
+	ed.n = ed.n_init;   /* reservoir scenes: the initial particles are placed */
 	if (rc == ED_OK && !s->has_region && !s->has_from)   /* those: place_check(), frame checks */
 		rc = placement_check(&ed, s, msg, msglen);
+	ed.n = slots;
 	if (rc != ED_OK || !out)
 		return rc;
 	/* What ed_alloc() takes: its arrays with big_alloc()'s rounding (of
@@ -2198,7 +2457,7 @@ int ed_plan(const scene_t *s, ed_plan_t *out, char *msg, size_t msglen)
 		out->state += ed_type_size(scalars[a].type);
 	out->largest = 0;
 	for (size_t a = 0; a < N_ARRAYS; a++) {
-		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0, ed.variant, ed.nobst, ed.open, ed.rough, ed.drive))
+		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0, ed.variant, ed.nobst, ed.open, ed.rough, ed.drive, ed.inlet))
 			continue;
 		double count = arrays[a].id == F_NB ? per * ed.n : (double)array_count(&ed, arrays[a].id);
 		uint64_t bytes = (uint64_t)(count * (double)ed_type_size(arrays[a].type));
@@ -2312,6 +2571,11 @@ static void field_copy(struct ed *ed, fid_t id, void *buf, int to_buf)
 	case F_DNEXT: src = ed->drv_next; bytes = sizeof ed->drv_next; break;
 	case F_DKICKS: src = ed->drv_kicks; bytes = sizeof ed->drv_kicks; break;
 	case F_DRNG: src = ed->drng.s; bytes = sizeof ed->drng.s; break;
+	case F_FREE: src = ed->freei; bytes = ed->n * sizeof(uint32_t); break;
+	case F_LABEL: src = ed->label; bytes = ed->n * sizeof(int64_t); break;
+	case F_INEXT: src = ed->in_next; bytes = sizeof ed->in_next; break;
+	case F_ICOUNT: src = ed->in_count; bytes = sizeof ed->in_count; break;
+	case F_IRNG: src = ed->irng.s; bytes = sizeof ed->irng.s; break;
 	case F_NB: {
 		/* lists packed: the first nn[i] entries of each row */
 		size_t k = 0;
@@ -2441,6 +2705,18 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 		ed->n_gone = 0;
 		for (uint32_t i = 0; i < n; i++)
 			ed->n_gone += ed->gone[i];
+	}
+	if (!why && ed->freei) {   /* the free stack: the empty slots, each once; labels of rows present */
+		for (uint64_t k = 0; k < ed->n_gone && !why; k++) {
+			const uint32_t i = ed->freei[k];
+			if (i >= n || !ed->gone[i] || seen[i] == 2)
+				why = "bad free-slot stack";
+			else
+				seen[i] = 2;
+		}
+		for (uint32_t i = 0; i < n && !why; i++)
+			if ((ed->label[ed->id[i]] < 0) != (ed->gone[i] != 0) || ed->label[ed->id[i]] >= (int64_t)ed->in_count[12])
+				why = "bad particle ids";
 	}
 	if (!why && ed->gone && ed->mix) {   /* the mass that left (species from the scene indices) */
 		ed->mix->mgone = 0.0;

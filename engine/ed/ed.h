@@ -26,6 +26,8 @@ enum {
 	ED_EINVAL = -3,    /* scene not usable by this method */
 	ED_QUIESCENT = 1,  /* ed_advance: no further event can ever happen */
 	ED_COLLAPSE = 2,   /* ed_advance: inelastic collapse (ed_watch_collapse()) */
+	ED_FULL = 3,       /* ed_advance: a particle was due to enter through a reservoir wall and every
+	                      slot is taken (particles.capacity); the state is intact, the entry not made */
 };
 
 /* Build the initial state (positions, Maxwellian velocities with zero total
@@ -122,6 +124,10 @@ typedef struct {
 	 * that left through each wall (total). particles = N otherwise. */
 	uint64_t particles;
 	uint64_t wall_outflow[6];
+	/* Reservoir walls: particles that entered through each wall, and
+	 * entries rejected because they would have overlapped a particle, an
+	 * obstacle or a side wall (totals). Zero without. */
+	uint64_t wall_inflow[6], wall_rejected[6];
 	int n_obstacles;
 	uint64_t obstacle_collisions;   /* particle-obstacle collisions (total) */
 	uint64_t obstacle_hits[SCENE_OBSTACLES_MAX];
@@ -150,6 +156,13 @@ void ed_state(const ed_t *ed, double *pos, double *vel);
  * velocities (radians per unit time) in particle order. */
 int ed_spin_dim(const ed_t *ed);
 void ed_spins(const ed_t *ed, double *w);
+
+/* Scenes with a reservoir wall: ed_state() and ed_labels() have one row
+ * per slot (scene_slots()); ed_labels() writes each row's particle id
+ * (unique over the run, never reused) or -1 for an empty slot and returns
+ * ED_OK; ED_EINVAL without a reservoir (rows are the particles then). */
+uint32_t ed_slots(const ed_t *ed);
+int ed_labels(const ed_t *ed, int64_t *ids);
 
 double ed_time(const ed_t *ed);
 uint64_t ed_collisions(const ed_t *ed);

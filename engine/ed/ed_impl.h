@@ -879,6 +879,10 @@ static void FN(leave)(struct ed *ed, uint32_t i, int w, double t)
 	ed->gone[i] = 1;
 	ed->n_gone++;
 	ed->wout[w]++;
+	if (ed->freei) {   /* reservoir scenes: its slot is free, its row empty */
+		ed->freei[ed->n_gone - 1] = i;
+		ed->label[ed->id[i]] = -1;
+	}
 	p->count++;
 	e->t_coll = e->t_cross = INFINITY;
 	e->partner = -1;
@@ -897,7 +901,7 @@ static void FN(do_wall)(struct ed *ed, uint32_t i, double t)
 	const int w = e->cross - ED_WALL0, a = w >> 1;
 	const wall_t *W = &ed->wall[w];
 	const double s = (w & 1) ? -1.0 : 1.0;
-	if (W->type == SCENE_WALL_OPEN && !ed->relaxing) {
+	if ((W->type == SCENE_WALL_OPEN || W->type == SCENE_WALL_RESERVOIR) && !ed->relaxing) {
 		FN(leave)(ed, i, w, t);
 		return;
 	}
@@ -1125,6 +1129,9 @@ static void FN(reorder)(struct ed *ed)
 #if WALLS
 	if (ed->gone)
 		permute(ed->gone, 1, newidx, n);
+	if (ed->freei)
+		for (uint64_t k = 0; k < ed->n_gone; k++)
+			ed->freei[k] = newidx[ed->freei[k]];
 #endif
 #if ROUGH
 	permute(ed->spin, (D == 2 ? 1 : 3) * sizeof(double), newidx, n);
@@ -1586,6 +1593,69 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
 	}
 	return ED_OK;
 }
+
+#if WALLS
+/* Reservoir walls (inlet_* in ed.c): empty slot i becomes a particle at r
+ * (internal coordinates) with velocity v now, unless it would overlap an
+ * obstacle or a particle present (then 1 and nothing changes). The
+ * caller predicts its events (through the ops table, as for kicks). */
+static int FN(enter)(struct ed *ed, uint32_t i, const double *r, const double *v)
+{
+	P_T *P = ed->p, *p = &P[i];
+	if (!obst_clear(ed, r))
+		return 1;
+	int32_t cc[3] = {0, 0, 0}, base[3] = {0, 0, 0};
+	FOR_AXES(a) {
+		base[a] = (int32_t)floor(r[a] / ed->cw[a]);
+		if (base[a] < 0) base[a] = 0;
+		if (base[a] >= ed->nc[a]) base[a] = ed->nc[a] - 1;
+	}
+#if D == 3
+	for (int kz = 0; kz < ed->no[2]; kz++) {
+		if ((cc[2] = FN(cell_at)(ed, 2, base[2] + ed->off[2][kz])) < 0)
+			continue;
+#endif
+	for (int ky = 0; ky < ed->no[1]; ky++) {
+		if ((cc[1] = FN(cell_at)(ed, 1, base[1] + ed->off[1][ky])) < 0)
+			continue;
+		for (int kx = 0; kx < ed->no[0]; kx++) {
+			if ((cc[0] = FN(cell_at)(ed, 0, base[0] + ed->off[0][kx])) < 0)
+				continue;
+			for (int32_t j = ed->head[FN(cell_index)(ed, cc)]; j >= 0; j = *FN(link)(ed, j)) {
+				double r2 = 0.0;
+				FOR_AXES(a) {
+					double x = FN(min_image)(ed, a, r[a] - FN(pos_now)(ed, &P[j], a));
+					r2 += x * x;
+				}
+				if (r2 < ed->sigma2)
+					return 1;
+			}
+		}
+	}
+#if D == 3
+	}
+#endif
+	FN(energy_to)(ed, ed->t);
+	double v2 = 0.0;
+	FOR_AXES(a) {
+		p->r[a] = r[a];
+		p->v[a] = v[a];
+		v2 += v[a] * v[a];
+#if GRAV
+		ed->psum[a] += v[a];
+#endif
+	}
+	p->t = ed->t;
+	ed->ekin_cur += 0.5 * ed->mass * v2;
+	ed->gone[i] = 0;
+	ed->n_gone--;
+	if (ed->tlast)
+		ed->tlast[i] = -INFINITY;
+	p->count++;
+	FN(place)(ed, i);
+	return 0;
+}
+#endif
 
 /* Driving (thermostats, drive_* in ed.c): particle i brought to the
  * present; its position (scene coordinates, periodic axes folded) and

@@ -40,6 +40,7 @@ typedef struct {
 #define NEED_TC 0x80000000u   /* only with the TC model */
 #define NEED_SE 0x40000000u   /* flag: only in ensembles (standard error of the mean over the replicas) */
 #define NEED_MIX 0x20000000u  /* flag: only for mixtures (two or more particles.species) */
+#define NEED_RES 0x10000000u  /* flag: only with a reservoir wall */
 
 static void g_coll(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->collisions; }
 static void g_ekin(const run_record_t *r, void *o) { *(double *)o = r->kinetic_energy / (double)r->n; }
@@ -61,6 +62,16 @@ static void g_wout(const run_record_t *r, void *o)
 {
 	for (int w = 0; w < 6; w++)
 		((int64_t *)o)[w] = (int64_t)r->wall_outflow[w];
+}
+static void g_win(const run_record_t *r, void *o)
+{
+	for (int w = 0; w < 6; w++)
+		((int64_t *)o)[w] = (int64_t)r->wall_inflow[w];
+}
+static void g_wrej(const run_record_t *r, void *o)
+{
+	for (int w = 0; w < 6; w++)
+		((int64_t *)o)[w] = (int64_t)r->wall_rejected[w];
 }
 static void g_ocoll(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->obstacle_collisions; }
 static void g_oforce(const run_record_t *r, void *o)
@@ -128,6 +139,8 @@ static const obs_def_t obs_defs[] = {
 	{ "wall_pressure", SCENE_OBS_WALL_FORCE, 0, 6, "pressure", g_wpres },
 	{ "particles_present", SCENE_OBS_OUTFLOW, 1, 0, NULL, g_present },
 	{ "wall_outflow", SCENE_OBS_OUTFLOW, 1, 6, NULL, g_wout },
+	{ "wall_inflow", SCENE_OBS_OUTFLOW | NEED_RES, 1, 6, NULL, g_win },
+	{ "wall_rejected", SCENE_OBS_OUTFLOW | NEED_RES, 1, 6, NULL, g_wrej },
 	{ "obstacle_collisions", SCENE_OBS_OBSTACLE_FORCE, 1, 0, NULL, g_ocoll },
 	{ "obstacle_force", SCENE_OBS_OBSTACLE_FORCE, 0, -2, "m0 l0 t0-2", g_oforce },
 	{ "center_of_mass_height", SCENE_OBS_COM_HEIGHT, 0, 0, "l0", g_com },
@@ -174,6 +187,7 @@ static const obs_def_t obs_defs[] = {
 typedef struct {
 	hid_t pos_step, pos_time, pos_value, vel_value, box_value;
 	hid_t spin_value;           /* rough particles (single runs): angular_velocity/value */
+	hid_t id_value;             /* reservoir walls: id/value, each row's particle id (-1: empty slot) */
 	uint64_t rows;
 	double *frame_t;            /* times of the frames, for the XDMF */
 	size_t frame_cap;
@@ -185,6 +199,7 @@ struct h5md {
 	const char *h5_name;        /* base name of path, as the XDMF refers to it */
 	int dim, level;
 	int spin_dim;               /* rough particles, single runs: 1 (2D) or 3 (3D); else 0 */
+	int ids;                    /* reservoir walls: rows are slots, particles/all/id is written */
 	uint64_t n;
 	hid_t obs_step, obs_time;
 	hid_t obs[MAX_OBS];
@@ -226,7 +241,9 @@ static void group_name(const h5md_t *h, int k, char *buf, size_t len)
 
 static int def_wanted(const obs_def_t *d, const scene_t *s)
 {
-	unsigned need = d->need & ~(NEED_SE | NEED_MIX);
+	unsigned need = d->need & ~(NEED_SE | NEED_MIX | NEED_RES);
+	if ((d->need & NEED_RES) && !scene_has_reservoir(s))
+		return 0;
 	if ((d->need & NEED_SE) && s->replicas <= 1)
 		return 0;
 	if ((d->need & NEED_MIX) && s->n_species < 2)
@@ -351,13 +368,14 @@ static h5md_t *alloc_writer(const char *path, const scene_t *s)
 	for (int k = 0; k < h->n_grp; k++) {
 		pgroup_t *g = &h->grp[k];
 		g->pos_step = g->pos_time = g->pos_value = g->vel_value = g->box_value = H5I_INVALID_HID;
-		g->spin_value = H5I_INVALID_HID;
+		g->spin_value = g->id_value = H5I_INVALID_HID;
 	}
 	memcpy(h->box, s->box, sizeof(h->box));
 	for (int k = 0; k < MAX_OBS; k++)
 		h->obs[k] = H5I_INVALID_HID;
 	h->dim = s->dim;
-	h->n = s->count;
+	h->n = scene_slots(s);
+	h->ids = scene_has_reservoir(s);
 	h->level = s->compression;
 	h->spin_dim = s->rough && s->replicas <= 1 ? (s->dim == 2 ? 1 : 3) : 0;
 	size_t len = strlen(path);
@@ -563,6 +581,21 @@ static int write_group(h5md_t *h, int k, const scene_t *s)
 			goto out;
 	} else if (write_constant(all, "diameter", 2.0 * s->radius, h->n) || write_constant(all, "mass", s->mass, h->n)) {
 		goto out;
+	}
+	if (h->ids) {
+		/* reservoir walls: H5MD's time-dependent id, [frames][slots], the
+		 * frames' step and time; -1 marks an empty slot (its position NaN) */
+		hsize_t iinner[1] = {h->n}, ichunk[2] = {1, chunk[1]};
+		hid_t ig = h5u_group(all, "id");
+		if (ig >= 0)
+			pg->id_value = create_series(ig, "value", H5T_STD_I64LE, 2, iinner, ichunk, h->level);
+		int bad = ig < 0 || pg->id_value < 0 ||
+		          H5Lcreate_hard(pos, "step", ig, "step", H5P_DEFAULT, H5P_DEFAULT) < 0 ||
+		          H5Lcreate_hard(pos, "time", ig, "time", H5P_DEFAULT, H5P_DEFAULT) < 0;
+		if (ig >= 0)
+			H5Gclose(ig);
+		if (bad)
+			goto out;
 	}
 	if (h->spin_dim) {
 		/* rough particles: angular velocities, [frames][N][1 or 3], with the
@@ -849,6 +882,12 @@ static int attach(h5md_t *h, const scene_t *s, const char *path, char *msg, size
 		pgroup_t *g = &h->grp[k];
 		hid_t *dst[] = {&g->pos_step, &g->pos_time, &g->pos_value, &g->vel_value, &g->box_value};
 		group_name(h, k, name, sizeof name);
+		if (h->ids) {
+			snprintf(p, sizeof p, "%s/id/value", name);
+			g->id_value = H5Dopen2(h->file, p, H5P_DEFAULT);
+			if (g->id_value < 0)
+				return h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: not a trajectory of this scene (missing /%s)", path, p);
+		}
 		if (h->spin_dim) {
 			snprintf(p, sizeof p, "%s/angular_velocity/value", name);
 			g->spin_value = H5Dopen2(h->file, p, H5P_DEFAULT);
@@ -968,7 +1007,8 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 		bad = truncate_rows(g->pos_step, frames[k]) || truncate_rows(g->pos_time, frames[k]) ||
 		      truncate_rows(g->pos_value, frames[k]) || truncate_rows(g->vel_value, frames[k]) ||
 		      truncate_rows(g->box_value, frames[k]) || frame_times_reserve(g, frames[k] + 1) ||
-		      (g->spin_value >= 0 && truncate_rows(g->spin_value, frames[k]));
+		      (g->spin_value >= 0 && truncate_rows(g->spin_value, frames[k])) ||
+		      (g->id_value >= 0 && truncate_rows(g->id_value, frames[k]));
 		if (!bad && frames[k] > 0 &&
 		    H5Dread(g->pos_time, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, g->frame_t) < 0) {
 			*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot read frame times", path);
@@ -1002,7 +1042,8 @@ int h5md_destroy(h5md_t *h)
 	if (h->obs_time >= 0) H5Dclose(h->obs_time);
 	for (int k = 0; k < h->n_grp; k++) {
 		pgroup_t *g = &h->grp[k];
-		hid_t ds[] = {g->pos_step, g->pos_time, g->pos_value, g->vel_value, g->box_value, g->spin_value};
+		hid_t ds[] = {g->pos_step, g->pos_time, g->pos_value, g->vel_value, g->box_value, g->spin_value,
+		              g->id_value};
 		for (size_t j = 0; j < sizeof ds / sizeof ds[0]; j++)
 			if (ds[j] >= 0)
 				H5Dclose(ds[j]);
@@ -1226,7 +1267,8 @@ int h5md_frame(h5md_t *h, int group, const run_record_t *rec, char *msg, size_t 
 	    append_row(g->pos_value, H5T_NATIVE_DOUBLE, g->rows, rec->pos) ||
 	    append_row(g->vel_value, H5T_NATIVE_DOUBLE, g->rows, rec->vel) ||
 	    append_row(g->box_value, H5T_NATIVE_DOUBLE, g->rows, edges) ||
-	    (g->spin_value >= 0 && rec->spin && append_row(g->spin_value, H5T_NATIVE_DOUBLE, g->rows, rec->spin)))
+	    (g->spin_value >= 0 && rec->spin && append_row(g->spin_value, H5T_NATIVE_DOUBLE, g->rows, rec->spin)) ||
+	    (g->id_value >= 0 && (!rec->ids || append_row(g->id_value, H5T_NATIVE_INT64, g->rows, rec->ids))))
 		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot append a frame", h->path);
 	g->frame_t[g->rows++] = rec->time;
 	h->frames_pending = 1;

@@ -142,6 +142,21 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 				first = 0;
 			}
 		put(&o, "}");
+		if (r->reservoirs) {   /* reservoir walls: entries made and rejected per wall (totals) */
+			const uint64_t *cnt[2] = { r->wall_inflow, r->wall_rejected };
+			static const char *const key[2] = { "inflow", "inflow_rejected" };
+			for (int j = 0; j < 2; j++) {
+				put(&o, ",\"%s\":{", key[j]);
+				first = 1;
+				for (int w = 0; w < 6; w++)
+					if (r->reservoirs & (1u << w)) {
+						put(&o, "%s\"%s.%s\":%llu", first ? "" : ",", ax[w >> 1], (w & 1) ? "upper" : "lower",
+						    (unsigned long long)cnt[j][w]);
+						first = 0;
+					}
+				put(&o, "}");
+			}
+		}
 	}
 	if (r->have & SCENE_OBS_COM_HEIGHT)
 		num(&o, "center_of_mass_height", r->com_height);

@@ -85,6 +85,8 @@ void fields_add(fields_t *f, size_t n, const double *pos, const double *vel, con
 {
 	const int D = f->dim, sd = f->spin_dim;
 	for (size_t i = 0; i < n; i++) {
+		if (isnan(pos[i * D]))
+			continue;   /* an empty slot (open and reservoir walls): no particle */
 		double *s = f->sum + fields_cell_of(f, pos + i * D) * f->stride;
 		const double *v = vel + i * D;
 		double v2 = 0;

@@ -16,7 +16,7 @@
  * - fields_result() turns the sums over the S instants added since the last
  *   fields_reset() into, per cell c:
  *     count_c   = (number of particle visits) / S, the mean occupation
- *                 (sums to N over the cells when no particle left);
+ *                 (sums over the cells to the mean number of particles present);
  *     density_c = count_c / (cell volume), particles per unit area (2D) or
  *                 volume (3D);
  *     u_c       = sum v / visits, the mean velocity;
@@ -45,7 +45,9 @@ size_t fields_cells(const fields_t *f);
 /* Instants added since the last reset. */
 int fields_samples(const fields_t *f);
 void fields_reset(fields_t *f);
-/* One instant: n particles, pos and vel n*dim, spin n*spin_dim (NULL when spin_dim is 0). */
+/* One instant: n particles, pos and vel n*dim, spin n*spin_dim (NULL when spin_dim is 0). A row whose
+ * first position component is NaN is an empty slot (a particle that left through an open or reservoir
+ * wall) and counts nowhere. */
 void fields_add(fields_t *f, size_t n, const double *pos, const double *vel, const double *spin);
 /* Cell index of the point x (dim coordinates), as fields_add() bins it. */
 size_t fields_cell_of(const fields_t *f, const double *x);

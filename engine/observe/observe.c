@@ -366,7 +366,7 @@ struct fields *obs_fields(const obs_t *o) { return o->fields; }
 void obs_fields_add(obs_t *o, const double *pos, const double *vel, const double *spin)
 {
 	if (o->fields)
-		fields_add(o->fields, o->s.count, pos, vel, spin);
+		fields_add(o->fields, scene_slots(&o->s), pos, vel, spin);   /* rows: slots (reservoir walls) */
 }
 
 struct dspec *obs_dspec(const obs_t *o) { return o->dspec; }
