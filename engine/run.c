@@ -639,6 +639,10 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		r->cl = clusters_create(s->dim, s->count);
 		if (!r->cl)
 			goto nomem;
+		int walled[3];
+		for (int a = 0; a < 3; a++)
+			walled[a] = s->boundary[a].walled;
+		clusters_walls(r->cl, walled);
 	}
 	if (r->opts.snapshots || r->obs || (s->observables & SCENE_OBS_FLUX)) {
 		r->vel = malloc(s->count * s->dim * sizeof(double));

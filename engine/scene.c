@@ -1315,14 +1315,27 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 		            !strcmp(name, "potential_energy") || !strcmp(name, "obstacle_force") || !strcmp(name, "outflow");
 		if (mine && s->replicas > 1)
 			return fail(c, path, "\"%s\" is not averaged over ensembles yet (run.replicas must be 1)", name);
-		/* cluster search, g(r), S(k) and the velocity correlations take
-		 * distances by the minimum image on every axis */
-		static const char *const periodic_only[] = { "clusters", "pair_correlation", "structure_factor",
-		                                             "velocity_correlations" };
+		/* cluster search, g(r), S(k) and the velocity correlations: minimum image on periodic axes, plain
+		 * differences on walled ones; obstacles take volume out of the box that the ideal-gas normalisation
+		 * does not know, and an open wall removes particles (NaN rows) from a fixed-N normalisation */
+		static const char *const structure[] = { "clusters", "pair_correlation", "structure_factor",
+		                                         "velocity_correlations" };
+		static const char *const periodic_only[] = { "structure_factor", "velocity_correlations" };
+		for (size_t k = 0; k < sizeof structure / sizeof structure[0]; k++) {
+			if (strcmp(name, structure[k]))
+				continue;
+			if (obst)
+				return fail(c, path, "\"%s\" needs a box without obstacles (its ideal-gas normalisation "
+				            "assumes the whole box is open to the particles); not available with obstacles yet",
+				            name);
+			if (scene_has_open_walls(s))
+				return fail(c, path, "\"%s\" is not available with an \"open\" wall yet (it needs a fixed "
+				            "particle set)", name);
+		}
 		for (size_t k = 0; k < sizeof periodic_only / sizeof periodic_only[0]; k++)
-			if ((walls || obst) && !strcmp(name, periodic_only[k]))
-				return fail(c, path, "\"%s\" needs a periodic box without obstacles (distances by the minimum "
-				            "image, a homogeneous volume); not available with %s yet", name, walls ? "walls" : "obstacles");
+			if (walls && !strcmp(name, periodic_only[k]))
+				return fail(c, path, "\"%s\" needs a periodic box (distances by the minimum image); not "
+				            "available with walls yet", name);
 		/* unwrapped displacements rely on periodic images and on a speed bound from the kinetic
 		 * energy, which walls (thermal, vibrating), obstacles (thermal) and gravity can raise (engine/observe/msd.h) */
 		if (!strcmp(name, "mean_square_displacement") && (walls || obst || grav))
