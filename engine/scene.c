@@ -1321,6 +1321,9 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 		static const char *const structure[] = { "clusters", "pair_correlation", "structure_factor",
 		                                         "velocity_correlations" };
 		static const char *const periodic_only[] = { "structure_factor", "velocity_correlations" };
+		int periodic_axes = 0;
+		for (int a = 0; a < s->dim; a++)
+			periodic_axes += !s->boundary[a].walled;
 		for (size_t k = 0; k < sizeof structure / sizeof structure[0]; k++) {
 			if (strcmp(name, structure[k]))
 				continue;
@@ -1333,9 +1336,9 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 				            "particle set)", name);
 		}
 		for (size_t k = 0; k < sizeof periodic_only / sizeof periodic_only[0]; k++)
-			if (walls && !strcmp(name, periodic_only[k]))
-				return fail(c, path, "\"%s\" needs a periodic box (distances by the minimum image); not "
-				            "available with walls yet", name);
+			if (!periodic_axes && !strcmp(name, periodic_only[k]))
+				return fail(c, path, "\"%s\" needs a periodic axis (its wave vectors run along the periodic "
+				            "axes only); every axis has walls", name);
 		/* unwrapped displacements rely on periodic images and on a speed bound from the kinetic
 		 * energy, which walls (thermal, vibrating), obstacles (thermal) and gravity can raise (engine/observe/msd.h) */
 		if (!strcmp(name, "mean_square_displacement") && (walls || obst || grav))

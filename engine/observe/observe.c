@@ -91,8 +91,13 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 	double rmax = s->gofr_range * o->sigma;
 
 	/* The grid first: its shell count sizes the k tables. */
+	int walled[3];
+	for (int a = 0; a < 3; a++)
+		walled[a] = s->boundary[a].walled;
 	if (o->bits & (SCENE_OBS_SOFK | SCENE_OBS_VCORR)) {
-		o->grid = fgrid_create(D, s->box, s->sofk_grid, layout_only ? 1 : (o->bits & SCENE_OBS_VCORR) ? D : 1);
+		/* with walls: wave vectors along the periodic axes only (fgrid.h) */
+		o->grid = fgrid_create_walled(D, s->box, s->sofk_grid, layout_only ? 1 : (o->bits & SCENE_OBS_VCORR) ? D : 1,
+		                              walled);
 		if (!o->grid)
 			goto fail;
 		J = fgrid_bins(o->grid);
@@ -102,9 +107,6 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 		if (!o->gofr)
 			goto fail;
 		if (scene_has_walls(s)) {
-			int walled[3];
-			for (int a = 0; a < 3; a++)
-				walled[a] = s->boundary[a].walled;
 			if (gofr_walls(o->gofr, walled, s->radius) != 0)
 				goto fail;
 		}
