@@ -1,7 +1,7 @@
 #!/bin/sh
 # Structure observables in bounded scenes (issue 17 with issue 12's walls and gravity; TAP): g(r) with the
 # edge-corrected ideal-gas normalisation, clusters, S(k), velocity correlations and the mean-square
-# displacement with walls, for ed, dsmc and hsmc, against the values theory gives.
+# displacement with walls and gravity, for ed, dsmc and hsmc, against the values theory gives.
 set -u
 : "${SRCDIR:=$(cd "$(dirname "$0")/.." && pwd)}"
 : "${ENGINE:=$SRCDIR/engine/granular-engine}"
@@ -193,6 +193,123 @@ run gs2 && "$PY" "$tmp/check_gs.py" "$tmp/gs2" 2 0.3000221 100 >"$tmp/gs2.res" 2
 report "$tmp/gs2.res"
 run gs3 && "$PY" "$tmp/check_gs.py" "$tmp/gs3" 3 0.2000147 30 >"$tmp/gs3.res" 2>&1
 report "$tmp/gs3.res"
+
+# ---- mean-square displacement with walls and gravity -------------------------------------------------------
+# (a) Self-diffusion along the periodic axes between specular walls: 3D hard spheres at volume fraction 0.1
+# between walls along z 21 diameters apart (centres fill 20; x, y periodic 16), 6 seeds. Specular walls keep
+# v_x, v_y, and 20 diameters are ~20 mean free paths: D along x, y is the bulk value. D of each run from
+# the slope of msd - msd_walled (the periodic part) between t = 10 and t = 400 over 2 D_p = 4 axes; the test
+# and its band are transport_test.sh's periodic check (Enskog with Speedy's dense-gas correction: D between
+# 0.98 D_Enskog and 1.02 D_Speedy within 4 se over the seeds, Student t with 5 dof, p ~ 0.01).
+# (b) Saturation along the walled axis: at times long after the slowest diffusive mode across the slab,
+# z(t) and z(0) are independent draws of the stationary profile, so msd_walled -> 2 Var(z). Dilute gas
+# (volume fraction 0.01, walls 11 apart: centres uniform on [0.5, 10.5] up to O(nu) wall layering):
+# 2 Var = L_in^2 / 6 = 16.667; each run averaged over t in [20, 200] (the slowest mode decays in
+# L_in^2 / (pi^2 D) ~ 1), 6 seeds per method, within 4 se over the seeds.
+# (c) Gravity along the walled axis (g = -0.2, elastic, relaxed to equilibrium before the origin): the
+# profile is barometric, exp(-lambda z) on [0, L_in] with lambda = m g / kT (T the measured temperature),
+# so msd_walled -> 2 Var(z) = 2 (1/lambda^2 - L_in^2 e^(-lambda L_in) / (1 - e^(-lambda L_in))^2), t in
+# [50, 400], 6 seeds per method within 4 se (hard spheres: the O(nu) excluded volume at the floor,
+# where the density doubles to nu = 0.02, is well inside that). The speed bound then counts the
+# potential energy above the floor (engine/observe/msd.h).
+cat >"$tmp/check_dw.py" <<'PY'
+import json, math, sys
+d, what = sys.argv[1], sys.argv[2]
+Ds = []
+for s in range(1, 7):
+    p = [json.loads(l) for l in open('%s/dw%d.out' % (d, s)) if '"progress"' in l]
+    a = [x for x in p if x['time'] >= 10 - 1e-9]
+    per = lambda x: x['msd'] - x['msd_walled']
+    Ds.append((per(a[-1]) - per(a[0])) / (4 * (a[-1]['time'] - a[0]['time'])))
+m = sum(Ds) / 6; se = math.sqrt(sum((x - m) ** 2 for x in Ds) / 5 / 6)
+nu = 1027 * math.pi / 6 / (16 * 16 * 21); ns = 6 * nu / math.pi; chi = (1 - nu / 2) / (1 - nu) ** 3
+DE = 3 / (8 * ns * chi) * math.sqrt(1 / math.pi)
+D0 = 3 / 8 * math.sqrt(1 / math.pi); DS = D0 / ns * (1 - ns / 1.09) * (1 + ns * ns * (0.40 - 0.83 * ns * ns))
+good = 0.98 * DE - 4 * se < m < 1.02 * DS + 4 * se
+print('%s - %s: D along the periodic axes between walls %.4f +- %.4f over 6 runs, D/D_Enskog = %.3f (Enskog %.4f, '
+      'Speedy %.4f)' % ('ok' if good else 'not ok', what, m, se, m / DE, DE, DS))
+PY
+cat >"$tmp/check_sat.py" <<'PY'
+import json, math, sys
+d, name, what, g, t0 = sys.argv[1], sys.argv[2], sys.argv[3], float(sys.argv[4]), float(sys.argv[5])
+W, th = [], []
+for s in range(1, 7):
+    p = [json.loads(l) for l in open('%s/%s%d.out' % (d, name, s)) if '"progress"' in l]
+    late = [x for x in p if x['time'] >= t0]
+    W.append(sum(x['msd_walled'] for x in late) / len(late))
+    T = sum(x['temperature'] for x in late) / len(late)
+    Le = 10.0
+    if g:
+        lam = g / T
+        th.append(2 * (1 / lam ** 2 - Le ** 2 * math.exp(-lam * Le) / (1 - math.exp(-lam * Le)) ** 2))
+    else:
+        th.append(Le ** 2 / 6)
+m = sum(W) / 6; se = math.sqrt(sum((x - m) ** 2 for x in W) / 5 / 6); t = sum(th) / 6
+print('%s - %s: msd_walled saturates at %.3f +- %.3f over 6 runs vs %s %.3f within 4 se' %
+      ('ok' if abs(m - t) < 4 * se else 'not ok', what, m, se,
+       '2 Var(z) of the barometric profile' if g else 'L_in^2/6 (uniform centres)', t))
+PY
+for s in 1 2 3 4 5 6; do
+	cat >"$tmp/dw$s.json" <<JSON
+{"method":"ed","dimensions":3,"particles":{"count":1027,"box":[16,16,21],
+   "initial":{"positions":"random","relax":{"collisions_per_particle":10}}},
+ "boundaries":{"z":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"specular"}}},
+ "run":{"seed":$((30 + s)),"until":{"time":400}},
+ "output":{"every":{"time":2},"observables":["temperature","mean_square_displacement"]}}
+JSON
+	"$ENGINE" run "$tmp/dw$s.json" >"$tmp/dw$s.out" 2>"$tmp/dw$s.err" || echo "run $s failed: $(head -c 200 "$tmp/dw$s.err")" >&2
+done
+"$PY" "$tmp/check_dw.py" "$tmp" ed >"$tmp/dw.res" 2>&1 || echo "not ok - diffusion with walls: $(tail -1 "$tmp/dw.res")" >>"$tmp/dw.res"
+report "$tmp/dw.res"
+for m in ed dsmc hsmc; do
+	for s in 1 2 3 4 5 6; do
+		cat >"$tmp/sat$s.json" <<JSON
+{"method":"$m","dimensions":3,"particles":{"count":336,"box":[40,40,11],"initial":{"positions":"random"}},
+ "boundaries":{"z":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"specular"}}},
+ "run":{"seed":$((40 + s)),"until":{"time":200}},
+ "output":{"every":{"time":1},"observables":["temperature","mean_square_displacement"]}}
+JSON
+		sed -e 's/"positions":"random"}/"positions":"random","relax":{"collisions_per_particle":20}}/' \
+			-e 's/"run":{/"gravity":[0,0,-0.2],"run":{/' -e 's/"time":200/"time":400/' "$tmp/sat$s.json" >"$tmp/grav$s.json"
+		"$ENGINE" run "$tmp/sat$s.json" >"$tmp/sat$s.out" 2>"$tmp/sat$s.err" || echo "$m run $s failed" >&2
+		"$ENGINE" run "$tmp/grav$s.json" >"$tmp/grav$s.out" 2>"$tmp/grav$s.err" || echo "$m gravity run $s failed" >&2
+	done
+	{ "$PY" "$tmp/check_sat.py" "$tmp" sat "$m, walls" 0 20 && "$PY" "$tmp/check_sat.py" "$tmp" grav "$m, walls and gravity" 0.2 50; } \
+		>"$tmp/sat$m.res" 2>&1 || echo "not ok - $m saturation: $(tail -1 "$tmp/sat$m.res")" >>"$tmp/sat$m.res"
+	report "$tmp/sat$m.res"
+done
+
+# ---- resume ----------------------------------------------------------------------------------------------
+# A bed under gravity between walls (inelastic, TC for ed) with every structure observable: resumed from its
+# checkpoint (time 2 of 4), the progress records (MSD, msd_walled, D, g(sigma)) and observables.jsonl equal
+# the uninterrupted run's.
+for m in ed dsmc hsmc; do
+	cat >"$tmp/ck$m.json" <<JSON
+{"method":"$m","dimensions":2,"particles":{"count":400,"box":[40,40],"initial":{"positions":"random"}},
+ "boundaries":{"y":{"type":"walls","lower":{"type":"specular","restitution":0.9},"upper":{"type":"rough","probability":0.5}}},
+ "gravity":[0,-0.5],"collisions":{"restitution":0.9,"tc":1e-4},"run":{"seed":8,"until":{"time":4}},
+ "output":{"every":{"time":0.5},"observables":["temperature","pair_correlation","clusters","structure_factor",
+   "velocity_correlations","mean_square_displacement"],
+   "snapshots":{"every":{"time":1.5}},"checkpoint":{"every":{"time":2}}}}
+JSON
+	[ $m = ed ] || sed -i 's/,"tc":1e-4//' "$tmp/ck$m.json"
+	"$ENGINE" run "$tmp/ck$m.json" --out "$tmp/full$m" >/dev/null 2>"$tmp/ckf.err"
+	mkdir -p "$tmp/part$m"
+	cp -r "$tmp/full$m/." "$tmp/part$m/"
+	"$ENGINE" run "$tmp/ck$m.json" --out "$tmp/part$m" --resume "$tmp/part$m/checkpoint.h5" >/dev/null 2>"$tmp/ck.err"
+	rc=$?
+	"$PY" - "$tmp/full$m" "$tmp/part$m" <<'PY' >"$tmp/ck.res" 2>&1
+import json, sys
+def rows(o):
+    return [(p['time'], p['msd'], p['msd_walled'], p.get('diffusion'), p.get('g_contact_pairs'))
+            for p in map(json.loads, open(o + '/progress.jsonl')) if p.get('type') == 'progress']
+a, b = rows(sys.argv[1]), rows(sys.argv[2])
+assert a == b and len(a) == 9, (len(a), len(b))
+assert open(sys.argv[1] + '/observables.jsonl').read() == open(sys.argv[2] + '/observables.jsonl').read()
+print(len(a))
+PY
+	ok $(( rc != 0 || $? != 0 )) "$m, walls and gravity: the resumed run's MSD, msd_walled, D, g(sigma) and curves equal the uninterrupted run's (rc $rc; $(tail -1 "$tmp/ck.res") $(head -c 200 "$tmp/ckf.err"))"
+done
 
 echo "1..$n"
 [ "$failed" = 0 ]
