@@ -109,6 +109,18 @@ mcrow "2D dense, HSMC" hsmc 2 100000 0.4 0.9 40 cba
 mcrow "2D dense, HSMC" hsmc 2 1000000 0.4 0.9 8 cba
 mcrow "3D dense, HSMC" hsmc 3 1000000 0.25 0.9 8 cba
 
+# Structure observables (issue 17): wall seconds per sample of each curve family at N = 10^5 and 10^6.
+tob=$(mktemp)
+for a in "3 100000 0.3" "3 1000000 0.3" "2 100000 0.3" "2 1000000 0.3"; do
+	"$build/bench/obs_bench" $a 5 | /usr/bin/python3 -c '
+import json, sys
+cmd = sys.argv[1]
+for l in sys.stdin:
+    d = json.loads(l)
+    print("| %s | %d | %d | %g | %.3g | %.3g | %.3g | %.0f | `%s` |" % (d["family"], d["dim"], d["n"], d["phi"],
+          d["seconds"], d["min_seconds"], d["ns_per_particle"], d["bytes_per_particle"], cmd))' "bench/obs_bench $a 5" >>"$tob"
+done
+
 # Peers: EDMD and SPARTA from ../shared/peers (or $PEERS), in this run; absent peers are said so.
 tpe=$(mktemp)
 /usr/bin/python3 "$src/bench/peers.py" "$build" "$src" "${PEERS:-$src/../shared/peers}" >"$tpe"
@@ -168,6 +180,21 @@ sh "$src/bench/ingest_bench.sh" "$build" "$src" >"$tin"
 	echo "|---|---|---|---|---|---|---|---|---|---|---|"
 	cat "$tmc"
 	echo
+	echo "## Structure observables: cost per sample (issue 17)"
+	echo
+	echo "An elastic ed gas (lattice start, 1 collision per particle, untimed); then 5 rounds in which each family's"
+	echo "sample is computed once, families interleaved; the median and the fastest of the 5 (a shared machine"
+	echo "drifts), per particle, and the workspace held (obs_memory()) per particle. \`scalars\` is what a progress"
+	echo "record costs with velocity_distribution and pair_correlation (a2, a3, g(σ) from the pair histogram); the"
+	echo "other rows are one curve sample at a snapshot time, with the defaults: g(r) to 5 diameters in 250 bins"
+	echo "(cell lists: O(N), ~300 neighbours per particle in 3D at 0.3), S(k) and the velocity structure factors by FFTW"
+	echo "on the grid of the power of 2 per axis whose cell is closest to a diameter, clusters at gap 0.1, fields on"
+	echo "32^3 / 128^2 cells (one instant). Command: obs_bench DIM N PHI REPS."
+	echo
+	echo "| family | D | N | volume fraction | s per sample (median) | fastest | ns per particle | workspace bytes/particle | command |"
+	echo "|---|---|---|---|---|---|---|---|---|"
+	cat "$tob"
+	echo
 	echo "## HDF5 output"
 	echo
 	echo "Checkpoint (\`checkpoint.h5\`: full engine state, digest, written to a temporary file, fsync, rename, directory"
@@ -187,5 +214,5 @@ sh "$src/bench/ingest_bench.sh" "$build" "$src" >"$tin"
 	cat "$tin"
 	if [ -f "$src/docs/benchmarks-notes.md" ]; then cat "$src/docs/benchmarks-notes.md"; fi
 } >"$out"
-rm -f "$tdm" "$tin" "$tpe"
+rm -f "$tdm" "$tin" "$tpe" "$tob"
 echo "wrote $out"

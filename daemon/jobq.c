@@ -759,13 +759,17 @@ static int admit(jobq_t *q, body_t *b, char *err, size_t errlen)
 	if (limit && u->output > limit) {
 		/* The key behind the largest part. */
 		uint64_t ck = 3 * (u->checkpoint < UINT64_MAX / 3 ? u->checkpoint : UINT64_MAX / 3);
-		const char *key = u->trajectory >= u->progress && u->trajectory >= ck
-		                          ? (b->sc.snapshots.kind != SCENE_CLOCK_NONE ? "output.snapshots.every" : "particles.count")
+		const int snaps = b->sc.snapshots.kind != SCENE_CLOCK_NONE;
+		const char *key = u->curves > u->trajectory && u->curves >= u->progress && u->curves >= ck
+		                          ? (snaps ? "output.snapshots.every" : "output.observables")
+		                  : u->trajectory >= u->progress && u->trajectory >= ck
+		                          ? (snaps ? "output.snapshots.every" : "particles.count")
 		                  : u->progress >= ck ? "output.every"
 		                  : b->sc.replicas > 1 ? "run.replicas" : "particles.count";
 		snprintf(err, errlen, "%s%s: the job would write an estimated %s (%" PRIu64 " frames: trajectory %s; "
-		         "checkpoints %s; %" PRIu64 " progress lines: %s), more than its output limit of %s (%s)", b->prefix,
-		         key, fmt_bytes(u->output).s, u->frames, fmt_short(u->trajectory).s, fmt_short(ck).s, u->records,
+		         "%" PRIu64 " curve samples: %s; checkpoints %s; %" PRIu64 " progress lines: %s), more than its "
+		         "output limit of %s (%s)", b->prefix, key, fmt_bytes(u->output).s, u->frames,
+		         fmt_short(u->trajectory).s, u->curve_samples, fmt_short(u->curves).s, fmt_short(ck).s, u->records,
 		         fmt_short(u->progress).s, fmt_bytes(limit).s,
 		         b->max_output ? "max_output_bytes" : "the server's max_job_output");
 		return JOBQ_EINVAL;
@@ -776,11 +780,12 @@ static int admit(jobq_t *q, body_t *b, char *err, size_t errlen)
 /* The budget as JSON (the "resources" of a validation). */
 static json_t *budget_json(const budget_t *u, uint64_t max_output)
 {
-	return json_pack("{s:I, s:I, s:I, s:I, s:I, s:I, s:I, s:I, s:I, s:I, s:s, s:I}",
+	return json_pack("{s:I, s:I, s:I, s:I, s:I, s:I, s:I, s:I, s:I, s:I, s:I, s:I, s:s, s:I}",
 	                 "memory_bytes", i64(u->memory), "memory_rank0_bytes", i64(u->memory_rank0),
 	                 "engine_bytes", i64(u->engine), "output_bytes", i64(u->output),
 	                 "trajectory_bytes", i64(u->trajectory), "checkpoint_bytes", i64(u->checkpoint),
-	                 "progress_bytes", i64(u->progress), "frames", i64(u->frames),
+	                 "progress_bytes", i64(u->progress), "curves_bytes", i64(u->curves),
+	                 "curve_samples", i64(u->curve_samples), "frames", i64(u->frames),
 	                 "records", i64(u->records), "cells", i64(u->cells), "output_estimate",
 	                 u->bound == BUDGET_EXACT ? "schedule" : "haff", "max_output_bytes", i64(max_output));
 }

@@ -557,6 +557,8 @@
     }, [[], []].concat((extra || []).map(() => [])), node);
   }
   const pos = (v) => (v > 0 ? v : null);   // log scales: no zeros
+  const SK_HISTORY = 4;
+  let skHistory = [];
   const CURVE_OBS = ['velocity_distribution', 'pair_correlation', 'structure_factor', 'clusters', 'impact_parameter', 'density_spectrum', 'fields'];
   // ---- fields (output.fields): a heat map of one quantity on the grid, 3D grids averaged over z ----
   let fieldsLast = null;
@@ -625,8 +627,11 @@
     const last = {};
     try {
       for (const name of series.curves) {
-        const r = await api('GET', '/api/v1/jobs/' + id + '/observables?name=' + name + '&last=1');
-        if (r.samples.length) last[name] = r.samples[0];
+        // S(k) over time: the last SK_HISTORY samples (the growth of clusters shows at small k)
+        const k = name === 'structure_factor' ? SK_HISTORY : 1;
+        const r = await api('GET', '/api/v1/jobs/' + id + '/observables?name=' + name + '&last=' + k);
+        if (r.samples.length) last[name] = r.samples[r.samples.length - 1];
+        if (name === 'structure_factor') skHistory = r.samples;
       }
     } catch (e) { return; }
     if (!series || series.job !== id) return;
@@ -645,7 +650,7 @@
       curvePlots = [
         curvePlot($('plot-vdist'), 'P(c)', false, true, [{ label: 'Maxwellian', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }], 'c'),
         curvePlot($('plot-gofr'), 'g(r)', false, false, [], 'r'),
-        curvePlot($('plot-sofk'), 'S(k)', true, true, [], 'k'),
+        curvePlot($('plot-sofk'), 'S(k)', true, true, [1, 2, 3].map((j) => ({ label: j + ' earlier', stroke: 'rgba(47,111,222,' + (0.6 - 0.15 * j) + ')', width: 1, points: { show: false } })), 'k'),
         curvePlot($('plot-clusters'), 'n_s', true, true, [{ label: 'fit s^-τ', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }], 's'),
         curvePlot($('plot-impact'), 'P(b)', false, false, [{ label: 'molecular chaos', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }], 'b/σ'),
         curvePlot($('plot-dspec'), 'P(f)', true, true, [{ label: 'fit f^α', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }], 'f'),
@@ -657,7 +662,14 @@
       curvePlots[0].setData([sp.centres, sp.columns.p.map(pos), mw]);
     }
     if (g) curvePlots[1].setData([g.centres, g.columns.g]);
-    if (sk) curvePlots[2].setData([sk.centres, sk.columns.s.map(pos)]);
+    if (sk) {
+      // the latest sample, then up to three earlier ones (same shells: the grid is fixed by the scene)
+      const older = [2, 3, 4].map((j) => {
+        const smp = skHistory[skHistory.length - j], t = smp && smp.tables.find((x) => x.table === '');
+        return t && t.columns.s.length === sk.columns.s.length ? t.columns.s.map(pos) : sk.centres.map(() => null);
+      });
+      curvePlots[2].setData([sk.centres, sk.columns.s.map(pos)].concat(older));
+    }
     if (ns) {
       // the power law n_s ~ s^-exponent (engine fit, sizes >= 2), drawn through the first sampled size >= 2
       const tau = last.clusters.exponent, y = ns.columns.n_s;
@@ -683,9 +695,12 @@
     const any = CURVE_OBS.filter((n) => n !== 'fields').map((n) => last[n]).find((x) => x);
     info.push('sample ' + any.sample + ' at time ' + (+any.time.toPrecision(4)));
     if (last.velocity_distribution) info.push('a2 = ' + (last.velocity_distribution.a2 ?? NaN).toPrecision(3));
+    if (last.velocity_distribution && last.velocity_distribution.a2_spin !== undefined)
+      info.push('spins: a2 = ' + (last.velocity_distribution.a2_spin ?? NaN).toPrecision(3) + ', T_rot = ' + (last.velocity_distribution.temperature_rot ?? NaN).toPrecision(4));
     if (last.pair_correlation) info.push('g(σ) = ' + (last.pair_correlation.g_contact_pairs ?? NaN).toPrecision(4));
     if (last.clusters) info.push('n_s exponent τ = ' + (last.clusters.exponent ?? NaN).toPrecision(3) + ', w = ' + (last.clusters.w ?? NaN).toPrecision(3));
     if (pb) info.push('P(b) of ' + pb.columns.n.reduce((a, x) => a + x, 0) + ' collisions since the previous sample');
+    if (sk && skHistory.length > 1) info.push('S(k) at times ' + skHistory.map((x) => +x.time.toPrecision(3)).join(', ') + ' (latest bold)');
     if (ds) info.push('density spectrum slope α = ' + (last.density_spectrum.alpha ?? NaN).toPrecision(3) + ' \u00b1 ' + (last.density_spectrum.alpha_se ?? NaN).toPrecision(2) + ' over ' + last.density_spectrum.samples + ' samples');
     $('curves-info').textContent = info.join(', ');
   }
@@ -702,7 +717,7 @@
     for (const t of ['job-attempts', 'job-files']) { $(t).tBodies[0].replaceChildren(); $(t).hidden = true; }
     $('job-attempts-none').hidden = true; $('job-files-none').hidden = true;
     for (const p of curvePlots) p.destroy();
-    curvePlots = []; curvesAt = 0; $('curves').hidden = true; $('curves-info').textContent = '';
+    curvePlots = []; skHistory = []; curvesAt = 0; $('curves').hidden = true; $('curves-info').textContent = '';
     fieldsLast = null; $('fields').hidden = true; $('fields-info').textContent = '';
     for (const o of Object.values(obsPlots)) o.plot.destroy();
     obsPlots = {};

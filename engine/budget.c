@@ -8,6 +8,7 @@
 #include "ed/ed.h"
 #include "mc/dsmc.h"
 #include "observe/clusters.h"
+#include "observe/tables.h"
 #include "par/ensemble.h"
 #include "run.h"
 
@@ -180,6 +181,21 @@ int budget_estimate(const scene_t *s, int ranks, budget_t *out, char *err, size_
 	                    ceil(records / OBS_CHUNK) * OBS_CHUNK * row_doubles(s, ensemble) * 8;
 	double line = LINE_BASE + (s->observables & SCENE_OBS_MOMENTUM ? LINE_MOMENTUM : 0) + (clusters ? LINE_CLUSTERS : 0) + (ensemble ? LINE_SE : 0);
 	double progress = records * line + LINE_SUMMARY;
+	/* Curves: one sample per snapshot time (ensembles: at the output times a
+	 * snapshot asks for; first and last without snapshots). Each writes at
+	 * most tables_json_max() bytes to observables.jsonl; fields and
+	 * density_spectrum also write a row of their values (doubles) and its
+	 * step, time and sample count to trajectory.h5 (io/h5md.c). */
+	obs_curves_t lay;
+	tables_of(s, &lay);
+	double curve_samples = lay.ntables ? per_group : 0, curve_json = 0, curve_h5 = 0;
+	if (lay.ntables) {
+		curve_json = (double)tables_json_max(&lay, ensemble);
+		for (int i = 0; i < lay.ntables; i++)
+			if (!strcmp(lay.t[i].family, "fields") || !strcmp(lay.t[i].family, "density_spectrum"))
+				curve_h5 += 8.0 * lay.t[i].nb * lay.t[i].ncols + 24;
+	}
+	double curves = curve_samples * (curve_json + curve_h5);
 	double checkpoint = CKPT_FIXED + (ensemble ? R * ((double)state + CKPT_REPLICA) : (double)state);
 
 	out->memory = sat(total);
@@ -193,7 +209,9 @@ int budget_estimate(const scene_t *s, int ranks, budget_t *out, char *err, size_
 	out->trajectory = sat(trajectory);
 	out->checkpoint = sat(checkpoint);
 	out->progress = sat(progress);
-	out->output = sat(trajectory + progress + 3 * checkpoint);
+	out->curve_samples = sat(curve_samples);
+	out->curves = sat(curves);
+	out->output = sat(trajectory + progress + curves + 3 * checkpoint);
 	out->bound = ck.approx ? BUDGET_ESTIMATE : BUDGET_EXACT;
 	return BUDGET_OK;
 refused:

@@ -26,12 +26,17 @@
  *   trajectory.h5 (frames x groups x (2 N D + D^2 + 2) doubles, written
  *   uncompressed: compression only lowers it; observables rows; fixed
  *   layout) + trajectory.xdmf + progress.jsonl (records x measured line
- *   length) + checkpoints (the state fields and the scene; up to three
+ *   length) + curves (observables.jsonl: per sample the bound
+ *   tables_json_max(), 17 characters per number, on the tables of
+ *   tables_of(), observe/tables.h; the fields and density_spectrum rows of
+ *   trajectory.h5) + checkpoints (the state fields and the scene; up to three
  *   files exist while one is written: checkpoint.tmp.h5, checkpoint.h5,
  *   checkpoint.prev.h5).
  * - Counts follow the schedules: records = 2 + until / output.every (the
  *   first, one per output time, the last) + the summary; frames = 2 +
- *   until / snapshots.every (first and last only without snapshots). When a
+ *   until / snapshots.every (first and last only without snapshots); curve
+ *   samples = the frames of one group (curves are taken at snapshot times,
+ *   with or without frames). When a
  *   schedule's clock differs from the stop condition's (time against
  *   collisions per particle), it is converted with Haff's law from the
  *   initial collision rate (advice_haff_cpp()): exact for homogeneous
@@ -64,7 +69,9 @@ typedef struct {
 	uint64_t trajectory;      /* bytes of trajectory.h5 and trajectory.xdmf */
 	uint64_t checkpoint;      /* bytes of one checkpoint file */
 	uint64_t progress;        /* bytes of progress.jsonl */
-	uint64_t output;          /* trajectory + progress + 3 x checkpoint: the directory at its largest */
+	uint64_t curve_samples;   /* samples of the curve observables (0 when the scene asks for none) */
+	uint64_t curves;          /* bytes of observables.jsonl (at most) and of the curve rows in trajectory.h5 */
+	uint64_t output;          /* trajectory + progress + curves + 3 x checkpoint: the directory at its largest */
 	budget_bound_t bound;
 } budget_t;
 

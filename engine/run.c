@@ -480,7 +480,9 @@ int run_curves(run_t *r, run_record_t *rec)
 	eng_state(r, r->pos, r->vel);
 	if (r->fld && r->fld_last != rec->time)
 		fields_sample(r, rec->time, 1);   /* the curves' instant itself (the last of its exposure) */
-	rec->curves = obs_curves(r->obs, r->cl, r->pos, r->vel);
+	if (r->spin)
+		ed_spins(r->ed, r->spin);
+	rec->curves = obs_curves(r->obs, r->cl, r->pos, r->vel, r->spin);
 	if (!rec->curves)
 		return RUN_ENOMEM;
 	rec->temperature = rec->curves->temperature;
@@ -691,7 +693,8 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 	r->dsp_k = 1.0;
 	r->fld_next = INFINITY;
 	r->fld_last = -INFINITY;
-	if ((r->opts.snapshots || r->fld) && r->ed && ed_spin_dim(r->ed)) {
+	if ((r->opts.snapshots || r->fld || (curves_on(r) && (s->observables & SCENE_OBS_VDIST))) && r->ed &&
+	    ed_spin_dim(r->ed)) {
 		r->spin = malloc(s->count * ed_spin_dim(r->ed) * sizeof(double));
 		if (!r->spin)
 			goto nomem;

@@ -131,6 +131,11 @@ const OBS = ['walls', 'obstacles', 'outflow', 'height', 'energies', 'msd', 'diff
       return k;
     }));
     ok(cpx.every((k) => k > 50), `P(c), g(r), S(k), n_s, P(b) plots drew the last sample (${cpx.join(', ')} px): ${await page.textContent('#curves-info')}`);
+    // S(k) over time: the last samples are fetched (the info line lists their times) and the plot has a series
+    // for each earlier one (here sample 0 is the lattice start, whose S(k) is ~0 and not drawn on the log axis)
+    const skInfo = await page.textContent('#curves-info'), skLegend = await page.textContent('#plot-sofk');
+    ok(/S\(k\) at times [0-9.e+-]+, [0-9.e+-]+/.test(skInfo) && /1 earlier/.test(skLegend) && /3 earlier/.test(skLegend),
+      `S(k) over time: ${skInfo.replace(/.*(S\(k\) at times[^)]*\)).*/, '$1')}; legend: ${skLegend}`);
     // Fields: a heat map of the 16 x 16 grid, each cell one colour of the ramp; the selector redraws it.
     const heat = () => page.evaluate(() => {
       const c = document.getElementById('fields-map'), d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;

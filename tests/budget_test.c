@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include "budget.h"
+#include "io/report.h"
 #include "ed/ed.h"
 #include "mc/dsmc.h"
 #include "run.h"
@@ -245,6 +246,98 @@ static void test_counts(void)
 	}
 }
 
+/* The curves' output (issue 19, item 3) against real runs: the samples
+ * estimated are the samples taken, and the bytes estimated bound the bytes
+ * report_curves() writes to observables.jsonl (the estimate counts 17
+ * characters per number: an upper bound by construction, so the check is
+ * actual <= estimate) without exceeding them by more than 3x (numbers of 9
+ * significant digits take 1-16 characters, null 4: typically 10) plus the fields and
+ * density_spectrum rows of trajectory.h5 (8 bytes per value), which the
+ * estimate adds on top. */
+typedef struct {
+	long samples;
+	double json, h5;
+	char *buf;
+	size_t cap;
+} curves_seen_t;
+
+static int curves_emit(const run_record_t *rec, void *ctx)
+{
+	curves_seen_t *c = ctx;
+	if (rec->kind != RUN_CURVES)
+		return 0;
+	size_t need = report_curves_max(rec->curves);
+	if (need > c->cap) {
+		free(c->buf);
+		c->buf = malloc(need);
+		c->cap = c->buf ? need : 0;
+	}
+	int n = c->buf ? report_curves(rec, (uint64_t)c->samples, c->buf, c->cap) : -1;
+	c->json += n > 0 ? n : 1e18;
+	for (int i = 0; i < rec->curves->ntables; i++) {
+		const obs_table_t *t = &rec->curves->t[i];
+		if (!strcmp(t->family, "fields") || !strcmp(t->family, "density_spectrum"))
+			c->h5 += 8.0 * t->nb * t->ncols;
+	}
+	c->samples++;
+	return 0;
+}
+
+static void test_curves(void)
+{
+	static const struct { const char *name, *json; } cases[] = {
+		{"ed 2D, five families", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":2000,\"volume_fraction\":0.2},"
+		                         "\"collisions\":{\"restitution\":0.9},\"run\":{\"until\":{\"time\":1}},"
+		                         "\"output\":{\"observables\":[\"temperature\",\"velocity_distribution\",\"pair_correlation\","
+		                         "\"structure_factor\",\"clusters\",\"impact_parameter\"],\"snapshots\":{\"every\":{\"time\":0.25}}}}"},
+		{"ed 2D, fields (rough, Couette)", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":400,\"box\":[40,20],"
+		                         "\"initial\":{\"positions\":\"random\"}},\"collisions\":{\"restitution\":0.95,\"rough\":"
+		                         "{\"tangential_restitution\":0.5}},\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":"
+		                         "{\"type\":\"thermal\",\"temperature\":1,\"velocity\":[-0.5,0]},\"upper\":{\"type\":\"thermal\","
+		                         "\"temperature\":1,\"velocity\":[0.5,0]}}},\"run\":{\"until\":{\"time\":3}},\"output\":"
+		                         "{\"observables\":[\"temperature\",\"fields\"],\"fields\":{\"cells\":[40,20],\"exposure\":0.5,"
+		                         "\"samples\":5},\"snapshots\":{\"every\":{\"time\":0.5}}}}"},
+		{"dsmc 3D, velocity_correlations", "{\"method\":\"dsmc\",\"dimensions\":3,\"particles\":{\"count\":4000,"
+		                         "\"volume_fraction\":0.05},\"run\":{\"until\":{\"time\":1}},\"output\":{\"observables\":"
+		                         "[\"temperature\",\"velocity_correlations\"],\"snapshots\":{\"every\":{\"time\":0.5}}}}"},
+		{"hsmc 2D, density_spectrum", "{\"method\":\"hsmc\",\"dimensions\":2,\"particles\":{\"count\":500,\"radius\":0.5,"
+		                         "\"box\":[20,50],\"initial\":{\"positions\":\"random\"}},\"boundaries\":{\"x\":{\"type\":\"walls\","
+		                         "\"lower\":{\"type\":\"rough\",\"probability\":0.1},\"upper\":{\"type\":\"rough\",\"probability\":0.1}}},"
+		                         "\"gravity\":[0,-1],\"collisions\":{\"restitution\":0.5,\"tc\":0.01},\"run\":{\"until\":{\"time\":4}},"
+		                         "\"output\":{\"observables\":[\"temperature\",\"density_spectrum\"],\"density_spectrum\":"
+		                         "{\"interval\":0.01,\"slices\":50},\"snapshots\":{\"every\":{\"time\":1}}},"
+		                         "\"hsmc\":{\"cell_size\":2,\"time_step\":0.005}}"},
+	};
+	for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+		scene_t s;
+		budget_t b, none;
+		int e;
+		char msg[256];
+		curves_seen_t c = {0};
+		if (parse(cases[i].json, &s) || budget_estimate(&s, 1, &b, NULL, 0)) {
+			ok(0, "%s: budget", cases[i].name);
+			continue;
+		}
+		/* the same scene without curve observables has none */
+		scene_t t = s;
+		t.observables &= ~OBS_CURVE_BITS;
+		budget_estimate(&t, 1, &none, NULL, 0);
+		run_opts_t opts = {.snapshots = 1, .curves = 1};
+		run_t *r = run_create(&s, &opts, &e, msg, sizeof msg);
+		int rc = r ? run_go(r, curves_emit, &c, NULL, msg, sizeof msg) : -1;
+		if (rc != RUN_OK)
+			diag("%s: %s", cases[i].name, msg);
+		run_destroy(r);
+		free(c.buf);
+		double est = (double)b.curves, real = c.json + c.h5;
+		ok(rc == RUN_OK && (long)b.curve_samples == c.samples && real <= est && est <= 3 * real &&
+		   none.curves == 0 && none.curve_samples == 0 &&
+		   b.output == b.trajectory + b.progress + b.curves + 3 * b.checkpoint,
+		   "%s: %llu curve samples estimated, %ld taken; %.0f bytes estimated, %.0f written (json %.0f, h5 rows %.0f; x%.2f)",
+		   cases[i].name, (unsigned long long)b.curve_samples, c.samples, est, real, c.json, c.h5, est / real);
+	}
+}
+
 /* Ranks and replicas: replicas spread over ranks; more replicas, more memory. */
 static void test_ranks(void)
 {
@@ -296,6 +389,7 @@ int main(void)
 	test_memory();
 	test_state();
 	test_counts();
+	test_curves();
 	test_ranks();
 	test_big();
 	plan(tap_n);

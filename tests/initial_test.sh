@@ -172,6 +172,26 @@ bad particles.initial.from "larger particles overlap (ed: hard spheres)"
 from_scene "{\"file\":\"$A1\"}" '' 2 300 '[30,30]'
 sed -i 's/"run"/"boundaries":{"x":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"specular"}}},"run"/' "$tmp/bad.json"
 bad particles.initial.from "walls where the frame has particles within a radius of them"
+# a damaged chunk index (the 1.8 format's B-tree has no checksum): the last frame's positions recorded as
+# 4 GiB; refused before HDF5 allocates that (h5u_chunks_sane(), issue 19)
+cp "$A1" "$tmp/dmg.h5"
+"$PY" - "$tmp/dmg.h5" <<'PYEOF'
+import struct, sys
+import h5py
+path = sys.argv[1]
+with h5py.File(path, "r") as f:
+    d = f["particles/all/position/value"]
+    info = d.id.get_chunk_info_by_coord((d.shape[0] - 1, 0, 0))
+data = open(path, "rb").read()
+key = 8 + 8 * 4   # size, filter mask, 3 + 1 offsets; then the chunk's address
+hits = [i - key for i in range(len(data)) if data.startswith(struct.pack("<Q", info.byte_offset), i)
+        and i >= key and struct.unpack_from("<I", data, i - key)[0] == info.size]
+assert len(hits) == 1, hits
+with open(path, "r+b") as f:
+    f.seek(hits[0]); f.write(struct.pack("<I", 0xfff00000))
+PYEOF
+from_scene "{\"file\":\"$tmp/dmg.h5\"}" ''
+bad "particles.initial.from.file: $tmp/dmg.h5: cannot read frame 3 (damaged chunk index)" "a damaged chunk index of the frame read"
 from_scene '{"job":12}' ''
 bad particles.initial.from.job "a job reference outside the daemon (no --jobs-dir)"
 "$ENGINE" run "$tmp/bad.json" --jobs-dir "$tmp/nojobs" >/dev/null 2>"$tmp/bad.err"

@@ -195,6 +195,21 @@ static void test_admission(void)
 	submit(q, body, &rc, NULL, err);
 	ok(rc == JOBQ_EINVAL && !strncmp(err, "output.snapshots.every: the job would write an estimated ", 57) &&
 	   strstr(err, "max_job_output"), "1001 frames of 1e5 particles exceed the server's 200 MiB: %s", err);
+	/* curves count too: 1001 samples of fields on 181 x 181 cells (5 values per cell: about 4 GB of
+	 * observables.jsonl and trajectory.h5 rows) while the 1001 frames of 1000 particles are 32 MB */
+	mc_scene(body, sizeof body, 1000, 1, ",\"output\":{\"observables\":[\"temperature\",\"fields\"],"
+	         "\"fields\":{\"cells\":[181,181]},\"snapshots\":{\"every\":{\"time\":0.001}}}");
+	submit(q, body, &rc, NULL, err);
+	ok(rc == JOBQ_EINVAL && !strncmp(err, "output.snapshots.every: the job would write an estimated ", 57) &&
+	   strstr(err, "1001 curve samples: "), "1001 samples of fields on 32761 cells exceed 200 MiB: %s", err);
+	mc_scene(body, sizeof body, 1000, 1, ",\"output\":{\"observables\":[\"temperature\",\"fields\"],"
+	         "\"fields\":{\"cells\":[181,181]},\"snapshots\":{\"every\":{\"time\":0.1}}}");
+	rc = validate(q, body, &res, err);
+	ok(rc == 0 && res_int(res, "curve_samples") == 11 && res_int(res, "curves_bytes") > 11 * 32761LL * 5 * 8 &&
+	   res_int(res, "output_bytes") > res_int(res, "curves_bytes"),
+	   "11 samples fit: curves %.1f MB of %.1f MB estimated", res_int(res, "curves_bytes") / 1e6,
+	   res_int(res, "output_bytes") / 1e6);
+	json_decref(res);
 	mc_scene(body, sizeof body, 100000, 1, ",\"output\":{\"snapshots\":{\"every\":{\"time\":0.1}}}");
 	rc = validate(q, body, &res, err);
 	long long out = res_int(res, "output_bytes");

@@ -7,10 +7,13 @@
 
 #include "ed/ed.h"
 #include "ed/rough.h"
+#include "observe/observe.h"
+#include "run.h"
 #include "rng.h"
 #include "scene.h"
 #include "tap.h"
 #include "ed_util.h"
+#include "stats.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -525,9 +528,101 @@ static void test_scene_errors(void)
 	ok(bad == 0 && good3, "scene: rough keys checked, errors name the key; defaults q = 2/5 (3D), T_rot(0) = T");
 }
 
+/* ---- the angular velocity distribution (velocity_distribution, issue 17) ---- */
+
+typedef struct {
+	int samples;
+	double a2[64], trot[64], ttr[64];
+	double hist[128];   /* pooled spin component densities */
+	double edges[129];
+	int nb, cols;
+} spin_seen_t;
+
+static int spin_emit(const run_record_t *rec, void *ctx)
+{
+	spin_seen_t *c = ctx;
+	if (rec->kind != RUN_CURVES || rec->time < 10 || c->samples >= 64)
+		return 0;   /* after 10 time units: equipartition reached (a few collisions per particle) */
+	const obs_curves_t *cv = rec->curves;
+	for (int i = 0; i < cv->ntables; i++) {
+		const obs_table_t *t = &cv->t[i];
+		if (strcmp(t->family, "velocity_distribution") || strcmp(t->table, "spin") || t->nb > 128)
+			continue;
+		c->nb = t->nb;
+		c->cols = t->ncols;
+		memcpy(c->edges, t->edges, (size_t)(t->nb + 1) * sizeof(double));
+		for (int k = 0; k < t->ncols; k++)
+			for (int b = 0; b < t->nb; b++)
+				c->hist[b] += t->val[k][b];
+	}
+	c->a2[c->samples] = cv->a2_spin;
+	c->trot[c->samples] = cv->temperature_rot;
+	c->ttr[c->samples] = cv->temperature;
+	c->samples++;
+	return 0;
+}
+
+/*
+ * An elastic, perfectly rough gas (beta = 1 conserves energy) reaches
+ * equipartition with Maxwellian spins: the spin histogram of
+ * velocity_distribution is the Maxwellian pi^(-1/2) exp(-c^2) in c = w /
+ * sqrt(2 T_rot / I), a2 of the spins is 0 and T_rot = T (the translational
+ * temperature). Samples 2 time units apart (several collisions per particle)
+ * are independent; tolerances: 4 standard errors of the sample means, and
+ * per bin 5 standard errors of the pooled Poisson count.
+ */
+static void test_spin_distribution(int dim)
+{
+	char json[1024], err[256];
+	snprintf(json, sizeof(json),
+	         "{\"method\":\"ed\",\"dimensions\":%d,\"particles\":{\"count\":%d,\"volume_fraction\":0.2},"
+	         "\"collisions\":{\"rough\":{\"tangential_restitution\":1}},\"run\":{\"seed\":3,\"until\":{\"time\":50}},"
+	         "\"output\":{\"observables\":[\"temperature\",\"velocity_distribution\"],"
+	         "\"snapshots\":{\"every\":{\"time\":2}}}}", dim, dim == 2 ? 2000 : 2000);
+	scene_t sc;
+	int rc;
+	static spin_seen_t c;
+	memset(&c, 0, sizeof c);
+	if (scene_parse(json, strlen(json), &sc, err, sizeof(err)) != SCENE_OK) {
+		ok(0, "%dD spin distribution: %s", dim, err);
+		ok(0, "%dD spin histogram", dim);
+		return;
+	}
+	run_opts_t opts = {.curves = 1};
+	run_t *r = run_create(&sc, &opts, &rc, err, sizeof(err));
+	rc = r ? run_go(r, spin_emit, &c, NULL, err, sizeof(err)) : -1;
+	run_destroy(r);
+	double ma, sa, mr, sr;
+	double ratio[64];
+	for (int k = 0; k < c.samples; k++)
+		ratio[k] = c.trot[k] / c.ttr[k];
+	mean_se(c.a2, c.samples, &ma, &sa);
+	mean_se(ratio, c.samples, &mr, &sr);
+	ok(rc == RUN_OK && c.samples >= 15 && fabs(ma) < 4 * sa && fabs(mr - 1) < 4 * sr,
+	   "%dD elastic, perfectly rough: spin a2 = %.4f +- %.4f, T_rot / T = %.4f +- %.4f over %d samples", dim, ma, sa,
+	   mr, sr, c.samples);
+	/* pooled over samples and components: count per bin = hist * N * width (each sample's densities) */
+	int bad = 0, used = 0;
+	double worst = 0;
+	for (int b = 0; b < c.nb; b++) {
+		double lo = c.edges[b], hi = c.edges[b + 1], w = hi - lo, cc = 0.5 * (lo + hi);
+		if (fabs(cc) > 2.5)
+			continue;
+		double expect = 0.5 * (erf(hi) - erf(lo)) / w;   /* the Maxwellian's mean density over the bin */
+		double m = c.hist[b] / (c.samples * c.cols), count = expect * sc.count * w * c.samples * c.cols;
+		double se = expect / sqrt(count);
+		double z = fabs(m - expect) / se;
+		worst = fmax(worst, z);
+		bad += z > 5;
+		used++;
+	}
+	ok(rc == RUN_OK && used > 20 && bad == 0, "%dD spin histogram: Maxwellian in %d bins within 5 se (worst %.2f se)",
+	   dim, used, worst);
+}
+
 int main(void)
 {
-	plan(22);
+	plan(26);
 	test_rule();
 	test_walton_switch();
 	test_elastic_limits();
@@ -537,5 +632,7 @@ int main(void)
 	test_hcs(3, 0.9, 0.0, 1, 16.0);
 	test_hcs(3, 0.95, -0.5, 0, 20.0);
 	test_hcs(2, 0.9, 0.5, 1, 16.0);
+	test_spin_distribution(2);
+	test_spin_distribution(3);
 	return done_testing();
 }

@@ -13,13 +13,21 @@
 #include "place.h"
 
 /* Read frame k (of frames) of dataset name in group g into buf (n x dim).
- * The dataset must be [frames, n, dim] doubles. 0, or -1 with msg. */
+ * The dataset must be [frames, n, dim] doubles. Its chunk index is checked
+ * for the frame's chunks first (h5u_chunks_sane(): HDF5 would allocate a
+ * damaged chunk size before reading). 0, -2 (a damaged chunk index) or -1. */
 static int read_frame(hid_t g, const char *name, hsize_t k, hsize_t n, hsize_t dim, double *buf)
 {
 	int ret = -1;
 	hid_t d = H5Dopen2(g, name, H5P_DEFAULT), sp = d >= 0 ? H5Dget_space(d) : H5I_INVALID_HID;
-	hid_t mem = H5I_INVALID_HID;
-	hsize_t start[3] = {k, 0, 0}, count[3] = {1, n, dim}, mdim[1] = {n * dim};
+	hid_t mem = H5I_INVALID_HID, file = d >= 0 ? H5Iget_file_id(d) : H5I_INVALID_HID;
+	hsize_t start[3] = {k, 0, 0}, count[3] = {1, n, dim}, mdim[1] = {n * dim}, eof = 0;
+	if (file < 0 || H5Fget_filesize(file, &eof) < 0)
+		goto out;
+	if (h5u_chunks_sane(d, eof, k, 1)) {
+		ret = -2;
+		goto out;
+	}
 	if (sp < 0 || H5Sselect_hyperslab(sp, H5S_SELECT_SET, start, NULL, count, NULL) < 0)
 		goto out;
 	mem = H5Screate_simple(1, mdim, NULL);
@@ -28,6 +36,7 @@ static int read_frame(hid_t g, const char *name, hsize_t k, hsize_t n, hsize_t d
 out:
 	if (mem >= 0) H5Sclose(mem);
 	if (sp >= 0) H5Sclose(sp);
+	if (file >= 0) H5Fclose(file);
 	if (d >= 0) H5Dclose(d);
 	return ret;
 }
@@ -110,9 +119,12 @@ int frame_load(const scene_t *s, const char *path, double **pos, double **vel, d
 		h5u_fail(msg, msglen, 0, "out of memory reading %llu particles", (unsigned long long)s->count);
 		goto out;
 	}
-	if (read_frame(g, "position/value", (hsize_t)k_frame, dp[1], dp[2], p) ||
-	    read_frame(g, "velocity/value", (hsize_t)k_frame, dp[1], dp[2], v)) {
-		h5u_fail(msg, msglen, 0, "%s: %s: cannot read frame %" PRId64 " (damaged?)", key, path, k_frame);
+	int rr = read_frame(g, "position/value", (hsize_t)k_frame, dp[1], dp[2], p);
+	if (!rr)
+		rr = read_frame(g, "velocity/value", (hsize_t)k_frame, dp[1], dp[2], v);
+	if (rr) {
+		h5u_fail(msg, msglen, 0, "%s: %s: cannot read frame %" PRId64 " (%s)", key, path, k_frame,
+		         rr == -2 ? "damaged chunk index" : "damaged?");
 		goto out;
 	}
 	if (s->rough) {
@@ -131,8 +143,9 @@ int frame_load(const scene_t *s, const char *path, double **pos, double **vel, d
 			h5u_fail(msg, msglen, 0, "out of memory reading %llu particles", (unsigned long long)s->count);
 			goto out;
 		}
-		if (read_frame(g, "angular_velocity/value", (hsize_t)k_frame, dp[1], k, w)) {
-			h5u_fail(msg, msglen, 0, "%s: %s: cannot read frame %" PRId64 " (damaged?)", key, path, k_frame);
+		if ((rr = read_frame(g, "angular_velocity/value", (hsize_t)k_frame, dp[1], k, w)) != 0) {
+			h5u_fail(msg, msglen, 0, "%s: %s: cannot read frame %" PRId64 " (%s)", key, path, k_frame,
+			         rr == -2 ? "damaged chunk index" : "damaged?");
 			goto out;
 		}
 		for (size_t i = 0; i < s->count * k; i++)

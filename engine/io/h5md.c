@@ -808,6 +808,35 @@ static int frame_times_reserve(pgroup_t *g, size_t n)
 
 static int write_xdmf(h5md_t *h);
 
+/* Every dataset attach() opened passes h5u_chunks_sane() (h5util.h: why). */
+static int indexes_sane(const h5md_t *h, const char *path, char *msg, size_t msglen)
+{
+	hsize_t eof = 0;
+	if (H5Fget_filesize(h->file, &eof) < 0)
+		return h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot read its size", path);
+	hid_t ds[4 + MAX_OBS + FLD_MAX + DSP_MAX + 6];
+	int n = 0;
+	ds[n++] = h->obs_step, ds[n++] = h->obs_time;
+	for (int k = 0; k < h->n_obs; k++)
+		ds[n++] = h->obs[k];
+	for (int k = 0; k < h->n_fld; k++)
+		ds[n++] = h->fld[k];
+	for (int k = 0; k < DSP_MAX && h->dsp_on; k++)
+		ds[n++] = h->dsp[k];
+	ds[n++] = h->fld_step, ds[n++] = h->fld_time, ds[n++] = h->dsp_step, ds[n++] = h->dsp_time;
+	for (int k = 0; k < n; k++)
+		if (ds[k] >= 0 && h5u_chunks_sane(ds[k], eof, 0, H5U_ALL_ROWS))
+			return h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: damaged chunk index of an observable series", path);
+	for (int k = 0; k < h->n_grp; k++) {
+		const pgroup_t *g = &h->grp[k];
+		hid_t gs[] = {g->pos_step, g->pos_time, g->pos_value, g->vel_value, g->box_value, g->spin_value};
+		for (size_t j = 0; j < sizeof gs / sizeof gs[0]; j++)
+			if (gs[j] >= 0 && h5u_chunks_sane(gs[j], eof, 0, H5U_ALL_ROWS))
+				return h5u_fail(msg, msglen, H5MD_EFORMAT, "%s: damaged chunk index of the frames", path);
+	}
+	return H5MD_OK;
+}
+
 /* Opens every dataset an append needs on h->file (the frames' groups, the
  * observables the scene asks for); on failure the message names what is
  * missing and the caller destroys h (which closes what was opened). */
@@ -913,6 +942,8 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 			goto fail;
 		}
 		if ((*err = attach(h, s, path, msg, msglen)) != H5MD_OK)
+			goto fail;
+		if (!pass && (*err = indexes_sane(h, path, msg, msglen)) != H5MD_OK)
 			goto fail;
 	}
 	int64_t have_obs = rows_of(h->obs_time);

@@ -180,3 +180,63 @@ out:
 	if (t >= 0) H5Tclose(t);
 	return ret;
 }
+
+/* Lookups by coordinate (H5Dget_chunk_info_by_coord: one B-tree descent
+ * each) over the chunk grid of the rows asked for. */
+int h5u_chunks_sane(hid_t d, hsize_t eof, hsize_t row0, hsize_t rows)
+{
+	hid_t dcpl = H5Dget_create_plist(d), fs = H5Dget_space(d), ft = H5Dget_type(d);
+	hsize_t dims[3] = {0, 0, 0}, chunk[3] = {1, 1, 1}, off[3] = {0, 0, 0};
+	int ret = -1, rank = fs >= 0 ? H5Sget_simple_extent_ndims(fs) : -1;
+	size_t esize = ft >= 0 ? H5Tget_size(ft) : 0;
+	if (dcpl < 0 || rank < 1 || rank > 3 || esize == 0 || H5Sget_simple_extent_dims(fs, dims, NULL) < 0)
+		goto done;
+	if (H5Pget_layout(dcpl) != H5D_CHUNKED) {
+		ret = 0;   /* contiguous or compact: no chunk index */
+		goto done;
+	}
+	if (H5Pget_chunk(dcpl, rank, chunk) != rank)
+		goto done;
+	hsize_t raw = esize;
+	for (int a = 0; a < rank; a++) {
+		if (chunk[a] == 0 || raw > ((hsize_t)1 << 40) / chunk[a])
+			goto done;   /* no chunk of ours is near 1 TiB: a damaged layout */
+		raw *= chunk[a];
+	}
+	const hsize_t bound = raw + raw / 1000 + 64;
+	/* rows [row0, end) of axis 0, from the chunk that holds row0 */
+	const hsize_t end = rows == H5U_ALL_ROWS || rows > dims[0] || row0 > dims[0] - rows ? dims[0] : row0 + rows;
+	off[0] = row0 - row0 % chunk[0];
+	for (;;) {
+		unsigned mask = 0;
+		haddr_t addr = HADDR_UNDEF;
+		hsize_t size = 0;
+		int empty = 0;
+		for (int a = 0; a < rank; a++)
+			empty |= off[a] >= (a ? dims[a] : end);
+		if (empty)
+			break;   /* no rows asked for, or an extent of 0: nothing stored */
+		if (H5Dget_chunk_info_by_coord(d, off, &mask, &addr, &size) < 0)
+			goto done;
+		if (addr != HADDR_UNDEF && (size > bound || addr > eof || size > eof - addr))
+			goto done;
+		int a = rank - 1;
+		for (; a >= 0; a--) {
+			off[a] += chunk[a];
+			if (off[a] < (a ? dims[a] : end))
+				break;
+			off[a] = 0;
+		}
+		if (a < 0)
+			break;
+	}
+	ret = 0;
+done:
+	if (dcpl >= 0)
+		H5Pclose(dcpl);
+	if (fs >= 0)
+		H5Sclose(fs);
+	if (ft >= 0)
+		H5Tclose(ft);
+	return ret;
+}

@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "report.h"
+#include "observe/tables.h"
 
 typedef struct {
 	char *buf;
@@ -246,14 +247,17 @@ static void scalar9(out_t *o, int ens, const char *key, double v, double se)
 	}
 }
 
+static int has_table(const obs_curves_t *c, const char *family, const char *table)
+{
+	for (int i = 0; i < c->ntables; i++)
+		if (!strcmp(c->t[i].family, family) && !strcmp(c->t[i].table, table))
+			return 1;
+	return 0;
+}
+
 size_t report_curves_max(const obs_curves_t *c)
 {
-	/* each number at most 16 characters (-1.23456789e-123) plus a comma;
-	 * per table: edges, centres, a value and a standard error per column */
-	size_t n = 1024;
-	for (int i = 0; i < c->ntables; i++)
-		n += 256 + 17 * (size_t)(2 * c->t[i].nb + 1 + 2 * c->t[i].nb * c->t[i].ncols);
-	return n;
+	return tables_json_max(c, 1);   /* either kind of run */
 }
 
 int report_curves(const run_record_t *r, uint64_t sample, char *buf, size_t len)
@@ -275,6 +279,10 @@ int report_curves(const run_record_t *r, uint64_t sample, char *buf, size_t len)
 		if (!strcmp(t->family, "velocity_distribution")) {
 			scalar9(&o, ens, "a2", c->a2, c->se_a2);
 			scalar9(&o, ens, "a3", c->a3, c->se_a3);
+			if (has_table(c, "velocity_distribution", "spin")) {
+				scalar9(&o, ens, "a2_spin", c->a2_spin, c->se_a2_spin);
+				scalar9(&o, ens, "temperature_rot", c->temperature_rot, c->se_temperature_rot);
+			}
 		} else if (!strcmp(t->family, "pair_correlation")) {
 			scalar9(&o, ens, "g_contact_pairs", c->g_pairs, c->se_g_pairs);
 		} else if (!strcmp(t->family, "clusters")) {

@@ -6,6 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "observe/tables.h"
+
 #define PI 3.14159265358979323846
 
 struct fgrid {
@@ -84,9 +86,7 @@ fgrid_t *fgrid_create_walled(int dim, const double *box, const int m[3], int fie
 		}
 	}
 	g->dk = 2 * PI / lmax;
-	g->J = (int)floor(kny / g->dk - 0.5);
-	if (g->J < 1)
-		g->J = 1;
+	g->J = tables_k_shells(dim, box, m);   /* the one formula, shared with admission control */
 	g->lo2 = 0.25 * g->dk * g->dk;
 	g->hi2 = (g->J + 0.5) * (g->J + 0.5) * g->dk * g->dk;
 	size_t ml = g->m[last_axis(g)];

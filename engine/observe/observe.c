@@ -10,11 +10,12 @@
 #include "observe/fields.h"
 #include "observe/gofr.h"
 #include "observe/sofk.h"
+#include "observe/tables.h"
 #include "observe/vcorr.h"
 #include "observe/vdist.h"
 
-#define N_SCALARS 10  /* temperature, a2, a3, g_pairs, cluster_w, cluster_exponent, m2_reduced, mean_size,
-                        * impact_a, impact_c */
+#define N_SCALARS 12  /* temperature, a2, a3, g_pairs, cluster_w, cluster_exponent, m2_reduced, mean_size,
+                        * impact_a, impact_c, a2_spin, temperature_rot */
 
 struct obs {
 	scene_t s;
@@ -27,16 +28,11 @@ struct obs {
 	dspec_t *dspec;           /* density_spectrum */
 	double *mem;              /* one block: axes, values, standard errors, scratch */
 	double *gcount, *gpar, *gperp;   /* pair sums over the g(r) bins */
-	double *vhist;                   /* D * bins: the component histograms, axis-major */
+	double *vhist;                   /* 4 * bins: the component histograms, axis-major, and the spins' |c| */
 	double *bcount;                  /* impact parameters counted by the engine since the last curves */
 	obs_curves_t c;
 	size_t packed;
 };
-
-unsigned obs_curve_bits(const scene_t *s)
-{
-	return s->observables & OBS_CURVE_BITS;
-}
 
 static size_t n_vals(const obs_curves_t *c)
 {
@@ -56,24 +52,6 @@ void obs_destroy(obs_t *o)
 	dspec_destroy(o->dspec);
 	free(o->mem);
 	free(o);
-}
-
-/* Table i with nb bins and ncols columns named by cols (NULL-terminated). */
-static obs_table_t *table(obs_t *o, const char *family, const char *sub, const char *x, const char *x_unit, int nb,
-                          const char *const *cols)
-{
-	obs_table_t *t = &o->c.t[o->c.ntables++];
-	t->family = family;
-	t->table = sub;
-	t->x = x;
-	t->x_unit = x_unit;
-	t->nb = nb;
-	t->ncols = 0;
-	while (cols[t->ncols] && t->ncols < OBS_MAX_COLS) {
-		t->col[t->ncols] = cols[t->ncols];
-		t->ncols++;
-	}
-	return t;
 }
 
 obs_t *obs_create(const scene_t *s, int layout_only)
@@ -130,54 +108,12 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 	}
 
 	/* Tables (values assigned below from one block). */
-	static const char *const comp3[] = {"p_x", "p_y", "p_z", NULL}, *const comp2[] = {"p_x", "p_y", NULL};
-	static const char *const speed[] = {"p", NULL}, *const gcols[] = {"g", NULL}, *const scol[] = {"s", NULL};
-	static const char *const vpairs[] = {"g_par", "g_perp", "g_nn", NULL}, *const vmodes[] = {"s_par", "s_perp", NULL};
-	static const char *const ncol[] = {"n_s", NULL}, *const bcols[] = {"p", "n", NULL};
-	int vnb = s->vdist_bins, snb = 0, bnb = (o->bits & SCENE_OBS_IMPACT) ? s->impact_bins : 0;
-	if (o->bits & SCENE_OBS_VDIST) {
-		table(o, "velocity_distribution", "components", "c", "1", vnb, D == 3 ? comp3 : comp2);
-		table(o, "velocity_distribution", "speed", "c", "1", vnb, speed);
-	}
-	if (o->bits & SCENE_OBS_GOFR)
-		table(o, "pair_correlation", "", "r", "l0", gnb, gcols);
-	if (o->bits & SCENE_OBS_SOFK)
-		table(o, "structure_factor", "", "k", "l0-1", J, scol);
-	if (o->bits & SCENE_OBS_VCORR) {
-		table(o, "velocity_correlations", "pairs", "r", "l0", gnb, vpairs);
-		table(o, "velocity_correlations", "modes", "k", "l0-1", J, vmodes);
-	}
-	if (o->bits & SCENE_OBS_CLUSTERS) {
-		snb = clusters_size_bins(s->count, NULL, NULL);
-		table(o, "clusters", "", "s", "1", snb, ncol);
-	}
-	if (o->bits & SCENE_OBS_IMPACT)
-		table(o, "impact_parameter", "", "b", "1", bnb, bcols);
-	if (o->bits & SCENE_OBS_FIELDS) {
-		static const char *const dcols[] = {"n", "count", NULL}, *const u3[] = {"u_x", "u_y", "u_z", NULL},
-		                         *const u2[] = {"u_x", "u_y", NULL}, *const tcols[] = {"T", NULL},
-		                         *const w3[] = {"w_x", "w_y", "w_z", NULL}, *const w1[] = {"w", NULL};
-		int nc = s->fields_cells[0] * s->fields_cells[1] * s->fields_cells[2];
-		obs_table_t *ft[4];
-		int k = 0;
-		ft[k++] = table(o, "fields", "density", "cell", "1", nc, dcols);
-		ft[k++] = table(o, "fields", "velocity", "cell", "1", nc, D == 3 ? u3 : u2);
-		ft[k++] = table(o, "fields", "temperature", "cell", "1", nc, tcols);
-		if (spin_dim)
-			ft[k++] = table(o, "fields", "spin", "cell", "1", nc, D == 3 ? w3 : w1);
-		for (int i = 0; i < k; i++)
-			for (int a = 0; a < 3; a++)
-				ft[i]->shape[a] = a < D ? s->fields_cells[a] : 0;
-	}
-
-	if (o->bits & SCENE_OBS_DSPEC) {
-		static const char *const pcols[] = {"P", NULL};
-		table(o, "density_spectrum", "", "f", "t0-1", dspec_bins(s->dspec_m), pcols);
-	}
+	tables_layout(&o->c, s, J);
+	int vnb = s->vdist_bins, bnb = (o->bits & SCENE_OBS_IMPACT) ? s->impact_bins : 0;
 
 	/* One block: per table edges (nb+1) and centres (nb); per column value
 	 * and standard error (nb each); pair sums (3 gnb). */
-	size_t need = 3 * (size_t)gnb + 3 * (size_t)vnb + (size_t)bnb;
+	size_t need = 3 * (size_t)gnb + 4 * (size_t)vnb + (size_t)bnb;
 	for (int i = 0; i < o->c.ntables; i++)
 		need += 2 * (size_t)o->c.t[i].nb + 1 + 2 * (size_t)o->c.t[i].nb * o->c.t[i].ncols;
 	o->mem = calloc(need ? need : 1, sizeof(double));
@@ -187,7 +123,7 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 	o->gcount = p, p += gnb;
 	o->gpar = p, p += gnb;
 	o->gperp = p, p += gnb;
-	o->vhist = p, p += 3 * (size_t)vnb;
+	o->vhist = p, p += 4 * (size_t)vnb;
 	o->bcount = p, p += bnb;
 	for (int i = 0; i < o->c.ntables; i++) {
 		obs_table_t *t = &o->c.t[i];
@@ -333,7 +269,7 @@ static obs_table_t *find(obs_t *o, const char *family, const char *sub)
 	return NULL;
 }
 
-const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, const double *vel)
+const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, const double *vel, const double *spin)
 {
 	const scene_t *s = &o->s;
 	const int D = s->dim;
@@ -355,6 +291,25 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 			memcpy(t->val[a], o->vhist + (size_t)a * t->nb, (size_t)t->nb * sizeof(double));
 		c->a2 = m.a2;
 		c->a3 = m.a3;
+	}
+	c->a2_spin = c->temperature_rot = NAN;
+	if ((t = find(o, "velocity_distribution", "spin"))) {
+		/* c_w = (w - <w>) / sqrt(2 T_rot / I), T_rot = I <(w - <w>)^2> / spin_dim: the same scaling and
+		 * moments as the velocities, with I = q m a^2 for the mass (vdist.h works in any dimension) */
+		const int sd = t->ncols;
+		const double inertia = s->rough_q * s->mass * s->radius * s->radius;
+		for (int a = 0; a < sd; a++)
+			for (int b = 0; b < t->nb; b++)
+				t->val[a][b] = NAN;
+		if (spin) {
+			vdist_moments_t mw;
+			vdist_moments(sd, n, inertia, spin, &mw);
+			vdist_histograms(sd, n, inertia, spin, &mw, t->nb, s->vdist_range, o->vhist, o->vhist + 3 * t->nb);
+			for (int a = 0; a < sd; a++)
+				memcpy(t->val[a], o->vhist + (size_t)a * t->nb, (size_t)t->nb * sizeof(double));
+			c->a2_spin = mw.a2;
+			c->temperature_rot = mw.temperature;
+		}
 	}
 	obs_table_t *tg = find(o, "pair_correlation", ""), *tv = find(o, "velocity_correlations", "pairs");
 	if (o->gofr && (tg || tv)) {
@@ -436,10 +391,11 @@ void obs_dspec_add(obs_t *o, const double *pos)
 static double *scalar_slot(obs_curves_t *c, int k, int se)
 {
 	double *v[N_SCALARS] = {&c->temperature, &c->a2, &c->a3, &c->g_pairs, &c->cluster_w, &c->cluster_exponent,
-	                        &c->m2_reduced, &c->mean_size, &c->impact_a, &c->impact_c};
+	                        &c->m2_reduced, &c->mean_size, &c->impact_a, &c->impact_c, &c->a2_spin,
+	                        &c->temperature_rot};
 	double *e[N_SCALARS] = {&c->se_temperature, &c->se_a2, &c->se_a3, &c->se_g_pairs, &c->se_cluster_w,
 	                        &c->se_cluster_exponent, &c->se_m2_reduced, &c->se_mean_size, &c->se_impact_a,
-	                        &c->se_impact_c};
+	                        &c->se_impact_c, &c->se_a2_spin, &c->se_temperature_rot};
 	return se ? e[k] : v[k];
 }
 

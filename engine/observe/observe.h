@@ -62,6 +62,8 @@ typedef struct {
 	/* scalars of the sample */
 	double temperature;       /* of the peculiar velocities */
 	double a2, a3;            /* when velocity_distribution is asked */
+	double a2_spin;           /* ... for rough particles: a2 of the angular velocities (NaN otherwise) */
+	double temperature_rot;   /* ... for rough particles: I <(w - <w>)^2> / spin_dim (NaN otherwise) */
 	double g_pairs;           /* when pair_correlation is asked */
 	double cluster_w, cluster_exponent, m2_reduced, mean_size;   /* when clusters is asked */
 	int fields_samples;       /* fields: instants averaged (observe/fields.h) */
@@ -70,7 +72,7 @@ typedef struct {
 	int dspec_samples;        /* density_spectrum: samples behind the spectrum (NaN values below m) */
 	/* ensembles: standard errors of the same scalars */
 	double se_temperature, se_a2, se_a3, se_g_pairs, se_cluster_w, se_cluster_exponent, se_m2_reduced,
-	       se_mean_size, se_impact_a, se_impact_c;
+	       se_mean_size, se_impact_a, se_impact_c, se_a2_spin, se_temperature_rot;
 } obs_curves_t;
 
 typedef struct obs obs_t;
@@ -93,9 +95,11 @@ int obs_scalars(obs_t *o, const double *pos, const double *vel, obs_scalars_t *o
 void obs_interval(const obs_t *o, double rate, double z, double t_avg, obs_scalars_t *out);
 
 /* Curves of the present state; cl (may be NULL unless clusters are asked for) is the run's cluster
- * workspace, recomputed here. Returns the tables (owned by o, valid until the next call), or NULL
+ * workspace, recomputed here; spin (rough particles: N * spin_dim angular velocities, else NULL) gives
+ * velocity_distribution's table "spin" (c = (w - <w>) / sqrt(2 T_rot / I), I = q m a^2: columns p (2D) or
+ * p_x, p_y, p_z (3D), NaN without spin) with a2_spin and temperature_rot. Returns the tables (owned by o, valid until the next call), or NULL
  * when out of memory in the cluster code. */
-const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, const double *vel);
+const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, const double *vel, const double *spin);
 
 /* impact_parameter: the histogram (nb doubles, owned by o) that the engine fills
  * (ed_count_impacts(), dsmc_count_impacts()); obs_curves() turns it into the
