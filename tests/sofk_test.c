@@ -5,6 +5,7 @@
 
 #include "observe/fgrid.h"
 #include "observe/sofk.h"
+#include "observe/tables.h"
 #include "obs_util.h"
 #include "tap.h"
 
@@ -194,6 +195,8 @@ static void test_walls(int dim, const int *walled, const char *what)
 	}
 	ok(g && J > 2 && kzero && bad == 0, "%s: k along the periodic axes only; uncorrelated points S(k) = 1 in %d shells "
 	   "within 5 se (worst %.2f se; S(k1) = %.3f over %.0f wave vectors)", what, J, worst, acc[0], J ? modes[0] : 0);
+	ok(tables_k_shells(dim, box, grid, walled) == J, "%s: the layout's shell count (tables_k_shells) is the grid's, %d",
+	   what, J);
 	/* direct summation, one configuration of 300 points, lowest quarter of the shells */
 	double direct[2048] = {0}, wsum[2048] = {0};
 	random_positions(dim, 300, box, &seed, pos);
@@ -221,7 +224,7 @@ static void test_walls(int dim, const int *walled, const char *what)
 
 int main(void)
 {
-	plan(18);
+	plan(23);
 	test_shells(2, 16);
 	test_shells(3, 16);
 	test_shells(2, 32);
@@ -235,6 +238,14 @@ int main(void)
 	test_walls(2, (const int[]){1, 0, 0}, "2D, x walled");
 	test_walls(3, (const int[]){0, 0, 1}, "3D, z walled");
 	test_walls(3, (const int[]){1, 1, 0}, "3D, x and y walled");
+	/* a long walled axis: shells 2 pi / 20 wide up to x's Nyquist pi 16 / 20, not 2 pi / 100 (31 shells) */
+	fgrid_t *lw = fgrid_create_walled(2, (double[]){20, 100, 1}, (int[]){16, 64, 1}, 1, (const int[]){0, 1, 0});
+	const double lbox[3] = {20, 100, 1};
+	const int lgrid[3] = {16, 64, 1}, wy[3] = {0, 1, 0};
+	ok(lw && fgrid_bins(lw) == 7 && tables_k_shells(2, lbox, lgrid, wy) == 7 &&
+	   tables_k_shells(2, lbox, lgrid, NULL) == 31,
+	   "a long walled axis: 7 shells along the periodic one in the grid and the layout (31 without walls)");
+	fgrid_destroy(lw);
 	ok(fgrid_create_walled(2, (double[]){8, 8, 1}, (int[]){8, 8, 1}, 1, (const int[]){1, 1, 0}) == NULL &&
 	   fgrid_create_walled(2, (double[]){8, 8, 1}, (int[]){8, 2, 1}, 1, (const int[]){0, 1, 0}) != NULL,
 	   "every axis walled refused; a walled axis ignores its grid size");

@@ -9,8 +9,9 @@
  * delta, i.e. centre distance < 2*radius + delta (seed 003, ch. 5; delta is
  * given here in length units, the scene gives it in diameters). Periodic
  * box, minimum image; on axes named by clusters_walls() the plain
- * difference (a cluster touching both walls is not joined across them). Union-find over a cell grid of edge >= 2*radius+delta:
- * O(N) time for bounded density. No I/O.
+ * difference (a cluster touching both walls is not joined across them).
+ * Union-find over a cell grid of edge >= 2*radius+delta: O(N) time for
+ * bounded density. No I/O.
  */
 
 #define CLUSTERS_MAX_BINS 40

@@ -339,7 +339,8 @@ static int contact_fit(int dim, size_t n, const double *box, const int *walled, 
 		if (!(count[k] > 0))
 			continue;
 		double a = sigma + k * width, b = a + width;
-		double g = count[k] / ideal_box(dim, n, box, walled, inner, a, b), x = 0.5 * (a + b) - sigma, y = log(g), w = count[k];
+		double g = count[k] / ideal_box(dim, n, box, walled, inner, a, b);
+		double x = 0.5 * (a + b) - sigma, y = log(g), w = count[k];
 		sw += w, sx += w * x, sy += w * y, sxx += w * x * x, sxy += w * x * y;
 		used++;
 	}
