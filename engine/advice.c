@@ -394,6 +394,16 @@ static int resolved_correction(scene_method_t method, int corr)
 	return corr != SCENE_MC_DEFAULT ? corr : method == SCENE_METHOD_HSMC ? SCENE_MC_CBA : SCENE_MC_NONE;
 }
 
+/* Gravity pulls the particles onto a wall: along some walled axis gravity
+ * has a component (the wall it points to then carries a bed). */
+static int bed_forms(const scene_t *s)
+{
+	for (int a = 0; a < s->dim; a++)
+		if (s->boundary[a].walled && s->gravity[a] != 0)
+			return 1;
+	return 0;
+}
+
 /* One candidate's estimate (correction: resolved, 0 for ed). The scene's own
  * method and correction is estimated with its settings, the others at the
  * defaults with that correction. */
@@ -485,6 +495,20 @@ static int estimate_one(const advice_model_t *m, const scene_t *s, scene_method_
 		     "(caches; docs/benchmarks.md)", m->particles);
 	}
 
+	/* Bounded scenes: what the periodic gas's model cannot say (advice.h). */
+	if (method != SCENE_METHOD_ED && bed_forms(s)) {
+		e->refused = method == SCENE_METHOD_DSMC;
+		if (e->refused)
+			note(e, "refused: gravity pulls the particles onto a wall, and dsmc's point particles have no excluded "
+			     "volume: the bed collapses onto the floor (seed 000 A12, the gravity box: docs/tradeoff.md, "
+			     "\"Bounded scenes\")");
+	}
+	if (method != SCENE_METHOD_ED && (scene_has_walls(s) || scene_has_gravity(s))) {
+		e->extrapolated |= ADVICE_X_BOUNDED;
+		note(e, "walls or gravity: the error model is the periodic gas's, and the trade on bounded scenes is measured "
+		     "in docs/tradeoff.md (\"Bounded scenes\"), not modelled");
+	}
+
 	/* Expected error. */
 	unsigned x = 0;
 	const variant_t *v = find_variant(d, e->variant);
@@ -520,7 +544,7 @@ static void choose(advice_t *a)
 	int best = -1;
 	for (int i = 0; i < a->n; i++) {
 		advice_estimate_t *e = &a->est[i];
-		e->meets = isfinite(e->error) && e->error <= a->target &&
+		e->meets = isfinite(e->error) && e->error <= a->target && !e->refused &&
 		           (e->method == SCENE_METHOD_ED || !(e->extrapolated & ADVICE_X_ERROR));
 		if (e->meets && (best < 0 || e->cpu_seconds < a->est[best].cpu_seconds))
 			best = i;
@@ -540,6 +564,10 @@ static void choose(advice_t *a)
 				continue;
 			if (e->meets)
 				ADD("; %s also meets it but costs %.3g CPU s", e->variant, e->cpu_seconds);
+			else if (e->refused)
+				ADD("; %s: %.*s", e->variant, (int)strcspn(e->notes, ";"), e->notes);
+			else if (e->method != SCENE_METHOD_ED && (e->extrapolated & ADVICE_X_BOUNDED))
+				ADD("; %s: error not trusted on a bounded scene (docs/tradeoff.md)", e->variant);
 			else if (e->method != SCENE_METHOD_ED && (e->extrapolated & ADVICE_X_ERROR))
 				ADD("; %s: error not trusted here (extrapolated)", e->variant);
 			else
@@ -556,9 +584,14 @@ static void choose(advice_t *a)
 		if (need > 0)
 			ADD("; N x replicas >= %.3g would meet it (e.g. run.replicas >= %.0f)", need,
 			    ceil(need / (double)a->particles));
-		for (int i = 1; i < a->n; i++)
-			ADD("; %s is expected at %.3g%s", a->est[i].variant, a->est[i].error,
-			    a->est[i].extrapolated & ADVICE_X_ERROR ? " (extrapolated)" : "");
+		for (int i = 1; i < a->n; i++) {
+			const advice_estimate_t *e = &a->est[i];
+			if (e->refused)
+				ADD("; %s: %.*s", e->variant, (int)strcspn(e->notes, ";"), e->notes);
+			else
+				ADD("; %s is expected at %.3g%s", e->variant, e->error,
+				    e->extrapolated & ADVICE_X_ERROR ? " (extrapolated)" : "");
+		}
 	}
 #undef ADD
 }
@@ -721,6 +754,10 @@ json_t *advice_json(const advice_t *a)
 		                      "error", "temperature", jnum(e->error), "bias", jnum(e->bias), "statistical",
 		                      jnum(e->statistical), "meets_target", e->meets < 0 ? json_null() : json_boolean(e->meets),
 		                      "extrapolated", e->extrapolated != 0, "notes", notes_array(e->notes));
+		if (o && json_object_set_new(o, "refused", json_boolean(e->refused))) {
+			json_decref(o);
+			o = NULL;
+		}
 		if (!o || json_array_append_new(ests, o)) {
 			json_decref(ests);
 			return NULL;

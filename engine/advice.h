@@ -32,6 +32,11 @@
  *   Across the grid: bilinear in (chi(nu) - 1, lambda) (model key
  *   density_axis; "volume_fraction": in nu), clamped outside (flagged), and
  *   bias = spread = 0 at lambda = 0 (elastic: T is conserved exactly).
+ * - Bounded scenes (walls, gravity): the MC estimates are flagged
+ *   ADVICE_X_BOUNDED (their error model is the periodic gas's), so auto
+ *   takes ed; dsmc is refused where gravity pulls the particles onto a wall
+ *   (a bed forms): its point particles have no excluded volume and the bed
+ *   collapses onto the floor (seed 000 A12; measured in docs/tradeoff.md).
  * - auto: the cheapest candidate (CPU seconds) whose expected error meets
  *   the target and is not extrapolated (ed always counts: exact up to its
  *   statistical error); none: ed, with the N x replicas that would meet it.
@@ -62,8 +67,10 @@ enum {
 	ADVICE_X_VALIDITY = 1u << 4,    /* dsmc_params() validity warning */
 	ADVICE_X_VARIANT = 1u << 5,     /* no measured error for this method/correction */
 	ADVICE_X_SIZE = 1u << 6,        /* N more than 10x the measured size: cost per operation may grow */
+	ADVICE_X_BOUNDED = 1u << 7,     /* walls or gravity: the error model is the periodic gas's (the trade on the
+	                                 * seed's bounded scenes is measured, docs/tradeoff.md, not modelled) */
 	ADVICE_X_ERROR = ADVICE_X_DENSITY | ADVICE_X_DISSIPATION | ADVICE_X_CLUSTERING | ADVICE_X_SETTINGS |
-	                 ADVICE_X_VALIDITY | ADVICE_X_VARIANT,
+	                 ADVICE_X_VALIDITY | ADVICE_X_VARIANT | ADVICE_X_BOUNDED,
 };
 
 /* Candidates: ed, each MC method at its default correction, and every other
@@ -88,6 +95,8 @@ typedef struct {
 	/* expected relative RMS error of T(t) */
 	double bias, statistical, error;   /* error NAN when unknown */
 	int meets;                    /* 1 / 0; -1 without a target */
+	int refused;                  /* 1: the method cannot simulate this scene faithfully (why: the first note);
+	                               * never chosen */
 	unsigned extrapolated;        /* ADVICE_X_* */
 	char notes[768];              /* "; "-separated, "" when none */
 } advice_estimate_t;

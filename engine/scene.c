@@ -1255,11 +1255,9 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 		return fail(c, "obstacles", "method \"%s\" does not support obstacles yet (only \"ed\" does)",
 			    method_names[s->method]);
 	/* dsmc/hsmc: the wall kinds they cannot honour are refused by
-	 * dsmc_plan() (scene_check_start()), naming the key. "auto" has no
-	 * advice for bounded scenes yet. */
-	if ((walls || grav) && s->method == SCENE_METHOD_AUTO)
-		return fail(c, walls ? "boundaries" : "gravity", "method \"auto\" does not support %s yet (choose \"ed\", "
-			    "\"dsmc\" or \"hsmc\")", walls ? "walls" : "gravity");
+	 * dsmc_plan() (scene_check_start()), naming the key. "auto" advises on
+	 * bounded scenes too and takes ed there (advice.h: the MC error model
+	 * is the periodic gas's), so ed's rules below apply to it as well. */
 	bool inelastic = s->restitution < 1, vibrating = false;
 	for (int k = 0; k < s->n_obstacles; k++)
 		inelastic |= s->obstacle[k].restitution < 1;
@@ -1298,10 +1296,12 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 			            "does)", method_names[s->method]);
 	/* (Time-stepped dsmc/hsmc have no collapse: a bounce series under
 	 * gravity ends with the particle resting on the wall, dsmc.h.) */
-	if (s->method == SCENE_METHOD_ED && (walls || obst) && (grav || vibrating) && inelastic && s->tc == 0)
+	if ((s->method == SCENE_METHOD_ED || s->method == SCENE_METHOD_AUTO) && (walls || obst) && (grav || vibrating) &&
+	    inelastic && s->tc == 0)
 		return fail(c, "collisions.tc", "must be > 0 with %s, walls and restitution below 1 (a bed at rest on a wall "
-		            "would collapse: infinitely many collisions in finite time); set collisions.tc, e.g. 1e-5 of "
-		            "the time a particle takes to fall one diameter", grav ? "gravity" : "a vibrating wall");
+		            "would collapse: infinitely many collisions in finite time%s); set collisions.tc, e.g. 1e-5 of "
+		            "the time a particle takes to fall one diameter", grav ? "gravity" : "a vibrating wall",
+		            s->method == SCENE_METHOD_AUTO ? "; method \"auto\" takes ed on such a scene" : "");
 	/* Observables that need what the scene has. */
 	json_t *obs = json_object_get(json_object_get(v, "output"), "observables");
 	if (!obs && scene_has_open_walls(s))
