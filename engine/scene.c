@@ -1369,19 +1369,63 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 		            !strcmp(name, "potential_energy") || !strcmp(name, "obstacle_force") || !strcmp(name, "outflow");
 		if (mine && s->replicas > 1)
 			return fail(c, path, "\"%s\" is not averaged over ensembles yet (run.replicas must be 1)", name);
-		/* cluster search, g(r), S(k) and the velocity correlations take
-		 * distances by the minimum image on every axis */
-		static const char *const periodic_only[] = { "clusters", "pair_correlation", "structure_factor",
-		                                             "velocity_correlations" };
+		/* cluster search, g(r), S(k) and the velocity correlations: minimum image on periodic axes, plain
+		 * differences on walled ones; obstacles take volume out of the box that the ideal-gas normalisation
+		 * does not know, and an open wall removes particles (NaN rows) from a fixed-N normalisation */
+		static const char *const structure[] = { "clusters", "pair_correlation", "structure_factor",
+		                                         "velocity_correlations" };
+		static const char *const periodic_only[] = { "structure_factor", "velocity_correlations" };
+		int periodic_axes = 0;
+		for (int a = 0; a < s->dim; a++)
+			periodic_axes += !s->boundary[a].walled;
+		for (size_t k = 0; k < sizeof structure / sizeof structure[0]; k++) {
+			if (strcmp(name, structure[k]))
+				continue;
+			if (obst)
+				return fail(c, path, "\"%s\" needs a box without obstacles (its ideal-gas normalisation "
+				            "assumes the whole box is open to the particles); not available with obstacles yet",
+				            name);
+			if (scene_has_open_walls(s))
+				return fail(c, path, "\"%s\" is not available with an \"open\" wall yet (it needs a fixed "
+				            "particle set)", name);
+		}
 		for (size_t k = 0; k < sizeof periodic_only / sizeof periodic_only[0]; k++)
-			if ((walls || obst) && !strcmp(name, periodic_only[k]))
-				return fail(c, path, "\"%s\" needs a periodic box without obstacles (distances by the minimum "
-				            "image, a homogeneous volume); not available with %s yet", name, walls ? "walls" : "obstacles");
-		/* unwrapped displacements rely on periodic images and on a speed bound from the kinetic
-		 * energy, which walls (thermal, vibrating), obstacles (thermal) and gravity can raise (engine/observe/msd.h) */
-		if (!strcmp(name, "mean_square_displacement") && (walls || obst || grav))
-			return fail(c, path, "\"mean_square_displacement\" needs a periodic box without gravity or obstacles; "
-			            "not available with %s yet", walls ? "walls" : obst ? "obstacles" : "gravity");
+			if (!periodic_axes && !strcmp(name, periodic_only[k]))
+				return fail(c, path, "\"%s\" needs a periodic axis (its wave vectors run along the periodic "
+				            "axes only); every axis has walls", name);
+		/* unwrapped displacements along periodic axes rely on a speed bound from the mechanical energy
+		 * (engine/observe/msd.h), which must not grow: thermal, moving and vibrating walls, driving and
+		 * gravity along a periodic axis feed it; walled axes need no unwrapping (no bound when none is
+		 * periodic); obstacles (thermal ones feed energy) are left out as before */
+		if (!strcmp(name, "mean_square_displacement")) {
+			int per = 0;
+			for (int a = 0; a < s->dim; a++)
+				per += !s->boundary[a].walled;
+			if (obst)
+				return fail(c, path, "\"mean_square_displacement\" is not available with obstacles yet");
+			if (scene_has_open_walls(s))
+				return fail(c, path, "\"mean_square_displacement\" is not available with an \"open\" wall yet "
+				            "(it needs a fixed particle set)");
+			for (int a = 0; a < s->dim && per; a++) {
+				if (s->gravity[a] != 0 && !s->boundary[a].walled)
+					return fail(c, path, "\"mean_square_displacement\" needs gravity along walled axes only: "
+					            "gravity[%d] is %s along periodic axis %s, where particles fall without bound "
+					            "and no update interval can follow them across images", a,
+					            num(s->gravity[a]).s, axis_names[a]);
+				for (int k = 0; k < 2 && s->boundary[a].walled; k++) {
+					scene_wall_type_t t = s->boundary[a].wall[k].type;
+					if (t == SCENE_WALL_THERMAL || t == SCENE_WALL_MOVING || t == SCENE_WALL_VIBRATING)
+						return fail(c, path, "\"mean_square_displacement\" with a periodic axis needs walls "
+						            "that do not feed energy (specular, rough): boundaries.%s.%s is \"%s\", "
+						            "which leaves the speeds unbounded for following particles across "
+						            "periodic images", axis_names[a], k ? "upper" : "lower", wall_names[t]);
+				}
+			}
+			if (per && s->drive != SCENE_DRIVE_NONE)
+				return fail(c, path, "\"mean_square_displacement\" with a periodic axis is not available with "
+				            "driving (it feeds energy: no speed bound for following particles across periodic "
+				            "images)");
+		}
 		if (!strcmp(name, "obstacle_force") && !obst)
 			return fail(c, path, "\"obstacle_force\" needs obstacles");
 		if (!strcmp(name, "outflow") && !scene_has_open_walls(s))

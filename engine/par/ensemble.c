@@ -113,7 +113,7 @@ int ensemble_combine(const double *vals, int R, const run_record_t *proto, run_r
 	stat(vals, R, V_CEXP, &out->clusters.exponent, &out->se.cluster_exponent);
 	stat(vals, R, V_MSD, &out->obs.msd, &out->se.msd);
 	stat(vals, R, V_DIFF, &out->obs.diffusion, &out->se.diffusion);
-	out->obs.msd_se = NAN;
+	out->obs.msd_se = out->obs.msd_walled = NAN;
 	out->obs.g_pairs_se = NAN;
 	out->clusters.n_particles = proto->n;
 	out->clusters.n_clusters = (uint64_t)llround(sum(vals, R, V_NCL) / R);
@@ -188,7 +188,7 @@ void ensemble_unpack(const double *v, const scene_t *s, run_record_t *r)
 	r->clusters.exponent = v[V_CEXP];
 	r->obs.msd = v[V_MSD];
 	r->obs.diffusion = v[V_DIFF];
-	r->obs.msd_se = NAN;
+	r->obs.msd_se = r->obs.msd_walled = NAN;
 }
 
 /* ---- replica state as a byte string ----------------------------------------
