@@ -139,6 +139,8 @@ static void eng_sample(run_t *rc, smp_t *o)
 		o->rejected_moves = sm.rejected_moves;
 		o->wall_collisions = sm.wall_collisions;
 		memcpy(o->wall_impulse, sm.wall_impulse, sizeof(o->wall_impulse));
+		o->obstacle_collisions = sm.obstacle_collisions;
+		memcpy(o->obstacle_impulse, sm.obstacle_impulse, sizeof(o->obstacle_impulse));
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
 		o->particles = sm.particles;
 		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
@@ -170,6 +172,7 @@ static void eng_totals(const run_t *rc, smp_t *o)
 		o->vmax_raised = sm.vmax_raised, o->cell_collisions = sm.cell_collisions;
 		o->rejected_moves = sm.rejected_moves;
 		o->wall_collisions = sm.wall_collisions;
+		o->obstacle_collisions = sm.obstacle_collisions;
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
 		o->particles = sm.particles;
 		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));

@@ -1251,9 +1251,11 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 	char path[PATHLEN];
 
 	bool obst = scene_has_obstacles(s);
-	if (obst && s->method != SCENE_METHOD_ED)
-		return fail(c, "obstacles", "method \"%s\" does not support obstacles yet (only \"ed\" does)",
-			    method_names[s->method]);
+	/* dsmc/hsmc: the combinations they cannot honour yet (vibrating or
+	 * open walls, contact_value "local") are refused by dsmc_plan(). */
+	if (obst && s->method == SCENE_METHOD_AUTO)
+		return fail(c, "obstacles", "method \"auto\" does not support obstacles yet (choose \"ed\", \"dsmc\" or "
+			    "\"hsmc\")");
 	/* dsmc/hsmc: the wall kinds they cannot honour are refused by
 	 * dsmc_plan() (scene_check_start()), naming the key. "auto" has no
 	 * advice for bounded scenes yet. */
