@@ -107,6 +107,13 @@ static void eng_species(smp_t *o, const ed_sample_t *sm)
 	memcpy(o->species_count, sm->species_count, sizeof o->species_count);
 }
 
+static void mc_species(smp_t *o, const dsmc_sample_t *sm)
+{
+	o->n_species = sm->n_species;
+	memcpy(o->species_ekin, sm->species_kinetic_energy, sizeof o->species_ekin);
+	memcpy(o->species_count, sm->species_count, sizeof o->species_count);
+}
+
 static void eng_sample(run_t *rc, smp_t *o)
 {
 	memset(o, 0, sizeof(*o));
@@ -144,6 +151,7 @@ static void eng_sample(run_t *rc, smp_t *o)
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
 		o->particles = sm.particles;
 		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
+		mc_species(o, &sm);
 	}
 }
 
@@ -176,6 +184,7 @@ static void eng_totals(const run_t *rc, smp_t *o)
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
 		o->particles = sm.particles;
 		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
+		mc_species(o, &sm);
 	}
 }
 

@@ -656,9 +656,10 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 	if (!scene_has_species(s))
 		return 0;
 	const char *what = s->n_species > 1 ? "more than one particle species" : "polydisperse particles";
-	if (s->method != SCENE_METHOD_ED)
+	/* dsmc: periodic boxes without gravity or obstacles (dsmc_plan() refuses the rest, naming the key) */
+	if (s->method != SCENE_METHOD_ED && s->method != SCENE_METHOD_DSMC)
 		return fail(c, "particles.species", "method \"%s\" simulates one species of one radius only; use method "
-			    "\"ed\" for %s", method_names[s->method], what);
+			    "\"ed\" (or \"dsmc\" in a periodic box) for %s", method_names[s->method], what);
 	json_t *col = json_object_get(v, "collisions");
 	if (json_object_get(col, "rough"))
 		return fail(c, "collisions.rough", "rough particles: not supported yet with %s (particles.species)", what);

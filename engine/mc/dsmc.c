@@ -114,6 +114,15 @@ struct dsmc {
 	float *vfac;
 	uint64_t obst_collisions;      /* total */
 	double obst_impulse[SCENE_OBSTACLES_MAX][3];   /* momentum given to each obstacle over the interval */
+	/* Mixtures (step variant M = 1, periodic dsmc only; mix = 0 without):
+	 * species and radius of each particle identity (constant: from the
+	 * scene), each species' mass, each pair's restitution. sigma is the
+	 * largest diameter (the majorant's); mass the mean mass. */
+	int mix, nsp;
+	uint8_t *spc;
+	double *rad;
+	double msp[SCENE_SPECIES_MAX];
+	double pe[SCENE_SPECIES_MAX][SCENE_SPECIES_MAX];
 	void (*step)(struct dsmc *, double);   /* chosen at load: dimension and periodic or bounded */
 };
 
@@ -371,7 +380,7 @@ static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int
 /* Free flight, new cells counted; hsmc rejects moves into cells that were
  * full at the start of the step (free space not updated during the step:
  * order-independent, cells may overfill slightly). Returns E_kin. */
-static ALWAYS_INLINE double move(struct dsmc *d, double dt, const int D)
+static ALWAYS_INLINE double move(struct dsmc *d, double dt, const int D, const int M)
 {
 	const int S = 2 * D;
 	double ek = 0;
@@ -379,9 +388,18 @@ static ALWAYS_INLINE double move(struct dsmc *d, double dt, const int D)
 	for (size_t c = 0; c < d->ncells; c++) {
 		for (uint32_t k = d->start[c]; k < d->start[c + 1]; k++) {
 			double *x = &d->p[(size_t)k * S], *v = x + D, xn[3];
-			for (int a = 0; a < D; a++) {
-				ek += v[a] * v[a];
-				xn[a] = wrap(x[a] + v[a] * dt, d->L[a]);
+			if (M) {   /* mixtures: each particle's own mass */
+				double v2 = 0;
+				for (int a = 0; a < D; a++) {
+					v2 += v[a] * v[a];
+					xn[a] = wrap(x[a] + v[a] * dt, d->L[a]);
+				}
+				ek += d->msp[d->spc[d->id[k]]] * v2;
+			} else {
+				for (int a = 0; a < D; a++) {
+					ek += v[a] * v[a];
+					xn[a] = wrap(x[a] + v[a] * dt, d->L[a]);
+				}
 			}
 			uint32_t cn = cell_of(d, xn, D);
 			if (d->hsmc && cn != c && d->start[cn + 1] - d->start[cn] >= d->nfull) {
@@ -395,7 +413,7 @@ static ALWAYS_INLINE double move(struct dsmc *d, double dt, const int D)
 			d->cnt[cn]++;
 		}
 	}
-	return 0.5 * d->mass * ek;
+	return M ? 0.5 * ek : 0.5 * d->mass * ek;
 }
 
 /* ---- bounded scenes: walls and gravity ------------------------------------ */
@@ -1037,7 +1055,7 @@ static ALWAYS_INLINE int offset_fits(const struct dsmc *d, const double *xi, con
 	         (cj != c && d->start[cj + 1] - d->start[cj] >= d->nfull));
 }
 
-static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const int B)
+static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const int B, const int M)
 {
 	const int S = 2 * D;
 	const double coef = (d->local_chi ? 1.0 : d->chi) * d->sigma_t * dt / (2 * d->vcell);
@@ -1086,7 +1104,18 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 				g2 += g[a] * g[a];
 			}
 			double r = rng_uniform_fast(&d->rng) * vmax;
-			if (r * r >= g2)
+			/* mixtures: the majorant has the largest cross-section sigma^(D-1);
+			 * a pair is accepted with its own, (sigma_ij / sigma)^(D-1) of it */
+			double sij = sigma, w2 = 1;
+			uint32_t si = 0, sj = 0;
+			if (M) {
+				const uint32_t ii = d->id[i], jj = d->id[j];
+				si = d->spc[ii], sj = d->spc[jj];
+				sij = d->rad[ii] + d->rad[jj];
+				const double w = D == 2 ? sij / sigma : (sij / sigma) * (sij / sigma);
+				w2 = w * w;
+			}
+			if (M ? r * r >= g2 * w2 : r * r >= g2)
 				continue;
 			/* Accepted: contact normal n (from j to i) from an impact
 			 * parameter uniform on [-sigma, sigma] (2D) or the disk of
@@ -1121,13 +1150,25 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 				d->bcount[kb < d->bnb ? kb : d->bnb - 1] += 1.0;
 			}
 			double gn = gm * cth;            /* -g.n > 0 */
-			double dv = ehalf * gn;
-			for (int a = 0; a < D; a++) {
-				vi[a] += dv * nrm[a];
-				vj[a] -= dv * nrm[a];
+			if (M) {
+				/* J = (1 + e_ij) mu_ij g_n along n, mu_ij = m_i m_j / (m_i + m_j) */
+				const double e = d->relaxing ? 1.0 : d->pe[si][sj], mi = d->msp[si], mj = d->msp[sj];
+				const double mu = mi * mj / (mi + mj), J = (1 + e) * mu * gn;
+				for (int a = 0; a < D; a++) {
+					vi[a] += J / mi * nrm[a];
+					vj[a] -= J / mj * nrm[a];
+				}
+				virial += sij * J;
+				loss += 0.5 * (1 - e * e) * mu * gn * gn;
+			} else {
+				double dv = ehalf * gn;
+				for (int a = 0; a < D; a++) {
+					vi[a] += dv * nrm[a];
+					vj[a] -= dv * nrm[a];
+				}
+				virial += sigma * d->mass * dv;  /* (sigma n) . J, J = m dv n */
+				loss += eloss * gn * gn;
 			}
-			virial += sigma * d->mass * dv;  /* (sigma n) . J, J = m dv n */
-			loss += eloss * gn * gn;
 			ncoll++;
 			/* Keep v_max a strict bound: |g| <= |v_i - u| + |v_j - u|. */
 			double wi = 0, wj = 0;
@@ -1146,7 +1187,7 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 				 * momentum change (seed 000 sec. 2.4.2). */
 				double *xi = vi - D, *xj = vj - D, sn[3];
 				for (int a = 0; a < D; a++)
-					sn[a] = sigma * nrm[a];
+					sn[a] = sij * nrm[a];
 				if (!B || offset_fits(d, xi, xj, sn, D, (uint32_t)c, B))
 					for (int a = 0; a < D; a++) {
 						xi[a] = wrap(xi[a] + sn[a], d->L[a]);   /* walled axes: inside, wrap is the identity */
@@ -1166,7 +1207,7 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
  * wall-aware neighbours and offsets; B = 2 for bounded scenes with a
  * vibrating wall (flight_vib()). B = 0 compiles to the periodic step
  * with no trace of walls (the variant is chosen once, at load). */
-static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const int B)
+static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const int B, const int M)
 {
 	if (d->hsmc)
 		cell_collisions(d, D, B);
@@ -1174,22 +1215,24 @@ static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const
 	if (B) {
 		ek = move_bounded(d, dt, &d->ekin_int, D, B == 2);
 	} else {
-		ek = move(d, dt, D);
+		ek = move(d, dt, D, M);
 		d->ekin_int += ek * dt;
 	}
 	sort(d, D);
 	d->e_loss = 0;
-	collide(d, dt, D, B);
+	collide(d, dt, D, B, M);
 	d->ekin_est = ek - d->e_loss;
 	d->steps++;
 }
 
-static void step2(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0); }
-static void step3(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0); }
-static void step2b(struct dsmc *d, double dt) { step_dim(d, dt, 2, 1); }
-static void step3b(struct dsmc *d, double dt) { step_dim(d, dt, 3, 1); }
-static void step2v(struct dsmc *d, double dt) { step_dim(d, dt, 2, 2); }
-static void step3v(struct dsmc *d, double dt) { step_dim(d, dt, 3, 2); }
+static void step2(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0, 0); }
+static void step3(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0, 0); }
+static void step2b(struct dsmc *d, double dt) { step_dim(d, dt, 2, 1, 0); }
+static void step3b(struct dsmc *d, double dt) { step_dim(d, dt, 3, 1, 0); }
+static void step2v(struct dsmc *d, double dt) { step_dim(d, dt, 2, 2, 0); }
+static void step3v(struct dsmc *d, double dt) { step_dim(d, dt, 3, 2, 0); }
+static void step2s(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0, 1); }
+static void step3s(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0, 1); }
 
 /* Initial sort (positions only). */
 static void initial_sort(struct dsmc *d)
@@ -1211,6 +1254,20 @@ static double ekin_exact(const struct dsmc *d, double *mom)
 {
 	const int D = d->dim, S = 2 * D;
 	double ek = 0, pm[3] = {0, 0, 0};
+	if (d->mix) {   /* each particle's own mass */
+		for (uint32_t k = 0; k < d->n; k++) {
+			const double m = d->msp[d->spc[d->id[k]]];
+			for (int a = 0; a < D; a++) {
+				double v = d->p[(size_t)k * S + D + a];
+				ek += m * v * v;
+				pm[a] += m * v;
+			}
+		}
+		if (mom)
+			for (int a = 0; a < 3; a++)
+				mom[a] = pm[a];
+		return 0.5 * ek;
+	}
 	for (uint32_t k = 0; k < d->n; k++)
 		for (int a = 0; a < D; a++) {
 			double v = d->p[(size_t)k * S + D + a];
@@ -1359,6 +1416,16 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 	d->dt_grav = d->gnorm > 0 ? sqrt(2 * (d->cps > 0 ? d->cps : 0.2) * hmin / d->gnorm) : INFINITY;
 	vib |= d->open;   /* open walls take the vibrating-wall step too (flight_vib()) */
 	d->step = d->dim == 2 ? (vib ? step2v : d->bounded ? step2b : step2) : (vib ? step3v : d->bounded ? step3b : step3);
+	if (d->mix) {
+		if (d->bounded || d->hsmc) {
+			if (msg && msglen)
+				snprintf(msg, msglen, "particles.species: method \"%s\" runs mixtures (species, polydisperse radii) "
+				         "only in a periodic box without gravity or obstacles (and only method dsmc); use method \"ed\"",
+				         method);
+			return DSMC_EINVAL;
+		}
+		d->step = d->dim == 2 ? step2s : step3s;
+	}
 	return DSMC_OK;
 }
 
@@ -1369,10 +1436,12 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 static int layout(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
 {
 	dsmc_params_t pr;
-	if (scene_has_species(s)) {   /* the parser refuses this too; the engines do not rely on it */
-		set_msg(msg, msglen, "particles.species: %.0f species (or polydisperse), but dsmc/hsmc simulate one "
-		        "species of one radius only; use method \"ed\"", (double)s->n_species);
-		return DSMC_EINVAL;
+	d->mix = scene_has_species(s);
+	d->nsp = d->mix ? s->n_species : 1;
+	for (int a = 0; d->mix && a < s->n_species; a++) {
+		d->msp[a] = s->species[a].mass;
+		for (int b = 0; b < s->n_species; b++)
+			d->pe[a][b] = s->restitution_pair[a][b];
 	}
 	if ((s->dim != 2 && s->dim != 3) || s->count < 2 || s->count > INT32_MAX ||
 	    dsmc_params(s, &pr, NULL, 0) != DSMC_OK) {
@@ -1540,6 +1609,17 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 			goto fail;
 		free_volume(d);
 	}
+	if (d->mix) {
+		d->spc = malloc(d->n);
+		d->rad = malloc(d->n * sizeof(double));
+		if (!d->spc || !d->rad)
+			goto fail;
+		scene_species_radii(s, d->rad);
+		uint32_t i = 0;
+		for (int a = 0; a < s->n_species; a++)
+			for (uint64_t k = 0; k < s->species[a].count && i < d->n; k++)
+				d->spc[i++] = (uint8_t)a;
+	}
 	d->id = malloc(d->n * sizeof(uint32_t));
 	ring_size(d);
 	d->ringp = malloc((size_t)d->ring_n * S * sizeof(double));
@@ -1683,20 +1763,44 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 	for (uint32_t i = 0; i < d->n && s->init_vel; i++)
 		for (int a = 0; a < d->dim; a++)
 			d->p[i * S + d->dim + a] = s->init_vel[(size_t)i * d->dim + a];
-	for (uint32_t i = 0; i < d->n && !s->init_vel; i++)
+	if (d->mix && !s->init_vel) {
+		/* as ed: Gaussian of variance T / m_s for species s, the centre-of-mass
+		 * velocity removed, scaled to exactly T = sum m v^2 / (D N) */
+		double mtot = 0, s2m = 0;
+		for (uint32_t i = 0; i < d->n; i++) {
+			const double m = d->msp[d->spc[i]], sd = 1 / sqrt(m);
+			for (int a = 0; a < d->dim; a++) {
+				double v = sd * rng_gauss(&d->rng);
+				d->p[i * S + d->dim + a] = v;
+				mean[a] += m * v;
+			}
+			mtot += m;
+		}
+		for (uint32_t i = 0; i < d->n; i++)
+			for (int a = 0; a < d->dim; a++) {
+				double *v = &d->p[i * S + d->dim + a];
+				*v -= mean[a] / mtot;
+				s2m += d->msp[d->spc[i]] * *v * *v;
+			}
+		double sc = s2m > 0 ? sqrt(s->temperature * d->dim * d->n / s2m) : 0;
+		for (uint32_t i = 0; i < d->n; i++)
+			for (int a = 0; a < d->dim; a++)
+				d->p[i * S + d->dim + a] *= sc;
+	}
+	for (uint32_t i = 0; i < d->n && !s->init_vel && !d->mix; i++)
 		for (int a = 0; a < d->dim; a++) {
 			double v = rng_gauss(&d->rng);
 			d->p[i * S + d->dim + a] = v;
 			mean[a] += v;
 		}
-	for (uint32_t i = 0; i < d->n && !s->init_vel; i++)
+	for (uint32_t i = 0; i < d->n && !s->init_vel && !d->mix; i++)
 		for (int a = 0; a < d->dim; a++) {
 			double *v = &d->p[i * S + d->dim + a];
 			*v -= mean[a] / d->n;
 			s2 += *v * *v;
 		}
 	double scale = s2 > 0 ? sqrt(s->temperature * d->dim * d->n / (d->mass * s2)) : 0;
-	for (uint32_t i = 0; i < d->n && !s->init_vel; i++)
+	for (uint32_t i = 0; i < d->n && !s->init_vel && !d->mix; i++)
 		for (int a = 0; a < d->dim; a++)
 			d->p[i * S + d->dim + a] *= scale;
 	initial_sort(d);
@@ -1760,6 +1864,8 @@ void dsmc_destroy(dsmc_t *d)
 	free(d->chic);
 	free(d->chit);
 	free(d->vfac);
+	free(d->spc);
+	free(d->rad);
 	free(d);
 }
 
@@ -1787,6 +1893,23 @@ static void walls_out(const struct dsmc *d, dsmc_sample_t *out)
 	out->com_height = d->na ? -gr / (d->gnorm * d->na) : NAN;
 }
 
+/* Mixtures: kinetic energy and count of each species (n_species 0 for one). */
+static void species_out(const struct dsmc *d, dsmc_sample_t *out)
+{
+	out->n_species = d->mix && d->nsp > 1 ? d->nsp : 0;
+	if (!out->n_species)
+		return;
+	const int D = d->dim, S = 2 * D;
+	for (uint32_t k = 0; k < d->n; k++) {
+		const int a = d->spc[d->id[k]];
+		double v2 = 0;
+		for (int b = 0; b < D; b++)
+			v2 += d->p[(size_t)k * S + D + b] * d->p[(size_t)k * S + D + b];
+		out->species_kinetic_energy[a] += 0.5 * d->msp[a] * v2;
+		out->species_count[a]++;
+	}
+}
+
 void dsmc_sample(dsmc_t *d, dsmc_sample_t *out)
 {
 	memset(out, 0, sizeof(*out));
@@ -1804,6 +1927,7 @@ void dsmc_sample(dsmc_t *d, dsmc_sample_t *out)
 	out->ekin_time_integral = d->ekin_int;
 	out->virial = d->virial;
 	walls_out(d, out);
+	species_out(d, out);
 	memcpy(out->wall_impulse, d->wall_impulse, sizeof out->wall_impulse);
 	memset(d->wall_impulse, 0, sizeof d->wall_impulse);
 	memcpy(out->obstacle_impulse, d->obst_impulse, sizeof out->obstacle_impulse);
@@ -1842,6 +1966,7 @@ void dsmc_totals(const dsmc_t *d, dsmc_sample_t *out)
 	out->rejected_moves = d->rejected;
 	out->kinetic_energy = ekin_exact(d, out->momentum);
 	walls_out(d, out);
+	species_out(d, out);
 }
 
 /* ---- state fields (checkpoints) ------------------------------------------
@@ -2063,7 +2188,8 @@ size_t dsmc_memory(const dsmc_t *d)
 	return sizeof(*d) + d->n * S * sizeof(double) + 2 * d->n * sizeof(uint32_t) +
 	       (size_t)(d->ring_n + d->over_n) * (S * sizeof(double) + 2 * sizeof(uint32_t)) +
 	       d->ncells * (2 * sizeof(uint32_t) + sizeof(float) + (d->hsmc ? sizeof(uint32_t) : 0) +
-	                    (d->local_chi ? 2 * sizeof(float) : 0) + (d->nobst ? sizeof(float) : 0));
+	                    (d->local_chi ? 2 * sizeof(float) : 0) + (d->nobst ? sizeof(float) : 0)) +
+	       (d->mix ? d->n * (1 + sizeof(double)) : 0);
 }
 
 int dsmc_plan(const scene_t *s, dsmc_plan_t *out, char *msg, size_t msglen)

@@ -148,6 +148,11 @@ typedef struct {
 	 * to each obstacle over the interval (its force times the interval). */
 	uint64_t obstacle_collisions;
 	double obstacle_impulse[SCENE_OBSTACLES_MAX][3];
+	/* Mixtures (as ed_sample_t): kinetic energy of each species now
+	 * (T_s = 2 E_s / (D N_s)) and its count; n_species = 0 for one species. */
+	int n_species;
+	double species_kinetic_energy[SCENE_SPECIES_MAX];
+	uint64_t species_count[SCENE_SPECIES_MAX];
 } dsmc_sample_t;
 
 /* Fill *out and start a new interval. Does not change the dynamics. */
