@@ -109,6 +109,13 @@ static void eng_species(smp_t *o, const ed_sample_t *sm)
 	memcpy(o->species_count, sm->species_count, sizeof o->species_count);
 }
 
+static void mc_species(smp_t *o, const dsmc_sample_t *sm)
+{
+	o->n_species = sm->n_species;
+	memcpy(o->species_ekin, sm->species_kinetic_energy, sizeof o->species_ekin);
+	memcpy(o->species_count, sm->species_count, sizeof o->species_count);
+}
+
 static void eng_sample(run_t *rc, smp_t *o)
 {
 	memset(o, 0, sizeof(*o));
@@ -143,9 +150,12 @@ static void eng_sample(run_t *rc, smp_t *o)
 		o->rejected_moves = sm.rejected_moves;
 		o->wall_collisions = sm.wall_collisions;
 		memcpy(o->wall_impulse, sm.wall_impulse, sizeof(o->wall_impulse));
+		o->obstacle_collisions = sm.obstacle_collisions;
+		memcpy(o->obstacle_impulse, sm.obstacle_impulse, sizeof(o->obstacle_impulse));
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
 		o->particles = sm.particles;
 		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
+		mc_species(o, &sm);
 	}
 }
 
@@ -177,9 +187,11 @@ static void eng_totals(const run_t *rc, smp_t *o)
 		o->vmax_raised = sm.vmax_raised, o->cell_collisions = sm.cell_collisions;
 		o->rejected_moves = sm.rejected_moves;
 		o->wall_collisions = sm.wall_collisions;
+		o->obstacle_collisions = sm.obstacle_collisions;
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
 		o->particles = sm.particles;
 		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
+		mc_species(o, &sm);
 	}
 }
 

@@ -657,9 +657,10 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 	if (!scene_has_species(s))
 		return 0;
 	const char *what = s->n_species > 1 ? "more than one particle species" : "polydisperse particles";
-	if (s->method != SCENE_METHOD_ED)
+	/* dsmc: periodic boxes without gravity or obstacles (dsmc_plan() refuses the rest, naming the key) */
+	if (s->method != SCENE_METHOD_ED && s->method != SCENE_METHOD_DSMC)
 		return fail(c, "particles.species", "method \"%s\" simulates one species of one radius only; use method "
-			    "\"ed\" for %s", method_names[s->method], what);
+			    "\"ed\" (or \"dsmc\" in a periodic box) for %s", method_names[s->method], what);
 	json_t *col = json_object_get(v, "collisions");
 	if (json_object_get(col, "rough"))
 		return fail(c, "collisions.rough", "rough particles: not supported yet with %s (particles.species)", what);
@@ -1303,9 +1304,11 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 	char path[PATHLEN];
 
 	bool obst = scene_has_obstacles(s);
-	if (obst && s->method != SCENE_METHOD_ED)
-		return fail(c, "obstacles", "method \"%s\" does not support obstacles yet (only \"ed\" does)",
-			    method_names[s->method]);
+	/* dsmc/hsmc: the combinations they cannot honour yet (vibrating or
+	 * open walls, contact_value "local") are refused by dsmc_plan(). */
+	if (obst && s->method == SCENE_METHOD_AUTO)
+		return fail(c, "obstacles", "method \"auto\" does not support obstacles yet (choose \"ed\", \"dsmc\" or "
+			    "\"hsmc\")");
 	/* dsmc/hsmc: the wall kinds they cannot honour are refused by
 	 * dsmc_plan() (scene_check_start()), naming the key. "auto" advises on
 	 * bounded scenes too and takes ed there (advice.h: the MC error model
