@@ -1920,10 +1920,50 @@ static const struct object ed_obj = {
 	},
 };
 
+/* impact_c: [[tau, c], ...], tau >= 0 increasing, c in [-100, 0.99] (c < 1 keeps P(b) finite at b = 1). */
+static int parse_impact(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	scene_t *s = c->s;
+	size_t n = json_is_array(v) ? json_array_size(v) : 0;
+	static const struct range R_C = { -100, 0.99, false };
+	if (!json_is_array(v) || n < 1 || n > SCENE_IMPACT_MAX)
+		return fail(c, path, "must be an array of 1 to %d [collisions_per_particle, c] pairs, got %s", SCENE_IMPACT_MAX,
+			    json_is_array(v) ? "an empty array or too many" : type_name(v));
+	for (size_t k = 0; k < n; k++) {
+		char sub[PATHLEN];
+		json_t *p = json_array_get(v, k);
+		snprintf(sub, sizeof sub, "%s[%zu]", path, k);
+		if (!json_is_array(p) || json_array_size(p) != 2)
+			return fail(c, sub, "must be a pair [collisions_per_particle, c], got %s", type_name(p));
+		snprintf(sub, sizeof sub, "%s[%zu][0]", path, k);
+		int ret = get_number(c, sub, json_array_get(p, 0), &R_NONNEG, &s->mc_impact_tau[k]);
+		if (ret)
+			return ret;
+		if (k > 0 && !(s->mc_impact_tau[k] > s->mc_impact_tau[k - 1]))
+			return fail(c, sub, "the collisions per particle must increase (%s after %s)", num(s->mc_impact_tau[k]).s,
+				    num(s->mc_impact_tau[k - 1]).s);
+		snprintf(sub, sizeof sub, "%s[%zu][1]", path, k);
+		if ((ret = get_number(c, sub, json_array_get(p, 1), &R_C, &s->mc_impact_c[k])) != 0)
+			return ret;
+	}
+	s->mc_impact_n = (int)n;
+	(void)dst, (void)arg;
+	return 0;
+}
+
 static int check_mc(ctx_t *c, const char *path, json_t *v, void *base)
 {
+	scene_t *s = base;
 	if (json_object_get(v, "time_step") && json_object_get(v, "collisions_per_step"))
 		return fail(c, path, "at most one of time_step or collisions_per_step");
+	if (s->mc_impact_n > 0 && (scene_has_walls(s) || scene_has_gravity(s) || scene_has_obstacles(s) ||
+	                           scene_has_species(s))) {
+		char sub[PATHLEN];
+		snprintf(sub, sizeof sub, "%s.impact_c", path);
+		return fail(c, sub, "only in a periodic box of one species without gravity or obstacles (not yet with %s)",
+			    scene_has_species(s) ? "particles.species" : scene_has_obstacles(s) ? "obstacles" :
+			    scene_has_gravity(s) ? "gravity" : "walls");
+	}
 	return 0;
 }
 
@@ -1932,7 +1972,8 @@ static int check_mc(ctx_t *c, const char *path, json_t *v, void *base)
 	{ "time_step", parse_number, offsetof(scene_t, mc_time_step), &R_POS, false }, \
 	{ "collisions_per_step", parse_number, offsetof(scene_t, mc_collisions_per_step), &R_POS, false }, \
 	{ "correction", parse_correction, offsetof(scene_t, mc_correction), NULL, false }, \
-	{ "contact_value", parse_contact, offsetof(scene_t, mc_local_chi), NULL, false }
+	{ "contact_value", parse_contact, offsetof(scene_t, mc_local_chi), NULL, false }, \
+	{ "impact_c", parse_impact, 0, NULL, false }
 
 static const struct object dsmc_obj = {
 	.fields = (const struct field[]){

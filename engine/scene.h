@@ -32,6 +32,8 @@ enum {
 typedef enum { SCENE_METHOD_ED = 0, SCENE_METHOD_DSMC, SCENE_METHOD_HSMC, SCENE_METHOD_AUTO } scene_method_t;
 typedef enum { SCENE_POS_LATTICE = 0, SCENE_POS_RANDOM } scene_positions_t;
 /* Dense-gas correction of the Monte Carlo methods (dsmc.h). */
+#define SCENE_IMPACT_MAX 64   /* points of dsmc/hsmc impact_c */
+
 typedef enum { SCENE_MC_DEFAULT = 0, SCENE_MC_NONE, SCENE_MC_ENSKOG, SCENE_MC_CBA } scene_mc_correction_t;
 /* A stop or output condition: simulated time or collisions per particle. */
 typedef enum { SCENE_CLOCK_NONE = 0, SCENE_CLOCK_TIME, SCENE_CLOCK_CPP, SCENE_CLOCK_WALL } scene_clock_t;
@@ -267,6 +269,12 @@ typedef struct scene {
 	scene_mc_correction_t mc_correction; /* default: none (dsmc), cba (hsmc) */
 	double mc_max_volume_fraction; /* hsmc: cells at or above are full; 0 = default */
 	int mc_local_chi;              /* contact_value: 0 = "global" (mean volume fraction), 1 = "local" (per cell) */
+	/* impact_c: the impact parameter drawn from P(b)/P_chaos = a / (1 - c b^2) (b in diameters; P_chaos = 1 in
+	 * 2D, 2b in 3D) with c(tau) linear in the collisions per particle tau between the points (tau_k, c_k),
+	 * constant beyond them: seed 000's "HSMC corrected" (sec. 3.6, c taken from an ed run). 0 points: molecular
+	 * chaos (uniform b). Periodic, one species only. */
+	int mc_impact_n;
+	double mc_impact_tau[SCENE_IMPACT_MAX], mc_impact_c[SCENE_IMPACT_MAX];
 
 	/* method "auto" only (required there): target for the expected relative
 	 * RMS error of T(t) against exact hard-sphere dynamics, in (0, 1] */

@@ -78,6 +78,8 @@ struct dsmc {
 	uint64_t coll_sample;
 
 	double *bcount;                /* dsmc_count_impacts(): impact-parameter histogram, or NULL */
+	int pb_n;                      /* impact_c points (scene.h), 0: molecular chaos */
+	double pb_tau[SCENE_IMPACT_MAX], pb_c[SCENE_IMPACT_MAX];
 	int bnb;
 	/* Bounded scenes (walls, gravity; all zero in a periodic box without
 	 * gravity, which runs the original step: see step_dim()'s B). */
@@ -1055,14 +1057,48 @@ static ALWAYS_INLINE int offset_fits(const struct dsmc *d, const double *xi, con
 	         (cj != c && d->start[cj + 1] - d->start[cj] >= d->nfull));
 }
 
-static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const int B, const int M)
+/* c of P(b)/P_chaos = a / (1 - c b^2) at tau collisions per particle (impact_c: linear between points). */
+static double impact_c_at(const struct dsmc *d, double tau)
+{
+	int k = 0;
+	if (tau <= d->pb_tau[0])
+		return d->pb_c[0];
+	while (k + 1 < d->pb_n && d->pb_tau[k + 1] < tau)
+		k++;
+	if (k + 1 >= d->pb_n)
+		return d->pb_c[d->pb_n - 1];
+	double w = (tau - d->pb_tau[k]) / (d->pb_tau[k + 1] - d->pb_tau[k]);
+	return d->pb_c[k] + w * (d->pb_c[k + 1] - d->pb_c[k]);
+}
+
+/* |b| (in diameters) from P(b)/P_chaos = a / (1 - c b^2) by its inverse CDF at u in [0, 1): in 2D (P_chaos = 1)
+ * F(b) = atanh(sqrt(c) b) / atanh(sqrt(c)) (c > 0), atan(sqrt(-c) b) / atan(sqrt(-c)) (c < 0), b (c = 0); in 3D
+ * (P_chaos = 2b) b^2 = (1 - (1 - c)^u) / c, b^2 = u at c = 0. k: atanh(sqrt c) or atan(sqrt(-c)) (2D), ln(1 - c)
+ * (3D), precomputed per step. */
+static ALWAYS_INLINE double impact_b(double c, double k, double u, const int D)
+{
+	if (D == 2) {
+		if (c > 1e-12)
+			return tanh(u * k) / sqrt(c);
+		if (c < -1e-12)
+			return tan(u * k) / sqrt(-c);
+		return u;
+	}
+	return sqrt(fabs(c) > 1e-12 ? -expm1(u * k) / c : u);
+}
+
+static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const int B, const int M, const int P)
 {
 	const int S = 2 * D;
 	const double coef = (d->local_chi ? 1.0 : d->chi) * d->sigma_t * dt / (2 * d->vcell);
 	const double ehalf = 0.5 * (1 + d->e), eloss = 0.25 * (1 - d->e * d->e) * d->mass;
 	const double sigma = d->sigma;
-	double virial = 0, loss = 0;
+	double virial = 0, loss = 0, pc = 0, pk = 0;
 	uint64_t ncoll = 0, ncand = 0;
+	if (P) {   /* impact_c: c at the collisions per particle the run has reached, held for the step */
+		pc = impact_c_at(d, 2.0 * (double)d->collisions / (double)d->n);
+		pk = D == 3 ? log1p(-pc) : pc > 1e-12 ? atanh(sqrt(pc)) : pc < -1e-12 ? atan(sqrt(-pc)) : 1;
+	}
 	if (d->local_chi)
 		local_chi(d, D);
 	for (size_t c = 0; c < d->ncells; c++) {
@@ -1124,18 +1160,30 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 			for (int a = 0; a < D; a++)
 				gh[a] = g[a] / gm;
 			if (D == 2) {
-				double bp = 2 * rng_uniform_fast(&d->rng) - 1;
+				double bp;
+				if (P) {   /* |b| from the table's P(b), the sign uniform */
+					bp = impact_b(pc, pk, rng_uniform_fast(&d->rng), 2);
+					bp = rng_uniform_fast(&d->rng) < 0.5 ? -bp : bp;
+				} else {
+					bp = 2 * rng_uniform_fast(&d->rng) - 1;
+				}
 				cth = sqrt(1 - bp * bp);
 				bimp = fabs(bp);
 				nrm[0] = -bp * gh[1] - cth * gh[0];
 				nrm[1] = bp * gh[0] - cth * gh[1];
 			} else {
 				double b1, b2, bb;
-				do {
-					b1 = 2 * rng_uniform_fast(&d->rng) - 1;
-					b2 = 2 * rng_uniform_fast(&d->rng) - 1;
-					bb = b1 * b1 + b2 * b2;
-				} while (bb >= 1);
+				if (P) {   /* |b| from the table's P(b), the direction uniform */
+					double bm = impact_b(pc, pk, rng_uniform_fast(&d->rng), 3), ph = 2 * PI * rng_uniform_fast(&d->rng);
+					bm = bm < 1 ? bm : 1;
+					b1 = bm * cos(ph), b2 = bm * sin(ph), bb = bm * bm;
+				} else {
+					do {
+						b1 = 2 * rng_uniform_fast(&d->rng) - 1;
+						b2 = 2 * rng_uniform_fast(&d->rng) - 1;
+						bb = b1 * b1 + b2 * b2;
+					} while (bb >= 1);
+				}
 				cth = sqrt(1 - bb);
 				bimp = sqrt(bb);
 				/* orthonormal basis e1, e2 perpendicular to gh (Duff et al. 2017) */
@@ -1207,7 +1255,7 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
  * wall-aware neighbours and offsets; B = 2 for bounded scenes with a
  * vibrating wall (flight_vib()). B = 0 compiles to the periodic step
  * with no trace of walls (the variant is chosen once, at load). */
-static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const int B, const int M)
+static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const int B, const int M, const int P)
 {
 	if (d->hsmc)
 		cell_collisions(d, D, B);
@@ -1220,19 +1268,21 @@ static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const
 	}
 	sort(d, D);
 	d->e_loss = 0;
-	collide(d, dt, D, B, M);
+	collide(d, dt, D, B, M, P);
 	d->ekin_est = ek - d->e_loss;
 	d->steps++;
 }
 
-static void step2(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0, 0); }
-static void step3(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0, 0); }
-static void step2b(struct dsmc *d, double dt) { step_dim(d, dt, 2, 1, 0); }
-static void step3b(struct dsmc *d, double dt) { step_dim(d, dt, 3, 1, 0); }
-static void step2v(struct dsmc *d, double dt) { step_dim(d, dt, 2, 2, 0); }
-static void step3v(struct dsmc *d, double dt) { step_dim(d, dt, 3, 2, 0); }
-static void step2s(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0, 1); }
-static void step3s(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0, 1); }
+static void step2(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0, 0, 0); }
+static void step3(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0, 0, 0); }
+static void step2b(struct dsmc *d, double dt) { step_dim(d, dt, 2, 1, 0, 0); }
+static void step3b(struct dsmc *d, double dt) { step_dim(d, dt, 3, 1, 0, 0); }
+static void step2v(struct dsmc *d, double dt) { step_dim(d, dt, 2, 2, 0, 0); }
+static void step3v(struct dsmc *d, double dt) { step_dim(d, dt, 3, 2, 0, 0); }
+static void step2s(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0, 1, 0); }
+static void step3s(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0, 1, 0); }
+static void step2p(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0, 0, 1); }   /* impact_c */
+static void step3p(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0, 0, 1); }
 
 /* Initial sort (positions only). */
 static void initial_sort(struct dsmc *d)
@@ -1425,6 +1475,17 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 			return DSMC_EINVAL;
 		}
 		d->step = d->dim == 2 ? step2s : step3s;
+	}
+	d->pb_n = s->mc_impact_n;
+	memcpy(d->pb_tau, s->mc_impact_tau, sizeof d->pb_tau);
+	memcpy(d->pb_c, s->mc_impact_c, sizeof d->pb_c);
+	if (d->pb_n > 0) {   /* the parser allows it only in a periodic box of one species */
+		if (d->bounded || d->mix) {
+			if (msg && msglen)
+				snprintf(msg, msglen, "%s.impact_c: only in a periodic box of one species", method);
+			return DSMC_EINVAL;
+		}
+		d->step = d->dim == 2 ? step2p : step3p;
 	}
 	return DSMC_OK;
 }
