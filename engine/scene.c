@@ -664,7 +664,7 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 	if (json_object_get(col, "rough"))
 		return fail(c, "collisions.rough", "rough particles: not supported yet with %s (particles.species)", what);
 	json_t *ini = json_object_get(json_object_get(v, "particles"), "initial");
-	static const char *const inits[] = { "from", "region" };
+	static const char *const inits[] = { "from" };   /* a region: place.c places mixtures */
 	for (size_t k = 0; k < sizeof inits / sizeof inits[0]; k++)
 		if (json_object_get(ini, inits[k])) {
 			char sub[PATHLEN];
