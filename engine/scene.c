@@ -663,14 +663,7 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 	json_t *col = json_object_get(v, "collisions");
 	if (json_object_get(col, "rough"))
 		return fail(c, "collisions.rough", "rough particles: not supported yet with %s (particles.species)", what);
-	json_t *ini = json_object_get(json_object_get(v, "particles"), "initial");
-	static const char *const inits[] = { "from" };   /* a region: place.c places mixtures */
-	for (size_t k = 0; k < sizeof inits / sizeof inits[0]; k++)
-		if (json_object_get(ini, inits[k])) {
-			char sub[PATHLEN];
-			snprintf(sub, sizeof sub, "particles.initial.%s", inits[k]);
-			return fail(c, sub, "not with %s (particles.species) yet", what);
-		}
+	/* particles.initial.region and .from: place.c places and checks mixtures, frame.c checks the radii */
 	if (s->replicas > 1)
 		return fail(c, "run.replicas", "ensembles with %s (particles.species) are not supported yet", what);
 	static const struct { unsigned bit; const char *name; } obs[] = {

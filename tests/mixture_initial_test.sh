@@ -129,5 +129,64 @@ sys.exit(0 if 0 in low and 1 in low and len(set(s)) == 2 and 0 < len(low) < len(
 EOF
 ok $? "mix3d-slab: the species mix over the lattice (both in the lower half of the slab)"
 
+# 4. A mixture continued from its own frames starts in them bit for bit (as tests/initial_test.sh for one species).
+# frame FILE WHAT K N D OUT: frame K of /particles/all/WHAT/value.
+frame() { dump "$1" "/particles/all/$2/value" "$6" "$3,0,0" "1,$4,$5"; }
+frames() {
+	h5dump -H -d /particles/all/position/value "$1" 2>/dev/null | sed -n 's/.*DATASPACE *SIMPLE { ( \([0-9]*\),.*/\1/p'
+}
+# continued NAME N D A-DIR B.json K: B (from A-DIR's frame K) starts in it bit for bit.
+continued() {
+	name=$1 np=$2 d=$3 adir=$4 k=$6
+	"$ENGINE" run "$5" --out "$tmp/$name.B" >/dev/null 2>"$tmp/$name.err"
+	rc=$?
+	if [ "$k" -lt 0 ]; then k=$(( $(frames "$adir/trajectory.h5") + k )); fi
+	same=0
+	for what in position velocity; do
+		frame "$adir/trajectory.h5" $what "$k" "$np" "$d" "$tmp/$name.a.$what" &&
+		frame "$tmp/$name.B/trajectory.h5" $what 0 "$np" "$d" "$tmp/$name.b.$what" &&
+		[ -s "$tmp/$name.a.$what" ] && cmp -s "$tmp/$name.a.$what" "$tmp/$name.b.$what" || same=1
+	done
+	# and the diameters it wrote are the frame's
+	dump "$adir/trajectory.h5" /particles/all/diameter "$tmp/$name.a.diam" &&
+	dump "$tmp/$name.B/trajectory.h5" /particles/all/diameter "$tmp/$name.b.diam" &&
+	cmp -s "$tmp/$name.a.diam" "$tmp/$name.b.diam" || same=1
+	[ $rc -eq 0 ] && [ $same -eq 0 ]
+	ok $? "$name: the run from frame $6 starts in it bit for bit, same diameters (exit $rc; $(head -n 1 "$tmp/$name.err"))"
+}
+sed 's|"positions":"random","region":{"lower":\[2,1\],"upper":\[28,32\]}|"from":{"file":"A1/trajectory.h5","frame":-1}|' \
+	"$tmp/a1.json" >"$tmp/b1.json"
+continued mix2d-bed-from 360 2 "$tmp/A1" "$tmp/b1.json" -1
+sed 's|"region":{"lower":\[0,0,5\],"upper":\[10,10,12\]}|"from":{"file":"A3/trajectory.h5","frame":0}|' \
+	"$tmp/a3.json" >"$tmp/b3.json"
+continued mix3d-slab-from 200 3 "$tmp/A3" "$tmp/b3.json" 0
+
+# 5. Bad cases: exit 2, one line on stderr naming the key.
+bad() {
+	"$ENGINE" run "$1" >/dev/null 2>"$tmp/bad.err"
+	rc=$?
+	lines=$(wc -l <"$tmp/bad.err")
+	case "$(head -n 1 "$tmp/bad.err")" in
+	"$2"*) prefix=0 ;;
+	*) prefix=1 ;;
+	esac
+	[ $rc -eq 2 ] && [ "$lines" -eq 1 ] && [ $prefix -eq 0 ]
+	ok $? "$3: exit $rc, $lines line(s): $(head -n 1 "$tmp/bad.err")"
+}
+# another seed draws other polydisperse radii: the frame's diameters do not match (particle 260: the first polydisperse one)
+sed 's/"seed":2/"seed":3/' "$tmp/b1.json" >"$tmp/bad1.json"
+bad "$tmp/bad1.json" "particles.initial.from: particle 260 has diameter" "a polydisperse mixture from a frame of another seed"
+# a species of another radius: the diameters do not match
+sed 's/{"name":"big","count":60,"radius":1.0,"mass":4}/{"name":"big","count":60,"radius":0.9,"mass":4}/' "$tmp/b1.json" >"$tmp/bad2.json"
+bad "$tmp/bad2.json" "particles.initial.from: particle 0 has diameter" "a mixture whose radii differ from the frame's"
+# a one-species frame (constant diameters 1) into a mixture of the same count
+cat >"$tmp/one.json" <<'EOF'
+{"method":"ed","dimensions":3,"particles":{"count":200,"box":[10,10,20]},"collisions":{"restitution":1},
+ "run":{"seed":4,"until":{"time":0.5}},"output":{"every":{"time":0.5},"snapshots":{"every":{"time":0.5}}}}
+EOF
+"$ENGINE" run "$tmp/one.json" --out "$tmp/ONE" >/dev/null 2>&1
+sed 's|A3/trajectory.h5|ONE/trajectory.h5|' "$tmp/b3.json" >"$tmp/bad3.json"
+bad "$tmp/bad3.json" "particles.initial.from: particle 100 has diameter" "a mixture from a one-species frame of other diameters"
+
 echo "1..$n"
 [ $failed -eq 0 ]
