@@ -664,8 +664,6 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 	if (json_object_get(col, "rough"))
 		return fail(c, "collisions.rough", "rough particles: not supported yet with %s (particles.species)", what);
 	/* particles.initial.region and .from: place.c places and checks mixtures, frame.c checks the radii */
-	if (s->replicas > 1)
-		return fail(c, "run.replicas", "ensembles with %s (particles.species) are not supported yet", what);
 	static const struct { unsigned bit; const char *name; } obs[] = {
 		{ SCENE_OBS_CLUSTERS, "clusters" }, { SCENE_OBS_VDIST, "velocity_distribution" },
 		{ SCENE_OBS_GOFR, "pair_correlation" }, { SCENE_OBS_VCORR, "velocity_correlations" },
