@@ -660,9 +660,6 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 	if (s->method != SCENE_METHOD_ED)
 		return fail(c, "particles.species", "method \"%s\" simulates one species of one radius only; use method "
 			    "\"ed\" for %s", method_names[s->method], what);
-	if (s->rough && (scene_has_walls(s) || scene_has_gravity(s) || scene_has_obstacles(s)))
-		return fail(c, "collisions.rough", "rough particles with %s (particles.species): only in a periodic box "
-			    "(no walls, gravity or obstacles) yet", what);
 	/* particles.initial.region and .from: place.c places and checks mixtures, frame.c checks the radii */
 	static const struct { unsigned bit; const char *name; } obs[] = {
 		{ SCENE_OBS_CLUSTERS, "clusters" }, { SCENE_OBS_VDIST, "velocity_distribution" },

@@ -910,9 +910,62 @@ static void test_mixture_equipartition(void)
 	ed_destroy(ed);
 }
 
+
+/* Rough mixtures with specular walls, gravity and a slip obstacle (the
+ * walls and gravity kernels; e = 1 everywhere): beta = +1 and -1 conserve
+ * E_tr + E_rot + E_pot. Walls and the obstacle give no tangential impulse
+ * (spins unchanged there). Tolerance 1e-12 relative over 5e4 collisions
+ * and their wall hits, as test_elastic_limits(): rounding of ~1e-16 per
+ * event as a random walk. */
+static void test_mixture_walls(void)
+{
+	for (int dim = 2; dim <= 3; dim++)
+		for (int b = 0; b < 2; b++) {
+			char json[2048];
+			const double beta = b ? 1.0 : -1.0;
+			const char *ax = dim == 2 ? "y" : "z";
+			snprintf(json, sizeof json,
+			         "{\"method\":\"ed\",\"dimensions\":%d,\"particles\":{\"species\":[{\"name\":\"big\",\"count\":200,"
+			         "\"radius\":0.6,\"mass\":2.5},{\"name\":\"small\",\"count\":400,\"radius_range\":[0.3,0.45],"
+			         "\"mass\":1}],\"box\":%s,\"initial\":{\"positions\":\"random\",\"temperature\":1,"
+			         "\"rotational_temperature\":0.3}},\"collisions\":{\"rough\":{\"tangential_restitution\":%g}},"
+			         "\"boundaries\":{\"%s\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},\"upper\":"
+			         "{\"type\":\"specular\"}}},\"gravity\":%s,\"obstacles\":[{\"type\":\"slip\",\"center\":%s,"
+			         "\"radius\":2}],\"run\":{\"seed\":%d,\"until\":{\"time\":1}}}",
+			         dim, dim == 2 ? "[40,40]" : "[14,14,14]", beta, ax, dim == 2 ? "[0,-0.3]" : "[0,0,-0.3]",
+			         dim == 2 ? "[20,20]" : "[7,7,7]", 40 + 2 * dim + b);
+			scene_t sc;
+			ed_t *ed = make(json, &sc);
+			if (!ed) {
+				ok(0, "%dD rough mixture with walls, gravity, obstacle, beta %+g: setup", dim, beta);
+				continue;
+			}
+			const int kw = dim == 2 ? 1 : 3;
+			double *w0 = malloc(600 * kw * sizeof(double)), *w1 = malloc(600 * kw * sizeof(double));
+			ed_sample_t s0, s1;
+			ed_sample(ed, &s0);
+			ed_spins(ed, w0);
+			ed_advance(ed, INFINITY, 50000, UINT64_MAX);
+			ed_sample(ed, &s1);
+			ed_spins(ed, w1);
+			const int spins_same = !memcmp(w0, w1, 600 * kw * sizeof(double));
+			const double e0 = s0.kinetic_energy + erot_of(&s0) + s0.potential_energy;
+			const double e1 = s1.kinetic_energy + erot_of(&s1) + s1.potential_energy;
+			const double rel = fabs(e1 - e0) / fabs(e0);
+			const int moved = fabs(erot_of(&s1) - erot_of(&s0)) > 1e-3 * fabs(e0);
+			ok(rel < 1e-12 && (b ? moved && !spins_same : spins_same),
+			   "%dD rough mixture, walls + gravity + obstacle, beta = %+g, e = 1: E_tr + E_rot + E_pot conserved to "
+			   "%.2e relative over %llu collisions (E_rot %.4g -> %.4g; spins unchanged: %s)", dim, beta, rel,
+			   (unsigned long long)s1.collisions, erot_of(&s0), erot_of(&s1), spins_same ? "yes" : "no");
+			free(w0);
+			free(w1);
+			ed_destroy(ed);
+		}
+}
+
 int main(void)
 {
-	plan(27 + 9);
+	plan(27 + 13);
 	test_rule();
 	test_walton_switch();
 	test_elastic_limits();
@@ -927,5 +980,6 @@ int main(void)
 	test_pair_rule();
 	test_mixture_elastic();
 	test_mixture_equipartition();
+	test_mixture_walls();
 	return done_testing();
 }

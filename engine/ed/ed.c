@@ -742,12 +742,21 @@ static int obst_clear(const struct ed *ed, const double *r)
 #define VARIANT gs
 #include "ed_inst.h"
 #undef ROUGH
-/* Rough mixtures: the periodic variant (_2dsr, _3dsr) with the rough rule
- * for unequal particles (rough.h, rough_collide_pair()). */
+/* Rough mixtures: the three variants (_2dsr, _3dsr periodic; _2wsr, _3wsr
+ * walls and obstacles; _2gsr, _3gsr gravity) with the rough rule for
+ * unequal particles (rough.h, rough_collide_pair()). */
 #define ROUGH 1
 #define WALLS 0
 #define GRAV 0
 #define VARIANT dsr
+#include "ed_inst.h"
+#define WALLS 1
+#define GRAV 0
+#define VARIANT wsr
+#include "ed_inst.h"
+#define WALLS 1
+#define GRAV 1
+#define VARIANT gsr
 #include "ed_inst.h"
 #undef SPEC
 #undef ROUGH
@@ -799,7 +808,12 @@ static const ed_ops_t ed_ops_species[2][3] = {
 	{ { OPS_COMMON(3ds), OPS_NL(3ds) }, { OPS_COMMON(3ws), .observe = observe_3ws, .enter = enter_3ws },
 	  { OPS_COMMON(3gs), .observe = observe_3gs, .energy_to = energy_to_3gs, .enter = enter_3gs } },
 };
-static const ed_ops_t ed_ops_species_rough[2] = { { OPS_COMMON(2dsr), OPS_NL(2dsr) }, { OPS_COMMON(3dsr), OPS_NL(3dsr) } };
+static const ed_ops_t ed_ops_species_rough[2][3] = {
+	{ { OPS_COMMON(2dsr), OPS_NL(2dsr) }, { OPS_COMMON(2wsr), .observe = observe_2wsr, .enter = enter_2wsr },
+	  { OPS_COMMON(2gsr), .observe = observe_2gsr, .energy_to = energy_to_2gsr, .enter = enter_2gsr } },
+	{ { OPS_COMMON(3dsr), OPS_NL(3dsr) }, { OPS_COMMON(3wsr), .observe = observe_3wsr, .enter = enter_3wsr },
+	  { OPS_COMMON(3gsr), .observe = observe_3gsr, .energy_to = energy_to_3gsr, .enter = enter_3gsr } },
+};
 static const ed_ops_t ed_ops_rough[2][3] = {
 	{ { OPS_COMMON(2dr), OPS_NL(2dr) }, { OPS_COMMON(2wr), .observe = observe_2wr, .enter = enter_2wr },
 	  { OPS_COMMON(2gr), .observe = observe_2gr, .energy_to = energy_to_2gr, .enter = enter_2gr } },
@@ -1680,14 +1694,9 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 	ed->ops = ed->rough ? &ed_ops_rough[ed->dim - 2][ed->variant] : &ed_ops[ed->dim - 2][ed->variant];
 	ed->nsp = 1;
 	if (scene_has_species(s)) {
-		if (ed->rough && ed->variant) {
-			set_msg(msg, msglen, "collisions.rough: rough mixtures (particles.species) only in a periodic box "
-			        "without walls, gravity or obstacles yet%.0s%.0s", 0, 0);
-			return ED_EINVAL;
-		}
 		ed->nsp = s->n_species;   /* tables: setup_species() in ed_alloc() */
 		ed->mixture = 1;
-		ed->ops = ed->rough ? &ed_ops_species_rough[ed->dim - 2] : &ed_ops_species[ed->dim - 2][ed->variant];
+		ed->ops = ed->rough ? &ed_ops_species_rough[ed->dim - 2][ed->variant] : &ed_ops_species[ed->dim - 2][ed->variant];
 	}
 	if (ed->rough) {
 		ed->rbeta = s->rough_beta;
