@@ -206,7 +206,7 @@ struct ed {
 	uint64_t drv_kicks[1];    /* state: kicks so far */
 	rng_t drng;               /* state: the driving's random stream */
 	/* Mixtures (SPEC kernels; scene_has_species(): two or more species or
-	 * polydisperse radii; periodic smooth scenes): spc[i] the species and
+	 * polydisperse radii; any variant, smooth or rough): spc[i] the species and
 	 * prad[i] the radius of particle i in storage order (permuted with the
 	 * records by reorder(), rebuilt from id on restore: not state fields of
 	 * their own); species k holds the scene indices [first[k], first[k + 1]).

@@ -10,7 +10,7 @@
  * (rough particles: spins in ed->spin, the rough collision rule) is a
  * further flag on top of any of them. SPEC (mixtures: contact distance
  * from the particles' radii ed->prad, restitution and masses from the pair
- * tables by ed->spc; periodic smooth scenes only) replaces ed->sigma2, ed->e
+ * tables by ed->spc; any variant, smooth or ROUGH) replaces ed->sigma2, ed->e
  * and ed->mass in predictions, collisions and energies; without it they are
  * the one species' constants.
  */
