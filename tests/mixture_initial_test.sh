@@ -135,16 +135,18 @@ frame() { dump "$1" "/particles/all/$2/value" "$6" "$3,0,0" "1,$4,$5"; }
 frames() {
 	h5dump -H -d /particles/all/position/value "$1" 2>/dev/null | sed -n 's/.*DATASPACE *SIMPLE { ( \([0-9]*\),.*/\1/p'
 }
-# continued NAME N D A-DIR B.json K: B (from A-DIR's frame K) starts in it bit for bit.
+# continued NAME N D A-DIR B.json K [DW]: B (from A-DIR's frame K) starts in it bit for bit (with DW, rough
+# particles, the DW components of the angular velocities too).
 continued() {
-	name=$1 np=$2 d=$3 adir=$4 k=$6
+	name=$1 np=$2 d=$3 adir=$4 k=$6 dw=${7:-}
 	"$ENGINE" run "$5" --out "$tmp/$name.B" >/dev/null 2>"$tmp/$name.err"
 	rc=$?
 	if [ "$k" -lt 0 ]; then k=$(( $(frames "$adir/trajectory.h5") + k )); fi
 	same=0
-	for what in position velocity; do
-		frame "$adir/trajectory.h5" $what "$k" "$np" "$d" "$tmp/$name.a.$what" &&
-		frame "$tmp/$name.B/trajectory.h5" $what 0 "$np" "$d" "$tmp/$name.b.$what" &&
+	for what in position velocity ${dw:+angular_velocity}; do
+		dd=$d; [ $what = angular_velocity ] && dd=$dw
+		frame "$adir/trajectory.h5" $what "$k" "$np" "$dd" "$tmp/$name.a.$what" &&
+		frame "$tmp/$name.B/trajectory.h5" $what 0 "$np" "$dd" "$tmp/$name.b.$what" &&
 		[ -s "$tmp/$name.a.$what" ] && cmp -s "$tmp/$name.a.$what" "$tmp/$name.b.$what" || same=1
 	done
 	# and the diameters it wrote are the frame's
@@ -160,6 +162,20 @@ continued mix2d-bed-from 360 2 "$tmp/A1" "$tmp/b1.json" -1
 sed 's|"region":{"lower":\[0,0,5\],"upper":\[10,10,12\]}|"from":{"file":"A3/trajectory.h5","frame":0}|' \
 	"$tmp/a3.json" >"$tmp/b3.json"
 continued mix3d-slab-from 200 3 "$tmp/A3" "$tmp/b3.json" 0
+# rough mixture between walls under gravity, placed in a region: continued with its spins
+cat >"$tmp/a4.json" <<'EOF'
+{"method":"ed","dimensions":3,
+ "particles":{"species":[{"name":"a","count":80,"radius":0.6,"mass":2},{"name":"b","count":120,"radius_range":[0.3,0.5],"mass":1}],
+  "box":[10,10,16],"initial":{"positions":"random","region":{"upper":[10,10,9]},"rotational_temperature":0.5}},
+ "collisions":{"restitution":0.9,"tc":1e-4,"rough":{"tangential_restitution":0.4}},
+ "boundaries":{"z":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"specular"}}},"gravity":[0,0,-0.5],
+ "run":{"seed":6,"until":{"time":1}},"output":{"every":{"time":0.5},"snapshots":{"every":{"time":0.5}}}}
+EOF
+"$ENGINE" run "$tmp/a4.json" --out "$tmp/A4" >/dev/null 2>"$tmp/err4"
+inregion rough3d-bed "$tmp/A4" 200 3 0,0,0 10,10,9 80,120 10,10,-16 ""
+ok $? "rough3d-bed: a rough mixture placed in a region (its own radius from the floor and the region's top)"
+sed 's|"positions":"random","region":{"upper":\[10,10,9\]},"rotational_temperature":0.5|"from":{"file":"A4/trajectory.h5"}|' "$tmp/a4.json" >"$tmp/b4.json"
+continued rough3d-bed-from 200 3 "$tmp/A4" "$tmp/b4.json" -1 3
 
 # 5. Bad cases: exit 2, one line on stderr naming the key.
 bad() {
