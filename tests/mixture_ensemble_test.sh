@@ -1,5 +1,5 @@
 #!/bin/sh
-# Ensembles of mixtures (particles.species with run.replicas > 1) through the real program: each replica on its own stream, per-species means, resume (TAP).
+# Ensembles of mixtures (particles.species with run.replicas > 1) through the real program: each replica on its own stream, per-species means; resume of ensembles and of a rough mixture (TAP).
 set -u
 : "${SRCDIR:=$(cd "$(dirname "$0")/.." && pwd)}"
 : "${ENGINE:=$SRCDIR/engine/granular-engine}"
@@ -106,6 +106,27 @@ strip "$tmp/C/progress.jsonl" >"$tmp/c.txt"; strip "$tmp/R/progress.jsonl" >"$tm
 	h5diff -q "$tmp/C/trajectory.h5" "$tmp/R/trajectory.h5" /particles /particles &&
 	h5diff -q "$tmp/C/trajectory.h5" "$tmp/R/trajectory.h5" /observables /observables
 ok $? "resume from checkpoint.prev.h5: progress, frames and observables identical (exit $rc, $rc2; $(head -n 1 "$tmp/ck.err"))"
+
+# 6. A single rough mixture between a specular floor and a thermal ceiling under gravity, Walton's rule, TC:
+# resumed from its earlier checkpoint it ends as the uninterrupted run, bit for bit (spins, species, walls).
+cat >"$tmp/rk.json" <<'EOF'
+{"method":"ed","dimensions":3,
+ "particles":{"species":[{"name":"a","count":300,"radius":0.6,"mass":2},{"name":"b","count":500,"radius_range":[0.3,0.5],"mass":1}],
+  "box":[14,14,20],"initial":{"positions":"random","rotational_temperature":0.5}},
+ "collisions":{"restitution":0.9,"tc":1e-4,"rough":{"tangential_restitution":0.4,"friction":0.3}},
+ "boundaries":{"z":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"thermal","temperature":1}}},"gravity":[0,0,-0.5],
+ "run":{"seed":6,"until":{"time":6}},"output":{"every":{"time":0.5},"observables":["temperature","rotational_temperature","center_of_mass_height"],"snapshots":{"every":{"time":1}},"checkpoint":{"every":{"time":2.2}}}}
+EOF
+"$ENGINE" run "$tmp/rk.json" --out "$tmp/RC" >/dev/null 2>"$tmp/rk.err"
+rc=$?
+cp -r "$tmp/RC" "$tmp/RR"
+"$ENGINE" run "$tmp/rk.json" --resume "$tmp/RR/checkpoint.prev.h5" --out "$tmp/RR" >/dev/null 2>>"$tmp/rk.err"
+rc2=$?
+strip "$tmp/RC/progress.jsonl" >"$tmp/rc.txt"; strip "$tmp/RR/progress.jsonl" >"$tmp/rr.txt"
+[ $rc -eq 0 ] && [ $rc2 -eq 0 ] && cmp -s "$tmp/rc.txt" "$tmp/rr.txt" &&
+	h5diff -q "$tmp/RC/trajectory.h5" "$tmp/RR/trajectory.h5" /particles /particles &&
+	h5diff -q "$tmp/RC/trajectory.h5" "$tmp/RR/trajectory.h5" /observables /observables
+ok $? "rough mixture with walls and gravity: resume from checkpoint.prev.h5 identical (exit $rc, $rc2; $(head -n 1 "$tmp/rk.err"))"
 
 echo "1..$n"
 [ $failed -eq 0 ]
