@@ -390,7 +390,7 @@
     const names = [];
     for (const a of AXES) {
       const b = sc.boundaries && sc.boundaries[a];
-      if (b && b.type === 'walls') for (const end of ['lower', 'upper']) if (b[end] && b[end].type === 'open') names.push(a + '.' + end);
+      if (b && b.type === 'walls') for (const end of ['lower', 'upper']) if (b[end] && (b[end].type === 'open' || b[end].type === 'reservoir')) names.push(a + '.' + end);
     }
     return names;
   }
@@ -443,11 +443,18 @@
       lines(recs, sc) {
         const names = openWalls(sc);
         for (const r of recs) for (const w of Object.keys(r.outflow || {})) if (!names.includes(w)) names.push(w);
+        // reservoir walls (docs/scene.md) also let particles in: their inflow counts per wall
+        const ins = [];
+        for (const r of recs) for (const w of Object.keys(r.inflow || {})) if (!ins.includes(w)) ins.push(w);
         const cols = [recs.map((r) => fin(r.particles_present))]
-          .concat(names.map((w) => recs.map((r) => (r.outflow ? fin(r.outflow[w] ?? 0) : null))));
+          .concat(names.map((w) => recs.map((r) => (r.outflow ? fin(r.outflow[w] ?? 0) : null))))
+          .concat(ins.map((w) => recs.map((r) => (r.inflow ? fin(r.inflow[w] ?? 0) : null))));
         const l = last(recs);
-        return { labels: ['present'].concat(names.map((w) => 'out ' + w)), cols,
-          info: recs.length ? cnt(l.particles_present) + ' particles present at time ' + fmt(l.time) : '' };
+        const sum = (o) => Object.values(o || {}).reduce((a, x) => a + x, 0);
+        return { labels: ['present'].concat(names.map((w) => 'out ' + w), ins.map((w) => 'in ' + w)), cols,
+          info: recs.length ? cnt(l.particles_present) + ' particles present at time ' + fmt(l.time) +
+            (ins.length ? '; ' + cnt(sum(l.inflow)) + ' came in through reservoir walls (' + cnt(sum(l.inflow_rejected)) +
+              ' entries rejected: overlap)' : '') : '' };
       } },
     { id: 'height', ylabel: 'height', shown: (o) => o.includes('center_of_mass_height'),
       lines(recs) {

@@ -109,6 +109,13 @@ static void eng_species(smp_t *o, const ed_sample_t *sm)
 	memcpy(o->species_count, sm->species_count, sizeof o->species_count);
 }
 
+static void mc_species(smp_t *o, const dsmc_sample_t *sm)
+{
+	o->n_species = sm->n_species;
+	memcpy(o->species_ekin, sm->species_kinetic_energy, sizeof o->species_ekin);
+	memcpy(o->species_count, sm->species_count, sizeof o->species_count);
+}
+
 static void eng_sample(run_t *rc, smp_t *o)
 {
 	memset(o, 0, sizeof(*o));
@@ -143,9 +150,12 @@ static void eng_sample(run_t *rc, smp_t *o)
 		o->rejected_moves = sm.rejected_moves;
 		o->wall_collisions = sm.wall_collisions;
 		memcpy(o->wall_impulse, sm.wall_impulse, sizeof(o->wall_impulse));
+		o->obstacle_collisions = sm.obstacle_collisions;
+		memcpy(o->obstacle_impulse, sm.obstacle_impulse, sizeof(o->obstacle_impulse));
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
 		o->particles = sm.particles;
 		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
+		mc_species(o, &sm);
 	}
 }
 
@@ -166,6 +176,7 @@ static void eng_totals(const run_t *rc, smp_t *o)
 		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
 		memcpy(o->wall_inflow, sm.wall_inflow, sizeof(o->wall_inflow));
 		memcpy(o->wall_rejected, sm.wall_rejected, sizeof(o->wall_rejected));
+		o->rotational_energy = sm.rotational_energy;
 		eng_species(o, &sm);
 	} else {
 		dsmc_sample_t sm;
@@ -176,9 +187,11 @@ static void eng_totals(const run_t *rc, smp_t *o)
 		o->vmax_raised = sm.vmax_raised, o->cell_collisions = sm.cell_collisions;
 		o->rejected_moves = sm.rejected_moves;
 		o->wall_collisions = sm.wall_collisions;
+		o->obstacle_collisions = sm.obstacle_collisions;
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
 		o->particles = sm.particles;
 		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
+		mc_species(o, &sm);
 	}
 }
 
@@ -221,16 +234,31 @@ static uint64_t eng_collisions(const run_t *rc)
 	return rc->ed ? ed_collisions(rc->ed) : dsmc_collisions(rc->mc);
 }
 
-/* mean_square_displacement: unwrap the present positions (or take them as the origin). */
+/* mean_square_displacement: unwrap the present positions (or take them as the origin). The speed bound's
+ * energy (observe/msd.h): the kinetic energy, plus the rotational energy of rough particles (collisions
+ * turn it into translation); with gravity the kinetic energy now, from the velocities (ed's totals hold
+ * it at the last event), to which msd adds the potential energy above its least value. */
 static void msd_follow(run_t *rc)
 {
+	const scene_t *s = &rc->s;
 	smp_t sm;
 	eng_totals(rc, &sm);
-	eng_state(rc, rc->pos, NULL);
+	double e = sm.kinetic_energy;
+	if (scene_has_gravity(s)) {
+		eng_state(rc, rc->pos, rc->vel);
+		double v2 = 0.0;
+		for (size_t k = 0; k < s->count * (size_t)s->dim; k++)
+			v2 += rc->vel[k] * rc->vel[k];
+		e = 0.5 * s->mass * v2;
+	} else {
+		eng_state(rc, rc->pos, NULL);
+	}
+	if (s->rough && isfinite(sm.rotational_energy))
+		e += sm.rotational_energy;
 	if (rc->st.started)
-		msd_update(rc->msd, sm.time, rc->pos, sm.kinetic_energy);
+		msd_update(rc->msd, sm.time, rc->pos, e);
 	else
-		msd_origin(rc->msd, sm.time, rc->pos, sm.kinetic_energy);
+		msd_origin(rc->msd, sm.time, rc->pos, e);
 }
 
 /* flux: sum_i v_i . g_hat / volume and its standard error over particles (observe.h). */
@@ -343,7 +371,7 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 			return RUN_ENOMEM;
 	}
 	r->obs.a2 = r->obs.a3 = r->obs.g_pairs = r->obs.g_pairs_se = r->obs.g_rate = r->obs.g_pressure = NAN;
-	r->obs.msd = r->obs.msd_se = r->obs.diffusion = NAN;
+	r->obs.msd = r->obs.msd_se = r->obs.diffusion = r->obs.msd_walled = NAN;
 	r->obs.flux = r->obs.flux_se = NAN;
 	if (s->observables & SCENE_OBS_FLUX) {
 		eng_state(rc, rc->pos, rc->vel);
@@ -353,9 +381,17 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 		msd_follow(rc);
 		r->obs.msd = msd_value(rc->msd, &r->obs.msd_se);
 		double dt = sm.time - rc->msd_tprev;
-		if (rc->st.started && dt > 0.0)
-			r->obs.diffusion = (r->obs.msd - rc->msd_prev) / (2.0 * s->dim * dt);
-		rc->msd_prev = r->obs.msd;
+		/* with walls: D along the periodic axes only (the walled part saturates); msd_prev is then
+		 * the periodic part */
+		int dp = 0;
+		for (int a = 0; a < s->dim; a++)
+			dp += !s->boundary[a].walled;
+		double m = dp == s->dim ? r->obs.msd : msd_value_axes(rc->msd, 0);
+		if (dp < s->dim)
+			r->obs.msd_walled = msd_value_axes(rc->msd, 1);
+		if (rc->st.started && dt > 0.0 && dp > 0)
+			r->obs.diffusion = (m - rc->msd_prev) / (2.0 * dp * dt);
+		rc->msd_prev = m;
 		rc->msd_tprev = sm.time;
 	}
 	if (rc->obs && (s->observables & (SCENE_OBS_VDIST | SCENE_OBS_GOFR))) {
@@ -634,6 +670,18 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		r->msd = msd_create(s->dim, s->count, s->box, s->mass, r->ed ? 0.45 : 0.25);
 		if (!r->msd)
 			goto nomem;
+		if (scene_has_walls(s) || scene_has_gravity(s)) {
+			int walled[3];
+			for (int a = 0; a < 3; a++)
+				walled[a] = s->boundary[a].walled;
+			if (msd_walls(r->msd, walled, s->gravity, s->radius) != 0) {   /* scene_parse() refuses these */
+				*err = RUN_ESETUP;
+				if (msg && msglen)
+					snprintf(msg, msglen, "mean_square_displacement: gravity along a periodic axis");
+				run_destroy(r);
+				return NULL;
+			}
+		}
 	}
 	if (r->obs) {
 		/* impact parameters: the engine counts into the observables' histogram */
@@ -653,8 +701,13 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		r->cl = clusters_create(s->dim, s->count);
 		if (!r->cl)
 			goto nomem;
+		int walled[3];
+		for (int a = 0; a < 3; a++)
+			walled[a] = s->boundary[a].walled;
+		clusters_walls(r->cl, walled);
 	}
-	if (r->opts.snapshots || r->obs || (s->observables & SCENE_OBS_FLUX)) {
+	if (r->opts.snapshots || r->obs || (s->observables & SCENE_OBS_FLUX) ||
+	    ((s->observables & SCENE_OBS_MSD) && scene_has_gravity(s))) {
 		r->vel = malloc(scene_slots(s) * s->dim * sizeof(double));
 		if (!r->vel)
 			goto nomem;

@@ -657,10 +657,30 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 	if (!scene_has_species(s))
 		return 0;
 	const char *what = s->n_species > 1 ? "more than one particle species" : "polydisperse particles";
-	if (s->method != SCENE_METHOD_ED)
+	/* dsmc: periodic boxes without gravity or obstacles (dsmc_plan() refuses the rest, naming the key) */
+	if (s->method != SCENE_METHOD_ED && s->method != SCENE_METHOD_DSMC)
 		return fail(c, "particles.species", "method \"%s\" simulates one species of one radius only; use method "
-			    "\"ed\" for %s", method_names[s->method], what);
-	/* particles.initial.region and .from: place.c places and checks mixtures, frame.c checks the radii */
+			    "\"ed\" (or \"dsmc\" in a periodic box) for %s", method_names[s->method], what);
+	/* ed: particles.initial.region and .from (place.c, frame.c), run.replicas and collisions.rough work with
+	 * mixtures; dsmc mixtures not yet (untested there) */
+	if (s->method != SCENE_METHOD_ED) {
+		json_t *col = json_object_get(v, "collisions");
+		if (json_object_get(col, "rough"))
+			return fail(c, "collisions.rough", "rough particles: not supported yet with %s (particles.species) "
+				    "in method \"%s\"; use method \"ed\"", what, method_names[s->method]);
+		json_t *ini = json_object_get(json_object_get(v, "particles"), "initial");
+		static const char *const inits[] = { "from", "region" };
+		for (size_t k = 0; k < sizeof inits / sizeof inits[0]; k++)
+			if (json_object_get(ini, inits[k])) {
+				char sub[PATHLEN];
+				snprintf(sub, sizeof sub, "particles.initial.%s", inits[k]);
+				return fail(c, sub, "not with %s (particles.species) in method \"%s\" yet; use method \"ed\"",
+					    what, method_names[s->method]);
+			}
+		if (s->replicas > 1)
+			return fail(c, "run.replicas", "ensembles with %s (particles.species) in method \"%s\" are not "
+				    "supported yet; use method \"ed\"", what, method_names[s->method]);
+	}
 	static const struct { unsigned bit; const char *name; } obs[] = {
 		{ SCENE_OBS_CLUSTERS, "clusters" }, { SCENE_OBS_VDIST, "velocity_distribution" },
 		{ SCENE_OBS_GOFR, "pair_correlation" }, { SCENE_OBS_VCORR, "velocity_correlations" },
@@ -1291,9 +1311,11 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 	char path[PATHLEN];
 
 	bool obst = scene_has_obstacles(s);
-	if (obst && s->method != SCENE_METHOD_ED)
-		return fail(c, "obstacles", "method \"%s\" does not support obstacles yet (only \"ed\" does)",
-			    method_names[s->method]);
+	/* dsmc/hsmc: the combinations they cannot honour yet (vibrating or
+	 * open walls, contact_value "local") are refused by dsmc_plan(). */
+	if (obst && s->method == SCENE_METHOD_AUTO)
+		return fail(c, "obstacles", "method \"auto\" does not support obstacles yet (choose \"ed\", \"dsmc\" or "
+			    "\"hsmc\")");
 	/* dsmc/hsmc: the wall kinds they cannot honour are refused by
 	 * dsmc_plan() (scene_check_start()), naming the key. "auto" advises on
 	 * bounded scenes too and takes ed there (advice.h: the MC error model
@@ -1357,19 +1379,63 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 		            !strcmp(name, "potential_energy") || !strcmp(name, "obstacle_force") || !strcmp(name, "outflow");
 		if (mine && s->replicas > 1)
 			return fail(c, path, "\"%s\" is not averaged over ensembles yet (run.replicas must be 1)", name);
-		/* cluster search, g(r), S(k) and the velocity correlations take
-		 * distances by the minimum image on every axis */
-		static const char *const periodic_only[] = { "clusters", "pair_correlation", "structure_factor",
-		                                             "velocity_correlations" };
+		/* cluster search, g(r), S(k) and the velocity correlations: minimum image on periodic axes, plain
+		 * differences on walled ones; obstacles take volume out of the box that the ideal-gas normalisation
+		 * does not know, and an open wall removes particles (NaN rows) from a fixed-N normalisation */
+		static const char *const structure[] = { "clusters", "pair_correlation", "structure_factor",
+		                                         "velocity_correlations" };
+		static const char *const periodic_only[] = { "structure_factor", "velocity_correlations" };
+		int periodic_axes = 0;
+		for (int a = 0; a < s->dim; a++)
+			periodic_axes += !s->boundary[a].walled;
+		for (size_t k = 0; k < sizeof structure / sizeof structure[0]; k++) {
+			if (strcmp(name, structure[k]))
+				continue;
+			if (obst)
+				return fail(c, path, "\"%s\" needs a box without obstacles (its ideal-gas normalisation "
+				            "assumes the whole box is open to the particles); not available with obstacles yet",
+				            name);
+			if (scene_has_open_walls(s))
+				return fail(c, path, "\"%s\" is not available with an \"open\" wall yet (it needs a fixed "
+				            "particle set)", name);
+		}
 		for (size_t k = 0; k < sizeof periodic_only / sizeof periodic_only[0]; k++)
-			if ((walls || obst) && !strcmp(name, periodic_only[k]))
-				return fail(c, path, "\"%s\" needs a periodic box without obstacles (distances by the minimum "
-				            "image, a homogeneous volume); not available with %s yet", name, walls ? "walls" : "obstacles");
-		/* unwrapped displacements rely on periodic images and on a speed bound from the kinetic
-		 * energy, which walls (thermal, vibrating), obstacles (thermal) and gravity can raise (engine/observe/msd.h) */
-		if (!strcmp(name, "mean_square_displacement") && (walls || obst || grav))
-			return fail(c, path, "\"mean_square_displacement\" needs a periodic box without gravity or obstacles; "
-			            "not available with %s yet", walls ? "walls" : obst ? "obstacles" : "gravity");
+			if (!periodic_axes && !strcmp(name, periodic_only[k]))
+				return fail(c, path, "\"%s\" needs a periodic axis (its wave vectors run along the periodic "
+				            "axes only); every axis has walls", name);
+		/* unwrapped displacements along periodic axes rely on a speed bound from the mechanical energy
+		 * (engine/observe/msd.h), which must not grow: thermal, moving and vibrating walls, driving and
+		 * gravity along a periodic axis feed it; walled axes need no unwrapping (no bound when none is
+		 * periodic); obstacles (thermal ones feed energy) are left out as before */
+		if (!strcmp(name, "mean_square_displacement")) {
+			int per = 0;
+			for (int a = 0; a < s->dim; a++)
+				per += !s->boundary[a].walled;
+			if (obst)
+				return fail(c, path, "\"mean_square_displacement\" is not available with obstacles yet");
+			if (scene_has_open_walls(s))
+				return fail(c, path, "\"mean_square_displacement\" is not available with an \"open\" wall yet "
+				            "(it needs a fixed particle set)");
+			for (int a = 0; a < s->dim && per; a++) {
+				if (s->gravity[a] != 0 && !s->boundary[a].walled)
+					return fail(c, path, "\"mean_square_displacement\" needs gravity along walled axes only: "
+					            "gravity[%d] is %s along periodic axis %s, where particles fall without bound "
+					            "and no update interval can follow them across images", a,
+					            num(s->gravity[a]).s, axis_names[a]);
+				for (int k = 0; k < 2 && s->boundary[a].walled; k++) {
+					scene_wall_type_t t = s->boundary[a].wall[k].type;
+					if (t == SCENE_WALL_THERMAL || t == SCENE_WALL_MOVING || t == SCENE_WALL_VIBRATING)
+						return fail(c, path, "\"mean_square_displacement\" with a periodic axis needs walls "
+						            "that do not feed energy (specular, rough): boundaries.%s.%s is \"%s\", "
+						            "which leaves the speeds unbounded for following particles across "
+						            "periodic images", axis_names[a], k ? "upper" : "lower", wall_names[t]);
+				}
+			}
+			if (per && s->drive != SCENE_DRIVE_NONE)
+				return fail(c, path, "\"mean_square_displacement\" with a periodic axis is not available with "
+				            "driving (it feeds energy: no speed bound for following particles across periodic "
+				            "images)");
+		}
 		if (!strcmp(name, "obstacle_force") && !obst)
 			return fail(c, path, "\"obstacle_force\" needs obstacles");
 		if (!strcmp(name, "outflow") && !scene_has_open_walls(s))

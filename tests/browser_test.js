@@ -293,6 +293,20 @@ const OBS = ['walls', 'obstacles', 'outflow', 'height', 'energies', 'msd', 'diff
     ok(tpx > 50 && lt.includes('T_rot') && await page.isVisible('#trot-title') && (await page.textContent('#haff')).includes('T_rot/T = ' + ratio),
       `T_rot drawn beside T (${tpx} px, legend ${lt.slice(1).join('/')}): ${await page.textContent('#haff')}`);
     await page.screenshot({ path: shot.replace(/\.png$/, '') + '-observables.png', fullPage: true });
+    // A stream between reservoir walls: the outflow panel counts what came in through each too.
+    const sid = await submitScene({ method: 'ed', dimensions: 2,
+      particles: { count: 200, box: [40, 20], initial: { positions: 'random', velocity: [0.5, 0] } },
+      boundaries: { x: { type: 'walls', lower: { type: 'reservoir', volume_fraction: 0.2, velocity: [0.5, 0], temperature: 1 },
+        upper: { type: 'reservoir', volume_fraction: 0.2, velocity: [0.5, 0], temperature: 1 } } },
+      run: { seed: 4, until: { time: 20 } }, output: { every: { time: 2 }, observables: ['temperature', 'outflow'] } }, wid);
+    const srecs = (await page.evaluate(async (i) => (await (await fetch('/api/v1/jobs/' + i + '/progress')).json()), sid))
+      .records.filter((r) => r.type === 'progress');
+    const slr = srecs[srecs.length - 1], sin = Object.values(slr.inflow || {}).reduce((a, x) => a + x, 0);
+    await page.waitForFunction((c) => document.getElementById('plot-outflow-info').textContent.startsWith(c + ' particles present'),
+      String(slr.particles_present), { timeout: 10000 }).catch(() => {});
+    const sinfo = await page.textContent('#plot-outflow-info'), slf = await legend('outflow');
+    ok(sin > 0 && slf.includes('in x.lower') && slf.includes('out x.upper') && sinfo.includes(sin + ' came in through reservoir walls'),
+      `job ${sid} between reservoir walls: inflow drawn (${slf.slice(1).join('/')}): ${sinfo}`);
 
     // "no data" on a plot whose observable the scene did not ask for; the plot that has data does not say it.
     // A periodic scene: no wall, obstacle, outflow or gravity panel, no T_rot; MSD and D(t) for mean_square_displacement.

@@ -598,6 +598,87 @@ static void test_large(void)
 	}
 }
 
+/* Brute force: clusters over all pairs, minimum image on periodic axes only. */
+static uint64_t brute_clusters(int dim, size_t n, const double *pos, const double *box, const int *walled, double cut)
+{
+	uint32_t *par = malloc(n * sizeof(uint32_t));
+	for (size_t i = 0; i < n; i++)
+		par[i] = (uint32_t)i;
+	for (size_t i = 0; i < n; i++)
+		for (size_t j = i + 1; j < n; j++) {
+			double r2 = 0;
+			for (int a = 0; a < dim; a++) {
+				double d = pos[i * dim + a] - pos[j * dim + a];
+				if (!walled[a])
+					d -= box[a] * round(d / box[a]);
+				r2 += d * d;
+			}
+			if (r2 >= cut * cut)
+				continue;
+			uint32_t x = (uint32_t)i, y = (uint32_t)j;
+			while (par[x] != x)
+				x = par[x];
+			while (par[y] != y)
+				y = par[y];
+			par[x] = y;
+		}
+	uint64_t k = 0;
+	for (size_t i = 0; i < n; i++)
+		k += par[i] == i;
+	free(par);
+	return k;
+}
+
+/* Walled axes (clusters_walls): two chains, one on each wall of y (centres one radius from the wall,
+ * one a little beyond it as below a vibrating wall), 1.0 apart through the periodic image: one cluster
+ * when y is periodic, two when it is walled; and random configurations against brute force. */
+static void test_walls(int dim)
+{
+	const double box[3] = { 12.0, 10.0, 9.0 }, r = 0.5, delta = 0.1;
+	double pos[8 * 3] = { 0 };
+	for (int k = 0; k < 4; k++) {
+		pos[k * dim + 0] = pos[(4 + k) * dim + 0] = 6.0;
+		pos[k * dim + 1] = 0.5 + 1.05 * k;
+		pos[(4 + k) * dim + 1] = 9.5 - 1.05 * k;
+		if (dim == 3)
+			pos[k * dim + 2] = pos[(4 + k) * dim + 2] = 4.0;
+	}
+	pos[1] = 0.46;   /* a little beyond the wall's contact plane (below a vibrating wall's rest position) */
+	clusters_t *c = clusters_create(dim, 8);
+	clusters_stats_t st;
+	int rc = clusters_compute(c, pos, box, r, delta, &st);
+	ok(rc == 0 && st.n_clusters == 1 && st.largest == 8, "%dD chains on both ends of a periodic axis: one cluster "
+	   "(%llu)", dim, (unsigned long long)st.n_clusters);
+	int wy[3] = { 0, 1, 0 };
+	rc = clusters_walls(c, wy) | clusters_compute(c, pos, box, r, delta, &st);
+	ok(rc == 0 && st.n_clusters == 2 && st.largest == 4 && clusters_label(c, 3) == 0 && clusters_label(c, 4) == 1,
+	   "%dD chains touching both walls of a walled axis: not joined across (%llu clusters)", dim,
+	   (unsigned long long)st.n_clusters);
+	clusters_destroy(c);
+
+	/* random: 600 particles, a few beyond the walls; every subset of walled axes */
+	enum { N = 600 };
+	double *rp = malloc(N * 3 * sizeof(double));
+	uint64_t seed = 4242 + (uint64_t)dim;
+	int all = 1;
+	for (int mask = 1; mask < (1 << dim); mask++) {
+		int w[3] = { mask & 1, (mask >> 1) & 1, (mask >> 2) & 1 };
+		for (size_t i = 0; i < N * (size_t)dim; i++) {
+			int a = (int)(i % (size_t)dim);
+			rp[i] = uniform(&seed) * box[a];
+			if (w[a] && i % 97 == 0)
+				rp[i] = (i % 2 ? -0.2 : box[a] + 0.2);
+		}
+		clusters_t *q = clusters_create(dim, N);
+		rc = clusters_walls(q, w) | clusters_compute(q, rp, box, r, 0.6, &st);
+		uint64_t want = brute_clusters(dim, N, rp, box, w, 2 * r + 0.6);
+		all &= rc == 0 && st.n_clusters == want;
+		clusters_destroy(q);
+	}
+	ok(all, "%dD random configurations, every subset of walled axes: cluster counts equal brute force", dim);
+	free(rp);
+}
+
 int main(int argc, char **argv)
 {
 	int quick = getenv("CLUSTERS_TEST_QUICK") != NULL;
@@ -605,6 +686,7 @@ int main(int argc, char **argv)
 	for (int dim = 2; dim <= 3; dim++) {
 		test_chain(dim);
 		test_boundary_pair(dim);
+		test_walls(dim);
 		test_small_n(dim);
 	}
 	test_random();

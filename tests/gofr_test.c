@@ -8,8 +8,8 @@
 #include "tap.h"
 
 /* Brute force over all pairs with the same binning rule. */
-static void brute(int dim, size_t n, const double *box, const double *pos, const double *vel, double r0, double r1,
-                  int nb, double *count, double *par, double *perp)
+static void brute(int dim, size_t n, const double *box, const int *walled, const double *pos, const double *vel,
+                  double r0, double r1, int nb, double *count, double *par, double *perp)
 {
 	double mean[3] = {0, 0, 0};
 	memset(count, 0, nb * sizeof(double));
@@ -23,7 +23,8 @@ static void brute(int dim, size_t n, const double *box, const double *pos, const
 			double d[3], r2 = 0;
 			for (int a = 0; a < dim; a++) {
 				d[a] = pos[i * dim + a] - pos[j * dim + a];
-				d[a] -= box[a] * round(d[a] / box[a]);
+				if (!walled[a])
+					d[a] -= box[a] * round(d[a] / box[a]);
 				r2 += d[a] * d[a];
 			}
 			if (r2 >= r1 * r1 || r2 < r0 * r0)
@@ -57,7 +58,7 @@ static void test_brute(int dim, size_t n, const double *box, double r1, const ch
 	double c[NB], p[NB], q[NB], bc[NB], bp[NB], bq[NB];
 	gofr_t *g = gofr_create(dim, n, box, r1);
 	int rc = gofr_pairs(g, pos, vel, 0.25, r1, NB, c, p, q);
-	brute(dim, n, box, pos, vel, 0.25, r1, NB, bc, bp, bq);
+	brute(dim, n, box, (const int[3]){0, 0, 0}, pos, vel, 0.25, r1, NB, bc, bp, bq);
 	int same = rc == 0, close = 1;
 	double total = 0;
 	for (int k = 0; k < NB; k++) {
@@ -106,6 +107,125 @@ static void test_ideal(int dim, size_t n, const double *box)
 	free(pos);
 }
 
+/* Walled axes: plain differences (brute force with the same rule), positions not folded (a few beyond the
+ * walls, as below a vibrating wall); a pair close only through the walled axis' image is not counted. */
+static void test_brute_walled(int dim, size_t n, const double *box, const int *walled, double r1, const char *what)
+{
+	enum { NB = 29 };
+	uint64_t seed = 15 + dim;
+	double *pos = malloc(n * dim * sizeof(double)), *vel = malloc(n * dim * sizeof(double));
+	random_positions(dim, n, box, &seed, pos);
+	for (size_t i = 0; i < n * dim; i++)
+		vel[i] = gauss(&seed);
+	for (int a = 0; a < dim; a++)
+		if (walled[a]) {
+			pos[a] = -0.05 * box[a];
+			pos[dim + a] = 1.05 * box[a];
+		}
+	double c[NB], p[NB], q[NB], bc[NB], bp[NB], bq[NB];
+	gofr_t *g = gofr_create(dim, n, box, r1);
+	int rc = gofr_walls(g, walled, 0.5) | gofr_pairs(g, pos, vel, 0.0, r1, NB, c, p, q);
+	brute(dim, n, box, walled, pos, vel, 0.0, r1, NB, bc, bp, bq);
+	int same = rc == 0, close = 1;
+	double total = 0;
+	for (int k = 0; k < NB; k++) {
+		same &= c[k] == bc[k];
+		close &= fabs(p[k] - bp[k]) <= 1e-9 * (1 + fabs(bp[k])) && fabs(q[k] - bq[k]) <= 1e-9 * (1 + fabs(bq[k]));
+		total += c[k];
+	}
+	ok(same && close, "%s: pair counts and velocity sums equal brute force with plain differences (%.0f pairs)",
+	   what, total);
+	/* two particles 0.2 from opposite walls: 0.4 apart through the image, not counted */
+	double two[6] = {0}, c2[NB];
+	for (int a = 0; a < dim; a++)
+		two[a] = two[dim + a] = 0.5 * box[a];
+	for (int a = 0; a < dim; a++)
+		if (walled[a]) {
+			two[a] = 0.2;
+			two[dim + a] = box[a] - 0.2;
+			break;
+		}
+	gofr_t *g2 = gofr_create(dim, 2, box, r1);
+	rc = gofr_walls(g2, walled, 0.0) | gofr_pairs(g2, two, NULL, 0.0, r1, NB, c2, NULL, NULL);
+	total = 0;
+	for (int k = 0; k < NB; k++)
+		total += c2[k];
+	ok(rc == 0 && total == 0, "%s: a pair across the walls (0.4 apart through the image) is not counted", what);
+	gofr_destroy(g2);
+	gofr_destroy(g);
+	free(pos);
+	free(vel);
+}
+
+/*
+ * Ideal gas between walls: n uniform independent centres in the region they reach (radius 0.5 from each
+ * wall), g(r) = 1 with the edge-corrected normalisation up to half the smallest edge, where the shell's
+ * part inside the region is down to 1 - 2r/(pi L) = 0.67 (2D, one walled axis) or 1 - r/(2L) (3D): the
+ * same 5 sigma per bin as test_ideal. The plain normalisation N(N-1)/2 v_shell/V(region) is also
+ * counted against the same counts, to show that the test sees the edge (it must fail in most bins).
+ */
+static void test_ideal_walled(int dim, size_t n, const double *box, const int *walled, const char *what)
+{
+	enum { NB = 40 };
+	uint64_t seed = 91 + dim;
+	const double radius = 0.5;
+	double *pos = malloc(n * dim * sizeof(double)), c[NB], inner[3], vol = 1, rmax = 1e300;
+	for (int a = 0; a < dim; a++) {
+		inner[a] = walled[a] ? box[a] - 2 * radius : box[a];
+		vol *= inner[a];
+		rmax = fmin(rmax, 0.5 * box[a]);
+	}
+	random_positions(dim, n, inner, &seed, pos);
+	for (size_t i = 0; i < n; i++)
+		for (int a = 0; a < dim; a++)
+			pos[i * dim + a] += walled[a] ? radius : 0;
+	gofr_t *g = gofr_create(dim, n, box, rmax);
+	int rc = gofr_walls(g, walled, radius) | gofr_pairs(g, pos, NULL, 0, rmax, NB, c, NULL, NULL);
+	int bad = 0, plain_bad = 0;
+	double worst = 0;
+	for (int k = 0; k < NB; k++) {
+		double a = rmax * k / NB, b = rmax * (k + 1) / NB, e = gofr_ideal_in(g, a, b), e0 = gofr_ideal(dim, n, vol, a, b);
+		bad += fabs(c[k] - e) > 5 * sqrt(e);
+		plain_bad += fabs(c[k] - e0) > 5 * sqrt(e0);
+		worst = fmax(worst, fabs(c[k] / e - 1));
+	}
+	ok(rc == 0 && bad == 0 && plain_bad > NB / 2, "%s, N=%zu: edge-corrected g(r) = 1 in all %d bins up to r = %g "
+	   "within 5 sigma (%d off, largest |g-1| %.4f); without the correction %d bins off", what, n, NB, rmax, bad,
+	   worst, plain_bad);
+	gofr_contact_t gc;
+	rc = gofr_contact(g, pos, 1.0, &gc);
+	ok(rc == 0 && fabs(gc.value - 1) < 5 * gc.se, "%s: contact fit g(1) = %.4f +- %.4f (%.0f pairs)", what,
+	   gc.value, gc.se, gc.pairs);
+	gofr_destroy(g);
+	free(pos);
+}
+
+/* The edge-corrected ideal counts against a direct numerical integration of the triangular difference
+ * densities over the shell (midpoint rule in angle, 2D), and the periodic limit. */
+static void test_ideal_formula(void)
+{
+	const double box[3] = {12, 7, 1};
+	const int walled[3] = {1, 1, 0};
+	gofr_t *g = gofr_create(2, 10, box, 3.4);
+	gofr_walls(g, walled, 0.5);
+	double Lx = 11, Ly = 6, a = 2.1, b = 3.4, sum = 0;
+	int M = 4000, K = 400;
+	for (int i = 0; i < K; i++) {
+		double r = a + (b - a) * (i + 0.5) / K;
+		for (int j = 0; j < M; j++) {
+			double t = 2 * PI * (j + 0.5) / M;
+			sum += r * (1 - r * fabs(cos(t)) / Lx) * (1 - r * fabs(sin(t)) / Ly);
+		}
+	}
+	double num = 45.0 * sum * (b - a) / K * (2 * PI / M) / (Lx * Ly), got = gofr_ideal_in(g, a, b);
+	ok(fabs(got / num - 1) < 1e-5, "2D, both axes walled: ideal pairs in [2.1, 3.4) %.8f, numerically %.8f", got, num);
+	gofr_t *p = gofr_create(3, 10, (const double[]){5, 6, 7}, 2);
+	ok(gofr_ideal_in(p, 1, 2) == gofr_ideal(3, 10, 5 * 6 * 7, 1, 2), "no walls: the periodic ideal count");
+	ok(gofr_walls(p, (const int[]){0, 1, 0}, 3.0) == -1, "walls with no room between them: -1");
+	gofr_destroy(p);
+	gofr_destroy(g);
+}
+
 /* The fit recovers an exactly exponential g(r) near contact. */
 static void test_fit(void)
 {
@@ -143,7 +263,7 @@ static void test_enskog(void)
 
 int main(void)
 {
-	plan(18);
+	plan(35);
 	double b2[3] = {20, 17, 1}, b3[3] = {9, 11, 10}, tiny[3] = {5, 6, 5.5};
 	test_brute(2, 1500, b2, 3.0, "2D, 6x5 cells");
 	test_brute(3, 1500, b3, 3.0, "3D, 3x3x3 cells");
@@ -151,6 +271,16 @@ int main(void)
 	double i2[3] = {60, 60, 1}, i3[3] = {25, 25, 25};
 	test_ideal(2, 20000, i2);
 	test_ideal(3, 20000, i3);
+	int wy[3] = {0, 1, 0}, wxy[3] = {1, 1, 0}, wz[3] = {0, 0, 1}, wxyz[3] = {1, 1, 1};
+	test_brute_walled(2, 1500, b2, wy, 3.0, "2D, y walled");
+	test_brute_walled(3, 1500, b3, wxyz, 3.0, "3D, all walled");
+	test_brute_walled(3, 300, tiny, wz, 2.7, "3D, z walled, 2x2x2 cells");
+	double w2[3] = {60, 30, 1}, w3[3] = {25, 25, 16};
+	test_ideal_walled(2, 20000, w2, wy, "2D, walls along y");
+	test_ideal_walled(2, 20000, w2, wxy, "2D, walls along x and y");
+	test_ideal_walled(3, 20000, w3, wz, "3D, walls along z");
+	test_ideal_walled(3, 20000, w3, wxyz, "3D, walls on every axis");
+	test_ideal_formula();
 	test_fit();
 	test_enskog();
 	return done_testing();

@@ -86,11 +86,106 @@ static void test_too_rare(void)
 	msd_destroy(NULL);
 }
 
+/* Reflect x into [lo, hi] (specular walls): the position of a free flight x0 + v t bouncing between them. */
+static double bounce(double x, double lo, double hi)
+{
+	double w = hi - lo, y = fmod(x - lo, 2 * w);
+	y = y < 0 ? y + 2 * w : y;
+	return lo + (y <= w ? y : 2 * w - y);
+}
+
+/*
+ * Walls along y (msd_walls): x periodic and unwrapped, y absolute (a particle bouncing between the walls
+ * moves far more than half the edge between two updates and still counts its true displacement, and one
+ * a little beyond a wall counts as it is). Ballistic particles at constant |v_y| between specular walls
+ * at contact planes 0.5 and 8.5: MSD along x = <v_x^2> t^2, along y the exact bounced displacement.
+ * Without a periodic axis no update is ever due.
+ */
+static void test_walls(void)
+{
+	const size_t n = 40;
+	const double box[2] = {7.0, 9.0}, mass = 1.5;
+	double x0[80], v[80], pos[80], ekin = 0;
+	for (size_t i = 0; i < n; i++) {
+		x0[2 * i] = fold(0.41 * i, box[0]);
+		x0[2 * i + 1] = 0.5 + fmod(0.77 * i, 8.0);
+		v[2 * i] = 2.5 * sin(1.3 * i);
+		v[2 * i + 1] = 9.0 * cos(0.9 * i);   /* fast along the walled axis */
+		ekin += 0.5 * mass * (v[2 * i] * v[2 * i] + v[2 * i + 1] * v[2 * i + 1]);
+	}
+	msd_t *m = msd_create(2, n, box, mass, 0.45);
+	int rc = msd_walls(m, (const int[]){0, 1}, (const double[]){0, 0}, 0.5);
+	msd_origin(m, 0.0, x0, ekin);
+	double t = 0, wx = 0, wy = 0;
+	int steps = 0;
+	while (t < 30.0) {
+		t = msd_due(m);
+		for (size_t i = 0; i < n; i++) {
+			pos[2 * i] = fold(x0[2 * i] + v[2 * i] * t, box[0]);
+			pos[2 * i + 1] = bounce(x0[2 * i + 1] + v[2 * i + 1] * t, 0.5, 8.5);
+		}
+		msd_update(m, t, pos, ekin);
+		steps++;
+	}
+	for (size_t i = 0; i < n; i++) {
+		wx += v[2 * i] * t * v[2 * i] * t / n;
+		wy += (pos[2 * i + 1] - x0[2 * i + 1]) * (pos[2 * i + 1] - x0[2 * i + 1]) / n;
+	}
+	double px = msd_value_axes(m, 0), py = msd_value_axes(m, 1);
+	ok(rc == 0 && fabs(px - wx) < 1e-9 * wx && fabs(py - wy) < 1e-12 * (1 + wy) &&
+	   fabs(msd_value(m, NULL) - (wx + wy)) < 1e-9 * wx,
+	   "walls along y, %d updates: MSD along x %.8g = <v_x^2> t^2 %.8g, along y %.8g = the bounced displacement "
+	   "%.8g", steps, px, wx, py, wy);
+	/* the bound uses the periodic edge only (7, not the walled 9) */
+	ok(fabs(msd_due(m) - t - 0.45 * 7.0 / sqrt(2 * ekin / mass)) < 1e-12, "the update bound uses the periodic edge");
+	msd_destroy(m);
+
+	/* every axis walled: no update due; positions absolute */
+	msd_t *b = msd_create(2, 1, box, 1.0, 0.45);
+	double p0[2] = {1.0, 1.0}, p1[2] = {6.5, 8.2};
+	rc = msd_walls(b, (const int[]){1, 1}, (const double[]){0, 0}, 0.5);
+	msd_origin(b, 0.0, p0, 50.0);
+	msd_update(b, 3.0, p1, 50.0);
+	ok(rc == 0 && isinf(msd_due(b)) && fabs(msd_value(b, NULL) - (5.5 * 5.5 + 7.2 * 7.2)) < 1e-12 &&
+	   isnan(msd_value_axes(b, 0)), "every axis walled: no update due, displacement as it is (%.6g)",
+	   msd_value(b, NULL));
+	msd_destroy(b);
+}
+
+/*
+ * Gravity along the walled axis: the bound takes the potential energy above the floor. A particle at rest
+ * at height 8.5 (contact plane 0.5, g = -2) reaches speed sqrt(2 g 8) = 5.66 on the floor: the next update
+ * must come within 0.45 periodic edges at that speed, not never (E_kin = 0). Gravity along a periodic axis
+ * is refused.
+ */
+static void test_gravity(void)
+{
+	const double box[2] = {7.0, 9.0};
+	double p[2] = {3.0, 8.5};
+	msd_t *m = msd_create(2, 1, box, 1.0, 0.45);
+	int rc = msd_walls(m, (const int[]){0, 1}, (const double[]){0, -2.0}, 0.5);
+	msd_origin(m, 0.0, p, 0.0);
+	double due = msd_due(m), vmax = sqrt(2 * 2.0 * 8.0);
+	ok(rc == 0 && fabs(due - 0.45 * 7.0 / vmax) < 1e-12, "gravity: the update bound at sqrt(2 (E_kin + m g h)) = %.4f "
+	   "(next update %.6g)", vmax, due);
+	ok(msd_walls(m, (const int[]){0, 1}, (const double[]){1.0, -2.0}, 0.5) == -1,
+	   "gravity along a periodic axis refused");
+	/* upward gravity: the least potential is at the upper contact plane 8.5 */
+	rc = msd_walls(m, (const int[]){0, 1}, (const double[]){0, 3.0}, 0.5);
+	p[1] = 0.5;
+	msd_origin(m, 0.0, p, 0.0);
+	ok(rc == 0 && fabs(msd_due(m) - 0.45 * 7.0 / sqrt(2 * 3.0 * 8.0)) < 1e-12, "gravity along +y: measured from "
+	   "the upper contact plane");
+	msd_destroy(m);
+}
+
 int main(void)
 {
-	plan(9);
+	plan(15);
 	test_ballistic(2);
 	test_ballistic(3);
 	test_too_rare();
+	test_walls();
+	test_gravity();
 	return done_testing();
 }

@@ -559,13 +559,14 @@ static void test_scene_errors(void)
 			bad++;
 		}
 	}
-	/* the same obstacle is fine for method ed, refused for dsmc */
-	snprintf(json, sizeof json, "{\"method\":\"dsmc\",\"dimensions\":2,\"particles\":{\"count\":300,\"box\":[40,40]},"
-	         "\"obstacles\":[{\"type\":\"slip\",\"center\":[10,10],\"radius\":2}],\"run\":{\"until\":{\"time\":1}}}");
+	/* the same obstacle is fine for method ed (and dsmc, hsmc: tests/mc_obstacles_test), refused for auto */
+	snprintf(json, sizeof json, "{\"method\":\"auto\",\"dimensions\":2,\"particles\":{\"count\":300,\"box\":[40,40]},"
+	         "\"accuracy\":{\"temperature\":0.05},\"obstacles\":[{\"type\":\"slip\",\"center\":[10,10],\"radius\":2}],"
+	         "\"run\":{\"until\":{\"time\":1}}}");
 	scene_t sc;
 	int rc = scene_parse(json, strlen(json), &sc, err, sizeof err);
 	if (rc != SCENE_EINVAL || strncmp(err, "obstacles:", 10)) {
-		diag("dsmc: rc %d, message \"%s\"", rc, err);
+		diag("auto: rc %d, message \"%s\"", rc, err);
 		bad++;
 	}
 	ok(bad == 0, "bad obstacle scenes: %zu rejected, each naming its key", sizeof c / sizeof c[0] + 1);

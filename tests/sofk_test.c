@@ -5,6 +5,7 @@
 
 #include "observe/fgrid.h"
 #include "observe/sofk.h"
+#include "observe/tables.h"
 #include "obs_util.h"
 #include "tap.h"
 
@@ -149,9 +150,81 @@ static void test_direct(void)
 	fgrid_destroy(g);
 }
 
+/*
+ * Walls (fgrid_create_walled): wave vectors only along the periodic axes; every shell holds the +-k pairs
+ * of a periodic axis (2D with y walled: 2 per shell); uncorrelated points in the box (a few beyond the
+ * walls, as below a vibrating wall) give S = 1 in every shell within 5 standard errors of the mean over
+ * 64 configurations (the sample standard deviation over them: a shell may hold only the two wave vectors
+ * +-k, which are the same number, and the window correction raises the scatter near Nyquist); one
+ * configuration equals direct summation over the same wave vectors (aliases along the periodic axes
+ * only); every axis walled is refused.
+ */
+static void test_walls(int dim, const int *walled, const char *what)
+{
+	enum { REP = 64, N = 20000 };
+	double box[3] = {30, 40, 24}, s[2048], acc[2048] = {0}, acc2[2048] = {0}, modes[2048];
+	int grid[3] = {32, 32, 32};
+	uint64_t seed = 31 + dim + 2 * walled[0];
+	fgrid_t *g = fgrid_create_walled(dim, box, grid, 1, walled);
+	int J = g ? fgrid_bins(g) : 0, kzero = g != NULL;
+	double *pos = malloc(N * dim * sizeof(double));
+	fgrid_mode_t md;
+	for (size_t i = 0; g && i < fgrid_modes(g); i++)
+		if (fgrid_mode(g, i, &md))
+			for (int a = 0; a < dim; a++)
+				kzero &= !walled[a] || md.k[a] == 0;
+	for (int r = 0; g && r < REP; r++) {
+		random_positions(dim, N, box, &seed, pos);
+		for (int a = 0; a < dim; a++)
+			if (walled[a])
+				pos[(size_t)r * dim + a] = r % 2 ? -0.3 : box[a] + 0.3;
+		sofk_compute(g, N, pos, s);
+		for (int b = 0; b < J; b++) {
+			acc[b] += s[b] / REP;
+			acc2[b] += s[b] * s[b] / REP;
+		}
+	}
+	int bad = 0;
+	double worst = 0;
+	if (g)
+		fgrid_axis(g, NULL, NULL, modes);
+	for (int b = 0; b < J; b++) {
+		double se = sqrt((acc2[b] - acc[b] * acc[b]) / (REP - 1)), z = fabs(acc[b] - 1) / se;
+		bad += z > 5;
+		worst = z > worst ? z : worst;
+	}
+	ok(g && J > 2 && kzero && bad == 0, "%s: k along the periodic axes only; uncorrelated points S(k) = 1 in %d shells "
+	   "within 5 se (worst %.2f se; S(k1) = %.3f over %.0f wave vectors)", what, J, worst, acc[0], J ? modes[0] : 0);
+	ok(tables_k_shells(dim, box, grid, walled) == J, "%s: the layout's shell count (tables_k_shells) is the grid's, %d",
+	   what, J);
+	/* direct summation, one configuration of 300 points, lowest quarter of the shells */
+	double direct[2048] = {0}, wsum[2048] = {0};
+	random_positions(dim, 300, box, &seed, pos);
+	sofk_compute(g, 300, pos, s);
+	for (size_t i = 0; g && i < fgrid_modes(g); i++) {
+		if (!fgrid_mode(g, i, &md) || md.bin >= J / 4)
+			continue;
+		double re = 0, im = 0;
+		for (int j = 0; j < 300; j++) {
+			double ph = 0;
+			for (int a = 0; a < dim; a++)
+				ph += md.k[a] * pos[j * dim + a];
+			re += cos(ph), im -= sin(ph);
+		}
+		direct[md.bin] += md.weight * (re * re + im * im) / 300;
+		wsum[md.bin] += md.weight;
+	}
+	bad = 0;
+	for (int b = 0; b < J / 4; b++)
+		bad += fabs(s[b] - direct[b] / wsum[b]) > 0.03 * direct[b] / wsum[b] + 0.02;
+	ok(g && bad == 0, "%s: S(k) from the grid = direct summation in the %d lowest shells", what, J / 4);
+	free(pos);
+	fgrid_destroy(g);
+}
+
 int main(void)
 {
-	plan(9);
+	plan(23);
 	test_shells(2, 16);
 	test_shells(3, 16);
 	test_shells(2, 32);
@@ -161,5 +234,20 @@ int main(void)
 	test_lattice();
 	test_direct();
 	ok(fgrid_create(3, (double[]){1, 1, 1}, (int[]){2, 4, 4}, 1) == NULL, "grid below 4 points refused");
+	test_walls(2, (const int[]){0, 1, 0}, "2D, y walled");
+	test_walls(2, (const int[]){1, 0, 0}, "2D, x walled");
+	test_walls(3, (const int[]){0, 0, 1}, "3D, z walled");
+	test_walls(3, (const int[]){1, 1, 0}, "3D, x and y walled");
+	/* a long walled axis: shells 2 pi / 20 wide up to x's Nyquist pi 16 / 20, not 2 pi / 100 (31 shells) */
+	fgrid_t *lw = fgrid_create_walled(2, (double[]){20, 100, 1}, (int[]){16, 64, 1}, 1, (const int[]){0, 1, 0});
+	const double lbox[3] = {20, 100, 1};
+	const int lgrid[3] = {16, 64, 1}, wy[3] = {0, 1, 0};
+	ok(lw && fgrid_bins(lw) == 7 && tables_k_shells(2, lbox, lgrid, wy) == 7 &&
+	   tables_k_shells(2, lbox, lgrid, NULL) == 31,
+	   "a long walled axis: 7 shells along the periodic one in the grid and the layout (31 without walls)");
+	fgrid_destroy(lw);
+	ok(fgrid_create_walled(2, (double[]){8, 8, 1}, (int[]){8, 8, 1}, 1, (const int[]){1, 1, 0}) == NULL &&
+	   fgrid_create_walled(2, (double[]){8, 8, 1}, (int[]){8, 2, 1}, 1, (const int[]){0, 1, 0}) != NULL,
+	   "every axis walled refused; a walled axis ignores its grid size");
 	return done_testing();
 }

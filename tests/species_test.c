@@ -45,13 +45,14 @@ static void test_parse(void)
 	   fabs(s.box[0] * s.box[1] * 0.2 - 40 * vp) < 1e-9 * 40 * vp,
 	   "volume fraction from the species' volumes (box %g)", s.box[0]);
 	ok(scene_has_species(&s), "scene_has_species()");
-	/* the Monte Carlo engines refuse a mixture themselves (not only through the parser) */
+	/* hsmc refuses a mixture itself (not only through the parser; dsmc runs
+	 * mixtures in a periodic box: tests/mc_species_test) */
 	scene_t m = s;
-	m.method = SCENE_METHOD_DSMC;
+	m.method = SCENE_METHOD_HSMC;
 	char why[256] = "";
 	int dc;
 	dsmc_t *d = dsmc_create(&m, 0, &dc, why, sizeof why);
-	ok(!d && dc == DSMC_EINVAL && !strncmp(why, "particles.species:", 18), "dsmc_create() refuses two species: %s",
+	ok(!d && dc == DSMC_EINVAL && !strncmp(why, "particles.species:", 18), "dsmc_create() refuses two species for hsmc: %s",
 	   why);
 	dsmc_destroy(d);
 
@@ -59,9 +60,10 @@ static void test_parse(void)
 		{ "both count and species", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":4,\"species\":"
 		  "[{\"count\":2,\"radius\":0.5,\"mass\":1}],\"volume_fraction\":0.1},\"run\":{\"until\":{\"time\":1}}}",
 		  "particles.count:" },
-		{ "dsmc with two species", "{\"method\":\"dsmc\",\"dimensions\":2,\"particles\":{\"species\":"
+		{ "dsmc with two species and walls", "{\"method\":\"dsmc\",\"dimensions\":2,\"particles\":{\"species\":"
 		  "[{\"count\":200,\"radius\":0.5,\"mass\":1},{\"count\":200,\"radius\":0.5,\"mass\":2}],"
-		  "\"volume_fraction\":0.1},\"run\":{\"until\":{\"time\":1}}}", "particles.species:" },
+		  "\"volume_fraction\":0.1},\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},"
+		  "\"upper\":{\"type\":\"specular\"}}},\"run\":{\"until\":{\"time\":1}}}", "particles.species:" },
 		{ "hsmc with two species", "{\"method\":\"hsmc\",\"dimensions\":2,\"particles\":{\"species\":"
 		  "[{\"count\":200,\"radius\":0.5,\"mass\":1},{\"count\":200,\"radius\":0.5,\"mass\":2}],"
 		  "\"volume_fraction\":0.1},\"run\":{\"until\":{\"time\":1}}}", "particles.species:" },

@@ -600,50 +600,8 @@ static void walls_rebase(struct ed *ed, double t)
 static void obst_rule(struct ed *ed, int k, const double *nrm, double *v, int elastic, double svs)
 {
 	const obst_t *O = &ed->obst[k];
-	const int dim = ed->dim;
-	double vn = 0.0, vt[3] = {0.0, 0.0, 0.0};
-	for (int a = 0; a < dim; a++)
-		vn += v[a] * nrm[a];
-	for (int a = 0; a < dim; a++)
-		vt[a] = v[a] - vn * nrm[a];
-	if (ed->relaxing) {
-		vn = fabs(vn);
-	} else if (vn < 0.0) {
-		const double r = elastic ? 1.0 : O->r;
-		switch (O->type) {
-		case SCENE_OBST_NO_SLIP:
-			if (rng_uniform(&ed->wrng) < O->acc) {
-				/* diffuse: flux-weighted Maxwellian of the obstacle at rest
-				 * (Rayleigh normal; an isotropic Gaussian projected on the
-				 * tangent plane is the tangential Gaussian) */
-				const double sv = O->sv * svs;
-				vn = sv * sqrt(-2.0 * log(1.0 - rng_uniform(&ed->wrng)));
-				double gn = 0.0, gs[3] = {0.0, 0.0, 0.0};
-				for (int a = 0; a < dim; a++) {
-					gs[a] = sv * rng_gauss(&ed->wrng);
-					gn += gs[a] * nrm[a];
-				}
-				for (int a = 0; a < dim; a++)
-					vt[a] = gs[a] - gn * nrm[a];
-			} else {
-				vn = -r * vn;
-			}
-			break;
-		case SCENE_OBST_RANDOM_SIGN:
-			vn = -r * vn;
-			if (rng_uniform(&ed->wrng) < 0.5)
-				for (int a = 0; a < dim; a++)
-					vt[a] = -vt[a];
-			break;
-		default:
-			vn = -r * vn;
-			break;
-		}
-	}
-	if (!ed->relaxing && vn < O->vmin && ed->tlast)
-		vn = O->vmin;
-	for (int a = 0; a < dim; a++)
-		v[a] = vt[a] + vn * nrm[a];
+	obstacle_rule(O->type, elastic ? 1.0 : O->r, O->acc, O->sv * svs, ed->tlast ? O->vmin : -INFINITY, ed->relaxing, nrm, v,
+	              ed->dim, &ed->wrng);
 }
 
 /* Whether a particle centred at r (internal coordinates) is clear of

@@ -1,8 +1,9 @@
-/* Particle-obstacle contact times: closed form in free flight, bracketed roots of a piecewise convex/concave quartic under gravity. */
+/* Particle-obstacle contact times: closed form in free flight, bracketed roots of a piecewise convex/concave quartic under gravity; the obstacles' collision rules. */
 #include <math.h>
 
 #include "obstacle.h"
 #include "roots.h"
+#include "scene.h"
 
 double obstacle_time_free(const double *x, const double *v, int dim, double S)
 {
@@ -107,4 +108,50 @@ double obstacle_time_grav(const double *x, const double *v, const double *g, int
 		a = b;
 	}
 	return INFINITY;
+}
+
+void obstacle_rule(int type, double r, double acc, double sv, double vmin, int relaxing, const double *nrm, double *v,
+                   int dim, rng_t *rng)
+{
+	double vn = 0.0, vt[3] = {0.0, 0.0, 0.0};
+	for (int a = 0; a < dim; a++)
+		vn += v[a] * nrm[a];
+	for (int a = 0; a < dim; a++)
+		vt[a] = v[a] - vn * nrm[a];
+	if (relaxing) {
+		vn = fabs(vn);
+	} else if (vn < 0.0) {
+		switch (type) {
+		case SCENE_OBST_NO_SLIP:
+			if (rng_uniform(rng) < acc) {
+				/* diffuse: flux-weighted Maxwellian of the obstacle at rest
+				 * (Rayleigh normal; an isotropic Gaussian projected on the
+				 * tangent plane is the tangential Gaussian) */
+				vn = sv * sqrt(-2.0 * log(1.0 - rng_uniform(rng)));
+				double gn = 0.0, gs[3] = {0.0, 0.0, 0.0};
+				for (int a = 0; a < dim; a++) {
+					gs[a] = sv * rng_gauss(rng);
+					gn += gs[a] * nrm[a];
+				}
+				for (int a = 0; a < dim; a++)
+					vt[a] = gs[a] - gn * nrm[a];
+			} else {
+				vn = -r * vn;
+			}
+			break;
+		case SCENE_OBST_RANDOM_SIGN:
+			vn = -r * vn;
+			if (rng_uniform(rng) < 0.5)
+				for (int a = 0; a < dim; a++)
+					vt[a] = -vt[a];
+			break;
+		default:
+			vn = -r * vn;
+			break;
+		}
+	}
+	if (!relaxing && vn < vmin)
+		vn = vmin;
+	for (int a = 0; a < dim; a++)
+		v[a] = vt[a] + vn * nrm[a];
 }

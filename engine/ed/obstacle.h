@@ -1,5 +1,7 @@
-/* Contact times of a particle with a fixed disk/sphere (an obstacle), in free flight or under uniform gravity. */
+/* Contact times of a particle with a fixed disk/sphere (an obstacle), in free flight or under uniform gravity, and the obstacle's collision rule (shared by ed and dsmc/hsmc). */
 #pragma once
+
+#include "rng.h"
 
 /*
  * Contract
@@ -27,3 +29,16 @@ double obstacle_time_free(const double *x, const double *v, int dim, double S);
  * alternating with bisection, to adjacent doubles). The first contact in
  * [0, horizon], else INFINITY. */
 double obstacle_time_grav(const double *x, const double *v, const double *g, int dim, double S, double horizon);
+
+/* Velocity v (dim components) of a particle meeting an obstacle of type
+ * SCENE_OBST_* with unit normal nrm (from the obstacle's centre to the
+ * particle's): normal restitution r (slip: v_n' = -r v_n; random_sign: also
+ * the tangential velocity reversed with probability 1/2; no_slip: with
+ * probability acc re-emitted from the flux-weighted Maxwellian of speed
+ * scale sv = sqrt(T_o / m), a Rayleigh normal and a Gaussian tangential
+ * velocity, else as slip). Only an approaching particle (v_n < 0) is
+ * changed; relaxing: v_n' = |v_n| (an elastic pre-run: no random numbers).
+ * A rebound slower than vmin is raised to it (not when relaxing; -INFINITY:
+ * never). Random numbers from rng, in a fixed order. */
+void obstacle_rule(int type, double r, double acc, double sv, double vmin, int relaxing, const double *nrm, double *v,
+                   int dim, rng_t *rng);

@@ -968,6 +968,17 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 	/* First read-only: a file that is not this scene's trajectory is refused
 	 * without ever being opened for writing (HDF5 cannot close a damaged file
 	 * it opened read-write: the handle would stay open for the process). */
+	/* The format first, from the file's bytes: a damaged file of the old,
+	 * unchecksummed format can make HDF5 allocate what a damaged length says
+	 * (160 GB seen, ckpt_fuzz) in H5Fopen itself, before its superblock
+	 * version can be asked. */
+	int sbv = h5u_superblock_version(path);
+	if (sbv >= 0 && sbv < 2) {
+		*err = h5u_fail(msg, msglen, H5MD_EFORMAT,
+		                "%s: written without HDF5's metadata checksums (superblock version %d, a granulard "
+		                "before 2026-11-27): it cannot be appended to safely; resume into a new --out", path, sbv);
+		return NULL;
+	}
 	for (int pass = 0; pass < 2; pass++) {
 		h5md_destroy(h);
 		h = alloc_writer(path, s);

@@ -240,3 +240,24 @@ done:
 		H5Tclose(ft);
 	return ret;
 }
+
+int h5u_superblock_version(const char *path)
+{
+	static const unsigned char sig[8] = {0x89, 'H', 'D', 'F', '\r', '\n', 0x1a, '\n'};
+	unsigned char buf[9];
+	int ret = -1;
+	FILE *f = fopen(path, "rb");
+	if (!f)
+		return -1;
+	/* HDF5 looks for its signature at 0, 512, 1024, 2048, ... (a user block before it) */
+	for (long off = 0; off >= 0 && off < (1L << 30); off = off ? 2 * off : 512) {
+		if (fseek(f, off, SEEK_SET) != 0 || fread(buf, 1, sizeof buf, f) != sizeof buf)
+			break;
+		if (!memcmp(buf, sig, sizeof sig)) {
+			ret = buf[8];
+			break;
+		}
+	}
+	fclose(f);
+	return ret;
+}

@@ -36,6 +36,11 @@ int h5u_fsync_path(const char *path);
  * has no checksum, and HDF5 1.10.8 allocates a chunk's recorded size before it reads and verifies the
  * chunk, so a damaged index can make it allocate up to 4 GiB (found by ckpt_fuzz). Datasets that are not
  * chunked pass. 0, or -1 (damaged or unreadable). */
+/* The superblock version of the HDF5 file at path, read from its bytes without HDF5 (so that a damaged file
+ * of the unchecksummed formats 0 and 1 never reaches HDF5's parser), or -1 (no signature at 0, 512,
+ * 1024, ... below 1 GiB, or unreadable). */
+int h5u_superblock_version(const char *path);
+
 #define H5U_ALL_ROWS ((hsize_t)-1)
 int h5u_chunks_sane(hid_t d, hsize_t eof, hsize_t row0, hsize_t rows);
 int h5u_fsync_dir_of(const char *path);

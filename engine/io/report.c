@@ -204,6 +204,8 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 		num(&o, "msd", r->obs.msd);
 		num(&o, "msd_se", r->replicas > 1 ? r->se.msd : r->obs.msd_se);
 		num_se(&o, r, "diffusion", r->obs.diffusion, r->se.diffusion);
+		if (r->replicas <= 1 && !isnan(r->obs.msd_walled))   /* scenes with walls */
+			num(&o, "msd_walled", r->obs.msd_walled);
 	}
 	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_FLUX)) {
 		/* the standard error over particles of the instantaneous sum (single runs only) */

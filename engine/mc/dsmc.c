@@ -9,6 +9,7 @@
 #include "rng.h"
 #include "lattice.h"
 #include "ed/walltime.h"
+#include "ed/obstacle.h"
 
 #define PI 3.14159265358979323846
 #define ALWAYS_INLINE inline __attribute__((always_inline))
@@ -25,6 +26,14 @@ typedef struct {
 	double u[3];                   /* moving, thermal: wall velocity (tangential) */
 	double A, omega, ph;           /* vibrating: displacement A sin(ph + omega t) along the inward normal (A = 0: fixed) */
 } mcwall_t;
+
+/* An obstacle for dsmc/hsmc (scene.h, scene_obstacle_t; the rule is ed's, obstacle_rule()). */
+typedef struct {
+	int type;                      /* SCENE_OBST_* */
+	double c[3];                   /* centre (internal coordinates) */
+	double S;                      /* contact distance: obstacle radius + particle radius */
+	double r, acc, sv;             /* restitution; no_slip: accommodation, sqrt(T_o / m) */
+} mcobst_t;
 
 struct dsmc {
 	int dim, hsmc, cba;
@@ -94,6 +103,26 @@ struct dsmc {
 	uint64_t wout[6];              /* particles out through each wall, total */
 	uint64_t wall_collisions, wall_hits[6], rested;
 	double wall_impulse[6][3];     /* momentum given to each wall over the interval */
+	/* Obstacles (step variant B = 1 only; nobst = 0 without): oreach bounds
+	 * a flight segment's travel along a periodic axis so that the nearest
+	 * image of each obstacle is the only one it can reach (flight()); vfac:
+	 * per cell V_c / V_free (the volume open to centres), the collision-rate
+	 * factor of cells that obstacles cut (1 elsewhere, 0 for a covered cell). */
+	int nobst;
+	mcobst_t obst[SCENE_OBSTACLES_MAX];
+	double oreach;
+	float *vfac;
+	uint64_t obst_collisions;      /* total */
+	double obst_impulse[SCENE_OBSTACLES_MAX][3];   /* momentum given to each obstacle over the interval */
+	/* Mixtures (step variant M = 1, periodic dsmc only; mix = 0 without):
+	 * species and radius of each particle identity (constant: from the
+	 * scene), each species' mass, each pair's restitution. sigma is the
+	 * largest diameter (the majorant's); mass the mean mass. */
+	int mix, nsp;
+	uint8_t *spc;
+	double *rad;
+	double msp[SCENE_SPECIES_MAX];
+	double pe[SCENE_SPECIES_MAX][SCENE_SPECIES_MAX];
 	void (*step)(struct dsmc *, double);   /* chosen at load: dimension and periodic or bounded */
 };
 
@@ -351,7 +380,7 @@ static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int
 /* Free flight, new cells counted; hsmc rejects moves into cells that were
  * full at the start of the step (free space not updated during the step:
  * order-independent, cells may overfill slightly). Returns E_kin. */
-static ALWAYS_INLINE double move(struct dsmc *d, double dt, const int D)
+static ALWAYS_INLINE double move(struct dsmc *d, double dt, const int D, const int M)
 {
 	const int S = 2 * D;
 	double ek = 0;
@@ -359,9 +388,18 @@ static ALWAYS_INLINE double move(struct dsmc *d, double dt, const int D)
 	for (size_t c = 0; c < d->ncells; c++) {
 		for (uint32_t k = d->start[c]; k < d->start[c + 1]; k++) {
 			double *x = &d->p[(size_t)k * S], *v = x + D, xn[3];
-			for (int a = 0; a < D; a++) {
-				ek += v[a] * v[a];
-				xn[a] = wrap(x[a] + v[a] * dt, d->L[a]);
+			if (M) {   /* mixtures: each particle's own mass */
+				double v2 = 0;
+				for (int a = 0; a < D; a++) {
+					v2 += v[a] * v[a];
+					xn[a] = wrap(x[a] + v[a] * dt, d->L[a]);
+				}
+				ek += d->msp[d->spc[d->id[k]]] * v2;
+			} else {
+				for (int a = 0; a < D; a++) {
+					ek += v[a] * v[a];
+					xn[a] = wrap(x[a] + v[a] * dt, d->L[a]);
+				}
 			}
 			uint32_t cn = cell_of(d, xn, D);
 			if (d->hsmc && cn != c && d->start[cn + 1] - d->start[cn] >= d->nfull) {
@@ -375,7 +413,7 @@ static ALWAYS_INLINE double move(struct dsmc *d, double dt, const int D)
 			d->cnt[cn]++;
 		}
 	}
-	return 0.5 * d->mass * ek;
+	return M ? 0.5 * ek : 0.5 * d->mass * ek;
 }
 
 /* ---- bounded scenes: walls and gravity ------------------------------------ */
@@ -433,6 +471,9 @@ typedef struct {
 	uint32_t rested;
 	int out;                       /* flight_vib(): 1 + the open wall the particle left through, or 0 */
 	double imp[6][3];
+	/* obstacle k: bit 6 + k of touched */
+	uint32_t ohits[SCENE_OBSTACLES_MAX];
+	double oimp[SCENE_OBSTACLES_MAX][3];
 } flight_log_t;
 
 /* After a particle's rebound off fixed wall w (axis a): vn its normal speed
@@ -456,26 +497,54 @@ static ALWAYS_INLINE void rest_or_stop(const struct dsmc *d, flight_log_t *lg, i
 	}
 }
 
+/* Particle centre x relative to obstacle k's centre: the nearest image on
+ * periodic axes (x may have left [0, L) during a flight). */
+static ALWAYS_INLINE void obst_rel(const struct dsmc *d, const double *x, int k, double *rel, const int D)
+{
+	for (int a = 0; a < D; a++) {
+		rel[a] = x[a] - d->obst[k].c[a];
+		if (!d->walled[a])
+			rel[a] -= d->L[a] * nearbyint(rel[a] / d->L[a]);
+	}
+	for (int a = D; a < 3; a++)
+		rel[a] = 0;
+}
+
 /* Exact flight of one particle over dt under constant acceleration g with
- * walls: free parabolas between wall hits, each hit the earliest contact of
- * the centre with a contact plane (walltime_plane(): a quadratic root,
- * cancellation-free, never a missed or repeated contact for grazing and
- * resting particles), the rest of the flight continuing from the wall with
- * the velocity its rule gives. A particle that the wall leaves with no
- * inward speed while gravity presses it there, or that hits walls
- * MAX_WALL_HITS times in one flight, rests on that wall for the rest of
- * the flight (normal velocity and acceleration 0: the wall carries it).
- * x, v are updated in place (periodic axes wrapped). Returns the integral
- * of |v|^2 over the flight (exact: |v + g t|^2 is a quadratic in t). */
+ * walls and obstacles: free parabolas between hits, each hit the earliest
+ * contact of the centre with a contact plane (walltime_plane(): a quadratic
+ * root, cancellation-free, never a missed or repeated contact for grazing
+ * and resting particles) or with an obstacle's contact sphere
+ * (obstacle_time_grav(), the same guarantees), the rest of the flight
+ * continuing from there with the velocity the wall's or obstacle's rule
+ * gives. A particle that a wall leaves with no inward speed while gravity
+ * presses it there, or that hits walls MAX_WALL_HITS times in one flight,
+ * rests on that wall for the rest of the flight (normal velocity and
+ * acceleration 0: the wall carries it); an obstacle hit frees it again (the
+ * rule may send it off the wall). After MAX_WALL_HITS hits an obstacle hit
+ * ends the flight there (the particle waits on the contact sphere with its
+ * new velocity). With obstacles a segment is at most oreach / (|v| + |g|
+ * left) long (it travels less than oreach along any axis), so the nearest
+ * image of each obstacle is the only one in reach. x, v are updated in place
+ * (periodic axes wrapped). Returns the integral of |v|^2 over the flight
+ * (exact: |v + g t|^2 is a quadratic in t). */
 static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double dt, flight_log_t *lg, const int D)
 {
-	double left = dt, integ = 0, ga[3];
+	double left = dt, integ = 0, ga[3] = {0, 0, 0};
 	int pinned = 0;
 	for (int a = 0; a < D; a++)
 		ga[a] = d->g[a];
-	for (int hits = 0;; hits++) {
+	for (int hits = 0;;) {
 		double th = left;
-		int w = -1;
+		int w = -1, ko = -1;
+		if (d->nobst) {
+			double v2 = 0, g2 = 0;
+			for (int a = 0; a < D; a++)
+				v2 += v[a] * v[a], g2 += ga[a] * ga[a];
+			const double hmax = d->oreach / (sqrt(v2) + sqrt(g2) * left);
+			if (hmax < th)
+				th = hmax;
+		}
 		for (int a = 0; a < D; a++) {
 			if (!d->walled[a] || (pinned >> a & 1))
 				continue;
@@ -486,14 +555,59 @@ static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double 
 			if (t1 < th)
 				th = t1, w = 2 * a + 1;
 		}
+		for (int k = 0; k < d->nobst; k++) {
+			double rel[3];
+			obst_rel(d, x, k, rel, D);
+			double t = obstacle_time_grav(rel, v, ga, D, d->obst[k].S, th);
+			if (t < th)
+				th = t, w = -1, ko = k;
+		}
 		for (int a = 0; a < D; a++) {
 			integ += th * (v[a] * v[a] + th * (v[a] * ga[a] + th * ga[a] * ga[a] / 3));
 			x[a] += th * (v[a] + 0.5 * ga[a] * th);
 			v[a] += ga[a] * th;
 		}
 		left -= th;
-		if (w < 0)
+		if (ko >= 0) {
+			const mcobst_t *O = &d->obst[ko];
+			double rel[3], nrm[3] = {0, 0, 0}, r2 = 0, before[3];
+			obst_rel(d, x, ko, rel, D);
+			for (int a = 0; a < D; a++)
+				r2 += rel[a] * rel[a];
+			const double r = sqrt(r2);
+			for (int a = 0; a < D; a++) {
+				nrm[a] = rel[a] / r;
+				before[a] = v[a];
+			}
+			obstacle_rule(O->type, O->r, O->acc, O->sv, -INFINITY, d->relaxing, nrm, v, D, &d->rng);
+			for (int a = 0; a < D; a++)
+				lg->oimp[ko][a] += d->mass * (before[a] - v[a]);
+			lg->ohits[ko]++;
+			lg->touched |= 1u << (6 + ko);
+			/* back on the contact sphere: rounding may leave the centre a hair inside */
+			if (r < O->S)
+				for (int a = 0; a < D; a++)
+					x[a] += (O->S - r) * nrm[a];
+			pinned = 0;
+			for (int a = 0; a < D; a++)
+				ga[a] = d->g[a];
+			if (++hits >= MAX_WALL_HITS) {
+				double v2 = 0;
+				for (int a = 0; a < D; a++)
+					v2 += v[a] * v[a];
+				integ += left * v2;
+				lg->rested++;
+				break;
+			}
+			if (!(left > 0))
+				break;
+			continue;
+		}
+		if (w < 0) {
+			if (left > 0 && d->nobst)
+				continue;   /* a segment cut at oreach: fly on */
 			break;
+		}
 		const int a = w >> 1;
 		x[a] = (w & 1) ? d->hi[a] : d->lo[a];
 		double before[3];
@@ -505,6 +619,7 @@ static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double 
 		lg->hits[w]++;
 		lg->touched |= 1u << w;
 		rest_or_stop(d, lg, w, a, vn, hits, left, v, ga, &pinned);
+		hits++;
 		if (!(left > 0))
 			break;
 	}
@@ -732,6 +847,13 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 						for (int b = 0; b < D; b++)
 							d->wall_impulse[w][b] += lg.imp[w][b];
 					}
+					for (int o = 0; o < d->nobst; o++) {
+						if (!(lg.touched >> (6 + o) & 1))
+							continue;
+						d->obst_collisions += lg.ohits[o];
+						for (int b = 0; b < D; b++)
+							d->obst_impulse[o][b] += lg.oimp[o][b];
+					}
 					d->rested += lg.rested;
 					memset(&lg, 0, sizeof lg);
 				}
@@ -898,7 +1020,8 @@ static void local_chi(struct dsmc *d, const int D)
 
 /* Collisions in every cell (seed 000 eqs. 2.34-2.38, acceptance corrected). */
 /* CBA offset in a bounded scene: 0 when a partner would leave the contact
- * planes of a walled axis, and the pair then keeps its places. Reflecting
+ * planes of a walled axis or enter an obstacle's contact sphere, and the
+ * pair then keeps its places. Reflecting
  * or clamping it instead would raise the pair's centre of mass off a floor
  * (an energy source under gravity: the offsets keep the pair's centre of
  * mass, hence its potential energy, only when both move). */
@@ -914,6 +1037,16 @@ static ALWAYS_INLINE int offset_fits(const struct dsmc *d, const double *xi, con
 		yi[a] = wrap(xi[a] + sn[a], d->L[a]);
 		yj[a] = wrap(xj[a] - sn[a], d->L[a]);
 	}
+	/* nor into an obstacle */
+	for (int k = 0; k < d->nobst; k++) {
+		double ri[3], rj[3], si = 0, sj = 0;
+		obst_rel(d, yi, k, ri, D);
+		obst_rel(d, yj, k, rj, D);
+		for (int a = 0; a < D; a++)
+			si += ri[a] * ri[a], sj += rj[a] * rj[a];
+		if (si < d->obst[k].S * d->obst[k].S || sj < d->obst[k].S * d->obst[k].S)
+			return 0;
+	}
 	if (!d->hsmc)
 		return 1;
 	/* hsmc: nor may it carry a partner into another cell that is full */
@@ -922,7 +1055,7 @@ static ALWAYS_INLINE int offset_fits(const struct dsmc *d, const double *xi, con
 	         (cj != c && d->start[cj + 1] - d->start[cj] >= d->nfull));
 }
 
-static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const int B)
+static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const int B, const int M)
 {
 	const int S = 2 * D;
 	const double coef = (d->local_chi ? 1.0 : d->chi) * d->sigma_t * dt / (2 * d->vcell);
@@ -953,7 +1086,9 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 		 * and each candidate costs 1/v_max. When a collision raises the
 		 * bound, later candidates cost less: the thinning stays exact. */
 		double vmax = 2 * sqrt(s2), inv = 1 / vmax;
-		double b = (d->local_chi ? coef * d->chic[c] : coef) * (double)nc * (double)(nc - 1) +
+		/* obstacles (B only): n = N_c / V_free in a cell they cut */
+		const double vf = B && d->vfac ? (double)d->vfac[c] : 1.0;
+		double b = (d->local_chi ? coef * d->chic[c] : coef) * vf * (double)nc * (double)(nc - 1) +
 		           (double)d->rem[c] * inv;
 		int offset = d->cba && !(d->hsmc && nc >= d->nfull);
 		while (b >= inv) {
@@ -969,7 +1104,18 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 				g2 += g[a] * g[a];
 			}
 			double r = rng_uniform_fast(&d->rng) * vmax;
-			if (r * r >= g2)
+			/* mixtures: the majorant has the largest cross-section sigma^(D-1);
+			 * a pair is accepted with its own, (sigma_ij / sigma)^(D-1) of it */
+			double sij = sigma, w2 = 1;
+			uint32_t si = 0, sj = 0;
+			if (M) {
+				const uint32_t ii = d->id[i], jj = d->id[j];
+				si = d->spc[ii], sj = d->spc[jj];
+				sij = d->rad[ii] + d->rad[jj];
+				const double w = D == 2 ? sij / sigma : (sij / sigma) * (sij / sigma);
+				w2 = w * w;
+			}
+			if (M ? r * r >= g2 * w2 : r * r >= g2)
 				continue;
 			/* Accepted: contact normal n (from j to i) from an impact
 			 * parameter uniform on [-sigma, sigma] (2D) or the disk of
@@ -1004,13 +1150,25 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 				d->bcount[kb < d->bnb ? kb : d->bnb - 1] += 1.0;
 			}
 			double gn = gm * cth;            /* -g.n > 0 */
-			double dv = ehalf * gn;
-			for (int a = 0; a < D; a++) {
-				vi[a] += dv * nrm[a];
-				vj[a] -= dv * nrm[a];
+			if (M) {
+				/* J = (1 + e_ij) mu_ij g_n along n, mu_ij = m_i m_j / (m_i + m_j) */
+				const double e = d->relaxing ? 1.0 : d->pe[si][sj], mi = d->msp[si], mj = d->msp[sj];
+				const double mu = mi * mj / (mi + mj), J = (1 + e) * mu * gn;
+				for (int a = 0; a < D; a++) {
+					vi[a] += J / mi * nrm[a];
+					vj[a] -= J / mj * nrm[a];
+				}
+				virial += sij * J;
+				loss += 0.5 * (1 - e * e) * mu * gn * gn;
+			} else {
+				double dv = ehalf * gn;
+				for (int a = 0; a < D; a++) {
+					vi[a] += dv * nrm[a];
+					vj[a] -= dv * nrm[a];
+				}
+				virial += sigma * d->mass * dv;  /* (sigma n) . J, J = m dv n */
+				loss += eloss * gn * gn;
 			}
-			virial += sigma * d->mass * dv;  /* (sigma n) . J, J = m dv n */
-			loss += eloss * gn * gn;
 			ncoll++;
 			/* Keep v_max a strict bound: |g| <= |v_i - u| + |v_j - u|. */
 			double wi = 0, wj = 0;
@@ -1029,7 +1187,7 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 				 * momentum change (seed 000 sec. 2.4.2). */
 				double *xi = vi - D, *xj = vj - D, sn[3];
 				for (int a = 0; a < D; a++)
-					sn[a] = sigma * nrm[a];
+					sn[a] = sij * nrm[a];
 				if (!B || offset_fits(d, xi, xj, sn, D, (uint32_t)c, B))
 					for (int a = 0; a < D; a++) {
 						xi[a] = wrap(xi[a] + sn[a], d->L[a]);   /* walled axes: inside, wrap is the identity */
@@ -1049,7 +1207,7 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
  * wall-aware neighbours and offsets; B = 2 for bounded scenes with a
  * vibrating wall (flight_vib()). B = 0 compiles to the periodic step
  * with no trace of walls (the variant is chosen once, at load). */
-static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const int B)
+static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const int B, const int M)
 {
 	if (d->hsmc)
 		cell_collisions(d, D, B);
@@ -1057,22 +1215,24 @@ static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const
 	if (B) {
 		ek = move_bounded(d, dt, &d->ekin_int, D, B == 2);
 	} else {
-		ek = move(d, dt, D);
+		ek = move(d, dt, D, M);
 		d->ekin_int += ek * dt;
 	}
 	sort(d, D);
 	d->e_loss = 0;
-	collide(d, dt, D, B);
+	collide(d, dt, D, B, M);
 	d->ekin_est = ek - d->e_loss;
 	d->steps++;
 }
 
-static void step2(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0); }
-static void step3(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0); }
-static void step2b(struct dsmc *d, double dt) { step_dim(d, dt, 2, 1); }
-static void step3b(struct dsmc *d, double dt) { step_dim(d, dt, 3, 1); }
-static void step2v(struct dsmc *d, double dt) { step_dim(d, dt, 2, 2); }
-static void step3v(struct dsmc *d, double dt) { step_dim(d, dt, 3, 2); }
+static void step2(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0, 0); }
+static void step3(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0, 0); }
+static void step2b(struct dsmc *d, double dt) { step_dim(d, dt, 2, 1, 0); }
+static void step3b(struct dsmc *d, double dt) { step_dim(d, dt, 3, 1, 0); }
+static void step2v(struct dsmc *d, double dt) { step_dim(d, dt, 2, 2, 0); }
+static void step3v(struct dsmc *d, double dt) { step_dim(d, dt, 3, 2, 0); }
+static void step2s(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0, 1); }
+static void step3s(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0, 1); }
 
 /* Initial sort (positions only). */
 static void initial_sort(struct dsmc *d)
@@ -1094,6 +1254,20 @@ static double ekin_exact(const struct dsmc *d, double *mom)
 {
 	const int D = d->dim, S = 2 * D;
 	double ek = 0, pm[3] = {0, 0, 0};
+	if (d->mix) {   /* each particle's own mass */
+		for (uint32_t k = 0; k < d->n; k++) {
+			const double m = d->msp[d->spc[d->id[k]]];
+			for (int a = 0; a < D; a++) {
+				double v = d->p[(size_t)k * S + D + a];
+				ek += m * v * v;
+				pm[a] += m * v;
+			}
+		}
+		if (mom)
+			for (int a = 0; a < 3; a++)
+				mom[a] = pm[a];
+		return 0.5 * ek;
+	}
 	for (uint32_t k = 0; k < d->n; k++)
 		for (int a = 0; a < D; a++) {
 			double v = d->p[(size_t)k * S + D + a];
@@ -1195,6 +1369,40 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 			}
 		}
 	}
+	/* obstacles: internal coordinates, contact distance, rule */
+	d->nobst = s->n_obstacles;
+	d->oreach = INFINITY;
+	for (int k = 0; k < d->nobst; k++) {
+		const scene_obstacle_t *so = &s->obstacle[k];
+		mcobst_t *O = &d->obst[k];
+		O->type = (int)so->type;
+		for (int a = 0; a < 3; a++)
+			O->c[a] = a < d->dim ? so->center[a] + d->org[a] : 0.0;
+		O->S = so->radius + 0.5 * d->sigma;
+		O->r = so->restitution;
+		O->acc = so->accommodation;
+		O->sv = so->type == SCENE_OBST_NO_SLIP ? sqrt(so->temperature / s->mass) : 0.0;
+		/* a segment travels less than L/2 - S along a periodic axis: the
+		 * nearest image is then the only one within reach (2 S < L, scene.c) */
+		for (int a = 0; a < d->dim; a++)
+			if (!d->walled[a])
+				d->oreach = fmin(d->oreach, (0.5 * d->L[a] - O->S) * (1 - 1e-9));
+	}
+	if (d->nobst) {
+		d->bounded = 1;
+		if (vib || d->open) {
+			if (msg && msglen)
+				snprintf(msg, msglen, "obstacles: method \"%s\" does not support obstacles with a vibrating or "
+				         "open wall yet; use method \"ed\"", method);
+			return DSMC_EINVAL;
+		}
+		if (d->local_chi) {
+			if (msg && msglen)
+				snprintf(msg, msglen, "%s.contact_value: \"local\" is not available with obstacles yet (its cell "
+				         "blocks do not know the volume the obstacles take); use \"global\"", method);
+			return DSMC_EINVAL;
+		}
+	}
 	if (scene_has_walls(s) && d->local_chi) {
 		if (msg && msglen)
 			snprintf(msg, msglen, "%s.contact_value: \"local\" needs a periodic box (its cell blocks wrap), "
@@ -1208,6 +1416,16 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 	d->dt_grav = d->gnorm > 0 ? sqrt(2 * (d->cps > 0 ? d->cps : 0.2) * hmin / d->gnorm) : INFINITY;
 	vib |= d->open;   /* open walls take the vibrating-wall step too (flight_vib()) */
 	d->step = d->dim == 2 ? (vib ? step2v : d->bounded ? step2b : step2) : (vib ? step3v : d->bounded ? step3b : step3);
+	if (d->mix) {
+		if (d->bounded || d->hsmc) {
+			if (msg && msglen)
+				snprintf(msg, msglen, "particles.species: method \"%s\" runs mixtures (species, polydisperse radii) "
+				         "only in a periodic box without gravity or obstacles (and only method dsmc); use method \"ed\"",
+				         method);
+			return DSMC_EINVAL;
+		}
+		d->step = d->dim == 2 ? step2s : step3s;
+	}
 	return DSMC_OK;
 }
 
@@ -1218,10 +1436,12 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 static int layout(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
 {
 	dsmc_params_t pr;
-	if (scene_has_species(s)) {   /* the parser refuses this too; the engines do not rely on it */
-		set_msg(msg, msglen, "particles.species: %.0f species (or polydisperse), but dsmc/hsmc simulate one "
-		        "species of one radius only; use method \"ed\"", (double)s->n_species);
-		return DSMC_EINVAL;
+	d->mix = scene_has_species(s);
+	d->nsp = d->mix ? s->n_species : 1;
+	for (int a = 0; d->mix && a < s->n_species; a++) {
+		d->msp[a] = s->species[a].mass;
+		for (int b = 0; b < s->n_species; b++)
+			d->pe[a][b] = s->restitution_pair[a][b];
 	}
 	if ((s->dim != 2 && s->dim != 3) || s->count < 2 || s->count > INT32_MAX ||
 	    dsmc_params(s, &pr, NULL, 0) != DSMC_OK) {
@@ -1291,6 +1511,72 @@ static void ring_size(struct dsmc *d)
 	d->over_n = d->ring_n / 8 + 128 < d->n ? d->ring_n / 8 + 128 : d->n;
 }
 
+/* Whether a centre at x (internal coordinates) is inside some obstacle's
+ * contact sphere. */
+static int in_obstacle(const struct dsmc *d, const double *x)
+{
+	for (int k = 0; k < d->nobst; k++) {
+		double rel[3], r2 = 0;
+		obst_rel(d, x, k, rel, d->dim);
+		for (int a = 0; a < d->dim; a++)
+			r2 += rel[a] * rel[a];
+		if (r2 < d->obst[k].S * d->obst[k].S)
+			return 1;
+	}
+	return 0;
+}
+
+/* Points per axis of the free-volume quadrature in a cell an obstacle cuts. */
+#define VFREE_M2 64
+#define VFREE_M3 16
+
+/* vfac[c] = V_c / V_free of every cell (obstacles only): V_free the part
+ * of the cell open to centres (outside every contact sphere), by the
+ * midpoint rule on an m^D grid in the cells whose box some contact sphere
+ * reaches (m = 64 in 2D, 16 in 3D; the others are free: 1); 0 for a cell
+ * the obstacles cover. */
+static void free_volume(struct dsmc *d)
+{
+	const int D = d->dim, m = D == 2 ? VFREE_M2 : VFREE_M3;
+	int ci[3] = {0, 0, 0};
+	for (size_t c = 0; c < d->ncells; c++) {
+		if (c > 0)
+			for (int a = 0; a < D; a++) {
+				if (++ci[a] < d->nc[a])
+					break;
+				ci[a] = 0;
+			}
+		/* does some contact sphere reach the cell's box? (distance from its centre to the box) */
+		int cut = 0;
+		for (int k = 0; k < d->nobst && !cut; k++) {
+			double mid[3], rel[3], r2 = 0;
+			for (int a = 0; a < D; a++)
+				mid[a] = (ci[a] + 0.5) * d->h[a];
+			obst_rel(d, mid, k, rel, D);
+			for (int a = 0; a < D; a++) {
+				double e = fabs(rel[a]) - 0.5 * d->h[a];
+				r2 += e > 0 ? e * e : 0;
+			}
+			cut = r2 < d->obst[k].S * d->obst[k].S;
+		}
+		if (!cut) {
+			d->vfac[c] = 1.0f;
+			continue;
+		}
+		uint64_t total = D == 2 ? (uint64_t)m * m : (uint64_t)m * m * m, open = 0;
+		for (uint64_t q = 0; q < total; q++) {
+			double x[3];
+			uint64_t r = q;
+			for (int a = 0; a < D; a++) {
+				x[a] = (ci[a] + ((double)(r % (uint64_t)m) + 0.5) / m) * d->h[a];
+				r /= (uint64_t)m;
+			}
+			open += !in_obstacle(d, x);
+		}
+		d->vfac[c] = open ? (float)((double)total / (double)open) : 0.0f;
+	}
+}
+
 static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 {
 	struct dsmc *d = NULL;
@@ -1316,6 +1602,23 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	if (d->local_chi) {
 		d->chic = malloc(d->ncells * sizeof(float));
 		d->chit = malloc(d->ncells * sizeof(float));
+	}
+	if (d->nobst) {
+		d->vfac = malloc(d->ncells * sizeof(float));
+		if (!d->vfac)
+			goto fail;
+		free_volume(d);
+	}
+	if (d->mix) {
+		d->spc = malloc(d->n);
+		d->rad = malloc(d->n * sizeof(double));
+		if (!d->spc || !d->rad)
+			goto fail;
+		scene_species_radii(s, d->rad);
+		uint32_t i = 0;
+		for (int a = 0; a < s->n_species; a++)
+			for (uint64_t k = 0; k < s->species[a].count && i < d->n; k++)
+				d->spc[i++] = (uint8_t)a;
 	}
 	d->id = malloc(d->n * sizeof(uint32_t));
 	ring_size(d);
@@ -1354,6 +1657,60 @@ dsmc_t *dsmc_create_blank(const scene_t *s, int *err, char *msg, size_t msglen)
 static double reach_lo(const struct dsmc *d, int a) { return d->lo[a] + d->wall[2 * a].A; }
 static double reach_hi(const struct dsmc *d, int a) { return d->hi[a] - d->wall[2 * a + 1].A; }
 
+/* Lattice placement with obstacles: the smallest k^D grid (as without
+ * them) with N sites clear of the obstacles, N of those taken with the
+ * vacancies spread (lattice.h). */
+static int lattice_clear(struct dsmc *d, char *msg, size_t msglen)
+{
+	const int D = d->dim;
+	const size_t S = 2 * (size_t)D;
+	uint64_t k = (uint64_t)ceil(pow((double)d->n, 1.0 / D) - 1e-9), nsite = 0, nfree = 0;
+	uint64_t *site = NULL;
+	double x[3];
+	for (;; k++) {
+		nsite = D == 2 ? k * k : k * k * k;
+		if (nsite < d->n)
+			continue;
+		nfree = 0;
+		for (uint64_t q = 0; q < nsite; q++) {
+			uint64_t r = q;
+			for (int a = 0; a < D; a++, r /= k) {
+				double f = ((double)(r % k) + 0.5) / (double)k;
+				x[a] = d->walled[a] ? reach_lo(d, a) + f * (reach_hi(d, a) - reach_lo(d, a)) : f * d->L[a];
+			}
+			nfree += !in_obstacle(d, x);
+		}
+		if (nfree >= d->n)
+			break;
+	}
+	site = malloc(nfree * sizeof *site);
+	if (!site) {
+		set_msg(msg, msglen, "out of memory for %.0f lattice sites", (double)nfree);
+		return DSMC_ENOMEM;
+	}
+	nfree = 0;
+	for (uint64_t q = 0; q < nsite; q++) {
+		uint64_t r = q;
+		for (int a = 0; a < D; a++, r /= k) {
+			double f = ((double)(r % k) + 0.5) / (double)k;
+			x[a] = d->walled[a] ? reach_lo(d, a) + f * (reach_hi(d, a) - reach_lo(d, a)) : f * d->L[a];
+		}
+		if (!in_obstacle(d, x))
+			site[nfree++] = q;
+	}
+	lattice_fill_t fill;
+	lattice_fill_init(&fill, nfree, d->n, &d->rng);
+	for (uint32_t i = 0; i < d->n; i++) {
+		uint64_t r = site[lattice_fill_next(&fill)];
+		for (int a = 0; a < D; a++, r /= k) {
+			double f = ((double)(r % k) + 0.5) / (double)k;
+			d->p[i * S + a] = d->walled[a] ? reach_lo(d, a) + f * (reach_hi(d, a) - reach_lo(d, a)) : f * d->L[a];
+		}
+	}
+	free(site);
+	return DSMC_OK;
+}
+
 dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size_t msglen)
 {
 	struct dsmc *d = alloc(s, err, msg, msglen);
@@ -1368,10 +1725,19 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 			for (int a = 0; a < d->dim; a++)
 				d->p[i * S + a] = wrap(s->init_pos[(size_t)i * d->dim + a] + d->org[a], d->L[a]);
 	} else if (s->positions == SCENE_POS_RANDOM) {
+		/* uniform in the volume open to centres: with obstacles, drawn again until clear of them */
 		for (uint32_t i = 0; i < d->n; i++)
-			for (int a = 0; a < d->dim; a++)
-				d->p[i * S + a] = d->walled[a] ? reach_lo(d, a) + rng_uniform(&d->rng) * (reach_hi(d, a) - reach_lo(d, a))
-				                               : wrap(rng_uniform(&d->rng) * d->L[a], d->L[a]);
+			do {
+				for (int a = 0; a < d->dim; a++)
+					d->p[i * S + a] = d->walled[a] ? reach_lo(d, a) + rng_uniform(&d->rng) * (reach_hi(d, a) - reach_lo(d, a))
+					                               : wrap(rng_uniform(&d->rng) * d->L[a], d->L[a]);
+			} while (d->nobst && in_obstacle(d, &d->p[i * S]));
+	} else if (d->nobst) {
+		if (lattice_clear(d, msg, msglen) != DSMC_OK) {
+			*err = DSMC_ENOMEM;
+			dsmc_destroy(d);
+			return NULL;
+		}
 	} else {
 		/* A k^D grid; when N does not fill it the vacancies are spread over
 		 * the box (lattice.h), not left as an empty slab at the top. */
@@ -1397,20 +1763,44 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 	for (uint32_t i = 0; i < d->n && s->init_vel; i++)
 		for (int a = 0; a < d->dim; a++)
 			d->p[i * S + d->dim + a] = s->init_vel[(size_t)i * d->dim + a];
-	for (uint32_t i = 0; i < d->n && !s->init_vel; i++)
+	if (d->mix && !s->init_vel) {
+		/* as ed: Gaussian of variance T / m_s for species s, the centre-of-mass
+		 * velocity removed, scaled to exactly T = sum m v^2 / (D N) */
+		double mtot = 0, s2m = 0;
+		for (uint32_t i = 0; i < d->n; i++) {
+			const double m = d->msp[d->spc[i]], sd = 1 / sqrt(m);
+			for (int a = 0; a < d->dim; a++) {
+				double v = sd * rng_gauss(&d->rng);
+				d->p[i * S + d->dim + a] = v;
+				mean[a] += m * v;
+			}
+			mtot += m;
+		}
+		for (uint32_t i = 0; i < d->n; i++)
+			for (int a = 0; a < d->dim; a++) {
+				double *v = &d->p[i * S + d->dim + a];
+				*v -= mean[a] / mtot;
+				s2m += d->msp[d->spc[i]] * *v * *v;
+			}
+		double sc = s2m > 0 ? sqrt(s->temperature * d->dim * d->n / s2m) : 0;
+		for (uint32_t i = 0; i < d->n; i++)
+			for (int a = 0; a < d->dim; a++)
+				d->p[i * S + d->dim + a] *= sc;
+	}
+	for (uint32_t i = 0; i < d->n && !s->init_vel && !d->mix; i++)
 		for (int a = 0; a < d->dim; a++) {
 			double v = rng_gauss(&d->rng);
 			d->p[i * S + d->dim + a] = v;
 			mean[a] += v;
 		}
-	for (uint32_t i = 0; i < d->n && !s->init_vel; i++)
+	for (uint32_t i = 0; i < d->n && !s->init_vel && !d->mix; i++)
 		for (int a = 0; a < d->dim; a++) {
 			double *v = &d->p[i * S + d->dim + a];
 			*v -= mean[a] / d->n;
 			s2 += *v * *v;
 		}
 	double scale = s2 > 0 ? sqrt(s->temperature * d->dim * d->n / (d->mass * s2)) : 0;
-	for (uint32_t i = 0; i < d->n && !s->init_vel; i++)
+	for (uint32_t i = 0; i < d->n && !s->init_vel && !d->mix; i++)
 		for (int a = 0; a < d->dim; a++)
 			d->p[i * S + d->dim + a] *= scale;
 	initial_sort(d);
@@ -1434,7 +1824,8 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 		d->steps = d->collisions = d->candidates = d->vmax_raised = 0;
 		d->cell_collisions = d->rejected = 0;
 		d->virial = d->ekin_int = 0;
-		d->wall_collisions = d->rested = 0;
+		d->wall_collisions = d->rested = d->obst_collisions = 0;
+		memset(d->obst_impulse, 0, sizeof d->obst_impulse);
 		memset(d->wall_hits, 0, sizeof d->wall_hits);
 		memset(d->wall_impulse, 0, sizeof d->wall_impulse);
 		/* the clock restarts at 0, and with it the vibrating walls' phases:
@@ -1472,6 +1863,9 @@ void dsmc_destroy(dsmc_t *d)
 	free(d->stamp);
 	free(d->chic);
 	free(d->chit);
+	free(d->vfac);
+	free(d->spc);
+	free(d->rad);
 	free(d);
 }
 
@@ -1481,6 +1875,7 @@ static void walls_out(const struct dsmc *d, dsmc_sample_t *out)
 {
 	const int D = d->dim, S = 2 * D;
 	out->wall_collisions = d->wall_collisions;
+	out->obstacle_collisions = d->obst_collisions;
 	out->rested = d->rested;
 	out->particles = d->na;
 	memcpy(out->wall_outflow, d->wout, sizeof out->wall_outflow);
@@ -1496,6 +1891,23 @@ static void walls_out(const struct dsmc *d, dsmc_sample_t *out)
 		gr += d->g[a] * (sum[a] - d->na * d->org[a]);   /* scene coordinates */
 	out->potential_energy = -d->mass * gr;
 	out->com_height = d->na ? -gr / (d->gnorm * d->na) : NAN;
+}
+
+/* Mixtures: kinetic energy and count of each species (n_species 0 for one). */
+static void species_out(const struct dsmc *d, dsmc_sample_t *out)
+{
+	out->n_species = d->mix && d->nsp > 1 ? d->nsp : 0;
+	if (!out->n_species)
+		return;
+	const int D = d->dim, S = 2 * D;
+	for (uint32_t k = 0; k < d->n; k++) {
+		const int a = d->spc[d->id[k]];
+		double v2 = 0;
+		for (int b = 0; b < D; b++)
+			v2 += d->p[(size_t)k * S + D + b] * d->p[(size_t)k * S + D + b];
+		out->species_kinetic_energy[a] += 0.5 * d->msp[a] * v2;
+		out->species_count[a]++;
+	}
 }
 
 void dsmc_sample(dsmc_t *d, dsmc_sample_t *out)
@@ -1515,8 +1927,11 @@ void dsmc_sample(dsmc_t *d, dsmc_sample_t *out)
 	out->ekin_time_integral = d->ekin_int;
 	out->virial = d->virial;
 	walls_out(d, out);
+	species_out(d, out);
 	memcpy(out->wall_impulse, d->wall_impulse, sizeof out->wall_impulse);
 	memset(d->wall_impulse, 0, sizeof d->wall_impulse);
+	memcpy(out->obstacle_impulse, d->obst_impulse, sizeof out->obstacle_impulse);
+	memset(d->obst_impulse, 0, sizeof d->obst_impulse);
 	d->t_sample = d->t;
 	d->coll_sample = d->collisions;
 	d->ekin_int = 0;
@@ -1551,6 +1966,7 @@ void dsmc_totals(const dsmc_t *d, dsmc_sample_t *out)
 	out->rejected_moves = d->rejected;
 	out->kinetic_energy = ekin_exact(d, out->momentum);
 	walls_out(d, out);
+	species_out(d, out);
 }
 
 /* ---- state fields (checkpoints) ------------------------------------------
@@ -1562,7 +1978,7 @@ void dsmc_totals(const dsmc_t *d, dsmc_sample_t *out)
  * estimate and the interval accumulators. Not stored: the sort scratch
  * cell, cnt (rewritten before they are read in every step) and v_max
  * (recomputed per cell and step from the velocities). */
-enum { F_SCALAR, F_PART, F_ID, F_START, F_REM, F_STAMP, F_RNG, F_WALL, F_WHITS, F_WIMP, F_PRESENT, F_WOUT };
+enum { F_SCALAR, F_PART, F_ID, F_START, F_REM, F_STAMP, F_RNG, F_WALL, F_WHITS, F_WIMP, F_PRESENT, F_WOUT, F_OBST, F_OIMP };
 typedef struct {
 	const char *name;
 	ed_type_t type;
@@ -1598,6 +2014,9 @@ static const dfield_t dfields[] = {
 	/* scenes with open walls only */
 	{ "present", ED_T_U64, F_PRESENT, 0 },
 	{ "wall_outflow", ED_T_U64, F_WOUT, 0 },
+	/* scenes with obstacles only */
+	{ "obstacle_collisions", ED_T_U64, F_OBST, offsetof(struct dsmc, obst_collisions) },
+	{ "obstacle_impulse", ED_T_F64, F_OIMP, 0 },
 };
 #define N_DFIELDS (sizeof dfields / sizeof dfields[0])
 
@@ -1615,6 +2034,8 @@ static size_t dfield_count(const struct dsmc *d, const dfield_t *f)
 	case F_WIMP: return d->has_walls ? 18 : 0;
 	case F_PRESENT: return d->open ? 1 : 0;
 	case F_WOUT: return d->open ? 6 : 0;
+	case F_OBST: return d->nobst ? 1 : 0;
+	case F_OIMP: return 3 * (size_t)d->nobst;
 	default: return 1;
 	}
 }
@@ -1622,7 +2043,8 @@ static size_t dfield_count(const struct dsmc *d, const dfield_t *f)
 /* Fields a scene's engine has (stamp: hsmc; wall state: scenes with walls). */
 static int dfield_present(const struct dsmc *d, const dfield_t *f)
 {
-	return f->kind == F_STAMP ? d->hsmc : f->kind >= F_PRESENT ? d->open : f->kind >= F_WALL ? d->has_walls : 1;
+	return f->kind == F_STAMP ? d->hsmc : f->kind >= F_OBST ? d->nobst > 0 : f->kind >= F_PRESENT ? d->open
+	       : f->kind >= F_WALL ? d->has_walls : 1;
 }
 
 static const dfield_t *dfield_find(const char *name)
@@ -1663,6 +2085,7 @@ int dsmc_field_get(const dsmc_t *d, const char *name, void *buf)
 	case F_WIMP: memcpy(buf, d->wall_impulse, sizeof d->wall_impulse); break;
 	case F_PRESENT: *(uint64_t *)buf = d->na; break;
 	case F_WOUT: memcpy(buf, d->wout, sizeof d->wout); break;
+	case F_OIMP: memcpy(buf, d->obst_impulse, count * sizeof(double)); break;
 	case F_REM:
 		for (size_t c = 0; c < count; c++)
 			((double *)buf)[c] = d->rem[c];   /* float -> double -> float is exact */
@@ -1691,6 +2114,7 @@ int dsmc_field_set(dsmc_t *d, const char *name, ed_type_t type, size_t count, co
 		d->na = (uint32_t)*(const uint64_t *)buf;
 		break;
 	case F_WOUT: memcpy(d->wout, buf, sizeof d->wout); break;
+	case F_OIMP: memcpy(d->obst_impulse, buf, count * sizeof(double)); break;
 	case F_REM:
 		for (size_t c = 0; c < count; c++) {
 			double r = ((const double *)buf)[c];
@@ -1764,7 +2188,8 @@ size_t dsmc_memory(const dsmc_t *d)
 	return sizeof(*d) + d->n * S * sizeof(double) + 2 * d->n * sizeof(uint32_t) +
 	       (size_t)(d->ring_n + d->over_n) * (S * sizeof(double) + 2 * sizeof(uint32_t)) +
 	       d->ncells * (2 * sizeof(uint32_t) + sizeof(float) + (d->hsmc ? sizeof(uint32_t) : 0) +
-	                    (d->local_chi ? 2 * sizeof(float) : 0));
+	                    (d->local_chi ? 2 * sizeof(float) : 0) + (d->nobst ? sizeof(float) : 0)) +
+	       (d->mix ? d->n * (1 + sizeof(double)) : 0);
 }
 
 int dsmc_plan(const scene_t *s, dsmc_plan_t *out, char *msg, size_t msglen)

@@ -21,7 +21,12 @@
  *   nothing more), open (a particle that reaches one leaves: its record
  *   goes after the particles present, dsmc_state() gives NaN for it,
  *   energies and heights are over the particles present; ed's semantics,
- *   docs/scene.md). A scene without walls and gravity
+ *   docs/scene.md). Obstacles (fixed-wall variant only; refused with
+ *   vibrating or open walls): exact contact times with each obstacle's
+ *   contact sphere within the flight (ed/obstacle.h), ed's rule
+ *   (obstacle_rule()), walls and obstacles in one loop; no centre ends a
+ *   step inside one; a cell an obstacle cuts collides at the rate of its
+ *   free volume (docs/engine.md). A scene without walls, gravity and obstacles
  *   runs the periodic step, which has no wall code at all; one without a
  *   vibrating or open wall runs the fixed-wall step, which has no code for
  *   them (the variant is chosen at load). With a vibrating lower wall the
@@ -139,6 +144,15 @@ typedef struct {
 	/* Scenes with gravity g: centre-of-mass height along -g (scene
 	 * coordinates) and potential energy -m sum g.r, now. NAN without gravity. */
 	double com_height, potential_energy;
+	/* Scenes with obstacles (as ed_sample_t): hits, total; momentum given
+	 * to each obstacle over the interval (its force times the interval). */
+	uint64_t obstacle_collisions;
+	double obstacle_impulse[SCENE_OBSTACLES_MAX][3];
+	/* Mixtures (as ed_sample_t): kinetic energy of each species now
+	 * (T_s = 2 E_s / (D N_s)) and its count; n_species = 0 for one species. */
+	int n_species;
+	double species_kinetic_energy[SCENE_SPECIES_MAX];
+	uint64_t species_count[SCENE_SPECIES_MAX];
 } dsmc_sample_t;
 
 /* Fill *out and start a new interval. Does not change the dynamics. */

@@ -34,6 +34,7 @@
 struct clusters {
 	int dim;
 	size_t n;
+	int walled[3];        /* clusters_walls(): no periodic image on these axes */
 	int valid;            /* labels belong to a successful compute */
 	double *spos;         /* n*dim wrapped positions in slot (cell) order */
 	uint32_t *cell_of;    /* particle -> cell; later root slot -> label */
@@ -108,14 +109,40 @@ static inline double wrap(double x, double L)
 	return (x >= 0.0 && x < L) ? x : 0.0;
 }
 
-/* Minimum-image component of a difference of two wrapped coordinates. */
-static inline double min_image(double d, double L)
+/* Minimum-image component of a difference of two wrapped coordinates; half = L/2 on periodic axes,
+ * INFINITY on walled ones (the plain difference, chosen once per call, no test per pair). */
+static inline double min_image(double d, double L, double half)
 {
-	if (d > 0.5 * L)
+	if (d > half)
 		return d - L;
-	if (d < -0.5 * L)
+	if (d < -half)
 		return d + L;
 	return d;
+}
+
+/* Periodic axes: folded into [0, L); walled axes: as they are. */
+static inline double fold(double x, double L, int walled)
+{
+	return walled ? x : wrap(x, L);
+}
+
+/* Cell of a coordinate on an axis of m cells (clamped: walled coordinates may lie outside [0, L)). */
+static inline size_t cell_index(double x, double inv, size_t m)
+{
+	double q = x * inv;
+	if (!(q >= 0.0))
+		return 0;
+	size_t ci = (size_t)q;
+	return ci >= m ? m - 1 : ci;
+}
+
+int clusters_walls(clusters_t *c, const int *walled)
+{
+	if (c == NULL || walled == NULL)
+		return -1;
+	for (int a = 0; a < c->dim; a++)
+		c->walled[a] = walled[a] != 0;
+	return 0;
 }
 
 static inline uint32_t find(uint32_t *parent, uint32_t x)
@@ -188,7 +215,7 @@ static int axis_offsets(size_t m, int off[3])
 }
 
 /* Test all pairs between slots [a0, a1) and [b0, b1) (same cell: a0 == b0). */
-static void scan_pair(clusters_t *c, const double *box, double cut2,
+static void scan_pair(clusters_t *c, const double *box, const double *half, double cut2,
                       uint32_t a0, uint32_t a1, uint32_t b0, uint32_t b1)
 {
 	const int dim = c->dim;
@@ -197,11 +224,11 @@ static void scan_pair(clusters_t *c, const double *box, double cut2,
 		const double *pi = p + (size_t)i * dim;
 		for (uint32_t j = (a0 == b0 ? i + 1 : b0); j < b1; j++) {
 			const double *pj = p + (size_t)j * dim;
-			double dx = min_image(pi[0] - pj[0], box[0]);
-			double dy = min_image(pi[1] - pj[1], box[1]);
+			double dx = min_image(pi[0] - pj[0], box[0], half[0]);
+			double dy = min_image(pi[1] - pj[1], box[1], half[1]);
 			double r2 = dx * dx + dy * dy;
 			if (dim == 3) {
-				double dz = min_image(pi[2] - pj[2], box[2]);
+				double dz = min_image(pi[2] - pj[2], box[2], half[2]);
 				r2 += dz * dz;
 			}
 			if (r2 < cut2)
@@ -335,9 +362,7 @@ int clusters_compute(clusters_t *c, const double *pos, const double *box,
 	for (size_t i = 0; i < n; i++) {
 		size_t idx = 0;
 		for (int a = dim - 1; a >= 0; a--) {
-			size_t ci = (size_t)(wrap(pos[i * dim + a], L[a]) * inv[a]);
-			if (ci >= m[a])
-				ci = m[a] - 1;
+			size_t ci = cell_index(fold(pos[i * dim + a], L[a], c->walled[a]), inv[a], m[a]);
 			idx = idx * m[a] + ci;
 		}
 		c->cell_of[i] = (uint32_t)idx;
@@ -353,7 +378,7 @@ int clusters_compute(clusters_t *c, const double *pos, const double *box,
 		uint32_t s = start[c->cell_of[i]]++;
 		c->slot_of[i] = s;
 		for (int a = 0; a < dim; a++)
-			c->spos[(size_t)s * dim + a] = wrap(pos[i * dim + a], L[a]);
+			c->spos[(size_t)s * dim + a] = fold(pos[i * dim + a], L[a], c->walled[a]);
 	}
 	memmove(start + 1, start, ncells * sizeof(uint32_t));
 	start[0] = 0;
@@ -367,6 +392,9 @@ int clusters_compute(clusters_t *c, const double *pos, const double *box,
 	for (int a = 0; a < 3; a++)
 		noff[a] = axis_offsets(m[a], off[a]);
 	const double cut2 = cutoff * cutoff;
+	double half[3];
+	for (int a = 0; a < 3; a++)
+		half[a] = c->walled[a] ? INFINITY : 0.5 * L[a];
 	size_t idx = 0;
 	for (size_t z = 0; z < m[2]; z++)
 	for (size_t y = 0; y < m[1]; y++)
@@ -386,7 +414,7 @@ int clusters_compute(clusters_t *c, const double *pos, const double *box,
 				continue; /* visited from the other cell */
 			uint32_t b0 = start[nb], b1 = start[nb + 1];
 			if (b0 != b1)
-				scan_pair(c, L, cut2, a0, a1, b0, b1);
+				scan_pair(c, L, half, cut2, a0, a1, b0, b1);
 		}
 	}
 

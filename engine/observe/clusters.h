@@ -8,8 +8,10 @@
  * Two particles belong to the same cluster when their surface gap is below
  * delta, i.e. centre distance < 2*radius + delta (seed 003, ch. 5; delta is
  * given here in length units, the scene gives it in diameters). Periodic
- * box, minimum image. Union-find over a cell grid of edge >= 2*radius+delta:
- * O(N) time for bounded density. No I/O.
+ * box, minimum image; on axes named by clusters_walls() the plain
+ * difference (a cluster touching both walls is not joined across them).
+ * Union-find over a cell grid of edge >= 2*radius+delta: O(N) time for
+ * bounded density. No I/O.
  */
 
 #define CLUSTERS_MAX_BINS 40
@@ -45,7 +47,11 @@ typedef struct clusters clusters_t;
 clusters_t *clusters_create(int dim, size_t n);
 void clusters_destroy(clusters_t *c);
 
-/* pos: n*dim coordinates (any values; wrapped internally into [0, box)).
+/* Walled axes (walled[dim], nonzero: no periodic image; positions taken as they are, not folded), for
+ * every later clusters_compute(). 0, or -1 on NULL arguments. */
+int clusters_walls(clusters_t *c, const int *walled);
+
+/* pos: n*dim coordinates (any values; wrapped internally into [0, box) on periodic axes).
  * box: dim edge lengths. Returns 0, or a negative code (-1 bad arguments,
  * -2 out of memory). */
 int clusters_compute(clusters_t *c, const double *pos, const double *box,

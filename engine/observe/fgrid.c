@@ -52,28 +52,39 @@ void fgrid_destroy(fgrid_t *g)
 
 fgrid_t *fgrid_create(int dim, const double *box, const int m[3], int fields)
 {
+	return fgrid_create_walled(dim, box, m, fields, NULL);
+}
+
+fgrid_t *fgrid_create_walled(int dim, const double *box, const int m[3], int fields, const int *walled)
+{
 	if ((dim != 2 && dim != 3) || fields < 1)
 		return NULL;
-	for (int a = 0; a < dim; a++)
-		if (m[a] < 4 || !(box[a] > 0) || !isfinite(box[a]))
+	int periodic = 0;
+	for (int a = 0; a < dim; a++) {
+		int w = walled && walled[a];
+		if ((!w && m[a] < 4) || !(box[a] > 0) || !isfinite(box[a]))
 			return NULL;
+		periodic += !w;
+	}
+	if (!periodic)
+		return NULL;
 	fgrid_t *g = calloc(1, sizeof(*g));
 	if (!g)
 		return NULL;
 	g->dim = dim;
 	g->fields = fields;
-	double lmax = 0, kny = INFINITY;
+	double lmax = 0;
 	for (int a = 0; a < 3; a++) {
-		g->m[a] = a < dim ? (size_t)m[a] : 1;
+		int w = a < dim && walled && walled[a];
+		/* a walled axis has one grid point: the deposit sums over it, so only k_a = 0 is transformed */
+		g->m[a] = a < dim && !w ? (size_t)m[a] : 1;
 		g->L[a] = a < dim ? box[a] : 1;
 		g->h[a] = g->L[a] / (double)g->m[a];
-		if (a < dim) {
+		if (a < dim && !w)
 			lmax = fmax(lmax, g->L[a]);
-			kny = fmin(kny, PI * (double)g->m[a] / g->L[a]);
-		}
 	}
 	g->dk = 2 * PI / lmax;
-	g->J = tables_k_shells(dim, box, m);   /* the one formula, shared with admission control */
+	g->J = tables_k_shells(dim, box, m, walled);   /* the one formula, shared with admission control */
 	g->lo2 = 0.25 * g->dk * g->dk;
 	g->hi2 = (g->J + 0.5) * (g->J + 0.5) * g->dk * g->dk;
 	size_t ml = g->m[last_axis(g)];

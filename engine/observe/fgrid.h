@@ -31,6 +31,14 @@ typedef struct fgrid fgrid_t;
 
 /* NULL on bad arguments (dim 2 or 3, every m >= 4) or no memory. */
 fgrid_t *fgrid_create(int dim, const double *box, const int m[3], int fields);
+/* The same with walls: walled[dim] (may be NULL: none) names the axes with walls, which have no periodic
+ * images. The transform then runs over the periodic axes only: a walled axis gets one grid point (m there
+ * is ignored), which sums the deposit along it, so every mode has k = 0 along the walled axes and the
+ * shells (dk = 2 pi / the largest periodic edge, up to the smallest periodic Nyquist wavenumber) hold
+ * wave vectors along the periodic axes: the structure of the density projected on them, exact (no
+ * window, no padding: the sum along a walled axis does not depend on where in the box a particle is).
+ * NULL also when every axis is walled. */
+fgrid_t *fgrid_create_walled(int dim, const double *box, const int m[3], int fields, const int *walled);
 void fgrid_destroy(fgrid_t *g);
 
 /* J, the number of shells (>= 1 for m >= 4). */

@@ -16,6 +16,9 @@ struct gofr {
 	int dim;
 	size_t n;
 	double box[3], cutoff;
+	double half[3];           /* minimum image threshold per axis: L/2 periodic, INFINITY walled (no image) */
+	int walled[3];            /* gofr_walls(): 1 on walled axes */
+	double inner[3];          /* edges of the region the centres fill: L, or L - 2 radius on walled axes */
 	double *spos, *svel;      /* wrapped positions and peculiar velocities in cell order */
 	uint32_t *cell_of;        /* particle -> cell */
 	uint32_t *start;          /* cell_cap + 1 */
@@ -39,6 +42,10 @@ gofr_t *gofr_create(int dim, size_t n, const double *box, double cutoff)
 			return NULL;
 		}
 		g->box[a] = box[a];
+	}
+	for (int a = 0; a < 3; a++) {
+		g->half[a] = 0.5 * g->box[a];
+		g->inner[a] = g->box[a];
 	}
 	g->cell_cap = (size_t)CELLS_PER_PARTICLE * n + CELLS_MIN;
 	g->spos = malloc(n * dim * sizeof(double));
@@ -71,13 +78,46 @@ static inline double wrap(double x, double L)
 	return (x >= 0.0 && x < L) ? x : 0.0;
 }
 
-static inline double min_image(double d, double L)
+/* Minimum image with threshold half = L/2 (periodic axes); half = INFINITY leaves d as it is (walled). */
+static inline double min_image(double d, double L, double half)
 {
-	if (d > 0.5 * L)
+	if (d > half)
 		return d - L;
-	if (d < -0.5 * L)
+	if (d < -half)
 		return d + L;
 	return d;
+}
+
+/* Periodic axes: folded into [0, L); walled axes: as they are (a centre may sit a little beyond a
+ * wall's rest position, below a vibrating wall). */
+static inline double fold(double x, double L, int walled)
+{
+	return walled ? x : wrap(x, L);
+}
+
+/* Cell of a coordinate on an axis of m cells (clamped: walled coordinates may lie outside [0, L)). */
+static inline size_t cell_index(double x, double inv, size_t m)
+{
+	double q = x * inv;
+	if (!(q >= 0.0))
+		return 0;
+	size_t ci = (size_t)q;
+	return ci >= m ? m - 1 : ci;
+}
+
+int gofr_walls(gofr_t *g, const int *walled, double radius)
+{
+	if (!g || !walled || !(radius >= 0) || !isfinite(radius))
+		return -1;
+	for (int a = 0; a < g->dim; a++)
+		if (walled[a] && !(g->box[a] - 2 * radius > 0))
+			return -1;
+	for (int a = 0; a < g->dim; a++) {
+		g->walled[a] = walled[a] != 0;
+		g->half[a] = g->walled[a] ? INFINITY : 0.5 * g->box[a];
+		g->inner[a] = g->walled[a] ? g->box[a] - 2 * radius : g->box[a];
+	}
+	return 0;
 }
 
 /* Cells per axis: edge >= cutoff, at most cap cells in all (shrinking every axis alike). */
@@ -125,7 +165,7 @@ static void scan(const gofr_t *g, const bins_t *b, int with_vel, uint32_t a0, ui
 			const double *pj = p + (size_t)j * D;
 			double d[3] = {0, 0, 0}, r2 = 0;
 			for (int a = 0; a < D; a++) {
-				d[a] = min_image(pi[a] - pj[a], g->box[a]);
+				d[a] = min_image(pi[a] - pj[a], g->box[a], g->half[a]);
 				r2 += d[a] * d[a];
 			}
 			if (r2 >= b->r1sq || r2 < b->r0sq)
@@ -179,9 +219,7 @@ int gofr_pairs(gofr_t *g, const double *pos, const double *vel, double r0, doubl
 	for (size_t i = 0; i < n; i++) {
 		size_t idx = 0;
 		for (int a = D - 1; a >= 0; a--) {
-			size_t ci = (size_t)(wrap(pos[i * D + a], g->box[a]) * inv[a]);
-			if (ci >= m[a])
-				ci = m[a] - 1;
+			size_t ci = cell_index(fold(pos[i * D + a], g->box[a], g->walled[a]), inv[a], m[a]);
 			idx = idx * m[a] + ci;
 		}
 		g->cell_of[i] = (uint32_t)idx;
@@ -204,7 +242,7 @@ int gofr_pairs(gofr_t *g, const double *pos, const double *vel, double r0, doubl
 	for (size_t i = 0; i < n; i++) {
 		uint32_t s = start[g->cell_of[i]]++;
 		for (int a = 0; a < D; a++) {
-			g->spos[(size_t)s * D + a] = wrap(pos[i * D + a], g->box[a]);
+			g->spos[(size_t)s * D + a] = fold(pos[i * D + a], g->box[a], g->walled[a]);
 			if (vel)
 				g->svel[(size_t)s * D + a] = vel[i * D + a] - mean[a];
 		}
@@ -246,8 +284,51 @@ double gofr_ideal(int dim, size_t n, double volume, double a, double b)
 	return 0.5 * (double)n * (double)(n - 1) * shell / volume;
 }
 
-int gofr_contact_fit(int dim, size_t n, double volume, double sigma, double width, int nb, const double *count,
-                     gofr_contact_t *out)
+/*
+ * Uniform independent centres in the region of edges inner[a]: the difference along a periodic axis is
+ * uniform (density 1/L), along a walled one triangular, (1 - |x|/L)/L for |x| < L. The pairs expected in
+ * the shell [a, b) are N(N-1)/2 / V int_a^b r^(D-1) W(r) dr with W(r) the integral over directions n of
+ * prod_walled (1 - r |n_a| / L_a) (exact for r below every walled L_a). With c_a = 1/L_a on walled axes,
+ * 0 on periodic ones, S1 = sum c_a, S2 = sum_{a<b} c_a c_b, S3 = c_x c_y c_z:
+ *   2D: W = 2 pi - 4 S1 r + 2 S2 r^2   (int |cos| = 4, int |cos sin| = 2 over the circle);
+ *   3D: W = 4 pi - 2 pi S1 r + 8/3 S2 r^2 - S3 r^3   (int |n_x| = 2 pi, int |n_x n_y| = 8/3,
+ *       int |n_x n_y n_z| = 1 over the sphere).
+ * One walled axis: the fraction of the shell inside is 1 - 2r/(pi L) (2D), 1 - r/(2L) (3D).
+ */
+static double ideal_box(int dim, size_t n, const double *box, const int *walled, const double *inner, double a,
+                        double b)
+{
+	double c[3] = {0, 0, 0}, vol = 1;
+	int any = 0;
+	for (int k = 0; k < dim; k++) {
+		if (walled[k]) {
+			c[k] = 1.0 / inner[k];
+			any = 1;
+		}
+	}
+	if (!any)
+		return gofr_ideal(dim, n, box[0] * box[1] * (dim == 3 ? box[2] : 1), a, b);
+	for (int k = 0; k < dim; k++)
+		vol *= inner[k];
+	double s1 = c[0] + c[1] + c[2], s2 = c[0] * c[1] + c[0] * c[2] + c[1] * c[2], s3 = c[0] * c[1] * c[2];
+	double a2 = a * a, b2 = b * b, a3 = a2 * a, b3 = b2 * b, a4 = a2 * a2, b4 = b2 * b2;
+	double shell;
+	if (dim == 2)
+		shell = PI * (b2 - a2) - 4.0 / 3.0 * s1 * (b3 - a3) + 0.5 * s2 * (b4 - a4);
+	else
+		shell = 4.0 / 3.0 * PI * (b3 - a3) - 0.5 * PI * s1 * (b4 - a4) + 8.0 / 15.0 * s2 * (b4 * b - a4 * a) -
+		        s3 / 6.0 * (b3 * b3 - a3 * a3);
+	return 0.5 * (double)n * (double)(n - 1) * shell / vol;
+}
+
+double gofr_ideal_in(const gofr_t *g, double a, double b)
+{
+	return ideal_box(g->dim, g->n, g->box, g->walled, g->inner, a, b);
+}
+
+/* The contact fit with the ideal pair counts of a geometry. */
+static int contact_fit(int dim, size_t n, const double *box, const int *walled, const double *inner, double sigma,
+                       double width, int nb, const double *count, gofr_contact_t *out)
 {
 	/* Weighted least squares of y = ln g on x = r - sigma (bin centres),
 	 * weights = counts (var ln g = 1/count for Poisson counts). */
@@ -258,7 +339,8 @@ int gofr_contact_fit(int dim, size_t n, double volume, double sigma, double widt
 		if (!(count[k] > 0))
 			continue;
 		double a = sigma + k * width, b = a + width;
-		double g = count[k] / gofr_ideal(dim, n, volume, a, b), x = 0.5 * (a + b) - sigma, y = log(g), w = count[k];
+		double g = count[k] / ideal_box(dim, n, box, walled, inner, a, b);
+		double x = 0.5 * (a + b) - sigma, y = log(g), w = count[k];
 		sw += w, sx += w * x, sy += w * y, sxx += w * x * x, sxy += w * x * y;
 		used++;
 	}
@@ -274,17 +356,24 @@ int gofr_contact_fit(int dim, size_t n, double volume, double sigma, double widt
 	return 0;
 }
 
+int gofr_contact_fit(int dim, size_t n, double volume, double sigma, double width, int nb, const double *count,
+                     gofr_contact_t *out)
+{
+	/* a periodic box of that volume: only the product of the edges enters */
+	const double box[3] = {volume, 1, 1};
+	const int walled[3] = {0, 0, 0};
+	return contact_fit(dim, n, box, walled, box, sigma, width, nb, count, out);
+}
+
 int gofr_contact(gofr_t *g, const double *pos, double sigma, gofr_contact_t *out)
 {
-	double count[GOFR_CONTACT_BINS], vol = 1;
+	double count[GOFR_CONTACT_BINS];
 	double width = sigma * GOFR_CONTACT_WIDTH / GOFR_CONTACT_BINS;
 	if (gofr_pairs(g, pos, NULL, sigma, sigma * (1 + GOFR_CONTACT_WIDTH), GOFR_CONTACT_BINS, count, NULL, NULL)) {
 		out->value = out->se = out->pairs = NAN;
 		return -1;
 	}
-	for (int a = 0; a < g->dim; a++)
-		vol *= g->box[a];
-	return gofr_contact_fit(g->dim, g->n, vol, sigma, width, GOFR_CONTACT_BINS, count, out);
+	return contact_fit(g->dim, g->n, g->box, g->walled, g->inner, sigma, width, GOFR_CONTACT_BINS, count, out);
 }
 
 double gofr_contact_rate(int dim, double nu, double radius, double mass, double temp, double rate)

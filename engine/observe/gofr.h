@@ -5,12 +5,17 @@
 
 /*
  * Contract
- * - Periodic box, minimum image; particles are sorted into a grid of cells
+ * - Periodic box, minimum image, unless gofr_walls() names walled axes:
+ *   there distances are plain differences (chosen once; the periodic path
+ *   is unchanged). Particles are sorted into a grid of cells
  *   of edge >= the largest distance asked for, so one call costs O(N) at
  *   bounded density (N times the pairs within range). No I/O; all memory
  *   is allocated in gofr_create() (reused by every call).
  * - g(r) of a shell [a, b) = pairs counted / pairs an ideal gas of the same
- *   N and volume would have there, N (N-1)/2 * v_shell / V (gofr_ideal()).
+ *   N and volume would have there, N (N-1)/2 * v_shell / V (gofr_ideal());
+ *   with walls, the pairs of N uniform independent centres in the region
+ *   they can reach (gofr_ideal_in(): the box shrunk by one radius at each
+ *   wall, the shell's part inside counted exactly, gofr.c).
  * - Distances must not exceed half the smallest box edge (the caller's
  *   check; scene_parse() enforces it for the scene's range).
  */
@@ -21,6 +26,16 @@ typedef struct gofr gofr_t;
  * cutoff: the largest distance a call will ask for. NULL on bad arguments or no memory. */
 gofr_t *gofr_create(int dim, size_t n, const double *box, double cutoff);
 void gofr_destroy(gofr_t *g);
+
+/* Walls: walled[dim] (nonzero: walls at 0 and the box edge on that axis, no periodic image), radius: the
+ * centres' distance of closest approach to a wall (the region they fill is L - 2 radius on a walled axis).
+ * Call once after gofr_create(); positions on walled axes are then taken as they are (not folded).
+ * 0, or -1 on bad arguments (no room between the walls). */
+int gofr_walls(gofr_t *g, const int *walled, double radius);
+
+/* Pairs of an ideal gas (uniform independent centres) of g's n particles in g's geometry in the shell
+ * [a, b): gofr_ideal() of the box volume without walls; exact for b below every walled region edge. */
+double gofr_ideal_in(const gofr_t *g, double a, double b);
 
 /* Pair counts in nb equal bins over [r0, r1) into count[nb]. With vel (n*dim doubles, may be NULL),
  * also per bin the sums over those pairs of (w_i . e)(w_j . e) into par[nb] and of

@@ -15,6 +15,16 @@
  *   loses energy), no particle is faster than sqrt(2 E / m) at any later
  *   time. (dsmc/hsmc with the CBA correction also move colliding partners
  *   by a diameter: not in the bound; docs/output.md.)
+ * - Walls and gravity (msd_walls()): walled axes are not unwrapped (a wall
+ *   has no image: the position is the displacement's own coordinate), and
+ *   only the periodic edges enter the bound (none periodic: no update is
+ *   ever due). Gravity along walled axes turns potential energy into
+ *   kinetic energy: the bound then takes E = E_kin + sum_i m (u_i - u_min),
+ *   u = -g . r and u_min its least value on the contact planes, which no
+ *   particle can exceed while the mechanical energy does not grow (walls
+ *   that do not feed energy: specular, rough; no driving; for rough
+ *   particles ekin must include the rotational energy: the caller's to
+ *   ensure).
  * - pos: N*D doubles in scene particle order, folded into [0, L). Times are
  *   the run's clock; units of the scene (diameter from the scene radius).
  * - No I/O, no globals; msd_create() allocates everything (2 N D doubles).
@@ -28,6 +38,11 @@ typedef struct msd msd_t;
 msd_t *msd_create(int dim, size_t n, const double *box, double mass, double reach);
 void msd_destroy(msd_t *m);
 
+/* Walls and gravity, once after msd_create(): walled[dim] (nonzero: walls, no unwrapping), gravity[dim]
+ * (zero on periodic axes), radius (the contact planes, radius from each wall). 0, or -1 on bad arguments
+ * (gravity along a periodic axis, no room between walls). */
+int msd_walls(msd_t *m, const int *walled, const double *gravity, double radius);
+
 /* The origin: positions at time t, with total kinetic energy ekin (the speed bound). */
 void msd_origin(msd_t *m, double t, const double *pos, double ekin);
 /* Follow the particles to pos at time t (t >= the previous update's). */
@@ -39,6 +54,9 @@ double msd_due(const msd_t *m);
  * its standard error (sample standard deviation / sqrt(N): particles taken
  * as independent) into *se (may be NULL). */
 double msd_value(const msd_t *m, double *se);
+/* Mean over particles of the squared displacement summed over the walled axes (walled != 0) or over the
+ * periodic ones (walled == 0) at the last update; NaN when there is no such axis. */
+double msd_value_axes(const msd_t *m, int walled);
 /* Time of the origin and of the last update. */
 double msd_time0(const msd_t *m);
 double msd_time(const msd_t *m);

@@ -69,8 +69,13 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 	double rmax = s->gofr_range * o->sigma;
 
 	/* The grid first: its shell count sizes the k tables. */
+	int walled[3];
+	for (int a = 0; a < 3; a++)
+		walled[a] = s->boundary[a].walled;
 	if (o->bits & (SCENE_OBS_SOFK | SCENE_OBS_VCORR)) {
-		o->grid = fgrid_create(D, s->box, s->sofk_grid, layout_only ? 1 : (o->bits & SCENE_OBS_VCORR) ? D : 1);
+		/* with walls: wave vectors along the periodic axes only (fgrid.h) */
+		o->grid = fgrid_create_walled(D, s->box, s->sofk_grid, layout_only ? 1 : (o->bits & SCENE_OBS_VCORR) ? D : 1,
+		                              walled);
 		if (!o->grid)
 			goto fail;
 		J = fgrid_bins(o->grid);
@@ -79,6 +84,10 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 		o->gofr = gofr_create(D, s->count, s->box, fmax(rmax, o->sigma * (1 + GOFR_CONTACT_WIDTH)));
 		if (!o->gofr)
 			goto fail;
+		if (scene_has_walls(s)) {
+			if (gofr_walls(o->gofr, walled, s->radius) != 0)
+				goto fail;
+		}
 	}
 
 	const int spin_dim = s->rough ? (D == 2 ? 1 : 3) : 0;
@@ -308,7 +317,7 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 		double rmax = s->gofr_range * o->sigma;
 		gofr_pairs(o->gofr, pos, tv ? vel : NULL, 0, rmax, nb, o->gcount, o->gpar, o->gperp);
 		for (int b = 0; b < nb; b++) {
-			double ideal = gofr_ideal(D, n, o->volume, rmax * b / nb, rmax * (b + 1) / nb);
+			double ideal = gofr_ideal_in(o->gofr, rmax * b / nb, rmax * (b + 1) / nb);
 			double g = o->gcount[b] / ideal;
 			if (tg)
 				tg->val[0][b] = g;

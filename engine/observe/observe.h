@@ -31,7 +31,9 @@ typedef struct {
 	double g_rate;            /* ... from the collision rate over the interval (Enskog) */
 	double g_pressure;        /* ... from the pressure (collision virial) over the interval */
 	double msd, msd_se;       /* mean_square_displacement: since the run's start (length^2), its se over particles */
-	double diffusion;         /* ... (MSD(t) - MSD(t_prev)) / (2 D (t - t_prev)) over the output interval */
+	double diffusion;         /* ... (MSD(t) - MSD(t_prev)) / (2 D (t - t_prev)) over the output interval; with
+	                           * walls over the periodic axes only (their MSD, D their number) */
+	double msd_walled;        /* ... with walls: the part of msd along the walled axes (NaN without walls) */
 	double flux, flux_se;     /* flux: sum_i v_i . g_hat / volume now (g_hat: gravity's direction, else the last
 	                           * axis), its standard error sqrt(N var(v . g_hat)) / volume over particles */
 } obs_scalars_t;

@@ -91,24 +91,31 @@ static int shells(double kny, double dk)
 	return J < 1 ? 1 : J;
 }
 
-int tables_k_shells(int dim, const double *box, const int m[3])
+int tables_k_shells(int dim, const double *box, const int m[3], const int *walled)
 {
 	if (dim != 2 && dim != 3)
 		return 0;
 	double lmax = 0, kny = INFINITY;
 	for (int a = 0; a < dim; a++) {
-		if (m[a] < 4 || !(box[a] > 0) || !isfinite(box[a]))
+		int w = walled && walled[a];
+		if ((!w && m[a] < 4) || !(box[a] > 0) || !isfinite(box[a]))
 			return 0;
+		if (w)
+			continue;
 		lmax = fmax(lmax, box[a]);
 		kny = fmin(kny, PI * (double)m[a] / box[a]);
 	}
-	return shells(kny, 2 * PI / lmax);
+	return lmax > 0 ? shells(kny, 2 * PI / lmax) : 0;
 }
 
 void tables_of(const scene_t *s, obs_curves_t *out)
 {
 	memset(out, 0, sizeof(*out));
-	int J = obs_curve_bits(s) & (SCENE_OBS_SOFK | SCENE_OBS_VCORR) ? tables_k_shells(s->dim, s->box, s->sofk_grid) : 0;
+	int walled[3];
+	for (int a = 0; a < 3; a++)
+		walled[a] = s->boundary[a].walled;
+	int J = obs_curve_bits(s) & (SCENE_OBS_SOFK | SCENE_OBS_VCORR) ? tables_k_shells(s->dim, s->box, s->sofk_grid, walled)
+	                                                                : 0;
 	tables_layout(out, s, J);
 }
 

@@ -18,10 +18,11 @@
  * structure_factor and velocity_correlations modes (fgrid_bins() of the scene's grid). */
 void tables_layout(obs_curves_t *c, const scene_t *s, int J);
 
-/* The shells of k that fgrid_create() makes for a grid of m[a] points over box: dk = 2 pi / the
- * largest edge, up to the smallest Nyquist wave number, at least 1; 0 when fgrid_create() would refuse
- * the arguments (dim 2 or 3, every m >= 4, finite positive edges). */
-int tables_k_shells(int dim, const double *box, const int m[3]);
+/* The shells of k that fgrid_create_walled() makes for a grid of m[a] points over box: dk = 2 pi / the
+ * largest periodic edge, up to the smallest periodic Nyquist wave number, at least 1; 0 when
+ * fgrid_create_walled() would refuse the arguments (dim 2 or 3, every periodic m >= 4, finite positive
+ * edges, a periodic axis). walled[dim]: the axes with walls (NULL: none), which carry no wave vectors. */
+int tables_k_shells(int dim, const double *box, const int m[3], const int *walled);
 
 /* The whole description for scene s into *out (zeroed first). */
 void tables_of(const scene_t *s, obs_curves_t *out);

@@ -117,7 +117,7 @@ int ensemble_combine(const double *vals, int R, const run_record_t *proto, run_r
 	stat(vals, R, V_CEXP, &out->clusters.exponent, &out->se.cluster_exponent);
 	stat(vals, R, V_MSD, &out->obs.msd, &out->se.msd);
 	stat(vals, R, V_DIFF, &out->obs.diffusion, &out->se.diffusion);
-	out->obs.msd_se = NAN;
+	out->obs.msd_se = out->obs.msd_walled = NAN;
 	out->obs.g_pairs_se = NAN;
 	out->n_species = proto->n_species;
 	for (int k = 0; k < out->n_species; k++)
@@ -195,7 +195,7 @@ void ensemble_unpack(const double *v, const scene_t *s, run_record_t *r)
 	r->clusters.exponent = v[V_CEXP];
 	r->obs.msd = v[V_MSD];
 	r->obs.diffusion = v[V_DIFF];
-	r->obs.msd_se = NAN;
+	r->obs.msd_se = r->obs.msd_walled = NAN;
 	r->n_species = (int)v[V_NSP];
 	if (r->n_species < 0 || r->n_species > SCENE_SPECIES_MAX)
 		r->n_species = 0;
