@@ -41,9 +41,8 @@ static double wall_amplitude(const scene_wall_t *w)
 }
 
 /* Centre ranges of the region of s (the box without one), or PLACE_EINVAL naming the key. */
-static int spans(const scene_t *s, span_t sp[3], char *msg, size_t msglen)
+static int spans_r(const scene_t *s, double r, span_t sp[3], char *msg, size_t msglen)
 {
-	const double r = s->radius;
 	for (int a = 0; a < 3; a++)
 		sp[a] = (span_t){ 0.0, 1.0, 1 };
 	for (int a = 0; a < s->dim; a++) {
@@ -74,6 +73,29 @@ static int spans(const scene_t *s, span_t sp[3], char *msg, size_t msglen)
 	return PLACE_OK;
 }
 
+/* The centre ranges for the scene's radius (mixtures: the largest, so
+ * every particle fits). */
+static int spans(const scene_t *s, span_t sp[3], char *msg, size_t msglen)
+{
+	return spans_r(s, s->radius, sp, msg, msglen);
+}
+
+/* A mixture's radii in scene order (scene_species_radii(): the engine's
+ * own draws), or NULL with *err = 0 for one species (every radius
+ * s->radius); NULL with *err = PLACE_ENOMEM when out of memory. */
+static double *radii_of(const scene_t *s, int *err)
+{
+	*err = PLACE_OK;
+	if (!scene_has_species(s))
+		return NULL;
+	double *r = malloc((size_t)s->count * sizeof(double));
+	if (!r)
+		*err = PLACE_ENOMEM;
+	else
+		scene_species_radii(s, r);
+	return r;
+}
+
 /* Edge of the lattice's periodic cell along each axis: the box on periodic
  * spans; the centre range on bounded ones (the lattice fills it as if
  * periodic, as the ed engine does between walls: at most one layer lost). */
@@ -95,11 +117,11 @@ static double rsa_jamming(int dim) { return dim == 2 ? 0.547 : 0.384; }
 /* The obstacle whose excluded zone (centre distance below its radius plus
  * the particle radius, less tol) holds centre x, or -1. Minimum image on
  * periodic axes. */
-static int in_obstacle(const scene_t *s, const double *x, double tol)
+static int in_obstacle_r(const scene_t *s, const double *x, double r, double tol)
 {
 	for (int k = 0; k < s->n_obstacles; k++) {
 		const scene_obstacle_t *o = &s->obstacle[k];
-		double r2 = 0.0, reach = o->radius + s->radius - tol;
+		double r2 = 0.0, reach = o->radius + r - tol;
 		for (int a = 0; a < s->dim; a++) {
 			double d = x[a] - o->center[a];
 			if (!s->boundary[a].walled)
@@ -110,6 +132,11 @@ static int in_obstacle(const scene_t *s, const double *x, double tol)
 			return k;
 	}
 	return -1;
+}
+
+static int in_obstacle(const scene_t *s, const double *x, double tol)
+{
+	return in_obstacle_r(s, x, s->radius, tol);
 }
 
 /* A lattice of the region: its shape, and site j's centre. */
@@ -262,6 +289,7 @@ typedef struct {
 	double cw[3];
 	int32_t *head, *next;
 	const double *pos;
+	const double *rad;   /* mixtures: the radii (scene order; pairs touch at r_i + r_j); NULL: one radius */
 } grid_t;
 
 static int grid_init(grid_t *g, int dim, const span_t *sp, double sigma, uint32_t n, const double *pos)
@@ -269,6 +297,7 @@ static int grid_init(grid_t *g, int dim, const span_t *sp, double sigma, uint32_
 	double len[3], vol = 1.0;
 	g->dim = dim;
 	g->pos = pos;
+	g->rad = NULL;
 	for (int a = 0; a < 3; a++) {
 		g->sp[a] = sp[a];
 		len[a] = a < dim ? sp[a].hi - sp[a].lo : 1.0;
@@ -323,8 +352,10 @@ static void grid_insert(grid_t *g, uint32_t i)
 	g->head[k] = (int32_t)i;
 }
 
-/* The first particle in the grid closer than sqrt(d2) to x (not skip), or -1. */
-static int32_t grid_clash(const grid_t *g, const double *x, double d2, int64_t skip, double *r2_out)
+/* The first particle in the grid closer than sqrt(d2) to x (not skip), or
+ * -1; with g->rad (mixtures) closer than rx + r_j - tol instead. */
+static int32_t grid_clash_r(const grid_t *g, const double *x, double d2, double rx, double tol, int64_t skip,
+                            double *r2_out)
 {
 	int32_t base[3] = { 0, 0, 0 }, lo[3], cnt[3];
 	for (int a = 0; a < 3; a++) {
@@ -361,6 +392,10 @@ static int32_t grid_clash(const grid_t *g, const double *x, double d2, int64_t s
 						}
 						r2 += dx * dx;
 					}
+					if (g->rad) {
+						const double d = rx + g->rad[j] - tol;
+						d2 = d * d;
+					}
 					if (r2 < d2) {
 						*r2_out = r2;
 						return j;
@@ -368,6 +403,88 @@ static int32_t grid_clash(const grid_t *g, const double *x, double d2, int64_t s
 				}
 			}
 	return -1;
+}
+
+static int32_t grid_clash(const grid_t *g, const double *x, double d2, int64_t skip, double *r2_out)
+{
+	return grid_clash_r(g, x, d2, 0.0, 0.0, skip, r2_out);
+}
+
+/* Mixtures: the lattice of the largest radius (place_lattice()), its sites
+ * shuffled among the particles so that the species (blocks of scene
+ * indices) mix. */
+static void shuffle_sites(const scene_t *s, rng_t *rng, double *pos)
+{
+	const int D = s->dim;
+	for (uint32_t i = (uint32_t)s->count - 1; i > 0; i--) {
+		uint32_t j = (uint32_t)(rng_uniform(rng) * (i + 1.0));
+		if (j > i)
+			j = i;
+		for (int a = 0; a < D; a++) {
+			double x = pos[(size_t)i * D + a];
+			pos[(size_t)i * D + a] = pos[(size_t)j * D + a];
+			pos[(size_t)j * D + a] = x;
+		}
+	}
+}
+
+typedef struct {
+	double r;
+	uint32_t i;
+} by_r_t;
+
+static int by_radius_desc(const void *pa, const void *pb)
+{
+	const by_r_t *a = pa, *b = pb;
+	return a->r > b->r ? -1 : a->r < b->r ? 1 : (a->i > b->i) - (a->i < b->i);
+}
+
+/* Mixtures: random sequential addition with every particle's own radius,
+ * the largest first (the small ones fill the gaps), each centre uniform in
+ * its own range (its radius from the region's faces and the walls), clear
+ * of the obstacles by its radius and of the placed particles by r_i + r_j. */
+static int place_random_mix(const scene_t *s, const span_t *sp, const double *rad, rng_t *rng, double *pos)
+{
+	const int D = s->dim;
+	const uint32_t n = (uint32_t)s->count;
+	grid_t g;
+	by_r_t *order = malloc((size_t)n * sizeof(by_r_t));
+	if (!order || grid_init(&g, D, sp, 2.0 * s->radius, n, pos) != PLACE_OK) {
+		free(order);
+		return PLACE_ENOMEM;
+	}
+	g.rad = rad;
+	for (uint32_t i = 0; i < n; i++)
+		order[i] = (by_r_t){ rad[i], i };
+	qsort(order, n, sizeof *order, by_radius_desc);
+	uint64_t tries = 0, max_tries = 1000 + 2000ull * n;
+	int rc = PLACE_OK;
+	for (uint32_t k = 0; k < n && rc == PLACE_OK; k++) {
+		const uint32_t i = order[k].i;
+		span_t own[3];
+		if (spans_r(s, rad[i], own, NULL, 0) != PLACE_OK) {
+			rc = PLACE_EPLACE;
+			break;
+		}
+		for (;;) {
+			if (++tries > max_tries) {
+				rc = PLACE_EPLACE;
+				break;
+			}
+			double *x = &pos[(size_t)i * D], r2;
+			for (int a = 0; a < D; a++)
+				x[a] = own[a].lo + rng_uniform(rng) * (own[a].hi - own[a].lo);
+			if (s->n_obstacles && in_obstacle_r(s, x, rad[i], 0.0) >= 0)
+				continue;
+			if (grid_clash_r(&g, x, 0.0, rad[i], 0.0, -1, &r2) < 0)
+				break;
+		}
+		if (rc == PLACE_OK)
+			grid_insert(&g, i);
+	}
+	grid_deinit(&g);
+	free(order);
+	return rc;
 }
 
 static int place_random(const scene_t *s, const span_t *sp, rng_t *rng, double *pos)
@@ -420,9 +537,14 @@ int place_region(const scene_t *s, uint64_t stream, double *pos, char *msg, size
 	rng_init(&rng, s->seed, stream | (1ull << 61));
 	if (s->positions == SCENE_POS_LATTICE) {
 		place_lattice(s, sp, &rng, pos);
+		if (scene_has_species(s))
+			shuffle_sites(s, &rng, pos);
 		return PLACE_OK;
 	}
-	rc = place_random(s, sp, &rng, pos);
+	double *rad = radii_of(s, &rc);
+	if (rc == PLACE_OK)
+		rc = rad ? place_random_mix(s, sp, rad, &rng, pos) : place_random(s, sp, &rng, pos);
+	free(rad);
 	if (rc == PLACE_EPLACE)
 		fail(msg, msglen, rc, "particles.initial.region: random placement of %llu particles in the region ran out "
 		     "of tries (close to jamming); use \"lattice\" or a larger region", (unsigned long long)s->count);
@@ -446,58 +568,73 @@ int place_check_state(const scene_t *s, double *pos, const double *vel, const ch
 				return fail(msg, msglen, PLACE_EINVAL, "%s: particle %u has a non-finite velocity (%g along %s)",
 				            key, i, vel[(size_t)i * D + a], axis_names[a]);
 		}
+	/* mixtures: every particle's own radius (tol stays that of the largest diameter) */
+	int rc;
+	double *rad = radii_of(s, &rc);
+	if (rc != PLACE_OK)
+		return fail(msg, msglen, PLACE_ENOMEM, "out of memory checking %u particles", n);
 	for (int a = 0; a < 3; a++)
 		sp[a] = (span_t){ 0.0, a < D ? s->box[a] : 1.0, 1 };
-	for (int a = 0; a < D; a++) {
+	for (int a = 0; a < D && rc == PLACE_OK; a++) {
 		const scene_boundary_t *b = &s->boundary[a];
 		const double L = s->box[a];
 		double lo = 0.0, hi = L;
 		if (b->walled) {
-			/* a radius from each wall where it is at time 0 */
-			lo = wall_offset(&b->wall[0]) + s->radius - tol;
-			hi = L - wall_offset(&b->wall[1]) - s->radius + tol;
-			sp[a] = (span_t){ lo, hi, 0 };
+			/* a radius from each wall where it is at time 0 (the grid's range: the smallest radius's) */
+			lo = wall_offset(&b->wall[0]) - tol;
+			hi = L - wall_offset(&b->wall[1]) + tol;
+			sp[a] = (span_t){ lo + s->radius, hi - s->radius, 0 };
 		}
 		for (uint32_t i = 0; i < n; i++) {
 			double *x = &pos[(size_t)i * D + a];
-			if (*x >= lo && *x <= hi) {
+			const double r = rad ? rad[i] : s->radius, ilo = b->walled ? lo + r : lo, ihi = b->walled ? hi - r : hi;
+			if (*x >= ilo && *x <= ihi) {
 				if (!b->walled && *x == L)
 					*x = 0.0;   /* the same point of the periodic axis */
 				continue;
 			}
 			if (b->walled)
-				return fail(msg, msglen, PLACE_EINVAL, "%s: particle %u is closer than a radius to a wall along %s "
-				            "(centre %.15g, the particles' room %.15g to %.15g at time 0)", key, i, axis_names[a], *x,
-				            lo + tol, hi - tol);
-			return fail(msg, msglen, PLACE_EINVAL, "%s: particle %u is outside the box along %s (%.15g not in "
-			            "[0, %.15g])", key, i, axis_names[a], *x, L);
+				rc = fail(msg, msglen, PLACE_EINVAL, "%s: particle %u is closer than a radius to a wall along %s "
+				          "(centre %.15g, its room %.15g to %.15g at time 0)", key, i, axis_names[a], *x,
+				          ilo + tol, ihi - tol);
+			else
+				rc = fail(msg, msglen, PLACE_EINVAL, "%s: particle %u is outside the box along %s (%.15g not in "
+				          "[0, %.15g])", key, i, axis_names[a], *x, L);
+			break;
 		}
 	}
-	for (uint32_t i = 0; i < n && s->n_obstacles; i++) {
-		int k = in_obstacle(s, &pos[(size_t)i * D], tol);
+	for (uint32_t i = 0; i < n && s->n_obstacles && rc == PLACE_OK; i++) {
+		int k = in_obstacle_r(s, &pos[(size_t)i * D], rad ? rad[i] : s->radius, tol);
 		if (k >= 0)
-			return fail(msg, msglen, PLACE_EINVAL, "%s: particle %u overlaps obstacles[%d] (closer than its radius "
-			            "plus the particle radius to its centre by more than %g diameters)", key, i, k,
-			            PLACE_OVERLAP_TOL);
+			rc = fail(msg, msglen, PLACE_EINVAL, "%s: particle %u overlaps obstacles[%d] (closer than its radius "
+			          "plus the particle radius to its centre by more than %g diameters)", key, i, k,
+			          PLACE_OVERLAP_TOL);
 	}
-	if (s->method != SCENE_METHOD_ED)
-		return PLACE_OK;   /* point particles may overlap */
+	if (rc != PLACE_OK || s->method != SCENE_METHOD_ED) {
+		free(rad);
+		return rc;   /* point particles may overlap */
+	}
 	grid_t g;
-	if (grid_init(&g, D, sp, sigma, n, pos) != PLACE_OK)
+	if (grid_init(&g, D, sp, sigma, n, pos) != PLACE_OK) {
+		free(rad);
 		return fail(msg, msglen, PLACE_ENOMEM, "out of memory checking %u particles", n);
+	}
+	g.rad = rad;
 	for (uint32_t i = 0; i < n; i++)
 		grid_insert(&g, i);
-	int rc = PLACE_OK;
 	const double d = sigma - tol;
 	for (uint32_t i = 0; i < n && rc == PLACE_OK; i++) {
 		double r2;
-		int32_t j = grid_clash(&g, &pos[(size_t)i * D], d * d, i, &r2);
+		const double ri = rad ? rad[i] : s->radius;
+		int32_t j = grid_clash_r(&g, &pos[(size_t)i * D], d * d, ri, tol, i, &r2);
 		if (j >= 0)
-			rc = fail(msg, msglen, PLACE_EINVAL, "%s: particles %d and %u overlap (centre distance %.15g < diameter "
+			rc = fail(msg, msglen, PLACE_EINVAL, "%s: particles %d and %u overlap (centre distance %.15g < %s "
 			          "%.15g by more than %g diameters)", key, j < (int32_t)i ? j : (int32_t)i,
-			          j < (int32_t)i ? i : (uint32_t)j, sqrt(r2), sigma, PLACE_OVERLAP_TOL);
+			          j < (int32_t)i ? i : (uint32_t)j, sqrt(r2), rad ? "the sum of their radii" : "diameter",
+			          rad ? ri + rad[j] : sigma, PLACE_OVERLAP_TOL);
 	}
 	grid_deinit(&g);
+	free(rad);
 	return rc;
 }
 

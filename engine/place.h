@@ -22,6 +22,13 @@
  *   engines place in the whole box).
  * - Deterministic: the draws come from the stream (seed, stream | 2^61),
  *   apart from the engines' own streams.
+ * - Mixtures (scene_has_species(): several species or polydisperse radii;
+ *   ed only): every particle has its own radius (scene_species_radii(), the
+ *   engine's draws). "random" places the largest first, each centre its own
+ *   radius from the region's faces, the walls and the obstacles, and pairs
+ *   at least r_i + r_j apart; "lattice" is the lattice of the largest radius
+ *   (s->radius), its sites shuffled among the particles so the species mix.
+ *   The checks of a given state use the same per-particle radii.
  */
 
 enum {

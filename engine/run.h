@@ -100,6 +100,7 @@ typedef struct {
 		       compressibility, collision_rate, largest_fraction, mean_size;
 		double a2, a3, g_pairs, g_rate, g_pressure, cluster_w, cluster_exponent;
 		double msd, diffusion;
+		double temperature_species[SCENE_SPECIES_MAX];
 	} se;
 	/* summary only */
 	run_status_t status;

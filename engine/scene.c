@@ -661,19 +661,26 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 	if (s->method != SCENE_METHOD_ED && s->method != SCENE_METHOD_DSMC)
 		return fail(c, "particles.species", "method \"%s\" simulates one species of one radius only; use method "
 			    "\"ed\" (or \"dsmc\" in a periodic box) for %s", method_names[s->method], what);
-	json_t *col = json_object_get(v, "collisions");
-	if (json_object_get(col, "rough"))
-		return fail(c, "collisions.rough", "rough particles: not supported yet with %s (particles.species)", what);
-	json_t *ini = json_object_get(json_object_get(v, "particles"), "initial");
-	static const char *const inits[] = { "from", "region" };
-	for (size_t k = 0; k < sizeof inits / sizeof inits[0]; k++)
-		if (json_object_get(ini, inits[k])) {
-			char sub[PATHLEN];
-			snprintf(sub, sizeof sub, "particles.initial.%s", inits[k]);
-			return fail(c, sub, "not with %s (particles.species) yet", what);
-		}
-	if (s->replicas > 1)
-		return fail(c, "run.replicas", "ensembles with %s (particles.species) are not supported yet", what);
+	/* ed: particles.initial.region and .from (place.c, frame.c), run.replicas and collisions.rough work with
+	 * mixtures; dsmc mixtures not yet (untested there) */
+	if (s->method != SCENE_METHOD_ED) {
+		json_t *col = json_object_get(v, "collisions");
+		if (json_object_get(col, "rough"))
+			return fail(c, "collisions.rough", "rough particles: not supported yet with %s (particles.species) "
+				    "in method \"%s\"; use method \"ed\"", what, method_names[s->method]);
+		json_t *ini = json_object_get(json_object_get(v, "particles"), "initial");
+		static const char *const inits[] = { "from", "region" };
+		for (size_t k = 0; k < sizeof inits / sizeof inits[0]; k++)
+			if (json_object_get(ini, inits[k])) {
+				char sub[PATHLEN];
+				snprintf(sub, sizeof sub, "particles.initial.%s", inits[k]);
+				return fail(c, sub, "not with %s (particles.species) in method \"%s\" yet; use method \"ed\"",
+					    what, method_names[s->method]);
+			}
+		if (s->replicas > 1)
+			return fail(c, "run.replicas", "ensembles with %s (particles.species) in method \"%s\" are not "
+				    "supported yet; use method \"ed\"", what, method_names[s->method]);
+	}
 	static const struct { unsigned bit; const char *name; } obs[] = {
 		{ SCENE_OBS_CLUSTERS, "clusters" }, { SCENE_OBS_VDIST, "velocity_distribution" },
 		{ SCENE_OBS_GOFR, "pair_correlation" }, { SCENE_OBS_VCORR, "velocity_correlations" },

@@ -407,8 +407,14 @@ static void test_checkpoint(void)
 		"\"collisions\":{\"restitution\":0.9,\"tc\":1e-4,\"rough\":{\"tangential_restitution\":0.6}},"
 		"\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},\"upper\":{\"type\":\"thermal\","
 		"\"temperature\":1}}},\"gravity\":[0,-0.5],\"run\":{\"seed\":4,\"until\":{\"time\":1}}}",
+		"{\"method\":\"ed\",\"dimensions\":3,\"particles\":{\"species\":[{\"count\":300,\"radius\":0.6,\"mass\":2},"
+		"{\"count\":500,\"radius_range\":[0.3,0.5],\"mass\":1}],\"volume_fraction\":0.3,"
+		"\"initial\":{\"positions\":\"random\",\"rotational_temperature\":0.5}},\"collisions\":{\"restitution\":0.85,"
+		"\"tc\":1e-4,\"rough\":{\"tangential_restitution\":0.3,\"friction\":0.3}},"
+		"\"run\":{\"seed\":5,\"until\":{\"time\":1}}}",
 	};
-	for (int sidx = 0; sidx < 2; sidx++) {
+	static const char *const names[] = { "neighbour lists, Walton, TC", "walls, gravity, TC", "mixture, Walton, TC" };
+	for (int sidx = 0; sidx < 3; sidx++) {
 		scene_t sc;
 		ed_t *a = make(scenes[sidx], &sc), *b = NULL;
 		int ok_fields = 0, has_spin = 0;
@@ -438,7 +444,7 @@ static void test_checkpoint(void)
 		ok(sa.events == sb.events && sa.collisions > 0 && !memcmp(p, p + 2 * m, 2 * m * sizeof(double)) &&
 		   !memcmp(p + 4 * m, p + 4 * m + kw, kw * sizeof(double)) && sa.rotational_energy == sb.rotational_energy,
 		   "checkpoint %dD rough (%s): restored run identical bit for bit, spins included, after %llu events",
-		   sc.dim, sidx ? "walls, gravity, TC" : "neighbour lists, Walton, TC", (unsigned long long)sa.events);
+		   sc.dim, names[sidx], (unsigned long long)sa.events);
 		free(p);
 		ed_destroy(a);
 		ed_destroy(b);
@@ -620,9 +626,346 @@ static void test_spin_distribution(int dim)
 	   dim, used, worst);
 }
 
+
+/* ---- rough mixtures: unequal particles (rough_collide_pair()) --------- */
+
+/* Slip velocity of unequal particles: g = v1 - v2 - (a1 w1 + a2 w2) x n. */
+static void slip_pair(int dim, double a1, double a2, const double *n, const double *v1, const double *v2,
+                      const double *w1, const double *w2, double *g)
+{
+	for (int k = 0; k < dim; k++)
+		g[k] = v1[k] - v2[k];
+	if (dim == 2) {
+		double W = a1 * w1[0] + a2 * w2[0];
+		g[0] += W * n[1];
+		g[1] -= W * n[0];
+	} else {
+		double W[3];
+		for (int k = 0; k < 3; k++)
+			W[k] = a1 * w1[k] + a2 * w2[k];
+		g[0] -= W[1] * n[2] - W[2] * n[1];
+		g[1] -= W[2] * n[0] - W[0] * n[2];
+		g[2] -= W[0] * n[1] - W[1] * n[0];
+	}
+}
+
+/* Angular momentum about the origin, particle 2 at the origin and 1 at
+ * (a1 + a2) n: L = m1 r1 x v1 + I1 w1 + I2 w2 (2D: the z component). */
+static void ang_mom(int dim, const rough_pair_t *R, const double *n, const double *v1, const double *w1,
+                    const double *w2, double *L)
+{
+	const double d = R->a1 + R->a2, I1 = R->q * R->m1 * R->a1 * R->a1, I2 = R->q * R->m2 * R->a2 * R->a2;
+	if (dim == 2) {
+		L[0] = R->m1 * d * (n[0] * v1[1] - n[1] * v1[0]) + I1 * w1[0] + I2 * w2[0];
+		return;
+	}
+	L[0] = R->m1 * d * (n[1] * v1[2] - n[2] * v1[1]) + I1 * w1[0] + I2 * w2[0];
+	L[1] = R->m1 * d * (n[2] * v1[0] - n[0] * v1[2]) + I1 * w1[1] + I2 * w2[1];
+	L[2] = R->m1 * d * (n[0] * v1[1] - n[1] * v1[0]) + I1 * w1[2] + I2 * w2[2];
+}
+
+/* One collision of unequal particles against the analytic rule: momentum
+ * and angular momentum (about any point; here particle 2's centre with both
+ * particles at contact) conserved, g_n' = -e g_n, g_t' = -beta g_t while
+ * sticking, the returned translational energy change the actual one, and
+ * for e = 1, beta = +-1 the total energy conserved. Each is a few roundings
+ * of O(1) numbers: 1e-12 of the scale is a bound with a wide margin. Equal
+ * masses and radii give rough_collide()'s result. */
+static void test_pair_rule(void)
+{
+	rng_t rng;
+	rng_init(&rng, 11, 0);
+	int bad_p = 0, bad_l = 0, bad_n = 0, bad_t = 0, bad_de = 0, bad_e = 0, bad_eq = 0;
+	const int trials = 20000;
+	for (int it = 0; it < trials; it++) {
+		const int dim = 2 + (it & 1), kw = dim == 2 ? 1 : 3;
+		const int elastic_limit = it % 8 < 2;   /* e = 1, beta = +1 or -1 */
+		rough_pair_t R = {.m1 = 0.3 + 3.0 * rng_uniform(&rng), .m2 = 0.3 + 3.0 * rng_uniform(&rng),
+		                  .a1 = 0.2 + rng_uniform(&rng), .a2 = 0.2 + rng_uniform(&rng), .e = rng_uniform(&rng),
+		                  .beta = 2.0 * rng_uniform(&rng) - 1.0, .mu = -1.0, .q = 0.1 + 0.9 * rng_uniform(&rng)};
+		if (elastic_limit) {
+			R.e = 1.0;
+			R.beta = it % 8 ? 1.0 : -1.0;
+		}
+		double n[3], nn = 0.0, v1[3], v2[3], w1[3], w2[3];
+		for (int k = 0; k < dim; k++) {
+			n[k] = rng_gauss(&rng);
+			nn += n[k] * n[k];
+			v1[k] = rng_gauss(&rng);
+			v2[k] = rng_gauss(&rng);
+		}
+		for (int k = 0; k < dim; k++)
+			n[k] /= sqrt(nn);
+		for (int k = 0; k < kw; k++) {
+			w1[k] = rng_gauss(&rng) / R.a1;
+			w2[k] = rng_gauss(&rng) / R.a2;
+		}
+		double gn = 0.0;
+		for (int k = 0; k < dim; k++)
+			gn += (v1[k] - v2[k]) * n[k];
+		if (gn >= 0.0) {   /* approaching only: n from 2 to 1 */
+			for (int k = 0; k < dim; k++)
+				n[k] = -n[k];
+			gn = -gn;
+		}
+		double g0[3], g1[3], L0[3] = {0}, L1[3] = {0}, P0[3], P1[3], E0, E1, et0 = 0.0, et1 = 0.0, er0 = 0.0, er1 = 0.0;
+		const double I1 = R.q * R.m1 * R.a1 * R.a1, I2 = R.q * R.m2 * R.a2 * R.a2;
+		slip_pair(dim, R.a1, R.a2, n, v1, v2, w1, w2, g0);
+		ang_mom(dim, &R, n, v1, w1, w2, L0);
+		for (int k = 0; k < dim; k++) {
+			P0[k] = R.m1 * v1[k] + R.m2 * v2[k];
+			et0 += 0.5 * (R.m1 * v1[k] * v1[k] + R.m2 * v2[k] * v2[k]);
+		}
+		for (int k = 0; k < kw; k++)
+			er0 += 0.5 * (I1 * w1[k] * w1[k] + I2 * w2[k] * w2[k]);
+		E0 = et0 + er0;
+		const double de = rough_collide_pair(dim, &R, n, gn, v1, v2, w1, w2);
+		slip_pair(dim, R.a1, R.a2, n, v1, v2, w1, w2, g1);
+		ang_mom(dim, &R, n, v1, w1, w2, L1);
+		for (int k = 0; k < dim; k++) {
+			P1[k] = R.m1 * v1[k] + R.m2 * v2[k];
+			et1 += 0.5 * (R.m1 * v1[k] * v1[k] + R.m2 * v2[k] * v2[k]);
+		}
+		for (int k = 0; k < kw; k++)
+			er1 += 0.5 * (I1 * w1[k] * w1[k] + I2 * w2[k] * w2[k]);
+		E1 = et1 + er1;
+		const double scale = 10.0 * (1.0 + E0);
+		double gn1 = 0.0;
+		for (int k = 0; k < dim; k++) {
+			bad_p += fabs(P1[k] - P0[k]) > 1e-12 * scale;
+			gn1 += g1[k] * n[k];
+		}
+		for (int k = 0; k < kw; k++)
+			bad_l += fabs(L1[k] - L0[k]) > 1e-12 * scale;
+		bad_n += fabs(gn1 + R.e * gn) > 1e-12 * scale;
+		for (int k = 0; k < dim; k++) {
+			const double t0 = g0[k] - gn * n[k], t1 = g1[k] - gn1 * n[k];
+			bad_t += fabs(t1 + R.beta * t0) > 1e-12 * scale;
+		}
+		bad_de += fabs(et1 - et0 - de) > 1e-12 * scale;
+		if (elastic_limit)
+			bad_e += fabs(E1 - E0) > 1e-12 * scale;
+		/* equal particles: the one-species rule */
+		if (it % 16 == 3) {
+			rough_pair_t Q = R;
+			Q.m2 = Q.m1;
+			Q.a2 = Q.a1;
+			rough_rule_t S = {.m = Q.m1, .a = Q.a1, .e = Q.e, .beta = Q.beta, .mu = -1.0, .q = Q.q};
+			double u1[3], u2[3], x1[3], x2[3], y1[3], y2[3], z1[3], z2[3];
+			for (int k = 0; k < 3; k++) {
+				u1[k] = y1[k] = rng_gauss(&rng);
+				u2[k] = y2[k] = rng_gauss(&rng);
+				x1[k] = z1[k] = rng_gauss(&rng);
+				x2[k] = z2[k] = rng_gauss(&rng);
+			}
+			double g = 0.0;
+			for (int k = 0; k < dim; k++)
+				g += (u1[k] - u2[k]) * n[k];
+			if (g < 0.0) {
+				rough_collide_pair(dim, &Q, n, g, u1, u2, x1, x2);
+				rough_collide(dim, &S, n, g, y1, y2, z1, z2);
+				for (int k = 0; k < dim; k++)
+					bad_eq += fabs(u1[k] - y1[k]) > 1e-13 || fabs(u2[k] - y2[k]) > 1e-13;
+				for (int k = 0; k < kw; k++)
+					bad_eq += fabs(x1[k] - z1[k]) > 1e-12 || fabs(x2[k] - z2[k]) > 1e-12;
+			}
+		}
+	}
+	ok(bad_p == 0 && bad_l == 0, "unequal particles, %d collisions: momentum and angular momentum conserved "
+	   "(violations %d, %d)", trials, bad_p, bad_l);
+	ok(bad_n == 0 && bad_t == 0, "unequal particles: g_n' = -e g_n and g_t' = -beta g_t (violations %d, %d)", bad_n,
+	   bad_t);
+	ok(bad_de == 0 && bad_e == 0, "unequal particles: returned translational energy change exact, E_tr + E_rot "
+	   "conserved for e = 1, beta = +-1 (violations %d, %d)", bad_de, bad_e);
+	ok(bad_eq == 0, "equal masses and radii: rough_collide_pair() is rough_collide() (differences %d)", bad_eq);
+}
+
+/* A binary mixture (one species polydisperse) of rough particles with
+ * e = 1: beta = +1 and -1 conserve E_tr + E_rot (rounding as in
+ * test_elastic_limits(): 1e-12 relative over 1e5 collisions); beta = -1
+ * leaves every spin as it was. */
+static const char *mix_json(char *buf, size_t len, int dim, double beta, int seed, double trot, double vf)
+{
+	snprintf(buf, len,
+	         "{\"method\":\"ed\",\"dimensions\":%d,\"particles\":{\"species\":[{\"name\":\"big\",\"count\":500,"
+	         "\"radius\":0.6,\"mass\":2.5},{\"name\":\"small\",\"count\":500,\"radius_range\":[0.3,0.45],\"mass\":1}],"
+	         "\"volume_fraction\":%g,\"initial\":{\"positions\":\"random\",\"temperature\":1,"
+	         "\"rotational_temperature\":%g}},\"collisions\":{\"rough\":{\"tangential_restitution\":%g,"
+	         "\"inertia_factor\":0.4}},\"run\":{\"seed\":%d,\"until\":{\"time\":1}}}",
+	         dim, vf, trot, beta, seed);
+	return buf;
+}
+
+static void test_mixture_elastic(void)
+{
+	for (int dim = 2; dim <= 3; dim++)
+		for (int b = 0; b < 2; b++) {
+			char json[1024];
+			const double beta = b ? 1.0 : -1.0;
+			scene_t sc;
+			ed_t *ed = make(mix_json(json, sizeof json, dim, beta, 20 + 2 * dim + b, 0.3, dim == 2 ? 0.3 : 0.2), &sc);
+			if (!ed) {
+				ok(0, "%dD rough mixture, beta %+g: setup", dim, beta);
+				continue;
+			}
+			const int kw = dim == 2 ? 1 : 3;
+			double *w0 = malloc(1000 * kw * sizeof(double)), *w1 = malloc(1000 * kw * sizeof(double));
+			ed_sample_t s0, s1;
+			ed_sample(ed, &s0);
+			ed_spins(ed, w0);
+			ed_advance(ed, INFINITY, 100000, UINT64_MAX);
+			ed_sample(ed, &s1);
+			ed_spins(ed, w1);
+			double e0 = s0.kinetic_energy + erot_of(&s0), e1 = s1.kinetic_energy + erot_of(&s1);
+			double rel = fabs(e1 - e0) / e0;
+			int spins_same = !memcmp(w0, w1, 1000 * kw * sizeof(double));
+			if (b)
+				ok(rel < 1e-12 && !spins_same && fabs(erot_of(&s1) - erot_of(&s0)) > 1e-3 * e0,
+				   "%dD rough mixture, beta = +1, e = 1: E_tr + E_rot conserved to %.2e relative over %llu "
+				   "collisions (E_rot %.4g -> %.4g)", dim, rel, (unsigned long long)s1.collisions, erot_of(&s0),
+				   erot_of(&s1));
+			else
+				ok(rel < 1e-12 && spins_same, "%dD rough mixture, beta = -1, e = 1: energy conserved to %.2e over "
+				   "%llu collisions, spins unchanged: %s", dim, rel, (unsigned long long)s1.collisions,
+				   spins_same ? "yes" : "no");
+			free(w0);
+			free(w1);
+			ed_destroy(ed);
+		}
+}
+
+/*
+ * Equipartition in an elastic perfectly rough binary mixture (e = 1,
+ * beta = +1: energy conserved, the equilibrium is Maxwell-Boltzmann in
+ * velocities and spins): every species' translational and rotational
+ * temperature equals T_eq = 2 E / (N (D + D_r)) (3D: D = D_r = 3), with E
+ * the conserved total. The run starts far from it (T_rot = 0.05, T_tr = 1),
+ * relaxes 30 collisions per particle, then samples M = 48 states 2
+ * collisions per particle apart. The standard error of each mean comes
+ * from 8 blocks of 6 samples (block means are ~independent: the energy
+ * exchange relaxes within a few collisions per particle); tolerance 5
+ * standard errors (T of 500 particles fluctuates by ~4% per sample).
+ */
+static void test_mixture_equipartition(void)
+{
+	char json[1024];
+	scene_t sc;
+	ed_t *ed = make(mix_json(json, sizeof json, 3, 1.0, 31, 0.05, 0.15), &sc);
+	if (!ed) {
+		ok(0, "equipartition: setup");
+		return;
+	}
+	const uint32_t N = 1000;
+	double *w = malloc(N * 3 * sizeof(double)), *rad = malloc(N * sizeof(double));
+	scene_species_radii(&sc, rad);
+	const double q = sc.rough_q;
+	enum { M = 48, B = 8 };
+	/* per sample: T_tr and T_rot of species 0 and 1, and of all */
+	double T[6][M];
+	ed_sample_t s;
+	ed_sample(ed, &s);
+	const double E = s.kinetic_energy + erot_of(&s), Teq = 2.0 * E / (N * 6.0);
+	uint64_t coll = 0;
+	ed_advance(ed, INFINITY, coll += 30 * N / 2, UINT64_MAX);
+	for (int k = 0; k < M; k++) {
+		ed_advance(ed, INFINITY, coll += 2 * N / 2, UINT64_MAX);
+		ed_sample(ed, &s);
+		ed_spins(ed, w);
+		double er[2] = {0, 0};
+		for (uint32_t i = 0; i < N; i++) {
+			const int sp = i < 500 ? 0 : 1;
+			const double I = q * sc.species[sp].mass * rad[i] * rad[i];
+			er[sp] += 0.5 * I * (w[3 * i] * w[3 * i] + w[3 * i + 1] * w[3 * i + 1] + w[3 * i + 2] * w[3 * i + 2]);
+		}
+		T[0][k] = 2.0 * s.species_kinetic_energy[0] / (3.0 * 500);
+		T[1][k] = 2.0 * s.species_kinetic_energy[1] / (3.0 * 500);
+		T[2][k] = 2.0 * er[0] / (3.0 * 500);
+		T[3][k] = 2.0 * er[1] / (3.0 * 500);
+		T[4][k] = 2.0 * s.kinetic_energy / (3.0 * N);
+		T[5][k] = 2.0 * erot_of(&s) / (3.0 * N);
+	}
+	static const char *const what[6] = { "T_tr big", "T_tr small", "T_rot big", "T_rot small", "T_tr", "T_rot" };
+	int bad = 0;
+	char line[512];
+	size_t o = 0;
+	for (int v = 0; v < 6; v++) {
+		double bm[B], mean = 0.0, s2 = 0.0;
+		for (int b = 0; b < B; b++) {
+			bm[b] = 0.0;
+			for (int k = b * (M / B); k < (b + 1) * (M / B); k++)
+				bm[b] += T[v][k] / (M / B);
+			mean += bm[b] / B;
+		}
+		for (int b = 0; b < B; b++)
+			s2 += (bm[b] - mean) * (bm[b] - mean);
+		const double se = sqrt(s2 / (B - 1) / B);
+		bad += !(fabs(mean - Teq) <= 5.0 * se);
+		o += (size_t)snprintf(line + o, o < sizeof line ? sizeof line - o : 0, "%s%s %.4f+-%.4f", v ? ", " : "",
+		                      what[v], mean, se);
+	}
+	ok(bad == 0 && s.collisions > 0, "3D elastic perfectly rough binary mixture: equipartition, every temperature "
+	   "T_eq = 2E/(6N) = %.4f within 5 standard errors: %s", Teq, line);
+	free(w);
+	free(rad);
+	ed_destroy(ed);
+}
+
+
+/* Rough mixtures with specular walls, gravity and a slip obstacle (the
+ * walls and gravity kernels; e = 1 everywhere): beta = +1 and -1 conserve
+ * E_tr + E_rot + E_pot. Walls and the obstacle give no tangential impulse
+ * (spins unchanged there). Tolerance 1e-12 relative over 5e4 collisions
+ * and their wall hits, as test_elastic_limits(): rounding of ~1e-16 per
+ * event as a random walk. */
+static void test_mixture_walls(void)
+{
+	for (int dim = 2; dim <= 3; dim++)
+		for (int b = 0; b < 2; b++) {
+			char json[2048];
+			const double beta = b ? 1.0 : -1.0;
+			const char *ax = dim == 2 ? "y" : "z";
+			snprintf(json, sizeof json,
+			         "{\"method\":\"ed\",\"dimensions\":%d,\"particles\":{\"species\":[{\"name\":\"big\",\"count\":200,"
+			         "\"radius\":0.6,\"mass\":2.5},{\"name\":\"small\",\"count\":400,\"radius_range\":[0.3,0.45],"
+			         "\"mass\":1}],\"box\":%s,\"initial\":{\"positions\":\"random\",\"temperature\":1,"
+			         "\"rotational_temperature\":0.3}},\"collisions\":{\"rough\":{\"tangential_restitution\":%g}},"
+			         "\"boundaries\":{\"%s\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},\"upper\":"
+			         "{\"type\":\"specular\"}}},\"gravity\":%s,\"obstacles\":[{\"type\":\"slip\",\"center\":%s,"
+			         "\"radius\":2}],\"run\":{\"seed\":%d,\"until\":{\"time\":1}}}",
+			         dim, dim == 2 ? "[40,40]" : "[14,14,14]", beta, ax, dim == 2 ? "[0,-0.3]" : "[0,0,-0.3]",
+			         dim == 2 ? "[20,20]" : "[7,7,7]", 40 + 2 * dim + b);
+			scene_t sc;
+			ed_t *ed = make(json, &sc);
+			if (!ed) {
+				ok(0, "%dD rough mixture with walls, gravity, obstacle, beta %+g: setup", dim, beta);
+				continue;
+			}
+			const int kw = dim == 2 ? 1 : 3;
+			double *w0 = malloc(600 * kw * sizeof(double)), *w1 = malloc(600 * kw * sizeof(double));
+			ed_sample_t s0, s1;
+			ed_sample(ed, &s0);
+			ed_spins(ed, w0);
+			ed_advance(ed, INFINITY, 50000, UINT64_MAX);
+			ed_sample(ed, &s1);
+			ed_spins(ed, w1);
+			const int spins_same = !memcmp(w0, w1, 600 * kw * sizeof(double));
+			const double e0 = s0.kinetic_energy + erot_of(&s0) + s0.potential_energy;
+			const double e1 = s1.kinetic_energy + erot_of(&s1) + s1.potential_energy;
+			const double rel = fabs(e1 - e0) / fabs(e0);
+			const int moved = fabs(erot_of(&s1) - erot_of(&s0)) > 1e-3 * fabs(e0);
+			ok(rel < 1e-12 && (b ? moved && !spins_same : spins_same),
+			   "%dD rough mixture, walls + gravity + obstacle, beta = %+g, e = 1: E_tr + E_rot + E_pot conserved to "
+			   "%.2e relative over %llu collisions (E_rot %.4g -> %.4g; spins unchanged: %s)", dim, beta, rel,
+			   (unsigned long long)s1.collisions, erot_of(&s0), erot_of(&s1), spins_same ? "yes" : "no");
+			free(w0);
+			free(w1);
+			ed_destroy(ed);
+		}
+}
+
 int main(void)
 {
-	plan(26);
+	plan(27 + 13);
 	test_rule();
 	test_walton_switch();
 	test_elastic_limits();
@@ -634,5 +977,9 @@ int main(void)
 	test_hcs(2, 0.9, 0.5, 1, 16.0);
 	test_spin_distribution(2);
 	test_spin_distribution(3);
+	test_pair_rule();
+	test_mixture_elastic();
+	test_mixture_equipartition();
+	test_mixture_walls();
 	return done_testing();
 }

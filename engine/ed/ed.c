@@ -206,7 +206,7 @@ struct ed {
 	uint64_t drv_kicks[1];    /* state: kicks so far */
 	rng_t drng;               /* state: the driving's random stream */
 	/* Mixtures (SPEC kernels; scene_has_species(): two or more species or
-	 * polydisperse radii; periodic smooth scenes): spc[i] the species and
+	 * polydisperse radii; any variant, smooth or rough): spc[i] the species and
 	 * prad[i] the radius of particle i in storage order (permuted with the
 	 * records by reorder(), rebuilt from id on restore: not state fields of
 	 * their own); species k holds the scene indices [first[k], first[k + 1]).
@@ -699,6 +699,23 @@ static int obst_clear(const struct ed *ed, const double *r)
 #define GRAV 1
 #define VARIANT gs
 #include "ed_inst.h"
+#undef ROUGH
+/* Rough mixtures: the three variants (_2dsr, _3dsr periodic; _2wsr, _3wsr
+ * walls and obstacles; _2gsr, _3gsr gravity) with the rough rule for
+ * unequal particles (rough.h, rough_collide_pair()). */
+#define ROUGH 1
+#define WALLS 0
+#define GRAV 0
+#define VARIANT dsr
+#include "ed_inst.h"
+#define WALLS 1
+#define GRAV 0
+#define VARIANT wsr
+#include "ed_inst.h"
+#define WALLS 1
+#define GRAV 1
+#define VARIANT gsr
+#include "ed_inst.h"
 #undef SPEC
 #undef ROUGH
 #if defined(__GNUC__) && !defined(__clang__)
@@ -748,6 +765,12 @@ static const ed_ops_t ed_ops_species[2][3] = {
 	  { OPS_COMMON(2gs), .observe = observe_2gs, .energy_to = energy_to_2gs, .enter = enter_2gs } },
 	{ { OPS_COMMON(3ds), OPS_NL(3ds) }, { OPS_COMMON(3ws), .observe = observe_3ws, .enter = enter_3ws },
 	  { OPS_COMMON(3gs), .observe = observe_3gs, .energy_to = energy_to_3gs, .enter = enter_3gs } },
+};
+static const ed_ops_t ed_ops_species_rough[2][3] = {
+	{ { OPS_COMMON(2dsr), OPS_NL(2dsr) }, { OPS_COMMON(2wsr), .observe = observe_2wsr, .enter = enter_2wsr },
+	  { OPS_COMMON(2gsr), .observe = observe_2gsr, .energy_to = energy_to_2gsr, .enter = enter_2gsr } },
+	{ { OPS_COMMON(3dsr), OPS_NL(3dsr) }, { OPS_COMMON(3wsr), .observe = observe_3wsr, .enter = enter_3wsr },
+	  { OPS_COMMON(3gsr), .observe = observe_3gsr, .energy_to = energy_to_3gsr, .enter = enter_3gsr } },
 };
 static const ed_ops_t ed_ops_rough[2][3] = {
 	{ { OPS_COMMON(2dr), OPS_NL(2dr) }, { OPS_COMMON(2wr), .observe = observe_2wr, .enter = enter_2wr },
@@ -1172,6 +1195,22 @@ static void init_spins(struct ed *ed, double temp, rng_t *rng)
 		ed->spin[i] = rng_gauss(rng);
 		s2 += ed->spin[i] * ed->spin[i];
 	}
+	if (ed->mixture) {
+		/* mixtures: variance T / I_i per component, I_i = q m_i a_i^2, scaled to exactly T_rot */
+		const size_t c = ed->dim == 2 ? 1 : 3;
+		double e2 = 0.0;
+		for (uint32_t i = 0; i < ed->n; i++) {
+			const double I = ed->rq * ed->mix->m[ed->spc[i]] * ed->prad[i] * ed->prad[i];
+			for (size_t a = 0; a < c; a++) {
+				ed->spin[i * c + a] /= sqrt(I);
+				e2 += I * ed->spin[i * c + a] * ed->spin[i * c + a];
+			}
+		}
+		const double scale = e2 > 0.0 ? sqrt(temp * (double)k / e2) : 0.0;
+		for (size_t i = 0; i < k; i++)
+			ed->spin[i] *= scale;
+		return;
+	}
 	const double inertia = ed->rq * ed->mass * 0.25 * ed->sigma2;
 	const double scale = s2 > 0.0 ? sqrt(temp * (double)k / (inertia * s2)) : 0.0;
 	for (size_t i = 0; i < k; i++)
@@ -1185,6 +1224,16 @@ static double ed_erot(const struct ed *ed)
 		return 0.0;
 	const size_t k = (size_t)ed->n * (ed->dim == 2 ? 1 : 3);
 	double s2 = 0.0;
+	if (ed->mixture) {   /* each particle's own I = q m_i a_i^2 */
+		const size_t c = ed->dim == 2 ? 1 : 3;
+		for (uint32_t i = 0; i < ed->n; i++) {
+			double w2 = 0.0;
+			for (size_t a = 0; a < c; a++)
+				w2 += ed->spin[i * c + a] * ed->spin[i * c + a];
+			s2 += ed->rq * ed->mix->m[ed->spc[i]] * ed->prad[i] * ed->prad[i] * w2;
+		}
+		return 0.5 * s2;
+	}
 	for (size_t i = 0; i < k; i++)
 		s2 += ed->spin[i] * ed->spin[i];
 	return 0.5 * ed->rq * ed->mass * 0.25 * ed->sigma2 * s2;
@@ -1603,14 +1652,9 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 	ed->ops = ed->rough ? &ed_ops_rough[ed->dim - 2][ed->variant] : &ed_ops[ed->dim - 2][ed->variant];
 	ed->nsp = 1;
 	if (scene_has_species(s)) {
-		if (ed->rough) {
-			set_msg(msg, msglen, "particles.species: mixtures and polydisperse particles only for smooth "
-			        "particles%.0s%.0s", 0, 0);
-			return ED_EINVAL;
-		}
 		ed->nsp = s->n_species;   /* tables: setup_species() in ed_alloc() */
 		ed->mixture = 1;
-		ed->ops = &ed_ops_species[ed->dim - 2][ed->variant];
+		ed->ops = ed->rough ? &ed_ops_species_rough[ed->dim - 2][ed->variant] : &ed_ops_species[ed->dim - 2][ed->variant];
 	}
 	if (ed->rough) {
 		ed->rbeta = s->rough_beta;

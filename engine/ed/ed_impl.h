@@ -10,7 +10,7 @@
  * (rough particles: spins in ed->spin, the rough collision rule) is a
  * further flag on top of any of them. SPEC (mixtures: contact distance
  * from the particles' radii ed->prad, restitution and masses from the pair
- * tables by ed->spc; periodic smooth scenes only) replaces ed->sigma2, ed->e
+ * tables by ed->spc; any variant, smooth or ROUGH) replaces ed->sigma2, ed->e
  * and ed->mass in predictions, collisions and energies; without it they are
  * the one species' constants.
  */
@@ -751,14 +751,22 @@ static inline void FN(energy_to)(struct ed *ed, double t)
 static inline void FN(rough_kick)(struct ed *ed, P_T *pi, P_T *pj, uint32_t i, uint32_t j, const double *dr,
                                   double r2, double b, double e, int elastic)
 {
-	const rough_rule_t R = {.m = ed->mass, .a = 0.5 * ed->sigma, .e = e, .beta = elastic ? -1.0 : ed->rbeta,
-	                        .mu = elastic ? -1.0 : ed->rmu, .q = ed->rq};
 	const double rn = sqrt(r2);
 	double n[D];
 	FOR_AXES(k)
 		n[k] = dr[k] / rn;
 	const int k = D == 2 ? 1 : 3;
+#if SPEC
+	/* mixtures: each particle's own mass, radius and moment of inertia q m a^2 */
+	const rough_pair_t R = {.m1 = FN(mass)(ed, i), .m2 = FN(mass)(ed, j), .a1 = ed->prad[i], .a2 = ed->prad[j],
+	                        .e = e, .beta = elastic ? -1.0 : ed->rbeta, .mu = elastic ? -1.0 : ed->rmu, .q = ed->rq};
+	ed->ekin_cur += rough_collide_pair(D, &R, n, b / rn, pi->v, pj->v, &ed->spin[(size_t)i * k],
+	                                   &ed->spin[(size_t)j * k]);
+#else
+	const rough_rule_t R = {.m = ed->mass, .a = 0.5 * ed->sigma, .e = e, .beta = elastic ? -1.0 : ed->rbeta,
+	                        .mu = elastic ? -1.0 : ed->rmu, .q = ed->rq};
 	ed->ekin_cur += rough_collide(D, &R, n, b / rn, pi->v, pj->v, &ed->spin[(size_t)i * k], &ed->spin[(size_t)j * k]);
+#endif
 }
 #endif
 
@@ -814,7 +822,12 @@ static inline __attribute__((always_inline)) void FN(collide)(struct ed *ed, uin
 		}
 #if ROUGH
 		FN(rough_kick)(ed, pi, pj, i, j, dr, r2, b, e, elastic);
+#if SPEC
+		ed->virial -= (1.0 + e) * ed->mix->mu[pq] * b;   /* r . J: J_t is normal to r */
+		(void)qr;
+#else
 		ed->virial -= 0.5 * (1.0 + e) * ed->mass * b;   /* r . J: J_t is normal to r */
+#endif
 #elif SPEC
 		/* unequal masses: impulse J = -(1 + e) mu (b / r2) dr on i, mu the
 		 * reduced mass; i's velocity changes by J / m_i = -(1 + e) w_ij

@@ -79,3 +79,70 @@ static inline double rough_collide(int dim, const rough_rule_t *R, const double 
 	}
 	return de;
 }
+
+/*
+ * Unequal particles (mixtures): masses m1, m2, radii a1, a2, moments of
+ * inertia I_i = q m_i a_i^2 (one q for all). With the reduced mass
+ * mu = m1 m2 / (m1 + m2) the rule above holds with M -> mu:
+ *   g   = v1 - v2 - (a1 w1 + a2 w2) x n
+ *   J_n = -(1 + e) mu (g . n) n,   J_t = -mu q / (1 + q) (1 + beta) g_t
+ * (a tangential impulse J_t changes g_t by (1/m1 + 1/m2)(1 + 1/q) J_t),
+ * Walton's cap |J_t| <= mu_c |J_n| as above; v1 += J / m1, v2 -= J / m2,
+ * w_i += -(a_i / I_i) n x J_t = -(1 / (q m_i a_i)) n x J_t. Linear momentum
+ * and the angular momentum about the contact point are conserved; with
+ * e = 1 and beta = +-1 the energy (translational plus rotational) too.
+ */
+typedef struct {
+	double m1, m2, a1, a2, e, beta, mu, q;
+} rough_pair_t;
+
+/* As rough_collide() for unequal particles; returns the change of the
+ * translational kinetic energy (J . (v1 - v2) + |J|^2 / (2 mu)). */
+static inline double rough_collide_pair(int dim, const rough_pair_t *R, const double *n, double gn, double *v1,
+                                        double *v2, double *w1, double *w2)
+{
+	const double m1 = R->m1, m2 = R->m2, mu = m1 * m2 / (m1 + m2), q = R->q;
+	double dv[3], gt[3], J[3], Jt[3], gt2 = 0.0, de = 0.0, jj = 0.0;
+	for (int k = 0; k < dim; k++)
+		dv[k] = v1[k] - v2[k];
+	if (dim == 2) {
+		const double W = R->a1 * w1[0] + R->a2 * w2[0];   /* (a1 w1 + a2 w2) about z */
+		gt[0] = dv[0] - gn * n[0] + W * n[1];
+		gt[1] = dv[1] - gn * n[1] - W * n[0];
+	} else {
+		double W[3];
+		for (int k = 0; k < 3; k++)
+			W[k] = R->a1 * w1[k] + R->a2 * w2[k];
+		gt[0] = dv[0] - gn * n[0] - (W[1] * n[2] - W[2] * n[1]);
+		gt[1] = dv[1] - gn * n[1] - (W[2] * n[0] - W[0] * n[2]);
+		gt[2] = dv[2] - gn * n[2] - (W[0] * n[1] - W[1] * n[0]);
+	}
+	for (int k = 0; k < dim; k++)
+		gt2 += gt[k] * gt[k];
+	const double jn = -(1.0 + R->e) * mu * gn;
+	double ct = mu * q / (1.0 + q) * (1.0 + R->beta);
+	if (R->mu >= 0.0 && ct * sqrt(gt2) > R->mu * jn)
+		ct = R->mu * jn / sqrt(gt2);
+	for (int k = 0; k < dim; k++) {
+		Jt[k] = -ct * gt[k];
+		J[k] = jn * n[k] + Jt[k];
+		de += J[k] * dv[k];
+		jj += J[k] * J[k];
+		v1[k] += J[k] / m1;
+		v2[k] -= J[k] / m2;
+	}
+	de += 0.5 * jj / mu;
+	const double s1 = -1.0 / (q * m1 * R->a1), s2 = -1.0 / (q * m2 * R->a2);
+	if (dim == 2) {
+		const double c = n[0] * Jt[1] - n[1] * Jt[0];
+		w1[0] += s1 * c;
+		w2[0] += s2 * c;
+	} else {
+		const double c[3] = {n[1] * Jt[2] - n[2] * Jt[1], n[2] * Jt[0] - n[0] * Jt[2], n[0] * Jt[1] - n[1] * Jt[0]};
+		for (int k = 0; k < 3; k++) {
+			w1[k] += s1 * c[k];
+			w2[k] += s2 * c[k];
+		}
+	}
+	return de;
+}

@@ -56,6 +56,50 @@ static int extent(hid_t g, const char *name, hsize_t dims[3])
 	return ret;
 }
 
+/* Mixtures: the frame's per-particle diameters (/GROUP/diameter, [n]
+ * doubles, as h5md.c writes them) equal the scene's 2 r_i
+ * (scene_species_radii(): the species' radii, polydisperse ones drawn from
+ * the seed and stream), bit for bit. FRAME_OK, or FRAME_EINVAL /
+ * FRAME_ENOMEM with msg naming the key. */
+static int check_diameters(hid_t g, const scene_t *s, const char *path, const char *group, char *msg, size_t msglen)
+{
+	int ret = FRAME_EINVAL;
+	const hsize_t n = s->count;
+	double *diam = malloc(n * sizeof(double)), *rad = malloc(n * sizeof(double));
+	hid_t d = H5I_INVALID_HID, sp = H5I_INVALID_HID, t = H5I_INVALID_HID;
+	hsize_t dims[1];
+	if (!diam || !rad) {
+		ret = FRAME_ENOMEM;
+		h5u_fail(msg, msglen, 0, "out of memory reading %llu particles", (unsigned long long)n);
+		goto out;
+	}
+	if (H5Lexists(g, "diameter", H5P_DEFAULT) <= 0 || (d = H5Dopen2(g, "diameter", H5P_DEFAULT)) < 0 ||
+	    (sp = H5Dget_space(d)) < 0 || (t = H5Dget_type(d)) < 0 || H5Tget_class(t) != H5T_FLOAT ||
+	    H5Sget_simple_extent_ndims(sp) != 1 || H5Sget_simple_extent_dims(sp, dims, NULL) != 1 || dims[0] != n ||
+	    H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, diam) < 0) {
+		h5u_fail(msg, msglen, 0, "particles.initial.from: %s has no per-particle diameters /%s/diameter (%llu "
+		         "numbers), which a mixture (particles.species) starts from: its radii must match the scene's", path,
+		         group, (unsigned long long)n);
+		goto out;
+	}
+	scene_species_radii(s, rad);
+	for (hsize_t i = 0; i < n; i++)
+		if (diam[i] != 2.0 * rad[i]) {
+			h5u_fail(msg, msglen, 0, "particles.initial.from: particle %llu has diameter %.17g in %s (/%s/diameter), "
+			         "the scene's particles.species give it %.17g (the same species, counts and radii, and for "
+			         "radius_range the same run.seed)", (unsigned long long)i, diam[i], path, group, 2.0 * rad[i]);
+			goto out;
+		}
+	ret = FRAME_OK;
+out:
+	if (t >= 0) H5Tclose(t);
+	if (sp >= 0) H5Sclose(sp);
+	if (d >= 0) H5Dclose(d);
+	free(diam);
+	free(rad);
+	return ret;
+}
+
 int frame_load(const scene_t *s, const char *path, double **pos, double **vel, double **spin, char *msg,
                size_t msglen)
 {
@@ -155,6 +199,9 @@ int frame_load(const scene_t *s, const char *path, double **pos, double **vel, d
 				goto out;
 			}
 	}
+	if (scene_has_species(s) && (ret = check_diameters(g, s, path, group, msg, msglen)) != FRAME_OK)
+		goto out;
+	ret = FRAME_EINVAL;
 	int rc = place_check_state(s, p, v, "particles.initial.from", msg, msglen);
 	if (rc != PLACE_OK) {
 		ret = rc == PLACE_ENOMEM ? FRAME_ENOMEM : FRAME_EINVAL;

@@ -95,6 +95,10 @@ static void g_cm2r(const run_record_t *r, void *o) { *(double *)o = r->clusters.
 static void g_time_se(const run_record_t *r, void *o) { *(double *)o = r->se.time; }
 static void g_ekin_se(const run_record_t *r, void *o) { *(double *)o = r->se.kinetic_energy / (double)r->n; }
 static void g_temp_se(const run_record_t *r, void *o) { *(double *)o = r->se.temperature; }
+static void g_temp_sp_se(const run_record_t *r, void *o)
+{
+	memcpy(o, r->se.temperature_species, r->n_species * sizeof(double));
+}
 static void g_pres_se(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->se.pressure : NAN; }
 static void g_comp_se(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->se.compressibility : NAN; }
 static void g_rate_se(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->se.collision_rate : NAN; }
@@ -167,6 +171,7 @@ static const obs_def_t obs_defs[] = {
 	{ "time_se", NEED_SE, 0, 0, "t0", g_time_se },
 	{ "kinetic_energy_se", NEED_SE | SCENE_OBS_ENERGY, 0, 0, "e0", g_ekin_se },
 	{ "temperature_se", NEED_SE | SCENE_OBS_ENERGY, 0, 0, "e0", g_temp_se },
+	{ "temperature_species_se", NEED_SE | SCENE_OBS_ENERGY | NEED_MIX, 0, -3, "e0", g_temp_sp_se },
 	{ "pressure_se", NEED_SE | SCENE_OBS_PRESSURE, 0, 0, "pressure", g_pres_se },
 	{ "compressibility_se", NEED_SE | SCENE_OBS_PRESSURE, 0, 0, "1", g_comp_se },
 	{ "collision_rate_se", NEED_SE | SCENE_OBS_COLLISION_RATE, 0, 0, "t0-1", g_rate_se },
@@ -577,7 +582,11 @@ static int write_group(h5md_t *h, int k, const scene_t *s)
 	    H5Lcreate_hard(pos, "time", vel, "time", H5P_DEFAULT, H5P_DEFAULT) < 0)
 		goto out;
 	if (scene_has_species(s)) {
-		if (write_species(all, s, h->n))
+		/* ensembles: replica k runs on random stream k (engine/main.c), which draws its polydisperse radii */
+		scene_t sk = *s;
+		if (h->ensemble)
+			sk.stream = (uint64_t)k;
+		if (write_species(all, &sk, h->n))
 			goto out;
 	} else if (write_constant(all, "diameter", 2.0 * s->radius, h->n) || write_constant(all, "mass", s->mass, h->n)) {
 		goto out;

@@ -75,6 +75,13 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 				put(&o, isfinite(r->temperature_species[k]) ? "%s%.17g" : "%snull", k ? "," : "",
 				    r->temperature_species[k]);
 			put(&o, "]");
+			if (r->replicas > 1) {   /* ensembles: the standard error of each species' mean */
+				put(&o, ",\"temperature_species_se\":[");
+				for (int k = 0; k < r->n_species; k++)
+					put(&o, isfinite(r->se.temperature_species[k]) ? "%s%.17g" : "%snull", k ? "," : "",
+					    r->se.temperature_species[k]);
+				put(&o, "]");
+			}
 		}
 	}
 	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_PRESSURE)) {

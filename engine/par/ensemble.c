@@ -14,6 +14,7 @@ enum {
 	/* after the histogram: absent (zero) in records packed by older versions */
 	V_A2 = V_HIST + CLUSTERS_MAX_BINS, V_A3, V_GPAIRS, V_GRATE, V_GPRES, V_CW, V_CEXP,
 	V_MSD, V_DIFF,
+	V_NSP, V_TSP,   /* mixtures: species, then SCENE_SPECIES_MAX temperatures (absent in older records: zero) */
 };
 
 void ensemble_pack(const run_record_t *r, int done, double *v)
@@ -55,6 +56,9 @@ void ensemble_pack(const run_record_t *r, int done, double *v)
 	v[V_CEXP] = r->clusters.exponent;
 	v[V_MSD] = r->obs.msd;
 	v[V_DIFF] = r->obs.diffusion;
+	v[V_NSP] = r->n_species;
+	for (int k = 0; k < r->n_species && k < SCENE_SPECIES_MAX; k++)
+		v[V_TSP + k] = r->temperature_species[k];
 }
 
 static void stat(const double *vals, int R, int idx, double *mean, double *se)
@@ -115,6 +119,9 @@ int ensemble_combine(const double *vals, int R, const run_record_t *proto, run_r
 	stat(vals, R, V_DIFF, &out->obs.diffusion, &out->se.diffusion);
 	out->obs.msd_se = out->obs.msd_walled = NAN;
 	out->obs.g_pairs_se = NAN;
+	out->n_species = proto->n_species;
+	for (int k = 0; k < out->n_species; k++)
+		stat(vals, R, V_TSP + k, &out->temperature_species[k], &out->se.temperature_species[k]);
 	out->clusters.n_particles = proto->n;
 	out->clusters.n_clusters = (uint64_t)llround(sum(vals, R, V_NCL) / R);
 	out->clusters.largest = (uint64_t)llround(sum(vals, R, V_LARGEST) / R);
@@ -189,6 +196,11 @@ void ensemble_unpack(const double *v, const scene_t *s, run_record_t *r)
 	r->obs.msd = v[V_MSD];
 	r->obs.diffusion = v[V_DIFF];
 	r->obs.msd_se = r->obs.msd_walled = NAN;
+	r->n_species = (int)v[V_NSP];
+	if (r->n_species < 0 || r->n_species > SCENE_SPECIES_MAX)
+		r->n_species = 0;
+	for (int k = 0; k < r->n_species; k++)
+		r->temperature_species[k] = v[V_TSP + k];
 }
 
 /* ---- replica state as a byte string ----------------------------------------
@@ -365,7 +377,8 @@ int ensemble_load(const scene_t *s, uint64_t stream, const unsigned char *buf, s
 			memcpy(&status, data, 8);
 			got++;
 		} else if (!strcmp(f.name, "@last") && f.type == ED_T_F64 &&
-		           (f.count == ENSEMBLE_NV || f.count == ENSEMBLE_NV_V2 || f.count == ENSEMBLE_NV_V1)) {
+		           (f.count == ENSEMBLE_NV || f.count == ENSEMBLE_NV_V3 || f.count == ENSEMBLE_NV_V2 ||
+		            f.count == ENSEMBLE_NV_V1)) {
 			/* an older version's record has no structure observables: zeros */
 			double v[ENSEMBLE_NV] = {0};
 			memcpy(v, data, f.count * sizeof(double));

@@ -14,7 +14,9 @@
  *   only on the replica records, never on which rank produced them.
  */
 
-#define ENSEMBLE_NV (35 + CLUSTERS_MAX_BINS)   /* doubles per replica record */
+#define ENSEMBLE_NV (36 + SCENE_SPECIES_MAX + CLUSTERS_MAX_BINS)   /* doubles per replica record */
+/* Packed records of versions before the mixtures' per-species temperatures (checkpoints' "@last"). */
+#define ENSEMBLE_NV_V3 (35 + CLUSTERS_MAX_BINS)
 /* Packed records of versions before mean_square_displacement (checkpoints' "@last"). */
 #define ENSEMBLE_NV_V2 (33 + CLUSTERS_MAX_BINS)
 /* Packed records of versions before the structure observables (checkpoints' "@last"). */
@@ -26,7 +28,8 @@ void ensemble_pack(const run_record_t *rec, int done, double *v);
 
 /* Combine R packed records (R * ENSEMBLE_NV doubles, replica-major) into *out:
  * observables are means over the replicas with standard errors in out->se
- * (sample standard deviation / sqrt(R)); events, collisions and the dsmc
+ * (sample standard deviation / sqrt(R)); mixtures' per-species temperatures
+ * likewise, species by species; events, collisions and the dsmc
  * diagnostics are totals over the replicas; cluster counts and largest sizes
  * rounded means, histogram totals. proto (a record of the same kind from
  * any replica) supplies kind, dim, n and the observable flags. Returns the
