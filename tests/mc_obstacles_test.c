@@ -9,23 +9,11 @@
 #include "mc/dsmc.h"
 #include "scene.h"
 #include "tap.h"
+#include "mc_util.h"
 #include "stats.h"
 
 #define PI 3.14159265358979323846
 
-static dsmc_t *make(const char *json, scene_t *sc)
-{
-	char err[512];
-	int rc;
-	if (scene_parse(json, strlen(json), sc, err, sizeof(err)) != SCENE_OK) {
-		diag("scene rejected: %s", err);
-		return NULL;
-	}
-	dsmc_t *d = dsmc_create(sc, 0, &rc, err, sizeof(err));
-	if (!d)
-		diag("dsmc_create: %s", err);
-	return d;
-}
 
 /* Kinetic plus potential energy now (potential 0 without gravity). */
 static double energy(const dsmc_t *d)
@@ -83,7 +71,7 @@ static void test_energy(const char *method, int dim)
 	         method, dim, dim == 2 ? 1000 : 2000, dim == 2 ? "[60,60]" : "[20,20,20]",
 	         strcmp(method, "hsmc") ? "random" : "lattice", obst, dim == 2 ? "[0,-0.5]" : "[0,-0.5,0]", method);
 	scene_t sc;
-	dsmc_t *d = make(json, &sc);
+	dsmc_t *d = mc_make(json, &sc, 0);
 	double *pos = malloc(sc.count * 3 * sizeof(double));
 	double e0 = d ? energy(d) : NAN, worst = 0, gap = d ? min_gap(d, &sc, pos) : -1;
 	for (int k = 0; d && k < 800; k++) {
@@ -123,7 +111,7 @@ static void test_equilibrium(const char *method)
 	         "\"initial\":{\"positions\":\"random\",\"temperature\":1}},\"obstacles\":[{\"type\":\"slip\","
 	         "\"center\":[80,120],\"radius\":10}],\"run\":{\"seed\":11,\"until\":{\"time\":1000}}}", method);
 	scene_t sc;
-	dsmc_t *d = make(json, &sc);
+	dsmc_t *d = mc_make(json, &sc, 0);
 	enum { NB = 40, NS = 10 };
 	double r1[NB] = {0}, r2[NB] = {0}, fx[NB] = {0}, fy[NB] = {0};
 	double *pos = malloc(sc.count * 2 * sizeof(double));
@@ -254,8 +242,7 @@ static void test_restore(const char *method)
 	         method, method);
 	scene_t sc;
 	char err[512] = "";
-	int e;
-	dsmc_t *a = make(json, &sc), *b = make(json, &sc);
+	dsmc_t *a = mc_make(json, &sc, 0), *b = mc_make(json, &sc, 0);
 	int same_samples = 1, restores = 0;
 	for (int it = 0; a && b && it < 40; it++) {
 		dsmc_advance(a, INFINITY, UINT64_MAX, 1 + it % 5);
@@ -266,24 +253,7 @@ static void test_restore(const char *method)
 			dsmc_sample(b, &y);
 			same_samples &= memcmp(&x, &y, sizeof x) == 0;
 		}
-		ed_field_t f[DSMC_MAX_FIELDS];
-		void *data[DSMC_MAX_FIELDS];
-		int nf = dsmc_fields(b, f, DSMC_MAX_FIELDS);
-		for (int j = 0; j < nf; j++) {
-			data[j] = malloc(f[j].count * ed_type_size(f[j].type) + 1);
-			dsmc_field_get(b, f[j].name, data[j]);
-		}
-		dsmc_destroy(b);
-		b = dsmc_create_blank(&sc, &e, err, sizeof err);
-		for (int j = 0; b && j < nf; j++)
-			if (dsmc_field_set(b, f[j].name, f[j].type, f[j].count, data[j]) != DSMC_OK)
-				snprintf(err, sizeof err, "field %s refused", f[j].name);
-		if (b && dsmc_restore_finish(b, err, sizeof err) != DSMC_OK) {
-			dsmc_destroy(b);
-			b = NULL;
-		}
-		for (int j = 0; j < nf; j++)
-			free(data[j]);
+		b = mc_reload(b, &sc, err, sizeof err);
 		restores++;
 	}
 	int same = 0;

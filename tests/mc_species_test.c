@@ -9,21 +9,9 @@
 #include "mc/dsmc.h"
 #include "scene.h"
 #include "tap.h"
+#include "mc_util.h"
 #include "stats.h"
 
-static dsmc_t *make(const char *json, scene_t *sc, uint64_t stream)
-{
-	char err[512];
-	int rc;
-	if (scene_parse(json, strlen(json), sc, err, sizeof(err)) != SCENE_OK) {
-		diag("scene rejected: %s", err);
-		return NULL;
-	}
-	dsmc_t *d = dsmc_create(sc, stream, &rc, err, sizeof(err));
-	if (!d)
-		diag("dsmc_create: %s", err);
-	return d;
-}
 
 /* T_s = 2 E_s / (D N_s) of species s now. */
 static double tspec(const dsmc_sample_t *sm, int s, int dim)
@@ -47,7 +35,7 @@ static void test_equipartition(void)
 	                   "\"volume_fraction\":0.05,\"initial\":{\"positions\":\"random\",\"temperature\":1}},"
 	                   "\"run\":{\"seed\":3,\"until\":{\"time\":1000}}}";
 	scene_t sc;
-	dsmc_t *d = make(json, &sc, 0);
+	dsmc_t *d = mc_make(json, &sc, 0);
 	double ratio0 = NAN, ratio[40] = {0}, e0 = NAN, p0[3] = {0}, worst = 0, pworst = 0;
 	if (d) {
 		size_t np = sc.count * 4;
@@ -198,7 +186,7 @@ static void test_pair_restitution(void)
 		char json[1024];
 		snprintf(json, sizeof json, one, "dsmc", 100 + r);
 		scene_t sc;
-		dsmc_t *d = make(json, &sc, 0);
+		dsmc_t *d = mc_make(json, &sc, 0);
 		for (int k = 0; d && k < NT; k++) {
 			dsmc_sample_t sm;
 			dsmc_advance(d, tt[k], UINT64_MAX, UINT64_MAX);
@@ -235,8 +223,7 @@ static void test_restore(void)
 	                   "\"run\":{\"seed\":8,\"until\":{\"time\":100}}}";
 	scene_t sc;
 	char err[512] = "";
-	int e;
-	dsmc_t *a = make(json, &sc, 0), *b = make(json, &sc, 0);
+	dsmc_t *a = mc_make(json, &sc, 0), *b = mc_make(json, &sc, 0);
 	int same_samples = 1;
 	for (int it = 0; a && b && it < 30; it++) {
 		dsmc_advance(a, INFINITY, UINT64_MAX, 1 + it % 4);
@@ -245,23 +232,7 @@ static void test_restore(void)
 		dsmc_sample(a, &x);
 		dsmc_sample(b, &y);
 		same_samples &= memcmp(&x, &y, sizeof x) == 0;
-		ed_field_t f[DSMC_MAX_FIELDS];
-		void *data[DSMC_MAX_FIELDS];
-		int nf = dsmc_fields(b, f, DSMC_MAX_FIELDS);
-		for (int j = 0; j < nf; j++) {
-			data[j] = malloc(f[j].count * ed_type_size(f[j].type) + 1);
-			dsmc_field_get(b, f[j].name, data[j]);
-		}
-		dsmc_destroy(b);
-		b = dsmc_create_blank(&sc, &e, err, sizeof err);
-		for (int j = 0; b && j < nf; j++)
-			dsmc_field_set(b, f[j].name, f[j].type, f[j].count, data[j]);
-		if (b && dsmc_restore_finish(b, err, sizeof err) != DSMC_OK) {
-			dsmc_destroy(b);
-			b = NULL;
-		}
-		for (int j = 0; j < nf; j++)
-			free(data[j]);
+		b = mc_reload(b, &sc, err, sizeof err);
 	}
 	int same = 0;
 	dsmc_sample_t x = {0};

@@ -10,21 +10,9 @@
 #include "scene.h"
 #include "preset_file.h"
 #include "tap.h"
+#include "mc_util.h"
 #include "stats.h"
 
-static dsmc_t *make(const char *json, scene_t *sc)
-{
-	char err[512];
-	int rc;
-	if (scene_parse(json, strlen(json), sc, err, sizeof(err)) != SCENE_OK) {
-		diag("scene rejected: %s", err);
-		return NULL;
-	}
-	dsmc_t *d = dsmc_create(sc, 0, &rc, err, sizeof(err));
-	if (!d)
-		diag("dsmc_create: %s", err);
-	return d;
-}
 
 /* Kinetic plus potential energy now (potential 0 without gravity). */
 static double energy(const dsmc_t *d)
@@ -59,7 +47,7 @@ static void test_energy(const char *method, int dim)
 	         "\"gravity\":%s,\"run\":{\"seed\":3,\"until\":{\"time\":100}},\"%s\":{\"cell_size\":2}}",
 	         method, dim, !strcmp(method, "hsmc") ? "0.3" : "0.05", z, grav, method);
 	scene_t sc;
-	dsmc_t *d = make(json, &sc);
+	dsmc_t *d = mc_make(json, &sc, 0);
 	double e0 = d ? energy(d) : NAN, worst = 0;
 	for (int k = 0; d && k < 100; k++) {
 		dsmc_advance(d, INFINITY, UINT64_MAX, 2);
@@ -102,7 +90,7 @@ static void test_pipe(void)
 	scene_t sc;
 	/* smooth pipe, gravity along it */
 	snprintf(json, sizeof json, fmt, 0.0, 0.0, -0.01);
-	dsmc_t *d = make(json, &sc);
+	dsmc_t *d = mc_make(json, &sc, 0);
 	dsmc_sample_t s0 = {0}, s1 = {0};
 	if (d) {
 		dsmc_totals(d, &s0);
@@ -118,7 +106,7 @@ static void test_pipe(void)
 	/* a drift u = 1 along the pipe, no gravity: smooth walls keep it, rough ones stop it */
 	for (int rough = 0; rough <= 1; rough++) {
 		snprintf(json, sizeof json, fmt, (double)rough, (double)rough, 0.0);
-		d = make(json, &sc);
+		d = mc_make(json, &sc, 0);
 		if (!d)
 			continue;
 		/* add the drift through the state: restore particles with v_y += 1 */
@@ -166,7 +154,7 @@ static void test_barometric(void)
 	                   "\"upper\":{\"type\":\"specular\"}}},"
 	                   "\"gravity\":[0,-0.01],\"run\":{\"seed\":11,\"until\":{\"time\":6000}}}";
 	scene_t sc;
-	dsmc_t *d = make(json, &sc);
+	dsmc_t *d = mc_make(json, &sc, 0);
 	if (!d) {
 		ok(0, "barometric scene");
 		return;
@@ -231,7 +219,7 @@ static void test_thermal(const char *method)
 	         "\"upper\":{\"type\":\"thermal\",\"temperature\":2,\"accommodation\":0.5}}},"
 	         "\"run\":{\"seed\":13,\"until\":{\"time\":2000}}}", method);
 	scene_t sc;
-	dsmc_t *d = make(json, &sc);
+	dsmc_t *d = mc_make(json, &sc, 0);
 	double sum = 0;
 	int n = 0;
 	if (d) {
@@ -271,8 +259,7 @@ static void test_restore(const char *method, int vib)
 	                  : "{\"type\":\"thermal\",\"temperature\":1,\"accommodation\":0.5,\"velocity\":[0.3,0]}", method);
 	scene_t sc;
 	char err[512] = "";
-	int e;
-	dsmc_t *a = make(json, &sc), *b = make(json, &sc);
+	dsmc_t *a = mc_make(json, &sc, 0), *b = mc_make(json, &sc, 0);
 	int same_samples = 1, restores = 0;
 	for (int it = 0; a && b && it < 40; it++) {
 		dsmc_advance(a, INFINITY, UINT64_MAX, 1 + it % 5);
@@ -283,24 +270,7 @@ static void test_restore(const char *method, int vib)
 			dsmc_sample(b, &y);
 			same_samples &= memcmp(&x, &y, sizeof x) == 0;
 		}
-		ed_field_t f[DSMC_MAX_FIELDS];
-		void *data[DSMC_MAX_FIELDS];
-		int nf = dsmc_fields(b, f, DSMC_MAX_FIELDS);
-		for (int j = 0; j < nf; j++) {
-			data[j] = malloc(f[j].count * ed_type_size(f[j].type) + 1);
-			dsmc_field_get(b, f[j].name, data[j]);
-		}
-		dsmc_destroy(b);
-		b = dsmc_create_blank(&sc, &e, err, sizeof err);
-		for (int j = 0; b && j < nf; j++)
-			if (dsmc_field_set(b, f[j].name, f[j].type, f[j].count, data[j]) != DSMC_OK)
-				snprintf(err, sizeof err, "field %s refused", f[j].name);
-		if (b && dsmc_restore_finish(b, err, sizeof err) != DSMC_OK) {
-			dsmc_destroy(b);
-			b = NULL;
-		}
-		for (int j = 0; j < nf; j++)
-			free(data[j]);
+		b = mc_reload(b, &sc, err, sizeof err);
 		restores++;
 	}
 	int same = 0;
@@ -373,7 +343,7 @@ static void test_rest(void)
 	                   "\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\",\"restitution\":0.3},"
 	                   "\"upper\":{\"type\":\"specular\"}}},\"gravity\":[0,-1],\"run\":{\"seed\":19,\"until\":{\"time\":400}}}";
 	scene_t sc;
-	dsmc_t *d = make(json, &sc);
+	dsmc_t *d = mc_make(json, &sc, 0);
 	dsmc_sample_t sm = {0};
 	if (d) {
 		dsmc_advance(d, 200, UINT64_MAX, UINT64_MAX);
@@ -535,7 +505,7 @@ static void test_effusion(const char *method)
 		         "\"lower\":{\"type\":\"specular\"},\"upper\":{\"type\":\"open\"}}},\"run\":{\"seed\":%d,"
 		         "\"until\":{\"time\":2}}}", method, 60 + r);
 		scene_t sc;
-		dsmc_t *d = make(json, &sc);
+		dsmc_t *d = mc_make(json, &sc, 0);
 		if (!d) {
 			bad++;
 			continue;
@@ -587,7 +557,7 @@ static void test_fermi(const char *method, int dim, int upper)
 	         dim == 2 ? "[200,10]" : "[40,40,10]", dim == 2 ? "y" : "z", upper ? spec : vib, upper ? vib : spec);
 	const int w = 2 * (dim - 1) + upper;
 	scene_t sc;
-	dsmc_t *d = make(json, &sc);
+	dsmc_t *d = mc_make(json, &sc, 0);
 	if (!d) {
 		ok(0, "%s %dD fermi heating: setup", method, dim);
 		return;
@@ -639,7 +609,7 @@ static void test_tiny_amplitude(const char *method)
 		         "\"specular\"}},\"y\":{\"type\":\"walls\",\"lower\":%s,\"upper\":{\"type\":\"specular\"}}},"
 		         "\"gravity\":[0,-1],\"run\":{\"seed\":5,\"until\":{\"time\":100}},\"%s\":{\"cell_size\":2}}",
 		         method, floors[k], method);
-		dsmc_t *d = make(json, &sc);
+		dsmc_t *d = mc_make(json, &sc, 0);
 		if (!d) {
 			good = 0;
 			break;
@@ -685,7 +655,7 @@ static void test_vibrated_steady(void)
 		         "\"upper\":{\"type\":\"specular\"}}},\"gravity\":[0,-1],\"run\":{\"seed\":8,\"until\":{\"time\":3000}},"
 		         "\"%s\":{\"cell_size\":2}}", method, method);
 		scene_t sc;
-		dsmc_t *d = make(json, &sc);
+		dsmc_t *d = mc_make(json, &sc, 0);
 		if (!d) {
 			ok(0, "%s vibrated bed: setup", method);
 			continue;

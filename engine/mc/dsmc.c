@@ -1718,6 +1718,15 @@ dsmc_t *dsmc_create_blank(const scene_t *s, int *err, char *msg, size_t msglen)
 static double reach_lo(const struct dsmc *d, int a) { return d->lo[a] + d->wall[2 * a].A; }
 static double reach_hi(const struct dsmc *d, int a) { return d->hi[a] - d->wall[2 * a + 1].A; }
 
+/* Centre x of site q of the k^D grid over the reachable region (cell-centred). */
+static void site_pos(const struct dsmc *d, uint64_t q, uint64_t k, double *x)
+{
+	for (int a = 0; a < d->dim; a++, q /= k) {
+		double f = ((double)(q % k) + 0.5) / (double)k;
+		x[a] = d->walled[a] ? reach_lo(d, a) + f * (reach_hi(d, a) - reach_lo(d, a)) : f * d->L[a];
+	}
+}
+
 /* Lattice placement with obstacles: the smallest k^D grid (as without
  * them) with N sites clear of the obstacles, N of those taken with the
  * vacancies spread (lattice.h). */
@@ -1734,11 +1743,7 @@ static int lattice_clear(struct dsmc *d, char *msg, size_t msglen)
 			continue;
 		nfree = 0;
 		for (uint64_t q = 0; q < nsite; q++) {
-			uint64_t r = q;
-			for (int a = 0; a < D; a++, r /= k) {
-				double f = ((double)(r % k) + 0.5) / (double)k;
-				x[a] = d->walled[a] ? reach_lo(d, a) + f * (reach_hi(d, a) - reach_lo(d, a)) : f * d->L[a];
-			}
+			site_pos(d, q, k, x);
 			nfree += !in_obstacle(d, x);
 		}
 		if (nfree >= d->n)
@@ -1751,23 +1756,14 @@ static int lattice_clear(struct dsmc *d, char *msg, size_t msglen)
 	}
 	nfree = 0;
 	for (uint64_t q = 0; q < nsite; q++) {
-		uint64_t r = q;
-		for (int a = 0; a < D; a++, r /= k) {
-			double f = ((double)(r % k) + 0.5) / (double)k;
-			x[a] = d->walled[a] ? reach_lo(d, a) + f * (reach_hi(d, a) - reach_lo(d, a)) : f * d->L[a];
-		}
+		site_pos(d, q, k, x);
 		if (!in_obstacle(d, x))
 			site[nfree++] = q;
 	}
 	lattice_fill_t fill;
 	lattice_fill_init(&fill, nfree, d->n, &d->rng);
-	for (uint32_t i = 0; i < d->n; i++) {
-		uint64_t r = site[lattice_fill_next(&fill)];
-		for (int a = 0; a < D; a++, r /= k) {
-			double f = ((double)(r % k) + 0.5) / (double)k;
-			d->p[i * S + a] = d->walled[a] ? reach_lo(d, a) + f * (reach_hi(d, a) - reach_lo(d, a)) : f * d->L[a];
-		}
-	}
+	for (uint32_t i = 0; i < d->n; i++)
+		site_pos(d, site[lattice_fill_next(&fill)], k, &d->p[i * S]);
 	free(site);
 	return DSMC_OK;
 }

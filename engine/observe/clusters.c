@@ -5,6 +5,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "observe/geom.h"
+
 /*
  * Method
  * - Wrap every coordinate into [0, L), counting-sort the particles into a
@@ -100,42 +102,6 @@ void clusters_destroy(clusters_t *c)
 	free(c);
 }
 
-/* Into [0, L). x - L*floor(x/L) can round up to L itself: that is 0. */
-static inline double wrap(double x, double L)
-{
-	if (x >= 0.0 && x < L)
-		return x;
-	x -= L * floor(x / L);
-	return (x >= 0.0 && x < L) ? x : 0.0;
-}
-
-/* Minimum-image component of a difference of two wrapped coordinates; half = L/2 on periodic axes,
- * INFINITY on walled ones (the plain difference, chosen once per call, no test per pair). */
-static inline double min_image(double d, double L, double half)
-{
-	if (d > half)
-		return d - L;
-	if (d < -half)
-		return d + L;
-	return d;
-}
-
-/* Periodic axes: folded into [0, L); walled axes: as they are. */
-static inline double fold(double x, double L, int walled)
-{
-	return walled ? x : wrap(x, L);
-}
-
-/* Cell of a coordinate on an axis of m cells (clamped: walled coordinates may lie outside [0, L)). */
-static inline size_t cell_index(double x, double inv, size_t m)
-{
-	double q = x * inv;
-	if (!(q >= 0.0))
-		return 0;
-	size_t ci = (size_t)q;
-	return ci >= m ? m - 1 : ci;
-}
-
 int clusters_walls(clusters_t *c, const int *walled)
 {
 	if (c == NULL || walled == NULL)
@@ -224,11 +190,11 @@ static void scan_pair(clusters_t *c, const double *box, const double *half, doub
 		const double *pi = p + (size_t)i * dim;
 		for (uint32_t j = (a0 == b0 ? i + 1 : b0); j < b1; j++) {
 			const double *pj = p + (size_t)j * dim;
-			double dx = min_image(pi[0] - pj[0], box[0], half[0]);
-			double dy = min_image(pi[1] - pj[1], box[1], half[1]);
+			double dx = geom_min_image(pi[0] - pj[0], box[0], half[0]);
+			double dy = geom_min_image(pi[1] - pj[1], box[1], half[1]);
 			double r2 = dx * dx + dy * dy;
 			if (dim == 3) {
-				double dz = min_image(pi[2] - pj[2], box[2], half[2]);
+				double dz = geom_min_image(pi[2] - pj[2], box[2], half[2]);
 				r2 += dz * dz;
 			}
 			if (r2 < cut2)
@@ -362,7 +328,7 @@ int clusters_compute(clusters_t *c, const double *pos, const double *box,
 	for (size_t i = 0; i < n; i++) {
 		size_t idx = 0;
 		for (int a = dim - 1; a >= 0; a--) {
-			size_t ci = cell_index(fold(pos[i * dim + a], L[a], c->walled[a]), inv[a], m[a]);
+			size_t ci = geom_cell(geom_fold(pos[i * dim + a], L[a], c->walled[a]), inv[a], m[a]);
 			idx = idx * m[a] + ci;
 		}
 		c->cell_of[i] = (uint32_t)idx;
@@ -378,7 +344,7 @@ int clusters_compute(clusters_t *c, const double *pos, const double *box,
 		uint32_t s = start[c->cell_of[i]]++;
 		c->slot_of[i] = s;
 		for (int a = 0; a < dim; a++)
-			c->spos[(size_t)s * dim + a] = fold(pos[i * dim + a], L[a], c->walled[a]);
+			c->spos[(size_t)s * dim + a] = geom_fold(pos[i * dim + a], L[a], c->walled[a]);
 	}
 	memmove(start + 1, start, ncells * sizeof(uint32_t));
 	start[0] = 0;

@@ -6,6 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "observe/geom.h"
+
 #define PI 3.14159265358979323846
 /* Cells in all at most this many per particle (+ a few): a huge dilute box gets larger cells, not
  * O(volume) memory (as in clusters.c). */
@@ -70,41 +72,6 @@ void gofr_destroy(gofr_t *g)
 	free(g);
 }
 
-static inline double wrap(double x, double L)
-{
-	if (x >= 0.0 && x < L)
-		return x;
-	x -= L * floor(x / L);
-	return (x >= 0.0 && x < L) ? x : 0.0;
-}
-
-/* Minimum image with threshold half = L/2 (periodic axes); half = INFINITY leaves d as it is (walled). */
-static inline double min_image(double d, double L, double half)
-{
-	if (d > half)
-		return d - L;
-	if (d < -half)
-		return d + L;
-	return d;
-}
-
-/* Periodic axes: folded into [0, L); walled axes: as they are (a centre may sit a little beyond a
- * wall's rest position, below a vibrating wall). */
-static inline double fold(double x, double L, int walled)
-{
-	return walled ? x : wrap(x, L);
-}
-
-/* Cell of a coordinate on an axis of m cells (clamped: walled coordinates may lie outside [0, L)). */
-static inline size_t cell_index(double x, double inv, size_t m)
-{
-	double q = x * inv;
-	if (!(q >= 0.0))
-		return 0;
-	size_t ci = (size_t)q;
-	return ci >= m ? m - 1 : ci;
-}
-
 int gofr_walls(gofr_t *g, const int *walled, double radius)
 {
 	if (!g || !walled || !(radius >= 0) || !isfinite(radius))
@@ -165,7 +132,7 @@ static void scan(const gofr_t *g, const bins_t *b, int with_vel, uint32_t a0, ui
 			const double *pj = p + (size_t)j * D;
 			double d[3] = {0, 0, 0}, r2 = 0;
 			for (int a = 0; a < D; a++) {
-				d[a] = min_image(pi[a] - pj[a], g->box[a], g->half[a]);
+				d[a] = geom_min_image(pi[a] - pj[a], g->box[a], g->half[a]);
 				r2 += d[a] * d[a];
 			}
 			if (r2 >= b->r1sq || r2 < b->r0sq)
@@ -219,7 +186,7 @@ int gofr_pairs(gofr_t *g, const double *pos, const double *vel, double r0, doubl
 	for (size_t i = 0; i < n; i++) {
 		size_t idx = 0;
 		for (int a = D - 1; a >= 0; a--) {
-			size_t ci = cell_index(fold(pos[i * D + a], g->box[a], g->walled[a]), inv[a], m[a]);
+			size_t ci = geom_cell(geom_fold(pos[i * D + a], g->box[a], g->walled[a]), inv[a], m[a]);
 			idx = idx * m[a] + ci;
 		}
 		g->cell_of[i] = (uint32_t)idx;
@@ -242,7 +209,7 @@ int gofr_pairs(gofr_t *g, const double *pos, const double *vel, double r0, doubl
 	for (size_t i = 0; i < n; i++) {
 		uint32_t s = start[g->cell_of[i]]++;
 		for (int a = 0; a < D; a++) {
-			g->spos[(size_t)s * D + a] = fold(pos[i * D + a], g->box[a], g->walled[a]);
+			g->spos[(size_t)s * D + a] = geom_fold(pos[i * D + a], g->box[a], g->walled[a]);
 			if (vel)
 				g->svel[(size_t)s * D + a] = vel[i * D + a] - mean[a];
 		}

@@ -1,0 +1,51 @@
+/* Helpers shared by the Monte Carlo tests: an engine from a scene text, and a restore from the engine's own checkpoint fields. */
+#pragma once
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "mc/dsmc.h"
+#include "scene.h"
+#include "tap.h"
+
+/* The engine of scene json (parsed into *sc) on random stream stream; NULL (with a diagnostic) when the scene
+ * or the engine refuses. */
+static inline dsmc_t *mc_make(const char *json, scene_t *sc, uint64_t stream)
+{
+	char err[512];
+	int rc;
+	if (scene_parse(json, strlen(json), sc, err, sizeof(err)) != SCENE_OK) {
+		diag("scene rejected: %s", err);
+		return NULL;
+	}
+	dsmc_t *d = dsmc_create(sc, stream, &rc, err, sizeof(err));
+	if (!d)
+		diag("dsmc_create: %s", err);
+	return d;
+}
+
+/* What a resume does: b's checkpoint fields copied out, b destroyed, a blank engine of scene sc given the
+ * fields and finished. The new engine, or NULL (err says why). */
+static inline dsmc_t *mc_reload(dsmc_t *b, const scene_t *sc, char *err, size_t errlen)
+{
+	ed_field_t f[DSMC_MAX_FIELDS];
+	void *data[DSMC_MAX_FIELDS];
+	int e, nf = dsmc_fields(b, f, DSMC_MAX_FIELDS);
+	for (int j = 0; j < nf; j++) {
+		data[j] = malloc(f[j].count * ed_type_size(f[j].type) + 1);
+		dsmc_field_get(b, f[j].name, data[j]);
+	}
+	dsmc_destroy(b);
+	b = dsmc_create_blank(sc, &e, err, errlen);
+	for (int j = 0; b && j < nf; j++)
+		if (dsmc_field_set(b, f[j].name, f[j].type, f[j].count, data[j]) != DSMC_OK)
+			snprintf(err, errlen, "field %s refused", f[j].name);
+	if (b && dsmc_restore_finish(b, err, errlen) != DSMC_OK) {
+		dsmc_destroy(b);
+		b = NULL;
+	}
+	for (int j = 0; j < nf; j++)
+		free(data[j]);
+	return b;
+}
