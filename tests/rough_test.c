@@ -193,6 +193,36 @@ static void test_walton_switch(void)
 
 static double erot_of(const ed_sample_t *s) { return s->rotational_energy; }
 
+/* The elastic limits on a gas of n rough particles (ed, e = 1, destroyed here): with beta = +1 (rough
+ * set) E_tr + E_rot is conserved while energy moves between them; with beta = -1 the energy is conserved
+ * and the spins do not change at all. */
+static void elastic_limit(ed_t *ed, size_t n, int dim, int rough, const char *what)
+{
+	const int kw = dim == 2 ? 1 : 3;
+	double *w0 = malloc(n * kw * sizeof(double)), *w1 = malloc(n * kw * sizeof(double));
+	ed_sample_t s0, s1;
+	ed_sample(ed, &s0);
+	ed_spins(ed, w0);
+	ed_advance(ed, INFINITY, 100000, UINT64_MAX);
+	ed_sample(ed, &s1);
+	ed_spins(ed, w1);
+	double e0 = s0.kinetic_energy + erot_of(&s0), e1 = s1.kinetic_energy + erot_of(&s1);
+	double rel = fabs(e1 - e0) / e0;
+	int spins_same = !memcmp(w0, w1, n * kw * sizeof(double));
+	if (rough)
+		ok(rel < 1e-12 && !spins_same && fabs(erot_of(&s1) - erot_of(&s0)) > 1e-3 * e0,
+		   "%dD %s, perfectly rough (beta = +1), e = 1: E_tr + E_rot conserved to %.2e relative over %llu "
+		   "collisions (energy moved between translation and rotation: E_rot %.4g -> %.4g)", dim, what, rel,
+		   (unsigned long long)s1.collisions, erot_of(&s0), erot_of(&s1));
+	else
+		ok(rel < 1e-12 && spins_same, "%dD %s, smooth (beta = -1), e = 1: energy conserved to %.2e over %llu "
+		   "collisions, spins unchanged: %s", dim, what, rel, (unsigned long long)s1.collisions,
+		   spins_same ? "yes" : "no");
+	free(w0);
+	free(w1);
+	ed_destroy(ed);
+}
+
 /* Elastic limits: perfectly rough (beta = +1) and smooth (beta = -1)
  * particles with e = 1 conserve E_tr + E_rot; rounding per collision is
  * ~1e-16 relative and accumulates as a random walk over ~1e5 collisions,
@@ -216,28 +246,7 @@ static void test_elastic_limits(void)
 				ok(0, "%dD beta %+g: setup", dim, beta);
 				continue;
 			}
-			const int kw = dim == 2 ? 1 : 3;
-			double *w0 = malloc(2000 * kw * sizeof(double)), *w1 = malloc(2000 * kw * sizeof(double));
-			ed_sample_t s0, s1;
-			ed_sample(ed, &s0);
-			ed_spins(ed, w0);
-			ed_advance(ed, INFINITY, 100000, UINT64_MAX);
-			ed_sample(ed, &s1);
-			ed_spins(ed, w1);
-			double e0 = s0.kinetic_energy + erot_of(&s0), e1 = s1.kinetic_energy + erot_of(&s1);
-			double rel = fabs(e1 - e0) / e0;
-			int spins_same = !memcmp(w0, w1, 2000 * kw * sizeof(double));
-			if (b)
-				ok(rel < 1e-12 && !spins_same && fabs(erot_of(&s1) - erot_of(&s0)) > 1e-3 * e0,
-				   "%dD perfectly rough, e = 1: E_tr + E_rot conserved to %.2e relative over %llu collisions "
-				   "(energy moved between translation and rotation: %.4g -> %.4g)",
-				   dim, rel, (unsigned long long)s1.collisions, erot_of(&s0), erot_of(&s1));
-			else
-				ok(rel < 1e-12 && spins_same, "%dD smooth (beta = -1), e = 1: energy conserved to %.2e, spins unchanged: %s",
-				   dim, rel, spins_same ? "yes" : "no");
-			free(w0);
-			free(w1);
-			ed_destroy(ed);
+			elastic_limit(ed, 2000, dim, b, "one species");
 		}
 }
 
@@ -808,29 +817,7 @@ static void test_mixture_elastic(void)
 				ok(0, "%dD rough mixture, beta %+g: setup", dim, beta);
 				continue;
 			}
-			const int kw = dim == 2 ? 1 : 3;
-			double *w0 = malloc(1000 * kw * sizeof(double)), *w1 = malloc(1000 * kw * sizeof(double));
-			ed_sample_t s0, s1;
-			ed_sample(ed, &s0);
-			ed_spins(ed, w0);
-			ed_advance(ed, INFINITY, 100000, UINT64_MAX);
-			ed_sample(ed, &s1);
-			ed_spins(ed, w1);
-			double e0 = s0.kinetic_energy + erot_of(&s0), e1 = s1.kinetic_energy + erot_of(&s1);
-			double rel = fabs(e1 - e0) / e0;
-			int spins_same = !memcmp(w0, w1, 1000 * kw * sizeof(double));
-			if (b)
-				ok(rel < 1e-12 && !spins_same && fabs(erot_of(&s1) - erot_of(&s0)) > 1e-3 * e0,
-				   "%dD rough mixture, beta = +1, e = 1: E_tr + E_rot conserved to %.2e relative over %llu "
-				   "collisions (E_rot %.4g -> %.4g)", dim, rel, (unsigned long long)s1.collisions, erot_of(&s0),
-				   erot_of(&s1));
-			else
-				ok(rel < 1e-12 && spins_same, "%dD rough mixture, beta = -1, e = 1: energy conserved to %.2e over "
-				   "%llu collisions, spins unchanged: %s", dim, rel, (unsigned long long)s1.collisions,
-				   spins_same ? "yes" : "no");
-			free(w0);
-			free(w1);
-			ed_destroy(ed);
+			elastic_limit(ed, 1000, dim, b, "mixture");
 		}
 }
 
