@@ -502,9 +502,10 @@ int run_curves(run_t *r, run_record_t *rec)
 	eng_state(r, r->pos, r->vel);
 	if (r->fld && r->fld_last != rec->time)
 		fields_sample(r, rec->time, 1);   /* the curves' instant itself (the last of its exposure) */
-	if (r->spin)
+	const int spins = r->spin && (r->s.observables & SCENE_OBS_VDIST);   /* only velocity_distribution uses them */
+	if (spins)
 		ed_spins(r->ed, r->spin);
-	rec->curves = obs_curves(r->obs, r->cl, r->pos, r->vel, r->spin);
+	rec->curves = obs_curves(r->obs, r->cl, r->pos, r->vel, spins ? r->spin : NULL);
 	if (!rec->curves)
 		return RUN_ENOMEM;
 	rec->temperature = rec->curves->temperature;
