@@ -973,7 +973,11 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 	 * (160 GB seen, ckpt_fuzz) in H5Fopen itself, before its superblock
 	 * version can be asked. */
 	int sbv = h5u_superblock_version(path);
-	if (sbv >= 0 && sbv < 2) {
+	if (sbv < 0) {
+		*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot open for appending (missing or damaged)", path);
+		return NULL;
+	}
+	if (sbv < 2) {
 		*err = h5u_fail(msg, msglen, H5MD_EFORMAT,
 		                "%s: written without HDF5's metadata checksums (superblock version %d, a granulard "
 		                "before 2026-11-27): it cannot be appended to safely; resume into a new --out", path, sbv);
@@ -989,15 +993,6 @@ h5md_t *h5md_open_append(const char *path, const scene_t *s, uint64_t obs_rows, 
 		h->file = H5Fopen(path, pass ? H5F_ACC_RDWR : H5F_ACC_RDONLY, H5P_DEFAULT);
 		if (h->file < 0) {
 			*err = h5u_fail(msg, msglen, H5MD_EIO, "%s: cannot open for appending (missing or damaged)", path);
-			goto fail;
-		}
-		H5F_info2_t info;
-		memset(&info, 0, sizeof info);
-		if (H5Fget_info2(h->file, &info) < 0 || info.super.version < 2) {
-			*err = h5u_fail(msg, msglen, H5MD_EFORMAT,
-			                "%s: written without HDF5's metadata checksums (superblock version %u, a granulard "
-			                "before 2026-11-27): it cannot be appended to safely; resume into a new --out",
-			                path, (unsigned)info.super.version);
 			goto fail;
 		}
 		if ((*err = attach(h, s, path, msg, msglen)) != H5MD_OK)
