@@ -81,11 +81,22 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 		J = fgrid_bins(o->grid);
 	}
 	if (!layout_only && (s->observables & (SCENE_OBS_GOFR | SCENE_OBS_VCORR))) {
-		o->gofr = gofr_create(D, s->count, s->box, fmax(rmax, o->sigma * (1 + GOFR_CONTACT_WIDTH)));
+		o->gofr = gofr_create(D, scene_slots(s), s->box, fmax(rmax, o->sigma * (1 + GOFR_CONTACT_WIDTH)));
 		if (!o->gofr)
 			goto fail;
 		if (scene_has_walls(s)) {
 			if (gofr_walls(o->gofr, walled, s->radius) != 0)
+				goto fail;
+		}
+		if (s->n_obstacles > 0) {
+			/* the ideal-gas pairs in the region the centres reach (gofr.h) */
+			double oc[SCENE_OBSTACLES_MAX * 3], os[SCENE_OBSTACLES_MAX];
+			for (int k = 0; k < s->n_obstacles; k++) {
+				for (int a = 0; a < D; a++)
+					oc[k * D + a] = s->obstacle[k].center[a];
+				os[k] = s->obstacle[k].radius + s->radius;
+			}
+			if (gofr_obstacles(o->gofr, s->n_obstacles, oc, os) != 0)
 				goto fail;
 		}
 	}
@@ -165,7 +176,7 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 			fgrid_axis(o->grid, edges, centres, NULL);
 			continue;
 		} else {
-			clusters_size_bins(s->count, edges, centres);
+			clusters_size_bins(scene_slots(s), edges, centres);
 			continue;
 		}
 		for (int b = 0; b < t->nb; b++)
@@ -198,28 +209,48 @@ size_t obs_memory(const obs_t *o)
 	if (o->dspec)
 		b += dspec_memory(o->dspec);
 	if (o->gofr)
-		b += (size_t)o->s.count * (2 * o->s.dim * sizeof(double) + sizeof(uint32_t)) +
-		     (3 * (size_t)o->s.count + 28) * sizeof(uint32_t);
+		b += (size_t)scene_slots(&o->s) * (2 * o->s.dim * sizeof(double) + sizeof(uint32_t)) +
+		     (3 * (size_t)scene_slots(&o->s) + 28) * sizeof(uint32_t);
 	return b;
 }
 
-int obs_scalars(obs_t *o, const double *pos, const double *vel, obs_scalars_t *out)
+size_t obs_present(size_t rows, int dim, double *pos, double *vel, double *spin, int spin_dim)
+{
+	size_t n = 0;
+	for (size_t i = 0; i < rows; i++) {
+		if (!isfinite(pos[i * dim]))
+			continue;
+		if (n != i) {
+			memcpy(pos + n * dim, pos + i * dim, (size_t)dim * sizeof(double));
+			if (vel)
+				memcpy(vel + n * dim, vel + i * dim, (size_t)dim * sizeof(double));
+			if (spin && spin_dim > 0)
+				memcpy(spin + n * spin_dim, spin + i * spin_dim, (size_t)spin_dim * sizeof(double));
+		}
+		n++;
+	}
+	return n;
+}
+
+int obs_scalars(obs_t *o, size_t n, const double *pos, const double *vel, obs_scalars_t *out)
 {
 	const scene_t *s = &o->s;
 	out->a2 = out->a3 = out->g_pairs = out->g_pairs_se = NAN;
-	if ((s->observables & SCENE_OBS_VDIST) && vel) {
+	if ((s->observables & SCENE_OBS_VDIST) && vel && n > 0) {
 		vdist_moments_t m;
-		vdist_moments(s->dim, s->count, s->mass, vel, &m);
+		vdist_moments(s->dim, n, s->mass, vel, &m);
 		out->a2 = m.a2;
 		out->a3 = m.a3;
 	}
 	if (s->observables & SCENE_OBS_GOFR) {
-		if (!o->gofr || !pos)
+		if (!o->gofr || !pos || gofr_set_count(o->gofr, n) != 0)
 			return -1;
 		gofr_contact_t gc;
-		gofr_contact(o->gofr, pos, o->sigma, &gc);
-		out->g_pairs = gc.value;
-		out->g_pairs_se = gc.se;
+		if (n >= 2) {
+			gofr_contact(o->gofr, pos, o->sigma, &gc);
+			out->g_pairs = gc.value;
+			out->g_pairs_se = gc.se;
+		}
 	}
 	return 0;
 }
@@ -269,11 +300,11 @@ static obs_table_t *find(obs_t *o, const char *family, const char *sub)
 	return NULL;
 }
 
-const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, const double *vel, const double *spin)
+const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, size_t n, const double *pos, const double *vel,
+                               const double *spin)
 {
 	const scene_t *s = &o->s;
 	const int D = s->dim;
-	const size_t n = s->count;
 	obs_curves_t *c = &o->c;
 	obs_table_t *t;
 	vdist_moments_t m;
@@ -312,7 +343,7 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 		}
 	}
 	obs_table_t *tg = find(o, "pair_correlation", ""), *tv = find(o, "velocity_correlations", "pairs");
-	if (o->gofr && (tg || tv)) {
+	if (o->gofr && (tg || tv) && gofr_set_count(o->gofr, n) == 0 && n >= 2) {
 		int nb = s->gofr_bins;
 		double rmax = s->gofr_range * o->sigma;
 		gofr_pairs(o->gofr, pos, tv ? vel : NULL, 0, rmax, nb, o->gcount, o->gpar, o->gperp);
@@ -330,6 +361,14 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 			gofr_contact_t gc;
 			gofr_contact(o->gofr, pos, o->sigma, &gc);
 			c->g_pairs = gc.value;
+		}
+	} else {
+		/* fewer than two particles present: no pairs (NaN rows) */
+		for (int b = 0; b < s->gofr_bins; b++) {
+			for (int k = 0; tg && k < tg->ncols; k++)
+				tg->val[k][b] = NAN;
+			for (int k = 0; tv && k < tv->ncols; k++)
+				tv->val[k][b] = NAN;
 		}
 	}
 	if ((t = find(o, "structure_factor", "")))
@@ -359,7 +398,7 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 		c->dspec_samples = dspec_result(o->dspec, t->val[0], &c->dspec_alpha, &c->dspec_alpha_se);
 	if ((t = find(o, "clusters", ""))) {
 		clusters_stats_t st;
-		if (!cl || clusters_compute(cl, pos, s->box, s->radius, s->cluster_delta * o->sigma, &st) != 0)
+		if (!cl || clusters_set_count(cl, n) != 0 || clusters_compute(cl, pos, s->box, s->radius, s->cluster_delta * o->sigma, &st) != 0)
 			return NULL;
 		clusters_size_distribution(cl, t->nb, t->edges, t->val[0], NULL);
 		c->cluster_w = st.w;
@@ -380,10 +419,10 @@ void obs_fields_add(obs_t *o, const double *pos, const double *vel, const double
 
 struct dspec *obs_dspec(const obs_t *o) { return o->dspec; }
 
-void obs_dspec_add(obs_t *o, const double *pos)
+void obs_dspec_add(obs_t *o, size_t n, const double *pos)
 {
 	if (o->dspec)
-		dspec_add(o->dspec, o->s.count, pos);
+		dspec_add(o->dspec, n, pos);
 }
 
 /* ---- ensembles ------------------------------------------------------------- */
