@@ -101,7 +101,10 @@ typedef struct {
 		double a2, a3, g_pairs, g_rate, g_pressure, cluster_w, cluster_exponent;
 		double msd, diffusion;
 		double temperature_species[SCENE_SPECIES_MAX];
-	} se;
+		double com_height, potential_energy, rotational_energy, rotational_temperature;
+		double wall_pressure[6], wall_force[6][3];
+		double obstacle_force[SCENE_OBSTACLES_MAX][3];
+	} se;                        /* flux: obs.flux_se is the standard error over the replicas then */
 	/* summary only */
 	run_status_t status;
 	double events_per_second, collisions_per_second;
