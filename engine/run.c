@@ -546,6 +546,7 @@ void run_snap_taken(run_t *r)
 	eng_totals(r, &sm);
 	r->st.snap_events = sm.events;
 	sched_skip(&r->s.snapshots, &r->st.k_snap, sm.time, sm.collisions, r->s.count);
+	fields_plan(r, sm.time);   /* the next exposure ends at the next snapshot time */
 }
 
 static int curves_on(const run_t *r)
@@ -766,7 +767,10 @@ run_t *run_create_blank(const scene_t *s, const run_opts_t *opts, int *err, char
 
 run_t *run_open(const scene_t *s, uint64_t stream, int *err, char *msg, size_t msglen)
 {
-	return create(s, stream, NULL, 0, err, msg, msglen);
+	/* curves: each replica samples the fields' exposures and the density spectrum itself (run_next());
+	 * the ensemble takes and combines the curves at its output times (run_curves()) */
+	const run_opts_t opts = {.curves = 1};
+	return create(s, stream, &opts, 0, err, msg, msglen);
 }
 
 int run_restore_finish(run_t *r, char *msg, size_t msglen)
@@ -1176,6 +1180,7 @@ int run_next(run_t *r, const volatile sig_atomic_t *stop, run_record_t *rec, int
 		r->status = RUN_COMPLETED;
 		if ((ret = sample_progress(r)) != RUN_OK)
 			return ret;
+		fields_plan(r, eng_time(r));
 		r->st.started = 1;
 		*rec = r->rec;
 		r->rec.warning = NULL;
@@ -1185,9 +1190,17 @@ int run_next(run_t *r, const volatile sig_atomic_t *stop, run_record_t *rec, int
 		double t_stop = fmin(sched_time(&s->every, r->st.k_out), t_until);
 		uint64_t c_stop = sched_coll(&s->every, r->st.k_out, n);
 		if (c_until < c_stop) c_stop = c_until;
+		/* the fields' exposure instants and the density spectrum's samples, as in run_go() */
+		double t_soft = INFINITY;
+		if (r->fld)
+			t_soft = fmin(t_soft, r->fld_next);
+		if (r->dsp)
+			t_soft = fmin(t_soft, r->dsp_k * s->dspec_interval);
 		double t;
 		uint64_t c;
-		int done = advance(r, t_stop, INFINITY, c_stop, until_time, t_until, c_until, &t, &c);
+		int done = advance(r, t_stop, t_soft, c_stop, until_time, t_until, c_until, &t, &c);
+		fields_follow(r, t);
+		dspec_follow(r, t);
 		int due = s->every.kind == SCENE_CLOCK_TIME ? t >= sched_time(&s->every, r->st.k_out)
 		                                            : c >= sched_coll(&s->every, r->st.k_out, n);
 		if (stop && *stop && !done) {
@@ -1234,6 +1247,7 @@ void run_frame(run_t *r, run_record_t *rec, double *pos, double *vel)
 	r->st.snap_events = rec->events;
 	r->st.frames++;
 	sched_skip(&r->s.snapshots, &r->st.k_snap, rec->time, rec->collisions, r->s.count);
+	fields_plan(r, rec->time);   /* the next exposure ends at the next snapshot time */
 }
 
 int run_scene(const scene_t *s, run_emit_fn emit, void *ctx,

@@ -766,16 +766,6 @@ static int check_fields(ctx_t *c, json_t *v, scene_t *s)
 	json_t *out = json_object_get(v, "output"), *f = json_object_get(out, "fields");
 	if (!(s->observables & SCENE_OBS_FIELDS))
 		return 0;
-	size_t i;
-	json_t *o;
-	json_array_foreach(json_object_get(out, "observables"), i, o) {
-		char path[PATHLEN];
-		snprintf(path, sizeof path, "output.observables[%zu]", i);
-		if (strcmp(json_string_value(o), "fields"))
-			continue;
-		if (s->replicas > 1)
-			return fail(c, path, "\"fields\" is not averaged over ensembles yet (run.replicas must be 1)");
-	}
 	if (!f)
 		return fail(c, "output.fields", "required with the \"fields\" observable (at least \"cells\")");
 	json_t *cells = json_object_get(f, "cells");
@@ -815,24 +805,13 @@ static int check_fields(ctx_t *c, json_t *v, scene_t *s)
 #define DSPEC_MAX_VALUES (1 << 24)
 #define DSPEC_MAX_SAMPLES 16384
 
-/* density_spectrum and flux (engine/observe/dspec.h, docs/scene.md): the spectrum in single runs (flux
- * in ensembles too), with open walls over the particles present at each sample; the spectrum needs output.density_spectrum (interval) and snapshots on a time schedule that
+/* density_spectrum (engine/observe/dspec.h, docs/scene.md): with open walls over the particles present at
+ * each sample, in ensembles the mean over the replicas; the spectrum needs output.density_spectrum (interval) and snapshots on a time schedule that
  * is a whole number of intervals; slices >= 2; the axis within the dimension (default: gravity's axis, else
  * the last axis). */
 static int check_pipe(ctx_t *c, json_t *v, scene_t *s)
 {
 	json_t *out = json_object_get(v, "output"), *d = json_object_get(out, "density_spectrum");
-	size_t i;
-	json_t *o;
-	json_array_foreach(json_object_get(out, "observables"), i, o) {
-		char path[PATHLEN];
-		const char *name = json_string_value(o);
-		snprintf(path, sizeof path, "output.observables[%zu]", i);
-		if (strcmp(name, "density_spectrum"))   /* flux: a progress scalar, averaged over ensembles */
-			continue;
-		if (s->replicas > 1)
-			return fail(c, path, "\"%s\" is not averaged over ensembles yet (run.replicas must be 1)", name);
-	}
 	if (!(s->observables & SCENE_OBS_DSPEC))
 		return 0;
 	if (!d)

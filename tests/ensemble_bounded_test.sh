@@ -1,8 +1,8 @@
 #!/bin/sh
 # Ensembles (run.replicas > 1) of bounded scenes through the real program (TAP): wall forces, centre-of-mass
-# height, potential energy, flux and the rotational observables as means over the replicas with standard
-# errors; exact against the replicas' own frames, the force balance against the weight, and the same numbers
-# on any number of MPI ranks.
+# height, potential energy, flux, the rotational observables, the coarse-grained fields and the density
+# spectrum as means over the replicas with standard errors; exact against the replicas' own frames, the force
+# balance against the weight, isothermal fields, and the same numbers on any number of MPI ranks.
 set -u
 : "${SRCDIR:=$(cd "$(dirname "$0")/.." && pwd)}"
 : "${ENGINE:=$SRCDIR/engine/granular-engine}"
@@ -132,6 +132,65 @@ PY
 	report "$tmp/r.res"
 else
 	ok 1 "the rough ensemble ran ($(head -c 300 "$tmp/r.err"))"
+fi
+
+# 5. fields and density_spectrum over an ensemble: 16 replicas of 200 elastic disks under gravity g = 0.1 in
+#    80 x 40 (walls along y), fields on 1 x 10 cells, exposure 100 with 50 instants before each snapshot
+#    (t = 200, 300, 400: the gas has settled, T about 1.6). An elastic gas in equilibrium under gravity is
+#    isothermal (exactly, at any density), so every cell's temperature equals the progress temperature at
+#    that time. The cell's value is the replicas' occupation-weighted mean with the ratio estimator's standard
+#    error over 16 replicas (observe.c wstat()), whose z-scores follow Student's t with 15 degrees of freedom
+#    (variance 15/13): chi^2 of the 30 cells against the progress temperature must stay below 15/13 times the
+#    99.9% quantile of chi^2 with 30 degrees of freedom (59.70). (The cell temperature about the cell's own
+#    mean velocity is low by a factor 1 - 1/V for V visits, V ~ 300 here: 0.3%, below a tenth of the se.)
+#    The mean occupations add up to N = 200 (each replica's do, exactly); the spectrum's slope comes with
+#    its standard error over the replicas.
+cat >"$tmp/f.json" <<'EOF'
+{"method": "ed", "dimensions": 2, "particles": {"count": 200, "box": [80, 40]},
+ "gravity": [0, -0.1],
+ "boundaries": {"y": {"type": "walls", "lower": {"type": "specular"}, "upper": {"type": "specular"}}},
+ "run": {"until": {"time": 400}, "seed": 5, "replicas": 16},
+ "output": {"every": {"time": 10}, "observables": ["kinetic_energy", "fields", "density_spectrum"],
+            "fields": {"cells": [1, 10], "exposure": 100, "samples": 50},
+            "density_spectrum": {"interval": 1, "slices": 10},
+            "snapshots": {"every": {"time": 100}}}}
+EOF
+if "$ENGINE" run "$tmp/f.json" --out "$tmp/F" >"$tmp/f.out" 2>"$tmp/f.err"; then
+	"$PY" - "$tmp/F" >"$tmp/f.res" 2>&1 <<'PY'
+import h5py, json, math, sys
+out = sys.argv[1]
+cur = [json.loads(l) for l in open(out + '/observables.jsonl')]
+prog = {p['time']: p for p in map(json.loads, open(out + '/progress.jsonl')) if p['type'] == 'progress'}
+chi, k, sums, worst = 0.0, 0, [], (0, 0, 0, 0)
+for c in cur:
+    if c['name'] != 'fields' or c['time'] < 200:
+        continue
+    t = {x['table']: x for x in c['tables']}
+    T0 = prog[c['time']]['temperature']
+    sums.append(sum(t['density']['columns']['count']))
+    for j, (T, se) in enumerate(zip(t['temperature']['columns']['T'], t['temperature']['se']['T'])):
+        z = (T - T0) / se
+        chi += z * z
+        k += 1
+        if abs(z) > abs(worst[3]):
+            worst = (c['time'], j, T, z)
+q = 15.0 / 13.0 * 59.70
+print('%s - ensemble fields: the cells\' temperatures equal the progress temperature (isothermal): chi^2 = %.1f '
+      'for %d cells (< %.1f), largest |z| %.2f (t = %g, cell %d, T = %.4f)' %
+      ('ok' if k == 30 and chi < q else 'not ok', chi, k, q, abs(worst[3]), worst[0], worst[1], worst[2]))
+print('%s - ensemble fields: mean occupations add up to N = 200 (%s)' %
+      ('ok' if sums and all(abs(s - 200) < 1e-9 for s in sums) else 'not ok', ', '.join('%.12g' % s for s in sums)))
+ds = [c for c in cur if c['name'] == 'density_spectrum' and c['sample'] > 0]
+good = ds and all(c.get('replicas') == 16 and c['alpha'] is not None and c['alpha_se'] is not None and
+                  c['alpha_se'] > 0 for c in ds)
+f = h5py.File(out + '/trajectory.h5', 'r')
+have = 'fields_temperature' in f['observables'] and 'density_spectrum_alpha' in f['observables']
+print('%s - ensemble density_spectrum: slope and its standard error over the replicas at %d snapshots; H5MD has '
+      'the fields and the spectrum' % ('ok' if good and have else 'not ok', len(ds)))
+PY
+	report "$tmp/f.res"
+else
+	ok 1 "the fields ensemble ran ($(head -c 300 "$tmp/f.err"))"
 fi
 
 echo "1..$n"

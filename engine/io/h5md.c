@@ -370,11 +370,11 @@ static h5md_t *alloc_writer(const char *path, const scene_t *s)
 	h->dsp_step = h->dsp_time = H5I_INVALID_HID;
 	for (int k = 0; k < DSP_MAX; k++)
 		h->dsp[k] = H5I_INVALID_HID;
-	if ((s->observables & SCENE_OBS_DSPEC) && s->replicas <= 1) {
+	if (s->observables & SCENE_OBS_DSPEC) {   /* ensembles: the mean over the replicas */
 		h->dsp_on = 1;
 		h->dsp_k = s->dspec_m / 2 - 1;
 	}
-	if ((s->observables & SCENE_OBS_FIELDS) && s->replicas <= 1) {
+	if (s->observables & SCENE_OBS_FIELDS) {   /* ensembles: the replicas combined (observe.h) */
 		h->fld_cells = (uint64_t)s->fields_cells[0] * (uint64_t)s->fields_cells[1] * (uint64_t)s->fields_cells[2];
 		h->n_fld = s->rough ? FLD_MAX : FLD_MAX - 1;
 		h->fld_buf = malloc(h->fld_cells * 3 * sizeof(double));

@@ -2,6 +2,7 @@
 #include "observe.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -16,6 +17,7 @@
 
 #define N_SCALARS 12  /* temperature, a2, a3, g_pairs, cluster_w, cluster_exponent, m2_reduced, mean_size,
                         * impact_a, impact_c, a2_spin, temperature_rot */
+#define N_COUNTS 3    /* then packed: fields_samples, dspec_samples, dspec_alpha (ensembles) */
 
 struct obs {
 	scene_t s;
@@ -182,7 +184,7 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 		for (int b = 0; b < t->nb; b++)
 			centres[b] = 0.5 * (edges[b] + edges[b + 1]);
 	}
-	o->packed = n_vals(&o->c) + N_SCALARS;
+	o->packed = n_vals(&o->c) + N_SCALARS + N_COUNTS;
 	return o;
 fail:
 	obs_destroy(o);
@@ -448,6 +450,9 @@ void obs_pack(const obs_t *o, const obs_curves_t *c, double *v)
 		}
 	for (int k = 0; k < N_SCALARS; k++)
 		v[p++] = *scalar_slot((obs_curves_t *)c, k, 0);
+	v[p++] = c->fields_samples;
+	v[p++] = c->dspec_samples;
+	v[p++] = c->dspec_alpha;
 	(void)o;
 }
 
@@ -466,15 +471,65 @@ static void stat(const double *v, int R, size_t P, size_t idx, double *mean, dou
 	*se = R > 1 ? sqrt(s2 / (R - 1) / R) : 0.0;
 }
 
+/*
+ * A cell's velocity, temperature or spin over the replicas: the occupation-weighted mean
+ * u = sum_r c_r u_r / sum_r c_r (c_r the replica's mean occupation of the cell, element cidx; replicas
+ * that never saw the cell weigh 0), and the ratio estimator's standard error
+ * sqrt(R / (R - 1) sum_r c_r^2 (u_r - u)^2) / sum_r c_r. NaN when no replica saw the cell.
+ */
+static void wstat(const double *v, int R, size_t P, size_t idx, size_t cidx, double *mean, double *se)
+{
+	double sc = 0, su = 0, s2 = 0;
+	for (int r = 0; r < R; r++) {
+		double c = v[(size_t)r * P + cidx], u = v[(size_t)r * P + idx];
+		if (c > 0 && isfinite(u))
+			sc += c, su += c * u;
+	}
+	if (!(sc > 0)) {
+		*mean = *se = NAN;
+		return;
+	}
+	*mean = su / sc;
+	for (int r = 0; r < R; r++) {
+		double c = v[(size_t)r * P + cidx], u = v[(size_t)r * P + idx];
+		if (c > 0 && isfinite(u))
+			s2 += c * c * (u - *mean) * (u - *mean);
+	}
+	*se = R > 1 ? sqrt(R / (R - 1.0) * s2) / sc : 0.0;
+}
+
 const obs_curves_t *obs_combine(obs_t *o, const double *v, int R)
 {
 	obs_curves_t *c = &o->c;
-	size_t p = 0, P = o->packed;
-	for (int i = 0; i < c->ntables; i++)
+	size_t p = 0, P = o->packed, count = SIZE_MAX;
+	/* fields: the occupation column (table "density", column "count") weighs the per-cell means */
+	for (int i = 0; i < c->ntables; i++) {
+		if (!strcmp(c->t[i].family, "fields") && !strcmp(c->t[i].table, "density"))
+			count = p + (size_t)c->t[i].nb;   /* column 1 */
+		p += (size_t)c->t[i].nb * c->t[i].ncols;
+	}
+	p = 0;
+	for (int i = 0; i < c->ntables; i++) {
+		int weighted = count != SIZE_MAX && !strcmp(c->t[i].family, "fields") && strcmp(c->t[i].table, "density");
 		for (int k = 0; k < c->t[i].ncols; k++)
-			for (int b = 0; b < c->t[i].nb; b++, p++)
-				stat(v, R, P, p, &c->t[i].val[k][b], &c->t[i].se[k][b]);
+			for (int b = 0; b < c->t[i].nb; b++, p++) {
+				if (weighted)
+					wstat(v, R, P, p, count + (size_t)b, &c->t[i].val[k][b], &c->t[i].se[k][b]);
+				else
+					stat(v, R, P, p, &c->t[i].val[k][b], &c->t[i].se[k][b]);
+			}
+	}
 	for (int k = 0; k < N_SCALARS; k++, p++)
 		stat(v, R, P, p, scalar_slot(c, k, 0), scalar_slot(c, k, 1));
+	/* samples behind the fields and the spectrum: the fewest of any replica; the spectrum's slope: the
+	 * mean over the replicas, dspec_alpha_se its standard error over them */
+	double fs = INFINITY, ds = INFINITY;
+	for (int r = 0; r < R; r++) {
+		fs = fmin(fs, v[(size_t)r * P + p]);
+		ds = fmin(ds, v[(size_t)r * P + p + 1]);
+	}
+	c->fields_samples = R > 0 ? (int)fs : 0;
+	c->dspec_samples = R > 0 ? (int)ds : 0;
+	stat(v, R, P, p + 2, &c->dspec_alpha, &c->dspec_alpha_se);
 	return c;
 }

@@ -413,7 +413,8 @@ int ensemble_load(const scene_t *s, uint64_t stream, const unsigned char *buf, s
 
 	sc.stream = stream;
 	*out = NULL;
-	r = run_create_blank(&sc, NULL, &err, msg, msglen);
+	const run_opts_t opts = {.curves = 1};   /* as run_open(): fields and spectrum sampled per replica */
+	r = run_create_blank(&sc, &opts, &err, msg, msglen);
 	if (!r)
 		return err == RUN_ENOMEM ? RUN_ENOMEM : RUN_ERESTORE;
 	memset(&st, 0, sizeof st);
