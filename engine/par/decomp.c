@@ -249,8 +249,8 @@ cleanup:
 	return rc;
 }
 
-/* Prefix sums S[z] = cost of ids < z over the whole Z space (padding 0);
- * cost NULL: 1 per real cell. */
+/* Prefix sums S[z] = cost of ids < z over the whole Z space (padding ids
+ * hold 0: the caller's contract); cost NULL: 1 per real cell. */
 static double *prefix_sums(const decomp_t *d, const double *cost)
 {
 	double *S = malloc((d->zsize + 1) * sizeof(double));
@@ -259,7 +259,7 @@ static double *prefix_sums(const decomp_t *d, const double *cost)
 	S[0] = 0.0;
 	for (uint64_t z = 0; z < d->zsize; z++) {
 		int32_t c[3];
-		double w = decomp_cell(d, z, c) ? (cost ? cost[z] : 1.0) : 0.0;
+		double w = cost ? cost[z] : decomp_cell(d, z, c);
 		S[z + 1] = S[z] + w;
 	}
 	return S;

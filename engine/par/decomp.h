@@ -31,7 +31,7 @@
  *   with a neighbour owned by another rank), its ghost ("virtual") cells
  *   (cells of other ranks neighbouring an own cell) with their owners, and
  *   its neighbour ranks.
- * - Balancing takes a cost per Z id (padding ids ignored) over the whole
+ * - Balancing takes a cost per Z id (padding ids must hold 0) over the whole
  *   Z space: this is the reference computation; the parallel engine gets
  *   the same prefix sums from each rank's own range and an exclusive scan of
  *   the rank totals.
@@ -85,8 +85,8 @@ int decomp_rank_build(const decomp_t *d, int rank, decomp_rank_t *out);
 void decomp_rank_free(decomp_rank_t *v);
 
 /* Cost of each rank under the current bounds into loads[P]; cost has zsize
- * entries (NULL: 1 per real cell). Returns max / mean (1 = perfect; 0 if
- * the total is 0). */
+ * entries, 0 at padding ids (NULL: 1 per real cell). Returns max / mean
+ * (1 = perfect; 0 if the total is 0; -1 without memory). */
 double decomp_loads(const decomp_t *d, const double *cost, double *loads);
 
 /* Contiguous Z-range split by prefix sums of cost (NULL: 1 per real cell):
