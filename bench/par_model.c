@@ -29,7 +29,10 @@
  * Output: markdown tables on stdout.
  */
 
-enum { S_STATIC, S_PREFIX, S_BUDDY, S_COUNT };   /* equal cells; prefix-sum split; seed 003 buddy blocks */
+/* equal cells; prefix-sum split every window; the same only when the
+ * imbalance on the last window's costs exceeds Poisson noise; seed 003
+ * buddy blocks */
+enum { S_STATIC, S_PREFIX, S_NOISE, S_BUDDY, S_COUNT };
 
 typedef struct {
 	int dim, nc[3];
@@ -46,6 +49,7 @@ typedef struct {
 	uint32_t *stamp, gen;       /* memo of border flags: valid when stamp == gen */
 	uint8_t *bflag;
 	double *cost;               /* per Z id */
+	double *loads;              /* per rank */
 } model_t;
 
 static double cpu_now(void)
@@ -125,6 +129,7 @@ typedef struct {
 	double sum_max_e, sum_max_eb, sum_max_b, sum_mean;   /* over windows 1.. */
 	uint64_t events, border_ev, remote_coll, migrations, collisions;
 	double gap_per_rank;   /* mean over ranks of events / border events */
+	uint64_t rebalances;   /* windows whose bounds were recomputed */
 } result_t;
 
 static int analyse(model_t *m, int P, int scheme, int K, result_t *res)
@@ -148,10 +153,23 @@ static int analyse(model_t *m, int P, int scheme, int K, result_t *res)
 			memset(m->cost, 0, m->zsize * sizeof(double));
 			for (size_t k = p0; k < e0; k++)
 				m->cost[m->rm2z[m->ci[k]]] += 1.0;
-			int brc = scheme == S_PREFIX ? decomp_balance_prefix(d, m->cost) : decomp_balance_buddy(d, m->cost, 4 * P);
+			int brc = 0, moved = 1;
+			if (scheme == S_NOISE) {
+				/* noise level: the expected max / mean of P Poisson counts of
+				 * mean mu (a Gaussian's expected maximum, sigma sqrt(2 ln P)) */
+				const double mu = (double)(e0 - p0) / P;
+				double imb = decomp_loads(d, m->cost, m->loads);
+				moved = imb > 1.0 + sqrt(2.0 * log((double)P) / mu);
+				if (moved)
+					brc = decomp_balance_prefix(d, m->cost);
+			} else {
+				brc = scheme == S_PREFIX ? decomp_balance_prefix(d, m->cost) : decomp_balance_buddy(d, m->cost, 4 * P);
+			}
 			if (brc < 0)
 				goto cleanup;
-			fill_owners(m, d);
+			if (moved)
+				fill_owners(m, d);
+			res->rebalances += (uint64_t)moved;
 		}
 		memset(er, 0, (size_t)P * sizeof(uint64_t));
 		memset(br, 0, (size_t)P * sizeof(uint64_t));
@@ -280,7 +298,8 @@ int main(int argc, char **argv)
 	m.stamp = calloc(m.ncell, sizeof(uint32_t));
 	m.bflag = malloc(m.ncell);
 	m.cost = malloc(m.zsize * sizeof(double));
-	if (!m.rm2z || !m.z2rm || !m.own || !m.stamp || !m.bflag || !m.cost) {
+	m.loads = malloc(65536 * sizeof(double));
+	if (!m.rm2z || !m.z2rm || !m.own || !m.stamp || !m.bflag || !m.cost || !m.loads) {
 		fprintf(stderr, "par_model: out of memory\n");
 		goto cleanup;
 	}
@@ -355,20 +374,23 @@ int main(int argc, char **argv)
 		decomp_destroy(dp);
 	}
 	static const double alpha[3] = {0.0, 1e-6, 5e-6};
-	printf("\n| P | imbalance static | prefix | buddy | model static, alpha 0 | 1 us | 5 us | "
-	       "model prefix, alpha 0 | 1 us | 5 us |\n|---|---|---|---|---|---|---|---|---|---|\n");
+	printf("\n| P | imbalance static | prefix | prefix above noise (rebalances) | buddy | model static, alpha 0 | 1 us | 5 us | "
+	       "model prefix above noise, alpha 0 | 1 us | 5 us |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
 	for (int ip = 0; ip < nP; ip++) {
 		const result_t *r = res[ip];
 		double sp[2][3];
-		for (int s = 0; s < 2; s++)
+		for (int s = 0; s < 2; s++) {
+			const result_t *q = &r[s == 0 ? S_STATIC : S_NOISE];
 			for (int a = 0; a < 3; a++)
 				/* T_1 = E t_e; T_P = t_e sum_w max_r (E_rw + B_rw) + alpha sum_w max_r B_rw */
-				sp[s][a] = r[s].events * t_e / (t_e * r[s].sum_max_eb + alpha[a] * r[s].sum_max_b);
+				sp[s][a] = q->events * t_e / (t_e * q->sum_max_eb + alpha[a] * q->sum_max_b);
+		}
 		char buddy[32] = "-";
 		if (r[S_BUDDY].events)
 			snprintf(buddy, sizeof buddy, "%.3f", r[S_BUDDY].sum_max_e / r[S_BUDDY].sum_mean);
-		printf("| %d | %.3f | %.3f | %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", P_list[ip],
-		       r[S_STATIC].sum_max_e / r[S_STATIC].sum_mean, r[S_PREFIX].sum_max_e / r[S_PREFIX].sum_mean, buddy,
+		printf("| %d | %.3f | %.3f | %.3f (%llu of %d) | %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", P_list[ip],
+		       r[S_STATIC].sum_max_e / r[S_STATIC].sum_mean, r[S_PREFIX].sum_max_e / r[S_PREFIX].sum_mean,
+		       r[S_NOISE].sum_max_e / r[S_NOISE].sum_mean, (unsigned long long)r[S_NOISE].rebalances, K - 1, buddy,
 		       sp[0][0], sp[0][1], sp[0][2], sp[1][0], sp[1][1], sp[1][2]);
 	}
 	rc = 0;
@@ -384,5 +406,6 @@ cleanup:
 	free(m.stamp);
 	free(m.bflag);
 	free(m.cost);
+	free(m.loads);
 	return rc;
 }

@@ -15,9 +15,11 @@ echo "events that are border events, against seed 003's 2D (P/C)^(1/D); events p
 echo "communication phase system-wide (events / sum over windows of the busiest rank's border events: an upper"
 echo "bound, one phase per border event), against seed 003's C^(1/D) P^(1-1/D); collisions whose partners lie on two"
 echo "ranks; cell crossings into another rank per event. Second table: load imbalance (sum over windows of the busiest"
-echo "rank's events / sum of the mean; window 0 excluded) for equal cells (static), the prefix-sum split and seed 003's"
-echo "buddy blocks (both rebalanced each window from the previous window's events per cell), and the modelled speed-up"
-echo "for a cost per communication phase alpha of 0, 1 and 5 microseconds."
+echo "rank's events / sum of the mean; window 0 excluded) for equal cells (static), the prefix-sum split recomputed each"
+echo "window from the previous window's events per cell, the same recomputed only when the imbalance on those costs"
+echo "exceeds the Poisson noise level 1 + sqrt(2 ln P / m) (m: mean events per rank; how many windows of how many were"
+echo "rebalanced), seed 003's buddy blocks (triple merge/split each window), and the modelled speed-up for static and"
+echo "noise-gated prefix balancing at a cost per communication phase alpha of 0, 1 and 5 microseconds."
 echo
 case_() { # label, par_model arguments
 	label=$1; shift
