@@ -1,4 +1,5 @@
 /* Tests of the Morton-order domain decomposition (engine/par/decomp): ids, ownership, border and ghost cells against brute force, balancing. */
+#include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -300,6 +301,48 @@ int main(void)
 		   moves, imbb0, imbb1);
 		diag("skewed cost, 8 ranks: static %.3f, prefix %.3f, buddy %.3f", imb0, imb1, imbb1);
 		check_grid(3, nc, per, P, "16^3 after buddy balancing", d);
+		/* hysteresis: a split already at its targets stays; a huge tolerance
+		 * keeps any bounds; otherwise each boundary is kept within tol
+		 * deviations of its target or placed where the plain split puts it */
+		{
+			decomp_balance_prefix(d, cost);
+			uint64_t b0[9], b1[9], bp[9];
+			memcpy(b0, decomp_bounds(d), sizeof b0);
+			ok(decomp_balance_prefix_keep(d, cost, 1.0) == DECOMP_OK && !memcmp(b0, decomp_bounds(d), sizeof b0),
+			   "prefix with hysteresis (1 deviation): a split at its targets does not move");
+			/* new cost: 100 more in the last cell (rank 7's); the targets
+			 * k W / P move by 12.5 k against deviations of ~43 (W / P ~ 2100):
+			 * the low boundaries should stay, the high ones move */
+			double *c2 = malloc(zs * sizeof(double));
+			memcpy(c2, cost, zs * sizeof(double));
+			c2[zs - 1] += 100.0;
+			decomp_balance_prefix_keep(d, c2, 1e9);
+			ok(!memcmp(b0, decomp_bounds(d), sizeof b0), "a huge tolerance keeps every boundary on a new cost");
+			decomp_balance_prefix(d, c2);
+			memcpy(bp, decomp_bounds(d), sizeof bp);
+			decomp_set_bounds(d, b0);
+			decomp_balance_prefix_keep(d, c2, 1.0);
+			memcpy(b1, decomp_bounds(d), sizeof b1);
+			double *S = malloc((zs + 1) * sizeof(double));
+			S[0] = 0.0;
+			for (uint64_t z = 0; z < zs; z++)
+				S[z + 1] = S[z] + c2[z];
+			int each = 1, kept = 0, moved = 0;
+			for (int k = 1; k < P; k++) {
+				double T = S[zs] * k / P, sd = sqrt(T * (1.0 - (double)k / P));
+				if (b1[k] == b0[k] && fabs(S[b0[k]] - T) <= sd)
+					kept++;
+				else if (b1[k] == bp[k])
+					moved++;
+				else
+					each = 0;
+			}
+			ok(each && kept > 0 && moved > 0 && b1[0] == 0 && b1[P] == zs, "1 deviation on a new cost: %d boundaries kept within "
+			   "tolerance, %d moved to the plain split's place", kept, moved);
+			free(S);
+			free(c2);
+			ok(decomp_balance_prefix_keep(d, cost, -1.0) == DECOMP_EINVAL, "a negative tolerance is refused");
+		}
 		/* a zero cost falls back to equal cell counts */
 		memset(cost, 0, zs * sizeof(double));
 		ok(decomp_balance_prefix(d, cost) == DECOMP_OK && decomp_bounds(d)[1] == zs / P, "zero cost: equal split");
@@ -319,6 +362,63 @@ int main(void)
 		ok(decomp_balance_prefix(d, cost) == DECOMP_OK, "one hot cell: prefix balancing runs");
 		check_grid(2, nc, per, P, "6x5 with a single hot cell (empty ranks)", d);
 		free(cost);
+		decomp_destroy(d);
+	}
+
+	/* transfers between two decompositions: random bounds (empty ranges
+	 * included) against the owner of every id before and after */
+	{
+		const int nc[3] = {6, 5, 3}, P = 7;
+		decomp_t *d = decomp_create(3, nc, per, P, &err);
+		const uint64_t zs = decomp_zsize(d);
+		uint64_t old_b[8], new_b[8], x = 12345;
+		decomp_transfer_t tr[14];
+		int all = 1, maximal = 1, rounds = 200, nonzero = 0;
+		for (int round = 0; round < rounds; round++) {
+			for (int side = 0; side < 2; side++) {
+				uint64_t *b = side ? new_b : old_b;
+				b[0] = 0;
+				b[P] = zs;
+				for (int r = 1; r < P; r++) {
+					x = x * 6364136223846793005ull + 1442695040888963407ull;
+					b[r] = (x >> 33) % (zs + 1);
+				}
+				for (int r = 1; r < P; r++)   /* sort */
+					for (int q = r; q > 1 && b[q] < b[q - 1]; q--) {
+						uint64_t t = b[q]; b[q] = b[q - 1]; b[q - 1] = t;
+					}
+			}
+			int n = decomp_transfers(old_b, new_b, P, tr);
+			nonzero += n > 0;
+			all &= n >= 0 && n <= 2 * P;
+			for (int k = 0; k < n; k++) {
+				all &= tr[k].z0 < tr[k].z1 && (k == 0 || tr[k].z0 >= tr[k - 1].z1);
+				if (k > 0 && tr[k].z0 == tr[k - 1].z1 && tr[k].from == tr[k - 1].from && tr[k].to == tr[k - 1].to)
+					maximal = 0;
+			}
+			decomp_set_bounds(d, old_b);
+			int *own_old = malloc(zs * sizeof(int));
+			for (uint64_t z = 0; z < zs; z++)
+				own_old[z] = owner_linear(d, z);
+			decomp_set_bounds(d, new_b);
+			for (uint64_t z = 0; z < zs; z++) {
+				int on = owner_linear(d, z), in = -1;
+				for (int k = 0; k < n; k++)
+					if (z >= tr[k].z0 && z < tr[k].z1)
+						in = k;
+				if (own_old[z] == on)
+					all &= in < 0;
+				else
+					all &= in >= 0 && tr[in].from == own_old[z] && tr[in].to == on;
+			}
+			free(own_old);
+		}
+		ok(all && nonzero > rounds / 2, "transfers: %d random pairs of bounds, each id changes hands iff it is in a "
+		   "transfer range with its old and new owner; ranges sorted, disjoint, at most 2P", rounds);
+		ok(maximal, "transfer ranges are maximal (no two adjacent with the same pair)");
+		uint64_t same[8];
+		memcpy(same, old_b, sizeof same);
+		ok(decomp_transfers(old_b, same, P, tr) == 0, "identical bounds: no transfer");
 		decomp_destroy(d);
 	}
 

@@ -1,4 +1,5 @@
 /* Domain decomposition of a cell grid over P ranks along the Morton (Z) curve: owners, border zones, ghost cells, load balancing (pure, no MPI). */
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -280,34 +281,47 @@ double decomp_loads(const decomp_t *d, const double *cost, double *loads)
 	return mean > 0.0 ? max / mean : 0.0;
 }
 
-int decomp_balance_prefix(decomp_t *d, const double *cost)
+int decomp_balance_prefix_keep(decomp_t *d, const double *cost, double tol)
 {
+	if (!(tol >= 0.0))
+		return DECOMP_EINVAL;
 	double *S = prefix_sums(d, cost);
 	if (!S)
 		return DECOMP_ENOMEM;
 	if (cost && !(S[d->zsize] > 0.0)) {
 		free(S);
-		return decomp_balance_prefix(d, NULL);
+		return decomp_balance_prefix_keep(d, NULL, 0.0);
 	}
 	const double W = S[d->zsize];
 	const int P = d->ranks;
-	d->bounds[0] = 0;
-	d->bounds[P] = d->zsize;
 	uint64_t z = 0;
 	for (int k = 1; k < P; k++) {
 		const double T = W * k / P;
-		/* first z with S[z + 1] > T: the target lies in [S[z], S[z + 1]) */
-		while (z < d->zsize && S[z + 1] <= T)
-			z++;
-		uint64_t b = z;
-		if (z < d->zsize && S[z + 1] - T < T - S[z])
-			b = z + 1;
+		const uint64_t old = d->bounds[k];
+		uint64_t b;
+		if (tol > 0.0 && old >= d->bounds[k - 1] && fabs(S[old] - T) <= tol * sqrt(T * (1.0 - (double)k / P))) {
+			b = old;   /* within the noise of its target: stays */
+		} else {
+			/* first z with S[z + 1] > T: the target lies in [S[z], S[z + 1]) */
+			while (z < d->zsize && S[z + 1] <= T)
+				z++;
+			b = z;
+			if (z < d->zsize && S[z + 1] - T < T - S[z])
+				b = z + 1;
+		}
 		if (b < d->bounds[k - 1])
 			b = d->bounds[k - 1];
 		d->bounds[k] = b;
 	}
+	d->bounds[0] = 0;
+	d->bounds[P] = d->zsize;
 	free(S);
 	return DECOMP_OK;
+}
+
+int decomp_balance_prefix(decomp_t *d, const double *cost)
+{
+	return decomp_balance_prefix_keep(d, cost, 0.0);
 }
 
 static int is_pow2(uint64_t x) { return x && !(x & (x - 1)); }
@@ -381,4 +395,28 @@ int decomp_balance_buddy(decomp_t *d, const double *cost, int max_moves)
 #undef LOAD
 	free(S);
 	return moves;
+}
+
+int decomp_transfers(const uint64_t *old_b, const uint64_t *new_b, int P, decomp_transfer_t *out)
+{
+	/* merge the two sorted bound lists: between consecutive bounds of
+	 * either list both owners are constant */
+	int n = 0, i = 0, j = 0;
+	uint64_t z = 0;
+	const uint64_t end = old_b[P];
+	while (z < end) {
+		while (i < P - 1 && old_b[i + 1] <= z)
+			i++;
+		while (j < P - 1 && new_b[j + 1] <= z)
+			j++;
+		uint64_t z1 = old_b[i + 1] < new_b[j + 1] ? old_b[i + 1] : new_b[j + 1];
+		if (i != j) {
+			if (n > 0 && out[n - 1].z1 == z && out[n - 1].from == i && out[n - 1].to == j)
+				out[n - 1].z1 = z1;
+			else
+				out[n++] = (decomp_transfer_t){z, z1, i, j};
+		}
+		z = z1;
+	}
+	return n;
 }

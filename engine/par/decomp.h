@@ -95,6 +95,27 @@ double decomp_loads(const decomp_t *d, const double *cost, double *loads);
  * falls back to equal cell counts. */
 int decomp_balance_prefix(decomp_t *d, const double *cost);
 
+/* What changes hands when bounds old_b become new_b (both P + 1 bounds
+ * of the same Z space): the Z ranges [z0, z1) whose owner changes, with
+ * old and new owner, in Z order, maximal (adjacent ranges with the same
+ * pair merged). At most 2 P ranges; out must hold 2 P. Returns how many.
+ * Every rank computes the same list: the particles of a range move from
+ * `from` to `to` when a rebalance installs new_b. */
+typedef struct {
+	uint64_t z0, z1;
+	int from, to;
+} decomp_transfer_t;
+int decomp_transfers(const uint64_t *old_b, const uint64_t *new_b, int P, decomp_transfer_t *out);
+
+/* The prefix split with hysteresis, for costs that are counts (events
+ * per cell in a window): boundary k stays where it is while the cost below
+ * it is within tol standard deviations of its target k W / P, the
+ * deviation of a count being sqrt(T (1 - k / P)) for target T (binomial);
+ * otherwise it moves as in decomp_balance_prefix(). tol = 0 is
+ * decomp_balance_prefix(). Fewer cells change owner on noisy costs, at the
+ * price of loads within about tol deviations of the mean. */
+int decomp_balance_prefix_keep(decomp_t *d, const double *cost, double tol);
+
 /* Seed 003's buddy scheme. decomp_buddy_init(): P (a power of two, at most
  * zsize) aligned blocks of zsize / P ids (DECOMP_EINVAL otherwise).
  * decomp_balance_buddy(): the triple merge/split of seed 003 section 3.2,
