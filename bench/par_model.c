@@ -24,15 +24,16 @@
  *   comma list (default 2,4,8,16,64,128), WINDOWS: the stream is cut into
  *   this many windows of equal event count (default 10; balancing uses the
  *   previous window's cost), CELL_SIZE: the scene's ed.cell_size (minimum
- *   cell edge in diameters; default 0, the engine's automatic grid). The model is given for a cost of one
- *   communication phase alpha = 0, 1 and 5 microseconds.
+ *   cell edge in diameters; default 0, the engine's automatic grid). The
+ *   model is given for a cost of one communication phase alpha = 0, 1 and
+ *   5 microseconds; it charges one t_e per particle a rebalance moves.
  * Output: markdown tables on stdout.
  */
 
 /* equal cells; prefix-sum split every window; the same only when the
- * imbalance on the last window's costs exceeds Poisson noise; seed 003
- * buddy blocks */
-enum { S_STATIC, S_PREFIX, S_NOISE, S_BUDDY, S_COUNT };
+ * imbalance on the last window's costs exceeds Poisson noise; the split
+ * with hysteresis of one deviation; seed 003 buddy blocks */
+enum { S_STATIC, S_PREFIX, S_NOISE, S_KEEP, S_BUDDY, S_COUNT };
 
 typedef struct {
 	int dim, nc[3];
@@ -50,6 +51,9 @@ typedef struct {
 	uint8_t *bflag;
 	double *cost;               /* per Z id */
 	double *loads;              /* per rank */
+	decomp_transfer_t *transfers;   /* 2 per rank */
+	uint64_t *old_b;            /* bounds before a rebalance */
+	uint64_t *recv;             /* per rank: cells received in a rebalance */
 } model_t;
 
 static double cpu_now(void)
@@ -130,6 +134,8 @@ typedef struct {
 	uint64_t events, border_ev, remote_coll, migrations, collisions;
 	double gap_per_rank;   /* mean over ranks of events / border events */
 	uint64_t rebalances;   /* windows whose bounds were recomputed */
+	uint64_t cells_moved;  /* real cells that changed owner, over all rebalances */
+	double sum_max_recv;   /* over windows: the most cells one rank received */
 } result_t;
 
 static int analyse(model_t *m, int P, int scheme, int K, result_t *res)
@@ -154,6 +160,7 @@ static int analyse(model_t *m, int P, int scheme, int K, result_t *res)
 			for (size_t k = p0; k < e0; k++)
 				m->cost[m->rm2z[m->ci[k]]] += 1.0;
 			int brc = 0, moved = 1;
+			memcpy(m->old_b, decomp_bounds(d), ((size_t)P + 1) * sizeof(uint64_t));
 			if (scheme == S_NOISE) {
 				/* noise level: the expected max / mean of P Poisson counts of
 				 * mean mu (a Gaussian's expected maximum, sigma sqrt(2 ln P)) */
@@ -162,13 +169,29 @@ static int analyse(model_t *m, int P, int scheme, int K, result_t *res)
 				moved = imb > 1.0 + sqrt(2.0 * log((double)P) / mu);
 				if (moved)
 					brc = decomp_balance_prefix(d, m->cost);
+			} else if (scheme == S_KEEP) {
+				brc = decomp_balance_prefix_keep(d, m->cost, 1.0);
 			} else {
 				brc = scheme == S_PREFIX ? decomp_balance_prefix(d, m->cost) : decomp_balance_buddy(d, m->cost, 4 * P);
 			}
 			if (brc < 0)
 				goto cleanup;
-			if (moved)
+			if (moved) {
 				fill_owners(m, d);
+				/* what the rebalance moves: real cells changing owner */
+				int nt = decomp_transfers(m->old_b, decomp_bounds(d), P, m->transfers);
+				uint64_t mr = 0;
+				memset(m->recv, 0, (size_t)P * sizeof(uint64_t));
+				for (int k = 0; k < nt; k++)
+					for (uint64_t z = m->transfers[k].z0; z < m->transfers[k].z1; z++)
+						m->recv[m->transfers[k].to] += m->z2rm[z] != UINT32_MAX;
+				for (int r = 0; r < P; r++) {
+					res->cells_moved += m->recv[r];
+					if (m->recv[r] > mr)
+						mr = m->recv[r];
+				}
+				res->sum_max_recv += (double)mr;
+			}
 			res->rebalances += (uint64_t)moved;
 		}
 		memset(er, 0, (size_t)P * sizeof(uint64_t));
@@ -299,7 +322,10 @@ int main(int argc, char **argv)
 	m.bflag = malloc(m.ncell);
 	m.cost = malloc(m.zsize * sizeof(double));
 	m.loads = malloc(65536 * sizeof(double));
-	if (!m.rm2z || !m.z2rm || !m.own || !m.stamp || !m.bflag || !m.cost || !m.loads) {
+	m.transfers = malloc(2 * 65536 * sizeof(decomp_transfer_t));
+	m.old_b = malloc(65537 * sizeof(uint64_t));
+	m.recv = malloc(65536 * sizeof(uint64_t));
+	if (!m.rm2z || !m.z2rm || !m.own || !m.stamp || !m.bflag || !m.cost || !m.loads || !m.transfers || !m.old_b || !m.recv) {
 		fprintf(stderr, "par_model: out of memory\n");
 		goto cleanup;
 	}
@@ -374,23 +400,31 @@ int main(int argc, char **argv)
 		decomp_destroy(dp);
 	}
 	static const double alpha[3] = {0.0, 1e-6, 5e-6};
-	printf("\n| P | imbalance static | prefix | prefix above noise (rebalances) | buddy | model static, alpha 0 | 1 us | 5 us | "
-	       "model prefix above noise, alpha 0 | 1 us | 5 us |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+	const double rho = (double)n / C;   /* particles per cell */
+	printf("\n| P | imbalance static | prefix (cells moved per window) | prefix above noise (rebalances; cells moved) | "
+	       "prefix with hysteresis (cells moved) | buddy (cells moved) | model static, alpha 0 | 1 us | 5 us | "
+	       "model prefix above noise, alpha 0 | 1 us | 5 us |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
 	for (int ip = 0; ip < nP; ip++) {
 		const result_t *r = res[ip];
 		double sp[2][3];
 		for (int s = 0; s < 2; s++) {
 			const result_t *q = &r[s == 0 ? S_STATIC : S_NOISE];
 			for (int a = 0; a < 3; a++)
-				/* T_1 = E t_e; T_P = t_e sum_w max_r (E_rw + B_rw) + alpha sum_w max_r B_rw */
-				sp[s][a] = q->events * t_e / (t_e * q->sum_max_eb + alpha[a] * q->sum_max_b);
+				/* T_1 = E t_e; T_P = t_e sum_w max_r (E_rw + B_rw + rho R_rw) + alpha sum_w max_r B_rw,
+				 * R_rw the cells rank r receives in window w's rebalance */
+				sp[s][a] = q->events * t_e /
+				           (t_e * (q->sum_max_eb + rho * q->sum_max_recv) + alpha[a] * q->sum_max_b);
 		}
-		char buddy[32] = "-";
+		char buddy[64] = "-";
+		const double W = (double)(K - 1) * C / 100.0;   /* cells moved per window, percent */
 		if (r[S_BUDDY].events)
-			snprintf(buddy, sizeof buddy, "%.3f", r[S_BUDDY].sum_max_e / r[S_BUDDY].sum_mean);
-		printf("| %d | %.3f | %.3f | %.3f (%llu of %d) | %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", P_list[ip],
-		       r[S_STATIC].sum_max_e / r[S_STATIC].sum_mean, r[S_PREFIX].sum_max_e / r[S_PREFIX].sum_mean,
-		       r[S_NOISE].sum_max_e / r[S_NOISE].sum_mean, (unsigned long long)r[S_NOISE].rebalances, K - 1, buddy,
+			snprintf(buddy, sizeof buddy, "%.3f (%.2g%%)", r[S_BUDDY].sum_max_e / r[S_BUDDY].sum_mean,
+			         r[S_BUDDY].cells_moved / W);
+		const result_t *g = &r[S_NOISE], *h = &r[S_KEEP];
+		printf("| %d | %.3f | %.3f (%.2g%%) | %.3f (%llu of %d; %.2g%%) | %.3f (%.2g%%) | %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n",
+		       P_list[ip], r[S_STATIC].sum_max_e / r[S_STATIC].sum_mean, r[S_PREFIX].sum_max_e / r[S_PREFIX].sum_mean,
+		       r[S_PREFIX].cells_moved / W, g->sum_max_e / g->sum_mean, (unsigned long long)g->rebalances, K - 1,
+		       g->cells_moved / W, h->sum_max_e / h->sum_mean, h->cells_moved / W, buddy,
 		       sp[0][0], sp[0][1], sp[0][2], sp[1][0], sp[1][1], sp[1][2]);
 	}
 	rc = 0;
@@ -407,5 +441,8 @@ cleanup:
 	free(m.bflag);
 	free(m.cost);
 	free(m.loads);
+	free(m.transfers);
+	free(m.old_b);
+	free(m.recv);
 	return rc;
 }

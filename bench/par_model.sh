@@ -15,11 +15,13 @@ echo "events that are border events, against seed 003's 2D (P/C)^(1/D); events p
 echo "communication phase system-wide (events / sum over windows of the busiest rank's border events: an upper"
 echo "bound, one phase per border event), against seed 003's C^(1/D) P^(1-1/D); collisions whose partners lie on two"
 echo "ranks; cell crossings into another rank per event. Second table: load imbalance (sum over windows of the busiest"
-echo "rank's events / sum of the mean; window 0 excluded) for equal cells (static), the prefix-sum split recomputed each"
-echo "window from the previous window's events per cell, the same recomputed only when the imbalance on those costs"
-echo "exceeds the Poisson noise level 1 + sqrt(2 ln P / m) (m: mean events per rank; how many windows of how many were"
-echo "rebalanced), seed 003's buddy blocks (triple merge/split each window), and the modelled speed-up for static and"
-echo "noise-gated prefix balancing at a cost per communication phase alpha of 0, 1 and 5 microseconds."
+echo "rank's events / sum of the mean; window 0 excluded) and the real cells that change owner per window (percent"
+echo "of all cells), for equal cells (static), the prefix-sum split recomputed each window from the previous window's"
+echo "events per cell, the same recomputed only when the imbalance on those costs exceeds the Poisson noise level"
+echo "1 + sqrt(2 ln P / m) (m: mean events per rank; how many windows of how many were rebalanced), the split with a"
+echo "hysteresis of one binomial deviation (decomp_balance_prefix_keep), seed 003's buddy blocks (triple merge/split"
+echo "each window); then the modelled speed-up for static and noise-gated prefix balancing (moving a particle costs"
+echo "one event time) at a cost per communication phase alpha of 0, 1 and 5 microseconds."
 echo
 case_() { # label, par_model arguments
 	label=$1; shift
@@ -38,3 +40,5 @@ case_ "2D clustering, N = 10^5, volume fraction 0.3, restitution 0.8, TC 1e-4 (a
 	2 100000 0.3 0.8 1e-4 100 6
 case_ "The same on a 256 x 256 cell grid (a power of two per axis: seed 003's buddy blocks without padding)" \
 	2 100000 0.3 0.8 1e-4 100 6 2,4,8,16,64,128 10 1.995
+case_ "2D clustering as above, a longer trace cut into 4 windows (rebalancing every ~5 events per particle instead of ~0.6)" \
+	2 100000 0.3 0.8 1e-4 100 20 2,4,8,16,64,128 4
