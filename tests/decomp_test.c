@@ -293,6 +293,7 @@ int main(void)
 		   imb0, imb1, lmax, W / P + maxc);
 		ok(sum == W, "prefix split conserves the total cost");
 		check_grid(3, nc, per, P, "16^3 after prefix balancing", d);
+		ok(decomp_balance_buddy(d, cost, 8) == DECOMP_EINVAL, "buddy balancing refuses bounds that are not aligned blocks");
 		ok(decomp_buddy_init(d) == DECOMP_OK && buddy_blocks(d), "buddy init: 8 aligned blocks");
 		double imbb0 = decomp_loads(d, cost, loads);
 		int moves = decomp_balance_buddy(d, cost, 64);
