@@ -1238,12 +1238,15 @@ int run_frame_due(const run_t *r)
 	return 0;
 }
 
-void run_frame(run_t *r, run_record_t *rec, double *pos, double *vel)
+void run_frame(run_t *r, run_record_t *rec, double *pos, double *vel, int64_t *ids)
 {
 	totals_record(r, rec, RUN_SNAPSHOT);
+	rec->n = scene_slots(&r->s);
 	eng_state(r, pos, vel);
 	rec->pos = pos;
 	rec->vel = vel;
+	if (ids && r->ed && ed_labels(r->ed, ids) == ED_OK)
+		rec->ids = ids;
 	r->st.snap_events = rec->events;
 	r->st.frames++;
 	sched_skip(&r->s.snapshots, &r->st.k_snap, rec->time, rec->collisions, r->s.count);

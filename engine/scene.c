@@ -1262,9 +1262,6 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 			if (s->rough)
 				return fail(c, path, "\"reservoir\" walls take smooth particles (collisions.rough is not "
 				            "supported with them yet)");
-			if (s->replicas > 1)
-				return fail(c, path, "\"reservoir\" walls are not supported in ensembles yet (run.replicas must "
-				            "be 1)");
 		}
 	/* default: room for twice the larger of the initial count and what the
 	 * box holds at the densest reservoir's density, plus 64 */
