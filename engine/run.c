@@ -55,6 +55,7 @@ struct run {
 	uint64_t mc_chunk;       /* dsmc steps between polls of the stop flag */
 	clusters_t *cl;
 	int varying;             /* open or reservoir walls: particles come and go (NaN rows, eng_present()) */
+	double *radii;           /* clusters of mixtures: each particle's radius (scene_species_radii()) */
 	obs_t *obs;              /* structure observables (observe.h), NULL when none is asked for */
 	msd_t *msd;              /* mean_square_displacement (observe/msd.h), or NULL */
 	double msd_prev, msd_tprev; /* MSD and time of the previous progress record (the interval's D) */
@@ -257,10 +258,22 @@ static void msd_follow(run_t *rc)
 	double e = sm.kinetic_energy;
 	if (scene_has_gravity(s)) {
 		eng_state(rc, rc->pos, rc->vel);
-		double v2 = 0.0;
-		for (size_t k = 0; k < s->count * (size_t)s->dim; k++)
-			v2 += rc->vel[k] * rc->vel[k];
-		e = 0.5 * s->mass * v2;
+		if (s->n_species > 1) {   /* mixtures: each species' block of rows with its mass */
+			size_t off = 0;
+			e = 0.0;
+			for (int k = 0; k < s->n_species; k++) {
+				double v2 = 0.0;
+				for (size_t j = off * s->dim; j < (off + s->species[k].count) * s->dim; j++)
+					v2 += rc->vel[j] * rc->vel[j];
+				e += 0.5 * s->species[k].mass * v2;
+				off += s->species[k].count;
+			}
+		} else {
+			double v2 = 0.0;
+			for (size_t k = 0; k < s->count * (size_t)s->dim; k++)
+				v2 += rc->vel[k] * rc->vel[k];
+			e = 0.5 * s->mass * v2;
+		}
 	} else {
 		eng_state(rc, rc->pos, NULL);
 	}
@@ -685,11 +698,24 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		r->msd = msd_create(s->dim, s->count, s->box, s->mass, r->ed ? 0.45 : 0.25);
 		if (!r->msd)
 			goto nomem;
+		/* mixtures: the lightest particle bounds the speed, the heaviest the potential energy, the smallest
+		 * the lowest contact plane */
+		double rmin = s->radius;
+		if (scene_has_species(s)) {
+			double lo = INFINITY, hi = 0.0;
+			rmin = INFINITY;
+			for (int k = 0; k < s->n_species; k++) {
+				lo = fmin(lo, s->species[k].mass);
+				hi = fmax(hi, s->species[k].mass);
+				rmin = fmin(rmin, s->species[k].radius_lo > 0 ? s->species[k].radius_lo : s->species[k].radius);
+			}
+			msd_masses(r->msd, lo, hi);
+		}
 		if (scene_has_walls(s) || scene_has_gravity(s)) {
 			int walled[3];
 			for (int a = 0; a < 3; a++)
 				walled[a] = s->boundary[a].walled;
-			if (msd_walls(r->msd, walled, s->gravity, s->radius) != 0) {   /* scene_parse() refuses these */
+			if (msd_walls(r->msd, walled, s->gravity, rmin) != 0) {   /* scene_parse() refuses these */
 				*err = RUN_ESETUP;
 				if (msg && msglen)
 					snprintf(msg, msglen, "mean_square_displacement: gravity along a periodic axis");
@@ -716,6 +742,14 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		r->cl = clusters_create(s->dim, scene_slots(s));
 		if (!r->cl)
 			goto nomem;
+		if (scene_has_species(s)) {   /* mixtures, polydisperse: each particle's own radius (the engine's draws) */
+			r->radii = malloc(s->count * sizeof(double));
+			if (!r->radii)
+				goto nomem;
+			scene_species_radii(&r->s, r->radii);
+			if (clusters_radii(r->cl, r->radii) != 0)
+				goto nomem;
+		}
 		int walled[3];
 		for (int a = 0; a < 3; a++)
 			walled[a] = s->boundary[a].walled;
@@ -787,6 +821,7 @@ void run_destroy(run_t *r)
 		return;
 	free(r->placed);
 	clusters_destroy(r->cl);
+	free(r->radii);
 	obs_destroy(r->obs);
 	msd_destroy(r->msd);
 	free(r->pos);

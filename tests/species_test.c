@@ -78,10 +78,11 @@ static void test_parse(void)
 		{ "duplicate names", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":"
 		  "[{\"name\":\"a\",\"count\":20,\"radius\":0.5,\"mass\":1},{\"name\":\"a\",\"count\":20,\"radius\":0.5,"
 		  "\"mass\":2}],\"volume_fraction\":0.1},\"run\":{\"until\":{\"time\":1}}}", "particles.species[1].name:" },
-		{ "velocity distribution of a mixture", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":"
-		  "[{\"count\":20,\"radius\":0.5,\"mass\":1},{\"count\":20,\"radius\":0.5,\"mass\":2}],"
-		  "\"volume_fraction\":0.1},\"run\":{\"until\":{\"time\":1}},\"output\":{\"observables\":"
-		  "[\"velocity_distribution\"]}}", "output.observables:" },
+		{ "velocity distribution of a mixture with an open wall", "{\"method\":\"ed\",\"dimensions\":2,"
+		  "\"particles\":{\"species\":[{\"count\":20,\"radius\":0.5,\"mass\":1},{\"count\":20,\"radius\":0.5,"
+		  "\"mass\":2}],\"volume_fraction\":0.1},\"boundaries\":{\"x\":{\"type\":\"walls\",\"lower\":{\"type\":"
+		  "\"specular\"},\"upper\":{\"type\":\"open\"}}},\"run\":{\"until\":{\"time\":1}},\"output\":"
+		  "{\"observables\":[\"velocity_distribution\"]}}", "output.observables:" },
 		{ "radius and radius_range", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":"
 		  "[{\"count\":20,\"radius\":0.5,\"radius_range\":[0.4,0.6],\"mass\":1}],\"volume_fraction\":0.1},"
 		  "\"run\":{\"until\":{\"time\":1}}}", "particles.species[0].radius_range:" },

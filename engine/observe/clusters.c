@@ -36,6 +36,10 @@
 struct clusters {
 	int dim;
 	size_t n, cap;        /* rows of the next computes (clusters_set_count()); rows allocated */
+	const double *radii;  /* clusters_radii(): each row's radius (not owned), or NULL: one radius */
+	double rmax;          /* the largest of them */
+	double *srad;         /* radii in slot order (with radii) */
+	double delta;         /* the gap of the compute in progress */
 	int walled[3];        /* clusters_walls(): no periodic image on these axes */
 	int valid;            /* labels belong to a successful compute */
 	double *spos;         /* n*dim wrapped positions in slot (cell) order */
@@ -99,6 +103,7 @@ void clusters_destroy(clusters_t *c)
 	free(c->sbin_edges);
 	free(c->sbin_ns);
 	free(c->sbin_count);
+	free(c->srad);
 	free(c);
 }
 
@@ -108,6 +113,23 @@ int clusters_walls(clusters_t *c, const int *walled)
 		return -1;
 	for (int a = 0; a < c->dim; a++)
 		c->walled[a] = walled[a] != 0;
+	return 0;
+}
+
+int clusters_radii(clusters_t *c, const double *radii)
+{
+	if (c == NULL || radii == NULL)
+		return -1;
+	double rmax = 0.0;
+	for (size_t i = 0; i < c->cap; i++) {
+		if (!(radii[i] >= 0.0) || !isfinite(radii[i]))
+			return -1;
+		rmax = fmax(rmax, radii[i]);
+	}
+	if (!c->srad && !(c->srad = malloc((c->cap ? c->cap : 1) * sizeof(double))))
+		return -2;
+	c->radii = radii;
+	c->rmax = rmax;
 	return 0;
 }
 
@@ -190,6 +212,30 @@ static int axis_offsets(size_t m, int off[3])
 }
 
 /* Test all pairs between slots [a0, a1) and [b0, b1) (same cell: a0 == b0). */
+/* Mixtures: the pair's own cutoff r_i + r_j + delta. */
+static void scan_pair_radii(clusters_t *c, const double *box, const double *half, uint32_t a0, uint32_t a1,
+                            uint32_t b0, uint32_t b1)
+{
+	const int dim = c->dim;
+	const double *p = c->spos, *rad = c->srad, delta = c->delta;
+	for (uint32_t i = a0; i < a1; i++) {
+		const double *pi = p + (size_t)i * dim;
+		for (uint32_t j = (a0 == b0 ? i + 1 : b0); j < b1; j++) {
+			const double *pj = p + (size_t)j * dim;
+			double dx = geom_min_image(pi[0] - pj[0], box[0], half[0]);
+			double dy = geom_min_image(pi[1] - pj[1], box[1], half[1]);
+			double r2 = dx * dx + dy * dy;
+			if (dim == 3) {
+				double dz = geom_min_image(pi[2] - pj[2], box[2], half[2]);
+				r2 += dz * dz;
+			}
+			double cut = rad[i] + rad[j] + delta;
+			if (r2 < cut * cut)
+				unite(c, i, j);
+		}
+	}
+}
+
 static void scan_pair(clusters_t *c, const double *box, const double *half, double cut2,
                       uint32_t a0, uint32_t a1, uint32_t b0, uint32_t b1)
 {
@@ -301,9 +347,11 @@ int clusters_compute(clusters_t *c, const double *pos, const double *box,
 	c->valid = 0;
 	const int dim = c->dim;
 	const size_t n = c->n;
-	double cutoff = 2.0 * radius + delta;
+	/* mixtures: cells of edge >= the largest pair cutoff, 2 r_max + delta */
+	double cutoff = 2.0 * (c->radii ? c->rmax : radius) + delta;
 	if (!(radius >= 0.0) || !isfinite(cutoff) || !(cutoff > 0.0))
 		return -1;
+	c->delta = delta;
 	double L[3] = { 1.0, 1.0, 1.0 };
 	for (int a = 0; a < dim; a++) {
 		if (!isfinite(box[a]) || !(box[a] > 0.0))
@@ -354,6 +402,8 @@ int clusters_compute(clusters_t *c, const double *pos, const double *box,
 		c->slot_of[i] = s;
 		for (int a = 0; a < dim; a++)
 			c->spos[(size_t)s * dim + a] = geom_fold(pos[i * dim + a], L[a], c->walled[a]);
+		if (c->radii)
+			c->srad[s] = c->radii[i];
 	}
 	memmove(start + 1, start, ncells * sizeof(uint32_t));
 	start[0] = 0;
@@ -388,7 +438,9 @@ int clusters_compute(clusters_t *c, const double *pos, const double *box,
 			if (nb < idx)
 				continue; /* visited from the other cell */
 			uint32_t b0 = start[nb], b1 = start[nb + 1];
-			if (b0 != b1)
+			if (b0 != b1 && c->radii)
+				scan_pair_radii(c, L, half, a0, a1, b0, b1);
+			else if (b0 != b1)
 				scan_pair(c, L, half, cut2, a0, a1, b0, b1);
 		}
 	}

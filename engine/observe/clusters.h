@@ -51,6 +51,12 @@ void clusters_destroy(clusters_t *c);
  * every later clusters_compute(). 0, or -1 on NULL arguments. */
 int clusters_walls(clusters_t *c, const int *walled);
 
+/* Mixtures and polydisperse particles: radii[n] (n of clusters_create(); not copied: valid while c is
+ * used), each row's radius; two particles then join when their centre distance is below r_i + r_j + delta
+ * (the radius argument of clusters_compute() is then unused but must be >= 0). 0, -1 on bad arguments,
+ * -2 out of memory. */
+int clusters_radii(clusters_t *c, const double *radii);
+
 /* Rows of the next computes, for scenes whose particle count varies (open and reservoir walls): n <= the
  * n of clusters_create(). 0, or -1 when n is larger. */
 int clusters_set_count(clusters_t *c, size_t n);

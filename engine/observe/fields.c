@@ -9,7 +9,10 @@ struct fields {
 	int dim, spin_dim, samples;
 	int n[3], periodic[3];
 	double box[3], h[3], cell_volume;
-	size_t nc, stride;   /* cells; doubles per cell: visits, sum v (dim), sum |v|^2, sum w (spin_dim) */
+	size_t nc, stride;   /* cells; doubles per cell: visits, sum v (dim), sum |v|^2, sum w (spin_dim); with
+	                      * fields_masses(): sum m v, sum m |v|^2, then sum m last */
+	const double *mass;  /* fields_masses(): each row's mass (not owned), or NULL */
+	size_t mrows;
 	double *sum;         /* nc * stride */
 };
 
@@ -81,9 +84,54 @@ size_t fields_cell_of(const fields_t *f, const double *x)
 	return c;
 }
 
+int fields_masses(fields_t *f, size_t rows, const double *mass)
+{
+	if (!f || !mass || rows == 0 || f->samples > 0 || f->mass)
+		return -1;
+	for (size_t i = 0; i < rows; i++)
+		if (!(mass[i] > 0) || !isfinite(mass[i]))
+			return -1;
+	double *sum = calloc(f->nc * (f->stride + 1), sizeof(double));
+	if (!sum)
+		return -2;
+	free(f->sum);
+	f->sum = sum;
+	f->stride++;
+	f->mass = mass;
+	f->mrows = rows;
+	return 0;
+}
+
+/* Mixtures: the same sums weighted by each particle's mass, and the mass. */
+static void add_weighted(fields_t *f, size_t n, const double *pos, const double *vel, const double *spin)
+{
+	const int D = f->dim, sd = f->spin_dim;
+	for (size_t i = 0; i < n && i < f->mrows; i++) {
+		if (isnan(pos[i * D]))
+			continue;
+		double *s = f->sum + fields_cell_of(f, pos + i * D) * f->stride;
+		const double *v = vel + i * D, m = f->mass[i];
+		double v2 = 0;
+		s[0] += 1.0;
+		for (int a = 0; a < D; a++) {
+			s[1 + a] += m * v[a];
+			v2 += v[a] * v[a];
+		}
+		s[1 + D] += m * v2;
+		for (int a = 0; a < sd; a++)
+			s[2 + D + a] += spin[i * sd + a];
+		s[f->stride - 1] += m;
+	}
+	f->samples++;
+}
+
 void fields_add(fields_t *f, size_t n, const double *pos, const double *vel, const double *spin)
 {
 	const int D = f->dim, sd = f->spin_dim;
+	if (f->mass) {
+		add_weighted(f, n, pos, vel, spin);
+		return;
+	}
 	for (size_t i = 0; i < n; i++) {
 		if (isnan(pos[i * D]))
 			continue;   /* an empty slot (open and reservoir walls): no particle */
@@ -113,15 +161,19 @@ int fields_result(const fields_t *f, double mass, double *count, double *density
 			count[c] = occ;
 		if (density)
 			density[c] = occ / f->cell_volume;
+		/* one mass: u = sum v / visits, T = m (sum v^2 / visits - u^2) / D; mixtures: the barycentric
+		 * u = sum m v / sum m and T = (sum m v^2 - sum m u^2) / (D visits) */
+		const double M = f->mass ? s[f->stride - 1] : visits;
 		double u2 = 0;
 		for (int a = 0; a < D; a++) {
-			double ua = visits > 0 ? s[1 + a] / visits : NAN;
+			double ua = visits > 0 ? s[1 + a] / M : NAN;
 			u2 += ua * ua;
 			if (u)
 				u[a][c] = ua;
 		}
 		if (temp) {
-			double t = visits > 0 ? mass * (s[1 + D] / visits - u2) / D : NAN;
+			double t = visits > 0 ? (f->mass ? (s[1 + D] - M * u2) / (D * visits) : mass * (s[1 + D] / visits - u2) / D)
+			                      : NAN;
 			temp[c] = t < 0 ? 0.0 : t;   /* rounding when all visits have one velocity */
 		}
 		for (int a = 0; w && a < sd; a++)

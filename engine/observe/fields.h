@@ -49,6 +49,12 @@ void fields_reset(fields_t *f);
  * first position component is NaN is an empty slot (a particle that left through an open or reservoir
  * wall) and counts nowhere. */
 void fields_add(fields_t *f, size_t n, const double *pos, const double *vel, const double *spin);
+/* Mixtures (particles of several masses): rows masses (not copied: valid while f is used), one per row
+ * that fields_add() will see. Then u_c is the barycentric (mass-weighted) velocity sum m v / sum m and
+ * T_c = (sum m |v|^2 - (sum m) |u_c|^2) / (D visits), the mean over visits of m |v - u_c|^2 / D (the
+ * temperature of the fluctuations about u_c); fields_result()'s mass is then unused. Call before the
+ * first fields_add(). 0, -1 on bad arguments, -2 out of memory. */
+int fields_masses(fields_t *f, size_t rows, const double *mass);
 /* Cell index of the point x (dim coordinates), as fields_add() bins it. */
 size_t fields_cell_of(const fields_t *f, const double *x);
 /* The fields of the instants added (see the contract); any output may be NULL. u[a] and w[a] are arrays of

@@ -8,7 +8,8 @@
 struct msd {
 	int dim;
 	size_t n;
-	double L[3], iL[3], mass, lmin, reach;
+	double L[3], iL[3], mass, mass_pot, lmin, reach;   /* mass: the lightest (speed bound); mass_pot: the
+	                                                  * heaviest (potential energy bound) */
 	int walled[3], any_walled; /* msd_walls(): walled axes are not unwrapped */
 	double g[3], umin;          /* msd_walls(): gravity (walled axes only) and the least potential energy per
 	                             * unit mass, -sum_a g_a x*_a, x*_a the contact plane gravity points to */
@@ -25,7 +26,7 @@ msd_t *msd_create(int dim, size_t n, const double *box, double mass, double reac
 		return NULL;
 	m->dim = dim;
 	m->n = n;
-	m->mass = mass;
+	m->mass = m->mass_pot = mass;
 	m->reach = reach;
 	m->lmin = INFINITY;
 	for (int a = 0; a < dim; a++) {
@@ -81,7 +82,16 @@ static double bound_energy(const msd_t *m, const double *pos, double ekin)
 			ui -= m->g[a] * pos[i * m->dim + a];
 		u += fmax(ui - m->umin, 0.0);
 	}
-	return ekin + m->mass * u;
+	return ekin + m->mass_pot * u;
+}
+
+int msd_masses(msd_t *m, double lightest, double heaviest)
+{
+	if (!m || !(lightest > 0) || !(heaviest >= lightest) || !isfinite(heaviest))
+		return -1;
+	m->mass = lightest;
+	m->mass_pot = heaviest;
+	return 0;
 }
 
 void msd_destroy(msd_t *m)

@@ -38,6 +38,11 @@ typedef struct msd msd_t;
 msd_t *msd_create(int dim, size_t n, const double *box, double mass, double reach);
 void msd_destroy(msd_t *m);
 
+/* Mixtures (particles of several masses), once after msd_create(): no particle is faster than
+ * sqrt(2 E / lightest), and the potential energy gravity can release is at most heaviest sum_i (u_i - u_min).
+ * 0, or -1 on bad arguments (0 < lightest <= heaviest). */
+int msd_masses(msd_t *m, double lightest, double heaviest);
+
 /* Walls and gravity, once after msd_create(): walled[dim] (nonzero: walls, no unwrapping), gravity[dim]
  * (zero on periodic axes), radius (the contact planes, radius from each wall). 0, or -1 on bad arguments
  * (gravity along a periodic axis, no room between walls). */

@@ -31,6 +31,8 @@ struct obs {
 	double *mem;              /* one block: axes, values, standard errors, scratch */
 	double *gcount, *gpar, *gperp;   /* pair sums over the g(r) bins */
 	double *vhist;                   /* 4 * bins: the component histograms, axis-major, and the spins' |c| */
+	double *vmix;                    /* mixtures: 4 * bins scratch for each species' histograms */
+	double *mass_rows;               /* mixtures with fields: each row's mass (fields_masses()) */
 	double *bcount;                  /* impact parameters counted by the engine since the last curves */
 	obs_curves_t c;
 	size_t packed;
@@ -52,6 +54,7 @@ void obs_destroy(obs_t *o)
 	fgrid_destroy(o->grid);
 	fields_destroy(o->fields);
 	dspec_destroy(o->dspec);
+	free(o->mass_rows);
 	free(o->mem);
 	free(o);
 }
@@ -111,6 +114,17 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 		o->fields = fields_create(D, s->box, s->fields_cells, per, spin_dim);
 		if (!o->fields)
 			goto fail;
+		if (s->n_species > 1) {   /* mixtures: mass-weighted velocity and temperature (fields.h) */
+			o->mass_rows = malloc(s->count * sizeof(double));
+			if (!o->mass_rows)
+				goto fail;
+			size_t off = 0;
+			for (int k = 0; k < s->n_species; k++)
+				for (uint64_t j = 0; j < s->species[k].count && off < s->count; j++)
+					o->mass_rows[off++] = s->species[k].mass;
+			if (off != s->count || fields_masses(o->fields, s->count, o->mass_rows) != 0)
+				goto fail;
+		}
 	}
 
 	if (!layout_only && (o->bits & SCENE_OBS_DSPEC)) {
@@ -126,7 +140,7 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 
 	/* One block: per table edges (nb+1) and centres (nb); per column value
 	 * and standard error (nb each); pair sums (3 gnb). */
-	size_t need = 3 * (size_t)gnb + 4 * (size_t)vnb + (size_t)bnb;
+	size_t need = 3 * (size_t)gnb + 8 * (size_t)vnb + (size_t)bnb;
 	for (int i = 0; i < o->c.ntables; i++)
 		need += 2 * (size_t)o->c.t[i].nb + 1 + 2 * (size_t)o->c.t[i].nb * o->c.t[i].ncols;
 	o->mem = calloc(need ? need : 1, sizeof(double));
@@ -137,6 +151,7 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 	o->gpar = p, p += gnb;
 	o->gperp = p, p += gnb;
 	o->vhist = p, p += 4 * (size_t)vnb;
+	o->vmix = p, p += 4 * (size_t)vnb;
 	o->bcount = p, p += bnb;
 	for (int i = 0; i < o->c.ntables; i++) {
 		obs_table_t *t = &o->c.t[i];
@@ -234,13 +249,60 @@ size_t obs_present(size_t rows, int dim, double *pos, double *vel, double *spin,
 	return n;
 }
 
+/*
+ * Mixtures (two or more particles.species, each a block of rows in scene order): every species' velocities
+ * are scaled by its own thermal speed about its own mean, c = (v - <v>_s) / sqrt(2 T_s / m_s), and pooled:
+ * the histograms are the species' weighted by their counts, a2 and a3 the count-weighted means of the
+ * species' (the moments of the pooled c), the temperature the count-weighted mean of T_s. comp/speed may be
+ * NULL (moments only); scratch: (dim + 1) * bins doubles.
+ */
+static void vdist_species(const scene_t *s, size_t n, const double *vel, vdist_moments_t *m, int bins, double range,
+                          double *comp, double *speed, double *scratch)
+{
+	const int D = s->dim;
+	size_t off = 0;
+	double T = 0, a2 = 0, a3 = 0;
+	memset(m, 0, sizeof(*m));
+	if (comp)
+		memset(comp, 0, (size_t)D * bins * sizeof(double));
+	if (speed)
+		memset(speed, 0, (size_t)bins * sizeof(double));
+	for (int k = 0; k < s->n_species && off < n; k++) {
+		size_t nk = s->species[k].count;
+		if (nk > n - off)
+			nk = n - off;
+		vdist_moments_t mk;
+		vdist_moments(D, nk, s->species[k].mass, vel + off * D, &mk);
+		double w = (double)nk / (double)n;
+		T += w * mk.temperature;
+		a2 += w * mk.a2;
+		a3 += w * mk.a3;
+		for (int a = 0; a < D; a++)
+			m->mean[a] += w * mk.mean[a];
+		if (comp && speed) {
+			vdist_histograms(D, nk, s->species[k].mass, vel + off * D, &mk, bins, range, scratch, scratch + D * bins);
+			for (int b = 0; b < D * bins; b++)
+				comp[b] += w * scratch[b];
+			for (int b = 0; b < bins; b++)
+				speed[b] += w * scratch[D * bins + b];
+		}
+		off += nk;
+	}
+	m->temperature = T;
+	m->a2 = a2;
+	m->a3 = a3;
+}
+
 int obs_scalars(obs_t *o, size_t n, const double *pos, const double *vel, obs_scalars_t *out)
 {
 	const scene_t *s = &o->s;
 	out->a2 = out->a3 = out->g_pairs = out->g_pairs_se = NAN;
 	if ((s->observables & SCENE_OBS_VDIST) && vel && n > 0) {
 		vdist_moments_t m;
-		vdist_moments(s->dim, n, s->mass, vel, &m);
+		if (s->n_species > 1)
+			vdist_species(s, n, vel, &m, 0, 0, NULL, NULL, NULL);
+		else
+			vdist_moments(s->dim, n, s->mass, vel, &m);
 		out->a2 = m.a2;
 		out->a3 = m.a3;
 	}
@@ -310,7 +372,10 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, size_t n, const double 
 	obs_curves_t *c = &o->c;
 	obs_table_t *t;
 	vdist_moments_t m;
-	vdist_moments(D, n, s->mass, vel, &m);
+	if (s->n_species > 1)
+		vdist_species(s, n, vel, &m, 0, 0, NULL, NULL, NULL);
+	else
+		vdist_moments(D, n, s->mass, vel, &m);
 	double tm = m.temperature / s->mass;
 	c->temperature = m.temperature;
 	c->a2 = c->a3 = c->g_pairs = c->cluster_w = c->cluster_exponent = c->m2_reduced = c->mean_size = NAN;
@@ -319,7 +384,10 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, size_t n, const double 
 	c->dspec_samples = 0;
 	if ((t = find(o, "velocity_distribution", "components"))) {
 		obs_table_t *sp = find(o, "velocity_distribution", "speed");
-		vdist_histograms(D, n, s->mass, vel, &m, t->nb, s->vdist_range, o->vhist, sp->val[0]);
+		if (s->n_species > 1)
+			vdist_species(s, n, vel, &m, t->nb, s->vdist_range, o->vhist, sp->val[0], o->vmix);
+		else
+			vdist_histograms(D, n, s->mass, vel, &m, t->nb, s->vdist_range, o->vhist, sp->val[0]);
 		for (int a = 0; a < D; a++)
 			memcpy(t->val[a], o->vhist + (size_t)a * t->nb, (size_t)t->nb * sizeof(double));
 		c->a2 = m.a2;
