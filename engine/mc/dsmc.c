@@ -1114,6 +1114,30 @@ static ALWAYS_INLINE double impact_b(double c, double k, double u, const int D)
 	return sqrt(fabs(c) > 1e-12 ? -expm1(u * k) / c : u);
 }
 
+/* Collision bound of cell c: mean velocity u, s2 = max_i |v_i - u|^2,
+ * v_max = 2 sqrt(s2) and 1 / v_max (s2 = 0 for a cell of fewer than two). */
+static ALWAYS_INLINE void cell_bound(const struct dsmc *d, size_t c, double *u, double *s2, double *vmax, double *inv,
+                                     const int D)
+{
+	const int S = 2 * D;
+	uint32_t k0 = d->start[c], nc = d->start[c + 1] - k0;
+	double m = 0;
+	if (nc >= 2) {
+		cell_mean(d, k0, nc, u, D);
+		for (uint32_t k = k0; k < k0 + nc; k++) {
+			double w2 = 0;
+			for (int a = 0; a < D; a++) {
+				double w = d->p[(size_t)k * S + D + a] - u[a];
+				w2 += w * w;
+			}
+			m = w2 > m ? w2 : m;
+		}
+	}
+	*s2 = m;
+	*vmax = 2 * sqrt(m);
+	*inv = 1 / *vmax;
+}
+
 static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const int B, const int M, const int P)
 {
 	const int S = 2 * D;
@@ -1129,27 +1153,25 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 	}
 	if (d->local_chi)
 		local_chi(d, D);
+	/* The bound of cell c + 1 (mean, maximum, square root, division) is
+	 * worked out before cell c's candidates: the collisions of cell c change
+	 * only its own particles, so the numbers are the same, and their latency
+	 * overlaps cell c's work instead of stalling each cell's start. */
+	double un[3] = {0, 0, 0}, s2n = 0, vmaxn = 0, invn = 0;
+	cell_bound(d, 0, un, &s2n, &vmaxn, &invn, D);
 	for (size_t c = 0; c < d->ncells; c++) {
 		uint32_t k0 = d->start[c], nc = d->start[c + 1] - k0;
-		if (nc < 2)
-			continue;
-		double u[3], s2 = 0;
-		cell_mean(d, k0, nc, u, D);
-		for (uint32_t k = k0; k < k0 + nc; k++) {
-			double w2 = 0;
-			for (int a = 0; a < D; a++) {
-				double w = d->p[(size_t)k * S + D + a] - u[a];
-				w2 += w * w;
-			}
-			s2 = w2 > s2 ? w2 : s2;
-		}
-		if (s2 == 0)
+		double u[3], s2 = s2n, vmax = vmaxn, inv = invn;
+		for (int a = 0; a < D; a++)
+			u[a] = un[a];
+		if (c + 1 < d->ncells)
+			cell_bound(d, c + 1, un, &s2n, &vmaxn, &invn, D);
+		if (nc < 2 || s2 == 0)
 			continue;
 		/* No-time-counter as a thinned Poisson process: the cell has a budget
 		 * b = chi N (N-1) sigma_T dt / (2 V_c) (plus the carried remainder)
 		 * and each candidate costs 1/v_max. When a collision raises the
 		 * bound, later candidates cost less: the thinning stays exact. */
-		double vmax = 2 * sqrt(s2), inv = 1 / vmax;
 		/* obstacles (B only): n = N_c / V_free in a cell they cut */
 		const double vf = B && d->vfac ? (double)d->vfac[c] : 1.0;
 		double b = (d->local_chi ? coef * d->chic[c] : coef) * vf * (double)nc * (double)(nc - 1) +
