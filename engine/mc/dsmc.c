@@ -233,16 +233,22 @@ static ALWAYS_INLINE double wrap(double x, double L)
 	return x;
 }
 
-static ALWAYS_INLINE uint32_t cell_of(const struct dsmc *d, const double *x, const int D)
+/* The cell of x from the grid's inverse edges and counts (locals in hot loops). */
+static ALWAYS_INLINE uint32_t cell_at(const double *inv_h, const int *nc, const double *x, const int D)
 {
 	uint32_t c = 0;
 	for (int a = D - 1; a >= 0; a--) {
-		int ix = (int)(x[a] * d->inv_h[a]);
-		if (ix >= d->nc[a])
-			ix = d->nc[a] - 1;
-		c = c * (uint32_t)d->nc[a] + (uint32_t)ix;
+		int ix = (int)(x[a] * inv_h[a]);
+		if (ix >= nc[a])
+			ix = nc[a] - 1;
+		c = c * (uint32_t)nc[a] + (uint32_t)ix;
 	}
 	return c;
+}
+
+static ALWAYS_INLINE uint32_t cell_of(const struct dsmc *d, const double *x, const int D)
+{
+	return cell_at(d->inv_h, d->nc, x, D);
 }
 
 static void set_msg(char *msg, size_t len, const char *fmt, double a)
@@ -393,22 +399,31 @@ static ALWAYS_INLINE double move(struct dsmc *d, double dt, const int D, const i
 		double *restrict p = d->p;
 		uint32_t *restrict cell = d->cell, *restrict cnt = d->cnt;
 		const uint32_t n = d->na;
+		/* the grid in locals: the stores to cell and cnt (uint32_t) may
+		 * alias d->nc (int), which the compiler would reload each time */
+		double L[3], ih[3];
+		int ncl[3];
+		for (int a = 0; a < D; a++) {
+			L[a] = d->L[a];
+			ih[a] = d->inv_h[a];
+			ncl[a] = d->nc[a];
+		}
 		for (uint32_t k = 0; k < n; k++) {
 			double *x = &p[(size_t)k * S], *v = x + D;
 			if (M) {
 				double v2 = 0;
 				for (int a = 0; a < D; a++) {
 					v2 += v[a] * v[a];
-					x[a] = wrap(x[a] + v[a] * dt, d->L[a]);
+					x[a] = wrap(x[a] + v[a] * dt, L[a]);
 				}
 				ek += d->msp[d->spc[d->id[k]]] * v2;
 			} else {
 				for (int a = 0; a < D; a++) {
 					ek += v[a] * v[a];
-					x[a] = wrap(x[a] + v[a] * dt, d->L[a]);
+					x[a] = wrap(x[a] + v[a] * dt, L[a]);
 				}
 			}
-			uint32_t cn = cell_of(d, x, D);
+			uint32_t cn = cell_at(ih, ncl, x, D);
 			cell[k] = cn;
 			cnt[cn]++;
 		}
