@@ -1,7 +1,11 @@
 #!/usr/bin/python3
 """make bench: our engines against the peers (EDMD, SPARTA) in the same run, interleaved, medians.
 
-usage: peers.py BUILD_DIR SRC_DIR PEERS_DIR [--reps K] [--quick]
+usage: peers.py BUILD_DIR SRC_DIR PEERS_DIR [--reps K] [--quick] [--mc-only] [--mc-base DSMC_BENCH] [--work DIR]
+--work: keep the peers' builds in DIR (reused by later runs) instead of a temporary directory.
+--mc-only: the DSMC section only. --mc-base: an earlier build's dsmc_bench also runs at each DSMC point,
+interleaved with ours and SPARTA (old, ours, peer, old, ours, peer, ...), and a line under the table gives
+ours / old (medians of the same run).
 Writes a markdown section to stdout (tables and notes generated from the numbers of this run) and one
 JSON line per measurement to stderr. A peer that is absent or fails makes its rows say so.
 
@@ -139,18 +143,22 @@ def prepare_sparta(src, peers, work):
     return None
 
 
-def mc_section(build, src, peers, reps, work):
+def mc_section(build, src, peers, reps, work, base=None):
     sparta = os.path.join(peers, "sparta-run") if peers else None
     why = prepare_sparta(src, peers, work) if sparta and os.path.exists(sparta) else "no ../shared/peers/sparta-run"
     if why:
         log({"peer": "sparta", "error": why})
         sparta = None
-    rows, ratios = [], []
+    rows, ratios, olds = [], [], []
     for n, phi, steps in MC_POINTS:
         ocmd = [os.path.join(build, "bench", "dsmc_bench"), "dsmc", "3", str(n), str(phi), "1", str(steps)]
-        ours, theirs, cells = [], [], None
+        ours, theirs, old, cells = [], [], [], None
         have = sparta and os.path.exists(sparta)
         for _ in range(reps):
+            if base:
+                d = json.loads(run([base] + ocmd[1:]))
+                old.append(d["moves_per_second"])
+                log({"base": "dsmc", "n": n, "phi": phi, "moves_per_second": d["moves_per_second"]})
             d = json.loads(run(ocmd))
             ours.append(d["moves_per_second"])
             cells = d["cells"][0]
@@ -164,6 +172,8 @@ def mc_section(build, src, peers, reps, work):
                     log({"peer": "sparta", "n": n, "phi": phi, "error": str(e)})
                     have = False
         mo = statistics.median(ours)
+        if old:
+            olds.append((n, mo / statistics.median(old), statistics.median(old)))
         cmd = "bench/dsmc_bench %s" % " ".join(ocmd[1:])
         if theirs:
             mp = statistics.median(theirs)
@@ -183,6 +193,10 @@ def mc_section(build, src, peers, reps, work):
             ", ".join("%.2f at N = %d" % (r[1], r[0]) for r in ratios), MC_TARGET, len(met), len(ratios)))
     else:
         out.append("SPARTA was not available in this run (%s): no ratio is claimed." % (why or "it failed; see the log"))
+    if olds:
+        out.append("")
+        out.append("The baseline build (`%s`), in the same interleaved runs: ours / baseline is %s (baseline medians %s moves/s)." % (
+            base, ", ".join("%.2f at N = %d" % (r[1], r[0]) for r in olds), ", ".join(fmt(r[2]) for r in olds)))
     out.append("")
     return out
 
@@ -196,12 +210,22 @@ def main():
     if "--quick" in args:  # a smoke run of the script itself: the smallest points only
         global ED_POINTS, MC_POINTS
         ED_POINTS, MC_POINTS = ED_POINTS[:1], MC_POINTS[:1]
+    base = args[args.index("--mc-base") + 1] if "--mc-base" in args else None
     if not os.path.isdir(peers):
         peers = None
-    with tempfile.TemporaryDirectory(prefix="granulard-peers-") as work:
+    def sections(work):
         out = ["## Against the peers, in this run", ""]
-        out += ed_section(build, peers, reps, work)
-        out += mc_section(build, src, peers, reps, work)
+        if "--mc-only" not in args:
+            out += ed_section(build, peers, reps, work)
+        out += mc_section(build, src, peers, reps, work, base)
+        return out
+    if "--work" in args:
+        work = os.path.abspath(args[args.index("--work") + 1])
+        os.makedirs(work, exist_ok=True)
+        out = sections(work)
+    else:
+        with tempfile.TemporaryDirectory(prefix="granulard-peers-") as work:
+            out = sections(work)
     print("\n".join(out))
 
 

@@ -1160,8 +1160,7 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 	const double ehalf = 0.5 * (1 + d->e), eloss = 0.25 * (1 - d->e * d->e) * d->mass;
 	const double sigma = d->sigma;
 	double virial = 0, loss = 0, pc = 0, pk = 0;
-	uint64_t ncoll = 0, ncand = 0, nraised = 0;
-	rng_t rng = d->rng;   /* a local copy: stores through d (counters) cannot alias it */
+	uint64_t ncoll = 0, ncand = 0;
 	if (P) {   /* impact_c: c at the collisions per particle the run has reached, held for the step */
 		pc = impact_c_at(d, 2.0 * (double)d->collisions / (double)d->n);
 		pk = D == 3 ? log1p(-pc) : pc > 1e-12 ? atanh(sqrt(pc)) : pc < -1e-12 ? atan(sqrt(-pc)) : 1;
@@ -1195,8 +1194,8 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 		while (b >= inv) {
 			b -= inv;
 			ncand++;
-			uint32_t i = k0 + (uint32_t)(rng_uniform_fast(&rng) * nc);
-			uint32_t j = k0 + (uint32_t)(rng_uniform_fast(&rng) * (nc - 1));
+			uint32_t i = k0 + (uint32_t)(rng_uniform_fast(&d->rng) * nc);
+			uint32_t j = k0 + (uint32_t)(rng_uniform_fast(&d->rng) * (nc - 1));
 			if (j >= i)
 				j++;
 			double *vi = &d->p[(size_t)i * S + D], *vj = &d->p[(size_t)j * S + D], g[3], g2 = 0;
@@ -1204,7 +1203,7 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 				g[a] = vi[a] - vj[a];
 				g2 += g[a] * g[a];
 			}
-			double r = rng_uniform_fast(&rng) * vmax;
+			double r = rng_uniform_fast(&d->rng) * vmax;
 			/* mixtures: the majorant has the largest cross-section sigma^(D-1);
 			 * a pair is accepted with its own, (sigma_ij / sigma)^(D-1) of it */
 			double sij = sigma, w2 = 1;
@@ -1227,10 +1226,10 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 			if (D == 2) {
 				double bp;
 				if (P) {   /* |b| from the table's P(b), the sign uniform */
-					bp = impact_b(pc, pk, rng_uniform_fast(&rng), 2);
-					bp = rng_uniform_fast(&rng) < 0.5 ? -bp : bp;
+					bp = impact_b(pc, pk, rng_uniform_fast(&d->rng), 2);
+					bp = rng_uniform_fast(&d->rng) < 0.5 ? -bp : bp;
 				} else {
-					bp = 2 * rng_uniform_fast(&rng) - 1;
+					bp = 2 * rng_uniform_fast(&d->rng) - 1;
 				}
 				cth = sqrt(1 - bp * bp);
 				bimp = fabs(bp);
@@ -1239,13 +1238,13 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 			} else {
 				double b1, b2, bb;
 				if (P) {   /* |b| from the table's P(b), the direction uniform */
-					double bm = impact_b(pc, pk, rng_uniform_fast(&rng), 3), ph = 2 * PI * rng_uniform_fast(&rng);
+					double bm = impact_b(pc, pk, rng_uniform_fast(&d->rng), 3), ph = 2 * PI * rng_uniform_fast(&d->rng);
 					bm = bm < 1 ? bm : 1;
 					b1 = bm * cos(ph), b2 = bm * sin(ph), bb = bm * bm;
 				} else {
 					do {
-						b1 = 2 * rng_uniform_fast(&rng) - 1;
-						b2 = 2 * rng_uniform_fast(&rng) - 1;
+						b1 = 2 * rng_uniform_fast(&d->rng) - 1;
+						b2 = 2 * rng_uniform_fast(&d->rng) - 1;
 						bb = b1 * b1 + b2 * b2;
 					} while (bb >= 1);
 				}
@@ -1293,7 +1292,7 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 				s2 = wi > wj ? wi : wj;
 				vmax = 2 * sqrt(s2);
 				inv = 1 / vmax;
-				nraised++;
+				d->vmax_raised++;
 			}
 			if (offset) {
 				/* CBA: each partner moves one diameter along its own
@@ -1314,8 +1313,6 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 	d->e_loss += loss;
 	d->collisions += ncoll;
 	d->candidates += ncand;
-	d->vmax_raised += nraised;
-	d->rng = rng;
 }
 
 /* One step; B = 1 for bounded scenes (walls, gravity): exact flights and
