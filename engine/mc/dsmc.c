@@ -59,10 +59,10 @@ struct dsmc {
 	uint32_t *cell;                /* new cell of each particle, then its sort destination (one step) */
 	uint32_t *start, *cnt;         /* ncells + 1 each; start: sorted offsets of p; cnt: counts, cursors */
 	/* sort scratch (see sort()): ring of ring_n records waiting for their slot
-	 * (tag: destination, UINT32_MAX when free), list of over_n far movers */
+	 * (slot j at j % ring_n), list of over_n far movers and their destinations */
 	uint32_t ring_n, over_n;
 	double *ringp, *overp;
-	uint32_t *ringid, *ringtag, *overid, *overdst;
+	uint32_t *ringid, *overid, *overdst;
 	float *rem;                    /* NTC fractional candidate carried per cell */
 	uint32_t *stamp;               /* hsmc: step at which a cell last took part in a cell collision */
 	float *chic, *chit;            /* local_chi: chi per cell; scratch for the block average */
@@ -950,29 +950,33 @@ static ALWAYS_INLINE void sort(struct dsmc *d, const int D)
 	uint32_t *id = d->id;
 	if (far <= d->over_n) {
 		double *rp = d->ringp, *op = d->overp;
-		uint32_t *rid = d->ringid, *rtag = d->ringtag, *oid = d->overid, *odst = d->overdst, no = 0;
-		for (uint32_t r = 0; r < n; r++) {
+		uint32_t *rid = d->ringid, *oid = d->overid, *odst = d->overdst, no = 0;
+		/* No data-dependent branch but the rare far mover's: whether slot r's
+		 * record waits in the ring and whether record r goes back or forward
+		 * are coin flips, mispredicted at half the records. Ring slot r % W is
+		 * copied to slot r whatever it holds: when it is not slot r's record
+		 * (stale), that record is written over it later in this pass (it is
+		 * record r itself, just below; a record read later that goes back; or
+		 * an overflow record, at the end). */
+		for (uint32_t r = 0, w = 0; r < n; r++, w = w + 1 == W ? 0 : w + 1) {   /* w = r % W */
 			double rec[6];
 			memcpy(rec, &p[(size_t)r * S], S * sizeof(double));
-			uint32_t rid0 = id[r], j = dst[r], w = r % W;
-			if (rtag[w] == r) {   /* the record waiting for slot r */
-				memcpy(&p[(size_t)r * S], &rp[(size_t)w * S], S * sizeof(double));
-				id[r] = rid[w];
-				rtag[w] = UINT32_MAX;
-			}
-			if (j <= r) {
-				memcpy(&p[(size_t)j * S], rec, S * sizeof(double));
-				id[j] = rid0;
-			} else if (j - r < W) {
-				w = j % W;
-				memcpy(&rp[(size_t)w * S], rec, S * sizeof(double));
-				rid[w] = rid0;
-				rtag[w] = j;
-			} else {
+			uint32_t rid0 = id[r], j = dst[r];
+			memcpy(&p[(size_t)r * S], &rp[(size_t)w * S], S * sizeof(double));
+			id[r] = rid[w];
+			if (j > r && j - r >= W) {   /* far forward: the overflow list */
 				memcpy(&op[(size_t)no * S], rec, S * sizeof(double));
 				oid[no] = rid0;
 				odst[no++] = j;
+				continue;
 			}
+			uint32_t wj = w + (j - r);   /* j % W when 0 < j - r < W (unused otherwise) */
+			wj = wj >= W ? wj - W : wj;
+			const int back = j <= r;
+			double *to = back ? &p[(size_t)j * S] : &rp[(size_t)wj * S];
+			uint32_t *ti = back ? &id[j] : &rid[wj];
+			memcpy(to, rec, S * sizeof(double));
+			*ti = rid0;
 		}
 		for (uint32_t o = 0; o < no; o++) {
 			memcpy(&p[(size_t)odst[o] * S], &op[(size_t)o * S], S * sizeof(double));
@@ -1747,16 +1751,13 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	}
 	d->id = malloc(d->n * sizeof(uint32_t));
 	ring_size(d);
-	d->ringp = malloc((size_t)d->ring_n * S * sizeof(double));
-	d->ringid = malloc((size_t)d->ring_n * sizeof(uint32_t));
-	d->ringtag = malloc((size_t)d->ring_n * sizeof(uint32_t));
+	/* zeroed: sort() copies ring slots whatever they hold (defined bytes) */
+	d->ringp = calloc((size_t)d->ring_n * S, sizeof(double));
+	d->ringid = calloc((size_t)d->ring_n, sizeof(uint32_t));
 	d->overp = malloc((size_t)d->over_n * S * sizeof(double));
 	d->overid = malloc((size_t)d->over_n * sizeof(uint32_t));
 	d->overdst = malloc((size_t)d->over_n * sizeof(uint32_t));
-	if (d->ringtag)
-		for (uint32_t k = 0; k < d->ring_n; k++)
-			d->ringtag[k] = UINT32_MAX;
-	if (!d->ringp || !d->ringid || !d->ringtag || !d->overp || !d->overid || !d->overdst)
+	if (!d->ringp || !d->ringid || !d->overp || !d->overid || !d->overdst)
 		goto fail;
 	if (!d->p || !d->id || !d->cell || !d->start || !d->cnt || !d->rem ||
 	    (d->hsmc && !d->stamp) || (d->local_chi && (!d->chic || !d->chit)))
@@ -1973,7 +1974,6 @@ void dsmc_destroy(dsmc_t *d)
 	free(d->id);
 	free(d->ringp);
 	free(d->ringid);
-	free(d->ringtag);
 	free(d->overp);
 	free(d->overid);
 	free(d->overdst);
@@ -2307,7 +2307,8 @@ size_t dsmc_memory(const dsmc_t *d)
 {
 	size_t S = 2 * (size_t)d->dim;
 	return sizeof(*d) + d->n * S * sizeof(double) + 2 * d->n * sizeof(uint32_t) +
-	       (size_t)(d->ring_n + d->over_n) * (S * sizeof(double) + 2 * sizeof(uint32_t)) +
+	       (size_t)d->ring_n * (S * sizeof(double) + sizeof(uint32_t)) +
+	       (size_t)d->over_n * (S * sizeof(double) + 2 * sizeof(uint32_t)) +
 	       d->ncells * (2 * sizeof(uint32_t) + sizeof(float) + (d->hsmc ? sizeof(uint32_t) : 0) +
 	                    (d->local_chi ? 2 * sizeof(float) : 0) + (d->nobst ? sizeof(float) : 0)) +
 	       (d->mix ? d->n * (1 + sizeof(double)) : 0);
