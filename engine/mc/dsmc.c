@@ -1171,13 +1171,13 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 	}
 	if (d->local_chi)
 		local_chi(d, D);
-	/* The bound of cell c + 1 (mean, maximum, square root, division) is
-	 * worked out before cell c's candidates: the collisions of cell c change
-	 * only its own particles, so the numbers are the same, and their latency
-	 * overlaps cell c's work instead of stalling each cell's start. */
 	/* The cells of two particles or more, listed first without a branch (a
 	 * test per cell would be mispredicted at a quarter of the cells, ~2.5
-	 * particles each), in cnt: free until the next step's count. */
+	 * particles each), in cnt: free until the next step's count. The bound
+	 * of the next listed cell (mean, maximum, square root, division) is
+	 * worked out before this cell's candidates: the collisions of a cell
+	 * change only its own particles, so the numbers are the same, and their
+	 * latency overlaps this cell's work instead of stalling each cell's start. */
 	uint32_t *act = d->cnt, nact = 0;
 	for (size_t c = 0; c < d->ncells; c++) {
 		act[nact] = (uint32_t)c;
