@@ -1,7 +1,14 @@
 #!/usr/bin/python3
 """make bench: our engines against the peers (EDMD, SPARTA) in the same run, interleaved, medians.
 
-usage: peers.py BUILD_DIR SRC_DIR PEERS_DIR [--reps K] [--quick]
+usage: peers.py BUILD_DIR SRC_DIR PEERS_DIR [--reps K] [--quick] [--mc-only] [--mc-base DSMC_BENCH] [--work DIR]
+--cpu: DSMC rates per CPU second instead of per wall-clock second (a machine shared with other work): ours
+from dsmc_bench's cpu_seconds of the timed steps; SPARTA's from the CPU time of its run minus that of a run of
+the same set-up with 1 timed step (getrusage of the children: set-up and start-up cancel).
+--work: keep the peers' builds in DIR (reused by later runs) instead of a temporary directory.
+--mc-only: the DSMC section only. --mc-base: an earlier build's dsmc_bench also runs at each DSMC point,
+interleaved with ours and SPARTA (old, ours, peer, old, ours, peer, ...), and a line under the table gives
+ours / old (medians of the same run).
 Writes a markdown section to stdout (tables and notes generated from the numbers of this run) and one
 JSON line per measurement to stderr. A peer that is absent or fails makes its rows say so.
 
@@ -12,7 +19,7 @@ gives both medians, their min-max spread and the ratio of the medians. Both side
 clock, excluding set-up and warm-up, and simulate the same state (3D elastic hard spheres, diameter 1,
 mass 1, T = 1, FCC start, the same N and packing fraction).
 """
-import json, math, os, statistics, subprocess, sys, tempfile
+import json, math, os, resource, statistics, subprocess, sys, tempfile
 
 # 3D elastic points of issue 20: (N, phi, our warm-up and measured collisions per particle).
 # N = 4 k^3 because EDMD starts from a filled FCC crystal (ours fills the same lattice exactly).
@@ -139,31 +146,53 @@ def prepare_sparta(src, peers, work):
     return None
 
 
-def mc_section(build, src, peers, reps, work):
+def child_cpu():
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def mc_section(build, src, peers, reps, work, base=None, cpu=False):
+    rate = lambda d: d["moves"] / d["cpu_seconds"] if cpu else d["moves_per_second"]
     sparta = os.path.join(peers, "sparta-run") if peers else None
     why = prepare_sparta(src, peers, work) if sparta and os.path.exists(sparta) else "no ../shared/peers/sparta-run"
     if why:
         log({"peer": "sparta", "error": why})
         sparta = None
-    rows, ratios = [], []
+    rows, ratios, olds = [], [], []
     for n, phi, steps in MC_POINTS:
         ocmd = [os.path.join(build, "bench", "dsmc_bench"), "dsmc", "3", str(n), str(phi), "1", str(steps)]
-        ours, theirs, cells = [], [], None
+        ours, theirs, old, cells = [], [], [], None
         have = sparta and os.path.exists(sparta)
         for _ in range(reps):
+            if base:
+                d = json.loads(run([base] + ocmd[1:]))
+                old.append(rate(d))
+                log({"base": "dsmc", "n": n, "phi": phi, "moves_per_second": d["moves_per_second"], "rate": rate(d)})
             d = json.loads(run(ocmd))
-            ours.append(d["moves_per_second"])
+            ours.append(rate(d))
             cells = d["cells"][0]
-            log({"ours": "dsmc", "n": n, "phi": phi, "moves_per_second": d["moves_per_second"], "cells": d["cells"]})
+            log({"ours": "dsmc", "n": n, "phi": phi, "moves_per_second": d["moves_per_second"], "rate": rate(d), "cells": d["cells"]})
             if have:
                 try:
-                    line = run([sys.executable, sparta, str(n), str(phi), str(cells), str(steps), "0.2", os.path.join(work, "sparta")])
-                    theirs.append(float(line.split()[5]))
-                    log({"peer": "sparta", "n": n, "phi": phi, "line": line})
+                    scmd = lambda k: [sys.executable, sparta, str(n), str(phi), str(cells), str(k), "0.2", os.path.join(work, "sparta")]
+                    c0 = child_cpu()
+                    line = run(scmd(steps))
+                    c1 = child_cpu()
+                    if cpu:
+                        run(scmd(1))   # the same set-up, 1 warm-up and 1 timed step
+                        c2 = child_cpu()
+                        # sparta-run takes max(1, STEPS // 4) warm-up steps, then STEPS
+                        extra = steps + max(1, steps // 4) - 2
+                        theirs.append(n * extra / ((c1 - c0) - (c2 - c1)))
+                    else:
+                        theirs.append(float(line.split()[5]))
+                    log({"peer": "sparta", "n": n, "phi": phi, "line": line, "rate": theirs[-1]})
                 except Exception as e:
                     log({"peer": "sparta", "n": n, "phi": phi, "error": str(e)})
                     have = False
         mo = statistics.median(ours)
+        if old:
+            olds.append((n, mo / statistics.median(old), statistics.median(old)))
         cmd = "bench/dsmc_bench %s" % " ".join(ocmd[1:])
         if theirs:
             mp = statistics.median(theirs)
@@ -174,15 +203,22 @@ def mc_section(build, src, peers, reps, work):
             rows.append("| %d | %g | %d^3 | %s (%s) | peer not available | | `%s` |" % (n, phi, cells, fmt(mo), spread(ours), cmd))
     out = ["### DSMC against SPARTA", "",
            "3D elastic gas (SPARTA has no inelastic rule; the cost of a move or a collision is the same), the same number",
-           "of particles, the same cubic grid and 0.2 collisions per particle per step on both sides. Moves per second (one",
-           "particle advanced by one step), median of %d interleaved runs (min-max in brackets), after untimed warm-up steps." % reps,
-           "", "| N | φ | cells | ours moves/s | SPARTA moves/s | ours / SPARTA | commands |", "|---|---|---|---|---|---|---|"] + rows + [""]
+           "of particles, the same cubic grid and 0.2 collisions per particle per step on both sides. Moves per %ssecond (one" % ("CPU " if cpu else ""),
+           "particle advanced by one step), median of %d interleaved runs (min-max in brackets), after untimed warm-up steps." % reps]
+    if cpu:
+        out += ["Per CPU second: ours from the timed steps' CPU time; SPARTA's from the CPU time of its run less that of the",
+                "same set-up run with one timed step (peers.py --cpu)."]
+    out += ["", "| N | φ | cells | ours moves/s | SPARTA moves/s | ours / SPARTA | commands |", "|---|---|---|---|---|---|---|"] + rows + [""]
     if ratios:
         met = [r for r in ratios if r[1] >= MC_TARGET]
         out.append("Generated from this run: ours / SPARTA is %s; the target of %gx is met at %d of %d sizes." % (
             ", ".join("%.2f at N = %d" % (r[1], r[0]) for r in ratios), MC_TARGET, len(met), len(ratios)))
     else:
         out.append("SPARTA was not available in this run (%s): no ratio is claimed." % (why or "it failed; see the log"))
+    if olds:
+        out.append("")
+        out.append("The baseline build (`%s`), in the same interleaved runs: ours / baseline is %s (baseline medians %s moves/s)." % (
+            base, ", ".join("%.2f at N = %d" % (r[1], r[0]) for r in olds), ", ".join(fmt(r[2]) for r in olds)))
     out.append("")
     return out
 
@@ -196,12 +232,22 @@ def main():
     if "--quick" in args:  # a smoke run of the script itself: the smallest points only
         global ED_POINTS, MC_POINTS
         ED_POINTS, MC_POINTS = ED_POINTS[:1], MC_POINTS[:1]
+    base = args[args.index("--mc-base") + 1] if "--mc-base" in args else None
     if not os.path.isdir(peers):
         peers = None
-    with tempfile.TemporaryDirectory(prefix="granulard-peers-") as work:
+    def sections(work):
         out = ["## Against the peers, in this run", ""]
-        out += ed_section(build, peers, reps, work)
-        out += mc_section(build, src, peers, reps, work)
+        if "--mc-only" not in args:
+            out += ed_section(build, peers, reps, work)
+        out += mc_section(build, src, peers, reps, work, base, "--cpu" in args)
+        return out
+    if "--work" in args:
+        work = os.path.abspath(args[args.index("--work") + 1])
+        os.makedirs(work, exist_ok=True)
+        out = sections(work)
+    else:
+        with tempfile.TemporaryDirectory(prefix="granulard-peers-") as work:
+            out = sections(work)
     print("\n".join(out))
 
 

@@ -176,7 +176,7 @@ sh "$src/bench/par_model.sh" "$build" >"$tpm"
 	echo
 	echo "Random start, default cells (docs/scene.md) and adaptive step (0.2 collisions per particle per step), 2 untimed"
 	echo "warm-up steps, then STEPS timed. A move is one particle advanced by one step (SPARTA's unit). Columns: moves"
-	echo "per second, collisions per second, bytes held per particle (dsmc_memory(): particles, sort buffer, cells),"
+	echo "per second, collisions per second, bytes held per particle (dsmc_memory(): particle records, identities, sort destinations, sort ring, cells; docs/engine.md),"
 	echo "cell grid, command (dsmc_bench METHOD DIM N PHI RESTITUTION STEPS [CORRECTION])."
 	echo
 	echo "| case | method | D | N | volume fraction | restitution | moves/s | collisions/s | bytes/particle | cells | command |"

@@ -59,10 +59,10 @@ struct dsmc {
 	uint32_t *cell;                /* new cell of each particle, then its sort destination (one step) */
 	uint32_t *start, *cnt;         /* ncells + 1 each; start: sorted offsets of p; cnt: counts, cursors */
 	/* sort scratch (see sort()): ring of ring_n records waiting for their slot
-	 * (tag: destination, UINT32_MAX when free), list of over_n far movers */
+	 * (slot j at j % ring_n), list of over_n far movers and their destinations */
 	uint32_t ring_n, over_n;
 	double *ringp, *overp;
-	uint32_t *ringid, *ringtag, *overid, *overdst;
+	uint32_t *ringid, *overid, *overdst;
 	float *rem;                    /* NTC fractional candidate carried per cell */
 	uint32_t *stamp;               /* hsmc: step at which a cell last took part in a cell collision */
 	float *chic, *chit;            /* local_chi: chi per cell; scratch for the block average */
@@ -233,16 +233,22 @@ static ALWAYS_INLINE double wrap(double x, double L)
 	return x;
 }
 
-static ALWAYS_INLINE uint32_t cell_of(const struct dsmc *d, const double *x, const int D)
+/* The cell of x from the grid's inverse edges and counts (locals in hot loops). */
+static ALWAYS_INLINE uint32_t cell_at(const double *inv_h, const int *nc, const double *x, const int D)
 {
 	uint32_t c = 0;
 	for (int a = D - 1; a >= 0; a--) {
-		int ix = (int)(x[a] * d->inv_h[a]);
-		if (ix >= d->nc[a])
-			ix = d->nc[a] - 1;
-		c = c * (uint32_t)d->nc[a] + (uint32_t)ix;
+		int ix = (int)(x[a] * inv_h[a]);
+		if (ix >= nc[a])
+			ix = nc[a] - 1;
+		c = c * (uint32_t)nc[a] + (uint32_t)ix;
 	}
 	return c;
+}
+
+static ALWAYS_INLINE uint32_t cell_of(const struct dsmc *d, const double *x, const int D)
+{
+	return cell_at(d->inv_h, d->nc, x, D);
 }
 
 static void set_msg(char *msg, size_t len, const char *fmt, double a)
@@ -387,6 +393,42 @@ static ALWAYS_INLINE double move(struct dsmc *d, double dt, const int D, const i
 	const int S = 2 * D;
 	double ek = 0;
 	memset(d->cnt, 0, (d->ncells + 1) * sizeof(uint32_t));
+	if (!d->hsmc) {
+		/* dsmc: one flat loop (a loop per cell would mispredict its exit at
+		 * every cell, ~2.5 particles) */
+		double *restrict p = d->p;
+		uint32_t *restrict cell = d->cell, *restrict cnt = d->cnt;
+		const uint32_t n = d->na;
+		/* the grid in locals: the stores to cell and cnt (uint32_t) may
+		 * alias d->nc (int), which the compiler would reload each time */
+		double L[3], ih[3];
+		int ncl[3];
+		for (int a = 0; a < D; a++) {
+			L[a] = d->L[a];
+			ih[a] = d->inv_h[a];
+			ncl[a] = d->nc[a];
+		}
+		for (uint32_t k = 0; k < n; k++) {
+			double *x = &p[(size_t)k * S], *v = x + D;
+			if (M) {
+				double v2 = 0;
+				for (int a = 0; a < D; a++) {
+					v2 += v[a] * v[a];
+					x[a] = wrap(x[a] + v[a] * dt, L[a]);
+				}
+				ek += d->msp[d->spc[d->id[k]]] * v2;
+			} else {
+				for (int a = 0; a < D; a++) {
+					ek += v[a] * v[a];
+					x[a] = wrap(x[a] + v[a] * dt, L[a]);
+				}
+			}
+			uint32_t cn = cell_at(ih, ncl, x, D);
+			cell[k] = cn;
+			cnt[cn]++;
+		}
+		return M ? 0.5 * ek : 0.5 * d->mass * ek;
+	}
 	for (size_t c = 0; c < d->ncells; c++) {
 		for (uint32_t k = d->start[c]; k < d->start[c + 1]; k++) {
 			double *x = &d->p[(size_t)k * S], *v = x + D, xn[3];
@@ -908,29 +950,33 @@ static ALWAYS_INLINE void sort(struct dsmc *d, const int D)
 	uint32_t *id = d->id;
 	if (far <= d->over_n) {
 		double *rp = d->ringp, *op = d->overp;
-		uint32_t *rid = d->ringid, *rtag = d->ringtag, *oid = d->overid, *odst = d->overdst, no = 0;
-		for (uint32_t r = 0; r < n; r++) {
+		uint32_t *rid = d->ringid, *oid = d->overid, *odst = d->overdst, no = 0;
+		/* No data-dependent branch but the rare far mover's: whether slot r's
+		 * record waits in the ring and whether record r goes back or forward
+		 * are coin flips, mispredicted at half the records. Ring slot r % W is
+		 * copied to slot r whatever it holds: when it is not slot r's record
+		 * (stale), that record is written over it later in this pass (it is
+		 * record r itself, just below; a record read later that goes back; or
+		 * an overflow record, at the end). */
+		for (uint32_t r = 0, w = 0; r < n; r++, w = w + 1 == W ? 0 : w + 1) {   /* w = r % W */
 			double rec[6];
 			memcpy(rec, &p[(size_t)r * S], S * sizeof(double));
-			uint32_t rid0 = id[r], j = dst[r], w = r % W;
-			if (rtag[w] == r) {   /* the record waiting for slot r */
-				memcpy(&p[(size_t)r * S], &rp[(size_t)w * S], S * sizeof(double));
-				id[r] = rid[w];
-				rtag[w] = UINT32_MAX;
-			}
-			if (j <= r) {
-				memcpy(&p[(size_t)j * S], rec, S * sizeof(double));
-				id[j] = rid0;
-			} else if (j - r < W) {
-				w = j % W;
-				memcpy(&rp[(size_t)w * S], rec, S * sizeof(double));
-				rid[w] = rid0;
-				rtag[w] = j;
-			} else {
+			uint32_t rid0 = id[r], j = dst[r];
+			memcpy(&p[(size_t)r * S], &rp[(size_t)w * S], S * sizeof(double));
+			id[r] = rid[w];
+			if (j > r && j - r >= W) {   /* far forward: the overflow list */
 				memcpy(&op[(size_t)no * S], rec, S * sizeof(double));
 				oid[no] = rid0;
 				odst[no++] = j;
+				continue;
 			}
+			uint32_t wj = w + (j - r);   /* j % W when 0 < j - r < W (unused otherwise) */
+			wj = wj >= W ? wj - W : wj;
+			const int back = j <= r;
+			double *to = back ? &p[(size_t)j * S] : &rp[(size_t)wj * S];
+			uint32_t *ti = back ? &id[j] : &rid[wj];
+			memcpy(to, rec, S * sizeof(double));
+			*ti = rid0;
 		}
 		for (uint32_t o = 0; o < no; o++) {
 			memcpy(&p[(size_t)odst[o] * S], &op[(size_t)o * S], S * sizeof(double));
@@ -1087,6 +1133,30 @@ static ALWAYS_INLINE double impact_b(double c, double k, double u, const int D)
 	return sqrt(fabs(c) > 1e-12 ? -expm1(u * k) / c : u);
 }
 
+/* Collision bound of cell c: mean velocity u, s2 = max_i |v_i - u|^2,
+ * v_max = 2 sqrt(s2) and 1 / v_max (s2 = 0 for a cell of fewer than two). */
+static ALWAYS_INLINE void cell_bound(const struct dsmc *d, size_t c, double *u, double *s2, double *vmax, double *inv,
+                                     const int D)
+{
+	const int S = 2 * D;
+	uint32_t k0 = d->start[c], nc = d->start[c + 1] - k0;
+	double m = 0;
+	if (nc >= 2) {
+		cell_mean(d, k0, nc, u, D);
+		for (uint32_t k = k0; k < k0 + nc; k++) {
+			double w2 = 0;
+			for (int a = 0; a < D; a++) {
+				double w = d->p[(size_t)k * S + D + a] - u[a];
+				w2 += w * w;
+			}
+			m = w2 > m ? w2 : m;
+		}
+	}
+	*s2 = m;
+	*vmax = 2 * sqrt(m);
+	*inv = 1 / *vmax;
+}
+
 static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const int B, const int M, const int P)
 {
 	const int S = 2 * D;
@@ -1101,27 +1171,35 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 	}
 	if (d->local_chi)
 		local_chi(d, D);
+	/* The cells of two particles or more, listed first without a branch (a
+	 * test per cell would be mispredicted at a quarter of the cells, ~2.5
+	 * particles each), in cnt: free until the next step's count. The bound
+	 * of the next listed cell (mean, maximum, square root, division) is
+	 * worked out before this cell's candidates: the collisions of a cell
+	 * change only its own particles, so the numbers are the same, and their
+	 * latency overlaps this cell's work instead of stalling each cell's start. */
+	uint32_t *act = d->cnt, nact = 0;
 	for (size_t c = 0; c < d->ncells; c++) {
+		act[nact] = (uint32_t)c;
+		nact += d->start[c + 1] - d->start[c] >= 2;
+	}
+	double un[3] = {0, 0, 0}, s2n = 0, vmaxn = 0, invn = 0;
+	if (nact)
+		cell_bound(d, act[0], un, &s2n, &vmaxn, &invn, D);
+	for (uint32_t q = 0; q < nact; q++) {
+		const size_t c = act[q];
 		uint32_t k0 = d->start[c], nc = d->start[c + 1] - k0;
-		if (nc < 2)
-			continue;
-		double u[3], s2 = 0;
-		cell_mean(d, k0, nc, u, D);
-		for (uint32_t k = k0; k < k0 + nc; k++) {
-			double w2 = 0;
-			for (int a = 0; a < D; a++) {
-				double w = d->p[(size_t)k * S + D + a] - u[a];
-				w2 += w * w;
-			}
-			s2 = w2 > s2 ? w2 : s2;
-		}
+		double u[3], s2 = s2n, vmax = vmaxn, inv = invn;
+		for (int a = 0; a < D; a++)
+			u[a] = un[a];
+		if (q + 1 < nact)
+			cell_bound(d, act[q + 1], un, &s2n, &vmaxn, &invn, D);
 		if (s2 == 0)
 			continue;
 		/* No-time-counter as a thinned Poisson process: the cell has a budget
 		 * b = chi N (N-1) sigma_T dt / (2 V_c) (plus the carried remainder)
 		 * and each candidate costs 1/v_max. When a collision raises the
 		 * bound, later candidates cost less: the thinning stays exact. */
-		double vmax = 2 * sqrt(s2), inv = 1 / vmax;
 		/* obstacles (B only): n = N_c / V_free in a cell they cut */
 		const double vf = B && d->vfac ? (double)d->vfac[c] : 1.0;
 		double b = (d->local_chi ? coef * d->chic[c] : coef) * vf * (double)nc * (double)(nc - 1) +
@@ -1683,16 +1761,13 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	}
 	d->id = malloc(d->n * sizeof(uint32_t));
 	ring_size(d);
-	d->ringp = malloc((size_t)d->ring_n * S * sizeof(double));
-	d->ringid = malloc((size_t)d->ring_n * sizeof(uint32_t));
-	d->ringtag = malloc((size_t)d->ring_n * sizeof(uint32_t));
+	/* zeroed: sort() copies ring slots whatever they hold (defined bytes) */
+	d->ringp = calloc((size_t)d->ring_n * S, sizeof(double));
+	d->ringid = calloc((size_t)d->ring_n, sizeof(uint32_t));
 	d->overp = malloc((size_t)d->over_n * S * sizeof(double));
 	d->overid = malloc((size_t)d->over_n * sizeof(uint32_t));
 	d->overdst = malloc((size_t)d->over_n * sizeof(uint32_t));
-	if (d->ringtag)
-		for (uint32_t k = 0; k < d->ring_n; k++)
-			d->ringtag[k] = UINT32_MAX;
-	if (!d->ringp || !d->ringid || !d->ringtag || !d->overp || !d->overid || !d->overdst)
+	if (!d->ringp || !d->ringid || !d->overp || !d->overid || !d->overdst)
 		goto fail;
 	if (!d->p || !d->id || !d->cell || !d->start || !d->cnt || !d->rem ||
 	    (d->hsmc && !d->stamp) || (d->local_chi && (!d->chic || !d->chit)))
@@ -1909,7 +1984,6 @@ void dsmc_destroy(dsmc_t *d)
 	free(d->id);
 	free(d->ringp);
 	free(d->ringid);
-	free(d->ringtag);
 	free(d->overp);
 	free(d->overid);
 	free(d->overdst);
@@ -2243,7 +2317,8 @@ size_t dsmc_memory(const dsmc_t *d)
 {
 	size_t S = 2 * (size_t)d->dim;
 	return sizeof(*d) + d->n * S * sizeof(double) + 2 * d->n * sizeof(uint32_t) +
-	       (size_t)(d->ring_n + d->over_n) * (S * sizeof(double) + 2 * sizeof(uint32_t)) +
+	       (size_t)d->ring_n * (S * sizeof(double) + sizeof(uint32_t)) +
+	       (size_t)d->over_n * (S * sizeof(double) + 2 * sizeof(uint32_t)) +
 	       d->ncells * (2 * sizeof(uint32_t) + sizeof(float) + (d->hsmc ? sizeof(uint32_t) : 0) +
 	                    (d->local_chi ? 2 * sizeof(float) : 0) + (d->nobst ? sizeof(float) : 0)) +
 	       (d->mix ? d->n * (1 + sizeof(double)) : 0);
