@@ -1668,7 +1668,7 @@ static void species_from_id(struct ed *ed)
 /* ---- seed 001's open stream: dispenser layout and filters (setup) ------ */
 
 /* Template layers: this many equilibrated snapshots per dispenser. */
-enum { TPL_LAYERS = 4 };
+enum { TPL_LAYERS = 16 };
 
 /* The starting layout of dispenser wall w's layer (2D): n = ceil(eta h W /
  * v_p) particles in R rows across the layer, centres at normal
