@@ -2214,7 +2214,8 @@ int scene_has_open_walls(const scene_t *s)
 	for (int a = 0; a < s->dim && a < 3; a++)
 		for (int k = 0; k < 2; k++)
 			if (s->boundary[a].walled && (s->boundary[a].wall[k].type == SCENE_WALL_OPEN ||
-			                              s->boundary[a].wall[k].type == SCENE_WALL_RESERVOIR))
+			                              s->boundary[a].wall[k].type == SCENE_WALL_RESERVOIR ||
+			                              s->boundary[a].wall[k].type == SCENE_WALL_DISPENSER))
 				return 1;
 	return 0;
 }

@@ -314,7 +314,8 @@ double scene_close_packing(int dim);
 /* Any walled axis; any non-zero gravity component; any obstacle. */
 int scene_has_walls(const scene_t *s);
 int scene_has_obstacles(const scene_t *s);
-/* Any wall of type "open" or "reservoir" (particles leave through it). */
+/* Any wall of type "open" or "reservoir" (particles leave through it), or
+ * "dispenser" (particles enter through it): the particle set is not fixed. */
 int scene_has_open_walls(const scene_t *s);
 /* Any wall of type "reservoir" or "dispenser" (particles enter; ed only). Such
  * scenes have capacity particle slots, count of them filled at the start:
