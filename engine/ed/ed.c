@@ -3186,6 +3186,8 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 		why = "bad mode";
 	if (!why && ed->t_abs_valid != 0 && ed->t_abs_valid != 1)
 		why = "bad clock flag";
+	if (!why && ed->disp && !isfinite(ed->wall[ed->disp - 1].pt0))
+		why = "bad piston time";
 	for (uint32_t i = 0; i < n && !why && ed->frozen; i++)
 		if (ed->frozen[i] > 6 || (ed->frozen[i] && (!ed->fcell[ed->frozen[i] - 1] || ed->gone[i])))
 			why = "bad frozen flag";
