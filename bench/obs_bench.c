@@ -91,11 +91,11 @@ int main(int argc, char **argv)
 			double t0 = now();
 			if (f == 0) {
 				obs_scalars_t sv;
-				obs_scalars(o[f], pos, vel, &sv);
+				obs_scalars(o[f], (size_t)n, pos, vel, &sv);
 			} else {
 				if (!strcmp(families[f], "fields"))
 					obs_fields_add(o[f], pos, vel, NULL);
-				if (!obs_curves(o[f], cl, pos, vel, NULL)) {
+				if (!obs_curves(o[f], cl, (size_t)n, pos, vel, NULL)) {
 					fprintf(stderr, "obs_bench: %s: out of memory\n", families[f]);
 					goto out;
 				}

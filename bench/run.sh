@@ -129,6 +129,9 @@ tdm=$(mktemp)
 sh "$src/bench/daemon_bench.sh" "$build" "$src" >"$tdm"
 tin=$(mktemp)
 sh "$src/bench/ingest_bench.sh" "$build" "$src" >"$tin"
+# One system over many ranks (issue 14): serial event statistics and the speed-up model (about 45 s CPU).
+tpm=$(mktemp)
+sh "$src/bench/par_model.sh" "$build" >"$tpm"
 
 {
 	echo "# Benchmarks"
@@ -212,7 +215,9 @@ sh "$src/bench/ingest_bench.sh" "$build" "$src" >"$tin"
 	cat "$tpe"
 	cat "$tdm"
 	cat "$tin"
+	echo
+	cat "$tpm"
 	if [ -f "$src/docs/benchmarks-notes.md" ]; then cat "$src/docs/benchmarks-notes.md"; fi
 } >"$out"
-rm -f "$tdm" "$tin" "$tpe" "$tob"
+rm -f "$tdm" "$tin" "$tpe" "$tob" "$tpm"
 echo "wrote $out"

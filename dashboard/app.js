@@ -446,19 +446,30 @@
         // reservoir walls (docs/scene.md) also let particles in: their inflow counts per wall
         const ins = [];
         for (const r of recs) for (const w of Object.keys(r.inflow || {})) if (!ins.includes(w)) ins.push(w);
-        const cols = [recs.map((r) => fin(r.particles_present))]
+        // ensembles: the counts are totals over the replicas (docs/scene.md); present is shown per replica
+        const per = (r) => (r.replicas > 1 ? r.particles_present / r.replicas : r.particles_present);
+        const cols = [recs.map((r) => fin(per(r)))]
           .concat(names.map((w) => recs.map((r) => (r.outflow ? fin(r.outflow[w] ?? 0) : null))))
           .concat(ins.map((w) => recs.map((r) => (r.inflow ? fin(r.inflow[w] ?? 0) : null))));
         const l = last(recs);
         const sum = (o) => Object.values(o || {}).reduce((a, x) => a + x, 0);
-        return { labels: ['present'].concat(names.map((w) => 'out ' + w), ins.map((w) => 'in ' + w)), cols,
+        return { labels: [l && l.replicas > 1 ? 'present (per replica)' : 'present'].concat(names.map((w) => 'out ' + w), ins.map((w) => 'in ' + w)), cols,
           info: recs.length ? cnt(l.particles_present) + ' particles present at time ' + fmt(l.time) +
+            (l.replicas > 1 ? ' (all ' + l.replicas + ' replicas together; the counts are totals)' : '') +
             (ins.length ? '; ' + cnt(sum(l.inflow)) + ' came in through reservoir walls (' + cnt(sum(l.inflow_rejected)) +
               ' entries rejected: overlap)' : '') : '' };
       } },
     { id: 'height', ylabel: 'height', shown: (o) => o.includes('center_of_mass_height'),
       lines(recs) {
-        return { labels: ['centre of mass'], cols: [recs.map((r) => fin(r.center_of_mass_height))] };
+        const h = recs.map((r) => fin(r.center_of_mass_height));
+        const l = last(recs);
+        if (!recs.some((r) => r.center_of_mass_height_se != null))
+          return { labels: ['centre of mass'], cols: [h] };
+        // ensembles: the mean over the replicas with its standard error (docs/scene.md)
+        const se = recs.map((r) => fin(r.center_of_mass_height_se));
+        return { labels: ['centre of mass', '+ se', '\u2212 se'], cols: [h, h.map((v, i) => (v != null && se[i] != null ? v + se[i] : null)),
+          h.map((v, i) => (v != null && se[i] != null ? v - se[i] : null))], dash: [undefined, [4, 3], [4, 3]],
+          info: 'mean over ' + l.replicas + ' replicas; last: ' + fmt(l.center_of_mass_height) + ' \u00b1 ' + fmt(l.center_of_mass_height_se) };
       } },
     { id: 'energies', ylabel: 'energy', shown: (o) => o.includes('potential_energy') || o.includes('rotational_energy'),
       lines(recs, sc) {

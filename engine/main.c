@@ -563,10 +563,12 @@ static int ens_checkpoint(const scene_t *s, int rank, int size, run_t **runs, co
  * write failure on rank 0 sets *failed there (the next reduction stops the
  * run); the exchange is completed regardless, so no rank is left waiting. */
 static void ens_frames(const scene_t *s, int rank, int size, run_t **runs, const double *want, sink_t *sink,
-                       double *pos, double *vel, int *failed)
+                       double *pos, double *vel, int64_t *ids, int *failed)
 {
 	const int R = (int)s->replicas;
-	const int cnt = (int)(s->count * (uint64_t)s->dim);
+	/* rows: the particles, or the slots with a reservoir wall (ids: each row's particle id, -1 empty) */
+	const uint64_t rows = scene_slots(s);
+	const int cnt = (int)(rows * (uint64_t)s->dim);
 	struct { double time; uint64_t events, collisions; } hdr;
 	for (int r = 0; r < R; r++) {
 		int owner = r % size;
@@ -574,24 +576,28 @@ static void ens_frames(const scene_t *s, int rank, int size, run_t **runs, const
 		if (want[r] == 0 || (rank != owner && rank != 0))
 			continue;
 		if (rank == owner) {
-			run_frame(runs[r / size], &rec, pos, vel);
+			run_frame(runs[r / size], &rec, pos, vel, ids);
 			if (rank != 0) {
 				hdr.time = rec.time, hdr.events = rec.events, hdr.collisions = rec.collisions;
 				MPI_Send(&hdr, (int)sizeof hdr, MPI_BYTE, 0, r, MPI_COMM_WORLD);
 				MPI_Send(pos, cnt, MPI_DOUBLE, 0, r, MPI_COMM_WORLD);
 				MPI_Send(vel, cnt, MPI_DOUBLE, 0, r, MPI_COMM_WORLD);
+				if (ids)
+					MPI_Send(ids, (int)rows, MPI_INT64_T, 0, r, MPI_COMM_WORLD);
 				continue;
 			}
 		} else {
 			MPI_Recv(&hdr, (int)sizeof hdr, MPI_BYTE, owner, r, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
 			MPI_Recv(pos, cnt, MPI_DOUBLE, owner, r, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
 			MPI_Recv(vel, cnt, MPI_DOUBLE, owner, r, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+			if (ids)
+				MPI_Recv(ids, (int)rows, MPI_INT64_T, owner, r, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
 			memset(&rec, 0, sizeof rec);
 			rec.kind = RUN_SNAPSHOT;
 			rec.dim = s->dim;
-			rec.n = s->count;
+			rec.n = rows;
 			rec.time = hdr.time, rec.events = hdr.events, rec.collisions = hdr.collisions;
-			rec.pos = pos, rec.vel = vel;
+			rec.pos = pos, rec.vel = vel, rec.ids = ids;
 		}
 		if (!*failed && h5md_frame(sink->traj, r, &rec, sink->err, sizeof(sink->err)) != H5MD_OK)
 			*failed = 1;
@@ -629,8 +635,10 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 	obs_t *lay = curves && rank == 0 ? obs_create(s, 1) : NULL;
 	size_t CP = 0;
 	double *cvals = NULL;
-	const size_t fsz = frames ? s->count * (size_t)s->dim : 0;
+	const size_t fsz = frames ? scene_slots(s) * (size_t)s->dim : 0;
 	double *fpos = frames ? malloc(fsz * sizeof(double)) : NULL, *fvel = frames ? malloc(fsz * sizeof(double)) : NULL;
+	const int with_ids = frames && scene_has_reservoir(s);
+	int64_t *fids = with_ids ? malloc(scene_slots(s) * sizeof(int64_t)) : NULL;
 	run_t **runs = calloc(NL > 0 ? NL : 1, sizeof(run_t *));
 	run_record_t *last = calloc(NL > 0 ? NL : 1, sizeof(run_record_t));
 	int *done = calloc(NL > 0 ? NL : 1, sizeof(int));
@@ -642,7 +650,7 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 	ckpt_ensemble_t es = {1, 0.0};
 	const int ckpt = (eo->mode & ENS_CKPT) != 0;
 
-	if (!runs || !last || !done || !vals || (frames && (!fpos || !fvel)) || (curves && rank == 0 && !lay))
+	if (!runs || !last || !done || !vals || (frames && (!fpos || !fvel)) || (with_ids && !fids) || (curves && rank == 0 && !lay))
 		failed = 1;
 	if (eo->mode & ENS_RESUME) {
 		if (rank == 0)
@@ -742,7 +750,7 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 			}
 		}
 		if (frames)
-			ens_frames(s, rank, size, runs, vals + NV + 3, sink, fpos, fvel, &emit_failed);
+			ens_frames(s, rank, size, runs, vals + NV + 3, sink, fpos, fvel, fids, &emit_failed);
 		if (ndone == R && !emit_failed)
 			break;
 		/* Checkpoint decisions from data every rank has: the mean time, the
@@ -795,6 +803,7 @@ cleanup:
 	free(vals);
 	free(fpos);
 	free(fvel);
+	free(fids);
 	free(cvals);
 	obs_destroy(lay);
 	return ret;

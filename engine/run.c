@@ -54,6 +54,7 @@ struct run {
 	dsmc_t *mc;
 	uint64_t mc_chunk;       /* dsmc steps between polls of the stop flag */
 	clusters_t *cl;
+	int varying;             /* open or reservoir walls: particles come and go (NaN rows, eng_present()) */
 	obs_t *obs;              /* structure observables (observe.h), NULL when none is asked for */
 	msd_t *msd;              /* mean_square_displacement (observe/msd.h), or NULL */
 	double msd_prev, msd_tprev; /* MSD and time of the previous progress record (the interval's D) */
@@ -224,6 +225,16 @@ static void eng_state(const run_t *rc, double *pos, double *vel)
 		dsmc_state(rc->mc, pos, vel);
 }
 
+/* The state of the particles present, as eng_state(), in the first rows (obs_present()); their count.
+ * A scene with a fixed particle set (r->varying 0: no open or reservoir wall) has them all, in order. */
+static size_t eng_present(const run_t *rc, double *pos, double *vel, double *spin)
+{
+	eng_state(rc, pos, vel);
+	if (!rc->varying)
+		return rc->s.count;
+	return obs_present(scene_slots(&rc->s), rc->s.dim, pos, vel, spin, spin ? ed_spin_dim(rc->ed) : 0);
+}
+
 static double eng_time(const run_t *rc)
 {
 	return rc->ed ? ed_time(rc->ed) : dsmc_time(rc->mc);
@@ -262,7 +273,7 @@ static void msd_follow(run_t *rc)
 }
 
 /* flux: sum_i v_i . g_hat / volume and its standard error over particles (observe.h). */
-static void flux_compute(const scene_t *s, const double *vel, double *flux, double *se)
+static void flux_compute(const scene_t *s, uint64_t n, const double *vel, double *flux, double *se)
 {
 	const int D = s->dim;
 	double g[3] = {0, 0, 0}, gn = 0.0;
@@ -272,7 +283,6 @@ static void flux_compute(const scene_t *s, const double *vel, double *flux, doub
 	for (int a = 0; a < D; a++)
 		g[a] = gn > 0.0 ? s->gravity[a] / gn : (a == D - 1);
 	double sum = 0.0, sum2 = 0.0;
-	const uint64_t n = s->count;
 	for (uint64_t i = 0; i < n; i++) {
 		double u = 0.0;
 		for (int a = 0; a < D; a++)
@@ -362,22 +372,22 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 			r->wall_pressure[w] = (k ? 1.0 : -1.0) * r->wall_force[w][a] / area;
 		}
 	}
-	int want_vel = (s->observables & SCENE_OBS_VDIST) != 0;
+	int want_vel = (s->observables & (SCENE_OBS_VDIST | SCENE_OBS_FLUX)) != 0;
 	int want_pos = (s->observables & (SCENE_OBS_CLUSTERS | SCENE_OBS_GOFR)) != 0;
+	size_t rows = s->count;
 	if (want_pos || want_vel)
-		eng_state(rc, rc->pos, want_vel ? rc->vel : NULL);
+		rows = eng_present(rc, rc->pos, want_vel ? rc->vel : NULL, NULL);
 	if ((s->observables & SCENE_OBS_CLUSTERS) && rc->cl) {
-		if (clusters_compute(rc->cl, rc->pos, s->box, s->radius, s->cluster_delta * 2.0 * s->radius,
+		if (clusters_set_count(rc->cl, rows) != 0 ||
+		    clusters_compute(rc->cl, rc->pos, s->box, s->radius, s->cluster_delta * 2.0 * s->radius,
 		                     &r->clusters) != 0)
 			return RUN_ENOMEM;
 	}
 	r->obs.a2 = r->obs.a3 = r->obs.g_pairs = r->obs.g_pairs_se = r->obs.g_rate = r->obs.g_pressure = NAN;
 	r->obs.msd = r->obs.msd_se = r->obs.diffusion = r->obs.msd_walled = NAN;
 	r->obs.flux = r->obs.flux_se = NAN;
-	if (s->observables & SCENE_OBS_FLUX) {
-		eng_state(rc, rc->pos, rc->vel);
-		flux_compute(s, rc->vel, &r->obs.flux, &r->obs.flux_se);
-	}
+	if (s->observables & SCENE_OBS_FLUX)
+		flux_compute(s, rows, rc->vel, &r->obs.flux, &r->obs.flux_se);
 	if (rc->msd) {
 		msd_follow(rc);
 		r->obs.msd = msd_value(rc->msd, &r->obs.msd_se);
@@ -396,7 +406,7 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 		rc->msd_tprev = sm.time;
 	}
 	if (rc->obs && (s->observables & (SCENE_OBS_VDIST | SCENE_OBS_GOFR))) {
-		if (obs_scalars(rc->obs, rc->pos, rc->vel, &r->obs) != 0)
+		if (obs_scalars(rc->obs, rows, rc->pos, rc->vel, &r->obs) != 0)
 			return RUN_ENOMEM;
 		if (r->have_interval && (s->observables & SCENE_OBS_GOFR)) {
 			double t_avg = 2.0 * sm.ekin_time_integral / (s->dim * (double)s->count * sm.interval);
@@ -486,8 +496,7 @@ static void dspec_follow(run_t *r, double t)
 	const double dt = r->s.dspec_interval;
 	if (!r->dsp || t < r->dsp_k * dt)
 		return;
-	eng_state(r, r->pos, NULL);
-	obs_dspec_add(r->obs, r->pos);
+	obs_dspec_add(r->obs, eng_present(r, r->pos, NULL, NULL), r->pos);
 	while (r->dsp_k * dt <= t)
 		r->dsp_k += 1.0;
 }
@@ -506,7 +515,10 @@ int run_curves(run_t *r, run_record_t *rec)
 	const int spins = r->spin && (r->s.observables & SCENE_OBS_VDIST);   /* only velocity_distribution uses them */
 	if (spins)
 		ed_spins(r->ed, r->spin);
-	rec->curves = obs_curves(r->obs, r->cl, r->pos, r->vel, spins ? r->spin : NULL);
+	/* the rows present (fields_sample() above took the slot rows as they are) */
+	size_t np = r->varying ? obs_present(scene_slots(&r->s), r->s.dim, r->pos, r->vel, spins ? r->spin : NULL,
+	                                     spins ? ed_spin_dim(r->ed) : 0) : r->s.count;
+	rec->curves = obs_curves(r->obs, r->cl, np, r->pos, r->vel, spins ? r->spin : NULL);
 	if (!rec->curves)
 		return RUN_ENOMEM;
 	rec->temperature = rec->curves->temperature;
@@ -535,6 +547,7 @@ void run_snap_taken(run_t *r)
 	eng_totals(r, &sm);
 	r->st.snap_events = sm.events;
 	sched_skip(&r->s.snapshots, &r->st.k_snap, sm.time, sm.collisions, r->s.count);
+	fields_plan(r, sm.time);   /* the next exposure ends at the next snapshot time */
 }
 
 static int curves_on(const run_t *r)
@@ -622,6 +635,7 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 	if (!r)
 		goto nomem;
 	r->s = *s;
+	r->varying = scene_has_open_walls(s);
 	r->s.stream = stream;
 	if (opts)
 		r->opts = *opts;
@@ -700,7 +714,7 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 			goto nomem;
 	}
 	if (s->observables & SCENE_OBS_CLUSTERS) {
-		r->cl = clusters_create(s->dim, s->count);
+		r->cl = clusters_create(s->dim, scene_slots(s));
 		if (!r->cl)
 			goto nomem;
 		int walled[3];
@@ -754,7 +768,10 @@ run_t *run_create_blank(const scene_t *s, const run_opts_t *opts, int *err, char
 
 run_t *run_open(const scene_t *s, uint64_t stream, int *err, char *msg, size_t msglen)
 {
-	return create(s, stream, NULL, 0, err, msg, msglen);
+	/* curves: each replica samples the fields' exposures and the density spectrum itself (run_next());
+	 * the ensemble takes and combines the curves at its output times (run_curves()) */
+	const run_opts_t opts = {.curves = 1};
+	return create(s, stream, &opts, 0, err, msg, msglen);
 }
 
 int run_restore_finish(run_t *r, char *msg, size_t msglen)
@@ -1164,6 +1181,7 @@ int run_next(run_t *r, const volatile sig_atomic_t *stop, run_record_t *rec, int
 		r->status = RUN_COMPLETED;
 		if ((ret = sample_progress(r)) != RUN_OK)
 			return ret;
+		fields_plan(r, eng_time(r));
 		r->st.started = 1;
 		*rec = r->rec;
 		r->rec.warning = NULL;
@@ -1173,9 +1191,17 @@ int run_next(run_t *r, const volatile sig_atomic_t *stop, run_record_t *rec, int
 		double t_stop = fmin(sched_time(&s->every, r->st.k_out), t_until);
 		uint64_t c_stop = sched_coll(&s->every, r->st.k_out, n);
 		if (c_until < c_stop) c_stop = c_until;
+		/* the fields' exposure instants and the density spectrum's samples, as in run_go() */
+		double t_soft = INFINITY;
+		if (r->fld)
+			t_soft = fmin(t_soft, r->fld_next);
+		if (r->dsp)
+			t_soft = fmin(t_soft, r->dsp_k * s->dspec_interval);
 		double t;
 		uint64_t c;
-		int done = advance(r, t_stop, INFINITY, c_stop, until_time, t_until, c_until, &t, &c);
+		int done = advance(r, t_stop, t_soft, c_stop, until_time, t_until, c_until, &t, &c);
+		fields_follow(r, t);
+		dspec_follow(r, t);
 		int due = s->every.kind == SCENE_CLOCK_TIME ? t >= sched_time(&s->every, r->st.k_out)
 		                                            : c >= sched_coll(&s->every, r->st.k_out, n);
 		if (stop && *stop && !done) {
@@ -1213,15 +1239,19 @@ int run_frame_due(const run_t *r)
 	return 0;
 }
 
-void run_frame(run_t *r, run_record_t *rec, double *pos, double *vel)
+void run_frame(run_t *r, run_record_t *rec, double *pos, double *vel, int64_t *ids)
 {
 	totals_record(r, rec, RUN_SNAPSHOT);
+	rec->n = scene_slots(&r->s);
 	eng_state(r, pos, vel);
 	rec->pos = pos;
 	rec->vel = vel;
+	if (ids && r->ed && ed_labels(r->ed, ids) == ED_OK)
+		rec->ids = ids;
 	r->st.snap_events = rec->events;
 	r->st.frames++;
 	sched_skip(&r->s.snapshots, &r->st.k_snap, rec->time, rec->collisions, r->s.count);
+	fields_plan(r, rec->time);   /* the next exposure ends at the next snapshot time */
 }
 
 int run_scene(const scene_t *s, run_emit_fn emit, void *ctx,

@@ -101,7 +101,10 @@ typedef struct {
 		double a2, a3, g_pairs, g_rate, g_pressure, cluster_w, cluster_exponent;
 		double msd, diffusion;
 		double temperature_species[SCENE_SPECIES_MAX];
-	} se;
+		double com_height, potential_energy, rotational_energy, rotational_temperature;
+		double wall_pressure[6], wall_force[6][3];
+		double obstacle_force[SCENE_OBSTACLES_MAX][3];
+	} se;                        /* flux: obs.flux_se is the standard error over the replicas then */
 	/* summary only */
 	run_status_t status;
 	double events_per_second, collisions_per_second;
@@ -223,10 +226,11 @@ void run_summary_record(run_t *r, run_record_t *sum);
  * runs, whose frames are equal when snapshot times are output times).
  * run_frame() fills rec (RUN_SNAPSHOT: time, events, collisions, kinetic
  * energy) with the state copied into the caller's pos and vel (N*D doubles
- * each, scene particle order, positions folded) and advances the schedule
+ * each, scene particle order, positions folded; with a reservoir wall
+ * scene_slots() rows, and each row's particle id into ids when not NULL) and advances the schedule
  * (run_state_t k_snap, snap_events, frames). Neither moves a particle. */
 int run_frame_due(const run_t *r);
-void run_frame(run_t *r, run_record_t *rec, double *pos, double *vel);
+void run_frame(run_t *r, run_record_t *rec, double *pos, double *vel, int64_t *ids);
 /* The structure curves of the present state (ensembles: each replica at the ensemble's curve times):
  * fills rec (RUN_CURVES: time, events, collisions, temperature, curves owned by r). Moves no
  * particle, changes no schedule. RUN_OK, or RUN_ENOMEM (cluster workspace), RUN_EMETHOD when the

@@ -766,16 +766,6 @@ static int check_fields(ctx_t *c, json_t *v, scene_t *s)
 	json_t *out = json_object_get(v, "output"), *f = json_object_get(out, "fields");
 	if (!(s->observables & SCENE_OBS_FIELDS))
 		return 0;
-	size_t i;
-	json_t *o;
-	json_array_foreach(json_object_get(out, "observables"), i, o) {
-		char path[PATHLEN];
-		snprintf(path, sizeof path, "output.observables[%zu]", i);
-		if (strcmp(json_string_value(o), "fields"))
-			continue;
-		if (s->replicas > 1)
-			return fail(c, path, "\"fields\" is not averaged over ensembles yet (run.replicas must be 1)");
-	}
 	if (!f)
 		return fail(c, "output.fields", "required with the \"fields\" observable (at least \"cells\")");
 	json_t *cells = json_object_get(f, "cells");
@@ -815,27 +805,13 @@ static int check_fields(ctx_t *c, json_t *v, scene_t *s)
 #define DSPEC_MAX_VALUES (1 << 24)
 #define DSPEC_MAX_SAMPLES 16384
 
-/* density_spectrum and flux (engine/observe/dspec.h, docs/scene.md): single runs without open walls (a fixed
- * particle set); the spectrum needs output.density_spectrum (interval) and snapshots on a time schedule that
+/* density_spectrum (engine/observe/dspec.h, docs/scene.md): with open walls over the particles present at
+ * each sample, in ensembles the mean over the replicas; the spectrum needs output.density_spectrum (interval) and snapshots on a time schedule that
  * is a whole number of intervals; slices >= 2; the axis within the dimension (default: gravity's axis, else
  * the last axis). */
 static int check_pipe(ctx_t *c, json_t *v, scene_t *s)
 {
 	json_t *out = json_object_get(v, "output"), *d = json_object_get(out, "density_spectrum");
-	size_t i;
-	json_t *o;
-	json_array_foreach(json_object_get(out, "observables"), i, o) {
-		char path[PATHLEN];
-		const char *name = json_string_value(o);
-		snprintf(path, sizeof path, "output.observables[%zu]", i);
-		if (strcmp(name, "density_spectrum") && strcmp(name, "flux"))
-			continue;
-		if (s->replicas > 1)
-			return fail(c, path, "\"%s\" is not averaged over ensembles yet (run.replicas must be 1)", name);
-		if (scene_has_open_walls(s))
-			return fail(c, path, "\"%s\" is not available with an \"open\" wall yet (it needs a fixed particle "
-			            "set)", name);
-	}
 	if (!(s->observables & SCENE_OBS_DSPEC))
 		return 0;
 	if (!d)
@@ -900,8 +876,6 @@ static int check_rough_scene(ctx_t *c, json_t *v, scene_t *s)
 		snprintf(path, sizeof path, "output.observables[%zu]", i);
 		if (!s->rough)
 			return fail(c, path, "\"%s\" needs rough particles (collisions.rough)", name);
-		if (s->replicas > 1)
-			return fail(c, path, "\"%s\" is not averaged over ensembles yet (run.replicas must be 1)", name);
 	}
 	return 0;
 }
@@ -1312,9 +1286,9 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 			if (s->rough)
 				return fail(c, path, "\"%s\" walls take smooth particles (collisions.rough is not "
 				            "supported with them yet)", wn);
-			if (s->replicas > 1)
-				return fail(c, path, "\"%s\" walls are not supported in ensembles yet (run.replicas must "
-				            "be 1)", wn);
+			if (s->replicas > 1 && w->type == SCENE_WALL_DISPENSER)
+				return fail(c, path, "\"dispenser\" walls are not supported in ensembles yet (run.replicas "
+				            "must be 1)");
 		}
 	/* default: room for twice the larger of the initial count and what the
 	 * box holds at the densest reservoir's density, plus 64 */
@@ -1489,44 +1463,31 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 	json_array_foreach(obs, i, o) {
 		const char *name = json_string_value(o);
 		snprintf(path, sizeof path, "output.observables[%zu]", i);
-		bool mine = !strcmp(name, "wall_force") || !strcmp(name, "center_of_mass_height") ||
-		            !strcmp(name, "potential_energy") || !strcmp(name, "obstacle_force") || !strcmp(name, "outflow");
-		if (mine && s->replicas > 1)
-			return fail(c, path, "\"%s\" is not averaged over ensembles yet (run.replicas must be 1)", name);
 		/* cluster search, g(r), S(k) and the velocity correlations: minimum image on periodic axes, plain
-		 * differences on walled ones; obstacles take volume out of the box that the ideal-gas normalisation
-		 * does not know, and an open wall removes particles (NaN rows) from a fixed-N normalisation */
-		static const char *const structure[] = { "clusters", "pair_correlation", "structure_factor",
-		                                         "velocity_correlations" };
+		 * differences on walled ones; open and reservoir walls: over the particles present at each sample
+		 * (run.c, eng_present()); obstacles: g(r)'s ideal-gas pairs count only the region the centres reach
+		 * (observe/gofr.h) */
 		static const char *const periodic_only[] = { "structure_factor", "velocity_correlations" };
 		int periodic_axes = 0;
 		for (int a = 0; a < s->dim; a++)
 			periodic_axes += !s->boundary[a].walled;
-		for (size_t k = 0; k < sizeof structure / sizeof structure[0]; k++) {
-			if (strcmp(name, structure[k]))
-				continue;
-			if (obst)
-				return fail(c, path, "\"%s\" needs a box without obstacles (its ideal-gas normalisation "
-				            "assumes the whole box is open to the particles); not available with obstacles yet",
-				            name);
-			if (scene_has_open_walls(s))
-				return fail(c, path, "\"%s\" is not available with an \"open\" wall yet (it needs a fixed "
-				            "particle set)", name);
-		}
 		for (size_t k = 0; k < sizeof periodic_only / sizeof periodic_only[0]; k++)
 			if (!periodic_axes && !strcmp(name, periodic_only[k]))
 				return fail(c, path, "\"%s\" needs a periodic axis (its wave vectors run along the periodic "
 				            "axes only); every axis has walls", name);
 		/* unwrapped displacements along periodic axes rely on a speed bound from the mechanical energy
 		 * (engine/observe/msd.h), which must not grow: thermal, moving and vibrating walls, driving and
-		 * gravity along a periodic axis feed it; walled axes need no unwrapping (no bound when none is
-		 * periodic); obstacles (thermal ones feed energy) are left out as before */
+		 * gravity along a periodic axis feed it, as do no_slip (thermal) obstacles; walled axes need no
+		 * unwrapping (no bound when none is periodic) */
 		if (!strcmp(name, "mean_square_displacement")) {
 			int per = 0;
 			for (int a = 0; a < s->dim; a++)
 				per += !s->boundary[a].walled;
-			if (obst)
-				return fail(c, path, "\"mean_square_displacement\" is not available with obstacles yet");
+			for (int k = 0; k < s->n_obstacles && per; k++)
+				if (s->obstacle[k].type == SCENE_OBST_NO_SLIP)
+					return fail(c, path, "\"mean_square_displacement\" with a periodic axis needs obstacles that "
+					            "do not feed energy (slip, random_sign): obstacles[%d] is \"no_slip\", which leaves "
+					            "the speeds unbounded for following particles across periodic images", k);
 			if (scene_has_open_walls(s))
 				return fail(c, path, "\"mean_square_displacement\" is not available with an \"open\" wall yet "
 				            "(it needs a fixed particle set)");
@@ -1555,9 +1516,6 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 		if (!strcmp(name, "outflow") && !scene_has_open_walls(s))
 			return fail(c, path, "\"outflow\" needs an \"open\" wall");
 		/* the virial pressure assumes a fixed particle set in the box */
-		if (!strcmp(name, "velocity_distribution") && scene_has_open_walls(s))
-			return fail(c, path, "\"velocity_distribution\" is not available with an \"open\" wall yet (it "
-			            "needs a fixed particle set)");
 		if (!strcmp(name, "pressure") && scene_has_open_walls(s))
 			return fail(c, path, "\"pressure\" is not available with an \"open\" wall (particles leave); "
 			            "use \"wall_force\"");

@@ -46,7 +46,7 @@ obs = scene.get("output", {}).get("observables",
       ["kinetic_energy", "temperature", "pressure", "compressibility", "collision_rate"])
 for p in prog:
     # structure observables: a2 and the contact values in progress records, curves only in observables.jsonl
-    key = {"velocity_distribution": "a2", "pair_correlation": "g_contact_pairs"}
+    key = {"velocity_distribution": "a2", "pair_correlation": "g_contact_pairs", "mean_square_displacement": "msd"}
     missing = (base | {key.get(o, o) for o in obs
                        if o not in ("clusters", "structure_factor", "velocity_correlations", "fields", "density_spectrum")}) - set(p)
     assert not missing, missing

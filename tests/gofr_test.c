@@ -200,6 +200,143 @@ static void test_ideal_walled(int dim, size_t n, const double *box, const int *w
 	free(pos);
 }
 
+/*
+ * Obstacles (gofr_obstacles()): n uniform independent centres in the region they reach (outside each
+ * obstacle's contact circle/sphere, inside the walls' region), by rejection, K independent configurations.
+ * The pair counts of one configuration are not Poisson (pairs share points, and where a point sits near an
+ * obstacle all its shells lose alike), so each bin's standard error is the spread over the K
+ * configurations; to it adds the table's own relative error (about 2e-3: sqrt(F (1 - F) / M) at each radius
+ * and the same for |A|, M ~ 2^18 points). Per bin the pooled count within 5 of those combined standard
+ * errors; the walls-only normalisation of the same n (no obstacle) must be off in most bins, which shows
+ * that the test sees the obstacle. Then rows that left (gofr_set_count() with a subset): the same on the
+ * first n/2 rows. And the table's volume: the smallest shell's ideal count gives |A| = n(n-1)/2 v/ideal,
+ * against the exact box minus the obstacles, within 4 binomial standard errors of the estimate
+ * (sqrt(p (1 - p) / M) / p relative, p = |A| / |R|, M = 2^18 points).
+ */
+static int outside(int dim, const double *x, const double *box, const int *walled, int k, const double *oc,
+                   const double *os)
+{
+	for (int j = 0; j < k; j++) {
+		double d2 = 0;
+		for (int a = 0; a < dim; a++) {
+			double d = x[a] - oc[j * dim + a];
+			if (!walled[a])
+				d -= box[a] * round(d / box[a]);
+			d2 += d * d;
+		}
+		if (d2 < os[j] * os[j])
+			return 0;
+	}
+	return 1;
+}
+
+static void test_ideal_obstacles(int dim, size_t n, int K, const double *box, const int *walled, int k,
+                                 const double *oc, const double *os, double exact_area, const char *what)
+{
+	enum { NB = 40 };
+	uint64_t seed = 517 + dim + k;
+	const double radius = 0.5;
+	double rmax = 1e300, inner[3], *pos = malloc(n * dim * sizeof(double)), c[NB], tot[NB], tot2[NB], sq[NB],
+	       sq2[NB];
+	for (int a = 0; a < dim; a++) {
+		inner[a] = walled[a] ? box[a] - 2 * radius : box[a];
+		rmax = fmin(rmax, 0.5 * box[a]);
+	}
+	gofr_t *g = gofr_create(dim, n, box, rmax), *w = gofr_create(dim, n, box, rmax);
+	int rc = gofr_walls(g, walled, radius) | gofr_walls(w, walled, radius) | gofr_obstacles(g, k, oc, os);
+	memset(tot, 0, sizeof tot);
+	memset(tot2, 0, sizeof tot2);
+	memset(sq, 0, sizeof sq);
+	memset(sq2, 0, sizeof sq2);
+	for (int r = 0; r < K; r++) {
+		for (size_t i = 0; i < n; i++) {
+			double x[3];
+			do {
+				for (int a = 0; a < dim; a++)
+					x[a] = uniform(&seed) * inner[a] + (walled[a] ? radius : 0);
+			} while (!outside(dim, x, box, walled, k, oc, os));
+			memcpy(pos + i * dim, x, dim * sizeof(double));
+		}
+		rc |= gofr_set_count(g, n) | gofr_pairs(g, pos, NULL, 0, rmax, NB, c, NULL, NULL);
+		for (int b = 0; b < NB; b++)
+			tot[b] += c[b], sq[b] += c[b] * c[b];
+		/* the first half of the rows only (the rest left) */
+		rc |= gofr_set_count(g, n / 2) | gofr_pairs(g, pos, NULL, 0, rmax, NB, c, NULL, NULL);
+		for (int b = 0; b < NB; b++)
+			tot2[b] += c[b], sq2[b] += c[b] * c[b];
+	}
+	int bad = 0, bad2 = 0, plain_bad = 0;
+	double worst = 0;
+	for (int b = 0; b < NB; b++) {
+		double lo = rmax * b / NB, hi = rmax * (b + 1) / NB;
+		rc |= gofr_set_count(g, n);
+		double e = K * gofr_ideal_in(g, lo, hi), e0 = K * gofr_ideal_in(w, lo, hi);
+		rc |= gofr_set_count(g, n / 2);
+		double e2 = K * gofr_ideal_in(g, lo, hi);
+		/* K times the variance of one configuration's count, plus the table's error */
+		double v1 = K * (sq[b] - tot[b] * tot[b] / K) / (K - 1), v2 = K * (sq2[b] - tot2[b] * tot2[b] / K) / (K - 1);
+		double s1 = sqrt(v1 + e * e * 4e-6), s2 = sqrt(v2 + e2 * e2 * 4e-6);
+		bad += fabs(tot[b] - e) > 5 * s1;
+		bad2 += fabs(tot2[b] - e2) > 5 * s2;
+		plain_bad += fabs(tot[b] - e0) > 5 * s1;
+		worst = fmax(worst, fabs(tot[b] / e - 1));
+	}
+	ok(rc == 0 && bad == 0 && bad2 == 0 && plain_bad > NB / 2,
+	   "%s, N=%zu x %d: g(r) = 1 with the obstacles' normalisation in all %d bins up to r = %g within 5 se "
+	   "(%d off; %d off with N/2 rows present; largest |g-1| %.4f); walls-only normalisation: %d bins off", what,
+	   n, K, NB, rmax, bad, bad2, worst, plain_bad);
+	if (exact_area > 0) {
+		double rr = rmax / 1000, v = dim == 2 ? PI * rr * rr : 4.0 / 3.0 * PI * rr * rr * rr, R = 1;
+		for (int a = 0; a < dim; a++)
+			R *= inner[a];
+		gofr_set_count(g, n);
+		double area = 0.5 * (double)n * (double)(n - 1) * v / gofr_ideal_in(g, 0, rr), p = exact_area / R;
+		double se = exact_area * sqrt(p * (1 - p) / (1 << 18)) / p;
+		ok(fabs(area - exact_area) < 4 * se, "%s: reachable volume %.3f, exactly %.3f (se %.3f)", what, area,
+		   exact_area, se);
+	}
+	gofr_destroy(g);
+	gofr_destroy(w);
+	free(pos);
+}
+
+/*
+ * One disk of contact radius S in a periodic square of edge L (no wrap onto itself: r + 2S < L): the set of
+ * centres A misses the disk O, and |A n (A - d)| = L^2 - |O u (O - d)| = L^2 - 2 pi S^2 + lens(|d|), with
+ * lens(r) = 2 S^2 acos(r / 2S) - (r/2) sqrt(4 S^2 - r^2) the overlap of two disks (0 beyond 2S). The ideal
+ * pairs in [a, b) are n(n-1)/2 int_a^b 2 pi r |A n (A - r)| dr / |A|^2 exactly; the table must agree within
+ * its Monte Carlo error (about 2e-3 relative: the binomial error of F and of |A| for 2^18 points, 4 se).
+ */
+static double lens(double r, double S)
+{
+	return r < 2 * S ? 2 * S * S * acos(r / (2 * S)) - 0.5 * r * sqrt(4 * S * S - r * r) : 0.0;
+}
+
+static void test_obstacle_formula(void)
+{
+	const double L = 40, S = 6, box[3] = {L, L, 1}, oc[2] = {3, 20}, os[1] = {S};
+	const size_t n = 1000;
+	const int per[3] = {0, 0, 0};
+	gofr_t *g = gofr_create(2, n, box, 19);
+	int rc = gofr_walls(g, per, 0.5) | gofr_obstacles(g, 1, oc, os);
+	double A = L * L - PI * S * S, worst = 0;
+	int bad = 0;
+	for (int k = 0; k < 19; k++) {
+		double a = k, b = k + 1, sum = 0;
+		int M = 2000;
+		for (int i = 0; i < M; i++) {
+			double r = a + (b - a) * (i + 0.5) / M;
+			sum += 2 * PI * r * (L * L - 2 * PI * S * S + lens(r, S));
+		}
+		double exact = 0.5 * n * (n - 1.0) * sum * (b - a) / M / (A * A), got = gofr_ideal_in(g, a, b);
+		worst = fmax(worst, fabs(got / exact - 1));
+		bad += fabs(got / exact - 1) > 4 * 2e-3;
+	}
+	ok(rc == 0 && bad == 0, "one obstacle in a periodic box: the table's ideal pairs against the exact lens "
+	   "formula in 19 shells, largest relative difference %.5f (< 8e-3)", worst);
+	gofr_destroy(g);
+}
+
 /* The edge-corrected ideal counts against a direct numerical integration of the triangular difference
  * densities over the shell (midpoint rule in angle, 2D), and the periodic limit. */
 static void test_ideal_formula(void)
@@ -263,7 +400,7 @@ static void test_enskog(void)
 
 int main(void)
 {
-	plan(35);
+	plan(41);
 	double b2[3] = {20, 17, 1}, b3[3] = {9, 11, 10}, tiny[3] = {5, 6, 5.5};
 	test_brute(2, 1500, b2, 3.0, "2D, 6x5 cells");
 	test_brute(3, 1500, b3, 3.0, "3D, 3x3x3 cells");
@@ -280,6 +417,23 @@ int main(void)
 	test_ideal_walled(2, 20000, w2, wxy, "2D, walls along x and y");
 	test_ideal_walled(3, 20000, w3, wz, "3D, walls along z");
 	test_ideal_walled(3, 20000, w3, wxyz, "3D, walls on every axis");
+	{
+		/* 2D periodic 60 x 60 with one disk of contact radius 15 (20% of the box), near the edge so that
+		 * it wraps; 3D with a wall along z and two spheres */
+		double b2o[3] = {60, 60, 1}, c2[2] = {50, 12}, s2[1] = {15};
+		int per[3] = {0, 0, 0};
+		test_ideal_obstacles(2, 2000, 16, b2o, per, 1, c2, s2, 3600 - PI * 225, "2D periodic, one obstacle");
+		double b3o[3] = {24, 24, 20}, c3[6] = {6, 6, 10, 18, 15, 9}, s3[2] = {5, 4};
+		test_ideal_obstacles(3, 2000, 16, b3o, wz, 2, c3, s3,
+		                     24 * 24 * 19 - 4.0 / 3.0 * PI * (125 + 64), "3D, walls along z, two obstacles");
+	}
+	{
+		gofr_t *t = gofr_create(2, 10, (const double[]){10, 10, 1}, 4);
+		ok(gofr_obstacles(t, 1, (const double[]){5, 5}, (const double[]){100}) == -1 && gofr_set_count(t, 11) == -1,
+		   "an obstacle that leaves no room: -1; more rows than allocated: -1");
+		gofr_destroy(t);
+	}
+	test_obstacle_formula();
 	test_ideal_formula();
 	test_fit();
 	test_enskog();

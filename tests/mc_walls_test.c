@@ -307,7 +307,7 @@ static void test_refusals(void)
 		{ "{\"method\":\"hsmc\",\"dimensions\":3,\"particles\":{\"count\":1000,\"volume_fraction\":0.1},"
 		  "\"run\":{\"until\":{\"time\":5}},\"boundaries\":{\"z\":{\"type\":\"walls\",\"lower\":{\"type\":\"vibrating\","
 		  "\"amplitude\":0.1,\"frequency\":3},\"upper\":{\"type\":\"open\"}}},\"gravity\":[0,0,-1],"
-		  "\"output\":{\"observables\":[\"velocity_distribution\"]}}", "output.observables[0]: " },
+		  "\"output\":{\"observables\":[\"mean_square_displacement\"]}}", "output.observables[0]: " },
 		{ "{\"method\":\"dsmc\",\"dimensions\":2,\"particles\":{\"count\":100,\"volume_fraction\":0.1},"
 		  "\"run\":{\"until\":{\"time\":5}},\"boundaries\":{\"x\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},"
 		  "\"upper\":{\"type\":\"specular\"}}},\"dsmc\":{\"correction\":\"enskog\",\"contact_value\":\"local\"}}",

@@ -480,7 +480,26 @@ cat >"$tmp/ens-kill.json" <<'JSON'
    "snapshots":{"every":{"time":20}},"checkpoint":{"every":{"wall_seconds":0.1}}},
  "dsmc":{"correction":"enskog","time_step":0.05}}
 JSON
-for s in ens ens-ed; do
+# ed replicas of a bounded scene with fields (an exposure that straddles checkpoints), the density spectrum's
+# ring, wall forces and the centre-of-mass height: all of it per replica in the checkpoint.
+cat >"$tmp/ens-fld.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":150,"box":[40,40]},"gravity":[0,-0.1],
+ "boundaries":{"y":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"specular"}}},
+ "run":{"seed":46,"until":{"time":12},"replicas":3},
+ "output":{"every":{"time":0.5},"observables":["kinetic_energy","wall_force","center_of_mass_height","fields",
+   "density_spectrum"],"fields":{"cells":[2,4],"exposure":2.5,"samples":5},"density_spectrum":{"interval":0.25},
+   "snapshots":{"every":{"time":4}},"checkpoint":{"every":{"time":2.6}}}}
+JSON
+# replicas with a reservoir inlet and an open outlet: slots, ids and the entry streams per replica.
+cat >"$tmp/ens-res.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":100,"box":[60,60]},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"reservoir","volume_fraction":0.02,"temperature":1,
+   "velocity":[0.5,0]},"upper":{"type":"open"}}},
+ "run":{"seed":47,"until":{"time":40},"replicas":3},
+ "output":{"every":{"time":2},"observables":["kinetic_energy","outflow","velocity_distribution","fields"],
+   "fields":{"cells":[6,1]},"snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":15}}}}
+JSON
+for s in ens ens-ed ens-fld ens-res; do
 	ref $s
 	rc=$?
 	rm -rf "$tmp/$s.res"
@@ -508,7 +527,7 @@ print("frames per replica at the checkpoint %s, at the end %s" % (at, final))
 PYEOF
 ok $? "ens-ed: the checkpoint splits every replica's frame series: $(tail -n 1 "$tmp/ens-ed.frames")"
 if command -v mpirun >/dev/null 2>&1; then
-	for s in ens ens-ed; do
+	for s in ens ens-ed ens-fld ens-res; do
 	for np in 2 3; do
 		rm -rf "$tmp/$s.np$np"
 		mpirun -np 2 "$ENGINE" run "$tmp/$s.json" --out "$tmp/$s.np$np" >/dev/null 2>"$tmp/err"

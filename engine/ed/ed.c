@@ -260,6 +260,10 @@ struct ed {
 	double tpl_frac;          /* a recharge places tpl_n, or tpl_n - 1 with probability 1 - tpl_frac (mean eta h W / v_p) */
 	double *tpl;
 	double disp_u[6][3], disp_s[6];   /* layer velocity U and thermal speed sqrt(T / m) per dispenser wall */
+#ifdef ED_TRACE
+	ed_trace_fn trace;        /* bench-only build (ed.h, "Event trace"): called before each event */
+	void *trace_ctx;
+#endif
 };
 
 /* Per ordered pair of species q = a * nsp + b: restitution, the share
@@ -680,6 +684,33 @@ static int filter_rule(struct ed *ed, int w, double *v)
 		v[k] = ed->fu[w][k];
 	return 1;
 }
+/* Event trace hook (ed.h): code only in the bench-only -DED_TRACE build;
+ * elsewhere ED_TRACE_EVENT expands to nothing, so the engine is unchanged. */
+#ifdef ED_TRACE
+static void trace_emit(struct ed *ed, int kind, uint32_t i, int32_t x, double t)
+{
+	ed_trace_t ev;
+	ev.t = ed->epoch + t;
+	ev.kind = kind;
+	memcpy(ev.ci, ed->ev[i].cc, sizeof ev.ci);
+	if (kind == ED_TRACE_CROSS) {
+		/* x: the crossing code, 2 axis + (upper face) */
+		int a = x >> 1;
+		memcpy(ev.cj, ev.ci, sizeof ev.cj);
+		ev.cj[a] += (x & 1) ? 1 : -1;
+		if (ev.cj[a] >= ed->nc[a])
+			ev.cj[a] = 0;
+		else if (ev.cj[a] < 0)
+			ev.cj[a] = ed->nc[a] - 1;
+	} else {
+		memcpy(ev.cj, ed->ev[x].cc, sizeof ev.cj);   /* x: the partner */
+	}
+	ed->trace(ed->trace_ctx, &ev);
+}
+#define ED_TRACE_EVENT(ed, kind, i, x, t) do { if ((ed)->trace) trace_emit(ed, kind, i, x, t); } while (0)
+#else
+#define ED_TRACE_EVENT(ed, kind, i, x, t) ((void)0)
+#endif
 
 /* Loops over the D axes, unrolled (GCC does not at -O2 by itself; the
  * per-candidate arithmetic is the hot loop of the engine). */
@@ -3239,6 +3270,17 @@ void ed_watch_collapse(ed_t *ed, double rate)
 {
 	ed->collapse_rate = rate > 0.0 ? rate : 0.0;
 }
+
+#ifdef ED_TRACE
+int ed_trace(ed_t *ed, ed_trace_fn fn, void *ctx)
+{
+	if (ed->nl || ed->variant || ed->rough || ed->mixture)
+		return ED_EINVAL;
+	ed->trace = fn;
+	ed->trace_ctx = ctx;
+	return ED_OK;
+}
+#endif
 
 void ed_count_impacts(ed_t *ed, double *counts, int nb)
 {

@@ -214,3 +214,26 @@ int ed_field_set(ed_t *ed, const char *name, ed_type_t type, size_t count, const
 int ed_restore_finish(ed_t *ed, char *msg, size_t msglen);
 
 const char *ed_strerror(int code);
+
+/*
+ * Event trace (issue 14: serial event statistics for the parallel model,
+ * bench/par_model). Exists only in a build compiled with -DED_TRACE (the
+ * bench-only instrumented copy of ed.c that bench/par_model links); the
+ * engine, the daemon and the tests are built without it and contain no
+ * trace code at all (the hook's three call sites in ed_impl.h expand to
+ * nothing). Periodic scenes in cell mode only (the kernels without walls,
+ * gravity, species or roughness); ed_trace() returns ED_EINVAL otherwise.
+ * fn is called before each event is carried out, with the cells (engine
+ * cell coordinates, ed_cells() per axis) of the particles involved.
+ */
+#ifdef ED_TRACE
+enum { ED_TRACE_COLLISION = 0, ED_TRACE_CANCELLED = 1, ED_TRACE_CROSS = 2 };
+typedef struct {
+	double t;          /* absolute time of the event */
+	int kind;          /* ED_TRACE_* */
+	int32_t ci[3];     /* cell of the event's particle (before a crossing) */
+	int32_t cj[3];     /* collision / cancelled: the partner's cell; crossing: the cell entered (wrapped) */
+} ed_trace_t;
+typedef void (*ed_trace_fn)(void *ctx, const ed_trace_t *ev);
+int ed_trace(ed_t *ed, ed_trace_fn fn, void *ctx);
+#endif

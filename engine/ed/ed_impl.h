@@ -1198,16 +1198,19 @@ static void FN(step)(struct ed *ed)
 	ed->t_abs_valid = 0;
 	ed->events++;
 	if (e->t_cross < e->t_coll) {
-		if (ed->nl)
+		if (ed->nl) {
 			FN(nl_rebuild)(ed, i, t);
-		else
+		} else {
+			ED_TRACE_EVENT(ed, ED_TRACE_CROSS, i, e->cross, t);
 			FN(do_cross)(ed, i, t);
+		}
 		return;
 	}
 	uint32_t j = (uint32_t)e->partner;
 	FN(advance)(ed, &P[i], t);
 	if (P[j].count != e->pcount) {
 		/* Cancelled: the partner changed course. Free flight, then rescan. */
+		ED_TRACE_EVENT(ed, ED_TRACE_CANCELLED, i, (int32_t)j, t);
 		if (ed->nl)
 			FN(scan_nl)(ed, i);
 		else
@@ -1215,6 +1218,7 @@ static void FN(step)(struct ed *ed)
 		FN(schedule)(ed, i);
 		return;
 	}
+	ED_TRACE_EVENT(ed, ED_TRACE_COLLISION, i, (int32_t)j, t);
 	FN(collide)(ed, i, j, t);
 	if (ed->nl) {
 		FN(set_nl)(ed, i);

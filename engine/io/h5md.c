@@ -111,6 +111,21 @@ static void g_gpairs(const run_record_t *r, void *o) { *(double *)o = r->obs.g_p
 static void g_grate(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->obs.g_rate : NAN; }
 static void g_gpres(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->obs.g_pressure : NAN; }
 static void g_msd(const run_record_t *r, void *o) { *(double *)o = r->obs.msd; }
+static void g_wpres_se(const run_record_t *r, void *o)
+{
+	for (int w = 0; w < 6; w++)
+		((double *)o)[w] = r->have_interval && (r->walls & (1u << w)) ? r->se.wall_pressure[w] : NAN;
+}
+static void g_oforce_se(const run_record_t *r, void *o)
+{
+	for (int k = 0; k < r->n_obstacles; k++)
+		for (int a = 0; a < r->dim; a++)
+			((double *)o)[k * r->dim + a] = r->have_interval ? r->se.obstacle_force[k][a] : NAN;
+}
+static void g_com_se(const run_record_t *r, void *o) { *(double *)o = r->se.com_height; }
+static void g_epot_se(const run_record_t *r, void *o) { *(double *)o = r->se.potential_energy / (double)r->n; }
+static void g_erot_se(const run_record_t *r, void *o) { *(double *)o = r->se.rotational_energy / (double)r->n; }
+static void g_trot_se(const run_record_t *r, void *o) { *(double *)o = r->se.rotational_temperature; }
 static void g_flux(const run_record_t *r, void *o) { *(double *)o = r->obs.flux; }
 static void g_flux_err(const run_record_t *r, void *o) { *(double *)o = r->obs.flux_se; }
 static void g_diff(const run_record_t *r, void *o) { *(double *)o = r->obs.diffusion; }
@@ -181,6 +196,12 @@ static const obs_def_t obs_defs[] = {
 	{ "sonine_a3_se", NEED_SE | SCENE_OBS_VDIST, 0, 0, "1", g_a3_se },
 	{ "g_contact_pairs_se", NEED_SE | SCENE_OBS_GOFR, 0, 0, "1", g_gpairs_se },
 	{ "g_contact_rate_se", NEED_SE | SCENE_OBS_GOFR, 0, 0, "1", g_grate_se },
+	{ "wall_pressure_se", NEED_SE | SCENE_OBS_WALL_FORCE, 0, 6, "pressure", g_wpres_se },
+	{ "obstacle_force_se", NEED_SE | SCENE_OBS_OBSTACLE_FORCE, 0, -2, "m0 l0 t0-2", g_oforce_se },
+	{ "center_of_mass_height_se", NEED_SE | SCENE_OBS_COM_HEIGHT, 0, 0, "l0", g_com_se },
+	{ "potential_energy_se", NEED_SE | SCENE_OBS_POTENTIAL, 0, 0, "e0", g_epot_se },
+	{ "rotational_energy_se", NEED_SE | SCENE_OBS_ROTATION, 0, 0, "e0", g_erot_se },
+	{ "rotational_temperature_se", NEED_SE | SCENE_OBS_ROTATION, 0, 0, "e0", g_trot_se },
 	{ "g_contact_pressure_se", NEED_SE | SCENE_OBS_GOFR, 0, 0, "1", g_gpres_se },
 	{ "mean_square_displacement_se", NEED_SE | SCENE_OBS_MSD, 0, 0, "l0+2", g_msd_se },
 	{ "diffusion_coefficient_se", NEED_SE | SCENE_OBS_MSD, 0, 0, "l0+2 t0-1", g_diff_se },
@@ -349,11 +370,11 @@ static h5md_t *alloc_writer(const char *path, const scene_t *s)
 	h->dsp_step = h->dsp_time = H5I_INVALID_HID;
 	for (int k = 0; k < DSP_MAX; k++)
 		h->dsp[k] = H5I_INVALID_HID;
-	if ((s->observables & SCENE_OBS_DSPEC) && s->replicas <= 1) {
+	if (s->observables & SCENE_OBS_DSPEC) {   /* ensembles: the mean over the replicas */
 		h->dsp_on = 1;
 		h->dsp_k = s->dspec_m / 2 - 1;
 	}
-	if ((s->observables & SCENE_OBS_FIELDS) && s->replicas <= 1) {
+	if (s->observables & SCENE_OBS_FIELDS) {   /* ensembles: the replicas combined (observe.h) */
 		h->fld_cells = (uint64_t)s->fields_cells[0] * (uint64_t)s->fields_cells[1] * (uint64_t)s->fields_cells[2];
 		h->n_fld = s->rough ? FLD_MAX : FLD_MAX - 1;
 		h->fld_buf = malloc(h->fld_cells * 3 * sizeof(double));

@@ -47,6 +47,17 @@ static void num_se(out_t *o, const run_record_t *r, const char *key, double v, d
 	}
 }
 
+/* "key":[v0,...] with dim entries (null where not finite, or all null when !have) */
+static void vec(out_t *o, const char *key, int dim, const double *v, int have)
+{
+	put(o, ",\"%s\":[", key);
+	for (int a = 0; a < dim; a++) {
+		double f = have ? v[a] : NAN;
+		put(o, isfinite(f) ? "%s%.17g" : "%snull", a ? "," : "", f);
+	}
+	put(o, "]");
+}
+
 static void u64(out_t *o, const char *key, uint64_t v)
 {
 	put(o, ",\"%s\":%llu", key, (unsigned long long)v);
@@ -110,13 +121,12 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 				if (!(r->walls & (1u << w)))
 					continue;
 				put(&o, "%s{\"wall\":\"%s.%s\"", first ? "" : ",", axis[w >> 1], (w & 1) ? "upper" : "lower");
-				num(&o, "pressure", r->have_interval ? r->wall_pressure[w] : NAN);
-				put(&o, ",\"force\":[");
-				for (int a = 0; a < r->dim; a++) {
-					double f = r->have_interval ? r->wall_force[w][a] : NAN;
-					put(&o, isfinite(f) ? "%s%.17g" : "%snull", a ? "," : "", f);
-				}
-				put(&o, "]}");
+				num_se(&o, r, "pressure", r->have_interval ? r->wall_pressure[w] : NAN,
+				       r->have_interval ? r->se.wall_pressure[w] : NAN);
+				vec(&o, "force", r->dim, r->wall_force[w], r->have_interval);
+				if (r->replicas > 1)
+					vec(&o, "force_se", r->dim, r->se.wall_force[w], r->have_interval);
+				put(&o, "}");
 				first = 0;
 			}
 			put(&o, "]");
@@ -125,16 +135,18 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 	if (r->have & SCENE_OBS_OBSTACLE_FORCE) {
 		u64(&o, "obstacle_collisions", r->obstacle_collisions);
 		if (r->kind == RUN_PROGRESS) {
-			put(&o, ",\"obstacle_force\":[");
-			for (int k = 0; k < r->n_obstacles; k++) {
-				put(&o, "%s[", k ? "," : "");
-				for (int a = 0; a < r->dim; a++) {
-					double f = r->have_interval ? r->obstacle_force[k][a] : NAN;
-					put(&o, isfinite(f) ? "%s%.17g" : "%snull", a ? "," : "", f);
+			for (int e = 0; e < 1 + (r->replicas > 1); e++) {   /* ensembles: then obstacle_force_se */
+				put(&o, ",\"%s\":[", e ? "obstacle_force_se" : "obstacle_force");
+				for (int k = 0; k < r->n_obstacles; k++) {
+					put(&o, "%s[", k ? "," : "");
+					for (int a = 0; a < r->dim; a++) {
+						double f = r->have_interval ? (e ? r->se.obstacle_force[k][a] : r->obstacle_force[k][a]) : NAN;
+						put(&o, isfinite(f) ? "%s%.17g" : "%snull", a ? "," : "", f);
+					}
+					put(&o, "]");
 				}
 				put(&o, "]");
 			}
-			put(&o, "]");
 		}
 	}
 	if (r->have & SCENE_OBS_OUTFLOW) {
@@ -166,12 +178,12 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 		}
 	}
 	if (r->have & SCENE_OBS_COM_HEIGHT)
-		num(&o, "center_of_mass_height", r->com_height);
+		num_se(&o, r, "center_of_mass_height", r->com_height, r->se.com_height);
 	if (r->have & SCENE_OBS_POTENTIAL)
-		num(&o, "potential_energy", r->potential_energy);
+		num_se(&o, r, "potential_energy", r->potential_energy, r->se.potential_energy);
 	if (r->have & SCENE_OBS_ROTATION) {
-		num(&o, "rotational_energy", r->rotational_energy);
-		num(&o, "rotational_temperature", r->rotational_temperature);
+		num_se(&o, r, "rotational_energy", r->rotational_energy, r->se.rotational_energy);
+		num_se(&o, r, "rotational_temperature", r->rotational_temperature, r->se.rotational_temperature);
 	}
 	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_CLUSTERS)) {
 		const clusters_stats_t *c = &r->clusters;
@@ -208,7 +220,7 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 			num(&o, "msd_walled", r->obs.msd_walled);
 	}
 	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_FLUX)) {
-		/* the standard error over particles of the instantaneous sum (single runs only) */
+		/* single runs: the standard error over particles of the instantaneous sum; ensembles: over replicas */
 		num(&o, "flux", r->obs.flux);
 		num(&o, "flux_se", r->obs.flux_se);
 	}

@@ -35,7 +35,7 @@
 
 struct clusters {
 	int dim;
-	size_t n;
+	size_t n, cap;        /* rows of the next computes (clusters_set_count()); rows allocated */
 	int walled[3];        /* clusters_walls(): no periodic image on these axes */
 	int valid;            /* labels belong to a successful compute */
 	double *spos;         /* n*dim wrapped positions in slot (cell) order */
@@ -60,7 +60,7 @@ clusters_t *clusters_create(int dim, size_t n)
 	if (c == NULL)
 		return NULL;
 	c->dim = dim;
-	c->n = n;
+	c->n = c->cap = n;
 	size_t m = n ? n : 1; /* malloc(0) may return NULL */
 	c->spos = malloc(m * dim * sizeof(double));
 	c->cell_of = malloc(m * sizeof(uint32_t));
@@ -108,6 +108,15 @@ int clusters_walls(clusters_t *c, const int *walled)
 		return -1;
 	for (int a = 0; a < c->dim; a++)
 		c->walled[a] = walled[a] != 0;
+	return 0;
+}
+
+int clusters_set_count(clusters_t *c, size_t n)
+{
+	if (c == NULL || n > c->cap)
+		return -1;
+	c->n = n;
+	c->valid = 0;
 	return 0;
 }
 

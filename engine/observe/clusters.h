@@ -51,6 +51,10 @@ void clusters_destroy(clusters_t *c);
  * every later clusters_compute(). 0, or -1 on NULL arguments. */
 int clusters_walls(clusters_t *c, const int *walled);
 
+/* Rows of the next computes, for scenes whose particle count varies (open and reservoir walls): n <= the
+ * n of clusters_create(). 0, or -1 when n is larger. */
+int clusters_set_count(clusters_t *c, size_t n);
+
 /* pos: n*dim coordinates (any values; wrapped internally into [0, box) on periodic axes).
  * box: dim edge lengths. Returns 0, or a negative code (-1 bad arguments,
  * -2 out of memory). */

@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "observe/geom.h"
+#include "rng.h"
 
 #define PI 3.14159265358979323846
 /* Cells in all at most this many per particle (+ a few): a huge dilute box gets larger cells, not
@@ -14,13 +15,21 @@
 #define CELLS_PER_PARTICLE 3
 #define CELLS_MIN 27
 
+/* The accessible-fraction table with obstacles: radii j * cutoff / FRAC_RADII, j = 0 .. FRAC_RADII, and
+ * the Monte Carlo points that estimate it (gofr_obstacles()). */
+#define FRAC_RADII 256
+#define FRAC_POINTS (1u << 18)
+
 struct gofr {
 	int dim;
-	size_t n;
+	size_t n, cap;            /* rows of the next calls (gofr_set_count()); rows allocated */
 	double box[3], cutoff;
 	double half[3];           /* minimum image threshold per axis: L/2 periodic, INFINITY walled (no image) */
 	int walled[3];            /* gofr_walls(): 1 on walled axes */
 	double inner[3];          /* edges of the region the centres fill: L, or L - 2 radius on walled axes */
+	double lo[3];             /* its lower edge: 0, or radius on walled axes */
+	double *frac;             /* obstacles: F(r) at FRAC_RADII + 1 radii (gofr_obstacles()); NULL without */
+	double area;              /* obstacles: |A|, the volume the centres can reach */
 	double *spos, *svel;      /* wrapped positions and peculiar velocities in cell order */
 	uint32_t *cell_of;        /* particle -> cell */
 	uint32_t *start;          /* cell_cap + 1 */
@@ -35,7 +44,7 @@ gofr_t *gofr_create(int dim, size_t n, const double *box, double cutoff)
 	if (!g)
 		return NULL;
 	g->dim = dim;
-	g->n = n;
+	g->n = g->cap = n;
 	g->cutoff = cutoff;
 	g->box[0] = g->box[1] = g->box[2] = 1;
 	for (int a = 0; a < dim; a++) {
@@ -69,7 +78,16 @@ void gofr_destroy(gofr_t *g)
 	free(g->svel);
 	free(g->cell_of);
 	free(g->start);
+	free(g->frac);
 	free(g);
+}
+
+int gofr_set_count(gofr_t *g, size_t n)
+{
+	if (!g || n > g->cap)
+		return -1;
+	g->n = n;
+	return 0;
 }
 
 int gofr_walls(gofr_t *g, const int *walled, double radius)
@@ -83,7 +101,100 @@ int gofr_walls(gofr_t *g, const int *walled, double radius)
 		g->walled[a] = walled[a] != 0;
 		g->half[a] = g->walled[a] ? INFINITY : 0.5 * g->box[a];
 		g->inner[a] = g->walled[a] ? g->box[a] - 2 * radius : g->box[a];
+		g->lo[a] = g->walled[a] ? radius : 0.0;
 	}
+	return 0;
+}
+
+/* Whether a centre at x (dim coordinates, periodic axes wrapped into [0, L)) lies in the region the centres
+ * can reach: inside the walls' region on walled axes, and no closer than the contact distance to any
+ * obstacle centre (minimum image on periodic axes). */
+static int reachable(const gofr_t *g, const double *x, int k, const double *oc, const double *os)
+{
+	const int D = g->dim;
+	for (int a = 0; a < D; a++)
+		if (g->walled[a] && !(x[a] >= g->lo[a] && x[a] <= g->lo[a] + g->inner[a]))
+			return 0;
+	for (int j = 0; j < k; j++) {
+		double d2 = 0.0;
+		for (int a = 0; a < D; a++) {
+			double d = geom_min_image(x[a] - oc[j * D + a], g->box[a], g->half[a]);
+			d2 += d * d;
+		}
+		if (d2 < os[j] * os[j])
+			return 0;
+	}
+	return 1;
+}
+
+/*
+ * Uniform independent centres in the reachable region A: the pairs expected in a shell [a, b) are
+ * N(N-1)/2 / |A| int_a^b s_D r^(D-1) F(r) dr, with F(r) the probability that x + r u lies in A for x
+ * uniform in A and u a uniform direction (|A n (A - d)| / |A| averaged over directions). Both |A| and
+ * F are estimated here once, by FRAC_POINTS points uniform in the walls' region (those in A kept) and one
+ * direction each, every radius on the same points (common random numbers: F is smooth in r). The
+ * binomial error of F is sqrt(F (1 - F) / M) for M points kept: below 1e-3 for M >= 2.5e5 (docs/output.md).
+ */
+int gofr_obstacles(gofr_t *g, int k, const double *centres, const double *contact)
+{
+	if (!g || k < 0 || (k > 0 && (!centres || !contact)))
+		return -1;
+	for (int j = 0; j < k; j++)
+		if (!(contact[j] > 0) || !isfinite(contact[j]))
+			return -1;
+	if (k == 0) {
+		free(g->frac);
+		g->frac = NULL;
+		return 0;
+	}
+	const int D = g->dim;
+	double *frac = calloc(FRAC_RADII + 1, sizeof(double));
+	double *oc = malloc((size_t)k * D * sizeof(double));
+	if (!frac || !oc) {
+		free(frac);
+		free(oc);
+		return -2;
+	}
+	for (int j = 0; j < k; j++)
+		for (int a = 0; a < D; a++)
+			oc[j * D + a] = geom_fold(centres[j * D + a], g->box[a], g->walled[a]);
+	rng_t r;
+	rng_init(&r, 0x676f6672ULL, 0);   /* fixed: the table is a property of the geometry */
+	uint64_t kept = 0;
+	double vol = 1.0;
+	for (int a = 0; a < D; a++)
+		vol *= g->inner[a];
+	for (uint32_t m = 0; m < FRAC_POINTS; m++) {
+		double x[3], u[3], y[3];
+		for (int a = 0; a < D; a++)
+			x[a] = g->lo[a] + g->inner[a] * rng_uniform(&r);
+		if (D == 2) {
+			double th = 2.0 * PI * rng_uniform(&r);
+			u[0] = cos(th), u[1] = sin(th);
+		} else {
+			double z = 2.0 * rng_uniform(&r) - 1.0, ph = 2.0 * PI * rng_uniform(&r), s = sqrt(fmax(0.0, 1 - z * z));
+			u[0] = s * cos(ph), u[1] = s * sin(ph), u[2] = z;
+		}
+		if (!reachable(g, x, k, oc, contact))
+			continue;
+		kept++;
+		for (int j = 0; j <= FRAC_RADII; j++) {
+			double rr = g->cutoff * j / FRAC_RADII;
+			for (int a = 0; a < D; a++)
+				y[a] = geom_fold(x[a] + rr * u[a], g->box[a], g->walled[a]);
+			frac[j] += reachable(g, y, k, oc, contact);
+		}
+	}
+	free(oc);
+	if (kept == 0) {
+		free(frac);
+		return -1;
+	}
+	for (int j = 0; j <= FRAC_RADII; j++)
+		frac[j] /= (double)kept;
+	free(g->frac);
+	g->frac = frac;
+	g->area = vol * (double)kept / FRAC_POINTS;
 	return 0;
 }
 
@@ -288,14 +399,43 @@ static double ideal_box(int dim, size_t n, const double *box, const int *walled,
 	return 0.5 * (double)n * (double)(n - 1) * shell / vol;
 }
 
-double gofr_ideal_in(const gofr_t *g, double a, double b)
+/* With obstacles: N(N-1)/2 / |A| int_a^b s_D r^(D-1) F(r) dr, F linear between the table's radii; each
+ * piece integrated by Simpson's rule, exact for r^(D-1) times a linear function (degree <= 3). */
+static double ideal_table(const gofr_t *g, size_t n, double a, double b)
 {
-	return ideal_box(g->dim, g->n, g->box, g->walled, g->inner, a, b);
+	const double h = g->cutoff / FRAC_RADII, sD = g->dim == 2 ? 2.0 * PI : 4.0 * PI;
+	double sum = 0.0;
+	a = fmax(a, 0.0);
+	b = fmin(b, g->cutoff);
+	while (a < b) {
+		int j = (int)fmin(floor(a / h), FRAC_RADII - 1);
+		double e = fmin(b, (j + 1) * h);
+		if (!(e > a))
+			e = b;   /* rounding at a node */
+		double fa, fm, fe, m = 0.5 * (a + e);
+#define F(x) (g->frac[j] + (g->frac[j + 1] - g->frac[j]) * ((x) / h - j))
+		fa = F(a), fm = F(m), fe = F(e);
+#undef F
+		double pa = g->dim == 2 ? a : a * a, pm = g->dim == 2 ? m : m * m, pe = g->dim == 2 ? e : e * e;
+		sum += (e - a) / 6.0 * (pa * fa + 4.0 * pm * fm + pe * fe);
+		a = e;
+	}
+	return 0.5 * (double)n * (double)(n - 1) * sD * sum / g->area;
 }
 
-/* The contact fit with the ideal pair counts of a geometry. */
-static int contact_fit(int dim, size_t n, const double *box, const int *walled, const double *inner, double sigma,
-                       double width, int nb, const double *count, gofr_contact_t *out)
+static double ideal_of(const gofr_t *g, size_t n, double a, double b)
+{
+	return g->frac ? ideal_table(g, n, a, b) : ideal_box(g->dim, n, g->box, g->walled, g->inner, a, b);
+}
+
+double gofr_ideal_in(const gofr_t *g, double a, double b)
+{
+	return ideal_of(g, g->n, a, b);
+}
+
+/* The contact fit with the ideal pair counts of a geometry (g, or a periodic box of edges box when g is NULL). */
+static int contact_fit(const gofr_t *g, int dim, size_t n, const double *box, const int *walled, const double *inner,
+                       double sigma, double width, int nb, const double *count, gofr_contact_t *out)
 {
 	/* Weighted least squares of y = ln g on x = r - sigma (bin centres),
 	 * weights = counts (var ln g = 1/count for Poisson counts). */
@@ -306,8 +446,8 @@ static int contact_fit(int dim, size_t n, const double *box, const int *walled, 
 		if (!(count[k] > 0))
 			continue;
 		double a = sigma + k * width, b = a + width;
-		double g = count[k] / ideal_box(dim, n, box, walled, inner, a, b);
-		double x = 0.5 * (a + b) - sigma, y = log(g), w = count[k];
+		double gk = count[k] / (g ? ideal_of(g, n, a, b) : ideal_box(dim, n, box, walled, inner, a, b));
+		double x = 0.5 * (a + b) - sigma, y = log(gk), w = count[k];
 		sw += w, sx += w * x, sy += w * y, sxx += w * x * x, sxy += w * x * y;
 		used++;
 	}
@@ -329,7 +469,7 @@ int gofr_contact_fit(int dim, size_t n, double volume, double sigma, double widt
 	/* a periodic box of that volume: only the product of the edges enters */
 	const double box[3] = {volume, 1, 1};
 	const int walled[3] = {0, 0, 0};
-	return contact_fit(dim, n, box, walled, box, sigma, width, nb, count, out);
+	return contact_fit(NULL, dim, n, box, walled, box, sigma, width, nb, count, out);
 }
 
 int gofr_contact(gofr_t *g, const double *pos, double sigma, gofr_contact_t *out)
@@ -340,7 +480,7 @@ int gofr_contact(gofr_t *g, const double *pos, double sigma, gofr_contact_t *out
 		out->value = out->se = out->pairs = NAN;
 		return -1;
 	}
-	return contact_fit(g->dim, g->n, g->box, g->walled, g->inner, sigma, width, GOFR_CONTACT_BINS, count, out);
+	return contact_fit(g, g->dim, g->n, g->box, g->walled, g->inner, sigma, width, GOFR_CONTACT_BINS, count, out);
 }
 
 double gofr_contact_rate(int dim, double nu, double radius, double mass, double temp, double rate)

@@ -15,7 +15,11 @@
  *   N and volume would have there, N (N-1)/2 * v_shell / V (gofr_ideal());
  *   with walls, the pairs of N uniform independent centres in the region
  *   they can reach (gofr_ideal_in(): the box shrunk by one radius at each
- *   wall, the shell's part inside counted exactly, gofr.c).
+ *   wall, the shell's part inside counted exactly, gofr.c); with obstacles (gofr_obstacles()) the region
+ *   also leaves out each obstacle's contact sphere, and its pair counts come from a table estimated once
+ *   by Monte Carlo (relative error below 1e-3, gofr.c).
+ * - Scenes whose particle count varies (open and reservoir walls) give the rows present at each call:
+ *   gofr_set_count() (at most the n of gofr_create()); the ideal counts then use that count.
  * - Distances must not exceed half the smallest box edge (the caller's
  *   check; scene_parse() enforces it for the scene's range).
  */
@@ -32,6 +36,16 @@ void gofr_destroy(gofr_t *g);
  * Call once after gofr_create(); positions on walled axes are then taken as they are (not folded).
  * 0, or -1 on bad arguments (no room between the walls). */
 int gofr_walls(gofr_t *g, const int *walled, double radius);
+
+/* Rows of the next calls: n <= the n given to gofr_create(). 0, or -1 when n is larger. */
+int gofr_set_count(gofr_t *g, size_t n);
+
+/* Obstacles: k spheres (disks) with centres centres[k * dim] in the positions' frame and contact distances
+ * contact[k] (obstacle radius + particle radius: no centre comes closer). Call after gofr_walls() (if
+ * any); the ideal pair counts then count only the region the centres can reach (gofr.c). k = 0 removes
+ * them. 0, -1 on bad arguments (or no reachable room), -2 out of memory. Costs about 2^18 * 257 point
+ * tests, once (~0.1 s). */
+int gofr_obstacles(gofr_t *g, int k, const double *centres, const double *contact);
 
 /* Pairs of an ideal gas (uniform independent centres) of g's n particles in g's geometry in the shell
  * [a, b): gofr_ideal() of the box volume without walls; exact for b below every walled region edge. */

@@ -2,6 +2,7 @@
 #include "observe.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -16,6 +17,7 @@
 
 #define N_SCALARS 12  /* temperature, a2, a3, g_pairs, cluster_w, cluster_exponent, m2_reduced, mean_size,
                         * impact_a, impact_c, a2_spin, temperature_rot */
+#define N_COUNTS 3    /* then packed: fields_samples, dspec_samples, dspec_alpha (ensembles) */
 
 struct obs {
 	scene_t s;
@@ -81,11 +83,22 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 		J = fgrid_bins(o->grid);
 	}
 	if (!layout_only && (s->observables & (SCENE_OBS_GOFR | SCENE_OBS_VCORR))) {
-		o->gofr = gofr_create(D, s->count, s->box, fmax(rmax, o->sigma * (1 + GOFR_CONTACT_WIDTH)));
+		o->gofr = gofr_create(D, scene_slots(s), s->box, fmax(rmax, o->sigma * (1 + GOFR_CONTACT_WIDTH)));
 		if (!o->gofr)
 			goto fail;
 		if (scene_has_walls(s)) {
 			if (gofr_walls(o->gofr, walled, s->radius) != 0)
+				goto fail;
+		}
+		if (s->n_obstacles > 0) {
+			/* the ideal-gas pairs in the region the centres reach (gofr.h) */
+			double oc[SCENE_OBSTACLES_MAX * 3], os[SCENE_OBSTACLES_MAX];
+			for (int k = 0; k < s->n_obstacles; k++) {
+				for (int a = 0; a < D; a++)
+					oc[k * D + a] = s->obstacle[k].center[a];
+				os[k] = s->obstacle[k].radius + s->radius;
+			}
+			if (gofr_obstacles(o->gofr, s->n_obstacles, oc, os) != 0)
 				goto fail;
 		}
 	}
@@ -165,13 +178,13 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 			fgrid_axis(o->grid, edges, centres, NULL);
 			continue;
 		} else {
-			clusters_size_bins(s->count, edges, centres);
+			clusters_size_bins(scene_slots(s), edges, centres);
 			continue;
 		}
 		for (int b = 0; b < t->nb; b++)
 			centres[b] = 0.5 * (edges[b] + edges[b + 1]);
 	}
-	o->packed = n_vals(&o->c) + N_SCALARS;
+	o->packed = n_vals(&o->c) + N_SCALARS + N_COUNTS;
 	return o;
 fail:
 	obs_destroy(o);
@@ -198,28 +211,48 @@ size_t obs_memory(const obs_t *o)
 	if (o->dspec)
 		b += dspec_memory(o->dspec);
 	if (o->gofr)
-		b += (size_t)o->s.count * (2 * o->s.dim * sizeof(double) + sizeof(uint32_t)) +
-		     (3 * (size_t)o->s.count + 28) * sizeof(uint32_t);
+		b += (size_t)scene_slots(&o->s) * (2 * o->s.dim * sizeof(double) + sizeof(uint32_t)) +
+		     (3 * (size_t)scene_slots(&o->s) + 28) * sizeof(uint32_t);
 	return b;
 }
 
-int obs_scalars(obs_t *o, const double *pos, const double *vel, obs_scalars_t *out)
+size_t obs_present(size_t rows, int dim, double *pos, double *vel, double *spin, int spin_dim)
+{
+	size_t n = 0;
+	for (size_t i = 0; i < rows; i++) {
+		if (!isfinite(pos[i * dim]))
+			continue;
+		if (n != i) {
+			memcpy(pos + n * dim, pos + i * dim, (size_t)dim * sizeof(double));
+			if (vel)
+				memcpy(vel + n * dim, vel + i * dim, (size_t)dim * sizeof(double));
+			if (spin && spin_dim > 0)
+				memcpy(spin + n * spin_dim, spin + i * spin_dim, (size_t)spin_dim * sizeof(double));
+		}
+		n++;
+	}
+	return n;
+}
+
+int obs_scalars(obs_t *o, size_t n, const double *pos, const double *vel, obs_scalars_t *out)
 {
 	const scene_t *s = &o->s;
 	out->a2 = out->a3 = out->g_pairs = out->g_pairs_se = NAN;
-	if ((s->observables & SCENE_OBS_VDIST) && vel) {
+	if ((s->observables & SCENE_OBS_VDIST) && vel && n > 0) {
 		vdist_moments_t m;
-		vdist_moments(s->dim, s->count, s->mass, vel, &m);
+		vdist_moments(s->dim, n, s->mass, vel, &m);
 		out->a2 = m.a2;
 		out->a3 = m.a3;
 	}
 	if (s->observables & SCENE_OBS_GOFR) {
-		if (!o->gofr || !pos)
+		if (!o->gofr || !pos || gofr_set_count(o->gofr, n) != 0)
 			return -1;
 		gofr_contact_t gc;
-		gofr_contact(o->gofr, pos, o->sigma, &gc);
-		out->g_pairs = gc.value;
-		out->g_pairs_se = gc.se;
+		if (n >= 2) {
+			gofr_contact(o->gofr, pos, o->sigma, &gc);
+			out->g_pairs = gc.value;
+			out->g_pairs_se = gc.se;
+		}
 	}
 	return 0;
 }
@@ -269,11 +302,11 @@ static obs_table_t *find(obs_t *o, const char *family, const char *sub)
 	return NULL;
 }
 
-const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, const double *vel, const double *spin)
+const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, size_t n, const double *pos, const double *vel,
+                               const double *spin)
 {
 	const scene_t *s = &o->s;
 	const int D = s->dim;
-	const size_t n = s->count;
 	obs_curves_t *c = &o->c;
 	obs_table_t *t;
 	vdist_moments_t m;
@@ -312,7 +345,7 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 		}
 	}
 	obs_table_t *tg = find(o, "pair_correlation", ""), *tv = find(o, "velocity_correlations", "pairs");
-	if (o->gofr && (tg || tv)) {
+	if (o->gofr && (tg || tv) && gofr_set_count(o->gofr, n) == 0 && n >= 2) {
 		int nb = s->gofr_bins;
 		double rmax = s->gofr_range * o->sigma;
 		gofr_pairs(o->gofr, pos, tv ? vel : NULL, 0, rmax, nb, o->gcount, o->gpar, o->gperp);
@@ -330,6 +363,14 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 			gofr_contact_t gc;
 			gofr_contact(o->gofr, pos, o->sigma, &gc);
 			c->g_pairs = gc.value;
+		}
+	} else {
+		/* fewer than two particles present: no pairs (NaN rows) */
+		for (int b = 0; b < s->gofr_bins; b++) {
+			for (int k = 0; tg && k < tg->ncols; k++)
+				tg->val[k][b] = NAN;
+			for (int k = 0; tv && k < tv->ncols; k++)
+				tv->val[k][b] = NAN;
 		}
 	}
 	if ((t = find(o, "structure_factor", "")))
@@ -359,7 +400,7 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, cons
 		c->dspec_samples = dspec_result(o->dspec, t->val[0], &c->dspec_alpha, &c->dspec_alpha_se);
 	if ((t = find(o, "clusters", ""))) {
 		clusters_stats_t st;
-		if (!cl || clusters_compute(cl, pos, s->box, s->radius, s->cluster_delta * o->sigma, &st) != 0)
+		if (!cl || clusters_set_count(cl, n) != 0 || clusters_compute(cl, pos, s->box, s->radius, s->cluster_delta * o->sigma, &st) != 0)
 			return NULL;
 		clusters_size_distribution(cl, t->nb, t->edges, t->val[0], NULL);
 		c->cluster_w = st.w;
@@ -380,10 +421,10 @@ void obs_fields_add(obs_t *o, const double *pos, const double *vel, const double
 
 struct dspec *obs_dspec(const obs_t *o) { return o->dspec; }
 
-void obs_dspec_add(obs_t *o, const double *pos)
+void obs_dspec_add(obs_t *o, size_t n, const double *pos)
 {
 	if (o->dspec)
-		dspec_add(o->dspec, o->s.count, pos);
+		dspec_add(o->dspec, n, pos);
 }
 
 /* ---- ensembles ------------------------------------------------------------- */
@@ -409,6 +450,9 @@ void obs_pack(const obs_t *o, const obs_curves_t *c, double *v)
 		}
 	for (int k = 0; k < N_SCALARS; k++)
 		v[p++] = *scalar_slot((obs_curves_t *)c, k, 0);
+	v[p++] = c->fields_samples;
+	v[p++] = c->dspec_samples;
+	v[p++] = c->dspec_alpha;
 	(void)o;
 }
 
@@ -427,15 +471,65 @@ static void stat(const double *v, int R, size_t P, size_t idx, double *mean, dou
 	*se = R > 1 ? sqrt(s2 / (R - 1) / R) : 0.0;
 }
 
+/*
+ * A cell's velocity, temperature or spin over the replicas: the occupation-weighted mean
+ * u = sum_r c_r u_r / sum_r c_r (c_r the replica's mean occupation of the cell, element cidx; replicas
+ * that never saw the cell weigh 0), and the ratio estimator's standard error
+ * sqrt(R / (R - 1) sum_r c_r^2 (u_r - u)^2) / sum_r c_r. NaN when no replica saw the cell.
+ */
+static void wstat(const double *v, int R, size_t P, size_t idx, size_t cidx, double *mean, double *se)
+{
+	double sc = 0, su = 0, s2 = 0;
+	for (int r = 0; r < R; r++) {
+		double c = v[(size_t)r * P + cidx], u = v[(size_t)r * P + idx];
+		if (c > 0 && isfinite(u))
+			sc += c, su += c * u;
+	}
+	if (!(sc > 0)) {
+		*mean = *se = NAN;
+		return;
+	}
+	*mean = su / sc;
+	for (int r = 0; r < R; r++) {
+		double c = v[(size_t)r * P + cidx], u = v[(size_t)r * P + idx];
+		if (c > 0 && isfinite(u))
+			s2 += c * c * (u - *mean) * (u - *mean);
+	}
+	*se = R > 1 ? sqrt(R / (R - 1.0) * s2) / sc : 0.0;
+}
+
 const obs_curves_t *obs_combine(obs_t *o, const double *v, int R)
 {
 	obs_curves_t *c = &o->c;
-	size_t p = 0, P = o->packed;
-	for (int i = 0; i < c->ntables; i++)
+	size_t p = 0, P = o->packed, count = SIZE_MAX;
+	/* fields: the occupation column (table "density", column "count") weighs the per-cell means */
+	for (int i = 0; i < c->ntables; i++) {
+		if (!strcmp(c->t[i].family, "fields") && !strcmp(c->t[i].table, "density"))
+			count = p + (size_t)c->t[i].nb;   /* column 1 */
+		p += (size_t)c->t[i].nb * c->t[i].ncols;
+	}
+	p = 0;
+	for (int i = 0; i < c->ntables; i++) {
+		int weighted = count != SIZE_MAX && !strcmp(c->t[i].family, "fields") && strcmp(c->t[i].table, "density");
 		for (int k = 0; k < c->t[i].ncols; k++)
-			for (int b = 0; b < c->t[i].nb; b++, p++)
-				stat(v, R, P, p, &c->t[i].val[k][b], &c->t[i].se[k][b]);
+			for (int b = 0; b < c->t[i].nb; b++, p++) {
+				if (weighted)
+					wstat(v, R, P, p, count + (size_t)b, &c->t[i].val[k][b], &c->t[i].se[k][b]);
+				else
+					stat(v, R, P, p, &c->t[i].val[k][b], &c->t[i].se[k][b]);
+			}
+	}
 	for (int k = 0; k < N_SCALARS; k++, p++)
 		stat(v, R, P, p, scalar_slot(c, k, 0), scalar_slot(c, k, 1));
+	/* samples behind the fields and the spectrum: the fewest of any replica; the spectrum's slope: the
+	 * mean over the replicas, dspec_alpha_se its standard error over them */
+	double fs = INFINITY, ds = INFINITY;
+	for (int r = 0; r < R; r++) {
+		fs = fmin(fs, v[(size_t)r * P + p]);
+		ds = fmin(ds, v[(size_t)r * P + p + 1]);
+	}
+	c->fields_samples = R > 0 ? (int)fs : 0;
+	c->dspec_samples = R > 0 ? (int)ds : 0;
+	stat(v, R, P, p + 2, &c->dspec_alpha, &c->dspec_alpha_se);
 	return c;
 }

@@ -87,19 +87,26 @@ unsigned obs_curve_bits(const scene_t *s);
 obs_t *obs_create(const scene_t *s, int layout_only);
 void obs_destroy(obs_t *o);
 
-/* Scalars of the present state (pos, vel: N*D in scene order) into *out: a2, a3, g_pairs.
- * g_rate and g_pressure come from obs_interval(). 0, or -1 (a workspace missing). */
-int obs_scalars(obs_t *o, const double *pos, const double *vel, obs_scalars_t *out);
+/* Scalars of the present state (pos, vel: n*D, the n particles present, n <= scene_slots(); particles
+ * that left through open walls or empty reservoir slots are not among the rows: obs_present()) into *out:
+ * a2, a3, g_pairs. g_rate and g_pressure come from obs_interval(). 0, or -1 (a workspace missing). */
+int obs_scalars(obs_t *o, size_t n, const double *pos, const double *vel, obs_scalars_t *out);
 /* Contact values from interval quantities (collision rate 2C/(N dt), compressibility Z, time-averaged
  * temperature t_avg) into out->g_rate and out->g_pressure. */
 void obs_interval(const obs_t *o, double rate, double z, double t_avg, obs_scalars_t *out);
 
-/* Curves of the present state; cl (may be NULL unless clusters are asked for) is the run's cluster
+/* Curves of the present state (n rows, as obs_scalars()); cl (may be NULL unless clusters are asked for) is the run's cluster
  * workspace, recomputed here; spin (rough particles: N * spin_dim angular velocities, else NULL) gives
  * velocity_distribution's table "spin" (c = (w - <w>) / sqrt(2 T_rot / I), I = q m a^2: columns p (2D) or
  * p_x, p_y, p_z (3D), NaN without spin) with a2_spin and temperature_rot. Returns the tables (owned by o, valid until the next call), or NULL
  * when out of memory in the cluster code. */
-const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, const double *pos, const double *vel, const double *spin);
+const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, size_t n, const double *pos, const double *vel,
+                               const double *spin);
+
+/* Rows present: moves the rows whose position is finite (pos, and vel and spin where not NULL, with dim
+ * and spin_dim doubles per row) to the front, in order, and returns their count. Engines write NaN rows
+ * for particles that left through an open wall and for empty reservoir slots. */
+size_t obs_present(size_t rows, int dim, double *pos, double *vel, double *spin, int spin_dim);
 
 /* impact_parameter: the histogram (nb doubles, owned by o) that the engine fills
  * (ed_count_impacts(), dsmc_count_impacts()); obs_curves() turns it into the
@@ -118,12 +125,12 @@ struct fields *obs_fields(const obs_t *o);
 void obs_fields_add(obs_t *o, const double *pos, const double *vel, const double *spin);
 
 /* density_spectrum (output.density_spectrum): the sampler (observe/dspec.h; NULL when not asked for or
- * layout_only). obs_dspec_add() adds one sample of the slice counts (pos: N*D, scene order); obs_curves()
+ * layout_only). obs_dspec_add() adds one sample of the slice counts (pos: n*D, the rows present); obs_curves()
  * turns the last m samples into the table "density_spectrum" (x = "f", column P) with dspec_alpha,
  * dspec_alpha_se and dspec_samples. */
 struct dspec;
 struct dspec *obs_dspec(const obs_t *o);
-void obs_dspec_add(obs_t *o, const double *pos);
+void obs_dspec_add(obs_t *o, size_t n, const double *pos);
 
 /* The table description without sampling (layout_only objects too). */
 const obs_curves_t *obs_layout(const obs_t *o);

@@ -58,7 +58,7 @@ void tables_layout(obs_curves_t *c, const scene_t *s, int J)
 		table(c, "velocity_correlations", "modes", "k", "l0-1", J, vmodes);
 	}
 	if (bits & SCENE_OBS_CLUSTERS)
-		table(c, "clusters", "", "s", "1", clusters_size_bins(s->count, NULL, NULL), ncol);
+		table(c, "clusters", "", "s", "1", clusters_size_bins(scene_slots(s), NULL, NULL), ncol);
 	if (bits & SCENE_OBS_IMPACT)
 		table(c, "impact_parameter", "", "b", "1", bnb, bcols);
 	if (bits & SCENE_OBS_FIELDS) {

@@ -15,7 +15,13 @@ enum {
 	V_A2 = V_HIST + CLUSTERS_MAX_BINS, V_A3, V_GPAIRS, V_GRATE, V_GPRES, V_CW, V_CEXP,
 	V_MSD, V_DIFF,
 	V_NSP, V_TSP,   /* mixtures: species, then SCENE_SPECIES_MAX temperatures (absent in older records: zero) */
+	/* bounded scenes (absent in older records: zero) */
+	V_COM = V_TSP + SCENE_SPECIES_MAX, V_POT, V_FLUX, V_EROT, V_TROT, V_PRESENT, V_WCOLL, V_OCOLL, V_WALLS,
+	V_RESV, V_WPRES, V_WFORCE = V_WPRES + 6, V_OFORCE = V_WFORCE + 18, V_OUT = V_OFORCE + 3 * SCENE_OBSTACLES_MAX,
+	V_IN = V_OUT + 6, V_WREJ = V_IN + 6, V_END = V_WREJ + 6,
 };
+_Static_assert(V_END == ENSEMBLE_NV, "ensemble record layout");
+_Static_assert(V_COM == ENSEMBLE_NV_V4, "older records end where the bounded scenes' observables begin");
 
 void ensemble_pack(const run_record_t *r, int done, double *v)
 {
@@ -59,6 +65,27 @@ void ensemble_pack(const run_record_t *r, int done, double *v)
 	v[V_NSP] = r->n_species;
 	for (int k = 0; k < r->n_species && k < SCENE_SPECIES_MAX; k++)
 		v[V_TSP + k] = r->temperature_species[k];
+	v[V_COM] = r->com_height;
+	v[V_POT] = r->potential_energy;
+	v[V_FLUX] = r->obs.flux;
+	v[V_EROT] = r->rotational_energy;
+	v[V_TROT] = r->rotational_temperature;
+	v[V_PRESENT] = (double)r->particles;
+	v[V_WCOLL] = (double)r->wall_collisions;
+	v[V_OCOLL] = (double)r->obstacle_collisions;
+	v[V_WALLS] = r->walls;
+	v[V_RESV] = r->reservoirs;
+	for (int w = 0; w < 6; w++) {
+		v[V_WPRES + w] = r->wall_pressure[w];
+		for (int a = 0; a < 3; a++)
+			v[V_WFORCE + 3 * w + a] = r->wall_force[w][a];
+		v[V_OUT + w] = (double)r->wall_outflow[w];
+		v[V_IN + w] = (double)r->wall_inflow[w];
+		v[V_WREJ + w] = (double)r->wall_rejected[w];
+	}
+	for (int k = 0; k < SCENE_OBSTACLES_MAX; k++)
+		for (int a = 0; a < 3; a++)
+			v[V_OFORCE + 3 * k + a] = k < r->n_obstacles ? r->obstacle_force[k][a] : 0.0;
 }
 
 static void stat(const double *vals, int R, int idx, double *mean, double *se)
@@ -122,6 +149,29 @@ int ensemble_combine(const double *vals, int R, const run_record_t *proto, run_r
 	out->n_species = proto->n_species;
 	for (int k = 0; k < out->n_species; k++)
 		stat(vals, R, V_TSP + k, &out->temperature_species[k], &out->se.temperature_species[k]);
+	/* bounded scenes: means with standard errors; counts are totals (as events and collisions) */
+	out->walls = proto->walls;
+	out->reservoirs = proto->reservoirs;
+	out->n_obstacles = proto->n_obstacles;
+	stat(vals, R, V_COM, &out->com_height, &out->se.com_height);
+	stat(vals, R, V_POT, &out->potential_energy, &out->se.potential_energy);
+	stat(vals, R, V_FLUX, &out->obs.flux, &out->obs.flux_se);
+	stat(vals, R, V_EROT, &out->rotational_energy, &out->se.rotational_energy);
+	stat(vals, R, V_TROT, &out->rotational_temperature, &out->se.rotational_temperature);
+	for (int w = 0; w < 6; w++) {
+		stat(vals, R, V_WPRES + w, &out->wall_pressure[w], &out->se.wall_pressure[w]);
+		for (int a = 0; a < 3; a++)
+			stat(vals, R, V_WFORCE + 3 * w + a, &out->wall_force[w][a], &out->se.wall_force[w][a]);
+		out->wall_outflow[w] = (uint64_t)llround(sum(vals, R, V_OUT + w));
+		out->wall_inflow[w] = (uint64_t)llround(sum(vals, R, V_IN + w));
+		out->wall_rejected[w] = (uint64_t)llround(sum(vals, R, V_WREJ + w));
+	}
+	for (int k = 0; k < out->n_obstacles && k < SCENE_OBSTACLES_MAX; k++)
+		for (int a = 0; a < 3; a++)
+			stat(vals, R, V_OFORCE + 3 * k + a, &out->obstacle_force[k][a], &out->se.obstacle_force[k][a]);
+	out->particles = (uint64_t)llround(sum(vals, R, V_PRESENT));
+	out->wall_collisions = (uint64_t)llround(sum(vals, R, V_WCOLL));
+	out->obstacle_collisions = (uint64_t)llround(sum(vals, R, V_OCOLL));
 	out->clusters.n_particles = proto->n;
 	out->clusters.n_clusters = (uint64_t)llround(sum(vals, R, V_NCL) / R);
 	out->clusters.largest = (uint64_t)llround(sum(vals, R, V_LARGEST) / R);
@@ -201,6 +251,29 @@ void ensemble_unpack(const double *v, const scene_t *s, run_record_t *r)
 		r->n_species = 0;
 	for (int k = 0; k < r->n_species; k++)
 		r->temperature_species[k] = v[V_TSP + k];
+	r->com_height = v[V_COM];
+	r->potential_energy = v[V_POT];
+	r->obs.flux = v[V_FLUX];
+	r->obs.flux_se = NAN;
+	r->rotational_energy = v[V_EROT];
+	r->rotational_temperature = v[V_TROT];
+	r->particles = (uint64_t)v[V_PRESENT];
+	r->wall_collisions = (uint64_t)v[V_WCOLL];
+	r->obstacle_collisions = (uint64_t)v[V_OCOLL];
+	r->walls = (unsigned)v[V_WALLS];
+	r->reservoirs = (unsigned)v[V_RESV];
+	r->n_obstacles = s->n_obstacles;
+	for (int w = 0; w < 6; w++) {
+		r->wall_pressure[w] = v[V_WPRES + w];
+		for (int a = 0; a < 3; a++)
+			r->wall_force[w][a] = v[V_WFORCE + 3 * w + a];
+		r->wall_outflow[w] = (uint64_t)v[V_OUT + w];
+		r->wall_inflow[w] = (uint64_t)v[V_IN + w];
+		r->wall_rejected[w] = (uint64_t)v[V_WREJ + w];
+	}
+	for (int k = 0; k < s->n_obstacles && k < SCENE_OBSTACLES_MAX; k++)
+		for (int a = 0; a < 3; a++)
+			r->obstacle_force[k][a] = v[V_OFORCE + 3 * k + a];
 }
 
 /* ---- replica state as a byte string ----------------------------------------
@@ -340,7 +413,8 @@ int ensemble_load(const scene_t *s, uint64_t stream, const unsigned char *buf, s
 
 	sc.stream = stream;
 	*out = NULL;
-	r = run_create_blank(&sc, NULL, &err, msg, msglen);
+	const run_opts_t opts = {.curves = 1};   /* as run_open(): fields and spectrum sampled per replica */
+	r = run_create_blank(&sc, &opts, &err, msg, msglen);
 	if (!r)
 		return err == RUN_ENOMEM ? RUN_ENOMEM : RUN_ERESTORE;
 	memset(&st, 0, sizeof st);
@@ -377,8 +451,8 @@ int ensemble_load(const scene_t *s, uint64_t stream, const unsigned char *buf, s
 			memcpy(&status, data, 8);
 			got++;
 		} else if (!strcmp(f.name, "@last") && f.type == ED_T_F64 &&
-		           (f.count == ENSEMBLE_NV || f.count == ENSEMBLE_NV_V3 || f.count == ENSEMBLE_NV_V2 ||
-		            f.count == ENSEMBLE_NV_V1)) {
+		           (f.count == ENSEMBLE_NV || f.count == ENSEMBLE_NV_V4 || f.count == ENSEMBLE_NV_V3 ||
+		            f.count == ENSEMBLE_NV_V2 || f.count == ENSEMBLE_NV_V1)) {
 			/* an older version's record has no structure observables: zeros */
 			double v[ENSEMBLE_NV] = {0};
 			memcpy(v, data, f.count * sizeof(double));

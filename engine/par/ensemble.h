@@ -14,7 +14,12 @@
  *   only on the replica records, never on which rank produced them.
  */
 
-#define ENSEMBLE_NV (36 + SCENE_SPECIES_MAX + CLUSTERS_MAX_BINS)   /* doubles per replica record */
+/* doubles per replica record: the scalars, the species' temperatures, the cluster histogram, then the
+ * bounded scenes' observables (ENSEMBLE_NV_BOUNDED: walls, obstacles, gravity, open walls, rotation, flux) */
+#define ENSEMBLE_NV_BOUNDED (10 + 6 + 6 * 3 + SCENE_OBSTACLES_MAX * 3 + 3 * 6)
+#define ENSEMBLE_NV (36 + SCENE_SPECIES_MAX + CLUSTERS_MAX_BINS + ENSEMBLE_NV_BOUNDED)
+/* Packed records of versions before the bounded scenes' observables (checkpoints' "@last"). */
+#define ENSEMBLE_NV_V4 (36 + SCENE_SPECIES_MAX + CLUSTERS_MAX_BINS)
 /* Packed records of versions before the mixtures' per-species temperatures (checkpoints' "@last"). */
 #define ENSEMBLE_NV_V3 (35 + CLUSTERS_MAX_BINS)
 /* Packed records of versions before mean_square_displacement (checkpoints' "@last"). */
@@ -29,8 +34,13 @@ void ensemble_pack(const run_record_t *rec, int done, double *v);
 /* Combine R packed records (R * ENSEMBLE_NV doubles, replica-major) into *out:
  * observables are means over the replicas with standard errors in out->se
  * (sample standard deviation / sqrt(R)); mixtures' per-species temperatures
- * likewise, species by species; events, collisions and the dsmc
- * diagnostics are totals over the replicas; cluster counts and largest sizes
+ * likewise, species by species; so are the bounded scenes' observables (the
+ * force and pressure on each wall, the force on each obstacle, the
+ * centre-of-mass height, the potential energy, the flux, the rotational
+ * energy and temperature); events, collisions, the dsmc diagnostics and the
+ * counts of wall and obstacle hits, of particles present, and of particles
+ * that left or entered through each wall are totals over the replicas;
+ * cluster counts and largest sizes
  * rounded means, histogram totals. proto (a record of the same kind from
  * any replica) supplies kind, dim, n and the observable flags. Returns the
  * number of replicas whose done flag is set. */
