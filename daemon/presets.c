@@ -38,6 +38,15 @@ static const struct { const char *name, *description; } descriptions[] = {
 	                                              "reservoir walls at both ends of x (eta=0.04, kT=0.02, U=0.05), y "
 	                                              "periodic, 440 x 440 diameters, two flow-through times: drag "
 	                                              "(obstacle_force), inflow and outflow"},
+	{.name = "dense-stream-2d", .description = "Dense 2D stream (seed 001 anchor 4): eta=0.65, kT=0.02, U=0.1 in a "
+	                                           "120 x 40 channel fed by a dispenser (piston and template layers) and "
+	                                           "drained through a filter (frozen particles, turn-back), y periodic, "
+	                                           "three flow-through times: density and temperature hold along the "
+	                                           "channel (fields)"},
+	{.name = "dense-front-2d", .description = "Inelastic dense stream (r=0.97, TC) against a no-slip obstacle of "
+	                                          "diameter 30 (seed 001 anchor 11, scaled down): eta=0.65, kT=0.02, "
+	                                          "U=0.1 from a dispenser, filter outlet, 200 x 100: a dense front builds "
+	                                          "up before the obstacle (bench/front_bench)"},
 };
 
 static const size_t npresets = sizeof(presets_embedded) / sizeof(presets_embedded[0]);

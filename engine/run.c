@@ -374,7 +374,8 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 		for (int k = 0; k < 2; k++) {
 			int w = 2 * a + k;
 			r->walls |= 1u << w;
-			if (s->boundary[a].wall[k].type == SCENE_WALL_RESERVOIR)
+			if (s->boundary[a].wall[k].type == SCENE_WALL_RESERVOIR ||
+			    s->boundary[a].wall[k].type == SCENE_WALL_DISPENSER)   /* particles enter */
 				r->reservoirs |= 1u << w;
 			if (!(sm.interval > 0.0))
 				continue;

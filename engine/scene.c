@@ -69,7 +69,7 @@ static const char *const contact_names[] = { "global", "local" };
 static const char *const wall_names[] = {
 	[SCENE_WALL_SPECULAR] = "specular", [SCENE_WALL_THERMAL] = "thermal", [SCENE_WALL_ROUGH] = "rough",
 	[SCENE_WALL_MOVING] = "moving", [SCENE_WALL_VIBRATING] = "vibrating", [SCENE_WALL_OPEN] = "open",
-	[SCENE_WALL_RESERVOIR] = "reservoir",
+	[SCENE_WALL_RESERVOIR] = "reservoir", [SCENE_WALL_DISPENSER] = "dispenser",
 };
 static const char *const obstacle_names[] = {
 	[SCENE_OBST_SLIP] = "slip", [SCENE_OBST_NO_SLIP] = "no_slip", [SCENE_OBST_RANDOM_SIGN] = "random_sign",
@@ -1030,14 +1030,17 @@ static const struct {
 	unsigned types;      /* bit per scene_wall_type_t that accepts it */
 	unsigned required;   /* bit per type that requires it */
 } wall_keys[] = {
-	{ "restitution", 0x1f, 0 },
-	{ "temperature", 1u << SCENE_WALL_THERMAL | 1u << SCENE_WALL_RESERVOIR,
-	  1u << SCENE_WALL_THERMAL | 1u << SCENE_WALL_RESERVOIR },
+	{ "restitution", 0x1f | 1u << SCENE_WALL_DISPENSER, 0 },
+	{ "temperature", 1u << SCENE_WALL_THERMAL | 1u << SCENE_WALL_RESERVOIR | 1u << SCENE_WALL_DISPENSER,
+	  1u << SCENE_WALL_THERMAL | 1u << SCENE_WALL_RESERVOIR | 1u << SCENE_WALL_DISPENSER },
 	{ "accommodation", 1u << SCENE_WALL_THERMAL, 0 },
 	{ "probability", 1u << SCENE_WALL_ROUGH, 1u << SCENE_WALL_ROUGH },
-	{ "velocity", 1u << SCENE_WALL_MOVING | 1u << SCENE_WALL_THERMAL | 1u << SCENE_WALL_RESERVOIR,
-	  1u << SCENE_WALL_MOVING },
-	{ "volume_fraction", 1u << SCENE_WALL_RESERVOIR, 1u << SCENE_WALL_RESERVOIR },
+	{ "velocity", 1u << SCENE_WALL_MOVING | 1u << SCENE_WALL_THERMAL | 1u << SCENE_WALL_RESERVOIR |
+	  1u << SCENE_WALL_DISPENSER, 1u << SCENE_WALL_MOVING | 1u << SCENE_WALL_DISPENSER },
+	{ "volume_fraction", 1u << SCENE_WALL_RESERVOIR | 1u << SCENE_WALL_DISPENSER,
+	  1u << SCENE_WALL_RESERVOIR | 1u << SCENE_WALL_DISPENSER },
+	{ "thickness", 1u << SCENE_WALL_DISPENSER, 0 },
+	{ "filter", 1u << SCENE_WALL_OPEN, 0 },
 	{ "tangential_restitution", 1u << SCENE_WALL_MOVING, 0 },
 	{ "coverage", 1u << SCENE_WALL_MOVING, 0 },
 	{ "amplitude", 1u << SCENE_WALL_VIBRATING, 1u << SCENE_WALL_VIBRATING },
@@ -1062,6 +1065,24 @@ static int check_wall(ctx_t *c, const char *path, json_t *v, void *base)
 	return 0;
 }
 
+static int check_filter(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_filter_t *f = base;
+	(void)c, (void)path, (void)v;
+	f->on = 1;
+	return 0;
+}
+
+static const struct object filter_obj = {
+	.fields = (const struct field[]){
+		{ "distance", parse_number, offsetof(scene_filter_t, distance), &R_POS, true },
+		{ "velocity", parse_vector, offsetof(scene_filter_t, velocity), NULL, true },
+		{ "temperature", parse_number, offsetof(scene_filter_t, temperature), &R_POS, false },
+		{ .name = NULL },
+	},
+	.check = check_filter,
+};
+
 static const struct object wall_obj = {
 	.fields = (const struct field[]){
 		{ "type", parse_wall_type, offsetof(scene_wall_t, type), NULL, true },
@@ -1076,6 +1097,8 @@ static const struct object wall_obj = {
 		{ "frequency", parse_number, offsetof(scene_wall_t, frequency), &R_POS, false },
 		{ "phase", parse_number, offsetof(scene_wall_t, phase), &R_ANY, false },
 		{ "volume_fraction", parse_number, offsetof(scene_wall_t, volume_fraction), &R_POS, false },
+		{ "thickness", parse_number, offsetof(scene_wall_t, thickness), &R_POS, false },
+		{ "filter", parse_object, offsetof(scene_wall_t, filter), &filter_obj, false },
 		{ .name = NULL },
 	},
 	.check = check_wall,
@@ -1246,7 +1269,7 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 	bool given = json_object_get(json_object_get(v, "particles"), "capacity") != NULL;
 	if (!scene_has_reservoir(s)) {
 		if (given)
-			return fail(c, "particles.capacity", "only with a \"reservoir\" wall (particles enter)");
+			return fail(c, "particles.capacity", "only with a \"reservoir\" or \"dispenser\" wall (particles enter)");
 		s->capacity = s->count;
 		return 0;
 	}
@@ -1255,23 +1278,27 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 	for (int a = 0; a < s->dim; a++)
 		for (int k = 0; k < 2; k++) {
 			const scene_wall_t *w = &s->boundary[a].wall[k];
-			if (!s->boundary[a].walled || w->type != SCENE_WALL_RESERVOIR)
+			if (!s->boundary[a].walled || (w->type != SCENE_WALL_RESERVOIR && w->type != SCENE_WALL_DISPENSER))
 				continue;
+			const char *wn = wall_names[w->type];
 			snprintf(path, sizeof path, "boundaries.%s.%s", axis_names[a], k ? "upper" : "lower");
 			if (s->method != SCENE_METHOD_ED)
-				return fail(c, path, "method \"%s\" does not support \"reservoir\" walls (only \"ed\" does)",
-				            method_names[s->method]);
+				return fail(c, path, "method \"%s\" does not support \"%s\" walls (only \"ed\" does)",
+				            method_names[s->method], wn);
 			if (w->volume_fraction >= cp) {
 				snprintf(path, sizeof path, "boundaries.%s.%s.volume_fraction", axis_names[a], k ? "upper" : "lower");
 				return fail(c, path, "%s is at or above the close-packing limit %.4f", num(w->volume_fraction).s, cp);
 			}
 			nmax = fmax(nmax, w->volume_fraction / vp);
 			if (scene_has_species(s))
-				return fail(c, path, "\"reservoir\" walls take one species of smooth particles (particles.species "
-				            "is not supported with them yet)");
+				return fail(c, path, "\"%s\" walls take one species of smooth particles (particles.species "
+				            "is not supported with them yet)", wn);
 			if (s->rough)
-				return fail(c, path, "\"reservoir\" walls take smooth particles (collisions.rough is not "
-				            "supported with them yet)");
+				return fail(c, path, "\"%s\" walls take smooth particles (collisions.rough is not "
+				            "supported with them yet)", wn);
+			if (s->replicas > 1 && w->type == SCENE_WALL_DISPENSER)
+				return fail(c, path, "\"dispenser\" walls are not supported in ensembles yet (run.replicas "
+				            "must be 1)");
 		}
 	/* default: room for twice the larger of the initial count and what the
 	 * box holds at the densest reservoir's density, plus 64 */
@@ -1281,6 +1308,94 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 	if (s->capacity < s->count)
 		return fail(c, "particles.capacity", "%llu is below particles.count %llu (slots for the particles present)",
 		            (unsigned long long)s->capacity, (unsigned long long)s->count);
+	return 0;
+}
+
+/* Seed 001's open stream (method ed): dispenser walls (the piston and its
+ * layers) and the filters of open walls: where they fit, what they move
+ * with, what they are not combined with yet (docs/scene.md). */
+static int check_streams(ctx_t *c, const scene_t *s)
+{
+	char path[PATHLEN];
+	int dispensers = 0;
+	for (int a = 0; a < s->dim; a++) {
+		const scene_boundary_t *b = &s->boundary[a];
+		if (!b->walled)
+			continue;
+		for (int k = 0; k < 2; k++) {
+			const scene_wall_t *w = &b->wall[k];
+			const char *end = k ? "upper" : "lower";
+			const double sg = k ? -1.0 : 1.0;   /* inward normal along the axis */
+			if (w->type == SCENE_WALL_DISPENSER) {
+				snprintf(path, sizeof path, "boundaries.%s.%s", axis_names[a], end);
+				if (++dispensers > 1)
+					return fail(c, path, "at most one \"dispenser\" wall per scene");
+				if (s->dim != 2)
+					return fail(c, path, "\"dispenser\" walls are 2D only (dimensions 3 is not supported yet)");
+				if (scene_has_gravity(s))
+					return fail(c, path, "\"dispenser\" walls are not supported with gravity yet");
+				if (!(sg * w->velocity[a] >= 0)) {
+					snprintf(path, sizeof path, "boundaries.%s.%s.velocity[%d]", axis_names[a], end, a);
+					return fail(c, path, "the piston moves into the box: the component along the inward normal must be "
+					            ">= 0, got %s", num(sg * w->velocity[a]).s);
+				}
+				for (int j = 0; j < s->dim; j++)
+					if (j != a && s->boundary[j].walled && w->velocity[j] != 0) {
+						snprintf(path, sizeof path, "boundaries.%s.%s.velocity[%d]", axis_names[a], end, j);
+						return fail(c, path, "must be 0 along the walled axis %s (the layers would drift into its walls)",
+						            axis_names[j]);
+					}
+				const double h = w->thickness > 0 ? w->thickness : 4 * s->radius;
+				snprintf(path, sizeof path, "boundaries.%s.%s.thickness", axis_names[a], end);
+				if (!(h > 2 * s->radius))
+					return fail(c, path, "%s must exceed one particle diameter %s (the layer lies between the piston "
+					            "and the particles ahead)", num(h).s, num(2 * s->radius).s);
+				if (!(h <= 0.25 * s->box[a]))
+					return fail(c, path, "%s must be at most a quarter of the box edge %s along %s", num(h).s,
+					            num(s->box[a]).s, axis_names[a]);
+			}
+			if (w->type == SCENE_WALL_OPEN && w->filter.on) {
+				const scene_filter_t *f = &w->filter;
+				snprintf(path, sizeof path, "boundaries.%s.%s.filter", axis_names[a], end);
+				if (s->method != SCENE_METHOD_ED)
+					return fail(c, path, "method \"%s\" does not support filters (only \"ed\" does)",
+					            method_names[s->method]);
+				if (scene_has_gravity(s))
+					return fail(c, path, "filters are not supported with gravity yet (frozen particles fly straight)");
+				if (scene_has_species(s) || s->rough)
+					return fail(c, path, "filters take one species of smooth particles (particles.species and "
+					            "collisions.rough are not supported with them yet)");
+				snprintf(path, sizeof path, "boundaries.%s.%s.filter.distance", axis_names[a], end);
+				if (!(f->distance > s->radius))
+					return fail(c, path, "%s must exceed the particle radius %s (seed 001: the plane lies more than a "
+					            "radius inside the outlet)", num(f->distance).s, num(s->radius).s);
+				if (!(f->distance <= 0.5 * s->box[a]))
+					return fail(c, path, "%s must be at most half the box edge %s along %s", num(f->distance).s,
+					            num(s->box[a]).s, axis_names[a]);
+				if (!(-sg * f->velocity[a] >= 0)) {
+					snprintf(path, sizeof path, "boundaries.%s.%s.filter.velocity[%d]", axis_names[a], end, a);
+					return fail(c, path, "frozen particles move out: the component along the outward normal must be "
+					            ">= 0, got %s", num(-sg * f->velocity[a]).s);
+				}
+				for (int j = 0; j < s->dim; j++)
+					if (j != a && s->boundary[j].walled && f->velocity[j] != 0) {
+						snprintf(path, sizeof path, "boundaries.%s.%s.filter.velocity[%d]", axis_names[a], end, j);
+						return fail(c, path, "must be 0 along the walled axis %s (frozen particles would run into its "
+						            "walls)", axis_names[j]);
+					}
+				/* the plane, and no obstacle beyond it (frozen particles do not meet obstacles) */
+				const double plane = k ? s->box[a] - f->distance : f->distance;
+				for (int o = 0; o < s->n_obstacles; o++) {
+					const scene_obstacle_t *ob = &s->obstacle[o];
+					if (sg * (ob->center[a] - plane) - ob->radius - 2 * s->radius < 0) {
+						snprintf(path, sizeof path, "obstacles[%d]", o);
+						return fail(c, path, "reaches beyond the filter plane of boundaries.%s.%s (obstacles must lie "
+						            "upstream of it, one diameter clear)", axis_names[a], end);
+					}
+				}
+			}
+		}
+	}
 	return 0;
 }
 
@@ -1334,6 +1449,8 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 	if (ret)
 		return ret;
 	if ((ret = check_reservoirs(c, v, s)))
+		return ret;
+	if ((ret = check_streams(c, s)))
 		return ret;
 	for (int a = 0; a < s->dim; a++)
 		if (s->flow[a] != 0 && s->method != SCENE_METHOD_ED)
@@ -2065,7 +2182,8 @@ int scene_has_open_walls(const scene_t *s)
 	for (int a = 0; a < s->dim && a < 3; a++)
 		for (int k = 0; k < 2; k++)
 			if (s->boundary[a].walled && (s->boundary[a].wall[k].type == SCENE_WALL_OPEN ||
-			                              s->boundary[a].wall[k].type == SCENE_WALL_RESERVOIR))
+			                              s->boundary[a].wall[k].type == SCENE_WALL_RESERVOIR ||
+			                              s->boundary[a].wall[k].type == SCENE_WALL_DISPENSER))
 				return 1;
 	return 0;
 }
@@ -2074,7 +2192,27 @@ int scene_has_reservoir(const scene_t *s)
 {
 	for (int a = 0; a < s->dim && a < 3; a++)
 		for (int k = 0; k < 2; k++)
-			if (s->boundary[a].walled && s->boundary[a].wall[k].type == SCENE_WALL_RESERVOIR)
+			if (s->boundary[a].walled && (s->boundary[a].wall[k].type == SCENE_WALL_RESERVOIR ||
+			                              s->boundary[a].wall[k].type == SCENE_WALL_DISPENSER))
+				return 1;
+	return 0;
+}
+
+int scene_has_dispenser(const scene_t *s)
+{
+	for (int a = 0; a < s->dim && a < 3; a++)
+		for (int k = 0; k < 2; k++)
+			if (s->boundary[a].walled && s->boundary[a].wall[k].type == SCENE_WALL_DISPENSER)
+				return 1;
+	return 0;
+}
+
+int scene_has_filter(const scene_t *s)
+{
+	for (int a = 0; a < s->dim && a < 3; a++)
+		for (int k = 0; k < 2; k++)
+			if (s->boundary[a].walled && s->boundary[a].wall[k].type == SCENE_WALL_OPEN &&
+			    s->boundary[a].wall[k].filter.on)
 				return 1;
 	return 0;
 }

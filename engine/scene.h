@@ -76,7 +76,20 @@ typedef enum {
 	SCENE_WALL_OPEN,           /* outflow: a particle touching it leaves the system (counted); no restitution */
 	SCENE_WALL_RESERVOIR,      /* open wall backed by an ideal-gas reservoir (volume_fraction, velocity,
 	                            * temperature): leaves like "open", and particles enter at the one-sided flux */
+	SCENE_WALL_DISPENSER,      /* seed 001 inlet: a hard piston moving along the inward normal at the normal
+	                            * component of velocity; each time it has cleared thickness, a layer at
+	                            * volume_fraction and temperature is placed behind it and it jumps back */
 } scene_wall_type_t;
+
+/* The filter of an "open" wall (seed 001 outlet): a plane distance inside
+ * the wall; a particle crossing it outwards is frozen (infinite mass,
+ * velocity exactly velocity) until it leaves through the wall. */
+typedef struct {
+	int on;                    /* 0: no filter */
+	double distance;           /* > particle radius, from the wall's plane (length) */
+	double velocity[3];        /* the frozen particles' velocity; outward normal component >= 0 */
+	double temperature;        /* > 0: seed 001's turn-back at the plane at this temperature; 0: none */
+} scene_filter_t;
 
 typedef struct {
 	scene_wall_type_t type;
@@ -93,6 +106,8 @@ typedef struct {
 	                            * eta / (particle volume) */
 	double coverage;           /* moving, instead of restitution: r_w = 1 - (1 - restitution) coverage (seed 000
 	                            * 3.9, line coverage rho_l); -1 when not given */
+	double thickness;          /* dispenser: layer thickness (length), > one diameter; 0: default 2 diameters */
+	scene_filter_t filter;     /* open: the filter plane (filter.on = 0 without) */
 } scene_wall_t;
 
 /* One axis of the box: periodic, or walls at both ends (wall[0] at
@@ -299,12 +314,16 @@ double scene_close_packing(int dim);
 /* Any walled axis; any non-zero gravity component; any obstacle. */
 int scene_has_walls(const scene_t *s);
 int scene_has_obstacles(const scene_t *s);
-/* Any wall of type "open" or "reservoir" (particles leave through it). */
+/* Any wall of type "open" or "reservoir" (particles leave through it), or
+ * "dispenser" (particles enter through it): the particle set is not fixed. */
 int scene_has_open_walls(const scene_t *s);
-/* Any wall of type "reservoir" (particles enter too; ed only). Such
+/* Any wall of type "reservoir" or "dispenser" (particles enter; ed only). Such
  * scenes have capacity particle slots, count of them filled at the start:
  * per-particle arrays of the run and its output have scene_slots() rows. */
 int scene_has_reservoir(const scene_t *s);
+/* Any wall of type "dispenser"; any "open" wall with a filter. */
+int scene_has_dispenser(const scene_t *s);
+int scene_has_filter(const scene_t *s);
 uint64_t scene_slots(const scene_t *s);
 int scene_has_gravity(const scene_t *s);
 

@@ -129,6 +129,18 @@ cat >"$tmp/2d-reservoir.json" <<'JSON'
  "output":{"every":{"time":3},"observables":["kinetic_energy","obstacle_force","outflow"],
    "snapshots":{"every":{"time":20}},"checkpoint":{"every":{"time":13}}}}
 JSON
+# Dispenser and filter (seed 001's dense stream): the piston's recharge
+# time, the frozen flags and counts, slots and ids are state too.
+cat >"$tmp/2d-dispenser-filter.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":500,"box":[30,20],
+   "initial":{"positions":"lattice","temperature":0.02,"velocity":[0.1,0]}},
+ "collisions":{"restitution":0.97,"tc":0.05},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.65,"velocity":[0.1,0],"temperature":0.02},
+   "upper":{"type":"open","filter":{"distance":3,"velocity":[0.1,0],"temperature":0.02}}}},
+ "run":{"seed":49,"until":{"time":120}},
+ "output":{"every":{"time":6},"observables":["kinetic_energy","outflow","wall_force"],
+   "snapshots":{"every":{"time":40}},"checkpoint":{"every":{"time":27}}}}
+JSON
 # Rough particles (spins, angular_velocity frames) and driving (kick times,
 # the thermostat's random stream and local means) are state too.
 cat >"$tmp/3d-rough-drive.json" <<'JSON'
@@ -274,7 +286,7 @@ ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 # (a) checkpoint at simulated time T, resume: identical to the uninterrupted run.
 for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open 3d-rough-drive \
 	2d-rough-noise 2d-hsmc-walls 2d-dsmc-vib 2d-hsmc-open 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute \
-	2d-mixture-walls 2d-reservoir; do
+	2d-mixture-walls 2d-reservoir 2d-dispenser-filter; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

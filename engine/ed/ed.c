@@ -59,11 +59,18 @@ typedef struct {
 	double ph;             /* state: theta at local time 0 (rebased with the clock) */
 	double rest;           /* internal coordinate of the wall plane at rest */
 	double vmin;           /* minimum rebound (normal speed relative to the wall) with TC; 0 without */
+	/* Dispenser (a piston; 0 for other walls): the plane is displaced along
+	 * the inward normal by pu (t - pt0), t local; pu is 0 during the
+	 * elastic pre-run (the piston stands at rest) and pspeed after. */
+	double pu, pt0;        /* speed now; state: local time of the last recharge (the piston at rest) */
+	double pspeed, lh;     /* the piston's speed (the velocity's inward normal component); layer thickness h */
 } wall_t;
 
 /* Event codes in ev_t.cross at and above this: a wall (ED_WALL0 + w);
  * at and above ED_OBST0: an obstacle (ED_OBST0 + k). */
 enum { ED_WALL0 = 8, ED_OBST0 = 16 };
+/* ... and at and above ED_FILT0: the filter plane of wall w (ED_FILT0 + w). */
+enum { ED_FILT0 = ED_OBST0 + SCENE_OBSTACLES_MAX };
 
 /* An obstacle (walls variants): a fixed disk/sphere, its rule from the
  * scene, its centre in internal coordinates. */
@@ -231,6 +238,28 @@ struct ed {
 	double in_rate[6];        /* entries per unit time: F_+ times the face area */
 	double in_a[6], in_s[6];  /* mean inward normal velocity U_n; thermal speed sqrt(T / m) */
 	double in_u[6][3];        /* the reservoir's velocity */
+	/* Seed 001's open stream (walls variant; frozen NULL, nfilt 0 and no
+	 * dispenser without). Filters: frozen[i] = 1 + w once particle i has
+	 * crossed the filter plane of wall w (fplane, internal coordinate) going
+	 * out: from then on it moves at fu[w] exactly, with infinite mass,
+	 * until it leaves through the wall (0 for a regular particle or an
+	 * empty slot). filt_on: filters act (not during the elastic pre-run).
+	 * Dispensers (wall_t pu, pt0): each recharge places one of the ntpl
+	 * template layers (tpl: ntpl x tpl_n positions in the layer's frame:
+	 * normal coordinate in [r, h - r] from the piston, transverse in the
+	 * box), built at load from the scene (not state). */
+	uint8_t *frozen;
+	int nfilt, filt_on, disp;
+	double fplane[6];
+	double fu[6][3];
+	double fback[6], fsv[6];  /* turn-back probability F_- / F_+ at the plane (0: none), thermal speed sqrt(T / m) */
+	int32_t fcell[6];         /* the cell of the plane (one more towards the inside) */
+	uint64_t nfrozen[6];      /* state (in "frozen_counts"): particles frozen per filter wall */
+	int ntpl;
+	uint32_t tpl_n;           /* particles in a template layer: ceil(eta h W / v_p) */
+	double tpl_frac;          /* a recharge places tpl_n, or tpl_n - 1 with probability 1 - tpl_frac (mean eta h W / v_p) */
+	double *tpl;
+	double disp_u[6][3], disp_s[6];   /* layer velocity U and thermal speed sqrt(T / m) per dispenser wall */
 #ifdef ED_TRACE
 	ed_trace_fn trace;        /* bench-only build (ed.h, "Event trace"): called before each event */
 	void *trace_ctx;
@@ -541,7 +570,7 @@ static void wall_rule(struct ed *ed, int w, double *v, double t, int elastic, do
 	const wall_t *W = &ed->wall[w];
 	const int a = w >> 1, dim = ed->dim;
 	const double s = (w & 1) ? -1.0 : 1.0;
-	const double un = W->A != 0.0 ? W->A * W->omega * cos(W->ph + W->omega * t) : 0.0;
+	const double un = W->A != 0.0 ? W->A * W->omega * cos(W->ph + W->omega * t) : W->pu;   /* pu: a dispenser's piston */
 	double vn = s * v[a] - un;   /* < 0: approaching */
 	if (ed->relaxing) {
 		if (vn < 0.0)
@@ -591,9 +620,12 @@ static void wall_rule(struct ed *ed, int w, double *v, double t, int elastic, do
 /* The clock moves its origin by t: wall phases follow (reduced mod 2 pi). */
 static void walls_rebase(struct ed *ed, double t)
 {
-	for (int w = 0; w < 6; w++)
+	for (int w = 0; w < 6; w++) {
 		if (ed->wall[w].A != 0.0)
 			ed->wall[w].ph = fmod(ed->wall[w].ph + ed->wall[w].omega * t, 6.28318530717958647692);
+		if (ed->wall[w].type == SCENE_WALL_DISPENSER)   /* the piston's recharge time, local */
+			ed->wall[w].pt0 -= t;
+	}
 }
 
 /* Velocity v (dim components) of a particle meeting obstacle k with unit
@@ -626,6 +658,32 @@ static int obst_clear(const struct ed *ed, const double *r)
 	return 1;
 }
 
+static double inlet_normal(rng_t *g, double a, double s);
+
+/* Filters: particle velocity v (dim components) crossing the filter plane
+ * of wall w outwards. With a filter temperature T, seed 001's turn-back
+ * first: with probability F_- / F_+ (eq. 3.15-3.18 at the filter's
+ * outward speed U and T) the particle is sent back with the flux-weighted
+ * velocity of a gas at (U, T) crossing the plane inwards (3.28: normal
+ * speed from inlet_normal() at inward mean -U, tangential Maxwellian about
+ * the filter velocity); returns 0. Otherwise it freezes: v = fu exactly;
+ * returns 1. */
+static int filter_rule(struct ed *ed, int w, double *v)
+{
+	const int a = w >> 1;
+	const double sg = (w & 1) ? -1.0 : 1.0;   /* inward */
+	if (ed->fback[w] > 0.0 && rng_uniform(&ed->wrng) < ed->fback[w]) {
+		const double sv = ed->fsv[w];
+		for (int k = 0; k < ed->dim; k++)
+			if (k != a)
+				v[k] = ed->fu[w][k] + sv * rng_gauss(&ed->wrng);
+		v[a] = sg * inlet_normal(&ed->wrng, sg * ed->fu[w][a], sv);
+		return 0;
+	}
+	for (int k = 0; k < ed->dim; k++)
+		v[k] = ed->fu[w][k];
+	return 1;
+}
 /* Event trace hook (ed.h): code only in the bench-only -DED_TRACE build;
  * elsewhere ED_TRACE_EVENT expands to nothing, so the engine is unchanged. */
 #ifdef ED_TRACE
@@ -779,6 +837,8 @@ typedef struct ed_ops {
 	void (*kick_set)(struct ed *, uint32_t, const double *);
 	/* reservoir walls (walls and gravity variants) */
 	int (*enter)(struct ed *, uint32_t, const double *, const double *);
+	/* dispensers (walls variant, one species) */
+	int (*enter_layer)(struct ed *, uint32_t, const double *, const double *);
 } ed_ops_t;
 
 #define OPS_COMMON(x) \
@@ -787,28 +847,28 @@ typedef struct ed_ops {
 	.scan_full = scan_full_##x, .kick_get = kick_get_##x, .kick_set = kick_set_##x
 #define OPS_NL(x) .nl_build_all = nl_build_all_##x, .resync = resync_##x, .set_nl = set_nl_##x, .scan_nl = scan_nl_##x
 static const ed_ops_t ed_ops[2][3] = {
-	{ { OPS_COMMON(2d), OPS_NL(2d) }, { OPS_COMMON(2w), .observe = observe_2w, .enter = enter_2w },
-	  { OPS_COMMON(2g), .observe = observe_2g, .energy_to = energy_to_2g, .enter = enter_2g } },
-	{ { OPS_COMMON(3d), OPS_NL(3d) }, { OPS_COMMON(3w), .observe = observe_3w, .enter = enter_3w },
-	  { OPS_COMMON(3g), .observe = observe_3g, .energy_to = energy_to_3g, .enter = enter_3g } },
+	{ { OPS_COMMON(2d), OPS_NL(2d) }, { OPS_COMMON(2w), .observe = observe_2w, .enter = enter_2w, .enter_layer = enter_layer_2w },
+	  { OPS_COMMON(2g), .observe = observe_2g, .energy_to = energy_to_2g, .enter = enter_2g, .enter_layer = enter_layer_2g } },
+	{ { OPS_COMMON(3d), OPS_NL(3d) }, { OPS_COMMON(3w), .observe = observe_3w, .enter = enter_3w, .enter_layer = enter_layer_3w },
+	  { OPS_COMMON(3g), .observe = observe_3g, .energy_to = energy_to_3g, .enter = enter_3g, .enter_layer = enter_layer_3g } },
 };
 static const ed_ops_t ed_ops_species[2][3] = {
-	{ { OPS_COMMON(2ds), OPS_NL(2ds) }, { OPS_COMMON(2ws), .observe = observe_2ws, .enter = enter_2ws },
-	  { OPS_COMMON(2gs), .observe = observe_2gs, .energy_to = energy_to_2gs, .enter = enter_2gs } },
-	{ { OPS_COMMON(3ds), OPS_NL(3ds) }, { OPS_COMMON(3ws), .observe = observe_3ws, .enter = enter_3ws },
-	  { OPS_COMMON(3gs), .observe = observe_3gs, .energy_to = energy_to_3gs, .enter = enter_3gs } },
+	{ { OPS_COMMON(2ds), OPS_NL(2ds) }, { OPS_COMMON(2ws), .observe = observe_2ws, .enter = enter_2ws, .enter_layer = enter_layer_2ws },
+	  { OPS_COMMON(2gs), .observe = observe_2gs, .energy_to = energy_to_2gs, .enter = enter_2gs, .enter_layer = enter_layer_2gs } },
+	{ { OPS_COMMON(3ds), OPS_NL(3ds) }, { OPS_COMMON(3ws), .observe = observe_3ws, .enter = enter_3ws, .enter_layer = enter_layer_3ws },
+	  { OPS_COMMON(3gs), .observe = observe_3gs, .energy_to = energy_to_3gs, .enter = enter_3gs, .enter_layer = enter_layer_3gs } },
 };
 static const ed_ops_t ed_ops_species_rough[2][3] = {
-	{ { OPS_COMMON(2dsr), OPS_NL(2dsr) }, { OPS_COMMON(2wsr), .observe = observe_2wsr, .enter = enter_2wsr },
-	  { OPS_COMMON(2gsr), .observe = observe_2gsr, .energy_to = energy_to_2gsr, .enter = enter_2gsr } },
-	{ { OPS_COMMON(3dsr), OPS_NL(3dsr) }, { OPS_COMMON(3wsr), .observe = observe_3wsr, .enter = enter_3wsr },
-	  { OPS_COMMON(3gsr), .observe = observe_3gsr, .energy_to = energy_to_3gsr, .enter = enter_3gsr } },
+	{ { OPS_COMMON(2dsr), OPS_NL(2dsr) }, { OPS_COMMON(2wsr), .observe = observe_2wsr, .enter = enter_2wsr, .enter_layer = enter_layer_2wsr },
+	  { OPS_COMMON(2gsr), .observe = observe_2gsr, .energy_to = energy_to_2gsr, .enter = enter_2gsr, .enter_layer = enter_layer_2gsr } },
+	{ { OPS_COMMON(3dsr), OPS_NL(3dsr) }, { OPS_COMMON(3wsr), .observe = observe_3wsr, .enter = enter_3wsr, .enter_layer = enter_layer_3wsr },
+	  { OPS_COMMON(3gsr), .observe = observe_3gsr, .energy_to = energy_to_3gsr, .enter = enter_3gsr, .enter_layer = enter_layer_3gsr } },
 };
 static const ed_ops_t ed_ops_rough[2][3] = {
-	{ { OPS_COMMON(2dr), OPS_NL(2dr) }, { OPS_COMMON(2wr), .observe = observe_2wr, .enter = enter_2wr },
-	  { OPS_COMMON(2gr), .observe = observe_2gr, .energy_to = energy_to_2gr, .enter = enter_2gr } },
-	{ { OPS_COMMON(3dr), OPS_NL(3dr) }, { OPS_COMMON(3wr), .observe = observe_3wr, .enter = enter_3wr },
-	  { OPS_COMMON(3gr), .observe = observe_3gr, .energy_to = energy_to_3gr, .enter = enter_3gr } },
+	{ { OPS_COMMON(2dr), OPS_NL(2dr) }, { OPS_COMMON(2wr), .observe = observe_2wr, .enter = enter_2wr, .enter_layer = enter_layer_2wr },
+	  { OPS_COMMON(2gr), .observe = observe_2gr, .energy_to = energy_to_2gr, .enter = enter_2gr, .enter_layer = enter_layer_2gr } },
+	{ { OPS_COMMON(3dr), OPS_NL(3dr) }, { OPS_COMMON(3wr), .observe = observe_3wr, .enter = enter_3wr, .enter_layer = enter_layer_3wr },
+	  { OPS_COMMON(3gr), .observe = observe_3gr, .energy_to = energy_to_3gr, .enter = enter_3gr, .enter_layer = enter_layer_3gr } },
 };
 
 #define DISPATCH(ed, fn, ...) ((ed)->ops->fn(__VA_ARGS__))
@@ -1404,6 +1464,11 @@ static void setup_walls(struct ed *ed, const scene_t *s)
 				W->phase0 = W->ph = sw->phase;
 			}
 			W->rest = k ? ed->L[a] - ahi : alo;
+			W->pu = W->pt0 = 0.0;
+			if (sw->type == SCENE_WALL_DISPENSER) {
+				W->pspeed = sg * sw->velocity[a];
+				W->lh = sw->thickness > 0.0 ? sw->thickness : 4.0 * s->radius;
+			}
 			/* the rebound that keeps two hits tc apart against the wall's
 			 * pull: gravity into it plus its largest acceleration */
 			double pull = fmax(0.0, -sg * ed->g[a]) + W->A * W->omega * W->omega;
@@ -1540,6 +1605,8 @@ static void setup_wall_cells(struct ed *ed)
 		ed->off[a][0] = -1, ed->off[a][1] = 0, ed->off[a][2] = 1;
 		for (int k = 0; k < 2; k++) {
 			double reach = 2.0 * ed->wall[2 * a + k].A + ed->radius;
+			if (ed->wall[2 * a + k].type == SCENE_WALL_DISPENSER)   /* the piston's whole travel */
+				reach += ed->wall[2 * a + k].lh * (1.0 + 1e-9);
 			double z = floor(reach / ed->cw[a]) + 1.0;
 			ed->nzone[2 * a + k] = z < ed->nc[a] ? (int32_t)z : ed->nc[a];
 		}
@@ -1551,7 +1618,7 @@ static void setup_wall_cells(struct ed *ed)
  * engine of ed's geometry with neighbour lists (nl) and TC times (tc);
  * absent arrays are 0. */
 enum { A_P, A_EV, A_HEAP, A_CN, A_CALHEAD, A_HEAD, A_OCC, A_NEXT, A_ID, A_SCRATCH_IDX, A_SCRATCH_CELL,
-       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_OCELL, A_GONE, A_SPIN, A_DMEAN, A_DSUM, A_DPOS, A_DVEL, A_SPC, A_MIX, A_PRAD, A_RSCENE, A_FREE, A_LABEL, A_COUNT };
+       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_OCELL, A_GONE, A_SPIN, A_DMEAN, A_DSUM, A_DPOS, A_DVEL, A_SPC, A_MIX, A_PRAD, A_RSCENE, A_FREE, A_LABEL, A_FROZEN, A_TPL, A_COUNT };
 static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 {
 	const size_t n = ed->n;
@@ -1581,6 +1648,8 @@ static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 	b[A_PRAD] = b[A_RSCENE] = ed->mixture ? n * sizeof(double) : 0;
 	b[A_FREE] = ed->inlet ? n * sizeof(uint32_t) : 0;
 	b[A_LABEL] = ed->inlet ? n * sizeof(int64_t) : 0;
+	b[A_FROZEN] = ed->nfilt ? n : 0;
+	b[A_TPL] = ed->disp ? (size_t)ed->ntpl * ed->tpl_n * 2 * sizeof(double) : 0;
 }
 
 /* Cells cost memory even when empty (~9 bytes each): a grid finer than this
@@ -1626,6 +1695,214 @@ static void species_from_id(struct ed *ed)
 	}
 }
 
+
+/* ---- seed 001's open stream: dispenser layout and filters (setup) ------ */
+
+/* Template layers: this many equilibrated snapshots per dispenser. */
+enum { TPL_LAYERS = 16 };
+
+/* The starting layout of dispenser wall w's layer (2D): n = ceil(eta h W /
+ * v_p) particles in R rows across the layer, centres at normal
+ * coordinates r ... h - r from the piston (R = 1: h / 2), each row evenly
+ * spaced along the transverse axis (periodic: the whole edge; walled: a
+ * radius clear of its walls), odd rows shifted by half a spacing; R is
+ * the fewest rows with every pair at least a diameter apart. Writes the
+ * positions (n x 2: normal, transverse) when pos is not NULL. ED_OK, or
+ * ED_EINVAL with "KEY: reason" in msg. Pure; O(n^2 / R) for the check. */
+static int layer_layout(const struct ed *ed, const scene_t *s, int w, double *pos, uint32_t *nout, char *msg,
+                        size_t msglen)
+{
+	const double pi = 3.14159265358979323846, r = s->radius, sig = 2.0 * r;
+	const int a = w >> 1, b = 1 - a;
+	const scene_wall_t *sw = &s->boundary[a].wall[w & 1];
+	const double h = ed->wall[w].lh, W = s->box[b];
+	const int per = !s->boundary[b].walled;
+	const double n_d = sw->volume_fraction * h * W / (pi * r * r);
+	static const char *const an[] = { "x", "y" };
+	const char *end = (w & 1) ? "upper" : "lower";
+	if (!(n_d >= 1.5) || n_d > INT32_MAX) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "boundaries.%s.%s.thickness: the layer holds %.3g particles (volume_fraction x "
+			         "thickness x width / particle area); it must hold at least two", an[a], end, n_d);
+		return ED_EINVAL;
+	}
+	const uint32_t n = (uint32_t)ceil(n_d);
+	for (uint32_t R = 1; R <= 64 && R <= n; R++) {
+		const double dx = R > 1 ? (h - 2.0 * r) / (R - 1) : 0.0;
+		const double span = per ? W : W - 2.0 * r;   /* transverse room for the centres */
+		int ok = 1;
+		/* row k holds n / R particles, the first n % R rows one more */
+		for (uint32_t k1 = 0; k1 < R && ok; k1++) {
+			const uint32_t m1 = n / R + (k1 < n % R);
+			if (m1 == 0)
+				continue;
+			for (uint32_t k2 = k1; k2 < R && ok; k2++) {
+				const double ddx = (double)(k2 - k1) * dx;
+				if (ddx >= sig)
+					break;
+				const uint32_t m2 = n / R + (k2 < n % R);
+				for (uint32_t i = 0; i < m1 && ok; i++) {
+					const double y1 = (i + 0.25 + 0.5 * (k1 & 1)) * span / m1;
+					for (uint32_t j = (k1 == k2 ? i + 1 : 0); j < m2; j++) {
+						double dy = fabs(y1 - (j + 0.25 + 0.5 * (k2 & 1)) * span / m2);
+						if (per && dy > 0.5 * W)
+							dy = W - dy;
+						if (ddx * ddx + dy * dy < sig * sig * (1.0 + 1e-12)) {
+							ok = 0;
+							break;
+						}
+					}
+				}
+				if (per && k1 == k2 && m1 == 1 && W < sig * (1.0 + 1e-12))
+					ok = 0;
+			}
+		}
+		if (!ok)
+			continue;
+		if (pos) {
+			uint32_t q = 0;
+			for (uint32_t k = 0; k < R; k++) {
+				const uint32_t m = n / R + (k < n % R);
+				for (uint32_t i = 0; i < m; i++, q++) {
+					pos[2 * q + a] = R > 1 ? r + k * dx : 0.5 * h;
+					pos[2 * q + b] = (per ? 0.0 : r) + (i + 0.25 + 0.5 * (k & 1)) * span / m;
+				}
+			}
+		}
+		*nout = n;
+		return ED_OK;
+	}
+	if (msg && msglen)
+		snprintf(msg, msglen, "boundaries.%s.%s.volume_fraction: a layer of %u particles (volume_fraction x thickness "
+		         "x width / particle area) does not fit into rows a diameter apart across the thickness %.6g; lower "
+		         "the volume fraction or change the thickness", an[a], end, n, h);
+	return ED_EINVAL;
+}
+
+/* Filters and the dispenser from the scene (walls variant, after the
+ * cells): each filter's plane (internal coordinate), frozen velocity and
+ * the cells from which a particle can cross it; the dispenser's wall and
+ * its layer's velocity; the layer's size (layer_layout). */
+static int setup_stream(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
+{
+	ed->nfilt = 0;
+	ed->disp = 0;
+	for (int a = 0; a < s->dim; a++) {
+		if (!s->boundary[a].walled)
+			continue;
+		for (int k = 0; k < 2; k++) {
+			const scene_wall_t *sw = &s->boundary[a].wall[k];
+			const int w = 2 * a + k;
+			const double sg = k ? -1.0 : 1.0;
+			if (sw->type == SCENE_WALL_OPEN && sw->filter.on) {
+				ed->nfilt++;
+				ed->fplane[w] = ed->wall[w].rest + sg * sw->filter.distance;
+				for (int j = 0; j < 3; j++)
+					ed->fu[w][j] = j < s->dim ? sw->filter.velocity[j] : 0.0;
+				ed->fback[w] = 0.0;
+				if (sw->filter.temperature > 0.0) {
+					/* F_- / F_+ = f(-t) / f(t), t = sqrt(m / 2T) U (outward), f(t) = exp(-t^2) + sqrt(pi) t erfc(-t) */
+					const double t = sqrt(s->mass / (2.0 * sw->filter.temperature)) * -sg * sw->filter.velocity[a];
+					const double sp = 1.77245385090551602730;
+					ed->fback[w] = (exp(-t * t) - sp * t * erfc(t)) / (exp(-t * t) + sp * t * erfc(-t));
+					ed->fsv[w] = sqrt(sw->filter.temperature / s->mass);
+				}
+				/* the plane's cell, and one more inwards against rounding at a face */
+				int32_t c = (int32_t)floor(ed->fplane[w] / ed->cw[a]) + (int32_t)sg;
+				if (c < 0) c = 0;
+				if (c >= ed->nc[a]) c = ed->nc[a] - 1;
+				ed->fcell[w] = c + 1;
+			}
+			if (sw->type == SCENE_WALL_DISPENSER) {
+				ed->disp = 1 + w;
+				for (int j = 0; j < 3; j++)
+					ed->disp_u[w][j] = j < s->dim ? sw->velocity[j] : 0.0;
+				ed->disp_s[w] = sqrt(sw->temperature / s->mass);
+				if (s->dim != 2) {
+					set_msg(msg, msglen, "boundaries: dispenser walls are 2D only%.0s%.0s", 0, 0);
+					return ED_EINVAL;
+				}
+				int rc = layer_layout(ed, s, w, NULL, &ed->tpl_n, msg, msglen);
+				if (rc != ED_OK)
+					return rc;
+				const double n_d = sw->volume_fraction * ed->wall[w].lh * s->box[1 - a] /
+				                   (3.14159265358979323846 * s->radius * s->radius);
+				ed->tpl_frac = n_d - floor(n_d);
+				if (ed->tpl_frac == 0.0)
+					ed->tpl_frac = 1.0;   /* a whole number: every recharge places them all */
+				ed->ntpl = TPL_LAYERS;
+			}
+		}
+	}
+	return ED_OK;
+}
+
+/* The dispenser's template layers: its starting layout (layer_layout)
+ * equilibrated by an elastic run of its own, a strip of the layer's
+ * thickness between two specular walls across the transverse axis of the
+ * scene (periodic, or specular walls where the scene has walls), 50
+ * collisions per particle, then TPL_LAYERS snapshots 20 collisions per
+ * particle apart. Positions are clamped into [r, h - r] against rounding
+ * at the strip's walls. Deterministic (the scene's seed, a stream of its
+ * own). */
+static int build_templates(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
+{
+	const int w = ed->disp - 1, a = w >> 1, b = 1 - a;
+	const uint32_t n = ed->tpl_n;
+	const double r = s->radius, h = ed->wall[w].lh;
+	int rc = ED_ENOMEM;
+	double *pos = malloc((size_t)n * 2 * sizeof(double));
+	scene_t *t = malloc(sizeof *t);
+	ed_t *sub = NULL;
+	if (!pos || !t)
+		goto done;
+	layer_layout(ed, s, w, pos, &ed->tpl_n, NULL, 0);
+	memcpy(t, s, sizeof *t);
+	t->count = t->capacity = n;
+	t->box[a] = h;
+	t->volume_fraction = s->boundary[a].wall[w & 1].volume_fraction;
+	for (int k = 0; k < 2; k++) {
+		t->boundary[a].wall[k] = (scene_wall_t){ .type = SCENE_WALL_SPECULAR, .restitution = 1.0, .coverage = -1.0 };
+		if (t->boundary[b].walled)
+			t->boundary[b].wall[k] = (scene_wall_t){ .type = SCENE_WALL_SPECULAR, .restitution = 1.0,
+			                                         .coverage = -1.0 };
+	}
+	t->boundary[a].walled = 1;
+	t->n_obstacles = 0;
+	t->drive = SCENE_DRIVE_NONE;
+	t->tc = 0.0;
+	t->restitution = 1.0;
+	t->temperature = s->boundary[a].wall[w & 1].temperature;
+	for (int k = 0; k < 3; k++)
+		t->flow[k] = t->gravity[k] = 0.0;
+	t->init_pos = pos;
+	t->init_vel = NULL;
+	t->has_region = t->has_from = 0;
+	t->relax_cpp = 50.0;
+	t->ed_cell_size = 0.0;
+	t->stream = s->stream | (1ull << 59);
+	int err = ED_OK;
+	sub = ed_create(t, &err, msg, msglen);
+	if (!sub) {
+		rc = err;
+		goto done;
+	}
+	for (int q = 0; q < ed->ntpl; q++) {
+		if (q > 0)
+			ed_advance(sub, INFINITY, ed_collisions(sub) + 10ull * n, UINT64_MAX);
+		double *out = ed->tpl + (size_t)q * n * 2;
+		ed_state(sub, out, NULL);
+		for (uint32_t i = 0; i < n; i++)
+			out[2 * i + a] = fmin(fmax(out[2 * i + a], r), h - r);
+	}
+	rc = ED_OK;
+done:
+	ed_destroy(sub);
+	free(pos);
+	free(t);
+	return rc;
+}
+
 /* Constants, mode and grid of scene s in ed (no arrays): the checks a
  * scene must pass before allocating, shared by ed_alloc() and ed_plan().
  * ED_OK or ED_EINVAL with "KEY: reason" in msg. */
@@ -1666,7 +1943,7 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 	}
 	/* obstacles live in the walls variants (all axes may be periodic there) */
 	ed->variant = scene_has_gravity(s) ? 2 : scene_has_walls(s) || scene_has_obstacles(s) ? 1 : 0;
-	ed->open = scene_has_open_walls(s);
+	ed->open = scene_has_open_walls(s) || scene_has_reservoir(s);   /* (dispensers: empty slots) */
 	ed->rough = s->rough;
 	ed->drive = s->drive;
 	if (ed->drive) {
@@ -1699,6 +1976,9 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 		setup_obstacles(ed, s);
 		setup_cells(ed, s->ed_cell_size * ed->sigma);   /* cell mode only */
 		setup_wall_cells(ed);
+		int rc = setup_stream(ed, s, msg, msglen);
+		if (rc != ED_OK)
+			return rc;
 	} else {
 		setup_mode(ed, s->ed_cell_size * ed->sigma);
 	}
@@ -1766,6 +2046,15 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 		goto fail;
 	if (ed->inlet)
 		rng_init(&ed->irng, s->seed, s->stream | (1ull << 60));
+	if (ed->nfilt && !(ed->frozen = big_alloc(b[A_FROZEN], 1)))
+		goto fail;
+	if (ed->disp) {
+		if (!(ed->tpl = big_alloc(b[A_TPL], 0)))
+			goto fail;
+		if ((rc = build_templates(ed, s, msg, msglen)) != ED_OK)
+			goto fail;
+		rc = ED_ENOMEM;
+	}
 	if (ed->rough && !(ed->spin = big_alloc(b[A_SPIN], 1)))
 		goto fail;
 	if (ed->mixture) {
@@ -1805,6 +2094,7 @@ fail:
 static void drive_start(struct ed *ed);
 static void inlet_slots(struct ed *ed);
 static void inlet_start(struct ed *ed);
+static void stream_start(struct ed *ed);
 
 ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 {
@@ -1877,6 +2167,8 @@ ed_t *ed_create(const scene_t *s, int *err, char *msg, size_t msglen)
 		drive_start(ed);
 	if (ed->inlet)
 		inlet_start(ed);
+	if (ed->nfilt || ed->disp)
+		stream_start(ed);
 	*err = ED_OK;
 	return ed;
 fail:
@@ -1919,6 +2211,8 @@ void ed_destroy(ed_t *ed)
 	free(ed->gone);
 	free(ed->freei);
 	free(ed->label);
+	free(ed->frozen);
+	free(ed->tpl);
 	free(ed);
 }
 
@@ -2086,6 +2380,10 @@ static void inlet_start(struct ed *ed)
 {
 	for (int w = 0; w < 6; w++)
 		ed->in_next[w] = ed->in_rate[w] > 0.0 ? inlet_wait(ed, w) : INFINITY;
+	if (ed->disp) {   /* the first recharge: when the piston has cleared one layer (never at speed 0) */
+		const wall_t *W = &ed->wall[ed->disp - 1];
+		ed->in_next[ed->disp - 1] = W->pspeed > 0.0 ? W->lh / W->pspeed : INFINITY;
+	}
 }
 
 /* Normal speed w >= 0 of an entering particle: density proportional to
@@ -2161,6 +2459,134 @@ static int inlet_enter(struct ed *ed, int w)
 	return ED_OK;
 }
 
+
+/* ---- dispenser (seed 001 inlet) ---------------------------------------
+ *
+ * The piston (wall_t pu, pt0) moves along the inward normal at the
+ * layer's normal speed U; its contacts are wall events with the plane at
+ * rest + s U (t - pt0), exact like a fixed wall's (walltime_plane of the
+ * relative motion). Its recharge is a timer like a reservoir's entries
+ * (in_next[w], every h / U): the piston jumps back to the wall's rest
+ * position, one template layer is placed in the room it cleared (centres
+ * r ... h - r from the piston: the particles ahead are at least r beyond
+ * the piston's plane, h from the rest position, so no pair overlaps), with
+ * velocities U + sqrt(T / m) N(0, 1) per component, and every particle
+ * within the piston's reach gets its boundary events predicted afresh
+ * (the plane moved). A layer particle that would still overlap something
+ * (an obstacle reaching into the layer, or a pair closer than (1 - 1e-9)
+ * sigma) is not placed and counted as rejected. */
+
+/* The recharge due now at dispenser wall w. ED_FULL (nothing changed)
+ * when the free slots cannot take a whole layer. */
+static int dispense(struct ed *ed, int w)
+{
+	const uint32_t n = ed->tpl_n;
+	if (ed->n_gone < n)
+		return ED_FULL;
+	wall_t *W = &ed->wall[w];
+	const int a = w >> 1, b = 1 - a, D = ed->dim;
+	const double sg = (w & 1) ? -1.0 : 1.0, sv = ed->disp_s[w];
+	/* the piston jumps back; every particle in its reach (the wall's zone) anew */
+	W->pt0 = ed->t;
+	for (uint32_t i = 0; i < ed->n; i++) {
+		if (ed->gone[i])
+			continue;
+		const int32_t c = ed->ev[i].cc[a];
+		if ((w & 1) ? c >= ed->nc[a] - ed->nzone[w] : c < ed->nzone[w]) {
+			DISPATCH(ed, set_cross, ed, i);
+			cal_update(ed, i, ev_time(ed, i));
+		}
+	}
+	/* which template, shifted along a periodic transverse axis, mirrored or not */
+	int q = (int)(rng_uniform(&ed->irng) * ed->ntpl);
+	if (q >= ed->ntpl)
+		q = ed->ntpl - 1;
+	const double shift = ed->periodic[b] ? rng_uniform(&ed->irng) * ed->L[b] : 0.0;
+	const int mirror = rng_uniform(&ed->irng) < 0.5;
+	/* the layer's count: tpl_n, or one fewer (a random one left out), so that the mean is eta h W / v_p */
+	uint32_t skip = UINT32_MAX;
+	if (rng_uniform(&ed->irng) >= ed->tpl_frac) {
+		skip = (uint32_t)(rng_uniform(&ed->irng) * n);
+		if (skip >= n)
+			skip = n - 1;
+	}
+	const double lo = ed->periodic[b] ? 0.0 : ed->wall[2 * b].rest, wid = ed->periodic[b] ? ed->L[b] : ed->wall[2 * b + 1].rest - lo;
+	const double *tp = ed->tpl + (size_t)q * n * 2;
+	for (uint32_t k = 0; k < n; k++) {
+		if (k == skip)
+			continue;
+		double r[3] = {0.0, 0.0, 0.0}, v[3] = {0.0, 0.0, 0.0};
+		r[a] = W->rest + sg * tp[2 * k + a];
+		double y = tp[2 * k + b];
+		if (mirror)
+			y = wid - y;
+		y += shift;
+		if (y >= wid)
+			y -= wid;
+		r[b] = lo + y;
+		for (int j = 0; j < D; j++)
+			v[j] = ed->disp_u[w][j] + sv * rng_gauss(&ed->irng);
+		const uint32_t i = ed->freei[ed->n_gone - 1];
+		if (ed->ops->enter_layer(ed, i, r, v)) {
+			ed->in_count[6 + w]++;
+			continue;
+		}
+		ed->label[ed->id[i]] = (int64_t)ed->in_count[12]++;
+		ed->in_count[w]++;
+		DISPATCH(ed, set_cross, ed, i);
+		DISPATCH(ed, scan_full, ed, i);
+		cal_update(ed, i, ev_time(ed, i));
+	}
+	ed->in_next[w] += W->lh / W->pspeed;
+	return ED_OK;
+}
+
+/* At the start of the production run (after the pre-run, which runs with
+ * the piston at rest and no filter): the piston starts moving, filters
+ * act; particles already beyond a filter plane are frozen; every event
+ * predicted afresh. */
+static void stream_start(struct ed *ed)
+{
+	if (ed->disp) {   /* at rest at the start (the clock is 0; a pre-run's rebases moved pt0) */
+		ed->wall[ed->disp - 1].pu = ed->wall[ed->disp - 1].pspeed;
+		ed->wall[ed->disp - 1].pt0 = ed->t;
+	}
+	if (ed->nfilt) {
+		ed->filt_on = 1;
+		memset(ed->nfrozen, 0, sizeof ed->nfrozen);
+		double *pos = NULL;
+		const int D = ed->dim;
+		const size_t psz = D == 2 ? sizeof(p2_t) : sizeof(p3_t);
+		for (uint32_t i = 0; i < ed->n; i++) {
+			if (ed->gone[i])
+				continue;
+			double *r = (double *)((char *)ed->p + i * psz), *v = r + D;   /* r[D], v[D] lead the record */
+			for (int w = 0; w < 6; w++) {
+				if (!ed->fcell[w])
+					continue;
+				const int a = w >> 1;
+				const double sg = (w & 1) ? -1.0 : 1.0;
+				if (sg * (r[a] - ed->fplane[w]) <= 0.0 && !ed->frozen[i]) {
+					double de = 0.0;
+					for (int j = 0; j < D; j++) {
+						de += ed->fu[w][j] * ed->fu[w][j] - v[j] * v[j];
+						v[j] = ed->fu[w][j];
+					}
+					ed->ekin_cur += 0.5 * ed->mass * de;
+					ed->frozen[i] = (uint8_t)(1 + w);
+					ed->nfrozen[w]++;
+				}
+			}
+		}
+		(void)pos;
+		double mom[3];
+		ed->ekin_cur = DISPATCH(ed, ekin, ed, mom);
+		for (int j = 0; j < 3; j++)
+			ed->psum[j] = mom[j] / ed->mass;
+	}
+	predict_all(ed);
+}
+
 static int inlet_advance(struct ed *ed, double t_stop, uint64_t max_coll, uint64_t max_events)
 {
 	const uint64_t ev_end = ed->events + max_events < ed->events ? UINT64_MAX : ed->events + max_events;
@@ -2177,7 +2603,7 @@ static int inlet_advance(struct ed *ed, double t_stop, uint64_t max_coll, uint64
 		if (!(tk < t_stop))
 			return rc;
 		/* the clock stands at tk */
-		if (inlet_enter(ed, w) == ED_FULL)
+		if ((ed->wall[w].type == SCENE_WALL_DISPENSER ? dispense(ed, w) : inlet_enter(ed, w)) == ED_FULL)
 			return ED_FULL;
 	}
 }
@@ -2330,6 +2756,8 @@ typedef enum {
 	F_SPIN,   /* rough particles only */
 	F_DMEAN, F_DNEXT, F_DKICKS, F_DRNG,   /* driving only */
 	F_FREE, F_LABEL, F_INEXT, F_ICOUNT, F_IRNG,   /* reservoir walls only */
+	F_FROZEN, F_NFROZEN,   /* filters only */
+	F_PISTON,              /* dispensers only */
 	F_SCALAR
 } fid_t;
 
@@ -2383,6 +2811,7 @@ static const struct {
 	{ "drive_rng", F_DRNG, ED_T_U64 },
 	{ "free_slots", F_FREE, ED_T_U32 }, { "label", F_LABEL, ED_T_I64 }, { "inlet_next", F_INEXT, ED_T_F64 },
 	{ "inlet_counts", F_ICOUNT, ED_T_U64 }, { "inlet_rng", F_IRNG, ED_T_U64 },
+	{ "frozen", F_FROZEN, ED_T_U8 }, { "frozen_counts", F_NFROZEN, ED_T_U64 }, { "piston_t0", F_PISTON, ED_T_F64 },
 };
 #define N_ARRAYS (sizeof arrays / sizeof arrays[0])
 
@@ -2397,8 +2826,13 @@ size_t ed_type_size(ed_type_t t)
 }
 
 /* Whether a field exists, for an engine with neighbour lists (nl) and TC times (tc). */
-static int field_exists(fid_t id, int nl, int tc, int variant, int nobst, int open, int rough, int drive, int inlet)
+static int field_exists(fid_t id, int nl, int tc, int variant, int nobst, int open, int rough, int drive, int inlet,
+                        int stream)
 {
+	if (id == F_FROZEN || id == F_NFROZEN)   /* scenes without filters or dispensers keep their layout */
+		return stream & 1;
+	if (id == F_PISTON)
+		return (stream & 2) != 0;
 	if (id >= F_FREE && id <= F_IRNG)   /* scenes without reservoir walls keep their checkpoint layout */
 		return inlet;
 	if (id == F_GONE || id == F_WOUT)   /* scenes without open walls keep their checkpoint layout */
@@ -2420,7 +2854,8 @@ static int field_exists(fid_t id, int nl, int tc, int variant, int nobst, int op
 
 static int array_present(const struct ed *ed, fid_t id)
 {
-	return field_exists(id, ed->xn != NULL, ed->tlast != NULL, ed->variant, ed->nobst, ed->open, ed->rough, ed->drive, ed->inlet);
+	return field_exists(id, ed->xn != NULL, ed->tlast != NULL, ed->variant, ed->nobst, ed->open, ed->rough, ed->drive, ed->inlet,
+	                    (ed->nfilt ? 1 : 0) | (ed->disp ? 2 : 0));
 }
 
 static size_t array_count(const struct ed *ed, fid_t id)
@@ -2446,6 +2881,7 @@ static size_t array_count(const struct ed *ed, fid_t id)
 	case F_INEXT: return 6;
 	case F_ICOUNT: return 13;
 	case F_IRNG: return 4;
+	case F_NFROZEN: case F_PISTON: return 6;
 	case F_NB: {
 		size_t k = 0;
 		for (uint32_t i = 0; i < ed->n; i++)
@@ -2491,7 +2927,8 @@ int ed_plan(const scene_t *s, ed_plan_t *out, char *msg, size_t msglen)
 		out->state += ed_type_size(scalars[a].type);
 	out->largest = 0;
 	for (size_t a = 0; a < N_ARRAYS; a++) {
-		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0, ed.variant, ed.nobst, ed.open, ed.rough, ed.drive, ed.inlet))
+		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0, ed.variant, ed.nobst, ed.open, ed.rough, ed.drive, ed.inlet,
+		                  (ed.nfilt ? 1 : 0) | (ed.disp ? 2 : 0)))
 			continue;
 		double count = arrays[a].id == F_NB ? per * ed.n : (double)array_count(&ed, arrays[a].id);
 		uint64_t bytes = (uint64_t)(count * (double)ed_type_size(arrays[a].type));
@@ -2610,6 +3047,16 @@ static void field_copy(struct ed *ed, fid_t id, void *buf, int to_buf)
 	case F_INEXT: src = ed->in_next; bytes = sizeof ed->in_next; break;
 	case F_ICOUNT: src = ed->in_count; bytes = sizeof ed->in_count; break;
 	case F_IRNG: src = ed->irng.s; bytes = sizeof ed->irng.s; break;
+	case F_FROZEN: src = ed->frozen; bytes = ed->n; break;
+	case F_NFROZEN: src = ed->nfrozen; bytes = sizeof ed->nfrozen; break;
+	case F_PISTON: {
+		double *pt = (double *)b;
+		for (int w = 0; w < 6; w++) {
+			if (to_buf) pt[w] = ed->wall[w].pt0;
+			else ed->wall[w].pt0 = pt[w];
+		}
+		return;
+	}
 	case F_NB: {
 		/* lists packed: the first nn[i] entries of each row */
 		size_t k = 0;
@@ -2681,6 +3128,8 @@ static int cross_valid(const struct ed *ed, int32_t c)
 {
 	if (c >= -1 && c < 2 * ed->dim)
 		return 1;
+	if (ed->variant && c >= ED_FILT0)   /* a filter plane */
+		return c < ED_FILT0 + 6 && ed->fcell[c - ED_FILT0] != 0;
 	if (ed->variant && c >= ED_OBST0)
 		return c < ED_OBST0 + ed->nobst;
 	return ed->variant && c >= ED_WALL0 && c < ED_WALL0 + 2 * ed->dim && !ed->periodic[(c - ED_WALL0) >> 1];
@@ -2768,6 +3217,11 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 		why = "bad mode";
 	if (!why && ed->t_abs_valid != 0 && ed->t_abs_valid != 1)
 		why = "bad clock flag";
+	if (!why && ed->disp && !isfinite(ed->wall[ed->disp - 1].pt0))
+		why = "bad piston time";
+	for (uint32_t i = 0; i < n && !why && ed->frozen; i++)
+		if (ed->frozen[i] > 6 || (ed->frozen[i] && (!ed->fcell[ed->frozen[i] - 1] || ed->gone[i])))
+			why = "bad frozen flag";
 	memset(seen, 0, n * sizeof(uint32_t));
 #undef NEXT
 	if (why) {
@@ -2778,6 +3232,10 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 	/* Species of each stored particle from its scene index (now a valid permutation). */
 	if (ed->spc)
 		species_from_id(ed);
+	/* Checkpoints are of the production run: the piston moves, filters act. */
+	if (ed->disp)
+		ed->wall[ed->disp - 1].pu = ed->wall[ed->disp - 1].pspeed;
+	ed->filt_on = ed->nfilt > 0;
 	/* The occupancy bitmap from the cell heads. */
 	memset(ed->occ, 0, (ed->ncells + 63) / 64 * sizeof(uint64_t));
 	for (size_t c = 0; c < ed->ncells; c++)

@@ -132,8 +132,8 @@ static inline double FN(wall_time)(const struct ed *ed, const P_T *p, double rad
 	const double s = (w & 1) ? -1.0 : 1.0;
 	const double gam = GRAV ? s * ed->g[a] : 0.0;
 	double d = s * (p->r[a] - W->rest) - rad;
-	if (W->A == 0.0)
-		return walltime_plane(d, s * p->v[a], gam);
+	if (W->A == 0.0)   /* a dispenser's piston moves at pu (0 for every other wall: the same numbers) */
+		return walltime_plane(d - W->pu * (p->t - W->pt0), s * p->v[a] - W->pu, gam);
 	const double th = W->ph + W->omega * p->t;
 	d -= W->A * sin(th);
 	if (!(horizon < INFINITY))
@@ -225,6 +225,19 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
 			double dt = FN(obst_time)(ed, p, FN(obst_S)(ed, i, k), k, best);
 			if (dt < best)
 				best = dt, code = ED_OBST0 + k;
+		}
+	}
+	if (ed->filt_on && !ed->frozen[i]) {   /* filters: a regular particle crossing a plane outwards */
+		for (int w = 0; w < 6; w++) {
+			if (!ed->fcell[w])
+				continue;
+			const int a = w >> 1;
+			const double s = (w & 1) ? -1.0 : 1.0;
+			if (s * (e->cc[a] - (ed->fcell[w] - 1)) > 0.0)
+				continue;   /* not in a cell of the plane or beyond it */
+			double dt = walltime_plane(s * (p->r[a] - ed->fplane[w]), s * p->v[a], 0.0);
+			if (dt < best)
+				best = dt, code = ED_FILT0 + w;
 		}
 	}
 	e->t_cross = p->t + best;
@@ -891,6 +904,8 @@ static void FN(leave)(struct ed *ed, uint32_t i, int w, double t)
 	FN(cell_remove)(ed, i);
 	ed->gone[i] = 1;
 	ed->n_gone++;
+	if (ed->frozen)
+		ed->frozen[i] = 0;
 	ed->wout[w]++;
 	if (ed->freei) {   /* reservoir scenes: its slot is free, its row empty */
 		ed->freei[ed->n_gone - 1] = i;
@@ -944,6 +959,8 @@ static void FN(do_wall)(struct ed *ed, uint32_t i, double t)
 	double lim = W->rest + s * FN(rad)(ed, i);
 	if (W->A != 0.0)
 		lim += s * W->A * sin(W->ph + W->omega * t);
+	if (W->pu != 0.0)   /* a dispenser's moving piston */
+		lim += s * W->pu * (t - W->pt0);
 	if (s * (p->r[a] - lim) < 0.0)
 		p->r[a] = lim;
 	p->count++;
@@ -1005,6 +1022,103 @@ static void FN(do_obstacle)(struct ed *ed, uint32_t i, double t)
 	FN(schedule)(ed, i);
 }
 
+/* Filters (seed 001 outlet): particle i crosses the filter plane of wall
+ * w (its event code) going out at time t: turned back, or frozen (velocity
+ * exactly fu[w], no thermal part, infinite mass, until it leaves through
+ * the wall) by filter_rule(). The kinetic energy it loses (or gains)
+ * leaves the running sum. */
+static void FN(do_filter)(struct ed *ed, uint32_t i, double t)
+{
+	P_T *p = &((P_T *)ed->p)[i];
+	const int w = ed->ev[i].cross - ED_FILT0;
+	FN(advance)(ed, p, t);
+	FN(energy_to)(ed, t);
+	double de = 0.0, v[3] = {0.0, 0.0, 0.0};
+	FOR_AXES(a)
+		v[a] = p->v[a];
+	const int freeze = filter_rule(ed, w, v);
+	FOR_AXES(a) {
+		de += v[a] * v[a] - p->v[a] * p->v[a];
+#if GRAV
+		ed->psum[a] += v[a] - p->v[a];
+#endif
+		p->v[a] = v[a];
+	}
+	ed->ekin_cur += 0.5 * ed->mass * de;
+	if (freeze) {
+		ed->frozen[i] = (uint8_t)(1 + w);
+		ed->nfrozen[w]++;
+	} else {
+		/* turned back: on the plane's inner side (rounding may leave it a hair beyond) */
+		const int a = w >> 1;
+		const double s = (w & 1) ? -1.0 : 1.0;
+		if (s * (p->r[a] - ed->fplane[w]) < 0.0)
+			p->r[a] = ed->fplane[w];
+	}
+	p->count++;
+	FN(set_cross)(ed, i);
+	FN(scan_full)(ed, i);
+	FN(schedule)(ed, i);
+}
+
+/* Filters: the collision of i and j at time t when one of them is frozen:
+ * the regular one meets a sphere of infinite mass moving at the frozen
+ * velocity, its normal velocity relative to it reversed with the pair's
+ * restitution (TC model: elastic within tc of its previous collision); the
+ * momentum it gives goes to the filter's wall (wall_impulse). Two frozen
+ * particles have the same velocity and are never predicted to meet; one met
+ * here (a touching pair) is left alone. */
+static void FN(collide_frozen)(struct ed *ed, uint32_t i, uint32_t j, double t)
+{
+	P_T *P = ed->p;
+	if (ed->frozen[i] && !ed->frozen[j]) {   /* q (j here) is the regular one */
+		uint32_t x = i;
+		i = j;
+		j = x;
+	}
+	P_T *pq = &P[i], *pf = &P[j];
+	FN(advance)(ed, pq, t);
+	FN(advance)(ed, pf, t);
+	FN(energy_to)(ed, t);
+	double dr[D], dv[D], b = 0.0, r2 = 0.0;
+	FOR_AXES(a) {
+		double x = pq->r[a] - pf->r[a];
+		if (x > ed->halfL[a]) x -= ed->L[a];
+		else if (x < -ed->halfL[a]) x += ed->L[a];
+		dr[a] = x;
+		dv[a] = pq->v[a] - pf->v[a];
+		b += x * dv[a];
+		r2 += x * x;
+	}
+	if (b < 0.0 && !ed->frozen[i]) {
+		double e = ed->e;
+		if (ed->tlast) {
+			if (t - ed->tlast[i] < ed->tc) {
+				e = 1.0;
+				ed->tc_elastic++;
+			}
+			ed->tlast[i] = t;
+		}
+		const double f = (1.0 + e) * b / r2;
+		const int w = ed->frozen[j] - 1;
+		double de = 0.0;
+		FOR_AXES(a) {
+			const double v0 = pq->v[a];
+			pq->v[a] -= f * dr[a];
+			de += pq->v[a] * pq->v[a] - v0 * v0;
+			ed->wimp[w][a] += ed->mass * f * dr[a];
+			ed->wimp_tot[w][a] += ed->mass * f * dr[a];
+#if GRAV
+			ed->psum[a] -= f * dr[a];
+#endif
+		}
+		ed->ekin_cur += 0.5 * ed->mass * de;
+	}
+	pq->count++;
+	pf->count++;
+	ed->collisions++;
+}
+
 /* Cell mode only: a boundary event (face or wall), a collision or a
  * cancelled one. */
 static void FN(step)(struct ed *ed)
@@ -1024,7 +1138,9 @@ static void FN(step)(struct ed *ed)
 	ed->t_abs_valid = 0;
 	ed->events++;
 	if (e->t_cross < e->t_coll) {
-		if (e->cross >= ED_OBST0)
+		if (e->cross >= ED_FILT0)
+			FN(do_filter)(ed, i, t);
+		else if (e->cross >= ED_OBST0)
 			FN(do_obstacle)(ed, i, t);
 		else if (e->cross >= ED_WALL0)
 			FN(do_wall)(ed, i, t);
@@ -1039,7 +1155,10 @@ static void FN(step)(struct ed *ed)
 		FN(schedule)(ed, i);
 		return;
 	}
-	FN(collide)(ed, i, j, t);
+	if (ed->frozen && (ed->frozen[i] | ed->frozen[j]))   /* filters: a frozen partner has infinite mass */
+		FN(collide_frozen)(ed, i, j, t);
+	else
+		FN(collide)(ed, i, j, t);
 	FN(set_cross)(ed, i);
 	FN(scan_full)(ed, i);
 	FN(schedule)(ed, i);
@@ -1146,6 +1265,8 @@ static void FN(reorder)(struct ed *ed)
 #if WALLS
 	if (ed->gone)
 		permute(ed->gone, 1, newidx, n);
+	if (ed->frozen)
+		permute(ed->frozen, 1, newidx, n);
 	if (ed->freei)
 		for (uint64_t k = 0; k < ed->n_gone; k++)
 			ed->freei[k] = newidx[ed->freei[k]];
@@ -1457,6 +1578,7 @@ static double FN(min_gap)(const struct ed *ed)
 				double g = s * (ri[a] - W->rest) - FN(rad)(ed, i);
 				if (W->A != 0.0)
 					g -= W->A * sin(W->ph + W->omega * ed->t);
+				g -= W->pu * (ed->t - W->pt0);   /* a dispenser's piston (0 for other walls) */
 				if (g < best)
 					best = g;
 			}
@@ -1616,7 +1738,7 @@ static int FN(place_random)(struct ed *ed, rng_t *rng)
  * (internal coordinates) with velocity v now, unless it would overlap an
  * obstacle or a particle present (then 1 and nothing changes). The
  * caller predicts its events (through the ops table, as for kicks). */
-static int FN(enter)(struct ed *ed, uint32_t i, const double *r, const double *v)
+static int FN(enter_s2)(struct ed *ed, uint32_t i, const double *r, const double *v, double s2)
 {
 	P_T *P = ed->p, *p = &P[i];
 	if (!obst_clear(ed, r))
@@ -1644,7 +1766,7 @@ static int FN(enter)(struct ed *ed, uint32_t i, const double *r, const double *v
 					double x = FN(min_image)(ed, a, r[a] - FN(pos_now)(ed, &P[j], a));
 					r2 += x * x;
 				}
-				if (r2 < ed->sigma2)
+				if (r2 < s2)
 					return 1;
 			}
 		}
@@ -1671,6 +1793,20 @@ static int FN(enter)(struct ed *ed, uint32_t i, const double *r, const double *v
 	p->count++;
 	FN(place)(ed, i);
 	return 0;
+}
+
+static int FN(enter)(struct ed *ed, uint32_t i, const double *r, const double *v)
+{
+	return FN(enter_s2)(ed, i, r, v, ed->sigma2);
+}
+
+/* Dispensers: the same for a particle of a template layer, whose pairs
+ * may touch a rounding error inside contact (the template's own pairs, and
+ * the particles the piston pushed, a rounding error beyond its plane):
+ * refused only below (1 - 1e-9) sigma. */
+static int FN(enter_layer)(struct ed *ed, uint32_t i, const double *r, const double *v)
+{
+	return FN(enter_s2)(ed, i, r, v, ed->sigma2 * (1.0 - 1e-9));
 }
 #endif
 
