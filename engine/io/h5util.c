@@ -203,6 +203,24 @@ int h5u_chunks_sane(hid_t d, hsize_t eof, hsize_t row0, hsize_t rows)
 			goto done;   /* no chunk of ours is near 1 TiB: a damaged layout */
 		raw *= chunk[a];
 	}
+	/* Without a compressing filter the stored chunk has exactly its raw size, plus Fletcher-32's 4 bytes
+	 * (every chunk is stored whole, edge chunks too). A shorter record (ckpt_fuzz: an all-zero region
+	 * passes Fletcher-32 at any length) makes HDF5 unfilter into a buffer of that size and then write the
+	 * whole chunk into it when it prunes the chunk on a shrink (H5Dset_extent): a heap overflow. With
+	 * deflate only the bound below holds (a short stream fails to inflate or its checksum). */
+	int compress = 0, fletcher = 0, nf = H5Pget_nfilters(dcpl);
+	if (nf < 0)
+		goto done;
+	for (int k = 0; k < nf; k++) {
+		unsigned flags = 0, cd[8];
+		size_t ncd = sizeof cd / sizeof cd[0];
+		H5Z_filter_t id = H5Pget_filter2(dcpl, (unsigned)k, &flags, &ncd, cd, 0, NULL, NULL);
+		if (id == H5Z_FILTER_FLETCHER32)
+			fletcher = 1;
+		else if (id != H5Z_FILTER_SHUFFLE)
+			compress = 1;   /* deflate, or anything we do not write: the bound only */
+	}
+	const hsize_t exact = raw + (fletcher ? 4 : 0);
 	const hsize_t bound = raw + raw / 1000 + 64;
 	/* rows [row0, end) of axis 0, from the chunk that holds row0 */
 	const hsize_t end = rows == H5U_ALL_ROWS || rows > dims[0] || row0 > dims[0] - rows ? dims[0] : row0 + rows;
@@ -218,8 +236,9 @@ int h5u_chunks_sane(hid_t d, hsize_t eof, hsize_t row0, hsize_t rows)
 			break;   /* no rows asked for, or an extent of 0: nothing stored */
 		if (H5Dget_chunk_info_by_coord(d, off, &mask, &addr, &size) < 0)
 			goto done;
-		if (addr != HADDR_UNDEF && (size > bound || addr > eof || size > eof - addr))
-			goto done;
+		if (addr != HADDR_UNDEF && (size > bound || addr > eof || size > eof - addr || (!compress && size != exact) ||
+		                            mask != 0))
+			goto done;   /* (we never skip a filter: a set mask bit is damage) */
 		int a = rank - 1;
 		for (; a >= 0; a--) {
 			off[a] += chunk[a];
