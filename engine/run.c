@@ -774,7 +774,7 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 	r->fld_last = -INFINITY;
 	if ((r->opts.snapshots || r->fld || (curves_on(r) && (s->observables & SCENE_OBS_VDIST))) && r->ed &&
 	    ed_spin_dim(r->ed)) {
-		r->spin = malloc(s->count * ed_spin_dim(r->ed) * sizeof(double));
+		r->spin = malloc(scene_slots(s) * ed_spin_dim(r->ed) * sizeof(double));   /* rows: slots */
 		if (!r->spin)
 			goto nomem;
 	}

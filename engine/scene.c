@@ -1293,7 +1293,7 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 			if (scene_has_species(s))
 				return fail(c, path, "\"%s\" walls take one species of smooth particles (particles.species "
 				            "is not supported with them yet)", wn);
-			if (s->rough)
+			if (s->rough && w->type == SCENE_WALL_DISPENSER)   /* reservoirs: spins at their temperature */
 				return fail(c, path, "\"%s\" walls take smooth particles (collisions.rough is not "
 				            "supported with them yet)", wn);
 			if (s->replicas > 1 && w->type == SCENE_WALL_DISPENSER)

@@ -130,5 +130,37 @@ PY
 fi
 report "$tmp/obst.res"
 
+# ---- 3. rough particles through reservoirs -------------------------------------------------------------
+# The equilibrium box of 1. with perfectly rough elastic disks (tangential_restitution 1: translation and
+# rotation exchange energy, their sum conserved): particles enter with Maxwellian spins at the reservoir's
+# temperature, so the particles present have T_rot = T = 1 (equipartition), the mean over the 41 records
+# 90 apart within 4 standard errors. (Entering without spin they would gain rotation only in their few
+# collisions before leaving: T_rot far below 1.)
+cat >"$tmp/rough.json" <<'EOF'
+{"method": "ed", "dimensions": 2, "particles": {"count": 382, "box": [100, 300]},
+ "collisions": {"rough": {"tangential_restitution": 1}},
+ "boundaries": {"x": {"type": "walls",
+                      "lower": {"type": "reservoir", "volume_fraction": 0.01, "temperature": 1},
+                      "upper": {"type": "reservoir", "volume_fraction": 0.01, "temperature": 1}}},
+ "run": {"until": {"time": 3690}, "seed": 17},
+ "output": {"every": {"time": 90}, "observables": ["kinetic_energy", "temperature", "rotational_energy",
+                                                   "rotational_temperature", "outflow"]}}
+EOF
+if run rough; then
+	"$PY" - "$tmp/rough.out" >"$tmp/rough.res" 2>&1 <<'PY'
+import json, math, sys
+P = [json.loads(l) for l in open(sys.argv[1])]
+P = [p for p in P if p['type'] == 'progress' and p['time'] >= 90]
+def ms(v):
+    m = sum(v) / len(v)
+    return m, math.sqrt(sum((x - m) ** 2 for x in v) / (len(v) - 1) / len(v))
+t, st = ms([p['temperature'] for p in P])
+r, sr = ms([p['rotational_temperature'] for p in P])
+print('%s - rough disks through reservoirs: T = %.4f +- %.4f, T_rot = %.4f +- %.4f over %d records (both 1, 4 se)' %
+      ('ok' if len(P) >= 40 and abs(t - 1) < 4 * st and abs(r - 1) < 4 * sr else 'not ok', t, st, r, sr, len(P)))
+PY
+fi
+report "$tmp/rough.res"
+
 echo "1..$n"
 [ "$failed" = 0 ]

@@ -129,6 +129,17 @@ cat >"$tmp/2d-reservoir.json" <<'JSON'
  "output":{"every":{"time":3},"observables":["kinetic_energy","obstacle_force","outflow"],
    "snapshots":{"every":{"time":20}},"checkpoint":{"every":{"time":13}}}}
 JSON
+# Rough particles through reservoir walls: the entering spins (drawn from the entry stream), the spins of
+# the slots (frames' angular_velocity with slot rows) and the rotational observables.
+cat >"$tmp/2d-reservoir-rough.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":300,"box":[80,40]},
+ "collisions":{"restitution":0.95,"tc":0.0001,"rough":{"tangential_restitution":0.5}},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"reservoir","volume_fraction":0.05,"velocity":[0.3,0],"temperature":0.5},
+   "upper":{"type":"open"}}},
+ "run":{"seed":48,"until":{"time":60}},
+ "output":{"every":{"time":3},"observables":["kinetic_energy","rotational_temperature","outflow","velocity_distribution"],
+   "snapshots":{"every":{"time":20}},"checkpoint":{"every":{"time":13}}}}
+JSON
 # Dispenser and filter (seed 001's dense stream): the piston's recharge
 # time, the frozen flags and counts, slots and ids are state too.
 cat >"$tmp/2d-dispenser-filter.json" <<'JSON'
@@ -286,7 +297,7 @@ ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 # (a) checkpoint at simulated time T, resume: identical to the uninterrupted run.
 for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open 3d-rough-drive \
 	2d-rough-noise 2d-hsmc-walls 2d-dsmc-vib 2d-hsmc-open 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute \
-	2d-mixture-walls 2d-reservoir 2d-dispenser-filter; do
+	2d-mixture-walls 2d-reservoir 2d-reservoir-rough 2d-dispenser-filter; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

@@ -1926,8 +1926,8 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 			        (double)s->capacity, 0);
 			return ED_EINVAL;
 		}
-		if (s->rough || scene_has_species(s)) {
-			set_msg(msg, msglen, "boundaries: \"reservoir\" walls take one species of smooth particles%.0s%.0s", 0, 0);
+		if (scene_has_species(s)) {   /* rough particles enter with spins (inlet_enter()); dispensers: scene.c */
+			set_msg(msg, msglen, "boundaries: \"reservoir\" walls take one species%.0s%.0s", 0, 0);
 			return ED_EINVAL;
 		}
 		ed->n = (uint32_t)s->capacity;   /* slots; n_init of them filled at the start */
@@ -2451,6 +2451,15 @@ static int inlet_enter(struct ed *ed, int w)
 	} else {
 		ed->label[ed->id[i]] = (int64_t)ed->in_count[12]++;
 		ed->in_count[w]++;
+		if (ed->rough) {
+			/* rough particles: the reservoir gas's spins are Maxwellian at its temperature T = m s^2,
+			 * variance T / I per component (I = q m a^2), drawn after the entry (times do not depend on
+			 * spins: the predictions stay valid) */
+			const int k = D == 2 ? 1 : 3;
+			const double sw = s / sqrt(ed->rq * 0.25 * ed->sigma2);
+			for (int c = 0; c < k; c++)
+				ed->spin[(size_t)i * k + c] = sw * rng_gauss(&ed->irng);
+		}
 		DISPATCH(ed, set_cross, ed, i);
 		DISPATCH(ed, scan_full, ed, i);
 		cal_update(ed, i, ev_time(ed, i));
