@@ -10,16 +10,7 @@ PY=/usr/bin/python3
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/ensemble_bounded_test.XXXXXX")
 trap 'rm -rf "$tmp"' EXIT
 n=0; failed=0
-ok() { n=$((n + 1)); if [ "$1" = 0 ]; then echo "ok $n - $2"; else echo "not ok $n - $2"; failed=$((failed + 1)); fi; }
-report() {
-	while IFS= read -r line; do
-		case "$line" in
-		"ok - "*) ok 0 "${line#ok - }" ;;
-		"not ok - "*) ok 1 "${line#not ok - }" ;;
-		*) echo "# $line" ;;
-		esac
-	done <"$1"
-}
+. "$SRCDIR/tests/tap_lib.sh"   # ok(), report()
 
 # An elastic gas of 200 disks under gravity g = 0.2 between a floor and a lid 40 diameters apart (periodic x),
 # 4 replicas, progress and frames every 2 time units to t = 400. After the fall (potential energy into heat:

@@ -9,16 +9,7 @@ PY=/usr/bin/python3
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/mixture_obs_test.XXXXXX")
 trap 'rm -rf "$tmp"' EXIT
 n=0; failed=0
-ok() { n=$((n + 1)); if [ "$1" = 0 ]; then echo "ok $n - $2"; else echo "not ok $n - $2"; failed=$((failed + 1)); fi; }
-report() {
-	while IFS= read -r line; do
-		case "$line" in
-		"ok - "*) ok 0 "${line#ok - }" ;;
-		"not ok - "*) ok 1 "${line#not ok - }" ;;
-		*) echo "# $line" ;;
-		esac
-	done <"$1"
-}
+. "$SRCDIR/tests/tap_lib.sh"   # ok(), report()
 
 # An elastic binary mixture in equilibrium: 300 disks of radius 0.5 and mass 1, 100 of radii uniform in
 # [0.8, 1.2] and mass 4, periodic 80 x 80 (area fraction 0.08), T = 1; records and snapshots every 15 time

@@ -9,16 +9,7 @@ PY=/usr/bin/python3
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/obsopen_test.XXXXXX")
 trap 'rm -rf "$tmp"' EXIT
 n=0; failed=0
-ok() { n=$((n + 1)); if [ "$1" = 0 ]; then echo "ok $n - $2"; else echo "not ok $n - $2"; failed=$((failed + 1)); fi; }
-report() {
-	while IFS= read -r line; do
-		case "$line" in
-		"ok - "*) ok 0 "${line#ok - }" ;;
-		"not ok - "*) ok 1 "${line#not ok - }" ;;
-		*) echo "# $line" ;;
-		esac
-	done <"$1"
-}
+. "$SRCDIR/tests/tap_lib.sh"   # ok(), report()
 run() {
 	if ! "$ENGINE" run "$tmp/$1.json" --out "$tmp/$1" >"$tmp/$1.out" 2>"$tmp/$1.err"; then
 		echo "not ok - $1: the run failed: $(head -c 300 "$tmp/$1.err")" >"$tmp/$1.res"

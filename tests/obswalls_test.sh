@@ -9,17 +9,7 @@ PY=/usr/bin/python3
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/obswalls_test.XXXXXX")
 trap 'rm -rf "$tmp"' EXIT
 n=0; failed=0
-ok() { n=$((n + 1)); if [ "$1" = 0 ]; then echo "ok $n - $2"; else echo "not ok $n - $2"; failed=$((failed + 1)); fi; }
-# Run a python check that prints "ok - ..." / "not ok - ..." lines; anything else is a comment.
-report() {
-	while IFS= read -r line; do
-		case "$line" in
-		"ok - "*) ok 0 "${line#ok - }" ;;
-		"not ok - "*) ok 1 "${line#not ok - }" ;;
-		*) echo "# $line" ;;
-		esac
-	done <"$1"
-}
+. "$SRCDIR/tests/tap_lib.sh"   # ok(), report()
 run() {   # run NAME: engine on $tmp/NAME.json into $tmp/NAME, stdout to $tmp/NAME.out; 0 or an error line
 	if ! "$ENGINE" run "$tmp/$1.json" --out "$tmp/$1" >"$tmp/$1.out" 2>"$tmp/$1.err"; then
 		echo "not ok - $1: the run failed: $(head -c 300 "$tmp/$1.err")" >"$tmp/$1.res"

@@ -10,17 +10,7 @@ PY=/usr/bin/python3
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/transport_test.XXXXXX")
 trap 'rm -rf "$tmp"' EXIT
 n=0; failed=0
-ok() { n=$((n + 1)); if [ "$1" = 0 ]; then echo "ok $n - $2"; else echo "not ok $n - $2"; failed=$((failed + 1)); fi; }
-# Run a python check printing "ok - ..." / "not ok - ..." / other (diagnostic) lines.
-report() {
-	while IFS= read -r line; do
-		case "$line" in
-		"ok - "*) ok 0 "${line#ok - }" ;;
-		"not ok - "*) ok 1 "${line#not ok - }" ;;
-		*) echo "# $line" ;;
-		esac
-	done <"$1"
-}
+. "$SRCDIR/tests/tap_lib.sh"   # ok(), report()
 
 # ---- P(b) --------------------------------------------------------------------------------------------------
 # At equilibrium the pair distribution of elastic hard disks/spheres at contact factorises (Gibbs measure:

@@ -212,9 +212,12 @@ static int axis_offsets(size_t m, int off[3])
 }
 
 /* Test all pairs between slots [a0, a1) and [b0, b1) (same cell: a0 == b0). */
-/* Mixtures: the pair's own cutoff r_i + r_j + delta. */
-static void scan_pair_radii(clusters_t *c, const double *box, const double *half, uint32_t a0, uint32_t a1,
-                            uint32_t b0, uint32_t b1)
+/* The pairs of slots [a0, a1) x [b0, b1) (one cell with itself when a0 == b0) closer than the cutoff:
+ * cut2 for every pair, or with radii (mixtures) the pair's own r_i + r_j + delta. Inlined into its two
+ * callers, so the one-radius scan has no per-pair test of the mode. */
+static inline __attribute__((always_inline)) void scan_cells(clusters_t *c, const double *box, const double *half,
+                                                             double cut2, int radii, uint32_t a0, uint32_t a1,
+                                                             uint32_t b0, uint32_t b1)
 {
 	const int dim = c->dim;
 	const double *p = c->spos, *rad = c->srad, delta = c->delta;
@@ -229,8 +232,11 @@ static void scan_pair_radii(clusters_t *c, const double *box, const double *half
 				double dz = geom_min_image(pi[2] - pj[2], box[2], half[2]);
 				r2 += dz * dz;
 			}
-			double cut = rad[i] + rad[j] + delta;
-			if (r2 < cut * cut)
+			if (radii) {
+				double cut = rad[i] + rad[j] + delta;
+				cut2 = cut * cut;
+			}
+			if (r2 < cut2)
 				unite(c, i, j);
 		}
 	}
@@ -239,23 +245,13 @@ static void scan_pair_radii(clusters_t *c, const double *box, const double *half
 static void scan_pair(clusters_t *c, const double *box, const double *half, double cut2,
                       uint32_t a0, uint32_t a1, uint32_t b0, uint32_t b1)
 {
-	const int dim = c->dim;
-	const double *p = c->spos;
-	for (uint32_t i = a0; i < a1; i++) {
-		const double *pi = p + (size_t)i * dim;
-		for (uint32_t j = (a0 == b0 ? i + 1 : b0); j < b1; j++) {
-			const double *pj = p + (size_t)j * dim;
-			double dx = geom_min_image(pi[0] - pj[0], box[0], half[0]);
-			double dy = geom_min_image(pi[1] - pj[1], box[1], half[1]);
-			double r2 = dx * dx + dy * dy;
-			if (dim == 3) {
-				double dz = geom_min_image(pi[2] - pj[2], box[2], half[2]);
-				r2 += dz * dz;
-			}
-			if (r2 < cut2)
-				unite(c, i, j);
-		}
-	}
+	scan_cells(c, box, half, cut2, 0, a0, a1, b0, b1);
+}
+
+static void scan_pair_radii(clusters_t *c, const double *box, const double *half, uint32_t a0, uint32_t a1,
+                            uint32_t b0, uint32_t b1)
+{
+	scan_cells(c, box, half, 0.0, 1, a0, a1, b0, b1);
 }
 
 /* Weighted least squares slope and intercept of y on x; 0, or -1 when degenerate. */
