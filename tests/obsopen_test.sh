@@ -21,29 +21,6 @@ run() {
 # 0.01 have g = 1 up to O(nu^2) ~ 1e-4. Per bin the mean over the snapshots (each 2 mean free times apart:
 # the pairs within 10 diameters are new ones, independent samples) and its standard error; chi^2 of the 16
 # bins against 1 below the 99.9% quantile of chi^2 with 16 degrees of freedom (Wilson-Hilferty, 39.25).
-cat >"$tmp/check_g1.py" <<'PY'
-import json, math, sys
-out, what = sys.argv[1], sys.argv[2]
-cur = [json.loads(l) for l in open(out + '/observables.jsonl')]
-gs = [c['tables'][0] for c in cur if c['name'] == 'pair_correlation' and c['sample'] > 0]
-S = len(gs)
-chi, k, worst, zmax = 0.0, 0, None, -1.0
-for j, r in enumerate(gs[0]['centres']):
-    if gs[0]['edges'][j] < 2.0:
-        continue
-    v = [t['columns']['g'][j] for t in gs]
-    m = sum(v) / S
-    se = math.sqrt(sum((x - m) ** 2 for x in v) / (S - 1) / S)
-    z = abs(m - 1) / se
-    chi += z * z
-    k += 1
-    if z > zmax:
-        worst, zmax = (r, m, se), z
-q = k * (1 - 2 / (9 * k) + 3.0902 * math.sqrt(2 / (9 * k))) ** 3
-print('%s - %s: g(r) = 1 over r in [2, %g) diameters: chi^2 = %.1f for %d bins (< %.2f), furthest g(%.2f) = '
-      '%.4f +- %.4f over %d snapshots' % ('ok' if k >= 8 and chi < q else 'not ok', what, gs[0]['edges'][-1], chi,
-      k, q, worst[0], worst[1], worst[2], S))
-PY
 
 # ---- 1. equilibrium with reservoirs at both ends: the particles present ----------------------------------
 # 2D, x walled 100 diameters wide with the same reservoir (area fraction 0.01, T = 1, at rest) at both ends,
@@ -65,7 +42,7 @@ cat >"$tmp/res.json" <<'EOF'
             "snapshots": {"every": {"time": 90}}}}
 EOF
 if run res; then
-	"$PY" "$tmp/check_g1.py" "$tmp/res" "reservoirs at both ends" >"$tmp/res.res" 2>&1
+	"$PY" "$SRCDIR/tests/check_g1.py" "$tmp/res" "reservoirs at both ends" >"$tmp/res.res" 2>&1
 	"$PY" - "$tmp/res" >>"$tmp/res.res" 2>&1 <<'PY'
 import json, math, sys
 out = sys.argv[1]
@@ -108,7 +85,7 @@ cat >"$tmp/obst.json" <<'EOF'
             "snapshots": {"every": {"time": 45}}}}
 EOF
 if run obst; then
-	"$PY" "$tmp/check_g1.py" "$tmp/obst" "slip obstacle" >"$tmp/obst.res" 2>&1
+	"$PY" "$SRCDIR/tests/check_g1.py" "$tmp/obst" "slip obstacle" >"$tmp/obst.res" 2>&1
 	"$PY" - "$tmp/obst" >>"$tmp/obst.res" 2>&1 <<'PY'
 import json, math, sys
 prog = [json.loads(l) for l in open(sys.argv[1] + '/progress.jsonl')]
