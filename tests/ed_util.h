@@ -83,4 +83,24 @@ static inline int checkpoint_pair(const char *json, scene_t *sc, double t_sample
 	return b != NULL;
 }
 
+/* Scenes with slots (reservoir and dispenser walls), 2D: whether a and b hold the same state of every slot,
+ * positions, velocities and particle ids, bit for bit. 0 also when out of memory. */
+static inline int same_slots(const ed_t *a, const ed_t *b)
+{
+	const size_t N = ed_slots(a), m = N * 2;
+	double *p = malloc(sizeof(double) * m * 4);
+	int64_t *ia = malloc(sizeof(int64_t) * N * 2);
+	int same = 0;
+	if (p && ia && ed_slots(b) == N) {
+		ed_state(a, p, p + m);
+		ed_state(b, p + 2 * m, p + 3 * m);
+		ed_labels(a, ia);
+		ed_labels(b, ia + N);
+		same = !memcmp(p, p + 2 * m, 2 * m * sizeof(double)) && !memcmp(ia, ia + N, N * sizeof(int64_t));
+	}
+	free(p);
+	free(ia);
+	return same;
+}
+
 #endif
