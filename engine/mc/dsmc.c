@@ -118,10 +118,14 @@ struct dsmc {
 	float *vfac;
 	uint64_t obst_collisions;      /* total */
 	double obst_impulse[SCENE_OBSTACLES_MAX][3];   /* momentum given to each obstacle over the interval */
-	/* Mixtures (step variant M = 1, periodic dsmc only; mix = 0 without):
-	 * species and radius of each particle identity (constant: from the
-	 * scene), each species' mass, each pair's restitution. sigma is the
-	 * largest diameter (the majorant's); mass the mean mass. */
+	/* Mixtures (step variant M = 1, dsmc only; mix = 0 without): periodic
+	 * (B = 0) or with fixed walls, gravity and obstacles (B = 1: flight()
+	 * with each particle's own radius and mass; vibrating and open walls
+	 * refused). Species and radius of each particle identity (constant:
+	 * from the scene), each species' mass, each pair's restitution. sigma
+	 * is the largest diameter (the majorant's; placement and CBA offsets use
+	 * its contact planes, conservative for the smaller ones); mass the mean
+	 * mass. */
 	int mix, nsp;
 	uint8_t *spc;
 	double *rad;
