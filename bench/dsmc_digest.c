@@ -31,14 +31,18 @@ int main(int argc, char **argv)
 		",\"boundaries\":{\"z\":{\"type\":\"walls\",\"lower\":{\"type\":\"thermal\",\"temperature\":2},"
 		"\"upper\":{\"type\":\"specular\"}}},\"gravity\":[0,0,-1],"
 		"\"obstacles\":[{\"type\":\"no_slip\",\"center\":[5,5,5],\"radius\":2,\"temperature\":0.5}]";
+	static const char *const vib2 =
+		",\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"vibrating\",\"amplitude\":1,"
+		"\"frequency\":0.2,\"restitution\":0.8},\"upper\":{\"type\":\"open\"}},\"x\":{\"type\":\"walls\","
+		"\"lower\":{\"type\":\"thermal\",\"temperature\":1},\"upper\":{\"type\":\"specular\"}}},\"gravity\":[0,-0.5]";
 	static const char *cases[][6] = {
 		{"dsmc", "3", "20000", "0.05", "1", "none"}, {"dsmc", "3", "20000", "0.25", "0.9", "enskog"},
 		{"dsmc", "2", "20000", "0.05", "0.9", "none"}, {"hsmc", "3", "20000", "0.25", "0.9", "cba"},
 		{"hsmc", "2", "20000", "0.4", "0.9", "cba"}, {"dsmc", "3", "20000", "0.3", "0.8", "cba"},
 		{"dsmc", "2", "20000", "0.05", "0.9", "none"}, {"dsmc", "2", "20000", "0.1", "0.9", "cba"},
-		{"dsmc", "3", "20000", "0.05", "0.9", "none"},
+		{"dsmc", "3", "20000", "0.05", "0.9", "none"}, {"dsmc", "2", "20000", "0.05", "0.9", "none"},
 	};
-	const char *extra[sizeof cases / sizeof cases[0]] = { [6] = walls2, [7] = walls2, [8] = walls3 };
+	const char *extra[sizeof cases / sizeof cases[0]] = { [6] = walls2, [7] = walls2, [8] = walls3, [9] = vib2 };
 	long steps = argc > 1 ? atol(argv[1]) : 60;
 	int ret = 0;
 	for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {

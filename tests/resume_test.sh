@@ -292,6 +292,16 @@ cat >"$tmp/2d-dsmc-mixture-walls.json" <<'JSON'
    "snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":7}}},
  "dsmc":{"correction":"cba"}}
 JSON
+cat >"$tmp/2d-dsmc-mixture-vib.json" <<'JSON'
+{"method":"dsmc","dimensions":2,"particles":{"species":[{"count":1200,"radius":0.4,"mass":1},
+   {"count":600,"radius_range":[0.6,1],"mass":4}],"box":[80,50],"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9},
+ "boundaries":{"y":{"type":"walls","lower":{"type":"vibrating","amplitude":0.5,"frequency":0.3,"restitution":0.8},
+   "upper":{"type":"open"}}},"gravity":[0,-0.02],
+ "run":{"seed":49,"until":{"time":30}},
+ "output":{"every":{"time":1.5},"observables":["kinetic_energy","temperature","wall_force","outflow","center_of_mass_height"],
+   "snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":7}}}}
+JSON
 
 ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 	"$ENGINE" run "$tmp/$1.json" --out "$tmp/$1.ref" >/dev/null 2>"$tmp/$1.ref.err"
@@ -300,7 +310,7 @@ ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 # (a) checkpoint at simulated time T, resume: identical to the uninterrupted run.
 for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open 3d-rough-drive \
 	2d-rough-noise 2d-hsmc-walls 2d-dsmc-vib 2d-hsmc-open 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute \
-	2d-mixture-walls 2d-dsmc-mixture-walls 2d-reservoir 2d-dispenser-filter; do
+	2d-mixture-walls 2d-dsmc-mixture-walls 2d-dsmc-mixture-vib 2d-reservoir 2d-dispenser-filter; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

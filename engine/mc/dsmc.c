@@ -119,9 +119,9 @@ struct dsmc {
 	uint64_t obst_collisions;      /* total */
 	double obst_impulse[SCENE_OBSTACLES_MAX][3];   /* momentum given to each obstacle over the interval */
 	/* Mixtures (step variant M = 1, dsmc only; mix = 0 without): periodic
-	 * (B = 0) or with fixed walls, gravity and obstacles (B = 1: flight()
-	 * with each particle's own radius and mass; vibrating and open walls
-	 * refused). Species and radius of each particle identity (constant:
+	 * (B = 0), with fixed walls, gravity and obstacles (B = 1: flight()) or
+	 * vibrating and open walls (B = 2: flight_vib()), each particle with its
+	 * own radius and mass. Species and radius of each particle identity (constant:
 	 * from the scene), each species' mass, each pair's restitution. sigma
 	 * is the largest diameter (the majorant's; placement and CBA offsets use
 	 * its contact planes, conservative for the smaller ones); mass the mean
@@ -474,10 +474,10 @@ static ALWAYS_INLINE double move(struct dsmc *d, double dt, const int D, const i
  * Rayleigh normal and Gaussian tangential speeds about the wall velocity;
  * rough: tangential velocity reversed with probability p; moving:
  * v_t' - u = -beta (v_t - u)). Random numbers from the engine's stream
- * (the flights run in a fixed order). sv: the thermal wall's sqrt(T_w / m)
- * for this particle's mass (W->sv, or W->svs[species] for mixtures).
+ * (the flights run in a fixed order). M = 1 (mixtures): a thermal wall
+ * re-emits with W->svs[sp], sqrt(T_w / m_sp) for the particle's species sp.
  * Returns the inward normal speed. */
-static ALWAYS_INLINE double wall_rule(struct dsmc *d, int w, double *v, double sv, const int D)
+static ALWAYS_INLINE double wall_rule(struct dsmc *d, int w, double *v, const int D, const int M, int sp)
 {
 	const mcwall_t *W = &d->wall[w];
 	const int a = w >> 1;
@@ -486,6 +486,7 @@ static ALWAYS_INLINE double wall_rule(struct dsmc *d, int w, double *v, double s
 	switch (W->type) {
 	case SCENE_WALL_THERMAL:
 		if (rng_uniform(&d->rng) < W->acc) {
+			const double sv = M ? W->svs[sp] : W->sv;
 			vn = sv * sqrt(-2.0 * log(1.0 - rng_uniform(&d->rng)));
 			for (int k = 0; k < D; k++)
 				if (k != a)
@@ -590,12 +591,10 @@ static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double 
 {
 	double left = dt, integ = 0, ga[3] = {0, 0, 0};
 	int pinned = 0;
-	const double m = M ? d->msp[sp] : d->mass;
-	double lo[3], hi[3];
-	for (int a = 0; a < D; a++) {
-		lo[a] = M ? d->lo[a] + dr : d->lo[a];
-		hi[a] = M ? d->hi[a] - dr : d->hi[a];
-	}
+	/* the one-species expressions exactly when M = 0 (the same code as before) */
+#define LO(a) (M ? d->lo[a] + dr : d->lo[a])
+#define HI(a) (M ? d->hi[a] - dr : d->hi[a])
+#define MASS (M ? d->msp[sp] : d->mass)
 	(void)sp, (void)dr;
 	for (int a = 0; a < D; a++)
 		ga[a] = d->g[a];
@@ -613,10 +612,10 @@ static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double 
 		for (int a = 0; a < D; a++) {
 			if (!d->walled[a] || (pinned >> a & 1))
 				continue;
-			double t0 = walltime_plane(x[a] - lo[a], v[a], ga[a]);
+			double t0 = walltime_plane(x[a] - LO(a), v[a], ga[a]);
 			if (t0 < th)
 				th = t0, w = 2 * a;
-			double t1 = walltime_plane(hi[a] - x[a], -v[a], -ga[a]);
+			double t1 = walltime_plane(HI(a) - x[a], -v[a], -ga[a]);
 			if (t1 < th)
 				th = t1, w = 2 * a + 1;
 		}
@@ -647,7 +646,7 @@ static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double 
 			}
 			obstacle_rule(O->type, O->r, O->acc, M ? O->svs[sp] : O->sv, -INFINITY, d->relaxing, nrm, v, D, &d->rng);
 			for (int a = 0; a < D; a++)
-				lg->oimp[ko][a] += m * (before[a] - v[a]);
+				lg->oimp[ko][a] += MASS * (before[a] - v[a]);
 			lg->ohits[ko]++;
 			lg->touched |= 1u << (6 + ko);
 			/* back on the contact sphere: rounding may leave the centre a hair inside */
@@ -675,16 +674,16 @@ static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double 
 			break;
 		}
 		const int a = w >> 1;
-		x[a] = (w & 1) ? hi[a] : lo[a];
+		x[a] = (w & 1) ? HI(a) : LO(a);
 		double before[3];
 		for (int k = 0; k < D; k++)
 			before[k] = v[k];
-		double vn = wall_rule(d, w, v, M ? d->wall[w].svs[sp] : d->wall[w].sv, D);
+		double vn = wall_rule(d, w, v, D, M, sp);
 		for (int k = 0; k < D; k++)
-			lg->imp[w][k] += m * (before[k] - v[k]);
+			lg->imp[w][k] += MASS * (before[k] - v[k]);
 		lg->hits[w]++;
 		lg->touched |= 1u << w;
-		rest_or_stop(m, lg, w, a, vn, hits, left, v, ga, &pinned);
+		rest_or_stop(MASS, lg, w, a, vn, hits, left, v, ga, &pinned);
 		hits++;
 		if (!(left > 0))
 			break;
@@ -693,6 +692,9 @@ static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double 
 		if (!d->walled[a])
 			x[a] = wrap(x[a], d->L[a]);
 	return integ;
+#undef LO
+#undef HI
+#undef MASS
 }
 
 /* ---- vibrating walls (step variant B = 2, chosen at load) ---------------- */
@@ -740,8 +742,12 @@ static double vib_detach(const mcwall_t *W, double gam, double th)
  * for the rest of the flight. Fixed walls as in flight(). Returns the
  * integral of |v|^2 over the flight (exact, riding included). */
 static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, double dt, double t0, flight_log_t *lg,
-                                       const int D)
+                                       const int D, const int M, int sp, double dr)
 {
+	/* M: the particle's own contact planes (flight()), mass and thermal speed */
+#define MASS (M ? d->msp[sp] : d->mass)
+#define VPLANE(w, th) (M ? vib_plane(d, (w), (th)) + (((w) & 1) ? -dr : dr) : vib_plane(d, (w), (th)))
+	(void)sp, (void)dr;
 	double left = dt, integ = 0, ga[3];
 	int pinned = 0, ride = -1;     /* ride: the vibrating wall carrying the particle, or -1 */
 	double tdet = INFINITY;        /* riding: time left until it leaves the wall */
@@ -756,7 +762,8 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 				continue;
 			for (int k = 0; k < 2; k++) {
 				const mcwall_t *W = &d->wall[2 * a + k];
-				const double gap = k ? d->hi[a] - x[a] : x[a] - d->lo[a];
+				const double gap = M ? (k ? d->hi[a] - dr - x[a] : x[a] - (d->lo[a] + dr))
+				                     : (k ? d->hi[a] - x[a] : x[a] - d->lo[a]);
 				const double u = k ? -v[a] : v[a], gam = k ? -ga[a] : ga[a];
 				double t;
 				if (W->A != 0.0) {
@@ -779,10 +786,10 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 				const double th1 = th0 + W->omega * th, aw = W->A * W->omega;
 				integ += aw * aw * (0.5 * th + 0.5 * cos(th0 + th1) * sin(W->omega * th) / W->omega);
 				const double vb = v[a];
-				x[a] = vib_plane(d, ride, th1);
+				x[a] = VPLANE(ride, th1);
 				v[a] = s * aw * cos(th1);
 				/* the wall's push: the momentum change less gravity's share */
-				lg->imp[ride][a] += d->mass * (ga[a] * th - (v[a] - vb));
+				lg->imp[ride][a] += MASS * (ga[a] * th - (v[a] - vb));
 				tdet -= th;
 				continue;
 			}
@@ -798,7 +805,7 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 			const mcwall_t *W = &d->wall[w];
 			const double s = (w & 1) ? -1.0 : 1.0, thc = W->ph + W->omega * (t0 + (dt - left));
 			const double un = W->A != 0.0 ? W->A * W->omega * cos(thc) : 0.0;
-			x[a] = vib_plane(d, w, thc);
+			x[a] = VPLANE(w, thc);
 			if (W->type == SCENE_WALL_OPEN && !d->relaxing) {
 				lg->out = 1 + w;   /* leaves: the flight ends here */
 				for (int k = 0; k < D; k++)
@@ -809,10 +816,10 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 			for (int k = 0; k < D; k++)
 				before[k] = v[k];
 			v[a] -= s * un;   /* the rule acts on the velocity relative to the wall */
-			double vn = wall_rule(d, w, v, W->sv, D);
+			double vn = wall_rule(d, w, v, D, M, sp);
 			v[a] += s * un;
 			for (int k = 0; k < D; k++)
-				lg->imp[w][k] += d->mass * (before[k] - v[k]);
+				lg->imp[w][k] += MASS * (before[k] - v[k]);
 			lg->hits[w]++;
 			lg->touched |= 1u << w;
 			if (W->A != 0.0) {
@@ -827,7 +834,7 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 					v[a] = s * un;   /* leaves with the wall: the gap opens */
 				}
 			} else {
-				rest_or_stop(d->mass, lg, w, a, vn, hits, left, v, ga, &pinned);
+				rest_or_stop(MASS, lg, w, a, vn, hits, left, v, ga, &pinned);
 			}
 		} else {
 			break;
@@ -841,12 +848,15 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 			continue;
 		}
 		/* inside the walls where they are now (rounding of the roots) */
-		if (x[a] < d->cur_lo[a])
-			x[a] = d->cur_lo[a];
-		if (x[a] > d->cur_hi[a])
-			x[a] = d->cur_hi[a];
+		const double clo = M ? d->cur_lo[a] + dr : d->cur_lo[a], chi = M ? d->cur_hi[a] - dr : d->cur_hi[a];
+		if (x[a] < clo)
+			x[a] = clo;
+		if (x[a] > chi)
+			x[a] = chi;
 	}
 	return integ;
+#undef VPLANE
+#undef MASS
 }
 
 /* move() for bounded scenes: the exact flight() of each particle; hsmc
@@ -854,8 +864,8 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
  * position and velocity: no acceleration that step, seed 000 sec. 2.3.2).
  * V = 1 (vibrating walls): flight_vib(), and a move is not rejected when
  * the kept position would be beyond a wall where it is at the end of the
- * step (the wall carries the particle). M = 1 (mixtures, fixed walls only:
- * V = 0): each particle's own radius and mass (flight()). Adds the integral
+ * step (the wall carries the particle). M = 1 (mixtures): each particle's
+ * own radius and mass (flight(), flight_vib()). Adds the integral
  * of E_kin dt over the step to *ekint; returns E_kin at the end of the
  * flights. */
 static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekint, const int D, const int V,
@@ -885,12 +895,13 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 				dr = d->rad[idk] - 0.5 * d->sigma;
 				m = d->msp[sp];
 			}
-			double in = V ? flight_vib(d, xn, vn, dt, d->t, &lg, D) : flight(d, xn, vn, dt, &lg, D, M, sp, dr);
+			double in = V ? flight_vib(d, xn, vn, dt, d->t, &lg, D, M, sp, dr) : flight(d, xn, vn, dt, &lg, D, M, sp, dr);
 			uint32_t cn = cell_of(d, xn, D);
 			int stays = 1;
 			if (V) {
 				for (int a = 0; a < D; a++)
-					if (d->walled[a] && (x[a] < d->cur_lo[a] || x[a] > d->cur_hi[a]))
+					if (d->walled[a] && (x[a] < (M ? d->cur_lo[a] + dr : d->cur_lo[a]) ||
+					                     x[a] > (M ? d->cur_hi[a] - dr : d->cur_hi[a])))
 						stays = 0;
 				if (lg.out) {
 					/* it left through an open wall: to the extra cell ncells, after the present ones */
@@ -1385,7 +1396,7 @@ static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const
 		cell_collisions(d, D, B);
 	double ek;
 	if (B) {
-		ek = move_bounded(d, dt, &d->ekin_int, D, B == 2, M && B == 1);
+		ek = move_bounded(d, dt, &d->ekin_int, D, B == 2, M);
 	} else {
 		ek = move(d, dt, D, M);
 		d->ekin_int += ek * dt;
@@ -1407,6 +1418,8 @@ static void step2s(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0, 1, 0); }
 static void step3s(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0, 1, 0); }
 static void step2bs(struct dsmc *d, double dt) { step_dim(d, dt, 2, 1, 1, 0); }   /* mixtures, fixed walls */
 static void step3bs(struct dsmc *d, double dt) { step_dim(d, dt, 3, 1, 1, 0); }
+static void step2vs(struct dsmc *d, double dt) { step_dim(d, dt, 2, 2, 1, 0); }   /* mixtures, vibrating or open walls */
+static void step3vs(struct dsmc *d, double dt) { step_dim(d, dt, 3, 2, 1, 0); }
 static void step2p(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0, 0, 1); }   /* impact_c */
 static void step3p(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0, 0, 1); }
 
@@ -1597,27 +1610,17 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 	vib |= d->open;   /* open walls take the vibrating-wall step too (flight_vib()) */
 	d->step = d->dim == 2 ? (vib ? step2v : d->bounded ? step2b : step2) : (vib ? step3v : d->bounded ? step3b : step3);
 	if (d->mix) {
-		/* dsmc mixtures: periodic (step2s) or fixed walls, gravity and obstacles
-		 * (step2bs: each particle's own radius and mass in flight()); not with a
-		 * vibrating or open wall (flight_vib() has one radius and mass) */
+		/* dsmc mixtures: periodic (step2s), fixed walls, gravity and obstacles
+		 * (step2bs: each particle's own radius and mass in flight()), vibrating
+		 * or open walls (step2vs: the same in flight_vib()) */
 		if (d->hsmc) {
 			if (msg && msglen)
 				snprintf(msg, msglen, "particles.species: method \"%s\" simulates one species of one radius only; "
 				         "use method \"dsmc\" or \"ed\"", method);
 			return DSMC_EINVAL;
 		}
-		for (int a = 0; a < d->dim; a++)
-			for (int k = 0; k < 2 && d->walled[a]; k++) {
-				const scene_wall_t *sw = &s->boundary[a].wall[k];
-				if (sw->type == SCENE_WALL_OPEN || (sw->type == SCENE_WALL_VIBRATING && sw->amplitude > 0.0)) {
-					if (msg && msglen)
-						snprintf(msg, msglen, "boundaries.%s.%s.type: \"%s\" walls are not supported yet with "
-						         "particles.species in method \"%s\"; use method \"ed\"", axis[a], end[k],
-						         sw->type == SCENE_WALL_OPEN ? "open" : "vibrating", method);
-					return DSMC_EINVAL;
-				}
-			}
-		d->step = d->bounded ? (d->dim == 2 ? step2bs : step3bs) : (d->dim == 2 ? step2s : step3s);
+		d->step = vib ? (d->dim == 2 ? step2vs : step3vs)
+		      : d->bounded ? (d->dim == 2 ? step2bs : step3bs) : (d->dim == 2 ? step2s : step3s);
 	}
 	d->pb_n = s->mc_impact_n;
 	memcpy(d->pb_tau, s->mc_impact_tau, sizeof d->pb_tau);
@@ -2110,7 +2113,7 @@ static void species_out(const struct dsmc *d, dsmc_sample_t *out)
 	if (!out->n_species)
 		return;
 	const int D = d->dim, S = 2 * D;
-	for (uint32_t k = 0; k < d->n; k++) {
+	for (uint32_t k = 0; k < d->na; k++) {   /* the particles present (open walls) */
 		const int a = d->spc[d->id[k]];
 		double v2 = 0;
 		for (int b = 0; b < D; b++)
