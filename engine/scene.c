@@ -657,10 +657,10 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 	if (!scene_has_species(s))
 		return 0;
 	const char *what = s->n_species > 1 ? "more than one particle species" : "polydisperse particles";
-	/* dsmc: periodic boxes without gravity or obstacles (dsmc_plan() refuses the rest, naming the key) */
+	/* dsmc: periodic boxes, walls of every kind, gravity and obstacles (each particle's own radius and mass) */
 	if (s->method != SCENE_METHOD_ED && s->method != SCENE_METHOD_DSMC)
 		return fail(c, "particles.species", "method \"%s\" simulates one species of one radius only; use method "
-			    "\"ed\" (or \"dsmc\" in a periodic box) for %s", method_names[s->method], what);
+			    "\"ed\" or \"dsmc\" for %s", method_names[s->method], what);
 	/* ed: particles.initial.region and .from (place.c, frame.c), run.replicas and collisions.rough work with
 	 * mixtures; dsmc mixtures not yet (untested there) */
 	if (s->method != SCENE_METHOD_ED) {

@@ -23,6 +23,7 @@ typedef struct {
 	int type;                      /* scene_wall_type_t */
 	double r, acc, p, beta;        /* restitution; thermal accommodation; rough probability; moving beta */
 	double sv;                     /* thermal: sqrt(T_w / m) */
+	double svs[SCENE_SPECIES_MAX]; /* thermal, mixtures: sqrt(T_w / m_s) of each species */
 	double u[3];                   /* moving, thermal: wall velocity (tangential) */
 	double A, omega, ph;           /* vibrating: displacement A sin(ph + omega t) along the inward normal (A = 0: fixed) */
 } mcwall_t;
@@ -31,8 +32,9 @@ typedef struct {
 typedef struct {
 	int type;                      /* SCENE_OBST_* */
 	double c[3];                   /* centre (internal coordinates) */
-	double S;                      /* contact distance: obstacle radius + particle radius */
+	double S;                      /* contact distance: obstacle radius + particle radius (mixtures: the largest) */
 	double r, acc, sv;             /* restitution; no_slip: accommodation, sqrt(T_o / m) */
+	double svs[SCENE_SPECIES_MAX]; /* no_slip, mixtures: sqrt(T_o / m_s) of each species */
 } mcobst_t;
 
 struct dsmc {
@@ -116,10 +118,14 @@ struct dsmc {
 	float *vfac;
 	uint64_t obst_collisions;      /* total */
 	double obst_impulse[SCENE_OBSTACLES_MAX][3];   /* momentum given to each obstacle over the interval */
-	/* Mixtures (step variant M = 1, periodic dsmc only; mix = 0 without):
-	 * species and radius of each particle identity (constant: from the
-	 * scene), each species' mass, each pair's restitution. sigma is the
-	 * largest diameter (the majorant's); mass the mean mass. */
+	/* Mixtures (step variant M = 1, dsmc only; mix = 0 without): periodic
+	 * (B = 0), with fixed walls, gravity and obstacles (B = 1: flight()) or
+	 * vibrating and open walls (B = 2: flight_vib()), each particle with its
+	 * own radius and mass. Species and radius of each particle identity (constant:
+	 * from the scene), each species' mass, each pair's restitution. sigma
+	 * is the largest diameter (the majorant's; placement and CBA offsets use
+	 * its contact planes, conservative for the smaller ones); mass the mean
+	 * mass. */
 	int mix, nsp;
 	uint8_t *spc;
 	double *rad;
@@ -468,8 +474,10 @@ static ALWAYS_INLINE double move(struct dsmc *d, double dt, const int D, const i
  * Rayleigh normal and Gaussian tangential speeds about the wall velocity;
  * rough: tangential velocity reversed with probability p; moving:
  * v_t' - u = -beta (v_t - u)). Random numbers from the engine's stream
- * (the flights run in a fixed order). Returns the inward normal speed. */
-static ALWAYS_INLINE double wall_rule(struct dsmc *d, int w, double *v, const int D)
+ * (the flights run in a fixed order). M = 1 (mixtures): a thermal wall
+ * re-emits with W->svs[sp], sqrt(T_w / m_sp) for the particle's species sp.
+ * Returns the inward normal speed. */
+static ALWAYS_INLINE double wall_rule(struct dsmc *d, int w, double *v, const int D, const int M, int sp)
 {
 	const mcwall_t *W = &d->wall[w];
 	const int a = w >> 1;
@@ -478,10 +486,11 @@ static ALWAYS_INLINE double wall_rule(struct dsmc *d, int w, double *v, const in
 	switch (W->type) {
 	case SCENE_WALL_THERMAL:
 		if (rng_uniform(&d->rng) < W->acc) {
-			vn = W->sv * sqrt(-2.0 * log(1.0 - rng_uniform(&d->rng)));
+			const double sv = M ? W->svs[sp] : W->sv;
+			vn = sv * sqrt(-2.0 * log(1.0 - rng_uniform(&d->rng)));
 			for (int k = 0; k < D; k++)
 				if (k != a)
-					v[k] = W->u[k] + W->sv * rng_gauss(&d->rng);
+					v[k] = W->u[k] + sv * rng_gauss(&d->rng);
 		} else {
 			vn = -W->r * vn;
 		}
@@ -526,12 +535,12 @@ typedef struct {
  * wall, or that has hit MAX_WALL_HITS times, rests on it for the rest of the
  * flight (the wall takes its normal momentum and its weight; the axis is
  * pinned); one not pressed stays at the wall with no force on it. */
-static ALWAYS_INLINE void rest_or_stop(const struct dsmc *d, flight_log_t *lg, int w, int a, double vn, int hits,
+static ALWAYS_INLINE void rest_or_stop(double m, flight_log_t *lg, int w, int a, double vn, int hits,
                                        double left, double *v, double *ga, int *pinned)
 {
 	double press = (w & 1) ? ga[a] : -ga[a];   /* > 0: gravity pushes it onto this wall */
 	if ((vn <= 0 && press > 0) || hits + 1 >= MAX_WALL_HITS) {
-		lg->imp[w][a] += d->mass * (v[a] + ga[a] * left);
+		lg->imp[w][a] += m * (v[a] + ga[a] * left);
 		v[a] = 0;
 		ga[a] = 0;
 		*pinned |= 1 << a;
@@ -571,11 +580,22 @@ static ALWAYS_INLINE void obst_rel(const struct dsmc *d, const double *x, int k,
  * left) long (it travels less than oreach along any axis), so the nearest
  * image of each obstacle is the only one in reach. x, v are updated in place
  * (periodic axes wrapped). Returns the integral of |v|^2 over the flight
- * (exact: |v + g t|^2 is a quadratic in t). */
-static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double dt, flight_log_t *lg, const int D)
+ * (exact: |v + g t|^2 is a quadratic in t).
+ * M = 1 (mixtures, chosen at load): the particle of species sp and radius
+ * sigma/2 + dr (dr <= 0: sigma is the largest diameter) touches a wall when
+ * its centre is its own radius from it (the contact planes moved out by
+ * -dr) and an obstacle at obstacle radius + its own radius; impulses with
+ * its own mass, thermal re-emission at sqrt(T / m_sp). */
+static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double dt, flight_log_t *lg, const int D,
+                                   const int M, int sp, double dr)
 {
 	double left = dt, integ = 0, ga[3] = {0, 0, 0};
 	int pinned = 0;
+	/* the one-species expressions exactly when M = 0 (the same code as before) */
+#define LO(a) (M ? d->lo[a] + dr : d->lo[a])
+#define HI(a) (M ? d->hi[a] - dr : d->hi[a])
+#define MASS (M ? d->msp[sp] : d->mass)
+	(void)sp, (void)dr;
 	for (int a = 0; a < D; a++)
 		ga[a] = d->g[a];
 	for (int hits = 0;;) {
@@ -592,17 +612,17 @@ static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double 
 		for (int a = 0; a < D; a++) {
 			if (!d->walled[a] || (pinned >> a & 1))
 				continue;
-			double t0 = walltime_plane(x[a] - d->lo[a], v[a], ga[a]);
+			double t0 = walltime_plane(x[a] - LO(a), v[a], ga[a]);
 			if (t0 < th)
 				th = t0, w = 2 * a;
-			double t1 = walltime_plane(d->hi[a] - x[a], -v[a], -ga[a]);
+			double t1 = walltime_plane(HI(a) - x[a], -v[a], -ga[a]);
 			if (t1 < th)
 				th = t1, w = 2 * a + 1;
 		}
 		for (int k = 0; k < d->nobst; k++) {
 			double rel[3];
 			obst_rel(d, x, k, rel, D);
-			double t = obstacle_time_grav(rel, v, ga, D, d->obst[k].S, th);
+			double t = obstacle_time_grav(rel, v, ga, D, M ? d->obst[k].S + dr : d->obst[k].S, th);
 			if (t < th)
 				th = t, w = -1, ko = k;
 		}
@@ -614,6 +634,7 @@ static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double 
 		left -= th;
 		if (ko >= 0) {
 			const mcobst_t *O = &d->obst[ko];
+			const double OS = M ? O->S + dr : O->S;
 			double rel[3], nrm[3] = {0, 0, 0}, r2 = 0, before[3];
 			obst_rel(d, x, ko, rel, D);
 			for (int a = 0; a < D; a++)
@@ -623,15 +644,15 @@ static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double 
 				nrm[a] = rel[a] / r;
 				before[a] = v[a];
 			}
-			obstacle_rule(O->type, O->r, O->acc, O->sv, -INFINITY, d->relaxing, nrm, v, D, &d->rng);
+			obstacle_rule(O->type, O->r, O->acc, M ? O->svs[sp] : O->sv, -INFINITY, d->relaxing, nrm, v, D, &d->rng);
 			for (int a = 0; a < D; a++)
-				lg->oimp[ko][a] += d->mass * (before[a] - v[a]);
+				lg->oimp[ko][a] += MASS * (before[a] - v[a]);
 			lg->ohits[ko]++;
 			lg->touched |= 1u << (6 + ko);
 			/* back on the contact sphere: rounding may leave the centre a hair inside */
-			if (r < O->S)
+			if (r < OS)
 				for (int a = 0; a < D; a++)
-					x[a] += (O->S - r) * nrm[a];
+					x[a] += (OS - r) * nrm[a];
 			pinned = 0;
 			for (int a = 0; a < D; a++)
 				ga[a] = d->g[a];
@@ -653,16 +674,16 @@ static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double 
 			break;
 		}
 		const int a = w >> 1;
-		x[a] = (w & 1) ? d->hi[a] : d->lo[a];
+		x[a] = (w & 1) ? HI(a) : LO(a);
 		double before[3];
 		for (int k = 0; k < D; k++)
 			before[k] = v[k];
-		double vn = wall_rule(d, w, v, D);
+		double vn = wall_rule(d, w, v, D, M, sp);
 		for (int k = 0; k < D; k++)
-			lg->imp[w][k] += d->mass * (before[k] - v[k]);
+			lg->imp[w][k] += MASS * (before[k] - v[k]);
 		lg->hits[w]++;
 		lg->touched |= 1u << w;
-		rest_or_stop(d, lg, w, a, vn, hits, left, v, ga, &pinned);
+		rest_or_stop(MASS, lg, w, a, vn, hits, left, v, ga, &pinned);
 		hits++;
 		if (!(left > 0))
 			break;
@@ -671,6 +692,9 @@ static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double 
 		if (!d->walled[a])
 			x[a] = wrap(x[a], d->L[a]);
 	return integ;
+#undef LO
+#undef HI
+#undef MASS
 }
 
 /* ---- vibrating walls (step variant B = 2, chosen at load) ---------------- */
@@ -718,8 +742,12 @@ static double vib_detach(const mcwall_t *W, double gam, double th)
  * for the rest of the flight. Fixed walls as in flight(). Returns the
  * integral of |v|^2 over the flight (exact, riding included). */
 static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, double dt, double t0, flight_log_t *lg,
-                                       const int D)
+                                       const int D, const int M, int sp, double dr)
 {
+	/* M: the particle's own contact planes (flight()), mass and thermal speed */
+#define MASS (M ? d->msp[sp] : d->mass)
+#define VPLANE(w, th) (M ? vib_plane(d, (w), (th)) + (((w) & 1) ? -dr : dr) : vib_plane(d, (w), (th)))
+	(void)sp, (void)dr;
 	double left = dt, integ = 0, ga[3];
 	int pinned = 0, ride = -1;     /* ride: the vibrating wall carrying the particle, or -1 */
 	double tdet = INFINITY;        /* riding: time left until it leaves the wall */
@@ -734,7 +762,8 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 				continue;
 			for (int k = 0; k < 2; k++) {
 				const mcwall_t *W = &d->wall[2 * a + k];
-				const double gap = k ? d->hi[a] - x[a] : x[a] - d->lo[a];
+				const double gap = M ? (k ? d->hi[a] - dr - x[a] : x[a] - (d->lo[a] + dr))
+				                     : (k ? d->hi[a] - x[a] : x[a] - d->lo[a]);
 				const double u = k ? -v[a] : v[a], gam = k ? -ga[a] : ga[a];
 				double t;
 				if (W->A != 0.0) {
@@ -757,10 +786,10 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 				const double th1 = th0 + W->omega * th, aw = W->A * W->omega;
 				integ += aw * aw * (0.5 * th + 0.5 * cos(th0 + th1) * sin(W->omega * th) / W->omega);
 				const double vb = v[a];
-				x[a] = vib_plane(d, ride, th1);
+				x[a] = VPLANE(ride, th1);
 				v[a] = s * aw * cos(th1);
 				/* the wall's push: the momentum change less gravity's share */
-				lg->imp[ride][a] += d->mass * (ga[a] * th - (v[a] - vb));
+				lg->imp[ride][a] += MASS * (ga[a] * th - (v[a] - vb));
 				tdet -= th;
 				continue;
 			}
@@ -776,7 +805,7 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 			const mcwall_t *W = &d->wall[w];
 			const double s = (w & 1) ? -1.0 : 1.0, thc = W->ph + W->omega * (t0 + (dt - left));
 			const double un = W->A != 0.0 ? W->A * W->omega * cos(thc) : 0.0;
-			x[a] = vib_plane(d, w, thc);
+			x[a] = VPLANE(w, thc);
 			if (W->type == SCENE_WALL_OPEN && !d->relaxing) {
 				lg->out = 1 + w;   /* leaves: the flight ends here */
 				for (int k = 0; k < D; k++)
@@ -787,10 +816,10 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 			for (int k = 0; k < D; k++)
 				before[k] = v[k];
 			v[a] -= s * un;   /* the rule acts on the velocity relative to the wall */
-			double vn = wall_rule(d, w, v, D);
+			double vn = wall_rule(d, w, v, D, M, sp);
 			v[a] += s * un;
 			for (int k = 0; k < D; k++)
-				lg->imp[w][k] += d->mass * (before[k] - v[k]);
+				lg->imp[w][k] += MASS * (before[k] - v[k]);
 			lg->hits[w]++;
 			lg->touched |= 1u << w;
 			if (W->A != 0.0) {
@@ -805,7 +834,7 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 					v[a] = s * un;   /* leaves with the wall: the gap opens */
 				}
 			} else {
-				rest_or_stop(d, lg, w, a, vn, hits, left, v, ga, &pinned);
+				rest_or_stop(MASS, lg, w, a, vn, hits, left, v, ga, &pinned);
 			}
 		} else {
 			break;
@@ -819,12 +848,15 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 			continue;
 		}
 		/* inside the walls where they are now (rounding of the roots) */
-		if (x[a] < d->cur_lo[a])
-			x[a] = d->cur_lo[a];
-		if (x[a] > d->cur_hi[a])
-			x[a] = d->cur_hi[a];
+		const double clo = M ? d->cur_lo[a] + dr : d->cur_lo[a], chi = M ? d->cur_hi[a] - dr : d->cur_hi[a];
+		if (x[a] < clo)
+			x[a] = clo;
+		if (x[a] > chi)
+			x[a] = chi;
 	}
 	return integ;
+#undef VPLANE
+#undef MASS
 }
 
 /* move() for bounded scenes: the exact flight() of each particle; hsmc
@@ -832,9 +864,12 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
  * position and velocity: no acceleration that step, seed 000 sec. 2.3.2).
  * V = 1 (vibrating walls): flight_vib(), and a move is not rejected when
  * the kept position would be beyond a wall where it is at the end of the
- * step (the wall carries the particle). Adds the integral of E_kin dt over
- * the step to *ekint; returns E_kin at the end of the flights. */
-static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekint, const int D, const int V)
+ * step (the wall carries the particle). M = 1 (mixtures): each particle's
+ * own radius and mass (flight(), flight_vib()). Adds the integral
+ * of E_kin dt over the step to *ekint; returns E_kin at the end of the
+ * flights. */
+static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekint, const int D, const int V,
+                                         const int M)
 {
 	const int S = 2 * D;
 	double ek = 0, integ = 0;
@@ -852,12 +887,21 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 			double *x = &d->p[(size_t)k * S], *v = x + D, xn[3], vn[3];
 			for (int a = 0; a < D; a++)
 				xn[a] = x[a], vn[a] = v[a];
-			double in = V ? flight_vib(d, xn, vn, dt, d->t, &lg, D) : flight(d, xn, vn, dt, &lg, D);
+			int sp = 0;
+			double dr = 0, m = 1;
+			if (M) {
+				const uint32_t idk = d->id[k];
+				sp = d->spc[idk];
+				dr = d->rad[idk] - 0.5 * d->sigma;
+				m = d->msp[sp];
+			}
+			double in = V ? flight_vib(d, xn, vn, dt, d->t, &lg, D, M, sp, dr) : flight(d, xn, vn, dt, &lg, D, M, sp, dr);
 			uint32_t cn = cell_of(d, xn, D);
 			int stays = 1;
 			if (V) {
 				for (int a = 0; a < D; a++)
-					if (d->walled[a] && (x[a] < d->cur_lo[a] || x[a] > d->cur_hi[a]))
+					if (d->walled[a] && (x[a] < (M ? d->cur_lo[a] + dr : d->cur_lo[a]) ||
+					                     x[a] > (M ? d->cur_hi[a] - dr : d->cur_hi[a])))
 						stays = 0;
 				if (lg.out) {
 					/* it left through an open wall: to the extra cell ncells, after the present ones */
@@ -874,13 +918,22 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 				for (int a = 0; a < D; a++)
 					v2 += v[a] * v[a];
 				in = v2 * dt;
-				ek += v2;
+				ek += M ? m * v2 : v2;
 				if (lg.touched)
 					memset(&lg, 0, sizeof lg);
 			} else {
-				for (int a = 0; a < D; a++) {
-					x[a] = xn[a], v[a] = vn[a];
-					ek += vn[a] * vn[a];
+				if (M) {
+					double v2 = 0;
+					for (int a = 0; a < D; a++) {
+						x[a] = xn[a], v[a] = vn[a];
+						v2 += vn[a] * vn[a];
+					}
+					ek += m * v2;
+				} else {
+					for (int a = 0; a < D; a++) {
+						x[a] = xn[a], v[a] = vn[a];
+						ek += vn[a] * vn[a];
+					}
 				}
 				if (lg.touched) {
 					for (int w = 0; w < 6; w++) {
@@ -902,10 +955,14 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 					memset(&lg, 0, sizeof lg);
 				}
 			}
-			integ += in;
+			integ += M ? m * in : in;
 			d->cell[k] = cn;
 			d->cnt[cn]++;
 		}
+	}
+	if (M) {
+		*ekint += 0.5 * integ;
+		return 0.5 * ek;
 	}
 	*ekint += 0.5 * d->mass * integ;
 	return 0.5 * d->mass * ek;
@@ -1339,7 +1396,7 @@ static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const
 		cell_collisions(d, D, B);
 	double ek;
 	if (B) {
-		ek = move_bounded(d, dt, &d->ekin_int, D, B == 2);
+		ek = move_bounded(d, dt, &d->ekin_int, D, B == 2, M);
 	} else {
 		ek = move(d, dt, D, M);
 		d->ekin_int += ek * dt;
@@ -1359,6 +1416,10 @@ static void step2v(struct dsmc *d, double dt) { step_dim(d, dt, 2, 2, 0, 0); }
 static void step3v(struct dsmc *d, double dt) { step_dim(d, dt, 3, 2, 0, 0); }
 static void step2s(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0, 1, 0); }
 static void step3s(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0, 1, 0); }
+static void step2bs(struct dsmc *d, double dt) { step_dim(d, dt, 2, 1, 1, 0); }   /* mixtures, fixed walls */
+static void step3bs(struct dsmc *d, double dt) { step_dim(d, dt, 3, 1, 1, 0); }
+static void step2vs(struct dsmc *d, double dt) { step_dim(d, dt, 2, 2, 1, 0); }   /* mixtures, vibrating or open walls */
+static void step3vs(struct dsmc *d, double dt) { step_dim(d, dt, 3, 2, 1, 0); }
 static void step2p(struct dsmc *d, double dt) { step_dim(d, dt, 2, 0, 0, 1); }   /* impact_c */
 static void step3p(struct dsmc *d, double dt) { step_dim(d, dt, 3, 0, 0, 1); }
 
@@ -1481,6 +1542,8 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 			W->p = sw->probability;
 			W->beta = sw->tangential_restitution;
 			W->sv = sw->type == SCENE_WALL_THERMAL ? sqrt(sw->temperature / s->mass) : 0.0;
+			for (int q = 0; q < SCENE_SPECIES_MAX; q++)   /* mixtures: each species' own mass */
+				W->svs[q] = sw->type == SCENE_WALL_THERMAL && q < d->nsp && d->mix ? sqrt(sw->temperature / d->msp[q]) : 0.0;
 			for (int b = 0; b < 3; b++)
 				W->u[b] = b < d->dim && b != a ? sw->velocity[b] : 0.0;
 			W->A = W->omega = W->ph = 0.0;
@@ -1510,6 +1573,8 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 		O->r = so->restitution;
 		O->acc = so->accommodation;
 		O->sv = so->type == SCENE_OBST_NO_SLIP ? sqrt(so->temperature / s->mass) : 0.0;
+		for (int q = 0; q < SCENE_SPECIES_MAX; q++)
+			O->svs[q] = so->type == SCENE_OBST_NO_SLIP && q < d->nsp && d->mix ? sqrt(so->temperature / d->msp[q]) : 0.0;
 		/* a segment travels less than L/2 - S along a periodic axis: the
 		 * nearest image is then the only one within reach (2 S < L, scene.c) */
 		for (int a = 0; a < d->dim; a++)
@@ -1545,14 +1610,17 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 	vib |= d->open;   /* open walls take the vibrating-wall step too (flight_vib()) */
 	d->step = d->dim == 2 ? (vib ? step2v : d->bounded ? step2b : step2) : (vib ? step3v : d->bounded ? step3b : step3);
 	if (d->mix) {
-		if (d->bounded || d->hsmc) {
+		/* dsmc mixtures: periodic (step2s), fixed walls, gravity and obstacles
+		 * (step2bs: each particle's own radius and mass in flight()), vibrating
+		 * or open walls (step2vs: the same in flight_vib()) */
+		if (d->hsmc) {
 			if (msg && msglen)
-				snprintf(msg, msglen, "particles.species: method \"%s\" runs mixtures (species, polydisperse radii) "
-				         "only in a periodic box without gravity or obstacles (and only method dsmc); use method \"ed\"",
-				         method);
+				snprintf(msg, msglen, "particles.species: method \"%s\" simulates one species of one radius only; "
+				         "use method \"dsmc\" or \"ed\"", method);
 			return DSMC_EINVAL;
 		}
-		d->step = d->dim == 2 ? step2s : step3s;
+		d->step = vib ? (d->dim == 2 ? step2vs : step3vs)
+		      : d->bounded ? (d->dim == 2 ? step2bs : step3bs) : (d->dim == 2 ? step2s : step3s);
 	}
 	d->pb_n = s->mc_impact_n;
 	memcpy(d->pb_tau, s->mc_impact_tau, sizeof d->pb_tau);
@@ -2015,6 +2083,20 @@ static void walls_out(const struct dsmc *d, dsmc_sample_t *out)
 	if (!(d->gnorm > 0))
 		return;
 	double sum[3] = {0, 0, 0}, gr = 0;
+	if (d->mix) {   /* as ed: sums weighted by each particle's mass */
+		double mp = 0;
+		for (uint32_t k = 0; k < d->na; k++) {
+			const double m = d->msp[d->spc[d->id[k]]];
+			mp += m;
+			for (int a = 0; a < D; a++)
+				sum[a] += m * (d->p[(size_t)k * S + a] - d->org[a]);
+		}
+		for (int a = 0; a < D; a++)
+			gr += d->g[a] * sum[a];
+		out->potential_energy = -gr;
+		out->com_height = mp > 0 ? -gr / (d->gnorm * mp) : NAN;
+		return;
+	}
 	for (uint32_t k = 0; k < d->na; k++)   /* the particles present */
 		for (int a = 0; a < D; a++)
 			sum[a] += d->p[(size_t)k * S + a];
@@ -2031,7 +2113,7 @@ static void species_out(const struct dsmc *d, dsmc_sample_t *out)
 	if (!out->n_species)
 		return;
 	const int D = d->dim, S = 2 * D;
-	for (uint32_t k = 0; k < d->n; k++) {
+	for (uint32_t k = 0; k < d->na; k++) {   /* the particles present (open walls) */
 		const int a = d->spc[d->id[k]];
 		double v2 = 0;
 		for (int b = 0; b < D; b++)

@@ -21,7 +21,10 @@
  *   nothing more), open (a particle that reaches one leaves: its record
  *   goes after the particles present, dsmc_state() gives NaN for it,
  *   energies and heights are over the particles present; ed's semantics,
- *   docs/scene.md). Obstacles (fixed-wall variant only; refused with
+ *   docs/scene.md). Mixtures (particles.species, dsmc only): each
+ *   particle's own radius for its wall and obstacle contacts, its own mass
+ *   for impulses and a thermal wall's or no_slip obstacle's re-emission
+ *   (sqrt(T / m_s)); walls of every kind. Obstacles (fixed-wall variant only; refused with
  *   vibrating or open walls): exact contact times with each obstacle's
  *   contact sphere within the flight (ed/obstacle.h), ed's rule
  *   (obstacle_rule()), walls and obstacles in one loop; no centre ends a
