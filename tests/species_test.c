@@ -60,10 +60,11 @@ static void test_parse(void)
 		{ "both count and species", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":4,\"species\":"
 		  "[{\"count\":2,\"radius\":0.5,\"mass\":1}],\"volume_fraction\":0.1},\"run\":{\"until\":{\"time\":1}}}",
 		  "particles.count:" },
-		{ "dsmc with two species and walls", "{\"method\":\"dsmc\",\"dimensions\":2,\"particles\":{\"species\":"
-		  "[{\"count\":200,\"radius\":0.5,\"mass\":1},{\"count\":200,\"radius\":0.5,\"mass\":2}],"
+		{ "clusters of a dsmc mixture with an open wall", "{\"method\":\"dsmc\",\"dimensions\":2,\"particles\":"
+		  "{\"species\":[{\"count\":200,\"radius\":0.5,\"mass\":1},{\"count\":200,\"radius\":0.5,\"mass\":2}],"
 		  "\"volume_fraction\":0.1},\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},"
-		  "\"upper\":{\"type\":\"specular\"}}},\"run\":{\"until\":{\"time\":1}}}", "particles.species:" },
+		  "\"upper\":{\"type\":\"open\"}}},\"run\":{\"until\":{\"time\":1}},\"output\":{\"observables\":"
+		  "[\"clusters\"]}}", "output.observables:" },
 		{ "hsmc with two species", "{\"method\":\"hsmc\",\"dimensions\":2,\"particles\":{\"species\":"
 		  "[{\"count\":200,\"radius\":0.5,\"mass\":1},{\"count\":200,\"radius\":0.5,\"mass\":2}],"
 		  "\"volume_fraction\":0.1},\"run\":{\"until\":{\"time\":1}}}", "particles.species:" },
