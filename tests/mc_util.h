@@ -1,6 +1,8 @@
 /* Helpers shared by the Monte Carlo tests: an engine from a scene text, and a restore from the engine's own checkpoint fields. */
 #pragma once
 
+#include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -23,6 +25,30 @@ static inline dsmc_t *mc_make(const char *json, scene_t *sc, uint64_t stream)
 	if (!d)
 		diag("dsmc_create: %s", err);
 	return d;
+}
+
+/* Kinetic plus potential energy now (no gravity: the kinetic energy alone). */
+static inline double mc_energy(const dsmc_t *d)
+{
+	dsmc_sample_t sm;
+	dsmc_totals(d, &sm);
+	return sm.kinetic_energy + (isnan(sm.potential_energy) ? 0.0 : sm.potential_energy);
+}
+
+/* The largest relative change of mc_energy() from its start over rounds of `steps` steps each (NaN when d
+ * is NULL); the totals after the last round into *sm. */
+static inline double mc_energy_drift(dsmc_t *d, int rounds, uint64_t steps, dsmc_sample_t *sm)
+{
+	double e0 = d ? mc_energy(d) : NAN, worst = 0;
+	for (int k = 0; d && k < rounds; k++) {
+		dsmc_advance(d, INFINITY, UINT64_MAX, steps);
+		double rel = fabs(mc_energy(d) - e0) / e0;
+		worst = rel > worst ? rel : worst;
+	}
+	memset(sm, 0, sizeof(*sm));
+	if (d)
+		dsmc_totals(d, sm);
+	return d ? worst : NAN;
 }
 
 /* What a resume does: b's checkpoint fields copied out, b destroyed, a blank engine of scene sc given the
