@@ -911,7 +911,8 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 					stays = 0;
 				}
 			}
-			if (d->hsmc && cn != c && d->start[cn + 1] - d->start[cn] >= d->nfull && stays) {
+			/* stays first: a particle that left has cn = ncells, whose start[cn + 1] does not exist */
+			if (d->hsmc && stays && cn != c && d->start[cn + 1] - d->start[cn] >= d->nfull) {
 				d->rejected++;
 				cn = (uint32_t)c;
 				double v2 = 0;   /* unchanged velocity over the step */
