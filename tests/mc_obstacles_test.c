@@ -242,38 +242,13 @@ static void test_restore(const char *method)
 	         method, method);
 	scene_t sc;
 	char err[512] = "";
-	dsmc_t *a = mc_make(json, &sc, 0), *b = mc_make(json, &sc, 0);
-	int same_samples = 1, restores = 0;
-	for (int it = 0; a && b && it < 40; it++) {
-		dsmc_advance(a, INFINITY, UINT64_MAX, 1 + it % 5);
-		dsmc_advance(b, INFINITY, UINT64_MAX, 1 + it % 5);
-		if (it % 3 == 0) {
-			dsmc_sample_t x, y;
-			dsmc_sample(a, &x);
-			dsmc_sample(b, &y);
-			same_samples &= memcmp(&x, &y, sizeof x) == 0;
-		}
-		b = mc_reload(b, &sc, err, sizeof err);
-		restores++;
-	}
-	int same = 0;
-	dsmc_sample_t x = {0}, y = {0};
-	if (a && b) {
-		size_t bytes = sc.count * 2 * sizeof(double);
-		double *pa = malloc(bytes), *pb = malloc(bytes), *va = malloc(bytes), *vb = malloc(bytes);
-		dsmc_state(a, pa, va);
-		dsmc_state(b, pb, vb);
-		dsmc_sample(a, &x);
-		dsmc_sample(b, &y);
-		same = !memcmp(pa, pb, bytes) && !memcmp(va, vb, bytes) && !memcmp(&x, &y, sizeof x);
-		free(pa), free(pb), free(va), free(vb);
-	}
+	int same_samples, restores;
+	dsmc_sample_t x;
+	int same = mc_restore_run(json, &sc, &same_samples, &restores, &x, err, sizeof err);
 	ok(same && same_samples && x.obstacle_collisions > 100,
 	   "%s obstacles, walls, gravity: %d restores: state %s, samples %s (%llu obstacle hits) %s", method, restores,
 	   same ? "bit-identical" : "differ", same_samples ? "identical" : "differ",
 	   (unsigned long long)x.obstacle_collisions, err);
-	dsmc_destroy(a);
-	dsmc_destroy(b);
 }
 
 /* What dsmc/hsmc cannot honour with obstacles yet is refused, naming the key. */

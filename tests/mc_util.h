@@ -75,3 +75,45 @@ static inline dsmc_t *mc_reload(dsmc_t *b, const scene_t *sc, char *err, size_t 
 		free(data[j]);
 	return b;
 }
+
+/* Two engines of scene json (parsed into *sc) advanced alike for 40 rounds of 1..5 steps, the second reloaded
+ * from its own checkpoint fields after every round (mc_reload()); *same_samples whether their samples agreed
+ * at every third round, *restores how many reloads were made, *last the first engine's final sample. Returns
+ * 1 when the final positions, velocities and samples are bit-identical, 0 otherwise (err says why when an
+ * engine could not be made or reloaded). Both engines are destroyed. */
+static inline int mc_restore_run(const char *json, scene_t *sc, int *same_samples, int *restores, dsmc_sample_t *last,
+                                 char *err, size_t errlen)
+{
+	dsmc_t *a = mc_make(json, sc, 0), *b = mc_make(json, sc, 0);
+	*same_samples = 1;
+	*restores = 0;
+	for (int it = 0; a && b && it < 40; it++) {
+		dsmc_advance(a, INFINITY, UINT64_MAX, 1 + it % 5);
+		dsmc_advance(b, INFINITY, UINT64_MAX, 1 + it % 5);
+		if (it % 3 == 0) {
+			dsmc_sample_t x, y;
+			dsmc_sample(a, &x);
+			dsmc_sample(b, &y);
+			*same_samples &= memcmp(&x, &y, sizeof x) == 0;
+		}
+		b = mc_reload(b, sc, err, errlen);
+		(*restores)++;
+	}
+	int same = 0;
+	dsmc_sample_t y = {0};
+	memset(last, 0, sizeof(*last));
+	if (a && b) {
+		size_t bytes = sc->count * (size_t)sc->dim * sizeof(double);
+		double *pa = malloc(bytes), *pb = malloc(bytes), *va = malloc(bytes), *vb = malloc(bytes);
+		dsmc_state(a, pa, va);
+		dsmc_state(b, pb, vb);
+		dsmc_sample(a, last);
+		dsmc_sample(b, &y);
+		same = pa && pb && va && vb && !memcmp(pa, pb, bytes) && !memcmp(va, vb, bytes) &&
+		       !memcmp(last, &y, sizeof y);
+		free(pa), free(pb), free(va), free(vb);
+	}
+	dsmc_destroy(a);
+	dsmc_destroy(b);
+	return same;
+}

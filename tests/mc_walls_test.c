@@ -245,40 +245,15 @@ static void test_restore(const char *method, int vib)
 	                  : "{\"type\":\"thermal\",\"temperature\":1,\"accommodation\":0.5,\"velocity\":[0.3,0]}", method);
 	scene_t sc;
 	char err[512] = "";
-	dsmc_t *a = mc_make(json, &sc, 0), *b = mc_make(json, &sc, 0);
-	int same_samples = 1, restores = 0;
-	for (int it = 0; a && b && it < 40; it++) {
-		dsmc_advance(a, INFINITY, UINT64_MAX, 1 + it % 5);
-		dsmc_advance(b, INFINITY, UINT64_MAX, 1 + it % 5);
-		if (it % 3 == 0) {
-			dsmc_sample_t x, y;
-			dsmc_sample(a, &x);
-			dsmc_sample(b, &y);
-			same_samples &= memcmp(&x, &y, sizeof x) == 0;
-		}
-		b = mc_reload(b, &sc, err, sizeof err);
-		restores++;
-	}
-	int same = 0;
-	dsmc_sample_t x = {0}, y = {0};
-	if (a && b) {
-		size_t bytes = sc.count * 2 * sizeof(double);
-		double *pa = malloc(bytes), *pb = malloc(bytes), *va = malloc(bytes), *vb = malloc(bytes);
-		dsmc_state(a, pa, va);
-		dsmc_state(b, pb, vb);
-		dsmc_sample(a, &x);
-		dsmc_sample(b, &y);
-		same = !memcmp(pa, pb, bytes) && !memcmp(va, vb, bytes) && !memcmp(&x, &y, sizeof x);
-		free(pa), free(pb), free(va), free(vb);
-	}
+	int same_samples, restores;
+	dsmc_sample_t x;
+	int same = mc_restore_run(json, &sc, &same_samples, &restores, &x, err, sizeof err);
 	ok(same && same_samples && x.wall_hits[2] > 0 && (vib == 2 ? x.wall_outflow[3] > 0 && x.particles < sc.count
 	                                                                : x.wall_hits[3] > 0),
 	   "%s walls%s+gravity: %d restores: state %s, samples %s (%llu wall hits, %llu rests, %llu left) %s", method,
 	   vib == 2 ? " (vibrating floor, open lid)" : vib ? " (vibrating floor)" : "", restores,
 	   same ? "bit-identical" : "differ", same_samples ? "identical" : "differ", (unsigned long long)x.wall_collisions,
 	   (unsigned long long)x.rested, (unsigned long long)x.wall_outflow[3], err);
-	dsmc_destroy(a);
-	dsmc_destroy(b);
 }
 
 /* What the methods cannot honour is refused at parse time, naming the key. */
