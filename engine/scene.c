@@ -685,9 +685,27 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 	 * temperature), fields (mass-weighted), mean_square_displacement (bounds from the lightest and heaviest)
 	 * work with mixtures (observe.h); these are defined for one radius only */
 	static const struct { unsigned bit; const char *name; } obs[] = {
-		{ SCENE_OBS_GOFR, "pair_correlation" }, { SCENE_OBS_VCORR, "velocity_correlations" },
-		{ SCENE_OBS_IMPACT, "impact_parameter" },
+		{ SCENE_OBS_VCORR, "velocity_correlations" }, { SCENE_OBS_IMPACT, "impact_parameter" },
 	};
+	/* pair_correlation: partial g_ab(r) of 2 ... SCENE_GOFR_SPECIES_MAX species of one radius each in a
+	 * periodic box (the ideal pair counts of species that reach different regions are not there yet) */
+	if (s->observables & SCENE_OBS_GOFR) {
+		const char *why = NULL;
+		for (int k = 0; k < s->n_species && !why; k++)
+			if (s->species[k].radius_lo < s->species[k].radius_hi)
+				why = "polydisperse species (radius_range)";
+		if (!why && s->n_species < 2)
+			why = "polydisperse particles";
+		else if (!why && s->n_species > SCENE_GOFR_SPECIES_MAX)
+			why = "more than 4 species";
+		else if (!why && scene_has_walls(s))
+			why = "walls (boundaries)";
+		else if (!why && s->n_obstacles > 0)
+			why = "obstacles";
+		if (why)
+			return fail(c, "output.observables", "\"pair_correlation\" of a mixture is available for 2 to %d "
+				    "species of one radius each in a periodic box, not with %s", SCENE_GOFR_SPECIES_MAX, why);
+	}
 	for (size_t k = 0; k < sizeof obs / sizeof obs[0]; k++)
 		if (s->observables & obs[k].bit)
 			return fail(c, "output.observables", "\"%s\" is defined for one species of one radius only, not for "

@@ -155,6 +155,8 @@ typedef struct {
  * without the key has one species from particles.count/radius/mass. */
 #define SCENE_SPECIES_MAX 16
 #define SCENE_NAME_MAX 32
+/* pair_correlation of mixtures: partial g_ab(r) of at most this many species (observe.h) */
+#define SCENE_GOFR_SPECIES_MAX 4
 typedef struct {
 	uint64_t count;                /* >= 1 */
 	double radius, mass;           /* > 0; radius: the largest (radius_hi) when polydisperse */
