@@ -990,9 +990,12 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 	for (int a = 0; a < s->dim && s->has_region; a++)
 		if (isnan(s->region_hi[a]))
 			s->region_hi[a] = s->box[a];
-	if (s->has_from && s->replicas > 1)
-		return fail(c, "particles.initial.from", "not with run.replicas > 1 yet (every replica would start from "
-		            "the same frame)");
+	if (s->has_from && s->replicas > 1 && s->from_replica != SCENE_FROM_EACH)
+		return fail(c, "particles.initial.from", "with run.replicas > 1 every replica would start from the same "
+		            "frame; use \"replica\": \"each\" (replica r from replica r of an ensemble's trajectory)");
+	if (s->has_from && s->replicas == 1 && s->from_replica == SCENE_FROM_EACH)
+		return fail(c, "particles.initial.from.replica", "\"each\" needs run.replicas > 1 (replica r from replica "
+		            "r); a single run names one replica by its index");
 
 	int ret = check_structure(c, v, s);
 	if (ret)
@@ -1656,6 +1659,19 @@ static const struct irange R_FRAME = { -SEED_MAX, SEED_MAX };
 static const struct irange R_JOB = { 1, SEED_MAX };
 static const struct irange R_REPLICA = { 0, 999999 };
 
+/* from.replica: a replica index, or "each" (an ensemble continuing an ensemble, replica by replica) */
+static int parse_from_replica(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	(void)arg;
+	if (json_is_string(v)) {
+		if (strcmp(json_string_value(v), "each"))
+			return fail(c, path, "must be a replica index (0 ... 999999) or \"each\"");
+		*(int64_t *)dst = SCENE_FROM_EACH;
+		return 0;
+	}
+	return parse_i64(c, path, v, dst, &R_REPLICA);
+}
+
 static int check_from(ctx_t *c, const char *path, json_t *v, void *base)
 {
 	scene_t *s = base;
@@ -1671,7 +1687,7 @@ static const struct object from_obj = {
 		{ "file", parse_path, offsetof(scene_t, from_file), NULL, false },
 		{ "job", parse_integer, offsetof(scene_t, from_job), &R_JOB, false },
 		{ "frame", parse_i64, offsetof(scene_t, from_frame), &R_FRAME, false },
-		{ "replica", parse_i64, offsetof(scene_t, from_replica), &R_REPLICA, false },
+		{ "replica", parse_from_replica, offsetof(scene_t, from_replica), NULL, false },
 		{ .name = NULL },
 	},
 	.check = check_from,

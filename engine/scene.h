@@ -155,6 +155,7 @@ typedef struct {
  * without the key has one species from particles.count/radius/mass. */
 #define SCENE_SPECIES_MAX 16
 #define SCENE_NAME_MAX 32
+#define SCENE_FROM_EACH (-2)
 /* pair_correlation of mixtures: partial g_ab(r) of at most this many species (observe.h) */
 #define SCENE_GOFR_SPECIES_MAX 4
 typedef struct {
@@ -202,7 +203,9 @@ typedef struct scene {
 	char from_file[SCENE_PATH_MAX];  /* as written: relative to the scene file's directory */
 	uint64_t from_job;             /* a daemon job's trajectory.h5 (granular-engine --jobs-dir) */
 	int64_t from_frame;            /* frame index, negative from the end; default -1 (the last) */
-	int64_t from_replica;          /* -1: /particles/all; K: /particles/replica_K of an ensemble */
+	int64_t from_replica;          /* -1: /particles/all; K: /particles/replica_K of an ensemble;
+	                                * SCENE_FROM_EACH ("each", run.replicas > 1): replica r of this run
+	                                * from /particles/replica_r */
 	/* Not from JSON: a state given to the engines instead of placing and
 	 * drawing (N * dim doubles each, scene coordinates, particle i at
 	 * [i * dim]; not owned, must outlive the engine; NULL: as the scene
