@@ -1506,41 +1506,18 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 			if (!periodic_axes && !strcmp(name, periodic_only[k]))
 				return fail(c, path, "\"%s\" needs a periodic axis (its wave vectors run along the periodic "
 				            "axes only); every axis has walls", name);
-		/* unwrapped displacements along periodic axes rely on a speed bound from the mechanical energy
-		 * (engine/observe/msd.h), which must not grow: thermal, moving and vibrating walls, driving and
-		 * gravity along a periodic axis feed it, as do no_slip (thermal) obstacles; walled axes need no
-		 * unwrapping (no bound when none is periodic) */
+		/* unwrapped displacements along periodic axes: dsmc/hsmc rely on a speed bound from the mechanical
+		 * energy (engine/observe/msd.h), which must not grow; ed counts the periodic images crossed when
+		 * something feeds energy (scene_msd_images()); walled axes need no unwrapping */
 		if (!strcmp(name, "mean_square_displacement")) {
-			int per = 0;
-			for (int a = 0; a < s->dim; a++)
-				per += !s->boundary[a].walled;
-			for (int k = 0; k < s->n_obstacles && per; k++)
-				if (s->obstacle[k].type == SCENE_OBST_NO_SLIP)
-					return fail(c, path, "\"mean_square_displacement\" with a periodic axis needs obstacles that "
-					            "do not feed energy (slip, random_sign): obstacles[%d] is \"no_slip\", which leaves "
-					            "the speeds unbounded for following particles across periodic images", k);
 			if (scene_has_open_walls(s))
 				return fail(c, path, "\"mean_square_displacement\" is not available with an \"open\" wall yet "
 				            "(it needs a fixed particle set)");
-			for (int a = 0; a < s->dim && per; a++) {
-				if (s->gravity[a] != 0 && !s->boundary[a].walled)
-					return fail(c, path, "\"mean_square_displacement\" needs gravity along walled axes only: "
-					            "gravity[%d] is %s along periodic axis %s, where particles fall without bound "
-					            "and no update interval can follow them across images", a,
-					            num(s->gravity[a]).s, axis_names[a]);
-				for (int k = 0; k < 2 && s->boundary[a].walled; k++) {
-					scene_wall_type_t t = s->boundary[a].wall[k].type;
-					if (t == SCENE_WALL_THERMAL || t == SCENE_WALL_MOVING || t == SCENE_WALL_VIBRATING)
-						return fail(c, path, "\"mean_square_displacement\" with a periodic axis needs walls "
-						            "that do not feed energy (specular, rough): boundaries.%s.%s is \"%s\", "
-						            "which leaves the speeds unbounded for following particles across "
-						            "periodic images", axis_names[a], k ? "upper" : "lower", wall_names[t]);
-				}
-			}
-			if (per && s->drive != SCENE_DRIVE_NONE)
-				return fail(c, path, "\"mean_square_displacement\" with a periodic axis is not available with "
-				            "driving (it feeds energy: no speed bound for following particles across periodic "
-				            "images)");
+			const char *feed = scene_energy_feed(s);
+			if (feed && s->method != SCENE_METHOD_ED)
+				return fail(c, path, "\"mean_square_displacement\" with a periodic axis and %s (it feeds energy: "
+				            "no speed bound for following particles across periodic images) needs method "
+				            "\"ed\", which counts the images crossed", feed);
 		}
 		if (!strcmp(name, "obstacle_force") && !obst)
 			return fail(c, path, "\"obstacle_force\" needs obstacles");
@@ -2209,6 +2186,37 @@ int scene_has_walls(const scene_t *s)
 int scene_has_obstacles(const scene_t *s)
 {
 	return s->n_obstacles > 0;
+}
+
+const char *scene_energy_feed(const scene_t *s)
+{
+	static const char *const feeds[] = { [SCENE_WALL_THERMAL] = "a thermal wall", [SCENE_WALL_MOVING] = "a moving wall",
+	                                     [SCENE_WALL_VIBRATING] = "a vibrating wall" };
+	int per = 0;
+	for (int a = 0; a < s->dim; a++)
+		per += !s->boundary[a].walled;
+	if (!per)
+		return NULL;
+	for (int a = 0; a < s->dim; a++) {
+		if (s->gravity[a] != 0 && !s->boundary[a].walled)
+			return "gravity along a periodic axis";
+		for (int k = 0; k < 2 && s->boundary[a].walled; k++) {
+			scene_wall_type_t t = s->boundary[a].wall[k].type;
+			if ((size_t)t < sizeof feeds / sizeof feeds[0] && feeds[t])
+				return feeds[t];
+		}
+	}
+	for (int k = 0; k < s->n_obstacles; k++)
+		if (s->obstacle[k].type == SCENE_OBST_NO_SLIP)
+			return "a no_slip obstacle";
+	if (s->drive != SCENE_DRIVE_NONE)
+		return "driving";
+	return NULL;
+}
+
+int scene_msd_images(const scene_t *s)
+{
+	return (s->observables & SCENE_OBS_MSD) && s->method == SCENE_METHOD_ED && scene_energy_feed(s) != NULL;
 }
 
 int scene_has_open_walls(const scene_t *s)

@@ -331,6 +331,14 @@ int scene_has_dispenser(const scene_t *s);
 int scene_has_filter(const scene_t *s);
 uint64_t scene_slots(const scene_t *s);
 int scene_has_gravity(const scene_t *s);
+/* What feeds the mechanical energy of a scene with a periodic axis (thermal, moving or vibrating walls,
+ * driving, no_slip obstacles, gravity along a periodic axis) as a short name for messages, or NULL: the
+ * speed bound by which mean_square_displacement follows particles across periodic images (observe/msd.h)
+ * holds only without it. Method ed then counts the images crossed instead (scene_msd_images()). */
+const char *scene_energy_feed(const scene_t *s);
+/* mean_square_displacement in method ed with a periodic axis and an energy feed: the engine counts each
+ * particle's periodic images (ed_unwrapped()), exactly, with no speed bound. */
+int scene_msd_images(const scene_t *s);
 
 /* A mixture: more than one particle species, or polydisperse radii
  * (particles.species[k].radius_range): the engine's species path. */
