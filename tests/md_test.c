@@ -483,6 +483,69 @@ static void test_oblique(void)
 	md_destroy(md);
 }
 
+/*
+ * A bed comes to rest: 216 frictional spheres (mu 0.5, e 0.3, k_n 1e4 m g/d)
+ * dropped in loose layers onto a floor (periodic sideways) under g = 1.
+ * After 30 time units (~1400 contact times) the motion left is tiny and the
+ * floor carries the weight: the linear law's floor force is k_n sum delta
+ * (no dashpot at rest, the floor's friction is horizontal). "At rest": the
+ * kinetic plus rotational energy fell from ~3 m g d per particle (the fall)
+ * to < 1e-5 (v_rms < 0.5% of sqrt(g d)); what is left are a few unloaded
+ * spheres rolling on the floor at constant speed (no rolling resistance in
+ * this model) or spinning about a contact normal (no twisting resistance).
+ * Bound on |F/W - 1| from the motion allowed: v < 4.5e-3 sqrt(g d) gives
+ * accelerations below v / t_c = 0.2 g, of random signs over 216 particles:
+ * 0.2 / sqrt(216) = 1.4e-2.
+ */
+static void test_bed_at_rest(void)
+{
+	const int nx = 6, ny = 6, nz = 6, n = nx * ny * nz;
+	const double a = 1.05, kn = 1e4;
+	static double x[3 * 216], v[3 * 216];
+	rng_state = 777;
+	for (int i = 0; i < n; i++) {
+		int c[3] = {i % nx, i / (nx * nz), (i / nx) % nz};
+		for (int k = 0; k < 3; k++) {
+			x[3 * i + k] = (c[k] + 0.5) * a + (k == 1 ? 0.3 * c[1] : 0.0);
+			v[3 * i + k] = 0.5 * (urand() - 0.5);
+		}
+	}
+	md_params_t p = {0};
+	p.dim = 3;
+	p.n = n;
+	p.radius = 0.5;
+	p.mass = 1.0;
+	p.box[0] = nx * a;
+	p.box[1] = 20.0;
+	p.box[2] = nz * a;
+	p.periodic[0] = p.periodic[2] = 1;
+	p.gravity[1] = -1.0;
+	p.law = MD_LAW_LINEAR;
+	p.restitution = 0.3;
+	p.kn = kn;
+	p.mu = 0.5;
+	p.x = x;
+	p.v = v;
+	int err;
+	md_t *md = md_create(&p, &err);
+	if (md)
+		err = md_step(md, (long)llround(30.0 / md_dt(md)));
+	md_energy_t e = {0};
+	double floor = 0.0;
+	if (md) {
+		md_energy(md, &e);
+		const double *X = md_positions(md);
+		for (int i = 0; i < n; i++)
+			if (0.5 - X[3 * i + 1] > 0.0)
+				floor += kn * (0.5 - X[3 * i + 1]);
+	}
+	double moving = (e.kinetic + e.rotational) / n;
+	ok(md && err == 0 && moving < 1e-5 && fabs(floor / n - 1.0) < 1.4e-2,
+		"frictional bed at rest after 30 t: (E_kin + E_rot) / N = %.1e m g d (kin %.1e), floor force / weight = %.6f, %zu contacts", moving, e.kinetic / n,
+		floor / n, md ? md_contact_count(md) : (size_t)0);
+	md_destroy(md);
+}
+
 static void test_determinism_and_errors(void)
 {
 	int e1, e2;
@@ -538,7 +601,7 @@ static void test_determinism_and_errors(void)
 
 int main(void)
 {
-	plan(34);
+	plan(35);
 	test_linear_collision();
 	test_linear_elastic();
 	test_hertz_collision();
@@ -546,6 +609,7 @@ int main(void)
 	test_incline();
 	test_momentum();
 	test_oblique();
+	test_bed_at_rest();
 	test_determinism_and_errors();
 	return done_testing();
 }
