@@ -491,9 +491,9 @@ md_t *md_create(const md_params_t *p, int *err)
 			md->alpha = 0.5 * (lo + hi);
 		}
 		hertz_restitution(md->alpha, &tau);
-		if (p->dt <= 0.0) {
-			if (!(p->v_ref > 0.0) || !isfinite(p->v_ref))
-				goto cleanup;
+		if (p->dt <= 0.0 && (!(p->v_ref > 0.0) || !isfinite(p->v_ref)))
+			goto cleanup;
+		if (p->v_ref > 0.0 && isfinite(p->v_ref)) {
 			double kh = 4.0 / 3.0 * md->young * sqrt(0.5 * md->rmax);
 			md->tc = tau * pow(mref / kh, 0.4) * pow(p->v_ref, -0.2);
 		}

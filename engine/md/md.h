@@ -124,7 +124,7 @@ const double *md_velocities(const md_t *md);
 const double *md_spins(const md_t *md);
 double md_time(const md_t *md);
 double md_dt(const md_t *md);
-/* The reference contact time that set dt (see the contract). */
+/* The reference contact time that sets the default dt (see the contract); hertz without v_ref: 0. */
 double md_contact_time(const md_t *md);
 /* Linear: k_n; hertz: alpha, the dimensionless damping. */
 double md_stiffness(const md_t *md);
