@@ -10,7 +10,8 @@ set -eu
 src=$(cd "$(dirname "$0")/.." && pwd)
 nx=${1:-20} ny=${2:-25} nz=${3:-20} steps=${4:-2000}
 command -v lmp >/dev/null 2>&1 || { echo "md_lammps: lmp not found (Debian package lammps)" >&2; exit 2; }
-[ -x "$src/bench/md_bench" ] || { echo "md_lammps: build bench/md_bench first (make bench/md_bench)" >&2; exit 2; }
+mdb=${MD_BENCH:-$src/bench/md_bench}   # an out-of-tree build: MD_BENCH=BUILD/bench/md_bench
+[ -x "$mdb" ] || { echo "md_lammps: build bench/md_bench first (make bench/md_bench)" >&2; exit 2; }
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/md_lammps.XXXXXX")
 trap 'rm -rf "$tmp"' EXIT
 /usr/bin/python3 - "$nx" "$ny" "$nz" >"$tmp/bed.data" <<'PY'
@@ -32,7 +33,7 @@ print('\nVelocities\n')
 for i, (p, v) in enumerate(rows):
     print('%d %.17g %.17g %.17g 0 0 0' % (i + 1, v[0], v[1], v[2]))
 PY
-ours() { "$src/bench/md_bench" "$nx" "$ny" "$nz" "$steps" | sed -n 's/.*(wall) \([0-9.e+]*\) (cpu) contacts\/particle \([0-9.]*\).*/\1 \2/p'; }
+ours() { "$mdb" "$nx" "$ny" "$nz" "$steps" | sed -n 's/.*(wall) \([0-9.e+]*\) (cpu) contacts\/particle \([0-9.]*\).*/\1 \2/p'; }
 theirs() {
 	lmp -in "$src/bench/md_bed.lmp" -var data "$tmp/bed.data" -var steps "$steps" -log none >"$tmp/lmp.out" 2>&1
 	/usr/bin/python3 - "$tmp/lmp.out" "$((nx * ny * nz))" "$steps" <<'PY'
