@@ -1330,8 +1330,6 @@ static int check_streams(ctx_t *c, const scene_t *s)
 				snprintf(path, sizeof path, "boundaries.%s.%s", axis_names[a], end);
 				if (++dispensers > 1)
 					return fail(c, path, "at most one \"dispenser\" wall per scene");
-				if (s->dim != 2)
-					return fail(c, path, "\"dispenser\" walls are 2D only (dimensions 3 is not supported yet)");
 				if (scene_has_gravity(s))
 					return fail(c, path, "\"dispenser\" walls are not supported with gravity yet");
 				if (!(sg * w->velocity[a] >= 0)) {

@@ -152,6 +152,18 @@ cat >"$tmp/2d-dispenser-filter.json" <<'JSON'
  "output":{"every":{"time":6},"observables":["kinetic_energy","outflow","wall_force"],
    "snapshots":{"every":{"time":40}},"checkpoint":{"every":{"time":27}}}}
 JSON
+# The same in 3D, walled across y (templates between walls there too).
+cat >"$tmp/3d-dispenser-filter.json" <<'JSON'
+{"method":"ed","dimensions":3,"particles":{"count":440,"box":[16,6,6],
+   "initial":{"positions":"lattice","temperature":0.02,"velocity":[0.1,0,0]}},
+ "collisions":{"restitution":0.97,"tc":0.05},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.4,"velocity":[0.1,0,0],"temperature":0.02},
+   "upper":{"type":"open","filter":{"distance":3,"velocity":[0.1,0,0],"temperature":0.02}}},
+   "y":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"specular"}}},
+ "run":{"seed":51,"until":{"time":120}},
+ "output":{"every":{"time":6},"observables":["kinetic_energy","outflow","wall_force"],
+   "snapshots":{"every":{"time":40}},"checkpoint":{"every":{"time":27}}}}
+JSON
 # Rough particles (spins, angular_velocity frames) and driving (kick times,
 # the thermostat's random stream and local means) are state too.
 cat >"$tmp/3d-rough-drive.json" <<'JSON'
@@ -321,7 +333,8 @@ ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 # (a) checkpoint at simulated time T, resume: identical to the uninterrupted run.
 for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open 3d-rough-drive \
 	2d-rough-noise 2d-hsmc-walls 2d-dsmc-vib 2d-hsmc-open 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute \
-	2d-mixture-walls 2d-dsmc-mixture-walls 2d-dsmc-mixture-vib 2d-reservoir 2d-reservoir-rough 2d-dispenser-filter; do
+	2d-mixture-walls 2d-dsmc-mixture-walls 2d-dsmc-mixture-vib 2d-reservoir 2d-reservoir-rough 2d-dispenser-filter \
+	3d-dispenser-filter; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

@@ -1649,7 +1649,7 @@ static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 	b[A_FREE] = ed->inlet ? n * sizeof(uint32_t) : 0;
 	b[A_LABEL] = ed->inlet ? n * sizeof(int64_t) : 0;
 	b[A_FROZEN] = ed->nfilt ? n : 0;
-	b[A_TPL] = ed->disp ? (size_t)ed->ntpl * ed->tpl_n * 2 * sizeof(double) : 0;
+	b[A_TPL] = ed->disp ? (size_t)ed->ntpl * ed->tpl_n * ed->dim * sizeof(double) : 0;
 }
 
 /* Cells cost memory even when empty (~9 bytes each): a grid finer than this
@@ -1779,6 +1779,102 @@ static int layer_layout(const struct ed *ed, const scene_t *s, int w, double *po
 	return ED_EINVAL;
 }
 
+/* The same in 3D: n = ceil(eta h W1 W2 / v_p) particles in R rows across
+ * the layer (centres at r ... h - r from the piston, R = 1: h / 2), each
+ * row a grid of nx x ny >= m sites over the transverse plane (the grid
+ * whose smaller spacing is the largest), evenly spaced as in 2D: periodic axes the whole edge, walled ones a
+ * radius clear of their walls; odd rows shifted by half a spacing along
+ * both), R the fewest rows with every pair at least a diameter apart
+ * (checked pair by pair, minimum image along periodic axes; pairs in rows
+ * a diameter apart or more are apart). Writes the
+ * positions (n x 3, scene axes) when pos is not NULL. ED_OK or ED_EINVAL
+ * with "KEY: reason" in msg. Pure; O(n^2) per tried R. */
+static int layer_layout3(const struct ed *ed, const scene_t *s, int w, double *pos, uint32_t *nout, char *msg,
+                         size_t msglen)
+{
+	const double pi = 3.14159265358979323846, r = s->radius, sig = 2.0 * r;
+	const int a = w >> 1, b1 = a == 0 ? 1 : 0, b2 = a == 2 ? 1 : 2;
+	const scene_wall_t *sw = &s->boundary[a].wall[w & 1];
+	const double h = ed->wall[w].lh, W1 = s->box[b1], W2 = s->box[b2];
+	const int per1 = !s->boundary[b1].walled, per2 = !s->boundary[b2].walled;
+	const double n_d = sw->volume_fraction * h * W1 * W2 / (4.0 / 3.0 * pi * r * r * r);
+	static const char *const an[] = { "x", "y", "z" };
+	const char *end = (w & 1) ? "upper" : "lower";
+	double *q = NULL;
+	int rc = ED_EINVAL;
+	if (!(n_d >= 1.5) || n_d > 1e6) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "boundaries.%s.%s.thickness: the layer holds %.3g particles (volume_fraction x "
+			         "thickness x cross-section / particle volume); it must hold 2 ... 10^6", an[a], end, n_d);
+		return ED_EINVAL;
+	}
+	const uint32_t n = (uint32_t)ceil(n_d);
+	const double span1 = per1 ? W1 : W1 - 2.0 * r, span2 = per2 ? W2 : W2 - 2.0 * r;
+	if (!(q = malloc((size_t)n * 3 * sizeof(double)))) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "boundaries.%s.%s: out of memory for the layer's layout", an[a], end);
+		return ED_ENOMEM;
+	}
+	for (uint32_t R = 1; R <= 64 && R <= n; R++) {
+		const double dx = R > 1 ? (h - 2.0 * r) / (R - 1) : 0.0;
+		uint32_t k0 = 0;
+		for (uint32_t k = 0; k < R; k++) {
+			const uint32_t m = n / R + (k < n % R);
+			uint32_t nx = 1;   /* the grid whose smaller spacing is the largest */
+			double best = -1.0;
+			for (uint32_t cx = 1; cx <= m; cx++) {
+				const uint32_t cy = (m + cx - 1) / cx;
+				const double sp = fmin(span1 / cx, span2 / cy);
+				if (sp > best) {
+					best = sp;
+					nx = cx;
+				}
+			}
+			const uint32_t ny = (m + nx - 1) / nx;
+			const double o = 0.25 + 0.5 * (k & 1);
+			for (uint32_t i = 0; i < m; i++, k0++) {
+				q[3 * k0 + a] = R > 1 ? r + k * dx : 0.5 * h;
+				q[3 * k0 + b1] = (per1 ? 0.0 : r) + ((i % nx) + o) * span1 / nx;
+				q[3 * k0 + b2] = (per2 ? 0.0 : r) + ((i / nx) + o) * span2 / ny;
+			}
+		}
+		int ok = 1;
+		for (uint32_t i = 0; i < n && ok; i++)
+			for (uint32_t j = i + 1; j < n; j++) {
+				double d2 = 0.0;
+				if (fabs(q[3 * i + a] - q[3 * j + a]) >= sig)   /* rows a diameter apart or more (as in 2D) */
+					continue;
+				for (int c = 0; c < 3; c++) {
+					double d = fabs(q[3 * i + c] - q[3 * j + c]);
+					if ((c == b1 && per1) || (c == b2 && per2)) {
+						const double L = c == b1 ? W1 : W2;
+						if (d > 0.5 * L)
+							d = L - d;
+					}
+					d2 += d * d;
+				}
+				if (d2 < sig * sig * (1.0 + 1e-12)) {
+					ok = 0;
+					break;
+				}
+			}
+		if (!ok)
+			continue;
+		if (pos)
+			memcpy(pos, q, (size_t)n * 3 * sizeof(double));
+		*nout = n;
+		rc = ED_OK;
+		goto done;
+	}
+	if (msg && msglen)
+		snprintf(msg, msglen, "boundaries.%s.%s.volume_fraction: a layer of %u particles (volume_fraction x thickness "
+		         "x cross-section / particle volume) does not fit into rows a diameter apart across the thickness "
+		         "%.6g; lower the volume fraction or change the thickness", an[a], end, n, h);
+done:
+	free(q);
+	return rc;
+}
+
 /* Filters and the dispenser from the scene (walls variant, after the
  * cells): each filter's plane (internal coordinate), frozen velocity and
  * the cells from which a particle can cross it; the dispenser's wall and
@@ -1818,15 +1914,14 @@ static int setup_stream(struct ed *ed, const scene_t *s, char *msg, size_t msgle
 				for (int j = 0; j < 3; j++)
 					ed->disp_u[w][j] = j < s->dim ? sw->velocity[j] : 0.0;
 				ed->disp_s[w] = sqrt(sw->temperature / s->mass);
-				if (s->dim != 2) {
-					set_msg(msg, msglen, "boundaries: dispenser walls are 2D only%.0s%.0s", 0, 0);
-					return ED_EINVAL;
-				}
-				int rc = layer_layout(ed, s, w, NULL, &ed->tpl_n, msg, msglen);
+				int rc = s->dim == 2 ? layer_layout(ed, s, w, NULL, &ed->tpl_n, msg, msglen)
+				                     : layer_layout3(ed, s, w, NULL, &ed->tpl_n, msg, msglen);
 				if (rc != ED_OK)
 					return rc;
-				const double n_d = sw->volume_fraction * ed->wall[w].lh * s->box[1 - a] /
-				                   (3.14159265358979323846 * s->radius * s->radius);
+				const double pi = 3.14159265358979323846, rr = s->radius;
+				const double n_d = s->dim == 2 ? sw->volume_fraction * ed->wall[w].lh * s->box[1 - a] / (pi * rr * rr)
+				                               : sw->volume_fraction * ed->wall[w].lh * s->box[a == 0 ? 1 : 0] *
+				                                 s->box[a == 2 ? 1 : 2] / (4.0 / 3.0 * pi * rr * rr * rr);
 				ed->tpl_frac = n_d - floor(n_d);
 				if (ed->tpl_frac == 0.0)
 					ed->tpl_frac = 1.0;   /* a whole number: every recharge places them all */
@@ -1847,25 +1942,29 @@ static int setup_stream(struct ed *ed, const scene_t *s, char *msg, size_t msgle
  * own). */
 static int build_templates(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 {
-	const int w = ed->disp - 1, a = w >> 1, b = 1 - a;
+	const int w = ed->disp - 1, a = w >> 1, D = s->dim;
 	const uint32_t n = ed->tpl_n;
 	const double r = s->radius, h = ed->wall[w].lh;
 	int rc = ED_ENOMEM;
-	double *pos = malloc((size_t)n * 2 * sizeof(double));
+	double *pos = malloc((size_t)n * D * sizeof(double));
 	scene_t *t = malloc(sizeof *t);
 	ed_t *sub = NULL;
 	if (!pos || !t)
 		goto done;
-	layer_layout(ed, s, w, pos, &ed->tpl_n, NULL, 0);
+	if (D == 2)
+		layer_layout(ed, s, w, pos, &ed->tpl_n, NULL, 0);
+	else if ((rc = layer_layout3(ed, s, w, pos, &ed->tpl_n, msg, msglen)) != ED_OK)
+		goto done;
 	memcpy(t, s, sizeof *t);
 	t->count = t->capacity = n;
 	t->box[a] = h;
 	t->volume_fraction = s->boundary[a].wall[w & 1].volume_fraction;
 	for (int k = 0; k < 2; k++) {
 		t->boundary[a].wall[k] = (scene_wall_t){ .type = SCENE_WALL_SPECULAR, .restitution = 1.0, .coverage = -1.0 };
-		if (t->boundary[b].walled)
-			t->boundary[b].wall[k] = (scene_wall_t){ .type = SCENE_WALL_SPECULAR, .restitution = 1.0,
-			                                         .coverage = -1.0 };
+		for (int b = 0; b < D; b++)
+			if (b != a && t->boundary[b].walled)
+				t->boundary[b].wall[k] = (scene_wall_t){ .type = SCENE_WALL_SPECULAR, .restitution = 1.0,
+				                                         .coverage = -1.0 };
 	}
 	t->boundary[a].walled = 1;
 	t->n_obstacles = 0;
@@ -1890,10 +1989,10 @@ static int build_templates(struct ed *ed, const scene_t *s, char *msg, size_t ms
 	for (int q = 0; q < ed->ntpl; q++) {
 		if (q > 0)
 			ed_advance(sub, INFINITY, ed_collisions(sub) + 10ull * n, UINT64_MAX);
-		double *out = ed->tpl + (size_t)q * n * 2;
+		double *out = ed->tpl + (size_t)q * n * D;
 		ed_state(sub, out, NULL);
 		for (uint32_t i = 0; i < n; i++)
-			out[2 * i + a] = fmin(fmax(out[2 * i + a], r), h - r);
+			out[(size_t)D * i + a] = fmin(fmax(out[(size_t)D * i + a], r), h - r);
 	}
 	rc = ED_OK;
 done:
@@ -2493,7 +2592,7 @@ static int dispense(struct ed *ed, int w)
 	if (ed->n_gone < n)
 		return ED_FULL;
 	wall_t *W = &ed->wall[w];
-	const int a = w >> 1, b = 1 - a, D = ed->dim;
+	const int a = w >> 1, D = ed->dim;
 	const double sg = (w & 1) ? -1.0 : 1.0, sv = ed->disp_s[w];
 	/* the piston jumps back; every particle in its reach (the wall's zone) anew */
 	W->pt0 = ed->t;
@@ -2506,12 +2605,20 @@ static int dispense(struct ed *ed, int w)
 			cal_update(ed, i, ev_time(ed, i));
 		}
 	}
-	/* which template, shifted along a periodic transverse axis, mirrored or not */
+	/* which template, shifted along each periodic transverse axis, mirrored or not along each */
 	int q = (int)(rng_uniform(&ed->irng) * ed->ntpl);
 	if (q >= ed->ntpl)
 		q = ed->ntpl - 1;
-	const double shift = ed->periodic[b] ? rng_uniform(&ed->irng) * ed->L[b] : 0.0;
-	const int mirror = rng_uniform(&ed->irng) < 0.5;
+	double shift[3] = {0.0, 0.0, 0.0}, lo[3] = {0.0, 0.0, 0.0}, wid[3] = {0.0, 0.0, 0.0};
+	int mirror[3] = {0, 0, 0};
+	for (int b = 0; b < D; b++) {
+		if (b == a)
+			continue;
+		shift[b] = ed->periodic[b] ? rng_uniform(&ed->irng) * ed->L[b] : 0.0;
+		mirror[b] = rng_uniform(&ed->irng) < 0.5;
+		lo[b] = ed->periodic[b] ? 0.0 : ed->wall[2 * b].rest;
+		wid[b] = ed->periodic[b] ? ed->L[b] : ed->wall[2 * b + 1].rest - lo[b];
+	}
 	/* the layer's count: tpl_n, or one fewer (a random one left out), so that the mean is eta h W / v_p */
 	uint32_t skip = UINT32_MAX;
 	if (rng_uniform(&ed->irng) >= ed->tpl_frac) {
@@ -2519,20 +2626,23 @@ static int dispense(struct ed *ed, int w)
 		if (skip >= n)
 			skip = n - 1;
 	}
-	const double lo = ed->periodic[b] ? 0.0 : ed->wall[2 * b].rest, wid = ed->periodic[b] ? ed->L[b] : ed->wall[2 * b + 1].rest - lo;
-	const double *tp = ed->tpl + (size_t)q * n * 2;
+	const double *tp = ed->tpl + (size_t)q * n * D;
 	for (uint32_t k = 0; k < n; k++) {
 		if (k == skip)
 			continue;
 		double r[3] = {0.0, 0.0, 0.0}, v[3] = {0.0, 0.0, 0.0};
-		r[a] = W->rest + sg * tp[2 * k + a];
-		double y = tp[2 * k + b];
-		if (mirror)
-			y = wid - y;
-		y += shift;
-		if (y >= wid)
-			y -= wid;
-		r[b] = lo + y;
+		r[a] = W->rest + sg * tp[(size_t)D * k + a];
+		for (int b = 0; b < D; b++) {
+			if (b == a)
+				continue;
+			double y = tp[(size_t)D * k + b];
+			if (mirror[b])
+				y = wid[b] - y;
+			y += shift[b];
+			if (y >= wid[b])
+				y -= wid[b];
+			r[b] = lo[b] + y;
+		}
 		for (int j = 0; j < D; j++)
 			v[j] = ed->disp_u[w][j] + sv * rng_gauss(&ed->irng);
 		const uint32_t i = ed->freei[ed->n_gone - 1];
