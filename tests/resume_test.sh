@@ -164,6 +164,17 @@ cat >"$tmp/3d-dispenser-filter.json" <<'JSON'
  "output":{"every":{"time":6},"observables":["kinetic_energy","outflow","wall_force"],
    "snapshots":{"every":{"time":40}},"checkpoint":{"every":{"time":27}}}}
 JSON
+# Rough particles from a dispenser: the layers' spins are state too.
+cat >"$tmp/2d-dispenser-rough.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":300,"box":[40,20],
+   "initial":{"positions":"random","temperature":0.02,"rotational_temperature":0.02}},
+ "collisions":{"restitution":0.95,"tc":0.05,"rough":{"tangential_restitution":0.5}},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.5,"velocity":[0.1,0],"temperature":0.02},
+   "upper":{"type":"open"}}},
+ "run":{"seed":53,"until":{"time":120}},
+ "output":{"every":{"time":6},"observables":["kinetic_energy","rotational_temperature","outflow"],
+   "snapshots":{"every":{"time":40}},"checkpoint":{"every":{"time":27}}}}
+JSON
 # Rough particles (spins, angular_velocity frames) and driving (kick times,
 # the thermostat's random stream and local means) are state too.
 cat >"$tmp/3d-rough-drive.json" <<'JSON'
@@ -334,7 +345,7 @@ ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open 3d-rough-drive \
 	2d-rough-noise 2d-hsmc-walls 2d-dsmc-vib 2d-hsmc-open 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute \
 	2d-mixture-walls 2d-dsmc-mixture-walls 2d-dsmc-mixture-vib 2d-reservoir 2d-reservoir-rough 2d-dispenser-filter \
-	3d-dispenser-filter; do
+	3d-dispenser-filter 2d-dispenser-rough; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do
@@ -547,7 +558,19 @@ cat >"$tmp/ens-res.json" <<'JSON'
  "output":{"every":{"time":2},"observables":["kinetic_energy","outflow","velocity_distribution","fields"],
    "fields":{"cells":[6,1]},"snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":15}}}}
 JSON
-for s in ens ens-ed ens-fld ens-res; do
+# replicas with a dispenser and a filter: each replica its own templates (the
+# scene's seed on its own stream), recharge draws, slots and ids.
+cat >"$tmp/ens-disp.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":400,"box":[30,20],
+   "initial":{"positions":"lattice","temperature":0.02,"velocity":[0.1,0]}},
+ "collisions":{"restitution":0.97,"tc":0.05},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.6,"velocity":[0.1,0],"temperature":0.02},
+   "upper":{"type":"open","filter":{"distance":3,"velocity":[0.1,0],"temperature":0.02}}}},
+ "run":{"seed":48,"until":{"time":90},"replicas":3},
+ "output":{"every":{"time":3},"observables":["kinetic_energy","outflow","wall_force"],
+   "snapshots":{"every":{"time":30}},"checkpoint":{"every":{"time":40}}}}
+JSON
+for s in ens ens-ed ens-fld ens-res ens-disp; do
 	ref $s
 	rc=$?
 	rm -rf "$tmp/$s.res"
@@ -557,6 +580,27 @@ for s in ens ens-ed ens-fld ens-res; do
 	why=$(same "$tmp/$s.ref" "$tmp/$s.res")
 	ok $(( rc == 0 && rc2 == 0 && $? == 0 ? 0 : 1 )) "$s: ensemble resume from checkpoint.prev.h5: $why $(head -c 200 "$tmp/err")"
 done
+# Dispensers in an ensemble: each replica its own layers (templates from its
+# own stream, its own recharge draws): the replicas' last frames differ,
+# every replica placed layers (ids beyond the initial count) and its ids
+# are unique.
+"$PY" - "$tmp/ens-disp.ref" >"$tmp/ens-disp.check" 2>&1 <<'PYEOF'
+import sys
+import h5py
+import numpy as np
+t = h5py.File(sys.argv[1] + "/trajectory.h5", "r")["particles"]
+last = [t["replica_%d/position/value" % r][-1] for r in range(3)]
+ids = [t["replica_%d/id/value" % r][-1] for r in range(3)]
+for r in range(3):
+    present = ids[r][ids[r] >= 0]
+    assert len(np.unique(present)) == len(present), "ids repeated in replica %d" % r
+    assert present.max() >= 400, "replica %d placed no layer" % r
+d = [float(np.nanmax(np.abs(last[0] - last[r]))) for r in (1, 2)]
+assert min(d) > 1.0, d
+print("replicas differ (largest position difference to replica 0: %.3g, %.3g); top ids %s" %
+      (d[0], d[1], [int(i.max()) for i in ids]))
+PYEOF
+ok $? "ens-disp: $(tail -n 1 "$tmp/ens-disp.check")"
 # The ensemble checkpoint resumed above lies inside the frame series: each
 # replica had written some frames and wrote more after it (so the resume
 # had frames to cut back and to continue), and the replicas' counts differ.
@@ -575,7 +619,7 @@ print("frames per replica at the checkpoint %s, at the end %s" % (at, final))
 PYEOF
 ok $? "ens-ed: the checkpoint splits every replica's frame series: $(tail -n 1 "$tmp/ens-ed.frames")"
 if command -v mpirun >/dev/null 2>&1; then
-	for s in ens ens-ed ens-fld ens-res; do
+	for s in ens ens-ed ens-fld ens-res ens-disp; do
 	for np in 2 3; do
 		rm -rf "$tmp/$s.np$np"
 		mpirun -np 2 "$ENGINE" run "$tmp/$s.json" --out "$tmp/$s.np$np" >/dev/null 2>"$tmp/err"

@@ -488,9 +488,165 @@ static void test_checkpoint_3d(void)
 	ed_destroy(b);
 }
 
+/* Test 8, rough particles: the layers' spins are Maxwellian at the
+ * dispenser's temperature (variance T / I per component, I = q m a^2, as a
+ * reservoir's entries), their velocities U plus a Maxwellian at T. A
+ * channel 60 long (2D: width 20; 3D: 6 x 6, periodic across), elastic
+ * perfectly rough particles (beta = 1), dispenser (eta 0.5, U = 0.1, T =
+ * 0.02, layers 8 thick: a recharge every 80) against a specular wall; just
+ * after each of three recharges the new particles (ids not seen before)
+ * give <I w_c^2> / T per spin component and <(v - U)_c^2> / (T / m) per
+ * velocity component. Each is a mean of n independent chi-square(1)
+ * deviates (variance 2), so it must lie within 5 sqrt(2 / n) of 1. The
+ * restored copy of the run goes on bit for bit (spins included). */
+static void test_rough(int D)
+{
+	char json[2048];
+	const double vp = D == 2 ? M_PI * 0.25 : M_PI / 6.0, A = D == 2 ? 20.0 : 36.0;
+	const unsigned long long count = (unsigned long long)llround(0.25 * 60.0 * A / vp);
+	snprintf(json, sizeof json,
+	         "{\"method\":\"ed\",\"dimensions\":%d,\"particles\":{\"count\":%llu,\"radius\":0.5,\"box\":%s,"
+	         "\"initial\":{\"positions\":\"random\",\"temperature\":0.02,\"rotational_temperature\":0.02}},"
+	         "\"collisions\":{\"rough\":{\"tangential_restitution\":1}},"
+	         "\"boundaries\":{\"x\":{\"type\":\"walls\","
+	         "\"lower\":{\"type\":\"dispenser\",\"volume_fraction\":0.5,\"velocity\":%s,"
+	         "\"temperature\":0.02,\"thickness\":8},\"upper\":{\"type\":\"specular\"}}},"
+	         "\"run\":{\"seed\":%d,\"until\":{\"time\":1}}}",
+	         D, count, D == 2 ? "[60,20]" : "[60,6,6]", D == 2 ? "[0.1,0]" : "[0.1,0,0]", 30 + D);
+	scene_t sc;
+	ed_t *ed = make(json, &sc);
+	const int K = ed ? ed_spin_dim(ed) : 0;
+	const size_t N = ed ? ed_slots(ed) : 0;
+	double *vel = malloc((N + 1) * D * sizeof(double)), *w = malloc((N + 1) * 3 * sizeof(double));
+	int64_t *ids = malloc((N + 1) * sizeof(int64_t));
+	double sw2 = 0.0, sv2 = 0.0;
+	long n = 0;
+	int64_t mark = (int64_t)count;
+	const double I = sc.rough_q * 0.25, T = 0.02;
+	for (int r = 1; ed && r <= 3; r++) {
+		ed_advance(ed, 80.0 * r + 1e-9, UINT64_MAX, UINT64_MAX);
+		ed_state(ed, NULL, vel);
+		ed_spins(ed, w);
+		ed_labels(ed, ids);
+		int64_t top = mark;
+		for (size_t i = 0; i < N; i++) {
+			if (ids[i] < mark)
+				continue;
+			n++;
+			if (ids[i] >= top)
+				top = ids[i] + 1;
+			for (int c = 0; c < K; c++)
+				sw2 += I * w[i * K + c] * w[i * K + c] / T;
+			for (int c = 0; c < D; c++) {
+				const double dv = vel[i * D + c] - (c == 0 ? 0.1 : 0.0);
+				sv2 += dv * dv / T;
+			}
+		}
+		mark = top;
+	}
+	const double mw = n ? sw2 / (n * K) : NAN, mv = n ? sv2 / (n * D) : NAN;
+	const double tw = 5.0 * sqrt(2.0 / (n * (K ? K : 1))), tv = 5.0 * sqrt(2.0 / (n * D));
+	ok(ed && n > 200 && fabs(mw - 1.0) < tw && fabs(mv - 1.0) < tv,
+	   "rough %dD dispenser: %ld layer particles, <I w^2> / T = %.4f (within %.3f of 1), <m (v - U)^2> / T = %.4f "
+	   "(within %.3f of 1)", D, n, mw, tw, mv, tv);
+	ed_destroy(ed);
+	free(vel);
+	free(w);
+	free(ids);
+	ed_t *a, *b;
+	if (!checkpoint_pair(json, &sc, 50.0, 130.0, &a, &b)) {
+		ok(0, "rough %dD dispenser: checkpoint", D);
+		return;
+	}
+	ed_advance(a, 250.0, UINT64_MAX, UINT64_MAX);
+	ed_advance(b, 250.0, UINT64_MAX, UINT64_MAX);
+	ed_sample_t sa, sb;
+	ed_sample(a, &sa);
+	ed_sample(b, &sb);
+	const size_t M = ed_slots(a) * (size_t)K;
+	double *wa = malloc(M * sizeof(double)), *wb = malloc(M * sizeof(double));
+	ed_spins(a, wa);
+	ed_spins(b, wb);
+	ok(sa.events == sb.events && sa.wall_inflow[0] == sb.wall_inflow[0] && sa.wall_inflow[0] > 0 &&
+	   same_slots_d(a, b, D) && !memcmp(wa, wb, M * sizeof(double)) && ed_min_gap(a) > -1e-9,
+	   "rough %dD dispenser: restored run identical bit for bit, spins included (%llu events, %llu in)", D,
+	   (unsigned long long)sa.events, (unsigned long long)sa.wall_inflow[0]);
+	free(wa);
+	free(wb);
+	ed_destroy(a);
+	ed_destroy(b);
+}
+
+/* Test 9, two dispensers facing each other (x lower at U = +0.1, x upper
+ * at U = -0.1, y periodic): before the first recharge (layers 8 thick: at
+ * t = 80) both pistons are walls moving inwards; the energy change of the
+ * elastic disks is the work of both, -U J_lower,x + U J_upper,x (J the
+ * momentum each wall received), to rounding (relative 1e-9). After three
+ * recharges of each (t = 250), each wall placed 3 layers of
+ * ceil(eta h W / v_p) or one fewer particles, none rejected; no overlap;
+ * present = count + in; a restored copy goes on bit for bit. */
+static void test_two(void)
+{
+	const char *json = "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":300,\"radius\":0.5,\"box\":[80,20],"
+	                   "\"initial\":{\"positions\":\"random\",\"temperature\":0.02}},"
+	                   "\"boundaries\":{\"x\":{\"type\":\"walls\","
+	                   "\"lower\":{\"type\":\"dispenser\",\"volume_fraction\":0.5,\"velocity\":[0.1,0],"
+	                   "\"temperature\":0.02,\"thickness\":8},"
+	                   "\"upper\":{\"type\":\"dispenser\",\"volume_fraction\":0.4,\"velocity\":[-0.1,0],"
+	                   "\"temperature\":0.02,\"thickness\":8}}},"
+	                   "\"run\":{\"seed\":19,\"until\":{\"time\":1}}}";
+	scene_t sc;
+	ed_t *ed = make(json, &sc);
+	if (!ed) {
+		ok(0, "two dispensers: setup");
+		ok(0, "two dispensers: recharges");
+		ok(0, "two dispensers: checkpoint");
+		return;
+	}
+	ed_sample_t s0, s1;
+	ed_sample(ed, &s0);
+	int rc = ed_advance(ed, 75.0, UINT64_MAX, UINT64_MAX);
+	ed_sample(ed, &s1);
+	const double Jl = s1.wall_impulse[0][0], Ju = s1.wall_impulse[1][0];
+	const double dE = s1.kinetic_energy - s0.kinetic_energy, work = -0.1 * Jl + 0.1 * Ju;
+	ok(rc == ED_OK && s1.wall_hits[0] > 20 && s1.wall_hits[1] > 20 && fabs(dE - work) <= 1e-9 * fabs(work) &&
+	   s1.wall_inflow[0] == 0 && s1.wall_inflow[1] == 0,
+	   "two dispensers: %llu and %llu piston hits; energy change %.12g = work of both pistons %.12g",
+	   (unsigned long long)s1.wall_hits[0], (unsigned long long)s1.wall_hits[1], dE, work);
+	rc = ed_advance(ed, 250.0, UINT64_MAX, UINT64_MAX);
+	ed_sample_t s2;
+	ed_totals(ed, &s2);
+	/* eta h W / v_p: 0.5 x 8 x 20 / (pi / 4) = 101.86 and 0.4 x 8 x 20 / (pi / 4) = 81.49 */
+	const double nl = 0.5 * 8 * 20 / (M_PI * 0.25), nu = 0.4 * 8 * 20 / (M_PI * 0.25);
+	const uint64_t il = s2.wall_inflow[0], iu = s2.wall_inflow[1];
+	ok(rc == ED_OK && il >= 3 * (uint64_t)floor(nl) && il <= 3 * (uint64_t)ceil(nl) && iu >= 3 * (uint64_t)floor(nu) &&
+	   iu <= 3 * (uint64_t)ceil(nu) && s2.wall_rejected[0] == 0 && s2.wall_rejected[1] == 0 &&
+	   s2.particles == sc.count + il + iu && ed_min_gap(ed) > -1e-9,
+	   "two dispensers: three recharges each, %llu and %llu placed (3 x %.2f, 3 x %.2f), none rejected, %llu present, "
+	   "min gap %.2g", (unsigned long long)il, (unsigned long long)iu, nl, nu, (unsigned long long)s2.particles,
+	   ed_min_gap(ed));
+	ed_destroy(ed);
+	ed_t *a, *b;
+	if (!checkpoint_pair(json, &sc, 50.0, 130.0, &a, &b)) {
+		ok(0, "two dispensers: checkpoint");
+		return;
+	}
+	ed_advance(a, 300.0, UINT64_MAX, UINT64_MAX);
+	ed_advance(b, 300.0, UINT64_MAX, UINT64_MAX);
+	ed_sample_t sa, sb;
+	ed_sample(a, &sa);
+	ed_sample(b, &sb);
+	ok(sa.events == sb.events && sa.wall_inflow[1] == sb.wall_inflow[1] && sa.wall_inflow[1] > 0 &&
+	   !memcmp(sa.wall_impulse, sb.wall_impulse, sizeof sa.wall_impulse) && same_slots(a, b),
+	   "two dispensers: restored run identical bit for bit (%llu events, %llu + %llu in)",
+	   (unsigned long long)sa.events, (unsigned long long)sa.wall_inflow[0], (unsigned long long)sa.wall_inflow[1]);
+	ed_destroy(a);
+	ed_destroy(b);
+}
+
 int main(void)
 {
-	plan(15);
+	plan(22);
 	test_holds();
 	test_leak();
 	test_piston();
@@ -498,5 +654,8 @@ int main(void)
 	test_preset();
 	test_holds_3d();
 	test_checkpoint_3d();
+	test_rough(2);
+	test_rough(3);
+	test_two();
 	return done_testing();
 }

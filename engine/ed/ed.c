@@ -244,10 +244,11 @@ struct ed {
 	 * out: from then on it moves at fu[w] exactly, with infinite mass,
 	 * until it leaves through the wall (0 for a regular particle or an
 	 * empty slot). filt_on: filters act (not during the elastic pre-run).
-	 * Dispensers (wall_t pu, pt0): each recharge places one of the ntpl
-	 * template layers (tpl: ntpl x tpl_n positions in the layer's frame:
-	 * normal coordinate in [r, h - r] from the piston, transverse in the
-	 * box), built at load from the scene (not state). */
+	 * Dispensers (disp: bit w set for a dispenser at wall w; wall_t pu,
+	 * pt0): each recharge of wall w places one of its ntpl template layers
+	 * (tpl + tpl_off[w]: ntpl x tpl_n[w] positions of D coordinates in the
+	 * layer's frame: normal coordinate in [r, h - r] from the piston,
+	 * transverse in the box), built at load from the scene (not state). */
 	uint8_t *frozen;
 	int nfilt, filt_on, disp;
 	double fplane[6];
@@ -256,8 +257,9 @@ struct ed {
 	int32_t fcell[6];         /* the cell of the plane (one more towards the inside) */
 	uint64_t nfrozen[6];      /* state (in "frozen_counts"): particles frozen per filter wall */
 	int ntpl;
-	uint32_t tpl_n;           /* particles in a template layer: ceil(eta h W / v_p) */
-	double tpl_frac;          /* a recharge places tpl_n, or tpl_n - 1 with probability 1 - tpl_frac (mean eta h W / v_p) */
+	uint32_t tpl_n[6];        /* particles in a template layer of wall w: ceil(eta h W / v_p) */
+	double tpl_frac[6];       /* a recharge places tpl_n, or tpl_n - 1 with probability 1 - tpl_frac (mean eta h W / v_p) */
+	size_t tpl_off[6];        /* wall w's templates in tpl (doubles) */
 	double *tpl;
 	double disp_u[6][3], disp_s[6];   /* layer velocity U and thermal speed sqrt(T / m) per dispenser wall */
 #ifdef ED_TRACE
@@ -1649,7 +1651,11 @@ static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 	b[A_FREE] = ed->inlet ? n * sizeof(uint32_t) : 0;
 	b[A_LABEL] = ed->inlet ? n * sizeof(int64_t) : 0;
 	b[A_FROZEN] = ed->nfilt ? n : 0;
-	b[A_TPL] = ed->disp ? (size_t)ed->ntpl * ed->tpl_n * ed->dim * sizeof(double) : 0;
+	size_t ntd = 0;
+	for (int w = 0; w < 6; w++)
+		if (ed->disp >> w & 1)
+			ntd += (size_t)ed->ntpl * ed->tpl_n[w] * ed->dim;
+	b[A_TPL] = ntd * sizeof(double);
 }
 
 /* Cells cost memory even when empty (~9 bytes each): a grid finer than this
@@ -1910,26 +1916,42 @@ static int setup_stream(struct ed *ed, const scene_t *s, char *msg, size_t msgle
 				ed->fcell[w] = c + 1;
 			}
 			if (sw->type == SCENE_WALL_DISPENSER) {
-				ed->disp = 1 + w;
+				ed->disp |= 1 << w;
 				for (int j = 0; j < 3; j++)
 					ed->disp_u[w][j] = j < s->dim ? sw->velocity[j] : 0.0;
 				ed->disp_s[w] = sqrt(sw->temperature / s->mass);
-				int rc = s->dim == 2 ? layer_layout(ed, s, w, NULL, &ed->tpl_n, msg, msglen)
-				                     : layer_layout3(ed, s, w, NULL, &ed->tpl_n, msg, msglen);
+				int rc = s->dim == 2 ? layer_layout(ed, s, w, NULL, &ed->tpl_n[w], msg, msglen)
+				                     : layer_layout3(ed, s, w, NULL, &ed->tpl_n[w], msg, msglen);
 				if (rc != ED_OK)
 					return rc;
 				const double pi = 3.14159265358979323846, rr = s->radius;
 				const double n_d = s->dim == 2 ? sw->volume_fraction * ed->wall[w].lh * s->box[1 - a] / (pi * rr * rr)
 				                               : sw->volume_fraction * ed->wall[w].lh * s->box[a == 0 ? 1 : 0] *
 				                                 s->box[a == 2 ? 1 : 2] / (4.0 / 3.0 * pi * rr * rr * rr);
-				ed->tpl_frac = n_d - floor(n_d);
-				if (ed->tpl_frac == 0.0)
-					ed->tpl_frac = 1.0;   /* a whole number: every recharge places them all */
+				ed->tpl_frac[w] = n_d - floor(n_d);
+				if (ed->tpl_frac[w] == 0.0)
+					ed->tpl_frac[w] = 1.0;   /* a whole number: every recharge places them all */
 				ed->ntpl = TPL_LAYERS;
 			}
 		}
 	}
+	size_t off = 0;
+	for (int w = 0; w < 6; w++) {
+		ed->tpl_off[w] = off;
+		if (ed->disp >> w & 1)
+			off += (size_t)ed->ntpl * ed->tpl_n[w] * s->dim;
+	}
 	return ED_OK;
+}
+
+/* The lowest wall with a dispenser (its templates keep the seed stream
+ * they had when a scene could have one dispenser only). */
+static int ed_first_disp(const struct ed *ed)
+{
+	int w = 0;
+	while (w < 5 && !(ed->disp >> w & 1))
+		w++;
+	return w;
 }
 
 /* The dispenser's template layers: its starting layout (layer_layout)
@@ -1940,10 +1962,10 @@ static int setup_stream(struct ed *ed, const scene_t *s, char *msg, size_t msgle
  * particle apart. Positions are clamped into [r, h - r] against rounding
  * at the strip's walls. Deterministic (the scene's seed, a stream of its
  * own). */
-static int build_templates(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
+static int build_templates(struct ed *ed, const scene_t *s, int w, char *msg, size_t msglen)
 {
-	const int w = ed->disp - 1, a = w >> 1, D = s->dim;
-	const uint32_t n = ed->tpl_n;
+	const int a = w >> 1, D = s->dim;
+	const uint32_t n = ed->tpl_n[w];
 	const double r = s->radius, h = ed->wall[w].lh;
 	int rc = ED_ENOMEM;
 	double *pos = malloc((size_t)n * D * sizeof(double));
@@ -1952,8 +1974,8 @@ static int build_templates(struct ed *ed, const scene_t *s, char *msg, size_t ms
 	if (!pos || !t)
 		goto done;
 	if (D == 2)
-		layer_layout(ed, s, w, pos, &ed->tpl_n, NULL, 0);
-	else if ((rc = layer_layout3(ed, s, w, pos, &ed->tpl_n, msg, msglen)) != ED_OK)
+		layer_layout(ed, s, w, pos, &ed->tpl_n[w], NULL, 0);
+	else if ((rc = layer_layout3(ed, s, w, pos, &ed->tpl_n[w], msg, msglen)) != ED_OK)
 		goto done;
 	memcpy(t, s, sizeof *t);
 	t->count = t->capacity = n;
@@ -1971,6 +1993,8 @@ static int build_templates(struct ed *ed, const scene_t *s, char *msg, size_t ms
 	t->drive = SCENE_DRIVE_NONE;
 	t->tc = 0.0;
 	t->restitution = 1.0;
+	t->rough = 0;   /* positions only: the layers' spins are drawn at each recharge */
+	t->init_spin = NULL;
 	t->temperature = s->boundary[a].wall[w & 1].temperature;
 	for (int k = 0; k < 3; k++)
 		t->flow[k] = t->gravity[k] = 0.0;
@@ -1979,7 +2003,7 @@ static int build_templates(struct ed *ed, const scene_t *s, char *msg, size_t ms
 	t->has_region = t->has_from = 0;
 	t->relax_cpp = 50.0;
 	t->ed_cell_size = 0.0;
-	t->stream = s->stream | (1ull << 59);
+	t->stream = s->stream | (1ull << 59) | (uint64_t)(w != ed_first_disp(ed)) * ((uint64_t)w << 52);
 	int err = ED_OK;
 	sub = ed_create(t, &err, msg, msglen);
 	if (!sub) {
@@ -1989,7 +2013,7 @@ static int build_templates(struct ed *ed, const scene_t *s, char *msg, size_t ms
 	for (int q = 0; q < ed->ntpl; q++) {
 		if (q > 0)
 			ed_advance(sub, INFINITY, ed_collisions(sub) + 10ull * n, UINT64_MAX);
-		double *out = ed->tpl + (size_t)q * n * D;
+		double *out = ed->tpl + ed->tpl_off[w] + (size_t)q * n * D;
 		ed_state(sub, out, NULL);
 		for (uint32_t i = 0; i < n; i++)
 			out[(size_t)D * i + a] = fmin(fmax(out[(size_t)D * i + a], r), h - r);
@@ -2150,8 +2174,9 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	if (ed->disp) {
 		if (!(ed->tpl = big_alloc(b[A_TPL], 0)))
 			goto fail;
-		if ((rc = build_templates(ed, s, msg, msglen)) != ED_OK)
-			goto fail;
+		for (int w = 0; w < 6; w++)
+			if ((ed->disp >> w & 1) && (rc = build_templates(ed, s, w, msg, msglen)) != ED_OK)
+				goto fail;
 		rc = ED_ENOMEM;
 	}
 	if (ed->rough && !(ed->spin = big_alloc(b[A_SPIN], 1)))
@@ -2479,10 +2504,11 @@ static void inlet_start(struct ed *ed)
 {
 	for (int w = 0; w < 6; w++)
 		ed->in_next[w] = ed->in_rate[w] > 0.0 ? inlet_wait(ed, w) : INFINITY;
-	if (ed->disp) {   /* the first recharge: when the piston has cleared one layer (never at speed 0) */
-		const wall_t *W = &ed->wall[ed->disp - 1];
-		ed->in_next[ed->disp - 1] = W->pspeed > 0.0 ? W->lh / W->pspeed : INFINITY;
-	}
+	for (int w = 0; w < 6; w++)   /* the first recharge: when the piston has cleared one layer (never at speed 0) */
+		if (ed->disp >> w & 1) {
+			const wall_t *W = &ed->wall[w];
+			ed->in_next[w] = W->pspeed > 0.0 ? W->lh / W->pspeed : INFINITY;
+		}
 }
 
 /* Normal speed w >= 0 of an entering particle: density proportional to
@@ -2588,7 +2614,7 @@ static int inlet_enter(struct ed *ed, int w)
  * when the free slots cannot take a whole layer. */
 static int dispense(struct ed *ed, int w)
 {
-	const uint32_t n = ed->tpl_n;
+	const uint32_t n = ed->tpl_n[w];
 	if (ed->n_gone < n)
 		return ED_FULL;
 	wall_t *W = &ed->wall[w];
@@ -2621,12 +2647,12 @@ static int dispense(struct ed *ed, int w)
 	}
 	/* the layer's count: tpl_n, or one fewer (a random one left out), so that the mean is eta h W / v_p */
 	uint32_t skip = UINT32_MAX;
-	if (rng_uniform(&ed->irng) >= ed->tpl_frac) {
+	if (rng_uniform(&ed->irng) >= ed->tpl_frac[w]) {
 		skip = (uint32_t)(rng_uniform(&ed->irng) * n);
 		if (skip >= n)
 			skip = n - 1;
 	}
-	const double *tp = ed->tpl + (size_t)q * n * D;
+	const double *tp = ed->tpl + ed->tpl_off[w] + (size_t)q * n * D;
 	for (uint32_t k = 0; k < n; k++) {
 		if (k == skip)
 			continue;
@@ -2652,6 +2678,15 @@ static int dispense(struct ed *ed, int w)
 		}
 		ed->label[ed->id[i]] = (int64_t)ed->in_count[12]++;
 		ed->in_count[w]++;
+		if (ed->rough) {
+			/* rough particles: spins Maxwellian at the layers' temperature T = m sv^2, variance
+			 * T / I per component (I = q m a^2), as a reservoir's entries (times do not depend
+			 * on spins); drawn after the placement, so smooth scenes draw what they drew before */
+			const int nk = D == 2 ? 1 : 3;
+			const double swv = sv / sqrt(ed->rq * 0.25 * ed->sigma2);
+			for (int c = 0; c < nk; c++)
+				ed->spin[(size_t)i * nk + c] = swv * rng_gauss(&ed->irng);
+		}
 		DISPATCH(ed, set_cross, ed, i);
 		DISPATCH(ed, scan_full, ed, i);
 		cal_update(ed, i, ev_time(ed, i));
@@ -2666,10 +2701,11 @@ static int dispense(struct ed *ed, int w)
  * predicted afresh. */
 static void stream_start(struct ed *ed)
 {
-	if (ed->disp) {   /* at rest at the start (the clock is 0; a pre-run's rebases moved pt0) */
-		ed->wall[ed->disp - 1].pu = ed->wall[ed->disp - 1].pspeed;
-		ed->wall[ed->disp - 1].pt0 = ed->t;
-	}
+	for (int w = 0; w < 6; w++)   /* at rest at the start (the clock is 0; a pre-run's rebases moved pt0) */
+		if (ed->disp >> w & 1) {
+			ed->wall[w].pu = ed->wall[w].pspeed;
+			ed->wall[w].pt0 = ed->t;
+		}
 	if (ed->nfilt) {
 		ed->filt_on = 1;
 		memset(ed->nfrozen, 0, sizeof ed->nfrozen);
@@ -3336,8 +3372,9 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 		why = "bad mode";
 	if (!why && ed->t_abs_valid != 0 && ed->t_abs_valid != 1)
 		why = "bad clock flag";
-	if (!why && ed->disp && !isfinite(ed->wall[ed->disp - 1].pt0))
-		why = "bad piston time";
+	for (int w = 0; w < 6 && !why; w++)
+		if ((ed->disp >> w & 1) && !isfinite(ed->wall[w].pt0))
+			why = "bad piston time";
 	for (uint32_t i = 0; i < n && !why && ed->frozen; i++)
 		if (ed->frozen[i] > 6 || (ed->frozen[i] && (!ed->fcell[ed->frozen[i] - 1] || ed->gone[i])))
 			why = "bad frozen flag";
@@ -3352,8 +3389,9 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 	if (ed->spc)
 		species_from_id(ed);
 	/* Checkpoints are of the production run: the piston moves, filters act. */
-	if (ed->disp)
-		ed->wall[ed->disp - 1].pu = ed->wall[ed->disp - 1].pspeed;
+	for (int w = 0; w < 6; w++)
+		if (ed->disp >> w & 1)
+			ed->wall[w].pu = ed->wall[w].pspeed;
 	ed->filt_on = ed->nfilt > 0;
 	/* The occupancy bitmap from the cell heads. */
 	memset(ed->occ, 0, (ed->ncells + 63) / 64 * sizeof(uint64_t));
