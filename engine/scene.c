@@ -1327,8 +1327,6 @@ static int check_streams(ctx_t *c, const scene_t *s)
 					            "must face each other on one axis (a layer would be placed behind the other axis' "
 					            "piston)", axis_names[dispensers - 1], axis_names[a]);
 				dispensers = 1 + a;
-				if (scene_has_gravity(s))
-					return fail(c, path, "\"dispenser\" walls are not supported with gravity yet");
 				if (!(sg * w->velocity[a] >= 0)) {
 					snprintf(path, sizeof path, "boundaries.%s.%s.velocity[%d]", axis_names[a], end, a);
 					return fail(c, path, "the piston moves into the box: the component along the inward normal must be "

@@ -175,6 +175,17 @@ cat >"$tmp/2d-dispenser-rough.json" <<'JSON'
  "output":{"every":{"time":6},"observables":["kinetic_energy","rotational_temperature","outflow"],
    "snapshots":{"every":{"time":40}},"checkpoint":{"every":{"time":27}}}}
 JSON
+# A dispenser in a field (the gravity kernels with the moving piston).
+cat >"$tmp/2d-dispenser-gravity.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":300,"box":[20,60],
+   "initial":{"positions":"random","temperature":0.02}},"gravity":[0,-0.05],
+ "collisions":{"restitution":0.95,"tc":0.05},
+ "boundaries":{"y":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.3,"velocity":[0,0.1],"temperature":0.02,
+   "thickness":8},"upper":{"type":"specular"}}},
+ "run":{"seed":55,"until":{"time":200}},
+ "output":{"every":{"time":10},"observables":["kinetic_energy","potential_energy","wall_force"],
+   "snapshots":{"every":{"time":50}},"checkpoint":{"every":{"time":70}}}}
+JSON
 # Rough particles (spins, angular_velocity frames) and driving (kick times,
 # the thermostat's random stream and local means) are state too.
 cat >"$tmp/3d-rough-drive.json" <<'JSON'
@@ -345,7 +356,7 @@ ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open 3d-rough-drive \
 	2d-rough-noise 2d-hsmc-walls 2d-dsmc-vib 2d-hsmc-open 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute \
 	2d-mixture-walls 2d-dsmc-mixture-walls 2d-dsmc-mixture-vib 2d-reservoir 2d-reservoir-rough 2d-dispenser-filter \
-	3d-dispenser-filter 2d-dispenser-rough; do
+	3d-dispenser-filter 2d-dispenser-rough 2d-dispenser-gravity; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

@@ -644,9 +644,101 @@ static void test_two(void)
 	ed_destroy(b);
 }
 
+/* Test 10, a dispenser in a field: a vertical channel (x periodic, 20
+ * wide, 60 tall), gravity g along -y, elastic disks, a dispenser at the
+ * lower wall pushing up (U = 0.1, eta 0.3, T = 0.02, layers 8 thick: a
+ * recharge every 80) or at the upper wall pushing down, the other wall
+ * specular. Before the first recharge the piston is a wall moving at U in
+ * the field: the change of kinetic plus potential energy is the piston's
+ * work, and the momentum change along y is minus the impulse to the walls
+ * plus N m g t, to rounding (relative 1e-9). After five recharges: layers
+ * placed whole, none rejected, no overlap. The templates are equilibrated
+ * in the same field (the strip between two specular walls h apart, the
+ * field flipped for an upper wall's layer, whose normal coordinate is
+ * counted from its piston): with m g h / T = 20 the layer settles on
+ * the side the field points to: its particles' mean distance from the
+ * piston lies below h / 2 when the field points into the piston (lower
+ * wall) and above when it points away (upper wall), by more than 5
+ * standard errors of the mean over the 5 layers (each layer's mean one
+ * sample: a layer is one template drawn at random, templates 10
+ * collisions per particle apart are taken as independent). */
+static void test_gravity(int upper)
+{
+	const double g = 0.05, U = 0.1;
+	char json[2048];
+	snprintf(json, sizeof json,
+	         "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":300,\"radius\":0.5,\"box\":[20,60],"
+	         "\"initial\":{\"positions\":\"random\",\"temperature\":0.02}},\"gravity\":[0,%.17g],"
+	         "\"boundaries\":{\"y\":{\"type\":\"walls\",\"%s\":{\"type\":\"dispenser\",\"volume_fraction\":0.3,"
+	         "\"velocity\":[0,%.17g],\"temperature\":0.02,\"thickness\":8},\"%s\":{\"type\":\"specular\"}}},"
+	         "\"run\":{\"seed\":23,\"until\":{\"time\":1}}}",
+	         -g, upper ? "upper" : "lower", upper ? -U : U, upper ? "lower" : "upper");
+	scene_t sc;
+	ed_t *ed = make(json, &sc);
+	const char *where = upper ? "upper" : "lower";
+	if (!ed) {
+		ok(0, "dispenser in a field (%s): setup", where);
+		ok(0, "dispenser in a field (%s): layers", where);
+		return;
+	}
+	const int w = upper ? 3 : 2;   /* y lower, y upper */
+	ed_sample_t s0, s1;
+	ed_sample(ed, &s0);
+	int rc = ed_advance(ed, 75.0, UINT64_MAX, UINT64_MAX);
+	ed_sample(ed, &s1);
+	const double sgn = upper ? -1.0 : 1.0;   /* the piston's velocity along y: sgn U */
+	const double work = -sgn * U * s1.wall_impulse[w][1];
+	const double dE = (s1.kinetic_energy + s1.potential_energy) - (s0.kinetic_energy + s0.potential_energy);
+	const double dP = s1.momentum[1] - s0.momentum[1];
+	const double dPx = -(s1.wall_impulse[2][1] + s1.wall_impulse[3][1]) - 300.0 * g * 75.0;
+	ok(rc == ED_OK && s1.wall_hits[w] > 0 && fabs(dE - work) <= 1e-9 * fabs(work) &&
+	   fabs(dP - dPx) <= 1e-9 * fabs(300.0 * g * 75.0) && s1.wall_inflow[w] == 0,
+	   "dispenser in a field (%s wall): %llu piston hits; energy change (kinetic + potential) %.12g = piston work "
+	   "%.12g; momentum change %.12g = -(wall impulse) + N m g t %.12g", where,
+	   (unsigned long long)s1.wall_hits[w], dE, work, dP, dPx);
+	/* five recharges: each layer's mean distance of its particles from the piston */
+	enum { NR = 5 };
+	const size_t N = ed_slots(ed);
+	double *pos = malloc(N * 2 * sizeof(double)), lm[NR];
+	int64_t *ids = malloc(N * sizeof(int64_t));
+	int64_t mark = 300;
+	for (int r = 1; r <= NR; r++) {
+		rc |= ed_advance(ed, 80.0 * r + 1e-9, UINT64_MAX, UINT64_MAX);
+		ed_state(ed, pos, NULL);
+		ed_labels(ed, ids);
+		int64_t top = mark;
+		double sd = 0.0;
+		long n = 0;
+		for (size_t i = 0; i < N; i++) {
+			if (ids[i] < mark)
+				continue;
+			if (ids[i] >= top)
+				top = ids[i] + 1;
+			sd += upper ? 60.0 - pos[2 * i + 1] : pos[2 * i + 1];
+			n++;
+		}
+		lm[r - 1] = n ? sd / n : NAN;
+		mark = top;
+	}
+	ed_sample_t s2;
+	ed_totals(ed, &s2);
+	double md, se;
+	mean_se(lm, NR, &md, &se);
+	const double nl = 0.3 * 8 * 20 / (M_PI * 0.25);
+	const int side = upper ? md - 4.0 > 5.0 * se : 4.0 - md > 5.0 * se;
+	ok(rc == ED_OK && s2.wall_inflow[w] >= NR * (uint64_t)floor(nl) && s2.wall_inflow[w] <= NR * (uint64_t)ceil(nl) &&
+	   s2.wall_rejected[w] == 0 && ed_min_gap(ed) > -1e-9 && side,
+	   "dispenser in a field (%s wall): %llu placed in %d layers, none rejected, min gap %.2g; mean distance of a "
+	   "layer's particles from the piston %.4f +- %.4f (%s h / 2 = 4 by more than 5 SE)", where,
+	   (unsigned long long)s2.wall_inflow[w], NR, ed_min_gap(ed), md, se, upper ? "above" : "below");
+	free(pos);
+	free(ids);
+	ed_destroy(ed);
+}
+
 int main(void)
 {
-	plan(22);
+	plan(26);
 	test_holds();
 	test_leak();
 	test_piston();
@@ -657,5 +749,7 @@ int main(void)
 	test_rough(2);
 	test_rough(3);
 	test_two();
+	test_gravity(0);
+	test_gravity(1);
 	return done_testing();
 }

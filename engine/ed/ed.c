@@ -1996,8 +1996,13 @@ static int build_templates(struct ed *ed, const scene_t *s, int w, char *msg, si
 	t->rough = 0;   /* positions only: the layers' spins are drawn at each recharge */
 	t->init_spin = NULL;
 	t->temperature = s->boundary[a].wall[w & 1].temperature;
-	for (int k = 0; k < 3; k++)
-		t->flow[k] = t->gravity[k] = 0.0;
+	/* gravity: the strip in the same field, the template's normal coordinate
+	 * counted from the piston (an upper wall's layer is flipped along the
+	 * axis when placed: the field along it is flipped here) */
+	for (int k = 0; k < 3; k++) {
+		t->flow[k] = 0.0;
+		t->gravity[k] = k == a && (w & 1) ? -s->gravity[k] : s->gravity[k];
+	}
 	t->init_pos = pos;
 	t->init_vel = NULL;
 	t->has_region = t->has_from = 0;
@@ -2641,7 +2646,7 @@ static int dispense(struct ed *ed, int w)
 		if (b == a)
 			continue;
 		shift[b] = ed->periodic[b] ? rng_uniform(&ed->irng) * ed->L[b] : 0.0;
-		mirror[b] = rng_uniform(&ed->irng) < 0.5;
+		mirror[b] = rng_uniform(&ed->irng) < 0.5 && ed->g[b] == 0.0;   /* not across a field */
 		lo[b] = ed->periodic[b] ? 0.0 : ed->wall[2 * b].rest;
 		wid[b] = ed->periodic[b] ? ed->L[b] : ed->wall[2 * b + 1].rest - lo[b];
 	}
