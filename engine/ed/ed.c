@@ -1788,13 +1788,13 @@ static int layer_layout(const struct ed *ed, const scene_t *s, int w, double *po
 /* The same in 3D: n = ceil(eta h W1 W2 / v_p) particles in R rows across
  * the layer (centres at r ... h - r from the piston, R = 1: h / 2), each
  * row a grid of nx x ny >= m sites over the transverse plane (the grid
- * whose smaller spacing is the largest), evenly spaced as in 2D: periodic axes the whole edge, walled ones a
- * radius clear of their walls; odd rows shifted by half a spacing along
- * both), R the fewest rows with every pair at least a diameter apart
- * (checked pair by pair, minimum image along periodic axes; pairs in rows
- * a diameter apart or more are apart). Writes the
- * positions (n x 3, scene axes) when pos is not NULL. ED_OK or ED_EINVAL
- * with "KEY: reason" in msg. Pure; O(n^2) per tried R. */
+ * whose smaller spacing is the largest), evenly spaced as in 2D (periodic
+ * axes: the whole edge; walled ones: a radius clear of their walls; odd
+ * rows shifted by half a spacing along both), R the fewest rows with every
+ * pair at least a diameter apart (checked pair by pair, minimum image
+ * along periodic axes; pairs in rows a diameter apart or more are apart).
+ * Writes the positions (n x 3, scene axes) when pos is not NULL. ED_OK or
+ * ED_EINVAL with "KEY: reason" in msg. Pure; O(n^2) per tried R. */
 static int layer_layout3(const struct ed *ed, const scene_t *s, int w, double *pos, uint32_t *nout, char *msg,
                          size_t msglen)
 {
