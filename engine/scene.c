@@ -1314,12 +1314,6 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 			if (scene_has_species(s))
 				return fail(c, path, "\"%s\" walls take one species of smooth particles (particles.species "
 				            "is not supported with them yet)", wn);
-			if (s->rough && w->type == SCENE_WALL_DISPENSER)   /* reservoirs: spins at their temperature */
-				return fail(c, path, "\"%s\" walls take smooth particles (collisions.rough is not "
-				            "supported with them yet)", wn);
-			if (s->replicas > 1 && w->type == SCENE_WALL_DISPENSER)
-				return fail(c, path, "\"dispenser\" walls are not supported in ensembles yet (run.replicas "
-				            "must be 1)");
 		}
 	/* default: room for twice the larger of the initial count and what the
 	 * box holds at the densest reservoir's density, plus 64 */
@@ -1338,7 +1332,7 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 static int check_streams(ctx_t *c, const scene_t *s)
 {
 	char path[PATHLEN];
-	int dispensers = 0;
+	int dispensers = 0;   /* 1 + the axis of the dispenser walls seen (0: none) */
 	for (int a = 0; a < s->dim; a++) {
 		const scene_boundary_t *b = &s->boundary[a];
 		if (!b->walled)
@@ -1349,12 +1343,11 @@ static int check_streams(ctx_t *c, const scene_t *s)
 			const double sg = k ? -1.0 : 1.0;   /* inward normal along the axis */
 			if (w->type == SCENE_WALL_DISPENSER) {
 				snprintf(path, sizeof path, "boundaries.%s.%s", axis_names[a], end);
-				if (++dispensers > 1)
-					return fail(c, path, "at most one \"dispenser\" wall per scene");
-				if (s->dim != 2)
-					return fail(c, path, "\"dispenser\" walls are 2D only (dimensions 3 is not supported yet)");
-				if (scene_has_gravity(s))
-					return fail(c, path, "\"dispenser\" walls are not supported with gravity yet");
+				if (dispensers && dispensers != 1 + a)
+					return fail(c, path, "\"dispenser\" walls on two axes (boundaries.%s and .%s): several dispensers "
+					            "must face each other on one axis (a layer would be placed behind the other axis' "
+					            "piston)", axis_names[dispensers - 1], axis_names[a]);
+				dispensers = 1 + a;
 				if (!(sg * w->velocity[a] >= 0)) {
 					snprintf(path, sizeof path, "boundaries.%s.%s.velocity[%d]", axis_names[a], end, a);
 					return fail(c, path, "the piston moves into the box: the component along the inward normal must be "

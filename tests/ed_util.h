@@ -83,11 +83,11 @@ static inline int checkpoint_pair(const char *json, scene_t *sc, double t_sample
 	return b != NULL;
 }
 
-/* Scenes with slots (reservoir and dispenser walls), 2D: whether a and b hold the same state of every slot,
- * positions, velocities and particle ids, bit for bit. 0 also when out of memory. */
-static inline int same_slots(const ed_t *a, const ed_t *b)
+/* Scenes with slots (reservoir and dispenser walls), D dimensions: whether a and b hold the same state of every
+ * slot, positions, velocities and particle ids, bit for bit. 0 also when out of memory. */
+static inline int same_slots_d(const ed_t *a, const ed_t *b, int D)
 {
-	const size_t N = ed_slots(a), m = N * 2;
+	const size_t N = ed_slots(a), m = N * (size_t)D;
 	double *p = malloc(sizeof(double) * m * 4);
 	int64_t *ia = malloc(sizeof(int64_t) * N * 2);
 	int same = 0;
@@ -101,6 +101,12 @@ static inline int same_slots(const ed_t *a, const ed_t *b)
 	free(p);
 	free(ia);
 	return same;
+}
+
+/* The same in 2D. */
+static inline int same_slots(const ed_t *a, const ed_t *b)
+{
+	return same_slots_d(a, b, 2);
 }
 
 #endif

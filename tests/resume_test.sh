@@ -152,6 +152,40 @@ cat >"$tmp/2d-dispenser-filter.json" <<'JSON'
  "output":{"every":{"time":6},"observables":["kinetic_energy","outflow","wall_force"],
    "snapshots":{"every":{"time":40}},"checkpoint":{"every":{"time":27}}}}
 JSON
+# The same in 3D, walled across y (templates between walls there too).
+cat >"$tmp/3d-dispenser-filter.json" <<'JSON'
+{"method":"ed","dimensions":3,"particles":{"count":440,"box":[16,6,6],
+   "initial":{"positions":"lattice","temperature":0.02,"velocity":[0.1,0,0]}},
+ "collisions":{"restitution":0.97,"tc":0.05},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.4,"velocity":[0.1,0,0],"temperature":0.02},
+   "upper":{"type":"open","filter":{"distance":3,"velocity":[0.1,0,0],"temperature":0.02}}},
+   "y":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"specular"}}},
+ "run":{"seed":51,"until":{"time":120}},
+ "output":{"every":{"time":6},"observables":["kinetic_energy","outflow","wall_force"],
+   "snapshots":{"every":{"time":40}},"checkpoint":{"every":{"time":27}}}}
+JSON
+# Rough particles from a dispenser: the layers' spins are state too.
+cat >"$tmp/2d-dispenser-rough.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":300,"box":[40,20],
+   "initial":{"positions":"random","temperature":0.02,"rotational_temperature":0.02}},
+ "collisions":{"restitution":0.95,"tc":0.05,"rough":{"tangential_restitution":0.5}},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.5,"velocity":[0.1,0],"temperature":0.02},
+   "upper":{"type":"open"}}},
+ "run":{"seed":53,"until":{"time":120}},
+ "output":{"every":{"time":6},"observables":["kinetic_energy","rotational_temperature","outflow"],
+   "snapshots":{"every":{"time":40}},"checkpoint":{"every":{"time":27}}}}
+JSON
+# A dispenser in a field (the gravity kernels with the moving piston).
+cat >"$tmp/2d-dispenser-gravity.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":300,"box":[20,60],
+   "initial":{"positions":"random","temperature":0.02}},"gravity":[0,-0.05],
+ "collisions":{"restitution":0.95,"tc":0.05},
+ "boundaries":{"y":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.3,"velocity":[0,0.1],"temperature":0.02,
+   "thickness":8},"upper":{"type":"specular"}}},
+ "run":{"seed":55,"until":{"time":200}},
+ "output":{"every":{"time":10},"observables":["kinetic_energy","potential_energy","wall_force"],
+   "snapshots":{"every":{"time":50}},"checkpoint":{"every":{"time":70}}}}
+JSON
 # Rough particles (spins, angular_velocity frames) and driving (kick times,
 # the thermostat's random stream and local means) are state too.
 cat >"$tmp/3d-rough-drive.json" <<'JSON'
@@ -321,7 +355,8 @@ ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 # (a) checkpoint at simulated time T, resume: identical to the uninterrupted run.
 for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open 3d-rough-drive \
 	2d-rough-noise 2d-hsmc-walls 2d-dsmc-vib 2d-hsmc-open 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute \
-	2d-mixture-walls 2d-dsmc-mixture-walls 2d-dsmc-mixture-vib 2d-reservoir 2d-reservoir-rough 2d-dispenser-filter; do
+	2d-mixture-walls 2d-dsmc-mixture-walls 2d-dsmc-mixture-vib 2d-reservoir 2d-reservoir-rough 2d-dispenser-filter \
+	3d-dispenser-filter 2d-dispenser-rough 2d-dispenser-gravity; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do
@@ -534,7 +569,19 @@ cat >"$tmp/ens-res.json" <<'JSON'
  "output":{"every":{"time":2},"observables":["kinetic_energy","outflow","velocity_distribution","fields"],
    "fields":{"cells":[6,1]},"snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":15}}}}
 JSON
-for s in ens ens-ed ens-fld ens-res; do
+# replicas with a dispenser and a filter: each replica its own templates (the
+# scene's seed on its own stream), recharge draws, slots and ids.
+cat >"$tmp/ens-disp.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":400,"box":[30,20],
+   "initial":{"positions":"lattice","temperature":0.02,"velocity":[0.1,0]}},
+ "collisions":{"restitution":0.97,"tc":0.05},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.6,"velocity":[0.1,0],"temperature":0.02},
+   "upper":{"type":"open","filter":{"distance":3,"velocity":[0.1,0],"temperature":0.02}}}},
+ "run":{"seed":48,"until":{"time":90},"replicas":3},
+ "output":{"every":{"time":3},"observables":["kinetic_energy","outflow","wall_force"],
+   "snapshots":{"every":{"time":30}},"checkpoint":{"every":{"time":40}}}}
+JSON
+for s in ens ens-ed ens-fld ens-res ens-disp; do
 	ref $s
 	rc=$?
 	rm -rf "$tmp/$s.res"
@@ -544,6 +591,27 @@ for s in ens ens-ed ens-fld ens-res; do
 	why=$(same "$tmp/$s.ref" "$tmp/$s.res")
 	ok $(( rc == 0 && rc2 == 0 && $? == 0 ? 0 : 1 )) "$s: ensemble resume from checkpoint.prev.h5: $why $(head -c 200 "$tmp/err")"
 done
+# Dispensers in an ensemble: each replica its own layers (templates from its
+# own stream, its own recharge draws): the replicas' last frames differ,
+# every replica placed layers (ids beyond the initial count) and its ids
+# are unique.
+"$PY" - "$tmp/ens-disp.ref" >"$tmp/ens-disp.check" 2>&1 <<'PYEOF'
+import sys
+import h5py
+import numpy as np
+t = h5py.File(sys.argv[1] + "/trajectory.h5", "r")["particles"]
+last = [t["replica_%d/position/value" % r][-1] for r in range(3)]
+ids = [t["replica_%d/id/value" % r][-1] for r in range(3)]
+for r in range(3):
+    present = ids[r][ids[r] >= 0]
+    assert len(np.unique(present)) == len(present), "ids repeated in replica %d" % r
+    assert present.max() >= 400, "replica %d placed no layer" % r
+d = [float(np.nanmax(np.abs(last[0] - last[r]))) for r in (1, 2)]
+assert min(d) > 1.0, d
+print("replicas differ (largest position difference to replica 0: %.3g, %.3g); top ids %s" %
+      (d[0], d[1], [int(i.max()) for i in ids]))
+PYEOF
+ok $? "ens-disp: $(tail -n 1 "$tmp/ens-disp.check")"
 # The ensemble checkpoint resumed above lies inside the frame series: each
 # replica had written some frames and wrote more after it (so the resume
 # had frames to cut back and to continue), and the replicas' counts differ.
@@ -562,7 +630,7 @@ print("frames per replica at the checkpoint %s, at the end %s" % (at, final))
 PYEOF
 ok $? "ens-ed: the checkpoint splits every replica's frame series: $(tail -n 1 "$tmp/ens-ed.frames")"
 if command -v mpirun >/dev/null 2>&1; then
-	for s in ens ens-ed ens-fld ens-res; do
+	for s in ens ens-ed ens-fld ens-res ens-disp; do
 	for np in 2 3; do
 		rm -rf "$tmp/$s.np$np"
 		mpirun -np 2 "$ENGINE" run "$tmp/$s.json" --out "$tmp/$s.np$np" >/dev/null 2>"$tmp/err"

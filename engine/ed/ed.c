@@ -244,10 +244,11 @@ struct ed {
 	 * out: from then on it moves at fu[w] exactly, with infinite mass,
 	 * until it leaves through the wall (0 for a regular particle or an
 	 * empty slot). filt_on: filters act (not during the elastic pre-run).
-	 * Dispensers (wall_t pu, pt0): each recharge places one of the ntpl
-	 * template layers (tpl: ntpl x tpl_n positions in the layer's frame:
-	 * normal coordinate in [r, h - r] from the piston, transverse in the
-	 * box), built at load from the scene (not state). */
+	 * Dispensers (disp: bit w set for a dispenser at wall w; wall_t pu,
+	 * pt0): each recharge of wall w places one of its ntpl template layers
+	 * (tpl + tpl_off[w]: ntpl x tpl_n[w] positions of D coordinates in the
+	 * layer's frame: normal coordinate in [r, h - r] from the piston,
+	 * transverse in the box), built at load from the scene (not state). */
 	uint8_t *frozen;
 	int nfilt, filt_on, disp;
 	double fplane[6];
@@ -256,8 +257,9 @@ struct ed {
 	int32_t fcell[6];         /* the cell of the plane (one more towards the inside) */
 	uint64_t nfrozen[6];      /* state (in "frozen_counts"): particles frozen per filter wall */
 	int ntpl;
-	uint32_t tpl_n;           /* particles in a template layer: ceil(eta h W / v_p) */
-	double tpl_frac;          /* a recharge places tpl_n, or tpl_n - 1 with probability 1 - tpl_frac (mean eta h W / v_p) */
+	uint32_t tpl_n[6];        /* particles in a template layer of wall w: ceil(eta h W / v_p) */
+	double tpl_frac[6];       /* a recharge places tpl_n, or tpl_n - 1 with probability 1 - tpl_frac (mean eta h W / v_p) */
+	size_t tpl_off[6];        /* wall w's templates in tpl (doubles) */
 	double *tpl;
 	double disp_u[6][3], disp_s[6];   /* layer velocity U and thermal speed sqrt(T / m) per dispenser wall */
 	/* mean_square_displacement with an energy feed (scene_msd_images()): the periodic images each particle
@@ -1654,7 +1656,11 @@ static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 	b[A_FREE] = ed->inlet ? n * sizeof(uint32_t) : 0;
 	b[A_LABEL] = ed->inlet ? n * sizeof(int64_t) : 0;
 	b[A_FROZEN] = ed->nfilt ? n : 0;
-	b[A_TPL] = ed->disp ? (size_t)ed->ntpl * ed->tpl_n * 2 * sizeof(double) : 0;
+	size_t ntd = 0;
+	for (int w = 0; w < 6; w++)
+		if (ed->disp >> w & 1)
+			ntd += (size_t)ed->ntpl * ed->tpl_n[w] * ed->dim;
+	b[A_TPL] = ntd * sizeof(double);
 	b[A_IMG] = ed->img_on ? n * ed->dim * sizeof(int32_t) : 0;
 }
 
@@ -1785,6 +1791,102 @@ static int layer_layout(const struct ed *ed, const scene_t *s, int w, double *po
 	return ED_EINVAL;
 }
 
+/* The same in 3D: n = ceil(eta h W1 W2 / v_p) particles in R rows across
+ * the layer (centres at r ... h - r from the piston, R = 1: h / 2), each
+ * row a grid of nx x ny >= m sites over the transverse plane (the grid
+ * whose smaller spacing is the largest), evenly spaced as in 2D (periodic
+ * axes: the whole edge; walled ones: a radius clear of their walls; odd
+ * rows shifted by half a spacing along both), R the fewest rows with every
+ * pair at least a diameter apart (checked pair by pair, minimum image
+ * along periodic axes; pairs in rows a diameter apart or more are apart).
+ * Writes the positions (n x 3, scene axes) when pos is not NULL. ED_OK or
+ * ED_EINVAL with "KEY: reason" in msg. Pure; O(n^2) per tried R. */
+static int layer_layout3(const struct ed *ed, const scene_t *s, int w, double *pos, uint32_t *nout, char *msg,
+                         size_t msglen)
+{
+	const double pi = 3.14159265358979323846, r = s->radius, sig = 2.0 * r;
+	const int a = w >> 1, b1 = a == 0 ? 1 : 0, b2 = a == 2 ? 1 : 2;
+	const scene_wall_t *sw = &s->boundary[a].wall[w & 1];
+	const double h = ed->wall[w].lh, W1 = s->box[b1], W2 = s->box[b2];
+	const int per1 = !s->boundary[b1].walled, per2 = !s->boundary[b2].walled;
+	const double n_d = sw->volume_fraction * h * W1 * W2 / (4.0 / 3.0 * pi * r * r * r);
+	static const char *const an[] = { "x", "y", "z" };
+	const char *end = (w & 1) ? "upper" : "lower";
+	double *q = NULL;
+	int rc = ED_EINVAL;
+	if (!(n_d >= 1.5) || n_d > 1e6) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "boundaries.%s.%s.thickness: the layer holds %.3g particles (volume_fraction x "
+			         "thickness x cross-section / particle volume); it must hold 2 ... 10^6", an[a], end, n_d);
+		return ED_EINVAL;
+	}
+	const uint32_t n = (uint32_t)ceil(n_d);
+	const double span1 = per1 ? W1 : W1 - 2.0 * r, span2 = per2 ? W2 : W2 - 2.0 * r;
+	if (!(q = malloc((size_t)n * 3 * sizeof(double)))) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "boundaries.%s.%s: out of memory for the layer's layout", an[a], end);
+		return ED_ENOMEM;
+	}
+	for (uint32_t R = 1; R <= 64 && R <= n; R++) {
+		const double dx = R > 1 ? (h - 2.0 * r) / (R - 1) : 0.0;
+		uint32_t k0 = 0;
+		for (uint32_t k = 0; k < R; k++) {
+			const uint32_t m = n / R + (k < n % R);
+			uint32_t nx = 1;   /* the grid whose smaller spacing is the largest */
+			double best = -1.0;
+			for (uint32_t cx = 1; cx <= m; cx++) {
+				const uint32_t cy = (m + cx - 1) / cx;
+				const double sp = fmin(span1 / cx, span2 / cy);
+				if (sp > best) {
+					best = sp;
+					nx = cx;
+				}
+			}
+			const uint32_t ny = (m + nx - 1) / nx;
+			const double o = 0.25 + 0.5 * (k & 1);
+			for (uint32_t i = 0; i < m; i++, k0++) {
+				q[3 * k0 + a] = R > 1 ? r + k * dx : 0.5 * h;
+				q[3 * k0 + b1] = (per1 ? 0.0 : r) + ((i % nx) + o) * span1 / nx;
+				q[3 * k0 + b2] = (per2 ? 0.0 : r) + ((i / nx) + o) * span2 / ny;
+			}
+		}
+		int ok = 1;
+		for (uint32_t i = 0; i < n && ok; i++)
+			for (uint32_t j = i + 1; j < n; j++) {
+				double d2 = 0.0;
+				if (fabs(q[3 * i + a] - q[3 * j + a]) >= sig)   /* rows a diameter apart or more (as in 2D) */
+					continue;
+				for (int c = 0; c < 3; c++) {
+					double d = fabs(q[3 * i + c] - q[3 * j + c]);
+					if ((c == b1 && per1) || (c == b2 && per2)) {
+						const double L = c == b1 ? W1 : W2;
+						if (d > 0.5 * L)
+							d = L - d;
+					}
+					d2 += d * d;
+				}
+				if (d2 < sig * sig * (1.0 + 1e-12)) {
+					ok = 0;
+					break;
+				}
+			}
+		if (!ok)
+			continue;
+		if (pos)
+			memcpy(pos, q, (size_t)n * 3 * sizeof(double));
+		*nout = n;
+		rc = ED_OK;
+		goto done;
+	}
+	if (msg && msglen)
+		snprintf(msg, msglen, "boundaries.%s.%s.volume_fraction: a layer of %u particles (volume_fraction x thickness "
+		         "x cross-section / particle volume) does not fit into rows a diameter apart across the thickness "
+		         "%.6g; lower the volume fraction or change the thickness", an[a], end, n, h);
+done:
+	free(q);
+	return rc;
+}
+
 /* Filters and the dispenser from the scene (walls variant, after the
  * cells): each filter's plane (internal coordinate), frozen velocity and
  * the cells from which a particle can cross it; the dispenser's wall and
@@ -1820,27 +1922,42 @@ static int setup_stream(struct ed *ed, const scene_t *s, char *msg, size_t msgle
 				ed->fcell[w] = c + 1;
 			}
 			if (sw->type == SCENE_WALL_DISPENSER) {
-				ed->disp = 1 + w;
+				ed->disp |= 1 << w;
 				for (int j = 0; j < 3; j++)
 					ed->disp_u[w][j] = j < s->dim ? sw->velocity[j] : 0.0;
 				ed->disp_s[w] = sqrt(sw->temperature / s->mass);
-				if (s->dim != 2) {
-					set_msg(msg, msglen, "boundaries: dispenser walls are 2D only%.0s%.0s", 0, 0);
-					return ED_EINVAL;
-				}
-				int rc = layer_layout(ed, s, w, NULL, &ed->tpl_n, msg, msglen);
+				int rc = s->dim == 2 ? layer_layout(ed, s, w, NULL, &ed->tpl_n[w], msg, msglen)
+				                     : layer_layout3(ed, s, w, NULL, &ed->tpl_n[w], msg, msglen);
 				if (rc != ED_OK)
 					return rc;
-				const double n_d = sw->volume_fraction * ed->wall[w].lh * s->box[1 - a] /
-				                   (3.14159265358979323846 * s->radius * s->radius);
-				ed->tpl_frac = n_d - floor(n_d);
-				if (ed->tpl_frac == 0.0)
-					ed->tpl_frac = 1.0;   /* a whole number: every recharge places them all */
+				const double pi = 3.14159265358979323846, rr = s->radius;
+				const double n_d = s->dim == 2 ? sw->volume_fraction * ed->wall[w].lh * s->box[1 - a] / (pi * rr * rr)
+				                               : sw->volume_fraction * ed->wall[w].lh * s->box[a == 0 ? 1 : 0] *
+				                                 s->box[a == 2 ? 1 : 2] / (4.0 / 3.0 * pi * rr * rr * rr);
+				ed->tpl_frac[w] = n_d - floor(n_d);
+				if (ed->tpl_frac[w] == 0.0)
+					ed->tpl_frac[w] = 1.0;   /* a whole number: every recharge places them all */
 				ed->ntpl = TPL_LAYERS;
 			}
 		}
 	}
+	size_t off = 0;
+	for (int w = 0; w < 6; w++) {
+		ed->tpl_off[w] = off;
+		if (ed->disp >> w & 1)
+			off += (size_t)ed->ntpl * ed->tpl_n[w] * s->dim;
+	}
 	return ED_OK;
+}
+
+/* The lowest wall with a dispenser (its templates keep the seed stream
+ * they had when a scene could have one dispenser only). */
+static int ed_first_disp(const struct ed *ed)
+{
+	int w = 0;
+	while (w < 5 && !(ed->disp >> w & 1))
+		w++;
+	return w;
 }
 
 /* The dispenser's template layers: its starting layout (layer_layout)
@@ -1851,42 +1968,53 @@ static int setup_stream(struct ed *ed, const scene_t *s, char *msg, size_t msgle
  * particle apart. Positions are clamped into [r, h - r] against rounding
  * at the strip's walls. Deterministic (the scene's seed, a stream of its
  * own). */
-static int build_templates(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
+static int build_templates(struct ed *ed, const scene_t *s, int w, char *msg, size_t msglen)
 {
-	const int w = ed->disp - 1, a = w >> 1, b = 1 - a;
-	const uint32_t n = ed->tpl_n;
+	const int a = w >> 1, D = s->dim;
+	const uint32_t n = ed->tpl_n[w];
 	const double r = s->radius, h = ed->wall[w].lh;
 	int rc = ED_ENOMEM;
-	double *pos = malloc((size_t)n * 2 * sizeof(double));
+	double *pos = malloc((size_t)n * D * sizeof(double));
 	scene_t *t = malloc(sizeof *t);
 	ed_t *sub = NULL;
 	if (!pos || !t)
 		goto done;
-	layer_layout(ed, s, w, pos, &ed->tpl_n, NULL, 0);
+	if (D == 2)
+		layer_layout(ed, s, w, pos, &ed->tpl_n[w], NULL, 0);
+	else if ((rc = layer_layout3(ed, s, w, pos, &ed->tpl_n[w], msg, msglen)) != ED_OK)
+		goto done;
 	memcpy(t, s, sizeof *t);
 	t->count = t->capacity = n;
 	t->box[a] = h;
 	t->volume_fraction = s->boundary[a].wall[w & 1].volume_fraction;
 	for (int k = 0; k < 2; k++) {
 		t->boundary[a].wall[k] = (scene_wall_t){ .type = SCENE_WALL_SPECULAR, .restitution = 1.0, .coverage = -1.0 };
-		if (t->boundary[b].walled)
-			t->boundary[b].wall[k] = (scene_wall_t){ .type = SCENE_WALL_SPECULAR, .restitution = 1.0,
-			                                         .coverage = -1.0 };
+		for (int b = 0; b < D; b++)
+			if (b != a && t->boundary[b].walled)
+				t->boundary[b].wall[k] = (scene_wall_t){ .type = SCENE_WALL_SPECULAR, .restitution = 1.0,
+				                                         .coverage = -1.0 };
 	}
 	t->boundary[a].walled = 1;
 	t->n_obstacles = 0;
 	t->drive = SCENE_DRIVE_NONE;
 	t->tc = 0.0;
 	t->restitution = 1.0;
+	t->rough = 0;   /* positions only: the layers' spins are drawn at each recharge */
+	t->init_spin = NULL;
 	t->temperature = s->boundary[a].wall[w & 1].temperature;
-	for (int k = 0; k < 3; k++)
-		t->flow[k] = t->gravity[k] = 0.0;
+	/* gravity: the strip in the same field, the template's normal coordinate
+	 * counted from the piston (an upper wall's layer is flipped along the
+	 * axis when placed: the field along it is flipped here) */
+	for (int k = 0; k < 3; k++) {
+		t->flow[k] = 0.0;
+		t->gravity[k] = k == a && (w & 1) ? -s->gravity[k] : s->gravity[k];
+	}
 	t->init_pos = pos;
 	t->init_vel = NULL;
 	t->has_region = t->has_from = 0;
 	t->relax_cpp = 50.0;
 	t->ed_cell_size = 0.0;
-	t->stream = s->stream | (1ull << 59);
+	t->stream = s->stream | (1ull << 59) | (uint64_t)(w != ed_first_disp(ed)) * ((uint64_t)w << 52);
 	int err = ED_OK;
 	sub = ed_create(t, &err, msg, msglen);
 	if (!sub) {
@@ -1896,10 +2024,10 @@ static int build_templates(struct ed *ed, const scene_t *s, char *msg, size_t ms
 	for (int q = 0; q < ed->ntpl; q++) {
 		if (q > 0)
 			ed_advance(sub, INFINITY, ed_collisions(sub) + 10ull * n, UINT64_MAX);
-		double *out = ed->tpl + (size_t)q * n * 2;
+		double *out = ed->tpl + ed->tpl_off[w] + (size_t)q * n * D;
 		ed_state(sub, out, NULL);
 		for (uint32_t i = 0; i < n; i++)
-			out[2 * i + a] = fmin(fmax(out[2 * i + a], r), h - r);
+			out[(size_t)D * i + a] = fmin(fmax(out[(size_t)D * i + a], r), h - r);
 	}
 	rc = ED_OK;
 done:
@@ -2058,8 +2186,9 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	if (ed->disp) {
 		if (!(ed->tpl = big_alloc(b[A_TPL], 0)))
 			goto fail;
-		if ((rc = build_templates(ed, s, msg, msglen)) != ED_OK)
-			goto fail;
+		for (int w = 0; w < 6; w++)
+			if ((ed->disp >> w & 1) && (rc = build_templates(ed, s, w, msg, msglen)) != ED_OK)
+				goto fail;
 		rc = ED_ENOMEM;
 	}
 	if (ed->rough && !(ed->spin = big_alloc(b[A_SPIN], 1)))
@@ -2390,10 +2519,11 @@ static void inlet_start(struct ed *ed)
 {
 	for (int w = 0; w < 6; w++)
 		ed->in_next[w] = ed->in_rate[w] > 0.0 ? inlet_wait(ed, w) : INFINITY;
-	if (ed->disp) {   /* the first recharge: when the piston has cleared one layer (never at speed 0) */
-		const wall_t *W = &ed->wall[ed->disp - 1];
-		ed->in_next[ed->disp - 1] = W->pspeed > 0.0 ? W->lh / W->pspeed : INFINITY;
-	}
+	for (int w = 0; w < 6; w++)   /* the first recharge: when the piston has cleared one layer (never at speed 0) */
+		if (ed->disp >> w & 1) {
+			const wall_t *W = &ed->wall[w];
+			ed->in_next[w] = W->pspeed > 0.0 ? W->lh / W->pspeed : INFINITY;
+		}
 }
 
 /* Normal speed w >= 0 of an entering particle: density proportional to
@@ -2499,11 +2629,11 @@ static int inlet_enter(struct ed *ed, int w)
  * when the free slots cannot take a whole layer. */
 static int dispense(struct ed *ed, int w)
 {
-	const uint32_t n = ed->tpl_n;
+	const uint32_t n = ed->tpl_n[w];
 	if (ed->n_gone < n)
 		return ED_FULL;
 	wall_t *W = &ed->wall[w];
-	const int a = w >> 1, b = 1 - a, D = ed->dim;
+	const int a = w >> 1, D = ed->dim;
 	const double sg = (w & 1) ? -1.0 : 1.0, sv = ed->disp_s[w];
 	/* the piston jumps back; every particle in its reach (the wall's zone) anew */
 	W->pt0 = ed->t;
@@ -2516,33 +2646,44 @@ static int dispense(struct ed *ed, int w)
 			cal_update(ed, i, ev_time(ed, i));
 		}
 	}
-	/* which template, shifted along a periodic transverse axis, mirrored or not */
+	/* which template, shifted along each periodic transverse axis, mirrored or not along each */
 	int q = (int)(rng_uniform(&ed->irng) * ed->ntpl);
 	if (q >= ed->ntpl)
 		q = ed->ntpl - 1;
-	const double shift = ed->periodic[b] ? rng_uniform(&ed->irng) * ed->L[b] : 0.0;
-	const int mirror = rng_uniform(&ed->irng) < 0.5;
+	double shift[3] = {0.0, 0.0, 0.0}, lo[3] = {0.0, 0.0, 0.0}, wid[3] = {0.0, 0.0, 0.0};
+	int mirror[3] = {0, 0, 0};
+	for (int b = 0; b < D; b++) {
+		if (b == a)
+			continue;
+		shift[b] = ed->periodic[b] ? rng_uniform(&ed->irng) * ed->L[b] : 0.0;
+		mirror[b] = rng_uniform(&ed->irng) < 0.5 && ed->g[b] == 0.0;   /* not across a field */
+		lo[b] = ed->periodic[b] ? 0.0 : ed->wall[2 * b].rest;
+		wid[b] = ed->periodic[b] ? ed->L[b] : ed->wall[2 * b + 1].rest - lo[b];
+	}
 	/* the layer's count: tpl_n, or one fewer (a random one left out), so that the mean is eta h W / v_p */
 	uint32_t skip = UINT32_MAX;
-	if (rng_uniform(&ed->irng) >= ed->tpl_frac) {
+	if (rng_uniform(&ed->irng) >= ed->tpl_frac[w]) {
 		skip = (uint32_t)(rng_uniform(&ed->irng) * n);
 		if (skip >= n)
 			skip = n - 1;
 	}
-	const double lo = ed->periodic[b] ? 0.0 : ed->wall[2 * b].rest, wid = ed->periodic[b] ? ed->L[b] : ed->wall[2 * b + 1].rest - lo;
-	const double *tp = ed->tpl + (size_t)q * n * 2;
+	const double *tp = ed->tpl + ed->tpl_off[w] + (size_t)q * n * D;
 	for (uint32_t k = 0; k < n; k++) {
 		if (k == skip)
 			continue;
 		double r[3] = {0.0, 0.0, 0.0}, v[3] = {0.0, 0.0, 0.0};
-		r[a] = W->rest + sg * tp[2 * k + a];
-		double y = tp[2 * k + b];
-		if (mirror)
-			y = wid - y;
-		y += shift;
-		if (y >= wid)
-			y -= wid;
-		r[b] = lo + y;
+		r[a] = W->rest + sg * tp[(size_t)D * k + a];
+		for (int b = 0; b < D; b++) {
+			if (b == a)
+				continue;
+			double y = tp[(size_t)D * k + b];
+			if (mirror[b])
+				y = wid[b] - y;
+			y += shift[b];
+			if (y >= wid[b])
+				y -= wid[b];
+			r[b] = lo[b] + y;
+		}
 		for (int j = 0; j < D; j++)
 			v[j] = ed->disp_u[w][j] + sv * rng_gauss(&ed->irng);
 		const uint32_t i = ed->freei[ed->n_gone - 1];
@@ -2552,6 +2693,15 @@ static int dispense(struct ed *ed, int w)
 		}
 		ed->label[ed->id[i]] = (int64_t)ed->in_count[12]++;
 		ed->in_count[w]++;
+		if (ed->rough) {
+			/* rough particles: spins Maxwellian at the layers' temperature T = m sv^2, variance
+			 * T / I per component (I = q m a^2), as a reservoir's entries (times do not depend
+			 * on spins); drawn after the placement, so smooth scenes draw what they drew before */
+			const int nk = D == 2 ? 1 : 3;
+			const double swv = sv / sqrt(ed->rq * 0.25 * ed->sigma2);
+			for (int c = 0; c < nk; c++)
+				ed->spin[(size_t)i * nk + c] = swv * rng_gauss(&ed->irng);
+		}
 		DISPATCH(ed, set_cross, ed, i);
 		DISPATCH(ed, scan_full, ed, i);
 		cal_update(ed, i, ev_time(ed, i));
@@ -2566,10 +2716,11 @@ static int dispense(struct ed *ed, int w)
  * predicted afresh. */
 static void stream_start(struct ed *ed)
 {
-	if (ed->disp) {   /* at rest at the start (the clock is 0; a pre-run's rebases moved pt0) */
-		ed->wall[ed->disp - 1].pu = ed->wall[ed->disp - 1].pspeed;
-		ed->wall[ed->disp - 1].pt0 = ed->t;
-	}
+	for (int w = 0; w < 6; w++)   /* at rest at the start (the clock is 0; a pre-run's rebases moved pt0) */
+		if (ed->disp >> w & 1) {
+			ed->wall[w].pu = ed->wall[w].pspeed;
+			ed->wall[w].pt0 = ed->t;
+		}
 	if (ed->nfilt) {
 		ed->filt_on = 1;
 		memset(ed->nfrozen, 0, sizeof ed->nfrozen);
@@ -3272,8 +3423,9 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 		why = "bad mode";
 	if (!why && ed->t_abs_valid != 0 && ed->t_abs_valid != 1)
 		why = "bad clock flag";
-	if (!why && ed->disp && !isfinite(ed->wall[ed->disp - 1].pt0))
-		why = "bad piston time";
+	for (int w = 0; w < 6 && !why; w++)
+		if ((ed->disp >> w & 1) && !isfinite(ed->wall[w].pt0))
+			why = "bad piston time";
 	for (uint32_t i = 0; i < n && !why && ed->frozen; i++)
 		if (ed->frozen[i] > 6 || (ed->frozen[i] && (!ed->fcell[ed->frozen[i] - 1] || ed->gone[i])))
 			why = "bad frozen flag";
@@ -3288,8 +3440,9 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 	if (ed->spc)
 		species_from_id(ed);
 	/* Checkpoints are of the production run: the piston moves, filters act. */
-	if (ed->disp)
-		ed->wall[ed->disp - 1].pu = ed->wall[ed->disp - 1].pspeed;
+	for (int w = 0; w < 6; w++)
+		if (ed->disp >> w & 1)
+			ed->wall[w].pu = ed->wall[w].pspeed;
 	ed->filt_on = ed->nfilt > 0;
 	/* The occupancy bitmap from the cell heads. */
 	memset(ed->occ, 0, (ed->ncells + 63) / 64 * sizeof(uint64_t));

@@ -355,7 +355,7 @@ static const struct {
 	{ "@frames", offsetof(run_state_t, frames), 0, 1 },
 };
 #define N_SCHED (sizeof sched / sizeof sched[0])
-#define MAX_FIELDS 48
+#define MAX_FIELDS 128   /* engine fields (ED_MAX_FIELDS) and the run's own */
 
 int ensemble_save(const run_t *r, unsigned char **buf, size_t *len)
 {
