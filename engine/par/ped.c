@@ -33,7 +33,7 @@ typedef struct {
 typedef struct {
 	size_t hn;
 	int32_t free_head;
-	uint64_t collisions, tc_elastic, nlog, owned;
+	uint64_t collisions, tc_elastic, nlog, owned, events;
 	double lt, virial;
 } scal_t;
 
@@ -477,6 +477,7 @@ static void process(ped_t *pd, int32_t i, double t, int cls)
 {
 	pev_t *e = &pd->ev[i];
 	pd->events_done++;
+	pd->s.events++;
 	pd->s.lt = t;
 	if (e->t_cross < e->t_coll) {
 		do_cross(pd, i, t);
@@ -850,6 +851,7 @@ void ped_totals(const ped_t *pd, ped_totals_t *out)
 	out->collisions = pd->s.collisions;
 	out->tc_elastic = pd->s.tc_elastic;
 	out->events_done = pd->events_done;
+	out->events = pd->s.events;
 	out->owned = pd->s.owned;
 	out->virial = pd->s.virial;
 	for (size_t i = 0; i < pd->cap; i++) {

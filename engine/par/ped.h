@@ -94,10 +94,13 @@ void ped_save(ped_t *pd);
 void ped_restore(ped_t *pd);
 
 /* Totals of this rank: committed collisions it logged (each collision is
- * logged by exactly one rank), TC-elastic ones among them, events it
- * processed (including those later rolled back: work done). */
+ * logged by exactly one rank), TC-elastic ones among them, committed events
+ * (collisions, crossings and cancelled predictions it processed; a
+ * collision of two ranks' particles counts on the rank that made it), events
+ * it processed including those later rolled back (work done), particles it
+ * owns. */
 typedef struct {
-	uint64_t collisions, tc_elastic, events_done, owned;
+	uint64_t collisions, tc_elastic, events, events_done, owned;
 	double ekin, mom[3], virial;
 } ped_totals_t;
 void ped_totals(const ped_t *pd, ped_totals_t *out);
