@@ -9,8 +9,8 @@
  * Contract: every rank of comm calls pedmpi_run() with its own ped_t (rank
  * and rank count of comm, loaded with ped_load()) and the same t_end and
  * sync_dt; it runs the rounds of ped.h's contract with one MPI_Allreduce
- * (error time, next border time, progress) and one MPI_Alltoall +
- * MPI_Alltoallv (the changed particles) per round, exactly as ped_sim_run()
+ * (error time, next border time, progress) and one fixed-size MPI_Alltoall
+ * (the changed particles: at most two per rank and round) per round, exactly as ped_sim_run()
  * does in one process, so the run is the same bit for bit. Returns PED_OK
  * on every rank, or the same negative code on every rank. *st (may be NULL)
  * gets this rank's messages and bytes sent and the common round, sync and
