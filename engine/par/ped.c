@@ -29,6 +29,14 @@ typedef struct {
 	int32_t pad;
 } pev_t;
 
+/* Calendar entry: the key and the tie-break id kept in the heap itself, so
+ * that sifting reads no particle record. */
+typedef struct {
+	double key;
+	uint32_t gid;
+	int32_t i;
+} hent_t;
+
 /* The part of the state a rollback restores besides the arrays. */
 typedef struct {
 	size_t hn;
@@ -52,7 +60,8 @@ struct ped {
 	int32_t *head, *head_s;
 	rec_t *rec, *rec_s;
 	pev_t *ev, *ev_s;
-	int32_t *heap, *hpos, *heap_s, *hpos_s;
+	hent_t *heap, *heap_s;
+	int32_t *hpos, *hpos_s;
 	scal_t s, s_saved;
 	double err;
 	uint64_t events_done;
@@ -108,30 +117,31 @@ static int around(const ped_t *pd, const int32_t *c, int32_t out[27][3])
 
 /* ---- calendar: indexed binary heap over own particles, (time, id) order ---- */
 
-static int hless(const ped_t *pd, int32_t a, int32_t b)
+static int hless(const hent_t *a, const hent_t *b)
 {
-	double ka = pd->ev[a].key, kb = pd->ev[b].key;
-	return ka < kb || (ka == kb && pd->rec[a].gid < pd->rec[b].gid);
+	return a->key < b->key || (a->key == b->key && a->gid < b->gid);
 }
 
 static void hswap(ped_t *pd, size_t x, size_t y)
 {
-	int32_t a = pd->heap[x], b = pd->heap[y];
-	pd->heap[x] = b, pd->heap[y] = a;
-	pd->hpos[b] = (int32_t)x, pd->hpos[a] = (int32_t)y;
+	hent_t a = pd->heap[x];
+	pd->heap[x] = pd->heap[y];
+	pd->heap[y] = a;
+	pd->hpos[pd->heap[x].i] = (int32_t)x;
+	pd->hpos[pd->heap[y].i] = (int32_t)y;
 }
 
 static void hsift(ped_t *pd, size_t k)
 {
-	while (k > 0 && hless(pd, pd->heap[k], pd->heap[(k - 1) / 2])) {
+	while (k > 0 && hless(&pd->heap[k], &pd->heap[(k - 1) / 2])) {
 		hswap(pd, k, (k - 1) / 2);
 		k = (k - 1) / 2;
 	}
 	for (;;) {
 		size_t l = 2 * k + 1, r = l + 1, m = k;
-		if (l < pd->s.hn && hless(pd, pd->heap[l], pd->heap[m]))
+		if (l < pd->s.hn && hless(&pd->heap[l], &pd->heap[m]))
 			m = l;
-		if (r < pd->s.hn && hless(pd, pd->heap[r], pd->heap[m]))
+		if (r < pd->s.hn && hless(&pd->heap[r], &pd->heap[m]))
 			m = r;
 		if (m == k)
 			break;
@@ -145,8 +155,10 @@ static void schedule(ped_t *pd, int32_t i)
 	pev_t *e = &pd->ev[i];
 	e->key = e->t_coll <= e->t_cross ? e->t_coll : e->t_cross;
 	if (pd->hpos[i] < 0) {
-		pd->heap[pd->s.hn] = i;
+		pd->heap[pd->s.hn] = (hent_t){.key = e->key, .gid = pd->rec[i].gid, .i = i};
 		pd->hpos[i] = (int32_t)pd->s.hn++;
+	} else {
+		pd->heap[pd->hpos[i]].key = e->key;
 	}
 	hsift(pd, (size_t)pd->hpos[i]);
 }
@@ -177,8 +189,10 @@ static void advance(rec_t *p, double t)
 }
 
 /* Earliest contact time of a and b, computed from the later of their
- * reference times with the lower id first: the same bits on every rank. */
-static double pair_time(const ped_t *pd, int32_t ia, int32_t ib)
+ * reference times with the lower id first: the same bits on every rank.
+ * INFINITY also when it cannot come before `best` (dt >= c / (-2 b): no
+ * square root for most candidates of a scan; INFINITY: no bound). */
+static double pair_time_b(const ped_t *pd, int32_t ia, int32_t ib, double best)
 {
 	const rec_t *pi = &pd->rec[ia], *pj = &pd->rec[ib];
 	if (pi->gid > pj->gid) {
@@ -210,10 +224,17 @@ static double pair_time(const ped_t *pd, int32_t ia, int32_t ib)
 			return INFINITY;     /* touching at rounding level: as the serial engine */
 		return t0;
 	}
+	if (!(c < (best - t0) * (-2.0 * b)))
+		return INFINITY;
 	double disc = b * b - v2 * c;
 	if (disc <= 0.0)
 		return INFINITY;
 	return t0 + c / (-b + sqrt(disc));
+}
+
+static double pair_time(const ped_t *pd, int32_t ia, int32_t ib)
+{
+	return pair_time_b(pd, ia, ib, INFINITY);
 }
 
 static void set_cross(ped_t *pd, int32_t i)
@@ -252,7 +273,7 @@ static void scan(ped_t *pd, int32_t i)
 		for (int32_t j = pd->head[cidx(pd, cells[k])]; j >= 0; j = pd->rec[j].next) {
 			if (j == i)
 				continue;
-			double t = pair_time(pd, i, j);
+			double t = pair_time_b(pd, i, j, best);
 			if (t < best || (t == best && found >= 0 && pd->rec[j].gid < pd->rec[found].gid)) {
 				best = t;
 				found = j;
@@ -515,8 +536,8 @@ static void process(ped_t *pd, int32_t i, double t, int cls)
 double ped_interior(ped_t *pd, double barrier)
 {
 	while (pd->s.hn > 0) {
-		int32_t i = pd->heap[0];
-		double t = pd->ev[i].key;
+		int32_t i = pd->heap[0].i;
+		double t = pd->heap[0].key;
 		if (!(t < barrier))
 			return INFINITY;
 		int cls = classify(pd, i);
@@ -533,8 +554,8 @@ int ped_border(ped_t *pd, double T)
 {
 	if (pd->s.hn == 0)
 		return 0;
-	int32_t i = pd->heap[0];
-	double t = pd->ev[i].key;
+	int32_t i = pd->heap[0].i;
+	double t = pd->heap[0].key;
 	if (t > T)
 		return 0;
 	int cls = classify(pd, i);
@@ -783,21 +804,57 @@ ped_t *ped_create(const ped_params_t *p, int rank, size_t capacity, int *err)
 	return pd;
 }
 
+static void cell_of(const ped_t *pd, const double *x, int32_t *c)
+{
+	c[0] = c[1] = c[2] = 0;
+	for (int a = 0; a < pd->D; a++) {
+		int32_t q = (int32_t)floor(x[a] / pd->cw[a]);
+		c[a] = q < 0 ? 0 : (q >= pd->p.nc[a] ? pd->p.nc[a] - 1 : q);
+	}
+}
+
 int ped_load(ped_t *pd, uint64_t n, const double *pos, const double *vel)
 {
 	const int D = pd->D;
+	/* the particles of the rank's cells, stored in cell order (neighbours
+	 * close in memory), ties in id order: a counting sort over the cells */
+	uint32_t *cnt = calloc(pd->ncells + 1, sizeof *cnt);
+	uint32_t *order = NULL;
+	uint64_t m = 0;
+	int rc = PED_OK;
+	if (!cnt)
+		return PED_ENOMEM;
 	for (uint64_t k = 0; k < n; k++) {
-		int32_t c[3] = {0, 0, 0};
-		for (int a = 0; a < D; a++) {
-			double x = pos[k * (uint64_t)D + (uint64_t)a];
-			int32_t q = (int32_t)floor(x / pd->cw[a]);
-			c[a] = q < 0 ? 0 : (q >= pd->p.nc[a] ? pd->p.nc[a] - 1 : q);
+		int32_t c[3];
+		cell_of(pd, &pos[k * (uint64_t)D], c);
+		size_t ci = cidx(pd, c);
+		if (pd->role[ci] != R_FOREIGN) {
+			cnt[ci + 1]++;
+			m++;
 		}
-		int r = pd->role[cidx(pd, c)];
-		if (r == R_FOREIGN)
-			continue;
-		if (pd->s.free_head < 0)
-			return PED_EFULL;
+	}
+	if (m > pd->cap) {
+		rc = PED_EFULL;
+		goto cleanup;
+	}
+	for (size_t c = 0; c < pd->ncells; c++)
+		cnt[c + 1] += cnt[c];
+	order = malloc((m ? m : 1) * sizeof *order);
+	if (!order) {
+		rc = PED_ENOMEM;
+		goto cleanup;
+	}
+	for (uint64_t k = 0; k < n; k++) {
+		int32_t c[3];
+		cell_of(pd, &pos[k * (uint64_t)D], c);
+		size_t ci = cidx(pd, c);
+		if (pd->role[ci] != R_FOREIGN)
+			order[cnt[ci]++] = (uint32_t)k;
+	}
+	for (uint64_t q = 0; q < m; q++) {
+		uint64_t k = order[q];
+		int32_t c[3];
+		cell_of(pd, &pos[k * (uint64_t)D], c);
 		int32_t i = pd->s.free_head;
 		pd->s.free_head = pd->rec[i].next;
 		rec_t *p = &pd->rec[i];
@@ -810,8 +867,8 @@ int ped_load(ped_t *pd, uint64_t n, const double *pos, const double *vel)
 		p->tlast = -INFINITY;
 		p->tev = -INFINITY;
 		p->gid = (uint32_t)k;
-		memcpy(p->cc, c, sizeof c);
-		p->own = r >= R_INNER;
+		memcpy(p->cc, c, sizeof p->cc);
+		p->own = pd->role[cidx(pd, c)] >= R_INNER;
 		pd->s.owned += (uint64_t)p->own;
 		cell_insert(pd, i);
 	}
@@ -819,7 +876,10 @@ int ped_load(ped_t *pd, uint64_t n, const double *pos, const double *vel)
 		if (pd->rec[i].own == 1)
 			predict(pd, (int32_t)i);
 	ped_save(pd);
-	return PED_OK;
+cleanup:
+	free(cnt);
+	free(order);
+	return rc;
 }
 
 void ped_save(ped_t *pd)
