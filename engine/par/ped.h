@@ -15,9 +15,10 @@
  *   owns a contiguous Z range and every particle whose cell it owns. It
  *   keeps bitwise copies (ghosts) of the particles in the other ranks' cells
  *   that neighbour its own; ghosts have no events.
- * - Events: an event is a border event if it touches a cell some other
- *   rank sees (a collision with a ghost or a particle in a border cell, a
- *   crossing from or into a border cell); all others are interior.
+ * - Events: an event is a border event if it touches a border cell (an
+ *   own cell next to another rank's), a guard cell (an own cell next to a
+ *   border cell) or a ghost: a collision with a particle there, a crossing
+ *   from or into such a cell. All others are interior.
  * - Round (the driver): (1) apply the messages of the previous round,
  *   (2) process interior events optimistically up to the own next border
  *   event or the barrier B, (3) global min of the error times and of the
@@ -26,10 +27,12 @@
  *   time; if T >= B every event before B is done: sync (save); otherwise the
  *   ranks whose next event lies at T process it (a collision of particles
  *   of two ranks only by the owner of the lower id, which sends the partner
- *   its new state) and send the changed particles to every rank that sees
- *   them. Causality errors: a message brings a new event before the rank's
- *   local time, or changes a particle next to one that already had an
- *   event after the message's time.
+ *   its new state; the other waits for it) and send the changed particles
+ *   to every rank that sees their old or new cell or owns the new one.
+ *   Causality errors: a border event meets a particle that already had a
+ *   later event; a message changes a particle next to an own particle that
+ *   already had an event after the message's time; a message's collision
+ *   counter does not match the receiver's copy.
  * - Exactness: the committed collisions are those of the serial engine from
  *   the same initial state (times to rounding: pair times are computed from
  *   the pair's later reference time, the lower id first). For one rank
