@@ -179,7 +179,7 @@ static void against_serial(int dim, long n, double phi, double e, double tc, dou
 	if (!ok(setup(&S, dim, n, phi, e, tc, cpp) == 0, "%dD N=%ld phi=%g e=%g tc=%g: serial reference run", dim, n, phi, e, tc))
 		return;
 	diag("grid %dx%dx%d, horizon t=%.6g, %zu serial collisions", S.p.nc[0], S.p.nc[1], S.p.nc[2], S.t_end, S.serial.n);
-	const int Ps[] = {1, 2, 4, 8};
+	const int Ps[] = {1, 2, 3, 4, 8, 16};
 	for (size_t q = 0; q < sizeof Ps / sizeof *Ps; q++) {
 		int P = Ps[q];
 		prun_t R;
