@@ -149,6 +149,17 @@ sh "$src/bench/ingest_bench.sh" "$build" "$src" >"$tin"
 # One system over many ranks (issue 14): serial event statistics and the speed-up model (about 45 s CPU).
 tpm=$(mktemp)
 sh "$src/bench/par_model.sh" "$build" >"$tpm"
+# The parallel ED core over MPI against the serial engine (issue 14; minutes: rounds are global collectives).
+tpd=$(mktemp)
+{
+	echo "## Parallel ED core over MPI (issue 14)"
+	echo
+	echo "The exact parallel core (engine/par/ped, docs/parallel.md) against the serial engine on the same initial state"
+	echo "and horizon (the same collisions, checked). bench/ped_bench.sh; wall times on this shared machine."
+	echo
+	sh "$src/bench/ped_bench.sh" "$build" 2 1000000 0.3 0.5
+	sh "$src/bench/ped_bench.sh" "$build" 3 1000000 0.25 0.2
+} >"$tpd"
 
 {
 	echo "# Benchmarks"
@@ -235,7 +246,8 @@ sh "$src/bench/par_model.sh" "$build" >"$tpm"
 	cat "$tin"
 	echo
 	cat "$tpm"
+	cat "$tpd"
 	if [ -f "$src/docs/benchmarks-notes.md" ]; then cat "$src/docs/benchmarks-notes.md"; fi
 } >"$out"
-rm -f "$tdm" "$tin" "$tpe" "$tob" "$tpm"
+rm -f "$tdm" "$tin" "$tpe" "$tob" "$tpm" "$tpd"
 echo "wrote $out"

@@ -699,6 +699,8 @@ static void trace_emit(struct ed *ed, int kind, uint32_t i, int32_t x, double t)
 	ed_trace_t ev;
 	ev.t = ed->epoch + t;
 	ev.kind = kind;
+	ev.i = ed->id[i];
+	ev.j = kind == ED_TRACE_CROSS ? UINT32_MAX : ed->id[x];
 	memcpy(ev.ci, ed->ev[i].cc, sizeof ev.ci);
 	if (kind == ED_TRACE_CROSS) {
 		/* x: the crossing code, 2 axis + (upper face) */

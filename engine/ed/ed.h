@@ -238,6 +238,7 @@ typedef struct {
 	int kind;          /* ED_TRACE_* */
 	int32_t ci[3];     /* cell of the event's particle (before a crossing) */
 	int32_t cj[3];     /* collision / cancelled: the partner's cell; crossing: the cell entered (wrapped) */
+	uint32_t i, j;     /* scene index of the particle and of the partner (UINT32_MAX for a crossing) */
 } ed_trace_t;
 typedef void (*ed_trace_fn)(void *ctx, const ed_trace_t *ev);
 int ed_trace(ed_t *ed, ed_trace_fn fn, void *ctx);

@@ -1,0 +1,1083 @@
+/* Parallel event-driven hard disks/spheres: one rank's share of one periodic system (cells of a Morton range, ghosts, border updates, rollback); pure, no MPI. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "par/decomp.h"
+#include "par/ped.h"
+
+/* Cell roles on a rank: not seen, ghost, own interior, own border (seen by
+ * another rank), own guard (next to a border cell). Events touching
+ * border or guard cells are processed in global time order. */
+enum { R_FOREIGN = 0, R_GHOST = 1, R_INNER = 2, R_BORDER = 3, R_GUARD = 4 };
+
+typedef struct {
+	double r[3], v[3], t, tlast, tev;   /* position at t, velocity, TC time, last event */
+	uint64_t count;                     /* collisions of this particle */
+	uint32_t gid;
+	int32_t cc[3];
+	int32_t next;                       /* cell list link (free list link when free) */
+	int32_t own;                        /* 1 own, 0 ghost, -1 free */
+} rec_t;
+
+typedef struct {
+	double t_coll, t_cross, key;
+	uint64_t pcount;
+	int32_t partner;
+	uint32_t pgid;
+	int32_t cross;                      /* 2 axis + up, -1 none */
+	int32_t pad;
+} pev_t;
+
+/* Calendar entry: the key and the tie-break id kept in the heap itself, so
+ * that sifting reads no particle record. */
+typedef struct {
+	double key;
+	uint32_t gid;
+	int32_t i;
+} hent_t;
+
+/* The part of the state a rollback restores besides the arrays. */
+typedef struct {
+	size_t hn;
+	int32_t free_head;
+	uint64_t collisions, tc_elastic, nlog, owned, events;
+	double lt, virial;
+} scal_t;
+
+struct msgbuf {
+	ped_msg_t *m;
+	size_t n, cap;
+};
+
+struct ped {
+	ped_params_t p;
+	int rank, D;
+	double halfL[3], cw[3], sigma2;
+	size_t ncells, cap;
+	decomp_t *dc;
+	uint8_t *role;
+	int32_t *head, *head_s;
+	rec_t *rec, *rec_s;
+	pev_t *ev, *ev_s;
+	hent_t *heap, *heap_s;
+	int32_t *hpos, *hpos_s;
+	scal_t s, s_saved;
+	double err;
+	uint64_t events_done;
+	struct msgbuf *out;
+	int logging;
+	ped_coll_t *log;
+	size_t logcap;
+	int oom;
+};
+
+/* ---- cells ---------------------------------------------------------------- */
+
+static size_t cidx(const ped_t *pd, const int32_t *c)
+{
+	return ((size_t)c[2] * (size_t)pd->p.nc[1] + (size_t)c[1]) * (size_t)pd->p.nc[0] + (size_t)c[0];
+}
+
+static void cell_insert(ped_t *pd, int32_t i)
+{
+	size_t c = cidx(pd, pd->rec[i].cc);
+	pd->rec[i].next = pd->head[c];
+	pd->head[c] = i;
+}
+
+static void cell_remove(ped_t *pd, int32_t i)
+{
+	int32_t *link = &pd->head[cidx(pd, pd->rec[i].cc)];
+	while (*link != i)
+		link = &pd->rec[*link].next;
+	*link = pd->rec[i].next;
+}
+
+/* The 3^D cells around c (c itself included) into out; returns how many. */
+static int around(const ped_t *pd, const int32_t *c, int32_t out[27][3])
+{
+	int m = 0, zr = pd->D == 3 ? 1 : 0;
+	for (int dz = -zr; dz <= zr; dz++)
+		for (int dy = -1; dy <= 1; dy++)
+			for (int dx = -1; dx <= 1; dx++) {
+				int d[3] = {dx, dy, dz};
+				for (int a = 0; a < 3; a++) {
+					int32_t x = c[a] + (a < pd->D ? d[a] : 0);
+					if (x < 0)
+						x += pd->p.nc[a];
+					else if (x >= pd->p.nc[a])
+						x -= pd->p.nc[a];
+					out[m][a] = x;
+				}
+				m++;
+			}
+	return m;
+}
+
+/* ---- calendar: indexed binary heap over own particles, (time, id) order ---- */
+
+static int hless(const hent_t *a, const hent_t *b)
+{
+	return a->key < b->key || (a->key == b->key && a->gid < b->gid);
+}
+
+static void hswap(ped_t *pd, size_t x, size_t y)
+{
+	hent_t a = pd->heap[x];
+	pd->heap[x] = pd->heap[y];
+	pd->heap[y] = a;
+	pd->hpos[pd->heap[x].i] = (int32_t)x;
+	pd->hpos[pd->heap[y].i] = (int32_t)y;
+}
+
+static void hsift(ped_t *pd, size_t k)
+{
+	while (k > 0 && hless(&pd->heap[k], &pd->heap[(k - 1) / 2])) {
+		hswap(pd, k, (k - 1) / 2);
+		k = (k - 1) / 2;
+	}
+	for (;;) {
+		size_t l = 2 * k + 1, r = l + 1, m = k;
+		if (l < pd->s.hn && hless(&pd->heap[l], &pd->heap[m]))
+			m = l;
+		if (r < pd->s.hn && hless(&pd->heap[r], &pd->heap[m]))
+			m = r;
+		if (m == k)
+			break;
+		hswap(pd, k, m);
+		k = m;
+	}
+}
+
+static void schedule(ped_t *pd, int32_t i)
+{
+	pev_t *e = &pd->ev[i];
+	e->key = e->t_coll <= e->t_cross ? e->t_coll : e->t_cross;
+	if (pd->hpos[i] < 0) {
+		pd->heap[pd->s.hn] = (hent_t){.key = e->key, .gid = pd->rec[i].gid, .i = i};
+		pd->hpos[i] = (int32_t)pd->s.hn++;
+	} else {
+		pd->heap[pd->hpos[i]].key = e->key;
+	}
+	hsift(pd, (size_t)pd->hpos[i]);
+}
+
+static void hremove(ped_t *pd, int32_t i)
+{
+	int32_t k = pd->hpos[i];
+	if (k < 0)
+		return;
+	size_t last = --pd->s.hn;
+	if ((size_t)k != last) {
+		hswap(pd, (size_t)k, last);
+		pd->hpos[i] = -1;
+		hsift(pd, (size_t)k);
+	} else {
+		pd->hpos[i] = -1;
+	}
+}
+
+/* ---- dynamics -------------------------------------------------------------- */
+
+static void advance(rec_t *p, double t)
+{
+	double dt = t - p->t;
+	for (int a = 0; a < 3; a++)
+		p->r[a] += p->v[a] * dt;
+	p->t = t;
+}
+
+/* Earliest contact time of a and b, computed from the later of their
+ * reference times with the lower id first: the same bits on every rank.
+ * INFINITY also when it cannot come before `best` (dt >= c / (-2 b): no
+ * square root for most candidates of a scan; INFINITY: no bound). */
+static double pair_time_b(const ped_t *pd, int32_t ia, int32_t ib, double best)
+{
+	const rec_t *pi = &pd->rec[ia], *pj = &pd->rec[ib];
+	if (pi->gid > pj->gid) {
+		const rec_t *x = pi;
+		pi = pj, pj = x;
+	}
+	double t0 = pi->t > pj->t ? pi->t : pj->t, dr[3] = {0, 0, 0}, dv[3] = {0, 0, 0};
+	for (int a2 = 0; a2 < pd->D; a2++) {
+		double xi = pi->r[a2] + pi->v[a2] * (t0 - pi->t), xj = pj->r[a2] + pj->v[a2] * (t0 - pj->t);
+		double x = xi - xj;
+		if (x > pd->halfL[a2])
+			x -= pd->p.L[a2];
+		else if (x < -pd->halfL[a2])
+			x += pd->p.L[a2];
+		dr[a2] = x;
+		dv[a2] = pi->v[a2] - pj->v[a2];
+	}
+	double b = 0.0, r2 = 0.0, v2 = 0.0;
+	for (int a2 = 0; a2 < pd->D; a2++) {
+		b += dr[a2] * dv[a2];
+		r2 += dr[a2] * dr[a2];
+		v2 += dv[a2] * dv[a2];
+	}
+	double c = r2 - pd->sigma2;
+	if (b >= 0.0)
+		return INFINITY;
+	if (c <= 0.0) {
+		if (b * b <= 1e-20 * v2 * r2)
+			return INFINITY;     /* touching at rounding level: as the serial engine */
+		return t0;
+	}
+	if (!(c < (best - t0) * (-2.0 * b)))
+		return INFINITY;
+	double disc = b * b - v2 * c;
+	if (disc <= 0.0)
+		return INFINITY;
+	return t0 + c / (-b + sqrt(disc));
+}
+
+static double pair_time(const ped_t *pd, int32_t ia, int32_t ib)
+{
+	return pair_time_b(pd, ia, ib, INFINITY);
+}
+
+static void set_cross(ped_t *pd, int32_t i)
+{
+	const rec_t *p = &pd->rec[i];
+	pev_t *e = &pd->ev[i];
+	double best = INFINITY;
+	int code = -1;
+	for (int a = 0; a < pd->D; a++) {
+		double v = p->v[a];
+		if (v == 0.0)
+			continue;
+		int up = v > 0.0;
+		double f = up ? (p->cc[a] + 1 == pd->p.nc[a] ? pd->p.L[a] : (p->cc[a] + 1) * pd->cw[a]) : p->cc[a] * pd->cw[a];
+		double dt = (f - p->r[a]) / v;
+		if (dt < 0.0)
+			dt = 0.0;
+		if (dt < best) {
+			best = dt;
+			code = 2 * a + up;
+		}
+	}
+	e->t_cross = p->t + best;
+	e->cross = code;
+}
+
+/* Earliest collision of own particle i with anything in its 3^D cells. */
+static void scan(ped_t *pd, int32_t i)
+{
+	pev_t *e = &pd->ev[i];
+	int32_t cells[27][3];
+	int m = around(pd, pd->rec[i].cc, cells);
+	double best = INFINITY;
+	int32_t found = -1;
+	for (int k = 0; k < m; k++)
+		for (int32_t j = pd->head[cidx(pd, cells[k])]; j >= 0; j = pd->rec[j].next) {
+			if (j == i)
+				continue;
+			double t = pair_time_b(pd, i, j, best);
+			if (t < best || (t == best && found >= 0 && pd->rec[j].gid < pd->rec[found].gid)) {
+				best = t;
+				found = j;
+			}
+		}
+	e->t_coll = best;
+	e->partner = found;
+	if (found >= 0) {
+		e->pgid = pd->rec[found].gid;
+		e->pcount = pd->rec[found].count;
+	}
+}
+
+static void predict(ped_t *pd, int32_t i)
+{
+	set_cross(pd, i);
+	scan(pd, i);
+	schedule(pd, i);
+}
+
+/* Own particles next to changed ghost g: a collision with it may come
+ * earlier than their own next event. Reports one before the local time. */
+static void ghost_changed(ped_t *pd, int32_t g)
+{
+	int32_t cells[27][3];
+	int m = around(pd, pd->rec[g].cc, cells);
+	for (int k = 0; k < m; k++)
+		for (int32_t p = pd->head[cidx(pd, cells[k])]; p >= 0; p = pd->rec[p].next) {
+			if (pd->rec[p].own != 1)
+				continue;
+			double t = pair_time(pd, p, g);
+			if (t == INFINITY)
+				continue;
+			pev_t *e = &pd->ev[p];
+			if (t < e->t_coll) {
+				e->t_coll = t;
+				e->partner = g;
+				e->pgid = pd->rec[g].gid;
+				e->pcount = pd->rec[g].count;
+				schedule(pd, p);
+			}
+		}
+}
+
+static void collide(ped_t *pd, int32_t a, int32_t b, double t)
+{
+	rec_t *pi = &pd->rec[a], *pj = &pd->rec[b];
+	if (pi->gid > pj->gid) {
+		rec_t *x = pi;
+		pi = pj, pj = x;
+	}
+	advance(pi, t);
+	advance(pj, t);
+	double dr[3] = {0, 0, 0}, dv[3] = {0, 0, 0}, bb = 0.0, r2 = 0.0;
+	for (int k = 0; k < pd->D; k++) {
+		double x = pi->r[k] - pj->r[k];
+		if (x > pd->halfL[k])
+			x -= pd->p.L[k];
+		else if (x < -pd->halfL[k])
+			x += pd->p.L[k];
+		dr[k] = x;
+		dv[k] = pi->v[k] - pj->v[k];
+		bb += x * dv[k];
+		r2 += x * x;
+	}
+	if (bb < 0.0) {
+		double e = pd->p.e;
+		if (pd->p.tc > 0.0) {
+			if (t - pi->tlast < pd->p.tc || t - pj->tlast < pd->p.tc) {
+				e = 1.0;
+				pd->s.tc_elastic++;
+			}
+			pi->tlast = pj->tlast = t;
+		}
+		double f = 0.5 * (1.0 + e) * bb / r2;
+		for (int k = 0; k < pd->D; k++) {
+			pi->v[k] -= f * dr[k];
+			pj->v[k] += f * dr[k];
+		}
+		pd->s.virial -= 0.5 * (1.0 + e) * pd->p.mass * bb;
+	}
+	pi->count++;
+	pj->count++;
+	pi->tev = pj->tev = t;
+	pd->s.collisions++;
+	if (pd->logging) {
+		if (pd->s.nlog == pd->logcap) {
+			size_t nc = pd->logcap ? 2 * pd->logcap : 1024;
+			ped_coll_t *l = realloc(pd->log, nc * sizeof *l);
+			if (!l) {
+				pd->oom = 1;
+				return;
+			}
+			pd->log = l, pd->logcap = nc;
+		}
+		pd->log[pd->s.nlog++] = (ped_coll_t){.t = t, .i = pi->gid, .j = pj->gid};
+	}
+}
+
+/* ---- messages -------------------------------------------------------------- */
+
+static void push(ped_t *pd, int dest, const ped_msg_t *m)
+{
+	struct msgbuf *b = &pd->out[dest];
+	if (b->n == b->cap) {
+		size_t nc = b->cap ? 2 * b->cap : 16;
+		ped_msg_t *x = realloc(b->m, nc * sizeof *x);
+		if (!x) {
+			pd->oom = 1;
+			return;
+		}
+		b->m = x, b->cap = nc;
+	}
+	b->m[b->n++] = *m;
+}
+
+/* Send particle i's state (changed at time tu) to every other rank that sees
+ * its old cell oc or its new cell, or owns the new cell. */
+static void send(ped_t *pd, int32_t i, const int32_t *oc, uint64_t pre_count, double tu)
+{
+	const rec_t *p = &pd->rec[i];
+	ped_msg_t m;
+	memset(&m, 0, sizeof m);
+	memcpy(m.r, p->r, sizeof m.r);
+	memcpy(m.v, p->v, sizeof m.v);
+	m.t = p->t, m.tlast = p->tlast, m.tev = p->tev, m.tu = tu;
+	m.count = p->count, m.pre_count = pre_count, m.gid = p->gid;
+	memcpy(m.cc, p->cc, sizeof m.cc);
+	memcpy(m.oc, oc, sizeof m.oc);
+	int owner = decomp_owner(pd->dc, p->cc);
+	char seen[4096];
+	int P = pd->p.ranks;
+	char *mark = P <= (int)sizeof seen ? seen : calloc((size_t)P, 1);
+	if (!mark) {
+		pd->oom = 1;
+		return;
+	}
+	memset(mark, 0, (size_t)P);
+	int32_t cells[27][3];
+	for (int w = 0; w < 2; w++) {
+		int n = around(pd, w ? p->cc : oc, cells);
+		for (int k = 0; k < n; k++) {
+			int o = decomp_owner(pd->dc, cells[k]);
+			if (o == pd->rank || mark[o])
+				continue;
+			mark[o] = 1;
+			m.apply = o == owner && p->own != 1;
+			push(pd, o, &m);
+		}
+	}
+	if (mark != seen)
+		free(mark);
+}
+
+static void flag(ped_t *pd, double t)
+{
+	if (t < pd->err)
+		pd->err = t;
+}
+
+
+/* ---- events ---------------------------------------------------------------- */
+
+/* 0 interior, 1 border, 2 border but not ours to process (a collision with
+ * a ghost of lower id: its owner processes it and sends the result). */
+static int classify(const ped_t *pd, int32_t i)
+{
+	const pev_t *e = &pd->ev[i];
+	const rec_t *p = &pd->rec[i];
+	int ri = pd->role[cidx(pd, p->cc)];
+	if (e->t_cross < e->t_coll) {
+		int32_t c[3] = {p->cc[0], p->cc[1], p->cc[2]};
+		int a = e->cross >> 1;
+		c[a] += (e->cross & 1) ? 1 : -1;
+		if (c[a] < 0)
+			c[a] += pd->p.nc[a];
+		else if (c[a] >= pd->p.nc[a])
+			c[a] -= pd->p.nc[a];
+		return ri != R_INNER || pd->role[cidx(pd, c)] != R_INNER;
+	}
+	int32_t j = e->partner;
+	if (j < 0 || pd->rec[j].own < 0 || pd->rec[j].gid != e->pgid || pd->rec[j].count != e->pcount)
+		return 0;   /* cancelled */
+	if (pd->rec[j].own == 0)
+		return pd->rec[j].gid < p->gid ? 2 : 1;
+	return ri != R_INNER || pd->role[cidx(pd, pd->rec[j].cc)] != R_INNER;
+}
+
+static void do_cross(ped_t *pd, int32_t i, double t)
+{
+	rec_t *p = &pd->rec[i];
+	pev_t *e = &pd->ev[i];
+	int a = e->cross >> 1, dir = (e->cross & 1) ? 1 : -1;
+	int32_t oc[3] = {p->cc[0], p->cc[1], p->cc[2]};
+	advance(p, t);
+	cell_remove(pd, i);
+	p->cc[a] += dir;
+	if (p->cc[a] >= pd->p.nc[a]) {
+		p->cc[a] = 0;
+		p->r[a] -= pd->p.L[a];
+	} else if (p->cc[a] < 0) {
+		p->cc[a] = pd->p.nc[a] - 1;
+		p->r[a] += pd->p.L[a];
+	}
+	p->tev = t;
+	cell_insert(pd, i);
+	if (pd->role[cidx(pd, p->cc)] >= R_INNER) {
+		predict(pd, i);
+	} else {   /* into another rank's cell: it is theirs now, a ghost here */
+		hremove(pd, i);
+		p->own = 0;
+		pd->s.owned--;
+		ghost_changed(pd, i);   /* the collisions it held with own particles go to them */
+	}
+	int ro = pd->role[cidx(pd, oc)], rn = pd->role[cidx(pd, p->cc)];
+	if (ro == R_BORDER || rn == R_BORDER || rn == R_GHOST)
+		send(pd, i, oc, p->count, t);
+}
+
+/* Carry out own particle i's next event at time t (classified as cls). */
+static void process(ped_t *pd, int32_t i, double t, int cls)
+{
+	pev_t *e = &pd->ev[i];
+	pd->events_done++;
+	pd->s.events++;
+	pd->s.lt = t;
+	if (e->t_cross < e->t_coll) {
+		do_cross(pd, i, t);
+		return;
+	}
+	int32_t j = e->partner;
+	if (j < 0 || pd->rec[j].own < 0 || pd->rec[j].gid != e->pgid || pd->rec[j].count != e->pcount) {
+		scan(pd, i);       /* cancelled: the partner changed course */
+		schedule(pd, i);
+		return;
+	}
+	/* a particle that already had a later event (an interior one run ahead
+	 * of this border event) has a wrong history: causality error */
+	if (pd->rec[i].tev > t || pd->rec[j].tev > t)
+		flag(pd, t);
+	collide(pd, i, j, t);
+	if (pd->rec[j].own == 1) {
+		predict(pd, i);
+		predict(pd, j);
+	} else {
+		predict(pd, i);
+		ghost_changed(pd, j);
+	}
+	if (cls) {
+		int32_t ic[3], jc[3];
+		memcpy(ic, pd->rec[i].cc, sizeof ic);
+		memcpy(jc, pd->rec[j].cc, sizeof jc);
+		if (pd->role[cidx(pd, ic)] == R_BORDER)
+			send(pd, i, ic, pd->rec[i].count - 1, t);
+		if (pd->rec[j].own != 1 || pd->role[cidx(pd, jc)] == R_BORDER)
+			send(pd, j, jc, pd->rec[j].count - 1, t);
+	}
+}
+
+double ped_interior(ped_t *pd, double barrier)
+{
+	while (pd->s.hn > 0) {
+		int32_t i = pd->heap[0].i;
+		double t = pd->heap[0].key;
+		if (!(t < barrier))
+			return INFINITY;
+		int cls = classify(pd, i);
+		if (cls == 2)
+			return INFINITY;   /* waits for the partner's owner (its time for the pair may differ by rounding) */
+		if (cls)
+			return t;
+		process(pd, i, t, 0);
+	}
+	return INFINITY;
+}
+
+int ped_border(ped_t *pd, double T)
+{
+	if (pd->s.hn == 0)
+		return 0;
+	int32_t i = pd->heap[0].i;
+	double t = pd->heap[0].key;
+	if (t > T)
+		return 0;
+	int cls = classify(pd, i);
+	if (cls == 2)
+		return 0;
+	process(pd, i, t, cls);
+	return 1;
+}
+
+double ped_error(const ped_t *pd)
+{
+	return pd->err;
+}
+
+/* ---- receiving ------------------------------------------------------------- */
+
+static int32_t find(const ped_t *pd, const int32_t *c, uint32_t gid)
+{
+	if (pd->role[cidx(pd, c)] == R_FOREIGN)
+		return -1;
+	for (int32_t j = pd->head[cidx(pd, c)]; j >= 0; j = pd->rec[j].next)
+		if (pd->rec[j].gid == gid)
+			return j;
+	return -1;
+}
+
+static int apply(ped_t *pd, const ped_msg_t *m)
+{
+	int32_t k = find(pd, m->oc, m->gid);
+	if (k < 0 && memcmp(m->oc, m->cc, sizeof m->cc))
+		k = find(pd, m->cc, m->gid);
+	if (k >= 0) {
+		if (pd->rec[k].count != m->pre_count)
+			flag(pd, m->tu < pd->rec[k].tev ? m->tu : pd->rec[k].tev);
+		if (pd->rec[k].tev > m->tu)
+			flag(pd, m->tu);
+	}
+	int nr = pd->role[cidx(pd, m->cc)];
+	if (nr == R_FOREIGN) {
+		if (k >= 0) {
+			if (pd->rec[k].own == 1) {
+				hremove(pd, k);
+				pd->s.owned--;
+			}
+			cell_remove(pd, k);
+			pd->rec[k].own = -1;
+			pd->rec[k].next = pd->s.free_head;
+			pd->s.free_head = k;
+		}
+		return PED_OK;
+	}
+	if (k < 0) {
+		if (nr >= R_INNER)
+			flag(pd, m->tu);   /* a particle moving in must have been a ghost here */
+		if (pd->s.free_head < 0)
+			return PED_EFULL;
+		k = pd->s.free_head;
+		pd->s.free_head = pd->rec[k].next;
+		pd->rec[k].own = 0;
+		pd->hpos[k] = -1;
+	} else {
+		cell_remove(pd, k);
+	}
+	rec_t *p = &pd->rec[k];
+	memcpy(p->r, m->r, sizeof p->r);
+	memcpy(p->v, m->v, sizeof p->v);
+	p->t = m->t, p->tlast = m->tlast, p->tev = m->tev, p->count = m->count, p->gid = m->gid;
+	memcpy(p->cc, m->cc, sizeof p->cc);
+	cell_insert(pd, k);
+	/* a neighbour that already had an event after the change may have met it */
+	int32_t cells[27][3];
+	int n = around(pd, p->cc, cells);
+	for (int c = 0; c < n; c++)
+		for (int32_t q = pd->head[cidx(pd, cells[c])]; q >= 0; q = pd->rec[q].next)
+			if (q != k && pd->rec[q].own == 1 && pd->rec[q].tev > m->tu)
+				flag(pd, m->tu);
+	if (nr >= R_INNER) {
+		if (p->own != 1) {
+			p->own = 1;
+			pd->s.owned++;
+		}
+		predict(pd, k);
+	} else {
+		if (p->own == 1) {   /* ours moved into another rank's cell by someone else: inconsistent */
+			hremove(pd, k);
+			pd->s.owned--;
+			p->own = 0;
+			flag(pd, m->tu);
+		}
+		ghost_changed(pd, k);
+	}
+	return PED_OK;
+}
+
+int ped_inbox(ped_t *pd, const ped_msg_t *m, size_t n)
+{
+	for (size_t i = 0; i < n; i++) {
+		int rc = apply(pd, &m[i]);
+		if (rc)
+			return rc;
+	}
+	return pd->oom ? PED_ENOMEM : PED_OK;
+}
+
+const ped_msg_t *ped_outbox(const ped_t *pd, int dest, size_t *n)
+{
+	*n = pd->out[dest].n;
+	return pd->out[dest].m;
+}
+
+void ped_outbox_clear(ped_t *pd)
+{
+	for (int r = 0; r < pd->p.ranks; r++)
+		pd->out[r].n = 0;
+}
+
+/* ---- lifecycle ------------------------------------------------------------- */
+
+void ped_grid(ped_params_t *p, uint64_t n)
+{
+	double vol = 1.0;
+	for (int a = 0; a < p->dim; a++)
+		vol *= p->L[a];
+	double per = p->dim == 2 ? 1.5 : 8.0;
+	double edge = pow(vol / (per * (double)n), 1.0 / p->dim);
+	if (edge < p->sigma)
+		edge = p->sigma;
+	edge *= 1.0 + 1e-9;
+	for (int a = 0; a < 3; a++) {
+		double k = a < p->dim ? floor(p->L[a] / edge) : 1.0;
+		p->nc[a] = k < 1.0 ? 1 : (k > 1e6 ? 1000000 : (int)k);
+	}
+}
+
+void ped_destroy(ped_t *pd)
+{
+	if (!pd)
+		return;
+	decomp_destroy(pd->dc);
+	free(pd->role);
+	free(pd->head);
+	free(pd->head_s);
+	free(pd->rec);
+	free(pd->rec_s);
+	free(pd->ev);
+	free(pd->ev_s);
+	free(pd->heap);
+	free(pd->hpos);
+	free(pd->heap_s);
+	free(pd->hpos_s);
+	if (pd->out)
+		for (int r = 0; r < pd->p.ranks; r++)
+			free(pd->out[r].m);
+	free(pd->out);
+	free(pd->log);
+	free(pd);
+}
+
+ped_t *ped_create(const ped_params_t *p, int rank, size_t capacity, int *err)
+{
+	*err = PED_EINVAL;
+	if ((p->dim != 2 && p->dim != 3) || p->ranks < 1 || rank < 0 || rank >= p->ranks || capacity < 1 ||
+	    capacity > INT32_MAX || !(p->sigma > 0.0) || !(p->mass > 0.0) || !(p->e >= 0.0 && p->e <= 1.0) || !(p->tc >= 0.0))
+		return NULL;
+	for (int a = 0; a < p->dim; a++)
+		if (p->nc[a] < 3 || !(p->L[a] / p->nc[a] >= p->sigma))
+			return NULL;
+	*err = PED_ENOMEM;
+	ped_t *pd = calloc(1, sizeof *pd);
+	if (!pd)
+		return NULL;
+	pd->p = *p;
+	pd->rank = rank;
+	pd->D = p->dim;
+	for (int a = p->dim; a < 3; a++) {
+		pd->p.nc[a] = 1;
+		pd->p.L[a] = 1.0;
+	}
+	for (int a = 0; a < 3; a++) {
+		pd->halfL[a] = 0.5 * pd->p.L[a];
+		pd->cw[a] = pd->p.L[a] / pd->p.nc[a];
+	}
+	pd->sigma2 = p->sigma * p->sigma;
+	pd->ncells = (size_t)pd->p.nc[0] * (size_t)pd->p.nc[1] * (size_t)pd->p.nc[2];
+	pd->cap = capacity;
+	pd->err = INFINITY;
+	int periodic[3] = {1, 1, 1}, derr;
+	pd->dc = decomp_create(pd->D, pd->p.nc, periodic, p->ranks, &derr);
+	pd->role = calloc(pd->ncells, 1);
+	pd->head = malloc(pd->ncells * sizeof *pd->head);
+	pd->head_s = malloc(pd->ncells * sizeof *pd->head);
+	pd->rec = calloc(capacity, sizeof *pd->rec);
+	pd->rec_s = malloc(capacity * sizeof *pd->rec);
+	pd->ev = calloc(capacity, sizeof *pd->ev);
+	pd->ev_s = malloc(capacity * sizeof *pd->ev);
+	pd->heap = malloc(capacity * sizeof *pd->heap);
+	pd->hpos = malloc(capacity * sizeof *pd->hpos);
+	pd->heap_s = malloc(capacity * sizeof *pd->heap);
+	pd->hpos_s = malloc(capacity * sizeof *pd->hpos);
+	pd->out = calloc((size_t)p->ranks, sizeof *pd->out);
+	if (!pd->dc || !pd->role || !pd->head || !pd->head_s || !pd->rec || !pd->rec_s || !pd->ev || !pd->ev_s ||
+	    !pd->heap || !pd->hpos || !pd->heap_s || !pd->hpos_s || !pd->out) {
+		if (!pd->dc && derr == DECOMP_EINVAL)
+			*err = PED_EINVAL;
+		ped_destroy(pd);
+		return NULL;
+	}
+	decomp_rank_t v;
+	if (decomp_rank_build(pd->dc, rank, &v) != DECOMP_OK) {
+		ped_destroy(pd);
+		return NULL;
+	}
+	int32_t c[3];
+	for (size_t k = 0; k < v.ncells; k++)
+		if (decomp_cell(pd->dc, v.cells[k], c))
+			pd->role[cidx(pd, c)] = R_INNER;
+	for (size_t k = 0; k < v.nborder; k++)
+		if (decomp_cell(pd->dc, v.border[k], c))
+			pd->role[cidx(pd, c)] = R_BORDER;
+	for (size_t k = 0; k < v.nghost; k++)
+		if (decomp_cell(pd->dc, v.ghost[k], c))
+			pd->role[cidx(pd, c)] = R_GHOST;
+	decomp_rank_free(&v);
+	for (size_t k = 0; k < pd->ncells; k++) {
+		if (pd->role[k] != R_INNER)
+			continue;
+		c[0] = (int32_t)(k % (size_t)pd->p.nc[0]);
+		c[1] = (int32_t)(k / (size_t)pd->p.nc[0] % (size_t)pd->p.nc[1]);
+		c[2] = (int32_t)(k / ((size_t)pd->p.nc[0] * (size_t)pd->p.nc[1]));
+		int32_t nb[27][3];
+		int m = around(pd, c, nb);
+		for (int q = 0; q < m; q++)
+			if (pd->role[cidx(pd, nb[q])] == R_BORDER)
+				pd->role[k] = R_GUARD;
+	}
+	for (size_t k = 0; k < pd->ncells; k++)
+		pd->head[k] = -1;
+	for (size_t k = 0; k < capacity; k++) {
+		pd->rec[k].own = -1;
+		pd->rec[k].next = k + 1 < capacity ? (int32_t)(k + 1) : -1;
+		pd->hpos[k] = -1;
+	}
+	pd->s.free_head = 0;
+	pd->s.lt = 0.0;
+	*err = PED_OK;
+	return pd;
+}
+
+static void cell_of(const ped_t *pd, const double *x, int32_t *c)
+{
+	c[0] = c[1] = c[2] = 0;
+	for (int a = 0; a < pd->D; a++) {
+		int32_t q = (int32_t)floor(x[a] / pd->cw[a]);
+		c[a] = q < 0 ? 0 : (q >= pd->p.nc[a] ? pd->p.nc[a] - 1 : q);
+	}
+}
+
+int ped_load(ped_t *pd, uint64_t n, const double *pos, const double *vel)
+{
+	const int D = pd->D;
+	/* the particles of the rank's cells, stored in cell order (neighbours
+	 * close in memory), ties in id order: a counting sort over the cells */
+	uint32_t *cnt = calloc(pd->ncells + 1, sizeof *cnt);
+	uint32_t *order = NULL;
+	uint64_t m = 0;
+	int rc = PED_OK;
+	if (!cnt)
+		return PED_ENOMEM;
+	for (uint64_t k = 0; k < n; k++) {
+		int32_t c[3];
+		cell_of(pd, &pos[k * (uint64_t)D], c);
+		size_t ci = cidx(pd, c);
+		if (pd->role[ci] != R_FOREIGN) {
+			cnt[ci + 1]++;
+			m++;
+		}
+	}
+	if (m > pd->cap) {
+		rc = PED_EFULL;
+		goto cleanup;
+	}
+	for (size_t c = 0; c < pd->ncells; c++)
+		cnt[c + 1] += cnt[c];
+	order = malloc((m ? m : 1) * sizeof *order);
+	if (!order) {
+		rc = PED_ENOMEM;
+		goto cleanup;
+	}
+	for (uint64_t k = 0; k < n; k++) {
+		int32_t c[3];
+		cell_of(pd, &pos[k * (uint64_t)D], c);
+		size_t ci = cidx(pd, c);
+		if (pd->role[ci] != R_FOREIGN)
+			order[cnt[ci]++] = (uint32_t)k;
+	}
+	for (uint64_t q = 0; q < m; q++) {
+		uint64_t k = order[q];
+		int32_t c[3];
+		cell_of(pd, &pos[k * (uint64_t)D], c);
+		int32_t i = pd->s.free_head;
+		pd->s.free_head = pd->rec[i].next;
+		rec_t *p = &pd->rec[i];
+		memset(p, 0, sizeof *p);
+		for (int a = 0; a < D; a++) {
+			p->r[a] = pos[k * (uint64_t)D + (uint64_t)a];
+			p->v[a] = vel[k * (uint64_t)D + (uint64_t)a];
+		}
+		p->t = 0.0;
+		p->tlast = -INFINITY;
+		p->tev = -INFINITY;
+		p->gid = (uint32_t)k;
+		memcpy(p->cc, c, sizeof p->cc);
+		p->own = pd->role[cidx(pd, c)] >= R_INNER;
+		pd->s.owned += (uint64_t)p->own;
+		cell_insert(pd, i);
+	}
+	for (size_t i = 0; i < pd->cap; i++)
+		if (pd->rec[i].own == 1)
+			predict(pd, (int32_t)i);
+	ped_save(pd);
+cleanup:
+	free(cnt);
+	free(order);
+	return rc;
+}
+
+void ped_save(ped_t *pd)
+{
+	memcpy(pd->rec_s, pd->rec, pd->cap * sizeof *pd->rec);
+	memcpy(pd->ev_s, pd->ev, pd->cap * sizeof *pd->ev);
+	memcpy(pd->heap_s, pd->heap, pd->s.hn * sizeof *pd->heap);
+	memcpy(pd->hpos_s, pd->hpos, pd->cap * sizeof *pd->hpos);
+	memcpy(pd->head_s, pd->head, pd->ncells * sizeof *pd->head);
+	pd->s_saved = pd->s;
+	pd->err = INFINITY;
+}
+
+void ped_restore(ped_t *pd)
+{
+	pd->s = pd->s_saved;
+	memcpy(pd->rec, pd->rec_s, pd->cap * sizeof *pd->rec);
+	memcpy(pd->ev, pd->ev_s, pd->cap * sizeof *pd->ev);
+	memcpy(pd->heap, pd->heap_s, pd->s.hn * sizeof *pd->heap);
+	memcpy(pd->hpos, pd->hpos_s, pd->cap * sizeof *pd->hpos);
+	memcpy(pd->head, pd->head_s, pd->ncells * sizeof *pd->head);
+	pd->err = INFINITY;
+	ped_outbox_clear(pd);
+}
+
+void ped_totals(const ped_t *pd, ped_totals_t *out)
+{
+	memset(out, 0, sizeof *out);
+	out->collisions = pd->s.collisions;
+	out->tc_elastic = pd->s.tc_elastic;
+	out->events_done = pd->events_done;
+	out->events = pd->s.events;
+	out->owned = pd->s.owned;
+	out->virial = pd->s.virial;
+	for (size_t i = 0; i < pd->cap; i++) {
+		const rec_t *p = &pd->rec[i];
+		if (p->own != 1)
+			continue;
+		for (int a = 0; a < pd->D; a++) {
+			out->ekin += 0.5 * pd->p.mass * p->v[a] * p->v[a];
+			out->mom[a] += pd->p.mass * p->v[a];
+		}
+	}
+}
+
+void ped_log_on(ped_t *pd)
+{
+	pd->logging = 1;
+}
+
+const ped_coll_t *ped_log(const ped_t *pd, size_t *n)
+{
+	*n = pd->s.nlog;
+	return pd->log;
+}
+
+void ped_owned(const ped_t *pd, double t, uint32_t *gid, double *pos, double *vel)
+{
+	size_t m = 0;
+	for (size_t i = 0; i < pd->cap; i++) {
+		const rec_t *p = &pd->rec[i];
+		if (p->own != 1)
+			continue;
+		if (gid)
+			gid[m] = p->gid;
+		for (int a = 0; a < pd->D; a++) {
+			if (pos) {
+				double x = fmod(p->r[a] + p->v[a] * (t - p->t), pd->p.L[a]);
+				if (x < 0.0)
+					x += pd->p.L[a];
+				if (x >= pd->p.L[a])
+					x = 0.0;
+				pos[m * (size_t)pd->D + (size_t)a] = x;
+			}
+			if (vel)
+				vel[m * (size_t)pd->D + (size_t)a] = p->v[a];
+		}
+		m++;
+	}
+}
+
+/* ---- drivers --------------------------------------------------------------- */
+
+void ped_sched_init(ped_sched_t *s, double t_end, double sync_dt)
+{
+	memset(s, 0, sizeof *s);
+	s->t_end = t_end;
+	s->sync_dt = sync_dt;
+	s->barrier = sync_dt < t_end ? sync_dt : t_end;
+	s->st.sync_dt = sync_dt;
+}
+
+int ped_sched(ped_sched_t *s, double E, double T)
+{
+	s->st.rounds++;
+	if (E < INFINITY) {
+		s->st.rollbacks++;
+		s->barrier = E;
+		s->sync_dt *= 0.5;
+		s->st.sync_dt = s->sync_dt;
+		return 1;
+	}
+	if (T == INFINITY) {
+		s->st.syncs++;
+		if (s->barrier >= s->t_end)
+			return 3;
+		s->sync_dt *= 1.1;
+		s->st.sync_dt = s->sync_dt;
+		s->barrier = s->barrier + s->sync_dt < s->t_end ? s->barrier + s->sync_dt : s->t_end;
+		return 2;
+	}
+	return 0;
+}
+
+
+int ped_sim_run(ped_t **pd, int P, double t_end, double sync_dt, int force_every, ped_stats_t *st)
+{
+	ped_sched_t s;
+	ped_sched_init(&s, t_end, sync_dt);
+	struct msgbuf *in = calloc((size_t)P, sizeof *in);
+	double t_sync = 0.0;
+	int rc = PED_OK;
+	if (!in)
+		return PED_ENOMEM;
+	for (;;) {
+		for (int r = 0; r < P; r++) {
+			rc = ped_inbox(pd[r], in[r].m, in[r].n);
+			in[r].n = 0;
+			if (rc)
+				goto cleanup;
+		}
+		double E = INFINITY, T = INFINITY;
+		for (int r = 0; r < P; r++) {
+			double tb = ped_interior(pd[r], s.barrier);
+			T = tb < T ? tb : T;
+		}
+		for (int r = 0; r < P; r++) {
+			double e = ped_error(pd[r]);
+			E = e < E ? e : E;
+		}
+		if (force_every > 0 && E == INFINITY && T < INFINITY && T > t_sync && (s.st.rounds + 1) % (uint64_t)force_every == 0)
+			E = t_sync + 0.5 * (T - t_sync);
+		double bprev = s.barrier;
+		int act = ped_sched(&s, E, T);
+		if (act == 1) {
+			if (!(E > t_sync)) {
+				rc = PED_ESTALL;   /* an error at the sync itself: no progress possible */
+				goto cleanup;
+			}
+			for (int r = 0; r < P; r++)
+				ped_restore(pd[r]);
+			continue;
+		}
+		if (act >= 2) {
+			t_sync = bprev;
+			if (act == 3)
+				break;
+			for (int r = 0; r < P; r++)
+				ped_save(pd[r]);
+			continue;
+		}
+		int any = 0;
+		for (int r = 0; r < P; r++)
+			any |= ped_border(pd[r], T);
+		size_t nmsg = 0;
+		for (int r = 0; r < P; r++) {
+			for (int d = 0; d < P; d++) {
+				size_t n;
+				const ped_msg_t *m = ped_outbox(pd[r], d, &n);
+				for (size_t k = 0; k < n; k++) {
+					struct msgbuf *b = &in[d];
+					if (b->n == b->cap) {
+						size_t nc = b->cap ? 2 * b->cap : 16;
+						ped_msg_t *x = realloc(b->m, nc * sizeof *x);
+						if (!x) {
+							rc = PED_ENOMEM;
+							goto cleanup;
+						}
+						b->m = x, b->cap = nc;
+					}
+					b->m[b->n++] = m[k];
+				}
+				nmsg += n > 0;
+				s.st.bytes += n * sizeof(ped_msg_t);
+			}
+			ped_outbox_clear(pd[r]);
+		}
+		s.st.messages += nmsg;
+		if (!any && nmsg == 0) {
+			rc = PED_ESTALL;
+			goto cleanup;
+		}
+	}
+cleanup:
+	for (int r = 0; r < P; r++)
+		free(in[r].m);
+	free(in);
+	if (st)
+		*st = s.st;
+	return rc;
+}

@@ -1,0 +1,137 @@
+/* Parallel event-driven hard disks/spheres: one rank's share of one periodic system (cells of a Morton range, ghosts, border updates, rollback); pure, no MPI. */
+#pragma once
+
+#include <stddef.h>
+#include <stdint.h>
+
+/*
+ * Contract (issue 14, first slice; docs/parallel.md "The parallel ED engine")
+ * - Scope: periodic box, one species, smooth particles, constant normal
+ *   restitution e with the TC model (tc >= 0; 0 = off). Nothing else.
+ * - Pure computation: no MPI, no I/O, no globals. Every rank holds one
+ *   ped_t; a driver (ped_sim_run() below for P ranks in one process, or
+ *   pedmpi.c over MPI) moves the messages and the two reductions per round.
+ * - Decomposition: the cell grid numbered in Morton order (decomp.h), rank r
+ *   owns a contiguous Z range and every particle whose cell it owns. It
+ *   keeps bitwise copies (ghosts) of the particles in the other ranks' cells
+ *   that neighbour its own; ghosts have no events.
+ * - Events: an event is a border event if it touches a border cell (an
+ *   own cell next to another rank's), a guard cell (an own cell next to a
+ *   border cell) or a ghost: a collision with a particle there, a crossing
+ *   from or into such a cell. All others are interior.
+ * - Round (the driver): (1) apply the messages of the previous round,
+ *   (2) process interior events optimistically up to the own next border
+ *   event or the barrier B, (3) global min of the error times and of the
+ *   next border event times T, (4) on an error all ranks restore the state
+ *   saved at the last sync and run again with the barrier at the error
+ *   time; if T >= B every event before B is done: sync (save); otherwise the
+ *   ranks whose next event lies at T process it (a collision of particles
+ *   of two ranks only by the owner of the lower id, which sends the partner
+ *   its new state; the other waits for it) and send the changed particles
+ *   to every rank that sees their old or new cell or owns the new one.
+ *   Causality errors: a border event meets a particle that already had a
+ *   later event; a message changes a particle next to an own particle that
+ *   already had an event after the message's time; a message's collision
+ *   counter does not match the receiver's copy.
+ * - Exactness: the committed collisions are those of the serial engine from
+ *   the same initial state (times to rounding: pair times are computed from
+ *   the pair's later reference time, the lower id first). For one rank
+ *   count a run is bit for bit reproducible, and independent of where the
+ *   syncs and rollbacks fall.
+ * - Memory per rank: particles of its cells and ghosts (fixed capacity),
+ *   one saved copy, and a per-cell role byte and head index over the whole
+ *   grid (O(cells), not O(N/P): a known limitation of this slice).
+ */
+
+enum { PED_OK = 0, PED_ENOMEM = -1, PED_EINVAL = -2, PED_EFULL = -3, PED_ESTALL = -4 };
+
+typedef struct {
+	int dim;            /* 2 or 3 */
+	double L[3];        /* box edges */
+	double sigma;       /* diameter */
+	double mass;
+	double e;           /* normal restitution */
+	double tc;          /* TC model time, 0 = off */
+	int nc[3];          /* cells per axis, each >= 3, edge >= sigma */
+	int ranks;
+} ped_params_t;
+
+/* A changed particle as sent to a rank that sees it. */
+typedef struct {
+	double r[3], v[3], t, tlast, tev, tu;  /* state (tev: its last event), time of the change */
+	uint64_t count, pre_count;             /* collision counter after and before the change */
+	uint32_t gid;                          /* particle id (scene order) */
+	int32_t cc[3], oc[3];                  /* cell after and before */
+	int32_t apply;                         /* 1: the receiver owns it (a collision made by another rank) */
+} ped_msg_t;
+
+typedef struct {
+	double t;            /* collision time */
+	uint32_t i, j;       /* ids, i < j */
+} ped_coll_t;
+
+typedef struct ped ped_t;
+
+/* Cell grid as the serial engine would choose for N particles (edge >= sigma,
+ * about 1.5 cells per particle in 2D, 8 in 3D). */
+void ped_grid(ped_params_t *p, uint64_t n);
+
+/* Rank `rank` of p->ranks: NULL with *err set on bad input or no memory.
+ * capacity: most particles (own + ghosts) the rank may hold. */
+ped_t *ped_create(const ped_params_t *p, int rank, size_t capacity, int *err);
+void ped_destroy(ped_t *pd);
+
+/* Take the particles of the own and ghost cells from the whole initial
+ * state (n particles, positions in the box, velocities; n*dim doubles each,
+ * time 0) and save it as the first sync. */
+int ped_load(ped_t *pd, uint64_t n, const double *pos, const double *vel);
+
+/* Round steps (see the contract). */
+int ped_inbox(ped_t *pd, const ped_msg_t *m, size_t n);   /* PED_OK or PED_EFULL */
+double ped_interior(ped_t *pd, double barrier);          /* next border event time, INFINITY if none before barrier */
+double ped_error(const ped_t *pd);                        /* earliest causality error this section, INFINITY if none */
+int ped_border(ped_t *pd, double T);                      /* 1 if it processed an event at T */
+const ped_msg_t *ped_outbox(const ped_t *pd, int dest, size_t *n);
+void ped_outbox_clear(ped_t *pd);
+void ped_save(ped_t *pd);
+void ped_restore(ped_t *pd);
+
+/* Totals of this rank: committed collisions it logged (each collision is
+ * logged by exactly one rank), TC-elastic ones among them, committed events
+ * (collisions, crossings and cancelled predictions it processed; a
+ * collision of two ranks' particles counts on the rank that made it), events
+ * it processed including those later rolled back (work done), particles it
+ * owns. */
+typedef struct {
+	uint64_t collisions, tc_elastic, events, events_done, owned;
+	double ekin, mom[3], virial;
+} ped_totals_t;
+void ped_totals(const ped_t *pd, ped_totals_t *out);
+/* Collision log (committed and since-last-sync ones, in processing order),
+ * on only with ped_log_on(). */
+void ped_log_on(ped_t *pd);
+const ped_coll_t *ped_log(const ped_t *pd, size_t *n);
+/* Owned particles: ids and positions/velocities (at their own times moved to
+ * time t) into caller arrays of ped_totals().owned entries. */
+void ped_owned(const ped_t *pd, double t, uint32_t *gid, double *pos, double *vel);
+
+/* Driver statistics. */
+typedef struct {
+	uint64_t rounds, syncs, rollbacks, messages, bytes;
+	double sync_dt;        /* current sync interval */
+} ped_stats_t;
+
+/* Driver decision shared by the in-process and MPI drivers: after the
+ * reduction of a round (E = min error time, T = min next border time),
+ * returns 0: process border events at T; 1: rollback (barrier set to E);
+ * 2: sync reached (save; barrier advanced); 3: done (t_end reached). */
+typedef struct {
+	double barrier, t_end, sync_dt;
+	ped_stats_t st;
+} ped_sched_t;
+void ped_sched_init(ped_sched_t *s, double t_end, double sync_dt);
+int ped_sched(ped_sched_t *s, double E, double T);
+
+/* P ranks in one process (tests): runs pd[0..P-1] to t_end. force_every > 0
+ * injects a rollback every force_every rounds (barrier halfway to T). */
+int ped_sim_run(ped_t **pd, int P, double t_end, double sync_dt, int force_every, ped_stats_t *st);
