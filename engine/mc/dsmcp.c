@@ -1,0 +1,642 @@
+/* DSMC of one system decomposed over ranks in slabs of cell planes: free flight, migrants packed, cell-keyed collisions, exact sums. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <stdio.h>
+
+#include "dsmcp.h"
+#include "rng.h"
+
+#define PI 3.14159265358979323846
+
+struct dsmcp {
+	int dim, rank, ranks;
+	uint32_t n;                    /* particles in the whole system */
+	double L[3], inv_h[3];
+	int nc[3];
+	size_t plane;                  /* cells per plane of the last axis */
+	int p0, p1;                    /* own planes */
+	size_t c0, c1;                 /* own cells [c0, c1) (global indices) */
+	int *owner;                    /* owner rank of each plane of the last axis */
+	double sigma, mass, e, chi, sigma_t, vcell, fcoef, cps, dt_fixed;
+	int cba;
+	uint64_t key;                  /* (seed, stream) mixed: base of the cell keys */
+	double escale;                 /* fixed-point scale of the energy sums (a power of two) */
+
+	/* own particles: AoS x[D] v[D], identities; scratch of the same size */
+	size_t nl, cap;
+	double *p, *p2;
+	uint64_t *id, *id2;
+	uint32_t *cell;                /* local cell (cell - c0) of each record */
+	uint32_t *start, *cnt;         /* own cells + 1 */
+	float *rem;                    /* NTC remainder per own cell */
+	/* migrants */
+	double *out;
+	size_t out_cap, *out_cnt, *out_pos;
+
+	/* global, after dsmcp_finish() */
+	double t, ekin;
+	uint64_t steps, collisions, candidates, vmax_raised, migrated, moves;
+	uint64_t step_migr;            /* this rank's migrants in the current step */
+};
+
+/* ---- keyed random numbers --------------------------------------------------- */
+
+static inline uint64_t mix64(uint64_t z)
+{
+	z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+	z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+	return z ^ (z >> 31);
+}
+
+/* A xoshiro256** state for (key, step, cell): two rounds of the splitmix
+ * finaliser over the three words, then splitmix64 to fill the state (as
+ * rng_init()); the all-zero state cannot occur. */
+static inline void cell_rng(rng_t *r, uint64_t key, uint64_t step, uint64_t cell)
+{
+	uint64_t x = mix64(key ^ mix64(step * 0x9e3779b97f4a7c15ull + 0x632be59bd9b4e019ull));
+	x = mix64(x ^ (cell * 0xd1b54a32d192ed03ull + 0x8cb92ba72f3d8dd7ull));
+	for (int i = 0; i < 4; i++) {
+		uint64_t z = (x += 0x9e3779b97f4a7c15ull);
+		r->s[i] = mix64(z);
+	}
+}
+
+static inline double wrap(double x, double L)
+{
+	if (x >= L || x < 0) {
+		x -= L * floor(x / L);
+		if (x >= L || x < 0)
+			x = 0;
+	}
+	return x;
+}
+
+static inline size_t cell_at(const struct dsmcp *d, const double *x)
+{
+	size_t c = 0;
+	for (int a = d->dim - 1; a >= 0; a--) {
+		int ix = (int)(x[a] * d->inv_h[a]);
+		if (ix >= d->nc[a])
+			ix = d->nc[a] - 1;
+		c = c * (size_t)d->nc[a] + (size_t)ix;
+	}
+	return c;
+}
+
+/* ---- set-up ------------------------------------------------------------------- */
+
+int dsmcp_check(const scene_t *s, char *msg, size_t msglen)
+{
+	const char *key = NULL, *why = NULL;
+	if (s->method == SCENE_METHOD_HSMC)
+		key = "method", why = "hsmc over several ranks is not supported yet (run dsmc, or one rank)";
+	else if (s->method != SCENE_METHOD_DSMC)
+		key = "method", why = "a decomposed run needs method dsmc";
+	else if (scene_has_walls(s))
+		key = "boundaries", why = "walls over several ranks are not supported yet (periodic box only)";
+	else if (scene_has_gravity(s))
+		key = "gravity", why = "gravity over several ranks is not supported yet";
+	else if (s->n_obstacles > 0)
+		key = "obstacles", why = "obstacles over several ranks are not supported yet";
+	else if (scene_has_species(s))
+		key = "particles.species", why = "mixtures over several ranks are not supported yet";
+	else if (s->mc_local_chi)
+		key = "dsmc.contact_value", why = "\"local\" over several ranks is not supported yet (use \"global\")";
+	else if (s->mc_impact_n > 0)
+		key = "dsmc.impact_c", why = "impact_c over several ranks is not supported yet";
+	else if (s->count > UINT32_MAX)
+		key = "particles.count", why = "at most 2^32 - 1 particles";
+	if (!key)
+		return DSMCP_OK;
+	if (msg && msglen)
+		snprintf(msg, msglen, "%s: %s", key, why);
+	return DSMCP_EINVAL;
+}
+
+/* Room for cap particles. */
+static int reserve(struct dsmcp *d, size_t cap)
+{
+	if (cap <= d->cap)
+		return DSMCP_OK;
+	cap = cap + cap / 4 + 64;
+	const size_t S = 2 * (size_t)d->dim;
+	double *p = realloc(d->p, cap * S * sizeof(double));
+	if (p)
+		d->p = p;
+	double *p2 = realloc(d->p2, cap * S * sizeof(double));
+	if (p2)
+		d->p2 = p2;
+	uint64_t *id = realloc(d->id, cap * sizeof(uint64_t));
+	if (id)
+		d->id = id;
+	uint64_t *id2 = realloc(d->id2, cap * sizeof(uint64_t));
+	if (id2)
+		d->id2 = id2;
+	uint32_t *cell = realloc(d->cell, cap * sizeof(uint32_t));
+	if (cell)
+		d->cell = cell;
+	if (!p || !p2 || !id || !id2 || !cell)
+		return DSMCP_ENOMEM;
+	d->cap = cap;
+	return DSMCP_OK;
+}
+
+/* Exact energy sum of the own cells (positions sorted): per cell a double
+ * sum in identity order, rounded once to the fixed point; 4 limbs. */
+static void energy_limbs(const struct dsmcp *d, uint64_t *limb)
+{
+	const int D = d->dim, S = 2 * D;
+	unsigned __int128 acc = 0;
+	const size_t nown = d->c1 - d->c0;
+	for (size_t c = 0; c < nown; c++) {
+		double e = 0;
+		for (uint32_t k = d->start[c]; k < d->start[c + 1]; k++)
+			for (int a = 0; a < D; a++) {
+				double v = d->p[(size_t)k * S + D + a];
+				e += v * v;
+			}
+		if (e > 0)
+			acc += (unsigned __int128)(0.5 * d->mass * e * d->escale);
+	}
+	for (int i = 0; i < 4; i++)
+		limb[i] = (uint64_t)(acc >> (32 * i)) & 0xffffffffu;
+}
+
+static double limbs_energy(const struct dsmcp *d, const uint64_t *limb)
+{
+	unsigned __int128 acc = 0;
+	for (int i = 3; i >= 0; i--)
+		acc = (acc << 32) + limb[i];   /* limbs may exceed 32 bits after summing: carries propagate */
+	return (double)acc / d->escale;
+}
+
+/* Counting sort of the own records into cells (d->cell set), then each
+ * cell's records in identity order (insertion sort: a few per cell). */
+static void sort_cells(struct dsmcp *d)
+{
+	const int D = d->dim, S = 2 * D;
+	const size_t nown = d->c1 - d->c0;
+	memset(d->cnt, 0, (nown + 1) * sizeof(uint32_t));
+	for (size_t k = 0; k < d->nl; k++)
+		d->cnt[d->cell[k]]++;
+	uint32_t acc = 0;
+	for (size_t c = 0; c < nown; c++) {
+		uint32_t k = d->cnt[c];
+		d->start[c] = d->cnt[c] = acc;
+		acc += k;
+	}
+	d->start[nown] = acc;
+	for (size_t k = 0; k < d->nl; k++) {
+		uint32_t j = d->cnt[d->cell[k]]++;
+		memcpy(&d->p2[(size_t)j * S], &d->p[k * S], S * sizeof(double));
+		d->id2[j] = d->id[k];
+	}
+	double *tp = d->p;
+	d->p = d->p2;
+	d->p2 = tp;
+	uint64_t *ti = d->id;
+	d->id = d->id2;
+	d->id2 = ti;
+	for (size_t c = 0; c < nown; c++) {
+		for (uint32_t k = d->start[c] + 1; k < d->start[c + 1]; k++) {
+			uint64_t key = d->id[k];
+			if (d->id[k - 1] <= key)
+				continue;
+			double rec[6];
+			memcpy(rec, &d->p[(size_t)k * S], S * sizeof(double));
+			uint32_t j = k;
+			while (j > d->start[c] && d->id[j - 1] > key) {
+				memcpy(&d->p[(size_t)j * S], &d->p[(size_t)(j - 1) * S], S * sizeof(double));
+				d->id[j] = d->id[j - 1];
+				j--;
+			}
+			memcpy(&d->p[(size_t)j * S], rec, S * sizeof(double));
+			d->id[j] = key;
+		}
+	}
+	for (size_t c = 0; c < nown; c++)
+		for (uint32_t k = d->start[c]; k < d->start[c + 1]; k++)
+			d->cell[k] = (uint32_t)c;
+}
+
+dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int rank, int ranks, int *err,
+                      char *msg, size_t msglen)
+{
+	struct dsmcp *d = NULL;
+	double *pos = NULL, *vel = NULL;
+	*err = DSMCP_EINVAL;
+	if (msg && msglen)
+		msg[0] = '\0';
+	if (ranks < 1 || rank < 0 || rank >= ranks) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "run: rank %d of %d", rank, ranks);
+		goto fail;
+	}
+	if (dsmcp_check(s, msg, msglen) != DSMCP_OK)
+		goto fail;
+	dsmc_geom_t g;
+	dsmc_geometry(init, &g);
+	if (g.hsmc || g.mix || g.bounded || g.local_chi || g.impact) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "method: the scene uses a feature the decomposed dsmc does not support");
+		goto fail;
+	}
+	*err = DSMCP_ENOMEM;
+	d = calloc(1, sizeof *d);
+	if (!d)
+		goto fail;
+	const int D = g.dim, S = 2 * D;
+	d->dim = D;
+	d->rank = rank;
+	d->ranks = ranks;
+	d->n = g.n;
+	d->plane = 1;
+	for (int a = 0; a < 3; a++) {
+		d->L[a] = g.L[a];
+		d->nc[a] = g.nc[a];
+		d->inv_h[a] = g.nc[a] / g.L[a];
+		if (a < D - 1)
+			d->plane *= (size_t)g.nc[a];
+	}
+	const int nz = g.nc[D - 1];
+	d->p0 = (int)((int64_t)rank * nz / ranks);
+	d->p1 = (int)((int64_t)(rank + 1) * nz / ranks);
+	d->c0 = (size_t)d->p0 * d->plane;
+	d->c1 = (size_t)d->p1 * d->plane;
+	d->owner = malloc((size_t)nz * sizeof(int));
+	if (!d->owner)
+		goto fail;
+	for (int r = 0; r < ranks; r++)
+		for (int z = (int)((int64_t)r * nz / ranks); z < (int)((int64_t)(r + 1) * nz / ranks); z++)
+			d->owner[z] = r;
+	d->sigma = g.sigma;
+	d->mass = g.mass;
+	d->e = g.e;
+	d->chi = g.chi;
+	d->sigma_t = g.sigma_t;
+	d->vcell = g.vcell;
+	d->fcoef = g.fcoef;
+	d->cps = g.cps;
+	d->dt_fixed = g.dt_fixed;
+	d->cba = g.cba;
+	d->key = mix64(s->seed ^ mix64(0xa0761d6478bd642full * (stream + 1)));
+
+	const size_t nown = d->c1 - d->c0;
+	d->start = calloc(nown + 1, sizeof(uint32_t));
+	d->cnt = calloc(nown + 1, sizeof(uint32_t));
+	d->rem = malloc((nown ? nown : 1) * sizeof(float));
+	d->out_cnt = calloc((size_t)ranks, sizeof(size_t));
+	d->out_pos = calloc((size_t)ranks, sizeof(size_t));
+	pos = malloc((size_t)g.n * D * sizeof(double));
+	vel = malloc((size_t)g.n * D * sizeof(double));
+	if (!d->start || !d->cnt || !d->rem || !d->out_cnt || !d->out_pos || !pos || !vel)
+		goto fail;
+	dsmc_state(init, pos, vel);
+	size_t mine = 0;
+	for (uint32_t i = 0; i < g.n; i++) {
+		size_t c = cell_at(d, &pos[(size_t)i * D]);
+		mine += c >= d->c0 && c < d->c1;
+	}
+	if (reserve(d, mine) != DSMCP_OK)
+		goto fail;
+	for (uint32_t i = 0; i < g.n; i++) {
+		size_t c = cell_at(d, &pos[(size_t)i * D]);
+		if (c < d->c0 || c >= d->c1)
+			continue;
+		double *r = &d->p[d->nl * S];
+		for (int a = 0; a < D; a++) {
+			r[a] = pos[(size_t)i * D + a];
+			r[D + a] = vel[(size_t)i * D + a];
+		}
+		d->id[d->nl] = i;
+		d->cell[d->nl++] = (uint32_t)(c - d->c0);
+	}
+	sort_cells(d);
+	/* remainders uniform on [0, 1) from the generator of (key, step 2^64 - 1, cell) */
+	for (size_t c = 0; c < nown; c++) {
+		rng_t r;
+		cell_rng(&r, d->key, UINT64_MAX, d->c0 + c);
+		d->rem[c] = (float)rng_uniform_fast(&r);
+	}
+	dsmc_sample_t tot;
+	dsmc_totals(init, &tot);
+	d->ekin = tot.kinetic_energy;   /* the serial engine's exact pass: the same number on every rank */
+	/* fixed point: the initial total near 2^80, so 2^47 times more fits in 128 bits */
+	int ex = 0;
+	(void)frexp(d->ekin > 0 ? d->ekin : 1.0, &ex);
+	d->escale = ldexp(1.0, 80 - ex);
+	*err = DSMCP_OK;
+	free(pos);
+	free(vel);
+	return d;
+fail:
+	if (*err == DSMCP_ENOMEM && msg && msglen)
+		snprintf(msg, msglen, "run: out of memory for the decomposed dsmc");
+	free(pos);
+	free(vel);
+	dsmcp_destroy(d);
+	return NULL;
+}
+
+void dsmcp_destroy(dsmcp_t *d)
+{
+	if (!d)
+		return;
+	free(d->owner);
+	free(d->p);
+	free(d->p2);
+	free(d->id);
+	free(d->id2);
+	free(d->cell);
+	free(d->start);
+	free(d->cnt);
+	free(d->rem);
+	free(d->out);
+	free(d->out_cnt);
+	free(d->out_pos);
+	free(d);
+}
+
+/* ---- one step ------------------------------------------------------------------- */
+
+double dsmcp_next_dt(const dsmcp_t *d, double t_stop, int *last)
+{
+	double dt = d->dt_fixed;
+	*last = 0;
+	if (dt <= 0) {
+		double T = 2 * d->ekin / (d->dim * (double)d->n);
+		dt = T > 0 ? d->cps / (d->fcoef * sqrt(T)) : INFINITY;
+	}
+	if (!isfinite(dt) && !isfinite(t_stop))
+		return INFINITY;
+	if (!(d->t + dt < t_stop) || (t_stop - d->t - dt) < 1e-12 * dt) {
+		dt = t_stop - d->t;
+		*last = 1;
+	}
+	return dt;
+}
+
+int dsmcp_record_doubles(const dsmcp_t *d) { return 2 * d->dim + 1; }
+
+int dsmcp_move(dsmcp_t *d, double dt)
+{
+	const int D = d->dim, S = 2 * D, R = S + 1;
+	size_t nout = 0;
+	memset(d->out_cnt, 0, (size_t)d->ranks * sizeof(size_t));
+	/* flight; cell of each record (global index for the migrants) */
+	for (size_t k = 0; k < d->nl; k++) {
+		double *x = &d->p[k * S], *v = x + D;
+		for (int a = 0; a < D; a++)
+			x[a] = wrap(x[a] + v[a] * dt, d->L[a]);
+		size_t c = cell_at(d, x);
+		if (c >= d->c0 && c < d->c1) {
+			d->cell[k] = (uint32_t)(c - d->c0);
+		} else {
+			d->cell[k] = UINT32_MAX;
+			d->out_cnt[d->owner[c / d->plane]]++;
+			nout++;
+		}
+	}
+	d->step_migr = nout;
+	if (!nout)
+		return DSMCP_OK;
+	if (nout > d->out_cap) {
+		size_t cap = nout + nout / 2 + 64;
+		double *o = realloc(d->out, cap * R * sizeof(double));
+		if (!o)
+			return DSMCP_ENOMEM;
+		d->out = o;
+		d->out_cap = cap;
+	}
+	size_t acc = 0;
+	for (int r = 0; r < d->ranks; r++) {
+		d->out_pos[r] = acc;
+		acc += d->out_cnt[r];
+	}
+	size_t w = 0;
+	for (size_t k = 0; k < d->nl; k++) {
+		if (d->cell[k] == UINT32_MAX) {
+			const double *x = &d->p[k * S];
+			int r = d->owner[cell_at(d, x) / d->plane];
+			double *o = &d->out[d->out_pos[r]++ * R];
+			memcpy(o, x, S * sizeof(double));
+			o[S] = (double)d->id[k];
+			continue;
+		}
+		if (w != k) {
+			memcpy(&d->p[w * S], &d->p[k * S], S * sizeof(double));
+			d->id[w] = d->id[k];
+			d->cell[w] = d->cell[k];
+		}
+		w++;
+	}
+	d->nl = w;
+	return DSMCP_OK;
+}
+
+const double *dsmcp_outbox(const dsmcp_t *d, const size_t **counts)
+{
+	*counts = d->out_cnt;
+	return d->out;
+}
+
+int dsmcp_arrive(dsmcp_t *d, const double *rec, size_t n)
+{
+	const int D = d->dim, S = 2 * D, R = S + 1;
+	if (reserve(d, d->nl + n) != DSMCP_OK)
+		return DSMCP_ENOMEM;
+	for (size_t i = 0; i < n; i++) {
+		const double *r = &rec[i * R];
+		size_t c = cell_at(d, r);
+		if (c < d->c0 || c >= d->c1 || !(r[S] >= 0) || r[S] >= (double)d->n)
+			return DSMCP_EINVAL;
+		memcpy(&d->p[d->nl * S], r, S * sizeof(double));
+		d->id[d->nl] = (uint64_t)r[S];
+		d->cell[d->nl++] = (uint32_t)(c - d->c0);
+	}
+	return DSMCP_OK;
+}
+
+/* Bird's no-time-counter collisions of the own cells, as dsmc.c's collide()
+ * (periodic, one species, molecular chaos), each cell drawing from its own
+ * keyed generator. */
+void dsmcp_collide(dsmcp_t *d, double dt, dsmcp_sums_t *part)
+{
+	const int D = d->dim, S = 2 * D;
+	const double coef = d->chi * d->sigma_t * dt / (2 * d->vcell);
+	const double ehalf = 0.5 * (1 + d->e);
+	const double sigma = d->sigma;
+	uint64_t ncoll = 0, ncand = 0, nraise = 0;
+	sort_cells(d);
+	const size_t nown = d->c1 - d->c0;
+	for (size_t c = 0; c < nown; c++) {
+		uint32_t k0 = d->start[c], nc = d->start[c + 1] - k0;
+		if (nc < 2)
+			continue;
+		double u[3] = {0, 0, 0}, s2 = 0;
+		for (uint32_t k = k0; k < k0 + nc; k++)
+			for (int a = 0; a < D; a++)
+				u[a] += d->p[(size_t)k * S + D + a];
+		for (int a = 0; a < D; a++)
+			u[a] /= nc;
+		for (uint32_t k = k0; k < k0 + nc; k++) {
+			double w2 = 0;
+			for (int a = 0; a < D; a++) {
+				double w = d->p[(size_t)k * S + D + a] - u[a];
+				w2 += w * w;
+			}
+			s2 = w2 > s2 ? w2 : s2;
+		}
+		if (s2 == 0)
+			continue;
+		double vmax = 2 * sqrt(s2), inv = 1 / vmax;
+		double b = coef * (double)nc * (double)(nc - 1) + (double)d->rem[c] * inv;
+		rng_t rng;
+		int seeded = 0;
+		while (b >= inv) {
+			if (!seeded) {
+				cell_rng(&rng, d->key, d->steps, d->c0 + c);
+				seeded = 1;
+			}
+			b -= inv;
+			ncand++;
+			uint32_t i = k0 + (uint32_t)(rng_uniform_fast(&rng) * nc);
+			uint32_t j = k0 + (uint32_t)(rng_uniform_fast(&rng) * (nc - 1));
+			if (j >= i)
+				j++;
+			double *vi = &d->p[(size_t)i * S + D], *vj = &d->p[(size_t)j * S + D], g[3], g2 = 0;
+			for (int a = 0; a < D; a++) {
+				g[a] = vi[a] - vj[a];
+				g2 += g[a] * g[a];
+			}
+			double r = rng_uniform_fast(&rng) * vmax;
+			if (r * r >= g2)
+				continue;
+			double gm = sqrt(g2), gh[3], nrm[3], cth;
+			for (int a = 0; a < D; a++)
+				gh[a] = g[a] / gm;
+			if (D == 2) {
+				double bp = 2 * rng_uniform_fast(&rng) - 1;
+				cth = sqrt(1 - bp * bp);
+				nrm[0] = -bp * gh[1] - cth * gh[0];
+				nrm[1] = bp * gh[0] - cth * gh[1];
+			} else {
+				double b1, b2, bb;
+				do {
+					b1 = 2 * rng_uniform_fast(&rng) - 1;
+					b2 = 2 * rng_uniform_fast(&rng) - 1;
+					bb = b1 * b1 + b2 * b2;
+				} while (bb >= 1);
+				cth = sqrt(1 - bb);
+				double sg = gh[2] >= 0 ? 1.0 : -1.0, aa = -1 / (sg + gh[2]), bq = gh[0] * gh[1] * aa;
+				double e1[3] = {1 + sg * gh[0] * gh[0] * aa, sg * bq, -sg * gh[0]};
+				double e2[3] = {bq, sg + gh[1] * gh[1] * aa, -gh[1]};
+				for (int a = 0; a < 3; a++)
+					nrm[a] = b1 * e1[a] + b2 * e2[a] - cth * gh[a];
+			}
+			double dv = ehalf * gm * cth;
+			for (int a = 0; a < D; a++) {
+				vi[a] += dv * nrm[a];
+				vj[a] -= dv * nrm[a];
+			}
+			ncoll++;
+			double wi = 0, wj = 0;
+			for (int a = 0; a < D; a++) {
+				wi += (vi[a] - u[a]) * (vi[a] - u[a]);
+				wj += (vj[a] - u[a]) * (vj[a] - u[a]);
+			}
+			if (wi > s2 || wj > s2) {
+				s2 = wi > wj ? wi : wj;
+				vmax = 2 * sqrt(s2);
+				inv = 1 / vmax;
+				nraise++;
+			}
+			if (d->cba) {   /* CBA: each partner one diameter along its momentum change */
+				double *xi = vi - D, *xj = vj - D;
+				for (int a = 0; a < D; a++) {
+					xi[a] = wrap(xi[a] + sigma * nrm[a], d->L[a]);
+					xj[a] = wrap(xj[a] - sigma * nrm[a], d->L[a]);
+				}
+			}
+		}
+		d->rem[c] = (float)(b * vmax);
+	}
+	memset(part, 0, sizeof *part);
+	energy_limbs(d, &part->w[DSMCP_EK0]);
+	part->w[DSMCP_COLL] = ncoll;
+	part->w[DSMCP_CAND] = ncand;
+	part->w[DSMCP_VMAX] = nraise;
+	part->w[DSMCP_COUNT] = d->nl;
+	part->w[DSMCP_MIGR] = d->step_migr;
+}
+
+void dsmcp_finish(dsmcp_t *d, const dsmcp_sums_t *sum, double dt, int last, double t_stop)
+{
+	d->ekin = limbs_energy(d, &sum->w[DSMCP_EK0]);
+	d->collisions += sum->w[DSMCP_COLL];
+	d->candidates += sum->w[DSMCP_CAND];
+	d->vmax_raised += sum->w[DSMCP_VMAX];
+	d->migrated += sum->w[DSMCP_MIGR];
+	d->moves += d->n;
+	d->steps++;
+	d->t = last ? t_stop : d->t + dt;
+}
+
+/* ---- queries ---------------------------------------------------------------------- */
+
+void dsmcp_totals(const dsmcp_t *d, dsmcp_totals_t *out)
+{
+	out->time = d->t;
+	out->kinetic_energy = d->ekin;
+	out->steps = d->steps;
+	out->collisions = d->collisions;
+	out->candidates = d->candidates;
+	out->vmax_raised = d->vmax_raised;
+	out->migrated = d->migrated;
+	out->moves = d->moves;
+}
+
+size_t dsmcp_local(const dsmcp_t *d, uint64_t *ids, double *pos, double *vel)
+{
+	const int D = d->dim, S = 2 * D;
+	for (size_t k = 0; k < d->nl; k++) {
+		if (ids)
+			ids[k] = d->id[k];
+		for (int a = 0; a < D; a++) {
+			if (pos)
+				pos[k * D + a] = d->p[k * S + a];
+			if (vel)
+				vel[k * D + a] = d->p[k * S + D + a];
+		}
+	}
+	return d->nl;
+}
+
+void dsmcp_momentum(const dsmcp_t *d, double *mom)
+{
+	const int D = d->dim, S = 2 * D;
+	for (int a = 0; a < D; a++)
+		mom[a] = 0;
+	for (size_t k = 0; k < d->nl; k++)
+		for (int a = 0; a < D; a++)
+			mom[a] += d->mass * d->p[k * S + D + a];
+}
+
+void dsmcp_slab(const dsmcp_t *d, int *p0, int *p1, int nc[3])
+{
+	*p0 = d->p0;
+	*p1 = d->p1;
+	for (int a = 0; a < 3; a++)
+		nc[a] = d->nc[a];
+}
+
+int dsmcp_dim(const dsmcp_t *d) { return d->dim; }
+
+size_t dsmcp_memory(const dsmcp_t *d)
+{
+	const size_t S = 2 * (size_t)d->dim, nown = d->c1 - d->c0;
+	return sizeof *d + d->cap * (2 * S * sizeof(double) + 2 * sizeof(uint64_t) + sizeof(uint32_t)) +
+	       (nown + 1) * 2 * sizeof(uint32_t) + nown * sizeof(float) + d->out_cap * (S + 1) * sizeof(double) +
+	       (size_t)d->nc[d->dim - 1] * sizeof(int);
+}

@@ -1,0 +1,110 @@
+/* DSMC of one system decomposed over P ranks in slabs of cell planes: migration, cell-keyed random numbers, exact sums (no MPI). */
+#pragma once
+
+#include <stddef.h>
+#include <stdint.h>
+#include "dsmc.h"
+#include "scene.h"
+
+/*
+ * Contract (issue 15, first slice; docs/parallel.md "Multi-rank DSMC")
+ * - Pure computation: no MPI, no I/O, no globals. One dsmcp_t per rank;
+ *   the caller (engine/main.c with MPI, or a test in one process) moves
+ *   the migrants between ranks and sums the dsmcp_sums_t words.
+ * - Decomposition: slabs of whole cell planes along the last axis (z in 3D,
+ *   y in 2D): rank r of P owns planes [r nz / P, (r + 1) nz / P), a
+ *   contiguous range of cell indices (x fastest). nz < P leaves ranks idle.
+ * - Scope: method dsmc, periodic box, one species, correction none, enskog
+ *   or cba with the global contact value, molecular-chaos impact
+ *   parameters. dsmcp_check() names the first scene key outside it.
+ * - One step of length dt: free flight (wrap), migrants packed for their
+ *   owner rank (dsmcp_move), arrivals appended (dsmcp_arrive), counting
+ *   sort into the own cells, each cell's particles ordered by identity,
+ *   Bird's no-time-counter collisions as in dsmc.c whose random numbers
+ *   come from a generator keyed on (seed, stream, step, cell) only
+ *   (dsmcp_collide), then the global sums installed (dsmcp_finish).
+ * - Guarantee: given the same scene, stream and dsmcp_next_dt() stop times,
+ *   the particles' positions, velocities, the clock and every counter after
+ *   any number of steps are bit-identical for every rank count P >= 1: a
+ *   cell's collisions depend only on its particle set (ordered by
+ *   identity), its carried remainder and its key, and the adaptive step
+ *   uses the kinetic energy summed exactly (per-cell double sums in
+ *   identity order rounded once to 128-bit fixed point; integer sums are
+ *   associative). The sequence differs from dsmc.c's serial one (its single
+ *   stream), which this module leaves untouched.
+ * - The initial state is dsmc_create()'s (the same scene and stream), each
+ *   rank keeping its own cells' particles; the remainders restart uniform
+ *   from the keyed generator.
+ */
+
+typedef struct dsmcp dsmcp_t;
+
+enum { DSMCP_OK = 0, DSMCP_ENOMEM = -1, DSMCP_EINVAL = -2, DSMCP_QUIESCENT = 1 };
+
+/* Words summed over ranks after each step (dsmcp_collide() fills a rank's
+ * part, the caller adds them element-wise, exactly, e.g. MPI_SUM on
+ * MPI_UINT64_T): kinetic energy in four 32-bit limbs of a 128-bit fixed-point
+ * number, then counters. */
+enum {
+	DSMCP_EK0 = 0, DSMCP_EK3 = 3,
+	DSMCP_COLL = 4,        /* accepted collisions this step */
+	DSMCP_CAND = 5,        /* candidate pairs this step */
+	DSMCP_VMAX = 6,        /* v_max raises this step */
+	DSMCP_COUNT = 7,       /* particles (after the step) */
+	DSMCP_MIGR = 8,        /* particles that changed rank this step */
+	DSMCP_NSUM = 9
+};
+typedef struct {
+	uint64_t w[DSMCP_NSUM];
+} dsmcp_sums_t;
+
+/* Which key of scene s a decomposed run over ranks > 1 cannot honour:
+ * DSMCP_OK, or DSMCP_EINVAL with "KEY: reason" in msg. */
+int dsmcp_check(const scene_t *s, char *msg, size_t msglen);
+
+/* Rank `rank` of `ranks` of the run of scene s from the built initial
+ * state init (dsmc_create(s, stream, ...), identical on every rank; the
+ * caller may destroy it afterwards). NULL with *err and msg set. */
+dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int rank, int ranks, int *err,
+                      char *msg, size_t msglen);
+void dsmcp_destroy(dsmcp_t *d);
+
+/* The next step's length for a run to t_stop (shortened to land on it:
+ * *last = 1) from the global kinetic energy; INFINITY when T = 0 with
+ * t_stop infinite (quiescent). The same number on every rank. */
+double dsmcp_next_dt(const dsmcp_t *d, double t_stop, int *last);
+
+/* Free flight of the own particles over dt; those that left the slab are
+ * removed and packed for their owners. DSMCP_OK or DSMCP_ENOMEM. */
+int dsmcp_move(dsmcp_t *d, double dt);
+/* The packed migrants: records of dsmcp_record_doubles() doubles, grouped
+ * by destination rank in rank order, counts[r] records for rank r. Valid
+ * until the next dsmcp_move(). */
+int dsmcp_record_doubles(const dsmcp_t *d);
+const double *dsmcp_outbox(const dsmcp_t *d, const size_t **counts);
+/* Append n arriving records (from any ranks, any order). DSMCP_OK,
+ * DSMCP_ENOMEM, or DSMCP_EINVAL for a record outside this rank's slab. */
+int dsmcp_arrive(dsmcp_t *d, const double *rec, size_t n);
+/* Sort and collide the own cells; this rank's part of the sums into *part. */
+void dsmcp_collide(dsmcp_t *d, double dt, dsmcp_sums_t *part);
+/* Install the summed words of all ranks and advance the clock
+ * (to t_stop when last). */
+void dsmcp_finish(dsmcp_t *d, const dsmcp_sums_t *sum, double dt, int last, double t_stop);
+
+/* Totals after the last dsmcp_finish() (the same on every rank). */
+typedef struct {
+	double time, kinetic_energy;   /* kinetic energy from the exact fixed-point sum */
+	uint64_t steps, collisions, candidates, vmax_raised, migrated, moves;
+} dsmcp_totals_t;
+void dsmcp_totals(const dsmcp_t *d, dsmcp_totals_t *out);
+
+/* This rank's particles: count, and (each may be NULL) identities,
+ * positions and velocities (dim doubles each) in the local order. */
+size_t dsmcp_local(const dsmcp_t *d, uint64_t *ids, double *pos, double *vel);
+/* This rank's share of the momentum (dim doubles, in local order: for
+ * tests and reductions, not exact across ranks). */
+void dsmcp_momentum(const dsmcp_t *d, double *mom);
+/* Own planes [*p0, *p1) along the last axis, and the grid. */
+void dsmcp_slab(const dsmcp_t *d, int *p0, int *p1, int nc[3]);
+int dsmcp_dim(const dsmcp_t *d);
+size_t dsmcp_memory(const dsmcp_t *d);
