@@ -38,6 +38,9 @@ struct dsmcp {
 	double t, ekin;
 	uint64_t steps, collisions, candidates, vmax_raised, migrated, moves;
 	uint64_t step_migr;            /* this rank's migrants in the current step */
+	/* interval accumulators (dsmcp_interval()) */
+	double t_sample, ekin_int;     /* global: E_kin dt summed over the steps (the same on every rank) */
+	double virial;                 /* this rank's collisions' (sigma n) . J */
 };
 
 /* ---- keyed random numbers --------------------------------------------------- */
@@ -105,6 +108,9 @@ int dsmcp_check(const scene_t *s, char *msg, size_t msglen)
 		key = "dsmc.contact_value", why = "\"local\" over several ranks is not supported yet (use \"global\")";
 	else if (s->mc_impact_n > 0)
 		key = "dsmc.impact_c", why = "impact_c over several ranks is not supported yet";
+	else if (s->observables & ~(unsigned)(SCENE_OBS_ENERGY | SCENE_OBS_PRESSURE | SCENE_OBS_COLLISION_RATE |
+	                                    SCENE_OBS_MOMENTUM))
+		key = "output.observables", why = "over several ranks only energy, pressure, collision_rate and momentum";
 	else if (s->count > UINT32_MAX)
 		key = "particles.count", why = "at most 2^32 - 1 particles";
 	if (!key)
@@ -468,6 +474,7 @@ void dsmcp_collide(dsmcp_t *d, double dt, dsmcp_sums_t *part)
 	const double ehalf = 0.5 * (1 + d->e);
 	const double sigma = d->sigma;
 	uint64_t ncoll = 0, ncand = 0, nraise = 0;
+	double virial = 0;
 	sort_cells(d);
 	const size_t nown = d->c1 - d->c0;
 	for (size_t c = 0; c < nown; c++) {
@@ -541,6 +548,7 @@ void dsmcp_collide(dsmcp_t *d, double dt, dsmcp_sums_t *part)
 				vj[a] -= dv * nrm[a];
 			}
 			ncoll++;
+			virial += sigma * d->mass * dv;   /* (sigma n) . J, J = m dv n */
 			double wi = 0, wj = 0;
 			for (int a = 0; a < D; a++) {
 				wi += (vi[a] - u[a]) * (vi[a] - u[a]);
@@ -562,6 +570,7 @@ void dsmcp_collide(dsmcp_t *d, double dt, dsmcp_sums_t *part)
 		}
 		d->rem[c] = (float)(b * vmax);
 	}
+	d->virial += virial;
 	memset(part, 0, sizeof *part);
 	energy_limbs(d, &part->w[DSMCP_EK0]);
 	part->w[DSMCP_COLL] = ncoll;
@@ -573,6 +582,7 @@ void dsmcp_collide(dsmcp_t *d, double dt, dsmcp_sums_t *part)
 
 void dsmcp_finish(dsmcp_t *d, const dsmcp_sums_t *sum, double dt, int last, double t_stop)
 {
+	d->ekin_int += d->ekin * dt;   /* the energy of this step's flight: the previous step's end */
 	d->ekin = limbs_energy(d, &sum->w[DSMCP_EK0]);
 	d->collisions += sum->w[DSMCP_COLL];
 	d->candidates += sum->w[DSMCP_CAND];
@@ -581,6 +591,15 @@ void dsmcp_finish(dsmcp_t *d, const dsmcp_sums_t *sum, double dt, int last, doub
 	d->moves += d->n;
 	d->steps++;
 	d->t = last ? t_stop : d->t + dt;
+}
+
+void dsmcp_interval(dsmcp_t *d, double *interval, double *ekin_int, double *virial)
+{
+	*interval = d->t - d->t_sample;
+	*ekin_int = d->ekin_int;
+	*virial = d->virial;
+	d->t_sample = d->t;
+	d->ekin_int = d->virial = 0;
 }
 
 /* ---- queries ---------------------------------------------------------------------- */

@@ -16,7 +16,7 @@
  *   contiguous range of cell indices (x fastest). nz < P leaves ranks idle.
  * - Scope: method dsmc, periodic box, one species, correction none, enskog
  *   or cba with the global contact value, molecular-chaos impact
- *   parameters. dsmcp_check() names the first scene key outside it.
+ *   parameters; observables energy, pressure, collision_rate, momentum. dsmcp_check() names the first scene key outside it.
  * - One step of length dt: free flight (wrap), migrants packed for their
  *   owner rank (dsmcp_move), arrivals appended (dsmcp_arrive), counting
  *   sort into the own cells, each cell's particles ordered by identity,
@@ -97,6 +97,12 @@ typedef struct {
 	uint64_t steps, collisions, candidates, vmax_raised, migrated, moves;
 } dsmcp_totals_t;
 void dsmcp_totals(const dsmcp_t *d, dsmcp_totals_t *out);
+
+/* Start a new sampling interval, returning the one that ends: its length,
+ * the integral of the kinetic energy over it (global: the same on every
+ * rank) and this rank's collision virial sum of (sigma n) . J (to be summed
+ * over ranks). */
+void dsmcp_interval(dsmcp_t *d, double *interval, double *ekin_int, double *virial);
 
 /* This rank's particles: count, and (each may be NULL) identities,
  * positions and velocities (dim doubles each) in the local order. */

@@ -1,0 +1,310 @@
+/* One dsmc system over all MPI ranks: migrant exchange and exact sums per step (MPI), the output schedule, reduced records. */
+#include <math.h>
+#include <mpi.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dsmcrun.h"
+#include "mc/dsmc.h"
+
+/* Room for the arriving records, kept between steps. */
+typedef struct {
+	double *buf;
+	size_t cap;
+	int *scnt, *sdis, *rcnt, *rdis;
+	uint64_t *c64;
+} xbuf_t;
+
+static int step_x(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st, xbuf_t *x, int P, int rank)
+{
+	int last;
+	double w0 = MPI_Wtime(), wc = 0;
+	double dt = dsmcp_next_dt(d, t_stop, &last);
+	if (!isfinite(dt))
+		return DSMCP_QUIESCENT;
+	int rc = dsmcp_move(d, dt), bad = rc != DSMCP_OK;
+	const int R = dsmcp_record_doubles(d);
+	const size_t *cnt;
+	const double *box = dsmcp_outbox(d, &cnt);
+	uint64_t total_in = 0, sent = 0, msgs = 0;
+	for (int r = 0; r < P; r++) {
+		x->c64[r] = bad ? 0 : cnt[r];
+		if (r != rank && x->c64[r]) {
+			sent += x->c64[r];
+			msgs++;
+		}
+	}
+	double c0 = MPI_Wtime();
+	uint64_t *rc64 = x->c64 + P;
+	MPI_Alltoall(x->c64, 1, MPI_UINT64_T, rc64, 1, MPI_UINT64_T, MPI_COMM_WORLD);
+	wc += MPI_Wtime() - c0;
+	size_t off = 0;
+	for (int r = 0; r < P; r++) {
+		total_in += rc64[r];
+		/* Alltoallv counts are ints: a step's migrants must stay below 2^31 / R doubles per pair */
+		if (x->c64[r] * (uint64_t)R > INT32_MAX || rc64[r] * (uint64_t)R > INT32_MAX)
+			bad = 1;
+		x->scnt[r] = (int)(x->c64[r] * (uint64_t)R);
+		x->sdis[r] = (int)(off * (size_t)R);
+		off += x->c64[r];
+	}
+	if (off * (size_t)R > INT32_MAX || total_in * (uint64_t)R > INT32_MAX)
+		bad = 1;
+	if (!bad && total_in > x->cap) {
+		size_t cap = total_in + total_in / 2 + 64;
+		double *b = realloc(x->buf, cap * (size_t)R * sizeof(double));
+		if (b) {
+			x->buf = b;
+			x->cap = cap;
+		} else {
+			bad = 1;
+		}
+	}
+	c0 = MPI_Wtime();
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (bad) {
+		wc += MPI_Wtime() - c0;
+		return DSMCP_ENOMEM;
+	}
+	size_t roff = 0;
+	for (int r = 0; r < P; r++) {
+		x->rcnt[r] = (int)(rc64[r] * (uint64_t)R);
+		x->rdis[r] = (int)(roff * (size_t)R);
+		roff += rc64[r];
+	}
+	static const double none = 0;
+	MPI_Alltoallv(box ? box : &none, x->scnt, x->sdis, MPI_DOUBLE, x->buf ? x->buf : (double *)&none, x->rcnt, x->rdis,
+	              MPI_DOUBLE, MPI_COMM_WORLD);
+	wc += MPI_Wtime() - c0;
+	rc = dsmcp_arrive(d, x->buf, (size_t)total_in);
+	dsmcp_sums_t part, sum;
+	if (rc == DSMCP_OK) {
+		dsmcp_collide(d, dt, &part);
+	} else {
+		memset(&part, 0, sizeof part);
+	}
+	int failed = rc != DSMCP_OK;
+	c0 = MPI_Wtime();
+	MPI_Allreduce(MPI_IN_PLACE, &failed, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (failed) {
+		wc += MPI_Wtime() - c0;
+		return rc != DSMCP_OK ? rc : DSMCP_EINVAL;
+	}
+	MPI_Allreduce(part.w, sum.w, DSMCP_NSUM, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+	wc += MPI_Wtime() - c0;
+	dsmcp_finish(d, &sum, dt, last, t_stop);
+	if (st) {
+		st->steps++;
+		st->migrants += sent;
+		st->bytes += sent * (uint64_t)R * sizeof(double);
+		st->messages += msgs;
+		st->seconds += MPI_Wtime() - w0;
+		st->comm_seconds += wc;
+	}
+	return DSMCP_OK;
+}
+
+static int xbuf_init(xbuf_t *x, int P)
+{
+	memset(x, 0, sizeof *x);
+	x->scnt = calloc((size_t)P * 4, sizeof(int));
+	x->c64 = calloc((size_t)P * 2, sizeof(uint64_t));
+	if (!x->scnt || !x->c64)
+		return -1;
+	x->sdis = x->scnt + P;
+	x->rcnt = x->scnt + 2 * P;
+	x->rdis = x->scnt + 3 * P;
+	return 0;
+}
+
+static void xbuf_free(xbuf_t *x)
+{
+	free(x->buf);
+	free(x->scnt);
+	free(x->c64);
+}
+
+int dsmcrun_step(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st)
+{
+	int P, rank;
+	xbuf_t x;
+	MPI_Comm_size(MPI_COMM_WORLD, &P);
+	MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+	int bad = xbuf_init(&x, P) != 0;
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	int rc = bad ? DSMCP_ENOMEM : step_x(d, t_stop, st, &x, P, rank);
+	xbuf_free(&x);
+	return rc;
+}
+
+dsmcp_t *dsmcrun_create(const scene_t *s, int rank, int size, char *msg, size_t msglen)
+{
+	int err = 0;
+	dsmcp_t *d = NULL;
+	/* Every rank builds the same initial state (dsmc_create, stream 0: the
+	 * serial run's) and keeps its slab: the whole system in memory on each
+	 * rank for the set-up only. */
+	dsmc_t *init = dsmc_create(s, 0, &err, msg, msglen);
+	if (init)
+		d = dsmcp_create(s, init, 0, rank, size, &err, msg, msglen);
+	dsmc_destroy(init);
+	int bad = d == NULL, any = 0;
+	MPI_Allreduce(&bad, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (any && d) {
+		dsmcp_destroy(d);
+		d = NULL;
+		if (msg && msglen)
+			snprintf(msg, msglen, "run: the decomposed dsmc could not be built on another rank");
+	}
+	return d;
+}
+
+/* The record of the present state and the interval since the last one (collective). */
+static void record(dsmcp_t *d, const scene_t *s, run_kind_t kind, double wall, uint64_t *coll_sample, run_record_t *r)
+{
+	dsmcp_totals_t t;
+	double interval, eint, vir, red[4], mom[3] = {0, 0, 0};
+	dsmcp_totals(d, &t);
+	dsmcp_interval(d, &interval, &eint, &vir);
+	dsmcp_momentum(d, mom);
+	red[0] = vir;
+	for (int a = 0; a < 3; a++)
+		red[1 + a] = mom[a];
+	MPI_Allreduce(MPI_IN_PLACE, red, 4, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+	memset(r, 0, sizeof *r);
+	r->kind = kind;
+	r->dim = s->dim;
+	r->n = s->count;
+	r->time = t.time;
+	r->events = t.moves;
+	r->collisions = t.collisions;
+	r->collisions_per_particle = 2.0 * (double)t.collisions / (double)s->count;
+	r->wall_seconds = wall;
+	r->vmax_raised = t.vmax_raised;
+	r->have = s->observables;
+	r->kinetic_energy = t.kinetic_energy;
+	r->particles = s->count;
+	r->temperature = 2.0 * t.kinetic_energy / (s->dim * (double)s->count);
+	for (int a = 0; a < 3; a++)
+		r->momentum[a] = a < s->dim ? red[1 + a] : 0.0;
+	if (kind == RUN_PROGRESS && interval > 0.0) {
+		double t_avg = 2.0 * eint / (s->dim * (double)s->count * interval);
+		double vol = scene_box_volume(s);
+		r->have_interval = 1;
+		r->pressure = ((double)s->count * t_avg + red[0] / (s->dim * interval)) / vol;
+		r->compressibility = t_avg > 0.0 ? r->pressure * vol / ((double)s->count * t_avg) : NAN;
+		r->collision_rate = 2.0 * (double)(t.collisions - *coll_sample) / ((double)s->count * interval);
+	}
+	if (kind == RUN_PROGRESS)
+		*coll_sample = t.collisions;
+}
+
+/* Rank 0 emits; the outcome is shared (collective). */
+static int emit_all(int rank, run_emit_fn emit, void *ctx, const run_record_t *r)
+{
+	int bad = rank == 0 && emit && emit(r, ctx) != 0;
+	MPI_Bcast(&bad, 1, MPI_INT, 0, MPI_COMM_WORLD);
+	return bad;
+}
+
+int dsmcrun_run(const scene_t *s, int rank, int size, run_emit_fn emit, void *ctx,
+                const volatile sig_atomic_t *stop, char *msg, size_t msglen)
+{
+	int ret = RUN_OK;
+	xbuf_t x;
+	run_record_t rec;
+	uint64_t coll_sample = 0;
+	dsmcp_t *d = dsmcrun_create(s, rank, size, msg, msglen);
+	if (!d)
+		return RUN_ESETUP;
+	int bad = xbuf_init(&x, size) != 0;
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (bad) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "run: out of memory");
+		ret = RUN_ENOMEM;
+		goto cleanup;
+	}
+	const double N = (double)s->count, t0 = MPI_Wtime();
+	/* targets: times (the step lands on them) or collision counts (the step that reaches one) */
+	const int end_time = s->until.kind == SCENE_CLOCK_TIME;
+	const double t_end = end_time ? s->until.value : INFINITY;
+	const double c_end = end_time ? INFINITY : s->until.value * N / 2;
+	const int out_time = s->every.kind == SCENE_CLOCK_TIME, out_cpp = s->every.kind == SCENE_CLOCK_CPP;
+	const double every = s->every.value;
+	uint64_t k_out = 1;
+	run_status_t status = RUN_COMPLETED;
+	record(d, s, RUN_PROGRESS, 0.0, &coll_sample, &rec);
+	if (emit_all(rank, emit, ctx, &rec)) {
+		ret = RUN_EMIT;
+		goto cleanup;
+	}
+	for (uint64_t n = 0;; n++) {
+		dsmcp_totals_t t;
+		dsmcp_totals(d, &t);
+		const double C = (double)t.collisions;
+		if (!(t.time < t_end) || C >= c_end)
+			break;
+		if (n % 64 == 0) {
+			int halt = rank == 0 && stop && *stop;
+			MPI_Bcast(&halt, 1, MPI_INT, 0, MPI_COMM_WORLD);
+			if (halt) {
+				status = RUN_INTERRUPTED;
+				break;
+			}
+		}
+		double t_stop = t_end;
+		if (out_time && every > 0 && k_out * every < t_stop)
+			t_stop = (double)k_out * every;
+		int rc = step_x(d, t_stop, NULL, &x, size, rank);
+		if (rc == DSMCP_QUIESCENT) {
+			status = RUN_QUIESCENT;
+			break;
+		}
+		if (rc != DSMCP_OK) {
+			if (msg && msglen)
+				snprintf(msg, msglen, "run: %s in the decomposed dsmc step",
+				         rc == DSMCP_ENOMEM ? "out of memory" : "a migrant outside its slab");
+			ret = rc == DSMCP_ENOMEM ? RUN_ENOMEM : RUN_ESETUP;
+			goto cleanup;
+		}
+		dsmcp_totals(d, &t);
+		int due = 0;
+		if (every > 0 && (out_time || out_cpp)) {
+			const double now = out_time ? t.time : 2.0 * (double)t.collisions / N;
+			while ((double)k_out * every <= now) {   /* instants passed in one step count once */
+				due = 1;
+				k_out++;
+			}
+		}
+		const int done = !(t.time < t_end) || (double)t.collisions >= c_end;
+		if (due && !done) {
+			record(d, s, RUN_PROGRESS, MPI_Wtime() - t0, &coll_sample, &rec);
+			if (emit_all(rank, emit, ctx, &rec)) {
+				ret = RUN_EMIT;
+				goto cleanup;
+			}
+		}
+	}
+	record(d, s, RUN_PROGRESS, MPI_Wtime() - t0, &coll_sample, &rec);
+	if (emit_all(rank, emit, ctx, &rec)) {
+		ret = RUN_EMIT;
+		goto cleanup;
+	}
+	record(d, s, RUN_SUMMARY, MPI_Wtime() - t0, &coll_sample, &rec);
+	rec.status = status;
+	rec.events_per_second = rec.wall_seconds > 0 ? rec.events / rec.wall_seconds : 0.0;
+	rec.collisions_per_second = rec.wall_seconds > 0 ? rec.collisions / rec.wall_seconds : 0.0;
+	uint64_t mem = dsmcp_memory(d);
+	MPI_Allreduce(MPI_IN_PLACE, &mem, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+	rec.memory_bytes = mem;
+	int p0, p1;
+	dsmcp_slab(d, &p0, &p1, rec.cells);
+	if (emit_all(rank, emit, ctx, &rec))
+		ret = RUN_EMIT;
+cleanup:
+	xbuf_free(&x);
+	dsmcp_destroy(d);
+	return ret;
+}
