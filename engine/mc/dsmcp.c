@@ -8,6 +8,7 @@
 #include "rng.h"
 
 #define PI 3.14159265358979323846
+#define ALWAYS_INLINE inline __attribute__((always_inline))
 
 struct dsmcp {
 	int dim, rank, ranks;
@@ -148,27 +149,6 @@ static int reserve(struct dsmcp *d, size_t cap)
 	return DSMCP_OK;
 }
 
-/* Exact energy sum of the own cells (positions sorted): per cell a double
- * sum in identity order, rounded once to the fixed point; 4 limbs. */
-static void energy_limbs(const struct dsmcp *d, uint64_t *limb)
-{
-	const int D = d->dim, S = 2 * D;
-	unsigned __int128 acc = 0;
-	const size_t nown = d->c1 - d->c0;
-	for (size_t c = 0; c < nown; c++) {
-		double e = 0;
-		for (uint32_t k = d->start[c]; k < d->start[c + 1]; k++)
-			for (int a = 0; a < D; a++) {
-				double v = d->p[(size_t)k * S + D + a];
-				e += v * v;
-			}
-		if (e > 0)
-			acc += (unsigned __int128)(0.5 * d->mass * e * d->escale);
-	}
-	for (int i = 0; i < 4; i++)
-		limb[i] = (uint64_t)(acc >> (32 * i)) & 0xffffffffu;
-}
-
 static double limbs_energy(const struct dsmcp *d, const uint64_t *limb)
 {
 	unsigned __int128 acc = 0;
@@ -179,9 +159,9 @@ static double limbs_energy(const struct dsmcp *d, const uint64_t *limb)
 
 /* Counting sort of the own records into cells (d->cell set), then each
  * cell's records in identity order (insertion sort: a few per cell). */
-static void sort_cells(struct dsmcp *d)
+static ALWAYS_INLINE void sort_cells_d(struct dsmcp *d, const int D)
 {
-	const int D = d->dim, S = 2 * D;
+	const int S = 2 * D;
 	const size_t nown = d->c1 - d->c0;
 	memset(d->cnt, 0, (nown + 1) * sizeof(uint32_t));
 	for (size_t k = 0; k < d->nl; k++)
@@ -221,9 +201,15 @@ static void sort_cells(struct dsmcp *d)
 			d->id[j] = key;
 		}
 	}
-	for (size_t c = 0; c < nown; c++)
-		for (uint32_t k = d->start[c]; k < d->start[c + 1]; k++)
-			d->cell[k] = (uint32_t)c;
+}
+
+/* D a constant in each copy: the record copies inline. */
+static void sort_cells(struct dsmcp *d)
+{
+	if (d->dim == 3)
+		sort_cells_d(d, 3);
+	else
+		sort_cells_d(d, 2);
 }
 
 dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int rank, int ranks, int *err,
@@ -385,21 +371,37 @@ double dsmcp_next_dt(const dsmcp_t *d, double t_stop, int *last)
 
 int dsmcp_record_doubles(const dsmcp_t *d) { return 2 * d->dim + 1; }
 
-int dsmcp_move(dsmcp_t *d, double dt)
+static ALWAYS_INLINE int move_d(dsmcp_t *d, double dt, const int D)
 {
-	const int D = d->dim, S = 2 * D, R = S + 1;
+	const int S = 2 * D, R = S + 1;
 	size_t nout = 0;
 	memset(d->out_cnt, 0, (size_t)d->ranks * sizeof(size_t));
-	/* flight; cell of each record (global index for the migrants) */
-	for (size_t k = 0; k < d->nl; k++) {
-		double *x = &d->p[k * S], *v = x + D;
-		for (int a = 0; a < D; a++)
-			x[a] = wrap(x[a] + v[a] * dt, d->L[a]);
-		size_t c = cell_at(d, x);
-		if (c >= d->c0 && c < d->c1) {
-			d->cell[k] = (uint32_t)(c - d->c0);
+	/* flight; cell of each record (global index for the migrants); the
+	 * grid in locals (the stores to cell may alias the struct) */
+	double L[3], ih[3];
+	int ncl[3];
+	for (int a = 0; a < D; a++) {
+		L[a] = d->L[a];
+		ih[a] = d->inv_h[a];
+		ncl[a] = d->nc[a];
+	}
+	const size_t c0 = d->c0, c1 = d->c1, nl = d->nl;
+	double *restrict p = d->p;
+	uint32_t *restrict cell = d->cell;
+	for (size_t k = 0; k < nl; k++) {
+		double *x = &p[k * S], *v = x + D;
+		size_t c = 0;
+		for (int a = D - 1; a >= 0; a--) {
+			double y = wrap(x[a] + v[a] * dt, L[a]);
+			x[a] = y;
+			int ix = (int)(y * ih[a]);
+			ix = ix >= ncl[a] ? ncl[a] - 1 : ix;
+			c = c * (size_t)ncl[a] + (size_t)ix;
+		}
+		if (c >= c0 && c < c1) {
+			cell[k] = (uint32_t)(c - c0);
 		} else {
-			d->cell[k] = UINT32_MAX;
+			cell[k] = UINT32_MAX;
 			d->out_cnt[d->owner[c / d->plane]]++;
 			nout++;
 		}
@@ -441,6 +443,11 @@ int dsmcp_move(dsmcp_t *d, double dt)
 	return DSMCP_OK;
 }
 
+int dsmcp_move(dsmcp_t *d, double dt)
+{
+	return d->dim == 3 ? move_d(d, dt, 3) : move_d(d, dt, 2);
+}
+
 const double *dsmcp_outbox(const dsmcp_t *d, const size_t **counts)
 {
 	*counts = d->out_cnt;
@@ -467,20 +474,21 @@ int dsmcp_arrive(dsmcp_t *d, const double *rec, size_t n)
 /* Bird's no-time-counter collisions of the own cells, as dsmc.c's collide()
  * (periodic, one species, molecular chaos), each cell drawing from its own
  * keyed generator. */
-void dsmcp_collide(dsmcp_t *d, double dt, dsmcp_sums_t *part)
+static ALWAYS_INLINE void collide_d(dsmcp_t *d, double dt, dsmcp_sums_t *part, const int D)
 {
-	const int D = d->dim, S = 2 * D;
+	const int S = 2 * D;
 	const double coef = d->chi * d->sigma_t * dt / (2 * d->vcell);
 	const double ehalf = 0.5 * (1 + d->e);
 	const double sigma = d->sigma;
 	uint64_t ncoll = 0, ncand = 0, nraise = 0;
 	double virial = 0;
+	unsigned __int128 eacc = 0;
 	sort_cells(d);
 	const size_t nown = d->c1 - d->c0;
 	for (size_t c = 0; c < nown; c++) {
 		uint32_t k0 = d->start[c], nc = d->start[c + 1] - k0;
 		if (nc < 2)
-			continue;
+			goto energy;
 		double u[3] = {0, 0, 0}, s2 = 0;
 		for (uint32_t k = k0; k < k0 + nc; k++)
 			for (int a = 0; a < D; a++)
@@ -496,7 +504,7 @@ void dsmcp_collide(dsmcp_t *d, double dt, dsmcp_sums_t *part)
 			s2 = w2 > s2 ? w2 : s2;
 		}
 		if (s2 == 0)
-			continue;
+			goto energy;
 		double vmax = 2 * sqrt(s2), inv = 1 / vmax;
 		double b = coef * (double)nc * (double)(nc - 1) + (double)d->rem[c] * inv;
 		rng_t rng;
@@ -569,15 +577,35 @@ void dsmcp_collide(dsmcp_t *d, double dt, dsmcp_sums_t *part)
 			}
 		}
 		d->rem[c] = (float)(b * vmax);
+	energy:;
+		/* the cell's kinetic energy after its collisions (still in cache): a
+		 * double sum in identity order, rounded once to the fixed point */
+		double e = 0;
+		for (uint32_t k = k0; k < k0 + nc; k++)
+			for (int a = 0; a < D; a++) {
+				double v = d->p[(size_t)k * S + D + a];
+				e += v * v;
+			}
+		if (e > 0)
+			eacc += (unsigned __int128)(0.5 * d->mass * e * d->escale);
 	}
 	d->virial += virial;
 	memset(part, 0, sizeof *part);
-	energy_limbs(d, &part->w[DSMCP_EK0]);
+	for (int i = 0; i < 4; i++)
+		part->w[DSMCP_EK0 + i] = (uint64_t)(eacc >> (32 * i)) & 0xffffffffu;
 	part->w[DSMCP_COLL] = ncoll;
 	part->w[DSMCP_CAND] = ncand;
 	part->w[DSMCP_VMAX] = nraise;
 	part->w[DSMCP_COUNT] = d->nl;
 	part->w[DSMCP_MIGR] = d->step_migr;
+}
+
+void dsmcp_collide(dsmcp_t *d, double dt, dsmcp_sums_t *part)
+{
+	if (d->dim == 3)
+		collide_d(d, dt, part, 3);
+	else
+		collide_d(d, dt, part, 2);
 }
 
 void dsmcp_finish(dsmcp_t *d, const dsmcp_sums_t *sum, double dt, int last, double t_stop)
