@@ -832,7 +832,8 @@ static int run_other(int rank, int size)
 		    (scene.method != SCENE_METHOD_AUTO || resolve_auto(&scene, size, NULL) == EX_DONE) &&
 		    (hdr[0] & DSMC_SPLIT)) {
 			/* one dsmc system over all ranks: rank 0 reports failures */
-			if (dsmcrun_run(&scene, rank, size, NULL, NULL, NULL, err, sizeof(err)) != RUN_OK)
+			if (dsmcrun_run(&scene, rank, size, (hdr[0] & ENS_FRAMES) != 0, NULL, NULL, NULL, err, sizeof(err)) !=
+			    RUN_OK)
 				ret = EX_FAIL;
 		} else if (scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
 		    (scene.method != SCENE_METHOD_AUTO || resolve_auto(&scene, size, NULL) == EX_DONE)) {
@@ -965,9 +966,15 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			ret = EX_INPUT;
 			goto cleanup;
 		}
-		if (outdir || resume_path) {
-			fprintf(stderr, "granular-engine: %s: frames and checkpoints of one dsmc system over %d ranks are not "
-			        "supported yet (run one rank, or run.replicas > 1)\n", outdir ? "--out" : "--resume", size);
+		if (resume_path) {
+			fprintf(stderr, "granular-engine: --resume: checkpoints of one dsmc system over %d ranks are not "
+			        "supported yet (run one rank, or run.replicas > 1)\n", size);
+			ret = EX_INPUT;
+			goto cleanup;
+		}
+		if (outdir && scene.checkpoint.kind != SCENE_CLOCK_NONE) {
+			fprintf(stderr, "output.checkpoint: checkpoints of one dsmc system over %d ranks are not supported yet "
+			        "(leave it out, run one rank, or run.replicas > 1)\n", size);
 			ret = EX_INPUT;
 			goto cleanup;
 		}
@@ -1097,8 +1104,8 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			goto cleanup;
 		}
 	} else if (split) {
-		announce(an, DSMC_SPLIT, text, len);
-		rc = dsmcrun_run(&scene, 0, size, emit, &sink, &stop_requested, err, sizeof(err));
+		announce(an, DSMC_SPLIT | (outdir ? ENS_FRAMES : 0), text, len);
+		rc = dsmcrun_run(&scene, 0, size, outdir != NULL, emit, &sink, &stop_requested, err, sizeof(err));
 		if (rc == RUN_ENOMEM) {
 			fprintf(stderr, "granular-engine: %s\n", err);
 			ret = EX_FAIL;

@@ -200,6 +200,90 @@ static void record(dsmcp_t *d, const scene_t *s, run_kind_t kind, double wall, u
 		*coll_sample = t.collisions;
 }
 
+/* A frame: every rank's particles gathered to rank 0 (MPI_Gatherv), put in
+ * identity order (the scene's particle order) and emitted there. */
+static int emit_frame(dsmcp_t *d, const scene_t *s, int rank, int size, double wall, run_emit_fn emit, void *ctx,
+                      int *bad_out)
+{
+	const int D = s->dim, W = 2 * D + 1;
+	const size_t N = (size_t)s->count;
+	size_t nl = dsmcp_local(d, NULL, NULL, NULL);
+	double *mine = malloc((nl + 1) * (size_t)W * sizeof(double));
+	uint64_t *id = malloc((nl + 1) * sizeof(uint64_t));
+	double *x = malloc((nl + 1) * (size_t)D * sizeof(double)), *v = malloc((nl + 1) * (size_t)D * sizeof(double));
+	double *all = NULL, *pos = NULL, *vel = NULL;
+	int *cnt = NULL, *dis = NULL;
+	int bad = !mine || !id || !x || !v || nl * (size_t)W > INT32_MAX;
+	if (rank == 0) {
+		all = malloc((N + 1) * (size_t)W * sizeof(double));
+		pos = malloc(N * (size_t)D * sizeof(double));
+		vel = malloc(N * (size_t)D * sizeof(double));
+		cnt = malloc((size_t)size * 2 * sizeof(int));
+		bad = bad || !all || !pos || !vel || !cnt || N * (size_t)W > INT32_MAX;
+		dis = cnt ? cnt + size : NULL;
+	}
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	int ret = RUN_OK;
+	if (bad) {
+		ret = RUN_ENOMEM;
+		goto cleanup;
+	}
+	dsmcp_local(d, id, x, v);
+	for (size_t k = 0; k < nl; k++) {
+		double *r = &mine[k * W];
+		memcpy(r, &x[k * D], D * sizeof(double));
+		memcpy(r + D, &v[k * D], D * sizeof(double));
+		r[2 * D] = (double)id[k];
+	}
+	int n = (int)(nl * (size_t)W);
+	MPI_Gather(&n, 1, MPI_INT, cnt, 1, MPI_INT, 0, MPI_COMM_WORLD);
+	if (rank == 0)
+		for (int r = 0, off = 0; r < size; r++) {
+			dis[r] = off;
+			off += cnt[r];
+		}
+	MPI_Gatherv(mine, n, MPI_DOUBLE, all, cnt, dis, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+	int failed = 0;
+	if (rank == 0) {
+		for (size_t k = 0; k < N; k++) {
+			const double *r = &all[k * W];
+			size_t i = (size_t)r[2 * D];
+			memcpy(&pos[i * D], r, D * sizeof(double));
+			memcpy(&vel[i * D], r + D, D * sizeof(double));
+		}
+		dsmcp_totals_t t;
+		dsmcp_totals(d, &t);
+		run_record_t rec;
+		memset(&rec, 0, sizeof rec);
+		rec.kind = RUN_SNAPSHOT;
+		rec.dim = D;
+		rec.n = N;
+		rec.time = t.time;
+		rec.events = t.moves;
+		rec.collisions = t.collisions;
+		rec.collisions_per_particle = 2.0 * (double)t.collisions / (double)N;
+		rec.wall_seconds = wall;
+		rec.kinetic_energy = t.kinetic_energy;
+		rec.pos = pos;
+		rec.vel = vel;
+		failed = emit && emit(&rec, ctx) != 0;
+	}
+	MPI_Bcast(&failed, 1, MPI_INT, 0, MPI_COMM_WORLD);
+	if (failed)
+		ret = RUN_EMIT;
+cleanup:
+	*bad_out = ret != RUN_OK;
+	free(mine);
+	free(id);
+	free(x);
+	free(v);
+	free(all);
+	free(pos);
+	free(vel);
+	free(cnt);
+	return ret;
+}
+
 /* Rank 0 emits; the outcome is shared (collective). */
 static int emit_all(int rank, run_emit_fn emit, void *ctx, const run_record_t *r)
 {
@@ -208,9 +292,11 @@ static int emit_all(int rank, run_emit_fn emit, void *ctx, const run_record_t *r
 	return bad;
 }
 
-int dsmcrun_run(const scene_t *s, int rank, int size, run_emit_fn emit, void *ctx,
+int dsmcrun_run(const scene_t *s, int rank, int size, int frames, run_emit_fn emit, void *ctx,
                 const volatile sig_atomic_t *stop, char *msg, size_t msglen)
 {
+	int fbad = 0;
+	uint64_t k_snap = 1, snap_steps = UINT64_MAX;
 	int ret = RUN_OK;
 	xbuf_t x;
 	run_record_t rec;
@@ -239,6 +325,15 @@ int dsmcrun_run(const scene_t *s, int rank, int size, run_emit_fn emit, void *ct
 	if (emit_all(rank, emit, ctx, &rec)) {
 		ret = RUN_EMIT;
 		goto cleanup;
+	}
+	/* frames (output.snapshots): the first state, at the end of the step that
+	 * reaches each snapshot time or collision count (steps are not cut for
+	 * them, as run.c), and the last state */
+	const int snap_time = s->snapshots.kind == SCENE_CLOCK_TIME, snap_cpp = s->snapshots.kind == SCENE_CLOCK_CPP;
+	if (frames) {
+		if ((ret = emit_frame(d, s, rank, size, 0.0, emit, ctx, &fbad)) != RUN_OK)
+			goto frame_failed;
+		snap_steps = 0;
 	}
 	for (uint64_t n = 0;; n++) {
 		dsmcp_totals_t t;
@@ -286,11 +381,30 @@ int dsmcrun_run(const scene_t *s, int rank, int size, run_emit_fn emit, void *ct
 				goto cleanup;
 			}
 		}
+		int due_snap = 0;
+		if (frames && (snap_time || snap_cpp) && s->snapshots.value > 0) {
+			const double now = snap_time ? t.time : 2.0 * (double)t.collisions / N;
+			while ((double)k_snap * s->snapshots.value <= now) {
+				due_snap = 1;
+				k_snap++;
+			}
+		}
+		if (due_snap && !done) {
+			if ((ret = emit_frame(d, s, rank, size, MPI_Wtime() - t0, emit, ctx, &fbad)) != RUN_OK)
+				goto frame_failed;
+			snap_steps = t.steps;
+		}
 	}
 	record(d, s, RUN_PROGRESS, MPI_Wtime() - t0, &coll_sample, &rec);
 	if (emit_all(rank, emit, ctx, &rec)) {
 		ret = RUN_EMIT;
 		goto cleanup;
+	}
+	if (frames) {
+		dsmcp_totals_t t;
+		dsmcp_totals(d, &t);
+		if (t.steps != snap_steps && (ret = emit_frame(d, s, rank, size, MPI_Wtime() - t0, emit, ctx, &fbad)) != RUN_OK)
+			goto frame_failed;
 	}
 	record(d, s, RUN_SUMMARY, MPI_Wtime() - t0, &coll_sample, &rec);
 	rec.status = status;
@@ -303,6 +417,9 @@ int dsmcrun_run(const scene_t *s, int rank, int size, run_emit_fn emit, void *ct
 	dsmcp_slab(d, &p0, &p1, rec.cells);
 	if (emit_all(rank, emit, ctx, &rec))
 		ret = RUN_EMIT;
+frame_failed:
+	if (ret == RUN_ENOMEM && msg && msglen)
+		snprintf(msg, msglen, "run: out of memory gathering a frame on rank 0");
 cleanup:
 	xbuf_free(&x);
 	dsmcp_destroy(d);

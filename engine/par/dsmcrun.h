@@ -23,7 +23,11 @@
  *   compressibility, collision_rate and momentum reduced over the ranks,
  *   then a summary; rank 0 emits them (emit may be NULL elsewhere). The
  *   stop flag is read on rank 0 and broadcast every 64 steps and at output
- *   times. No frames or checkpoints yet (the caller refuses --out).
+ *   times. frames != 0 (--out): RUN_SNAPSHOT records of the whole state in
+ *   the scene's particle order, gathered to rank 0 (MPI_Gatherv: rank 0
+ *   holds all particles, 3 copies, while it writes), at the first state,
+ *   at the end of the step that reaches each output.snapshots instant and
+ *   at the last state. No checkpoints (the caller refuses them).
  * - Bit-identity: the state and the integer and energy columns are those of
  *   any other rank count; pressure and momentum are sums of doubles over
  *   ranks (MPI_SUM) and may differ in the last bits between rank counts.
@@ -48,5 +52,5 @@ dsmcp_t *dsmcrun_create(const scene_t *s, int rank, int size, char *msg, size_t 
 
 /* The whole run; RUN_OK, RUN_EMIT (rank 0's emit failed: every rank
  * stops), RUN_ENOMEM or RUN_ESETUP with msg. */
-int dsmcrun_run(const scene_t *s, int rank, int size, run_emit_fn emit, void *ctx,
+int dsmcrun_run(const scene_t *s, int rank, int size, int frames, run_emit_fn emit, void *ctx,
                 const volatile sig_atomic_t *stop, char *msg, size_t msglen);
