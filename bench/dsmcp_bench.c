@@ -17,7 +17,11 @@
  * steps. One JSON line from rank 0: seconds per step (the slowest rank's
  * total / STEPS), moves per second, and per step over all ranks: migrants,
  * bytes and messages sent to other ranks; imbalance = max / mean over ranks
- * of the particles held and of the time outside MPI calls.
+ * of the particles held and of the time outside MPI calls, and the
+ * largest time outside MPI calls per step (compute_s_per_step_max: what the
+ * step would cost if waiting in MPI cost nothing), and the CPU seconds
+ * per step outside MPI calls, largest rank and all ranks (the work, apart
+ * from how the shared cores were handed out).
  * "serial" (one rank): dsmc.c's own step (dsmc_advance) on the same gas,
  * for the ratio to the decomposed path.
  */
@@ -77,9 +81,10 @@ int main(int argc, char **argv)
 			MPI_Abort(MPI_COMM_WORLD, 1);
 	double nl = (double)dsmcp_local(d, NULL, NULL, NULL), comp = st.seconds - st.comm_seconds;
 	double sums[4] = {(double)st.migrants, (double)st.bytes, (double)st.messages, nl};
-	double maxs[3] = {st.seconds, nl, comp}, comp_sum = comp;
+	double maxs[4] = {st.seconds, nl, comp, st.cpu_compute}, comp_sum = comp, cpu_sum = st.cpu_compute;
 	MPI_Allreduce(MPI_IN_PLACE, sums, 4, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
-	MPI_Allreduce(MPI_IN_PLACE, maxs, 3, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+	MPI_Allreduce(MPI_IN_PLACE, maxs, 4, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+	MPI_Allreduce(MPI_IN_PLACE, &cpu_sum, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
 	MPI_Allreduce(MPI_IN_PLACE, &comp_sum, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
 	if (rank == 0) {
 		int p0, p1, nc[3];
@@ -87,9 +92,9 @@ int main(int argc, char **argv)
 		double sec = maxs[0] / steps;
 		printf("{\"mode\":\"split\",\"dim\":%d,\"N\":%.0f,\"ranks\":%d,\"planes\":%d,\"steps\":%d,\"s_per_step\":%.6g,"
 		       "\"moves_per_s\":%.4g,\"migrants_per_step\":%.1f,\"bytes_per_step\":%.0f,\"messages_per_step\":%.2f,"
-		       "\"imbalance_particles\":%.4f,\"imbalance_compute\":%.3f}\n",
+		       "\"imbalance_particles\":%.4f,\"imbalance_compute\":%.3f,\"compute_s_per_step_max\":%.6g,\"cpu_compute_s_per_step_max\":%.6g,\"cpu_compute_s_per_step_sum\":%.6g}\n",
 		       dim, N, P, nc[dim - 1], steps, sec, N / sec, sums[0] / steps, sums[1] / steps, sums[2] / steps,
-		       maxs[1] / (sums[3] / P), comp_sum > 0 ? maxs[2] / (comp_sum / P) : 0.0);
+		       maxs[1] / (sums[3] / P), comp_sum > 0 ? maxs[2] / (comp_sum / P) : 0.0, maxs[2] / steps, maxs[3] / steps, cpu_sum / steps);
 	}
 	dsmcp_destroy(d);
 	MPI_Finalize();

@@ -62,17 +62,34 @@ static int sim_advance(sim_t *s, double t_stop, uint64_t max_steps)
 			if (dsmcp_move(s->r[k], dt) != DSMCP_OK)
 				return -1;
 		uint64_t migr = 0;
-		for (int to = 0; to < s->P; to++)
+		for (int to = 0; to < s->P; to++) {
+			/* as MPI_Alltoallv: the sources' records in source-rank order */
+			size_t nin = 0, nlow = 0, cap = 0;
+			for (int from = 0; from < s->P; from++) {
+				const size_t *cnt;
+				(void)dsmcp_outbox(s->r[from], &cnt);
+				cap += cnt[to];
+			}
+			double *in = malloc((cap + 1) * R * sizeof(double));
+			if (!in)
+				return -1;
 			for (int from = 0; from < s->P; from++) {
 				const size_t *cnt;
 				const double *box = dsmcp_outbox(s->r[from], &cnt);
 				size_t off = 0;
 				for (int q = 0; q < to; q++)
 					off += cnt[q];
-				if (cnt[to] && dsmcp_arrive(s->r[to], box + off * R, cnt[to]) != DSMCP_OK)
-					return -1;
-				migr += cnt[to];
+				if (cnt[to])
+					memcpy(in + nin * R, box + off * R, cnt[to] * R * sizeof(double));
+				nin += cnt[to];
+				nlow += from < to ? cnt[to] : 0;
 			}
+			int rc = dsmcp_arrive(s->r[to], in, nin, nlow);
+			free(in);
+			if (rc != DSMCP_OK)
+				return -1;
+			migr += nin;
+		}
 		s->migr_max = migr > s->migr_max ? migr : s->migr_max;
 		dsmcp_sums_t sum, part;
 		memset(&sum, 0, sizeof sum);

@@ -39,6 +39,7 @@ struct dsmcp {
 	double t, ekin;
 	uint64_t steps, collisions, candidates, vmax_raised, migrated, moves;
 	uint64_t step_migr;            /* this rank's migrants in the current step */
+	size_t nown_nl, nlow;          /* records before the arrivals; arrivals from lower ranks (first) */
 	/* interval accumulators (dsmcp_interval()) */
 	double t_sample, ekin_int;     /* global: E_kin dt summed over the steps (the same on every rank) */
 	double virial;                 /* this rank's collisions' (sigma n) . J */
@@ -173,34 +174,23 @@ static ALWAYS_INLINE void sort_cells_d(struct dsmcp *d, const int D)
 		acc += k;
 	}
 	d->start[nown] = acc;
-	for (size_t k = 0; k < d->nl; k++) {
-		uint32_t j = d->cnt[d->cell[k]]++;
-		memcpy(&d->p2[(size_t)j * S], &d->p[k * S], S * sizeof(double));
-		d->id2[j] = d->id[k];
-	}
+	/* stable over the 1-rank order: arrivals from lower ranks (lower cells),
+	 * the own survivors, arrivals from higher ranks (dsmcp_arrive()) */
+	const size_t seg[3][2] = {{d->nown_nl, d->nown_nl + d->nlow}, {0, d->nown_nl}, {d->nown_nl + d->nlow, d->nl}};
+	for (int g = 0; g < 3; g++)
+		for (size_t k = seg[g][0]; k < seg[g][1]; k++) {
+			uint32_t j = d->cnt[d->cell[k]]++;
+			memcpy(&d->p2[(size_t)j * S], &d->p[k * S], S * sizeof(double));
+			d->id2[j] = d->id[k];
+		}
+	d->nown_nl = d->nl;
+	d->nlow = 0;
 	double *tp = d->p;
 	d->p = d->p2;
 	d->p2 = tp;
 	uint64_t *ti = d->id;
 	d->id = d->id2;
 	d->id2 = ti;
-	for (size_t c = 0; c < nown; c++) {
-		for (uint32_t k = d->start[c] + 1; k < d->start[c + 1]; k++) {
-			uint64_t key = d->id[k];
-			if (d->id[k - 1] <= key)
-				continue;
-			double rec[6];
-			memcpy(rec, &d->p[(size_t)k * S], S * sizeof(double));
-			uint32_t j = k;
-			while (j > d->start[c] && d->id[j - 1] > key) {
-				memcpy(&d->p[(size_t)j * S], &d->p[(size_t)(j - 1) * S], S * sizeof(double));
-				d->id[j] = d->id[j - 1];
-				j--;
-			}
-			memcpy(&d->p[(size_t)j * S], rec, S * sizeof(double));
-			d->id[j] = key;
-		}
-	}
 }
 
 /* D a constant in each copy: the record copies inline. */
@@ -304,6 +294,7 @@ dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int
 		d->id[d->nl] = i;
 		d->cell[d->nl++] = (uint32_t)(c - d->c0);
 	}
+	d->nown_nl = d->nl;
 	sort_cells(d);
 	/* remainders uniform on [0, 1) from the generator of (key, step 2^64 - 1, cell) */
 	for (size_t c = 0; c < nown; c++) {
@@ -407,6 +398,7 @@ static ALWAYS_INLINE int move_d(dsmcp_t *d, double dt, const int D)
 		}
 	}
 	d->step_migr = nout;
+	d->nown_nl = d->nl;
 	if (!nout)
 		return DSMCP_OK;
 	if (nout > d->out_cap) {
@@ -439,7 +431,7 @@ static ALWAYS_INLINE int move_d(dsmcp_t *d, double dt, const int D)
 		}
 		w++;
 	}
-	d->nl = w;
+	d->nl = d->nown_nl = w;
 	return DSMCP_OK;
 }
 
@@ -454,11 +446,14 @@ const double *dsmcp_outbox(const dsmcp_t *d, const size_t **counts)
 	return d->out;
 }
 
-int dsmcp_arrive(dsmcp_t *d, const double *rec, size_t n)
+int dsmcp_arrive(dsmcp_t *d, const double *rec, size_t n, size_t nlow)
 {
 	const int D = d->dim, S = 2 * D, R = S + 1;
+	if (nlow > n || d->nl != d->nown_nl)
+		return DSMCP_EINVAL;
 	if (reserve(d, d->nl + n) != DSMCP_OK)
 		return DSMCP_ENOMEM;
+	d->nlow = nlow;
 	for (size_t i = 0; i < n; i++) {
 		const double *r = &rec[i * R];
 		size_t c = cell_at(d, r);

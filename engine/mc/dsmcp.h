@@ -19,15 +19,18 @@
  *   parameters; observables energy, pressure, collision_rate, momentum. dsmcp_check() names the first scene key outside it.
  * - One step of length dt: free flight (wrap), migrants packed for their
  *   owner rank (dsmcp_move), arrivals appended (dsmcp_arrive), counting
- *   sort into the own cells, each cell's particles ordered by identity,
- *   Bird's no-time-counter collisions as in dsmc.c whose random numbers
+ *   sort into the own cells (stable over the concatenation: arrivals from
+ *   lower ranks, own particles, arrivals from higher ranks, which is the
+ *   order the 1-rank run has), Bird's no-time-counter collisions as in dsmc.c whose random numbers
  *   come from a generator keyed on (seed, stream, step, cell) only
  *   (dsmcp_collide), then the global sums installed (dsmcp_finish).
  * - Guarantee: given the same scene, stream and dsmcp_next_dt() stop times,
  *   the particles' positions, velocities, the clock and every counter after
  *   any number of steps are bit-identical for every rank count P >= 1: a
- *   cell's collisions depend only on its particle set (ordered by
- *   identity), its carried remainder and its key, and the adaptive step
+ *   rank's particles are always in the order of the 1-rank run restricted
+ *   to them (by induction: slabs own increasing cell ranges, the sort is
+ *   stable), so a cell's collisions depend only on its particles in that
+ *   order, its carried remainder and its key; and the adaptive step
  *   uses the kinetic energy summed exactly (per-cell double sums in
  *   identity order rounded once to 128-bit fixed point; integer sums are
  *   associative). The sequence differs from dsmc.c's serial one (its single
@@ -82,9 +85,11 @@ int dsmcp_move(dsmcp_t *d, double dt);
  * until the next dsmcp_move(). */
 int dsmcp_record_doubles(const dsmcp_t *d);
 const double *dsmcp_outbox(const dsmcp_t *d, const size_t **counts);
-/* Append n arriving records (from any ranks, any order). DSMCP_OK,
- * DSMCP_ENOMEM, or DSMCP_EINVAL for a record outside this rank's slab. */
-int dsmcp_arrive(dsmcp_t *d, const double *rec, size_t n);
+/* After dsmcp_move(), once: the n records arriving from the other ranks,
+ * in source-rank order, each source's records in its outbox order; the
+ * first nlow come from lower ranks. DSMCP_OK, DSMCP_ENOMEM, or
+ * DSMCP_EINVAL for a record outside this rank's slab. */
+int dsmcp_arrive(dsmcp_t *d, const double *rec, size_t n, size_t nlow);
 /* Sort and collide the own cells; this rank's part of the sums into *part. */
 void dsmcp_collide(dsmcp_t *d, double dt, dsmcp_sums_t *part);
 /* Install the summed words of all ranks and advance the clock

@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "dsmcrun.h"
 #include "mc/dsmc.h"
@@ -16,10 +17,18 @@ typedef struct {
 	uint64_t *c64;
 } xbuf_t;
 
+/* CPU seconds of this process (bench figures independent of the sharing of cores). */
+static double cpu_now(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
 static int step_x(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st, xbuf_t *x, int P, int rank)
 {
 	int last;
-	double w0 = MPI_Wtime(), wc = 0;
+	double w0 = MPI_Wtime(), wc = 0, u0 = cpu_now(), uc = 0, cu0 = 0;
 	double dt = dsmcp_next_dt(d, t_stop, &last);
 	if (!isfinite(dt))
 		return DSMCP_QUIESCENT;
@@ -36,9 +45,10 @@ static int step_x(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st, xbuf_t *x, int
 		}
 	}
 	double c0 = MPI_Wtime();
+	cu0 = cpu_now();
 	uint64_t *rc64 = x->c64 + P;
 	MPI_Alltoall(x->c64, 1, MPI_UINT64_T, rc64, 1, MPI_UINT64_T, MPI_COMM_WORLD);
-	wc += MPI_Wtime() - c0;
+	wc += MPI_Wtime() - c0, uc += cpu_now() - cu0;
 	size_t off = 0;
 	for (int r = 0; r < P; r++) {
 		total_in += rc64[r];
@@ -62,9 +72,10 @@ static int step_x(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st, xbuf_t *x, int
 		}
 	}
 	c0 = MPI_Wtime();
+	cu0 = cpu_now();
 	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
 	if (bad) {
-		wc += MPI_Wtime() - c0;
+		wc += MPI_Wtime() - c0, uc += cpu_now() - cu0;
 		return DSMCP_ENOMEM;
 	}
 	size_t roff = 0;
@@ -76,8 +87,11 @@ static int step_x(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st, xbuf_t *x, int
 	static const double none = 0;
 	MPI_Alltoallv(box ? box : &none, x->scnt, x->sdis, MPI_DOUBLE, x->buf ? x->buf : (double *)&none, x->rcnt, x->rdis,
 	              MPI_DOUBLE, MPI_COMM_WORLD);
-	wc += MPI_Wtime() - c0;
-	rc = dsmcp_arrive(d, x->buf, (size_t)total_in);
+	wc += MPI_Wtime() - c0, uc += cpu_now() - cu0;
+	size_t nlow = 0;
+	for (int r = 0; r < rank; r++)
+		nlow += rc64[r];
+	rc = dsmcp_arrive(d, x->buf, (size_t)total_in, nlow);
 	dsmcp_sums_t part, sum;
 	if (rc == DSMCP_OK) {
 		dsmcp_collide(d, dt, &part);
@@ -86,13 +100,14 @@ static int step_x(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st, xbuf_t *x, int
 	}
 	int failed = rc != DSMCP_OK;
 	c0 = MPI_Wtime();
+	cu0 = cpu_now();
 	MPI_Allreduce(MPI_IN_PLACE, &failed, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
 	if (failed) {
-		wc += MPI_Wtime() - c0;
+		wc += MPI_Wtime() - c0, uc += cpu_now() - cu0;
 		return rc != DSMCP_OK ? rc : DSMCP_EINVAL;
 	}
 	MPI_Allreduce(part.w, sum.w, DSMCP_NSUM, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
-	wc += MPI_Wtime() - c0;
+	wc += MPI_Wtime() - c0, uc += cpu_now() - cu0;
 	dsmcp_finish(d, &sum, dt, last, t_stop);
 	if (st) {
 		st->steps++;
@@ -101,6 +116,7 @@ static int step_x(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st, xbuf_t *x, int
 		st->messages += msgs;
 		st->seconds += MPI_Wtime() - w0;
 		st->comm_seconds += wc;
+		st->cpu_compute += cpu_now() - u0 - uc;
 	}
 	return DSMCP_OK;
 }

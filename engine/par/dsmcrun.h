@@ -40,6 +40,7 @@ typedef struct {
 	uint64_t messages;      /* non-empty sends to another rank */
 	double seconds;         /* wall time in dsmcrun_step() */
 	double comm_seconds;    /* of which in MPI calls */
+	double cpu_compute;     /* CPU seconds of this process outside MPI calls */
 } dsmcrun_stats_t;
 
 /* One step to at most t_stop on every rank. 0, DSMCP_QUIESCENT (T = 0,
