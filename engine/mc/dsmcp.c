@@ -158,8 +158,7 @@ static double limbs_energy(const struct dsmcp *d, const uint64_t *limb)
 	return (double)acc / d->escale;
 }
 
-/* Counting sort of the own records into cells (d->cell set), then each
- * cell's records in identity order (insertion sort: a few per cell). */
+/* Stable counting sort of the own records into cells: the 1-rank order (see dsmcp.h, dsmcp_arrive()). */
 static ALWAYS_INLINE void sort_cells_d(struct dsmcp *d, const int D)
 {
 	const int S = 2 * D;
@@ -574,7 +573,7 @@ static ALWAYS_INLINE void collide_d(dsmcp_t *d, double dt, dsmcp_sums_t *part, c
 		d->rem[c] = (float)(b * vmax);
 	energy:;
 		/* the cell's kinetic energy after its collisions (still in cache): a
-		 * double sum in identity order, rounded once to the fixed point */
+		 * double sum in the cell's order, rounded once to the fixed point */
 		double e = 0;
 		for (uint32_t k = k0; k < k0 + nc; k++)
 			for (int a = 0; a < D; a++) {

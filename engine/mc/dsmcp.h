@@ -32,7 +32,7 @@
  *   stable), so a cell's collisions depend only on its particles in that
  *   order, its carried remainder and its key; and the adaptive step
  *   uses the kinetic energy summed exactly (per-cell double sums in
- *   identity order rounded once to 128-bit fixed point; integer sums are
+ *   cell order rounded once to 128-bit fixed point; integer sums are
  *   associative). The sequence differs from dsmc.c's serial one (its single
  *   stream), which this module leaves untouched.
  * - The initial state is dsmc_create()'s (the same scene and stream), each
