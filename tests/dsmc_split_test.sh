@@ -58,6 +58,36 @@ done
 grep -q '"collisions":[1-9]' "$tmp/o2"
 ok $? "the split run collides: $(tail -n 1 "$tmp/o2" | head -c 160)"
 
+# 1b. A schedule in collisions per particle (run.until and output.every): each record after the step that
+#     reaches its count, as the serial run (the same number of records), identical on 1 (--split), 2 and 3
+#     ranks; 2D, CBA offsets.
+cat >"$tmp/c.json" <<'EOF'
+{"method":"dsmc","dimensions":2,"particles":{"count":4000,"volume_fraction":0.1,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.8},"dsmc":{"correction":"cba"},"run":{"seed":8,"until":{"collisions_per_particle":3}},
+ "output":{"every":{"collisions_per_particle":0.5}}}
+EOF
+"$ENGINE" run "$tmp/c.json" >"$tmp/c0" 2>/dev/null
+"$ENGINE" run "$tmp/c.json" --split >"$tmp/c1" 2>/dev/null
+rc1=$?
+strip "$tmp/c1" >"$tmp/cs1"
+for np in 2 3; do
+	mpirun --oversubscribe -np $np "$ENGINE" run "$tmp/c.json" >"$tmp/c$np" 2>/dev/null
+	rc=$?
+	strip "$tmp/c$np" >"$tmp/cs$np"
+	cmp -s "$tmp/cs1" "$tmp/cs$np"
+	same=$?
+	"$PY" - "$tmp/c0" "$tmp/c$np" <<'PY'
+import json, sys
+a = [json.loads(l) for l in open(sys.argv[1])]
+b = [json.loads(l) for l in open(sys.argv[2])]
+assert len(a) == len(b) == 8, (len(a), len(b))
+for k, r in enumerate(b[1:-1]):   # the record of output k+1 comes after the step reaching 0.5 (k+1) per particle
+    assert r["collisions_per_particle"] >= 0.5 * (k + 1) - 1e-12, (k, r["collisions_per_particle"])
+assert b[-2]["collisions_per_particle"] >= 3 and b[-1]["status"] == "completed"
+PY
+	ok $(( rc1 == 0 && rc == 0 && same == 0 && $? == 0 ? 0 : 1 )) "collisions-per-particle schedule, mpirun -np $np: the serial run's 8 records, equal to the 1-rank split run (exit $rc)"
+done
+
 # 2. Haff's law through the program on 2 ranks: 6 seeds of a 3D gas (N = 2000, nu = 0.1, e = 0.9, chi = 1),
 #    8 outputs to tau = 2; the mean T/T0 over the seeds within 4 standard errors plus 1.5% of theory (the
 #    Sonine and time-splitting allowance of tests/dsmc_test.c), at every output.
