@@ -2422,6 +2422,18 @@ void dsmc_geometry(const dsmc_t *d, dsmc_geom_t *out)
 	out->dt_fixed = d->dt_fixed;
 }
 
+int dsmc_geometry_scene(const scene_t *s, dsmc_geom_t *out, char *msg, size_t msglen)
+{
+	struct dsmc d;
+	memset(&d, 0, sizeof(d));
+	if (msg && msglen)
+		msg[0] = '\0';
+	int rc = layout(&d, s, msg, msglen);
+	if (rc == DSMC_OK)
+		dsmc_geometry(&d, out);
+	return rc;
+}
+
 size_t dsmc_memory(const dsmc_t *d)
 {
 	size_t S = 2 * (size_t)d->dim;

@@ -227,5 +227,8 @@ typedef struct {
 	double sigma, mass, e, chi, sigma_t, vcell, fcoef, cps, dt_fixed;
 } dsmc_geom_t;
 void dsmc_geometry(const dsmc_t *d, dsmc_geom_t *out);
+/* The same for scene s without building the engine (pure, no allocation):
+ * DSMC_OK, or DSMC_EINVAL with "KEY: reason" in msg as dsmc_plan(). */
+int dsmc_geometry_scene(const scene_t *s, dsmc_geom_t *out, char *msg, size_t msglen);
 
 const char *dsmc_strerror(int code);

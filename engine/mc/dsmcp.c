@@ -201,6 +201,88 @@ static void sort_cells(struct dsmcp *d)
 		sort_cells_d(d, 2);
 }
 
+int dsmcp_direct_ok(const scene_t *s)
+{
+	return s->positions == SCENE_POS_RANDOM && !s->init_pos && !s->init_vel && !(s->relax_cpp > 0) &&
+	       !scene_has_species(s) && !scene_has_walls(s) && !scene_has_gravity(s) && s->n_obstacles == 0;
+}
+
+/* Own a particle of identity i at x, velocity v, if its cell is in the slab. */
+static int take(struct dsmcp *d, uint32_t i, const double *x, const double *v, size_t xs, size_t vs)
+{
+	const int D = d->dim, S = 2 * D;
+	size_t c = 0;
+	for (int a = D - 1; a >= 0; a--) {
+		int ix = (int)(x[a * xs] * d->inv_h[a]);
+		if (ix >= d->nc[a])
+			ix = d->nc[a] - 1;
+		c = c * (size_t)d->nc[a] + (size_t)ix;
+	}
+	if (c < d->c0 || c >= d->c1)
+		return DSMCP_OK;
+	if (d->nl == d->cap && reserve(d, d->nl + 1) != DSMCP_OK)
+		return DSMCP_ENOMEM;
+	double *r = &d->p[d->nl * S];
+	for (int a = 0; a < D; a++) {
+		r[a] = x[a * xs];
+		r[D + a] = v ? v[a * vs] : 0.0;
+	}
+	d->id[d->nl] = i;
+	d->cell[d->nl++] = (uint32_t)(c - d->c0);
+	return DSMCP_OK;
+}
+
+/* dsmc_create()'s initial state of a periodic one-species scene with random
+ * positions and no pre-run, built without holding the whole system: the
+ * scene's stream is run through twice (positions, then the Maxwellian: the
+ * mean in the first pass, the variance after removing it in the second, in
+ * dsmc_create()'s order, so every number is the same), each rank keeping
+ * its slab. */
+static int fill_direct(struct dsmcp *d, const scene_t *s, uint64_t stream)
+{
+	const int D = d->dim, S = 2 * D;
+	const uint32_t n = d->n;
+	rng_t rng;
+	double mean[3] = {0, 0, 0}, s2 = 0;
+	rng_init(&rng, s->seed, stream);
+	for (uint32_t i = 0; i < n; i++) {
+		double x[3];
+		for (int a = 0; a < D; a++)
+			x[a] = wrap(rng_uniform(&rng) * d->L[a], d->L[a]);
+		if (take(d, i, x, NULL, 1, 1) != DSMCP_OK)
+			return DSMCP_ENOMEM;
+	}
+	/* raw Gaussians: the own ones kept (in identity order, as the records) */
+	size_t k = 0;
+	for (uint32_t i = 0; i < n; i++)
+		for (int a = 0; a < D; a++) {
+			double v = rng_gauss(&rng);
+			mean[a] += v;
+			if (k < d->nl && d->id[k] == i)
+				d->p[k * S + D + a] = v;
+			if (a == D - 1 && k < d->nl && d->id[k] == i)
+				k++;
+		}
+	/* the variance after the mean is removed, in dsmc_create()'s order */
+	rng_init(&rng, s->seed, stream);
+	for (uint64_t j = 0; j < (uint64_t)n * D; j++)
+		(void)rng_uniform(&rng);
+	for (uint32_t i = 0; i < n; i++)
+		for (int a = 0; a < D; a++) {
+			double v = rng_gauss(&rng);
+			v -= mean[a] / n;
+			s2 += v * v;
+		}
+	double scale = s2 > 0 ? sqrt(s->temperature * D * n / (d->mass * s2)) : 0;
+	for (size_t q = 0; q < d->nl; q++)
+		for (int a = 0; a < D; a++) {
+			double *v = &d->p[q * S + D + a];
+			*v -= mean[a] / n;
+			*v *= scale;
+		}
+	return DSMCP_OK;
+}
+
 dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int rank, int ranks, int *err,
                       char *msg, size_t msglen)
 {
@@ -217,7 +299,13 @@ dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int
 	if (dsmcp_check(s, msg, msglen) != DSMCP_OK)
 		goto fail;
 	dsmc_geom_t g;
-	dsmc_geometry(init, &g);
+	if (init) {
+		dsmc_geometry(init, &g);
+	} else if (!dsmcp_direct_ok(s) || dsmc_geometry_scene(s, &g, msg, msglen) != DSMC_OK) {
+		if (msg && msglen && !msg[0])
+			snprintf(msg, msglen, "run: the decomposed dsmc needs an initial state for this scene");
+		goto fail;
+	}
 	if (g.hsmc || g.mix || g.bounded || g.local_chi || g.impact) {
 		if (msg && msglen)
 			snprintf(msg, msglen, "method: the scene uses a feature the decomposed dsmc does not support");
@@ -227,7 +315,7 @@ dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int
 	d = calloc(1, sizeof *d);
 	if (!d)
 		goto fail;
-	const int D = g.dim, S = 2 * D;
+	const int D = g.dim;
 	d->dim = D;
 	d->rank = rank;
 	d->ranks = ranks;
@@ -269,29 +357,26 @@ dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int
 	d->rem = malloc((nown ? nown : 1) * sizeof(float));
 	d->out_cnt = calloc((size_t)ranks, sizeof(size_t));
 	d->out_pos = calloc((size_t)ranks, sizeof(size_t));
-	pos = malloc((size_t)g.n * D * sizeof(double));
-	vel = malloc((size_t)g.n * D * sizeof(double));
-	if (!d->start || !d->cnt || !d->rem || !d->out_cnt || !d->out_pos || !pos || !vel)
+	if (!d->start || !d->cnt || !d->rem || !d->out_cnt || !d->out_pos)
 		goto fail;
-	dsmc_state(init, pos, vel);
-	size_t mine = 0;
-	for (uint32_t i = 0; i < g.n; i++) {
-		size_t c = cell_at(d, &pos[(size_t)i * D]);
-		mine += c >= d->c0 && c < d->c1;
-	}
-	if (reserve(d, mine) != DSMCP_OK)
-		goto fail;
-	for (uint32_t i = 0; i < g.n; i++) {
-		size_t c = cell_at(d, &pos[(size_t)i * D]);
-		if (c < d->c0 || c >= d->c1)
-			continue;
-		double *r = &d->p[d->nl * S];
-		for (int a = 0; a < D; a++) {
-			r[a] = pos[(size_t)i * D + a];
-			r[D + a] = vel[(size_t)i * D + a];
+	if (init) {
+		pos = malloc((size_t)g.n * D * sizeof(double));
+		vel = malloc((size_t)g.n * D * sizeof(double));
+		if (!pos || !vel)
+			goto fail;
+		dsmc_state(init, pos, vel);
+		size_t mine = 0;
+		for (uint32_t i = 0; i < g.n; i++) {
+			size_t c = cell_at(d, &pos[(size_t)i * D]);
+			mine += c >= d->c0 && c < d->c1;
 		}
-		d->id[d->nl] = i;
-		d->cell[d->nl++] = (uint32_t)(c - d->c0);
+		if (reserve(d, mine) != DSMCP_OK)
+			goto fail;
+		for (uint32_t i = 0; i < g.n; i++)
+			if (take(d, i, &pos[(size_t)i * D], &vel[(size_t)i * D], 1, 1) != DSMCP_OK)
+				goto fail;
+	} else if (reserve(d, (size_t)g.n / (size_t)ranks + 64) != DSMCP_OK || fill_direct(d, s, stream) != DSMCP_OK) {
+		goto fail;
 	}
 	d->nown_nl = d->nl;
 	sort_cells(d);
@@ -301,13 +386,18 @@ dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int
 		cell_rng(&r, d->key, UINT64_MAX, d->c0 + c);
 		d->rem[c] = (float)rng_uniform_fast(&r);
 	}
-	dsmc_sample_t tot;
-	dsmc_totals(init, &tot);
-	d->ekin = tot.kinetic_energy;   /* the serial engine's exact pass: the same number on every rank */
-	/* fixed point: the initial total near 2^80, so 2^47 times more fits in 128 bits */
+	/* fixed point: the expected initial total D N T / 2 near 2^80, so 2^47
+	 * times more fits in 128 bits (given velocities: their exact energy) */
+	double eref = 0.5 * D * (double)g.n * s->temperature;
+	if (init && s->init_vel) {
+		dsmc_sample_t tot;
+		dsmc_totals(init, &tot);
+		eref = tot.kinetic_energy;
+	}
 	int ex = 0;
-	(void)frexp(d->ekin > 0 ? d->ekin : 1.0, &ex);
+	(void)frexp(eref > 0 ? eref : 1.0, &ex);
 	d->escale = ldexp(1.0, 80 - ex);
+	d->ekin = NAN;   /* dsmcp_start() */
 	*err = DSMCP_OK;
 	free(pos);
 	free(vel);
@@ -600,6 +690,34 @@ void dsmcp_collide(dsmcp_t *d, double dt, dsmcp_sums_t *part)
 		collide_d(d, dt, part, 3);
 	else
 		collide_d(d, dt, part, 2);
+}
+
+void dsmcp_initial_sums(const dsmcp_t *d, dsmcp_sums_t *part)
+{
+	const int D = d->dim, S = 2 * D;
+	unsigned __int128 eacc = 0;
+	memset(part, 0, sizeof *part);
+	for (size_t c = 0; c < d->c1 - d->c0; c++) {
+		double e = 0;
+		for (uint32_t k = d->start[c]; k < d->start[c + 1]; k++)
+			for (int a = 0; a < D; a++) {
+				double v = d->p[(size_t)k * S + D + a];
+				e += v * v;
+			}
+		if (e > 0)
+			eacc += (unsigned __int128)(0.5 * d->mass * e * d->escale);
+	}
+	for (int i = 0; i < 4; i++)
+		part->w[DSMCP_EK0 + i] = (uint64_t)(eacc >> (32 * i)) & 0xffffffffu;
+	part->w[DSMCP_COUNT] = d->nl;
+}
+
+int dsmcp_start(dsmcp_t *d, const dsmcp_sums_t *sum)
+{
+	if (sum->w[DSMCP_COUNT] != d->n)
+		return DSMCP_EINVAL;
+	d->ekin = limbs_energy(d, &sum->w[DSMCP_EK0]);
+	return DSMCP_OK;
 }
 
 void dsmcp_finish(dsmcp_t *d, const dsmcp_sums_t *sum, double dt, int last, double t_stop)

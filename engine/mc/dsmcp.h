@@ -36,8 +36,10 @@
  *   associative). The sequence differs from dsmc.c's serial one (its single
  *   stream), which this module leaves untouched.
  * - The initial state is dsmc_create()'s (the same scene and stream), each
- *   rank keeping its own cells' particles; the remainders restart uniform
- *   from the keyed generator.
+ *   rank keeping its own cells' particles (built by dsmc_create() on every
+ *   rank, or generated directly when dsmcp_direct_ok(): the same numbers);
+ *   the remainders restart uniform from the keyed generator; the first
+ *   step's kinetic energy is the exact fixed-point sum (dsmcp_start()).
  */
 
 typedef struct dsmcp dsmcp_t;
@@ -67,9 +69,20 @@ int dsmcp_check(const scene_t *s, char *msg, size_t msglen);
 
 /* Rank `rank` of `ranks` of the run of scene s from the built initial
  * state init (dsmc_create(s, stream, ...), identical on every rank; the
- * caller may destroy it afterwards). NULL with *err and msg set. */
+ * caller may destroy it afterwards), or with init NULL, for a scene where
+ * dsmcp_direct_ok() holds, the same state generated directly: the scene's
+ * random stream is run through twice on every rank, which keeps only its
+ * slab (O(N) time, O(N / P) memory). NULL with *err and msg set. Then,
+ * collectively: dsmcp_initial_sums() on every rank, the parts summed,
+ * dsmcp_start() on every rank (the kinetic energy of the first step). */
 dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int rank, int ranks, int *err,
                       char *msg, size_t msglen);
+/* Random positions, no given positions or velocities, no pre-run, one
+ * species, periodic: dsmcp_create() can build the state without init. */
+int dsmcp_direct_ok(const scene_t *s);
+void dsmcp_initial_sums(const dsmcp_t *d, dsmcp_sums_t *part);
+/* DSMCP_EINVAL if the summed count is not the system's N. */
+int dsmcp_start(dsmcp_t *d, const dsmcp_sums_t *sum);
 void dsmcp_destroy(dsmcp_t *d);
 
 /* The next step's length for a run to t_stop (shortened to land on it:

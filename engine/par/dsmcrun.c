@@ -158,20 +158,31 @@ dsmcp_t *dsmcrun_create(const scene_t *s, int rank, int size, char *msg, size_t 
 {
 	int err = 0;
 	dsmcp_t *d = NULL;
-	/* Every rank builds the same initial state (dsmc_create, stream 0: the
-	 * serial run's) and keeps its slab: the whole system in memory on each
-	 * rank for the set-up only. */
-	dsmc_t *init = dsmc_create(s, 0, &err, msg, msglen);
-	if (init)
-		d = dsmcp_create(s, init, 0, rank, size, &err, msg, msglen);
-	dsmc_destroy(init);
+	/* The initial state of dsmc_create() (stream 0: the serial run's): for
+	 * random positions generated directly, each rank keeping its slab;
+	 * otherwise built whole on every rank (the set-up then holds the whole
+	 * system once per rank). */
+	if (dsmcp_direct_ok(s)) {
+		d = dsmcp_create(s, NULL, 0, rank, size, &err, msg, msglen);
+	} else {
+		dsmc_t *init = dsmc_create(s, 0, &err, msg, msglen);
+		if (init)
+			d = dsmcp_create(s, init, 0, rank, size, &err, msg, msglen);
+		dsmc_destroy(init);
+	}
 	int bad = d == NULL, any = 0;
 	MPI_Allreduce(&bad, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (!any) {
+		dsmcp_sums_t part, sum;
+		dsmcp_initial_sums(d, &part);
+		MPI_Allreduce(part.w, sum.w, DSMCP_NSUM, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+		any = dsmcp_start(d, &sum) != DSMCP_OK;   /* the same outcome on every rank */
+	}
 	if (any && d) {
 		dsmcp_destroy(d);
 		d = NULL;
 		if (msg && msglen)
-			snprintf(msg, msglen, "run: the decomposed dsmc could not be built on another rank");
+			snprintf(msg, msglen, "run: the decomposed dsmc could not be built on every rank");
 	}
 	return d;
 }
