@@ -21,10 +21,26 @@
  * largest time outside MPI calls per step (compute_s_per_step_max: what the
  * step would cost if waiting in MPI cost nothing), and the CPU seconds
  * per step outside MPI calls, largest rank and all ranks (the work, apart
- * from how the shared cores were handed out).
+ * from how the shared cores were handed out); the largest peak resident
+ * memory of a rank (set-up included) and rank 0's dsmcp_memory() per
+ * particle it holds.
  * "serial" (one rank): dsmc.c's own step (dsmc_advance) on the same gas,
  * for the ratio to the decomposed path.
  */
+/* Peak resident memory of this process (VmHWM, /proc/self/status), bytes; 0 if unknown. */
+static double peak_rss(void)
+{
+	char line[256];
+	double kb = 0;
+	FILE *f = fopen("/proc/self/status", "r");
+	while (f && fgets(line, sizeof line, f))
+		if (!strncmp(line, "VmHWM:", 6))
+			kb = atof(line + 6);
+	if (f)
+		fclose(f);
+	return kb * 1024;
+}
+
 int main(int argc, char **argv)
 {
 	int rank, P;
@@ -81,9 +97,9 @@ int main(int argc, char **argv)
 			MPI_Abort(MPI_COMM_WORLD, 1);
 	double nl = (double)dsmcp_local(d, NULL, NULL, NULL), comp = st.seconds - st.comm_seconds;
 	double sums[4] = {(double)st.migrants, (double)st.bytes, (double)st.messages, nl};
-	double maxs[4] = {st.seconds, nl, comp, st.cpu_compute}, comp_sum = comp, cpu_sum = st.cpu_compute;
+	double maxs[5] = {st.seconds, nl, comp, st.cpu_compute, peak_rss()}, comp_sum = comp, cpu_sum = st.cpu_compute;
 	MPI_Allreduce(MPI_IN_PLACE, sums, 4, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
-	MPI_Allreduce(MPI_IN_PLACE, maxs, 4, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+	MPI_Allreduce(MPI_IN_PLACE, maxs, 5, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
 	MPI_Allreduce(MPI_IN_PLACE, &cpu_sum, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
 	MPI_Allreduce(MPI_IN_PLACE, &comp_sum, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
 	if (rank == 0) {
@@ -92,9 +108,9 @@ int main(int argc, char **argv)
 		double sec = maxs[0] / steps;
 		printf("{\"mode\":\"split\",\"dim\":%d,\"N\":%.0f,\"ranks\":%d,\"planes\":%d,\"steps\":%d,\"s_per_step\":%.6g,"
 		       "\"moves_per_s\":%.4g,\"migrants_per_step\":%.1f,\"bytes_per_step\":%.0f,\"messages_per_step\":%.2f,"
-		       "\"imbalance_particles\":%.4f,\"imbalance_compute\":%.3f,\"compute_s_per_step_max\":%.6g,\"cpu_compute_s_per_step_max\":%.6g,\"cpu_compute_s_per_step_sum\":%.6g}\n",
+		       "\"imbalance_particles\":%.4f,\"imbalance_compute\":%.3f,\"compute_s_per_step_max\":%.6g,\"cpu_compute_s_per_step_max\":%.6g,\"cpu_compute_s_per_step_sum\":%.6g,\"peak_rss_bytes_max\":%.0f,\"bytes_per_particle_held\":%.1f}\n",
 		       dim, N, P, nc[dim - 1], steps, sec, N / sec, sums[0] / steps, sums[1] / steps, sums[2] / steps,
-		       maxs[1] / (sums[3] / P), comp_sum > 0 ? maxs[2] / (comp_sum / P) : 0.0, maxs[2] / steps, maxs[3] / steps, cpu_sum / steps);
+		       maxs[1] / (sums[3] / P), comp_sum > 0 ? maxs[2] / (comp_sum / P) : 0.0, maxs[2] / steps, maxs[3] / steps, cpu_sum / steps, maxs[4], dsmcp_memory(d) / (nl > 0 ? nl : 1));
 	}
 	dsmcp_destroy(d);
 	MPI_Finalize();
