@@ -403,7 +403,7 @@ static void usage(FILE *f)
 	        "(docs/engine.md); \"method\": \"auto\" scenes run the method it chooses.\n"
 	        "--jobs-dir DIR: where particles.initial.from.job ID finds DIR/ID/trajectory.h5\n"
 	        "(the daemon's job directories; docs/scene.md).\n"
-	        "--split: a dsmc scene with run.replicas 1 runs as one system decomposed over\n"
+	        "--split: a dsmc or hsmc scene with run.replicas 1 runs as one system decomposed over\n"
 	        "the ranks even on one rank (the default under mpirun -np P > 1; docs/parallel.md).\n");
 }
 
@@ -962,18 +962,18 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			goto cleanup;
 		}
 		if (scene.has_from) {
-			fprintf(stderr, "particles.initial.from: not supported yet for one dsmc system over %d ranks\n", size);
+			fprintf(stderr, "particles.initial.from: not supported yet for one dsmc/hsmc system over %d ranks\n", size);
 			ret = EX_INPUT;
 			goto cleanup;
 		}
 		if (resume_path) {
-			fprintf(stderr, "granular-engine: --resume: checkpoints of one dsmc system over %d ranks are not "
+			fprintf(stderr, "granular-engine: --resume: checkpoints of one dsmc/hsmc system over %d ranks are not "
 			        "supported yet (run one rank, or run.replicas > 1)\n", size);
 			ret = EX_INPUT;
 			goto cleanup;
 		}
 		if (outdir && scene.checkpoint.kind != SCENE_CLOCK_NONE) {
-			fprintf(stderr, "output.checkpoint: checkpoints of one dsmc system over %d ranks are not supported yet "
+			fprintf(stderr, "output.checkpoint: checkpoints of one dsmc/hsmc system over %d ranks are not supported yet "
 			        "(leave it out, run one rank, or run.replicas > 1)\n", size);
 			ret = EX_INPUT;
 			goto cleanup;

@@ -88,6 +88,26 @@ PY
 	ok $(( rc1 == 0 && rc == 0 && same == 0 && $? == 0 ? 0 : 1 )) "collisions-per-particle schedule, mpirun -np $np: the serial run's 8 records, equal to the 1-rank split run (exit $rc)"
 done
 
+# 1c. hsmc: a dense 2D gas (nu = 0.75, cells of 2 diameters) with cell-cell collisions and rejected moves
+#     across the slab borders: the records of 2, 3 and 4 ranks equal the 1-rank split run's.
+cat >"$tmp/h.json" <<'EOF'
+{"method":"hsmc","dimensions":2,"particles":{"count":6000,"volume_fraction":0.75,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9},"hsmc":{"cell_size":2},"run":{"seed":4,"until":{"time":0.5}},
+ "output":{"every":{"time":0.1}}}
+EOF
+"$ENGINE" run "$tmp/h.json" --split >"$tmp/h1" 2>/dev/null
+rc1=$?
+strip "$tmp/h1" >"$tmp/hs1"
+for np in 2 3 4; do
+	mpirun --oversubscribe -np $np "$ENGINE" run "$tmp/h.json" >"$tmp/h$np" 2>/dev/null
+	rc=$?
+	strip "$tmp/h$np" >"$tmp/hs$np"
+	cmp -s "$tmp/hs1" "$tmp/hs$np"
+	same=$?
+	cc=$(tail -n 1 "$tmp/h$np" | sed -n 's/.*"cell_collisions":\([0-9]*\).*/\1/p')
+	ok $(( rc1 == 0 && rc == 0 && same == 0 && ${cc:-0} > 0 ? 0 : 1 )) "hsmc, mpirun -np $np: records equal to the 1-rank split run ($cc cell collisions, exit $rc)"
+done
+
 # 2. Haff's law through the program on 2 ranks: 6 seeds of a 3D gas (N = 2000, nu = 0.1, e = 0.9, chi = 1),
 #    8 outputs to tau = 2; the mean T/T0 over the seeds within 4 standard errors plus 1.5% of theory (the
 #    Sonine and time-splitting allowance of tests/dsmc_test.c), at every output.
@@ -128,7 +148,7 @@ PY
 ok $? "Haff's law on 2 ranks, 6 seeds: worst deviation $(cat "$tmp/haff") of tolerance $(head -c 200 "$tmp/h.err")"
 
 # 3. What the split run cannot do yet is refused: exit 2, one line naming the key (--split shows the line
-#    alone; under mpirun, mpirun adds its own notice after it): hsmc, walls, gravity, curve observables,
+#    alone; under mpirun, mpirun adds its own notice after it): walls, gravity, curve observables,
 #    checkpoints and --resume.
 refuse() {   # refuse KEY DESCRIPTION JSON [ARGS...]
 	key=$1; what=$2; json=$3; shift 3
@@ -140,7 +160,6 @@ refuse() {   # refuse KEY DESCRIPTION JSON [ARGS...]
 	ok $(( rc == 2 && lines == 1 && $? == 0 ? 0 : 1 )) "$what: exit $rc, $lines line: $(head -c 160 "$tmp/r.err")"
 }
 base='"dimensions":3,"particles":{"count":500,"volume_fraction":0.05},"run":{"until":{"time":1}}'
-refuse method "hsmc" "{\"method\":\"hsmc\",$base}"
 refuse boundaries "walls" "{\"method\":\"dsmc\",$base,\"boundaries\":{\"z\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},\"upper\":{\"type\":\"specular\"}}}}"
 refuse gravity "gravity" "{\"method\":\"dsmc\",$base,\"gravity\":[0,0,-1]}"
 refuse output.observables "clusters" "{\"method\":\"dsmc\",$base,\"output\":{\"observables\":[\"clusters\"]}}"

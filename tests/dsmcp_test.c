@@ -9,6 +9,8 @@
 
 #define PMAX 8
 
+static void test_identity_m(const char *method, int dim, int n, double nu, const char *corr, double e, uint64_t steps);
+
 typedef struct {
 	int P;
 	dsmcp_t *r[PMAX];
@@ -58,6 +60,36 @@ static void sim_destroy(sim_t *s)
 		dsmcp_destroy(s->r[k]);
 }
 
+/* hsmc's cell collisions, as engine/par/dsmcrun.c does them with MPI: the grid gathered in rank order,
+ * the chain of turns in rank order, the last list to every rank. */
+static int sim_cells(sim_t *s)
+{
+	int p0, p1, nc[3];
+	dsmcp_slab(s->r[0], &p0, &p1, nc);
+	const int D = dsmcp_dim(s->r[0]), W = dsmcp_hs_width(s->r[0]);
+	size_t ncells = 1, off = 0;
+	for (int a = 0; a < D; a++)
+		ncells *= (size_t)nc[a];
+	double *all = malloc(ncells * W * sizeof(double));
+	if (!all)
+		return -1;
+	for (int k = 0; k < s->P; k++)
+		off += dsmcp_hs_cells(s->r[k], all + off * W);
+	for (int k = 0; k < s->P; k++)
+		dsmcp_hs_grid(s->r[k], all);
+	free(all);
+	if (off != ncells)
+		return -1;
+	const double *ev = NULL;
+	size_t n = 0;
+	for (int k = 0; k < s->P; k++)
+		if (dsmcp_hs_turn(s->r[k], ev, n, &ev, &n) != DSMCP_OK)
+			return -1;
+	for (int k = 0; k < s->P; k++)
+		dsmcp_hs_final(s->r[k], ev, n);
+	return 0;
+}
+
 /* Steps to t_stop (or max_steps): the caller's side of the contract, as engine/main.c does it with MPI. */
 static int sim_advance(sim_t *s, double t_stop, uint64_t max_steps)
 {
@@ -74,6 +106,8 @@ static int sim_advance(sim_t *s, double t_stop, uint64_t max_steps)
 			if (dsmcp_next_dt(s->r[k], t_stop, &l2) != dt || l2 != last)
 				return -1;
 		}
+		if (dsmcp_hsmc(s->r[0]) && sim_cells(s) != 0)
+			return -1;
 		for (int k = 0; k < s->P; k++)
 			if (dsmcp_move(s->r[k], dt) != DSMCP_OK)
 				return -1;
@@ -120,6 +154,11 @@ static int sim_advance(sim_t *s, double t_stop, uint64_t max_steps)
 	return 0;
 }
 
+static void test_identity(int dim, int n, double nu, const char *corr, double e, uint64_t steps)
+{
+	test_identity_m("dsmc", dim, n, nu, corr, e, steps);
+}
+
 /* The whole state by identity; returns the particles found (each identity must appear once). */
 static size_t sim_state(const sim_t *s, int D, size_t N, double *pos, double *vel, int *dup)
 {
@@ -164,14 +203,14 @@ static int parse(const char *json, scene_t *sc)
  * state bit for bit: positions, velocities, clock, counters. A gas with
  * many migrants (cells of a mean free path, dt of 0.2 mean free times).
  */
-static void test_identity(int dim, int n, double nu, const char *corr, double e, uint64_t steps)
+static void test_identity_m(const char *method, int dim, int n, double nu, const char *corr, double e, uint64_t steps)
 {
 	char json[1024];
 	snprintf(json, sizeof json,
-	         "{\"method\":\"dsmc\",\"dimensions\":%d,\"particles\":{\"count\":%d,\"volume_fraction\":%g,"
+	         "{\"method\":\"%s\",\"dimensions\":%d,\"particles\":{\"count\":%d,\"volume_fraction\":%g,"
 	         "\"initial\":{\"positions\":\"random\"}},\"collisions\":{\"restitution\":%g},"
-	         "\"run\":{\"seed\":7,\"until\":{\"time\":100}},\"dsmc\":{\"correction\":\"%s\"}}",
-	         dim, n, nu, e, corr);
+	         "\"run\":{\"seed\":7,\"until\":{\"time\":100}},\"%s\":{\"correction\":\"%s\"%s}}",
+	         method, dim, n, nu, e, method, corr, strcmp(method, "hsmc") ? "" : ",\"cell_size\":2");
 	scene_t sc;
 	if (parse(json, &sc)) {
 		ok(0, "identity %dD scene", dim);
@@ -203,9 +242,11 @@ static void test_identity(int dim, int n, double nu, const char *corr, double e,
 			   (unsigned long long)t.migrated, (unsigned long long)t.steps, (unsigned long long)s.migr_max);
 			ok(!memcmp(x1, xp, N * D * sizeof(double)) && !memcmp(v1, vp, N * D * sizeof(double)) &&
 			   t.time == t1.time && t.collisions == t1.collisions && t.candidates == t1.candidates &&
-			   t.vmax_raised == t1.vmax_raised && t.kinetic_energy == t1.kinetic_energy,
-			   "%dD %s P=%d: state, clock and counters bit-identical to P=1 after %llu steps", dim, corr, P,
-			   (unsigned long long)steps);
+			   t.vmax_raised == t1.vmax_raised && t.kinetic_energy == t1.kinetic_energy &&
+			   t.cell_collisions == t1.cell_collisions && t.rejected == t1.rejected,
+			   "%s %dD %s P=%d: state, clock and counters bit-identical to P=1 after %llu steps (%llu cell "
+			   "collisions, %llu rejected moves)", method, dim, corr, P, (unsigned long long)steps,
+			   (unsigned long long)t.cell_collisions, (unsigned long long)t.rejected);
 		}
 		sim_destroy(&s);
 	}
@@ -223,19 +264,29 @@ static void test_identity(int dim, int n, double nu, const char *corr, double e,
  * per collision times ~1e5 collisions and far below any real leak (one lost
  * particle changes the energy by ~1/N = 1e-3).
  */
+static void test_conservation_json(const char *json, const char *what);
 static void test_conservation(void)
 {
-	const char *json = "{\"method\":\"dsmc\",\"dimensions\":3,\"particles\":{\"count\":3000,\"volume_fraction\":0.05,"
-	                   "\"initial\":{\"positions\":\"random\"}},\"collisions\":{\"restitution\":1},"
-	                   "\"run\":{\"seed\":11,\"until\":{\"time\":100}}}";
+	test_conservation_json("{\"method\":\"dsmc\",\"dimensions\":3,\"particles\":{\"count\":3000,\"volume_fraction\":0.05,"
+	                       "\"initial\":{\"positions\":\"random\"}},\"collisions\":{\"restitution\":1},"
+	                       "\"run\":{\"seed\":11,\"until\":{\"time\":100}}}", "dsmc");
+	/* hsmc: cell-cell collisions conserve momentum and energy exactly too (dsmc.c, cell_collisions()) */
+	test_conservation_json("{\"method\":\"hsmc\",\"dimensions\":2,\"particles\":{\"count\":3000,\"volume_fraction\":0.75,"
+	                       "\"initial\":{\"positions\":\"random\"}},\"collisions\":{\"restitution\":1},"
+	                       "\"run\":{\"seed\":11,\"until\":{\"time\":100}},\"hsmc\":{\"cell_size\":2}}", "hsmc");
+}
+
+static void test_conservation_json(const char *json, const char *what)
+{
 	scene_t sc;
 	sim_t s;
 	if (parse(json, &sc) || sim_create(&s, &sc, 0, 4)) {
-		ok(0, "conservation scene");
+		ok(0, "%s conservation scene", what);
 		return;
 	}
 	double m0[3] = {0, 0, 0}, m1[3] = {0, 0, 0}, mk[3];
 	for (int k = 0; k < 4; k++) {
+		mk[0] = mk[1] = mk[2] = 0;   /* 2D fills two */
 		dsmcp_momentum(s.r[k], mk);
 		for (int a = 0; a < 3; a++)
 			m0[a] += mk[a];
@@ -245,6 +296,7 @@ static void test_conservation(void)
 	int ran = sim_advance(&s, INFINITY, 200) == 0;
 	dsmcp_totals(s.r[0], &t1);
 	for (int k = 0; k < 4; k++) {
+		mk[0] = mk[1] = mk[2] = 0;   /* 2D fills two */
 		dsmcp_momentum(s.r[k], mk);
 		for (int a = 0; a < 3; a++)
 			m1[a] += mk[a];
@@ -253,10 +305,11 @@ static void test_conservation(void)
 	for (int a = 0; a < 3; a++)
 		dp = fmax(dp, fabs(m1[a] - m0[a]));
 	double scale = 3000 * sqrt(2 * t0.kinetic_energy / (3 * 3000.0));
-	ok(ran && dp < 1e-9 * scale, "P=4 elastic, 200 steps, %llu collisions, %llu migrants: momentum change %.3g (scale %.3g)",
-	   (unsigned long long)t1.collisions, (unsigned long long)t1.migrated, dp, scale);
+	ok(ran && dp < 1e-9 * scale, "%s P=4 elastic, 200 steps, %llu collisions, %llu cell collisions, %llu migrants: "
+	   "momentum change %.3g (scale %.3g)", what, (unsigned long long)t1.collisions,
+	   (unsigned long long)t1.cell_collisions, (unsigned long long)t1.migrated, dp, scale);
 	ok(ran && fabs(t1.kinetic_energy - t0.kinetic_energy) < 1e-9 * t0.kinetic_energy,
-	   "P=4 elastic: energy %.15g -> %.15g", t0.kinetic_energy, t1.kinetic_energy);
+	   "%s P=4 elastic: energy %.15g -> %.15g", what, t0.kinetic_energy, t1.kinetic_energy);
 	sim_destroy(&s);
 }
 
@@ -266,20 +319,22 @@ static void test_conservation(void)
  * runs plus 1.5% of the theory (Sonine a2 and splitting error; see
  * tests/dsmc_test.c and tests/kinetic.h haff_worst()).
  */
-static void test_haff(int dim, int n, double nu, double e, int P)
+static void test_haff_m(const char *method, int dim, int n, double nu, double e, int P)
 {
 	enum { R = 6, K = 8 };
-	const double lam = 1 - e * e, f = dim * pow(2, dim - 1) / (sqrt(PI) * 0.5) * nu;   /* chi = 1: "none" */
+	/* chi = 1 for dsmc's default correction "none", g(sigma) for hsmc's "cba" (tests/dsmc_test.c) */
+	const double chi = strcmp(method, "hsmc") ? 1.0 : g_contact(dim, nu);
+	const double lam = 1 - e * e, f = dim * pow(2, dim - 1) / (sqrt(PI) * 0.5) * nu * chi;
 	const double t_end = 2 * 2 * dim / (lam * f);                                      /* tau = 2 */
 	double ratio[K][R], t[K];
 	int okrun = 1;
 	for (int r = 0; r < R && okrun; r++) {
 		char json[1024];
 		snprintf(json, sizeof json,
-		         "{\"method\":\"dsmc\",\"dimensions\":%d,\"particles\":{\"count\":%d,\"volume_fraction\":%g,"
+		         "{\"method\":\"%s\",\"dimensions\":%d,\"particles\":{\"count\":%d,\"volume_fraction\":%g,"
 		         "\"initial\":{\"positions\":\"random\"}},\"collisions\":{\"restitution\":%g},"
 		         "\"run\":{\"seed\":%d,\"until\":{\"time\":%.17g}}}",
-		         dim, n, nu, e, 300 + r, t_end);
+		         method, dim, n, nu, e, 300 + r, t_end);
 		scene_t sc;
 		sim_t s;
 		if (parse(json, &sc) || sim_create(&s, &sc, 0, P)) {
@@ -298,12 +353,17 @@ static void test_haff(int dim, int n, double nu, double e, int P)
 		sim_destroy(&s);
 	}
 	if (!okrun) {
-		ok(0, "Haff decomposed %dD ran", dim);
+		ok(0, "Haff decomposed %s %dD ran", method, dim);
 		return;
 	}
 	double worst = haff_worst(K, R, &ratio[0][0], t, lam * f / (2 * dim));
-	ok(worst < 1, "Haff decomposed dsmc %dD N=%d nu=%.2f e=%.3g over P=%d: worst deviation %.2f of tolerance", dim, n, nu,
-	   e, P, worst);
+	ok(worst < 1, "Haff decomposed %s %dD N=%d nu=%.2f e=%.3g over P=%d: worst deviation %.2f of tolerance", method, dim,
+	   n, nu, e, P, worst);
+}
+
+static void test_haff(int dim, int n, double nu, double e, int P)
+{
+	test_haff_m("dsmc", dim, n, nu, e, P);
 }
 
 /*
@@ -353,7 +413,6 @@ static void test_refusals(void)
 	static const struct {
 		const char *extra, *key;
 	} cases[] = {
-		{ "\"method\":\"hsmc\"", "method" },
 		{ "\"method\":\"dsmc\",\"gravity\":[0,0,-1]", "gravity" },
 		{ "\"method\":\"dsmc\",\"boundaries\":{\"z\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},\"upper\":{\"type\":\"specular\"}}}", "boundaries" },
 		{ "\"method\":\"dsmc\",\"dsmc\":{\"contact_value\":\"local\",\"correction\":\"enskog\"}", "dsmc.contact_value" },
@@ -380,10 +439,14 @@ int main(void)
 	test_refusals();
 	test_identity(3, 4000, 0.05, "none", 0.9, 60);
 	test_identity(2, 1500, 0.1, "cba", 0.8, 60);
+	/* hsmc, dense: full cells, cell-cell collisions and rejected moves across the slab borders */
+	test_identity_m("hsmc", 2, 3000, 0.75, "cba", 0.9, 60);
+	test_identity_m("hsmc", 3, 4000, 0.55, "cba", 0.9, 40);
 	test_conservation();
 	test_direct();
 	test_haff(3, 2000, 0.1, 0.9, 3);
 	test_haff(2, 500, 0.1, 0.95, 2);
+	test_haff_m("hsmc", 2, 500, 0.4, 0.98, 3);   /* as tests/dsmc_test's hsmc/cba row */
 	plan(tap_n);
 	return done_testing();
 }

@@ -2407,6 +2407,7 @@ void dsmc_geometry(const dsmc_t *d, dsmc_geom_t *out)
 	out->bounded = d->bounded || d->has_walls || d->nobst > 0 || d->open;
 	out->impact = d->pb_n;
 	out->n = d->n;
+	out->nfull = d->nfull;
 	for (int a = 0; a < 3; a++) {
 		out->L[a] = d->L[a];
 		out->nc[a] = d->nc[a];

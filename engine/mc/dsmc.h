@@ -221,7 +221,7 @@ int dsmc_restore_finish(dsmc_t *d, char *msg, size_t msglen);
  * not support). */
 typedef struct {
 	int dim, hsmc, cba, local_chi, mix, bounded, impact;   /* impact: impact_c points */
-	uint32_t n;
+	uint32_t n, nfull;                                     /* nfull: hsmc's full cell */
 	double L[3];
 	int nc[3];
 	double sigma, mass, e, chi, sigma_t, vcell, fcoef, cps, dt_fixed;

@@ -40,6 +40,15 @@ struct dsmcp {
 	uint64_t steps, collisions, candidates, vmax_raised, migrated, moves;
 	uint64_t step_migr;            /* this rank's migrants in the current step */
 	size_t nown_nl, nlow;          /* records before the arrivals; arrivals from lower ranks (first) */
+	/* hsmc (dsmcp_hs_*) */
+	int hsmc;
+	uint32_t nfull;
+	double *gcm;                   /* every cell: count, mean velocity (start of the step) */
+	uint32_t *gstamp;              /* every cell: step mark of its last cell collision */
+	double *ev;                    /* the chain's events */
+	size_t ev_cap;
+	uint64_t step_cellc, step_rej; /* this rank's, this step */
+	uint64_t cell_collisions, rejected;   /* global totals */
 	/* interval accumulators (dsmcp_interval()) */
 	double t_sample, ekin_int;     /* global: E_kin dt summed over the steps (the same on every rank) */
 	double virial;                 /* this rank's collisions' (sigma n) . J */
@@ -94,10 +103,8 @@ static inline size_t cell_at(const struct dsmcp *d, const double *x)
 int dsmcp_check(const scene_t *s, char *msg, size_t msglen)
 {
 	const char *key = NULL, *why = NULL;
-	if (s->method == SCENE_METHOD_HSMC)
-		key = "method", why = "hsmc over several ranks is not supported yet (run dsmc, or one rank)";
-	else if (s->method != SCENE_METHOD_DSMC)
-		key = "method", why = "a decomposed run needs method dsmc";
+	if (s->method != SCENE_METHOD_DSMC && s->method != SCENE_METHOD_HSMC)
+		key = "method", why = "a decomposed run needs method dsmc or hsmc";
 	else if (scene_has_walls(s))
 		key = "boundaries", why = "walls over several ranks are not supported yet (periodic box only)";
 	else if (scene_has_gravity(s))
@@ -306,7 +313,7 @@ dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int
 			snprintf(msg, msglen, "run: the decomposed dsmc needs an initial state for this scene");
 		goto fail;
 	}
-	if (g.hsmc || g.mix || g.bounded || g.local_chi || g.impact) {
+	if (g.mix || g.bounded || g.local_chi || g.impact) {
 		if (msg && msglen)
 			snprintf(msg, msglen, "method: the scene uses a feature the decomposed dsmc does not support");
 		goto fail;
@@ -349,6 +356,8 @@ dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int
 	d->cps = g.cps;
 	d->dt_fixed = g.dt_fixed;
 	d->cba = g.cba;
+	d->hsmc = g.hsmc;
+	d->nfull = g.nfull;
 	d->key = mix64(s->seed ^ mix64(0xa0761d6478bd642full * (stream + 1)));
 
 	const size_t nown = d->c1 - d->c0;
@@ -359,6 +368,13 @@ dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int
 	d->out_pos = calloc((size_t)ranks, sizeof(size_t));
 	if (!d->start || !d->cnt || !d->rem || !d->out_cnt || !d->out_pos)
 		goto fail;
+	if (d->hsmc) {
+		const size_t ncells = d->plane * (size_t)nz;
+		d->gcm = calloc(ncells * (size_t)(1 + D), sizeof(double));
+		d->gstamp = calloc(ncells, sizeof(uint32_t));
+		if (!d->gcm || !d->gstamp)
+			goto fail;
+	}
 	if (init) {
 		pos = malloc((size_t)g.n * D * sizeof(double));
 		vel = malloc((size_t)g.n * D * sizeof(double));
@@ -427,6 +443,9 @@ void dsmcp_destroy(dsmcp_t *d)
 	free(d->out);
 	free(d->out_cnt);
 	free(d->out_pos);
+	free(d->gcm);
+	free(d->gstamp);
+	free(d->ev);
 	free(d);
 }
 
@@ -468,15 +487,36 @@ static ALWAYS_INLINE int move_d(dsmcp_t *d, double dt, const int D)
 	const size_t c0 = d->c0, c1 = d->c1, nl = d->nl;
 	double *restrict p = d->p;
 	uint32_t *restrict cell = d->cell;
+	size_t cur = 0;   /* hsmc: the own cell of record k (records in cell order) */
 	for (size_t k = 0; k < nl; k++) {
 		double *x = &p[k * S], *v = x + D;
 		size_t c = 0;
-		for (int a = D - 1; a >= 0; a--) {
-			double y = wrap(x[a] + v[a] * dt, L[a]);
-			x[a] = y;
-			int ix = (int)(y * ih[a]);
-			ix = ix >= ncl[a] ? ncl[a] - 1 : ix;
-			c = c * (size_t)ncl[a] + (size_t)ix;
+		if (d->hsmc) {
+			/* a move into another cell full at the start of the step is rejected */
+			double y[3];
+			while (k >= d->start[cur + 1])
+				cur++;
+			for (int a = D - 1; a >= 0; a--) {
+				y[a] = wrap(x[a] + v[a] * dt, L[a]);
+				int ix = (int)(y[a] * ih[a]);
+				ix = ix >= ncl[a] ? ncl[a] - 1 : ix;
+				c = c * (size_t)ncl[a] + (size_t)ix;
+			}
+			if (c != c0 + cur && d->gcm[c * (size_t)(1 + D)] >= (double)d->nfull) {
+				d->step_rej++;
+				c = c0 + cur;
+			} else {
+				for (int a = 0; a < D; a++)
+					x[a] = y[a];
+			}
+		} else {
+			for (int a = D - 1; a >= 0; a--) {
+				double y = wrap(x[a] + v[a] * dt, L[a]);
+				x[a] = y;
+				int ix = (int)(y * ih[a]);
+				ix = ix >= ncl[a] ? ncl[a] - 1 : ix;
+				c = c * (size_t)ncl[a] + (size_t)ix;
+			}
 		}
 		if (c >= c0 && c < c1) {
 			cell[k] = (uint32_t)(c - c0);
@@ -652,7 +692,7 @@ static ALWAYS_INLINE void collide_d(dsmcp_t *d, double dt, dsmcp_sums_t *part, c
 				inv = 1 / vmax;
 				nraise++;
 			}
-			if (d->cba) {   /* CBA: each partner one diameter along its momentum change */
+			if (d->cba && !(d->hsmc && nc >= d->nfull)) {   /* CBA: each partner one diameter along its momentum change (hsmc: not in a full cell) */
 				double *xi = vi - D, *xj = vj - D;
 				for (int a = 0; a < D; a++) {
 					xi[a] = wrap(xi[a] + sigma * nrm[a], d->L[a]);
@@ -682,6 +722,9 @@ static ALWAYS_INLINE void collide_d(dsmcp_t *d, double dt, dsmcp_sums_t *part, c
 	part->w[DSMCP_VMAX] = nraise;
 	part->w[DSMCP_COUNT] = d->nl;
 	part->w[DSMCP_MIGR] = d->step_migr;
+	part->w[DSMCP_CELLC] = d->step_cellc;
+	part->w[DSMCP_REJ] = d->step_rej;
+	d->step_cellc = d->step_rej = 0;
 }
 
 void dsmcp_collide(dsmcp_t *d, double dt, dsmcp_sums_t *part)
@@ -728,6 +771,8 @@ void dsmcp_finish(dsmcp_t *d, const dsmcp_sums_t *sum, double dt, int last, doub
 	d->candidates += sum->w[DSMCP_CAND];
 	d->vmax_raised += sum->w[DSMCP_VMAX];
 	d->migrated += sum->w[DSMCP_MIGR];
+	d->cell_collisions += sum->w[DSMCP_CELLC];
+	d->rejected += sum->w[DSMCP_REJ];
 	d->moves += d->n;
 	d->steps++;
 	d->t = last ? t_stop : d->t + dt;
@@ -742,6 +787,189 @@ void dsmcp_interval(dsmcp_t *d, double *interval, double *ekin_int, double *viri
 	d->ekin_int = d->virial = 0;
 }
 
+/* ---- hsmc: cell-cell collisions ---------------------------------------------- */
+
+int dsmcp_hsmc(const dsmcp_t *d) { return d->hsmc; }
+int dsmcp_hs_width(const dsmcp_t *d) { return 1 + d->dim; }
+
+size_t dsmcp_hs_cells(const dsmcp_t *d, double *buf)
+{
+	const int D = d->dim, S = 2 * D, W = 1 + D;
+	const size_t nown = d->c1 - d->c0;
+	for (size_t c = 0; c < nown; c++) {
+		uint32_t k0 = d->start[c], n = d->start[c + 1] - k0;
+		double *o = &buf[c * W], u[3] = {0, 0, 0};
+		/* dsmc.c's cell_mean(): the same sums in the same order */
+		for (uint32_t k = k0; k < k0 + n; k++)
+			for (int a = 0; a < D; a++)
+				u[a] += d->p[(size_t)k * S + D + a];
+		for (int a = 0; a < D; a++)
+			o[1 + a] = n ? u[a] / n : 0.0;
+		o[0] = n;
+	}
+	return nown;
+}
+
+void dsmcp_hs_grid(dsmcp_t *d, const double *all)
+{
+	memcpy(d->gcm, all, d->plane * (size_t)d->nc[d->dim - 1] * (size_t)(1 + d->dim) * sizeof(double));
+}
+
+/* dsmc.c's cell_return() on own cell c (global): v' = u1 + k (v - u0), the
+ * zero-momentum kick of a cell without thermal energy drawn from the
+ * generator of (key, step, cell) of its own domain. */
+static void cell_return(struct dsmcp *d, size_t c, const double *u0, const double *u1, double gain)
+{
+	const int D = d->dim, S = 2 * D;
+	const uint32_t k0 = d->start[c - d->c0], n = d->start[c - d->c0 + 1] - k0;
+	double eth = 0;
+	for (uint32_t k = k0; k < k0 + n; k++)
+		for (int a = 0; a < D; a++) {
+			double w = d->p[(size_t)k * S + D + a] - u0[a];
+			eth += w * w;
+		}
+	eth *= 0.5 * d->mass;
+	double ref = 0;
+	for (int a = 0; a < D; a++)
+		ref += u0[a] * u0[a] + u1[a] * u1[a];
+	ref *= 0.5 * d->mass * n;
+	if (eth > 1e-12 * ref && eth > 0) {
+		double kf = sqrt((eth + gain) / eth);
+		for (uint32_t k = k0; k < k0 + n; k++)
+			for (int a = 0; a < D; a++) {
+				double *v = &d->p[(size_t)k * S + D + a];
+				*v = u1[a] + kf * (*v - u0[a]);
+			}
+		return;
+	}
+	rng_t rng;
+	cell_rng(&rng, d->key ^ 0x5851f42d4c957f2dull, d->steps, c);
+	double w[3], s2 = 0;
+	do {
+		s2 = 0;
+		for (int a = 0; a < D; a++) {
+			w[a] = 2 * rng_uniform_fast(&rng) - 1;
+			s2 += w[a] * w[a];
+		}
+	} while (s2 > 1 || s2 < 1e-6);
+	double delta = sqrt(gain / d->mass / s2);
+	for (uint32_t k = k0; k < k0 + n; k++)
+		for (int a = 0; a < D; a++)
+			d->p[(size_t)k * S + D + a] = u1[a] + (k == k0 ? delta * w[a] : k == k0 + 1 ? -delta * w[a] : 0);
+}
+
+static int own(const struct dsmcp *d, size_t c) { return c >= d->c0 && c < d->c1; }
+
+/* An event: [cell, maker rank, kind (0 used, 1 claimed: u0, u1, gain follow), u0[3], u1[3], gain]. */
+static void event(double *e, size_t c, int maker, int kind, const double *u0, const double *u1, double gain)
+{
+	memset(e, 0, DSMCP_HS_EVENT * sizeof(double));
+	e[0] = (double)c;
+	e[1] = maker;
+	e[2] = kind;
+	for (int a = 0; a < 3 && kind; a++) {
+		e[3 + a] = u0[a];
+		e[6 + a] = u1[a];
+	}
+	e[9] = gain;
+}
+
+int dsmcp_hs_turn(dsmcp_t *d, const double *in, size_t nin, const double **out, size_t *nout)
+{
+	const int D = d->dim, W = 1 + D;
+	const uint32_t mark = (uint32_t)d->steps + 1;
+	const int colour = (int)(d->steps & 1);
+	const size_t nown = d->c1 - d->c0;
+	size_t need = nin + 2 * nown + 1;
+	if (need > d->ev_cap) {
+		double *e = realloc(d->ev, need * DSMCP_HS_EVENT * sizeof(double));
+		if (!e)
+			return DSMCP_ENOMEM;
+		d->ev = e;
+		d->ev_cap = need;
+	}
+	if (nin)
+		memmove(d->ev, in, nin * DSMCP_HS_EVENT * sizeof(double));
+	size_t ne = nin;
+	for (size_t i = 0; i < nin; i++) {   /* the ranks before: cells used, claims on ours */
+		const double *e = &d->ev[i * DSMCP_HS_EVENT];
+		size_t c = (size_t)e[0];
+		d->gstamp[c] = mark;
+		if (e[2] == 1 && own(d, c))
+			cell_return(d, c, e + 3, e + 6, e[9]);
+	}
+	size_t stride[3] = {1, 1, 1};
+	for (int a = 1; a < D; a++)
+		stride[a] = stride[a - 1] * (size_t)d->nc[a - 1];
+	for (size_t c = d->c0; c < d->c1; c++) {
+		int ci[3] = {0, 0, 0};
+		for (int a = 0; a < D; a++)
+			ci[a] = (int)((c / stride[a]) % (size_t)d->nc[a]);
+		const double *ga = &d->gcm[c * W];
+		if (ga[0] < d->nfull || ((ci[0] + ci[1] + ci[2] + colour) & 1) || d->gstamp[c] == mark)
+			continue;
+		double ua[3] = {0, 0, 0}, best_u[3] = {0, 0, 0}, best_w = 0;
+		for (int a = 0; a < D; a++)
+			ua[a] = ga[1 + a];
+		size_t best = c;
+		int best_axis = 0, best_sign = 0;
+		for (int a = 0; a < D; a++)
+			for (int sgn = -1; sgn <= 1; sgn += 2) {
+				int cj = ci[a] + sgn;
+				cj = cj < 0 ? d->nc[a] - 1 : cj >= d->nc[a] ? 0 : cj;
+				size_t nb = c + ((size_t)cj - (size_t)ci[a]) * stride[a];
+				if (nb == c)
+					continue;
+				const double *gb = &d->gcm[nb * W];
+				if (gb[0] < d->nfull || d->gstamp[nb] == mark)
+					continue;
+				double w = sgn * (ua[a] - gb[1 + a]);
+				if (w > best_w) {
+					best_w = w;
+					best = nb;
+					best_axis = a;
+					best_sign = sgn;
+					for (int b = 0; b < D; b++)
+						best_u[b] = gb[1 + b];
+				}
+			}
+		if (best == c)
+			continue;
+		const double na = ga[0], nb_n = d->gcm[best * W];
+		double ma = na * d->mass, mb = nb_n * d->mass, mu = ma * mb / (ma + mb);
+		double J = (1 + d->e) * mu * best_w;
+		double ua1[3], ub1[3];
+		memcpy(ua1, ua, sizeof ua1);
+		memcpy(ub1, best_u, sizeof ub1);
+		ua1[best_axis] -= best_sign * J / ma;
+		ub1[best_axis] += best_sign * J / mb;
+		double lost = 0.5 * (1 - d->e * d->e) * mu * best_w * best_w;
+		cell_return(d, c, ua, ua1, lost * ma / (ma + mb));
+		d->gstamp[c] = d->gstamp[best] = mark;
+		event(&d->ev[ne++ * DSMCP_HS_EVENT], c, d->rank, 0, NULL, NULL, 0);
+		if (own(d, best)) {
+			cell_return(d, best, best_u, ub1, lost * mb / (ma + mb));
+			event(&d->ev[ne++ * DSMCP_HS_EVENT], best, d->rank, 0, NULL, NULL, 0);
+		} else {
+			event(&d->ev[ne++ * DSMCP_HS_EVENT], best, d->rank, 1, best_u, ub1, lost * mb / (ma + mb));
+		}
+		d->step_cellc++;
+	}
+	*out = d->ev;
+	*nout = ne;
+	return DSMCP_OK;
+}
+
+void dsmcp_hs_final(dsmcp_t *d, const double *all, size_t n)
+{
+	for (size_t i = 0; i < n; i++) {   /* claims on our cells by the ranks after us */
+		const double *e = &all[i * DSMCP_HS_EVENT];
+		size_t c = (size_t)e[0];
+		if (e[2] == 1 && e[1] > d->rank && own(d, c))
+			cell_return(d, c, e + 3, e + 6, e[9]);
+	}
+}
+
 /* ---- queries ---------------------------------------------------------------------- */
 
 void dsmcp_totals(const dsmcp_t *d, dsmcp_totals_t *out)
@@ -754,6 +982,8 @@ void dsmcp_totals(const dsmcp_t *d, dsmcp_totals_t *out)
 	out->vmax_raised = d->vmax_raised;
 	out->migrated = d->migrated;
 	out->moves = d->moves;
+	out->cell_collisions = d->cell_collisions;
+	out->rejected = d->rejected;
 }
 
 size_t dsmcp_local(const dsmcp_t *d, uint64_t *ids, double *pos, double *vel)

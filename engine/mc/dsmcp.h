@@ -14,8 +14,8 @@
  * - Decomposition: slabs of whole cell planes along the last axis (z in 3D,
  *   y in 2D): rank r of P owns planes [r nz / P, (r + 1) nz / P), a
  *   contiguous range of cell indices (x fastest). nz < P leaves ranks idle.
- * - Scope: method dsmc, periodic box, one species, correction none, enskog
- *   or cba with the global contact value, molecular-chaos impact
+ * - Scope: methods dsmc and hsmc, periodic box, one species, correction
+ *   none, enskog or cba with the global contact value, molecular-chaos impact
  *   parameters; observables energy, pressure, collision_rate, momentum. dsmcp_check() names the first scene key outside it.
  * - One step of length dt: free flight (wrap), migrants packed for their
  *   owner rank (dsmcp_move), arrivals appended (dsmcp_arrive), counting
@@ -57,7 +57,9 @@ enum {
 	DSMCP_VMAX = 6,        /* v_max raises this step */
 	DSMCP_COUNT = 7,       /* particles (after the step) */
 	DSMCP_MIGR = 8,        /* particles that changed rank this step */
-	DSMCP_NSUM = 9
+	DSMCP_CELLC = 9,       /* hsmc: cell-cell collisions this step */
+	DSMCP_REJ = 10,        /* hsmc: moves into full cells rejected this step */
+	DSMCP_NSUM = 11
 };
 typedef struct {
 	uint64_t w[DSMCP_NSUM];
@@ -90,6 +92,33 @@ void dsmcp_destroy(dsmcp_t *d);
  * t_stop infinite (quiescent). The same number on every rank. */
 double dsmcp_next_dt(const dsmcp_t *d, double t_stop, int *last);
 
+/*
+ * HSMC (method hsmc; before dsmcp_move() in each step): Mueller's cell-cell
+ * collisions as in dsmc.c, in the 1-rank order of the cells, which makes
+ * them a chain over the ranks in rank order:
+ * 1. dsmcp_hs_cells(): this rank's cells' counts and mean velocities into
+ *    buf (dsmcp_hs_width() doubles per own cell); the caller gathers every
+ *    rank's, in rank order (the whole grid), into dsmcp_hs_grid();
+ * 2. rank 0 first, then each rank with the events of the ranks before it:
+ *    dsmcp_hs_turn() marks the cells they used, applies their claims on
+ *    this rank's cells, runs this rank's cells and appends its own events
+ *    (records of DSMCP_HS_EVENT doubles); the last rank's list goes to all;
+ * 3. dsmcp_hs_final() with the whole list: the claims on this rank's cells
+ *    made by ranks after it.
+ * dsmcp_move() then rejects moves into cells full at the start of the step
+ * (from the grid of step 1).
+ */
+#define DSMCP_HS_EVENT 10
+int dsmcp_hs_width(const dsmcp_t *d);
+size_t dsmcp_hs_cells(const dsmcp_t *d, double *buf);
+void dsmcp_hs_grid(dsmcp_t *d, const double *all);
+/* in: nin events; out: a buffer (owned by d, valid until the next call)
+ * holding in's events followed by this rank's, *nout in all. DSMCP_OK or
+ * DSMCP_ENOMEM. */
+int dsmcp_hs_turn(dsmcp_t *d, const double *in, size_t nin, const double **out, size_t *nout);
+void dsmcp_hs_final(dsmcp_t *d, const double *all, size_t n);
+int dsmcp_hsmc(const dsmcp_t *d);
+
 /* Free flight of the own particles over dt; those that left the slab are
  * removed and packed for their owners. DSMCP_OK or DSMCP_ENOMEM. */
 int dsmcp_move(dsmcp_t *d, double dt);
@@ -113,6 +142,7 @@ void dsmcp_finish(dsmcp_t *d, const dsmcp_sums_t *sum, double dt, int last, doub
 typedef struct {
 	double time, kinetic_energy;   /* kinetic energy from the exact fixed-point sum */
 	uint64_t steps, collisions, candidates, vmax_raised, migrated, moves;
+	uint64_t cell_collisions, rejected;   /* hsmc */
 } dsmcp_totals_t;
 void dsmcp_totals(const dsmcp_t *d, dsmcp_totals_t *out);
 

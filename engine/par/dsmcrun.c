@@ -15,7 +15,87 @@ typedef struct {
 	size_t cap;
 	int *scnt, *sdis, *rcnt, *rdis;
 	uint64_t *c64;
+	/* hsmc: the grid's counts and means, the chain's events */
+	double *grid, *mine, *ev;
+	size_t ev_cap;
+	int *gcnt, *gdis;
 } xbuf_t;
+
+/* hsmc's cell-cell collisions over the ranks (dsmcp.h: grid, chain in rank
+ * order, the last rank's list to all). 0 or DSMCP_ENOMEM (on every rank). */
+static int cell_chain(dsmcp_t *d, xbuf_t *x, int P, int rank)
+{
+	const int W = dsmcp_hs_width(d), E = DSMCP_HS_EVENT;
+	int p0, p1, nc[3], bad = 0;
+	dsmcp_slab(d, &p0, &p1, nc);
+	const int D = dsmcp_dim(d);
+	size_t ncells = 1;
+	for (int a = 0; a < D; a++)
+		ncells *= (size_t)nc[a];
+	if (!x->grid) {
+		x->grid = malloc(ncells * (size_t)W * sizeof(double));
+		x->mine = malloc((ncells / (size_t)P + (size_t)nc[0] * (D == 3 ? (size_t)nc[1] : 1) + 1) * (size_t)W *
+		                 sizeof(double) * 2);
+		x->gcnt = malloc((size_t)P * 2 * sizeof(int));
+		bad = !x->grid || !x->mine || !x->gcnt || ncells * (size_t)W > INT32_MAX;
+	}
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (bad)
+		return DSMCP_ENOMEM;
+	x->gdis = x->gcnt + P;
+	int n = (int)(dsmcp_hs_cells(d, x->mine) * (size_t)W);
+	MPI_Allgather(&n, 1, MPI_INT, x->gcnt, 1, MPI_INT, MPI_COMM_WORLD);
+	for (int r = 0, off = 0; r < P; r++) {
+		x->gdis[r] = off;
+		off += x->gcnt[r];
+	}
+	MPI_Allgatherv(x->mine, n, MPI_DOUBLE, x->grid, x->gcnt, x->gdis, MPI_DOUBLE, MPI_COMM_WORLD);
+	dsmcp_hs_grid(d, x->grid);
+	/* the chain: rank r after rank r - 1 */
+	uint64_t nin = 0, nout = 0;
+	const double *out = NULL;
+	if (rank > 0) {
+		MPI_Recv(&nin, 1, MPI_UINT64_T, rank - 1, 15, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+		if (nin > x->ev_cap) {
+			double *e = realloc(x->ev, nin * E * sizeof(double));
+			if (e) {
+				x->ev = e;
+				x->ev_cap = nin;
+			}
+		}
+		bad = nin > x->ev_cap;   /* then the data is dropped below and every rank fails */
+		MPI_Recv(bad ? NULL : x->ev, bad ? 0 : (int)(nin * E), MPI_DOUBLE, rank - 1, 16, MPI_COMM_WORLD,
+		         MPI_STATUS_IGNORE);
+	}
+	size_t no = 0;
+	if (!bad && dsmcp_hs_turn(d, x->ev, (size_t)nin, &out, &no) != DSMCP_OK)
+		bad = 1;
+	nout = bad ? 0 : no;
+	if (rank + 1 < P) {
+		MPI_Send(&nout, 1, MPI_UINT64_T, rank + 1, 15, MPI_COMM_WORLD);
+		MPI_Send(out, (int)(nout * E), MPI_DOUBLE, rank + 1, 16, MPI_COMM_WORLD);
+	}
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (bad)
+		return DSMCP_ENOMEM;
+	/* the last rank's list to every rank */
+	MPI_Bcast(&nout, 1, MPI_UINT64_T, P - 1, MPI_COMM_WORLD);
+	if (rank != P - 1 && nout > x->ev_cap) {
+		double *e = realloc(x->ev, nout * E * sizeof(double));
+		if (e) {
+			x->ev = e;
+			x->ev_cap = nout;
+		}
+	}
+	bad = rank != P - 1 && nout > x->ev_cap;
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (bad)
+		return DSMCP_ENOMEM;
+	double *list = rank == P - 1 ? (double *)out : x->ev;
+	MPI_Bcast(list, (int)(nout * E), MPI_DOUBLE, P - 1, MPI_COMM_WORLD);
+	dsmcp_hs_final(d, list, (size_t)nout);
+	return DSMCP_OK;
+}
 
 /* CPU seconds of this process (bench figures independent of the sharing of cores). */
 static double cpu_now(void)
@@ -32,6 +112,13 @@ static int step_x(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st, xbuf_t *x, int
 	double dt = dsmcp_next_dt(d, t_stop, &last);
 	if (!isfinite(dt))
 		return DSMCP_QUIESCENT;
+	if (dsmcp_hsmc(d)) {
+		double c0 = MPI_Wtime(), cu = cpu_now();
+		int hr = cell_chain(d, x, P, rank);
+		wc += MPI_Wtime() - c0, uc += cpu_now() - cu;   /* the chain is serial: counted as waiting */
+		if (hr != DSMCP_OK)
+			return hr;
+	}
 	int rc = dsmcp_move(d, dt), bad = rc != DSMCP_OK;
 	const int R = dsmcp_record_doubles(d);
 	const size_t *cnt;
@@ -136,6 +223,10 @@ static int xbuf_init(xbuf_t *x, int P)
 
 static void xbuf_free(xbuf_t *x)
 {
+	free(x->grid);
+	free(x->mine);
+	free(x->ev);
+	free(x->gcnt);
 	free(x->buf);
 	free(x->scnt);
 	free(x->c64);
@@ -209,6 +300,8 @@ static void record(dsmcp_t *d, const scene_t *s, run_kind_t kind, double wall, u
 	r->collisions_per_particle = 2.0 * (double)t.collisions / (double)s->count;
 	r->wall_seconds = wall;
 	r->vmax_raised = t.vmax_raised;
+	r->cell_collisions = t.cell_collisions;
+	r->rejected_moves = t.rejected;
 	r->have = s->observables;
 	r->kinetic_energy = t.kinetic_energy;
 	r->particles = s->count;
