@@ -11,7 +11,7 @@
 #include "scene.h"
 
 /*
- * usage: mpirun -np P dsmcp_bench DIM N STEPS [serial]
+ * usage: mpirun -np P dsmcp_bench DIM N STEPS [serial|split [hsmc]]
  * An elastic gas at volume fraction 0.05 (cells of one mean free path, the
  * default step of 0.2 mean free times), 2 warm-up steps, then STEPS timed
  * steps. One JSON line from rank 0: seconds per step (the slowest rank's
@@ -25,7 +25,8 @@
  * memory of a rank (set-up included) and rank 0's dsmcp_memory() per
  * particle it holds.
  * "serial" (one rank): dsmc.c's own step (dsmc_advance) on the same gas,
- * for the ratio to the decomposed path.
+ * for the ratio to the decomposed path. "hsmc": method hsmc at volume
+ * fraction 0.5, cells of 2 diameters (full cells, cell-cell collisions).
  */
 /* Peak resident memory of this process (VmHWM, /proc/self/status), bytes; 0 if unknown. */
 static double peak_rss(void)
@@ -54,12 +55,14 @@ int main(int argc, char **argv)
 		return 2;
 	}
 	const int dim = atoi(argv[1]), steps = atoi(argv[3]), serial = argc > 4 && !strcmp(argv[4], "serial");
+	const int hsmc = argc > 5 && !strcmp(argv[5], "hsmc");
 	const double N = atof(argv[2]);
 	char json[512], msg[512];
 	snprintf(json, sizeof json,
-	         "{\"method\":\"dsmc\",\"dimensions\":%d,\"particles\":{\"count\":%.0f,\"volume_fraction\":0.05,"
+	         "{\"method\":\"%s\",\"dimensions\":%d,\"particles\":{\"count\":%.0f,\"volume_fraction\":%s,"
 	         "\"initial\":{\"positions\":\"random\"}},\"collisions\":{\"restitution\":1},"
-	         "\"run\":{\"seed\":9,\"until\":{\"time\":1e9}}}", dim, N);
+	         "\"run\":{\"seed\":9,\"until\":{\"time\":1e9}}%s}", hsmc ? "hsmc" : "dsmc", dim, N, hsmc ? "0.5" : "0.05",
+	         hsmc ? ",\"hsmc\":{\"cell_size\":2}" : "");
 	scene_t s;
 	if (scene_parse(json, strlen(json), &s, msg, sizeof msg) != SCENE_OK) {
 		fprintf(stderr, "%s\n", msg);
@@ -76,8 +79,8 @@ int main(int argc, char **argv)
 		double t0 = MPI_Wtime();
 		dsmc_advance(d, INFINITY, UINT64_MAX, (uint64_t)steps);
 		double sec = (MPI_Wtime() - t0) / steps;
-		printf("{\"mode\":\"serial\",\"dim\":%d,\"N\":%.0f,\"ranks\":1,\"steps\":%d,\"s_per_step\":%.6g,"
-		       "\"moves_per_s\":%.4g}\n", dim, N, steps, sec, N / sec);
+		printf("{\"mode\":\"serial\",\"method\":\"%s\",\"dim\":%d,\"N\":%.0f,\"ranks\":1,\"steps\":%d,\"s_per_step\":%.6g,"
+		       "\"moves_per_s\":%.4g}\n", hsmc ? "hsmc" : "dsmc", dim, N, steps, sec, N / sec);
 		dsmc_destroy(d);
 		MPI_Finalize();
 		return 0;
@@ -106,10 +109,10 @@ int main(int argc, char **argv)
 		int p0, p1, nc[3];
 		dsmcp_slab(d, &p0, &p1, nc);
 		double sec = maxs[0] / steps;
-		printf("{\"mode\":\"split\",\"dim\":%d,\"N\":%.0f,\"ranks\":%d,\"planes\":%d,\"steps\":%d,\"s_per_step\":%.6g,"
+		printf("{\"mode\":\"split\",\"method\":\"%s\",\"dim\":%d,\"N\":%.0f,\"ranks\":%d,\"planes\":%d,\"steps\":%d,\"s_per_step\":%.6g,"
 		       "\"moves_per_s\":%.4g,\"migrants_per_step\":%.1f,\"bytes_per_step\":%.0f,\"messages_per_step\":%.2f,"
 		       "\"imbalance_particles\":%.4f,\"imbalance_compute\":%.3f,\"compute_s_per_step_max\":%.6g,\"cpu_compute_s_per_step_max\":%.6g,\"cpu_compute_s_per_step_sum\":%.6g,\"peak_rss_bytes_max\":%.0f,\"bytes_per_particle_held\":%.1f}\n",
-		       dim, N, P, nc[dim - 1], steps, sec, N / sec, sums[0] / steps, sums[1] / steps, sums[2] / steps,
+		       hsmc ? "hsmc" : "dsmc", dim, N, P, nc[dim - 1], steps, sec, N / sec, sums[0] / steps, sums[1] / steps, sums[2] / steps,
 		       maxs[1] / (sums[3] / P), comp_sum > 0 ? maxs[2] / (comp_sum / P) : 0.0, maxs[2] / steps, maxs[3] / steps, cpu_sum / steps, maxs[4], dsmcp_memory(d) / (nl > 0 ? nl : 1));
 	}
 	dsmcp_destroy(d);
