@@ -90,8 +90,19 @@ static void test_parse(void)
 		{ "radius_range reversed", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":"
 		  "[{\"count\":20,\"radius_range\":[0.6,0.4],\"mass\":1}],\"volume_fraction\":0.1},"
 		  "\"run\":{\"until\":{\"time\":1}}}", "particles.species[0].radius_range:" },
-		{ "g(r) of a mixture", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":"
+		{ "g(r) of a mixture between walls", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":"
 		  "[{\"count\":20,\"radius\":0.5,\"mass\":1},{\"count\":20,\"radius\":0.5,\"mass\":2}],"
+		  "\"volume_fraction\":0.1},\"boundaries\":{\"x\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},\"upper\":{\"type\":\"specular\"}}},"
+		  "\"run\":{\"until\":{\"time\":1}},\"output\":{\"observables\":"
+		  "[\"pair_correlation\"]}}", "output.observables:" },
+		{ "g(r) of polydisperse species", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":"
+		  "[{\"count\":20,\"radius\":0.5,\"mass\":1},{\"count\":20,\"radius_range\":[0.4,0.6],\"mass\":2}],"
+		  "\"volume_fraction\":0.1},\"run\":{\"until\":{\"time\":1}},\"output\":{\"observables\":"
+		  "[\"pair_correlation\"]}}", "output.observables:" },
+		{ "g(r) of five species", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":"
+		  "[{\"count\":9,\"radius\":0.5,\"mass\":1},{\"count\":9,\"radius\":0.5,\"mass\":2},"
+		  "{\"count\":9,\"radius\":0.5,\"mass\":3},{\"count\":9,\"radius\":0.5,\"mass\":4},"
+		  "{\"count\":9,\"radius\":0.5,\"mass\":5}],"
 		  "\"volume_fraction\":0.1},\"run\":{\"until\":{\"time\":1}},\"output\":{\"observables\":"
 		  "[\"pair_correlation\"]}}", "output.observables:" },
 	};
@@ -711,7 +722,7 @@ static void test_checkpoint(void)
 
 int main(void)
 {
-	plan(42);
+	plan(44);
 	test_parse();
 	test_placement();
 	test_polydisperse();
