@@ -219,6 +219,22 @@ else
 	for np in 2 3; do n=$((n + 1)); echo "ok $n # SKIP python3-h5py not installed"; done
 fi
 
+# 4b. SIGTERM stops a split run at the next 64-step boundary (rank 0's flag, broadcast): a last progress
+#     record and a summary with status "interrupted", exit 3 (no checkpoint to write).
+cat >"$tmp/long.json" <<'EOF'
+{"method":"dsmc","dimensions":3,"particles":{"count":20000,"volume_fraction":0.05,"initial":{"positions":"random"}},
+ "collisions":{"restitution":1},"run":{"seed":2,"until":{"time":1e9}},"output":{"every":{"time":1}}}
+EOF
+"$ENGINE" run "$tmp/long.json" --split >"$tmp/long.out" 2>/dev/null &
+pid=$!
+i=0; until [ -s "$tmp/long.out" ] || [ $i -ge 300 ]; do sleep 0.1; i=$((i + 1)); done
+sleep 0.5
+kill -TERM $pid
+wait $pid
+rc=$?
+tail -n 1 "$tmp/long.out" | grep -q '"type":"summary","status":"interrupted"'
+ok $(( rc == 3 && $? == 0 ? 0 : 1 )) "SIGTERM: summary with status interrupted, exit $rc"
+
 # 5. Ensembles keep their meaning: run.replicas 2 under mpirun -np 2 is two replicas, not a split system.
 sed 's/"seed":5,/"seed":5,"replicas":2,/; s/"count":20000/"count":1000/' "$tmp/p.json" >"$tmp/ens.json"
 "$ENGINE" run "$tmp/ens.json" >"$tmp/ens1" 2>/dev/null
