@@ -7,23 +7,26 @@
 #include "scene.h"
 
 /*
- * Contract (issue 15, first slice; docs/parallel.md "Multi-rank DSMC")
+ * Contract (issue 15, first slice; docs/parallel.md "One dsmc system over many ranks")
  * - Pure computation: no MPI, no I/O, no globals. One dsmcp_t per rank;
- *   the caller (engine/main.c with MPI, or a test in one process) moves
+ *   the caller (engine/par/dsmcrun.c with MPI, or a test in one process) moves
  *   the migrants between ranks and sums the dsmcp_sums_t words.
  * - Decomposition: slabs of whole cell planes along the last axis (z in 3D,
  *   y in 2D): rank r of P owns planes [r nz / P, (r + 1) nz / P), a
  *   contiguous range of cell indices (x fastest). nz < P leaves ranks idle.
  * - Scope: methods dsmc and hsmc, periodic box, one species, correction
  *   none, enskog or cba with the global contact value, molecular-chaos impact
- *   parameters; observables energy, pressure, collision_rate, momentum. dsmcp_check() names the first scene key outside it.
- * - One step of length dt: free flight (wrap), migrants packed for their
- *   owner rank (dsmcp_move), arrivals appended (dsmcp_arrive), counting
- *   sort into the own cells (stable over the concatenation: arrivals from
- *   lower ranks, own particles, arrivals from higher ranks, which is the
- *   order the 1-rank run has), Bird's no-time-counter collisions as in dsmc.c whose random numbers
- *   come from a generator keyed on (seed, stream, step, cell) only
- *   (dsmcp_collide), then the global sums installed (dsmcp_finish).
+ *   parameters; observables energy, pressure, collision_rate, momentum.
+ *   dsmcp_check() names the first scene key outside it.
+ * - One step of length dt: [hsmc: cell-cell collisions, dsmcp_hs_*()];
+ *   free flight (wrap; hsmc: moves into cells full at the start rejected),
+ *   migrants packed for their owner rank (dsmcp_move), arrivals appended
+ *   (dsmcp_arrive), counting sort into the own cells (stable over the
+ *   concatenation: arrivals from lower ranks, own particles, arrivals from
+ *   higher ranks, which is the order the 1-rank run has), Bird's
+ *   no-time-counter collisions as in dsmc.c whose random numbers come from
+ *   a generator keyed on (seed, stream, step, cell) only (dsmcp_collide),
+ *   then the global sums installed (dsmcp_finish).
  * - Guarantee: given the same scene, stream and dsmcp_next_dt() stop times,
  *   the particles' positions, velocities, the clock and every counter after
  *   any number of steps are bit-identical for every rank count P >= 1: a

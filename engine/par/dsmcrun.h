@@ -9,7 +9,7 @@
 #include "scene.h"
 
 /*
- * Contract (issue 15, first slice; docs/parallel.md "Multi-rank DSMC")
+ * Contract (issue 15, first slice; docs/parallel.md "One dsmc system over many ranks")
  * - MPI: collective over MPI_COMM_WORLD; every rank calls with the same
  *   scene. Linked into granular-engine only (not libgranular.a).
  * - dsmcrun_step(): one step of dsmcp.h, the migrants moved with
