@@ -439,6 +439,8 @@ int main(void)
 	test_refusals();
 	test_identity(3, 4000, 0.05, "none", 0.9, 60);
 	test_identity(2, 1500, 0.1, "cba", 0.8, 60);
+	/* 2 x 2 x 2 cells: at P = 3..5 some ranks own no plane (idle, and still correct) */
+	test_identity(3, 40, 0.05, "none", 0.9, 40);
 	/* hsmc, dense: full cells, cell-cell collisions and rejected moves across the slab borders */
 	test_identity_m("hsmc", 2, 3000, 0.75, "cba", 0.9, 60);
 	test_identity_m("hsmc", 3, 4000, 0.55, "cba", 0.9, 40);
