@@ -27,7 +27,7 @@ struct dsmcp {
 	/* own particles: AoS x[D] v[D], identities; scratch of the same size */
 	size_t nl, cap;
 	double *p, *p2;
-	uint64_t *id, *id2;
+	uint32_t *id, *id2;            /* identities (N < 2^32, dsmcp_check()) */
 	uint32_t *cell;                /* local cell (cell - c0) of each record */
 	uint32_t *start, *cnt;         /* own cells + 1 */
 	float *rem;                    /* NTC remainder per own cell */
@@ -142,10 +142,10 @@ static int reserve(struct dsmcp *d, size_t cap)
 	double *p2 = realloc(d->p2, cap * S * sizeof(double));
 	if (p2)
 		d->p2 = p2;
-	uint64_t *id = realloc(d->id, cap * sizeof(uint64_t));
+	uint32_t *id = realloc(d->id, cap * sizeof(uint32_t));
 	if (id)
 		d->id = id;
-	uint64_t *id2 = realloc(d->id2, cap * sizeof(uint64_t));
+	uint32_t *id2 = realloc(d->id2, cap * sizeof(uint32_t));
 	if (id2)
 		d->id2 = id2;
 	uint32_t *cell = realloc(d->cell, cap * sizeof(uint32_t));
@@ -194,7 +194,7 @@ static ALWAYS_INLINE void sort_cells_d(struct dsmcp *d, const int D)
 	double *tp = d->p;
 	d->p = d->p2;
 	d->p2 = tp;
-	uint64_t *ti = d->id;
+	uint32_t *ti = d->id;
 	d->id = d->id2;
 	d->id2 = ti;
 }
@@ -589,7 +589,7 @@ int dsmcp_arrive(dsmcp_t *d, const double *rec, size_t n, size_t nlow)
 		if (c < d->c0 || c >= d->c1 || !(r[S] >= 0) || r[S] >= (double)d->n)
 			return DSMCP_EINVAL;
 		memcpy(&d->p[d->nl * S], r, S * sizeof(double));
-		d->id[d->nl] = (uint64_t)r[S];
+		d->id[d->nl] = (uint32_t)r[S];
 		d->cell[d->nl++] = (uint32_t)(c - d->c0);
 	}
 	return DSMCP_OK;
@@ -1025,7 +1025,7 @@ int dsmcp_dim(const dsmcp_t *d) { return d->dim; }
 size_t dsmcp_memory(const dsmcp_t *d)
 {
 	const size_t S = 2 * (size_t)d->dim, nown = d->c1 - d->c0;
-	return sizeof *d + d->cap * (2 * S * sizeof(double) + 2 * sizeof(uint64_t) + sizeof(uint32_t)) +
+	return sizeof *d + d->cap * (2 * S * sizeof(double) + 2 * sizeof(uint32_t) + sizeof(uint32_t)) +
 	       (nown + 1) * 2 * sizeof(uint32_t) + nown * sizeof(float) + d->out_cap * (S + 1) * sizeof(double) +
 	       (size_t)d->nc[d->dim - 1] * sizeof(int);
 }
