@@ -12,6 +12,7 @@
 #include "advice.h"
 #include "io/checkpoint.h"
 #include "config.h"
+#include "par/dsmcrun.h"
 #include "par/ensemble.h"
 #include "io/frame.h"
 #include "io/h5md.h"
@@ -388,7 +389,7 @@ static void usage(FILE *f)
 {
 	fprintf(f,
 	        "usage: granular-engine run SCENE.json [--out DIR [--resume CHECKPOINT.h5]] [--progress-fd N]\n"
-	        "                                      [--jobs-dir DIR]\n"
+	        "                                      [--jobs-dir DIR] [--split]\n"
 	        "       granular-engine validate SCENE.json [--jobs-dir DIR]\n"
 	        "       granular-engine advise SCENE.json [--ranks P] [--model MODEL.json]\n"
 	        "       granular-engine --version | --help\n"
@@ -401,7 +402,9 @@ static void usage(FILE *f)
 	        "advise prints the estimated cost and expected error of each method\n"
 	        "(docs/engine.md); \"method\": \"auto\" scenes run the method it chooses.\n"
 	        "--jobs-dir DIR: where particles.initial.from.job ID finds DIR/ID/trajectory.h5\n"
-	        "(the daemon's job directories; docs/scene.md).\n");
+	        "(the daemon's job directories; docs/scene.md).\n"
+	        "--split: a dsmc or hsmc scene with run.replicas 1 runs as one system decomposed over\n"
+	        "the ranks even on one rank (the default under mpirun -np P > 1; docs/parallel.md).\n");
 }
 
 /* Complete a non-blocking collective without spinning a core (a blocking
@@ -429,7 +432,7 @@ static void idle_until_rank0(void)
 /* Rank 0 tells the others, once, whether there is work: {mode, text length};
  * mode != 0 (ensemble: ENS_RUN | ENS_CKPT | ENS_RESUME | ENS_FRAMES) is
  * followed by the scene text, which every rank parses. */
-enum { ENS_RUN = 1, ENS_CKPT = 2, ENS_RESUME = 4, ENS_FRAMES = 8, ENS_CURVES = 16 };
+enum { ENS_RUN = 1, ENS_CKPT = 2, ENS_RESUME = 4, ENS_FRAMES = 8, ENS_CURVES = 16, DSMC_SPLIT = 32 };
 /* Bytes of packed curves of all replicas an ensemble may reduce (each rank holds them all). */
 #define ENS_CURVES_MAX (1024.0 * 1024 * 1024)
 typedef struct {
@@ -857,6 +860,13 @@ static int run_other(int rank, int size)
 		MPI_Bcast(text, (int)hdr[1], MPI_CHAR, 0, MPI_COMM_WORLD);
 		/* Rank 0 accepted this text, so the parse cannot fail here. */
 		if (scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
+		    (scene.method != SCENE_METHOD_AUTO || resolve_auto(&scene, size, NULL) == EX_DONE) &&
+		    (hdr[0] & DSMC_SPLIT)) {
+			/* one dsmc system over all ranks: rank 0 reports failures */
+			if (dsmcrun_run(&scene, rank, size, (hdr[0] & ENS_FRAMES) != 0, NULL, NULL, NULL, err, sizeof(err)) !=
+			    RUN_OK)
+				ret = EX_FAIL;
+		} else if (scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
 		    (scene.method != SCENE_METHOD_AUTO || resolve_auto(&scene, size, NULL) == EX_DONE)) {
 			int rc = ensemble_run(&scene, rank, size, NULL, &eo, err, sizeof(err));
 			if (rc == RUN_ECOLLAPSE)
@@ -929,7 +939,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	const char *cmd = argv[1], *scene_path = NULL, *outdir = NULL, *resume_path = NULL, *jobs_dir = NULL;
 	double *from_pos = NULL, *from_vel = NULL, *from_spin = NULL;
 	char from_path[FROM_PATH_MAX] = "";
-	int progress_fd = 1, ret = EX_FAIL;
+	int progress_fd = 1, ret = EX_FAIL, force_split = 0;
 	char err[512] = "", *text = NULL, *advice_line = NULL;
 	size_t len = 0;
 	scene_t scene;
@@ -942,6 +952,8 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			outdir = argv[++i];
 		} else if (!strcmp(argv[i], "--resume") && i + 1 < argc) {
 			resume_path = argv[++i];
+		} else if (!strcmp(argv[i], "--split")) {
+			force_split = 1;
 		} else if (!strcmp(argv[i], "--jobs-dir") && i + 1 < argc) {
 			jobs_dir = argv[++i];
 		} else if (!strcmp(argv[i], "--progress-fd") && i + 1 < argc) {
@@ -991,6 +1003,36 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	if (scene.has_from && !resume_path &&
 	    (ret = load_from(&scene, scene_path, jobs_dir, &from_pos, &from_vel, &from_spin, from_path)) != EX_DONE)
 		goto cleanup;
+	/* One dsmc system over several ranks (run.replicas 1 under mpirun -np
+	 * P > 1; docs/parallel.md). What the decomposed run cannot do yet: with
+	 * --split an error naming the key; under mpirun alone the run goes on as
+	 * before this path existed (rank 0 runs it, the others wait) with a
+	 * one-line notice, so that jobs that worked keep working. */
+	int split = (size > 1 || force_split) && scene.replicas <= 1 &&
+	            (scene.method == SCENE_METHOD_DSMC || scene.method == SCENE_METHOD_HSMC);
+	if (split) {
+		char why[512] = "";
+		if (dsmcp_check(&scene, err, sizeof(err)) != DSMCP_OK)
+			snprintf(why, sizeof why, "%s", err);
+		else if (scene.has_from)
+			snprintf(why, sizeof why, "particles.initial.from: not supported yet");
+		else if (resume_path)
+			snprintf(why, sizeof why, "--resume: checkpoints are not supported yet");
+		else if (outdir && scene.checkpoint.kind != SCENE_CLOCK_NONE)
+			snprintf(why, sizeof why, "output.checkpoint: checkpoints are not supported yet (leave it out, or "
+			         "run.replicas > 1)");
+		if (why[0] && force_split) {
+			/* a key names itself; an option is the program's */
+			fprintf(stderr, "%s%s (one dsmc/hsmc system over %d ranks)\n", why[0] == '-' ? "granular-engine: " : "",
+			        why, size);
+			ret = EX_INPUT;
+			goto cleanup;
+		}
+		if (why[0]) {
+			fprintf(stderr, "granular-engine: running on rank 0 alone, not split over %d ranks: %s\n", size, why);
+			split = 0;
+		}
+	}
 	if (!strcmp(cmd, "validate")) {
 		ret = EX_DONE;
 		goto cleanup;
@@ -1084,7 +1126,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			goto cleanup;
 		}
 	}
-	if (!run && scene.replicas <= 1) {
+	if (!run && scene.replicas <= 1 && !split) {
 		run = run_create(&scene, &opts, &rc, err, sizeof(err));
 		if (!run) {
 			fprintf(stderr, "%s\n", err);
@@ -1113,6 +1155,14 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		rc = ensemble_run(&scene, 0, size, &sink, &eo, err, sizeof(err));
 		if (rc == RUN_STOPPED) {
 			ret = EX_CHECKPOINTED;
+			goto cleanup;
+		}
+	} else if (split) {
+		announce(an, DSMC_SPLIT | (outdir ? ENS_FRAMES : 0), text, len);
+		rc = dsmcrun_run(&scene, 0, size, outdir != NULL, emit, &sink, &stop_requested, err, sizeof(err));
+		if (rc == RUN_ENOMEM) {
+			fprintf(stderr, "granular-engine: %s\n", err);
+			ret = EX_FAIL;
 			goto cleanup;
 		}
 	} else {

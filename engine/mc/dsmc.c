@@ -2396,6 +2396,45 @@ void dsmc_count_impacts(dsmc_t *d, double *counts, int nb)
 	d->bnb = nb;
 }
 
+void dsmc_geometry(const dsmc_t *d, dsmc_geom_t *out)
+{
+	memset(out, 0, sizeof *out);
+	out->dim = d->dim;
+	out->hsmc = d->hsmc;
+	out->cba = d->cba;
+	out->local_chi = d->local_chi;
+	out->mix = d->mix;
+	out->bounded = d->bounded || d->has_walls || d->nobst > 0 || d->open;
+	out->impact = d->pb_n;
+	out->n = d->n;
+	out->nfull = d->nfull;
+	for (int a = 0; a < 3; a++) {
+		out->L[a] = d->L[a];
+		out->nc[a] = d->nc[a];
+	}
+	out->sigma = d->sigma;
+	out->mass = d->mass;
+	out->e = d->e;
+	out->chi = d->chi;
+	out->sigma_t = d->sigma_t;
+	out->vcell = d->vcell;
+	out->fcoef = d->fcoef;
+	out->cps = d->cps;
+	out->dt_fixed = d->dt_fixed;
+}
+
+int dsmc_geometry_scene(const scene_t *s, dsmc_geom_t *out, char *msg, size_t msglen)
+{
+	struct dsmc d;
+	memset(&d, 0, sizeof(d));
+	if (msg && msglen)
+		msg[0] = '\0';
+	int rc = layout(&d, s, msg, msglen);
+	if (rc == DSMC_OK)
+		dsmc_geometry(&d, out);
+	return rc;
+}
+
 size_t dsmc_memory(const dsmc_t *d)
 {
 	size_t S = 2 * (size_t)d->dim;

@@ -215,4 +215,20 @@ int dsmc_field_set(dsmc_t *d, const char *name, ed_type_t type, size_t count, co
  * permutation, positions in the box, RNG state). DSMC_EINVAL with msg. */
 int dsmc_restore_finish(dsmc_t *d, char *msg, size_t msglen);
 
+/* Constants of a built engine that a decomposed run (dsmcp.h) needs to
+ * reproduce its grid and collision rule; pure, changes nothing. Flags say
+ * which features the scene uses (the decomposed path refuses those it does
+ * not support). */
+typedef struct {
+	int dim, hsmc, cba, local_chi, mix, bounded, impact;   /* impact: impact_c points */
+	uint32_t n, nfull;                                     /* nfull: hsmc's full cell */
+	double L[3];
+	int nc[3];
+	double sigma, mass, e, chi, sigma_t, vcell, fcoef, cps, dt_fixed;
+} dsmc_geom_t;
+void dsmc_geometry(const dsmc_t *d, dsmc_geom_t *out);
+/* The same for scene s without building the engine (pure, no allocation):
+ * DSMC_OK, or DSMC_EINVAL with "KEY: reason" in msg as dsmc_plan(). */
+int dsmc_geometry_scene(const scene_t *s, dsmc_geom_t *out, char *msg, size_t msglen);
+
 const char *dsmc_strerror(int code);
