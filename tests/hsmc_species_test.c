@@ -204,14 +204,12 @@ static void test_equal_species(void)
  * for like pairs. Elastic: T = 1 throughout (energy conserved). Measured:
  * counts per pair (dsmc_count_pairs()) over NB blocks after 5 collisions
  * per particle to settle; the rate's mean over the blocks within 5 SE of
- * the theory (SE 0.5-2 %). chi_ij differs among the pairs by 20-30 %
+ * the theory (SE 0.3-2.5 %). chi_ij differs among the pairs by 19-27 %
  * here: the one-species value at the total volume fraction (printed)
  * must miss the like pairs by more than 5 SE, so the test tells them apart.
- * Correction "enskog": the CBA offsets (hsmc's default) lower the density
- * fluctuations of the cells (they give the dense gas its compressibility),
- * so the pair counts of a cell fall below the uncorrelated mean by O(1 /
- * particles per cell): measured -1 % (s-s) to -4.5 % (l-l) at 25 particles
- * per cell here in 2D, under 1 % at 100 (docs/engine.md). */
+ * Correction "enskog": with the CBA offsets (hsmc's default) the rates
+ * fall below Enskog's, by up to 4.5 % (l-l) at 25 particles per cell here
+ * in 2D and under 1 % at 100 (docs/engine.md, "Species in DSMC"). */
 enum { NB = 20 };
 static void test_pair_rates(int dim)
 {
