@@ -474,7 +474,7 @@ static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int
 		double ua[3], ub[3] = {0, 0, 0}, best_u[3] = {0, 0, 0}, best_w = 0;
 		size_t best = c;
 		int best_axis = 0, best_sign = 0;
-		double ma = cell_momentum(d, d->start[c], na, ua, D, M), mb = 0;
+		double ma = cell_momentum(d, d->start[c], na, ua, D, M), mb = 0;   /* M = 0: after the search, as before */
 		for (int a = 0; a < D; a++) {
 			size_t stride = 1;
 			for (int b = 0; b < a; b++)
@@ -495,7 +495,8 @@ static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int
 				if (w > best_w) {
 					best_w = w;
 					best = nb;
-					mb = mn;
+					if (M)
+						mb = mn;
 					best_axis = a;
 					best_sign = sgn;
 					memcpy(best_u, ub, sizeof(best_u));
@@ -505,6 +506,8 @@ static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int
 		if (best == c)
 			continue;
 		uint32_t nb_n = d->start[best + 1] - d->start[best];
+		if (!M)
+			ma = (double)na * d->mass, mb = (double)nb_n * d->mass;
 		double mu = ma * mb / (ma + mb);
 		double J = (1 + d->e) * mu * best_w;
 		double ua1[3], ub1[3];
@@ -518,6 +521,24 @@ static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int
 		d->stamp[c] = d->stamp[best] = mark;
 		d->cell_collisions++;
 	}
+}
+
+/* cell_collisions() of each variant as a function of its own (called once
+ * per hsmc step): the step functions keep no trace of it, so that the
+ * register allocation of dsmc's hot loops does not depend on it. */
+#define CELL_COLL(D, B, M) \
+	static __attribute__((noinline)) void cell_coll_##D##B##M(struct dsmc *d) { cell_collisions(d, D, B, M); }
+CELL_COLL(2, 0, 0) CELL_COLL(2, 1, 0) CELL_COLL(2, 2, 0) CELL_COLL(2, 0, 1) CELL_COLL(2, 1, 1) CELL_COLL(2, 2, 1)
+CELL_COLL(3, 0, 0) CELL_COLL(3, 1, 0) CELL_COLL(3, 2, 0) CELL_COLL(3, 0, 1) CELL_COLL(3, 1, 1) CELL_COLL(3, 2, 1)
+#undef CELL_COLL
+static ALWAYS_INLINE void cell_coll(struct dsmc *d, const int D, const int B, const int M)
+{
+	if (D == 2)
+		(B == 0 ? (M ? cell_coll_201 : cell_coll_200) : B == 1 ? (M ? cell_coll_211 : cell_coll_210)
+		        : (M ? cell_coll_221 : cell_coll_220))(d);
+	else
+		(B == 0 ? (M ? cell_coll_301 : cell_coll_300) : B == 1 ? (M ? cell_coll_311 : cell_coll_310)
+		        : (M ? cell_coll_321 : cell_coll_320))(d);
 }
 
 /* Free flight, new cells counted; hsmc rejects moves into cells that were
@@ -1531,7 +1552,7 @@ static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const
 	if (M && d->hsmc)
 		cell_volumes(d);   /* full cells at the step's start */
 	if (d->hsmc)
-		cell_collisions(d, D, B, M);
+		cell_coll(d, D, B, M);
 	double ek;
 	if (B) {
 		ek = move_bounded(d, dt, &d->ekin_int, D, B == 2, M);
