@@ -124,6 +124,23 @@ done
 # Peers: EDMD and SPARTA from ../shared/peers (or $PEERS), in this run; absent peers are said so.
 tpe=$(mktemp)
 /usr/bin/python3 "$src/bench/peers.py" "$build" "$src" "${PEERS:-$src/../shared/peers}" >"$tpe"
+# Soft-sphere MD against LAMMPS (issue 18; Debian package lammps), 10^4 spheres, about 2 minutes.
+tmd=$(mktemp)
+{
+	echo "## Soft-sphere MD against LAMMPS on one core (issue 18)"
+	echo
+	if command -v lmp >/dev/null 2>&1 && [ -x "$build/bench/md_bench" ]; then
+		echo "md_bench's settling bed and the same bed in LAMMPS (gran/hooke/history), per CPU second, interleaved,"
+		echo "median of 5 (docs/benchmarks-notes.md, \"Soft-sphere MD core\")."
+		echo
+		echo "| command | median ours / LAMMPS | ratios |"
+		echo "|---|---|---|"
+		MD_BENCH="$build/bench/md_bench" sh "$src/bench/md_lammps.sh" 20 25 20 2000 | grep '^|'
+	else
+		echo "Not measured: lmp (Debian package lammps) or bench/md_bench missing."
+	fi
+	echo
+} >"$tmd" 2>&1 || true
 
 tdm=$(mktemp)
 sh "$src/bench/daemon_bench.sh" "$build" "$src" >"$tdm"
@@ -213,6 +230,7 @@ sh "$src/bench/par_model.sh" "$build" >"$tpm"
 	cat "$iotmp"
 	echo
 	cat "$tpe"
+	cat "$tmd"; rm -f "$tmd"
 	cat "$tdm"
 	cat "$tin"
 	echo

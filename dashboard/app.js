@@ -656,6 +656,9 @@
     const tab = (name, sub) => (last[name] ? last[name].tables.find((t) => t.table === sub) : null);
     const sp = tab('velocity_distribution', 'speed'), comp = tab('velocity_distribution', 'components');
     const g = tab('pair_correlation', ''), sk = tab('structure_factor', '');
+    // mixtures: the partial g_ab(r) of each pair of species and their contact values (docs/output.md)
+    const gs = tab('pair_correlation', 'species'), gc = tab('pair_correlation', 'contact');
+    const gcols = gs ? Object.keys(gs.columns) : [];
     const ns = tab('clusters', ''), pb = tab('impact_parameter', ''), ds = tab('density_spectrum', '');
     if (last.fields) {
       fieldsLast = last.fields;
@@ -667,7 +670,7 @@
     if (!curvePlots.length) {
       curvePlots = [
         curvePlot($('plot-vdist'), 'P(c)', false, true, [{ label: 'Maxwellian', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }], 'c'),
-        curvePlot($('plot-gofr'), 'g(r)', false, false, [], 'r'),
+        curvePlot($('plot-gofr'), 'g(r)', false, false, gcols.map((c, j) => ({ label: c, stroke: ['#d2691e', '#2e8b57', '#8a2be2', '#b22222', '#708090', '#daa520', '#20b2aa', '#ff69b4', '#556b2f', '#4682b4'][j % 10], width: 1, points: { show: false } })), 'r'),
         curvePlot($('plot-sofk'), 'S(k)', true, true, [1, 2, 3].map((j) => ({ label: j + ' earlier', stroke: 'rgba(47,111,222,' + (0.6 - 0.15 * j) + ')', width: 1, points: { show: false } })), 'k'),
         curvePlot($('plot-clusters'), 'n_s', true, true, [{ label: 'fit s^-τ', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }], 's'),
         curvePlot($('plot-impact'), 'P(b)', false, false, [{ label: 'molecular chaos', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }], 'b/σ'),
@@ -679,7 +682,7 @@
       const mw = sp.centres.map((c) => pos(D === 2 ? 2 * c * Math.exp(-c * c) : 4 / Math.sqrt(Math.PI) * c * c * Math.exp(-c * c)));
       curvePlots[0].setData([sp.centres, sp.columns.p.map(pos), mw]);
     }
-    if (g) curvePlots[1].setData([g.centres, g.columns.g]);
+    if (g) curvePlots[1].setData([g.centres, g.columns.g].concat(gcols.map((c) => (gs && gs.columns[c] ? gs.columns[c] : g.centres.map(() => null)))));
     if (sk) {
       // the latest sample, then up to three earlier ones (same shells: the grid is fixed by the scene)
       const older = [2, 3, 4].map((j) => {
@@ -715,7 +718,9 @@
     if (last.velocity_distribution) info.push('a2 = ' + (last.velocity_distribution.a2 ?? NaN).toPrecision(3));
     if (last.velocity_distribution && last.velocity_distribution.a2_spin !== undefined)
       info.push('spins: a2 = ' + (last.velocity_distribution.a2_spin ?? NaN).toPrecision(3) + ', T_rot = ' + (last.velocity_distribution.temperature_rot ?? NaN).toPrecision(4));
-    if (last.pair_correlation) info.push('g(σ) = ' + (last.pair_correlation.g_contact_pairs ?? NaN).toPrecision(4));
+    if (last.pair_correlation && gc && gcols.length)
+      info.push('contact values ' + gcols.map((c, k) => c + '(σ) = ' + (gc.columns.g[k] ?? NaN).toPrecision(4)).join(', '));
+    else if (last.pair_correlation) info.push('g(σ) = ' + (last.pair_correlation.g_contact_pairs ?? NaN).toPrecision(4));
     if (last.clusters) info.push('n_s exponent τ = ' + (last.clusters.exponent ?? NaN).toPrecision(3) + ', w = ' + (last.clusters.w ?? NaN).toPrecision(3));
     if (pb) info.push('P(b) of ' + pb.columns.n.reduce((a, x) => a + x, 0) + ' collisions since the previous sample');
     if (sk && skHistory.length > 1) info.push('S(k) at times ' + skHistory.map((x) => +x.time.toPrecision(3)).join(', ') + ' (latest bold)');

@@ -447,6 +447,9 @@ static void announce(announce_t *an, long long mode, const char *text, size_t le
 		MPI_Bcast((void *)text, (int)len, MPI_CHAR, 0, MPI_COMM_WORLD);
 }
 
+/* particles.initial.from: the longest file name load_from() makes */
+#define FROM_PATH_MAX (2 * SCENE_PATH_MAX + 64)
+
 /* Ensemble checkpoints and resume (ENS_CKPT, ENS_RESUME). Rank 0 only:
  * outdir, text/len, ens (resume state); every rank: mode. */
 typedef struct {
@@ -455,6 +458,7 @@ typedef struct {
 	const char *text;
 	size_t len;
 	ens_resume_t *ens;
+	const char *from_path;   /* from.replica "each": the trajectory (load_from()); rank 0 only */
 } ens_opts_t;
 
 /* Load the replicas of this rank from rank 0's resume state: rank 0 sends
@@ -640,6 +644,7 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 	const int with_ids = frames && scene_has_reservoir(s);
 	int64_t *fids = with_ids ? malloc(scene_slots(s) * sizeof(int64_t)) : NULL;
 	run_t **runs = calloc(NL > 0 ? NL : 1, sizeof(run_t *));
+	double **from_state = NULL;   /* from.replica "each": each local replica's positions, velocities, spins */
 	run_record_t *last = calloc(NL > 0 ? NL : 1, sizeof(run_record_t));
 	int *done = calloc(NL > 0 ? NL : 1, sizeof(int));
 	double *vals = malloc(NX * sizeof(double));
@@ -660,9 +665,32 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 		if (!failed && (ret = ens_load(s, rank, size, eo->ens, runs, err, errlen)) != RUN_OK)
 			failed = 1;
 	}
+	/* from.replica "each" (not on resume: the checkpoint has the states): replica r starts from replica r
+	 * of the trajectory rank 0 checked (load_from()); the frames live as long as the runs, as a single
+	 * run's do (the engines copy them at creation; the run's scene keeps the pointers) */
+	const int from_each = s->has_from && s->from_replica == SCENE_FROM_EACH && !(eo->mode & ENS_RESUME);
+	char from_path[FROM_PATH_MAX] = "";
+	if (from_each) {
+		if (rank == 0)
+			snprintf(from_path, sizeof from_path, "%s", eo->from_path ? eo->from_path : "");
+		MPI_Bcast(from_path, FROM_PATH_MAX, MPI_CHAR, 0, MPI_COMM_WORLD);
+		if (!(from_state = calloc(3 * (size_t)(NL > 0 ? NL : 1), sizeof(double *))))
+			failed = 1;
+	}
 	for (int i = 0; i < NL && !failed && !(eo->mode & ENS_RESUME); i++) {
-		int e;
-		runs[i] = run_open(s, (uint64_t)(rank + i * size), &e, err, errlen);
+		int e, r = rank + i * size;
+		scene_t sr = *s;
+		if (from_each) {
+			sr.from_replica = r;
+			double **st = from_state + 3 * (size_t)i;
+			if (frame_load(&sr, from_path, &st[0], &st[1], &st[2], err, errlen) != FRAME_OK) {
+				failed = 1;
+				ret = RUN_ESETUP;
+				break;
+			}
+			sr.init_pos = st[0], sr.init_vel = st[1], sr.init_spin = st[2];
+		}
+		runs[i] = run_open(&sr, (uint64_t)r, &e, err, errlen);
 		if (!runs[i]) {
 			failed = 1;
 			ret = e;
@@ -797,6 +825,9 @@ static int ensemble_run(const scene_t *s, int rank, int size, sink_t *sink, cons
 cleanup:
 	for (int i = 0; runs && i < NL; i++)
 		run_destroy(runs[i]);
+	for (size_t k = 0; from_state && k < 3 * (size_t)NL; k++)
+		free(from_state[k]);
+	free(from_state);
 	free(runs);
 	free(last);
 	free(done);
@@ -822,7 +853,7 @@ static int run_other(int rank, int size)
 	if (hdr[0] != 0) {
 		char *text = malloc((size_t)hdr[1] + 1);
 		scene_t scene;
-		ens_opts_t eo = {(int)hdr[0], NULL, NULL, 0, NULL};
+		ens_opts_t eo = {(int)hdr[0], NULL, NULL, 0, NULL, NULL};
 		MPI_Bcast(text, (int)hdr[1], MPI_CHAR, 0, MPI_COMM_WORLD);
 		/* Rank 0 accepted this text, so the parse cannot fail here. */
 		if (scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
@@ -841,25 +872,46 @@ static int run_other(int rank, int size)
 
 /* particles.initial.from: the file it names (a relative file name is taken
  * from the scene file's directory; a job from --jobs-dir) loaded into
- * *pos, *vel and given to the engines through the scene. EX_DONE, or
+ * *pos, *vel and given to the engines through the scene. With
+ * from.replica "each" (ensembles) every replica's frame is read here to
+ * check it, and path (FROM_PATH_MAX bytes) keeps the file's name: each
+ * replica loads its own when it starts (ensemble_run()). EX_DONE, or
  * EX_INPUT/EX_FAIL with the one line printed. */
 static int load_from(scene_t *s, const char *scene_path, const char *jobs_dir, double **pos, double **vel,
-                     double **spin)
+                     double **spin, char *path)
 {
-	char path[2 * SCENE_PATH_MAX + 64], err[2 * SCENE_PATH_MAX + 512];
+	char err[2 * SCENE_PATH_MAX + 512];
+	const size_t plen = FROM_PATH_MAX;
 	if (s->from_job) {
 		if (!jobs_dir) {
 			fprintf(stderr, "particles.initial.from.job: a job reference is resolved by the daemon "
 			        "(granular-engine --jobs-dir DIR); use from.file outside it\n");
 			return EX_INPUT;
 		}
-		snprintf(path, sizeof path, "%s/%llu/trajectory.h5", jobs_dir, (unsigned long long)s->from_job);
+		snprintf(path, plen, "%s/%llu/trajectory.h5", jobs_dir, (unsigned long long)s->from_job);
 	} else if (s->from_file[0] == '/') {
-		snprintf(path, sizeof path, "%s", s->from_file);
+		snprintf(path, plen, "%s", s->from_file);
 	} else {
 		const char *slash = strrchr(scene_path, '/');
 		int dirlen = slash ? (int)(slash - scene_path) : 1;
-		snprintf(path, sizeof path, "%.*s/%s", dirlen, slash ? scene_path : ".", s->from_file);
+		snprintf(path, plen, "%.*s/%s", dirlen, slash ? scene_path : ".", s->from_file);
+	}
+	if (s->from_replica == SCENE_FROM_EACH) {
+		/* every replica's frame now, so that a missing one is the scene's error before anything runs */
+		for (uint64_t r = 0; r < s->replicas; r++) {
+			scene_t sr = *s;
+			sr.from_replica = (int64_t)r;
+			int rc = frame_load(&sr, path, pos, vel, spin, err, sizeof err);
+			free(*pos);
+			free(*vel);
+			free(*spin);
+			*pos = *vel = *spin = NULL;
+			if (rc != FRAME_OK) {
+				fprintf(stderr, "%s\n", err);
+				return rc == FRAME_ENOMEM ? EX_FAIL : EX_INPUT;
+			}
+		}
+		return EX_DONE;
 	}
 	int rc = frame_load(s, path, pos, vel, spin, err, sizeof err);
 	if (rc != FRAME_OK) {
@@ -876,6 +928,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 {
 	const char *cmd = argv[1], *scene_path = NULL, *outdir = NULL, *resume_path = NULL, *jobs_dir = NULL;
 	double *from_pos = NULL, *from_vel = NULL, *from_spin = NULL;
+	char from_path[FROM_PATH_MAX] = "";
 	int progress_fd = 1, ret = EX_FAIL;
 	char err[512] = "", *text = NULL, *advice_line = NULL;
 	size_t len = 0;
@@ -936,7 +989,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	}
 	/* An earlier run's frame (not when resuming: the checkpoint has the state). */
 	if (scene.has_from && !resume_path &&
-	    (ret = load_from(&scene, scene_path, jobs_dir, &from_pos, &from_vel, &from_spin)) != EX_DONE)
+	    (ret = load_from(&scene, scene_path, jobs_dir, &from_pos, &from_vel, &from_spin, from_path)) != EX_DONE)
 		goto cleanup;
 	if (!strcmp(cmd, "validate")) {
 		ret = EX_DONE;
@@ -1055,7 +1108,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	if (scene.replicas > 1) {
 		ens_opts_t eo = {ENS_RUN | (outdir ? ENS_CKPT : 0) | (resume_path ? ENS_RESUME : 0) |
 		                 (outdir && h5md_groups(&scene) > 0 ? ENS_FRAMES : 0) | (want_curves ? ENS_CURVES : 0), outdir,
-		                 text, len, &ens};
+		                 text, len, &ens, from_path};
 		announce(an, eo.mode, text, len);
 		rc = ensemble_run(&scene, 0, size, &sink, &eo, err, sizeof(err));
 		if (rc == RUN_STOPPED) {

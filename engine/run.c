@@ -256,6 +256,14 @@ static void msd_follow(run_t *rc)
 	smp_t sm;
 	eng_totals(rc, &sm);
 	double e = sm.kinetic_energy;
+	if (rc->ed && scene_msd_images(s)) {   /* the engine counted the images: exact, no bound (msd_exact()) */
+		ed_unwrapped(rc->ed, rc->pos);
+		if (rc->st.started)
+			msd_update(rc->msd, sm.time, rc->pos, 0.0);
+		else
+			msd_origin(rc->msd, sm.time, rc->pos, 0.0);
+		return;
+	}
 	if (scene_has_gravity(s)) {
 		eng_state(rc, rc->pos, rc->vel);
 		if (s->n_species > 1) {   /* mixtures: each species' block of rows with its mass */
@@ -699,6 +707,8 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		r->msd = msd_create(s->dim, s->count, s->box, s->mass, r->ed ? 0.45 : 0.25);
 		if (!r->msd)
 			goto nomem;
+		if (scene_msd_images(s))
+			msd_exact(r->msd);
 		/* mixtures: the lightest particle bounds the speed, the heaviest the potential energy, the smallest
 		 * the lowest contact plane */
 		double rmin = s->radius;

@@ -686,9 +686,27 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 	 * temperature), fields (mass-weighted), mean_square_displacement (bounds from the lightest and heaviest)
 	 * work with mixtures (observe.h); these are defined for one radius only */
 	static const struct { unsigned bit; const char *name; } obs[] = {
-		{ SCENE_OBS_GOFR, "pair_correlation" }, { SCENE_OBS_VCORR, "velocity_correlations" },
-		{ SCENE_OBS_IMPACT, "impact_parameter" },
+		{ SCENE_OBS_VCORR, "velocity_correlations" }, { SCENE_OBS_IMPACT, "impact_parameter" },
 	};
+	/* pair_correlation: partial g_ab(r) of 2 ... SCENE_GOFR_SPECIES_MAX species of one radius each in a
+	 * periodic box (the ideal pair counts of species that reach different regions are not there yet) */
+	if (s->observables & SCENE_OBS_GOFR) {
+		const char *why = NULL;
+		for (int k = 0; k < s->n_species && !why; k++)
+			if (s->species[k].radius_lo < s->species[k].radius_hi)
+				why = "polydisperse species (radius_range)";
+		if (!why && s->n_species < 2)
+			why = "polydisperse particles";
+		else if (!why && s->n_species > SCENE_GOFR_SPECIES_MAX)
+			why = "more than 4 species";
+		else if (!why && scene_has_walls(s))
+			why = "walls (boundaries)";
+		else if (!why && s->n_obstacles > 0)
+			why = "obstacles";
+		if (why)
+			return fail(c, "output.observables", "\"pair_correlation\" of a mixture is available for 2 to %d "
+				    "species of one radius each in a periodic box, not with %s", SCENE_GOFR_SPECIES_MAX, why);
+	}
 	for (size_t k = 0; k < sizeof obs / sizeof obs[0]; k++)
 		if (s->observables & obs[k].bit)
 			return fail(c, "output.observables", "\"%s\" is defined for one species of one radius only, not for "
@@ -973,9 +991,12 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 	for (int a = 0; a < s->dim && s->has_region; a++)
 		if (isnan(s->region_hi[a]))
 			s->region_hi[a] = s->box[a];
-	if (s->has_from && s->replicas > 1)
-		return fail(c, "particles.initial.from", "not with run.replicas > 1 yet (every replica would start from "
-		            "the same frame)");
+	if (s->has_from && s->replicas > 1 && s->from_replica != SCENE_FROM_EACH)
+		return fail(c, "particles.initial.from", "with run.replicas > 1 every replica would start from the same "
+		            "frame; use \"replica\": \"each\" (replica r from replica r of an ensemble's trajectory)");
+	if (s->has_from && s->replicas == 1 && s->from_replica == SCENE_FROM_EACH)
+		return fail(c, "particles.initial.from.replica", "\"each\" needs run.replicas > 1 (replica r from replica "
+		            "r); a single run names one replica by its index");
 
 	int ret = check_structure(c, v, s);
 	if (ret)
@@ -1486,41 +1507,18 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 			if (!periodic_axes && !strcmp(name, periodic_only[k]))
 				return fail(c, path, "\"%s\" needs a periodic axis (its wave vectors run along the periodic "
 				            "axes only); every axis has walls", name);
-		/* unwrapped displacements along periodic axes rely on a speed bound from the mechanical energy
-		 * (engine/observe/msd.h), which must not grow: thermal, moving and vibrating walls, driving and
-		 * gravity along a periodic axis feed it, as do no_slip (thermal) obstacles; walled axes need no
-		 * unwrapping (no bound when none is periodic) */
+		/* unwrapped displacements along periodic axes: dsmc/hsmc rely on a speed bound from the mechanical
+		 * energy (engine/observe/msd.h), which must not grow; ed counts the periodic images crossed when
+		 * something feeds energy (scene_msd_images()); walled axes need no unwrapping */
 		if (!strcmp(name, "mean_square_displacement")) {
-			int per = 0;
-			for (int a = 0; a < s->dim; a++)
-				per += !s->boundary[a].walled;
-			for (int k = 0; k < s->n_obstacles && per; k++)
-				if (s->obstacle[k].type == SCENE_OBST_NO_SLIP)
-					return fail(c, path, "\"mean_square_displacement\" with a periodic axis needs obstacles that "
-					            "do not feed energy (slip, random_sign): obstacles[%d] is \"no_slip\", which leaves "
-					            "the speeds unbounded for following particles across periodic images", k);
 			if (scene_has_open_walls(s))
 				return fail(c, path, "\"mean_square_displacement\" is not available with an \"open\" wall yet "
 				            "(it needs a fixed particle set)");
-			for (int a = 0; a < s->dim && per; a++) {
-				if (s->gravity[a] != 0 && !s->boundary[a].walled)
-					return fail(c, path, "\"mean_square_displacement\" needs gravity along walled axes only: "
-					            "gravity[%d] is %s along periodic axis %s, where particles fall without bound "
-					            "and no update interval can follow them across images", a,
-					            num(s->gravity[a]).s, axis_names[a]);
-				for (int k = 0; k < 2 && s->boundary[a].walled; k++) {
-					scene_wall_type_t t = s->boundary[a].wall[k].type;
-					if (t == SCENE_WALL_THERMAL || t == SCENE_WALL_MOVING || t == SCENE_WALL_VIBRATING)
-						return fail(c, path, "\"mean_square_displacement\" with a periodic axis needs walls "
-						            "that do not feed energy (specular, rough): boundaries.%s.%s is \"%s\", "
-						            "which leaves the speeds unbounded for following particles across "
-						            "periodic images", axis_names[a], k ? "upper" : "lower", wall_names[t]);
-				}
-			}
-			if (per && s->drive != SCENE_DRIVE_NONE)
-				return fail(c, path, "\"mean_square_displacement\" with a periodic axis is not available with "
-				            "driving (it feeds energy: no speed bound for following particles across periodic "
-				            "images)");
+			const char *feed = scene_energy_feed(s);
+			if (feed && s->method != SCENE_METHOD_ED)
+				return fail(c, path, "\"mean_square_displacement\" with a periodic axis and %s (it feeds energy: "
+				            "no speed bound for following particles across periodic images) needs method "
+				            "\"ed\", which counts the images crossed", feed);
 		}
 		if (!strcmp(name, "obstacle_force") && !obst)
 			return fail(c, path, "\"obstacle_force\" needs obstacles");
@@ -1639,6 +1637,19 @@ static const struct irange R_FRAME = { -SEED_MAX, SEED_MAX };
 static const struct irange R_JOB = { 1, SEED_MAX };
 static const struct irange R_REPLICA = { 0, 999999 };
 
+/* from.replica: a replica index, or "each" (an ensemble continuing an ensemble, replica by replica) */
+static int parse_from_replica(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	(void)arg;
+	if (json_is_string(v)) {
+		if (strcmp(json_string_value(v), "each"))
+			return fail(c, path, "must be a replica index (0 ... 999999) or \"each\"");
+		*(int64_t *)dst = SCENE_FROM_EACH;
+		return 0;
+	}
+	return parse_i64(c, path, v, dst, &R_REPLICA);
+}
+
 static int check_from(ctx_t *c, const char *path, json_t *v, void *base)
 {
 	scene_t *s = base;
@@ -1654,7 +1665,7 @@ static const struct object from_obj = {
 		{ "file", parse_path, offsetof(scene_t, from_file), NULL, false },
 		{ "job", parse_integer, offsetof(scene_t, from_job), &R_JOB, false },
 		{ "frame", parse_i64, offsetof(scene_t, from_frame), &R_FRAME, false },
-		{ "replica", parse_i64, offsetof(scene_t, from_replica), &R_REPLICA, false },
+		{ "replica", parse_from_replica, offsetof(scene_t, from_replica), NULL, false },
 		{ .name = NULL },
 	},
 	.check = check_from,
@@ -2176,6 +2187,37 @@ int scene_has_walls(const scene_t *s)
 int scene_has_obstacles(const scene_t *s)
 {
 	return s->n_obstacles > 0;
+}
+
+const char *scene_energy_feed(const scene_t *s)
+{
+	static const char *const feeds[] = { [SCENE_WALL_THERMAL] = "a thermal wall", [SCENE_WALL_MOVING] = "a moving wall",
+	                                     [SCENE_WALL_VIBRATING] = "a vibrating wall" };
+	int per = 0;
+	for (int a = 0; a < s->dim; a++)
+		per += !s->boundary[a].walled;
+	if (!per)
+		return NULL;
+	for (int a = 0; a < s->dim; a++) {
+		if (s->gravity[a] != 0 && !s->boundary[a].walled)
+			return "gravity along a periodic axis";
+		for (int k = 0; k < 2 && s->boundary[a].walled; k++) {
+			scene_wall_type_t t = s->boundary[a].wall[k].type;
+			if ((size_t)t < sizeof feeds / sizeof feeds[0] && feeds[t])
+				return feeds[t];
+		}
+	}
+	for (int k = 0; k < s->n_obstacles; k++)
+		if (s->obstacle[k].type == SCENE_OBST_NO_SLIP)
+			return "a no_slip obstacle";
+	if (s->drive != SCENE_DRIVE_NONE)
+		return "driving";
+	return NULL;
+}
+
+int scene_msd_images(const scene_t *s)
+{
+	return (s->observables & SCENE_OBS_MSD) && s->method == SCENE_METHOD_ED && scene_energy_feed(s) != NULL;
 }
 
 int scene_has_open_walls(const scene_t *s)

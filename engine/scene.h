@@ -155,6 +155,9 @@ typedef struct {
  * without the key has one species from particles.count/radius/mass. */
 #define SCENE_SPECIES_MAX 16
 #define SCENE_NAME_MAX 32
+#define SCENE_FROM_EACH (-2)
+/* pair_correlation of mixtures: partial g_ab(r) of at most this many species (observe.h) */
+#define SCENE_GOFR_SPECIES_MAX 4
 typedef struct {
 	uint64_t count;                /* >= 1 */
 	double radius, mass;           /* > 0; radius: the largest (radius_hi) when polydisperse */
@@ -200,7 +203,9 @@ typedef struct scene {
 	char from_file[SCENE_PATH_MAX];  /* as written: relative to the scene file's directory */
 	uint64_t from_job;             /* a daemon job's trajectory.h5 (granular-engine --jobs-dir) */
 	int64_t from_frame;            /* frame index, negative from the end; default -1 (the last) */
-	int64_t from_replica;          /* -1: /particles/all; K: /particles/replica_K of an ensemble */
+	int64_t from_replica;          /* -1: /particles/all; K: /particles/replica_K of an ensemble;
+	                                * SCENE_FROM_EACH ("each", run.replicas > 1): replica r of this run
+	                                * from /particles/replica_r */
 	/* Not from JSON: a state given to the engines instead of placing and
 	 * drawing (N * dim doubles each, scene coordinates, particle i at
 	 * [i * dim]; not owned, must outlive the engine; NULL: as the scene
@@ -326,6 +331,14 @@ int scene_has_dispenser(const scene_t *s);
 int scene_has_filter(const scene_t *s);
 uint64_t scene_slots(const scene_t *s);
 int scene_has_gravity(const scene_t *s);
+/* What feeds the mechanical energy of a scene with a periodic axis (thermal, moving or vibrating walls,
+ * driving, no_slip obstacles, gravity along a periodic axis) as a short name for messages, or NULL: the
+ * speed bound by which mean_square_displacement follows particles across periodic images (observe/msd.h)
+ * holds only without it. Method ed then counts the images crossed instead (scene_msd_images()). */
+const char *scene_energy_feed(const scene_t *s);
+/* mean_square_displacement in method ed with a periodic axis and an energy feed: the engine counts each
+ * particle's periodic images (ed_unwrapped()), exactly, with no speed bound. */
+int scene_msd_images(const scene_t *s);
 
 /* A mixture: more than one particle species, or polydisperse radii
  * (particles.species[k].radius_range): the engine's species path. */

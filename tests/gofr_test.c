@@ -398,9 +398,84 @@ static void test_enskog(void)
 	   fabs(gofr_contact_virial(3, 0.25, 0.5, 1 + 0.75 * 2.074) - 2.074) < 1e-12, "T/m and restitution scaling");
 }
 
+/*
+ * Species classes: gofr_pairs_species() against brute force per class (every count equal); the classes
+ * add up to gofr_pairs(); for an ideal gas of three species each class's g in the contact window of
+ * gofr_contact_species() is 1 within 5 of its fit standard errors; bad arguments are refused.
+ */
+static void test_species(int dim, size_t n, const double *box)
+{
+	enum { NB = 23, K = 3 };
+	const int P = gofr_pair_classes(K);
+	uint64_t seed = 77 + dim;
+	double *pos = malloc(n * dim * sizeof(double)), *vel = calloc(n * dim, sizeof(double));
+	uint8_t *sp = malloc(n);
+	random_positions(dim, n, box, &seed, pos);
+	for (size_t i = 0; i < n; i++)
+		sp[i] = (uint8_t)(i < n / 2 ? 0 : i < 3 * n / 4 ? 1 : 2);   /* blocks, as the engine's rows */
+	const double r1 = 2.5;
+	gofr_t *g = gofr_create(dim, n, box, r1);
+	double *cnt = calloc((size_t)P * NB, sizeof(double)), *bc = calloc((size_t)P * NB, sizeof(double));
+	double tot[NB], bt[NB], bp[NB], bq[NB];
+	int rc = gofr_species(g, K, sp);
+	rc |= gofr_pairs_species(g, pos, 0.1, r1, NB, cnt);
+	rc |= gofr_pairs(g, pos, NULL, 0.1, r1, NB, tot, NULL, NULL);
+	/* brute force per class: the pairs of rows restricted to the class, binned as brute() does */
+	for (size_t i = 0; i < n; i++)
+		for (size_t j = i + 1; j < n; j++) {
+			double r2 = 0;
+			for (int a = 0; a < dim; a++) {
+				double d = pos[i * dim + a] - pos[j * dim + a];
+				d -= box[a] * round(d / box[a]);
+				r2 += d * d;
+			}
+			if (r2 >= r1 * r1 || r2 < 0.01)
+				continue;
+			int k = (int)((sqrt(r2) - 0.1) * (NB / (r1 - 0.1)));
+			k = k >= NB ? NB - 1 : k;
+			bc[(size_t)gofr_pair_class(K, sp[i], sp[j]) * NB + k]++;
+		}
+	brute(dim, n, box, (const int[3]){0, 0, 0}, pos, vel, 0.1, r1, NB, bt, bp, bq);
+	int same = rc == 0, sum = 1;
+	for (int b = 0; b < NB; b++) {
+		double s = 0;
+		for (int p = 0; p < P; p++) {
+			same &= cnt[(size_t)p * NB + b] == bc[(size_t)p * NB + b];
+			s += cnt[(size_t)p * NB + b];
+		}
+		sum &= s == tot[b] && tot[b] == bt[b];
+	}
+	ok(same, "%dD, 3 species: pair counts of each of the %d classes equal brute force", dim, P);
+	ok(sum, "%dD, 3 species: the classes add up to the pair counts of gofr_pairs()", dim);
+	size_t nk[K];
+	int fine = gofr_species_count(g, nk) == 0 && nk[0] == n / 2 && nk[1] == n / 4 && nk[2] == n - 3 * (n / 4);
+	double worst = 0;
+	for (int a = 0; a < K; a++)
+		for (int b = a; b < K; b++) {
+			gofr_contact_t gc;
+			double sig = 0.6 + 0.2 * (a + b);
+			fine &= gofr_contact_species(g, pos, a, b, sig, &gc) == 0 && fabs(gc.value - 1) < 5 * gc.se;
+			worst = fmax(worst, fabs(gc.value - 1) / gc.se);
+		}
+	ok(fine, "%dD ideal gas, 3 species: every class's contact value is 1 (largest deviation %.2f se)", dim, worst);
+	gofr_contact_t gc;
+	ok(gofr_contact_species(g, pos, 0, K, 1.0, &gc) == -1 && gofr_species(g, 2, sp) == -1 &&
+	   gofr_species(g, GOFR_SPECIES_MAX + 1, sp) == -1 && gofr_species(g, 0, NULL) == 0 &&
+	   gofr_pairs_species(g, pos, 0.1, r1, NB, cnt) == -1,
+	   "%dD: a species beyond K, a row's class >= K, K too large: -1; K = 0 removes the classes", dim);
+	gofr_destroy(g);
+	free(cnt);
+	free(bc);
+	free(sp);
+	free(pos);
+	free(vel);
+}
+
 int main(void)
 {
-	plan(41);
+	plan(49);
+	test_species(2, 6000, (const double[3]){40, 40, 1});
+	test_species(3, 6000, (const double[3]){14, 14, 14});
 	double b2[3] = {20, 17, 1}, b3[3] = {9, 11, 10}, tiny[3] = {5, 6, 5.5};
 	test_brute(2, 1500, b2, 3.0, "2D, 6x5 cells");
 	test_brute(3, 1500, b3, 3.0, "3D, 3x3x3 cells");

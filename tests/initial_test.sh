@@ -249,5 +249,54 @@ region_scene ed '{"upper":[20,4]}' lattice
 sed -i 's/"positions":"lattice",//; s/"region"/"from":{"file":"x.h5"},"region"/' "$tmp/bad.json"
 bad particles.initial.region "region beside from"
 
+# 7. Ensembles continued replica by replica (from.replica "each"): replica r of B starts in the last frame
+# of replica r of A, positions and velocities bit for bit, on 1 rank and on 2 (each rank loads its own
+# replicas' frames); B's output does not depend on the rank count; a replica A lacks is the scene's error.
+mkdir -p "$tmp/ens"
+cat >"$tmp/ens/a.json" <<'EOF'
+{"method":"ed","dimensions":2,"particles":{"count":200,"volume_fraction":0.2},
+ "collisions":{"restitution":0.9},"run":{"seed":4,"replicas":3,"until":{"collisions_per_particle":10}},
+ "output":{"every":{"collisions_per_particle":5},"observables":["temperature"],
+   "snapshots":{"every":{"collisions_per_particle":5}}}}
+EOF
+sed 's|"volume_fraction":0.2}|"volume_fraction":0.2,"initial":{"from":{"file":"A/trajectory.h5","replica":"each"}}}|' \
+	"$tmp/ens/a.json" >"$tmp/ens/b.json"
+"$ENGINE" run "$tmp/ens/a.json" --out "$tmp/ens/A" >/dev/null 2>"$tmp/ens/err.a" &&
+	"$ENGINE" run "$tmp/ens/b.json" --out "$tmp/ens/B" >"$tmp/ens/out.b" 2>"$tmp/ens/err.b"
+ok $? "ensemble of 3 replicas continued from an ensemble's trajectory (from.replica \"each\") $(head -c 200 "$tmp/ens/err.b")"
+if command -v mpirun >/dev/null 2>&1; then
+	OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1 \
+		mpirun -np 2 "$ENGINE" run "$tmp/ens/b.json" --out "$tmp/ens/B2" >"$tmp/ens/out.b2" 2>"$tmp/ens/err.b2"
+	ok $? "... the same under mpirun -np 2 $(head -c 200 "$tmp/ens/err.b2")"
+	for k in 1 2; do
+		f="$tmp/ens/out.b"; [ $k = 2 ] && f="$tmp/ens/out.b2"
+		sed 's/"wall_seconds":[^,}]*//; s/"[a-z_]*_per_second":[^,}]*//g' "$f" >"$tmp/ens/p$k"
+	done
+	cmp -s "$tmp/ens/p1" "$tmp/ens/p2"
+	ok $? "... its progress records equal the 1-rank run's (wall-clock fields aside)"
+else
+	n=$((n + 1)); echo "ok $n # SKIP mpirun not installed"
+	n=$((n + 1)); echo "ok $n # SKIP mpirun not installed"
+fi
+for r in 0 1 2; do
+	for out in B B2; do
+		[ -f "$tmp/ens/$out/trajectory.h5" ] || continue
+		last=$(( $(h5dump -H -d /particles/replica_$r/position/value "$tmp/ens/A/trajectory.h5" 2>/dev/null |
+			sed -n 's/.*DATASPACE *SIMPLE { ( \([0-9]*\),.*/\1/p') - 1 ))
+		same=0
+		for w in position velocity; do
+			{ frame "$tmp/ens/A/trajectory.h5" replica_$r $w "$last" 200 2 "$tmp/ens/a.$w" &&
+				frame "$tmp/ens/$out/trajectory.h5" replica_$r $w 0 200 2 "$tmp/ens/b.$w" &&
+				[ -s "$tmp/ens/a.$w" ] && cmp -s "$tmp/ens/a.$w" "$tmp/ens/b.$w"; } || same=1
+		done
+		ok $same "replica $r of $out starts in A's replica $r last frame (frame $last), positions and velocities bit for bit"
+	done
+done
+sed 's/"replicas":3/"replicas":4/' "$tmp/ens/b.json" >"$tmp/ens/bad.json"
+( cd "$tmp/ens" && "$ENGINE" run bad.json >bad.out 2>bad.err )
+rc=$?
+[ $rc -eq 2 ] && [ "$(wc -l <"$tmp/ens/bad.err")" -eq 1 ] && grep -q '^particles.initial.from.*replica_3' "$tmp/ens/bad.err"
+ok $? "4 replicas from a trajectory of 3: exit $rc, $(head -n 1 "$tmp/ens/bad.err")"
+
 echo "1..$n"
 [ $failed -eq 0 ]

@@ -609,9 +609,116 @@ static void test_periodic_unchanged(void)
 	}
 }
 
+/*
+ * Periodic images (scene_msd_images(): mean_square_displacement with an energy feed): ed_unwrapped() against
+ * positions unwrapped by hand from samples taken so often that no particle can move half an edge between
+ * two (a step of `step` time units: the fastest particle seen stays far below half an edge per step, checked);
+ * the two must agree to rounding after many box crossings. Then a checkpoint copy (the "images" field) gives
+ * the same unwrapped positions bit for bit after more events. A scene without the feed has no images.
+ */
+static void images_case(const char *what, const char *json, double step, double t_end)
+{
+	scene_t sc;
+	ed_t *ed = make(json, &sc);
+	if (!ed) {
+		ok(0, "%s: setup", what);
+		ok(0, "%s: checkpoint", what);
+		return;
+	}
+	const int D = sc.dim;
+	const size_t m = sc.count * (size_t)D;
+	double *u = malloc(m * sizeof(double)), *f = malloc(m * sizeof(double)), *v = malloc(m * sizeof(double)),
+	       *e = malloc(m * sizeof(double));
+	double half = INFINITY, vmax = 0.0, far = 0.0, worst = 0.0;
+	int walled[3] = {0, 0, 0};
+	for (int a = 0; a < D; a++) {
+		walled[a] = sc.boundary[a].walled;
+		if (!walled[a])
+			half = fmin(half, 0.5 * sc.box[a]);
+	}
+	ed_state(ed, f, NULL);
+	int good = u && f && v && e && ed_unwrapped(ed, u) == ED_OK;
+	for (double t = step; good && t <= t_end + 1e-9; t += step) {
+		ed_advance(ed, t, UINT64_MAX, UINT64_MAX);
+		ed_state(ed, e, v);
+		for (size_t k = 0; k < m; k++) {
+			vmax = fmax(vmax, fabs(v[k]));
+			double d = e[k] - f[k];
+			if (!walled[k % D])
+				d -= sc.box[k % D] * nearbyint(d / sc.box[k % D]);
+			u[k] += d;   /* u: the hand-unwrapped positions (starting from the engine's at t = 0) */
+			f[k] = e[k];
+		}
+	}
+	if (good && ed_unwrapped(ed, e) == ED_OK) {
+		for (size_t k = 0; k < m; k++) {
+			worst = fmax(worst, fabs(e[k] - u[k]));
+			if (!walled[k % D])
+				far = fmax(far, fabs(e[k] - f[k]));   /* how far from its folded position: edges crossed */
+		}
+	} else {
+		good = 0;
+	}
+	ok(good && worst < 1e-9 * t_end && vmax * step < 0.5 * half && far > 2 * half,
+	   "%s: ed_unwrapped() equals positions unwrapped by hand (largest difference %.2g; up to %.1f edges "
+	   "crossed; fastest %.3g x step %.3g < half an edge %.3g)", what, worst, far / (2 * half), vmax, step, half);
+	/* checkpoint copy: the images travel with the state */
+	char msg[256] = "";
+	ed_t *b = good ? clone_fields(ed, &sc, NULL, 0, NULL, msg, sizeof msg) : NULL;
+	int same = 0;
+	if (b) {
+		ed_advance(ed, 2 * t_end, UINT64_MAX, UINT64_MAX);
+		ed_advance(b, 2 * t_end, UINT64_MAX, UINT64_MAX);
+		same = ed_unwrapped(ed, e) == ED_OK && ed_unwrapped(b, u) == ED_OK && !memcmp(e, u, m * sizeof(double));
+	} else {
+		diag("restore: %s", msg);
+	}
+	ok(same, "%s: a checkpoint copy gives the same unwrapped positions bit for bit later on", what);
+	ed_destroy(b);
+	ed_destroy(ed);
+	free(u);
+	free(f);
+	free(v);
+	free(e);
+}
+
+static void test_images(void)
+{
+	/* thermal walls along y at T_w = 2, periodic x: particles drift along x through many images */
+	images_case("thermal walls, periodic x",
+	            "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":200,\"box\":[20,40],"
+	            "\"initial\":{\"positions\":\"random\",\"temperature\":1}},"
+	            "\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"thermal\",\"temperature\":2},"
+	            "\"upper\":{\"type\":\"thermal\",\"temperature\":2}}},"
+	            "\"run\":{\"seed\":21,\"until\":{\"time\":1}},"
+	            "\"output\":{\"observables\":[\"mean_square_displacement\"]}}", 0.25, 150.0);
+	/* white-noise driving in a periodic 3D box (the periodic variant, neighbour lists at this density) */
+	images_case("driven periodic 3D box",
+	            "{\"method\":\"ed\",\"dimensions\":3,\"particles\":{\"count\":400,\"volume_fraction\":0.3,"
+	            "\"initial\":{\"positions\":\"random\",\"temperature\":1}},\"collisions\":{\"restitution\":0.8},"
+	            "\"driving\":{\"type\":\"white_noise\",\"strength\":1,\"interval\":0.2},"
+	            "\"run\":{\"seed\":22,\"until\":{\"time\":1}},"
+	            "\"output\":{\"observables\":[\"mean_square_displacement\"]}}", 0.05, 60.0);
+	/* gravity along the periodic axis between rough walls (seed 000's pipe): particles fall through images */
+	images_case("gravity along a periodic axis (pipe)",
+	            "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":150,\"box\":[12,30],"
+	            "\"initial\":{\"positions\":\"random\",\"temperature\":1}},\"collisions\":{\"restitution\":0.9,\"tc\":1e-4},"
+	            "\"boundaries\":{\"x\":{\"type\":\"walls\",\"lower\":{\"type\":\"rough\",\"probability\":0.5},"
+	            "\"upper\":{\"type\":\"rough\",\"probability\":0.5}}},\"gravity\":[0,-0.05],"
+	            "\"run\":{\"seed\":23,\"until\":{\"time\":1}},"
+	            "\"output\":{\"observables\":[\"mean_square_displacement\"]}}", 0.1, 120.0);
+	scene_t sc;
+	ed_t *ed = make("{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":100,\"volume_fraction\":0.1},"
+	                "\"run\":{\"until\":{\"time\":1}},\"output\":{\"observables\":[\"mean_square_displacement\"]}}", &sc);
+	double x[200];
+	ok(ed && ed_unwrapped(ed, x) == ED_EINVAL, "a scene the speed bound covers (periodic, elastic) keeps no images");
+	ed_destroy(ed);
+}
+
 int main(void)
 {
-	plan(17);
+	plan(24);
+	test_images();
 	test_periodic_unchanged();
 	test_specular_pressure();
 	test_couette_rough();

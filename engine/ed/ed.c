@@ -260,6 +260,11 @@ struct ed {
 	double tpl_frac;          /* a recharge places tpl_n, or tpl_n - 1 with probability 1 - tpl_frac (mean eta h W / v_p) */
 	double *tpl;
 	double disp_u[6][3], disp_s[6];   /* layer velocity U and thermal speed sqrt(T / m) per dispenser wall */
+	/* mean_square_displacement with an energy feed (scene_msd_images()): the periodic images each particle
+	 * crossed, img[id * dim + a] (scene order: renumbering leaves it alone), counted where a position is
+	 * wrapped (do_cross, nl_rebuild, resync: a wrap, not every event, tests it); NULL otherwise */
+	int img_on;
+	int32_t *img;
 #ifdef ED_TRACE
 	ed_trace_fn trace;        /* bench-only build (ed.h, "Event trace"): called before each event */
 	void *trace_ctx;
@@ -1618,7 +1623,7 @@ static void setup_wall_cells(struct ed *ed)
  * engine of ed's geometry with neighbour lists (nl) and TC times (tc);
  * absent arrays are 0. */
 enum { A_P, A_EV, A_HEAP, A_CN, A_CALHEAD, A_HEAD, A_OCC, A_NEXT, A_ID, A_SCRATCH_IDX, A_SCRATCH_CELL,
-       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_OCELL, A_GONE, A_SPIN, A_DMEAN, A_DSUM, A_DPOS, A_DVEL, A_SPC, A_MIX, A_PRAD, A_RSCENE, A_FREE, A_LABEL, A_FROZEN, A_TPL, A_COUNT };
+       A_XN, A_NB, A_NN, A_MARK, A_TLAST, A_OCELL, A_GONE, A_SPIN, A_DMEAN, A_DSUM, A_DPOS, A_DVEL, A_SPC, A_MIX, A_PRAD, A_RSCENE, A_FREE, A_LABEL, A_FROZEN, A_TPL, A_IMG, A_COUNT };
 static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 {
 	const size_t n = ed->n;
@@ -1650,6 +1655,7 @@ static void array_bytes(const struct ed *ed, int nl, int tc, size_t b[A_COUNT])
 	b[A_LABEL] = ed->inlet ? n * sizeof(int64_t) : 0;
 	b[A_FROZEN] = ed->nfilt ? n : 0;
 	b[A_TPL] = ed->disp ? (size_t)ed->ntpl * ed->tpl_n * 2 * sizeof(double) : 0;
+	b[A_IMG] = ed->img_on ? n * ed->dim * sizeof(int32_t) : 0;
 }
 
 /* Cells cost memory even when empty (~9 bytes each): a grid finer than this
@@ -1919,6 +1925,7 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 	ed->dim = s->dim;
 	ed->n = (uint32_t)s->count;
 	ed->n_init = ed->n;
+	ed->img_on = scene_msd_images(s);
 	ed->inlet = scene_has_reservoir(s);
 	if (ed->inlet) {
 		if (s->capacity < s->count || s->capacity > INT32_MAX) {
@@ -2056,6 +2063,8 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 		rc = ED_ENOMEM;
 	}
 	if (ed->rough && !(ed->spin = big_alloc(b[A_SPIN], 1)))
+		goto fail;
+	if (ed->img_on && !(ed->img = big_alloc(b[A_IMG], 1)))
 		goto fail;
 	if (ed->mixture) {
 		if (!(ed->spc = big_alloc(b[A_SPC], 0)) || !(ed->prad = big_alloc(b[A_PRAD], 0)) ||
@@ -2213,6 +2222,7 @@ void ed_destroy(ed_t *ed)
 	free(ed->label);
 	free(ed->frozen);
 	free(ed->tpl);
+	free(ed->img);
 	free(ed);
 }
 
@@ -2691,6 +2701,36 @@ void ed_state(const ed_t *ed, double *pos, double *vel)
 	DISPATCH(ed, state, ed, pos, vel);
 }
 
+int ed_unwrapped(const ed_t *ed, double *pos)
+{
+	if (!ed->img || !pos)
+		return ED_EINVAL;
+	const int D = ed->dim, walls = ed->variant != 0, grav = ed->variant == 2;
+	for (uint32_t i = 0; i < ed->n; i++) {
+		const double *r, *v;
+		double t;
+		if (D == 2) {
+			const p2_t *p = &((const p2_t *)ed->p)[i];
+			r = p->r, v = p->v, t = p->t;
+		} else {
+			const p3_t *p = &((const p3_t *)ed->p)[i];
+			r = p->r, v = p->v, t = p->t;
+		}
+		const double dt = ed->t - t;
+		double *out = pos + (size_t)ed->id[i] * D;
+		for (int a = 0; a < D; a++) {
+			/* the engine's position (never folded between wraps) plus the edges it was wrapped by */
+			double x = r[a] + v[a] * dt + (grav ? 0.5 * ed->g[a] * dt * dt : 0.0);
+			if (!walls || ed->periodic[a])
+				x += ed->L[a] * (double)ed->img[(size_t)ed->id[i] * D + a];
+			else
+				x -= ed->org[a];
+			out[a] = x;
+		}
+	}
+	return ED_OK;
+}
+
 int ed_spin_dim(const ed_t *ed)
 {
 	return ed->rough ? (ed->dim == 2 ? 1 : 3) : 0;
@@ -2767,6 +2807,7 @@ typedef enum {
 	F_FREE, F_LABEL, F_INEXT, F_ICOUNT, F_IRNG,   /* reservoir walls only */
 	F_FROZEN, F_NFROZEN,   /* filters only */
 	F_PISTON,              /* dispensers only */
+	F_IMG,                 /* periodic image counts (scene_msd_images()) only */
 	F_SCALAR
 } fid_t;
 
@@ -2821,6 +2862,7 @@ static const struct {
 	{ "free_slots", F_FREE, ED_T_U32 }, { "label", F_LABEL, ED_T_I64 }, { "inlet_next", F_INEXT, ED_T_F64 },
 	{ "inlet_counts", F_ICOUNT, ED_T_U64 }, { "inlet_rng", F_IRNG, ED_T_U64 },
 	{ "frozen", F_FROZEN, ED_T_U8 }, { "frozen_counts", F_NFROZEN, ED_T_U64 }, { "piston_t0", F_PISTON, ED_T_F64 },
+	{ "images", F_IMG, ED_T_I32 },
 };
 #define N_ARRAYS (sizeof arrays / sizeof arrays[0])
 
@@ -2834,7 +2876,8 @@ size_t ed_type_size(ed_type_t t)
 	return 0;
 }
 
-/* Whether a field exists, for an engine with neighbour lists (nl) and TC times (tc). */
+/* Whether a field exists, for an engine with neighbour lists (nl) and TC times (tc); stream: 1 filters,
+ * 2 dispensers, 4 periodic image counts. */
 static int field_exists(fid_t id, int nl, int tc, int variant, int nobst, int open, int rough, int drive, int inlet,
                         int stream)
 {
@@ -2842,6 +2885,8 @@ static int field_exists(fid_t id, int nl, int tc, int variant, int nobst, int op
 		return stream & 1;
 	if (id == F_PISTON)
 		return (stream & 2) != 0;
+	if (id == F_IMG)   /* scenes without image counts keep their checkpoint layout */
+		return (stream & 4) != 0;
 	if (id >= F_FREE && id <= F_IRNG)   /* scenes without reservoir walls keep their checkpoint layout */
 		return inlet;
 	if (id == F_GONE || id == F_WOUT)   /* scenes without open walls keep their checkpoint layout */
@@ -2864,13 +2909,13 @@ static int field_exists(fid_t id, int nl, int tc, int variant, int nobst, int op
 static int array_present(const struct ed *ed, fid_t id)
 {
 	return field_exists(id, ed->xn != NULL, ed->tlast != NULL, ed->variant, ed->nobst, ed->open, ed->rough, ed->drive, ed->inlet,
-	                    (ed->nfilt ? 1 : 0) | (ed->disp ? 2 : 0));
+	                    (ed->nfilt ? 1 : 0) | (ed->disp ? 2 : 0) | (ed->img_on ? 4 : 0));
 }
 
 static size_t array_count(const struct ed *ed, fid_t id)
 {
 	switch (id) {
-	case F_R: case F_V: case F_XN: return (size_t)ed->n * ed->dim;
+	case F_R: case F_V: case F_XN: case F_IMG: return (size_t)ed->n * ed->dim;
 	case F_CELL: return (size_t)ed->n * 3;
 	case F_HEAD: return ed->ncells;
 	case F_WPH: case F_WHITS: return 6;
@@ -2937,7 +2982,7 @@ int ed_plan(const scene_t *s, ed_plan_t *out, char *msg, size_t msglen)
 	out->largest = 0;
 	for (size_t a = 0; a < N_ARRAYS; a++) {
 		if (!field_exists(arrays[a].id, ed.nl, s->tc > 0.0, ed.variant, ed.nobst, ed.open, ed.rough, ed.drive, ed.inlet,
-		                  (ed.nfilt ? 1 : 0) | (ed.disp ? 2 : 0)))
+		                  (ed.nfilt ? 1 : 0) | (ed.disp ? 2 : 0) | (ed.img_on ? 4 : 0)))
 			continue;
 		double count = arrays[a].id == F_NB ? per * ed.n : (double)array_count(&ed, arrays[a].id);
 		uint64_t bytes = (uint64_t)(count * (double)ed_type_size(arrays[a].type));
@@ -3057,6 +3102,7 @@ static void field_copy(struct ed *ed, fid_t id, void *buf, int to_buf)
 	case F_ICOUNT: src = ed->in_count; bytes = sizeof ed->in_count; break;
 	case F_IRNG: src = ed->irng.s; bytes = sizeof ed->irng.s; break;
 	case F_FROZEN: src = ed->frozen; bytes = ed->n; break;
+	case F_IMG: src = ed->img; bytes = (size_t)ed->n * D * sizeof(int32_t); break;
 	case F_NFROZEN: src = ed->nfrozen; bytes = sizeof ed->nfrozen; break;
 	case F_PISTON: {
 		double *pt = (double *)b;

@@ -33,6 +33,14 @@ static inline void FN(advance)(const struct ed *ed, P_T *p, double t)
 	p->t = t;
 }
 
+/* Particle i was wrapped by dir box edges on axis a: count it where images are followed (ed->img; only
+ * at a wrap, not per event). */
+static inline void FN(image)(const struct ed *ed, uint32_t i, int a, int dir)
+{
+	if (ed->img)
+		ed->img[(size_t)ed->id[i] * D + a] += dir;
+}
+
 /* Radius and mass of particle i: its own with species (SPEC), else the
  * one species' (compile-time: no test per event). */
 static inline double FN(rad)(const struct ed *ed, uint32_t i)
@@ -639,8 +647,13 @@ static void FN(nl_rebuild)(struct ed *ed, uint32_t i, double t)
 	FN(advance)(ed, p, t);
 	FN(cell_remove)(ed, i);
 	FOR_AXES(a) {
-		if (p->r[a] < 0.0) p->r[a] += ed->L[a];
-		else if (p->r[a] >= ed->L[a]) p->r[a] -= ed->L[a];
+		if (p->r[a] < 0.0) {
+			p->r[a] += ed->L[a];
+			FN(image)(ed, i, a, -1);
+		} else if (p->r[a] >= ed->L[a]) {
+			p->r[a] -= ed->L[a];
+			FN(image)(ed, i, a, 1);
+		}
 		ed->xn[(size_t)i * D + a] = p->r[a];
 	}
 	FN(place)(ed, i);
@@ -710,9 +723,11 @@ static void FN(do_cross)(struct ed *ed, uint32_t i, double t)
 	if (e->cc[a] >= ed->nc[a]) {
 		e->cc[a] = 0;
 		p->r[a] -= ed->L[a];
+		FN(image)(ed, i, a, 1);
 	} else if (e->cc[a] < 0) {
 		e->cc[a] = ed->nc[a] - 1;
 		p->r[a] += ed->L[a];
+		FN(image)(ed, i, a, -1);
 	}
 	FN(cell_insert)(ed, i);
 	FN(set_cross)(ed, i);
@@ -1640,8 +1655,13 @@ static void FN(resync)(struct ed *ed)
 	for (uint32_t i = 0; i < ed->n; i++) {
 		FN(advance)(ed, &P[i], ed->t);
 		FOR_AXES(a) {
-			if (P[i].r[a] < 0.0) P[i].r[a] += ed->L[a];
-			else if (P[i].r[a] >= ed->L[a]) P[i].r[a] -= ed->L[a];
+			if (P[i].r[a] < 0.0) {
+				P[i].r[a] += ed->L[a];
+				FN(image)(ed, i, a, -1);
+			} else if (P[i].r[a] >= ed->L[a]) {
+				P[i].r[a] -= ed->L[a];
+				FN(image)(ed, i, a, 1);
+			}
 		}
 	}
 	for (uint32_t i = ed->n; i-- > 0;)

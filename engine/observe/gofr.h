@@ -2,6 +2,7 @@
 #pragma once
 
 #include <stddef.h>
+#include <stdint.h>
 
 /*
  * Contract
@@ -59,14 +60,45 @@ double gofr_ideal_in(const gofr_t *g, double a, double b);
 int gofr_pairs(gofr_t *g, const double *pos, const double *vel, double r0, double r1, int nb, double *count,
                double *par, double *perp);
 
+/*
+ * Mixtures: partial pair correlations g_ab(r) by species class.
+ * - gofr_species(): K classes (1 ... GOFR_SPECIES_MAX; 0 removes them) and each row's class species[i] < K,
+ *   for all rows of gofr_create() (the array is copied). 0, -1 on bad arguments, -2 out of memory.
+ * - A pair of classes a <= b is pair class gofr_pair_class(K, a, b) = a K - a (a - 1)/2 + b - a in
+ *   0 .. gofr_pair_classes(K) - 1 (00, 01, ..., 0K-1, 11, 12, ...).
+ * - gofr_pairs_species(): pair counts of each pair class in nb equal bins over [r0, r1) into
+ *   count[class * nb + bin] (gofr_pair_classes(K) * nb doubles). 0, or -1 on bad arguments (no classes).
+ * - gofr_ideal_class(): the pairs of an ideal gas in the shell [a, b) for a class of `pairs` pairs
+ *   (N_a (N_a - 1)/2 or N_a N_b): gofr_ideal_in() scaled by pairs / (N (N - 1)/2), exact when every row
+ *   can reach the same region (a periodic box; the scene parser allows partial g(r) only there).
+ * - gofr_contact_species(): the contact value g_ab(sigma) of pair class (a, b) at contact distance sigma,
+ *   as gofr_contact() on that class's pairs. -1 (NaN) as there, or on bad arguments.
+ * - gofr_species_count(): rows of each class among the n rows of the next call into count[K].
+ */
+#define GOFR_SPECIES_MAX 16
+static inline int gofr_pair_class(int K, int a, int b)
+{
+	if (a > b) {
+		int t = a;
+		a = b;
+		b = t;
+	}
+	return a * K - a * (a - 1) / 2 + b - a;
+}
+static inline int gofr_pair_classes(int K) { return K * (K + 1) / 2; }
+int gofr_species(gofr_t *g, int k, const uint8_t *species);
+int gofr_species_count(const gofr_t *g, size_t *count);
+int gofr_pairs_species(gofr_t *g, const double *pos, double r0, double r1, int nb, double *count);
+double gofr_ideal_class(const gofr_t *g, double pairs, double a, double b);
+
 /* Pairs of an ideal gas of n particles in volume V in the shell [a, b). */
 double gofr_ideal(int dim, size_t n, double volume, double a, double b);
 
 /* Contact value g(sigma) from the pair histogram: GOFR_CONTACT_BINS bins of width sigma/100 over
- * [sigma, 1.1 sigma); ln g(r) fitted by a straight line in r (least squares weighted by the pair count
- * of each bin, the inverse variance of ln g for Poisson counts) and taken at r = sigma. se: the
- * standard error of that value from the fit (Poisson counting only). NaN (and -1 returned) when fewer
- * than 3 bins hold pairs. Hard spheres have no pair below sigma; point particles (dsmc/hsmc) do, and
+ * [sigma, 1.1 sigma); g(r) = exp(a + b (r - sigma)) fitted to the counts by Poisson maximum likelihood
+ * (unbiased to O(1 / the window's pairs); a least-squares fit of ln(count) weighted by the counts is biased
+ * by +1/(2 count) per bin, gofr.c) and taken at r = sigma. se: the standard error of that value from the
+ * Fisher information (Poisson counting only). NaN (and -1 returned) when fewer than 3 bins hold pairs. Hard spheres have no pair below sigma; point particles (dsmc/hsmc) do, and
  * are counted from sigma on as well. */
 #define GOFR_CONTACT_BINS 10
 #define GOFR_CONTACT_WIDTH 0.1
@@ -76,7 +108,11 @@ typedef struct {
 } gofr_contact_t;
 int gofr_contact(gofr_t *g, const double *pos, double sigma, gofr_contact_t *out);
 
-/* The same fit on counts already binned (count[nb] over [sigma, sigma + nb*width)), for tests. */
+int gofr_contact_species(gofr_t *g, const double *pos, int a, int b, double sigma, gofr_contact_t *out);
+
+/* The same fit on counts already binned (count[nb] over [sigma, sigma + nb*width), nb <= GOFR_FIT_BINS_MAX),
+ * for tests. */
+#define GOFR_FIT_BINS_MAX 1024
 int gofr_contact_fit(int dim, size_t n, double volume, double sigma, double width, int nb, const double *count,
                      gofr_contact_t *out);
 

@@ -14,6 +14,7 @@ struct msd {
 	double g[3], umin;          /* msd_walls(): gravity (walled axes only) and the least potential energy per
 	                             * unit mass, -sum_a g_a x*_a, x*_a the contact plane gravity points to */
 	int grav;
+	int exact;        /* msd_exact(): positions come unwrapped, no bound */
 	double *r0;       /* N*D: positions at the origin */
 	double *u;        /* N*D: unwrapped positions at the last update */
 	double t0, t, ekin;
@@ -48,7 +49,7 @@ int msd_walls(msd_t *m, const int *walled, const double *gravity, double radius)
 	if (!m || !walled || !gravity || !(radius >= 0))
 		return -1;
 	for (int a = 0; a < m->dim; a++) {
-		if (gravity[a] != 0 && !walled[a])
+		if (gravity[a] != 0 && !walled[a] && !m->exact)
 			return -1;   /* falls forever along a periodic axis: no speed bound */
 		if (walled[a] && !(m->L[a] > 2 * radius))
 			return -1;
@@ -111,10 +112,17 @@ void msd_origin(msd_t *m, double t, const double *pos, double ekin)
 	m->ekin = bound_energy(m, pos, ekin);
 }
 
+void msd_exact(msd_t *m)
+{
+	m->exact = 1;
+}
+
 void msd_update(msd_t *m, double t, const double *pos, double ekin)
 {
 	const int D = m->dim;
-	if (!m->any_walled) {
+	if (m->exact) {
+		memcpy(m->u, pos, m->n * (size_t)D * sizeof(double));
+	} else if (!m->any_walled) {
 		for (size_t i = 0; i < m->n; i++)
 			for (int a = 0; a < D; a++) {
 				/* u and the folded position differ by whole edges (up to rounding) */
@@ -138,6 +146,8 @@ void msd_update(msd_t *m, double t, const double *pos, double ekin)
 
 double msd_due(const msd_t *m)
 {
+	if (m->exact)
+		return INFINITY;
 	double vmax = sqrt(2.0 * m->ekin / m->mass);
 	return vmax > 0.0 && isfinite(m->lmin) ? m->t + m->reach * m->lmin / vmax : INFINITY;
 }

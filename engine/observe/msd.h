@@ -48,6 +48,11 @@ int msd_masses(msd_t *m, double lightest, double heaviest);
  * (gravity along a periodic axis, no room between walls). */
 int msd_walls(msd_t *m, const int *walled, const double *gravity, double radius);
 
+/* Exact mode, once after msd_create() and before msd_walls(): the caller passes positions already unwrapped
+ * (an engine that counts the periodic images crossed: ed_unwrapped()); no speed bound, msd_due() is
+ * INFINITY, ekin is ignored, and gravity may point along a periodic axis. */
+void msd_exact(msd_t *m);
+
 /* The origin: positions at time t, with total kinetic energy ekin (the speed bound). */
 void msd_origin(msd_t *m, double t, const double *pos, double ekin);
 /* Follow the particles to pos at time t (t >= the previous update's). */

@@ -34,6 +34,7 @@ struct obs {
 	double *vmix;                    /* mixtures: 4 * bins scratch for each species' histograms */
 	double *mass_rows;               /* mixtures with fields: each row's mass (fields_masses()) */
 	double *bcount;                  /* impact parameters counted by the engine since the last curves */
+	double *gsp;                     /* mixtures with pair_correlation: pair counts per class and bin */
 	obs_curves_t c;
 	size_t packed;
 };
@@ -55,6 +56,7 @@ void obs_destroy(obs_t *o)
 	fields_destroy(o->fields);
 	dspec_destroy(o->dspec);
 	free(o->mass_rows);
+	free(o->gsp);
 	free(o->mem);
 	free(o);
 }
@@ -102,6 +104,20 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 				os[k] = s->obstacle[k].radius + s->radius;
 			}
 			if (gofr_obstacles(o->gofr, s->n_obstacles, oc, os) != 0)
+				goto fail;
+		}
+		if ((s->observables & SCENE_OBS_GOFR) && s->n_species > 1 && s->n_species <= OBS_GOFR_SPECIES_MAX) {
+			/* the species are blocks of rows in scene order (scene.h) */
+			uint8_t *spc = malloc(s->count);
+			o->gsp = malloc((size_t)gofr_pair_classes(s->n_species) * gnb * sizeof(double));
+			size_t off = 0;
+			for (int k = 0; spc && k < s->n_species; k++)
+				for (uint64_t j = 0; j < s->species[k].count && off < s->count; j++)
+					spc[off++] = (uint8_t)k;
+			int bad = !spc || !o->gsp || off != s->count || scene_slots(s) != s->count ||
+			          gofr_species(o->gofr, s->n_species, spc) != 0;
+			free(spc);
+			if (bad)
 				goto fail;
 		}
 	}
@@ -174,8 +190,8 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 		} else if (!strcmp(t->x, "b")) {
 			for (int b = 0; b <= t->nb; b++)
 				edges[b] = (double)b / t->nb;
-		} else if (!strcmp(t->x, "cell")) {
-			/* the flat cell index c = i_x + n_x (i_y + n_y i_z) as centre, edges c -+ 1/2 */
+		} else if (!strcmp(t->x, "cell") || !strcmp(t->x, "pair")) {
+			/* the flat cell index c = i_x + n_x (i_y + n_y i_z), or the pair class, as centre, edges c -+ 1/2 */
 			for (int b = 0; b <= t->nb; b++)
 				edges[b] = b - 0.5;
 			for (int b = 0; b < t->nb; b++)
@@ -225,6 +241,8 @@ size_t obs_memory(const obs_t *o)
 		b += fields_memory(o->fields);
 	if (o->dspec)
 		b += dspec_memory(o->dspec);
+	if (o->gsp)   /* pair counts per class, and gofr's class of each row twice */
+		b += (size_t)gofr_pair_classes(o->s.n_species) * o->s.gofr_bins * sizeof(double) + 2 * (size_t)o->s.count;
 	if (o->gofr)
 		b += (size_t)scene_slots(&o->s) * (2 * o->s.dim * sizeof(double) + sizeof(uint32_t)) +
 		     (3 * (size_t)scene_slots(&o->s) + 28) * sizeof(uint32_t);
@@ -310,7 +328,7 @@ int obs_scalars(obs_t *o, size_t n, const double *pos, const double *vel, obs_sc
 		if (!o->gofr || !pos || gofr_set_count(o->gofr, n) != 0)
 			return -1;
 		gofr_contact_t gc;
-		if (n >= 2) {
+		if (n >= 2 && s->n_species <= 1) {   /* mixtures: per pair of species in the curves */
 			gofr_contact(o->gofr, pos, o->sigma, &gc);
 			out->g_pairs = gc.value;
 			out->g_pairs_se = gc.se;
@@ -322,6 +340,10 @@ int obs_scalars(obs_t *o, size_t n, const double *pos, const double *vel, obs_sc
 void obs_interval(const obs_t *o, double rate, double z, double t_avg, obs_scalars_t *out)
 {
 	const scene_t *s = &o->s;
+	if (s->n_species > 1) {   /* one-radius formulas (gofr.h) */
+		out->g_rate = out->g_pressure = NAN;
+		return;
+	}
 	out->g_rate = gofr_contact_rate(s->dim, s->volume_fraction, s->radius, s->mass, t_avg, rate);
 	out->g_pressure = gofr_contact_virial(s->dim, s->volume_fraction, s->restitution, z);
 }
@@ -427,10 +449,32 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, size_t n, const double 
 		}
 		if (tv)
 			vcorr_pairs(D, nb, o->gcount, o->gpar, o->gperp, tm, tv->val[0], tv->val[1]);
-		if (s->observables & SCENE_OBS_GOFR) {
+		if ((s->observables & SCENE_OBS_GOFR) && s->n_species <= 1) {
 			gofr_contact_t gc;
 			gofr_contact(o->gofr, pos, o->sigma, &gc);
 			c->g_pairs = gc.value;
+		}
+		obs_table_t *ts = find(o, "pair_correlation", "species"), *tc = find(o, "pair_correlation", "contact");
+		if (ts && tc && o->gsp) {
+			const int K = s->n_species;
+			size_t nk[GOFR_SPECIES_MAX];
+			gofr_species_count(o->gofr, nk);
+			gofr_pairs_species(o->gofr, pos, 0, rmax, nb, o->gsp);
+			for (int a = 0; a < K; a++)
+				for (int b2 = a; b2 < K; b2++) {
+					int p = gofr_pair_class(K, a, b2);
+					double pairs = a == b2 ? 0.5 * (double)nk[a] * ((double)nk[a] - 1) :
+					                         (double)nk[a] * (double)nk[b2];
+					for (int b = 0; b < nb; b++)
+						ts->val[p][b] = pairs > 0 ? o->gsp[(size_t)p * nb + b] /
+						                gofr_ideal_class(o->gofr, pairs, rmax * b / nb, rmax * (b + 1) / nb) : NAN;
+					double sig = s->species[a].radius + s->species[b2].radius;
+					gofr_contact_t gc;
+					gofr_contact_species(o->gofr, pos, a, b2, sig, &gc);
+					tc->val[0][p] = gc.value;
+					tc->val[1][p] = gc.se;
+					tc->val[2][p] = sig;
+				}
 		}
 	} else {
 		/* fewer than two particles present: no pairs (NaN rows) */

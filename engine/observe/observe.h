@@ -15,8 +15,8 @@
  *   sampling allocates nothing. No I/O, no globals (FFTW keeps its own
  *   planner state; plans are made once, FFTW_ESTIMATE, deterministic).
  * - The curves are described by a fixed list of tables (obs_curves_t): one
- *   x axis (bin edges and centres, fixed by the scene) and one to three
- *   value columns each. Writers (H5MD, JSON lines) and ensembles use the
+ *   x axis (bin edges and centres, fixed by the scene) and one to
+ *   OBS_MAX_COLS value columns each. Writers (H5MD, JSON lines) and ensembles use the
  *   description and need no knowledge of the families.
  *   fields are a grid of cells (obs_table_t.shape), one table per quantity.
  * - Every method (ed, dsmc, hsmc): the input is the particle state only.
@@ -38,8 +38,15 @@ typedef struct {
 	                           * axis), its standard error sqrt(N var(v . g_hat)) / volume over particles */
 } obs_scalars_t;
 
-#define OBS_MAX_COLS 3
-#define OBS_MAX_TABLES 12
+#define OBS_MAX_COLS 10
+/* Mixtures of 2 ... OBS_GOFR_SPECIES_MAX species (one radius each, periodic box: the scene parser's rule)
+ * with pair_correlation get two more tables: "pair_correlation"/"species", g_ab(r) over the same r bins as
+ * g(r) in columns "g_ab" (a <= b species indices in scene order: g_00, g_01, g_11, ...), and
+ * "pair_correlation"/"contact", x = "pair" (the pair class index, gofr.h), columns "g" (g_ab at contact
+ * sigma_ab = R_a + R_b from the pair histogram, gofr_contact_species()), "g_se" (its fit error) and
+ * "sigma" (sigma_ab). The one-radius scalars g_contact_* are NaN for mixtures. */
+#define OBS_GOFR_SPECIES_MAX SCENE_GOFR_SPECIES_MAX
+#define OBS_MAX_TABLES 16
 
 typedef struct {
 	const char *family;       /* observable name (output.observables; "clusters" for n_s) */

@@ -49,8 +49,25 @@ void tables_layout(obs_curves_t *c, const scene_t *s, int J)
 		if (spin_dim)   /* rough particles: the angular velocities, scaled by their thermal value */
 			table(c, "velocity_distribution", "spin", "c", "1", vnb, spin_dim == 3 ? wcomp3 : wcomp1);
 	}
-	if (bits & SCENE_OBS_GOFR)
+	if (bits & SCENE_OBS_GOFR) {
 		table(c, "pair_correlation", "", "r", "l0", gnb, gcols);
+		if (s->n_species > 1 && s->n_species <= OBS_GOFR_SPECIES_MAX) {
+			/* mixtures: g_ab(r) of each pair of species a <= b (scene order), and their contact values */
+			static const char *const names[OBS_GOFR_SPECIES_MAX][OBS_GOFR_SPECIES_MAX] = {
+				{"g_00", "g_01", "g_02", "g_03"}, {NULL, "g_11", "g_12", "g_13"},
+				{NULL, NULL, "g_22", "g_23"}, {NULL, NULL, NULL, "g_33"},
+			};
+			static const char *const ccols[] = {"g", "g_se", "sigma", NULL};
+			const char *pcols[OBS_MAX_COLS + 1];
+			int k = 0;
+			for (int a = 0; a < s->n_species; a++)
+				for (int b = a; b < s->n_species; b++)
+					pcols[k++] = names[a][b];
+			pcols[k] = NULL;
+			table(c, "pair_correlation", "species", "r", "l0", gnb, pcols);
+			table(c, "pair_correlation", "contact", "pair", "1", k, ccols);
+		}
+	}
 	if (bits & SCENE_OBS_SOFK)
 		table(c, "structure_factor", "", "k", "l0-1", J, scol);
 	if (bits & SCENE_OBS_VCORR) {

@@ -1,0 +1,626 @@
+/* Soft-sphere MD (DEM): linear/Hertz contacts with restitution-derived damping, Cundall-Strack friction, velocity Verlet. */
+#include "md/md.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define MD_PI 3.14159265358979323846
+
+typedef struct {
+	int i, j;
+	double s[3];             /* periodic image shift added to x_j */
+} md_pair_t;
+
+typedef struct {
+	int partner;             /* j >= 0, or -1 - (2 axis + side) for a wall */
+	double xi[3];            /* tangential spring */
+} md_slot_t;
+
+struct md {
+	int dim, n, law, friction, slots;
+	int periodic[3];
+	double L[3], g[3];
+	double *x, *v, *w, *f, *t, *xref;
+	double *r, *m, *im, *iI;
+	double e, beta, kn, young, alpha, mu, ktr, sqrt_ktr;
+	double dt, tc, skin, rmax;
+	md_pair_t *pairs;
+	size_t np, capp;
+	int nc[3];
+	size_t ncell;
+	int *head, *next;
+	md_slot_t *hold, *hnew;
+	int *nold, *nnew;
+	size_t ncontacts;
+	long steps, rebuilds;
+};
+
+static inline double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+static inline void cross3(const double *a, const double *b, double *c)
+{
+	c[0] = a[1] * b[2] - a[2] * b[1];
+	c[1] = a[2] * b[0] - a[0] * b[2];
+	c[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/*
+ * Hertz with Tsuji damping in units of the impact: X'' = -X^(3/2) - alpha
+ * X^(1/4) X', X(0) = 0, X'(0) = 1, RK4 with step h; returns e = -X' when X
+ * comes back to 0 (linear interpolation in the last step), *tau the
+ * dimensionless contact time. 0 when it never comes back (overdamped).
+ */
+static double hertz_restitution(double alpha, double *tau)
+{
+	const double h = 2e-4;
+	double X = 0.0, V = 1.0, t = 0.0;
+	for (long k = 0; k < 1000000; k++) {
+		double k1x, k1v, k2x, k2v, k3x, k3v, k4x, k4v, y;
+#define HACC(XX, VV) (y = fmax((XX), 0.0), -y * sqrt(y) - alpha * sqrt(sqrt(y)) * (VV))
+		k1x = V;
+		k1v = HACC(X, V);
+		k2x = V + 0.5 * h * k1v;
+		k2v = HACC(X + 0.5 * h * k1x, k2x);
+		k3x = V + 0.5 * h * k2v;
+		k3v = HACC(X + 0.5 * h * k2x, k3x);
+		k4x = V + h * k3v;
+		k4v = HACC(X + h * k3x, k4x);
+#undef HACC
+		double Xn = X + h / 6.0 * (k1x + 2 * k2x + 2 * k3x + k4x);
+		double Vn = V + h / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v);
+		if (Xn <= 0.0 && k > 0) {
+			double fr = X / (X - Xn);
+			*tau = t + fr * h;
+			return -(V + fr * (Vn - V));
+		}
+		X = Xn;
+		V = Vn;
+		t += h;
+	}
+	*tau = INFINITY;
+	return 0.0;
+}
+
+const char *md_strerror(int code)
+{
+	switch (code) {
+	case MD_OK: return "ok";
+	case MD_E_NOMEM: return "out of memory";
+	case MD_E_PARAM: return "invalid md parameter";
+	case MD_E_BOX: return "periodic box shorter than twice the neighbour cut-off (2 R_max + skin)";
+	case MD_E_CONTACTS: return "a particle has more contacts than max_contacts";
+	case MD_E_UNSTABLE: return "a position became non-finite (time step too large for the contact stiffness)";
+	default: return "unknown md error";
+	}
+}
+
+static int rebuild(md_t *md)
+{
+	const int n = md->n;
+	double rc = 2.0 * md->rmax + md->skin;
+	for (int i = 0; i < n; i++) {
+		double *xi = md->x + 3 * i;
+		for (int a = 0; a < 3; a++) {
+			if (!isfinite(xi[a]))
+				return MD_E_UNSTABLE;
+			if (a < md->dim && md->periodic[a])
+				xi[a] -= md->L[a] * floor(xi[a] / md->L[a]);
+		}
+	}
+	memcpy(md->xref, md->x, (size_t)n * 3 * sizeof(double));
+	double cs[3];
+	for (int a = 0; a < 3; a++) {
+		int nc = a < md->dim ? (int)floor(md->L[a] / rc) : 1;
+		if (nc < 1)
+			nc = 1;
+		if (md->periodic[a] && nc < 3)
+			nc = 1;
+		if (nc > 1024)
+			nc = 1024;
+		md->nc[a] = nc;
+		cs[a] = a < md->dim ? md->L[a] / nc : 1.0;
+	}
+	size_t ncell = (size_t)md->nc[0] * md->nc[1] * md->nc[2];
+	if (ncell > md->ncell) {
+		int *h = realloc(md->head, ncell * sizeof(int));
+		if (!h)
+			return MD_E_NOMEM;
+		md->head = h;
+		md->ncell = ncell;
+	}
+	for (size_t c = 0; c < ncell; c++)
+		md->head[c] = -1;
+	for (int i = n - 1; i >= 0; i--) {
+		int ci[3];
+		for (int a = 0; a < 3; a++) {
+			int c = a < md->dim ? (int)floor(md->x[3 * i + a] / cs[a]) : 0;
+			ci[a] = c < 0 ? 0 : c >= md->nc[a] ? md->nc[a] - 1 : c;
+		}
+		size_t c = ((size_t)ci[2] * md->nc[1] + ci[1]) * md->nc[0] + ci[0];
+		md->next[i] = md->head[c];
+		md->head[c] = i;
+	}
+	md->np = 0;
+	for (int i = 0; i < n; i++) {
+		const double *xi = md->x + 3 * i;
+		int ci[3], lo[3], hi[3];
+		for (int a = 0; a < 3; a++) {
+			int c = a < md->dim ? (int)floor(xi[a] / cs[a]) : 0;
+			ci[a] = c < 0 ? 0 : c >= md->nc[a] ? md->nc[a] - 1 : c;
+			lo[a] = md->nc[a] >= 3 || (!md->periodic[a] && md->nc[a] > 1) ? -1 : 0;
+			hi[a] = -lo[a];
+		}
+		for (int oz = lo[2]; oz <= hi[2]; oz++)
+			for (int oy = lo[1]; oy <= hi[1]; oy++)
+				for (int ox = lo[0]; ox <= hi[0]; ox++) {
+					int o[3] = {ox, oy, oz}, cc[3];
+					int skip = 0;
+					for (int a = 0; a < 3; a++) {
+						cc[a] = ci[a] + o[a];
+						if (cc[a] < 0 || cc[a] >= md->nc[a]) {
+							if (!md->periodic[a])
+								skip = 1;
+							cc[a] = (cc[a] + md->nc[a]) % md->nc[a];
+						}
+					}
+					if (skip)
+						continue;
+					size_t c = ((size_t)cc[2] * md->nc[1] + cc[1]) * md->nc[0] + cc[0];
+					for (int j = md->head[c]; j >= 0; j = md->next[j]) {
+						if (j <= i)
+							continue;
+						const double *xj = md->x + 3 * j;
+						double d[3], s[3] = {0.0, 0.0, 0.0};
+						for (int a = 0; a < 3; a++) {
+							d[a] = xj[a] - xi[a];
+							if (a < md->dim && md->periodic[a]) {
+								s[a] = -md->L[a] * nearbyint(d[a] / md->L[a]);
+								d[a] += s[a];
+							}
+						}
+						double cut = md->r[i] + md->r[j] + md->skin;
+						if (dot3(d, d) >= cut * cut)
+							continue;
+						if (md->np == md->capp) {
+							size_t cap = md->capp ? 2 * md->capp : 1024;
+							md_pair_t *p = realloc(md->pairs, cap * sizeof(*p));
+							if (!p)
+								return MD_E_NOMEM;
+							md->pairs = p;
+							md->capp = cap;
+						}
+						md_pair_t *p = md->pairs + md->np++;
+						p->i = i;
+						p->j = j;
+						memcpy(p->s, s, sizeof(s));
+					}
+				}
+	}
+	md->rebuilds++;
+	return MD_OK;
+}
+
+/*
+ * One contact: i against partner (j >= 0 or a wall code), normal n from i to
+ * the partner, overlap delta, relative contact velocity vrel (of i's
+ * surface relative to the partner's), lever arms li, lj from the centres to
+ * the contact point. Returns the force on i in fc (on j: -fc) and adds the
+ * torques about each centre to ti and tj (tj NULL for a wall).
+ */
+static inline int contact(md_t *md, const int law, const int friction, int i, int partner, const double *n,
+	double delta, double meff, double reff, const double *vrel, double li, double lj, double dth, double *fc,
+	double *ti, double *tj)
+{
+	double vn = dot3(vrel, n);
+	double fn, eta, kt = 0.0;
+	if (law == MD_LAW_LINEAR) {
+		eta = 2.0 * md->beta * sqrt(md->kn * meff);
+		fn = md->kn * delta + eta * vn;
+		if (friction)
+			kt = md->ktr * md->kn;
+	} else {
+		double sd = sqrt(delta);
+		double kh = 4.0 / 3.0 * md->young * sqrt(reff);
+		eta = md->alpha * sqrt(meff * kh) * sqrt(sd);
+		fn = kh * delta * sd + eta * vn;
+		if (friction)
+			kt = md->ktr * 1.5 * kh * sd;
+	}
+	for (int a = 0; a < 3; a++)
+		fc[a] = -fn * n[a];
+	md->ncontacts++;
+	if (!friction)
+		return MD_OK;
+	double xi[3] = {0.0, 0.0, 0.0};
+	const md_slot_t *old = md->hold + (size_t)i * md->slots;
+	for (int k = 0; k < md->nold[i]; k++)
+		if (old[k].partner == partner) {
+			memcpy(xi, old[k].xi, sizeof(xi));
+			double l2 = dot3(xi, xi);
+			if (l2 > 0.0) {
+				double xn = dot3(xi, n);
+				for (int a = 0; a < 3; a++)
+					xi[a] -= xn * n[a];
+				double p2 = dot3(xi, xi);
+				if (p2 > 0.0) {
+					double sc = sqrt(l2 / p2);
+					for (int a = 0; a < 3; a++)
+						xi[a] *= sc;
+				}
+			}
+			break;
+		}
+	double vt[3], ft[3];
+	double etat = eta * md->sqrt_ktr;
+	for (int a = 0; a < 3; a++) {
+		vt[a] = vrel[a] - vn * n[a];
+		xi[a] += vt[a] * dth;
+		ft[a] = -kt * xi[a] - etat * vt[a];
+	}
+	double lim = md->mu * (fn > 0.0 ? fn : 0.0);
+	double f2 = dot3(ft, ft);
+	if (f2 > lim * lim) {
+		double sc = lim / sqrt(f2);
+		for (int a = 0; a < 3; a++) {
+			ft[a] *= sc;
+			xi[a] = kt > 0.0 ? -(ft[a] + etat * vt[a]) / kt : 0.0;
+		}
+	}
+	for (int a = 0; a < 3; a++)
+		fc[a] += ft[a];
+	double tq[3];
+	cross3(n, ft, tq);
+	for (int a = 0; a < 3; a++) {
+		ti[a] += li * tq[a];
+		if (tj)
+			tj[a] += lj * tq[a];
+	}
+	if (md->nnew[i] >= md->slots)
+		return MD_E_CONTACTS;
+	md_slot_t *s = md->hnew + (size_t)i * md->slots + md->nnew[i]++;
+	s->partner = partner;
+	memcpy(s->xi, xi, sizeof(xi));
+	return MD_OK;
+}
+
+/* Forces and torques at the current positions; dth is the time since the last pass (spring increments). */
+static inline int forces_impl(md_t *md, double dth, const int law, const int friction)
+{
+	const int n = md->n;
+	int rc = MD_OK;
+	md_slot_t *hs = md->hold;
+	md->hold = md->hnew;
+	md->hnew = hs;
+	int *ns = md->nold;
+	md->nold = md->nnew;
+	md->nnew = ns;
+	memset(md->nnew, 0, (size_t)n * sizeof(int));
+	for (int i = 0; i < n; i++)
+		for (int a = 0; a < 3; a++) {
+			md->f[3 * i + a] = md->m[i] * md->g[a];
+			md->t[3 * i + a] = 0.0;
+		}
+	md->ncontacts = 0;
+	for (size_t p = 0; p < md->np; p++) {
+		const md_pair_t *pp = md->pairs + p;
+		const int i = pp->i, j = pp->j;
+		const double *xi = md->x + 3 * i, *xj = md->x + 3 * j;
+		double d[3] = {xj[0] - xi[0] + pp->s[0], xj[1] - xi[1] + pp->s[1], xj[2] - xi[2] + pp->s[2]};
+		double r2 = dot3(d, d), sr = md->r[i] + md->r[j];
+		if (r2 >= sr * sr)
+			continue;
+		double dist = sqrt(r2);
+		double nv[3] = {d[0] / dist, d[1] / dist, d[2] / dist};
+		/* lever arms to the contact point (mid-overlap): li + lj = dist, so torques conserve angular momentum */
+		double ri = md->r[i], rj = md->r[j], li = ri - 0.5 * (sr - dist), lj = rj - 0.5 * (sr - dist);
+		double wsum[3], wxn[3], vrel[3], fc[3];
+		for (int a = 0; a < 3; a++)
+			wsum[a] = li * md->w[3 * i + a] + lj * md->w[3 * j + a];
+		cross3(wsum, nv, wxn);
+		for (int a = 0; a < 3; a++)
+			vrel[a] = md->v[3 * i + a] - md->v[3 * j + a] + (friction ? wxn[a] : 0.0);
+		double meff = md->m[i] * md->m[j] / (md->m[i] + md->m[j]);
+		double reff = ri * rj / sr;
+		int e = contact(md, law, friction, i, j, nv, sr - dist, meff, reff, vrel, li, lj, dth, fc, md->t + 3 * i,
+			md->t + 3 * j);
+		if (e)
+			rc = e;
+		for (int a = 0; a < 3; a++) {
+			md->f[3 * i + a] += fc[a];
+			md->f[3 * j + a] -= fc[a];
+		}
+	}
+	for (int i = 0; i < n; i++)
+		for (int a = 0; a < md->dim; a++) {
+			if (md->periodic[a])
+				continue;
+			double ri = md->r[i], xa = md->x[3 * i + a];
+			for (int side = 0; side < 2; side++) {
+				double delta = side ? ri - (md->L[a] - xa) : ri - xa;
+				if (delta <= 0.0)
+					continue;
+				double nv[3] = {0.0, 0.0, 0.0}, wxn[3], vrel[3], fc[3];
+				nv[a] = side ? 1.0 : -1.0;
+				double li = ri - delta; /* centre to the contact point on the wall plane */
+				cross3(md->w + 3 * i, nv, wxn);
+				for (int b = 0; b < 3; b++)
+					vrel[b] = md->v[3 * i + b] + (friction ? li * wxn[b] : 0.0);
+				int e = contact(md, law, friction, i, -1 - (2 * a + side), nv, delta, md->m[i], ri, vrel, li, 0.0,
+					dth, fc, md->t + 3 * i, NULL);
+				if (e)
+					rc = e;
+				for (int b = 0; b < 3; b++)
+					md->f[3 * i + b] += fc[b];
+			}
+		}
+	return rc;
+}
+
+static int forces(md_t *md, double dth)
+{
+	if (md->law == MD_LAW_LINEAR)
+		return md->friction ? forces_impl(md, dth, MD_LAW_LINEAR, 1) : forces_impl(md, dth, MD_LAW_LINEAR, 0);
+	return md->friction ? forces_impl(md, dth, MD_LAW_HERTZ, 1) : forces_impl(md, dth, MD_LAW_HERTZ, 0);
+}
+
+void md_destroy(md_t *md)
+{
+	if (!md)
+		return;
+	free(md->x);
+	free(md->pairs);
+	free(md->head);
+	free(md->next);
+	free(md->hold);
+	free(md->hnew);
+	free(md->nold);
+	free(md->nnew);
+	free(md);
+}
+
+md_t *md_create(const md_params_t *p, int *err)
+{
+	int rc = MD_E_PARAM;
+	md_t *md = NULL;
+	if (!p || (p->dim != 2 && p->dim != 3) || p->n < 1 || !p->x)
+		goto cleanup;
+	if (!(p->restitution > 0.0 && p->restitution <= 1.0) || !(p->mu >= 0.0) || !(p->kt_ratio >= 0.0) ||
+		!(p->dt >= 0.0) || !(p->dt_steps >= 0.0) || !(p->skin >= 0.0) || p->max_contacts < 0)
+		goto cleanup;
+	if (p->law != MD_LAW_LINEAR && p->law != MD_LAW_HERTZ)
+		goto cleanup;
+	for (int a = 0; a < p->dim; a++)
+		if (!(p->box[a] > 0.0) || !isfinite(p->box[a]) || !isfinite(p->gravity[a]))
+			goto cleanup;
+	if (p->dim == 2 && p->gravity[2] != 0.0)
+		goto cleanup;
+	rc = MD_E_NOMEM;
+	md = calloc(1, sizeof(*md));
+	if (!md)
+		goto cleanup;
+	const int n = p->n;
+	md->dim = p->dim;
+	md->n = n;
+	md->law = p->law;
+	md->mu = p->mu;
+	md->friction = p->mu > 0.0;
+	md->ktr = p->kt_ratio > 0.0 ? p->kt_ratio : 2.0 / 7.0;
+	md->sqrt_ktr = sqrt(md->ktr);
+	md->slots = p->max_contacts > 0 ? p->max_contacts : (p->dim == 2 ? 8 : 12);
+	for (int a = 0; a < 3; a++) {
+		md->periodic[a] = a < p->dim ? (p->periodic[a] != 0) : 0;
+		md->L[a] = a < p->dim ? p->box[a] : 1.0;
+		md->g[a] = a < p->dim ? p->gravity[a] : 0.0;
+	}
+	/* one block for the double arrays: x v w f t xref (3n each), r m im iI (n each) */
+	md->x = calloc((size_t)n * 22, sizeof(double));
+	md->next = calloc((size_t)n, sizeof(int));
+	md->hold = calloc((size_t)n * md->slots, sizeof(md_slot_t));
+	md->hnew = calloc((size_t)n * md->slots, sizeof(md_slot_t));
+	md->nold = calloc((size_t)n, sizeof(int));
+	md->nnew = calloc((size_t)n, sizeof(int));
+	if (!md->x || !md->next || !md->hold || !md->hnew || !md->nold || !md->nnew)
+		goto cleanup;
+	md->v = md->x + 3 * (size_t)n;
+	md->w = md->v + 3 * (size_t)n;
+	md->f = md->w + 3 * (size_t)n;
+	md->t = md->f + 3 * (size_t)n;
+	md->xref = md->t + 3 * (size_t)n;
+	md->r = md->xref + 3 * (size_t)n;
+	md->m = md->r + n;
+	md->im = md->m + n;
+	md->iI = md->im + n;
+	rc = MD_E_PARAM;
+	double mmin = INFINITY;
+	md->rmax = 0.0;
+	for (int i = 0; i < n; i++) {
+		double r = p->radii ? p->radii[i] : p->radius;
+		double m = p->masses ? p->masses[i] : p->mass;
+		if (!(r > 0.0) || !(m > 0.0) || !isfinite(r) || !isfinite(m))
+			goto cleanup;
+		md->r[i] = r;
+		md->m[i] = m;
+		md->im[i] = 1.0 / m;
+		md->iI[i] = 1.0 / ((p->dim == 2 ? 0.5 : 0.4) * m * r * r);
+		if (r > md->rmax)
+			md->rmax = r;
+		if (m < mmin)
+			mmin = m;
+		for (int a = 0; a < 3; a++) {
+			double xa = a < p->dim ? p->x[3 * i + a] : 0.0;
+			double va = p->v && a < p->dim ? p->v[3 * i + a] : 0.0;
+			double wa = p->w && (p->dim == 3 || a == 2) ? p->w[3 * i + a] : 0.0;
+			if (!isfinite(xa) || !isfinite(va) || !isfinite(wa))
+				goto cleanup;
+			md->x[3 * i + a] = xa;
+			md->v[3 * i + a] = va;
+			md->w[3 * i + a] = wa;
+		}
+	}
+	double e = p->restitution, le = log(e);
+	md->e = e;
+	md->beta = -le / sqrt(MD_PI * MD_PI + le * le);
+	double mref = 0.5 * mmin;
+	if (p->law == MD_LAW_LINEAR) {
+		if (p->kn > 0.0)
+			md->kn = p->kn;
+		else if (p->t_contact > 0.0)
+			md->kn = mref * (MD_PI * MD_PI + le * le) / (p->t_contact * p->t_contact);
+		else
+			goto cleanup;
+		if (!isfinite(md->kn))
+			goto cleanup;
+		md->tc = MD_PI / sqrt(md->kn / mref * (1.0 - md->beta * md->beta));
+	} else {
+		if (!(p->young > 0.0) || !isfinite(p->young))
+			goto cleanup;
+		md->young = p->young;
+		/* alpha(e) by bisection: e(alpha) decreases from 1 at alpha = 0 */
+		double lo = 0.0, hi = 1.0, tau;
+		if (e < 1.0) {
+			while (hertz_restitution(hi, &tau) > e && hi < 1e3)
+				hi *= 2.0;
+			for (int it = 0; it < 60 && hi - lo > 1e-12 * hi; it++) {
+				double mid = 0.5 * (lo + hi);
+				if (hertz_restitution(mid, &tau) > e)
+					lo = mid;
+				else
+					hi = mid;
+			}
+			md->alpha = 0.5 * (lo + hi);
+		}
+		hertz_restitution(md->alpha, &tau);
+		if (p->dt <= 0.0 && (!(p->v_ref > 0.0) || !isfinite(p->v_ref)))
+			goto cleanup;
+		if (p->v_ref > 0.0 && isfinite(p->v_ref)) {
+			double kh = 4.0 / 3.0 * md->young * sqrt(0.5 * md->rmax);
+			md->tc = tau * pow(mref / kh, 0.4) * pow(p->v_ref, -0.2);
+		}
+	}
+	md->dt = p->dt > 0.0 ? p->dt : md->tc / (p->dt_steps > 0.0 ? p->dt_steps : 50.0);
+	if (!(md->dt > 0.0) || !isfinite(md->dt))
+		goto cleanup;
+	md->skin = p->skin > 0.0 ? p->skin : 0.2 * md->rmax;
+	rc = MD_E_BOX;
+	for (int a = 0; a < p->dim; a++)
+		if (md->periodic[a] && md->L[a] < 2.0 * (2.0 * md->rmax + md->skin))
+			goto cleanup;
+	rc = rebuild(md);
+	if (rc)
+		goto cleanup;
+	rc = forces(md, 0.0);
+cleanup:
+	if (err)
+		*err = rc;
+	if (rc) {
+		md_destroy(md);
+		md = NULL;
+	}
+	return md;
+}
+
+int md_step(md_t *md, long nsteps)
+{
+	const int n = md->n;
+	const double dt = md->dt, h = 0.5 * dt;
+	const double lim = 0.25 * md->skin * md->skin;
+	for (long s = 0; s < nsteps; s++) {
+		int need = 0;
+		for (int i = 0; i < n; i++) {
+			double *x = md->x + 3 * i, *v = md->v + 3 * i, *w = md->w + 3 * i;
+			const double *f = md->f + 3 * i, *t = md->t + 3 * i, *x0 = md->xref + 3 * i;
+			double hm = h * md->im[i], hI = h * md->iI[i];
+			for (int a = 0; a < 3; a++) {
+				v[a] += hm * f[a];
+				w[a] += hI * t[a];
+				x[a] += dt * v[a];
+			}
+			double d0 = x[0] - x0[0], d1 = x[1] - x0[1], d2 = x[2] - x0[2];
+			if (!(d0 * d0 + d1 * d1 + d2 * d2 <= lim))
+				need = 1;
+		}
+		if (need) {
+			int rc = rebuild(md);
+			if (rc)
+				return rc;
+		}
+		int rc = forces(md, dt);
+		for (int i = 0; i < n; i++) {
+			double *v = md->v + 3 * i, *w = md->w + 3 * i;
+			const double *f = md->f + 3 * i, *t = md->t + 3 * i;
+			double hm = h * md->im[i], hI = h * md->iI[i];
+			for (int a = 0; a < 3; a++) {
+				v[a] += hm * f[a];
+				w[a] += hI * t[a];
+			}
+		}
+		md->steps++;
+		if (rc)
+			return rc;
+	}
+	return MD_OK;
+}
+
+const double *md_positions(const md_t *md) { return md->x; }
+const double *md_velocities(const md_t *md) { return md->v; }
+const double *md_spins(const md_t *md) { return md->w; }
+double md_time(const md_t *md) { return (double)md->steps * md->dt; }
+double md_dt(const md_t *md) { return md->dt; }
+double md_contact_time(const md_t *md) { return md->tc; }
+double md_stiffness(const md_t *md) { return md->kn; }
+double md_hertz_alpha(const md_t *md) { return md->alpha; }
+size_t md_contact_count(const md_t *md) { return md->ncontacts; }
+long md_rebuilds(const md_t *md) { return md->rebuilds; }
+
+/* Elastic energy of one contact: normal potential and the tangential spring of its slot (if any). */
+static double contact_energy(const md_t *md, int i, int partner, double delta, double reff)
+{
+	double en, kt;
+	if (md->law == MD_LAW_LINEAR) {
+		en = 0.5 * md->kn * delta * delta;
+		kt = md->ktr * md->kn;
+	} else {
+		double kh = 4.0 / 3.0 * md->young * sqrt(reff), sd = sqrt(delta);
+		en = 0.4 * kh * delta * delta * sd;
+		kt = md->ktr * 1.5 * kh * sd;
+	}
+	if (md->friction) {
+		const md_slot_t *s = md->hnew + (size_t)i * md->slots;
+		for (int k = 0; k < md->nnew[i]; k++)
+			if (s[k].partner == partner) {
+				en += 0.5 * kt * dot3(s[k].xi, s[k].xi);
+				break;
+			}
+	}
+	return en;
+}
+
+void md_energy(const md_t *md, md_energy_t *out)
+{
+	md_energy_t e = {0.0, 0.0, 0.0, 0.0};
+	for (int i = 0; i < md->n; i++) {
+		const double *v = md->v + 3 * i, *w = md->w + 3 * i, *x = md->x + 3 * i;
+		e.kinetic += 0.5 * md->m[i] * dot3(v, v);
+		e.rotational += 0.5 / md->iI[i] * dot3(w, w);
+		e.gravitational -= md->m[i] * dot3(md->g, x);
+		for (int a = 0; a < md->dim; a++) {
+			if (md->periodic[a])
+				continue;
+			for (int side = 0; side < 2; side++) {
+				double delta = side ? md->r[i] - (md->L[a] - x[a]) : md->r[i] - x[a];
+				if (delta > 0.0)
+					e.elastic += contact_energy(md, i, -1 - (2 * a + side), delta, md->r[i]);
+			}
+		}
+	}
+	for (size_t p = 0; p < md->np; p++) {
+		const md_pair_t *pp = md->pairs + p;
+		const double *xi = md->x + 3 * pp->i, *xj = md->x + 3 * pp->j;
+		double d[3] = {xj[0] - xi[0] + pp->s[0], xj[1] - xi[1] + pp->s[1], xj[2] - xi[2] + pp->s[2]};
+		double sr = md->r[pp->i] + md->r[pp->j], r2 = dot3(d, d);
+		if (r2 < sr * sr)
+			e.elastic += contact_energy(md, pp->i, pp->j, sr - sqrt(r2), md->r[pp->i] * md->r[pp->j] / sr);
+	}
+	*out = e;
+}

@@ -1,0 +1,138 @@
+/* Soft-sphere molecular dynamics (DEM) of frictional disks/spheres: contact forces, velocity Verlet, cell/Verlet lists. */
+#pragma once
+
+#include <stddef.h>
+
+/*
+ * Contract
+ * - Pure computation: no I/O, no globals. All memory is allocated in
+ *   md_create(); md_step() allocates nothing except when a Verlet-list
+ *   rebuild finds more pairs than ever before (the pair array then grows
+ *   geometrically, so at most O(log N) times in a run).
+ * - State arrays have stride 3 in 2D and 3D (x, y, z; z = 0 in 2D). Spins
+ *   are angular velocities, stride 3 (2D: only the z component moves).
+ * - Contact between i and j when |x_i - x_j| < R_i + R_j; overlap
+ *   delta = R_i + R_j - |x_i - x_j|, unit normal n from i to j,
+ *   m_eff = m_i m_j / (m_i + m_j), R_eff = R_i R_j / (R_i + R_j).
+ *   A wall is a flat contact partner of infinite mass and radius
+ *   (m_eff = m_i, R_eff = R_i, delta = R_i - distance to the wall), with the
+ *   same law and the same parameters.
+ * - Normal force (repulsive > 0), v_n = approach speed at the contact:
+ *     linear:  f_n = k_n delta + eta_n v_n,  eta_n = 2 beta sqrt(k_n m_eff),
+ *              beta = -ln e / sqrt(pi^2 + ln^2 e): exactly restitution e and
+ *              contact time t_c = pi / sqrt(k_n/m_eff - (eta_n/m_eff)^2/4)
+ *              for every pair and every impact speed.
+ *     hertz:   f_n = k_h delta^(3/2) + alpha sqrt(m_eff k_h) delta^(1/4) v_n,
+ *              k_h = 4/3 E* sqrt(R_eff) (Tsuji et al. 1992 damping). The
+ *              dimensionless equation X'' = -X^(3/2) - alpha X^(1/4) X' has no
+ *              velocity scale, so e is independent of the impact speed;
+ *              alpha(e) is found in md_create() by bisection on that
+ *              equation integrated with RK4 (the relation Antypov & Elliott
+ *              2011 approximate in closed form). The contact time depends on
+ *              the impact speed v: t_c = tau(alpha) (m_eff/k_h)^(2/5) v^(-1/5);
+ *              elastic: tau = 3.2182, i.e. t_c = 2.8685 (m_eff^2/(R_eff E*^2 v))^(1/5).
+ *   The dashpot may pull at the very end of a contact (no clamp), which is
+ *   what keeps e exact; Coulomb's limit uses max(f_n, 0).
+ * - Tangential (Cundall-Strack), when mu > 0: a spring xi per contact, kept
+ *   in the tangent plane (rotated with the normal, length preserved),
+ *   xi += v_t dt; F_t = -k_t xi - eta_t v_t; if |F_t| > mu max(f_n, 0) then
+ *   F_t is scaled to that bound and xi = -(F_t + eta_t v_t) / k_t (slip).
+ *   k_t = kt_ratio k_n (linear) or kt_ratio * 3/2 k_h sqrt(delta) (hertz, the
+ *   tangent normal stiffness); eta_t = eta_n sqrt(kt_ratio). v_t is the
+ *   sliding velocity at the contact point including the spins; the contact
+ *   point is mid-overlap (lever arms R_i - delta/2, R_j - delta/2, which sum
+ *   to the distance, so pair torques conserve angular momentum exactly;
+ *   walls: R_i - delta, the wall plane). The history
+ *   lives in max_contacts fixed slots per particle (pairs are owned by the
+ *   lower index; walls by the particle); more contacts -> MD_E_CONTACTS.
+ *   mu = 0: no tangential force and no spin change (the code path has no
+ *   friction terms; chosen at create).
+ * - Moments of inertia: disk m R^2 / 2 (2D), sphere 2/5 m R^2 (3D).
+ * - Time step: dt = params.dt if > 0, else t_c / dt_steps (default 50), t_c
+ *   the contact time of the stiffest reference pair: the two lightest
+ *   particles (linear), and for hertz at the impact speed v_ref (required
+ *   then). Linear: k_n is given, or t_contact is given and
+ *   k_n = m_ref (pi^2 + ln^2 e) / t_contact^2 with m_ref the m_eff of two
+ *   lightest particles.
+ * - Velocity Verlet: v += F/m dt/2, x += v dt, forces at the new positions
+ *   with the half-step velocities (the dashpot and xi see v(t+dt/2)), then
+ *   v += F/m dt/2; same for the spins with the torques.
+ * - Neighbours: half Verlet list of pairs closer than 2 R_max + skin, built
+ *   with cell lists; rebuilt when some particle moved more than skin/2 since
+ *   the last build (default skin = 0.2 R_max). Positions are wrapped into
+ *   the box at a rebuild only. A periodic axis must be at least
+ *   2 (2 R_max + skin) long.
+ * - Determinism: the same parameters give the same bits on the same build.
+ */
+
+typedef struct md md_t;
+
+enum {
+	MD_OK = 0,
+	MD_E_NOMEM = -1,
+	MD_E_PARAM = -2,     /* invalid parameter (md_create) */
+	MD_E_BOX = -3,       /* periodic box too small for the cut-off */
+	MD_E_CONTACTS = -4,  /* a particle has more contacts than max_contacts */
+	MD_E_UNSTABLE = -5,  /* a position became non-finite (time step too large) */
+};
+
+typedef enum { MD_LAW_LINEAR = 0, MD_LAW_HERTZ = 1 } md_law_t;
+
+typedef struct {
+	int dim;                 /* 2 or 3 */
+	int n;                   /* particles, >= 1 */
+	double radius;           /* used when radii == NULL */
+	const double *radii;     /* optional, n values */
+	double mass;             /* used when masses == NULL */
+	const double *masses;    /* optional, n values */
+	double box[3];           /* edges; box[2] ignored in 2D */
+	int periodic[3];         /* 1 periodic, 0 flat walls at 0 and box[a] */
+	double gravity[3];       /* acceleration; gravity[2] must be 0 in 2D */
+	md_law_t law;
+	double restitution;      /* e in (0, 1] */
+	double kn;               /* linear: normal stiffness (force/length), or 0 ... */
+	double t_contact;        /* ... linear: contact time of the reference pair instead */
+	double young;            /* hertz: E*, f = 4/3 E* sqrt(R_eff) delta^(3/2) */
+	double v_ref;            /* hertz: impact speed that sets t_c (for dt) */
+	double mu;               /* Coulomb friction coefficient, >= 0 */
+	double kt_ratio;         /* k_t / k_n; 0 -> 2/7 */
+	double dt;               /* > 0: fixed step; 0 -> t_c / dt_steps */
+	double dt_steps;         /* 0 -> 50 */
+	double skin;             /* Verlet skin; 0 -> 0.2 R_max */
+	int max_contacts;        /* history slots per particle; 0 -> 12 (2D: 8) */
+	const double *x;         /* n*3 initial positions */
+	const double *v;         /* n*3 initial velocities, or NULL (rest) */
+	const double *w;         /* n*3 initial spins, or NULL */
+} md_params_t;
+
+typedef struct {
+	double kinetic;          /* sum 1/2 m v^2 */
+	double rotational;       /* sum 1/2 I w^2 */
+	double elastic;          /* normal (and tangential spring) energy of the contacts */
+	double gravitational;    /* -sum m g.x (x unwrapped since the last rebuild) */
+} md_energy_t;
+
+/* Creates the system and computes the initial forces. *err gets the code (may be NULL). */
+md_t *md_create(const md_params_t *p, int *err);
+void md_destroy(md_t *md);
+
+/* Advances nsteps velocity-Verlet steps; 0 or a negative code (the state is then that of the failing step). */
+int md_step(md_t *md, long nsteps);
+
+const double *md_positions(const md_t *md);
+const double *md_velocities(const md_t *md);
+const double *md_spins(const md_t *md);
+double md_time(const md_t *md);
+double md_dt(const md_t *md);
+/* The reference contact time that sets the default dt (see the contract); hertz without v_ref: 0. */
+double md_contact_time(const md_t *md);
+/* Linear: k_n; hertz: alpha, the dimensionless damping. */
+double md_stiffness(const md_t *md);
+double md_hertz_alpha(const md_t *md);
+/* Contacts (pairs and walls) found at the last force computation. */
+size_t md_contact_count(const md_t *md);
+/* Verlet-list builds so far (1 after create). */
+long md_rebuilds(const md_t *md);
+void md_energy(const md_t *md, md_energy_t *out);
+
+const char *md_strerror(int code);
