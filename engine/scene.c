@@ -657,10 +657,11 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 	if (!scene_has_species(s))
 		return 0;
 	const char *what = s->n_species > 1 ? "more than one particle species" : "polydisperse particles";
-	/* dsmc: periodic boxes, walls of every kind, gravity and obstacles (each particle's own radius and mass) */
-	if (s->method != SCENE_METHOD_ED && s->method != SCENE_METHOD_DSMC)
+	/* dsmc, hsmc: periodic boxes, walls of every kind, gravity and obstacles (each particle's own radius and
+	 * mass; each pair's contact value chi_ij); the local contact value is refused by dsmc_plan() */
+	if (s->method != SCENE_METHOD_ED && s->method != SCENE_METHOD_DSMC && s->method != SCENE_METHOD_HSMC)
 		return fail(c, "particles.species", "method \"%s\" simulates one species of one radius only; use method "
-			    "\"ed\" or \"dsmc\" for %s", method_names[s->method], what);
+			    "\"ed\", \"dsmc\" or \"hsmc\" for %s", method_names[s->method], what);
 	/* ed: particles.initial.region and .from (place.c, frame.c), run.replicas and collisions.rough work with
 	 * mixtures; dsmc mixtures not yet (untested there) */
 	if (s->method != SCENE_METHOD_ED) {

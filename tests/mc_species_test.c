@@ -241,16 +241,22 @@ static void test_restore(const char *json, const char *label)
 		same = !memcmp(pa, pb, bytes);
 		free(pa), free(pb);
 	}
-	ok(same && same_samples && x.n_species == 2 && dsmc_collisions(a) > 1000,
-	   "%s: 30 restores bit-identical (%llu collisions, %llu wall hits, %llu obstacle hits, %llu left) %s", label,
+	/* hsmc: the full-cell rules must have acted (moves rejected, cell collisions) */
+	int hs = sc.method == SCENE_METHOD_HSMC;
+	ok(same && same_samples && x.n_species == 2 && dsmc_collisions(a) > 1000 &&
+	   (!hs || (x.rejected_moves > 0 && x.cell_collisions > 0)),
+	   "%s: 30 restores bit-identical (%llu collisions, %llu wall hits, %llu obstacle hits, %llu left, %llu "
+	   "rejected moves, %llu cell collisions) %s", label,
 	   a ? (unsigned long long)dsmc_collisions(a) : 0ULL, (unsigned long long)x.wall_collisions,
-	   (unsigned long long)x.obstacle_collisions, (unsigned long long)(sc.count - x.particles), err);
+	   (unsigned long long)x.obstacle_collisions, (unsigned long long)(sc.count - x.particles),
+	   (unsigned long long)x.rejected_moves, (unsigned long long)x.cell_collisions, err);
 	dsmc_destroy(a);
 	dsmc_destroy(b);
 }
 
-/* What dsmc/hsmc cannot honour with species yet is refused, naming the key:
- * hsmc mixtures at all. dsmc takes them with walls of every kind. */
+/* dsmc and hsmc take mixtures with walls of every kind, gravity and
+ * obstacles; what they cannot honour with species is refused, naming the
+ * key: the local contact value (a one-species value per cell). */
 static void test_refusals(void)
 {
 	static const char *const extra[] = {
@@ -271,7 +277,7 @@ static void test_refusals(void)
 		snprintf(json, sizeof json, fmt, "hsmc", extra[k]);
 		scene_t sc;
 		int rc = scene_parse(json, strlen(json), &sc, err, sizeof err);
-		ok(rc == SCENE_EINVAL && !strncmp(err, "particles.species: ", 19), "hsmc refused: %s", err);
+		ok(rc == SCENE_OK, "hsmc mixture accepted with %.30s...: %s", extra[k], rc == SCENE_OK ? "ok" : err);
 		snprintf(json, sizeof json, fmt, "dsmc", extra[k]);
 		rc = scene_parse(json, strlen(json), &sc, err, sizeof err);
 		ok(rc == SCENE_OK, "dsmc mixture accepted with %.30s...: %s", extra[k], rc == SCENE_OK ? "ok" : err);
@@ -282,6 +288,22 @@ static void test_refusals(void)
 		scene_t sc;
 		int rc = scene_parse(json, strlen(json), &sc, err, sizeof err);
 		ok(rc == SCENE_OK, "dsmc mixture accepted with %.50s...: %s", walls[k], rc == SCENE_OK ? "ok" : err);
+		snprintf(json, sizeof json, fmt, "hsmc", walls[k]);
+		rc = scene_parse(json, strlen(json), &sc, err, sizeof err);
+		ok(rc == SCENE_OK, "hsmc mixture accepted with %.50s...: %s", walls[k], rc == SCENE_OK ? "ok" : err);
+	}
+	static const char *const local[][2] = {
+		{"dsmc", "\"dsmc\":{\"correction\":\"enskog\",\"contact_value\":\"local\"}"},
+		{"hsmc", "\"hsmc\":{\"contact_value\":\"local\"}"},
+	};
+	for (size_t k = 0; k < sizeof local / sizeof local[0]; k++) {
+		char json[1024], err[512] = "", key[64];
+		snprintf(json, sizeof json, fmt, local[k][0], local[k][1]);
+		snprintf(key, sizeof key, "%s.contact_value: ", local[k][0]);
+		scene_t sc;
+		int rc = scene_parse(json, strlen(json), &sc, err, sizeof err);
+		ok(rc == SCENE_EINVAL && !strncmp(err, key, strlen(key)), "%s mixture with a local contact value refused: %s",
+		   local[k][0], err);
 	}
 }
 
@@ -637,6 +659,29 @@ int main(void)
 	             "\"gravity\":[0,-0.05],\"dsmc\":{\"correction\":\"cba\"},\"run\":{\"seed\":10,\"until\":{\"time\":100}}}",
 	             "mixture with a vibrating floor and an open lid");
 	test_barometric();
+	/* hsmc mixtures: no new state either (the cells' particle volumes are a function of the records) */
+	test_restore("{\"method\":\"hsmc\",\"dimensions\":2,\"particles\":{\"species\":[{\"name\":\"s\",\"count\":1500,"
+	             "\"radius\":0.5,\"mass\":1},{\"name\":\"l\",\"count\":300,\"radius_range\":[0.8,1.2],\"mass\":4}],"
+	             "\"volume_fraction\":0.5,\"initial\":{\"positions\":\"random\",\"temperature\":1}},"
+	             "\"collisions\":{\"restitution\":0.9},\"hsmc\":{\"cell_size\":2},"
+	             "\"run\":{\"seed\":11,\"until\":{\"time\":100}}}", "hsmc: dense polydisperse mixture, full cells");
+	test_restore("{\"method\":\"hsmc\",\"dimensions\":3,\"particles\":{\"species\":[{\"name\":\"p\",\"count\":800,"
+	             "\"radius_range\":[0.3,0.6],\"mass\":1},{\"name\":\"q\",\"count\":400,\"radius\":0.8,\"mass\":3}],"
+	             "\"box\":[20,20,20],\"initial\":{\"positions\":\"random\",\"temperature\":1}},"
+	             "\"collisions\":{\"restitution\":0.9},\"hsmc\":{\"cell_size\":1.5},"
+	             "\"boundaries\":{\"z\":{\"type\":\"walls\",\"lower\":{\"type\":\"thermal\",\"temperature\":1},"
+	             "\"upper\":{\"type\":\"rough\",\"probability\":0.5}},\"x\":{\"type\":\"walls\",\"lower\":{\"type\":"
+	             "\"moving\",\"velocity\":[0,0.5,0]},\"upper\":{\"type\":\"specular\"}}},\"gravity\":[0,0,-0.5],"
+	             "\"obstacles\":[{\"type\":\"no_slip\",\"center\":[10,10,8],\"radius\":3,\"temperature\":1}],"
+	             "\"run\":{\"seed\":12,\"until\":{\"time\":100}}}", "hsmc: bounded polydisperse mixture");
+	test_restore("{\"method\":\"hsmc\",\"dimensions\":2,\"particles\":{\"species\":[{\"count\":600,\"radius\":0.4,"
+	             "\"mass\":1},{\"count\":300,\"radius_range\":[0.6,1],\"mass\":4}],\"box\":[40,50],"
+	             "\"initial\":{\"positions\":\"random\",\"temperature\":1}},\"collisions\":{\"restitution\":0.9},"
+	             "\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"vibrating\",\"amplitude\":0.5,"
+	             "\"frequency\":0.3,\"restitution\":0.8},\"upper\":{\"type\":\"open\"}},\"x\":{\"type\":\"walls\","
+	             "\"lower\":{\"type\":\"thermal\",\"temperature\":1},\"upper\":{\"type\":\"specular\"}}},"
+	             "\"gravity\":[0,-0.2],\"hsmc\":{\"cell_size\":2},\"run\":{\"seed\":13,\"until\":{\"time\":100}}}",
+	             "hsmc: mixture with a vibrating floor and an open lid");
 	plan(tap_n);
 	return done_testing();
 }

@@ -347,6 +347,29 @@ cat >"$tmp/2d-dsmc-mixture-vib.json" <<'JSON'
  "output":{"every":{"time":1.5},"observables":["kinetic_energy","temperature","wall_force","outflow","center_of_mass_height"],
    "snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":7}}}}
 JSON
+# hsmc mixtures: dense (full cells by particle volume, cell collisions with
+# the cells' masses) and bounded (own radii at walls and obstacles); the
+# cells' particle volumes are recomputed from the records: no new state.
+cat >"$tmp/2d-hsmc-mixture.json" <<'JSON'
+{"method":"hsmc","dimensions":2,"particles":{"species":[{"count":1500,"radius":0.5,"mass":1},
+   {"count":300,"radius_range":[0.8,1.2],"mass":4}],"volume_fraction":0.5,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9},"run":{"seed":50,"until":{"time":10}},
+ "output":{"every":{"time":0.5},"observables":["kinetic_energy","temperature","pressure","momentum"],
+   "snapshots":{"every":{"time":5}},"checkpoint":{"every":{"time":2.3}}},
+ "hsmc":{"cell_size":2}}
+JSON
+cat >"$tmp/2d-hsmc-mixture-walls.json" <<'JSON'
+{"method":"hsmc","dimensions":2,"particles":{"species":[{"count":1200,"radius":0.4,"mass":1},
+   {"count":600,"radius_range":[0.6,1],"mass":4}],"box":[80,50],"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.9},
+ "boundaries":{"y":{"type":"walls","lower":{"type":"thermal","temperature":1,"accommodation":0.5},
+   "upper":{"type":"moving","velocity":[0.3,0]}},"x":{"type":"walls","lower":{"type":"rough","probability":0.3},"upper":{"type":"specular"}}},
+ "obstacles":[{"type":"no_slip","center":[40,25],"radius":5,"temperature":0.5}],"gravity":[0,-0.1],
+ "run":{"seed":51,"until":{"time":30}},
+ "output":{"every":{"time":1.5},"observables":["kinetic_energy","temperature","wall_force","obstacle_force","center_of_mass_height","potential_energy"],
+   "snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":7}}},
+ "hsmc":{"cell_size":1.5}}
+JSON
 
 ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 	"$ENGINE" run "$tmp/$1.json" --out "$tmp/$1.ref" >/dev/null 2>"$tmp/$1.ref.err"
@@ -355,8 +378,8 @@ ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 # (a) checkpoint at simulated time T, resume: identical to the uninterrupted run.
 for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open 3d-rough-drive \
 	2d-rough-noise 2d-hsmc-walls 2d-dsmc-vib 2d-hsmc-open 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute \
-	2d-mixture-walls 2d-dsmc-mixture-walls 2d-dsmc-mixture-vib 2d-reservoir 2d-reservoir-rough 2d-dispenser-filter \
-	3d-dispenser-filter 2d-dispenser-rough 2d-dispenser-gravity; do
+	2d-mixture-walls 2d-dsmc-mixture-walls 2d-dsmc-mixture-vib 2d-hsmc-mixture 2d-hsmc-mixture-walls 2d-reservoir \
+	2d-reservoir-rough 2d-dispenser-filter 3d-dispenser-filter 2d-dispenser-rough 2d-dispenser-gravity; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

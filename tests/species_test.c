@@ -45,15 +45,20 @@ static void test_parse(void)
 	   fabs(s.box[0] * s.box[1] * 0.2 - 40 * vp) < 1e-9 * 40 * vp,
 	   "volume fraction from the species' volumes (box %g)", s.box[0]);
 	ok(scene_has_species(&s), "scene_has_species()");
-	/* hsmc refuses a mixture itself (not only through the parser; dsmc runs
-	 * mixtures in a periodic box: tests/mc_species_test) */
+	/* hsmc builds a mixture (issue 13: tests/mc_species_test, tests/hsmc_species_test)
+	 * but refuses itself (not only through the parser) the local contact
+	 * value with it */
 	scene_t m = s;
 	m.method = SCENE_METHOD_HSMC;
 	char why[256] = "";
 	int dc;
 	dsmc_t *d = dsmc_create(&m, 0, &dc, why, sizeof why);
-	ok(!d && dc == DSMC_EINVAL && !strncmp(why, "particles.species:", 18), "dsmc_create() refuses two species for hsmc: %s",
-	   why);
+	int built = d != NULL;
+	dsmc_destroy(d);
+	m.mc_local_chi = 1;
+	d = dsmc_create(&m, 0, &dc, why, sizeof why);
+	ok(built && !d && dc == DSMC_EINVAL && !strncmp(why, "hsmc.contact_value:", 19),
+	   "dsmc_create() builds hsmc with two species, refuses the local contact value with them: %s", why);
 	dsmc_destroy(d);
 
 	static const struct { const char *what, *json, *key; } bad[] = {
@@ -65,9 +70,10 @@ static void test_parse(void)
 		  "\"volume_fraction\":0.1},\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},"
 		  "\"upper\":{\"type\":\"open\"}}},\"run\":{\"until\":{\"time\":1}},\"output\":{\"observables\":"
 		  "[\"clusters\"]}}", "output.observables:" },
-		{ "hsmc with two species", "{\"method\":\"hsmc\",\"dimensions\":2,\"particles\":{\"species\":"
-		  "[{\"count\":200,\"radius\":0.5,\"mass\":1},{\"count\":200,\"radius\":0.5,\"mass\":2}],"
-		  "\"volume_fraction\":0.1},\"run\":{\"until\":{\"time\":1}}}", "particles.species:" },
+		{ "hsmc with two species and a local contact value", "{\"method\":\"hsmc\",\"dimensions\":2,\"particles\":"
+		  "{\"species\":[{\"count\":200,\"radius\":0.5,\"mass\":1},{\"count\":200,\"radius\":0.5,\"mass\":2}],"
+		  "\"volume_fraction\":0.1},\"hsmc\":{\"contact_value\":\"local\"},\"run\":{\"until\":{\"time\":1}}}",
+		  "hsmc.contact_value:" },
 		{ "pairs without species", "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":40,"
 		  "\"volume_fraction\":0.1},\"collisions\":{\"restitution_pairs\":[]},\"run\":{\"until\":{\"time\":1}}}",
 		  "collisions.restitution_pairs:" },

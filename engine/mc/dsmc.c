@@ -129,6 +129,18 @@ struct dsmc {
 	int mix, nsp;
 	uint8_t *spc;
 	double *rad;
+	/* Mixtures with correction enskog or cba: chi_ij = chc[0] + d (chc[1] +
+	 * d chc[2]), d = sigma_i sigma_j / (sigma_i + sigma_j), from the moments of
+	 * the radii present (dsmc_contact_coefs()); chimax = chi of two particles
+	 * of the largest diameter, the majorant's factor, chinv = 1 / chimax. Without
+	 * a correction chc = {1, 0, 0}, chimax = chinv = 1: chi_ij = 1 exactly. */
+	int corr;
+	double chc[3], chimax, chinv;
+	/* hsmc mixtures: volume of the particles of each cell (ncells + 1;
+	 * cell_volumes() after each sort and at each step's start: a function of
+	 * the records, not state); a cell is full at >= vfull. */
+	double *vocc, vfull;
+	double *pcount;                /* dsmc_count_pairs(): collisions per pair of species, or NULL */
 	double msp[SCENE_SPECIES_MAX];
 	double pe[SCENE_SPECIES_MAX][SCENE_SPECIES_MAX];
 	void (*step)(struct dsmc *, double);   /* chosen at load: dimension and periodic or bounded */
@@ -139,6 +151,50 @@ struct dsmc {
 double dsmc_contact_value(int dim, double nu)
 {
 	return dim == 2 ? (1 - 7 * nu / 16) / ((1 - nu) * (1 - nu)) : (1 - nu / 2) / pow(1 - nu, 3);
+}
+
+/* Mixtures. 3D: Boublik (J. Chem. Phys. 53, 471 (1970)) and Grundke-Henderson-
+ * Lee-Levesque, the contact values that go with the Boublik-Mansoori-Carnahan-
+ * Starling-Leland equation of state: with xi_k = (pi/6) sum_s n_s sigma_s^k,
+ * chi_ij = 1/(1 - xi_3) + 3 xi_2 d_ij/(1 - xi_3)^2 + 2 xi_2^2 d_ij^2/(1 - xi_3)^3,
+ * d_ij = sigma_i sigma_j / (sigma_i + sigma_j). One species (d = sigma/2,
+ * xi_2 sigma = nu): 1/(1-nu) + 3 nu/(2 (1-nu)^2) + nu^2/(2 (1-nu)^3) =
+ * (1 - nu/2)/(1 - nu)^3, Carnahan-Starling. 2D: Jenkins and Mancini (Phys.
+ * Fluids 30, 3776 (1987)), the generalisation of Henderson's value (the same
+ * as Santos, Yuste and Lopez de Haro's (Mol. Phys. 96, 1 (1999)) with
+ * Henderson's one-species value): with M_k = sum_s n_s sigma_s^k and nu =
+ * (pi/4) M_2, chi_ij = 1/(1 - nu) + (9/8) nu d_ij M_1 / ((1 - nu)^2 M_2);
+ * one species: 1/(1-nu) + 9 nu/(16 (1-nu)^2) = (1 - 7 nu/16)/(1 - nu)^2. */
+static void contact_coefs_moments(int dim, const double m[4], double c[3])
+{
+	if (dim == 2) {
+		double nu = PI / 4 * m[2], u = 1 - nu;
+		c[0] = 1 / u;
+		c[1] = m[2] > 0 ? 9.0 / 8.0 * nu * m[1] / (u * u * m[2]) : 0;
+		c[2] = 0;
+	} else {
+		double x2 = PI / 6 * m[2], x3 = PI / 6 * m[3], u = 1 - x3;
+		c[0] = 1 / u;
+		c[1] = 3 * x2 / (u * u);
+		c[2] = 2 * x2 * x2 / (u * u * u);
+	}
+}
+
+void dsmc_contact_coefs(int dim, int ns, const double *n, const double *sigma, double c[3])
+{
+	double m[4] = {0, 0, 0, 0};
+	for (int s = 0; s < ns; s++) {
+		double q = 1;
+		for (int k = 0; k < 4; k++, q *= sigma[s])
+			m[k] += n[s] * q;
+	}
+	contact_coefs_moments(dim, m, c);
+}
+
+double dsmc_contact_pair(const double c[3], double si, double sj)
+{
+	double dd = si * sj / (si + sj);
+	return c[0] + dd * (c[1] + dd * c[2]);
 }
 
 double dsmc_mean_speed(int dim, double mass, double temp)
@@ -257,6 +313,29 @@ static ALWAYS_INLINE uint32_t cell_of(const struct dsmc *d, const double *x, con
 	return cell_at(d->inv_h, d->nc, x, D);
 }
 
+/* hsmc: whether cell c is full (one species: it holds nfull particles or
+ * more; mixtures: the volume of its particles reaches max_volume_fraction
+ * of the cell's). */
+static ALWAYS_INLINE int cell_full(const struct dsmc *d, size_t c, const int M)
+{
+	return M ? d->vocc[c] >= d->vfull : d->start[c + 1] - d->start[c] >= d->nfull;
+}
+
+/* hsmc mixtures: the volume of each cell's particles (vocc), from the records' cells (start). */
+static void cell_volumes(struct dsmc *d)
+{
+	const double k = d->dim == 2 ? PI : 4.0 / 3.0 * PI;
+	for (size_t c = 0; c < d->ncells; c++) {
+		double v = 0;
+		for (uint32_t q = d->start[c]; q < d->start[c + 1]; q++) {
+			double r = d->rad[d->id[q]];
+			v += d->dim == 2 ? r * r : r * r * r;
+		}
+		d->vocc[c] = k * v;
+	}
+	d->vocc[d->ncells] = 0;
+}
+
 static void set_msg(char *msg, size_t len, const char *fmt, double a)
 {
 	if (msg && len)
@@ -278,26 +357,64 @@ static ALWAYS_INLINE void cell_mean(const struct dsmc *d, uint32_t k0, uint32_t 
 		u[a] /= n;
 }
 
-/* Give cell particles the new mean velocity u1 (old u0) and return gain
- * (>= 0) to their thermal motion: v' = u1 + k (v - u0), k^2 = (E + gain)/E
- * (seed 000 eqs. 2.23-2.33). A cell with no thermal energy (all particles
- * at u0) cannot be rescaled; there a zero-momentum kick along a random
- * direction to its first two particles carries the gain instead. */
+/* Mass of particle record k (mixtures: its species'). */
+static ALWAYS_INLINE double rec_mass(const struct dsmc *d, uint32_t k, const int M)
+{
+	return M ? d->msp[d->spc[d->id[k]]] : d->mass;
+}
+
+/* Cell particles [k0, k0+n): velocity u of their centre of mass; returns
+ * their mass (M = 0: the plain mean, n m). */
+static ALWAYS_INLINE double cell_momentum(const struct dsmc *d, uint32_t k0, uint32_t n, double *u, const int D,
+                                          const int M)
+{
+	if (!M) {
+		cell_mean(d, k0, n, u, D);
+		return (double)n * d->mass;
+	}
+	const int S = 2 * D;
+	double mt = 0;
+	for (int a = 0; a < D; a++)
+		u[a] = 0;
+	for (uint32_t k = k0; k < k0 + n; k++) {
+		double m = rec_mass(d, k, M);
+		mt += m;
+		for (int a = 0; a < D; a++)
+			u[a] += m * d->p[k * S + D + a];
+	}
+	for (int a = 0; a < D; a++)
+		u[a] /= mt;
+	return mt;
+}
+
+/* Give cell particles the new mean velocity u1 (old u0, their centre of
+ * mass's; total mass mt) and return gain (>= 0) to their thermal motion:
+ * v' = u1 + k (v - u0), k^2 = (E + gain)/E (seed 000 eqs. 2.23-2.33). A
+ * cell with no thermal energy (all particles at u0) cannot be rescaled;
+ * there a zero-momentum kick along a random direction to its first two
+ * particles carries the gain instead. M = 1: each particle's own mass. */
 static ALWAYS_INLINE void cell_return(struct dsmc *d, uint32_t k0, uint32_t n, const double *u0, const double *u1,
-                                      double gain, const int D)
+                                      double gain, const int D, const int M, double mt)
 {
 	const int S = 2 * D;
 	double eth = 0;
-	for (uint32_t k = k0; k < k0 + n; k++)
+	for (uint32_t k = k0; k < k0 + n; k++) {
+		double e = 0;
 		for (int a = 0; a < D; a++) {
 			double w = d->p[k * S + D + a] - u0[a];
-			eth += w * w;
+			if (M)
+				e += w * w;
+			else
+				eth += w * w;
 		}
-	eth *= 0.5 * d->mass;
+		if (M)
+			eth += rec_mass(d, k, M) * e;
+	}
+	eth *= M ? 0.5 : 0.5 * d->mass;
 	double ref = 0;
 	for (int a = 0; a < D; a++)
 		ref += u0[a] * u0[a] + u1[a] * u1[a];
-	ref *= 0.5 * d->mass * n;
+	ref *= M ? 0.5 * mt : 0.5 * d->mass * n;
 	if (eth > 1e-12 * ref && eth > 0) {
 		double kf = sqrt((eth + gain) / eth);
 		for (uint32_t k = k0; k < k0 + n; k++)
@@ -315,6 +432,14 @@ static ALWAYS_INLINE void cell_return(struct dsmc *d, uint32_t k0, uint32_t n, c
 			s2 += w[a] * w[a];
 		}
 	} while (s2 > 1 || s2 < 1e-6);
+	if (M) {   /* momentum q w to the first, -q w to the second: q^2 s2 (1/m_0 + 1/m_1) / 2 = gain */
+		double m0 = rec_mass(d, k0, M), m1 = rec_mass(d, k0 + 1, M);
+		double q = sqrt(2 * gain / (s2 * (1 / m0 + 1 / m1)));
+		for (uint32_t k = k0; k < k0 + n; k++)
+			for (int a = 0; a < D; a++)
+				d->p[k * S + D + a] = u1[a] + (k == k0 ? q / m0 * w[a] : k == k0 + 1 ? -q / m1 * w[a] : 0);
+		return;
+	}
 	double delta = sqrt(gain / d->mass / s2);
 	for (uint32_t k = k0; k < k0 + n; k++)
 		for (int a = 0; a < D; a++)
@@ -326,8 +451,10 @@ static ALWAYS_INLINE void cell_return(struct dsmc *d, uint32_t k0, uint32_t n, c
  * a pseudo-particle of mass M_c and velocity u_c; normal restitution along
  * the face normal; the macroscopic energy lost goes back into the thermal
  * motion of the two cells in proportion to their masses, so a cell
- * collision conserves momentum and energy exactly. */
-static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int B)
+ * collision conserves momentum and energy exactly. M = 1 (mixtures): a
+ * cell is full by the volume of its particles, its mass and velocity are
+ * its particles' total and centre of mass's. */
+static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int B, const int M)
 {
 	uint32_t mark = (uint32_t)d->steps + 1;
 	int colour = (int)(d->steps & 1);
@@ -341,12 +468,13 @@ static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int
 			}
 		}
 		uint32_t na = d->start[c + 1] - d->start[c];
-		if (na < d->nfull || ((ci[0] + ci[1] + ci[2] + colour) & 1) || d->stamp[c] == mark)
+		if ((M ? na < 2 || !cell_full(d, c, M) : na < d->nfull) || ((ci[0] + ci[1] + ci[2] + colour) & 1) ||
+		    d->stamp[c] == mark)
 			continue;
 		double ua[3], ub[3] = {0, 0, 0}, best_u[3] = {0, 0, 0}, best_w = 0;
 		size_t best = c;
 		int best_axis = 0, best_sign = 0;
-		cell_mean(d, d->start[c], na, ua, D);
+		double ma = cell_momentum(d, d->start[c], na, ua, D, M), mb = 0;   /* M = 0: after the search, as before */
 		for (int a = 0; a < D; a++) {
 			size_t stride = 1;
 			for (int b = 0; b < a; b++)
@@ -360,13 +488,15 @@ static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int
 				if (nb == c)
 					continue;
 				uint32_t nn = d->start[nb + 1] - d->start[nb];
-				if (nn < d->nfull || d->stamp[nb] == mark)
+				if ((M ? nn < 2 || !cell_full(d, nb, M) : nn < d->nfull) || d->stamp[nb] == mark)
 					continue;
-				cell_mean(d, d->start[nb], nn, ub, D);
+				double mn = cell_momentum(d, d->start[nb], nn, ub, D, M);
 				double w = sgn * (ua[a] - ub[a]);   /* approach speed along the face normal a -> b */
 				if (w > best_w) {
 					best_w = w;
 					best = nb;
+					if (M)
+						mb = mn;
 					best_axis = a;
 					best_sign = sgn;
 					memcpy(best_u, ub, sizeof(best_u));
@@ -376,7 +506,9 @@ static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int
 		if (best == c)
 			continue;
 		uint32_t nb_n = d->start[best + 1] - d->start[best];
-		double ma = (double)na * d->mass, mb = (double)nb_n * d->mass, mu = ma * mb / (ma + mb);
+		if (!M)
+			ma = (double)na * d->mass, mb = (double)nb_n * d->mass;
+		double mu = ma * mb / (ma + mb);
 		double J = (1 + d->e) * mu * best_w;
 		double ua1[3], ub1[3];
 		memcpy(ua1, ua, sizeof(ua1));
@@ -384,11 +516,29 @@ static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int
 		ua1[best_axis] -= best_sign * J / ma;
 		ub1[best_axis] += best_sign * J / mb;
 		double lost = 0.5 * (1 - d->e * d->e) * mu * best_w * best_w;
-		cell_return(d, d->start[c], na, ua, ua1, lost * ma / (ma + mb), D);
-		cell_return(d, d->start[best], nb_n, best_u, ub1, lost * mb / (ma + mb), D);
+		cell_return(d, d->start[c], na, ua, ua1, lost * ma / (ma + mb), D, M, ma);
+		cell_return(d, d->start[best], nb_n, best_u, ub1, lost * mb / (ma + mb), D, M, mb);
 		d->stamp[c] = d->stamp[best] = mark;
 		d->cell_collisions++;
 	}
+}
+
+/* cell_collisions() of each variant as a function of its own (called once
+ * per hsmc step): the step functions keep no trace of it, so that the
+ * register allocation of dsmc's hot loops does not depend on it. */
+#define CELL_COLL(D, B, M) \
+	static __attribute__((noinline)) void cell_coll_##D##B##M(struct dsmc *d) { cell_collisions(d, D, B, M); }
+CELL_COLL(2, 0, 0) CELL_COLL(2, 1, 0) CELL_COLL(2, 2, 0) CELL_COLL(2, 0, 1) CELL_COLL(2, 1, 1) CELL_COLL(2, 2, 1)
+CELL_COLL(3, 0, 0) CELL_COLL(3, 1, 0) CELL_COLL(3, 2, 0) CELL_COLL(3, 0, 1) CELL_COLL(3, 1, 1) CELL_COLL(3, 2, 1)
+#undef CELL_COLL
+static ALWAYS_INLINE void cell_coll(struct dsmc *d, const int D, const int B, const int M)
+{
+	if (D == 2)
+		(B == 0 ? (M ? cell_coll_201 : cell_coll_200) : B == 1 ? (M ? cell_coll_211 : cell_coll_210)
+		        : (M ? cell_coll_221 : cell_coll_220))(d);
+	else
+		(B == 0 ? (M ? cell_coll_301 : cell_coll_300) : B == 1 ? (M ? cell_coll_311 : cell_coll_310)
+		        : (M ? cell_coll_321 : cell_coll_320))(d);
 }
 
 /* Free flight, new cells counted; hsmc rejects moves into cells that were
@@ -452,7 +602,7 @@ static ALWAYS_INLINE double move(struct dsmc *d, double dt, const int D, const i
 				}
 			}
 			uint32_t cn = cell_of(d, xn, D);
-			if (d->hsmc && cn != c && d->start[cn + 1] - d->start[cn] >= d->nfull) {
+			if (d->hsmc && cn != c && cell_full(d, cn, M)) {
 				d->rejected++;
 				cn = (uint32_t)c;
 			} else {
@@ -912,7 +1062,7 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 				}
 			}
 			/* stays first: a particle that left has cn = ncells, whose start[cn + 1] does not exist */
-			if (d->hsmc && stays && cn != c && d->start[cn + 1] - d->start[cn] >= d->nfull) {
+			if (d->hsmc && stays && cn != c && cell_full(d, cn, M)) {
 				d->rejected++;
 				cn = (uint32_t)c;
 				double v2 = 0;   /* unchanged velocity over the step */
@@ -1132,7 +1282,7 @@ static void local_chi(struct dsmc *d, const int D)
  * (an energy source under gravity: the offsets keep the pair's centre of
  * mass, hence its potential energy, only when both move). */
 static ALWAYS_INLINE int offset_fits(const struct dsmc *d, const double *xi, const double *xj, const double *sn,
-                                     const int D, uint32_t c, const int B)
+                                     const int D, uint32_t c, const int B, const int M)
 {
 	double yi[3], yj[3];
 	for (int a = 0; a < D; a++) {
@@ -1157,8 +1307,7 @@ static ALWAYS_INLINE int offset_fits(const struct dsmc *d, const double *xi, con
 		return 1;
 	/* hsmc: nor may it carry a partner into another cell that is full */
 	uint32_t ci = cell_of(d, yi, D), cj = cell_of(d, yj, D);
-	return !((ci != c && d->start[ci + 1] - d->start[ci] >= d->nfull) ||
-	         (cj != c && d->start[cj + 1] - d->start[cj] >= d->nfull));
+	return !((ci != c && cell_full(d, ci, M)) || (cj != c && cell_full(d, cj, M)));
 }
 
 /* c of P(b)/P_chaos = a / (1 - c b^2) at tau collisions per particle (impact_c: linear between points). */
@@ -1218,7 +1367,8 @@ static ALWAYS_INLINE void cell_bound(const struct dsmc *d, size_t c, double *u, 
 static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const int B, const int M, const int P)
 {
 	const int S = 2 * D;
-	const double coef = (d->local_chi ? 1.0 : d->chi) * d->sigma_t * dt / (2 * d->vcell);
+	/* mixtures: the majorant's factor, chi of the largest pair (1 without a correction) */
+	const double coef = (d->local_chi ? 1.0 : M ? d->chimax : d->chi) * d->sigma_t * dt / (2 * d->vcell);
 	const double ehalf = 0.5 * (1 + d->e), eloss = 0.25 * (1 - d->e * d->e) * d->mass;
 	const double sigma = d->sigma;
 	double virial = 0, loss = 0, pc = 0, pk = 0;
@@ -1262,7 +1412,7 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 		const double vf = B && d->vfac ? (double)d->vfac[c] : 1.0;
 		double b = (d->local_chi ? coef * d->chic[c] : coef) * vf * (double)nc * (double)(nc - 1) +
 		           (double)d->rem[c] * inv;
-		int offset = d->cba && !(d->hsmc && nc >= d->nfull);
+		int offset = d->cba && !(d->hsmc && (M ? cell_full(d, c, M) : nc >= d->nfull));
 		while (b >= inv) {
 			b -= inv;
 			ncand++;
@@ -1276,15 +1426,19 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 				g2 += g[a] * g[a];
 			}
 			double r = rng_uniform_fast(&d->rng) * vmax;
-			/* mixtures: the majorant has the largest cross-section sigma^(D-1);
-			 * a pair is accepted with its own, (sigma_ij / sigma)^(D-1) of it */
+			/* mixtures: the majorant has the largest cross-section sigma^(D-1)
+			 * and contact value chimax; a pair is accepted with its own,
+			 * (sigma_ij / sigma)^(D-1) chi_ij / chimax of it (<= 1: chi_ij grows
+			 * with each diameter). chi_ij = 1 exactly without a correction. */
 			double sij = sigma, w2 = 1;
 			uint32_t si = 0, sj = 0;
 			if (M) {
 				const uint32_t ii = d->id[i], jj = d->id[j];
 				si = d->spc[ii], sj = d->spc[jj];
-				sij = d->rad[ii] + d->rad[jj];
-				const double w = D == 2 ? sij / sigma : (sij / sigma) * (sij / sigma);
+				const double ri = d->rad[ii], rj = d->rad[jj];
+				sij = ri + rj;
+				const double dd = 2 * ri * rj / sij, chi = d->chc[0] + dd * (d->chc[1] + dd * d->chc[2]);
+				const double w = (D == 2 ? sij / sigma : (sij / sigma) * (sij / sigma)) * (chi * d->chinv);
 				w2 = w * w;
 			}
 			if (M ? r * r >= g2 * w2 : r * r >= g2)
@@ -1334,6 +1488,8 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 				d->bcount[kb < d->bnb ? kb : d->bnb - 1] += 1.0;
 			}
 			double gn = gm * cth;            /* -g.n > 0 */
+			if (M && d->pcount)
+				d->pcount[si <= sj ? si * (uint32_t)d->nsp + sj : sj * (uint32_t)d->nsp + si] += 1.0;
 			if (M) {
 				/* J = (1 + e_ij) mu_ij g_n along n, mu_ij = m_i m_j / (m_i + m_j) */
 				const double e = d->relaxing ? 1.0 : d->pe[si][sj], mi = d->msp[si], mj = d->msp[sj];
@@ -1372,7 +1528,7 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 				double *xi = vi - D, *xj = vj - D, sn[3];
 				for (int a = 0; a < D; a++)
 					sn[a] = sij * nrm[a];
-				if (!B || offset_fits(d, xi, xj, sn, D, (uint32_t)c, B))
+				if (!B || offset_fits(d, xi, xj, sn, D, (uint32_t)c, B, M))
 					for (int a = 0; a < D; a++) {
 						xi[a] = wrap(xi[a] + sn[a], d->L[a]);   /* walled axes: inside, wrap is the identity */
 						xj[a] = wrap(xj[a] - sn[a], d->L[a]);
@@ -1393,8 +1549,10 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
  * with no trace of walls (the variant is chosen once, at load). */
 static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const int B, const int M, const int P)
 {
+	if (M && d->hsmc)
+		cell_volumes(d);   /* full cells at the step's start */
 	if (d->hsmc)
-		cell_collisions(d, D, B);
+		cell_coll(d, D, B, M);
 	double ek;
 	if (B) {
 		ek = move_bounded(d, dt, &d->ekin_int, D, B == 2, M);
@@ -1403,6 +1561,8 @@ static ALWAYS_INLINE void step_dim(struct dsmc *d, double dt, const int D, const
 		d->ekin_int += ek * dt;
 	}
 	sort(d, D);
+	if (M && d->hsmc)
+		cell_volumes(d);   /* full cells after the flights: for collide() */
 	d->e_loss = 0;
 	collide(d, dt, D, B, M, P);
 	d->ekin_est = ek - d->e_loss;
@@ -1611,13 +1771,14 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 	vib |= d->open;   /* open walls take the vibrating-wall step too (flight_vib()) */
 	d->step = d->dim == 2 ? (vib ? step2v : d->bounded ? step2b : step2) : (vib ? step3v : d->bounded ? step3b : step3);
 	if (d->mix) {
-		/* dsmc mixtures: periodic (step2s), fixed walls, gravity and obstacles
-		 * (step2bs: each particle's own radius and mass in flight()), vibrating
-		 * or open walls (step2vs: the same in flight_vib()) */
-		if (d->hsmc) {
+		/* dsmc and hsmc mixtures: periodic (step2s), fixed walls, gravity and
+		 * obstacles (step2bs: each particle's own radius and mass in flight()),
+		 * vibrating or open walls (step2vs: the same in flight_vib()) */
+		if (d->local_chi) {
 			if (msg && msglen)
-				snprintf(msg, msglen, "particles.species: method \"%s\" simulates one species of one radius only; "
-				         "use method \"dsmc\" or \"ed\"", method);
+				snprintf(msg, msglen, "%s.contact_value: \"local\" is not available with particles.species (its "
+				         "per-cell value is the one-species contact value); use \"global\" (each pair's chi_ij)",
+				         method);
 			return DSMC_EINVAL;
 		}
 		d->step = vib ? (d->dim == 2 ? step2vs : step3vs)
@@ -1660,6 +1821,7 @@ static int layout(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
 	d->n = d->na = (uint32_t)s->count;
 	d->hsmc = pr.hsmc;
 	d->cba = pr.correction == SCENE_MC_CBA;
+	d->corr = pr.correction != SCENE_MC_NONE;
 	d->sigma = 2 * s->radius;
 	d->mass = s->mass;
 	d->e = s->restitution;
@@ -1702,6 +1864,7 @@ static int layout(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
 	}
 	d->ncells = (size_t)ncell;
 	d->nfull = (uint32_t)ceil(pr.max_volume_fraction * d->vcell / d->vp - 1e-9);
+	d->vfull = pr.max_volume_fraction * d->vcell;   /* mixtures */
 	if (d->nfull < 2)
 		d->nfull = 2;
 	return layout_bounded(d, s, msg, msglen);
@@ -1785,6 +1948,30 @@ static void free_volume(struct dsmc *d)
 	}
 }
 
+/* Mixtures: chi_ij from the moments of the radii present over the box's
+ * volume (with a correction; 1 without), and its value for the largest pair. */
+static void mix_contact(struct dsmc *d, const scene_t *s)
+{
+	d->chc[0] = 1;
+	d->chc[1] = d->chc[2] = 0;
+	d->chimax = d->chinv = 1;
+	if (!d->corr)
+		return;
+	double vol = 1, m[4] = {0, 0, 0, 0};
+	for (int a = 0; a < d->dim; a++)
+		vol *= s->box[a];
+	for (uint32_t i = 0; i < d->n; i++) {
+		double q = 1, sg = 2 * d->rad[i];
+		for (int k = 0; k < 4; k++, q *= sg)
+			m[k] += q;
+	}
+	for (int k = 0; k < 4; k++)
+		m[k] /= vol;
+	contact_coefs_moments(d->dim, m, d->chc);
+	d->chimax = dsmc_contact_pair(d->chc, d->sigma, d->sigma);
+	d->chinv = 1 / d->chimax;
+}
+
 static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 {
 	struct dsmc *d = NULL;
@@ -1827,6 +2014,9 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 		for (int a = 0; a < s->n_species; a++)
 			for (uint64_t k = 0; k < s->species[a].count && i < d->n; k++)
 				d->spc[i++] = (uint8_t)a;
+		mix_contact(d, s);
+		if (d->hsmc && !(d->vocc = calloc(d->ncells + 1, sizeof(double))))
+			goto fail;
 	}
 	d->id = malloc(d->n * sizeof(uint32_t));
 	ring_size(d);
@@ -2063,6 +2253,7 @@ void dsmc_destroy(dsmc_t *d)
 	free(d->stamp);
 	free(d->chic);
 	free(d->chit);
+	free(d->vocc);
 	free(d->vfac);
 	free(d->spc);
 	free(d->rad);
@@ -2435,6 +2626,11 @@ int dsmc_geometry_scene(const scene_t *s, dsmc_geom_t *out, char *msg, size_t ms
 	return rc;
 }
 
+void dsmc_count_pairs(dsmc_t *d, double *counts)
+{
+	d->pcount = d->mix ? counts : NULL;
+}
+
 size_t dsmc_memory(const dsmc_t *d)
 {
 	size_t S = 2 * (size_t)d->dim;
@@ -2443,7 +2639,7 @@ size_t dsmc_memory(const dsmc_t *d)
 	       (size_t)d->over_n * (S * sizeof(double) + 2 * sizeof(uint32_t)) +
 	       d->ncells * (2 * sizeof(uint32_t) + sizeof(float) + (d->hsmc ? sizeof(uint32_t) : 0) +
 	                    (d->local_chi ? 2 * sizeof(float) : 0) + (d->nobst ? sizeof(float) : 0)) +
-	       (d->mix ? d->n * (1 + sizeof(double)) : 0);
+	       (d->mix ? d->n * (1 + sizeof(double)) + (d->hsmc ? (d->ncells + 1) * sizeof(double) : 0) : 0);
 }
 
 int dsmc_plan(const scene_t *s, dsmc_plan_t *out, char *msg, size_t msglen)

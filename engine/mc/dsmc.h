@@ -21,10 +21,13 @@
  *   nothing more), open (a particle that reaches one leaves: its record
  *   goes after the particles present, dsmc_state() gives NaN for it,
  *   energies and heights are over the particles present; ed's semantics,
- *   docs/scene.md). Mixtures (particles.species, dsmc only): each
+ *   docs/scene.md). Mixtures (particles.species, dsmc and hsmc): each
  *   particle's own radius for its wall and obstacle contacts, its own mass
  *   for impulses and a thermal wall's or no_slip obstacle's re-emission
- *   (sqrt(T / m_s)); walls of every kind. Obstacles (fixed-wall variant only; refused with
+ *   (sqrt(T / m_s)); walls of every kind; with correction enskog or cba each
+ *   pair's contact value chi_ij (dsmc_contact_coefs()); hsmc: a cell is full
+ *   when the volume of its particles reaches max_volume_fraction of it, and a
+ *   cell collision has the cell's mass and centre-of-mass velocity. Obstacles (fixed-wall variant only; refused with
  *   vibrating or open walls): exact contact times with each obstacle's
  *   contact sphere within the flight (ed/obstacle.h), ed's rule
  *   (obstacle_rule()), walls and obstacles in one loop; no centre ends a
@@ -185,12 +188,26 @@ size_t dsmc_memory(const dsmc_t *d);
  * (nb doubles) and resets it; NULL stops counting. Not state: draws no
  * random numbers, not checkpointed. */
 void dsmc_count_impacts(dsmc_t *d, double *counts, int nb);
+/* Mixtures: with counts != NULL each accepted binary collision of species
+ * a and b adds 1 to counts[min(a,b) * n_species + max(a,b)] (n_species^2
+ * doubles, the caller's). Not state, as dsmc_count_impacts(). Ignored
+ * for one species. */
+void dsmc_count_pairs(dsmc_t *d, double *counts);
 
 /* Kinetic theory used for the defaults and the corrections (also handy for
  * tests): contact value of the pair correlation, Henderson (2D) or
  * Carnahan-Starling (3D); Enskog collision frequency per particle
  * f_E = n sigma_T <|g|> chi; mean speed. */
 double dsmc_contact_value(int dim, double nu);
+/* Mixtures: contact value chi_ij of the pair correlation of species i and
+ * j (diameters s_i, s_j) in a mixture of ns species of number densities
+ * n[] and diameters sigma[]: chi_ij = c[0] + c[1] d + c[2] d^2, d = s_i
+ * s_j / (s_i + s_j), with c from dsmc_contact_coefs() (3D: Boublik /
+ * BMCSL; 2D: Jenkins-Mancini; see dsmc.c) and chi_ij from
+ * dsmc_contact_pair(). Equal species give dsmc_contact_value() up to
+ * rounding. */
+void dsmc_contact_coefs(int dim, int ns, const double *n, const double *sigma, double c[3]);
+double dsmc_contact_pair(const double c[3], double si, double sj);
 double dsmc_collision_frequency(int dim, double nu, double radius, double mass, double temp, double chi);
 double dsmc_mean_speed(int dim, double mass, double temp);
 
