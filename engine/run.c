@@ -125,7 +125,7 @@ static void mc_species(smp_t *o, const dsmc_sample_t *sm)
 }
 
 /* md: totals now (time, steps, kinetic energy, momentum; with gravity the centre-of-mass height along -g
- * and the potential energy -m sum g.x, as ed defines them). Positions are unwrapped between Verlet-list
+ * and the potential energy -m sum g.x, as ed defines them, plus the elastic energy of the contacts). Positions are unwrapped between Verlet-list
  * rebuilds: only a periodic axis can carry gravity's component, which parsing does not forbid, so the
  * height is taken from positions wrapped into the box. */
 /* md: the clock, run.until.time exactly at its last step (dt = until / md_kend). */
@@ -158,7 +158,9 @@ static void md_totals(const run_t *rc, smp_t *o)
 	o->kinetic_energy = 0.5 * s->mass * v2;
 	o->particles = s->count;
 	o->com_height = g2 > 0.0 ? -gr / (sqrt(g2) * (double)s->count) : NAN;
-	o->potential_energy = -s->mass * gr;
+	md_energy_t en;
+	md_energy(rc->md, &en);
+	o->potential_energy = -s->mass * gr + en.elastic;   /* gravity's and the contacts' springs' */
 }
 
 static void eng_sample(run_t *rc, smp_t *o)

@@ -1695,7 +1695,8 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 		if (!strcmp(name, "wall_force") && !walls)
 			return fail(c, path, "\"wall_force\" needs walls (boundaries)");
 		if (!strcmp(name, "center_of_mass_height") || !strcmp(name, "potential_energy")) {
-			if (!grav)
+			/* md: potential_energy includes the contacts' elastic energy (defined without gravity too) */
+			if (!grav && !(s->method == SCENE_METHOD_MD && !strcmp(name, "potential_energy")))
 				return fail(c, path, "\"%s\" needs gravity", name);
 			for (int a = 0; a < s->dim; a++)
 				if (s->gravity[a] != 0 && !s->boundary[a].walled)
