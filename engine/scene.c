@@ -651,8 +651,8 @@ static int parse_pairs(ctx_t *c, const char *path, json_t *v, void *dst, const v
 
 /* ---- method md (soft spheres, engine/md/md.h) ------------------------------ */
 
-static const struct range R_MD_STEP = { 0, 0.5, false };
-static const struct range R_MD_OVERLAP = { 0, 0.1, false };
+static const struct range R_MD_STEP = { 0, 0.5, true };
+static const struct range R_MD_OVERLAP = { 0, 0.1, true };
 
 static int check_md_obj(ctx_t *c, const char *path, json_t *v, void *base)
 {
