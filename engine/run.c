@@ -814,7 +814,7 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 	if (opts)
 		r->opts = *opts;
 	r->st = (run_state_t){.k_out = 1, .k_snap = 1, .k_ckpt = 1, .snap_events = UINT64_MAX};
-	if (!blank && s->has_region && !s->init_pos) {
+	if (!blank && s->has_region && !s->init_pos && s->method != SCENE_METHOD_MD) {   /* md: md_build() places */
 		/* placed here, per replica stream; the engines take the positions */
 		r->placed = malloc(s->count * s->dim * sizeof(double));
 		if (!r->placed)
