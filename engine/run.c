@@ -6,6 +6,8 @@
 #include <time.h>
 
 #include "mc/dsmc.h"
+#include "md/md.h"
+#include "rng.h"
 #include "observe/dspec.h"
 #include "observe/fields.h"
 #include "observe/msd.h"
@@ -52,6 +54,10 @@ struct run {
 	run_opts_t opts;
 	ed_t *ed;
 	dsmc_t *mc;
+	md_t *md;                /* method md (soft spheres), else NULL */
+	uint64_t md_steps;       /* md: velocity-Verlet steps taken (the events of its records) */
+	int md_err;              /* md: the core's error code when a step failed */
+	uint64_t md_kend;        /* md: the steps to run.until.time (dt = until / md_kend, md_build()) */
 	uint64_t mc_chunk;       /* dsmc steps between polls of the stop flag */
 	clusters_t *cl;
 	int varying;             /* open or reservoir walls: particles come and go (NaN rows, eng_present()) */
@@ -118,10 +124,51 @@ static void mc_species(smp_t *o, const dsmc_sample_t *sm)
 	memcpy(o->species_count, sm->species_count, sizeof o->species_count);
 }
 
+/* md: totals now (time, steps, kinetic energy, momentum; with gravity the centre-of-mass height along -g
+ * and the potential energy -m sum g.x, as ed defines them, plus the elastic energy of the contacts). Positions are unwrapped between Verlet-list
+ * rebuilds: only a periodic axis can carry gravity's component, which parsing does not forbid, so the
+ * height is taken from positions wrapped into the box. */
+/* md: the clock, run.until.time exactly at its last step (dt = until / md_kend). */
+static double md_clock(const run_t *rc)
+{
+	return rc->md_steps == rc->md_kend ? rc->s.until.value : md_time(rc->md);
+}
+
+static void md_totals(const run_t *rc, smp_t *o)
+{
+	const scene_t *s = &rc->s;
+	const double *x = md_positions(rc->md), *v = md_velocities(rc->md);
+	double sum[3] = {0, 0, 0}, v2 = 0.0, g2 = 0.0;
+	for (uint64_t i = 0; i < s->count; i++)
+		for (int a = 0; a < s->dim; a++) {
+			double xa = x[i * 3 + a];
+			if (!s->boundary[a].walled)
+				xa -= s->box[a] * floor(xa / s->box[a]);
+			sum[a] += xa;
+			o->momentum[a] += s->mass * v[i * 3 + a];
+			v2 += v[i * 3 + a] * v[i * 3 + a];
+		}
+	double gr = 0.0;
+	for (int a = 0; a < s->dim; a++) {
+		gr += s->gravity[a] * sum[a];
+		g2 += s->gravity[a] * s->gravity[a];
+	}
+	o->time = md_clock(rc);
+	o->events = rc->md_steps;
+	o->kinetic_energy = 0.5 * s->mass * v2;
+	o->particles = s->count;
+	o->com_height = g2 > 0.0 ? -gr / (sqrt(g2) * (double)s->count) : NAN;
+	md_energy_t en;
+	md_energy(rc->md, &en);
+	o->potential_energy = -s->mass * gr + en.elastic;   /* gravity's and the contacts' springs' */
+}
+
 static void eng_sample(run_t *rc, smp_t *o)
 {
 	memset(o, 0, sizeof(*o));
-	if (rc->ed) {
+	if (rc->md) {
+		md_totals(rc, o);
+	} else if (rc->ed) {
 		ed_sample_t sm;
 		ed_sample(rc->ed, &sm);
 		o->time = sm.time, o->interval = sm.interval, o->kinetic_energy = sm.kinetic_energy;
@@ -165,7 +212,9 @@ static void eng_sample(run_t *rc, smp_t *o)
 static void eng_totals(const run_t *rc, smp_t *o)
 {
 	memset(o, 0, sizeof(*o));
-	if (rc->ed) {
+	if (rc->md) {
+		md_totals(rc, o);
+	} else if (rc->ed) {
 		ed_sample_t sm;
 		ed_totals(rc->ed, &sm);
 		o->time = sm.time, o->kinetic_energy = sm.kinetic_energy;
@@ -206,6 +255,15 @@ static void eng_totals(const run_t *rc, smp_t *o)
  * random sequence (frames and checkpoints must not alter the run). */
 static int eng_advance(run_t *rc, double t_stop, double t_soft, uint64_t c_stop)
 {
+	if (rc->md) {   /* md: whole steps up to the first that reaches the stop (as dsmc), a chunk at most */
+		double dt = md_dt(rc->md), target = fmin(t_stop, t_soft), left = target - md_clock(rc);
+		double steps = target >= rc->s.until.value ? (double)(rc->md_kend - rc->md_steps) : ceil(left / dt - 1e-9);
+		long k = (long)fmax(1.0, fmin(steps, (double)rc->mc_chunk));
+		int e = md_step(rc->md, k);
+		rc->md_steps += (uint64_t)k;
+		rc->md_err = e;
+		return e == MD_OK ? 0 : 4;
+	}
 	if (rc->ed) {
 		int e = ed_advance(rc->ed, fmin(t_stop, t_soft), c_stop, RUN_CHUNK_EVENTS);
 		return e == ED_QUIESCENT ? 1 : e == ED_COLLAPSE ? 2 : e == ED_FULL ? 3 : 0;
@@ -215,12 +273,25 @@ static int eng_advance(run_t *rc, double t_stop, double t_soft, uint64_t c_stop)
 
 static uint64_t eng_events(const run_t *rc)
 {
-	return rc->ed ? ed_events(rc->ed) : dsmc_moves(rc->mc);
+	return rc->md ? rc->md_steps : rc->ed ? ed_events(rc->ed) : dsmc_moves(rc->mc);
 }
 
 static void eng_state(const run_t *rc, double *pos, double *vel)
 {
-	if (rc->ed)
+	if (rc->md) {   /* stride 3 to the scene's dim; periodic axes wrapped into [0, L) */
+		const scene_t *s = &rc->s;
+		const double *x = md_positions(rc->md), *v = md_velocities(rc->md);
+		for (uint64_t i = 0; i < s->count; i++)
+			for (int a = 0; a < s->dim; a++) {
+				double xa = x[i * 3 + a];
+				if (!s->boundary[a].walled)
+					xa -= s->box[a] * floor(xa / s->box[a]);
+				if (pos)
+					pos[i * s->dim + a] = xa;
+				if (vel)
+					vel[i * s->dim + a] = v[i * 3 + a];
+			}
+	} else if (rc->ed)
 		ed_state(rc->ed, pos, vel);
 	else
 		dsmc_state(rc->mc, pos, vel);
@@ -238,12 +309,12 @@ static size_t eng_present(const run_t *rc, double *pos, double *vel, double *spi
 
 static double eng_time(const run_t *rc)
 {
-	return rc->ed ? ed_time(rc->ed) : dsmc_time(rc->mc);
+	return rc->md ? md_clock(rc) : rc->ed ? ed_time(rc->ed) : dsmc_time(rc->mc);
 }
 
 static uint64_t eng_collisions(const run_t *rc)
 {
-	return rc->ed ? ed_collisions(rc->ed) : dsmc_collisions(rc->mc);
+	return rc->md ? 0 : rc->ed ? ed_collisions(rc->ed) : dsmc_collisions(rc->mc);
 }
 
 /* mean_square_displacement: unwrap the present positions (or take them as the origin). The speed bound's
@@ -646,6 +717,88 @@ static int emit_structure(run_t *r, run_emit_fn emit, void *ctx)
 
 /* ---- life cycle ------------------------------------------------------------ */
 
+/* md: the particles placed as ed places them (scene_md_placement(): no overlap, off the walls), velocities
+ * Maxwellian at particles.initial.temperature from the seed and the replica's stream (the total momentum
+ * removed when no wall or gravity takes it up), spins 0, and the core with the scene's md settings. */
+static int md_build(run_t *r, uint64_t stream, char *msg, size_t msglen)
+{
+	const scene_t *s = &r->s;
+	const size_t n = s->count;
+	int ret = -1, e = 0;
+	double *pos = malloc(n * s->dim * sizeof(double)), *x = calloc(n * 3, sizeof(double));
+	double *v = calloc(n * 3, sizeof(double));
+	if (!pos || !x || !v) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "out of memory");
+		goto cleanup;
+	}
+	if (s->init_pos) {
+		memcpy(pos, s->init_pos, n * s->dim * sizeof(double));
+	} else {
+		scene_t p;
+		scene_md_placement(s, &p);
+		if (place_region(&p, stream, pos, msg, msglen) != PLACE_OK)
+			goto cleanup;
+	}
+	rng_t rng;
+	rng_init(&rng, s->seed, stream);
+	const double sd = sqrt(s->temperature / s->mass);
+	double mean[3] = {0, 0, 0};
+	for (size_t i = 0; i < n; i++)
+		for (int a = 0; a < s->dim; a++) {
+			x[i * 3 + a] = pos[i * s->dim + a];
+			v[i * 3 + a] = sd * rng_gauss(&rng);
+			mean[a] += v[i * 3 + a] / (double)n;
+		}
+	if (!scene_has_walls(s))
+		for (size_t i = 0; i < n; i++)
+			for (int a = 0; a < s->dim; a++)
+				v[i * 3 + a] -= mean[a];
+	md_params_t pr = {
+		.dim = s->dim, .n = (int)n, .radius = s->radius, .mass = s->mass,
+		.law = s->md_law ? MD_LAW_HERTZ : MD_LAW_LINEAR, .restitution = s->restitution,
+		.v_ref = s->md_impact_speed, .mu = s->md_friction, .kt_ratio = s->md_tangential_ratio,
+		.dt_steps = 1.0 / s->md_time_step, .x = x, .v = v,
+	};
+	for (int a = 0; a < 3; a++) {
+		pr.box[a] = a < s->dim ? s->box[a] : 1.0;
+		pr.periodic[a] = a < s->dim ? !s->boundary[a].walled : 1;
+		pr.gravity[a] = a < s->dim ? s->gravity[a] : 0.0;
+	}
+	if (s->md_law)
+		pr.young = s->md_stiffness;
+	else if (s->md_contact_time > 0)
+		pr.t_contact = s->md_contact_time;
+	else
+		pr.kn = s->md_stiffness;
+	/* dt: the contact time's fraction md_time_step, shortened so that run.until.time is a whole number of
+	 * steps (progress records and frames come at the end of the step that reaches their time, as dsmc's) */
+	md_t *probe = md_create(&pr, &e);
+	if (probe) {
+		double k = ceil(s->until.value / md_dt(probe));
+		md_destroy(probe);
+		if (!(k < 9e15)) {
+			if (msg && msglen)
+				snprintf(msg, msglen, "run.until.time: %.3g steps of the md time step: too many", k);
+			goto cleanup;
+		}
+		r->md_kend = (uint64_t)k;
+		pr.dt = s->until.value / k;
+		r->md = md_create(&pr, &e);
+	}
+	if (!r->md) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "md: %s", md_strerror(e));
+		goto cleanup;
+	}
+	ret = 0;
+cleanup:
+	free(pos);
+	free(x);
+	free(v);
+	return ret;
+}
+
 static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, int blank,
                      int *err, char *msg, size_t msglen)
 {
@@ -661,7 +814,7 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 	if (opts)
 		r->opts = *opts;
 	r->st = (run_state_t){.k_out = 1, .k_snap = 1, .k_ckpt = 1, .snap_events = UINT64_MAX};
-	if (!blank && s->has_region && !s->init_pos) {
+	if (!blank && s->has_region && !s->init_pos && s->method != SCENE_METHOD_MD) {   /* md: md_build() places */
 		/* placed here, per replica stream; the engines take the positions */
 		r->placed = malloc(s->count * s->dim * sizeof(double));
 		if (!r->placed)
@@ -674,7 +827,17 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		}
 		r->s.init_pos = r->placed;
 	}
-	if (s->method == SCENE_METHOD_ED) {
+	if (s->method == SCENE_METHOD_MD) {
+		if (blank || md_build(r, stream, msg, msglen) != 0) {
+			*err = blank ? RUN_EMETHOD : RUN_ESETUP;
+			if (blank && msg && msglen)
+				snprintf(msg, msglen, "output.checkpoint: method \"md\" has no checkpoints yet");
+			run_destroy(r);
+			return NULL;
+		}
+		r->mc_chunk = RUN_CHUNK_MOVES / s->count + 1;
+		r->opts.checkpoints = 0;   /* none yet: an interrupt ends the run (status interrupted) */
+	} else if (s->method == SCENE_METHOD_ED) {
 		r->ed = blank ? ed_create_blank(&r->s, &e, msg, msglen) : ed_create(&r->s, &e, msg, msglen);
 		if (!r->ed) {
 			*err = e == ED_ENOMEM ? RUN_ENOMEM : RUN_ESETUP;
@@ -841,12 +1004,13 @@ void run_destroy(run_t *r)
 	free(r->spin);
 	ed_destroy(r->ed);
 	dsmc_destroy(r->mc);
+	md_destroy(r->md);
 	free(r);
 }
 
 struct ed *run_ed(run_t *r) { return r->ed; }
 
-const char *run_engine_name(const run_t *r) { return r->ed ? "ed" : "dsmc"; }
+const char *run_engine_name(const run_t *r) { return r->md ? "md" : r->ed ? "ed" : "dsmc"; }
 
 /* Run-level state besides the engine's (checkpoints): the observables that
  * accumulate between samples. */
@@ -866,6 +1030,8 @@ static size_t impact_count(const run_t *r)
 
 int run_fields(const run_t *r, ed_field_t *out, int max)
 {
+	if (r->md)
+		return 0;   /* no checkpoints yet (scene_parse() refuses output.checkpoint with md) */
 	int n = r->ed ? ed_fields(r->ed, out, max) : dsmc_fields(r->mc, out, max);
 	if (r->msd && n++ < max)
 		out[n - 1] = (ed_field_t){F_MSD, ED_T_F64, msd_state_size(r->msd) + 2};
@@ -1040,7 +1206,9 @@ void run_summary_record(run_t *r, run_record_t *sum)
 	sum->wall_seconds = wall_seconds(r);
 	sum->events_per_second = sum->wall_seconds > 0 ? sum->events / sum->wall_seconds : 0.0;
 	sum->collisions_per_second = sum->wall_seconds > 0 ? sum->collisions / sum->wall_seconds : 0.0;
-	if (r->ed) {
+	if (r->md) {
+		sum->memory_bytes = 0;   /* not reported by the md core yet */
+	} else if (r->ed) {
 		sum->memory_bytes = ed_memory(r->ed);
 		ed_cells(r->ed, sum->cells);
 	} else {
@@ -1104,6 +1272,12 @@ static int advance(run_t *r, double t_stop, double t_soft, uint64_t c_stop, int 
 	}
 	if (adv == 2) {
 		note_collapse(r);
+		done = 1;
+	}
+	if (adv == 4) {   /* md: the core stopped (md_strerror()) */
+		snprintf(r->collapse, sizeof(r->collapse), "md: the run stopped at time %.9g: %s", *t,
+		         md_strerror(r->md_err));
+		r->status = RUN_COLLAPSED;
 		done = 1;
 	}
 	if (adv == 3) {   /* reservoir walls: no free slot for an entry */

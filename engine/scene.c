@@ -57,8 +57,9 @@ static const struct irange R_REPLICAS = { 1, 1000000 };
 
 static const char *const method_names[] = {
 	[SCENE_METHOD_ED] = "ed", [SCENE_METHOD_DSMC] = "dsmc", [SCENE_METHOD_HSMC] = "hsmc",
-	[SCENE_METHOD_AUTO] = "auto",
+	[SCENE_METHOD_AUTO] = "auto", [SCENE_METHOD_MD] = "md",
 };
+static const char *const md_law_names[] = { "linear", "hertz" };
 static const char *const position_names[] = {
 	[SCENE_POS_LATTICE] = "lattice", [SCENE_POS_RANDOM] = "random",
 };
@@ -234,10 +235,15 @@ static int match(ctx_t *c, const char *path, const json_t *v, const char *const 
 
 static int parse_method(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
 {
-	int i, ret = match(c, path, v, method_names, 4, &i);
+	int i, ret = match(c, path, v, method_names, 5, &i);
 	if (ret == 0)
 		*(scene_method_t *)dst = (scene_method_t)i;
 	return ret;
+}
+
+static int parse_md_law(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	return match(c, path, v, md_law_names, 2, (int *)dst);
 }
 
 static int parse_positions(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
@@ -643,6 +649,158 @@ static int parse_pairs(ctx_t *c, const char *path, json_t *v, void *dst, const v
 	return 0;
 }
 
+/* ---- method md (soft spheres, engine/md/md.h) ------------------------------ */
+
+static const struct range R_MD_STEP = { 0, 0.5, true };
+static const struct range R_MD_OVERLAP = { 0, 0.1, true };
+
+static int check_md_obj(ctx_t *c, const char *path, json_t *v, void *base)
+{
+	scene_t *s = base;
+	int n = (s->md_stiffness > 0) + (s->md_contact_time > 0);
+	if (n > 1)
+		return fail(c, path, "at most one of stiffness and contact_time");
+	if (s->md_law == 1 && s->md_contact_time > 0)
+		return fail(c, "md.contact_time", "only with force_law \"linear\" (a Hertz contact's duration depends on "
+			    "the impact speed); give stiffness (the effective modulus E*) or max_overlap");
+	if (n && json_object_get(v, "max_overlap"))
+		return fail(c, "md.max_overlap", "sets the stiffness: not with stiffness or contact_time");
+	return 0;
+}
+
+static const struct object md_obj = {
+	.fields = (const struct field[]){
+		{ "force_law", parse_md_law, offsetof(scene_t, md_law), NULL, false },
+		{ "stiffness", parse_number, offsetof(scene_t, md_stiffness), &R_POS, false },
+		{ "contact_time", parse_number, offsetof(scene_t, md_contact_time), &R_POS, false },
+		{ "max_overlap", parse_number, offsetof(scene_t, md_max_overlap), &R_MD_OVERLAP, false },
+		{ "impact_speed", parse_number, offsetof(scene_t, md_impact_speed), &R_POS, false },
+		{ "time_step", parse_number, offsetof(scene_t, md_time_step), &R_MD_STEP, false },
+		{ "friction", parse_number, offsetof(scene_t, md_friction), &R_NONNEG, false },
+		{ "tangential_stiffness", parse_number, offsetof(scene_t, md_tangential_ratio), &R_POS, false },
+		{ .name = NULL },
+	},
+	.check = check_md_obj,
+};
+
+void scene_md_placement(const scene_t *s, scene_t *p)
+{
+	*p = *s;
+	p->method = SCENE_METHOD_ED;   /* hard-particle placement: no two closer than a diameter */
+	if (!p->has_region) {
+		p->has_region = 1;
+		for (int a = 0; a < 3; a++)
+			p->region_lo[a] = 0.0, p->region_hi[a] = s->box[a];
+	}
+}
+
+/* Method md: what this slice supports (one species, specular walls, gravity, restitution, friction; time
+ * clocks; energy, momentum, centre-of-mass height and potential energy); everything else refused by name.
+ * Resolves the md object's defaults. */
+static int check_md(ctx_t *c, json_t *v, scene_t *s)
+{
+	if (s->method != SCENE_METHOD_MD)
+		return 0;
+	json_t *par = json_object_get(v, "particles"), *ini = json_object_get(par, "initial");
+	json_t *col = json_object_get(v, "collisions"), *out = json_object_get(v, "output");
+	static const struct { const char *obj, *key; } refused[] = {
+		{ "particles", "species" }, { "particles", "capacity" }, { "initial", "velocity" },
+		{ "initial", "rotational_temperature" }, { "initial", "relax" }, { "initial", "from" },
+		{ "collisions", "tc" }, { "collisions", "rough" }, { "collisions", "restitution_pairs" },
+		{ "", "obstacles" }, { "", "driving" }, { "", "ed" }, { "output", "checkpoint" },
+		{ "run", "max_events" },
+	};
+	for (size_t k = 0; k < sizeof refused / sizeof refused[0]; k++) {
+		const char *o = refused[k].obj;
+		json_t *in = !*o ? v : !strcmp(o, "particles") ? par : !strcmp(o, "initial") ? ini :
+			     !strcmp(o, "collisions") ? col : !strcmp(o, "output") ? out : json_object_get(v, o);
+		if (!json_object_get(in, refused[k].key))
+			continue;
+		char key[PATHLEN];
+		snprintf(key, sizeof key, "%s%s%s", !*o ? "" : !strcmp(o, "initial") ? "particles.initial" : o, *o ? "." : "",
+			 refused[k].key);
+		return fail(c, key, "not supported with method \"md\" yet (docs/md.md)");
+	}
+	if (s->replicas > 1)
+		return fail(c, "run.replicas", "ensembles are not supported with method \"md\" yet (docs/md.md)");
+	if (s->restitution <= 0)
+		return fail(c, "collisions.restitution", "must be > 0 with method \"md\" (the damping of a contact is "
+			    "derived from it)");
+	/* clocks: simulated time only (md has contacts, not countable collisions) */
+	static const struct { const char *key; size_t off; } clocks[] = {
+		{ "run.until", offsetof(scene_t, until) }, { "output.every", offsetof(scene_t, every) },
+		{ "output.snapshots.every", offsetof(scene_t, snapshots) },
+	};
+	for (size_t k = 0; k < sizeof clocks / sizeof clocks[0]; k++) {
+		const scene_when_t *w = (const scene_when_t *)((const char *)s + clocks[k].off);
+		if (w->kind != SCENE_CLOCK_NONE && w->kind != SCENE_CLOCK_TIME)
+			return fail(c, clocks[k].key, "method \"md\" takes \"time\" only (soft contacts have no collision "
+				    "count to define collisions per particle)");
+	}
+	char path[PATHLEN];
+	for (int a = 0; a < s->dim; a++)
+		for (int k = 0; k < 2 && s->boundary[a].walled; k++) {
+			const scene_wall_t *w = &s->boundary[a].wall[k];
+			json_t *wj = json_object_get(json_object_get(json_object_get(v, "boundaries"), axis_names[a]),
+						     k ? "upper" : "lower");
+			snprintf(path, sizeof path, "boundaries.%s.%s.type", axis_names[a], k ? "upper" : "lower");
+			if (w->type != SCENE_WALL_SPECULAR)
+				return fail(c, path, "method \"md\" supports \"specular\" (flat) walls only yet");
+			static const char *const wkeys[] = { "restitution", "coverage" };
+			for (size_t q = 0; q < 2; q++)
+				if (json_object_get(wj, wkeys[q])) {
+					snprintf(path, sizeof path, "boundaries.%s.%s.%s", axis_names[a], k ? "upper" : "lower",
+						 wkeys[q]);
+					return fail(c, path, "not with method \"md\": a wall is a contact partner with the "
+						    "particles' force law and collisions.restitution");
+				}
+		}
+	const unsigned md_obs = SCENE_OBS_ENERGY | SCENE_OBS_MOMENTUM | SCENE_OBS_COM_HEIGHT | SCENE_OBS_POTENTIAL;
+	json_t *obs = json_object_get(out, "observables");
+	if (!obs)
+		s->observables = SCENE_OBS_ENERGY | (scene_has_gravity(s) ? SCENE_OBS_COM_HEIGHT | SCENE_OBS_POTENTIAL : 0);
+	size_t i;
+	json_t *o;
+	json_array_foreach(obs, i, o)
+		for (size_t k = 0; k < N_OBSERVABLES; k++)
+			if (!strcmp(json_string_value(o), observables[k].name) && !(observables[k].bit & md_obs)) {
+				snprintf(path, sizeof path, "output.observables[%zu]", i);
+				return fail(c, path, "\"%s\" is not computed by method \"md\" yet (it has kinetic_energy, "
+					    "temperature, momentum, center_of_mass_height, potential_energy)", observables[k].name);
+			}
+	static const char *const outs[] = { "clusters", "velocity_distribution", "pair_correlation", "structure_factor",
+					    "impact_parameter", "fields", "density_spectrum" };
+	for (size_t k = 0; k < sizeof outs / sizeof outs[0]; k++)
+		if (json_object_get(out, outs[k])) {
+			snprintf(path, sizeof path, "output.%s", outs[k]);
+			return fail(c, path, "not computed by method \"md\" yet");
+		}
+	/* defaults: the reference impact speed from the thermal speed and the fall through the box */
+	if (s->md_impact_speed == 0) {
+		double fall = 0.0;
+		for (int a = 0; a < s->dim; a++)
+			fall += fabs(s->gravity[a]) * s->box[a];
+		s->md_impact_speed = fmax(4.0 * sqrt(s->temperature / s->mass), sqrt(2.0 * fall));
+		if (!(s->md_impact_speed > 0))
+			return fail(c, "md.impact_speed", "required when the temperature is 0 and there is no gravity (it "
+				    "sets the stiffness and the time step)");
+	}
+	if (s->md_max_overlap == 0)
+		s->md_max_overlap = 0.01;
+	if (s->md_time_step == 0)
+		s->md_time_step = 1.0 / 50.0;
+	if (s->md_tangential_ratio == 0)
+		s->md_tangential_ratio = 2.0 / 7.0;
+	if (s->md_stiffness == 0 && s->md_contact_time == 0) {
+		/* the stiffness at which a head-on elastic impact on a wall at impact_speed overlaps max_overlap
+		 * diameters: linear m v^2 = k delta^2; hertz m v^2 / 2 = 8/15 E* sqrt(R) delta^(5/2) */
+		double v2 = s->md_impact_speed * s->md_impact_speed, d = s->md_max_overlap * 2.0 * s->radius;
+		s->md_stiffness = s->md_law == 0 ? s->mass * v2 / (d * d)
+						 : 15.0 * s->mass * v2 / (16.0 * sqrt(s->radius) * pow(d, 2.5));
+	}
+	return 0;
+}
+
 /* Observables and features a mixture does not have yet: refused by name. */
 static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 {
@@ -956,7 +1114,10 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 			    "use more particles or a lower volume_fraction", s->box[i], num(4 * s->radius).s);
 	}
 
-	int sret = check_species_scene(c, v, s);
+	int sret = check_md(c, v, s);
+	if (sret)
+		return sret;
+	sret = check_species_scene(c, v, s);
 	if (sret)
 		return sret;
 	/* Perfectly inelastic hard spheres collapse in finite time (infinitely many
@@ -966,7 +1127,7 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 
 	/* Method settings only with their method: a forgotten "method" is a mistake. */
 	static const struct { const char *key; scene_method_t m; } tuning[] = {
-		{ "dsmc", SCENE_METHOD_DSMC }, { "hsmc", SCENE_METHOD_HSMC },
+		{ "dsmc", SCENE_METHOD_DSMC }, { "hsmc", SCENE_METHOD_HSMC }, { "md", SCENE_METHOD_MD },
 	};
 	for (size_t i = 0; i < sizeof tuning / sizeof tuning[0]; i++)
 		if (json_object_get(v, tuning[i].key) && s->method != tuning[i].m)
@@ -1031,7 +1192,11 @@ int scene_check_start(const scene_t *s, char *err, size_t errlen)
 		bad = ed_plan(s, NULL, why, sizeof why) != ED_OK;
 	else if (s->method == SCENE_METHOD_DSMC || s->method == SCENE_METHOD_HSMC)
 		bad = dsmc_plan(s, NULL, why, sizeof why) != DSMC_OK;
-	if (!bad && s->method != SCENE_METHOD_AUTO)
+	if (!bad && s->method == SCENE_METHOD_MD) {
+		scene_t p;   /* md places as ed does, in the whole box (scene_md_placement()) */
+		scene_md_placement(s, &p);
+		bad = place_check(&p, why, sizeof why) != PLACE_OK;
+	} else if (!bad && s->method != SCENE_METHOD_AUTO)
 		bad = place_check(s, why, sizeof why) != PLACE_OK;
 	if (!bad)
 		return SCENE_OK;
@@ -1524,7 +1689,8 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 		if (!strcmp(name, "wall_force") && !walls)
 			return fail(c, path, "\"wall_force\" needs walls (boundaries)");
 		if (!strcmp(name, "center_of_mass_height") || !strcmp(name, "potential_energy")) {
-			if (!grav)
+			/* md: potential_energy includes the contacts' elastic energy (defined without gravity too) */
+			if (!grav && !(s->method == SCENE_METHOD_MD && !strcmp(name, "potential_energy")))
 				return fail(c, path, "\"%s\" needs gravity", name);
 			for (int a = 0; a < s->dim; a++)
 				if (s->gravity[a] != 0 && !s->boundary[a].walled)
@@ -2103,6 +2269,7 @@ static const struct object scene_obj = {
 		{ "ed", parse_object, 0, &ed_obj, false },
 		{ "dsmc", parse_object, 0, &dsmc_obj, false },
 		{ "hsmc", parse_object, 0, &hsmc_obj, false },
+		{ "md", parse_object, 0, &md_obj, false },
 		{ "accuracy", parse_object, 0, &accuracy_obj, false },
 		{ .name = NULL },
 	},

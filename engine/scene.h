@@ -29,7 +29,8 @@ enum {
 /* Longest particles.initial.from.file, bytes including the NUL. */
 #define SCENE_PATH_MAX 1024
 
-typedef enum { SCENE_METHOD_ED = 0, SCENE_METHOD_DSMC, SCENE_METHOD_HSMC, SCENE_METHOD_AUTO } scene_method_t;
+/* SCENE_METHOD_MD: soft spheres (engine/md/md.h); never chosen by "auto". */
+typedef enum { SCENE_METHOD_ED = 0, SCENE_METHOD_DSMC, SCENE_METHOD_HSMC, SCENE_METHOD_AUTO, SCENE_METHOD_MD } scene_method_t;
 typedef enum { SCENE_POS_LATTICE = 0, SCENE_POS_RANDOM } scene_positions_t;
 /* Dense-gas correction of the Monte Carlo methods (dsmc.h). */
 #define SCENE_IMPACT_MAX 64   /* points of dsmc/hsmc impact_c */
@@ -296,6 +297,14 @@ typedef struct scene {
 	int mc_impact_n;
 	double mc_impact_tau[SCENE_IMPACT_MAX], mc_impact_c[SCENE_IMPACT_MAX];
 
+	/* method md ("md" object, engine/md/md.h; docs/scene.md), resolved by scene_parse(): md_law 0 linear,
+	 * 1 hertz; exactly one of md_stiffness (linear k_n, force/length; hertz E*, force/length^2) and
+	 * md_contact_time (linear only) is > 0; md_impact_speed > 0 (the reference impact speed: default
+	 * stiffness and the hertz contact time); md_time_step: dt as a fraction of the contact time */
+	int md_law;
+	double md_stiffness, md_contact_time, md_impact_speed, md_max_overlap, md_time_step;
+	double md_friction, md_tangential_ratio;
+
 	/* method "auto" only (required there): target for the expected relative
 	 * RMS error of T(t) against exact hard-sphere dynamics, in (0, 1] */
 	double accuracy_temperature;
@@ -312,6 +321,11 @@ int scene_parse(const char *json, size_t len, scene_t *out, char *err, size_t er
  * hsmc scenes; for "auto" call this once advice_apply() has chosen the
  * method. SCENE_OK, or SCENE_EINVAL with "KEY.PATH: reason" in err. */
 int scene_check_start(const scene_t *s, char *err, size_t errlen);
+
+/* Method md: the scene that places its particles (s with method ed and, without particles.initial.region,
+ * the whole box as the region): place_check()/place_region() of p put no two particles closer than a
+ * diameter and keep them off the walls, so soft contacts start without overlap. */
+void scene_md_placement(const scene_t *s, scene_t *p);
 
 /* Close-packing volume fraction of disks (dim 2) or spheres (dim 3). */
 double scene_close_packing(int dim);
