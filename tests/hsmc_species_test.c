@@ -105,10 +105,6 @@ static void test_contact_values(void)
 
 /* ---- runs ------------------------------------------------------------------ */
 
-static double tspec(const dsmc_sample_t *sm, int s, int dim)
-{
-	return 2 * sm->species_kinetic_energy[s] / (dim * (double)sm->species_count[s]);
-}
 
 static double cpp_coll(double cpp, uint64_t n) { return ceil(cpp * (double)n / 2.0); }
 
@@ -420,18 +416,7 @@ static void test_equipartition(void)
 	dsmc_sample_t sm;
 	memset(&sm, 0, sizeof sm);
 	if (d) {
-		size_t np = sc.count * 4;
-		double *p = malloc(np * sizeof(double));
-		uint32_t *id = malloc(sc.count * sizeof(uint32_t));
-		dsmc_field_get(d, "particles", p);
-		dsmc_field_get(d, "id", id);
-		for (uint64_t k = 0; k < sc.count; k++)
-			if (id[k] >= 1500)
-				for (int a = 0; a < 2; a++)
-					p[k * 4 + 2 + a] *= sqrt(3.0);
-		dsmc_field_set(d, "particles", ED_T_F64, np, p);
-		free(p);
-		free(id);
+		mc_scale_ids_2d(d, sc.count, 1500, sqrt(3.0));
 		dsmc_totals(d, &sm);
 		ratio0 = tspec(&sm, 1, 2) / tspec(&sm, 0, 2);
 		e0 = sm.kinetic_energy;

@@ -14,10 +14,6 @@
 
 
 /* T_s = 2 E_s / (D N_s) of species s now. */
-static double tspec(const dsmc_sample_t *sm, int s, int dim)
-{
-	return 2 * sm->species_kinetic_energy[s] / (dim * (double)sm->species_count[s]);
-}
 
 /* An elastic binary mixture (600 disks m = 1, r = 0.5; 200 disks m = 4,
  * r = 1; nu = 0.05) started with the large species 3 times hotter (its
@@ -38,18 +34,7 @@ static void test_equipartition(void)
 	dsmc_t *d = mc_make(json, &sc, 0);
 	double ratio0 = NAN, ratio[40] = {0}, e0 = NAN, p0[3] = {0}, worst = 0, pworst = 0;
 	if (d) {
-		size_t np = sc.count * 4;
-		double *p = malloc(np * sizeof(double));
-		uint32_t *id = malloc(sc.count * sizeof(uint32_t));
-		dsmc_field_get(d, "particles", p);
-		dsmc_field_get(d, "id", id);
-		for (uint64_t k = 0; k < sc.count; k++)
-			if (id[k] >= 600)
-				for (int a = 0; a < 2; a++)
-					p[k * 4 + 2 + a] *= sqrt(3.0);
-		dsmc_field_set(d, "particles", ED_T_F64, np, p);
-		free(p);
-		free(id);
+		mc_scale_ids_2d(d, sc.count, 600, sqrt(3.0));
 		dsmc_sample_t sm;
 		dsmc_totals(d, &sm);
 		ratio0 = tspec(&sm, 1, 2) / tspec(&sm, 0, 2);

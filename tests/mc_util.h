@@ -7,9 +7,36 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ed/ed.h"   /* ED_T_F64: the field types */
 #include "mc/dsmc.h"
 #include "scene.h"
 #include "tap.h"
+
+/* Temperature of species s (k_B = 1) from a sample of a dim-dimensional mixture. */
+static inline double tspec(const dsmc_sample_t *sm, int s, int dim)
+{
+	return 2 * sm->species_kinetic_energy[s] / (dim * (double)sm->species_count[s]);
+}
+
+/* 2D: the velocities of every particle whose id is first or above scaled by f, through the checkpoint fields
+ * "particles" (x, y, v_x, v_y per record) and "id" (a hot species, the scene's last block of ids). */
+static inline void mc_scale_ids_2d(dsmc_t *d, uint64_t n, uint32_t first, double f)
+{
+	size_t np = n * 4;
+	double *p = malloc(np * sizeof(double));
+	uint32_t *id = malloc(n * sizeof(uint32_t));
+	if (p && id) {
+		dsmc_field_get(d, "particles", p);
+		dsmc_field_get(d, "id", id);
+		for (uint64_t k = 0; k < n; k++)
+			if (id[k] >= first)
+				for (int a = 0; a < 2; a++)
+					p[k * 4 + 2 + a] *= f;
+		dsmc_field_set(d, "particles", ED_T_F64, np, p);
+	}
+	free(p);
+	free(id);
+}
 
 /* The engine of scene json (parsed into *sc) on random stream stream; NULL (with a diagnostic) when the scene
  * or the engine refuses. */
