@@ -68,6 +68,7 @@ struct dsmc {
 	float *rem;                    /* NTC fractional candidate carried per cell */
 	uint32_t *stamp;               /* hsmc: step at which a cell last took part in a cell collision */
 	float *chic, *chit;            /* local_chi: chi per cell; scratch for the block average */
+	double *chilay;                /* local_chi with walls: per axis, each layer's length and its block's */
 
 	rng_t rng;
 	double t;
@@ -1226,6 +1227,62 @@ static double contact_value_dd(int dim, double nu)
 	                : -3 * w * w * w * w + 12 * (1 - nu / 2) * w * w * w * w * w;
 }
 
+/* local_chi() with walls: the block sums a[] were cut at the walls; the
+ * ring's volume is what lies between the walls, per cell. Along a walled
+ * axis layer i of the grid holds len[i] of the space between the walls
+ * (the contact planes plus one radius: a vibrating wall where it is at the
+ * end of this step, B = 2; the layers below it hold none), len = h along
+ * periodic axes; the block's volume is the product over axes of the
+ * summed lengths of its layers, the ring's that less the cell's own. The
+ * same bias correction with each cell's own unit vp / V_ring. A cell
+ * whose ring holds no space (a vibrating wall more than a layer into the
+ * grid) holds no particles either: chi of the empty gas, 1. */
+static void local_chi_walled(struct dsmc *d, const int D, const float *a)
+{
+	double *len[3], *sum[3], *w = d->chilay;
+	const double R = 0.5 * d->sigma;
+	for (int ax = 0; ax < D; ax++) {
+		len[ax] = w;
+		sum[ax] = w + d->nc[ax];
+		w += 2 * (size_t)d->nc[ax];
+		const int n = d->nc[ax];
+		const double h = d->h[ax];
+		const double wlo = d->cur_lo[ax] - R, whi = d->cur_hi[ax] + R;
+		for (int i = 0; i < n; i++)
+			len[ax][i] = d->walled[ax] ? fmax(0.0, fmin((i + 1) * h, whi) - fmax(i * h, wlo)) : h;
+		for (int i = 0; i < n; i++) {
+			double t = len[ax][i];
+			if (d->walled[ax]) {
+				t += i + 1 < n ? len[ax][i + 1] : 0.0;
+				t += i > 0 ? len[ax][i - 1] : 0.0;
+			} else {
+				t += n >= 2 ? len[ax][(i + 1) % n] : 0.0;
+				t += n >= 3 ? len[ax][(i + n - 1) % n] : 0.0;
+			}
+			sum[ax][i] = t;
+		}
+	}
+	int idx[3] = {0, 0, 0};
+	for (size_t c = 0; c < d->ncells; c++) {
+		double vblock = 1, vown = 1;
+		for (int ax = 0; ax < D; ax++) {
+			vblock *= sum[ax][idx[ax]];
+			vown *= len[ax][idx[ax]];
+		}
+		const double own = (double)(d->start[c + 1] - d->start[c]);
+		const double vring = vblock - vown;
+		double chi = 1.0;
+		if (vring > 1e-12 * d->vcell) {
+			const double unit = d->vp / vring, nu = (a[c] - own) * unit;
+			chi = nu >= d->nu_cap ? dsmc_contact_value(D, d->nu_cap)
+			                      : dsmc_contact_value(D, nu) - 0.5 * contact_value_dd(D, nu) * nu * unit;
+		}
+		d->chic[c] = (float)(chi > 0 ? chi : 0);
+		for (int ax = 0; ax < D && ++idx[ax] == d->nc[ax]; ax++)
+			idx[ax] = 0;
+	}
+}
+
 /* Local contact value: chi per cell from the volume fraction of the cells
  * around it (the 3^D block less the cell itself). Two biases are avoided:
  * counting the cell's own particles would correlate chi with its pair
@@ -1245,14 +1302,26 @@ static void local_chi(struct dsmc *d, const int D)
 	double block = 1;
 	for (int ax = 0; ax < D; ax++) {
 		size_t n = (size_t)d->nc[ax];
-		for (size_t c = 0; c < d->ncells; c++) {
-			size_t i = (c / stride) % n, base = c - i * stride;
-			float sum = a[c];
-			if (n >= 2)
-				sum += a[base + ((i + 1) % n) * stride];
-			if (n >= 3)
-				sum += a[base + ((i + n - 1) % n) * stride];
-			b[c] = sum;
+		if (d->walled[ax]) {   /* a wall has no cells beyond it: the end layers' blocks are cut */
+			for (size_t c = 0; c < d->ncells; c++) {
+				size_t i = (c / stride) % n;
+				float sum = a[c];
+				if (i + 1 < n)
+					sum += a[c + stride];
+				if (i > 0)
+					sum += a[c - stride];
+				b[c] = sum;
+			}
+		} else {
+			for (size_t c = 0; c < d->ncells; c++) {
+				size_t i = (c / stride) % n, base = c - i * stride;
+				float sum = a[c];
+				if (n >= 2)
+					sum += a[base + ((i + 1) % n) * stride];
+				if (n >= 3)
+					sum += a[base + ((i + n - 1) % n) * stride];
+				b[c] = sum;
+			}
 		}
 		block *= n >= 3 ? 3 : (double)n;
 		float *t = a;
@@ -1261,6 +1330,10 @@ static void local_chi(struct dsmc *d, const int D)
 		stride *= n;
 	}
 	/* a: block sums (chic or chit, depending on D's parity). */
+	if (d->has_walls) {
+		local_chi_walled(d, D, a);
+		return;
+	}
 	const int ring = block > 1;
 	const double vring = (ring ? block - 1 : 1) * d->vcell, unit = d->vp / vring;
 	for (size_t c = 0; c < d->ncells; c++) {
@@ -1757,12 +1830,6 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 			return DSMC_EINVAL;
 		}
 	}
-	if (scene_has_walls(s) && d->local_chi) {
-		if (msg && msglen)
-			snprintf(msg, msglen, "%s.contact_value: \"local\" needs a periodic box (its cell blocks wrap), "
-			         "not available with walls yet; use \"global\"", method);
-		return DSMC_EINVAL;
-	}
 	d->gnorm = sqrt(g2);
 	/* Adaptive step under gravity: at most the time to fall collisions_per_step
 	 * of a cell from rest (a gas at T = 0 still falls, and a step should not
@@ -1997,6 +2064,8 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	if (d->local_chi) {
 		d->chic = malloc(d->ncells * sizeof(float));
 		d->chit = malloc(d->ncells * sizeof(float));
+		if (d->has_walls)
+			d->chilay = malloc(2 * ((size_t)d->nc[0] + d->nc[1] + d->nc[2]) * sizeof(double));
 	}
 	if (d->nobst) {
 		d->vfac = malloc(d->ncells * sizeof(float));
@@ -2029,7 +2098,7 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	if (!d->ringp || !d->ringid || !d->overp || !d->overid || !d->overdst)
 		goto fail;
 	if (!d->p || !d->id || !d->cell || !d->start || !d->cnt || !d->rem ||
-	    (d->hsmc && !d->stamp) || (d->local_chi && (!d->chic || !d->chit)))
+	    (d->hsmc && !d->stamp) || (d->local_chi && (!d->chic || !d->chit || (d->has_walls && !d->chilay))))
 		goto fail;
 	*err = DSMC_OK;
 	return d;
@@ -2253,6 +2322,7 @@ void dsmc_destroy(dsmc_t *d)
 	free(d->stamp);
 	free(d->chic);
 	free(d->chit);
+	free(d->chilay);
 	free(d->vocc);
 	free(d->vfac);
 	free(d->spc);
