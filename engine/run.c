@@ -917,10 +917,10 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		if (!r->cl)
 			goto nomem;
 		if (scene_has_species(s)) {   /* mixtures, polydisperse: each particle's own radius (the engine's draws) */
-			r->radii = malloc(s->count * sizeof(double));
+			r->radii = malloc(scene_slots(s) * sizeof(double));
 			if (!r->radii)
 				goto nomem;
-			scene_species_radii(&r->s, r->radii);
+			scene_row_species(&r->s, NULL, r->radii);   /* dispensers: the slots' radii too */
 			if (clusters_radii(r->cl, r->radii) != 0)
 				goto nomem;
 		}

@@ -1477,9 +1477,16 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 				return fail(c, path, "%s is at or above the close-packing limit %.4f", num(w->volume_fraction).s, cp);
 			}
 			nmax = fmax(nmax, w->volume_fraction / vp);
-			if (scene_has_species(s))
+			if (w->type == SCENE_WALL_RESERVOIR && scene_has_species(s))
 				return fail(c, path, "\"%s\" walls take one species of smooth particles (particles.species "
-				            "is not supported with them yet)", wn);
+				            "is not supported with them yet; a \"dispenser\" takes species)", wn);
+			for (int q = 0; q < s->n_species; q++)
+				if (s->species[q].radius_hi > 0) {
+					snprintf(path, sizeof path, "particles.species[%d].radius_range", q);
+					return fail(c, path, "a scene with a \"dispenser\" wall takes species of one radius each "
+					            "(its layers are placed from templates of fixed radii; polydisperse species "
+					            "are not supported with it)");
+				}
 		}
 	/* default: room for twice the larger of the initial count and what the
 	 * box holds at the densest reservoir's density, plus 64 */
@@ -1542,9 +1549,9 @@ static int check_streams(ctx_t *c, const scene_t *s)
 					            method_names[s->method]);
 				if (scene_has_gravity(s))
 					return fail(c, path, "filters are not supported with gravity yet (frozen particles fly straight)");
-				if (scene_has_species(s) || s->rough)
-					return fail(c, path, "filters take one species of smooth particles (particles.species and "
-					            "collisions.rough are not supported with them yet)");
+				if (s->rough)
+					return fail(c, path, "filters take smooth particles (collisions.rough is not supported "
+					            "with them yet)");
 				snprintf(path, sizeof path, "boundaries.%s.%s.filter.distance", axis_names[a], end);
 				if (!(f->distance > s->radius))
 					return fail(c, path, "%s must exceed the particle radius %s (seed 001: the plane lies more than a "
@@ -2455,6 +2462,29 @@ void scene_species_radii(const scene_t *s, double *r)
 		const scene_species_t *q = &s->species[k];
 		for (uint64_t j = 0; j < q->count; j++, i++)
 			r[i] = q->radius_hi > 0 ? q->radius_lo + (q->radius_hi - q->radius_lo) * rng_uniform(&rng) : q->radius;
+	}
+}
+
+void scene_row_species(const scene_t *s, uint8_t *sp, double *r)
+{
+	const uint64_t n = s->count, slots = scene_slots(s), spare = slots - n;
+	if (r)
+		scene_species_radii(s, r);
+	uint64_t i = 0, c = 0;
+	for (int k = 0; k < s->n_species; k++)
+		for (uint64_t j = 0; j < s->species[k].count; j++, i++)
+			if (sp)
+				sp[i] = (uint8_t)k;
+	for (int k = 0; k < s->n_species; k++) {
+		const uint64_t lo = spare * c / n;
+		c += s->species[k].count;
+		const uint64_t hi = spare * c / n;
+		for (uint64_t j = lo; j < hi; j++, i++) {
+			if (sp)
+				sp[i] = (uint8_t)k;
+			if (r)
+				r[i] = s->species[k].radius;
+		}
 	}
 }
 

@@ -362,6 +362,16 @@ int scene_has_species(const scene_t *s);
  * radius_range from the scene's seed and stream (a stream of their own:
  * the same radii for every reader of the scene). Pure. */
 void scene_species_radii(const scene_t *s, double *r);
+/* Species and radius of every row (particle slot) of a mixture, in scene
+ * order (scene_slots() entries each; either pointer may be NULL): rows
+ * 0 .. count - 1 as scene_species_radii() (species in blocks), then the
+ * empty slots of a dispenser scene (capacity > count) in one block per
+ * species, block k holding floor(spare C_k / count) - floor(spare C_(k-1) /
+ * count) rows (spare = capacity - count, C_k the counts of species 0 .. k
+ * summed: the scene's number fractions), each of its species' radius (a
+ * slot's species never changes: frames keep time-independent species).
+ * Pure. */
+void scene_row_species(const scene_t *s, uint8_t *sp, double *r);
 
 /* Volume of the box and of one particle (disk area in 2D; with species the
  * mean over the particles). */
