@@ -241,10 +241,85 @@ static void test_checkpoint(void)
 	ed_destroy(b);
 }
 
+/* Test 3, 3D: a channel 16 x 6.5 x 6.5 (specular walls across y, z
+ * periodic) of the two species (A:B = 315:136) at eta = 0.28 (the
+ * layer's starting rows are a largest diameter apart: two rows of 5 x 6
+ * sites hold it), inelastic
+ * with pair restitution and TC, dispenser and filter; copied through its
+ * state fields at t = 55, both go on to t = 125 (six recharges, at t = 20,
+ * 40, ..., 120; no layer particle reaches the filter plane at x = 13 by
+ * then, so every particle placed is still present). The copy is identical
+ * bit for bit; nothing rejected, no overlap; the placed particles' species
+ * (their rows') add up to the six layers' composition: B's count within 5
+ * sqrt(L) of L nbar x_B (L = 6 layers, nbar = eta h W1 W2 / v_p the mean
+ * layer count: each layer's B count differs from its mean n x_B by less
+ * than 1 + 1 / 32 (its template's floor or ceiling, the particle left
+ * out), so the sum over L layers has a standard deviation below sqrt(L))
+ * and A's likewise. */
+static void test_3d(void)
+{
+	const uint64_t na = 315, nb = 136;
+	char json[4096];
+	snprintf(json, sizeof json,
+	         "{\"method\":\"ed\",\"dimensions\":3,\"particles\":{\"species\":["
+	         "{\"name\":\"A\",\"count\":%llu,\"radius\":%.17g,\"mass\":%.17g},"
+	         "{\"name\":\"B\",\"count\":%llu,\"radius\":%.17g,\"mass\":%.17g}],\"box\":[16,6.5,6.5],"
+	         "\"initial\":{\"positions\":\"lattice\",\"temperature\":0.02,\"velocity\":[0.1,0,0]}},"
+	         "\"collisions\":{\"restitution\":0.97,\"tc\":0.05,"
+	         "\"restitution_pairs\":[{\"a\":\"A\",\"b\":\"B\",\"restitution\":0.9}]},"
+	         "\"boundaries\":{\"x\":{\"type\":\"walls\","
+	         "\"lower\":{\"type\":\"dispenser\",\"volume_fraction\":0.28,\"velocity\":[0.1,0,0],\"temperature\":0.02},"
+	         "\"upper\":{\"type\":\"open\",\"filter\":{\"distance\":3,\"velocity\":[0.1,0,0],\"temperature\":0.02}}},"
+	         "\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},\"upper\":{\"type\":\"specular\"}}},"
+	         "\"run\":{\"seed\":23,\"until\":{\"time\":1}}}",
+	         (unsigned long long)na, RA, MA, (unsigned long long)nb, RB, MB);
+	scene_t sc;
+	ed_t *a, *b;
+	if (!checkpoint_pair(json, &sc, 13.0, 55.0, &a, &b)) {
+		ok(0, "3D mixture checkpoint: restore");
+		ok(0, "3D mixture: layers' composition");
+		return;
+	}
+	ed_advance(a, 125.0, UINT64_MAX, UINT64_MAX);
+	ed_advance(b, 125.0, UINT64_MAX, UINT64_MAX);
+	ed_sample_t sa, sb;
+	ed_sample(a, &sa);
+	ed_sample(b, &sb);
+	const double gap = ed_min_gap(a);
+	ok(sa.events == sb.events && sa.wall_inflow[0] == sb.wall_inflow[0] && same_slots_d(a, b, 3) &&
+	   !memcmp(sa.species_count, sb.species_count, sizeof sa.species_count) && sa.wall_rejected[0] == 0 && gap > -1e-9,
+	   "3D mixture checkpoint (dispenser, filter, TC, pair restitution, walls across y): restored run identical bit "
+	   "for bit after %llu events (%llu in, %llu rejected, min gap %.2g)", (unsigned long long)sa.events,
+	   (unsigned long long)sa.wall_inflow[0], (unsigned long long)sa.wall_rejected[0], gap);
+	const size_t N = ed_slots(a);
+	uint8_t *sp = malloc(N);
+	int64_t *ids = malloc(N * sizeof(int64_t));
+	uint64_t placed[2] = {0, 0};
+	if (sp && ids) {
+		scene_row_species(&sc, sp, NULL);
+		ed_labels(a, ids);
+		for (size_t i = 0; i < N; i++)
+			if (ids[i] >= (int64_t)(na + nb))
+				placed[sp[i]]++;
+	}
+	const double L = 6.0, xb = (double)nb / (double)(na + nb);
+	const double vp = (1.0 - xb) * 4.0 / 3.0 * M_PI * RA * RA * RA + xb * 4.0 / 3.0 * M_PI * RB * RB * RB;
+	const double nbar = 0.28 * 2.0 * 6.5 * 6.5 / vp, tol = 5.0 * sqrt(L);
+	ok(placed[0] + placed[1] == sa.wall_inflow[0] && fabs((double)placed[1] - L * nbar * xb) < tol &&
+	   fabs((double)placed[0] - L * nbar * (1.0 - xb)) < tol,
+	   "3D mixture: the six layers placed %llu A + %llu B (all present), expected %.1f + %.1f (within %.1f)",
+	   (unsigned long long)placed[0], (unsigned long long)placed[1], L * nbar * (1.0 - xb), L * nbar * xb, tol);
+	free(sp);
+	free(ids);
+	ed_destroy(a);
+	ed_destroy(b);
+}
+
 int main(void)
 {
-	plan(6);
+	plan(8);
 	test_holds();
 	test_checkpoint();
+	test_3d();
 	return done_testing();
 }
