@@ -1549,9 +1549,6 @@ static int check_streams(ctx_t *c, const scene_t *s)
 					            method_names[s->method]);
 				if (scene_has_gravity(s))
 					return fail(c, path, "filters are not supported with gravity yet (frozen particles fly straight)");
-				if (s->rough)
-					return fail(c, path, "filters take smooth particles (collisions.rough is not supported "
-					            "with them yet)");
 				snprintf(path, sizeof path, "boundaries.%s.%s.filter.distance", axis_names[a], end);
 				if (!(f->distance > s->radius))
 					return fail(c, path, "%s must exceed the particle radius %s (seed 001: the plane lies more than a "

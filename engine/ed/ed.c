@@ -3045,6 +3045,8 @@ static void stream_start(struct ed *ed)
 					ed->ekin_cur += 0.5 * ed->mass * de;
 					ed->frozen[i] = (uint8_t)(1 + w);
 					ed->nfrozen[w]++;
+					if (ed->spin)   /* rough particles: frozen ones do not spin */
+						memset(ed->spin + (size_t)i * (D == 2 ? 1 : 3), 0, (D == 2 ? 1 : 3) * sizeof(double));
 				}
 			}
 		}

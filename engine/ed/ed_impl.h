@@ -1070,6 +1070,22 @@ static void FN(do_filter)(struct ed *ed, uint32_t i, double t)
 		p->v[a] = v[a];
 	}
 	ed->ekin_cur += 0.5 * m * de;
+#if ROUGH
+	{
+		/* rough particles: a frozen one stops spinning (no thermal part, as its velocity); one turned
+		 * back gets the spin of the gas at the filter's temperature (variance T / I per component,
+		 * I = q m a^2), drawn after its velocity */
+		const int k = D == 2 ? 1 : 3;
+#if SPEC
+		const double sv = ed->mix->fsv[w][ed->spc[i]];
+#else
+		const double sv = ed->fsv[w];
+#endif
+		const double sw = sv / sqrt(ed->rq * FN(rad)(ed, i) * FN(rad)(ed, i));
+		for (int c = 0; c < k; c++)
+			ed->spin[(size_t)i * k + c] = freeze ? 0.0 : sw * rng_gauss(&ed->wrng);
+	}
+#endif
 	if (freeze) {
 		ed->frozen[i] = (uint8_t)(1 + w);
 		ed->nfrozen[w]++;
@@ -1122,15 +1138,46 @@ static void FN(collide_frozen)(struct ed *ed, uint32_t i, uint32_t j, double t)
 		double e = ed->e;
 #endif
 		const double m = FN(mass)(ed, i);
+#if ROUGH
+		int elastic = 0;
+#endif
 		if (ed->tlast) {
 			if (t - ed->tlast[i] < ed->tc) {
 				e = 1.0;
 				ed->tc_elastic++;
+#if ROUGH
+				elastic = 1;   /* within tc: smooth and elastic, as between particles */
+#endif
 			}
 			ed->tlast[i] = t;
 		}
-		const double f = (1.0 + e) * b / r2;
 		const int w = ed->frozen[j] - 1;
+#if ROUGH
+		/* rough particles: the rough rule against a sphere of infinite mass and moment of inertia
+		 * without spin moving at the filter's velocity (rough.h, rough_collide_fixed()) */
+		{
+			const int k = D == 2 ? 1 : 3;
+			const double rn = sqrt(r2);
+			double n[D], J[3], de = 0.0;
+			FOR_AXES(a)
+				n[a] = dr[a] / rn;
+			const rough_pair_t R = {.m1 = m, .m2 = INFINITY, .a1 = FN(rad)(ed, i), .a2 = FN(rad)(ed, j), .e = e,
+			                        .beta = elastic ? -1.0 : ed->rbeta, .mu = elastic ? -1.0 : ed->rmu, .q = ed->rq};
+			FOR_AXES(a)
+				de -= pq->v[a] * pq->v[a];
+			rough_collide_fixed(D, &R, n, b / rn, pq->v, pf->v, &ed->spin[(size_t)i * k], J);
+			FOR_AXES(a) {
+				de += pq->v[a] * pq->v[a];
+				ed->wimp[w][a] -= J[a];
+				ed->wimp_tot[w][a] -= J[a];
+#if GRAV
+				ed->psum[a] += J[a] / ed->mass;
+#endif
+			}
+			ed->ekin_cur += 0.5 * m * de;
+		}
+#else
+		const double f = (1.0 + e) * b / r2;
 		double de = 0.0;
 		FOR_AXES(a) {
 			const double v0 = pq->v[a];
@@ -1143,6 +1190,7 @@ static void FN(collide_frozen)(struct ed *ed, uint32_t i, uint32_t j, double t)
 #endif
 		}
 		ed->ekin_cur += 0.5 * m * de;
+#endif
 	}
 	pq->count++;
 	pf->count++;
