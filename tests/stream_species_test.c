@@ -24,8 +24,8 @@
  * ("" for elastic). */
 static const double RA = 0.5, RB = 0.35, MA = 1.0, MB = 0.5;
 
-static void channel(char *buf, size_t len, double L, double eta, uint64_t na, uint64_t nb, const char *coll,
-                    uint64_t seed)
+static void channel_c(char *buf, size_t len, double L, double eta, uint64_t na, uint64_t nb, const char *coll,
+                      const char *comp, uint64_t seed)
 {
 	snprintf(buf, len,
 	         "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":["
@@ -34,10 +34,17 @@ static void channel(char *buf, size_t len, double L, double eta, uint64_t na, ui
 	         "\"initial\":{\"positions\":\"lattice\",\"temperature\":0.02,\"velocity\":[0.1,0],"
 	         "\"relax\":{\"collisions_per_particle\":20}}},%s"
 	         "\"boundaries\":{\"x\":{\"type\":\"walls\","
-	         "\"lower\":{\"type\":\"dispenser\",\"volume_fraction\":%.17g,\"velocity\":[0.1,0],\"temperature\":0.02},"
+	         "\"lower\":{\"type\":\"dispenser\",\"volume_fraction\":%.17g,\"velocity\":[0.1,0],\"temperature\":0.02%s},"
 	         "\"upper\":{\"type\":\"open\",\"filter\":{\"distance\":4,\"velocity\":[0.1,0],\"temperature\":0.02}}}},"
 	         "\"run\":{\"seed\":%llu,\"until\":{\"time\":1}}}",
-	         (unsigned long long)na, RA, MA, (unsigned long long)nb, RB, MB, L, coll, eta, (unsigned long long)seed);
+	         (unsigned long long)na, RA, MA, (unsigned long long)nb, RB, MB, L, coll, eta, comp, (unsigned long long)seed);
+}
+
+/* The same with the scene's composition (no "composition" key). */
+static void channel(char *buf, size_t len, double L, double eta, uint64_t na, uint64_t nb, const char *coll,
+                    uint64_t seed)
+{
+	channel_c(buf, len, L, eta, na, nb, coll, "", seed);
 }
 
 enum { NSL = 4, NB = 10 };
@@ -315,11 +322,62 @@ static void test_3d(void)
 	ed_destroy(b);
 }
 
+
+/* Test 4, a dispenser composition of its own ("composition": [2, 3], B's
+ * fraction 0.6) at eta = 0.5 in the channel of test 1 filled at the start
+ * with A:B = 421:180 (fraction 0.2995; at 0.6 the layer of 45 would not
+ * fit two rows of largest-diameter sites): after two transits (the
+ * initial particles flushed out at U), over t in [800, 4800] in 10 blocks
+ * of one transit, each of the four slices holds B's fraction 0.6, eta 0.5
+ * and T 0.02 for each species
+ * within 5 standard errors of the blocks (as test 1). The spare slots are
+ * split in the dispenser's fractions, so B's rows do not run out. */
+static void test_composition(void)
+{
+	char json[4096];
+	scene_t sc;
+	channel_c(json, sizeof json, 40.0, 0.5, 421, 180, "", ",\"composition\":[2,3]", 5);
+	ed_t *ed = make(json, &sc);
+	profile_t pr;
+	uint8_t *sp = ed ? malloc(ed_slots(ed)) : NULL;
+	if (sp)
+		scene_row_species(&sc, sp, NULL);
+	if (!ed || !sp || measure(ed, sp, 800.0, 4800.0, 2.0, 6.0, 32.0, &pr)) {
+		ok(0, "dispenser composition: run");
+		ok(0, "dispenser composition: eta and temperatures");
+		ed_destroy(ed);
+		free(sp);
+		return;
+	}
+	int good_x = 1, good_eta = 1, good_T = 1;
+	for (int k = 0; k < NSL; k++) {
+		double me, se, mx, sx, mT[2], sT[2];
+		mean_se(pr.eta[k], NB, &me, &se);
+		mean_se(pr.xb[k], NB, &mx, &sx);
+		for (int s = 0; s < 2; s++)
+			mean_se(pr.T[s][k], NB, &mT[s], &sT[s]);
+		diag("composition slice %d: eta %.4f +- %.4f, x_B %.4f +- %.4f, T_A %.5f +- %.5f, T_B %.5f +- %.5f", k, me, se,
+		     mx, sx, mT[0], sT[0], mT[1], sT[1]);
+		good_x &= fabs(mx - 0.6) < 5.0 * sx;
+		good_eta &= fabs(me - 0.5) < 5.0 * se;
+		good_T &= fabs(mT[0] - 0.02) < 5.0 * sT[0] && fabs(mT[1] - 0.02) < 5.0 * sT[1];
+	}
+	ed_sample_t sm;
+	ed_sample(ed, &sm);
+	ok(good_x, "dispenser composition [2, 3]: B's number fraction 0.6 along the channel (within 5 SE; the box "
+	   "started at 0.2995)");
+	ok(good_eta && good_T && pr.min_gap > -1e-9 && sm.wall_rejected[0] == 0,
+	   "dispenser composition: eta 0.5 and each species' T 0.02 hold (within 5 SE), no overlap, none rejected");
+	free(sp);
+	ed_destroy(ed);
+}
+
 int main(void)
 {
-	plan(8);
+	plan(10);
 	test_holds();
 	test_checkpoint();
 	test_3d();
+	test_composition();
 	return done_testing();
 }

@@ -1777,7 +1777,7 @@ static int layer_layout(const struct ed *ed, const scene_t *s, int w, double *po
 	const scene_wall_t *sw = &s->boundary[a].wall[w & 1];
 	const double h = ed->wall[w].lh, W = s->box[b];
 	const int per = !s->boundary[b].walled;
-	const double vp = ed->mixture ? scene_particle_volume(s) : pi * r * r;   /* mixtures: the mean (scene fractions) */
+	const double vp = ed->mixture ? scene_dispenser_volume(s, sw) : pi * r * r;   /* mixtures: the mean at its fractions */
 	const double n_d = sw->volume_fraction * h * W / vp;
 	static const char *const an[] = { "x", "y" };
 	const char *end = (w & 1) ? "upper" : "lower";
@@ -1858,7 +1858,7 @@ static int layer_layout3(const struct ed *ed, const scene_t *s, int w, double *p
 	const scene_wall_t *sw = &s->boundary[a].wall[w & 1];
 	const double h = ed->wall[w].lh, W1 = s->box[b1], W2 = s->box[b2];
 	const int per1 = !s->boundary[b1].walled, per2 = !s->boundary[b2].walled;
-	const double vp = ed->mixture ? scene_particle_volume(s) : 4.0 / 3.0 * pi * r * r * r;
+	const double vp = ed->mixture ? scene_dispenser_volume(s, sw) : 4.0 / 3.0 * pi * r * r * r;
 	const double n_d = sw->volume_fraction * h * W1 * W2 / vp;
 	static const char *const an[] = { "x", "y", "z" };
 	const char *end = (w & 1) ? "upper" : "lower";
@@ -1981,7 +1981,7 @@ static int setup_stream(struct ed *ed, const scene_t *s, char *msg, size_t msgle
 				if (rc != ED_OK)
 					return rc;
 				const double pi = 3.14159265358979323846, rr = s->radius;
-				const double vp = ed->mixture ? scene_particle_volume(s) : s->dim == 2 ? pi * rr * rr
+				const double vp = ed->mixture ? scene_dispenser_volume(s, sw) : s->dim == 2 ? pi * rr * rr
 				                                                                      : 4.0 / 3.0 * pi * rr * rr * rr;
 				const double n_d = s->dim == 2 ? sw->volume_fraction * ed->wall[w].lh * s->box[1 - a] / vp
 				                               : sw->volume_fraction * ed->wall[w].lh * s->box[a == 0 ? 1 : 0] *
@@ -2193,10 +2193,10 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 
 /* A mixture's template layers (build_templates() for one species): the
  * same starting layout (sites a largest diameter apart), template q
- * holding n_k(q) = floor(n C_k / N + (q + 1/2) / ntpl) - (the same for
- * k - 1) particles of species k (C_k the scene's counts of species 0 .. k
- * summed, N their total: over the ntpl templates the mean of n_k is n x_k
- * to within 1 / (2 ntpl), x_k the scene's number fraction), the sites
+ * holding n_k(q) = floor(n X_k + (q + 1/2) / ntpl) - (the same for k - 1)
+ * particles of species k (X_k the dispenser's fractions of species 0 .. k
+ * summed, scene_dispenser_fractions(): over the ntpl templates the mean of
+ * n_k is n x_k to within 1 / (2 ntpl)), the sites
  * shuffled among the species (so that they mix across the layer), each
  * template relaxed by an elastic run of its own (the mixture between
  * specular walls, 50 collisions per particle; seed stream as
@@ -2220,12 +2220,14 @@ static int build_templates_mix(struct ed *ed, const scene_t *s, int w, char *msg
 		goto done;
 	memset(x->tmax[w], 0, sizeof x->tmax[w]);
 	const uint64_t stream = s->stream | (1ull << 59) | (uint64_t)(w != ed_first_disp(ed)) * ((uint64_t)w << 52);
+	double frac[SCENE_SPECIES_MAX];
+	scene_dispenser_fractions(s, &s->boundary[a].wall[w & 1], frac);
 	for (int q = 0; q < ed->ntpl; q++) {
 		uint32_t cnt[SCENE_SPECIES_MAX], prev = 0;
-		uint64_t C = 0;
+		double X = 0.0;
 		for (int k = 0; k < ns; k++) {
-			C += s->species[k].count;
-			double bd = floor((double)n * (double)C / (double)s->count + (q + 0.5) / ed->ntpl);
+			X += frac[k];
+			double bd = floor((double)n * X + (q + 0.5) / ed->ntpl);
 			uint32_t bk = k == ns - 1 || bd >= (double)n ? n : (uint32_t)bd;
 			if (bk < prev)
 				bk = prev;
