@@ -1,4 +1,4 @@
-/* Tests of seed 001's dense open stream in the event-driven engine (issue 12, anchor 4): the dispenser inlet and the filter outlet hold eta, T and U along a channel in 2D (eta = 0.65) and 3D (eta = 0.45), a plain outlet leaks, the piston's bookkeeping is exact, frozen particles move at U exactly, checkpoints are exact. */
+/* Tests of seed 001's dense open stream in the event-driven engine (issue 12, anchor 4): the dispenser inlet and the filter outlet hold eta, T and U along a channel in 2D (eta = 0.65) and 3D (eta = 0.45), a plain outlet leaks, the piston's bookkeeping is exact, frozen particles move at U exactly, checkpoints are exact; rough particles hold T and T_rot through a filter. */
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
