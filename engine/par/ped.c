@@ -43,6 +43,7 @@ typedef struct {
 	int32_t free_head;
 	uint64_t collisions, tc_elastic, nlog, owned, events;
 	double lt, virial;
+	double dek, dekt;   /* since ped_mark(): sum of the collisions' kinetic energy changes, and of each times (t - tref) */
 } scal_t;
 
 struct msgbuf {
@@ -63,6 +64,7 @@ struct ped {
 	hent_t *heap, *heap_s;
 	int32_t *hpos, *hpos_s;
 	scal_t s, s_saved;
+	double tref;        /* ped_mark()'s time */
 	double err;
 	uint64_t events_done;
 	struct msgbuf *out;
@@ -354,6 +356,11 @@ static void collide(ped_t *pd, int32_t a, int32_t b, double t)
 			pj->v[k] += f * dr[k];
 		}
 		pd->s.virial -= 0.5 * (1.0 + e) * pd->p.mass * bb;
+		if (e != 1.0) {   /* the serial engine's energy loss of the pair (ed_impl.h) */
+			double de = -0.25 * (1.0 - e * e) * pd->p.mass * bb * bb / r2;
+			pd->s.dek += de;
+			pd->s.dekt += de * (t - pd->tref);
+		}
 	}
 	pi->count++;
 	pj->count++;
@@ -914,6 +921,8 @@ void ped_totals(const ped_t *pd, ped_totals_t *out)
 	out->events = pd->s.events;
 	out->owned = pd->s.owned;
 	out->virial = pd->s.virial;
+	out->dekin = pd->s.dek;
+	out->dekin_t = pd->s.dekt;
 	for (size_t i = 0; i < pd->cap; i++) {
 		const rec_t *p = &pd->rec[i];
 		if (p->own != 1)
@@ -923,6 +932,22 @@ void ped_totals(const ped_t *pd, ped_totals_t *out)
 			out->mom[a] += pd->p.mass * p->v[a];
 		}
 	}
+}
+
+void ped_mark(ped_t *pd, double t)
+{
+	pd->tref = t;
+	pd->s.virial = pd->s.dek = pd->s.dekt = 0.0;
+	pd->s_saved.virial = pd->s_saved.dek = pd->s_saved.dekt = 0.0;
+}
+
+size_t ped_memory(const ped_t *pd)
+{
+	size_t per = 2 * (sizeof *pd->rec + sizeof *pd->ev + sizeof *pd->heap + sizeof *pd->hpos);
+	size_t out = 0;
+	for (int r = 0; r < pd->p.ranks; r++)
+		out += pd->out[r].cap * sizeof(ped_msg_t);
+	return sizeof *pd + pd->cap * per + pd->ncells * (1 + 2 * sizeof *pd->head) + pd->logcap * sizeof(ped_coll_t) + out;
 }
 
 void ped_log_on(ped_t *pd)
@@ -970,6 +995,12 @@ void ped_sched_init(ped_sched_t *s, double t_end, double sync_dt)
 	s->sync_dt = sync_dt;
 	s->barrier = sync_dt < t_end ? sync_dt : t_end;
 	s->st.sync_dt = sync_dt;
+}
+
+void ped_sched_next(ped_sched_t *s, double t0, double t_end)
+{
+	s->t_end = t_end;
+	s->barrier = t0 + s->sync_dt < t_end ? t0 + s->sync_dt : t_end;
 }
 
 int ped_sched(ped_sched_t *s, double E, double T)

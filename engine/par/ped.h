@@ -43,7 +43,7 @@
  *   grid (O(cells), not O(N/P): a known limitation of this slice).
  */
 
-enum { PED_OK = 0, PED_ENOMEM = -1, PED_EINVAL = -2, PED_EFULL = -3, PED_ESTALL = -4 };
+enum { PED_OK = 0, PED_ENOMEM = -1, PED_EINVAL = -2, PED_EFULL = -3, PED_ESTALL = -4, PED_STOPPED = 1 };
 
 typedef struct {
 	int dim;            /* 2 or 3 */
@@ -104,9 +104,21 @@ void ped_restore(ped_t *pd);
  * owns. */
 typedef struct {
 	uint64_t collisions, tc_elastic, events, events_done, owned;
-	double ekin, mom[3], virial;
+	double ekin, mom[3];
+	/* since ped_mark() (the start otherwise), of the collisions this rank
+	 * made: the collision virial (sum of r_ij . J_ij, as the serial
+	 * engine's), the sum of the kinetic energy changes dE and of dE (t_c -
+	 * tref), tref the mark's time: the integral of the total E_kin over
+	 * [tref, t] is E_kin(tref) (t - tref) + sum_ranks (dekin (t - tref) - dekin_t) */
+	double virial, dekin, dekin_t;
 } ped_totals_t;
 void ped_totals(const ped_t *pd, ped_totals_t *out);
+/* Start a new interval at time t: the interval sums of ped_totals() to 0.
+ * Only right after a sync (ped_save(), or pedmpi_advance() returned), so that
+ * a rollback cannot bring back collisions from before the mark. */
+void ped_mark(ped_t *pd, double t);
+/* Bytes held by this rank's ped_t. */
+size_t ped_memory(const ped_t *pd);
 /* Collision log (committed and since-last-sync ones, in processing order),
  * on only with ped_log_on(). */
 void ped_log_on(ped_t *pd);
@@ -130,6 +142,9 @@ typedef struct {
 	ped_stats_t st;
 } ped_sched_t;
 void ped_sched_init(ped_sched_t *s, double t_end, double sync_dt);
+/* Continue a schedule from a sync at t0 (every event before t0 done) to a
+ * new t_end; the sync interval and the statistics carry over. */
+void ped_sched_next(ped_sched_t *s, double t0, double t_end);
 int ped_sched(ped_sched_t *s, double E, double T);
 
 /* P ranks in one process (tests): runs pd[0..P-1] to t_end. force_every > 0
