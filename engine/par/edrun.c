@@ -37,10 +37,10 @@ int edrun_check(const scene_t *s, int resumed, int out, char *msg, size_t msglen
 	char grid[160];
 	if (s->method != SCENE_METHOD_ED)
 		key = "method", why = "a split ed run needs method ed";
-	else if (scene_has_walls(s))
-		key = "boundaries", why = "walls over several ranks are not supported yet (periodic box only)";
 	else if (scene_has_gravity(s))
 		key = "gravity", why = "gravity over several ranks is not supported yet";
+	else if (scene_has_walls(s))
+		key = "boundaries", why = "walls over several ranks are not supported yet (periodic box only)";
 	else if (s->n_obstacles > 0)
 		key = "obstacles", why = "obstacles over several ranks are not supported yet";
 	else if (scene_has_species(s))
