@@ -175,6 +175,20 @@ static int checkpoint(const char *outdir, run_t *run, sink_t *sk, const char *te
 	return ckpt_write(outdir, run, text, len, &pos, sk->err, sizeof(sk->err)) == CKPT_OK ? 0 : -1;
 }
 
+/* A split ed run's checkpoint (engine/par/edrun.h): r holds the state in the serial layout. */
+typedef struct {
+	const char *outdir;
+	sink_t *sink;
+	const char *text;
+	size_t len;
+} ed_save_t;
+
+static int ed_save(run_t *r, void *ctx)
+{
+	ed_save_t *c = ctx;
+	return checkpoint(c->outdir, r, c->sink, c->text, c->len);
+}
+
 /* Ensemble state from a checkpoint (rank 0): replica state strings and the
  * ensemble's schedule; blobs and lens have run.replicas entries. */
 typedef struct {
@@ -866,7 +880,10 @@ static int run_other(int rank, int size)
 		if ((hdr[0] & ED_SPLIT) && scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
 		    (scene.method != SCENE_METHOD_AUTO || resolve_auto(&scene, size, NULL) == EX_DONE)) {
 			/* one ed system over all ranks: rank 0 reports failures */
-			if (edrun_run(&scene, rank, size, (hdr[0] & ENS_FRAMES) != 0, NULL, NULL, NULL, err, sizeof(err)) != RUN_OK)
+			edrun_opts_t edo = {.frames = (hdr[0] & ENS_FRAMES) != 0, .checkpoints = (hdr[0] & ENS_CKPT) != 0,
+			                    .resumed = (hdr[0] & ENS_RESUME) != 0};
+			int rc = edrun_run(&scene, rank, size, &edo, NULL, NULL, NULL, err, sizeof(err));
+			if (rc != RUN_OK && rc != RUN_STOPPED)
 				ret = EX_FAIL;
 		} else if (scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
 		    (scene.method != SCENE_METHOD_AUTO || resolve_auto(&scene, size, NULL) == EX_DONE) &&
@@ -1044,7 +1061,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	}
 	/* One ed system over several ranks (engine/par/edrun.h), refused and noticed as the dsmc split above. */
 	int ed_split = (size > 1 || force_split) && scene.replicas <= 1 && scene.method == SCENE_METHOD_ED;
-	if (ed_split && edrun_check(&scene, resume_path != NULL, outdir != NULL, err, sizeof(err)) != 0) {
+	if (ed_split && edrun_check(&scene, outdir != NULL, err, sizeof(err)) != 0) {
 		if (force_split) {
 			fprintf(stderr, "%s%s (one ed system over %d ranks)\n", err[0] == '-' ? "granular-engine: " : "", err, size);
 			ret = EX_INPUT;
@@ -1178,8 +1195,15 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			goto cleanup;
 		}
 	} else if (ed_split) {
-		announce(an, ED_SPLIT | (outdir ? ENS_FRAMES : 0), text, len);
-		rc = edrun_run(&scene, 0, size, outdir != NULL, emit, &sink, &stop_requested, err, sizeof(err));
+		ed_save_t es = {outdir, &sink, text, len};
+		edrun_opts_t eo = {.frames = outdir != NULL, .checkpoints = outdir != NULL, .resumed = resume_path != NULL,
+		                   .resume = run, .save = ed_save, .save_ctx = &es};
+		announce(an, ED_SPLIT | (outdir ? ENS_FRAMES | ENS_CKPT : 0) | (resume_path ? ENS_RESUME : 0), text, len);
+		rc = edrun_run(&scene, 0, size, &eo, emit, &sink, &stop_requested, err, sizeof(err));
+		if (rc == RUN_STOPPED) {
+			ret = EX_CHECKPOINTED;
+			goto cleanup;
+		}
 	} else if (split) {
 		announce(an, DSMC_SPLIT | (outdir ? ENS_FRAMES : 0), text, len);
 		rc = dsmcrun_run(&scene, 0, size, outdir != NULL, emit, &sink, &stop_requested, err, sizeof(err));

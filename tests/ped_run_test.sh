@@ -172,8 +172,7 @@ refuse collisions.rough "rough particles" "{\"method\":\"ed\",$base,$until,\"col
 refuse collisions.tc "inelastic without the TC model" "{\"method\":\"ed\",$base,$until,\"collisions\":{\"restitution\":0.9}}"
 refuse run.until "a collision-count stop" "{\"method\":\"ed\",$base,\"run\":{\"until\":{\"collisions_per_particle\":2}}}"
 refuse output.observables "clusters" "{\"method\":\"ed\",$base,$until,\"output\":{\"observables\":[\"clusters\"]}}"
-refuse output.checkpoint "output.checkpoint" "{\"method\":\"ed\",$base,$until,\"output\":{\"checkpoint\":{\"every\":{\"time\":0.5}}}}" --out "$tmp/out"
-refuse granular-engine "--resume" "{\"method\":\"ed\",$base,$until}" --out "$tmp/out" --resume "$tmp/out/checkpoint.h5"
+refuse output.snapshots "frames in collisions per particle" "{\"method\":\"ed\",$base,$until,\"output\":{\"snapshots\":{\"every\":{\"collisions_per_particle\":1}}}}" --out "$tmp/out"
 refuse particles.count "a box of fewer than 3 cells along an axis" "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":2,\"box\":[2.5,2.5]},$until}"
 
 # 5. Under mpirun without --split, a scene the split run cannot do runs as before (rank 0 alone, one notice line):
@@ -186,7 +185,41 @@ strip "$tmp/f.s" >"$tmp/x1"; strip "$tmp/f.2" >"$tmp/x2"
 cmp -s "$tmp/x1" "$tmp/x2" && head -n 1 "$tmp/f.err" | grep -q '^granular-engine: running on rank 0 alone, not split over 2 ranks: collisions.tc'
 ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "mpirun -np 2, e 0.9 without tc: rank 0 alone, the serial records, exit $rc: $(head -n 1 "$tmp/f.err" | head -c 120)"
 
-# 6. SIGTERM stops a split run at the core's next sync (rank 0's flag, reduced with every round): a last progress
+# 6. Checkpoints in the serial layout, written by rank 0 (output.checkpoint every 0.45 in time: at 0.45 and 0.9):
+#    the checkpoint files of mpirun -np 2 have the serial run's layout (h5dump -H); the run resumed from the first one
+#    (t = 0.45) serially and under mpirun -np 4, and the serial run's first checkpoint resumed under mpirun -np 2, give
+#    the serial run's records and trajectory (as in 1).
+sed 's/"snapshots":{"every":{"time":0.3}}/"snapshots":{"every":{"time":0.3}},"checkpoint":{"every":{"time":0.45}}/' \
+	"$tmp/a.json" >"$tmp/c.json"
+run_tag c s
+rcs=$?
+run_tag c 2
+rc=$?
+lay=0
+if [ $have_h5 = 1 ]; then
+	for f in checkpoint.h5 checkpoint.prev.h5; do
+		h5dump -H "$tmp/c.s/$f" | tail -n +2 >"$tmp/h.a"; h5dump -H "$tmp/c.2/$f" | tail -n +2 >"$tmp/h.b"
+		cmp -s "$tmp/h.a" "$tmp/h.b" || lay=1
+	done
+fi
+[ -f "$tmp/c.2/checkpoint.h5" ] && [ -f "$tmp/c.2/checkpoint.prev.h5" ]
+ok $(( rcs == 0 && rc == 0 && lay == 0 && $? == 0 ? 0 : 1 )) "mpirun -np 2 with output.checkpoint: checkpoint.h5 and checkpoint.prev.h5 in the serial layout (exit $rc)"
+resume_check() {   # resume_check FROM WHAT LAUNCHER...
+	from=$1 what=$2; shift 2
+	rm -rf "$tmp/cr"; cp -r "$tmp/$from" "$tmp/cr"
+	"$@" run "$tmp/c.json" --out "$tmp/cr" --resume "$tmp/cr/checkpoint.prev.h5" >/dev/null 2>"$tmp/cr.err"
+	rc=$?
+	cmp_records "$tmp/c.s/progress.jsonl" "$tmp/cr/progress.jsonl" >"$tmp/r" 2>&1
+	res=$?
+	why=
+	[ $have_h5 = 1 ] && why=$(cmp_traj "$tmp/c.s" "$tmp/cr") || res=1
+	ok $(( rc == 0 && res == 0 ? 0 : 1 )) "$what (exit $rc): the serial run's records and trajectory: $(tail -n 1 "$tmp/r" | head -c 200) $why $(head -c 200 "$tmp/cr.err")"
+}
+resume_check c.2 "the split checkpoint at t = 0.45 resumed serially" "$ENGINE"
+resume_check c.2 "the split checkpoint resumed under mpirun -np 4" mpirun --oversubscribe -np 4 "$ENGINE"
+resume_check c.s "the serial checkpoint resumed under mpirun -np 2" mpirun --oversubscribe -np 2 "$ENGINE"
+
+# 7. SIGTERM stops a split run at the core's next sync (rank 0's flag, reduced with every round): a last progress
 #    record and a summary with status "interrupted", exit 3 (--split); under mpirun -np 2 the same records.
 cat >"$tmp/long.json" <<'EOF'
 {"method":"ed","dimensions":3,"particles":{"count":3000,"volume_fraction":0.25,"initial":{"positions":"random"}},
@@ -199,6 +232,8 @@ stop_run() {   # stop_run OUT COMMAND...
 	i=0; until [ -s "$out" ] || [ $i -ge 300 ]; do sleep 0.1; i=$((i + 1)); done
 	sleep 0.5
 	kill -TERM $pid
+	i=0; while kill -0 $pid 2>/dev/null && [ $i -lt 600 ]; do sleep 0.1; i=$((i + 1)); done
+	kill -KILL $pid 2>/dev/null   # still running after 60 s: the stop was not seen (fails below)
 	wait $pid
 }
 stop_run "$tmp/long1.out" "$ENGINE" run "$tmp/long.json" --split
@@ -209,6 +244,28 @@ ok $(( rc == 3 && $? == 0 ? 0 : 1 )) "SIGTERM (--split): last record and summary
 stop_run "$tmp/long2.out" mpirun -np 2 "$ENGINE" run "$tmp/long.json"
 tail -n 1 "$tmp/long2.out" | grep -q '"type":"summary","status":"interrupted"'
 ok $? "SIGTERM to mpirun -np 2: summary with status interrupted: $(tail -n 1 "$tmp/long2.out" | head -c 120)"
+# With --out, as the serial run: nothing sampled, a checkpoint, the summary (interrupted), exit 4; the checkpoint
+# resumed serially runs to the end with the serial run's output times (the trajectories themselves part after
+# tens of collisions per particle, by the chaos of the dynamics) and the energy of the elastic gas (1e-12 relative).
+sed 's/"until":{"time":1e9}/"until":{"time":30}/' "$tmp/long.json" >"$tmp/t.json"
+"$ENGINE" run "$tmp/t.json" >"$tmp/t.s" 2>/dev/null
+stop_run "$tmp/t.1" "$ENGINE" run "$tmp/t.json" --split --out "$tmp/t"
+rc=$?
+tail -n 1 "$tmp/t.1" | grep -q '"type":"summary","status":"interrupted"' && [ -f "$tmp/t/checkpoint.h5" ]
+st=$?
+"$ENGINE" run "$tmp/t.json" --out "$tmp/t" --resume "$tmp/t/checkpoint.h5" >/dev/null 2>"$tmp/t.err"
+rc2=$?
+"$PY" - "$tmp/t.s" "$tmp/t/progress.jsonl" <<'PY' >"$tmp/r" 2>&1
+import json, sys
+a = [json.loads(l) for l in open(sys.argv[1])]
+b = [json.loads(l) for l in open(sys.argv[2])]
+assert [x["time"] for x in a] == [x["time"] for x in b], "output times"
+e0 = b[0]["kinetic_energy"]
+assert max(abs(x["kinetic_energy"] - e0) / e0 for x in b) <= 1e-12
+assert b[-1]["status"] == "completed" and sum(1 for x in b if x["type"] == "summary") == 1
+print("%d records" % len(b))
+PY
+ok $(( rc == 4 && st == 0 && rc2 == 0 && $? == 0 ? 0 : 1 )) "SIGTERM with --out (--split): checkpoint, summary interrupted, exit $rc; resumed serially: exit $rc2, $(tail -n 1 "$tmp/r" | head -c 200) $(head -c 200 "$tmp/t.err")"
 
 echo "1..$n"
 [ "$failed" = 0 ]

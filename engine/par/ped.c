@@ -822,6 +822,11 @@ static void cell_of(const ped_t *pd, const double *x, int32_t *c)
 
 int ped_load(ped_t *pd, uint64_t n, const double *pos, const double *vel)
 {
+	return ped_load_at(pd, n, pos, vel, NULL, 0.0);
+}
+
+int ped_load_at(ped_t *pd, uint64_t n, const double *pos, const double *vel, const double *tlast, double t0)
+{
 	const int D = pd->D;
 	/* the particles of the rank's cells, stored in cell order (neighbours
 	 * close in memory), ties in id order: a counting sort over the cells */
@@ -870,8 +875,8 @@ int ped_load(ped_t *pd, uint64_t n, const double *pos, const double *vel)
 			p->r[a] = pos[k * (uint64_t)D + (uint64_t)a];
 			p->v[a] = vel[k * (uint64_t)D + (uint64_t)a];
 		}
-		p->t = 0.0;
-		p->tlast = -INFINITY;
+		p->t = t0;
+		p->tlast = tlast ? tlast[k] : -INFINITY;
 		p->tev = -INFINITY;
 		p->gid = (uint32_t)k;
 		memcpy(p->cc, c, sizeof p->cc);
@@ -882,6 +887,8 @@ int ped_load(ped_t *pd, uint64_t n, const double *pos, const double *vel)
 	for (size_t i = 0; i < pd->cap; i++)
 		if (pd->rec[i].own == 1)
 			predict(pd, (int32_t)i);
+	pd->tref = t0;
+	pd->s.lt = t0;
 	ped_save(pd);
 cleanup:
 	free(cnt);
@@ -959,6 +966,14 @@ const ped_coll_t *ped_log(const ped_t *pd, size_t *n)
 {
 	*n = pd->s.nlog;
 	return pd->log;
+}
+
+void ped_owned_tlast(const ped_t *pd, double *tlast)
+{
+	size_t m = 0;
+	for (size_t i = 0; i < pd->cap; i++)
+		if (pd->rec[i].own == 1)
+			tlast[m++] = pd->rec[i].tlast;
 }
 
 void ped_owned(const ped_t *pd, double t, uint32_t *gid, double *pos, double *vel)

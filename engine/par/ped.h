@@ -85,6 +85,10 @@ void ped_destroy(ped_t *pd);
  * state (n particles, positions in the box, velocities; n*dim doubles each,
  * time 0) and save it as the first sync. */
 int ped_load(ped_t *pd, uint64_t n, const double *pos, const double *vel);
+/* The same with every particle's state at time t0 (all events before it
+ * done) and, when tlast is not NULL, its last collision time (TC model; n
+ * doubles, -INFINITY: none): a resumed run. */
+int ped_load_at(ped_t *pd, uint64_t n, const double *pos, const double *vel, const double *tlast, double t0);
 
 /* Round steps (see the contract). */
 int ped_inbox(ped_t *pd, const ped_msg_t *m, size_t n);   /* PED_OK or PED_EFULL */
@@ -126,6 +130,8 @@ const ped_coll_t *ped_log(const ped_t *pd, size_t *n);
 /* Owned particles: ids and positions/velocities (at their own times moved to
  * time t) into caller arrays of ped_totals().owned entries. */
 void ped_owned(const ped_t *pd, double t, uint32_t *gid, double *pos, double *vel);
+/* Their last collision times (TC model; -INFINITY: none), in ped_owned()'s order. */
+void ped_owned_tlast(const ped_t *pd, double *tlast);
 
 /* Driver statistics. */
 typedef struct {

@@ -60,12 +60,12 @@ int pedmpi_advance(ped_t *pd, MPI_Comm comm, ped_sched_t *sp, double t0, double 
 			t_sync = bprev;
 			ped_save(pd);
 			*t_reached = t_sync;
-			if (act == 3)
-				break;
-			if (v[4] < 0.0) {
+			if (v[4] < 0.0) {   /* also at t_end: a run from stop to stop may never sync between */
 				rc = PED_STOPPED;
 				goto cleanup;
 			}
+			if (act == 3)
+				break;
 			moved = 1;
 			continue;
 		}

@@ -25,7 +25,7 @@ int pedmpi_run(ped_t *pd, MPI_Comm comm, double t_end, double sync_dt, ped_stats
  * this rank included, carry over from call to call), so that a run can stop
  * at output times without changing its collisions. stop (read on rank 0
  * only, NULL elsewhere allowed) is reduced with every round: once set, the
- * run ends at the next sync before t_end and returns PED_STOPPED on every
+ * run ends at the next sync (t_end included) and returns PED_STOPPED on every
  * rank. PED_OK and PED_STOPPED leave the state saved at *t_reached (every
  * event before it done, none after; t_end on PED_OK); a negative code (the
  * same on every rank) leaves it unusable. */
