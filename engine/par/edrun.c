@@ -42,55 +42,7 @@ typedef struct {
 
 int edrun_check(const scene_t *s, int out, char *msg, size_t msglen)
 {
-	const char *key = NULL, *why = NULL;
-	const unsigned ok_obs = SCENE_OBS_ENERGY | SCENE_OBS_PRESSURE | SCENE_OBS_COLLISION_RATE | SCENE_OBS_MOMENTUM;
-	char grid[160];
-	if (s->method != SCENE_METHOD_ED)
-		key = "method", why = "a split ed run needs method ed";
-	else if (scene_has_gravity(s))
-		key = "gravity", why = "gravity over several ranks is not supported yet";
-	else if (scene_has_walls(s))
-		key = "boundaries", why = "walls over several ranks are not supported yet (periodic box only)";
-	else if (s->n_obstacles > 0)
-		key = "obstacles", why = "obstacles over several ranks are not supported yet";
-	else if (scene_has_species(s))
-		key = "particles.species", why = "mixtures over several ranks are not supported yet";
-	else if (s->rough)
-		key = "collisions.rough", why = "rough particles over several ranks are not supported yet";
-	else if (s->drive != SCENE_DRIVE_NONE)
-		key = "driving", why = "driven systems over several ranks are not supported yet";
-	else if (s->restitution < 1.0 && !(s->tc > 0.0))
-		key = "collisions.tc", why = "an inelastic run over several ranks needs the TC model (tc > 0): an inelastic "
-		                             "collapse is not detected there yet";
-	else if (s->until.kind != SCENE_CLOCK_TIME)
-		key = "run.until", why = "over several ranks only a time (collision counts are not reached in order there)";
-	else if (s->every.kind != SCENE_CLOCK_TIME)
-		key = "output.every", why = "over several ranks only a time";
-	else if (out && s->snapshots.kind != SCENE_CLOCK_NONE && s->snapshots.kind != SCENE_CLOCK_TIME)
-		key = "output.snapshots", why = "over several ranks only a time";
-	else if (s->observables & ~ok_obs)
-		key = "output.observables", why = "over several ranks only kinetic_energy, temperature, pressure, "
-		                                  "compressibility, collision_rate and momentum (sums over the particles)";
-	else if (s->count > UINT32_MAX || (double)s->count * s->dim > (double)INT_MAX / 2)
-		key = "particles.count", why = "at most 2^30 / dimensions particles over several ranks";
-	if (!key) {
-		ped_params_t p = {.dim = s->dim, .sigma = 2.0 * s->radius};
-		for (int a = 0; a < 3; a++)
-			p.L[a] = a < s->dim ? s->box[a] : 1.0;
-		ped_grid(&p, s->count);
-		for (int a = 0; a < s->dim; a++)
-			if (p.nc[a] < 3) {
-				snprintf(grid, sizeof grid, "the split run needs at least 3 cells of one diameter along each axis; "
-				         "this box has %d along axis %d", p.nc[a], a);
-				key = "particles.count", why = grid;
-				break;
-			}
-	}
-	if (!key)
-		return 0;
-	if (msg && msglen)
-		snprintf(msg, msglen, "%s: %s", key, why);
-	return -1;
+	return ped_scene_check(s, out, msg, msglen);
 }
 
 /* The core's totals of every rank, summed in rank order (the same bits on every rank, for every run at one rank count). */

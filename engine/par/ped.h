@@ -133,6 +133,19 @@ void ped_owned(const ped_t *pd, double t, uint32_t *gid, double *pos, double *ve
 /* Their last collision times (TC model; -INFINITY: none), in ped_owned()'s order. */
 void ped_owned_tlast(const ped_t *pd, double *tlast);
 
+/* A scene on the core (scene.h's scene_t; the engine program's split run,
+ * engine/par/edrun.h, and the daemon's budget, engine/budget.c):
+ * ped_scene_check() is 0 when the split run can run scene s (out: with
+ * --out), else -1 with "KEY: reason" in msg (msg may be NULL): the core's
+ * scope (periodic box, one species, smooth particles, constant restitution,
+ * inelastic with the TC model), time schedules, observables that are sums
+ * over the particles, at least 3 cells per axis. ped_scene_bytes(): bytes
+ * one rank's ped_t allocates for s over P ranks (capacity N: room for every
+ * particle on every rank). */
+struct scene;
+int ped_scene_check(const struct scene *s, int out, char *msg, size_t msglen);
+uint64_t ped_scene_bytes(const struct scene *s, int P);
+
 /* Driver statistics. */
 typedef struct {
 	uint64_t rounds, syncs, rollbacks, messages, bytes;
