@@ -277,5 +277,23 @@ rc2=$?
 tail -n 1 "$tmp/t2/progress.jsonl" | grep -q '"type":"summary","status":"completed","time":30,'
 ok $(( rc == 4 && st == 0 && rc2 == 0 && $? == 0 ? 0 : 1 )) "SIGTERM to the ranks of mpirun -np 2 with --out: checkpoint, exit $rc; resumed serially to the end: exit $rc2 $(head -c 200 "$tmp/t.err")"
 
+# 8. A wall-clock checkpoint (every 0.5 s) comes between output times (every 400 time units, ~4 10^6 collisions):
+#    the run stops for rank 0's clock at chunks of about a second of wall time, not only at the schedule's stops.
+if [ $have_h5 = 1 ]; then
+	sed 's/"until":{"time":1e9}},"output":{"every":{"time":1}}/"until":{"time":1000}},"output":{"every":{"time":400},"checkpoint":{"every":{"wall_seconds":0.5}}}/' \
+		"$tmp/long.json" >"$tmp/w.json"
+	"$ENGINE" run "$tmp/w.json" --split --out "$tmp/w" >"$tmp/w.out" 2>/dev/null &
+	pid=$!
+	i=0; until [ -f "$tmp/w/checkpoint.h5" ] || [ $i -ge 600 ]; do sleep 0.1; i=$((i + 1)); done
+	tck=$(h5dump -a time "$tmp/w/checkpoint.h5" 2>/dev/null | sed -n 's/^ *(0): //p')
+	kill -TERM $pid
+	wait $pid
+	rc=$?
+	"$PY" -c 'import sys; t = float(sys.argv[1]); assert 0 < t < 400, t' "${tck:-nan}" 2>/dev/null
+	ok $(( rc == 4 && $? == 0 ? 0 : 1 )) "wall-clock checkpoint before the first output time (at t = $tck of 400), SIGTERM: exit $rc"
+else
+	n=$((n + 1)); echo "ok $n # SKIP h5dump not installed"
+fi
+
 echo "1..$n"
 [ "$failed" = 0 ]
