@@ -37,8 +37,9 @@
  *   rank 0 (MPI_Gatherv), at time 0, at each output.snapshots time and at
  *   the end (when not already taken there).
  *   o->checkpoints (--out): at output.checkpoint times (simulated time: the
- *   run stops there; wall clock: checked by rank 0 at the schedule's stops and every chunk of about a second of wall time)
- *   and on a stop request, rank 0 writes a checkpoint in the serial run's
+ *   run stops there; wall clock: checked by rank 0 at the schedule's stops
+ *   and every chunk of about a second of wall time) and on a stop request,
+ *   rank 0 writes a checkpoint in the serial run's
  *   layout through o->save: a serial run built from the gathered state (its
  *   engine fresh from positions and velocities with its clock's epoch at the
  *   checkpoint time; counters, TC times, the interval accumulators and the
