@@ -1,5 +1,4 @@
 /* One ed system over all MPI ranks (the parallel core par/ped.h): set-up from rank 0's initial state, the output schedule, records reduced over the ranks, frames gathered to rank 0. */
-#include <limits.h>
 #include <math.h>
 #include <mpi.h>
 #include <stdint.h>
@@ -15,7 +14,8 @@
 /* What the records need of the core, reduced. */
 typedef struct {
 	uint64_t collisions, tc_elastic, events;
-	double ekin, mom[3], virial, eint_part;   /* eint_part: sum (dekin (t - tref) - dekin_t) */
+	double ekin, mom[3];
+	double virial, eint_part;   /* over [t_mark, t]: the collision virial and the integral of E_kin dt */
 } sums_t;
 
 /* The run's state besides the core. */
