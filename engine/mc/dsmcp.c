@@ -290,6 +290,73 @@ static int fill_direct(struct dsmcp *d, const scene_t *s, uint64_t stream)
 	return DSMCP_OK;
 }
 
+/* The grid, constants and per-cell memory of rank `rank` of `ranks` for
+ * geometry g (no particles yet). NULL when out of memory. */
+static struct dsmcp *make(const scene_t *s, const dsmc_geom_t *g, uint64_t stream, int rank, int ranks)
+{
+	size_t nown;
+	struct dsmcp *d = calloc(1, sizeof *d);
+	if (!d)
+		return NULL;
+	const int D = g->dim;
+	d->dim = D;
+	d->rank = rank;
+	d->ranks = ranks;
+	d->n = g->n;
+	d->plane = 1;
+	for (int a = 0; a < 3; a++) {
+		d->L[a] = g->L[a];
+		d->nc[a] = g->nc[a];
+		d->inv_h[a] = g->nc[a] / g->L[a];
+		if (a < D - 1)
+			d->plane *= (size_t)g->nc[a];
+	}
+	const int nz = g->nc[D - 1];
+	d->p0 = (int)((int64_t)rank * nz / ranks);
+	d->p1 = (int)((int64_t)(rank + 1) * nz / ranks);
+	d->c0 = (size_t)d->p0 * d->plane;
+	d->c1 = (size_t)d->p1 * d->plane;
+	d->owner = malloc((size_t)nz * sizeof(int));
+	if (!d->owner)
+		goto fail;
+	for (int r = 0; r < ranks; r++)
+		for (int z = (int)((int64_t)r * nz / ranks); z < (int)((int64_t)(r + 1) * nz / ranks); z++)
+			d->owner[z] = r;
+	d->sigma = g->sigma;
+	d->mass = g->mass;
+	d->e = g->e;
+	d->chi = g->chi;
+	d->sigma_t = g->sigma_t;
+	d->vcell = g->vcell;
+	d->fcoef = g->fcoef;
+	d->cps = g->cps;
+	d->dt_fixed = g->dt_fixed;
+	d->cba = g->cba;
+	d->hsmc = g->hsmc;
+	d->nfull = g->nfull;
+	d->key = mix64(s->seed ^ mix64(0xa0761d6478bd642full * (stream + 1)));
+
+	nown = d->c1 - d->c0;
+	d->start = calloc(nown + 1, sizeof(uint32_t));
+	d->cnt = calloc(nown + 1, sizeof(uint32_t));
+	d->rem = malloc((nown ? nown : 1) * sizeof(float));
+	d->out_cnt = calloc((size_t)ranks, sizeof(size_t));
+	d->out_pos = calloc((size_t)ranks, sizeof(size_t));
+	if (!d->start || !d->cnt || !d->rem || !d->out_cnt || !d->out_pos)
+		goto fail;
+	if (d->hsmc) {
+		const size_t ncells = d->plane * (size_t)nz;
+		d->gcm = calloc(ncells * (size_t)(1 + D), sizeof(double));
+		d->gstamp = calloc(ncells, sizeof(uint32_t));
+		if (!d->gcm || !d->gstamp)
+			goto fail;
+	}
+	return d;
+fail:
+	dsmcp_destroy(d);
+	return NULL;
+}
+
 dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int rank, int ranks, int *err,
                       char *msg, size_t msglen)
 {
@@ -319,62 +386,11 @@ dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int
 		goto fail;
 	}
 	*err = DSMCP_ENOMEM;
-	d = calloc(1, sizeof *d);
+	d = make(s, &g, stream, rank, ranks);
 	if (!d)
 		goto fail;
 	const int D = g.dim;
-	d->dim = D;
-	d->rank = rank;
-	d->ranks = ranks;
-	d->n = g.n;
-	d->plane = 1;
-	for (int a = 0; a < 3; a++) {
-		d->L[a] = g.L[a];
-		d->nc[a] = g.nc[a];
-		d->inv_h[a] = g.nc[a] / g.L[a];
-		if (a < D - 1)
-			d->plane *= (size_t)g.nc[a];
-	}
-	const int nz = g.nc[D - 1];
-	d->p0 = (int)((int64_t)rank * nz / ranks);
-	d->p1 = (int)((int64_t)(rank + 1) * nz / ranks);
-	d->c0 = (size_t)d->p0 * d->plane;
-	d->c1 = (size_t)d->p1 * d->plane;
-	d->owner = malloc((size_t)nz * sizeof(int));
-	if (!d->owner)
-		goto fail;
-	for (int r = 0; r < ranks; r++)
-		for (int z = (int)((int64_t)r * nz / ranks); z < (int)((int64_t)(r + 1) * nz / ranks); z++)
-			d->owner[z] = r;
-	d->sigma = g.sigma;
-	d->mass = g.mass;
-	d->e = g.e;
-	d->chi = g.chi;
-	d->sigma_t = g.sigma_t;
-	d->vcell = g.vcell;
-	d->fcoef = g.fcoef;
-	d->cps = g.cps;
-	d->dt_fixed = g.dt_fixed;
-	d->cba = g.cba;
-	d->hsmc = g.hsmc;
-	d->nfull = g.nfull;
-	d->key = mix64(s->seed ^ mix64(0xa0761d6478bd642full * (stream + 1)));
-
 	const size_t nown = d->c1 - d->c0;
-	d->start = calloc(nown + 1, sizeof(uint32_t));
-	d->cnt = calloc(nown + 1, sizeof(uint32_t));
-	d->rem = malloc((nown ? nown : 1) * sizeof(float));
-	d->out_cnt = calloc((size_t)ranks, sizeof(size_t));
-	d->out_pos = calloc((size_t)ranks, sizeof(size_t));
-	if (!d->start || !d->cnt || !d->rem || !d->out_cnt || !d->out_pos)
-		goto fail;
-	if (d->hsmc) {
-		const size_t ncells = d->plane * (size_t)nz;
-		d->gcm = calloc(ncells * (size_t)(1 + D), sizeof(double));
-		d->gstamp = calloc(ncells, sizeof(uint32_t));
-		if (!d->gcm || !d->gstamp)
-			goto fail;
-	}
 	if (init) {
 		pos = malloc((size_t)g.n * D * sizeof(double));
 		vel = malloc((size_t)g.n * D * sizeof(double));
@@ -1028,4 +1044,230 @@ size_t dsmcp_memory(const dsmcp_t *d)
 	return sizeof *d + d->cap * (2 * S * sizeof(double) + 2 * sizeof(uint32_t) + sizeof(uint32_t)) +
 	       (nown + 1) * 2 * sizeof(uint32_t) + nown * sizeof(float) + d->out_cap * (S + 1) * sizeof(double) +
 	       (size_t)d->nc[d->dim - 1] * sizeof(int);
+}
+
+/* ---- checkpoints ------------------------------------------------------------------ */
+
+void dsmcp_clock(const dsmcp_t *d, dsmcp_clock_t *c)
+{
+	c->time = d->t;
+	c->kinetic_energy = d->ekin;
+	c->energy_scale = d->escale;
+	c->t_sample = d->t_sample;
+	c->ekin_int = d->ekin_int;
+	c->steps = d->steps;
+	c->collisions = d->collisions;
+	c->candidates = d->candidates;
+	c->vmax_raised = d->vmax_raised;
+	c->migrated = d->migrated;
+	c->moves = d->moves;
+	c->cell_collisions = d->cell_collisions;
+	c->rejected = d->rejected;
+}
+
+void dsmcp_cells(const dsmcp_t *d, uint64_t *c0, uint64_t *c1)
+{
+	*c0 = d->c0;
+	*c1 = d->c1;
+}
+
+void dsmcp_cell_state(const dsmcp_t *d, uint32_t *count, double *rem)
+{
+	for (size_t c = 0; c < d->c1 - d->c0; c++) {
+		count[c] = d->start[c + 1] - d->start[c];
+		rem[c] = d->rem[c];
+	}
+}
+
+size_t dsmcp_local_ids(const dsmcp_t *d, uint32_t *ids)
+{
+	memcpy(ids, d->id, d->nl * sizeof(uint32_t));
+	return d->nl;
+}
+
+double dsmcp_virial_part(const dsmcp_t *d) { return d->virial; }
+
+/* The geometry a restored state is built on: the scene's (as the direct set-up). */
+static int geometry(const scene_t *s, dsmc_geom_t *g, char *msg, size_t msglen)
+{
+	if (dsmcp_check(s, msg, msglen) != DSMCP_OK || dsmc_geometry_scene(s, g, msg, msglen) != DSMC_OK)
+		return DSMCP_EINVAL;
+	if (g->mix || g->bounded || g->local_chi || g->impact) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "method: the scene uses a feature the decomposed dsmc does not support");
+		return DSMCP_EINVAL;
+	}
+	return DSMCP_OK;
+}
+
+int dsmcp_cells_of(const scene_t *s, int rank, int ranks, uint64_t *c0, uint64_t *c1, uint64_t *ncells, char *msg,
+                   size_t msglen)
+{
+	dsmc_geom_t g;
+	if (ranks < 1 || rank < 0 || rank >= ranks || geometry(s, &g, msg, msglen) != DSMCP_OK)
+		return DSMCP_EINVAL;
+	const int D = g.dim, nz = g.nc[D - 1];
+	uint64_t plane = 1;
+	for (int a = 0; a < D - 1; a++)
+		plane *= (uint64_t)g.nc[a];
+	*c0 = (uint64_t)((int64_t)rank * nz / ranks) * plane;
+	*c1 = (uint64_t)((int64_t)(rank + 1) * nz / ranks) * plane;
+	*ncells = plane * (uint64_t)nz;
+	return DSMCP_OK;
+}
+
+int dsmcp_saved_alloc(dsmcp_saved_t *sv, int dim, uint64_t n, uint64_t ncells)
+{
+	memset(sv, 0, sizeof *sv);
+	sv->dim = dim;
+	sv->n = n;
+	sv->ncells = ncells;
+	sv->pos = malloc((n ? n : 1) * (size_t)dim * sizeof(double));
+	sv->vel = malloc((n ? n : 1) * (size_t)dim * sizeof(double));
+	sv->id = malloc((n ? n : 1) * sizeof(uint32_t));
+	sv->count = malloc((ncells ? ncells : 1) * sizeof(uint32_t));
+	sv->rem = malloc((ncells ? ncells : 1) * sizeof(double));
+	if (sv->pos && sv->vel && sv->id && sv->count && sv->rem)
+		return DSMCP_OK;
+	dsmcp_saved_free(sv);
+	return DSMCP_ENOMEM;
+}
+
+void dsmcp_saved_free(dsmcp_saved_t *sv)
+{
+	free(sv->pos);
+	free(sv->vel);
+	free(sv->id);
+	free(sv->count);
+	free(sv->rem);
+	sv->pos = sv->vel = sv->rem = NULL;
+	sv->id = sv->count = NULL;
+}
+
+/* A remainder as the engine keeps it: a float, finite, not negative. */
+static int rem_ok(double r) { return r >= 0 && isfinite(r) && (double)(float)r == r; }
+
+int dsmcp_saved_check(const dsmcp_saved_t *sv, const scene_t *s, char *msg, size_t msglen)
+{
+	dsmc_geom_t g;
+	const char *why = NULL;
+	uint8_t *seen = NULL;
+	if (geometry(s, &g, msg, msglen) != DSMCP_OK)
+		return DSMCP_EINVAL;
+	uint64_t ncells = 1, sum = 0;
+	for (int a = 0; a < g.dim; a++)
+		ncells *= (uint64_t)g.nc[a];
+	const dsmcp_clock_t *c = &sv->clock;
+	int ex = 0;
+	if (sv->dim != g.dim || sv->n != g.n || sv->ncells != ncells)
+		why = "the state's size does not fit the scene";
+	else if (!(c->time >= 0) || !isfinite(c->time) || !(c->kinetic_energy >= 0) || !isfinite(c->kinetic_energy) ||
+	         !(c->t_sample >= 0) || !(c->t_sample <= c->time) || !isfinite(c->ekin_int) || !isfinite(sv->virial) ||
+	         !(c->energy_scale > 0) || !isfinite(c->energy_scale) || frexp(c->energy_scale, &ex) != 0.5 ||
+	         c->moves != c->steps * sv->n)
+		why = "the clock or the counters are inconsistent";
+	for (uint64_t k = 0; !why && k < ncells; k++) {
+		sum += sv->count[k];
+		if (!rem_ok(sv->rem[k]))
+			why = "a cell remainder is not a non-negative float";
+	}
+	if (!why && sum != sv->n)
+		why = "the cell counts do not add up to the particles";
+	if (!why && !(seen = calloc(sv->n ? sv->n : 1, 1))) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "out of memory");
+		return DSMCP_ENOMEM;
+	}
+	const int D = sv->dim;
+	for (uint64_t i = 0; !why && i < sv->n; i++) {
+		uint32_t id = sv->id[i];
+		if (id >= sv->n || seen[id]++)
+			why = "the identities are not a permutation";
+		for (int a = 0; !why && a < D; a++) {
+			double x = sv->pos[i * D + a], v = sv->vel[i * D + a];
+			if (!(x >= 0 && x < g.L[a]) || !isfinite(v))
+				why = "a particle is outside the box or has a non-finite velocity";
+		}
+	}
+	free(seen);
+	if (!why)
+		return DSMCP_OK;
+	if (msg && msglen)
+		snprintf(msg, msglen, "%s", why);
+	return DSMCP_EINVAL;
+}
+
+dsmcp_t *dsmcp_restore(const scene_t *s, uint64_t stream, int rank, int ranks, const dsmcp_clock_t *c, double virial,
+                       size_t nl, const double *pos, const double *vel, const uint32_t *id, const uint32_t *count,
+                       const double *rem, int *err, char *msg, size_t msglen)
+{
+	struct dsmcp *d = NULL;
+	dsmc_geom_t g;
+	*err = DSMCP_EINVAL;
+	if (msg && msglen)
+		msg[0] = '\0';
+	if (ranks < 1 || rank < 0 || rank >= ranks) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "run: rank %d of %d", rank, ranks);
+		goto fail;
+	}
+	if (geometry(s, &g, msg, msglen) != DSMCP_OK)
+		goto fail;
+	*err = DSMCP_ENOMEM;
+	if (!(d = make(s, &g, stream, rank, ranks)) || reserve(d, nl + 1) != DSMCP_OK)
+		goto fail;
+	*err = DSMCP_EINVAL;
+	const int D = d->dim, S = 2 * D;
+	const size_t nown = d->c1 - d->c0;
+	uint64_t acc = 0;
+	for (size_t q = 0; q < nown; q++) {
+		d->start[q] = (uint32_t)acc;
+		acc += count[q];
+		if (acc > UINT32_MAX || !rem_ok(rem[q]))
+			goto bad;
+		d->rem[q] = (float)rem[q];
+		for (uint64_t k = d->start[q]; k < acc && k < nl; k++)
+			d->cell[k] = (uint32_t)q;
+	}
+	d->start[nown] = (uint32_t)acc;
+	if (acc != nl)
+		goto bad;
+	for (size_t k = 0; k < nl; k++) {
+		if (id[k] >= d->n)
+			goto bad;
+		for (int a = 0; a < D; a++) {
+			double x = pos[k * D + a], v = vel[k * D + a];
+			if (!(x >= 0 && x < d->L[a]) || !isfinite(v))
+				goto bad;
+			d->p[k * S + a] = x;
+			d->p[k * S + D + a] = v;
+		}
+		d->id[k] = id[k];
+	}
+	d->nl = d->nown_nl = nl;
+	d->nlow = 0;
+	d->t = c->time;
+	d->ekin = c->kinetic_energy;
+	d->escale = c->energy_scale;
+	d->t_sample = c->t_sample;
+	d->ekin_int = c->ekin_int;
+	d->steps = c->steps;
+	d->collisions = c->collisions;
+	d->candidates = c->candidates;
+	d->vmax_raised = c->vmax_raised;
+	d->migrated = c->migrated;
+	d->moves = c->moves;
+	d->cell_collisions = c->cell_collisions;
+	d->rejected = c->rejected;
+	d->virial = virial;
+	*err = DSMCP_OK;
+	return d;
+bad:
+	if (msg && msglen)
+		snprintf(msg, msglen, "run: the saved state of rank %d's cells is inconsistent", rank);
+fail:
+	if (*err == DSMCP_ENOMEM && msg && msglen)
+		snprintf(msg, msglen, "run: out of memory for the decomposed dsmc");
+	dsmcp_destroy(d);
+	return NULL;
 }
