@@ -1004,5 +1004,5 @@ int ckpt_is_split(const char *path)
 		return k;
 	const char *slash = strrchr(path, '/');
 	snprintf(prev, sizeof prev, "%.*s%s", slash ? (int)(slash - path + 1) : 0, path, CKPT_PREV);
-	return split_file(prev) > 0;
+	return split_file(prev);
 }

@@ -89,8 +89,9 @@ int ckpt_write_split(const char *dir, const ckpt_split_t *ck, const char *scene_
                      const ckpt_output_t *out, char *msg, size_t msglen);
 int ckpt_read_split(const char *path, const scene_t *s, const char *scene_text, size_t len, ckpt_split_t *ck,
                     ckpt_output_t *out, char *msg, size_t msglen);
-/* 1 if the checkpoint a resume from path would use (path, or CKPT_PREV
- * beside it when path does not verify) holds a split run's state, else 0. */
+/* Whether the checkpoint a resume from path would use (path, or CKPT_PREV
+ * beside it when path does not verify) holds a split run's state: 1 yes,
+ * 0 no (a run on one rank or an ensemble), -1 neither file verifies. */
 int ckpt_is_split(const char *path);
 
 /* File names inside an output directory. */
