@@ -160,6 +160,20 @@ rc=$?
 same_progress "$tmp/L/progress.jsonl" "$tmp/K/progress.jsonl"
 ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "... resumed at 3 ranks: progress.jsonl equal to the uninterrupted 1-rank run's ($(wc -l <"$tmp/K/progress.jsonl") lines, exit $rc $(head -c 200 "$tmp/K2.err"))"
 
+# 3b. Wall-clock checkpoints (output.checkpoint.every.wall_seconds 0.2, looked at every 64 steps on rank 0): the
+#     2-rank run writes them and its records equal the run without; resumed at 1 rank from the last one (a plain
+#     run), it ends with the same records.
+sed 's/"output":{/"output":{"checkpoint":{"every":{"wall_seconds":0.2}},/' "$tmp/long.json" >"$tmp/wall.json"
+launch 2 run "$tmp/wall.json" --out "$tmp/W" >/dev/null 2>"$tmp/W.err"
+rc=$?
+tw=$("$PY" -c 'import h5py, sys; print(h5py.File(sys.argv[1], "r").attrs["time"])' "$tmp/W/checkpoint.h5" 2>/dev/null)
+same_progress "$tmp/L/progress.jsonl" "$tmp/W/progress.jsonl"
+ok $(( rc == 0 && $? == 0 && ${#tw} > 0 ? 0 : 1 )) "wall-clock checkpoints at 2 ranks: records equal the run without, the last at t = ${tw:-none} (exit $rc $(head -c 200 "$tmp/W.err"))"
+launch 1 run "$tmp/wall.json" --out "$tmp/W" --resume "$tmp/W/checkpoint.h5" >/dev/null 2>"$tmp/W1.err"
+rc=$?
+same_progress "$tmp/L/progress.jsonl" "$tmp/W/progress.jsonl"
+ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "... resumed from it on 1 rank: the same records (exit $rc $(head -c 200 "$tmp/W1.err"))"
+
 # 4. A damaged checkpoint.h5 (one byte changed: the file digest) falls back to checkpoint.prev.h5, with the line
 #    the daemon reads ("; using ..."), and the run still ends as the uninterrupted one.
 rm -rf "$tmp/D"
