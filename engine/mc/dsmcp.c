@@ -24,11 +24,16 @@ struct dsmcp {
 	uint64_t key;                  /* (seed, stream) mixed: base of the cell keys */
 	double escale;                 /* fixed-point scale of the energy sums (a power of two) */
 
-	/* own particles: AoS x[D] v[D], identities; scratch of the same size */
+	/* own particles: AoS x[D] v[D], identities (56 B a particle in 3D), and the records that change cell
+	 * in a step, kept aside while the sort runs (sort_cells_d()) */
 	size_t nl, cap;
-	double *p, *p2;
-	uint32_t *id, *id2;            /* identities (N < 2^32, dsmcp_check()) */
-	uint32_t *cell;                /* local cell (cell - c0) of each record */
+	double *p;
+	uint32_t *id;                  /* identities (N < 2^32, dsmcp_check()) */
+	uint32_t *cell;                /* local cell (cell - c0) of each record, | MOVED if it changed cell;
+	                                * the sort's destinations */
+	double *mv;                    /* movers' records */
+	uint32_t *mvx;                 /* movers' identity and destination */
+	size_t mv_cap;
 	uint32_t *start, *cnt;         /* own cells + 1 */
 	float *rem;                    /* NTC remainder per own cell */
 	/* migrants */
@@ -129,29 +134,30 @@ int dsmcp_check(const scene_t *s, char *msg, size_t msglen)
 	return DSMCP_EINVAL;
 }
 
+/* cell[] flag: the record is not in the cell it was sorted into at the last step (dsmcp_move()), or
+ * arrived from another rank */
+#define MOVED 0x80000000u
+
 /* Room for cap particles. */
 static int reserve(struct dsmcp *d, size_t cap)
 {
 	if (cap <= d->cap)
 		return DSMCP_OK;
-	cap = cap + cap / 4 + 64;
+	/* a margin of 1/16: the arrivals of a step are a small fraction (0.2 % of N per step in 3D at 2 ranks) */
+	cap = cap + cap / 16 + 64;
+	if (cap >= MOVED)   /* local indices and cells below the flag bit */
+		return DSMCP_ENOMEM;
 	const size_t S = 2 * (size_t)d->dim;
 	double *p = realloc(d->p, cap * S * sizeof(double));
 	if (p)
 		d->p = p;
-	double *p2 = realloc(d->p2, cap * S * sizeof(double));
-	if (p2)
-		d->p2 = p2;
 	uint32_t *id = realloc(d->id, cap * sizeof(uint32_t));
 	if (id)
 		d->id = id;
-	uint32_t *id2 = realloc(d->id2, cap * sizeof(uint32_t));
-	if (id2)
-		d->id2 = id2;
 	uint32_t *cell = realloc(d->cell, cap * sizeof(uint32_t));
 	if (cell)
 		d->cell = cell;
-	if (!p || !p2 || !id || !id2 || !cell)
+	if (!p || !id || !cell)
 		return DSMCP_ENOMEM;
 	d->cap = cap;
 	return DSMCP_OK;
@@ -165,14 +171,54 @@ static double limbs_energy(const struct dsmcp *d, const uint64_t *limb)
 	return (double)acc / d->escale;
 }
 
-/* Stable counting sort of the own records into cells: the 1-rank order (see dsmcp.h, dsmcp_arrive()). */
-static ALWAYS_INLINE void sort_cells_d(struct dsmcp *d, const int D)
+/* Move every record k to dest[k] (a permutation) along its cycles, each record once: in place, but
+ * cycles jump through the whole array (measured 2.5x the step's CPU time as the sort of every step;
+ * used for the set-up's sort, and when the movers' room cannot be had). */
+static void permute_cycles(struct dsmcp *d, const int S)
+{
+	double *restrict p = d->p;
+	uint32_t *restrict id = d->id, *restrict dest = d->cell;
+	for (size_t i = 0; i < d->nl; i++) {
+		uint32_t j = dest[i];
+		if (j == i)
+			continue;   /* in place, or placed by an earlier cycle */
+		double carry[6], tmp[6];
+		memcpy(carry, &p[i * S], S * sizeof(double));
+		uint32_t cid = id[i];
+		dest[i] = (uint32_t)i;
+		while (j != i) {   /* carry to j, take what was there on to its destination */
+			memcpy(tmp, &p[(size_t)j * S], S * sizeof(double));
+			memcpy(&p[(size_t)j * S], carry, S * sizeof(double));
+			memcpy(carry, tmp, S * sizeof(double));
+			uint32_t t = id[j];
+			id[j] = cid;
+			cid = t;
+			uint32_t jn = dest[j];
+			dest[j] = j;
+			j = jn;
+		}
+		memcpy(&p[i * S], carry, S * sizeof(double));
+		id[i] = cid;
+	}
+}
+
+/* Stable counting sort of the own records into cells: the 1-rank order (see dsmcp.h, dsmcp_arrive()),
+ * without a second copy of the records. Each record's destination (its cell's next slot, the records
+ * taken in the stable order) replaces its cell. The records that stayed in their cell ("stayers": not
+ * MOVED) keep their relative order and their destinations increase with their index (a cell's stayers
+ * come after the records arriving from lower cells and before those from higher ones); the others
+ * ("movers", about a quarter of the records per step with cells of one mean free path and steps of
+ * 0.2 mean free times in 3D) are copied aside, the stayers are packed to the front, then spread from
+ * the back to their destinations (each destination at or after its stayer's packed slot, so nothing
+ * unread is overwritten), and the movers written to theirs. Sequential passes but the movers' writes.
+ * full (the set-up: records in identity order): every record moves, permute_cycles(). */
+static ALWAYS_INLINE void sort_cells_d(struct dsmcp *d, const int D, int full)
 {
 	const int S = 2 * D;
 	const size_t nown = d->c1 - d->c0;
 	memset(d->cnt, 0, (nown + 1) * sizeof(uint32_t));
 	for (size_t k = 0; k < d->nl; k++)
-		d->cnt[d->cell[k]]++;
+		d->cnt[d->cell[k] & ~MOVED]++;
 	uint32_t acc = 0;
 	for (size_t c = 0; c < nown; c++) {
 		uint32_t k = d->cnt[c];
@@ -183,29 +229,84 @@ static ALWAYS_INLINE void sort_cells_d(struct dsmcp *d, const int D)
 	/* stable over the 1-rank order: arrivals from lower ranks (lower cells),
 	 * the own survivors, arrivals from higher ranks (dsmcp_arrive()) */
 	const size_t seg[3][2] = {{d->nown_nl, d->nown_nl + d->nlow}, {0, d->nown_nl}, {d->nown_nl + d->nlow, d->nl}};
+	uint32_t *restrict dest = d->cell;
 	for (int g = 0; g < 3; g++)
 		for (size_t k = seg[g][0]; k < seg[g][1]; k++) {
-			uint32_t j = d->cnt[d->cell[k]]++;
-			memcpy(&d->p2[(size_t)j * S], &d->p[k * S], S * sizeof(double));
-			d->id2[j] = d->id[k];
+			uint32_t c = dest[k];
+			dest[k] = (d->cnt[c & ~MOVED]++) | (full ? 0 : c & MOVED);
 		}
-	d->nown_nl = d->nl;
+	const size_t nl = d->nl;
+	d->nown_nl = nl;
 	d->nlow = 0;
-	double *tp = d->p;
-	d->p = d->p2;
-	d->p2 = tp;
-	uint32_t *ti = d->id;
-	d->id = d->id2;
-	d->id2 = ti;
+	/* the movers: flagged, or (never for a consistent state, but then still correct) out of order */
+	size_t m = 0, ns = 0;
+	uint32_t last = 0;
+	for (size_t k = 0; k < nl && !full; k++) {
+		uint32_t c = dest[k];
+		if ((c & MOVED) || (ns > 0 && c <= last)) {
+			m++;
+		} else {
+			last = c;
+			ns++;
+		}
+	}
+	if (!full && m > d->mv_cap) {
+		size_t cap = m + m / 8 + 64;
+		double *mv = realloc(d->mv, cap * S * sizeof(double));
+		if (mv)
+			d->mv = mv;
+		uint32_t *mvx = realloc(d->mvx, cap * 2 * sizeof(uint32_t));
+		if (mvx)
+			d->mvx = mvx;
+		if (mv && mvx)
+			d->mv_cap = cap;
+	}
+	if (full || m > d->mv_cap) {
+		for (size_t k = 0; k < nl; k++)
+			dest[k] &= ~MOVED;
+		permute_cycles(d, S);
+		return;
+	}
+	double *restrict p = d->p, *restrict mv = d->mv;
+	uint32_t *restrict id = d->id, *restrict mvx = d->mvx;
+	size_t nm = 0;
+	ns = 0;
+	for (size_t k = 0; k < nl; k++) {
+		uint32_t c = dest[k];
+		if ((c & MOVED) || (ns > 0 && c <= dest[ns - 1])) {   /* the rule of the count above */
+			memcpy(&mv[nm * S], &p[k * S], S * sizeof(double));
+			mvx[2 * nm] = id[k];
+			mvx[2 * nm + 1] = c & ~MOVED;
+			nm++;
+			continue;
+		}
+		if (ns != k) {
+			memcpy(&p[ns * S], &p[k * S], S * sizeof(double));
+			id[ns] = id[k];
+		}
+		dest[ns++] = c;
+	}
+	for (size_t s = ns; s-- > 0;) {
+		uint32_t j = dest[s];
+		if (j != s) {
+			memcpy(&p[(size_t)j * S], &p[s * S], S * sizeof(double));
+			id[j] = id[s];
+		}
+	}
+	for (size_t i = 0; i < nm; i++) {
+		uint32_t j = mvx[2 * i + 1];
+		memcpy(&p[(size_t)j * S], &mv[i * S], S * sizeof(double));
+		id[j] = mvx[2 * i];
+	}
 }
 
 /* D a constant in each copy: the record copies inline. */
-static void sort_cells(struct dsmcp *d)
+static void sort_cells(struct dsmcp *d, int full)
 {
 	if (d->dim == 3)
-		sort_cells_d(d, 3);
+		sort_cells_d(d, 3, full);
 	else
-		sort_cells_d(d, 2);
+		sort_cells_d(d, 2, full);
 }
 
 int dsmcp_direct_ok(const scene_t *s)
@@ -411,7 +512,7 @@ dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int
 		goto fail;
 	}
 	d->nown_nl = d->nl;
-	sort_cells(d);
+	sort_cells(d, 1);
 	/* remainders uniform on [0, 1) from the generator of (key, step 2^64 - 1, cell) */
 	for (size_t c = 0; c < nown; c++) {
 		rng_t r;
@@ -449,10 +550,10 @@ void dsmcp_destroy(dsmcp_t *d)
 		return;
 	free(d->owner);
 	free(d->p);
-	free(d->p2);
 	free(d->id);
-	free(d->id2);
 	free(d->cell);
+	free(d->mv);
+	free(d->mvx);
 	free(d->start);
 	free(d->cnt);
 	free(d->rem);
@@ -503,15 +604,16 @@ static ALWAYS_INLINE int move_d(dsmcp_t *d, double dt, const int D)
 	const size_t c0 = d->c0, c1 = d->c1, nl = d->nl;
 	double *restrict p = d->p;
 	uint32_t *restrict cell = d->cell;
-	size_t cur = 0;   /* hsmc: the own cell of record k (records in cell order) */
+	size_t cur = 0;   /* the own cell of record k (records in cell order) */
+	const uint32_t *restrict start = d->start;
 	for (size_t k = 0; k < nl; k++) {
 		double *x = &p[k * S], *v = x + D;
 		size_t c = 0;
+		while (k >= start[cur + 1])
+			cur++;
 		if (d->hsmc) {
 			/* a move into another cell full at the start of the step is rejected */
 			double y[3];
-			while (k >= d->start[cur + 1])
-				cur++;
 			for (int a = D - 1; a >= 0; a--) {
 				y[a] = wrap(x[a] + v[a] * dt, L[a]);
 				int ix = (int)(y[a] * ih[a]);
@@ -535,7 +637,7 @@ static ALWAYS_INLINE int move_d(dsmcp_t *d, double dt, const int D)
 			}
 		}
 		if (c >= c0 && c < c1) {
-			cell[k] = (uint32_t)(c - c0);
+			cell[k] = (uint32_t)(c - c0) | (c != c0 + cur ? MOVED : 0);   /* MOVED: for sort_cells_d() */
 		} else {
 			cell[k] = UINT32_MAX;
 			d->out_cnt[d->owner[c / d->plane]]++;
@@ -606,7 +708,7 @@ int dsmcp_arrive(dsmcp_t *d, const double *rec, size_t n, size_t nlow)
 			return DSMCP_EINVAL;
 		memcpy(&d->p[d->nl * S], r, S * sizeof(double));
 		d->id[d->nl] = (uint32_t)r[S];
-		d->cell[d->nl++] = (uint32_t)(c - d->c0);
+		d->cell[d->nl++] = (uint32_t)(c - d->c0) | MOVED;
 	}
 	return DSMCP_OK;
 }
@@ -623,7 +725,7 @@ static ALWAYS_INLINE void collide_d(dsmcp_t *d, double dt, dsmcp_sums_t *part, c
 	uint64_t ncoll = 0, ncand = 0, nraise = 0;
 	double virial = 0;
 	unsigned __int128 eacc = 0;
-	sort_cells(d);
+	sort_cells(d, 0);
 	const size_t nown = d->c1 - d->c0;
 	for (size_t c = 0; c < nown; c++) {
 		uint32_t k0 = d->start[c], nc = d->start[c + 1] - k0;
@@ -1041,7 +1143,7 @@ int dsmcp_dim(const dsmcp_t *d) { return d->dim; }
 size_t dsmcp_memory(const dsmcp_t *d)
 {
 	const size_t S = 2 * (size_t)d->dim, nown = d->c1 - d->c0;
-	return sizeof *d + d->cap * (2 * S * sizeof(double) + 2 * sizeof(uint32_t) + sizeof(uint32_t)) +
+	return sizeof *d + d->cap * (S * sizeof(double) + 2 * sizeof(uint32_t)) + d->mv_cap * (S * sizeof(double) + 2 * sizeof(uint32_t)) +
 	       (nown + 1) * 2 * sizeof(uint32_t) + nown * sizeof(float) + d->out_cap * (S + 1) * sizeof(double) +
 	       (size_t)d->nc[d->dim - 1] * sizeof(int);
 }
