@@ -136,7 +136,7 @@ for np in 1 2; do
 done
 
 # 3. SIGTERM to the ranks (as granulard sends it) of a 2-rank run with --out: a checkpoint between two steps
-#    (rank 0's flag, broadcast every 64 steps), a summary with status interrupted, exit 4 (through mpirun); resumed
+#    (rank 0's flag, reduced with the step's sums), a summary with status interrupted, exit 4 (through mpirun); resumed
 #    at 3 ranks it ends with the records of the uninterrupted run. Elastic 3D gas, N = 20000, ~700 steps.
 cat >"$tmp/long.json" <<'EOF'
 {"method":"dsmc","dimensions":3,"particles":{"count":20000,"volume_fraction":0.1,"initial":{"positions":"random"}},
@@ -160,7 +160,7 @@ rc=$?
 same_progress "$tmp/L/progress.jsonl" "$tmp/K/progress.jsonl"
 ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "... resumed at 3 ranks: progress.jsonl equal to the uninterrupted 1-rank run's ($(wc -l <"$tmp/K/progress.jsonl") lines, exit $rc $(head -c 200 "$tmp/K2.err"))"
 
-# 3b. Wall-clock checkpoints (output.checkpoint.every.wall_seconds 0.2, looked at every 64 steps on rank 0): the
+# 3b. Wall-clock checkpoints (output.checkpoint.every.wall_seconds 0.2, rank 0's clock, looked at each step): the
 #     2-rank run writes them and its records equal the run without; resumed at 1 rank from the last one (a plain
 #     run), it ends with the same records.
 sed 's/"output":{/"output":{"checkpoint":{"every":{"wall_seconds":0.2}},/' "$tmp/long.json" >"$tmp/wall.json"

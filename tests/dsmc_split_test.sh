@@ -223,7 +223,7 @@ else
 	for np in 2 3; do n=$((n + 1)); echo "ok $n # SKIP python3-h5py not installed"; done
 fi
 
-# 4b. SIGTERM stops a split run without --out at the next 64-step boundary (rank 0's flag, broadcast): a last
+# 4b. SIGTERM stops a split run without --out after the next step (rank 0's flag, reduced with the step): a last
 #     progress record and a summary with status "interrupted", exit 3 (no checkpoint to write; with --out:
 #     tests/dsmc_split_resume_test.sh).
 cat >"$tmp/long.json" <<'EOF'

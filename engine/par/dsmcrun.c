@@ -105,7 +105,9 @@ static double cpu_now(void)
 	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static int step_x(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st, xbuf_t *x, int P, int rank)
+/* One step; flags (may be NULL): rank 0's stop and wall-clock checkpoint flags in (0 elsewhere),
+ * summed over the ranks in the step's own reduction out (so they cost no message of their own). */
+static int step_x(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st, xbuf_t *x, int P, int rank, uint64_t *flags)
 {
 	int last;
 	double w0 = MPI_Wtime(), wc = 0, u0 = cpu_now(), uc = 0, cu0 = 0;
@@ -193,7 +195,14 @@ static int step_x(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st, xbuf_t *x, int
 		wc += MPI_Wtime() - c0, uc += cpu_now() - cu0;
 		return rc != DSMCP_OK ? rc : DSMCP_EINVAL;
 	}
-	MPI_Allreduce(part.w, sum.w, DSMCP_NSUM, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+	uint64_t in[DSMCP_NSUM + 2], out[DSMCP_NSUM + 2];
+	memcpy(in, part.w, sizeof part.w);
+	in[DSMCP_NSUM] = flags ? flags[0] : 0;
+	in[DSMCP_NSUM + 1] = flags ? flags[1] : 0;
+	MPI_Allreduce(in, out, DSMCP_NSUM + 2, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+	memcpy(sum.w, out, sizeof sum.w);
+	if (flags)
+		flags[0] = out[DSMCP_NSUM], flags[1] = out[DSMCP_NSUM + 1];
 	wc += MPI_Wtime() - c0, uc += cpu_now() - cu0;
 	dsmcp_finish(d, &sum, dt, last, t_stop);
 	if (st) {
@@ -240,7 +249,7 @@ int dsmcrun_step(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st)
 	MPI_Comm_rank(MPI_COMM_WORLD, &rank);
 	int bad = xbuf_init(&x, P) != 0;
 	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
-	int rc = bad ? DSMCP_ENOMEM : step_x(d, t_stop, st, &x, P, rank);
+	int rc = bad ? DSMCP_ENOMEM : step_x(d, t_stop, st, &x, P, rank, NULL);
 	xbuf_free(&x);
 	return rc;
 }
@@ -703,44 +712,19 @@ int dsmcrun_run(const scene_t *s, int rank, int size, const dsmcrun_opts_t *o, r
 		}
 		sched.started = 1;
 	}
-	for (uint64_t n = 0;; n++) {
+	for (;;) {
 		dsmcp_totals_t t;
 		dsmcp_totals(d, &t);
 		const double C = (double)t.collisions;
 		if (!(t.time < t_end) || C >= c_end)
 			break;
-		if (n % 64 == 0) {
-			/* rank 0's stop flag and wall-clock checkpoint, at a step all ranks agree on */
-			int flags[2] = {rank == 0 && stop && *stop,
-			                rank == 0 && ckpt_wall_on && MPI_Wtime() - ckpt_wall >= s->checkpoint.value};
-			MPI_Bcast(flags, 2, MPI_INT, 0, MPI_COMM_WORLD);
-			if (flags[0] || flags[1]) {
-				if (o->checkpoints) {
-					/* the state between two steps, nothing sampled: the resumed run continues exactly */
-					sched.k_out = k_out, sched.k_snap = k_snap, sched.snap_events = snap_events;
-					sched.wall_before = MPI_Wtime() - t0;
-					if ((ret = take_checkpoint(d, s, rank, size, o, &sched, coll_sample, ctx, msg, msglen)) !=
-					    RUN_OK)
-						goto cleanup;
-					ckpt_wall = MPI_Wtime();
-				}
-				if (flags[0]) {
-					status = RUN_INTERRUPTED;
-					if (o->checkpoints) {
-						record(d, s, RUN_SUMMARY, MPI_Wtime() - t0, &coll_sample, &rec);
-						rec.status = status;
-						(void)emit_all(rank, emit, ctx, &rec);   /* best effort: the checkpoint is what counts */
-						ret = RUN_STOPPED;
-						goto cleanup;
-					}
-					break;
-				}
-			}
-		}
 		double t_stop = t_end;
 		if (out_time && every > 0 && k_out * every < t_stop)
 			t_stop = (double)k_out * every;
-		int rc = step_x(d, t_stop, NULL, &x, size, rank);
+		/* rank 0's stop flag and wall-clock checkpoint, reduced with the step's sums (every step) */
+		uint64_t flags[2] = {rank == 0 && stop && *stop,
+		                     rank == 0 && ckpt_wall_on && MPI_Wtime() - ckpt_wall >= s->checkpoint.value};
+		int rc = step_x(d, t_stop, NULL, &x, size, rank, flags);
 		if (rc == DSMCP_QUIESCENT) {
 			status = RUN_QUIESCENT;
 			break;
@@ -784,6 +768,7 @@ int dsmcrun_run(const scene_t *s, int rank, int size, const dsmcrun_opts_t *o, r
 		}
 		/* output.checkpoint in time: after the step that reaches it, its record and frame (not at the end:
 		 * the run is complete) */
+		int taken = 0;
 		if (ckpt_time && !done && (double)sched.k_ckpt * s->checkpoint.value <= t.time) {
 			while ((double)sched.k_ckpt * s->checkpoint.value <= t.time)
 				sched.k_ckpt++;
@@ -792,6 +777,28 @@ int dsmcrun_run(const scene_t *s, int rank, int size, const dsmcrun_opts_t *o, r
 			if ((ret = take_checkpoint(d, s, rank, size, o, &sched, coll_sample, ctx, msg, msglen)) != RUN_OK)
 				goto cleanup;
 			ckpt_wall = MPI_Wtime();
+			taken = 1;
+		}
+		if (done || !(flags[0] || flags[1]))
+			continue;
+		if (o->checkpoints && !taken) {
+			/* the state between two steps, nothing sampled: the resumed run continues exactly */
+			sched.k_out = k_out, sched.k_snap = k_snap, sched.snap_events = snap_events;
+			sched.wall_before = MPI_Wtime() - t0;
+			if ((ret = take_checkpoint(d, s, rank, size, o, &sched, coll_sample, ctx, msg, msglen)) != RUN_OK)
+				goto cleanup;
+			ckpt_wall = MPI_Wtime();
+		}
+		if (flags[0]) {
+			status = RUN_INTERRUPTED;
+			if (o->checkpoints) {
+				record(d, s, RUN_SUMMARY, MPI_Wtime() - t0, &coll_sample, &rec);
+				rec.status = status;
+				(void)emit_all(rank, emit, ctx, &rec);   /* best effort: the checkpoint is what counts */
+				ret = RUN_STOPPED;
+				goto cleanup;
+			}
+			break;
 		}
 	}
 	record(d, s, RUN_PROGRESS, MPI_Wtime() - t0, &coll_sample, &rec);

@@ -23,8 +23,8 @@
  *   it), progress records with energy, temperature, pressure,
  *   compressibility, collision_rate and momentum reduced over the ranks,
  *   then a summary; rank 0 emits them (emit may be NULL elsewhere). The
- *   stop flag is read on rank 0 and broadcast every 64 steps and at output
- *   times. frames != 0 (--out): RUN_SNAPSHOT records of the whole state in
+ *   stop flag is read on rank 0 before each step and summed with the
+ *   step's own reduction, so every rank stops after the same step. frames != 0 (--out): RUN_SNAPSHOT records of the whole state in
  *   the scene's particle order, gathered to rank 0 (MPI_Gatherv: rank 0
  *   holds all particles, 3 copies, while it writes), at the first state,
  *   at the end of the step that reaches each output.snapshots instant and
@@ -32,7 +32,7 @@
  * - Checkpoints (o->checkpoints, with --out): at the end of the step that
  *   reaches each output.checkpoint time (steps are not cut for them, so
  *   they do not change the run), after the wall-clock interval (rank 0's
- *   clock, broadcast with the stop flag), and on a stop request: every
+ *   clock, reduced with the stop flag), and on a stop request: every
  *   rank's part gathered to rank 0 in the 1-rank order (MPI_Gatherv:
  *   rank 0 holds the whole state once while o->checkpoint() writes it),
  *   after that step's record and frame. A stop writes one, emits the
