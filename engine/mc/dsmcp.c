@@ -207,10 +207,9 @@ static void permute_cycles(struct dsmcp *d, const int S)
  * taken in the stable order) replaces its cell. The records that stayed in their cell ("stayers": not
  * MOVED) keep their relative order and their destinations increase with their index (a cell's stayers
  * come after the records arriving from lower cells and before those from higher ones); the others
- * ("movers", about a quarter of the records per step with cells of one mean free path and steps of
- * 0.2 mean free times in 3D) are copied aside, the stayers are packed to the front, then spread from
- * the back to their destinations (each destination at or after its stayer's packed slot, so nothing
- * unread is overwritten), and the movers written to theirs. Sequential passes but the movers' writes.
+ * ("movers", about 29 % of the records per step with cells of one mean free path and steps of
+ * 0.2 mean free times in 3D) are copied aside and the stayers shifted to their destinations in place
+ * (below), then the movers written to theirs. Sequential passes but the movers' writes.
  * full (the set-up: records in identity order): every record moves, permute_cycles(). */
 static ALWAYS_INLINE void sort_cells_d(struct dsmcp *d, const int D, int full)
 {
@@ -230,26 +229,29 @@ static ALWAYS_INLINE void sort_cells_d(struct dsmcp *d, const int D, int full)
 	 * the own survivors, arrivals from higher ranks (dsmcp_arrive()) */
 	const size_t seg[3][2] = {{d->nown_nl, d->nown_nl + d->nlow}, {0, d->nown_nl}, {d->nown_nl + d->nlow, d->nl}};
 	uint32_t *restrict dest = d->cell;
+	/* the movers: flagged, or out of order (a record displaced by CBA, whose position is not in the
+	 * cell it was sorted into); counted here for the own records, taken in index order (the arrivals,
+	 * after them, are all movers) */
+	size_t m = d->nl - d->nown_nl, ns = 0;
+	uint32_t last = 0;
 	for (int g = 0; g < 3; g++)
 		for (size_t k = seg[g][0]; k < seg[g][1]; k++) {
 			uint32_t c = dest[k];
-			dest[k] = (d->cnt[c & ~MOVED]++) | (full ? 0 : c & MOVED);
+			uint32_t j = (d->cnt[c & ~MOVED]++) | (full ? 0 : c & MOVED);
+			dest[k] = j;
+			if (g == 1) {
+				if ((j & MOVED) || (ns > 0 && j <= last)) {
+					dest[k] = j | MOVED;
+					m++;
+				} else {
+					last = j;
+					ns++;
+				}
+			}
 		}
 	const size_t nl = d->nl;
 	d->nown_nl = nl;
 	d->nlow = 0;
-	/* the movers: flagged, or (never for a consistent state, but then still correct) out of order */
-	size_t m = 0, ns = 0;
-	uint32_t last = 0;
-	for (size_t k = 0; k < nl && !full; k++) {
-		uint32_t c = dest[k];
-		if ((c & MOVED) || (ns > 0 && c <= last)) {
-			m++;
-		} else {
-			last = c;
-			ns++;
-		}
-	}
 	if (!full && m > d->mv_cap) {
 		size_t cap = m + m / 8 + 64;
 		double *mv = realloc(d->mv, cap * S * sizeof(double));
@@ -267,30 +269,31 @@ static ALWAYS_INLINE void sort_cells_d(struct dsmcp *d, const int D, int full)
 		permute_cycles(d, S);
 		return;
 	}
+	/* The stayers' destinations increase with their index, so a stayer at k bound for j < k finds
+	 * there a mover already copied aside or a stayer already moved (one before it, bound further
+	 * left), and one bound for j > k, taken from the back, a hole or a stayer already moved on:
+	 * the movers aside and the left moves in one pass forward, the right moves in one backward,
+	 * then the movers to their places. Each stayer moves at most once. */
 	double *restrict p = d->p, *restrict mv = d->mv;
 	uint32_t *restrict id = d->id, *restrict mvx = d->mvx;
 	size_t nm = 0;
-	ns = 0;
 	for (size_t k = 0; k < nl; k++) {
-		uint32_t c = dest[k];
-		if ((c & MOVED) || (ns > 0 && c <= dest[ns - 1])) {   /* the rule of the count above */
+		uint32_t j = dest[k];
+		if (j & MOVED) {
 			memcpy(&mv[nm * S], &p[k * S], S * sizeof(double));
 			mvx[2 * nm] = id[k];
-			mvx[2 * nm + 1] = c & ~MOVED;
+			mvx[2 * nm + 1] = j & ~MOVED;
 			nm++;
-			continue;
+		} else if (j < k) {
+			memcpy(&p[(size_t)j * S], &p[k * S], S * sizeof(double));
+			id[j] = id[k];
 		}
-		if (ns != k) {
-			memcpy(&p[ns * S], &p[k * S], S * sizeof(double));
-			id[ns] = id[k];
-		}
-		dest[ns++] = c;
 	}
-	for (size_t s = ns; s-- > 0;) {
-		uint32_t j = dest[s];
-		if (j != s) {
-			memcpy(&p[(size_t)j * S], &p[s * S], S * sizeof(double));
-			id[j] = id[s];
+	for (size_t k = nl; k-- > 0;) {
+		uint32_t j = dest[k];
+		if (!(j & MOVED) && j > k) {
+			memcpy(&p[(size_t)j * S], &p[k * S], S * sizeof(double));
+			id[j] = id[k];
 		}
 	}
 	for (size_t i = 0; i < nm; i++) {
@@ -604,16 +607,16 @@ static ALWAYS_INLINE int move_d(dsmcp_t *d, double dt, const int D)
 	const size_t c0 = d->c0, c1 = d->c1, nl = d->nl;
 	double *restrict p = d->p;
 	uint32_t *restrict cell = d->cell;
-	size_t cur = 0;   /* the own cell of record k (records in cell order) */
-	const uint32_t *restrict start = d->start;
+	size_t cur = 0;   /* hsmc: the own cell of record k (records in cell order) */
 	for (size_t k = 0; k < nl; k++) {
 		double *x = &p[k * S], *v = x + D;
-		size_t c = 0;
-		while (k >= start[cur + 1])
-			cur++;
+		size_t c = 0, was;   /* the new cell; the cell of the position before the flight (MOVED) */
 		if (d->hsmc) {
 			/* a move into another cell full at the start of the step is rejected */
 			double y[3];
+			while (k >= d->start[cur + 1])
+				cur++;
+			was = c0 + cur;
 			for (int a = D - 1; a >= 0; a--) {
 				y[a] = wrap(x[a] + v[a] * dt, L[a]);
 				int ix = (int)(y[a] * ih[a]);
@@ -628,7 +631,11 @@ static ALWAYS_INLINE int move_d(dsmcp_t *d, double dt, const int D)
 					x[a] = y[a];
 			}
 		} else {
+			was = 0;
 			for (int a = D - 1; a >= 0; a--) {
+				int iw = (int)(x[a] * ih[a]);
+				iw = iw >= ncl[a] ? ncl[a] - 1 : iw;
+				was = was * (size_t)ncl[a] + (size_t)iw;
 				double y = wrap(x[a] + v[a] * dt, L[a]);
 				x[a] = y;
 				int ix = (int)(y * ih[a]);
@@ -637,7 +644,7 @@ static ALWAYS_INLINE int move_d(dsmcp_t *d, double dt, const int D)
 			}
 		}
 		if (c >= c0 && c < c1) {
-			cell[k] = (uint32_t)(c - c0) | (c != c0 + cur ? MOVED : 0);   /* MOVED: for sort_cells_d() */
+			cell[k] = (uint32_t)(c - c0) | (c != was ? MOVED : 0);   /* MOVED: for sort_cells_d() */
 		} else {
 			cell[k] = UINT32_MAX;
 			d->out_cnt[d->owner[c / d->plane]]++;
