@@ -425,7 +425,8 @@ static int emit_all(int rank, run_emit_fn emit, void *ctx, const run_record_t *r
 static int too_big(uint64_t n) { return n > INT32_MAX; }
 
 /* The whole state gathered to rank 0 in the 1-rank order (collective):
- * on rank 0 ck->state is allocated and filled (the caller frees it). 0 on
+ * on rank 0 ck->state is allocated and filled (the caller frees it; rank
+ * 0's own part is copied in place, first: no second copy of it). 0 on
  * every rank, or -1 on every rank (out of memory, or a part too large for
  * one MPI call). */
 static int gather_state(dsmcp_t *d, const scene_t *s, int rank, int size, ckpt_split_t *ck)
@@ -434,9 +435,10 @@ static int gather_state(dsmcp_t *d, const scene_t *s, int rank, int size, ckpt_s
 	uint64_t c0, c1, ncells = 0;
 	dsmcp_cells(d, &c0, &c1);
 	size_t nl = dsmcp_local(d, NULL, NULL, NULL), nown = (size_t)(c1 - c0);
-	double *x = malloc((nl + 1) * D * sizeof(double)), *v = malloc((nl + 1) * D * sizeof(double));
-	double *rem = malloc((nown + 1) * sizeof(double));
-	uint32_t *id = malloc((nl + 1) * sizeof(uint32_t)), *cnt = malloc((nown + 1) * sizeof(uint32_t));
+	const size_t bl = rank == 0 ? 0 : nl, bc = rank == 0 ? 0 : nown;   /* rank 0 writes into the state */
+	double *x = malloc((bl + 1) * D * sizeof(double)), *v = malloc((bl + 1) * D * sizeof(double));
+	double *rem = malloc((bc + 1) * sizeof(double));
+	uint32_t *id = malloc((bl + 1) * sizeof(uint32_t)), *cnt = malloc((bc + 1) * sizeof(uint32_t));
 	int *rc = NULL, *rd = NULL, *cc = NULL, *cd = NULL;
 	int bad = !x || !v || !rem || !id || !cnt || too_big(nl * (uint64_t)D);
 	if (rank == 0) {
@@ -451,9 +453,16 @@ static int gather_state(dsmcp_t *d, const scene_t *s, int rank, int size, ckpt_s
 	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
 	if (bad)
 		goto cleanup;
-	dsmcp_local(d, NULL, x, v);
-	dsmcp_local_ids(d, id);
-	dsmcp_cell_state(d, cnt, rem);
+	dsmcp_saved_t *sv = &ck->state;
+	if (rank == 0) {   /* the first part, in place */
+		dsmcp_local(d, NULL, sv->pos, sv->vel);
+		dsmcp_local_ids(d, sv->id);
+		dsmcp_cell_state(d, sv->count, sv->rem);
+	} else {
+		dsmcp_local(d, NULL, x, v);
+		dsmcp_local_ids(d, id);
+		dsmcp_cell_state(d, cnt, rem);
+	}
 	int mine[2] = {(int)nl, (int)nown}, all[2 * 64], *both = NULL;
 	both = size <= 64 ? all : malloc((size_t)size * 2 * sizeof(int));
 	bad = both == NULL;
@@ -472,17 +481,20 @@ static int gather_state(dsmcp_t *d, const scene_t *s, int rank, int size, ckpt_s
 		}
 	if (both != all)
 		free(both);
-	dsmcp_saved_t *sv = &ck->state;
-	/* positions and velocities: D doubles a record */
+	/* positions and velocities: D doubles a record; the root's part is in place (displacement 0) */
+	const int root = rank == 0;
 	MPI_Datatype rec;
 	MPI_Type_contiguous(D, MPI_DOUBLE, &rec);
 	MPI_Type_commit(&rec);
-	MPI_Gatherv(x, (int)nl, rec, rank == 0 ? sv->pos : NULL, rc, rd, rec, 0, MPI_COMM_WORLD);
-	MPI_Gatherv(v, (int)nl, rec, rank == 0 ? sv->vel : NULL, rc, rd, rec, 0, MPI_COMM_WORLD);
+	MPI_Gatherv(root ? MPI_IN_PLACE : x, (int)nl, rec, root ? sv->pos : NULL, rc, rd, rec, 0, MPI_COMM_WORLD);
+	MPI_Gatherv(root ? MPI_IN_PLACE : v, (int)nl, rec, root ? sv->vel : NULL, rc, rd, rec, 0, MPI_COMM_WORLD);
 	MPI_Type_free(&rec);
-	MPI_Gatherv(id, (int)nl, MPI_UINT32_T, rank == 0 ? sv->id : NULL, rc, rd, MPI_UINT32_T, 0, MPI_COMM_WORLD);
-	MPI_Gatherv(cnt, (int)nown, MPI_UINT32_T, rank == 0 ? sv->count : NULL, cc, cd, MPI_UINT32_T, 0, MPI_COMM_WORLD);
-	MPI_Gatherv(rem, (int)nown, MPI_DOUBLE, rank == 0 ? sv->rem : NULL, cc, cd, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+	MPI_Gatherv(root ? MPI_IN_PLACE : id, (int)nl, MPI_UINT32_T, root ? sv->id : NULL, rc, rd, MPI_UINT32_T, 0,
+	            MPI_COMM_WORLD);
+	MPI_Gatherv(root ? MPI_IN_PLACE : cnt, (int)nown, MPI_UINT32_T, root ? sv->count : NULL, cc, cd, MPI_UINT32_T, 0,
+	            MPI_COMM_WORLD);
+	MPI_Gatherv(root ? MPI_IN_PLACE : rem, (int)nown, MPI_DOUBLE, root ? sv->rem : NULL, cc, cd, MPI_DOUBLE, 0,
+	            MPI_COMM_WORLD);
 	double vir = dsmcp_virial_part(d), vsum = 0;
 	MPI_Reduce(&vir, &vsum, 1, MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);
 	if (rank == 0) {
