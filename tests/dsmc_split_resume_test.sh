@@ -135,6 +135,25 @@ for np in 1 2; do
 	ok $(( rc0 == 0 && rc == 0 && same == 0 && ${cc:-0} > 0 ? 0 : 1 )) "hsmc/cba checkpointed at 3 ranks, resumed at $np: equal to the uninterrupted run ($cc cell collisions; exit $rc0, $rc $(head -c 200 "$tmp/H$np.err"))"
 done
 
+# 2b. A schedule in collisions per particle (run.until, output.every, output.snapshots), 2D with CBA, checkpoints
+#     in time: checkpointed at 2 ranks, resumed at 3 from checkpoint.prev.h5, the same records and frames.
+cat >"$tmp/c.json" <<'EOF'
+{"method":"dsmc","dimensions":2,"particles":{"count":4000,"volume_fraction":0.1,"initial":{"positions":"random"}},
+ "collisions":{"restitution":0.8},"dsmc":{"correction":"cba"},"run":{"seed":8,"until":{"collisions_per_particle":3}},
+ "output":{"every":{"collisions_per_particle":0.5},"snapshots":{"every":{"collisions_per_particle":1}},
+           "checkpoint":{"every":{"time":2}},"observables":["kinetic_energy","collision_rate","pressure"]}}
+EOF
+launch 2 run "$tmp/c.json" --out "$tmp/C" >/dev/null 2>"$tmp/C.err"
+rc0=$?
+rm -rf "$tmp/C3"
+cp -r "$tmp/C" "$tmp/C3"
+cp "$tmp/C/checkpoint.prev.h5" "$tmp/C3/checkpoint.h5"
+tc=$("$PY" -c 'import h5py, sys; print(h5py.File(sys.argv[1], "r").attrs["time"])' "$tmp/C3/checkpoint.h5" 2>/dev/null)
+launch 3 run "$tmp/c.json" --out "$tmp/C3" --resume "$tmp/C3/checkpoint.h5" >/dev/null 2>"$tmp/C3.err"
+rc=$?
+same_progress "$tmp/C/progress.jsonl" "$tmp/C3/progress.jsonl" && same_h5 "$tmp/C/trajectory.h5" "$tmp/C3/trajectory.h5" >"$tmp/f.res"
+ok $(( rc0 == 0 && rc == 0 && $? == 0 && ${#tc} > 0 ? 0 : 1 )) "collisions-per-particle schedule, checkpointed at 2 ranks (t = ${tc:-none}), resumed at 3: equal ($(cat "$tmp/f.res"); exit $rc0, $rc $(head -c 200 "$tmp/C3.err"))"
+
 # 3. SIGTERM to the ranks (as granulard sends it) of a 2-rank run with --out: a checkpoint between two steps
 #    (rank 0's flag, reduced with the step's sums), a summary with status interrupted, exit 4 (through mpirun); resumed
 #    at 3 ranks it ends with the records of the uninterrupted run. Elastic 3D gas, N = 20000, ~700 steps.
