@@ -707,8 +707,7 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 		{ "particles", "species" }, { "particles", "capacity" }, { "initial", "velocity" },
 		{ "initial", "rotational_temperature" }, { "initial", "relax" }, { "initial", "from" },
 		{ "collisions", "tc" }, { "collisions", "rough" }, { "collisions", "restitution_pairs" },
-		{ "", "obstacles" }, { "", "driving" }, { "", "ed" }, { "output", "checkpoint" },
-		{ "run", "max_events" },
+		{ "", "obstacles" }, { "", "driving" }, { "", "ed" }, { "run", "max_events" },
 	};
 	for (size_t k = 0; k < sizeof refused / sizeof refused[0]; k++) {
 		const char *o = refused[k].obj;
@@ -721,8 +720,6 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 			 refused[k].key);
 		return fail(c, key, "not supported with method \"md\" yet (docs/md.md)");
 	}
-	if (s->replicas > 1)
-		return fail(c, "run.replicas", "ensembles are not supported with method \"md\" yet (docs/md.md)");
 	if (s->restitution <= 0)
 		return fail(c, "collisions.restitution", "must be > 0 with method \"md\" (the damping of a contact is "
 			    "derived from it)");
