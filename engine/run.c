@@ -168,8 +168,10 @@ static void md_totals(const run_t *rc, smp_t *o)
 static void eng_sample(run_t *rc, smp_t *o)
 {
 	memset(o, 0, sizeof(*o));
-	if (rc->md) {
+	if (rc->md) {   /* the walls' impulses over the interval since the last sample */
 		md_totals(rc, o);
+		md_walls(rc->md, o->wall_impulse, &o->interval);
+		md_wall_reset(rc->md);
 	} else if (rc->ed) {
 		ed_sample_t sm;
 		ed_sample(rc->ed, &sm);
@@ -1063,7 +1065,7 @@ static size_t impact_count(const run_t *r)
 
 /* md's state fields (md.h, md_state_t), in the order a restore reads them: "springs_held" before the
  * springs, whose count is its sum. */
-enum { MDF_X, MDF_V, MDF_W, MDF_F, MDF_T, MDF_XREF, MDF_HELD, MDF_PARTNER, MDF_XI, MDF_COUNTERS, MDF_N };
+enum { MDF_X, MDF_V, MDF_W, MDF_F, MDF_T, MDF_XREF, MDF_HELD, MDF_PARTNER, MDF_XI, MDF_WALLS, MDF_COUNTERS, MDF_N };
 static const struct {
 	const char *name;
 	ed_type_t type;
@@ -1071,13 +1073,15 @@ static const struct {
 	[MDF_X] = {"positions", ED_T_F64}, [MDF_V] = {"velocities", ED_T_F64}, [MDF_W] = {"spins", ED_T_F64},
 	[MDF_F] = {"forces", ED_T_F64}, [MDF_T] = {"torques", ED_T_F64}, [MDF_XREF] = {"verlet_reference", ED_T_F64},
 	[MDF_HELD] = {"springs_held", ED_T_I32}, [MDF_PARTNER] = {"spring_partner", ED_T_I32},
-	[MDF_XI] = {"spring", ED_T_F64}, [MDF_COUNTERS] = {"counters", ED_T_U64},   /* steps, rebuilds, contacts */
+	[MDF_XI] = {"spring", ED_T_F64}, [MDF_WALLS] = {"walls", ED_T_F64},   /* wall_force, then wall_impulse */
+	[MDF_COUNTERS] = {"counters", ED_T_U64},   /* steps, rebuilds, contacts, wall_steps */
 };
 
 static size_t md_field_count(const run_t *r, int k, size_t springs)
 {
 	size_t n = r->s.count;
-	return k <= MDF_XREF ? 3 * n : k == MDF_HELD ? n : k == MDF_PARTNER ? springs : k == MDF_XI ? 3 * springs : 3;
+	return k <= MDF_XREF ? 3 * n : k == MDF_HELD ? n : k == MDF_PARTNER ? springs : k == MDF_XI ? 3 * springs :
+	       k == MDF_WALLS ? 36 : 4;
 }
 
 static int md_field_find(const char *name)
@@ -1102,12 +1106,16 @@ static int md_field_get(const run_t *r, const char *name, void *buf)
 	case MDF_HELD: st.held = buf; break;
 	case MDF_PARTNER: st.partner = buf; break;
 	case MDF_XI: st.xi = buf; break;
-	case MDF_COUNTERS: break;
+	case MDF_WALLS: case MDF_COUNTERS: break;
 	default: return RUN_ERESTORE;
 	}
 	md_state_get(r->md, &st);
 	if (k == MDF_COUNTERS)
-		memcpy(buf, (uint64_t[3]){st.steps, st.rebuilds, st.contacts}, 3 * sizeof(uint64_t));
+		memcpy(buf, (uint64_t[4]){st.steps, st.rebuilds, st.contacts, st.wall_steps}, 4 * sizeof(uint64_t));
+	if (k == MDF_WALLS) {
+		memcpy(buf, st.wall_force, sizeof st.wall_force);
+		memcpy((double *)buf + 18, st.wall_impulse, sizeof st.wall_impulse);
+	}
 	return RUN_OK;
 }
 
@@ -1142,9 +1150,12 @@ static int md_field_set(run_t *r, const char *name, ed_type_t type, size_t count
 					return RUN_ERESTORE;
 				in->springs += (size_t)in->held[i];
 			}
+		} else if (k == MDF_WALLS) {
+			memcpy(in->wall_force, buf, sizeof in->wall_force);
+			memcpy(in->wall_impulse, (const double *)buf + 18, sizeof in->wall_impulse);
 		} else {
 			const uint64_t *c = buf;
-			in->steps = c[0], in->rebuilds = c[1], in->contacts = c[2];
+			in->steps = c[0], in->rebuilds = c[1], in->contacts = c[2], in->wall_steps = c[3];
 		}
 	}
 	r->md_got |= 1u << k;

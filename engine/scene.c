@@ -752,7 +752,8 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 						    "particles' force law and collisions.restitution");
 				}
 		}
-	const unsigned md_obs = SCENE_OBS_ENERGY | SCENE_OBS_MOMENTUM | SCENE_OBS_COM_HEIGHT | SCENE_OBS_POTENTIAL;
+	const unsigned md_obs = SCENE_OBS_ENERGY | SCENE_OBS_MOMENTUM | SCENE_OBS_COM_HEIGHT | SCENE_OBS_POTENTIAL |
+				SCENE_OBS_WALL_FORCE;
 	json_t *obs = json_object_get(out, "observables");
 	if (!obs)
 		s->observables = SCENE_OBS_ENERGY | (scene_has_gravity(s) ? SCENE_OBS_COM_HEIGHT | SCENE_OBS_POTENTIAL : 0);
@@ -763,7 +764,8 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 			if (!strcmp(json_string_value(o), observables[k].name) && !(observables[k].bit & md_obs)) {
 				snprintf(path, sizeof path, "output.observables[%zu]", i);
 				return fail(c, path, "\"%s\" is not computed by method \"md\" yet (it has kinetic_energy, "
-					    "temperature, momentum, center_of_mass_height, potential_energy)", observables[k].name);
+					    "temperature, momentum, center_of_mass_height, potential_energy, wall_force)",
+					    observables[k].name);
 			}
 	static const char *const outs[] = { "clusters", "velocity_distribution", "pair_correlation", "structure_factor",
 					    "impact_parameter", "fields", "density_spectrum" };

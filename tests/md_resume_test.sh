@@ -58,14 +58,15 @@ springs() {
 }
 
 # Scenes: a 3D frictional bed falling onto a floor (linear law; springs with the floor and between
-# spheres, periodic images, Verlet rebuilds), and 2D Hertz disks with friction under gravity.
+# spheres, periodic images, Verlet rebuilds), and 2D Hertz disks with friction under gravity; wall_force (the
+# walls' impulses since the last record and their forces at the last step are state too).
 cat >"$tmp/3d-bed.json" <<'JSON'
 {"method": "md", "dimensions": 3,
  "particles": {"count": 300, "volume_fraction": 0.2, "initial": {"temperature": 1}},
  "boundaries": {"z": {"type": "walls", "lower": {"type": "specular"}, "upper": {"type": "specular"}}},
  "collisions": {"restitution": 0.5}, "gravity": [0, 0, -5],
  "run": {"seed": 5, "until": {"time": 5}},
- "output": {"every": {"time": 0.25}, "observables": ["kinetic_energy", "momentum", "center_of_mass_height", "potential_energy"],
+ "output": {"every": {"time": 0.25}, "observables": ["kinetic_energy", "momentum", "center_of_mass_height", "potential_energy", "wall_force"],
    "snapshots": {"every": {"time": 1}}, "checkpoint": {"every": {"time": 1.9}}},
  "md": {"friction": 0.5}}
 JSON
@@ -75,7 +76,7 @@ cat >"$tmp/2d-hertz.json" <<'JSON'
  "boundaries": {"y": {"type": "walls", "lower": {"type": "specular"}, "upper": {"type": "specular"}}},
  "collisions": {"restitution": 0.8}, "gravity": [0, -10],
  "run": {"seed": 7, "until": {"time": 3}},
- "output": {"every": {"time": 0.2}, "observables": ["kinetic_energy", "momentum", "center_of_mass_height"],
+ "output": {"every": {"time": 0.2}, "observables": ["kinetic_energy", "momentum", "center_of_mass_height", "wall_force"],
    "snapshots": {"every": {"time": 0.5}}, "checkpoint": {"every": {"time": 1.1}}},
  "md": {"force_law": "hertz", "friction": 0.3}}
 JSON

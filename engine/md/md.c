@@ -34,6 +34,10 @@ struct md {
 	int *nold, *nnew;
 	size_t ncontacts;
 	long steps, rebuilds;
+	int walled;              /* some axis has walls: their forces are summed (wf, wimp) */
+	double wf[6][3];         /* force on each wall w = 2 axis + side at the last force pass */
+	double wimp[6][3];       /* momentum given to each wall since the last md_wall_reset() */
+	long wsteps;             /* steps at the last md_wall_reset() */
 };
 
 static inline double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
@@ -314,6 +318,8 @@ static inline int forces_impl(md_t *md, double dth, const int law, const int fri
 			md->t[3 * i + a] = 0.0;
 		}
 	md->ncontacts = 0;
+	if (md->walled)
+		memset(md->wf, 0, sizeof md->wf);
 	for (size_t p = 0; p < md->np; p++) {
 		const md_pair_t *pp = md->pairs + p;
 		const int i = pp->i, j = pp->j;
@@ -364,6 +370,8 @@ static inline int forces_impl(md_t *md, double dth, const int law, const int fri
 					rc = e;
 				for (int b = 0; b < 3; b++)
 					md->f[3 * i + b] += fc[b];
+				for (int b = 0; b < 3; b++)
+					md->wf[2 * a + side][b] -= fc[b];
 			}
 		}
 	return rc;
@@ -422,6 +430,7 @@ md_t *md_create(const md_params_t *p, int *err)
 	md->slots = p->max_contacts > 0 ? p->max_contacts : (p->dim == 2 ? 8 : 12);
 	for (int a = 0; a < 3; a++) {
 		md->periodic[a] = a < p->dim ? (p->periodic[a] != 0) : 0;
+		md->walled |= a < p->dim && !md->periodic[a];
 		md->L[a] = a < p->dim ? p->box[a] : 1.0;
 		md->g[a] = a < p->dim ? p->gravity[a] : 0.0;
 	}
@@ -560,7 +569,15 @@ int md_step(md_t *md, long nsteps)
 			if (rc)
 				return rc;
 		}
+		if (md->walled)   /* velocity Verlet's impulses: h F(t) now, h F(t + dt) after the force pass */
+			for (int w = 0; w < 6; w++)
+				for (int a = 0; a < 3; a++)
+					md->wimp[w][a] += h * md->wf[w][a];
 		int rc = forces(md, dt);
+		if (md->walled)
+			for (int w = 0; w < 6; w++)
+				for (int a = 0; a < 3; a++)
+					md->wimp[w][a] += h * md->wf[w][a];
 		for (int i = 0; i < n; i++) {
 			double *v = md->v + 3 * i, *w = md->w + 3 * i;
 			const double *f = md->f + 3 * i, *t = md->t + 3 * i;
@@ -587,6 +604,18 @@ double md_stiffness(const md_t *md) { return md->kn; }
 double md_hertz_alpha(const md_t *md) { return md->alpha; }
 size_t md_contact_count(const md_t *md) { return md->ncontacts; }
 long md_rebuilds(const md_t *md) { return md->rebuilds; }
+
+void md_walls(const md_t *md, double impulse[6][3], double *interval)
+{
+	memcpy(impulse, md->wimp, sizeof md->wimp);
+	*interval = (double)(md->steps - md->wsteps) * md->dt;
+}
+
+void md_wall_reset(md_t *md)
+{
+	memset(md->wimp, 0, sizeof md->wimp);
+	md->wsteps = md->steps;
+}
 
 size_t md_springs(const md_t *md)
 {
@@ -617,6 +646,9 @@ void md_state_get(const md_t *md, md_state_t *st)
 		}
 	}
 	st->springs = q;
+	memcpy(st->wall_force, md->wf, sizeof md->wf);
+	memcpy(st->wall_impulse, md->wimp, sizeof md->wimp);
+	st->wall_steps = (uint64_t)md->wsteps;
 	st->steps = (uint64_t)md->steps;
 	st->rebuilds = (uint64_t)md->rebuilds;
 	st->contacts = md->ncontacts;
@@ -664,8 +696,18 @@ int md_state_set(md_t *md, const md_state_t *st)
 		}
 		q += (size_t)h;
 	}
-	if (q != st->springs)
+	if (q != st->springs || st->wall_steps > st->steps)
 		return MD_E_PARAM;
+	for (int w = 0; w < 6; w++)
+		for (int a = 0; a < 3; a++) {
+			double f = st->wall_force[w][a], m = st->wall_impulse[w][a];
+			/* only walls of the box carry force */
+			if (!isfinite(f) || !isfinite(m) || ((w / 2 >= D || md->periodic[w / 2]) && (f != 0.0 || m != 0.0)))
+				return MD_E_PARAM;
+		}
+	memcpy(md->wf, st->wall_force, sizeof md->wf);
+	memcpy(md->wimp, st->wall_impulse, sizeof md->wimp);
+	md->wsteps = (long)st->wall_steps;
 	for (int k = 0; k < 6; k++)
 		memcpy(dst[k], src[k], (size_t)n * 3 * sizeof(double));
 	q = 0;

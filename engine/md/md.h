@@ -70,7 +70,8 @@
  *   first half-kick uses them), the Verlet list's reference positions (the
  *   positions of its last build, wrapped into the box), the tangential
  *   springs held (per particle: their number, then each one's partner and
- *   spring vector, in slot order) and the step, build and contact counters.
+ *   spring vector, in slot order), the step, build and contact counters and
+ *   the walls' forces and impulses (md_walls()).
  *   The pair list is not state: md_state_set() builds it again from the
  *   reference positions, which is what the last build computed. A system
  *   given a state taken from another (same parameters) continues with the
@@ -158,7 +159,17 @@ typedef struct {
 	int32_t *partner;
 	double *xi;
 	uint64_t steps, rebuilds, contacts;
+	double wall_force[6][3];     /* md_walls(): the walls' forces at the last force pass, */
+	double wall_impulse[6][3];   /* their impulses since the last md_wall_reset() */
+	uint64_t wall_steps;         /* and the step count then */
 } md_state_t;
+
+/* Walls: the momentum the particles gave to each wall w = 2 axis + side (side 0 at 0, 1 at box[axis])
+ * since the last md_wall_reset() (or md_create()), as velocity Verlet applies the contact forces: each
+ * step gives dt/2 (F(t) + F(t + dt)), so the impulses and gravity's account exactly for the particles'
+ * change of momentum; *interval is the time since then (steps times dt). Zero for periodic axes. */
+void md_walls(const md_t *md, double impulse[6][3], double *interval);
+void md_wall_reset(md_t *md);
 
 /* Springs held now (the partner and xi counts of md_state_get()). */
 size_t md_springs(const md_t *md);
