@@ -163,6 +163,7 @@ static void md_totals(const run_t *rc, smp_t *o)
 	md_energy_t en;
 	md_energy(rc->md, &en);
 	o->potential_energy = -s->mass * gr + en.elastic;   /* gravity's and the contacts' springs' */
+	o->rotational_energy = en.rotational;
 }
 
 static void eng_sample(run_t *rc, smp_t *o)
@@ -446,7 +447,7 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 		for (int k = 0; k < s->n_obstacles; k++)
 			for (int b = 0; b < 3; b++)
 				r->obstacle_force[k][b] = sm.obstacle_impulse[k][b] / sm.interval;
-	if (s->rough) {
+	if (s->rough || rc->md) {   /* md: the spins friction gives */
 		r->rotational_energy = sm.rotational_energy;
 		r->rotational_temperature = 2.0 * sm.rotational_energy / ((s->dim == 2 ? 1.0 : 3.0) * np);
 	}

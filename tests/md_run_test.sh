@@ -1,7 +1,8 @@
 #!/bin/sh
 # Method md through granular-engine (issue 18; TAP): energy conservation of an elastic gas against the time
 # step, seed 000's gravity box settling to the bed height method ed gives (its floor carrying the weight), the wall
-# pressure of an elastic soft gas against the equation of state, frames, and the md refusals.
+# pressure of an elastic soft gas against the equation of state, rolling (rotational energy), frames, and the md
+# refusals.
 set -u
 : "${SRCDIR:=$(cd "$(dirname "$0")/.." && pwd)}"
 : "${ENGINE:=$SRCDIR/engine/granular-engine}"
@@ -176,8 +177,51 @@ print(("ok" if abs(mean - ideal) > tol else "not ok") + " - and not the ideal ga
 PYEOF
 report "$tmp/press.res"
 
-# (d) checkpoints and --resume: tests/md_resume_test.sh.
-# ---- (e) bad scenes: each md fixture refused by the engine naming its key ------------------------------------
+# ---- (d) rotational energy: spheres and disks rolling down a slope -----------------------------------------
+# Gravity (0.5, -1) on a floor wall, periodic along the slope: tan th = 0.5 < mu (1 + q) / q (mu = 0.5), so a
+# particle rolls without slipping once its bounces have died out (t >= 8 here): E_rot / E_kin = I w^2 / (m v^2)
+# = q (R / (R - delta))^2 with q = 2/5 (sphere), 1/2 (disk) and the contact point at the lever arm R - delta,
+# delta = m |g_y| / k_n the static overlap (k_n = 1e5: a 4e-5 relative correction, which the test resolves);
+# the momentum along the slope grows at N m g_x / (1 + q (R / (R - delta))^2); rotational_temperature is
+# 2 E_rot / (D_r N), D_r = 3 (3D), 1 (2D). Tolerances 1e-8 relative (measured 1e-15: velocity Verlet is exact
+# for the uniform acceleration of rolling).
+for dim in 3 2; do
+	if [ $dim = 3 ]; then box="[4, 4, 4]"; g="[0.5, -1, 0]"; else box="[4, 4]"; g="[0.5, -1]"; fi
+	cat >"$tmp/roll$dim.json" <<JSON
+{"method": "md", "dimensions": $dim,
+ "particles": {"count": 2, "radius": 0.5, "box": $box, "initial": {"temperature": 0}},
+ "boundaries": {"y": {"type": "walls", "lower": {"type": "specular"}, "upper": {"type": "specular"}}},
+ "collisions": {"restitution": 0.5}, "gravity": $g,
+ "run": {"seed": 1, "until": {"time": 20}},
+ "output": {"every": {"time": 2}, "observables": ["kinetic_energy", "rotational_energy", "rotational_temperature", "momentum"]},
+ "md": {"friction": 0.5, "stiffness": 100000}}
+JSON
+	"$ENGINE" run "$tmp/roll$dim.json" >"$tmp/roll$dim.out" 2>"$tmp/roll$dim.err"
+	ok $? "rolling, ${dim}D: run completes $(head -c 200 "$tmp/roll$dim.err")"
+done
+"$PY" - "$tmp" >"$tmp/roll.res" <<'PYEOF'
+import json, sys
+for dim, q, dr in ((3, 0.4, 3), (2, 0.5, 1)):
+    recs = [json.loads(l) for l in open("%s/roll%d.out" % (sys.argv[1], dim)) if '"progress"' in l]
+    R, delta, N = 0.5, 1.0 / 1e5, 2
+    qe = q * (R / (R - delta)) ** 2
+    late = [r for r in recs if r["time"] >= 8]
+    ratio = [r["rotational_energy"] / r["kinetic_energy"] for r in late]
+    worst = max(abs(x / qe - 1) for x in ratio)
+    acc = (late[-1]["momentum"][0] - late[0]["momentum"][0]) / (late[-1]["time"] - late[0]["time"])
+    acc_th = N * 0.5 / (1 + qe)
+    trot = max(abs(r["rotational_temperature"] - 2 * r["rotational_energy"] / (dr * N)) for r in recs)
+    print(("ok" if worst < 1e-8 and recs[0]["rotational_energy"] == 0 else "not ok") +
+          " - rolling %dD: E_rot / E_kin = %.11f, theory q (R / (R - delta))^2 = %.11f (q = %g; worst %.1e over %d records)"
+          % (dim, ratio[-1], qe, q, worst, len(late)))
+    print(("ok" if abs(acc / acc_th - 1) < 1e-8 and trot < 1e-12 * late[-1]["rotational_temperature"] else "not ok") +
+          " - rolling %dD: dP_x/dt = %.9f, theory N m g_x / (1 + q') = %.9f; rotational_temperature = 2 E_rot / (%d N)"
+          % (dim, acc, acc_th, dr))
+PYEOF
+report "$tmp/roll.res"
+
+# (e) checkpoints and --resume: tests/md_resume_test.sh.
+# ---- (f) bad scenes: each md fixture refused by the engine naming its key ------------------------------------
 grep '^4[24][0-9]-md' "$SRCDIR/tests/scenes/bad/expected.tsv" | while IFS="$(printf '\t')" read -r file key rest; do
 	"$ENGINE" run "$SRCDIR/tests/scenes/bad/$file" >/dev/null 2>"$tmp/bad.err"
 	rc=$?
