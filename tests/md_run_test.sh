@@ -176,6 +176,13 @@ print(("ok" if abs(mean - ideal) > tol else "not ok") + " - and not the ideal ga
       % (ideal, abs(mean - ideal) / tol))
 PYEOF
 report "$tmp/press.res"
+# a time step above t_c/20 runs with a warning on the first record (md.time_step 0.04 above: none)
+sed 's/"time_step": 0.04/"time_step": 0.1/; s/"until": {"time": 400}/"until": {"time": 1}/' "$tmp/press.json" >"$tmp/warn.json"
+"$ENGINE" run "$tmp/warn.json" >"$tmp/warn.out" 2>/dev/null
+w=$(head -n 1 "$tmp/warn.out" | "$PY" -c 'import json, sys; print(json.load(sys.stdin).get("warning", ""))')
+w0=$(head -n 1 "$tmp/press.out" | "$PY" -c 'import json, sys; print(json.load(sys.stdin).get("warning", "none"))')
+case "$w" in "md.time_step 0.1: dt = t_c/10"*) r=0 ;; *) r=1 ;; esac
+ok $(( r == 0 && $(grep -c '"warning"' "$tmp/warn.out") == 1 ? 0 : 1 )) "time_step 0.1: first record warns: $w (time_step 0.04: $w0)"
 
 # ---- (d) rotational energy: spheres and disks rolling down a slope -----------------------------------------
 # Gravity (0.5, -1) on a floor wall, periodic along the slope: tan th = 0.5 < mu (1 + q) / q (mu = 0.5), so a
