@@ -1382,7 +1382,7 @@ void run_summary_record(run_t *r, run_record_t *sum)
 	sum->events_per_second = sum->wall_seconds > 0 ? sum->events / sum->wall_seconds : 0.0;
 	sum->collisions_per_second = sum->wall_seconds > 0 ? sum->collisions / sum->wall_seconds : 0.0;
 	if (r->md) {
-		sum->memory_bytes = 0;   /* not reported by the md core yet */
+		sum->memory_bytes = md_memory(r->md);
 	} else if (r->ed) {
 		sum->memory_bytes = ed_memory(r->ed);
 		ed_cells(r->ed, sum->cells);

@@ -730,6 +730,10 @@ static void test_state(void)
 			ok(!err && fabs(tw - half * md_dt(A)) < 1e-12 && worst < 1e-10 * n * tw && imp[2][1] < 0.0,
 			   "walls: the particles' momentum change is gravity's impulse less the walls' to %.1e of the weight's "
 			   "(floor impulse %.6g, weight's %.6g)", worst / (n * tw), -imp[2][1], n * tw);
+			/* memory: at least the state arrays (22 doubles per particle) and the two slot tables (12 slots of
+			 * an int and 3 doubles each), at most twice that plus the pairs (< 40 per particle here) */
+			size_t lo = (size_t)n * (22 * 8 + 2 * 12 * 32), mem = md_memory(A);
+			ok(mem >= lo && mem <= 2 * lo + (size_t)n * 40 * 40, "md_memory %zu bytes (state and slots %zu)", mem, lo);
 			md_wall_reset(A);   /* the state below holds impulses since a reset 5 steps before it */
 			err = md_step(A, 5);
 		}
@@ -784,7 +788,7 @@ static void test_state(void)
 
 int main(void)
 {
-	plan(40);
+	plan(41);
 	test_linear_collision();
 	test_linear_elastic();
 	test_hertz_collision();

@@ -617,6 +617,12 @@ void md_wall_reset(md_t *md)
 	md->wsteps = md->steps;
 }
 
+size_t md_memory(const md_t *md)
+{
+	return sizeof(*md) + (size_t)md->n * (22 * sizeof(double) + 3 * sizeof(int)) +
+	       2 * (size_t)md->n * md->slots * sizeof(md_slot_t) + md->capp * sizeof(md_pair_t) + md->ncell * sizeof(int);
+}
+
 size_t md_springs(const md_t *md)
 {
 	size_t k = 0;

@@ -171,6 +171,9 @@ typedef struct {
 void md_walls(const md_t *md, double impulse[6][3], double *interval);
 void md_wall_reset(md_t *md);
 
+/* Bytes the system holds now (its arrays, the pair list's capacity, the cell heads). */
+size_t md_memory(const md_t *md);
+
 /* Springs held now (the partner and xi counts of md_state_get()). */
 size_t md_springs(const md_t *md);
 /* Copies the state into the non-NULL arrays of st and sets its springs and counters. */
