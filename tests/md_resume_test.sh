@@ -125,7 +125,31 @@ case "$last" in *'"status":"interrupted"'*) st=0 ;; *) st=1 ;; esac
 ok $(( rc == 4 && st == 0 && rc2 == 0 && res == 0 ? 0 : 1 )) \
 	"$s: SIGTERM exit $rc at time $t (summary interrupted), resume exit $rc2: $why $(head -c 200 "$tmp/err")"
 
-# (c) Ensembles (run.replicas 3): each replica its own stream (placement and velocities), one checkpoint
+# (c) kill -9 with wall-clock checkpoints (every 0.3 s, taken at the end of the chunk of steps that finds one
+# due): killed 0.4 s after its first checkpoint, resumed from whatever is on disk; the result is the
+# uninterrupted run's.
+"$PY" - "$tmp/3d-bed.json" "$tmp/3d-bed-wall.json" <<'PYEOF'
+import json, sys
+d = json.load(open(sys.argv[1]))
+d["output"]["checkpoint"] = {"every": {"wall_seconds": 0.3}}
+json.dump(d, open(sys.argv[2], "w"))
+PYEOF
+ref 3d-bed-wall
+d="$tmp/3d-bed.kill"
+"$ENGINE" run "$tmp/3d-bed-wall.json" --out "$d" >/dev/null 2>"$tmp/err" &
+pid=$!
+await_ckpt "$d" $pid
+sleep 0.4
+kill -KILL $pid 2>/dev/null && killed=1 || killed=0
+wait $pid 2>/dev/null
+t=$("$PY" -c 'import h5py, sys; print(h5py.File(sys.argv[1], "r").attrs["time"])' "$d/checkpoint.h5")
+"$ENGINE" run "$tmp/3d-bed-wall.json" --resume "$d/checkpoint.h5" --out "$d" >/dev/null 2>>"$tmp/err"
+rc2=$?
+why=$(same "$tmp/3d-bed-wall.ref" "$d")
+ok $(( killed == 1 && rc2 == 0 && $? == 0 ? 0 : 1 )) \
+	"3d-bed: kill -9 (wall-clock checkpoints), resumed from time $t: $why $(head -c 200 "$tmp/err")"
+
+# (d) Ensembles (run.replicas 3): each replica its own stream (placement and velocities), one checkpoint
 # file for all; resume exact from either checkpoint, also written under mpirun -np 2 and resumed under -np 3.
 "$PY" - "$tmp/2d-hertz.json" "$tmp/ens.json" <<'PYEOF'
 import json, sys
