@@ -13,6 +13,7 @@
 #include "io/checkpoint.h"
 #include "config.h"
 #include "par/dsmcrun.h"
+#include "par/edrun.h"
 #include "par/ensemble.h"
 #include "io/frame.h"
 #include "io/h5md.h"
@@ -24,6 +25,9 @@
 enum { EX_DONE = 0, EX_FAIL = 1, EX_INPUT = 2, EX_INTERRUPTED = 3, EX_CHECKPOINTED = 4 };
 
 static volatile sig_atomic_t stop_requested;
+
+/* Announcement mode of one ed system split over the ranks (engine/par/edrun.h; the others: announce()). */
+enum { ED_SPLIT = 1 << 10 };
 
 static void on_signal(int sig)
 {
@@ -169,6 +173,20 @@ static int checkpoint(const char *outdir, run_t *run, sink_t *sk, const char *te
 	if (flush_outputs(outdir, sk, &pos))
 		return -1;
 	return ckpt_write(outdir, run, text, len, &pos, sk->err, sizeof(sk->err)) == CKPT_OK ? 0 : -1;
+}
+
+/* A split ed run's checkpoint (engine/par/edrun.h): r holds the state in the serial layout. */
+typedef struct {
+	const char *outdir;
+	sink_t *sink;
+	const char *text;
+	size_t len;
+} ed_save_t;
+
+static int ed_save(run_t *r, void *ctx)
+{
+	ed_save_t *c = ctx;
+	return checkpoint(c->outdir, r, c->sink, c->text, c->len);
 }
 
 /* Ensemble state from a checkpoint (rank 0): replica state strings and the
@@ -403,7 +421,7 @@ static void usage(FILE *f)
 	        "(docs/engine.md); \"method\": \"auto\" scenes run the method it chooses.\n"
 	        "--jobs-dir DIR: where particles.initial.from.job ID finds DIR/ID/trajectory.h5\n"
 	        "(the daemon's job directories; docs/scene.md).\n"
-	        "--split: a dsmc or hsmc scene with run.replicas 1 runs as one system decomposed over\n"
+	        "--split: an ed, dsmc or hsmc scene with run.replicas 1 runs as one system decomposed over\n"
 	        "the ranks even on one rank (the default under mpirun -np P > 1; docs/parallel.md).\n");
 }
 
@@ -859,7 +877,15 @@ static int run_other(int rank, int size)
 		ens_opts_t eo = {(int)hdr[0], NULL, NULL, 0, NULL, NULL};
 		MPI_Bcast(text, (int)hdr[1], MPI_CHAR, 0, MPI_COMM_WORLD);
 		/* Rank 0 accepted this text, so the parse cannot fail here. */
-		if (scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
+		if ((hdr[0] & ED_SPLIT) && scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
+		    (scene.method != SCENE_METHOD_AUTO || resolve_auto(&scene, size, NULL) == EX_DONE)) {
+			/* one ed system over all ranks: rank 0 reports failures */
+			edrun_opts_t edo = {.frames = (hdr[0] & ENS_FRAMES) != 0, .checkpoints = (hdr[0] & ENS_CKPT) != 0,
+			                    .resumed = (hdr[0] & ENS_RESUME) != 0};
+			int rc = edrun_run(&scene, rank, size, &edo, NULL, NULL, NULL, err, sizeof(err));
+			if (rc != RUN_OK && rc != RUN_STOPPED)
+				ret = EX_FAIL;
+		} else if (scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
 		    (scene.method != SCENE_METHOD_AUTO || resolve_auto(&scene, size, NULL) == EX_DONE) &&
 		    (hdr[0] & DSMC_SPLIT)) {
 			/* one dsmc system over all ranks: rank 0 reports failures */
@@ -1033,6 +1059,17 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			split = 0;
 		}
 	}
+	/* One ed system over several ranks (engine/par/edrun.h), refused and noticed as the dsmc split above. */
+	int ed_split = (size > 1 || force_split) && scene.replicas <= 1 && scene.method == SCENE_METHOD_ED;
+	if (ed_split && edrun_check(&scene, outdir != NULL, err, sizeof(err)) != 0) {
+		if (force_split) {
+			fprintf(stderr, "%s%s (one ed system over %d ranks)\n", err[0] == '-' ? "granular-engine: " : "", err, size);
+			ret = EX_INPUT;
+			goto cleanup;
+		}
+		fprintf(stderr, "granular-engine: running on rank 0 alone, not split over %d ranks: %s\n", size, err);
+		ed_split = 0;
+	}
 	if (!strcmp(cmd, "validate")) {
 		ret = EX_DONE;
 		goto cleanup;
@@ -1126,7 +1163,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			goto cleanup;
 		}
 	}
-	if (!run && scene.replicas <= 1 && !split) {
+	if (!run && scene.replicas <= 1 && !split && !ed_split) {
 		run = run_create(&scene, &opts, &rc, err, sizeof(err));
 		if (!run) {
 			fprintf(stderr, "%s\n", err);
@@ -1153,6 +1190,16 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		                 text, len, &ens, from_path};
 		announce(an, eo.mode, text, len);
 		rc = ensemble_run(&scene, 0, size, &sink, &eo, err, sizeof(err));
+		if (rc == RUN_STOPPED) {
+			ret = EX_CHECKPOINTED;
+			goto cleanup;
+		}
+	} else if (ed_split) {
+		ed_save_t es = {outdir, &sink, text, len};
+		edrun_opts_t eo = {.frames = outdir != NULL, .checkpoints = outdir != NULL, .resumed = resume_path != NULL,
+		                   .resume = run, .save = ed_save, .save_ctx = &es};
+		announce(an, ED_SPLIT | (outdir ? ENS_FRAMES | ENS_CKPT : 0) | (resume_path ? ENS_RESUME : 0), text, len);
+		rc = edrun_run(&scene, 0, size, &eo, emit, &sink, &stop_requested, err, sizeof(err));
 		if (rc == RUN_STOPPED) {
 			ret = EX_CHECKPOINTED;
 			goto cleanup;
