@@ -34,6 +34,10 @@
  */
 #define RUN_COLLAPSE_FACTOR 1e6
 
+/* md: time steps above t_c / 20 get a warning on the first record: damped contacts' restitution errs to first
+ * order in dt (linear, e = 0.7: 2.6e-3 low at t_c/50, measured in tests/md_test.c), 6.5e-3 at t_c/20. */
+#define RUN_MD_STEP_WARN 0.05
+
 static double wall_now(void)
 {
 	struct timespec ts;
@@ -58,6 +62,8 @@ struct run {
 	uint64_t md_steps;       /* md: velocity-Verlet steps taken (the events of its records) */
 	int md_err;              /* md: the core's error code when a step failed */
 	uint64_t md_kend;        /* md: the steps to run.until.time (dt = until / md_kend, md_build()) */
+	md_state_t md_in;        /* md, restoring: the state fields read so far (run_field_set()), for md_state_set() */
+	unsigned md_got;         /* md, restoring: bit k set when field k of md_fields[] was read */
 	uint64_t mc_chunk;       /* dsmc steps between polls of the stop flag */
 	clusters_t *cl;
 	int varying;             /* open or reservoir walls: particles come and go (NaN rows, eng_present()) */
@@ -161,13 +167,16 @@ static void md_totals(const run_t *rc, smp_t *o)
 	md_energy_t en;
 	md_energy(rc->md, &en);
 	o->potential_energy = -s->mass * gr + en.elastic;   /* gravity's and the contacts' springs' */
+	o->rotational_energy = en.rotational;
 }
 
 static void eng_sample(run_t *rc, smp_t *o)
 {
 	memset(o, 0, sizeof(*o));
-	if (rc->md) {
+	if (rc->md) {   /* the walls' impulses over the interval since the last sample */
 		md_totals(rc, o);
+		md_walls(rc->md, o->wall_impulse, &o->interval);
+		md_wall_reset(rc->md);
 	} else if (rc->ed) {
 		ed_sample_t sm;
 		ed_sample(rc->ed, &sm);
@@ -258,6 +267,10 @@ static int eng_advance(run_t *rc, double t_stop, double t_soft, uint64_t c_stop)
 	if (rc->md) {   /* md: whole steps up to the first that reaches the stop (as dsmc), a chunk at most */
 		double dt = md_dt(rc->md), target = fmin(t_stop, t_soft), left = target - md_clock(rc);
 		double steps = target >= rc->s.until.value ? (double)(rc->md_kend - rc->md_steps) : ceil(left / dt - 1e-9);
+		/* the clock at the target already: a run stopped (SIGTERM) after the step that reached an output
+		 * time and before its record, resumed from its checkpoint; the record comes without a step */
+		if (md_clock(rc) >= target || rc->md_steps >= rc->md_kend)
+			return 0;
 		long k = (long)fmax(1.0, fmin(steps, (double)rc->mc_chunk));
 		int e = md_step(rc->md, k);
 		rc->md_steps += (uint64_t)k;
@@ -438,7 +451,7 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 		for (int k = 0; k < s->n_obstacles; k++)
 			for (int b = 0; b < 3; b++)
 				r->obstacle_force[k][b] = sm.obstacle_impulse[k][b] / sm.interval;
-	if (s->rough) {
+	if (s->rough || rc->md) {   /* md: the spins friction gives */
 		r->rotational_energy = sm.rotational_energy;
 		r->rotational_temperature = 2.0 * sm.rotational_energy / ((s->dim == 2 ? 1.0 : 3.0) * np);
 	}
@@ -720,7 +733,7 @@ static int emit_structure(run_t *r, run_emit_fn emit, void *ctx)
 /* md: the particles placed as ed places them (scene_md_placement(): no overlap, off the walls), velocities
  * Maxwellian at particles.initial.temperature from the seed and the replica's stream (the total momentum
  * removed when no wall or gravity takes it up), spins 0, and the core with the scene's md settings. */
-static int md_build(run_t *r, uint64_t stream, char *msg, size_t msglen)
+static int md_build(run_t *r, uint64_t stream, int blank, char *msg, size_t msglen)
 {
 	const scene_t *s = &r->s;
 	const size_t n = s->count;
@@ -732,7 +745,8 @@ static int md_build(run_t *r, uint64_t stream, char *msg, size_t msglen)
 			snprintf(msg, msglen, "out of memory");
 		goto cleanup;
 	}
-	if (s->init_pos) {
+	if (blank) {   /* restoring: the state comes from the checkpoint (run_field_set(), run_restore_finish()) */
+	} else if (s->init_pos) {
 		memcpy(pos, s->init_pos, n * s->dim * sizeof(double));
 	} else {
 		scene_t p;
@@ -744,7 +758,7 @@ static int md_build(run_t *r, uint64_t stream, char *msg, size_t msglen)
 	rng_init(&rng, s->seed, stream);
 	const double sd = sqrt(s->temperature / s->mass);
 	double mean[3] = {0, 0, 0};
-	for (size_t i = 0; i < n; i++)
+	for (size_t i = 0; i < n && !blank; i++)
 		for (int a = 0; a < s->dim; a++) {
 			x[i * 3 + a] = pos[i * s->dim + a];
 			v[i * 3 + a] = sd * rng_gauss(&rng);
@@ -758,7 +772,7 @@ static int md_build(run_t *r, uint64_t stream, char *msg, size_t msglen)
 		.dim = s->dim, .n = (int)n, .radius = s->radius, .mass = s->mass,
 		.law = s->md_law ? MD_LAW_HERTZ : MD_LAW_LINEAR, .restitution = s->restitution,
 		.v_ref = s->md_impact_speed, .mu = s->md_friction, .kt_ratio = s->md_tangential_ratio,
-		.dt_steps = 1.0 / s->md_time_step, .x = x, .v = v,
+		.dt_steps = 1.0 / s->md_time_step, .x = NULL, .v = v,
 	};
 	for (int a = 0; a < 3; a++) {
 		pr.box[a] = a < s->dim ? s->box[a] : 1.0;
@@ -773,7 +787,7 @@ static int md_build(run_t *r, uint64_t stream, char *msg, size_t msglen)
 		pr.kn = s->md_stiffness;
 	/* dt: the contact time's fraction md_time_step, shortened so that run.until.time is a whole number of
 	 * steps (progress records and frames come at the end of the step that reaches their time, as dsmc's) */
-	md_t *probe = md_create(&pr, &e);
+	md_t *probe = md_create(&pr, &e);   /* without positions: dt only */
 	if (probe) {
 		double k = ceil(s->until.value / md_dt(probe));
 		md_destroy(probe);
@@ -784,12 +798,25 @@ static int md_build(run_t *r, uint64_t stream, char *msg, size_t msglen)
 		}
 		r->md_kend = (uint64_t)k;
 		pr.dt = s->until.value / k;
+		pr.x = blank ? NULL : x;
 		r->md = md_create(&pr, &e);
 	}
 	if (!r->md) {
 		if (msg && msglen)
 			snprintf(msg, msglen, "md: %s", md_strerror(e));
 		goto cleanup;
+	}
+	if (blank) {   /* the restore's buffers: the six 3N arrays and the springs held per particle */
+		md_state_t *in = &r->md_in;
+		in->x = malloc(18 * n * sizeof(double));
+		in->held = malloc(n * sizeof(int32_t));
+		if (!in->x || !in->held) {
+			if (msg && msglen)
+				snprintf(msg, msglen, "out of memory");
+			goto cleanup;
+		}
+		in->v = in->x + 3 * n, in->w = in->v + 3 * n, in->f = in->w + 3 * n, in->t = in->f + 3 * n;
+		in->xref = in->t + 3 * n;
 	}
 	ret = 0;
 cleanup:
@@ -828,15 +855,16 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		r->s.init_pos = r->placed;
 	}
 	if (s->method == SCENE_METHOD_MD) {
-		if (blank || md_build(r, stream, msg, msglen) != 0) {
-			*err = blank ? RUN_EMETHOD : RUN_ESETUP;
-			if (blank && msg && msglen)
-				snprintf(msg, msglen, "output.checkpoint: method \"md\" has no checkpoints yet");
+		if (md_build(r, stream, blank, msg, msglen) != 0) {
+			*err = RUN_ESETUP;
 			run_destroy(r);
 			return NULL;
 		}
 		r->mc_chunk = RUN_CHUNK_MOVES / s->count + 1;
-		r->opts.checkpoints = 0;   /* none yet: an interrupt ends the run (status interrupted) */
+		if (s->md_time_step > RUN_MD_STEP_WARN)   /* the first record says so (docs/md.md, "The time step") */
+			snprintf(r->warning, sizeof(r->warning), "md.time_step %.3g: dt = t_c/%.3g, fewer than %.0f steps per "
+			         "contact (restitution and contact time err to first order in dt)", s->md_time_step,
+			         1.0 / s->md_time_step, 1.0 / RUN_MD_STEP_WARN);
 	} else if (s->method == SCENE_METHOD_ED) {
 		r->ed = blank ? ed_create_blank(&r->s, &e, msg, msglen) : ed_create(&r->s, &e, msg, msglen);
 		if (!r->ed) {
@@ -981,9 +1009,24 @@ run_t *run_open(const scene_t *s, uint64_t stream, int *err, char *msg, size_t m
 	return create(s, stream, &opts, 0, err, msg, msglen);
 }
 
+static void md_in_free(run_t *r)
+{
+	free(r->md_in.x);
+	free(r->md_in.held);
+	free(r->md_in.partner);
+	free(r->md_in.xi);
+	memset(&r->md_in, 0, sizeof r->md_in);
+}
+
+/* md: the core's state from the fields read (md_state_set() checks it), the run's step count from it. */
+static int md_restore(run_t *r, char *msg, size_t msglen);
+
 int run_restore_finish(run_t *r, char *msg, size_t msglen)
 {
-	if (r->ed ? ed_restore_finish(r->ed, msg, msglen) != ED_OK : dsmc_restore_finish(r->mc, msg, msglen) != DSMC_OK)
+	if (r->md) {
+		if (md_restore(r, msg, msglen) != RUN_OK)
+			return RUN_ERESTORE;
+	} else if (r->ed ? ed_restore_finish(r->ed, msg, msglen) != ED_OK : dsmc_restore_finish(r->mc, msg, msglen) != DSMC_OK)
 		return RUN_ERESTORE;
 	r->t0 = r->ckpt_wall = wall_now();
 	return RUN_OK;
@@ -1005,6 +1048,7 @@ void run_destroy(run_t *r)
 	ed_destroy(r->ed);
 	dsmc_destroy(r->mc);
 	md_destroy(r->md);
+	md_in_free(r);
 	free(r);
 }
 
@@ -1028,11 +1072,138 @@ static size_t impact_count(const run_t *r)
 	return (size_t)nb;
 }
 
+/* md's state fields (md.h, md_state_t), in the order a restore reads them: "springs_held" before the
+ * springs, whose count is its sum. */
+enum { MDF_X, MDF_V, MDF_W, MDF_F, MDF_T, MDF_XREF, MDF_HELD, MDF_PARTNER, MDF_XI, MDF_WALLS, MDF_COUNTERS, MDF_N };
+static const struct {
+	const char *name;
+	ed_type_t type;
+} md_fields[MDF_N] = {
+	[MDF_X] = {"positions", ED_T_F64}, [MDF_V] = {"velocities", ED_T_F64}, [MDF_W] = {"spins", ED_T_F64},
+	[MDF_F] = {"forces", ED_T_F64}, [MDF_T] = {"torques", ED_T_F64}, [MDF_XREF] = {"verlet_reference", ED_T_F64},
+	[MDF_HELD] = {"springs_held", ED_T_I32}, [MDF_PARTNER] = {"spring_partner", ED_T_I32},
+	[MDF_XI] = {"spring", ED_T_F64}, [MDF_WALLS] = {"walls", ED_T_F64},   /* wall_force, then wall_impulse */
+	[MDF_COUNTERS] = {"counters", ED_T_U64},   /* steps, rebuilds, contacts, wall_steps */
+};
+
+static size_t md_field_count(const run_t *r, int k, size_t springs)
+{
+	size_t n = r->s.count;
+	return k <= MDF_XREF ? 3 * n : k == MDF_HELD ? n : k == MDF_PARTNER ? springs : k == MDF_XI ? 3 * springs :
+	       k == MDF_WALLS ? 36 : 4;
+}
+
+static int md_field_find(const char *name)
+{
+	for (int k = 0; k < MDF_N; k++)
+		if (!strcmp(name, md_fields[k].name))
+			return k;
+	return -1;
+}
+
+static int md_field_get(const run_t *r, const char *name, void *buf)
+{
+	int k = md_field_find(name);
+	md_state_t st = {0};
+	switch (k) {
+	case MDF_X: st.x = buf; break;
+	case MDF_V: st.v = buf; break;
+	case MDF_W: st.w = buf; break;
+	case MDF_F: st.f = buf; break;
+	case MDF_T: st.t = buf; break;
+	case MDF_XREF: st.xref = buf; break;
+	case MDF_HELD: st.held = buf; break;
+	case MDF_PARTNER: st.partner = buf; break;
+	case MDF_XI: st.xi = buf; break;
+	case MDF_WALLS: case MDF_COUNTERS: break;
+	default: return RUN_ERESTORE;
+	}
+	md_state_get(r->md, &st);
+	if (k == MDF_COUNTERS)
+		memcpy(buf, (uint64_t[4]){st.steps, st.rebuilds, st.contacts, st.wall_steps}, 4 * sizeof(uint64_t));
+	if (k == MDF_WALLS) {
+		memcpy(buf, st.wall_force, sizeof st.wall_force);
+		memcpy((double *)buf + 18, st.wall_impulse, sizeof st.wall_impulse);
+	}
+	return RUN_OK;
+}
+
+static int md_field_set(run_t *r, const char *name, ed_type_t type, size_t count, const void *buf)
+{
+	int k = md_field_find(name);
+	md_state_t *in = &r->md_in;
+	if (k < 0 || !in->held || type != md_fields[k].type || (r->md_got >> k & 1u))
+		return RUN_ERESTORE;
+	if (k == MDF_PARTNER || k == MDF_XI) {   /* after springs_held, whose sum they must match */
+		if (!(r->md_got >> MDF_HELD & 1u) || count != md_field_count(r, k, in->springs))
+			return RUN_ERESTORE;
+		void *p = malloc(count ? count * ed_type_size(type) : 1);
+		if (!p)
+			return RUN_ERESTORE;
+		memcpy(p, buf, count * ed_type_size(type));
+		if (k == MDF_PARTNER)
+			in->partner = p;
+		else
+			in->xi = p;
+	} else {
+		if (count != md_field_count(r, k, 0))
+			return RUN_ERESTORE;
+		double *dst[MDF_XREF + 1] = {in->x, in->v, in->w, in->f, in->t, in->xref};
+		if (k <= MDF_XREF)
+			memcpy(dst[k], buf, count * sizeof(double));
+		else if (k == MDF_HELD) {
+			memcpy(in->held, buf, count * sizeof(int32_t));
+			in->springs = 0;
+			for (size_t i = 0; i < count; i++) {
+				if (in->held[i] < 0)
+					return RUN_ERESTORE;
+				in->springs += (size_t)in->held[i];
+			}
+		} else if (k == MDF_WALLS) {
+			memcpy(in->wall_force, buf, sizeof in->wall_force);
+			memcpy(in->wall_impulse, (const double *)buf + 18, sizeof in->wall_impulse);
+		} else {
+			const uint64_t *c = buf;
+			in->steps = c[0], in->rebuilds = c[1], in->contacts = c[2], in->wall_steps = c[3];
+		}
+	}
+	r->md_got |= 1u << k;
+	return RUN_OK;
+}
+
+static int md_restore(run_t *r, char *msg, size_t msglen)
+{
+	int ret = RUN_ERESTORE;
+	if (r->md_got != (1u << MDF_N) - 1u) {
+		snprintf(msg, msglen, "md state fields missing");
+		goto cleanup;
+	}
+	if (r->md_in.steps > r->md_kend) {
+		snprintf(msg, msglen, "md step count beyond run.until");
+		goto cleanup;
+	}
+	int e = md_state_set(r->md, &r->md_in);
+	if (e != MD_OK) {
+		snprintf(msg, msglen, "md state: %s", e == MD_E_NOMEM ? md_strerror(e) : "inconsistent (md_state_set())");
+		goto cleanup;
+	}
+	r->md_steps = r->md_in.steps;
+	ret = RUN_OK;
+cleanup:
+	md_in_free(r);
+	return ret;
+}
+
 int run_fields(const run_t *r, ed_field_t *out, int max)
 {
-	if (r->md)
-		return 0;   /* no checkpoints yet (scene_parse() refuses output.checkpoint with md) */
-	int n = r->ed ? ed_fields(r->ed, out, max) : dsmc_fields(r->mc, out, max);
+	int n = 0;
+	if (r->md) {
+		size_t springs = md_springs(r->md);
+		for (int k = 0; k < MDF_N; k++, n++)
+			if (n < max)
+				out[n] = (ed_field_t){md_fields[k].name, md_fields[k].type, md_field_count(r, k, springs)};
+	} else
+		n = r->ed ? ed_fields(r->ed, out, max) : dsmc_fields(r->mc, out, max);
 	if (r->msd && n++ < max)
 		out[n - 1] = (ed_field_t){F_MSD, ED_T_F64, msd_state_size(r->msd) + 2};
 	if (impact_count(r) && n++ < max)
@@ -1073,6 +1244,8 @@ int run_field_get(const run_t *r, const char *name, void *buf)
 		v[k] = r->dsp_k;
 		return RUN_OK;
 	}
+	if (r->md)
+		return md_field_get(r, name, buf);
 	int rc = r->ed ? ed_field_get(r->ed, name, buf) : dsmc_field_get(r->mc, name, buf);
 	return rc == 0 ? RUN_OK : RUN_ERESTORE;
 }
@@ -1119,6 +1292,8 @@ int run_field_set(run_t *r, const char *name, ed_type_t type, size_t count, cons
 		r->dsp_k = v[k];
 		return RUN_OK;
 	}
+	if (r->md)
+		return md_field_set(r, name, type, count, buf);
 	int rc = r->ed ? ed_field_set(r->ed, name, type, count, buf) : dsmc_field_set(r->mc, name, type, count, buf);
 	return rc == 0 ? RUN_OK : RUN_ERESTORE;
 }
@@ -1207,7 +1382,7 @@ void run_summary_record(run_t *r, run_record_t *sum)
 	sum->events_per_second = sum->wall_seconds > 0 ? sum->events / sum->wall_seconds : 0.0;
 	sum->collisions_per_second = sum->wall_seconds > 0 ? sum->collisions / sum->wall_seconds : 0.0;
 	if (r->md) {
-		sum->memory_bytes = 0;   /* not reported by the md core yet */
+		sum->memory_bytes = md_memory(r->md);
 	} else if (r->ed) {
 		sum->memory_bytes = ed_memory(r->ed);
 		ed_cells(r->ed, sum->cells);

@@ -707,8 +707,7 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 		{ "particles", "species" }, { "particles", "capacity" }, { "initial", "velocity" },
 		{ "initial", "rotational_temperature" }, { "initial", "relax" }, { "initial", "from" },
 		{ "collisions", "tc" }, { "collisions", "rough" }, { "collisions", "restitution_pairs" },
-		{ "", "obstacles" }, { "", "driving" }, { "", "ed" }, { "output", "checkpoint" },
-		{ "run", "max_events" },
+		{ "", "obstacles" }, { "", "driving" }, { "", "ed" }, { "run", "max_events" },
 	};
 	for (size_t k = 0; k < sizeof refused / sizeof refused[0]; k++) {
 		const char *o = refused[k].obj;
@@ -721,8 +720,6 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 			 refused[k].key);
 		return fail(c, key, "not supported with method \"md\" yet (docs/md.md)");
 	}
-	if (s->replicas > 1)
-		return fail(c, "run.replicas", "ensembles are not supported with method \"md\" yet (docs/md.md)");
 	if (s->restitution <= 0)
 		return fail(c, "collisions.restitution", "must be > 0 with method \"md\" (the damping of a contact is "
 			    "derived from it)");
@@ -755,7 +752,8 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 						    "particles' force law and collisions.restitution");
 				}
 		}
-	const unsigned md_obs = SCENE_OBS_ENERGY | SCENE_OBS_MOMENTUM | SCENE_OBS_COM_HEIGHT | SCENE_OBS_POTENTIAL;
+	const unsigned md_obs = SCENE_OBS_ENERGY | SCENE_OBS_MOMENTUM | SCENE_OBS_COM_HEIGHT | SCENE_OBS_POTENTIAL |
+				SCENE_OBS_WALL_FORCE | SCENE_OBS_ROTATION;
 	json_t *obs = json_object_get(out, "observables");
 	if (!obs)
 		s->observables = SCENE_OBS_ENERGY | (scene_has_gravity(s) ? SCENE_OBS_COM_HEIGHT | SCENE_OBS_POTENTIAL : 0);
@@ -766,7 +764,9 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 			if (!strcmp(json_string_value(o), observables[k].name) && !(observables[k].bit & md_obs)) {
 				snprintf(path, sizeof path, "output.observables[%zu]", i);
 				return fail(c, path, "\"%s\" is not computed by method \"md\" yet (it has kinetic_energy, "
-					    "temperature, momentum, center_of_mass_height, potential_energy)", observables[k].name);
+					    "temperature, momentum, center_of_mass_height, potential_energy, wall_force, "
+					    "rotational_energy, rotational_temperature)",
+					    observables[k].name);
 			}
 	static const char *const outs[] = { "clusters", "velocity_distribution", "pair_correlation", "structure_factor",
 					    "impact_parameter", "fields", "density_spectrum" };
@@ -1040,7 +1040,7 @@ static int check_pipe(ctx_t *c, json_t *v, scene_t *s)
 }
 
 /* Rough particles across the scene: method ed only, the initial spins and
- * the rotational observables only with them. */
+ * the rotational observables only with them (or with method md and friction). */
 static int check_rough_scene(ctx_t *c, json_t *v, scene_t *s)
 {
 	json_t *init = json_object_get(json_object_get(v, "particles"), "initial");
@@ -1061,7 +1061,10 @@ static int check_rough_scene(ctx_t *c, json_t *v, scene_t *s)
 			continue;
 		char path[PATHLEN];
 		snprintf(path, sizeof path, "output.observables[%zu]", i);
-		if (!s->rough)
+		if (s->method == SCENE_METHOD_MD && !(s->md_friction > 0))
+			return fail(c, path, "\"%s\" needs md.friction > 0 with method \"md\" (without friction the spins "
+			            "stay 0)", name);
+		if (!s->rough && s->method != SCENE_METHOD_MD)
 			return fail(c, path, "\"%s\" needs rough particles (collisions.rough)", name);
 	}
 	return 0;

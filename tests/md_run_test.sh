@@ -1,6 +1,8 @@
 #!/bin/sh
 # Method md through granular-engine (issue 18; TAP): energy conservation of an elastic gas against the time
-# step, seed 000's gravity box settling to the bed height method ed gives, frames, and the md refusals.
+# step, seed 000's gravity box settling to the bed height method ed gives (its floor carrying the weight), the wall
+# pressure of an elastic soft gas against the equation of state, rolling (rotational energy), frames, and the md
+# refusals.
 set -u
 : "${SRCDIR:=$(cd "$(dirname "$0")/.." && pwd)}"
 : "${ENGINE:=$SRCDIR/engine/granular-engine}"
@@ -73,6 +75,7 @@ for seed in range(1, 9):
 d["method"] = "md"
 d["run"]["seed"] = 1
 del d["collisions"]["tc"]
+d["output"]["observables"] += ["momentum", "wall_force"]
 json.dump(d, open("%s/bed-md.json" % sys.argv[2], "w"))
 PYEOF
 for seed in 1 2 3 4 5 6 7 8; do
@@ -98,6 +101,22 @@ print(("ok" if abs(hm - mean) < tol else "not ok") + " - md's settled centre-of-
       "of ed's beds %.6g" % (hm, mean))
 ke = md["kinetic_energy"] / 100
 print(("ok" if ke < 1e-6 * m * g * d else "not ok") + " - md's bed at rest: kinetic energy per particle %.3g < 1e-6 m g d" % ke)
+# wall_force over the last interval [t0, t1] (0.05): the floor carries the weight W = N m g. The particles'
+# momentum balance gives F_floor - W = -(P_y(t1) - P_y(t0)) / (t1 - t0) (the other walls carry no vertical
+# force: the side walls are frictionless, the lid is not touched), and |P_y| <= sqrt(2 N m E_kin) at each
+# end: that bound, from the records' kinetic energies, is the tolerance (plus 1e-9 W for rounding).
+recs = [json.loads(l) for l in open("%s/bed-md.out" % tmp) if '"progress"' in l]
+r0, r1 = recs[-2], recs[-1]
+W, dt = 100 * m * g, r1["time"] - r0["time"]
+wf = {w["wall"]: w for w in r1["wall_force"]}
+floor = -wf["y.lower"]["force"][1]
+bound = (math.sqrt(2 * 100 * m * r0["kinetic_energy"]) + math.sqrt(2 * 100 * m * r1["kinetic_energy"])) / (W * dt) + 1e-9
+print(("ok" if abs(floor / W - 1) < bound else "not ok") + " - md's bed: floor force / weight = %.9f (|. - 1| < %.2g from "
+      "the momentum the particles can hold), floor pressure %.6g N/m" % (floor / W, bound, wf["y.lower"]["pressure"]))
+lid, side = wf["y.upper"]["force"], wf["x.lower"]["force"][0] + wf["x.upper"]["force"][0]
+print(("ok" if all(f == 0 for f in lid) and abs(side) < bound * W and wf["x.lower"]["force"][0] < 0 else "not ok") +
+      " - the lid carries nothing, the side walls push the bed from both sides (%.4g N, %.4g N) and balance to %.2g N"
+      % (-wf["x.lower"]["force"][0], wf["x.upper"]["force"][0], side))
 # frames: h5dump's values of the first and the last frame (2 x 100 x 2 numbers)
 txt = open("%s/bed-md.pos" % tmp).read()
 data = txt[txt.find("DATA {"):] if "DATA {" in txt else ""
@@ -116,9 +135,101 @@ else:
 PYEOF
 report "$tmp/bed.res"
 
-# (c) checkpoints and --resume: refused for md (output.checkpoint, fixture 423 below): no exact resume yet.
-# ---- (d) bad scenes: each md fixture refused by the engine naming its key ------------------------------------
-grep '^42[0-9]-md' "$SRCDIR/tests/scenes/bad/expected.tsv" | while IFS="$(printf '\t')" read -r file key rest; do
+# ---- (c) wall pressure of an elastic soft gas against the hard-disk equation of state ------------------------
+# 764 frictionless elastic Hertz disks (d = 1, m = 1, T = 1) between specular walls in y, periodic in x, box
+# 200 x 30: the pressure on the walls is the bulk pressure n T Z(eta) with n = N / (L_x (L_y - d)) (the
+# centres' accessible area) and Henderson's Z = (1 + eta^2/8) / (1 - eta)^2 (as tests/walls_test.c for
+# method ed), T the kinetic temperature (mean over the records). The records' wall pressures over blocks of
+# 10 time units (the first 3 dropped as equilibration) give the mean and its standard error; tolerance 4
+# standard errors plus 0.6% for what the bulk formula neglects: the density excess at the walls,
+# O(eta d / (L_y - d)) = 0.4%, and the contacts' softness (overlaps ~0.3% of d at thermal speeds shorten the
+# effective diameter: Z - 1 lower by ~0.6% of itself, 0.15% of P). Z - 1 = 0.25: the ideal gas's n T must lie
+# outside the tolerance (the test resolves the collisions' contribution).
+cat >"$tmp/press.json" <<'JSON'
+{"method": "md", "dimensions": 2,
+ "particles": {"count": 764, "box": [200, 30], "initial": {"temperature": 1}},
+ "boundaries": {"y": {"type": "walls", "lower": {"type": "specular"}, "upper": {"type": "specular"}}},
+ "collisions": {"restitution": 1},
+ "run": {"seed": 3, "until": {"time": 400}},
+ "output": {"every": {"time": 10}, "observables": ["kinetic_energy", "wall_force"]},
+ "md": {"force_law": "hertz", "time_step": 0.04}}
+JSON
+"$ENGINE" run "$tmp/press.json" >"$tmp/press.out" 2>"$tmp/press.err"
+ok $? "elastic soft gas between walls: run completes $(head -c 200 "$tmp/press.err")"
+"$PY" - "$tmp/press.out" >"$tmp/press.res" <<'PYEOF'
+import json, math, sys
+recs = [json.loads(l) for l in open(sys.argv[1]) if '"progress"' in l][4:]
+N, Lx, Ly, d = 764, 200.0, 30.0, 1.0
+p = [0.5 * (w[0]["pressure"] + w[1]["pressure"]) for w in (r["wall_force"] for r in recs)]
+K = len(p)
+mean = sum(p) / K
+se = math.sqrt(sum((x - mean) ** 2 for x in p) / (K - 1) / K)
+T = sum(r["temperature"] for r in recs) / K
+n = N / (Lx * (Ly - d))
+eta = n * math.pi * d * d / 4
+Z = (1 + eta * eta / 8) / (1 - eta) ** 2
+theory, ideal = n * T * Z, n * T
+tol = 4 * se + 6e-3 * theory
+print(("ok" if abs(mean - theory) < tol else "not ok") + " - md wall pressure %.5g +- %.2g (%d blocks), theory n T Z = %.5g "
+      "(Z = %.4f, eta = %.4f), tolerance %.2g" % (mean, se, K, theory, Z, eta, tol))
+print(("ok" if abs(mean - ideal) > tol else "not ok") + " - and not the ideal gas's n T = %.5g (%.1f tolerances away)"
+      % (ideal, abs(mean - ideal) / tol))
+PYEOF
+report "$tmp/press.res"
+# a time step above t_c/20 runs with a warning on the first record (md.time_step 0.04 above: none)
+sed 's/"time_step": 0.04/"time_step": 0.1/; s/"until": {"time": 400}/"until": {"time": 1}/' "$tmp/press.json" >"$tmp/warn.json"
+"$ENGINE" run "$tmp/warn.json" >"$tmp/warn.out" 2>/dev/null
+w=$(head -n 1 "$tmp/warn.out" | "$PY" -c 'import json, sys; print(json.load(sys.stdin).get("warning", ""))')
+w0=$(head -n 1 "$tmp/press.out" | "$PY" -c 'import json, sys; print(json.load(sys.stdin).get("warning", "none"))')
+case "$w" in "md.time_step 0.1: dt = t_c/10"*) r=0 ;; *) r=1 ;; esac
+ok $(( r == 0 && $(grep -c '"warning"' "$tmp/warn.out") == 1 ? 0 : 1 )) "time_step 0.1: first record warns: $w (time_step 0.04: $w0)"
+
+# ---- (d) rotational energy: spheres and disks rolling down a slope -----------------------------------------
+# Gravity (0.5, -1) on a floor wall, periodic along the slope: tan th = 0.5 < mu (1 + q) / q (mu = 0.5), so a
+# particle rolls without slipping once its bounces have died out (t >= 8 here): E_rot / E_kin = I w^2 / (m v^2)
+# = q (R / (R - delta))^2 with q = 2/5 (sphere), 1/2 (disk) and the contact point at the lever arm R - delta,
+# delta = m |g_y| / k_n the static overlap (k_n = 1e5: a 4e-5 relative correction, which the test resolves);
+# the momentum along the slope grows at N m g_x / (1 + q (R / (R - delta))^2); rotational_temperature is
+# 2 E_rot / (D_r N), D_r = 3 (3D), 1 (2D). Tolerances 1e-8 relative (measured 1e-15: velocity Verlet is exact
+# for the uniform acceleration of rolling).
+for dim in 3 2; do
+	if [ $dim = 3 ]; then box="[4, 4, 4]"; g="[0.5, -1, 0]"; else box="[4, 4]"; g="[0.5, -1]"; fi
+	cat >"$tmp/roll$dim.json" <<JSON
+{"method": "md", "dimensions": $dim,
+ "particles": {"count": 2, "radius": 0.5, "box": $box, "initial": {"temperature": 0}},
+ "boundaries": {"y": {"type": "walls", "lower": {"type": "specular"}, "upper": {"type": "specular"}}},
+ "collisions": {"restitution": 0.5}, "gravity": $g,
+ "run": {"seed": 1, "until": {"time": 20}},
+ "output": {"every": {"time": 2}, "observables": ["kinetic_energy", "rotational_energy", "rotational_temperature", "momentum"]},
+ "md": {"friction": 0.5, "stiffness": 100000}}
+JSON
+	"$ENGINE" run "$tmp/roll$dim.json" >"$tmp/roll$dim.out" 2>"$tmp/roll$dim.err"
+	ok $? "rolling, ${dim}D: run completes $(head -c 200 "$tmp/roll$dim.err")"
+done
+"$PY" - "$tmp" >"$tmp/roll.res" <<'PYEOF'
+import json, sys
+for dim, q, dr in ((3, 0.4, 3), (2, 0.5, 1)):
+    recs = [json.loads(l) for l in open("%s/roll%d.out" % (sys.argv[1], dim)) if '"progress"' in l]
+    R, delta, N = 0.5, 1.0 / 1e5, 2
+    qe = q * (R / (R - delta)) ** 2
+    late = [r for r in recs if r["time"] >= 8]
+    ratio = [r["rotational_energy"] / r["kinetic_energy"] for r in late]
+    worst = max(abs(x / qe - 1) for x in ratio)
+    acc = (late[-1]["momentum"][0] - late[0]["momentum"][0]) / (late[-1]["time"] - late[0]["time"])
+    acc_th = N * 0.5 / (1 + qe)
+    trot = max(abs(r["rotational_temperature"] - 2 * r["rotational_energy"] / (dr * N)) for r in recs)
+    print(("ok" if worst < 1e-8 and recs[0]["rotational_energy"] == 0 else "not ok") +
+          " - rolling %dD: E_rot / E_kin = %.11f, theory q (R / (R - delta))^2 = %.11f (q = %g; worst %.1e over %d records)"
+          % (dim, ratio[-1], qe, q, worst, len(late)))
+    print(("ok" if abs(acc / acc_th - 1) < 1e-8 and trot < 1e-12 * late[-1]["rotational_temperature"] else "not ok") +
+          " - rolling %dD: dP_x/dt = %.9f, theory N m g_x / (1 + q') = %.9f; rotational_temperature = 2 E_rot / (%d N)"
+          % (dim, acc, acc_th, dr))
+PYEOF
+report "$tmp/roll.res"
+
+# (e) checkpoints and --resume: tests/md_resume_test.sh.
+# ---- (f) bad scenes: each md fixture refused by the engine naming its key ------------------------------------
+grep '^4[24][0-9]-md' "$SRCDIR/tests/scenes/bad/expected.tsv" | while IFS="$(printf '\t')" read -r file key rest; do
 	"$ENGINE" run "$SRCDIR/tests/scenes/bad/$file" >/dev/null 2>"$tmp/bad.err"
 	rc=$?
 	line=$(head -n 1 "$tmp/bad.err")

@@ -2,6 +2,7 @@
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "md/md.h"
@@ -634,9 +635,160 @@ static void test_determinism_and_errors(void)
 	md_destroy(md);
 }
 
+/* Full state of md into a malloc'd md_state_t (free with state_free()). */
+static md_state_t state_take(const md_t *md, int n)
+{
+	md_state_t st = {0};
+	size_t k = md_springs(md);
+	st.x = malloc(18 * (size_t)n * sizeof(double));
+	st.v = st.x + 3 * n, st.w = st.v + 3 * n, st.f = st.w + 3 * n, st.t = st.f + 3 * n, st.xref = st.t + 3 * n;
+	st.held = malloc((size_t)n * sizeof(int32_t));
+	st.partner = malloc((k + 1) * sizeof(int32_t));
+	st.xi = malloc(3 * (k + 1) * sizeof(double));
+	md_state_get(md, &st);
+	return st;
+}
+
+static void state_free(md_state_t *st)
+{
+	free(st->x);
+	free(st->held);
+	free(st->partner);
+	free(st->xi);
+}
+
+static int state_same(const md_state_t *a, const md_state_t *b, int n)
+{
+	return a->springs == b->springs && a->steps == b->steps && a->rebuilds == b->rebuilds &&
+	       a->contacts == b->contacts && a->wall_steps == b->wall_steps &&
+	       !memcmp(a->wall_force, b->wall_force, sizeof a->wall_force) &&
+	       !memcmp(a->wall_impulse, b->wall_impulse, sizeof a->wall_impulse) && !memcmp(a->x, b->x, 18 * (size_t)n * sizeof(double)) &&
+	       !memcmp(a->held, b->held, (size_t)n * sizeof(int32_t)) &&
+	       !memcmp(a->partner, b->partner, a->springs * sizeof(int32_t)) &&
+	       !memcmp(a->xi, b->xi, 3 * a->springs * sizeof(double));
+}
+
+/*
+ * Checkpoint state: 216 frictional spheres falling onto a floor (walls in y, periodic x and z: springs
+ * with walls and pairs, periodic images, Verlet rebuilds). The state taken mid-fall and set into a system
+ * created without positions continues with the same bits as the original, for both laws; states that
+ * cannot be one are refused.
+ */
+static void test_state(void)
+{
+	const int nx = 6, nz = 6, n = 216;
+	const double a = 1.05;
+	static double x[3 * 216], v[3 * 216];
+	for (int law = 0; law < 2; law++) {
+		rng_state = 4242;
+		for (int i = 0; i < n; i++) {
+			int c[3] = {i % nx, i / (nx * nz), (i / nx) % nz};
+			for (int k = 0; k < 3; k++) {
+				x[3 * i + k] = (c[k] + 0.5) * a + (k == 1 ? 0.3 * c[1] : 0.0);
+				v[3 * i + k] = 0.5 * (urand() - 0.5);
+			}
+		}
+		md_params_t p = {0};
+		p.dim = 3;
+		p.n = n;
+		p.radius = 0.5;
+		p.mass = 1.0;
+		p.box[0] = nx * a;
+		p.box[1] = 20.0;
+		p.box[2] = nz * a;
+		p.periodic[0] = p.periodic[2] = 1;
+		p.gravity[1] = -1.0;
+		p.law = law ? MD_LAW_HERTZ : MD_LAW_LINEAR;
+		p.restitution = 0.3;
+		p.kn = 1e4;
+		p.young = 1e4;
+		p.v_ref = 5.0;
+		p.mu = 0.5;
+		p.x = x;
+		p.v = v;
+		int err, e2 = -1;
+		md_t *A = md_create(&p, &err), *B = NULL;
+		long half = A ? (long)llround(6.0 / md_dt(A)) : 0;
+		double P0[3] = {0, 0, 0}, P1[3] = {0, 0, 0}, imp[6][3], tw = 0.0;
+		for (int i = 0; A && i < n; i++)
+			for (int k = 0; k < 3; k++)
+				P0[k] += md_velocities(A)[3 * i + k];
+		if (A)
+			err = md_step(A, half);
+		if (A && law == 0) {
+			/* momentum balance: dP = N m g t - (momentum given to the walls), to rounding */
+			md_walls(A, imp, &tw);
+			double worst = 0.0;
+			for (int k = 0; k < 3; k++) {
+				for (int i = 0; i < n; i++)
+					P1[k] += md_velocities(A)[3 * i + k];
+				double given = 0.0;
+				for (int w = 0; w < 6; w++)
+					given += imp[w][k];
+				worst = fmax(worst, fabs(P1[k] - P0[k] - (n * p.gravity[k] * tw - given)));
+			}
+			ok(!err && fabs(tw - half * md_dt(A)) < 1e-12 && worst < 1e-10 * n * tw && imp[2][1] < 0.0,
+			   "walls: the particles' momentum change is gravity's impulse less the walls' to %.1e of the weight's "
+			   "(floor impulse %.6g, weight's %.6g)", worst / (n * tw), -imp[2][1], n * tw);
+			/* memory: at least the state arrays (22 doubles per particle) and the two slot tables (12 slots of
+			 * an int and 3 doubles each), at most twice that plus the pairs (< 40 per particle here) */
+			size_t lo = (size_t)n * (22 * 8 + 2 * 12 * 32), mem = md_memory(A);
+			ok(mem >= lo && mem <= 2 * lo + (size_t)n * 40 * 40, "md_memory %zu bytes (state and slots %zu)", mem, lo);
+			md_wall_reset(A);   /* the state below holds impulses since a reset 5 steps before it */
+			err = md_step(A, 5);
+		}
+		md_state_t s0 = A ? state_take(A, n) : (md_state_t){0};
+		p.x = NULL;
+		p.v = NULL;
+		B = md_create(&p, &e2);
+		if (B && A)
+			e2 = md_state_set(B, &s0);
+		if (A && !err)
+			err = md_step(A, half);
+		if (B && !e2)
+			e2 = md_step(B, half);
+		int same = 0;
+		md_state_t sa = {0}, sb = {0};
+		if (A && B && !err && !e2) {
+			sa = state_take(A, n);
+			sb = state_take(B, n);
+			same = state_same(&sa, &sb, n);
+		}
+		ok(A && B && !err && !e2 && s0.springs > 0 && same,
+			"%s: state at t = 6 (%zu springs, %llu rebuilds) set into a blank system: same bits as the original "
+			"after %ld more steps (%zu springs)", law ? "hertz" : "linear", s0.springs,
+			(unsigned long long)s0.rebuilds, half, sa.springs);
+		if (law == 0 && B && s0.springs > 1) {
+			/* refusals: a partner twice, a wall on a periodic axis, a reference outside the periodic box */
+			int i = 0, q = 0, bad[3];
+			while (s0.held[i] < 2 && i < n - 1)
+				q += s0.held[i++];
+			int32_t keep = s0.partner[q + 1];
+			s0.partner[q + 1] = s0.partner[q];
+			bad[0] = s0.held[i] >= 2 ? md_state_set(B, &s0) : 0;
+			s0.partner[q + 1] = keep;
+			keep = s0.partner[0];
+			s0.partner[0] = -1 - 0;   /* x lower: periodic */
+			bad[1] = md_state_set(B, &s0);
+			s0.partner[0] = keep;
+			double kx = s0.xref[0];
+			s0.xref[0] = p.box[0];
+			bad[2] = md_state_set(B, &s0);
+			s0.xref[0] = kx;
+			ok(bad[0] == MD_E_PARAM && bad[1] == MD_E_PARAM && bad[2] == MD_E_PARAM && md_state_set(B, &s0) == MD_OK,
+				"inconsistent states refused (%d %d %d), the good one taken", bad[0], bad[1], bad[2]);
+		}
+		state_free(&s0);
+		state_free(&sa);
+		state_free(&sb);
+		md_destroy(A);
+		md_destroy(B);
+	}
+}
+
 int main(void)
 {
-	plan(36);
+	plan(41);
 	test_linear_collision();
 	test_linear_elastic();
 	test_hertz_collision();
@@ -647,5 +799,6 @@ int main(void)
 	test_bed_at_rest();
 	test_neighbour_list();
 	test_determinism_and_errors();
+	test_state();
 	return done_testing();
 }

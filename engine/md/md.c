@@ -34,6 +34,10 @@ struct md {
 	int *nold, *nnew;
 	size_t ncontacts;
 	long steps, rebuilds;
+	int walled;              /* some axis has walls: their forces are summed (wf, wimp) */
+	double wf[6][3];         /* force on each wall w = 2 axis + side at the last force pass */
+	double wimp[6][3];       /* momentum given to each wall since the last md_wall_reset() */
+	long wsteps;             /* steps at the last md_wall_reset() */
 };
 
 static inline double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
@@ -95,20 +99,12 @@ const char *md_strerror(int code)
 	}
 }
 
-static int rebuild(md_t *md)
+/* The half Verlet list of the reference positions xref (cell lists); a function of xref alone, so a
+ * restored state gets the list its last build made. */
+static int build_pairs(md_t *md)
 {
 	const int n = md->n;
 	double rc = 2.0 * md->rmax + md->skin;
-	for (int i = 0; i < n; i++) {
-		double *xi = md->x + 3 * i;
-		for (int a = 0; a < 3; a++) {
-			if (!isfinite(xi[a]))
-				return MD_E_UNSTABLE;
-			if (a < md->dim && md->periodic[a])
-				xi[a] -= md->L[a] * floor(xi[a] / md->L[a]);
-		}
-	}
-	memcpy(md->xref, md->x, (size_t)n * 3 * sizeof(double));
 	double cs[3];
 	for (int a = 0; a < 3; a++) {
 		int nc = a < md->dim ? (int)floor(md->L[a] / rc) : 1;
@@ -134,7 +130,7 @@ static int rebuild(md_t *md)
 	for (int i = n - 1; i >= 0; i--) {
 		int ci[3];
 		for (int a = 0; a < 3; a++) {
-			int c = a < md->dim ? (int)floor(md->x[3 * i + a] / cs[a]) : 0;
+			int c = a < md->dim ? (int)floor(md->xref[3 * i + a] / cs[a]) : 0;
 			ci[a] = c < 0 ? 0 : c >= md->nc[a] ? md->nc[a] - 1 : c;
 		}
 		size_t c = ((size_t)ci[2] * md->nc[1] + ci[1]) * md->nc[0] + ci[0];
@@ -143,7 +139,7 @@ static int rebuild(md_t *md)
 	}
 	md->np = 0;
 	for (int i = 0; i < n; i++) {
-		const double *xi = md->x + 3 * i;
+		const double *xi = md->xref + 3 * i;
 		int ci[3], lo[3], hi[3];
 		for (int a = 0; a < 3; a++) {
 			int c = a < md->dim ? (int)floor(xi[a] / cs[a]) : 0;
@@ -170,7 +166,7 @@ static int rebuild(md_t *md)
 					for (int j = md->head[c]; j >= 0; j = md->next[j]) {
 						if (j <= i)
 							continue;
-						const double *xj = md->x + 3 * j;
+						const double *xj = md->xref + 3 * j;
 						double d[3], s[3] = {0.0, 0.0, 0.0};
 						for (int a = 0; a < 3; a++) {
 							d[a] = xj[a] - xi[a];
@@ -197,6 +193,26 @@ static int rebuild(md_t *md)
 					}
 				}
 	}
+	return MD_OK;
+}
+
+/* Verlet-list build: positions wrapped into the box on periodic axes, taken as the reference, pairs. */
+static int rebuild(md_t *md)
+{
+	const int n = md->n;
+	for (int i = 0; i < n; i++) {
+		double *xi = md->x + 3 * i;
+		for (int a = 0; a < 3; a++) {
+			if (!isfinite(xi[a]))
+				return MD_E_UNSTABLE;
+			if (a < md->dim && md->periodic[a])
+				xi[a] -= md->L[a] * floor(xi[a] / md->L[a]);
+		}
+	}
+	memcpy(md->xref, md->x, (size_t)n * 3 * sizeof(double));
+	int rc = build_pairs(md);
+	if (rc)
+		return rc;
 	md->rebuilds++;
 	return MD_OK;
 }
@@ -302,6 +318,8 @@ static inline int forces_impl(md_t *md, double dth, const int law, const int fri
 			md->t[3 * i + a] = 0.0;
 		}
 	md->ncontacts = 0;
+	if (md->walled)
+		memset(md->wf, 0, sizeof md->wf);
 	for (size_t p = 0; p < md->np; p++) {
 		const md_pair_t *pp = md->pairs + p;
 		const int i = pp->i, j = pp->j;
@@ -352,6 +370,8 @@ static inline int forces_impl(md_t *md, double dth, const int law, const int fri
 					rc = e;
 				for (int b = 0; b < 3; b++)
 					md->f[3 * i + b] += fc[b];
+				for (int b = 0; b < 3; b++)
+					md->wf[2 * a + side][b] -= fc[b];
 			}
 		}
 	return rc;
@@ -383,7 +403,7 @@ md_t *md_create(const md_params_t *p, int *err)
 {
 	int rc = MD_E_PARAM;
 	md_t *md = NULL;
-	if (!p || (p->dim != 2 && p->dim != 3) || p->n < 1 || !p->x)
+	if (!p || (p->dim != 2 && p->dim != 3) || p->n < 1)
 		goto cleanup;
 	if (!(p->restitution > 0.0 && p->restitution <= 1.0) || !(p->mu >= 0.0) || !(p->kt_ratio >= 0.0) ||
 		!(p->dt >= 0.0) || !(p->dt_steps >= 0.0) || !(p->skin >= 0.0) || p->max_contacts < 0)
@@ -410,6 +430,7 @@ md_t *md_create(const md_params_t *p, int *err)
 	md->slots = p->max_contacts > 0 ? p->max_contacts : (p->dim == 2 ? 8 : 12);
 	for (int a = 0; a < 3; a++) {
 		md->periodic[a] = a < p->dim ? (p->periodic[a] != 0) : 0;
+		md->walled |= a < p->dim && !md->periodic[a];
 		md->L[a] = a < p->dim ? p->box[a] : 1.0;
 		md->g[a] = a < p->dim ? p->gravity[a] : 0.0;
 	}
@@ -447,7 +468,7 @@ md_t *md_create(const md_params_t *p, int *err)
 			md->rmax = r;
 		if (m < mmin)
 			mmin = m;
-		for (int a = 0; a < 3; a++) {
+		for (int a = 0; a < 3 && p->x; a++) {
 			double xa = a < p->dim ? p->x[3 * i + a] : 0.0;
 			double va = p->v && a < p->dim ? p->v[3 * i + a] : 0.0;
 			double wa = p->w && (p->dim == 3 || a == 2) ? p->w[3 * i + a] : 0.0;
@@ -506,6 +527,9 @@ md_t *md_create(const md_params_t *p, int *err)
 	for (int a = 0; a < p->dim; a++)
 		if (md->periodic[a] && md->L[a] < 2.0 * (2.0 * md->rmax + md->skin))
 			goto cleanup;
+	rc = MD_OK;
+	if (!p->x)
+		goto cleanup;   /* memory only: md_state_set() gives the state */
 	rc = rebuild(md);
 	if (rc)
 		goto cleanup;
@@ -545,7 +569,15 @@ int md_step(md_t *md, long nsteps)
 			if (rc)
 				return rc;
 		}
+		if (md->walled)   /* velocity Verlet's impulses: h F(t) now, h F(t + dt) after the force pass */
+			for (int w = 0; w < 6; w++)
+				for (int a = 0; a < 3; a++)
+					md->wimp[w][a] += h * md->wf[w][a];
 		int rc = forces(md, dt);
+		if (md->walled)
+			for (int w = 0; w < 6; w++)
+				for (int a = 0; a < 3; a++)
+					md->wimp[w][a] += h * md->wf[w][a];
 		for (int i = 0; i < n; i++) {
 			double *v = md->v + 3 * i, *w = md->w + 3 * i;
 			const double *f = md->f + 3 * i, *t = md->t + 3 * i;
@@ -572,6 +604,133 @@ double md_stiffness(const md_t *md) { return md->kn; }
 double md_hertz_alpha(const md_t *md) { return md->alpha; }
 size_t md_contact_count(const md_t *md) { return md->ncontacts; }
 long md_rebuilds(const md_t *md) { return md->rebuilds; }
+
+void md_walls(const md_t *md, double impulse[6][3], double *interval)
+{
+	memcpy(impulse, md->wimp, sizeof md->wimp);
+	*interval = (double)(md->steps - md->wsteps) * md->dt;
+}
+
+void md_wall_reset(md_t *md)
+{
+	memset(md->wimp, 0, sizeof md->wimp);
+	md->wsteps = md->steps;
+}
+
+size_t md_memory(const md_t *md)
+{
+	return sizeof(*md) + (size_t)md->n * (22 * sizeof(double) + 3 * sizeof(int)) +
+	       2 * (size_t)md->n * md->slots * sizeof(md_slot_t) + md->capp * sizeof(md_pair_t) + md->ncell * sizeof(int);
+}
+
+size_t md_springs(const md_t *md)
+{
+	size_t k = 0;
+	for (int i = 0; i < md->n; i++)
+		k += (size_t)md->nnew[i];
+	return k;
+}
+
+void md_state_get(const md_t *md, md_state_t *st)
+{
+	const size_t n3 = (size_t)md->n * 3 * sizeof(double);
+	double *const dst[6] = {st->x, st->v, st->w, st->f, st->t, st->xref};
+	const double *const src[6] = {md->x, md->v, md->w, md->f, md->t, md->xref};
+	for (int k = 0; k < 6; k++)
+		if (dst[k])
+			memcpy(dst[k], src[k], n3);
+	size_t q = 0;
+	for (int i = 0; i < md->n; i++) {
+		if (st->held)
+			st->held[i] = md->nnew[i];
+		const md_slot_t *sl = md->hnew + (size_t)i * md->slots;
+		for (int k = 0; k < md->nnew[i]; k++, q++) {
+			if (st->partner)
+				st->partner[q] = sl[k].partner;
+			if (st->xi)
+				memcpy(st->xi + 3 * q, sl[k].xi, sizeof(sl[k].xi));
+		}
+	}
+	st->springs = q;
+	memcpy(st->wall_force, md->wf, sizeof md->wf);
+	memcpy(st->wall_impulse, md->wimp, sizeof md->wimp);
+	st->wall_steps = (uint64_t)md->wsteps;
+	st->steps = (uint64_t)md->steps;
+	st->rebuilds = (uint64_t)md->rebuilds;
+	st->contacts = md->ncontacts;
+}
+
+int md_state_set(md_t *md, const md_state_t *st)
+{
+	const int n = md->n, D = md->dim;
+	const double *const src[6] = {st->x, st->v, st->w, st->f, st->t, st->xref};
+	double *const dst[6] = {md->x, md->v, md->w, md->f, md->t, md->xref};
+	for (int k = 0; k < 6; k++)
+		if (!src[k])
+			return MD_E_PARAM;
+	if (!st->held || (st->springs && (!st->partner || !st->xi)) || st->steps > (uint64_t)1 << 62 ||
+	    st->rebuilds < 1 || st->rebuilds > st->steps + 1)
+		return MD_E_PARAM;
+	for (size_t q = 0; q < (size_t)n * 3; q++) {
+		int a = (int)(q % 3);
+		for (int k = 0; k < 6; k++) {
+			double y = src[k][q];
+			/* 2D: positions, velocities and forces in the plane, spins and torques about z */
+			int planar = k == 2 || k == 4 ? a < 2 : a == 2;
+			if (!isfinite(y) || (D == 2 && planar && y != 0.0))
+				return MD_E_PARAM;
+		}
+		if (a < D && md->periodic[a] && !(src[5][q] >= 0.0 && src[5][q] < md->L[a]))
+			return MD_E_PARAM;
+	}
+	size_t q = 0;
+	for (int i = 0; i < n; i++) {
+		int h = st->held[i];
+		if (h < 0 || h > md->slots || (size_t)h > st->springs - q)
+			return MD_E_PARAM;
+		for (int k = 0; k < h; k++) {
+			int32_t p = st->partner[q + k];
+			int wall = -1 - p, a = wall / 2;
+			if (p >= 0 ? p <= i || p >= n : wall >= 2 * D || md->periodic[a])
+				return MD_E_PARAM;
+			for (int l = 0; l < k; l++)
+				if (st->partner[q + l] == p)
+					return MD_E_PARAM;
+			for (int b = 0; b < 3; b++)
+				if (!isfinite(st->xi[3 * (q + k) + b]) || (D == 2 && b == 2 && st->xi[3 * (q + k) + b] != 0.0))
+					return MD_E_PARAM;
+		}
+		q += (size_t)h;
+	}
+	if (q != st->springs || st->wall_steps > st->steps)
+		return MD_E_PARAM;
+	for (int w = 0; w < 6; w++)
+		for (int a = 0; a < 3; a++) {
+			double f = st->wall_force[w][a], m = st->wall_impulse[w][a];
+			/* only walls of the box carry force */
+			if (!isfinite(f) || !isfinite(m) || ((w / 2 >= D || md->periodic[w / 2]) && (f != 0.0 || m != 0.0)))
+				return MD_E_PARAM;
+		}
+	memcpy(md->wf, st->wall_force, sizeof md->wf);
+	memcpy(md->wimp, st->wall_impulse, sizeof md->wimp);
+	md->wsteps = (long)st->wall_steps;
+	for (int k = 0; k < 6; k++)
+		memcpy(dst[k], src[k], (size_t)n * 3 * sizeof(double));
+	q = 0;
+	for (int i = 0; i < n; i++) {
+		md->nnew[i] = st->held[i];
+		md->nold[i] = 0;
+		md_slot_t *sl = md->hnew + (size_t)i * md->slots;
+		for (int k = 0; k < md->nnew[i]; k++, q++) {
+			sl[k].partner = st->partner[q];
+			memcpy(sl[k].xi, st->xi + 3 * q, sizeof(sl[k].xi));
+		}
+	}
+	md->steps = (long)st->steps;
+	md->rebuilds = (long)st->rebuilds;
+	md->ncontacts = (size_t)st->contacts;
+	return build_pairs(md);
+}
 
 /* Elastic energy of one contact: normal potential and the tangential spring of its slot (if any). */
 static double contact_energy(const md_t *md, int i, int partner, double delta, double reff)

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <stddef.h>
+#include <stdint.h>
 
 /*
  * Contract
@@ -63,6 +64,18 @@
  *   the box at a rebuild only. A periodic axis must be at least
  *   2 (2 R_max + skin) long.
  * - Determinism: the same parameters give the same bits on the same build.
+ * - Checkpoints (md_state_get/md_state_set): the dynamic state is the
+ *   positions (unwrapped since the last Verlet-list build), velocities,
+ *   spins, the forces and torques of the last force pass (the next step's
+ *   first half-kick uses them), the Verlet list's reference positions (the
+ *   positions of its last build, wrapped into the box), the tangential
+ *   springs held (per particle: their number, then each one's partner and
+ *   spring vector, in slot order), the step, build and contact counters and
+ *   the walls' forces and impulses (md_walls()).
+ *   The pair list is not state: md_state_set() builds it again from the
+ *   reference positions, which is what the last build computed. A system
+ *   given a state taken from another (same parameters) continues with the
+ *   same bits as the original.
  */
 
 typedef struct md md_t;
@@ -100,7 +113,8 @@ typedef struct {
 	double dt_steps;         /* 0 -> 50 */
 	double skin;             /* Verlet skin; 0 -> 0.2 R_max */
 	int max_contacts;        /* history slots per particle; 0 -> 12 (2D: 8) */
-	const double *x;         /* n*3 initial positions */
+	const double *x;         /* n*3 initial positions; NULL: memory only, whose state
+	                          * md_state_set() must set before any other call */
 	const double *v;         /* n*3 initial velocities, or NULL (rest) */
 	const double *w;         /* n*3 initial spins, or NULL */
 } md_params_t;
@@ -134,5 +148,41 @@ size_t md_contact_count(const md_t *md);
 /* Verlet-list builds so far (1 after create). */
 long md_rebuilds(const md_t *md);
 void md_energy(const md_t *md, md_energy_t *out);
+
+/* The dynamic state (see the contract). Arrays have 3n doubles (x ... xref), n (held), springs (partner)
+ * and 3 springs (xi) entries; springs = sum of held. Partner: j > i for a pair (the lower index holds it),
+ * -1 - (2 axis + side) for a wall (side 0 lower, 1 upper). */
+typedef struct {
+	double *x, *v, *w, *f, *t, *xref;
+	int32_t *held;
+	size_t springs;
+	int32_t *partner;
+	double *xi;
+	uint64_t steps, rebuilds, contacts;
+	double wall_force[6][3];     /* md_walls(): the walls' forces at the last force pass, */
+	double wall_impulse[6][3];   /* their impulses since the last md_wall_reset() */
+	uint64_t wall_steps;         /* and the step count then */
+} md_state_t;
+
+/* Walls: the momentum the particles gave to each wall w = 2 axis + side (side 0 at 0, 1 at box[axis])
+ * since the last md_wall_reset() (or md_create()), as velocity Verlet applies the contact forces: each
+ * step gives dt/2 (F(t) + F(t + dt)), so the impulses and gravity's account exactly for the particles'
+ * change of momentum; *interval is the time since then (steps times dt). Zero for periodic axes. */
+void md_walls(const md_t *md, double impulse[6][3], double *interval);
+void md_wall_reset(md_t *md);
+
+/* Bytes the system holds now (its arrays, the pair list's capacity, the cell heads). */
+size_t md_memory(const md_t *md);
+
+/* Springs held now (the partner and xi counts of md_state_get()). */
+size_t md_springs(const md_t *md);
+/* Copies the state into the non-NULL arrays of st and sets its springs and counters. */
+void md_state_get(const md_t *md, md_state_t *st);
+/* Sets the whole state (every array required) and rebuilds the pair list from xref. MD_OK; MD_E_PARAM
+ * when it cannot be a state of this system (non-finite values, a reference position outside the box on a
+ * periodic axis, held out of [0, max_contacts], a partner out of range, twice in one particle's slots, or
+ * a wall on a periodic axis, springs not the sum of held); MD_E_NOMEM. The state is unusable after an
+ * error. */
+int md_state_set(md_t *md, const md_state_t *st);
 
 const char *md_strerror(int code);
