@@ -165,8 +165,9 @@ EOF
 launch 1 run "$tmp/long.json" --split --out "$tmp/L" >/dev/null 2>&1
 mpirun -np 2 "$ENGINE" run "$tmp/long.json" --out "$tmp/K" >"$tmp/K.out" 2>/dev/null &
 pid=$!
-i=0; until [ -s "$tmp/K.out" ] || [ $i -ge 300 ]; do sleep 0.1; i=$((i + 1)); done
-sleep 0.5
+# signalled once the second record (t = 4 of 80) is out: the run has ~95% of its steps left, so it cannot end first
+# on a fast idle machine (a fixed sleep could: the whole run takes about a second there)
+i=0; until [ "$(wc -l <"$tmp/K.out" 2>/dev/null || echo 0)" -ge 2 ] || [ $i -ge 600 ]; do sleep 0.05; i=$((i + 1)); done
 kill -TERM $(pgrep -P $pid) 2>/dev/null
 wait $pid
 rc=$?
