@@ -271,6 +271,16 @@ static int parse_contact(ctx_t *c, const char *path, json_t *v, void *dst, const
 	return ret;
 }
 
+/* hsmc.cell_partners: "full" (0) or "any" (1). */
+static int parse_partners(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	static const char *const names[] = { "full", "any" };
+	int i, ret = match(c, path, v, names, 2, &i);
+	if (ret == 0)
+		*(int *)dst = i;
+	return ret;
+}
+
 static int parse_version(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
 {
 	if (!json_is_integer(v) || json_integer_value(v) != 1)
@@ -2375,6 +2385,7 @@ static const struct object hsmc_obj = {
 	.fields = (const struct field[]){
 		MC_FIELDS,
 		{ "max_volume_fraction", parse_number, offsetof(scene_t, mc_max_volume_fraction), &R_POS, false },
+		{ "cell_partners", parse_partners, offsetof(scene_t, mc_cell_any), NULL, false },
 		{ .name = NULL },
 	},
 	.check = check_mc,

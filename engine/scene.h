@@ -306,6 +306,8 @@ typedef struct scene {
 	scene_mc_correction_t mc_correction; /* default: none (dsmc), cba (hsmc) */
 	double mc_max_volume_fraction; /* hsmc: cells at or above are full; 0 = default */
 	int mc_local_chi;              /* contact_value: 0 = "global" (mean volume fraction), 1 = "local" (per cell) */
+	int mc_cell_any;               /* hsmc.cell_partners: 0 = "full" (a full cell collides with full neighbours only),
+	                                * 1 = "any" (with any neighbour holding particles) */
 	/* impact_c: the impact parameter drawn from P(b)/P_chaos = a / (1 - c b^2) (b in diameters; P_chaos = 1 in
 	 * 2D, 2b in 3D) with c(tau) linear in the collisions per particle tau between the points (tau_k, c_k),
 	 * constant beyond them: seed 000's "HSMC corrected" (sec. 3.6, c taken from an ed run). 0 points: molecular

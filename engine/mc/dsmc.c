@@ -54,6 +54,7 @@ struct dsmc {
 	size_t ncells;
 	double h[3], inv_h[3], vcell;
 	uint32_t nfull;                /* hsmc: a cell with >= nfull particles is full */
+	int cell_any;                  /* hsmc.cell_partners "any": a full cell's partner may be any non-empty neighbour */
 
 	/* particles: AoS, stride 2D doubles: x[D] then v[D], in cell order (sorted in place) */
 	double *p;
@@ -498,7 +499,7 @@ static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int
 				if (nb == c)
 					continue;
 				uint32_t nn = d->start[nb + 1] - d->start[nb];
-				if ((M ? nn < 2 || !cell_full(d, nb, M) : nn < d->nfull) || d->stamp[nb] == mark)
+				if ((d->cell_any ? nn == 0 : M ? nn < 2 || !cell_full(d, nb, M) : nn < d->nfull) || d->stamp[nb] == mark)
 					continue;
 				double mn = cell_momentum(d, d->start[nb], nn, ub, D, M);
 				double w = sgn * (ua[a] - ub[a]);   /* approach speed along the face normal a -> b */
@@ -526,8 +527,10 @@ static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int
 		ua1[best_axis] -= best_sign * J / ma;
 		ub1[best_axis] += best_sign * J / mb;
 		double lost = 0.5 * (1 - d->e * d->e) * mu * best_w * best_w;
-		cell_return(d, d->start[c], na, ua, ua1, lost * ma / (ma + mb), D, M, ma);
-		cell_return(d, d->start[best], nb_n, best_u, ub1, lost * mb / (ma + mb), D, M, mb);
+		/* a lone particle has no thermal motion to take its share (cell_partners "any"): the full cell takes it all */
+		const int lone = nb_n < 2;
+		cell_return(d, d->start[c], na, ua, ua1, lone ? lost : lost * ma / (ma + mb), D, M, ma);
+		cell_return(d, d->start[best], nb_n, best_u, ub1, lone ? 0.0 : lost * mb / (ma + mb), D, M, mb);
 		d->stamp[c] = d->stamp[best] = mark;
 		d->cell_collisions++;
 	}
@@ -1964,6 +1967,7 @@ static int layout(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
 	}
 	d->ncells = (size_t)ncell;
 	d->nfull = (uint32_t)ceil(pr.max_volume_fraction * d->vcell / d->vp - 1e-9);
+	d->cell_any = d->hsmc && s->mc_cell_any;
 	d->vfull = pr.max_volume_fraction * d->vcell;   /* mixtures */
 	if (d->nfull < 2)
 		d->nfull = 2;
