@@ -69,6 +69,9 @@ struct dsmc {
 	float *rem;                    /* NTC fractional candidate carried per cell */
 	uint32_t *stamp;               /* hsmc: step at which a cell last took part in a cell collision */
 	float *chic, *chit;            /* local_chi: chi per cell; scratch for the block average */
+	double *chilay;                /* local_chi with walls or species: per axis, each layer's length and its block's */
+	float *chm;                    /* local_chi with species: per cell c0, c1, c2 of chi_ij and 1 / chi_max */
+	float *mixa;                   /* local_chi with species: per moment of the diameters, own sums and block sums */
 
 	rng_t rng;
 	double t;
@@ -1239,6 +1242,207 @@ static double contact_value_dd(int dim, double nu)
 	                : -3 * w * w * w * w + 12 * (1 - nu / 2) * w * w * w * w * w;
 }
 
+/* Layer lengths for the ring volumes: per axis, len[i] of layer i between
+ * the walls (h on periodic axes; see local_chi_walled()) and sum[i] of the
+ * layers of its block. Uses chilay. */
+static void ring_layers(struct dsmc *d, const int D, double *len[3], double *sum[3])
+{
+	double *w = d->chilay;
+	const double R = 0.5 * d->sigma;
+	for (int ax = 0; ax < D; ax++) {
+		const int n = d->nc[ax];
+		const double h = d->h[ax];
+		const double wlo = d->cur_lo[ax] - R, whi = d->cur_hi[ax] + R;
+		len[ax] = w;
+		sum[ax] = w + n;
+		w += 2 * (size_t)n;
+		for (int i = 0; i < n; i++)
+			len[ax][i] = d->walled[ax] ? fmax(0.0, fmin((i + 1) * h, whi) - fmax(i * h, wlo)) : h;
+		for (int i = 0; i < n; i++) {
+			double t = len[ax][i];
+			if (d->walled[ax]) {
+				t += i + 1 < n ? len[ax][i + 1] : 0.0;
+				t += i > 0 ? len[ax][i - 1] : 0.0;
+			} else {
+				t += n >= 2 ? len[ax][(i + 1) % n] : 0.0;
+				t += n >= 3 ? len[ax][(i + n - 1) % n] : 0.0;
+			}
+			sum[ax][i] = t;
+		}
+	}
+}
+
+/* local_chi() with walls: the block sums a[] were cut at the walls; the
+ * ring's volume is what lies between the walls, per cell. Along a walled
+ * axis layer i of the grid holds len[i] of the space between the walls
+ * (the contact planes plus one radius: a vibrating wall where it is at the
+ * end of this step, B = 2; the layers below it hold none), len = h along
+ * periodic axes; the block's volume is the product over axes of the
+ * summed lengths of its layers, the ring's that less the cell's own. The
+ * same bias correction with each cell's own unit vp / V_ring. A cell
+ * whose ring holds no space (a vibrating wall more than a layer into the
+ * grid) holds no particles either: chi of the empty gas, 1. */
+static void local_chi_walled(struct dsmc *d, const int D, const float *a)
+{
+	double *len[3], *sum[3];
+	ring_layers(d, D, len, sum);
+	int idx[3] = {0, 0, 0};
+	for (size_t c = 0; c < d->ncells; c++) {
+		double vblock = 1, vown = 1;
+		for (int ax = 0; ax < D; ax++) {
+			vblock *= sum[ax][idx[ax]];
+			vown *= len[ax][idx[ax]];
+		}
+		const double own = (double)(d->start[c + 1] - d->start[c]);
+		const double vring = vblock - vown;
+		double chi = 1.0;
+		if (vring > 1e-12 * d->vcell) {
+			const double unit = d->vp / vring, nu = (a[c] - own) * unit;
+			chi = nu >= d->nu_cap ? dsmc_contact_value(D, d->nu_cap)
+			                      : dsmc_contact_value(D, nu) - 0.5 * contact_value_dd(D, nu) * nu * unit;
+		}
+		d->chic[c] = (float)(chi > 0 ? chi : 0);
+		for (int ax = 0; ax < D && ++idx[ax] == d->nc[ax]; ax++)
+			idx[ax] = 0;
+	}
+}
+
+/* The 3^D block sums of a per-cell array a (b: scratch of the same size):
+ * one pass of 3-point sums per axis, periodic axes wrapped, walled ones cut.
+ * Returns the array holding the sums (a or b, by D's parity); *block: the
+ * cells in a periodic block. */
+static float *block_sums(const struct dsmc *d, const int D, float *a, float *b, double *block_out)
+{
+	size_t stride = 1;
+	double block = 1;
+	for (int ax = 0; ax < D; ax++) {
+		size_t n = (size_t)d->nc[ax];
+		if (d->walled[ax]) {   /* a wall has no cells beyond it: the end layers' blocks are cut */
+			for (size_t c = 0; c < d->ncells; c++) {
+				size_t i = (c / stride) % n;
+				float sum = a[c];
+				if (i + 1 < n)
+					sum += a[c + stride];
+				if (i > 0)
+					sum += a[c - stride];
+				b[c] = sum;
+			}
+		} else {
+			for (size_t c = 0; c < d->ncells; c++) {
+				size_t i = (c / stride) % n, base = c - i * stride;
+				float sum = a[c];
+				if (n >= 2)
+					sum += a[base + ((i + 1) % n) * stride];
+				if (n >= 3)
+					sum += a[base + ((i + n - 1) % n) * stride];
+				b[c] = sum;
+			}
+		}
+		block *= n >= 3 ? 3 : (double)n;
+		float *t = a;
+		a = b;
+		b = t;
+		stride *= n;
+	}
+	*block_out = block;
+	return a;
+}
+
+/* Local contact values of a mixture: each pair's chi_ij per cell from the
+ * moments m_k = sum sigma^k / V of the diameters in the ring of cells around
+ * it (the cell itself left out, as for one species), through the same
+ * formulas as the global value (contact_coefs_moments()). chi_ij = c0 + dd
+ * (c1 + dd c2) is linear in the coefficients, so the convexity bias is taken
+ * off each coefficient: 1/2 sum_jk d2c/dm_j dm_k Cov(m_j, m_k), with Poisson
+ * counts Cov(m_j, m_k) = m_(j+k) / V_ring (2D: c depends on m1, m2; 3D: on
+ * m2, m3; derivatives worked out by hand, checked against finite
+ * differences). Past nu_cap the moments are scaled down to it (the
+ * composition kept) and no bias is taken off. Writes chm (c0, c1, c2,
+ * chi_max per cell: the majorant's value, two particles of the largest
+ * diameter) and chic (= chi_max, the cell's budget factor). */
+static void local_chi_mix(struct dsmc *d, const int D)
+{
+	const size_t nc = d->ncells;
+	/* the moments the formulas and their bias need: m1..m4 (2D), m2..m6 (3D),
+	 * summed per cell over its particles' own diameters (polydisperse too) */
+	const int k0 = D == 2 ? 1 : 2, nk = D == 2 ? 4 : 5;
+	float *own = d->mixa, *scr = d->mixa + (size_t)nk * nc;
+	float *sums[5];
+	memset(own, 0, (size_t)nk * nc * sizeof(float));
+	for (size_t c = 0; c < nc; c++)
+		for (uint32_t k = d->start[c]; k < d->start[c + 1]; k++) {
+			const double sg = 2 * d->rad[d->id[k]];
+			double p = D == 2 ? sg : sg * sg;
+			for (int q = 0; q < nk; q++, p *= sg)
+				own[(size_t)q * nc + c] += (float)p;
+		}
+	/* each moment's block sums formed in its half of the scratch, with chit
+	 * as the second buffer (odd D ends there: copied back) */
+	for (int q = 0; q < nk; q++) {
+		double block;
+		float *tmp = scr + (size_t)q * nc, *other = d->chit;
+		memcpy(tmp, own + (size_t)q * nc, nc * sizeof(float));
+		sums[q] = block_sums(d, D, tmp, other, &block);
+		if (sums[q] == other) {
+			memcpy(tmp, other, nc * sizeof(float));
+			sums[q] = tmp;
+		}
+	}
+	double *len[3], *sum[3];
+	ring_layers(d, D, len, sum);
+	const double a = D == 2 ? PI / 4 : PI / 6, dmax = 0.5 * d->sigma;
+	int idx[3] = {0, 0, 0};
+	for (size_t c = 0; c < nc; c++) {
+		double vblock = 1, vown = 1;
+		for (int ax = 0; ax < D; ax++) {
+			vblock *= sum[ax][idx[ax]];
+			vown *= len[ax][idx[ax]];
+		}
+		const double vring = vblock - vown;
+		double m[7] = {0, 0, 0, 0, 0, 0, 0}, c3[3] = {1, 0, 0};
+		if (vring > 1e-12 * d->vcell) {
+			for (int q = 0; q < nk; q++)
+				m[k0 + q] = ((double)sums[q][c] - (double)own[(size_t)q * nc + c]) / vring;
+			const double nu = a * (D == 2 ? m[2] : m[3]), iv = 1 / vring;
+			if (nu >= d->nu_cap) {
+				const double f = d->nu_cap / nu;
+				for (int k = 0; k < 7; k++)
+					m[k] *= f;
+				contact_coefs_moments(D, m, c3);
+			} else if (nu > 0) {
+				contact_coefs_moments(D, m, c3);
+				const double u = 1 - nu;
+				if (D == 2) {
+					const double b = 9 * PI / 32;
+					c3[0] -= a * a * m[4] * iv / (u * u * u);
+					c3[1] -= 2 * a * b * m[3] * iv / (u * u * u) + 3 * a * a * b * m[1] * m[4] * iv / (u * u * u * u);
+				} else {
+					const double u3 = u * u * u, u4 = u3 * u, u5 = u4 * u;
+					c3[0] -= a * a * m[6] * iv / u3;
+					c3[1] -= 6 * a * a * m[5] * iv / u3 + 9 * a * a * a * m[2] * m[6] * iv / u4;
+					c3[2] -= 2 * a * a * m[4] * iv / u3 + 12 * a * a * a * m[2] * m[5] * iv / u4 +
+					         12 * a * a * a * a * m[2] * m[2] * m[6] * iv / u5;
+				}
+				/* a handful of particles in the ring can push a corrected
+				 * coefficient below its empty-gas value: keep chi_ij a
+				 * non-decreasing function of dd, bounded by chi_max */
+				c3[0] = fmax(c3[0], 0.0);
+				c3[1] = fmax(c3[1], 0.0);
+				c3[2] = fmax(c3[2], 0.0);
+			}
+		}
+		const double cmax = c3[0] + dmax * (c3[1] + dmax * c3[2]);
+		float *o = d->chm + 4 * c;
+		o[0] = (float)c3[0];
+		o[1] = (float)c3[1];
+		o[2] = (float)c3[2];
+		o[3] = (float)(cmax > 0 ? 1 / cmax : 0);
+		d->chic[c] = (float)cmax;
+		for (int ax = 0; ax < D && ++idx[ax] == d->nc[ax]; ax++)
+			idx[ax] = 0;
+	}
+}
+
 /* Local contact value: chi per cell from the volume fraction of the cells
  * around it (the 3^D block less the cell itself). Two biases are avoided:
  * counting the cell's own particles would correlate chi with its pair
@@ -1251,29 +1455,20 @@ static double contact_value_dd(int dim, double nu)
  * distinct cells only). Writes chic. */
 static void local_chi(struct dsmc *d, const int D)
 {
-	float *a = d->chic, *b = d->chit;
+	if (d->mix) {
+		local_chi_mix(d, D);
+		return;
+	}
+	float *a = d->chic;
 	for (size_t c = 0; c < d->ncells; c++)
 		a[c] = (float)(d->start[c + 1] - d->start[c]);
-	size_t stride = 1;
-	double block = 1;
-	for (int ax = 0; ax < D; ax++) {
-		size_t n = (size_t)d->nc[ax];
-		for (size_t c = 0; c < d->ncells; c++) {
-			size_t i = (c / stride) % n, base = c - i * stride;
-			float sum = a[c];
-			if (n >= 2)
-				sum += a[base + ((i + 1) % n) * stride];
-			if (n >= 3)
-				sum += a[base + ((i + n - 1) % n) * stride];
-			b[c] = sum;
-		}
-		block *= n >= 3 ? 3 : (double)n;
-		float *t = a;
-		a = b;
-		b = t;
-		stride *= n;
-	}
+	double block;
+	a = block_sums(d, D, a, d->chit, &block);
 	/* a: block sums (chic or chit, depending on D's parity). */
+	if (d->has_walls) {
+		local_chi_walled(d, D, a);
+		return;
+	}
 	const int ring = block > 1;
 	const double vring = (ring ? block - 1 : 1) * d->vcell, unit = d->vp / vring;
 	for (size_t c = 0; c < d->ncells; c++) {
@@ -1426,6 +1621,15 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 		double b = (d->local_chi ? coef * d->chic[c] : coef) * vf * (double)nc * (double)(nc - 1) +
 		           (double)d->rem[c] * inv;
 		int offset = d->cba && !(d->hsmc && (M ? cell_full(d, c, M) : nc >= d->nfull));
+		/* mixtures: chi_ij's coefficients, the box's or (local_chi) the cell's */
+		double cc0 = 1, cc1 = 0, cc2 = 0, cinv = 1;
+		if (M) {
+			const float *o = d->local_chi ? d->chm + 4 * c : NULL;
+			cc0 = o ? o[0] : d->chc[0];
+			cc1 = o ? o[1] : d->chc[1];
+			cc2 = o ? o[2] : d->chc[2];
+			cinv = o ? o[3] : d->chinv;
+		}
 		while (b >= inv) {
 			b -= inv;
 			ncand++;
@@ -1450,8 +1654,8 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 				si = d->spc[ii], sj = d->spc[jj];
 				const double ri = d->rad[ii], rj = d->rad[jj];
 				sij = ri + rj;
-				const double dd = 2 * ri * rj / sij, chi = d->chc[0] + dd * (d->chc[1] + dd * d->chc[2]);
-				const double w = (D == 2 ? sij / sigma : (sij / sigma) * (sij / sigma)) * (chi * d->chinv);
+				const double dd = 2 * ri * rj / sij, chi = cc0 + dd * (cc1 + dd * cc2);
+				const double w = (D == 2 ? sij / sigma : (sij / sigma) * (sij / sigma)) * (chi * cinv);
 				w2 = w * w;
 			}
 			if (M ? r * r >= g2 * w2 : r * r >= g2)
@@ -1843,12 +2047,6 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 			return DSMC_EINVAL;
 		}
 	}
-	if (scene_has_walls(s) && d->local_chi) {
-		if (msg && msglen)
-			snprintf(msg, msglen, "%s.contact_value: \"local\" needs a periodic box (its cell blocks wrap), "
-			         "not available with walls yet; use \"global\"", method);
-		return DSMC_EINVAL;
-	}
 	d->gnorm = sqrt(g2);
 	/* Adaptive step under gravity: at most the time to fall collisions_per_step
 	 * of a cell from rest (a gas at T = 0 still falls, and a step should not
@@ -1860,13 +2058,6 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 		/* dsmc and hsmc mixtures: periodic (step2s), fixed walls, gravity and
 		 * obstacles (step2bs: each particle's own radius and mass in flight()),
 		 * vibrating or open walls (step2vs: the same in flight_vib()) */
-		if (d->local_chi) {
-			if (msg && msglen)
-				snprintf(msg, msglen, "%s.contact_value: \"local\" is not available with particles.species (its "
-				         "per-cell value is the one-species contact value); use \"global\" (each pair's chi_ij)",
-				         method);
-			return DSMC_EINVAL;
-		}
 		d->step = vib ? (d->dim == 2 ? step2vs : step3vs)
 		      : d->bounded ? (d->dim == 2 ? step2bs : step3bs) : (d->dim == 2 ? step2s : step3s);
 	}
@@ -2101,6 +2292,12 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	if (d->local_chi) {
 		d->chic = malloc(d->ncells * sizeof(float));
 		d->chit = malloc(d->ncells * sizeof(float));
+		if (d->has_walls || d->mix)
+			d->chilay = malloc(2 * ((size_t)d->nc[0] + d->nc[1] + d->nc[2]) * sizeof(double));
+		if (d->mix) {
+			d->chm = malloc(4 * d->ncells * sizeof(float));
+			d->mixa = malloc(2 * 5 * d->ncells * sizeof(float));
+		}
 	}
 	if (d->nobst) {
 		d->vfac = malloc(d->ncells * sizeof(float));
@@ -2133,7 +2330,8 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	if (!d->ringp || !d->ringid || !d->overp || !d->overid || !d->overdst)
 		goto fail;
 	if (!d->p || !d->id || !d->cell || !d->start || !d->cnt || !d->rem ||
-	    (d->hsmc && !d->stamp) || (d->local_chi && (!d->chic || !d->chit)))
+	    (d->hsmc && !d->stamp) || (d->local_chi && (!d->chic || !d->chit || ((d->has_walls || d->mix) && !d->chilay) ||
+	                      (d->mix && (!d->chm || !d->mixa)))))
 		goto fail;
 	*err = DSMC_OK;
 	return d;
@@ -2368,6 +2566,9 @@ void dsmc_destroy(dsmc_t *d)
 	free(d->stamp);
 	free(d->chic);
 	free(d->chit);
+	free(d->chilay);
+	free(d->chm);
+	free(d->mixa);
 	free(d->vocc);
 	free(d->vfac);
 	free(d->spc);
