@@ -94,7 +94,34 @@ PY
 read -r good rest <"$tmp/table.out"
 ok $([ "$good" = 1 ]; echo $?) "finite table: present + fallen off = poured: $rest"
 
-# 5. The published shape (seed 000 sec. 3.5, anchor A10), on presets/heap-2d.json (2000 particles poured at one per
+# 5. 3D, a vibrating floor (the engine's coordinates shifted by its amplitude), two replicas: every replica makes
+# the insertions due (59 by t = 60: k / rate < 60), the ensemble's particles_present is their total, and the mean
+# profile over the replicas counts the particles present per replica.
+cat >"$tmp/s3.json" <<'JSON'
+{"method":"hsmc","dimensions":3,"particles":{"count":2,"box":[20,20,20],"initial":{"positions":"random","temperature":0},
+ "source":{"count":100,"rate":1,"position":[10,10],"spread":2,"height":3}},
+ "collisions":{"restitution":0.9},
+ "boundaries":{"z":{"type":"walls","lower":{"type":"vibrating","amplitude":0.2,"frequency":1,"restitution":0.5},
+   "upper":{"type":"specular"}}},
+ "gravity":[0,0,-10],"run":{"seed":2,"until":{"time":60},"replicas":2},
+ "output":{"every":{"time":10},"observables":["kinetic_energy","center_of_mass_height","outflow","surface_profile"],
+   "snapshots":{"every":{"time":30}}},
+ "hsmc":{"time_step":0.01}}
+JSON
+run "$tmp/s3.json" "$tmp/s3"
+rc=$?
+"$PY" - "$tmp/s3" <<'PY' >"$tmp/s3.out" 2>&1
+import json, sys
+prog = [json.loads(l) for l in open(sys.argv[1] + "/progress.jsonl") if '"progress"' in l][-1]
+c = [json.loads(l) for l in open(sys.argv[1] + "/observables.jsonl")][-1]
+n = sum(c["tables"][0]["columns"]["n"])
+print("%d present %d in 2 replicas, profile %g per replica at t = %g" % (prog["particles_present"] == 122 and n == 61,
+      prog["particles_present"], n, c["time"]))
+PY
+read -r good rest <"$tmp/s3.out"
+ok $([ $rc = 0 ] && [ "$good" = 1 ]; echo $?) "3D, vibrating floor, 2 replicas: $rest"
+
+# 6. The published shape (seed 000 sec. 3.5, anchor A10), on presets/heap-2d.json (2000 particles poured at one per
 # time unit onto a 200-wide table, r = 0.9, then 500 time units of rest; the seed's N = 30500 scaled down to run in
 # well under a minute). h(x) = the highest centre per bin of 2 diameters (one cell). The seed fits a straight line
 # to the central part of each side: here the bins between 25% and 75% of the apex height h_m, on each side of the
