@@ -1,6 +1,6 @@
 #!/bin/sh
 # The heap of seed 000 (issue 13 experiment 3, anchor A10; TAP): particles.source through the engine program (hsmc):
-# insertion schedule, ids and counts, the three table boundary conditions (wide table, finite table with open edges,
+# insertion schedule and counts, the three table boundary conditions (wide table, finite table with open edges,
 # box), the surface_profile observable against the particle counts, determinism and bit-identical resume; then the
 # published shape of presets/heap-2d.json: a straight central slope not locked to the lattice slopes 1/2, 1/3.
 set -u
