@@ -10,6 +10,7 @@
 #include "observe/clusters.h"
 #include "observe/tables.h"
 #include "par/ensemble.h"
+#include "par/ped.h"
 #include "run.h"
 
 /*
@@ -173,6 +174,17 @@ int budget_estimate(const scene_t *s, int ranks, budget_t *out, char *err, size_
 	rank0 += (groups > 0 ? groups * (2 * cached + H5_META_GROUP) : 0) + (ensemble ? R * H5_META_GROUP : 0);
 	double total = BUDGET_LAUNCHER_BYTES + rank0 + n_more * (rank_fixed + nl_more * per_replica) +
 	               n_less * (rank_fixed + nl_less * per_replica);
+	/* An ed single run on several ranks runs split (engine/par/edrun.h) when the parallel core supports the
+	 * scene: every rank holds the core with room for all particles (ped_scene_bytes(), exact) and, while it
+	 * loads, the broadcast state (positions and velocities); rank 0 also builds the serial run (the replica
+	 * above, at the start and at each checkpoint) and gathers each frame and checkpoint (a record of 2 D + 2
+	 * doubles per particle, then positions, velocities and TC times). */
+	if (!ensemble && s->method == SCENE_METHOD_ED && ranks > 1 && ped_scene_check(s, 1, NULL, 0) == 0) {
+		double core = (double)ped_scene_bytes(s, ranks) + 2 * N * D * 8;
+		double gather = N * (2 * D + 2) * 8 + N * (2 * D + 1) * 8;
+		rank0 += core + gather;
+		total += (double)P * core + gather;
+	}
 
 	/* a frame's positions and velocities fill whole chunks of FRAME_CHUNK
 	 * particles (io/h5md.c) once N exceeds one chunk */

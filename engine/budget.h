@@ -19,7 +19,9 @@
  *   buffers (sampling copies of positions and velocities, cluster analysis)
  *   + the transient copies of a checkpoint (the largest state field; for
  *   ensembles every replica's state gathered on rank 0) + ensemble
- *   reduction vectors and frame buffers. docs/daemon.md ("Admission")
+ *   reduction vectors and frame buffers; an ed single run that runs split
+ *   over its ranks (engine/par/edrun.h) adds the parallel core on every rank
+ *   (room for all N particles: ped_scene_bytes()) and the gathers on rank 0. docs/daemon.md ("Admission")
  *   gives the bytes per particle this comes to, with the measurements that
  *   test it (tests/budget_test.c).
  * - Output (bytes written into the run's directory, at its largest):

@@ -13,6 +13,7 @@
 #include "io/checkpoint.h"
 #include "config.h"
 #include "par/dsmcrun.h"
+#include "par/edrun.h"
 #include "par/ensemble.h"
 #include "io/frame.h"
 #include "io/h5md.h"
@@ -24,6 +25,9 @@
 enum { EX_DONE = 0, EX_FAIL = 1, EX_INPUT = 2, EX_INTERRUPTED = 3, EX_CHECKPOINTED = 4 };
 
 static volatile sig_atomic_t stop_requested;
+
+/* Announcement mode of one ed system split over the ranks (engine/par/edrun.h; the others: announce()). */
+enum { ED_SPLIT = 1 << 10 };
 
 static void on_signal(int sig)
 {
@@ -38,6 +42,8 @@ typedef struct {
 	FILE *curves;       /* DIR/observables.jsonl with --out and curve observables, or NULL */
 	uint64_t curve_samples;   /* samples written to it (the next "sample" index) */
 	char err[512];      /* why an output failed */
+	const char *outdir, *text;   /* split runs' checkpoints (split_checkpoint()): --out DIR, the scene text */
+	size_t len;
 } sink_t;
 
 /* One curve sample as JSON lines into DIR/observables.jsonl. */
@@ -171,6 +177,30 @@ static int checkpoint(const char *outdir, run_t *run, sink_t *sk, const char *te
 	return ckpt_write(outdir, run, text, len, &pos, sk->err, sizeof(sk->err)) == CKPT_OK ? 0 : -1;
 }
 
+/* A split ed run's checkpoint (engine/par/edrun.h): r holds the state in the serial layout. */
+typedef struct {
+	const char *outdir;
+	sink_t *sink;
+	const char *text;
+	size_t len;
+} ed_save_t;
+
+static int ed_save(run_t *r, void *ctx)
+{
+	ed_save_t *c = ctx;
+	return checkpoint(c->outdir, r, c->sink, c->text, c->len);
+}
+
+/* A split run's checkpoint (dsmcrun.h, rank 0): the outputs made durable, then the gathered state. */
+static int split_checkpoint(const ckpt_split_t *ck, void *ctx)
+{
+	sink_t *sk = ctx;
+	ckpt_output_t pos = {0, 0, 0};
+	if (flush_outputs(sk->outdir, sk, &pos))
+		return -1;
+	return ckpt_write_split(sk->outdir, ck, sk->text, sk->len, &pos, sk->err, sizeof(sk->err)) == CKPT_OK ? 0 : -1;
+}
+
 /* Ensemble state from a checkpoint (rank 0): replica state strings and the
  * ensemble's schedule; blobs and lens have run.replicas entries. */
 typedef struct {
@@ -180,8 +210,10 @@ typedef struct {
 } ens_resume_t;
 
 static int read_ckpt(const char *path, const scene_t *s, const char *text, size_t len, const run_opts_t *opts,
-                     run_t **run, ens_resume_t *ens, ckpt_output_t *pos, char *msg, size_t msglen)
+                     run_t **run, ens_resume_t *ens, ckpt_split_t *sck, ckpt_output_t *pos, char *msg, size_t msglen)
 {
+	if (sck)   /* a split run's */
+		return ckpt_read_split(path, s, text, len, sck, pos, msg, msglen);
 	if (s->replicas > 1)
 		return ckpt_read_ensemble(path, s, text, len, ens->blobs, ens->lens, &ens->es, pos, msg, msglen);
 	return ckpt_read(path, s, text, len, opts, run, pos, msg, msglen);
@@ -190,10 +222,10 @@ static int read_ckpt(const char *path, const scene_t *s, const char *text, size_
 /* Load --resume PATH, falling back to checkpoint.prev.h5 beside it when PATH
  * is damaged (one line on stderr says so). Exit code on failure. */
 static int resume(const char *path, const scene_t *s, const char *text, size_t len, const run_opts_t *opts,
-                  run_t **run, ens_resume_t *ens, ckpt_output_t *pos)
+                  run_t **run, ens_resume_t *ens, ckpt_split_t *sck, ckpt_output_t *pos)
 {
 	char msg[512], prev[4096];
-	int rc = read_ckpt(path, s, text, len, opts, run, ens, pos, msg, sizeof(msg));
+	int rc = read_ckpt(path, s, text, len, opts, run, ens, sck, pos, msg, sizeof(msg));
 	if (rc == CKPT_OK)
 		return EX_DONE;
 	if (rc == CKPT_ESCENE || rc == CKPT_ENOMEM || rc == CKPT_EIO) {
@@ -208,7 +240,7 @@ static int resume(const char *path, const scene_t *s, const char *text, size_t l
 	char first[512];
 	snprintf(first, sizeof(first), "%s", msg);
 	snprintf(prev, sizeof(prev), "%.*s%s", slash ? (int)(slash - path + 1) : 0, path, CKPT_PREV);
-	rc = read_ckpt(prev, s, text, len, opts, run, ens, pos, msg, sizeof(msg));
+	rc = read_ckpt(prev, s, text, len, opts, run, ens, sck, pos, msg, sizeof(msg));
 	if (rc == CKPT_OK) {
 		fprintf(stderr, "granular-engine: --resume %s; using %s\n", first, prev);
 		return EX_DONE;
@@ -403,7 +435,7 @@ static void usage(FILE *f)
 	        "(docs/engine.md); \"method\": \"auto\" scenes run the method it chooses.\n"
 	        "--jobs-dir DIR: where particles.initial.from.job ID finds DIR/ID/trajectory.h5\n"
 	        "(the daemon's job directories; docs/scene.md).\n"
-	        "--split: a dsmc or hsmc scene with run.replicas 1 runs as one system decomposed over\n"
+	        "--split: an ed, dsmc or hsmc scene with run.replicas 1 runs as one system decomposed over\n"
 	        "the ranks even on one rank (the default under mpirun -np P > 1; docs/parallel.md).\n");
 }
 
@@ -859,12 +891,22 @@ static int run_other(int rank, int size)
 		ens_opts_t eo = {(int)hdr[0], NULL, NULL, 0, NULL, NULL};
 		MPI_Bcast(text, (int)hdr[1], MPI_CHAR, 0, MPI_COMM_WORLD);
 		/* Rank 0 accepted this text, so the parse cannot fail here. */
-		if (scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
+		if ((hdr[0] & ED_SPLIT) && scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
+		    (scene.method != SCENE_METHOD_AUTO || resolve_auto(&scene, size, NULL) == EX_DONE)) {
+			/* one ed system over all ranks: rank 0 reports failures */
+			edrun_opts_t edo = {.frames = (hdr[0] & ENS_FRAMES) != 0, .checkpoints = (hdr[0] & ENS_CKPT) != 0,
+			                    .resumed = (hdr[0] & ENS_RESUME) != 0};
+			int rc = edrun_run(&scene, rank, size, &edo, NULL, NULL, NULL, err, sizeof(err));
+			if (rc != RUN_OK && rc != RUN_STOPPED)
+				ret = EX_FAIL;
+		} else if (scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
 		    (scene.method != SCENE_METHOD_AUTO || resolve_auto(&scene, size, NULL) == EX_DONE) &&
 		    (hdr[0] & DSMC_SPLIT)) {
 			/* one dsmc system over all ranks: rank 0 reports failures */
-			if (dsmcrun_run(&scene, rank, size, (hdr[0] & ENS_FRAMES) != 0, NULL, NULL, NULL, err, sizeof(err)) !=
-			    RUN_OK)
+			dsmcrun_opts_t o = {.frames = (hdr[0] & ENS_FRAMES) != 0, .checkpoints = (hdr[0] & ENS_CKPT) != 0,
+			                    .resumed = (hdr[0] & ENS_RESUME) != 0};
+			int rc = dsmcrun_run(&scene, rank, size, &o, NULL, NULL, NULL, err, sizeof(err));
+			if (rc != RUN_OK && rc != RUN_STOPPED)
 				ret = EX_FAIL;
 		} else if (scene_parse(text, (size_t)hdr[1], &scene, err, sizeof(err)) == SCENE_OK &&
 		    (scene.method != SCENE_METHOD_AUTO || resolve_auto(&scene, size, NULL) == EX_DONE)) {
@@ -945,7 +987,10 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	scene_t scene;
 	sink_t sink = {.progress = NULL};
 	ens_resume_t ens = {NULL, NULL, {1, 0.0}};
+	ckpt_split_t sck;   /* a split run's checkpoint (--resume) */
 	uint64_t *frames = NULL;
+
+	memset(&sck, 0, sizeof sck);
 
 	for (int i = 2; i < argc; i++) {
 		if (!strcmp(argv[i], "--out") && i + 1 < argc) {
@@ -1008,20 +1053,19 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	 * --split an error naming the key; under mpirun alone the run goes on as
 	 * before this path existed (rank 0 runs it, the others wait) with a
 	 * one-line notice, so that jobs that worked keep working. */
-	int split = (size > 1 || force_split) && scene.replicas <= 1 &&
+	/* A split run's checkpoint resumes split, at any rank count (one included, without --split); one that
+	 * does not verify is left to the resume to report. */
+	const int ckind = resume_path ? ckpt_is_split(resume_path) : -1, split_ckpt = ckind == 1;
+	int split = (size > 1 || force_split || split_ckpt) && scene.replicas <= 1 &&
 	            (scene.method == SCENE_METHOD_DSMC || scene.method == SCENE_METHOD_HSMC);
 	if (split) {
 		char why[512] = "";
 		if (dsmcp_check(&scene, err, sizeof(err)) != DSMCP_OK)
 			snprintf(why, sizeof why, "%s", err);
-		else if (scene.has_from)
-			snprintf(why, sizeof why, "particles.initial.from: not supported yet");
-		else if (resume_path)
-			snprintf(why, sizeof why, "--resume: checkpoints are not supported yet");
-		else if (outdir && scene.checkpoint.kind != SCENE_CLOCK_NONE)
-			snprintf(why, sizeof why, "output.checkpoint: checkpoints are not supported yet (leave it out, or "
-			         "run.replicas > 1)");
-		if (why[0] && force_split) {
+		else if (ckind == 0)
+			snprintf(why, sizeof why, "--resume: the checkpoint is of a run on one rank, not split (resume it "
+			         "without --split)");
+		if (why[0] && (force_split || split_ckpt)) {
 			/* a key names itself; an option is the program's */
 			fprintf(stderr, "%s%s (one dsmc/hsmc system over %d ranks)\n", why[0] == '-' ? "granular-engine: " : "",
 			        why, size);
@@ -1032,6 +1076,17 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			fprintf(stderr, "granular-engine: running on rank 0 alone, not split over %d ranks: %s\n", size, why);
 			split = 0;
 		}
+	}
+	/* One ed system over several ranks (engine/par/edrun.h), refused and noticed as the dsmc split above. */
+	int ed_split = (size > 1 || force_split) && scene.replicas <= 1 && scene.method == SCENE_METHOD_ED;
+	if (ed_split && edrun_check(&scene, outdir != NULL, err, sizeof(err)) != 0) {
+		if (force_split) {
+			fprintf(stderr, "%s%s (one ed system over %d ranks)\n", err[0] == '-' ? "granular-engine: " : "", err, size);
+			ret = EX_INPUT;
+			goto cleanup;
+		}
+		fprintf(stderr, "granular-engine: running on rank 0 alone, not split over %d ranks: %s\n", size, err);
+		ed_split = 0;
 	}
 	if (!strcmp(cmd, "validate")) {
 		ret = EX_DONE;
@@ -1071,7 +1126,8 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			goto cleanup;
 		}
 	}
-	if (resume_path && (ret = resume(resume_path, &scene, text, len, &opts, &run, &ens, &at)) != EX_DONE)
+	if (resume_path &&
+	    (ret = resume(resume_path, &scene, text, len, &opts, &run, &ens, split ? &sck : NULL, &at)) != EX_DONE)
 		goto cleanup;
 	ret = EX_FAIL;
 
@@ -1108,6 +1164,8 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 		uint64_t ev, co;
 		if (run)
 			run_totals(run, &t_ckpt, &ev, &co);
+		else if (resume_path && split)
+			t_ckpt = sck.state.clock.time;
 		else if (resume_path)
 			t_ckpt = last_progress_time(sink.copy);   /* ensembles: the mean time of the checkpoint's record */
 		if (want_curves && open_curves(outdir, resume_path != NULL, t_ckpt, &sink) != 0)
@@ -1126,7 +1184,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			goto cleanup;
 		}
 	}
-	if (!run && scene.replicas <= 1 && !split) {
+	if (!run && scene.replicas <= 1 && !split && !ed_split) {
 		run = run_create(&scene, &opts, &rc, err, sizeof(err));
 		if (!run) {
 			fprintf(stderr, "%s\n", err);
@@ -1157,9 +1215,26 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 			ret = EX_CHECKPOINTED;
 			goto cleanup;
 		}
+	} else if (ed_split) {
+		ed_save_t es = {outdir, &sink, text, len};
+		edrun_opts_t eo = {.frames = outdir != NULL, .checkpoints = outdir != NULL, .resumed = resume_path != NULL,
+		                   .resume = run, .save = ed_save, .save_ctx = &es};
+		announce(an, ED_SPLIT | (outdir ? ENS_FRAMES | ENS_CKPT : 0) | (resume_path ? ENS_RESUME : 0), text, len);
+		rc = edrun_run(&scene, 0, size, &eo, emit, &sink, &stop_requested, err, sizeof(err));
+		if (rc == RUN_STOPPED) {
+			ret = EX_CHECKPOINTED;
+			goto cleanup;
+		}
 	} else if (split) {
-		announce(an, DSMC_SPLIT | (outdir ? ENS_FRAMES : 0), text, len);
-		rc = dsmcrun_run(&scene, 0, size, outdir != NULL, emit, &sink, &stop_requested, err, sizeof(err));
+		dsmcrun_opts_t dop = {.frames = outdir != NULL, .checkpoints = outdir != NULL, .resumed = resume_path != NULL,
+		                      .resume = &sck, .checkpoint = split_checkpoint};
+		sink.outdir = outdir, sink.text = text, sink.len = len;
+		announce(an, DSMC_SPLIT | (outdir ? ENS_FRAMES | ENS_CKPT : 0) | (resume_path ? ENS_RESUME : 0), text, len);
+		rc = dsmcrun_run(&scene, 0, size, &dop, emit, &sink, &stop_requested, err, sizeof(err));
+		if (rc == RUN_STOPPED) {
+			ret = EX_CHECKPOINTED;
+			goto cleanup;
+		}
 		if (rc == RUN_ENOMEM) {
 			fprintf(stderr, "granular-engine: %s\n", err);
 			ret = EX_FAIL;
@@ -1201,6 +1276,7 @@ static int run_rank0(int argc, char **argv, announce_t *an, int size)
 	}
 cleanup:
 	run_destroy(run);
+	dsmcp_saved_free(&sck.state);
 	free(from_pos);
 	free(from_vel);
 	free(from_spin);

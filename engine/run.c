@@ -921,10 +921,10 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		if (!r->cl)
 			goto nomem;
 		if (scene_has_species(s)) {   /* mixtures, polydisperse: each particle's own radius (the engine's draws) */
-			r->radii = malloc(s->count * sizeof(double));
+			r->radii = malloc(scene_slots(s) * sizeof(double));
 			if (!r->radii)
 				goto nomem;
-			scene_species_radii(&r->s, r->radii);
+			scene_row_species(&r->s, NULL, r->radii);   /* dispensers: the slots' radii too */
 			if (clusters_radii(r->cl, r->radii) != 0)
 				goto nomem;
 		}
@@ -1284,7 +1284,14 @@ static int advance(run_t *r, double t_stop, double t_soft, uint64_t c_stop, int 
 		r->status = RUN_COLLAPSED;
 		done = 1;
 	}
-	if (adv == 3) {   /* reservoir walls: no free slot for an entry */
+	if (adv == 3 && scene_has_species(&r->s)) {   /* a mixture's dispenser: one species' rows are taken */
+		snprintf(r->collapse, sizeof(r->collapse), "particles.capacity: the %llu particle slots cannot take a "
+		         "dispenser's layer at time %.9g (the free rows of some species, which keep their species, are "
+		         "fewer than a layer may hold of it); raise particles.capacity", (unsigned long long)scene_slots(&r->s),
+		         *t);
+		r->status = RUN_FULL;
+		done = 1;
+	} else if (adv == 3) {   /* reservoir walls: no free slot for an entry */
 		snprintf(r->collapse, sizeof(r->collapse), "particles.capacity: all %llu particle slots are taken at time "
 		         "%.9g when a particle was due to enter through a reservoir wall; raise particles.capacity",
 		         (unsigned long long)scene_slots(&r->s), *t);

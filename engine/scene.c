@@ -1319,6 +1319,7 @@ static const struct {
 	{ "volume_fraction", 1u << SCENE_WALL_RESERVOIR | 1u << SCENE_WALL_DISPENSER,
 	  1u << SCENE_WALL_RESERVOIR | 1u << SCENE_WALL_DISPENSER },
 	{ "thickness", 1u << SCENE_WALL_DISPENSER, 0 },
+	{ "composition", 1u << SCENE_WALL_DISPENSER, 0 },
 	{ "filter", 1u << SCENE_WALL_OPEN, 0 },
 	{ "tangential_restitution", 1u << SCENE_WALL_MOVING, 0 },
 	{ "coverage", 1u << SCENE_WALL_MOVING, 0 },
@@ -1341,6 +1342,34 @@ static int check_wall(ctx_t *c, const char *path, json_t *v, void *base)
 	}
 	if (json_object_get(v, "coverage") && json_object_get(v, "restitution"))
 		return fail(c, path, "at most one of restitution or coverage (which sets the restitution)");
+	return 0;
+}
+
+/* A dispenser's composition: an array of 1 ... SCENE_SPECIES_MAX weights
+ * >= 0, not all 0, normalised into number fractions (into n_composition,
+ * composition); checked against particles.species by check_streams(). */
+static int parse_composition(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	(void)arg;
+	scene_wall_t *w = (scene_wall_t *)((char *)dst - offsetof(scene_wall_t, n_composition));
+	char sub[PATHLEN];
+	const size_t n = json_is_array(v) ? json_array_size(v) : 0;
+	if (n < 1 || n > SCENE_SPECIES_MAX)
+		return fail(c, path, "must be an array of 1 ... %d numbers (one weight per species, in the order of "
+		            "particles.species)", SCENE_SPECIES_MAX);
+	double sum = 0.0;
+	for (size_t k = 0; k < n; k++) {
+		snprintf(sub, sizeof sub, "%s[%zu]", path, k);
+		int ret = get_number(c, sub, json_array_get(v, k), &R_NONNEG, &w->composition[k]);
+		if (ret)
+			return ret;
+		sum += w->composition[k];
+	}
+	if (!(sum > 0.0) || !isfinite(sum))
+		return fail(c, path, "the weights must not all be 0");
+	for (size_t k = 0; k < n; k++)
+		w->composition[k] /= sum;
+	w->n_composition = (int)n;
 	return 0;
 }
 
@@ -1377,6 +1406,7 @@ static const struct object wall_obj = {
 		{ "phase", parse_number, offsetof(scene_wall_t, phase), &R_ANY, false },
 		{ "volume_fraction", parse_number, offsetof(scene_wall_t, volume_fraction), &R_POS, false },
 		{ "thickness", parse_number, offsetof(scene_wall_t, thickness), &R_POS, false },
+		{ "composition", parse_composition, offsetof(scene_wall_t, n_composition), NULL, false },
 		{ "filter", parse_object, offsetof(scene_wall_t, filter), &filter_obj, false },
 		{ .name = NULL },
 	},
@@ -1568,10 +1598,18 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 				snprintf(path, sizeof path, "boundaries.%s.%s.volume_fraction", axis_names[a], k ? "upper" : "lower");
 				return fail(c, path, "%s is at or above the close-packing limit %.4f", num(w->volume_fraction).s, cp);
 			}
-			nmax = fmax(nmax, w->volume_fraction / vp);
-			if (scene_has_species(s))
+			nmax = fmax(nmax, w->volume_fraction / (w->type == SCENE_WALL_DISPENSER && s->n_species > 0 ?
+			                                        scene_dispenser_volume(s, w) : vp));
+			if (w->type == SCENE_WALL_RESERVOIR && scene_has_species(s))
 				return fail(c, path, "\"%s\" walls take one species of smooth particles (particles.species "
-				            "is not supported with them yet)", wn);
+				            "is not supported with them yet; a \"dispenser\" takes species)", wn);
+			for (int q = 0; q < s->n_species; q++)
+				if (s->species[q].radius_hi > 0) {
+					snprintf(path, sizeof path, "particles.species[%d].radius_range", q);
+					return fail(c, path, "a scene with a \"dispenser\" wall takes species of one radius each "
+					            "(its layers are placed from templates of fixed radii; polydisperse species "
+					            "are not supported with it)");
+				}
 		}
 	/* default: room for twice the larger of the initial count and what the
 	 * box holds at the densest reservoir's density, plus 64 */
@@ -1606,6 +1644,15 @@ static int check_streams(ctx_t *c, const scene_t *s)
 					            "must face each other on one axis (a layer would be placed behind the other axis' "
 					            "piston)", axis_names[dispensers - 1], axis_names[a]);
 				dispensers = 1 + a;
+				if (w->n_composition) {
+					snprintf(path, sizeof path, "boundaries.%s.%s.composition", axis_names[a], end);
+					if (s->n_species < 2)
+						return fail(c, path, "needs particles.species with two or more species (the weights are "
+						            "per species)");
+					if (w->n_composition != s->n_species)
+						return fail(c, path, "has %d weights for %d species (one per species, in the order of "
+						            "particles.species)", w->n_composition, s->n_species);
+				}
 				if (!(sg * w->velocity[a] >= 0)) {
 					snprintf(path, sizeof path, "boundaries.%s.%s.velocity[%d]", axis_names[a], end, a);
 					return fail(c, path, "the piston moves into the box: the component along the inward normal must be "
@@ -1634,9 +1681,6 @@ static int check_streams(ctx_t *c, const scene_t *s)
 					            method_names[s->method]);
 				if (scene_has_gravity(s))
 					return fail(c, path, "filters are not supported with gravity yet (frozen particles fly straight)");
-				if (scene_has_species(s) || s->rough)
-					return fail(c, path, "filters take one species of smooth particles (particles.species and "
-					            "collisions.rough are not supported with them yet)");
 				snprintf(path, sizeof path, "boundaries.%s.%s.filter.distance", axis_names[a], end);
 				if (!(f->distance > s->radius))
 					return fail(c, path, "%s must exceed the particle radius %s (seed 001: the plane lies more than a "
@@ -2596,6 +2640,98 @@ void scene_species_radii(const scene_t *s, double *r)
 		const scene_species_t *q = &s->species[k];
 		for (uint64_t j = 0; j < q->count; j++, i++)
 			r[i] = q->radius_hi > 0 ? q->radius_lo + (q->radius_hi - q->radius_lo) * rng_uniform(&rng) : q->radius;
+	}
+}
+
+static double species_volume(int dim, const scene_species_t *q);
+
+void scene_dispenser_fractions(const scene_t *s, const scene_wall_t *w, double *x)
+{
+	for (int k = 0; k < s->n_species; k++)
+		x[k] = w->n_composition ? w->composition[k] : (double)s->species[k].count / (double)s->count;
+}
+
+double scene_dispenser_volume(const scene_t *s, const scene_wall_t *w)
+{
+	if (!w->n_composition)
+		return scene_particle_volume(s);
+	double v = 0.0;
+	for (int k = 0; k < s->n_species; k++)
+		v += w->composition[k] * species_volume(s->dim, &s->species[k]);
+	return v;
+}
+
+/* The fractions in which the empty slots are split among the species: the
+ * scene's (NULL: exact integer split) unless a dispenser has a
+ * composition, then the dispensers' mean weighted by their particle rates
+ * (eta U_n A / v_p: what enters per unit time). */
+static int spare_fractions(const scene_t *s, double *y)
+{
+	int any = 0;
+	for (int a = 0; a < s->dim; a++)
+		for (int e = 0; e < 2; e++)
+			any |= s->boundary[a].walled && s->boundary[a].wall[e].type == SCENE_WALL_DISPENSER &&
+			       s->boundary[a].wall[e].n_composition > 0;
+	if (!any)
+		return 0;
+	double tot = 0.0, x[SCENE_SPECIES_MAX];
+	for (int k = 0; k < s->n_species; k++)
+		y[k] = 0.0;
+	for (int a = 0; a < s->dim; a++)
+		for (int e = 0; e < 2; e++) {
+			const scene_wall_t *w = &s->boundary[a].wall[e];
+			if (!s->boundary[a].walled || w->type != SCENE_WALL_DISPENSER)
+				continue;
+			double area = 1.0;
+			for (int b = 0; b < s->dim; b++)
+				if (b != a)
+					area *= s->box[b];
+			const double rate = w->volume_fraction * fabs(w->velocity[a]) * area / scene_dispenser_volume(s, w);
+			scene_dispenser_fractions(s, w, x);
+			for (int k = 0; k < s->n_species; k++) {
+				y[k] += rate * x[k];
+				tot += rate * x[k];
+			}
+		}
+	if (!(tot > 0.0))
+		return 0;   /* no piston moves: the scene's fractions */
+	for (int k = 0; k < s->n_species; k++)
+		y[k] /= tot;
+	return 1;
+}
+
+void scene_row_species(const scene_t *s, uint8_t *sp, double *r)
+{
+	const uint64_t n = s->count, slots = scene_slots(s), spare = slots - n;
+	if (r)
+		scene_species_radii(s, r);
+	uint64_t i = 0, c = 0;
+	for (int k = 0; k < s->n_species; k++)
+		for (uint64_t j = 0; j < s->species[k].count; j++, i++)
+			if (sp)
+				sp[i] = (uint8_t)k;
+	double y[SCENE_SPECIES_MAX], Y = 0.0;
+	const int comp = s->n_species > 0 && spare_fractions(s, y);
+	uint64_t prev = 0;
+	for (int k = 0; k < s->n_species; k++) {
+		uint64_t lo = spare * c / n;
+		c += s->species[k].count;
+		uint64_t hi = spare * c / n;
+		if (comp) {   /* the dispensers' composition: block k ends at floor(spare Y_k) */
+			Y += y[k];
+			const double e = floor((double)spare * Y);
+			lo = prev;
+			hi = k == s->n_species - 1 || e >= (double)spare ? spare : (uint64_t)e;
+			if (hi < lo)
+				hi = lo;
+			prev = hi;
+		}
+		for (uint64_t j = lo; j < hi; j++, i++) {
+			if (sp)
+				sp[i] = (uint8_t)k;
+			if (r)
+				r[i] = s->species[k].radius;
+		}
 	}
 }
 

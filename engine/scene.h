@@ -83,6 +83,9 @@ typedef enum {
 	                            * volume_fraction and temperature is placed behind it and it jumps back */
 } scene_wall_type_t;
 
+/* Particle species: at most this many (particles.species; scene_species_t below). */
+#define SCENE_SPECIES_MAX 16
+
 /* The filter of an "open" wall (seed 001 outlet): a plane distance inside
  * the wall; a particle crossing it outwards is frozen (infinite mass,
  * velocity exactly velocity) until it leaves through the wall. */
@@ -110,6 +113,10 @@ typedef struct {
 	                            * 3.9, line coverage rho_l); -1 when not given */
 	double thickness;          /* dispenser: layer thickness (length), > one diameter; 0: default 2 diameters */
 	scene_filter_t filter;     /* open: the filter plane (filter.on = 0 without) */
+	/* dispenser with particles.species: the number fractions of its layers' species (composition, given
+	 * as weights >= 0 in species order, normalised to sum 1); n_composition 0: the scene's fractions */
+	int n_composition;
+	double composition[SCENE_SPECIES_MAX];
 } scene_wall_t;
 
 /* One axis of the box: periodic, or walls at both ends (wall[0] at
@@ -155,7 +162,6 @@ typedef struct {
 
 /* Particle species (particles.species; method ed only beyond one): a scene
  * without the key has one species from particles.count/radius/mass. */
-#define SCENE_SPECIES_MAX 16
 #define SCENE_NAME_MAX 32
 #define SCENE_FROM_EACH (-2)
 /* pair_correlation of mixtures: partial g_ab(r) of at most this many species (observe.h) */
@@ -383,6 +389,21 @@ int scene_has_species(const scene_t *s);
  * radius_range from the scene's seed and stream (a stream of their own:
  * the same radii for every reader of the scene). Pure. */
 void scene_species_radii(const scene_t *s, double *r);
+/* Species and radius of every row (particle slot) of a mixture, in scene
+ * order (scene_slots() entries each; either pointer may be NULL): rows
+ * 0 .. count - 1 as scene_species_radii() (species in blocks), then the
+ * empty slots of a dispenser scene (capacity > count) in one block per
+ * species, block k holding floor(spare C_k / count) - floor(spare C_(k-1) /
+ * count) rows (spare = capacity - count, C_k the counts of species 0 .. k
+ * summed: the scene's number fractions), each of its species' radius (a
+ * slot's species never changes: frames keep time-independent species).
+ * Pure. */
+void scene_row_species(const scene_t *s, uint8_t *sp, double *r);
+/* A dispenser wall's species fractions (n_species entries: its
+ * composition, or the scene's count_k / count) and the mean particle
+ * volume at them (scene_particle_volume() without a composition). */
+void scene_dispenser_fractions(const scene_t *s, const scene_wall_t *w, double *x);
+double scene_dispenser_volume(const scene_t *s, const scene_wall_t *w);
 
 /* Volume of the box and of one particle (disk area in 2D; with species the
  * mean over the particles). */

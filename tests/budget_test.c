@@ -15,6 +15,7 @@
 #include "io/report.h"
 #include "ed/ed.h"
 #include "mc/dsmc.h"
+#include "par/ped.h"
 #include "run.h"
 #include "scene.h"
 #include "tap.h"
@@ -366,6 +367,54 @@ static void test_ranks(void)
 	   "method auto must be resolved first: %s", err);
 }
 
+/* An ed single run on several ranks runs split (engine/par/edrun.h): every rank holds the parallel core
+ * (ped_scene_bytes(), checked against the allocation of a real core, ped_memory()) and, at set-up, the
+ * broadcast state; a scene the core cannot run stays on rank 0 with waiting ranks. */
+static void test_split(void)
+{
+	scene_t s;
+	budget_t one, four;
+	if (parse("{\"method\":\"ed\",\"dimensions\":3,\"particles\":{\"count\":20000,\"volume_fraction\":0.25},"
+	          "\"collisions\":{\"restitution\":0.9,\"tc\":0.01},\"run\":{\"until\":{\"time\":1}}}", &s)) {
+		ok(0, "split: parse");
+		return;
+	}
+	/* the formula against a real core of rank 0 of 4, loaded with the scene's initial state */
+	int err = 0;
+	uint64_t real = 0;
+	ped_params_t p = {.dim = 3, .sigma = 2.0 * s.radius, .mass = s.mass, .e = s.restitution, .tc = s.tc, .ranks = 4};
+	for (int a = 0; a < 3; a++)
+		p.L[a] = s.box[a];
+	ped_grid(&p, s.count);
+	ed_t *ed = ed_create(&s, &err, NULL, 0);
+	double *pos = malloc(s.count * 3 * sizeof(double)), *vel = malloc(s.count * 3 * sizeof(double));
+	ped_t *pd = ed && pos && vel ? ped_create(&p, 0, s.count, &err) : NULL;
+	if (pd) {
+		ed_state(ed, pos, vel);
+		if (ped_load(pd, s.count, pos, vel) == PED_OK)
+			real = ped_memory(pd);
+	}
+	uint64_t est = ped_scene_bytes(&s, 4);
+	/* the estimate adds room for 16 messages per outbox, which a loaded core has not allocated yet */
+	ok(real > 0 && est >= real && est - real <= 4 * (16 * sizeof(ped_msg_t) + 64),
+	   "split ed: the core's bytes per rank %llu, a real core's %llu (%.0f B per particle)", (unsigned long long)est,
+	   (unsigned long long)real, (double)est / (double)s.count);
+	ped_destroy(pd);
+	ed_destroy(ed);
+	free(pos);
+	free(vel);
+	budget_estimate(&s, 1, &one, NULL, 0);
+	budget_estimate(&s, 4, &four, NULL, 0);
+	ok(four.memory >= one.memory + 3 * BUDGET_RANK_BYTES + 4 * est && four.memory_rank0 >= one.memory_rank0 + est,
+	   "split ed on 4 ranks: %.1f MiB against %.1f MiB on 1 rank (4 cores of %.1f MiB)", four.memory / 1048576.0,
+	   one.memory / 1048576.0, est / 1048576.0);
+	s.tc = 0.0;   /* inelastic without TC: refused by the split run, rank 0 alone */
+	budget_estimate(&s, 1, &one, NULL, 0);
+	budget_estimate(&s, 4, &four, NULL, 0);
+	ok(four.memory == one.memory + 3 * BUDGET_RANK_BYTES && four.memory_rank0 == one.memory_rank0,
+	   "ed without tc on 4 ranks: rank 0 alone, 3 waiting ranks");
+}
+
 /* The examples: 1e8 particles, 1e6 replicas. */
 static void test_big(void)
 {
@@ -391,6 +440,7 @@ int main(void)
 	test_counts();
 	test_curves();
 	test_ranks();
+	test_split();
 	test_big();
 	plan(tap_n);
 	return done_testing();

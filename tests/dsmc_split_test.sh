@@ -148,8 +148,8 @@ PY
 ok $? "Haff's law on 2 ranks, 6 seeds: worst deviation $(cat "$tmp/haff") of tolerance $(head -c 200 "$tmp/h.err")"
 
 # 3. What the split run cannot do yet is refused: exit 2, one line naming the key (--split shows the line
-#    alone; under mpirun, mpirun adds its own notice after it): walls, gravity, curve observables,
-#    checkpoints and --resume.
+#    alone; under mpirun, mpirun adds its own notice after it): walls, gravity, curve observables, and the
+#    checkpoint of a run on one rank (not split) with --split. (Split checkpoints: tests/dsmc_split_resume_test.sh.)
 refuse() {   # refuse KEY DESCRIPTION JSON [ARGS...]
 	key=$1; what=$2; json=$3; shift 3
 	printf '%s\n' "$json" >"$tmp/r.json"
@@ -163,19 +163,16 @@ base='"dimensions":3,"particles":{"count":500,"volume_fraction":0.05},"run":{"un
 refuse boundaries "walls" "{\"method\":\"dsmc\",$base,\"boundaries\":{\"z\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},\"upper\":{\"type\":\"specular\"}}}}"
 refuse gravity "gravity" "{\"method\":\"dsmc\",$base,\"gravity\":[0,0,-1]}"
 refuse output.observables "clusters" "{\"method\":\"dsmc\",$base,\"output\":{\"observables\":[\"clusters\"]}}"
-refuse output.checkpoint "output.checkpoint" "{\"method\":\"dsmc\",$base,\"output\":{\"checkpoint\":{\"every\":{\"time\":0.5}}}}" --out "$tmp/out"
-refuse granular-engine "--resume" "{\"method\":\"dsmc\",$base}" --out "$tmp/out" --resume "$tmp/out/checkpoint.h5"
-# Under mpirun without --split, a scene the split run cannot honour runs as before the split path existed (rank 0
-# alone, one notice line): checkpoints are written and resumed, so jobs that worked keep working.
+# a checkpoint of a run on one rank (plain, not split): with --split refused; under mpirun alone the run goes on
+# as before the split path existed (rank 0 alone, one notice line), so jobs that worked keep working
 printf '%s\n' "{\"method\":\"dsmc\",$base,\"output\":{\"checkpoint\":{\"every\":{\"time\":0.5}}}}" >"$tmp/c.json"
-mpirun -np 2 "$ENGINE" run "$tmp/c.json" --out "$tmp/out2" >/dev/null 2>"$tmp/m.err"
-rc=$?
-head -n 1 "$tmp/m.err" | grep -q '^granular-engine: running on rank 0 alone, not split over 2 ranks: output.checkpoint'
-ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "mpirun -np 2 with output.checkpoint: rank 0 alone, exit $rc, first line $(head -n 1 "$tmp/m.err" | head -c 120)"
+"$ENGINE" run "$tmp/c.json" --out "$tmp/out2" >/dev/null 2>&1
+refuse "granular-engine: --resume: the checkpoint is of a run on one rank" "--split with a plain run's checkpoint" \
+	"{\"method\":\"dsmc\",$base,\"output\":{\"checkpoint\":{\"every\":{\"time\":0.5}}}}" --out "$tmp/out2" --resume "$tmp/out2/checkpoint.h5"
 mpirun -np 2 "$ENGINE" run "$tmp/c.json" --out "$tmp/out2" --resume "$tmp/out2/checkpoint.h5" >/dev/null 2>"$tmp/m.err"
 rc=$?
-[ -f "$tmp/out2/checkpoint.h5" ]
-ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "... and --resume of its checkpoint under mpirun -np 2: exit $rc $(tail -n 1 "$tmp/m.err" | head -c 120)"
+head -n 1 "$tmp/m.err" | grep -q '^granular-engine: running on rank 0 alone, not split over 2 ranks: --resume: the checkpoint is of a run on one rank'
+ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "mpirun -np 2 --resume of a plain run's checkpoint: rank 0 alone, exit $rc, first line $(head -n 1 "$tmp/m.err" | head -c 120)"
 
 # 4. Frames (--out): gathered to rank 0 in the scene's particle order; trajectory.h5 of 2 and 3 ranks equal to
 #    the 1-rank split run's dataset by dataset, byte for byte (positions, velocities, times, observables; pressure,
@@ -226,8 +223,9 @@ else
 	for np in 2 3; do n=$((n + 1)); echo "ok $n # SKIP python3-h5py not installed"; done
 fi
 
-# 4b. SIGTERM stops a split run at the next 64-step boundary (rank 0's flag, broadcast): a last progress
-#     record and a summary with status "interrupted", exit 3 (no checkpoint to write).
+# 4b. SIGTERM stops a split run without --out after the next step (rank 0's flag, reduced with the step): a last
+#     progress record and a summary with status "interrupted", exit 3 (no checkpoint to write; with --out:
+#     tests/dsmc_split_resume_test.sh).
 cat >"$tmp/long.json" <<'EOF'
 {"method":"dsmc","dimensions":3,"particles":{"count":20000,"volume_fraction":0.05,"initial":{"positions":"random"}},
  "collisions":{"restitution":1},"run":{"seed":2,"until":{"time":1e9}},"output":{"every":{"time":1}}}

@@ -434,6 +434,133 @@ static void test_refusals(void)
 	}
 }
 
+/* The whole state in the 1-rank order, as engine/par/dsmcrun.c gathers it for a checkpoint: each rank's
+ * records and cells concatenated in rank order. */
+static int sim_save(const sim_t *s, const scene_t *sc, dsmcp_saved_t *sv)
+{
+	uint64_t c0, c1, ncells, n = 0, cells = 0;
+	if (dsmcp_cells_of(sc, 0, s->P, &c0, &c1, &ncells, NULL, 0) != DSMCP_OK ||
+	    dsmcp_saved_alloc(sv, (int)sc->dim, sc->count, ncells) != DSMCP_OK)
+		return -1;
+	const int D = (int)sc->dim;
+	dsmcp_clock(s->r[0], &sv->clock);
+	sv->virial = 0;
+	for (int k = 0; k < s->P; k++) {
+		size_t nl = dsmcp_local(s->r[k], NULL, sv->pos + n * D, sv->vel + n * D);
+		dsmcp_local_ids(s->r[k], sv->id + n);
+		dsmcp_cells(s->r[k], &c0, &c1);
+		if (c0 != cells)
+			return -1;
+		dsmcp_cell_state(s->r[k], sv->count + c0, sv->rem + c0);
+		sv->virial += dsmcp_virial_part(s->r[k]);
+		n += nl;
+		cells = c1;
+	}
+	return n == sc->count && cells == ncells ? 0 : -1;
+}
+
+/* P ranks from a saved state: rank k takes the records of its cells (dsmcp_cells_of()), as dsmcrun.c scatters them. */
+static int sim_restore(sim_t *s, const scene_t *sc, uint64_t stream, int P, const dsmcp_saved_t *sv)
+{
+	const int D = sv->dim;
+	uint64_t first = 0;
+	memset(s, 0, sizeof *s);
+	s->P = P;
+	for (int k = 0; k < P; k++) {
+		uint64_t c0, c1, ncells, nl = 0;
+		int err;
+		char msg[256];
+		if (dsmcp_cells_of(sc, k, P, &c0, &c1, &ncells, msg, sizeof msg) != DSMCP_OK)
+			return -1;
+		for (uint64_t c = c0; c < c1; c++)
+			nl += sv->count[c];
+		s->r[k] = dsmcp_restore(sc, stream, k, P, &sv->clock, k == 0 ? sv->virial : 0.0, nl, sv->pos + first * D,
+		                        sv->vel + first * D, sv->id + first, sv->count + c0, sv->rem + c0, &err, msg,
+		                        sizeof msg);
+		if (!s->r[k]) {
+			diag("dsmcp_restore: %s", msg);
+			return -1;
+		}
+		first += nl;
+	}
+	return 0;
+}
+
+/*
+ * Checkpoints: a state saved after some steps at P = 2 and restored at P' = 1, 2, 3 continues exactly as
+ * the uninterrupted run (positions, velocities, clock, counters, the interval's energy integral), and a
+ * damaged saved state is refused (dsmcp_saved_check()).
+ */
+static void test_restore(const char *method, int dim, int n, double nu, const char *corr, uint64_t before,
+                         uint64_t after)
+{
+	char json[1024];
+	snprintf(json, sizeof json,
+	         "{\"method\":\"%s\",\"dimensions\":%d,\"particles\":{\"count\":%d,\"volume_fraction\":%g,"
+	         "\"initial\":{\"positions\":\"random\"}},\"collisions\":{\"restitution\":0.9},"
+	         "\"run\":{\"seed\":11,\"until\":{\"time\":100}},\"%s\":{\"correction\":\"%s\"%s}}",
+	         method, dim, n, nu, method, corr, strcmp(method, "hsmc") ? "" : ",\"cell_size\":2");
+	scene_t sc;
+	sim_t a;
+	dsmcp_saved_t sv;
+	char msg[256] = "";
+	memset(&sv, 0, sizeof sv);
+	if (parse(json, &sc) || sim_create(&a, &sc, 0, 2) || sim_advance(&a, INFINITY, before) ||
+	    sim_save(&a, &sc, &sv)) {
+		ok(0, "restore %s %dD: set-up", method, dim);
+		return;
+	}
+	int rc = dsmcp_saved_check(&sv, &sc, msg, sizeof msg);
+	ok(rc == DSMCP_OK, "%s %dD %s: the state saved at P=2 after %llu steps is consistent %s", method, dim, corr,
+	   (unsigned long long)before, msg);
+	const size_t N = (size_t)n, D = (size_t)dim;
+	double *x1 = calloc(N * D, sizeof(double)), *v1 = calloc(N * D, sizeof(double));
+	double *xp = calloc(N * D, sizeof(double)), *vp = calloc(N * D, sizeof(double));
+	int dup = 0;
+	sim_advance(&a, INFINITY, after);
+	sim_state(&a, dim, N, x1, v1, &dup);
+	dsmcp_totals_t t1, t;
+	dsmcp_clock_t k1, k;
+	dsmcp_totals(a.r[0], &t1);
+	dsmcp_clock(a.r[0], &k1);
+	for (int P = 1; P <= 3; P++) {
+		sim_t b;
+		if (sim_restore(&b, &sc, 0, P, &sv) || sim_advance(&b, INFINITY, after)) {
+			ok(0, "%s %dD restored at P=%d ran", method, dim, P);
+			sim_destroy(&b);
+			continue;
+		}
+		size_t found = sim_state(&b, dim, N, xp, vp, &dup);
+		dsmcp_totals(b.r[0], &t);
+		dsmcp_clock(b.r[0], &k);
+		ok(found == N && !dup && !memcmp(x1, xp, N * D * sizeof(double)) && !memcmp(v1, vp, N * D * sizeof(double)) &&
+		   t.time == t1.time && t.steps == t1.steps && t.collisions == t1.collisions &&
+		   t.candidates == t1.candidates && t.vmax_raised == t1.vmax_raised &&
+		   t.kinetic_energy == t1.kinetic_energy && t.cell_collisions == t1.cell_collisions &&
+		   t.rejected == t1.rejected && k.ekin_int == k1.ekin_int && k.t_sample == k1.t_sample,
+		   "%s %dD %s: saved at P=2, restored at P=%d, %llu more steps: state, clock and counters bit-identical to "
+		   "the uninterrupted run (%llu collisions, %llu cell collisions)", method, dim, corr, P,
+		   (unsigned long long)after, (unsigned long long)t.collisions, (unsigned long long)t.cell_collisions);
+		sim_destroy(&b);
+	}
+	/* damage: a duplicated identity, a count moved between cells so they no longer add up, a negative remainder */
+	uint32_t id0 = sv.id[0];
+	sv.id[0] = sv.id[1];
+	ok(dsmcp_saved_check(&sv, &sc, msg, sizeof msg) == DSMCP_EINVAL, "a duplicated identity is refused: %s", msg);
+	sv.id[0] = id0;
+	sv.count[0]++;
+	ok(dsmcp_saved_check(&sv, &sc, msg, sizeof msg) == DSMCP_EINVAL, "cell counts off by one are refused: %s", msg);
+	sv.count[0]--;
+	sv.rem[0] = -1;
+	ok(dsmcp_saved_check(&sv, &sc, msg, sizeof msg) == DSMCP_EINVAL, "a negative remainder is refused: %s", msg);
+	sim_destroy(&a);
+	dsmcp_saved_free(&sv);
+	free(x1);
+	free(v1);
+	free(xp);
+	free(vp);
+}
+
 int main(void)
 {
 	test_refusals();
@@ -446,6 +573,10 @@ int main(void)
 	test_identity_m("hsmc", 3, 4000, 0.55, "cba", 0.9, 40);
 	test_conservation();
 	test_direct();
+	test_restore("dsmc", 3, 4000, 0.05, "none", 30, 30);
+	test_restore("dsmc", 2, 1500, 0.1, "cba", 30, 30);
+	/* dense hsmc with CBA: records displaced out of their sort cells, which the next step's cell pass uses */
+	test_restore("hsmc", 2, 3000, 0.75, "cba", 30, 30);
 	test_haff(3, 2000, 0.1, 0.9, 3);
 	test_haff(2, 500, 0.1, 0.95, 2);
 	test_haff_m("hsmc", 2, 500, 0.4, 0.98, 3);   /* as tests/dsmc_test's hsmc/cba row */

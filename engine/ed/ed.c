@@ -283,6 +283,20 @@ struct ed_mix {
 	double mu[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX];
 	double *rscene;
 	double mtot, mgone;       /* total mass; mass of the particles that left (open walls; rebuilt on restore) */
+	/* Dispensers (scene_row_species()): rsp[row] the species of each row
+	 * (slot) in scene order, fixed; rscene covers the slots too. The free
+	 * slots form one stack per species: species k's fs_n[k] entries at
+	 * freei + fs_off[k] (fs_off: the rows of species < k), fs_n rebuilt
+	 * from gone on restore (not a field of its own). The templates' species
+	 * (tsp, parallel to tpl: one per template particle) and per wall and
+	 * species the most any template holds (tmax: a recharge needs that
+	 * many free slots). Filters: the turn-back probability and thermal
+	 * speed per wall and species (the species' mass). */
+	uint8_t *rsp, *tsp;
+	uint32_t fs_off[SCENE_SPECIES_MAX], fs_n[SCENE_SPECIES_MAX];
+	uint32_t tmax[6][SCENE_SPECIES_MAX];
+	double fback[6][SCENE_SPECIES_MAX], fsv[6][SCENE_SPECIES_MAX];
+	double dsv[6][SCENE_SPECIES_MAX];   /* a dispenser's layer thermal speed sqrt(T / m_k) */
 };
 
 static inline bool hless(const hent_t *a, const hent_t *b)
@@ -674,13 +688,13 @@ static double inlet_normal(rng_t *g, double a, double s);
  * velocity of a gas at (U, T) crossing the plane inwards (3.28: normal
  * speed from inlet_normal() at inward mean -U, tangential Maxwellian about
  * the filter velocity); returns 0. Otherwise it freezes: v = fu exactly;
- * returns 1. */
-static int filter_rule(struct ed *ed, int w, double *v)
+ * returns 1. fback, sv: the wall's F_- / F_+ and sqrt(T / m) (mixtures: at
+ * the particle's species' mass). */
+static int filter_rule(struct ed *ed, int w, double *v, double fback, double sv)
 {
 	const int a = w >> 1;
 	const double sg = (w & 1) ? -1.0 : 1.0;   /* inward */
-	if (ed->fback[w] > 0.0 && rng_uniform(&ed->wrng) < ed->fback[w]) {
-		const double sv = ed->fsv[w];
+	if (fback > 0.0 && rng_uniform(&ed->wrng) < fback) {
 		for (int k = 0; k < ed->dim; k++)
 			if (k != a)
 				v[k] = ed->fu[w][k] + sv * rng_gauss(&ed->wrng);
@@ -1696,15 +1710,47 @@ static void setup_species(struct ed *ed, const scene_t *s)
 		}
 }
 
+/* A mixture's open stream (after setup_stream() and setup_species(), rsp
+ * filled): the free stacks' offsets (the rows of each species), and per
+ * species the dispensers' thermal speeds and the filters' turn-back
+ * probability and thermal speed (as setup_stream() for one species, at
+ * the species' mass). */
+static void setup_stream_species(struct ed *ed, const scene_t *s)
+{
+	struct ed_mix *x = ed->mix;
+	uint32_t rows[SCENE_SPECIES_MAX] = {0};
+	for (uint32_t r = 0; r < ed->n; r++)
+		rows[x->rsp[r]]++;
+	for (int k = 0, o = 0; k < ed->nsp; o += (int)rows[k], k++)
+		x->fs_off[k] = (uint32_t)o;
+	for (int a = 0; a < s->dim; a++) {
+		if (!s->boundary[a].walled)
+			continue;
+		for (int e = 0; e < 2; e++) {
+			const scene_wall_t *sw = &s->boundary[a].wall[e];
+			const int w = 2 * a + e;
+			const double sg = e ? -1.0 : 1.0;
+			for (int k = 0; k < ed->nsp; k++) {
+				const double m = x->m[k];
+				if (sw->type == SCENE_WALL_DISPENSER)
+					x->dsv[w][k] = sqrt(sw->temperature / m);
+				if (sw->type == SCENE_WALL_OPEN && sw->filter.on && sw->filter.temperature > 0.0) {
+					const double t = sqrt(m / (2.0 * sw->filter.temperature)) * -sg * sw->filter.velocity[a];
+					const double sp = 1.77245385090551602730;
+					x->fback[w][k] = (exp(-t * t) - sp * t * erfc(t)) / (exp(-t * t) + sp * t * erfc(-t));
+					x->fsv[w][k] = sqrt(sw->filter.temperature / m);
+				}
+			}
+		}
+	}
+}
+
 /* spc and prad from the scene indices (id): species are blocks of scene
- * indices, radii drawn in scene order. */
+ * indices (rsp, scene_row_species()), radii drawn in scene order. */
 static void species_from_id(struct ed *ed)
 {
 	for (uint32_t i = 0; i < ed->n; i++) {
-		uint8_t k = 0;
-		while (k + 1 < ed->nsp && ed->id[i] >= ed->mix->first[k + 1])
-			k++;
-		ed->spc[i] = k;
+		ed->spc[i] = ed->mix->rsp[ed->id[i]];
 		ed->prad[i] = ed->mix->rscene[ed->id[i]];
 	}
 }
@@ -1731,7 +1777,8 @@ static int layer_layout(const struct ed *ed, const scene_t *s, int w, double *po
 	const scene_wall_t *sw = &s->boundary[a].wall[w & 1];
 	const double h = ed->wall[w].lh, W = s->box[b];
 	const int per = !s->boundary[b].walled;
-	const double n_d = sw->volume_fraction * h * W / (pi * r * r);
+	const double vp = ed->mixture ? scene_dispenser_volume(s, sw) : pi * r * r;   /* mixtures: the mean at its fractions */
+	const double n_d = sw->volume_fraction * h * W / vp;
 	static const char *const an[] = { "x", "y" };
 	const char *end = (w & 1) ? "upper" : "lower";
 	if (!(n_d >= 1.5) || n_d > INT32_MAX) {
@@ -1811,7 +1858,8 @@ static int layer_layout3(const struct ed *ed, const scene_t *s, int w, double *p
 	const scene_wall_t *sw = &s->boundary[a].wall[w & 1];
 	const double h = ed->wall[w].lh, W1 = s->box[b1], W2 = s->box[b2];
 	const int per1 = !s->boundary[b1].walled, per2 = !s->boundary[b2].walled;
-	const double n_d = sw->volume_fraction * h * W1 * W2 / (4.0 / 3.0 * pi * r * r * r);
+	const double vp = ed->mixture ? scene_dispenser_volume(s, sw) : 4.0 / 3.0 * pi * r * r * r;
+	const double n_d = sw->volume_fraction * h * W1 * W2 / vp;
 	static const char *const an[] = { "x", "y", "z" };
 	const char *end = (w & 1) ? "upper" : "lower";
 	double *q = NULL;
@@ -1933,9 +1981,11 @@ static int setup_stream(struct ed *ed, const scene_t *s, char *msg, size_t msgle
 				if (rc != ED_OK)
 					return rc;
 				const double pi = 3.14159265358979323846, rr = s->radius;
-				const double n_d = s->dim == 2 ? sw->volume_fraction * ed->wall[w].lh * s->box[1 - a] / (pi * rr * rr)
+				const double vp = ed->mixture ? scene_dispenser_volume(s, sw) : s->dim == 2 ? pi * rr * rr
+				                                                                      : 4.0 / 3.0 * pi * rr * rr * rr;
+				const double n_d = s->dim == 2 ? sw->volume_fraction * ed->wall[w].lh * s->box[1 - a] / vp
 				                               : sw->volume_fraction * ed->wall[w].lh * s->box[a == 0 ? 1 : 0] *
-				                                 s->box[a == 2 ? 1 : 2] / (4.0 / 3.0 * pi * rr * rr * rr);
+				                                 s->box[a == 2 ? 1 : 2] / vp;
 				ed->tpl_frac[w] = n_d - floor(n_d);
 				if (ed->tpl_frac[w] == 0.0)
 					ed->tpl_frac[w] = 1.0;   /* a whole number: every recharge places them all */
@@ -2063,10 +2113,20 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 			        (double)s->capacity, 0);
 			return ED_EINVAL;
 		}
-		if (scene_has_species(s)) {   /* rough particles enter with spins (inlet_enter()); dispensers: scene.c */
+		int res = 0;   /* a "reservoir" wall (dispensers take species: dispense_mix()) */
+		for (int a = 0; a < s->dim; a++)
+			for (int k = 0; k < 2; k++)
+				res |= s->boundary[a].walled && s->boundary[a].wall[k].type == SCENE_WALL_RESERVOIR;
+		if (scene_has_species(s) && res) {   /* rough particles enter with spins (inlet_enter()) */
 			set_msg(msg, msglen, "boundaries: \"reservoir\" walls take one species%.0s%.0s", 0, 0);
 			return ED_EINVAL;
 		}
+		for (int k = 0; k < s->n_species && scene_has_species(s); k++)
+			if (s->species[k].radius_hi > 0) {
+				set_msg(msg, msglen, "particles.species[%.0f].radius_range: not with a \"dispenser\" wall%.0s",
+				        (double)k, 0);
+				return ED_EINVAL;
+			}
 		ed->n = (uint32_t)s->capacity;   /* slots; n_init of them filled at the start */
 	}
 	ed->sigma = 2.0 * s->radius;
@@ -2131,6 +2191,139 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 	return ED_OK;
 }
 
+/* A mixture's template layers (build_templates() for one species): the
+ * same starting layout (sites a largest diameter apart), template q
+ * holding n_k(q) = floor(n X_k + (q + 1/2) / ntpl) - (the same for k - 1)
+ * particles of species k (X_k the dispenser's fractions of species 0 .. k
+ * summed, scene_dispenser_fractions(): over the ntpl templates the mean of
+ * n_k is n x_k to within 1 / (2 ntpl)), the sites
+ * shuffled among the species (so that they mix across the layer), each
+ * template relaxed by an elastic run of its own (the mixture between
+ * specular walls, 50 collisions per particle; seed stream as
+ * build_templates()' plus (q + 1) << 40). Positions clamped into [r_k, h -
+ * r_k] (r_k the particle's radius); species in tsp. */
+static int build_templates_mix(struct ed *ed, const scene_t *s, int w, char *msg, size_t msglen)
+{
+	const int a = w >> 1, D = s->dim, ns = s->n_species;
+	const uint32_t n = ed->tpl_n[w];
+	const double h = ed->wall[w].lh;
+	struct ed_mix *x = ed->mix;
+	int rc = ED_ENOMEM;
+	double *pos = malloc((size_t)n * D * sizeof(double)), *sh = malloc((size_t)n * D * sizeof(double));
+	scene_t *t = malloc(sizeof *t);
+	ed_t *sub = NULL;
+	if (!pos || !sh || !t)
+		goto done;
+	if (D == 2)
+		layer_layout(ed, s, w, pos, &ed->tpl_n[w], NULL, 0);
+	else if ((rc = layer_layout3(ed, s, w, pos, &ed->tpl_n[w], msg, msglen)) != ED_OK)
+		goto done;
+	memset(x->tmax[w], 0, sizeof x->tmax[w]);
+	const uint64_t stream = s->stream | (1ull << 59) | (uint64_t)(w != ed_first_disp(ed)) * ((uint64_t)w << 52);
+	double frac[SCENE_SPECIES_MAX];
+	scene_dispenser_fractions(s, &s->boundary[a].wall[w & 1], frac);
+	for (int q = 0; q < ed->ntpl; q++) {
+		uint32_t cnt[SCENE_SPECIES_MAX], prev = 0;
+		double X = 0.0;
+		for (int k = 0; k < ns; k++) {
+			X += frac[k];
+			double bd = floor((double)n * X + (q + 0.5) / ed->ntpl);
+			uint32_t bk = k == ns - 1 || bd >= (double)n ? n : (uint32_t)bd;
+			if (bk < prev)
+				bk = prev;
+			cnt[k] = bk - prev;
+			prev = bk;
+			if (cnt[k] > x->tmax[w][k])
+				x->tmax[w][k] = cnt[k];
+		}
+		memcpy(t, s, sizeof *t);
+		t->count = t->capacity = n;
+		t->box[a] = h;
+		t->volume_fraction = s->boundary[a].wall[w & 1].volume_fraction;
+		for (int k = 0; k < 2; k++) {
+			t->boundary[a].wall[k] = (scene_wall_t){ .type = SCENE_WALL_SPECULAR, .restitution = 1.0, .coverage = -1.0 };
+			for (int b = 0; b < D; b++)
+				if (b != a && t->boundary[b].walled)
+					t->boundary[b].wall[k] = (scene_wall_t){ .type = SCENE_WALL_SPECULAR, .restitution = 1.0,
+					                                         .coverage = -1.0 };
+		}
+		t->boundary[a].walled = 1;
+		t->n_obstacles = 0;
+		t->drive = SCENE_DRIVE_NONE;
+		t->tc = 0.0;
+		t->restitution = 1.0;
+		t->rough = 0;
+		t->init_spin = NULL;
+		t->temperature = s->boundary[a].wall[w & 1].temperature;
+		for (int k = 0; k < 3; k++) {
+			t->flow[k] = 0.0;
+			t->gravity[k] = k == a && (w & 1) ? -s->gravity[k] : s->gravity[k];
+		}
+		/* the species present in this template, in index order */
+		uint8_t map[SCENE_SPECIES_MAX];
+		int m = 0;
+		double rmax = 0.0, msum = 0.0;
+		for (int k = 0; k < ns; k++)
+			if (cnt[k]) {
+				t->species[m] = s->species[k];
+				t->species[m].count = cnt[k];
+				map[m++] = (uint8_t)k;
+				rmax = fmax(rmax, s->species[k].radius);
+				msum += (double)cnt[k] * s->species[k].mass;
+			}
+		t->n_species = m;
+		t->radius = rmax;
+		t->mass = msum / (double)n;
+		for (int i = 0; i < SCENE_SPECIES_MAX; i++)
+			for (int j = 0; j < SCENE_SPECIES_MAX; j++)
+				t->restitution_pair[i][j] = 1.0;
+		/* the sites shuffled among the particles (Fisher-Yates) */
+		rng_t g;
+		rng_init(&g, s->seed, stream | ((uint64_t)(q + 1) << 40) | (1ull << 39));
+		memcpy(sh, pos, (size_t)n * D * sizeof(double));
+		for (uint32_t i = n; i-- > 1;) {
+			uint32_t j = (uint32_t)(rng_uniform(&g) * (i + 1));
+			if (j > i)
+				j = i;
+			for (int c = 0; c < D; c++) {
+				const double y = sh[(size_t)D * i + c];
+				sh[(size_t)D * i + c] = sh[(size_t)D * j + c];
+				sh[(size_t)D * j + c] = y;
+			}
+		}
+		t->init_pos = sh;
+		t->init_vel = NULL;
+		t->has_region = t->has_from = 0;
+		t->relax_cpp = 50.0;
+		t->ed_cell_size = 0.0;
+		t->stream = stream | ((uint64_t)(q + 1) << 40);
+		int err = ED_OK;
+		if (!(sub = ed_create(t, &err, msg, msglen))) {
+			rc = err;
+			goto done;
+		}
+		double *out = ed->tpl + ed->tpl_off[w] + (size_t)q * n * D;
+		uint8_t *ts = x->tsp + ed->tpl_off[w] / (size_t)D + (size_t)q * n;
+		ed_state(sub, out, NULL);
+		uint32_t i = 0;
+		for (int k = 0; k < m; k++)
+			for (uint32_t j = 0; j < t->species[k].count; j++, i++) {
+				const double rk = s->species[map[k]].radius;
+				ts[i] = map[k];
+				out[(size_t)D * i + a] = fmin(fmax(out[(size_t)D * i + a], rk), h - rk);
+			}
+		ed_destroy(sub);
+		sub = NULL;
+	}
+	rc = ED_OK;
+done:
+	ed_destroy(sub);
+	free(pos);
+	free(sh);
+	free(t);
+	return rc;
+}
+
 /* Allocate the engine for a scene and choose its mode and grid; no state
  * yet (particles zeroed, cells empty). */
 static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
@@ -2185,11 +2378,21 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 		rng_init(&ed->irng, s->seed, s->stream | (1ull << 60));
 	if (ed->nfilt && !(ed->frozen = big_alloc(b[A_FROZEN], 1)))
 		goto fail;
+	if (ed->mixture) {
+		if (!(ed->spc = big_alloc(b[A_SPC], 0)) || !(ed->prad = big_alloc(b[A_PRAD], 0)) ||
+		    !(ed->mix = big_alloc(b[A_MIX], 1)) || !(ed->mix->rscene = big_alloc(b[A_RSCENE], 0)) ||
+		    !(ed->mix->rsp = big_alloc(b[A_SPC], 0)))
+			goto fail;
+		setup_species(ed, s);
+		scene_row_species(s, ed->mix->rsp, ed->mix->rscene);   /* the slots' too (dispensers) */
+		setup_stream_species(ed, s);
+	}
 	if (ed->disp) {
-		if (!(ed->tpl = big_alloc(b[A_TPL], 0)))
+		if (!(ed->tpl = big_alloc(b[A_TPL], 0)) || (ed->mixture && !(ed->mix->tsp = big_alloc(b[A_TPL] / (sizeof(double) * (size_t)ed->dim), 0))))
 			goto fail;
 		for (int w = 0; w < 6; w++)
-			if ((ed->disp >> w & 1) && (rc = build_templates(ed, s, w, msg, msglen)) != ED_OK)
+			if ((ed->disp >> w & 1) &&
+			    (rc = ed->mixture ? build_templates_mix(ed, s, w, msg, msglen) : build_templates(ed, s, w, msg, msglen)) != ED_OK)
 				goto fail;
 		rc = ED_ENOMEM;
 	}
@@ -2197,13 +2400,6 @@ static struct ed *ed_alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 		goto fail;
 	if (ed->img_on && !(ed->img = big_alloc(b[A_IMG], 1)))
 		goto fail;
-	if (ed->mixture) {
-		if (!(ed->spc = big_alloc(b[A_SPC], 0)) || !(ed->prad = big_alloc(b[A_PRAD], 0)) ||
-		    !(ed->mix = big_alloc(b[A_MIX], 1)) || !(ed->mix->rscene = big_alloc(b[A_RSCENE], 0)))
-			goto fail;
-		setup_species(ed, s);
-		scene_species_radii(s, ed->mix->rscene);
-	}
 	if (ed->drive && (!(ed->drv_mean = big_alloc(b[A_DMEAN], 1)) || !(ed->drv_sum = big_alloc(b[A_DSUM], 1))))
 		goto fail;
 	if (b[A_DPOS] && (!(ed->drv_pos = big_alloc(b[A_DPOS], 0)) || !(ed->drv_vel = big_alloc(b[A_DVEL], 0))))
@@ -2333,6 +2529,10 @@ void ed_destroy(ed_t *ed)
 	free(ed->spin);
 	free(ed->spc);
 	free(ed->prad);
+	if (ed->mix) {
+		free(ed->mix->rsp);
+		free(ed->mix->tsp);
+	}
 	if (ed->mix)
 		free(ed->mix->rscene);
 	free(ed->mix);
@@ -2497,10 +2697,18 @@ static void inlet_slots(struct ed *ed)
 {
 	const size_t psz = ed->dim == 2 ? sizeof(p2_t) : sizeof(p3_t);
 	ed->n_gone = 0;
+	if (ed->mix)
+		memset(ed->mix->fs_n, 0, sizeof ed->mix->fs_n);
 	for (uint32_t i = ed->n; i-- > ed->n_init;) {
 		memset((char *)ed->p + i * psz, 0, psz);
 		ed->gone[i] = 1;
-		ed->freei[ed->n_gone++] = i;
+		if (ed->mix) {   /* mixtures (dispensers): the stack of the row's species */
+			const int k = ed->mix->rsp[i];
+			ed->freei[ed->mix->fs_off[k] + ed->mix->fs_n[k]++] = i;
+			ed->n_gone++;
+		} else {
+			ed->freei[ed->n_gone++] = i;
+		}
 		ed->ev[i].t_coll = ed->ev[i].t_cross = INFINITY;
 		ed->ev[i].partner = -1;
 		ed->ev[i].cross = -1;
@@ -2629,8 +2837,12 @@ static int inlet_enter(struct ed *ed, int w)
 
 /* The recharge due now at dispenser wall w. ED_FULL (nothing changed)
  * when the free slots cannot take a whole layer. */
+static int dispense_mix(struct ed *ed, int w);
+
 static int dispense(struct ed *ed, int w)
 {
+	if (ed->mixture)
+		return dispense_mix(ed, w);
 	const uint32_t n = ed->tpl_n[w];
 	if (ed->n_gone < n)
 		return ED_FULL;
@@ -2712,6 +2924,94 @@ static int dispense(struct ed *ed, int w)
 	return ED_OK;
 }
 
+/* dispense() for a mixture: each template particle takes a free slot of
+ * its species (that species' stack); ED_FULL (nothing changed) when some
+ * species has fewer free slots than a template may hold of it. Velocities
+ * U + sqrt(T / m_k) N(0, 1), spins (rough) variance T / I_k, in the order
+ * dispense() draws them. */
+static int dispense_mix(struct ed *ed, int w)
+{
+	const uint32_t n = ed->tpl_n[w];
+	struct ed_mix *x = ed->mix;
+	for (int k = 0; k < ed->nsp; k++)
+		if (x->fs_n[k] < x->tmax[w][k])
+			return ED_FULL;
+	wall_t *W = &ed->wall[w];
+	const int a = w >> 1, D = ed->dim;
+	const double sg = (w & 1) ? -1.0 : 1.0;
+	W->pt0 = ed->t;
+	for (uint32_t i = 0; i < ed->n; i++) {
+		if (ed->gone[i])
+			continue;
+		const int32_t c = ed->ev[i].cc[a];
+		if ((w & 1) ? c >= ed->nc[a] - ed->nzone[w] : c < ed->nzone[w]) {
+			DISPATCH(ed, set_cross, ed, i);
+			cal_update(ed, i, ev_time(ed, i));
+		}
+	}
+	int q = (int)(rng_uniform(&ed->irng) * ed->ntpl);
+	if (q >= ed->ntpl)
+		q = ed->ntpl - 1;
+	double shift[3] = {0.0, 0.0, 0.0}, lo[3] = {0.0, 0.0, 0.0}, wid[3] = {0.0, 0.0, 0.0};
+	int mirror[3] = {0, 0, 0};
+	for (int b = 0; b < D; b++) {
+		if (b == a)
+			continue;
+		shift[b] = ed->periodic[b] ? rng_uniform(&ed->irng) * ed->L[b] : 0.0;
+		mirror[b] = rng_uniform(&ed->irng) < 0.5 && ed->g[b] == 0.0;
+		lo[b] = ed->periodic[b] ? 0.0 : ed->wall[2 * b].rest;
+		wid[b] = ed->periodic[b] ? ed->L[b] : ed->wall[2 * b + 1].rest - lo[b];
+	}
+	uint32_t skip = UINT32_MAX;
+	if (rng_uniform(&ed->irng) >= ed->tpl_frac[w]) {
+		skip = (uint32_t)(rng_uniform(&ed->irng) * n);
+		if (skip >= n)
+			skip = n - 1;
+	}
+	const double *tp = ed->tpl + ed->tpl_off[w] + (size_t)q * n * D;
+	const uint8_t *ts = x->tsp + ed->tpl_off[w] / (size_t)D + (size_t)q * n;
+	for (uint32_t k = 0; k < n; k++) {
+		if (k == skip)
+			continue;
+		const int sp = ts[k];
+		const double sv = x->dsv[w][sp];
+		double r[3] = {0.0, 0.0, 0.0}, v[3] = {0.0, 0.0, 0.0};
+		r[a] = W->rest + sg * tp[(size_t)D * k + a];
+		for (int b = 0; b < D; b++) {
+			if (b == a)
+				continue;
+			double y = tp[(size_t)D * k + b];
+			if (mirror[b])
+				y = wid[b] - y;
+			y += shift[b];
+			if (y >= wid[b])
+				y -= wid[b];
+			r[b] = lo[b] + y;
+		}
+		for (int j = 0; j < D; j++)
+			v[j] = ed->disp_u[w][j] + sv * rng_gauss(&ed->irng);
+		const uint32_t i = ed->freei[x->fs_off[sp] + x->fs_n[sp] - 1];
+		if (ed->ops->enter_layer(ed, i, r, v)) {
+			ed->in_count[6 + w]++;
+			continue;
+		}
+		x->fs_n[sp]--;
+		ed->label[ed->id[i]] = (int64_t)ed->in_count[12]++;
+		ed->in_count[w]++;
+		if (ed->rough) {   /* T / I_k = sv^2 / (q a_k^2) */
+			const int nk = D == 2 ? 1 : 3;
+			const double swv = sv / sqrt(ed->rq * ed->prad[i] * ed->prad[i]);
+			for (int c = 0; c < nk; c++)
+				ed->spin[(size_t)i * nk + c] = swv * rng_gauss(&ed->irng);
+		}
+		DISPATCH(ed, set_cross, ed, i);
+		DISPATCH(ed, scan_full, ed, i);
+		cal_update(ed, i, ev_time(ed, i));
+	}
+	ed->in_next[w] += W->lh / W->pspeed;
+	return ED_OK;
+}
+
 /* At the start of the production run (after the pre-run, which runs with
  * the piston at rest and no filter): the piston starts moving, filters
  * act; particles already beyond a filter plane are frozen; every event
@@ -2747,6 +3047,8 @@ static void stream_start(struct ed *ed)
 					ed->ekin_cur += 0.5 * ed->mass * de;
 					ed->frozen[i] = (uint8_t)(1 + w);
 					ed->nfrozen[w]++;
+					if (ed->spin)   /* rough particles: frozen ones do not spin */
+						memset(ed->spin + (size_t)i * (D == 2 ? 1 : 3), 0, (D == 2 ? 1 : 3) * sizeof(double));
 				}
 			}
 		}
@@ -2920,7 +3222,7 @@ static size_t held(const struct ed *ed, int nl, int tc)
 	                (tc ? sizeof(double) : 0) + (ed->open ? 1 : 0) + (ed->rough ? (ed->dim == 2 ? 1 : 3) * sizeof(double) : 0) +
 	                (ed->drive && ed->drv_bins > 1 ? 2 * ed->dim * sizeof(double) : 0)) +
 	       (ed->nobst ? ed->ncells * sizeof(uint16_t) : 0) + (ed->drive ? ed->drv_bins * (2 * ed->dim + 1) * sizeof(double) : 0) +
-	       (ed->mixture ? ed->n * (1 + 2 * sizeof(double)) + sizeof(struct ed_mix) : 0);
+	       (ed->mixture ? ed->n * (2 + 2 * sizeof(double)) + sizeof(struct ed_mix) : 0);
 }
 
 size_t ed_memory(const ed_t *ed) { return held(ed, ed->xn != NULL, ed->tlast != NULL); }
@@ -3397,7 +3699,21 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 		for (uint32_t i = 0; i < n; i++)
 			ed->n_gone += ed->gone[i];
 	}
-	if (!why && ed->freei) {   /* the free stack: the empty slots, each once; labels of rows present */
+	if (!why && ed->freei && ed->mix) {   /* mixtures: one stack per species, its slots' count from gone */
+		memset(ed->mix->fs_n, 0, sizeof ed->mix->fs_n);
+		for (uint32_t i = 0; i < n; i++)
+			if (ed->gone[i])
+				ed->mix->fs_n[ed->mix->rsp[ed->id[i]]]++;
+		for (int sp = 0; sp < ed->nsp && !why; sp++)
+			for (uint32_t k = 0; k < ed->mix->fs_n[sp] && !why; k++) {
+				const uint64_t at = (uint64_t)ed->mix->fs_off[sp] + k;
+				const uint32_t i = at < n ? ed->freei[at] : UINT32_MAX;
+				if (i >= n || !ed->gone[i] || seen[i] == 2 || ed->mix->rsp[ed->id[i]] != sp)
+					why = "bad free-slot stack";
+				else
+					seen[i] = 2;
+			}
+	} else if (!why && ed->freei) {   /* the free stack: the empty slots, each once; labels of rows present */
 		for (uint64_t k = 0; k < ed->n_gone && !why; k++) {
 			const uint32_t i = ed->freei[k];
 			if (i >= n || !ed->gone[i] || seen[i] == 2)
@@ -3405,19 +3721,17 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 			else
 				seen[i] = 2;
 		}
+	}
+	if (!why && ed->freei) {
 		for (uint32_t i = 0; i < n && !why; i++)
 			if ((ed->label[ed->id[i]] < 0) != (ed->gone[i] != 0) || ed->label[ed->id[i]] >= (int64_t)ed->in_count[12])
 				why = "bad particle ids";
 	}
 	if (!why && ed->gone && ed->mix) {   /* the mass that left (species from the scene indices) */
 		ed->mix->mgone = 0.0;
-		for (uint32_t i = 0; i < n; i++) {
-			uint32_t k = 0;
-			while (k + 1 < (uint32_t)ed->nsp && ed->id[i] >= ed->mix->first[k + 1])
-				k++;
+		for (uint32_t i = 0; i < n; i++)
 			if (ed->gone[i])
-				ed->mix->mgone += ed->mix->m[k];
-		}
+				ed->mix->mgone += ed->mix->m[ed->mix->rsp[ed->id[i]]];
 	}
 	if (!why && (!(ed->cal_w > 0.0) || !isfinite(ed->cal_iw = 1.0 / ed->cal_w)))
 		why = "bad calendar width";

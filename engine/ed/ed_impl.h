@@ -923,7 +923,12 @@ static void FN(leave)(struct ed *ed, uint32_t i, int w, double t)
 		ed->frozen[i] = 0;
 	ed->wout[w]++;
 	if (ed->freei) {   /* reservoir scenes: its slot is free, its row empty */
+#if SPEC
+		const int k = ed->spc[i];   /* mixtures (dispensers): on its species' stack */
+		ed->freei[ed->mix->fs_off[k] + ed->mix->fs_n[k]++] = i;
+#else
 		ed->freei[ed->n_gone - 1] = i;
+#endif
 		ed->label[ed->id[i]] = -1;
 	}
 	p->count++;
@@ -1051,15 +1056,36 @@ static void FN(do_filter)(struct ed *ed, uint32_t i, double t)
 	double de = 0.0, v[3] = {0.0, 0.0, 0.0};
 	FOR_AXES(a)
 		v[a] = p->v[a];
-	const int freeze = filter_rule(ed, w, v);
+#if SPEC
+	const int freeze = filter_rule(ed, w, v, ed->mix->fback[w][ed->spc[i]], ed->mix->fsv[w][ed->spc[i]]);
+#else
+	const int freeze = filter_rule(ed, w, v, ed->fback[w], ed->fsv[w]);
+#endif
+	const double m = FN(mass)(ed, i);
 	FOR_AXES(a) {
 		de += v[a] * v[a] - p->v[a] * p->v[a];
 #if GRAV
-		ed->psum[a] += v[a] - p->v[a];
+		ed->psum[a] += (SPEC ? m / ed->mass : 1.0) * (v[a] - p->v[a]);
 #endif
 		p->v[a] = v[a];
 	}
-	ed->ekin_cur += 0.5 * ed->mass * de;
+	ed->ekin_cur += 0.5 * m * de;
+#if ROUGH
+	{
+		/* rough particles: a frozen one stops spinning (no thermal part, as its velocity); one turned
+		 * back gets the spin of the gas at the filter's temperature (variance T / I per component,
+		 * I = q m a^2), drawn after its velocity */
+		const int k = D == 2 ? 1 : 3;
+#if SPEC
+		const double sv = ed->mix->fsv[w][ed->spc[i]];
+#else
+		const double sv = ed->fsv[w];
+#endif
+		const double sw = sv / sqrt(ed->rq * FN(rad)(ed, i) * FN(rad)(ed, i));
+		for (int c = 0; c < k; c++)
+			ed->spin[(size_t)i * k + c] = freeze ? 0.0 : sw * rng_gauss(&ed->wrng);
+	}
+#endif
 	if (freeze) {
 		ed->frozen[i] = (uint8_t)(1 + w);
 		ed->nfrozen[w]++;
@@ -1106,28 +1132,65 @@ static void FN(collide_frozen)(struct ed *ed, uint32_t i, uint32_t j, double t)
 		r2 += x * x;
 	}
 	if (b < 0.0 && !ed->frozen[i]) {
+#if SPEC
+		double e = ed->mix->e[ed->spc[i] * ed->nsp + ed->spc[j]];   /* the pair's restitution */
+#else
 		double e = ed->e;
+#endif
+		const double m = FN(mass)(ed, i);
+#if ROUGH
+		int elastic = 0;
+#endif
 		if (ed->tlast) {
 			if (t - ed->tlast[i] < ed->tc) {
 				e = 1.0;
 				ed->tc_elastic++;
+#if ROUGH
+				elastic = 1;   /* within tc: smooth and elastic, as between particles */
+#endif
 			}
 			ed->tlast[i] = t;
 		}
-		const double f = (1.0 + e) * b / r2;
 		const int w = ed->frozen[j] - 1;
+#if ROUGH
+		/* rough particles: the rough rule against a sphere of infinite mass and moment of inertia
+		 * without spin moving at the filter's velocity (rough.h, rough_collide_fixed()) */
+		{
+			const int k = D == 2 ? 1 : 3;
+			const double rn = sqrt(r2);
+			double n[D], J[3], de = 0.0;
+			FOR_AXES(a)
+				n[a] = dr[a] / rn;
+			const rough_pair_t R = {.m1 = m, .m2 = INFINITY, .a1 = FN(rad)(ed, i), .a2 = FN(rad)(ed, j), .e = e,
+			                        .beta = elastic ? -1.0 : ed->rbeta, .mu = elastic ? -1.0 : ed->rmu, .q = ed->rq};
+			FOR_AXES(a)
+				de -= pq->v[a] * pq->v[a];
+			rough_collide_fixed(D, &R, n, b / rn, pq->v, pf->v, &ed->spin[(size_t)i * k], J);
+			FOR_AXES(a) {
+				de += pq->v[a] * pq->v[a];
+				ed->wimp[w][a] -= J[a];
+				ed->wimp_tot[w][a] -= J[a];
+#if GRAV
+				ed->psum[a] += J[a] / ed->mass;
+#endif
+			}
+			ed->ekin_cur += 0.5 * m * de;
+		}
+#else
+		const double f = (1.0 + e) * b / r2;
 		double de = 0.0;
 		FOR_AXES(a) {
 			const double v0 = pq->v[a];
 			pq->v[a] -= f * dr[a];
 			de += pq->v[a] * pq->v[a] - v0 * v0;
-			ed->wimp[w][a] += ed->mass * f * dr[a];
-			ed->wimp_tot[w][a] += ed->mass * f * dr[a];
+			ed->wimp[w][a] += m * f * dr[a];
+			ed->wimp_tot[w][a] += m * f * dr[a];
 #if GRAV
-			ed->psum[a] -= f * dr[a];
+			ed->psum[a] -= (SPEC ? m / ed->mass : 1.0) * f * dr[a];
 #endif
 		}
-		ed->ekin_cur += 0.5 * ed->mass * de;
+		ed->ekin_cur += 0.5 * m * de;
+#endif
 	}
 	pq->count++;
 	pf->count++;
@@ -1282,9 +1345,16 @@ static void FN(reorder)(struct ed *ed)
 		permute(ed->gone, 1, newidx, n);
 	if (ed->frozen)
 		permute(ed->frozen, 1, newidx, n);
+#if SPEC
+	if (ed->freei)   /* mixtures: one stack per species */
+		for (int s = 0; s < ed->nsp; s++)
+			for (uint32_t k = ed->mix->fs_off[s]; k < ed->mix->fs_off[s] + ed->mix->fs_n[s]; k++)
+				ed->freei[k] = newidx[ed->freei[k]];
+#else
 	if (ed->freei)
 		for (uint64_t k = 0; k < ed->n_gone; k++)
 			ed->freei[k] = newidx[ed->freei[k]];
+#endif
 #endif
 #if ROUGH
 	permute(ed->spin, (D == 2 ? 1 : 3) * sizeof(double), newidx, n);
@@ -1786,8 +1856,14 @@ static int FN(enter_s2)(struct ed *ed, uint32_t i, const double *r, const double
 					double x = FN(min_image)(ed, a, r[a] - FN(pos_now)(ed, &P[j], a));
 					r2 += x * x;
 				}
+#if SPEC
+				const double sij = ed->prad[i] + ed->prad[j];   /* mixtures: the pair's contact, scaled as s2 */
+				if (r2 < s2 * (sij * sij / ed->sigma2))
+					return 1;
+#else
 				if (r2 < s2)
 					return 1;
+#endif
 			}
 		}
 	}
@@ -1796,16 +1872,20 @@ static int FN(enter_s2)(struct ed *ed, uint32_t i, const double *r, const double
 #endif
 	FN(energy_to)(ed, ed->t);
 	double v2 = 0.0;
+	const double m = FN(mass)(ed, i);
 	FOR_AXES(a) {
 		p->r[a] = r[a];
 		p->v[a] = v[a];
 		v2 += v[a] * v[a];
 #if GRAV
-		ed->psum[a] += v[a];
+		ed->psum[a] += (SPEC ? m / ed->mass : 1.0) * v[a];
 #endif
 	}
 	p->t = ed->t;
-	ed->ekin_cur += 0.5 * ed->mass * v2;
+	ed->ekin_cur += 0.5 * m * v2;
+#if SPEC
+	ed->mix->mgone -= m;
+#endif
 	ed->gone[i] = 0;
 	ed->n_gone--;
 	if (ed->tlast)

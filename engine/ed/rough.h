@@ -146,3 +146,53 @@ static inline double rough_collide_pair(int dim, const rough_pair_t *R, const do
 	}
 	return de;
 }
+
+/*
+ * A particle (mass m1, radius a1, I_1 = q m1 a1^2) against a sphere of
+ * infinite mass and moment of inertia without spin moving at u (seed 001's
+ * frozen particles of a filter): the rule above with mu -> m1 (1/m2 and
+ * a2^2/I_2 vanish):
+ *   g   = v1 - u - a1 w1 x n
+ *   J_n = -(1 + e) m1 (g . n) n,   J_t = -m1 q / (1 + q) (1 + beta) g_t
+ * with Walton's cap; v1 += J / m1, w1 += -(1 / (q m1 a1)) n x J_t. The
+ * particle's energy in the sphere's frame (translational plus rotational)
+ * is conserved for e = 1 and beta = +-1. J (dim components, the impulse on
+ * the particle) is returned in Jout.
+ */
+static inline void rough_collide_fixed(int dim, const rough_pair_t *R, const double *n, double gn, double *v1,
+                                       const double *u, double *w1, double *Jout)
+{
+	const double m1 = R->m1, q = R->q;
+	double gt[3], Jt[3], gt2 = 0.0;
+	if (dim == 2) {
+		const double W = R->a1 * w1[0];
+		gt[0] = v1[0] - u[0] - gn * n[0] + W * n[1];
+		gt[1] = v1[1] - u[1] - gn * n[1] - W * n[0];
+	} else {
+		double W[3];
+		for (int k = 0; k < 3; k++)
+			W[k] = R->a1 * w1[k];
+		gt[0] = v1[0] - u[0] - gn * n[0] - (W[1] * n[2] - W[2] * n[1]);
+		gt[1] = v1[1] - u[1] - gn * n[1] - (W[2] * n[0] - W[0] * n[2]);
+		gt[2] = v1[2] - u[2] - gn * n[2] - (W[0] * n[1] - W[1] * n[0]);
+	}
+	for (int k = 0; k < dim; k++)
+		gt2 += gt[k] * gt[k];
+	const double jn = -(1.0 + R->e) * m1 * gn;
+	double ct = m1 * q / (1.0 + q) * (1.0 + R->beta);
+	if (R->mu >= 0.0 && ct * sqrt(gt2) > R->mu * jn)
+		ct = R->mu * jn / sqrt(gt2);
+	for (int k = 0; k < dim; k++) {
+		Jt[k] = -ct * gt[k];
+		Jout[k] = jn * n[k] + Jt[k];
+		v1[k] += Jout[k] / m1;
+	}
+	const double s1 = -1.0 / (q * m1 * R->a1);
+	if (dim == 2) {
+		w1[0] += s1 * (n[0] * Jt[1] - n[1] * Jt[0]);
+	} else {
+		const double c[3] = {n[1] * Jt[2] - n[2] * Jt[1], n[2] * Jt[0] - n[0] * Jt[2], n[0] * Jt[1] - n[1] * Jt[0]};
+		for (int k = 0; k < 3; k++)
+			w1[k] += s1 * c[k];
+	}
+}

@@ -767,3 +767,242 @@ cleanup:
 	if (f >= 0) H5Fclose(f);
 	return ret;
 }
+
+/* ---- split runs ----------------------------------------------------------------
+ * Group /dsmcp: the state of dsmcp.h in the 1-rank order, written by rank 0
+ * of the run (engine/par/dsmcrun.c gathers it), read by rank 0 of any rank
+ * count. */
+#define SPLIT_GROUP "dsmcp"
+enum { SC_TIME, SC_EKIN, SC_ESCALE, SC_TSAMPLE, SC_EKIN_INT, SC_VIRIAL, SC_N };
+enum { SN_STEPS, SN_COLL, SN_CAND, SN_VMAX, SN_MIGR, SN_MOVES, SN_CELLC, SN_REJ, SN_SAMPLE, SN_N };
+
+/* The fields of a split state in file order: name, type, count, data. */
+typedef struct {
+	const char *name;
+	ed_type_t type;
+	size_t count;
+	void *data;
+} sfield_t;
+
+static int split_fields(ckpt_split_t *ck, double *clock, uint64_t *counters, sfield_t *f)
+{
+	dsmcp_saved_t *sv = &ck->state;
+	const size_t nd = (size_t)sv->n * (size_t)sv->dim;
+	f[0] = (sfield_t){"position", ED_T_F64, nd, sv->pos};
+	f[1] = (sfield_t){"velocity", ED_T_F64, nd, sv->vel};
+	f[2] = (sfield_t){"id", ED_T_U32, (size_t)sv->n, sv->id};
+	f[3] = (sfield_t){"cell_count", ED_T_U32, (size_t)sv->ncells, sv->count};
+	f[4] = (sfield_t){"remainder", ED_T_F64, (size_t)sv->ncells, sv->rem};
+	f[5] = (sfield_t){"clock", ED_T_F64, SC_N, clock};
+	f[6] = (sfield_t){"counters", ED_T_U64, SN_N, counters};
+	return 7;
+}
+
+static void pack_clock(const ckpt_split_t *ck, double *c, uint64_t *n)
+{
+	const dsmcp_clock_t *k = &ck->state.clock;
+	c[SC_TIME] = k->time, c[SC_EKIN] = k->kinetic_energy, c[SC_ESCALE] = k->energy_scale;
+	c[SC_TSAMPLE] = k->t_sample, c[SC_EKIN_INT] = k->ekin_int, c[SC_VIRIAL] = ck->state.virial;
+	n[SN_STEPS] = k->steps, n[SN_COLL] = k->collisions, n[SN_CAND] = k->candidates, n[SN_VMAX] = k->vmax_raised;
+	n[SN_MIGR] = k->migrated, n[SN_MOVES] = k->moves, n[SN_CELLC] = k->cell_collisions, n[SN_REJ] = k->rejected;
+	n[SN_SAMPLE] = ck->coll_sample;
+}
+
+static void unpack_clock(ckpt_split_t *ck, const double *c, const uint64_t *n)
+{
+	dsmcp_clock_t *k = &ck->state.clock;
+	k->time = c[SC_TIME], k->kinetic_energy = c[SC_EKIN], k->energy_scale = c[SC_ESCALE];
+	k->t_sample = c[SC_TSAMPLE], k->ekin_int = c[SC_EKIN_INT], ck->state.virial = c[SC_VIRIAL];
+	k->steps = n[SN_STEPS], k->collisions = n[SN_COLL], k->candidates = n[SN_CAND], k->vmax_raised = n[SN_VMAX];
+	k->migrated = n[SN_MIGR], k->moves = n[SN_MOVES], k->cell_collisions = n[SN_CELLC], k->rejected = n[SN_REJ];
+	ck->coll_sample = n[SN_SAMPLE];
+}
+
+int ckpt_write_split(const char *dir, const ckpt_split_t *ck, const char *scene_text, size_t len,
+                     const ckpt_output_t *out, char *msg, size_t msglen)
+{
+	ckpt_paths_t p;
+	uint64_t h = 0, counters[SN_N];
+	double clock[SC_N];
+	sfield_t fl[8];
+	hid_t f = H5I_INVALID_HID, g = H5I_INVALID_HID;
+	int ret = CKPT_EIO;
+	ckpt_split_t c = *ck;   /* the fields point at ck's arrays; nothing is written through them */
+
+	h5u_quiet();
+	errno = 0;
+	pack_clock(ck, clock, counters);
+	int nf = split_fields(&c, clock, counters, fl);
+	if ((f = begin_file(dir, &p)) < 0)
+		goto io;
+	if (h5u_attr_f64(f, "time", &clock[SC_TIME], 1) || h5u_attr_u64(f, "events", counters[SN_MOVES]) ||
+	    h5u_attr_u64(f, "collisions", counters[SN_COLL]) || h5u_write_string(f, "scene", scene_text, len))
+		goto io;
+	dig(&h, scene_text, len);
+	if ((g = h5u_group(f, SPLIT_GROUP)) < 0)
+		goto io;
+	for (int k = 0; k < nf; k++)
+		if (write_field(g, fl[k].name, fl[k].type, fl[k].count, fl[k].data, &h))
+			goto io;
+	H5Gclose(g);
+	if ((g = h5u_group(f, "run")) < 0 || write_rfields(g, sched_fields, N_RUN_FIELDS, &ck->sched, &h))
+		goto io;
+	H5Gclose(g);
+	g = H5I_INVALID_HID;
+	if (publish(&f, &p, out, h))
+		goto io;
+	ret = CKPT_OK;
+	goto cleanup;
+io:
+	ret = h5u_fail(msg, msglen, CKPT_EIO, "%s: cannot write the checkpoint%s%s", p.tmp, errno ? ": " : "",
+	               errno ? strerror(errno) : "");
+	if (f < 0)
+		unlink(p.tmp);
+cleanup:
+	if (g >= 0) H5Gclose(g);
+	if (f >= 0) {
+		H5Fclose(f);
+		unlink(p.tmp);
+	}
+	return ret;
+}
+
+int ckpt_read_split(const char *path, const scene_t *s, const char *scene_text, size_t len, ckpt_split_t *ck,
+                    ckpt_output_t *out, char *msg, size_t msglen)
+{
+	int ret = CKPT_ECORRUPT, differs = 0;
+	uint64_t h = 0, want = 0, fmt = 0, counters[SN_N], c0, c1, ncells;
+	double clock[SC_N];
+	char *text = NULL, why[256] = "";
+	size_t tlen = 0;
+	sfield_t fl[8];
+	scene_t stored;
+	hid_t f = H5I_INVALID_HID, g = H5I_INVALID_HID, d = H5I_INVALID_HID, sp = H5I_INVALID_HID;
+
+	memset(ck, 0, sizeof *ck);
+	h5u_quiet();
+	if (access(path, R_OK) != 0)
+		return h5u_fail(msg, msglen, errno == ENOENT ? CKPT_EMISSING : CKPT_EIO, "%s: %s", path, strerror(errno));
+	if (verify_file(path, why, sizeof why))
+		goto corrupt;
+	f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+	if (f < 0) {
+		snprintf(why, sizeof why, "not a readable HDF5 file (truncated or damaged)");
+		goto corrupt;
+	}
+	if (h5u_read_attr_u64(f, "format_version", &fmt) || fmt != FORMAT_VERSION ||
+	    h5u_read_attr_u64(f, "digest", &want) || !(text = read_string(f, "scene", &tlen))) {
+		snprintf(why, sizeof why, "not a granular-engine checkpoint of format %d", FORMAT_VERSION);
+		goto corrupt;
+	}
+	/* another scene's file (CKPT_ESCENE) or a damaged one (CKPT_ECORRUPT): the digest decides (ckpt_read()) */
+	if (!same_scene(text, tlen, scene_text, len)) {
+		if (scene_parse(text, tlen, &stored, NULL, 0) != SCENE_OK) {
+			snprintf(why, sizeof why, "its stored scene is not a valid scene (damaged)");
+			goto corrupt;
+		}
+		differs = 1;
+		s = &stored;
+	}
+	dig(&h, text, tlen);
+	if (dsmcp_cells_of(s, 0, 1, &c0, &c1, &ncells, NULL, 0) != DSMCP_OK) {
+		snprintf(why, sizeof why, "its scene cannot run split over ranks (damaged or for another method)");
+		goto corrupt;
+	}
+	if (H5Lexists(f, SPLIT_GROUP, H5P_DEFAULT) <= 0 || (g = H5Gopen2(f, SPLIT_GROUP, H5P_DEFAULT)) < 0) {
+		snprintf(why, sizeof why, "no state of a split run (/%s): it was written by a run on one rank, not split",
+		         SPLIT_GROUP);
+		goto corrupt;
+	}
+	if (dsmcp_saved_alloc(&ck->state, (int)s->dim, s->count, ncells) != DSMCP_OK) {
+		ret = h5u_fail(msg, msglen, CKPT_ENOMEM, "%s: out of memory", path);
+		goto cleanup;
+	}
+	int nf = split_fields(ck, clock, counters, fl);
+	for (int k = 0; k < nf; k++) {
+		hssize_t count;
+		d = H5Dopen2(g, fl[k].name, H5P_DEFAULT);
+		if (d < 0 || (sp = H5Dget_space(d)) < 0 || (count = H5Sget_simple_extent_npoints(sp)) < 0) {
+			snprintf(why, sizeof why, "state field %s missing", fl[k].name);
+			goto corrupt;
+		}
+		if ((size_t)count != fl[k].count) {
+			snprintf(why, sizeof why, "state field %s has %lld elements, not %zu", fl[k].name, (long long)count,
+			         fl[k].count);
+			goto corrupt;
+		}
+		if (count && H5Dread(d, mem_type(fl[k].type), H5S_ALL, H5S_ALL, H5P_DEFAULT, fl[k].data) < 0) {
+			snprintf(why, sizeof why, "state field %s unreadable", fl[k].name);
+			goto corrupt;
+		}
+		dig_field(&h, fl[k].name, fl[k].type, fl[k].count, fl[k].data);
+		H5Sclose(sp);
+		H5Dclose(d);
+		sp = d = H5I_INVALID_HID;
+	}
+	H5Gclose(g);
+	if ((g = H5Gopen2(f, "run", H5P_DEFAULT)) < 0 || read_rfields(g, sched_fields, N_RUN_FIELDS, &ck->sched, &h)) {
+		snprintf(why, sizeof why, "run state missing");
+		goto corrupt;
+	}
+	H5Gclose(g);
+	if ((g = H5Gopen2(f, "output", H5P_DEFAULT)) < 0 || read_rfields(g, out_fields, N_OUT_FIELDS, out, &h)) {
+		snprintf(why, sizeof why, "output state missing");
+		goto corrupt;
+	}
+	if (dig_final(h) != want) {
+		snprintf(why, sizeof why, "digest mismatch (altered or torn)");
+		goto corrupt;
+	}
+	if (differs) {
+		ret = h5u_fail(msg, msglen, CKPT_ESCENE, "%s: written for a different scene than the one given", path);
+		goto cleanup;
+	}
+	unpack_clock(ck, clock, counters);
+	int rc = dsmcp_saved_check(&ck->state, s, why, sizeof why);
+	if (rc == DSMCP_ENOMEM) {
+		ret = h5u_fail(msg, msglen, CKPT_ENOMEM, "%s: out of memory", path);
+		goto cleanup;
+	}
+	if (rc != DSMCP_OK || !ck->sched.started)
+		goto corrupt;
+	ret = CKPT_OK;
+	goto cleanup;
+corrupt:
+	ret = h5u_fail(msg, msglen, CKPT_ECORRUPT, "%s: corrupt checkpoint: %s", path, why[0] ? why : "inconsistent");
+cleanup:
+	if (ret != CKPT_OK)
+		dsmcp_saved_free(&ck->state);
+	free(text);
+	if (sp >= 0) H5Sclose(sp);
+	if (d >= 0) H5Dclose(d);
+	if (g >= 0) H5Gclose(g);
+	if (f >= 0) H5Fclose(f);
+	return ret;
+}
+
+/* Whether the verified file at path has the split group. -1: does not verify. */
+static int split_file(const char *path)
+{
+	char why[256];
+	if (access(path, R_OK) != 0 || verify_file(path, why, sizeof why))
+		return -1;
+	hid_t f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+	if (f < 0)
+		return -1;
+	int yes = H5Lexists(f, SPLIT_GROUP, H5P_DEFAULT) > 0;
+	H5Fclose(f);
+	return yes;
+}
+
+int ckpt_is_split(const char *path)
+{
+	char prev[PATH_MAX];
+	h5u_quiet();
+	int k = split_file(path);
+	if (k >= 0)
+		return k;
+	const char *slash = strrchr(path, '/');
+	snprintf(prev, sizeof prev, "%.*s%s", slash ? (int)(slash - path + 1) : 0, path, CKPT_PREV);
+	return split_file(prev);
+}

@@ -3,6 +3,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include "mc/dsmcp.h"
 #include "run.h"
 #include "scene.h"
 
@@ -72,6 +73,26 @@ int ckpt_write_ensemble(const char *dir, int R, unsigned char *const *blobs, con
 int ckpt_read_ensemble(const char *path, const scene_t *s, const char *scene_text, size_t len,
                        unsigned char **blobs, size_t *lens, ckpt_ensemble_t *es, ckpt_output_t *out,
                        char *msg, size_t msglen);
+
+/* Split runs (one dsmc/hsmc system over MPI ranks, engine/par/dsmcrun.h):
+ * rank 0 writes the state gathered in the 1-rank order (dsmcp.h) under
+ * /dsmcp (docs/output.md), so that a run of any rank count resumes it.
+ * ckpt_read_split() fills *ck (arrays malloc'd: dsmcp_saved_free()) after
+ * the digest and dsmcp_saved_check(); same error codes as ckpt_read(). */
+typedef struct {
+	dsmcp_saved_t state;
+	run_state_t sched;        /* started, k_out, k_snap, k_ckpt, snap_events (events at the last frame,
+	                           * UINT64_MAX: none), wall_before */
+	uint64_t coll_sample;     /* collisions at the last progress record */
+} ckpt_split_t;
+int ckpt_write_split(const char *dir, const ckpt_split_t *ck, const char *scene_text, size_t len,
+                     const ckpt_output_t *out, char *msg, size_t msglen);
+int ckpt_read_split(const char *path, const scene_t *s, const char *scene_text, size_t len, ckpt_split_t *ck,
+                    ckpt_output_t *out, char *msg, size_t msglen);
+/* Whether the checkpoint a resume from path would use (path, or CKPT_PREV
+ * beside it when path does not verify) holds a split run's state: 1 yes,
+ * 0 no (a run on one rank or an ensemble), -1 neither file verifies. */
+int ckpt_is_split(const char *path);
 
 /* File names inside an output directory. */
 #define CKPT_FILE "checkpoint.h5"

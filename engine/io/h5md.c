@@ -535,27 +535,29 @@ out:
 
 /* Mixtures: species (H5MD's per-particle integer), diameter and mass of
  * each particle, time-independent (species are blocks of indices; radii
- * of polydisperse species drawn as the engine draws them). */
+ * of polydisperse species drawn as the engine draws them; a dispenser's
+ * empty slots: scene_row_species(), a slot keeps its species). */
 static int write_species(hid_t all, const scene_t *s, uint64_t n)
 {
 	int ret = -1;
 	int32_t *sp = malloc(n * sizeof(int32_t));
 	double *diam = malloc(n * sizeof(double)), *mass = malloc(n * sizeof(double));
-	if (!sp || !diam || !mass || n != s->count)
+	uint8_t *row = malloc(n);
+	if (!sp || !diam || !mass || !row || n != scene_slots(s))
 		goto out;
-	scene_species_radii(s, diam);   /* the engine's radii: the same draws */
+	scene_row_species(s, row, diam);   /* the engine's radii: the same draws; dispensers: the empty slots' too */
 	uint64_t i = 0;
-	for (int k = 0; k < s->n_species; k++)
-		for (uint64_t j = 0; j < s->species[k].count && i < n; j++, i++) {
-			sp[i] = k;
-			diam[i] *= 2.0;
-			mass[i] = s->species[k].mass;
-		}
-	if (i == n && !write_array(all, "species", H5T_STD_I32LE, H5T_NATIVE_INT32, sp, n) &&
+	for (; i < n; i++) {
+		sp[i] = row[i];
+		diam[i] *= 2.0;
+		mass[i] = s->species[row[i]].mass;
+	}
+	if (!write_array(all, "species", H5T_STD_I32LE, H5T_NATIVE_INT32, sp, n) &&
 	    !write_array(all, "diameter", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, diam, n) &&
 	    !write_array(all, "mass", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, mass, n))
 		ret = 0;
 out:
+	free(row);
 	free(sp);
 	free(diam);
 	free(mass);

@@ -71,6 +71,7 @@ struct dsmc {
 	float *chic, *chit;            /* local_chi: chi per cell; scratch for the block average */
 	double *chilay;                /* local_chi with walls or species: per axis, each layer's length and its block's */
 	float *chm;                    /* local_chi with species: per cell c0, c1, c2 of chi_ij and 1 / chi_max */
+	float *vring;                  /* local_chi with obstacles: each cell's ring volume outside them (fixed) */
 	float *mixa;                   /* local_chi with species: per moment of the diameters, own sums and block sums */
 
 	rng_t rng;
@@ -1294,7 +1295,7 @@ static void local_chi_walled(struct dsmc *d, const int D, const float *a)
 			vown *= len[ax][idx[ax]];
 		}
 		const double own = (double)(d->start[c + 1] - d->start[c]);
-		const double vring = vblock - vown;
+		const double vring = d->vring ? (double)d->vring[c] : vblock - vown;
 		double chi = 1.0;
 		if (vring > 1e-12 * d->vcell) {
 			const double unit = d->vp / vring, nu = (a[c] - own) * unit;
@@ -1398,7 +1399,7 @@ static void local_chi_mix(struct dsmc *d, const int D)
 			vblock *= sum[ax][idx[ax]];
 			vown *= len[ax][idx[ax]];
 		}
-		const double vring = vblock - vown;
+		const double vring = d->vring ? (double)d->vring[c] : vblock - vown;
 		double m[7] = {0, 0, 0, 0, 0, 0, 0}, c3[3] = {1, 0, 0};
 		if (vring > 1e-12 * d->vcell) {
 			for (int q = 0; q < nk; q++)
@@ -1465,7 +1466,7 @@ static void local_chi(struct dsmc *d, const int D)
 	double block;
 	a = block_sums(d, D, a, d->chit, &block);
 	/* a: block sums (chic or chit, depending on D's parity). */
-	if (d->has_walls) {
+	if (d->has_walls || d->vring) {
 		local_chi_walled(d, D, a);
 		return;
 	}
@@ -2040,12 +2041,6 @@ static int layout_bounded(struct dsmc *d, const scene_t *s, char *msg, size_t ms
 				         "open wall yet; use method \"ed\"", method);
 			return DSMC_EINVAL;
 		}
-		if (d->local_chi) {
-			if (msg && msglen)
-				snprintf(msg, msglen, "%s.contact_value: \"local\" is not available with obstacles yet (its cell "
-				         "blocks do not know the volume the obstacles take); use \"global\"", method);
-			return DSMC_EINVAL;
-		}
 	}
 	d->gnorm = sqrt(g2);
 	/* Adaptive step under gravity: at most the time to fall collisions_per_step
@@ -2243,6 +2238,57 @@ static void free_volume(struct dsmc *d)
 	}
 }
 
+/* local_chi with obstacles: each cell's ring volume (its 3^D block less
+ * itself) outside the obstacles' bodies and between the walls, once (the
+ * walls are fixed with obstacles: vibrating and open walls are refused).
+ * A cell's volume: the product of its layers' lengths between the walls
+ * (ring_layers()) times the fraction of it outside every body (radius S
+ * less the largest particle radius), by the midpoint rule of free_volume().
+ * The ring volume is then the block sum (block_sums(), in double through
+ * float: 1e-7 relative) less the cell's own. Uses chic and chit as scratch
+ * (they are rewritten at each step). */
+static void ring_volumes_obst(struct dsmc *d)
+{
+	const int D = d->dim, m = D == 2 ? VFREE_M2 : VFREE_M3;
+	double *len[3], *sum[3], block;
+	ring_layers(d, D, len, sum);
+	float *own = d->vring, *a = d->chic;
+	int ci[3] = {0, 0, 0};
+	for (size_t c = 0; c < d->ncells; c++) {
+		double v = 1;
+		for (int ax = 0; ax < D; ax++)
+			v *= len[ax][ci[ax]];
+		if (d->vfac[c] != 1.0f) {   /* some contact sphere reaches the cell: sample the bodies */
+			uint64_t total = D == 2 ? (uint64_t)m * m : (uint64_t)m * m * m, open = 0;
+			for (uint64_t q = 0; q < total; q++) {
+				double x[3];
+				uint64_t r = q;
+				for (int ax = 0; ax < D; ax++) {
+					x[ax] = (ci[ax] + ((double)(r % (uint64_t)m) + 0.5) / m) * d->h[ax];
+					r /= (uint64_t)m;
+				}
+				int in = 0;
+				for (int k = 0; k < d->nobst && !in; k++) {
+					double rel[3], r2 = 0, body = d->obst[k].S - 0.5 * d->sigma;
+					obst_rel(d, x, k, rel, D);
+					for (int ax = 0; ax < D; ax++)
+						r2 += rel[ax] * rel[ax];
+					in = r2 < body * body;
+				}
+				open += !in;
+			}
+			v *= (double)open / (double)total;
+		}
+		own[c] = (float)v;
+		a[c] = (float)v;
+		for (int ax = 0; ax < D && ++ci[ax] == d->nc[ax]; ax++)
+			ci[ax] = 0;
+	}
+	float *bs = block_sums(d, D, a, d->chit, &block);
+	for (size_t c = 0; c < d->ncells; c++)
+		own[c] = fmaxf(bs[c] - own[c], 0.0f);
+}
+
 /* Mixtures: chi_ij from the moments of the radii present over the box's
  * volume (with a correction; 1 without), and its value for the largest pair. */
 static void mix_contact(struct dsmc *d, const scene_t *s)
@@ -2292,8 +2338,10 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	if (d->local_chi) {
 		d->chic = malloc(d->ncells * sizeof(float));
 		d->chit = malloc(d->ncells * sizeof(float));
-		if (d->has_walls || d->mix)
+		if (d->has_walls || d->mix || d->nobst)
 			d->chilay = malloc(2 * ((size_t)d->nc[0] + d->nc[1] + d->nc[2]) * sizeof(double));
+		if (d->nobst)
+			d->vring = malloc(d->ncells * sizeof(float));
 		if (d->mix) {
 			d->chm = malloc(4 * d->ncells * sizeof(float));
 			d->mixa = malloc(2 * 5 * d->ncells * sizeof(float));
@@ -2304,6 +2352,8 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 		if (!d->vfac)
 			goto fail;
 		free_volume(d);
+		if (d->local_chi && d->vring && d->chic && d->chit && d->chilay)
+			ring_volumes_obst(d);
 	}
 	if (d->mix) {
 		d->spc = malloc(d->n);
@@ -2330,7 +2380,8 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	if (!d->ringp || !d->ringid || !d->overp || !d->overid || !d->overdst)
 		goto fail;
 	if (!d->p || !d->id || !d->cell || !d->start || !d->cnt || !d->rem ||
-	    (d->hsmc && !d->stamp) || (d->local_chi && (!d->chic || !d->chit || ((d->has_walls || d->mix) && !d->chilay) ||
+	    (d->hsmc && !d->stamp) || (d->local_chi && (!d->chic || !d->chit || ((d->has_walls || d->mix || d->nobst) && !d->chilay) ||
+	                      (d->nobst && !d->vring) ||
 	                      (d->mix && (!d->chm || !d->mixa)))))
 		goto fail;
 	*err = DSMC_OK;
@@ -2568,6 +2619,7 @@ void dsmc_destroy(dsmc_t *d)
 	free(d->chit);
 	free(d->chilay);
 	free(d->chm);
+	free(d->vring);
 	free(d->mixa);
 	free(d->vocc);
 	free(d->vfac);

@@ -24,11 +24,16 @@ struct dsmcp {
 	uint64_t key;                  /* (seed, stream) mixed: base of the cell keys */
 	double escale;                 /* fixed-point scale of the energy sums (a power of two) */
 
-	/* own particles: AoS x[D] v[D], identities; scratch of the same size */
+	/* own particles: AoS x[D] v[D], identities (56 B a particle in 3D), and the records that change cell
+	 * in a step, kept aside while the sort runs (sort_cells_d()) */
 	size_t nl, cap;
-	double *p, *p2;
-	uint32_t *id, *id2;            /* identities (N < 2^32, dsmcp_check()) */
-	uint32_t *cell;                /* local cell (cell - c0) of each record */
+	double *p;
+	uint32_t *id;                  /* identities (N < 2^32, dsmcp_check()) */
+	uint32_t *cell;                /* local cell (cell - c0) of each record, | MOVED if it changed cell;
+	                                * the sort's destinations */
+	double *mv;                    /* movers' records */
+	uint32_t *mvx;                 /* movers' identity and destination */
+	size_t mv_cap;
 	uint32_t *start, *cnt;         /* own cells + 1 */
 	float *rem;                    /* NTC remainder per own cell */
 	/* migrants */
@@ -129,29 +134,30 @@ int dsmcp_check(const scene_t *s, char *msg, size_t msglen)
 	return DSMCP_EINVAL;
 }
 
+/* cell[] flag: the record is not in the cell it was sorted into at the last step (dsmcp_move()), or
+ * arrived from another rank */
+#define MOVED 0x80000000u
+
 /* Room for cap particles. */
 static int reserve(struct dsmcp *d, size_t cap)
 {
 	if (cap <= d->cap)
 		return DSMCP_OK;
-	cap = cap + cap / 4 + 64;
+	/* a margin of 1/16: the arrivals of a step are a small fraction (0.2 % of N per step in 3D at 2 ranks) */
+	cap = cap + cap / 16 + 64;
+	if (cap >= MOVED)   /* local indices and cells below the flag bit */
+		return DSMCP_ENOMEM;
 	const size_t S = 2 * (size_t)d->dim;
 	double *p = realloc(d->p, cap * S * sizeof(double));
 	if (p)
 		d->p = p;
-	double *p2 = realloc(d->p2, cap * S * sizeof(double));
-	if (p2)
-		d->p2 = p2;
 	uint32_t *id = realloc(d->id, cap * sizeof(uint32_t));
 	if (id)
 		d->id = id;
-	uint32_t *id2 = realloc(d->id2, cap * sizeof(uint32_t));
-	if (id2)
-		d->id2 = id2;
 	uint32_t *cell = realloc(d->cell, cap * sizeof(uint32_t));
 	if (cell)
 		d->cell = cell;
-	if (!p || !p2 || !id || !id2 || !cell)
+	if (!p || !id || !cell)
 		return DSMCP_ENOMEM;
 	d->cap = cap;
 	return DSMCP_OK;
@@ -165,14 +171,53 @@ static double limbs_energy(const struct dsmcp *d, const uint64_t *limb)
 	return (double)acc / d->escale;
 }
 
-/* Stable counting sort of the own records into cells: the 1-rank order (see dsmcp.h, dsmcp_arrive()). */
-static ALWAYS_INLINE void sort_cells_d(struct dsmcp *d, const int D)
+/* Move every record k to dest[k] (a permutation) along its cycles, each record once: in place, but
+ * cycles jump through the whole array (measured 2.5x the step's CPU time as the sort of every step;
+ * used for the set-up's sort, and when the movers' room cannot be had). */
+static void permute_cycles(struct dsmcp *d, const int S)
+{
+	double *restrict p = d->p;
+	uint32_t *restrict id = d->id, *restrict dest = d->cell;
+	for (size_t i = 0; i < d->nl; i++) {
+		uint32_t j = dest[i];
+		if (j == i)
+			continue;   /* in place, or placed by an earlier cycle */
+		double carry[6], tmp[6];
+		memcpy(carry, &p[i * S], S * sizeof(double));
+		uint32_t cid = id[i];
+		dest[i] = (uint32_t)i;
+		while (j != i) {   /* carry to j, take what was there on to its destination */
+			memcpy(tmp, &p[(size_t)j * S], S * sizeof(double));
+			memcpy(&p[(size_t)j * S], carry, S * sizeof(double));
+			memcpy(carry, tmp, S * sizeof(double));
+			uint32_t t = id[j];
+			id[j] = cid;
+			cid = t;
+			uint32_t jn = dest[j];
+			dest[j] = j;
+			j = jn;
+		}
+		memcpy(&p[i * S], carry, S * sizeof(double));
+		id[i] = cid;
+	}
+}
+
+/* Stable counting sort of the own records into cells: the 1-rank order (see dsmcp.h, dsmcp_arrive()),
+ * without a second copy of the records. Each record's destination (its cell's next slot, the records
+ * taken in the stable order) replaces its cell. The records that stayed in their cell ("stayers": not
+ * MOVED) keep their relative order and their destinations increase with their index (a cell's stayers
+ * come after the records arriving from lower cells and before those from higher ones); the others
+ * ("movers", about 29 % of the records per step with cells of one mean free path and steps of
+ * 0.2 mean free times in 3D) are copied aside and the stayers shifted to their destinations in place
+ * (below), then the movers written to theirs. Sequential passes but the movers' writes.
+ * full (the set-up: records in identity order): every record moves, permute_cycles(). */
+static ALWAYS_INLINE void sort_cells_d(struct dsmcp *d, const int D, int full)
 {
 	const int S = 2 * D;
 	const size_t nown = d->c1 - d->c0;
 	memset(d->cnt, 0, (nown + 1) * sizeof(uint32_t));
 	for (size_t k = 0; k < d->nl; k++)
-		d->cnt[d->cell[k]]++;
+		d->cnt[d->cell[k] & ~MOVED]++;
 	uint32_t acc = 0;
 	for (size_t c = 0; c < nown; c++) {
 		uint32_t k = d->cnt[c];
@@ -183,29 +228,88 @@ static ALWAYS_INLINE void sort_cells_d(struct dsmcp *d, const int D)
 	/* stable over the 1-rank order: arrivals from lower ranks (lower cells),
 	 * the own survivors, arrivals from higher ranks (dsmcp_arrive()) */
 	const size_t seg[3][2] = {{d->nown_nl, d->nown_nl + d->nlow}, {0, d->nown_nl}, {d->nown_nl + d->nlow, d->nl}};
+	uint32_t *restrict dest = d->cell;
+	/* the movers: flagged, or out of order (a record displaced by CBA, whose position is not in the
+	 * cell it was sorted into); counted here for the own records, taken in index order (the arrivals,
+	 * after them, are all movers) */
+	size_t m = d->nl - d->nown_nl, ns = 0;
+	uint32_t last = 0;
 	for (int g = 0; g < 3; g++)
 		for (size_t k = seg[g][0]; k < seg[g][1]; k++) {
-			uint32_t j = d->cnt[d->cell[k]]++;
-			memcpy(&d->p2[(size_t)j * S], &d->p[k * S], S * sizeof(double));
-			d->id2[j] = d->id[k];
+			uint32_t c = dest[k];
+			uint32_t j = (d->cnt[c & ~MOVED]++) | (full ? 0 : c & MOVED);
+			dest[k] = j;
+			if (g == 1) {
+				if ((j & MOVED) || (ns > 0 && j <= last)) {
+					dest[k] = j | MOVED;
+					m++;
+				} else {
+					last = j;
+					ns++;
+				}
+			}
 		}
-	d->nown_nl = d->nl;
+	const size_t nl = d->nl;
+	d->nown_nl = nl;
 	d->nlow = 0;
-	double *tp = d->p;
-	d->p = d->p2;
-	d->p2 = tp;
-	uint32_t *ti = d->id;
-	d->id = d->id2;
-	d->id2 = ti;
+	if (!full && m > d->mv_cap) {
+		size_t cap = m + m / 8 + 64;
+		double *mv = realloc(d->mv, cap * S * sizeof(double));
+		if (mv)
+			d->mv = mv;
+		uint32_t *mvx = realloc(d->mvx, cap * 2 * sizeof(uint32_t));
+		if (mvx)
+			d->mvx = mvx;
+		if (mv && mvx)
+			d->mv_cap = cap;
+	}
+	if (full || m > d->mv_cap) {
+		for (size_t k = 0; k < nl; k++)
+			dest[k] &= ~MOVED;
+		permute_cycles(d, S);
+		return;
+	}
+	/* The stayers' destinations increase with their index, so a stayer at k bound for j < k finds
+	 * there a mover already copied aside or a stayer already moved (one before it, bound further
+	 * left), and one bound for j > k, taken from the back, a hole or a stayer already moved on:
+	 * the movers aside and the left moves in one pass forward, the right moves in one backward,
+	 * then the movers to their places. Each stayer moves at most once. */
+	double *restrict p = d->p, *restrict mv = d->mv;
+	uint32_t *restrict id = d->id, *restrict mvx = d->mvx;
+	size_t nm = 0;
+	for (size_t k = 0; k < nl; k++) {
+		uint32_t j = dest[k];
+		if (j & MOVED) {
+			memcpy(&mv[nm * S], &p[k * S], S * sizeof(double));
+			mvx[2 * nm] = id[k];
+			mvx[2 * nm + 1] = j & ~MOVED;
+			nm++;
+		} else if (j < k) {
+			memcpy(&p[(size_t)j * S], &p[k * S], S * sizeof(double));
+			id[j] = id[k];
+		}
+	}
+	for (size_t k = nl; k-- > 0;) {
+		uint32_t j = dest[k];
+		if (!(j & MOVED) && j > k) {
+			memcpy(&p[(size_t)j * S], &p[k * S], S * sizeof(double));
+			id[j] = id[k];
+		}
+	}
+	for (size_t i = 0; i < nm; i++) {
+		uint32_t j = mvx[2 * i + 1];
+		memcpy(&p[(size_t)j * S], &mv[i * S], S * sizeof(double));
+		id[j] = mvx[2 * i];
+	}
 }
 
 /* D a constant in each copy: the record copies inline. */
-static void sort_cells(struct dsmcp *d)
+static void sort_cells(struct dsmcp *d, int full)
 {
 	if (d->dim == 3)
-		sort_cells_d(d, 3);
+		sort_cells_d(d, 3, full);
 	else
-		sort_cells_d(d, 2);
+		sort_cells_d(d, 2, full);
 }
 
 int dsmcp_direct_ok(const scene_t *s)
@@ -290,6 +394,73 @@ static int fill_direct(struct dsmcp *d, const scene_t *s, uint64_t stream)
 	return DSMCP_OK;
 }
 
+/* The grid, constants and per-cell memory of rank `rank` of `ranks` for
+ * geometry g (no particles yet). NULL when out of memory. */
+static struct dsmcp *make(const scene_t *s, const dsmc_geom_t *g, uint64_t stream, int rank, int ranks)
+{
+	size_t nown;
+	struct dsmcp *d = calloc(1, sizeof *d);
+	if (!d)
+		return NULL;
+	const int D = g->dim;
+	d->dim = D;
+	d->rank = rank;
+	d->ranks = ranks;
+	d->n = g->n;
+	d->plane = 1;
+	for (int a = 0; a < 3; a++) {
+		d->L[a] = g->L[a];
+		d->nc[a] = g->nc[a];
+		d->inv_h[a] = g->nc[a] / g->L[a];
+		if (a < D - 1)
+			d->plane *= (size_t)g->nc[a];
+	}
+	const int nz = g->nc[D - 1];
+	d->p0 = (int)((int64_t)rank * nz / ranks);
+	d->p1 = (int)((int64_t)(rank + 1) * nz / ranks);
+	d->c0 = (size_t)d->p0 * d->plane;
+	d->c1 = (size_t)d->p1 * d->plane;
+	d->owner = malloc((size_t)nz * sizeof(int));
+	if (!d->owner)
+		goto fail;
+	for (int r = 0; r < ranks; r++)
+		for (int z = (int)((int64_t)r * nz / ranks); z < (int)((int64_t)(r + 1) * nz / ranks); z++)
+			d->owner[z] = r;
+	d->sigma = g->sigma;
+	d->mass = g->mass;
+	d->e = g->e;
+	d->chi = g->chi;
+	d->sigma_t = g->sigma_t;
+	d->vcell = g->vcell;
+	d->fcoef = g->fcoef;
+	d->cps = g->cps;
+	d->dt_fixed = g->dt_fixed;
+	d->cba = g->cba;
+	d->hsmc = g->hsmc;
+	d->nfull = g->nfull;
+	d->key = mix64(s->seed ^ mix64(0xa0761d6478bd642full * (stream + 1)));
+
+	nown = d->c1 - d->c0;
+	d->start = calloc(nown + 1, sizeof(uint32_t));
+	d->cnt = calloc(nown + 1, sizeof(uint32_t));
+	d->rem = malloc((nown ? nown : 1) * sizeof(float));
+	d->out_cnt = calloc((size_t)ranks, sizeof(size_t));
+	d->out_pos = calloc((size_t)ranks, sizeof(size_t));
+	if (!d->start || !d->cnt || !d->rem || !d->out_cnt || !d->out_pos)
+		goto fail;
+	if (d->hsmc) {
+		const size_t ncells = d->plane * (size_t)nz;
+		d->gcm = calloc(ncells * (size_t)(1 + D), sizeof(double));
+		d->gstamp = calloc(ncells, sizeof(uint32_t));
+		if (!d->gcm || !d->gstamp)
+			goto fail;
+	}
+	return d;
+fail:
+	dsmcp_destroy(d);
+	return NULL;
+}
+
 dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int rank, int ranks, int *err,
                       char *msg, size_t msglen)
 {
@@ -319,62 +490,11 @@ dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int
 		goto fail;
 	}
 	*err = DSMCP_ENOMEM;
-	d = calloc(1, sizeof *d);
+	d = make(s, &g, stream, rank, ranks);
 	if (!d)
 		goto fail;
 	const int D = g.dim;
-	d->dim = D;
-	d->rank = rank;
-	d->ranks = ranks;
-	d->n = g.n;
-	d->plane = 1;
-	for (int a = 0; a < 3; a++) {
-		d->L[a] = g.L[a];
-		d->nc[a] = g.nc[a];
-		d->inv_h[a] = g.nc[a] / g.L[a];
-		if (a < D - 1)
-			d->plane *= (size_t)g.nc[a];
-	}
-	const int nz = g.nc[D - 1];
-	d->p0 = (int)((int64_t)rank * nz / ranks);
-	d->p1 = (int)((int64_t)(rank + 1) * nz / ranks);
-	d->c0 = (size_t)d->p0 * d->plane;
-	d->c1 = (size_t)d->p1 * d->plane;
-	d->owner = malloc((size_t)nz * sizeof(int));
-	if (!d->owner)
-		goto fail;
-	for (int r = 0; r < ranks; r++)
-		for (int z = (int)((int64_t)r * nz / ranks); z < (int)((int64_t)(r + 1) * nz / ranks); z++)
-			d->owner[z] = r;
-	d->sigma = g.sigma;
-	d->mass = g.mass;
-	d->e = g.e;
-	d->chi = g.chi;
-	d->sigma_t = g.sigma_t;
-	d->vcell = g.vcell;
-	d->fcoef = g.fcoef;
-	d->cps = g.cps;
-	d->dt_fixed = g.dt_fixed;
-	d->cba = g.cba;
-	d->hsmc = g.hsmc;
-	d->nfull = g.nfull;
-	d->key = mix64(s->seed ^ mix64(0xa0761d6478bd642full * (stream + 1)));
-
 	const size_t nown = d->c1 - d->c0;
-	d->start = calloc(nown + 1, sizeof(uint32_t));
-	d->cnt = calloc(nown + 1, sizeof(uint32_t));
-	d->rem = malloc((nown ? nown : 1) * sizeof(float));
-	d->out_cnt = calloc((size_t)ranks, sizeof(size_t));
-	d->out_pos = calloc((size_t)ranks, sizeof(size_t));
-	if (!d->start || !d->cnt || !d->rem || !d->out_cnt || !d->out_pos)
-		goto fail;
-	if (d->hsmc) {
-		const size_t ncells = d->plane * (size_t)nz;
-		d->gcm = calloc(ncells * (size_t)(1 + D), sizeof(double));
-		d->gstamp = calloc(ncells, sizeof(uint32_t));
-		if (!d->gcm || !d->gstamp)
-			goto fail;
-	}
 	if (init) {
 		pos = malloc((size_t)g.n * D * sizeof(double));
 		vel = malloc((size_t)g.n * D * sizeof(double));
@@ -395,7 +515,7 @@ dsmcp_t *dsmcp_create(const scene_t *s, const dsmc_t *init, uint64_t stream, int
 		goto fail;
 	}
 	d->nown_nl = d->nl;
-	sort_cells(d);
+	sort_cells(d, 1);
 	/* remainders uniform on [0, 1) from the generator of (key, step 2^64 - 1, cell) */
 	for (size_t c = 0; c < nown; c++) {
 		rng_t r;
@@ -433,10 +553,10 @@ void dsmcp_destroy(dsmcp_t *d)
 		return;
 	free(d->owner);
 	free(d->p);
-	free(d->p2);
 	free(d->id);
-	free(d->id2);
 	free(d->cell);
+	free(d->mv);
+	free(d->mvx);
 	free(d->start);
 	free(d->cnt);
 	free(d->rem);
@@ -490,12 +610,13 @@ static ALWAYS_INLINE int move_d(dsmcp_t *d, double dt, const int D)
 	size_t cur = 0;   /* hsmc: the own cell of record k (records in cell order) */
 	for (size_t k = 0; k < nl; k++) {
 		double *x = &p[k * S], *v = x + D;
-		size_t c = 0;
+		size_t c = 0, was;   /* the new cell; the cell of the position before the flight (MOVED) */
 		if (d->hsmc) {
 			/* a move into another cell full at the start of the step is rejected */
 			double y[3];
 			while (k >= d->start[cur + 1])
 				cur++;
+			was = c0 + cur;
 			for (int a = D - 1; a >= 0; a--) {
 				y[a] = wrap(x[a] + v[a] * dt, L[a]);
 				int ix = (int)(y[a] * ih[a]);
@@ -510,7 +631,11 @@ static ALWAYS_INLINE int move_d(dsmcp_t *d, double dt, const int D)
 					x[a] = y[a];
 			}
 		} else {
+			was = 0;
 			for (int a = D - 1; a >= 0; a--) {
+				int iw = (int)(x[a] * ih[a]);
+				iw = iw >= ncl[a] ? ncl[a] - 1 : iw;
+				was = was * (size_t)ncl[a] + (size_t)iw;
 				double y = wrap(x[a] + v[a] * dt, L[a]);
 				x[a] = y;
 				int ix = (int)(y * ih[a]);
@@ -519,7 +644,7 @@ static ALWAYS_INLINE int move_d(dsmcp_t *d, double dt, const int D)
 			}
 		}
 		if (c >= c0 && c < c1) {
-			cell[k] = (uint32_t)(c - c0);
+			cell[k] = (uint32_t)(c - c0) | (c != was ? MOVED : 0);   /* MOVED: for sort_cells_d() */
 		} else {
 			cell[k] = UINT32_MAX;
 			d->out_cnt[d->owner[c / d->plane]]++;
@@ -590,7 +715,7 @@ int dsmcp_arrive(dsmcp_t *d, const double *rec, size_t n, size_t nlow)
 			return DSMCP_EINVAL;
 		memcpy(&d->p[d->nl * S], r, S * sizeof(double));
 		d->id[d->nl] = (uint32_t)r[S];
-		d->cell[d->nl++] = (uint32_t)(c - d->c0);
+		d->cell[d->nl++] = (uint32_t)(c - d->c0) | MOVED;
 	}
 	return DSMCP_OK;
 }
@@ -607,7 +732,7 @@ static ALWAYS_INLINE void collide_d(dsmcp_t *d, double dt, dsmcp_sums_t *part, c
 	uint64_t ncoll = 0, ncand = 0, nraise = 0;
 	double virial = 0;
 	unsigned __int128 eacc = 0;
-	sort_cells(d);
+	sort_cells(d, 0);
 	const size_t nown = d->c1 - d->c0;
 	for (size_t c = 0; c < nown; c++) {
 		uint32_t k0 = d->start[c], nc = d->start[c + 1] - k0;
@@ -1025,7 +1150,233 @@ int dsmcp_dim(const dsmcp_t *d) { return d->dim; }
 size_t dsmcp_memory(const dsmcp_t *d)
 {
 	const size_t S = 2 * (size_t)d->dim, nown = d->c1 - d->c0;
-	return sizeof *d + d->cap * (2 * S * sizeof(double) + 2 * sizeof(uint32_t) + sizeof(uint32_t)) +
+	return sizeof *d + d->cap * (S * sizeof(double) + 2 * sizeof(uint32_t)) + d->mv_cap * (S * sizeof(double) + 2 * sizeof(uint32_t)) +
 	       (nown + 1) * 2 * sizeof(uint32_t) + nown * sizeof(float) + d->out_cap * (S + 1) * sizeof(double) +
 	       (size_t)d->nc[d->dim - 1] * sizeof(int);
+}
+
+/* ---- checkpoints ------------------------------------------------------------------ */
+
+void dsmcp_clock(const dsmcp_t *d, dsmcp_clock_t *c)
+{
+	c->time = d->t;
+	c->kinetic_energy = d->ekin;
+	c->energy_scale = d->escale;
+	c->t_sample = d->t_sample;
+	c->ekin_int = d->ekin_int;
+	c->steps = d->steps;
+	c->collisions = d->collisions;
+	c->candidates = d->candidates;
+	c->vmax_raised = d->vmax_raised;
+	c->migrated = d->migrated;
+	c->moves = d->moves;
+	c->cell_collisions = d->cell_collisions;
+	c->rejected = d->rejected;
+}
+
+void dsmcp_cells(const dsmcp_t *d, uint64_t *c0, uint64_t *c1)
+{
+	*c0 = d->c0;
+	*c1 = d->c1;
+}
+
+void dsmcp_cell_state(const dsmcp_t *d, uint32_t *count, double *rem)
+{
+	for (size_t c = 0; c < d->c1 - d->c0; c++) {
+		count[c] = d->start[c + 1] - d->start[c];
+		rem[c] = d->rem[c];
+	}
+}
+
+size_t dsmcp_local_ids(const dsmcp_t *d, uint32_t *ids)
+{
+	memcpy(ids, d->id, d->nl * sizeof(uint32_t));
+	return d->nl;
+}
+
+double dsmcp_virial_part(const dsmcp_t *d) { return d->virial; }
+
+/* The geometry a restored state is built on: the scene's (as the direct set-up). */
+static int geometry(const scene_t *s, dsmc_geom_t *g, char *msg, size_t msglen)
+{
+	if (dsmcp_check(s, msg, msglen) != DSMCP_OK || dsmc_geometry_scene(s, g, msg, msglen) != DSMC_OK)
+		return DSMCP_EINVAL;
+	if (g->mix || g->bounded || g->local_chi || g->impact) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "method: the scene uses a feature the decomposed dsmc does not support");
+		return DSMCP_EINVAL;
+	}
+	return DSMCP_OK;
+}
+
+int dsmcp_cells_of(const scene_t *s, int rank, int ranks, uint64_t *c0, uint64_t *c1, uint64_t *ncells, char *msg,
+                   size_t msglen)
+{
+	dsmc_geom_t g;
+	if (ranks < 1 || rank < 0 || rank >= ranks || geometry(s, &g, msg, msglen) != DSMCP_OK)
+		return DSMCP_EINVAL;
+	const int D = g.dim, nz = g.nc[D - 1];
+	uint64_t plane = 1;
+	for (int a = 0; a < D - 1; a++)
+		plane *= (uint64_t)g.nc[a];
+	*c0 = (uint64_t)((int64_t)rank * nz / ranks) * plane;
+	*c1 = (uint64_t)((int64_t)(rank + 1) * nz / ranks) * plane;
+	*ncells = plane * (uint64_t)nz;
+	return DSMCP_OK;
+}
+
+int dsmcp_saved_alloc(dsmcp_saved_t *sv, int dim, uint64_t n, uint64_t ncells)
+{
+	memset(sv, 0, sizeof *sv);
+	sv->dim = dim;
+	sv->n = n;
+	sv->ncells = ncells;
+	sv->pos = malloc((n ? n : 1) * (size_t)dim * sizeof(double));
+	sv->vel = malloc((n ? n : 1) * (size_t)dim * sizeof(double));
+	sv->id = malloc((n ? n : 1) * sizeof(uint32_t));
+	sv->count = malloc((ncells ? ncells : 1) * sizeof(uint32_t));
+	sv->rem = malloc((ncells ? ncells : 1) * sizeof(double));
+	if (sv->pos && sv->vel && sv->id && sv->count && sv->rem)
+		return DSMCP_OK;
+	dsmcp_saved_free(sv);
+	return DSMCP_ENOMEM;
+}
+
+void dsmcp_saved_free(dsmcp_saved_t *sv)
+{
+	free(sv->pos);
+	free(sv->vel);
+	free(sv->id);
+	free(sv->count);
+	free(sv->rem);
+	sv->pos = sv->vel = sv->rem = NULL;
+	sv->id = sv->count = NULL;
+}
+
+/* A remainder as the engine keeps it: a float, finite, not negative. */
+static int rem_ok(double r) { return r >= 0 && isfinite(r) && (double)(float)r == r; }
+
+int dsmcp_saved_check(const dsmcp_saved_t *sv, const scene_t *s, char *msg, size_t msglen)
+{
+	dsmc_geom_t g;
+	const char *why = NULL;
+	uint8_t *seen = NULL;
+	if (geometry(s, &g, msg, msglen) != DSMCP_OK)
+		return DSMCP_EINVAL;
+	uint64_t ncells = 1, sum = 0;
+	for (int a = 0; a < g.dim; a++)
+		ncells *= (uint64_t)g.nc[a];
+	const dsmcp_clock_t *c = &sv->clock;
+	int ex = 0;
+	if (sv->dim != g.dim || sv->n != g.n || sv->ncells != ncells)
+		why = "the state's size does not fit the scene";
+	else if (!(c->time >= 0) || !isfinite(c->time) || !(c->kinetic_energy >= 0) || !isfinite(c->kinetic_energy) ||
+	         !(c->t_sample >= 0) || !(c->t_sample <= c->time) || !isfinite(c->ekin_int) || !isfinite(sv->virial) ||
+	         !(c->energy_scale > 0) || !isfinite(c->energy_scale) || frexp(c->energy_scale, &ex) != 0.5 ||
+	         c->moves != c->steps * sv->n)
+		why = "the clock or the counters are inconsistent";
+	for (uint64_t k = 0; !why && k < ncells; k++) {
+		sum += sv->count[k];
+		if (!rem_ok(sv->rem[k]))
+			why = "a cell remainder is not a non-negative float";
+	}
+	if (!why && sum != sv->n)
+		why = "the cell counts do not add up to the particles";
+	if (!why && !(seen = calloc(sv->n ? sv->n : 1, 1))) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "out of memory");
+		return DSMCP_ENOMEM;
+	}
+	const int D = sv->dim;
+	for (uint64_t i = 0; !why && i < sv->n; i++) {
+		uint32_t id = sv->id[i];
+		if (id >= sv->n || seen[id]++)
+			why = "the identities are not a permutation";
+		for (int a = 0; !why && a < D; a++) {
+			double x = sv->pos[i * D + a], v = sv->vel[i * D + a];
+			if (!(x >= 0 && x < g.L[a]) || !isfinite(v))
+				why = "a particle is outside the box or has a non-finite velocity";
+		}
+	}
+	free(seen);
+	if (!why)
+		return DSMCP_OK;
+	if (msg && msglen)
+		snprintf(msg, msglen, "%s", why);
+	return DSMCP_EINVAL;
+}
+
+dsmcp_t *dsmcp_restore(const scene_t *s, uint64_t stream, int rank, int ranks, const dsmcp_clock_t *c, double virial,
+                       size_t nl, const double *pos, const double *vel, const uint32_t *id, const uint32_t *count,
+                       const double *rem, int *err, char *msg, size_t msglen)
+{
+	struct dsmcp *d = NULL;
+	dsmc_geom_t g;
+	*err = DSMCP_EINVAL;
+	if (msg && msglen)
+		msg[0] = '\0';
+	if (ranks < 1 || rank < 0 || rank >= ranks) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "run: rank %d of %d", rank, ranks);
+		goto fail;
+	}
+	if (geometry(s, &g, msg, msglen) != DSMCP_OK)
+		goto fail;
+	*err = DSMCP_ENOMEM;
+	if (!(d = make(s, &g, stream, rank, ranks)) || reserve(d, nl + 1) != DSMCP_OK)
+		goto fail;
+	*err = DSMCP_EINVAL;
+	const int D = d->dim, S = 2 * D;
+	const size_t nown = d->c1 - d->c0;
+	uint64_t acc = 0;
+	for (size_t q = 0; q < nown; q++) {
+		d->start[q] = (uint32_t)acc;
+		acc += count[q];
+		if (acc > UINT32_MAX || !rem_ok(rem[q]))
+			goto bad;
+		d->rem[q] = (float)rem[q];
+		for (uint64_t k = d->start[q]; k < acc && k < nl; k++)
+			d->cell[k] = (uint32_t)q;
+	}
+	d->start[nown] = (uint32_t)acc;
+	if (acc != nl)
+		goto bad;
+	for (size_t k = 0; k < nl; k++) {
+		if (id[k] >= d->n)
+			goto bad;
+		for (int a = 0; a < D; a++) {
+			double x = pos[k * D + a], v = vel[k * D + a];
+			if (!(x >= 0 && x < d->L[a]) || !isfinite(v))
+				goto bad;
+			d->p[k * S + a] = x;
+			d->p[k * S + D + a] = v;
+		}
+		d->id[k] = id[k];
+	}
+	d->nl = d->nown_nl = nl;
+	d->nlow = 0;
+	d->t = c->time;
+	d->ekin = c->kinetic_energy;
+	d->escale = c->energy_scale;
+	d->t_sample = c->t_sample;
+	d->ekin_int = c->ekin_int;
+	d->steps = c->steps;
+	d->collisions = c->collisions;
+	d->candidates = c->candidates;
+	d->vmax_raised = c->vmax_raised;
+	d->migrated = c->migrated;
+	d->moves = c->moves;
+	d->cell_collisions = c->cell_collisions;
+	d->rejected = c->rejected;
+	d->virial = virial;
+	*err = DSMCP_OK;
+	return d;
+bad:
+	if (msg && msglen)
+		snprintf(msg, msglen, "run: the saved state of rank %d's cells is inconsistent", rank);
+fail:
+	if (*err == DSMCP_ENOMEM && msg && msglen)
+		snprintf(msg, msglen, "run: out of memory for the decomposed dsmc");
+	dsmcp_destroy(d);
+	return NULL;
 }

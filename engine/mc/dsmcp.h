@@ -165,3 +165,63 @@ void dsmcp_momentum(const dsmcp_t *d, double *mom);
 void dsmcp_slab(const dsmcp_t *d, int *p0, int *p1, int nc[3]);
 int dsmcp_dim(const dsmcp_t *d);
 size_t dsmcp_memory(const dsmcp_t *d);
+
+/*
+ * Checkpoints (docs/output.md "Split runs"). Between steps (after
+ * dsmcp_finish() or dsmcp_start()) the whole state is: every rank's records
+ * in its local order, which concatenated in rank order is the 1-rank order;
+ * the records per cell of the last sort (with CBA a record may have left
+ * its cell since: its cell is where it was sorted, which the next hsmc
+ * step needs); the per-cell remainders; the clock and counters; the
+ * interval accumulators. None of it depends on P (but the statistic
+ * `migrated`, which counts the migrants of the rank counts that ran), so a
+ * state saved at P ranks restores at any P' (dsmcp_restore()): given the same stop times,
+ * the restored run is bit for bit the uninterrupted one (the hsmc stamps
+ * restart at 0, which no step's mark equals before step 2^32 - 1).
+ */
+typedef struct {
+	double time, kinetic_energy, energy_scale, t_sample, ekin_int;
+	uint64_t steps, collisions, candidates, vmax_raised, migrated, moves, cell_collisions, rejected;
+} dsmcp_clock_t;
+void dsmcp_clock(const dsmcp_t *d, dsmcp_clock_t *c);
+/* This rank's own cells [*c0, *c1) (global indices). */
+void dsmcp_cells(const dsmcp_t *d, uint64_t *c0, uint64_t *c1);
+/* Records per own cell and the remainders (c1 - c0 each). */
+void dsmcp_cell_state(const dsmcp_t *d, uint32_t *count, double *rem);
+/* This rank's identities (uint32) in local order; the count. */
+size_t dsmcp_local_ids(const dsmcp_t *d, uint32_t *ids);
+/* This rank's part of the collision virial of the open interval. */
+double dsmcp_virial_part(const dsmcp_t *d);
+/* The cells rank `rank` of `ranks` owns for scene s and the grid's total:
+ * DSMCP_OK, or DSMCP_EINVAL with msg. */
+int dsmcp_cells_of(const scene_t *s, int rank, int ranks, uint64_t *c0, uint64_t *c1, uint64_t *ncells, char *msg,
+                   size_t msglen);
+
+/* A whole saved state in the 1-rank order (rank 0 of a checkpoint). */
+typedef struct {
+	dsmcp_clock_t clock;
+	double virial;              /* summed over the ranks */
+	int dim;
+	uint64_t n, ncells;
+	double *pos, *vel;          /* n * dim */
+	uint32_t *id;               /* n */
+	uint32_t *count;            /* ncells: records per cell at the last sort */
+	double *rem;                /* ncells: no-time-counter remainders (floats, exact in doubles) */
+} dsmcp_saved_t;
+/* Arrays for n particles and ncells cells (zeroed struct otherwise):
+ * DSMCP_OK or DSMCP_ENOMEM (then nothing is held). */
+int dsmcp_saved_alloc(dsmcp_saved_t *sv, int dim, uint64_t n, uint64_t ncells);
+void dsmcp_saved_free(dsmcp_saved_t *sv);
+/* A loaded state fits scene s and is consistent (counts add up to N, the
+ * identities a permutation, positions in the box, finite numbers):
+ * DSMCP_OK, or DSMCP_EINVAL with the first reason in msg. */
+int dsmcp_saved_check(const dsmcp_saved_t *sv, const scene_t *s, char *msg, size_t msglen);
+
+/* Rank `rank` of `ranks` from a saved state: its own cells' part (the
+ * records of cells [c0, c1) of dsmcp_cells_of(), nl of them, in the saved
+ * order; count and rem of those cells), the global clock, and the virial
+ * this rank carries (rank 0: the saved sum; others 0). No dsmcp_start()
+ * follows. NULL with *err and msg. */
+dsmcp_t *dsmcp_restore(const scene_t *s, uint64_t stream, int rank, int ranks, const dsmcp_clock_t *c, double virial,
+                       size_t nl, const double *pos, const double *vel, const uint32_t *id, const uint32_t *count,
+                       const double *rem, int *err, char *msg, size_t msglen);

@@ -105,7 +105,9 @@ static double cpu_now(void)
 	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-static int step_x(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st, xbuf_t *x, int P, int rank)
+/* One step; flags (may be NULL): rank 0's stop and wall-clock checkpoint flags in (0 elsewhere),
+ * summed over the ranks in the step's own reduction out (so they cost no message of their own). */
+static int step_x(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st, xbuf_t *x, int P, int rank, uint64_t *flags)
 {
 	int last;
 	double w0 = MPI_Wtime(), wc = 0, u0 = cpu_now(), uc = 0, cu0 = 0;
@@ -193,7 +195,14 @@ static int step_x(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st, xbuf_t *x, int
 		wc += MPI_Wtime() - c0, uc += cpu_now() - cu0;
 		return rc != DSMCP_OK ? rc : DSMCP_EINVAL;
 	}
-	MPI_Allreduce(part.w, sum.w, DSMCP_NSUM, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+	uint64_t in[DSMCP_NSUM + 2], out[DSMCP_NSUM + 2];
+	memcpy(in, part.w, sizeof part.w);
+	in[DSMCP_NSUM] = flags ? flags[0] : 0;
+	in[DSMCP_NSUM + 1] = flags ? flags[1] : 0;
+	MPI_Allreduce(in, out, DSMCP_NSUM + 2, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+	memcpy(sum.w, out, sizeof sum.w);
+	if (flags)
+		flags[0] = out[DSMCP_NSUM], flags[1] = out[DSMCP_NSUM + 1];
 	wc += MPI_Wtime() - c0, uc += cpu_now() - cu0;
 	dsmcp_finish(d, &sum, dt, last, t_stop);
 	if (st) {
@@ -240,7 +249,7 @@ int dsmcrun_step(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st)
 	MPI_Comm_rank(MPI_COMM_WORLD, &rank);
 	int bad = xbuf_init(&x, P) != 0;
 	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
-	int rc = bad ? DSMCP_ENOMEM : step_x(d, t_stop, st, &x, P, rank);
+	int rc = bad ? DSMCP_ENOMEM : step_x(d, t_stop, st, &x, P, rank, NULL);
 	xbuf_free(&x);
 	return rc;
 }
@@ -412,18 +421,272 @@ static int emit_all(int rank, run_emit_fn emit, void *ctx, const run_record_t *r
 	return bad;
 }
 
-int dsmcrun_run(const scene_t *s, int rank, int size, int frames, run_emit_fn emit, void *ctx,
+/* MPI counts are ints: a part of more than INT32_MAX elements cannot go in one call. */
+static int too_big(uint64_t n) { return n > INT32_MAX; }
+
+/* The whole state gathered to rank 0 in the 1-rank order (collective):
+ * on rank 0 ck->state is allocated and filled (the caller frees it; rank
+ * 0's own part is copied in place, first: no second copy of it). 0 on
+ * every rank, or -1 on every rank (out of memory, or a part too large for
+ * one MPI call). */
+static int gather_state(dsmcp_t *d, const scene_t *s, int rank, int size, ckpt_split_t *ck)
+{
+	const int D = s->dim;
+	uint64_t c0, c1, ncells = 0;
+	dsmcp_cells(d, &c0, &c1);
+	size_t nl = dsmcp_local(d, NULL, NULL, NULL), nown = (size_t)(c1 - c0);
+	const size_t bl = rank == 0 ? 0 : nl, bc = rank == 0 ? 0 : nown;   /* rank 0 writes into the state */
+	double *x = malloc((bl + 1) * D * sizeof(double)), *v = malloc((bl + 1) * D * sizeof(double));
+	double *rem = malloc((bc + 1) * sizeof(double));
+	uint32_t *id = malloc((bl + 1) * sizeof(uint32_t)), *cnt = malloc((bc + 1) * sizeof(uint32_t));
+	int *rc = NULL, *rd = NULL, *cc = NULL, *cd = NULL;
+	int bad = !x || !v || !rem || !id || !cnt || too_big(nl * (uint64_t)D);
+	if (rank == 0) {
+		rc = calloc((size_t)size * 4, sizeof(int));
+		bad = bad || !rc || too_big(s->count * (uint64_t)D) ||
+		      dsmcp_cells_of(s, 0, size, &c0, &c1, &ncells, NULL, 0) != DSMCP_OK || too_big(ncells) ||
+		      dsmcp_saved_alloc(&ck->state, D, s->count, ncells) != DSMCP_OK;
+		if (rc)
+			rd = rc + size, cc = rc + 2 * size, cd = rc + 3 * size;
+		dsmcp_cells(d, &c0, &c1);
+	}
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (bad)
+		goto cleanup;
+	dsmcp_saved_t *sv = &ck->state;
+	if (rank == 0) {   /* the first part, in place */
+		dsmcp_local(d, NULL, sv->pos, sv->vel);
+		dsmcp_local_ids(d, sv->id);
+		dsmcp_cell_state(d, sv->count, sv->rem);
+	} else {
+		dsmcp_local(d, NULL, x, v);
+		dsmcp_local_ids(d, id);
+		dsmcp_cell_state(d, cnt, rem);
+	}
+	int mine[2] = {(int)nl, (int)nown}, all[2 * 64], *both = NULL;
+	both = size <= 64 ? all : malloc((size_t)size * 2 * sizeof(int));
+	bad = both == NULL;
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (bad)
+		goto cleanup;
+	MPI_Gather(mine, 2, MPI_INT, both, 2, MPI_INT, 0, MPI_COMM_WORLD);
+	if (rank == 0)
+		for (int r = 0, ro = 0, co = 0; r < size; r++) {
+			rc[r] = both[2 * r];
+			rd[r] = ro;
+			cc[r] = both[2 * r + 1];
+			cd[r] = co;
+			ro += rc[r];
+			co += cc[r];
+		}
+	if (both != all)
+		free(both);
+	/* positions and velocities: D doubles a record; the root's part is in place (displacement 0) */
+	const int root = rank == 0;
+	MPI_Datatype rec;
+	MPI_Type_contiguous(D, MPI_DOUBLE, &rec);
+	MPI_Type_commit(&rec);
+	MPI_Gatherv(root ? MPI_IN_PLACE : x, (int)nl, rec, root ? sv->pos : NULL, rc, rd, rec, 0, MPI_COMM_WORLD);
+	MPI_Gatherv(root ? MPI_IN_PLACE : v, (int)nl, rec, root ? sv->vel : NULL, rc, rd, rec, 0, MPI_COMM_WORLD);
+	MPI_Type_free(&rec);
+	MPI_Gatherv(root ? MPI_IN_PLACE : id, (int)nl, MPI_UINT32_T, root ? sv->id : NULL, rc, rd, MPI_UINT32_T, 0,
+	            MPI_COMM_WORLD);
+	MPI_Gatherv(root ? MPI_IN_PLACE : cnt, (int)nown, MPI_UINT32_T, root ? sv->count : NULL, cc, cd, MPI_UINT32_T, 0,
+	            MPI_COMM_WORLD);
+	MPI_Gatherv(root ? MPI_IN_PLACE : rem, (int)nown, MPI_DOUBLE, root ? sv->rem : NULL, cc, cd, MPI_DOUBLE, 0,
+	            MPI_COMM_WORLD);
+	double vir = dsmcp_virial_part(d), vsum = 0;
+	MPI_Reduce(&vir, &vsum, 1, MPI_DOUBLE, MPI_SUM, 0, MPI_COMM_WORLD);
+	if (rank == 0) {
+		dsmcp_clock(d, &sv->clock);
+		sv->virial = vsum;
+	}
+cleanup:
+	if (bad && rank == 0)
+		dsmcp_saved_free(&ck->state);
+	free(x);
+	free(v);
+	free(rem);
+	free(id);
+	free(cnt);
+	free(rc);
+	return bad ? -1 : 0;
+}
+
+/* Every rank's part of rank 0's saved state (collective): the records and
+ * cells of its slab for this rank count, the clock to all, rank 0 the
+ * virial. NULL on every rank on failure, with msg. */
+static dsmcp_t *scatter_state(const scene_t *s, int rank, int size, const ckpt_split_t *ck, char *msg, size_t msglen)
+{
+	const int D = s->dim;
+	uint64_t c0 = 0, c1 = 0, ncells = 0, nl = 0;
+	dsmcp_clock_t clk;
+	double vir = 0;
+	int *rc = NULL, *rd = NULL, *cc = NULL, *cd = NULL;
+	double *x = NULL, *v = NULL, *rem = NULL;
+	uint32_t *id = NULL, *cnt = NULL;
+	uint64_t *nls = NULL;
+	dsmcp_t *d = NULL;
+	int bad = dsmcp_cells_of(s, rank, size, &c0, &c1, &ncells, msg, msglen) != DSMCP_OK || too_big(c1 - c0);
+	if (rank == 0) {
+		const dsmcp_saved_t *sv = &ck->state;
+		clk = sv->clock;
+		vir = sv->virial;
+		rc = calloc((size_t)size * 4, sizeof(int));
+		nls = calloc((size_t)size, sizeof(uint64_t));
+		bad = bad || !rc || !nls || too_big(s->count * (uint64_t)D);
+		if (rc)
+			rd = rc + size, cc = rc + 2 * size, cd = rc + 3 * size;
+		for (int r = 0, co = 0, ro = 0; !bad && r < size; r++) {
+			uint64_t a, b, nc;
+			if (dsmcp_cells_of(s, r, size, &a, &b, &nc, NULL, 0) != DSMCP_OK) {
+				bad = 1;
+				break;
+			}
+			for (uint64_t c = a; c < b; c++)
+				nls[r] += sv->count[c];
+			cc[r] = (int)(b - a);
+			cd[r] = co;
+			rc[r] = (int)nls[r];
+			rd[r] = ro;
+			co += cc[r];
+			ro += rc[r];
+		}
+	}
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (bad)
+		goto cleanup;
+	MPI_Bcast(&clk, (int)sizeof clk, MPI_BYTE, 0, MPI_COMM_WORLD);
+	MPI_Scatter(nls, 1, MPI_UINT64_T, &nl, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+	const size_t nown = (size_t)(c1 - c0);
+	x = malloc((nl + 1) * D * sizeof(double));
+	v = malloc((nl + 1) * D * sizeof(double));
+	id = malloc((nl + 1) * sizeof(uint32_t));
+	cnt = malloc((nown + 1) * sizeof(uint32_t));
+	rem = malloc((nown + 1) * sizeof(double));
+	bad = !x || !v || !id || !cnt || !rem;
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (bad)
+		goto cleanup;
+	const dsmcp_saved_t *sv = rank == 0 ? &ck->state : NULL;
+	MPI_Datatype rec;
+	MPI_Type_contiguous(D, MPI_DOUBLE, &rec);
+	MPI_Type_commit(&rec);
+	MPI_Scatterv(sv ? sv->pos : NULL, rc, rd, rec, x, (int)nl, rec, 0, MPI_COMM_WORLD);
+	MPI_Scatterv(sv ? sv->vel : NULL, rc, rd, rec, v, (int)nl, rec, 0, MPI_COMM_WORLD);
+	MPI_Type_free(&rec);
+	MPI_Scatterv(sv ? sv->id : NULL, rc, rd, MPI_UINT32_T, id, (int)nl, MPI_UINT32_T, 0, MPI_COMM_WORLD);
+	MPI_Scatterv(sv ? sv->count : NULL, cc, cd, MPI_UINT32_T, cnt, (int)nown, MPI_UINT32_T, 0, MPI_COMM_WORLD);
+	MPI_Scatterv(sv ? sv->rem : NULL, cc, cd, MPI_DOUBLE, rem, (int)nown, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+	int err;
+	d = dsmcp_restore(s, 0, rank, size, &clk, rank == 0 ? vir : 0.0, (size_t)nl, x, v, id, cnt, rem, &err, msg,
+	                  msglen);
+	bad = d == NULL;
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+cleanup:
+	if (bad) {
+		dsmcp_destroy(d);
+		d = NULL;
+		if (msg && msglen && !msg[0])
+			snprintf(msg, msglen, "run: the checkpoint could not be distributed over %d ranks (out of memory)", size);
+	}
+	free(rc);
+	free(nls);
+	free(x);
+	free(v);
+	free(id);
+	free(cnt);
+	free(rem);
+	return d;
+}
+
+/* particles.initial.from: rank 0's frame to every rank (collective). The
+ * scene copy *t then points at the arrays in *buf (the caller frees them).
+ * 0, or -1 on every rank. */
+static int share_from(const scene_t *s, scene_t *t, int rank, double **buf)
+{
+	const size_t nd = (size_t)s->count * (size_t)s->dim;
+	int have[2] = {rank == 0 && s->init_pos, rank == 0 && s->init_vel};
+	*t = *s;
+	*buf = NULL;
+	MPI_Bcast(have, 2, MPI_INT, 0, MPI_COMM_WORLD);
+	int bad = too_big(nd);
+	if (rank != 0 && !bad && (have[0] || have[1]))
+		bad = !(*buf = malloc(2 * nd * sizeof(double)));
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (bad)
+		return -1;
+	/* the root's buffers are only read (MPI_Bcast takes them as void *) */
+	double *pos = rank == 0 ? (double *)s->init_pos : *buf, *vel = rank == 0 ? (double *)s->init_vel : *buf + nd;
+	if (have[0])
+		MPI_Bcast(pos, (int)nd, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+	if (have[1])
+		MPI_Bcast(vel, (int)nd, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+	t->init_pos = have[0] ? pos : NULL;
+	t->init_vel = have[1] ? vel : NULL;
+	return 0;
+}
+
+/* Rank 0's checkpoint of the present state (collective): RUN_OK, or RUN_EMIT on every rank. */
+static int take_checkpoint(dsmcp_t *d, const scene_t *s, int rank, int size, const dsmcrun_opts_t *o,
+                           const run_state_t *sched, uint64_t coll_sample, void *ctx, char *msg, size_t msglen)
+{
+	ckpt_split_t ck;
+	memset(&ck, 0, sizeof ck);
+	if (gather_state(d, s, rank, size, &ck) != 0) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "run: out of memory gathering the checkpoint on rank 0");
+		return RUN_ENOMEM;
+	}
+	int bad = 0;
+	if (rank == 0) {
+		ck.sched = *sched;
+		ck.coll_sample = coll_sample;
+		bad = !o->checkpoint || o->checkpoint(&ck, ctx) != 0;
+		dsmcp_saved_free(&ck.state);
+	}
+	MPI_Bcast(&bad, 1, MPI_INT, 0, MPI_COMM_WORLD);
+	return bad ? RUN_EMIT : RUN_OK;
+}
+
+int dsmcrun_run(const scene_t *s, int rank, int size, const dsmcrun_opts_t *o, run_emit_fn emit, void *ctx,
                 const volatile sig_atomic_t *stop, char *msg, size_t msglen)
 {
 	int fbad = 0;
-	uint64_t k_snap = 1, snap_steps = UINT64_MAX;
+	const int frames = o->frames;
+	uint64_t k_snap = 1, snap_events = UINT64_MAX;
 	int ret = RUN_OK;
 	xbuf_t x;
 	run_record_t rec;
 	uint64_t coll_sample = 0;
-	dsmcp_t *d = dsmcrun_create(s, rank, size, msg, msglen);
+	double wall_before = 0;
+	/* the set-up: from the checkpoint, or the scene (with rank 0's frame of particles.initial.from) */
+	run_state_t sched = {.started = 0, .k_out = 1, .k_snap = 1, .k_ckpt = 1, .snap_events = UINT64_MAX};
+	dsmcp_t *d = NULL;
+	if (o->resumed) {
+		if (rank == 0) {
+			sched = o->resume->sched;
+			coll_sample = o->resume->coll_sample;
+		}
+		MPI_Bcast(&sched, (int)sizeof sched, MPI_BYTE, 0, MPI_COMM_WORLD);
+		MPI_Bcast(&coll_sample, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+		d = scatter_state(s, rank, size, o->resume, msg, msglen);
+	} else if (s->has_from) {
+		scene_t t;
+		double *buf = NULL;
+		if (share_from(s, &t, rank, &buf) == 0)
+			d = dsmcrun_create(&t, rank, size, msg, msglen);
+		else if (msg && msglen)
+			snprintf(msg, msglen, "run: out of memory sharing particles.initial.from with every rank");
+		free(buf);
+	} else {
+		d = dsmcrun_create(s, rank, size, msg, msglen);
+	}
 	if (!d)
 		return RUN_ESETUP;
+	k_snap = sched.k_snap;
+	snap_events = sched.snap_events;
+	wall_before = sched.wall_before;
 	int bad = xbuf_init(&x, size) != 0;
 	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
 	if (bad) {
@@ -432,47 +695,48 @@ int dsmcrun_run(const scene_t *s, int rank, int size, int frames, run_emit_fn em
 		ret = RUN_ENOMEM;
 		goto cleanup;
 	}
-	const double N = (double)s->count, t0 = MPI_Wtime();
+	const double N = (double)s->count, t0 = MPI_Wtime() - wall_before;
+	double ckpt_wall = MPI_Wtime();
 	/* targets: times (the step lands on them) or collision counts (the step that reaches one) */
 	const int end_time = s->until.kind == SCENE_CLOCK_TIME;
 	const double t_end = end_time ? s->until.value : INFINITY;
 	const double c_end = end_time ? INFINITY : s->until.value * N / 2;
 	const int out_time = s->every.kind == SCENE_CLOCK_TIME, out_cpp = s->every.kind == SCENE_CLOCK_CPP;
 	const double every = s->every.value;
-	uint64_t k_out = 1;
+	const int ckpt_time = o->checkpoints && s->checkpoint.kind == SCENE_CLOCK_TIME && s->checkpoint.value > 0;
+	const int ckpt_wall_on = o->checkpoints && s->checkpoint.kind == SCENE_CLOCK_WALL && s->checkpoint.value > 0;
+	uint64_t k_out = sched.k_out;
 	run_status_t status = RUN_COMPLETED;
-	record(d, s, RUN_PROGRESS, 0.0, &coll_sample, &rec);
-	if (emit_all(rank, emit, ctx, &rec)) {
-		ret = RUN_EMIT;
-		goto cleanup;
-	}
 	/* frames (output.snapshots): the first state, at the end of the step that
 	 * reaches each snapshot time or collision count (steps are not cut for
 	 * them, as run.c), and the last state */
 	const int snap_time = s->snapshots.kind == SCENE_CLOCK_TIME, snap_cpp = s->snapshots.kind == SCENE_CLOCK_CPP;
-	if (frames) {
-		if ((ret = emit_frame(d, s, rank, size, 0.0, emit, ctx, &fbad)) != RUN_OK)
-			goto frame_failed;
-		snap_steps = 0;
+	if (!sched.started) {
+		record(d, s, RUN_PROGRESS, 0.0, &coll_sample, &rec);
+		if (emit_all(rank, emit, ctx, &rec)) {
+			ret = RUN_EMIT;
+			goto cleanup;
+		}
+		if (frames) {
+			if ((ret = emit_frame(d, s, rank, size, 0.0, emit, ctx, &fbad)) != RUN_OK)
+				goto frame_failed;
+			snap_events = 0;
+		}
+		sched.started = 1;
 	}
-	for (uint64_t n = 0;; n++) {
+	for (;;) {
 		dsmcp_totals_t t;
 		dsmcp_totals(d, &t);
 		const double C = (double)t.collisions;
 		if (!(t.time < t_end) || C >= c_end)
 			break;
-		if (n % 64 == 0) {
-			int halt = rank == 0 && stop && *stop;
-			MPI_Bcast(&halt, 1, MPI_INT, 0, MPI_COMM_WORLD);
-			if (halt) {
-				status = RUN_INTERRUPTED;
-				break;
-			}
-		}
 		double t_stop = t_end;
 		if (out_time && every > 0 && k_out * every < t_stop)
 			t_stop = (double)k_out * every;
-		int rc = step_x(d, t_stop, NULL, &x, size, rank);
+		/* rank 0's stop flag and wall-clock checkpoint, reduced with the step's sums (every step) */
+		uint64_t flags[2] = {rank == 0 && stop && *stop,
+		                     rank == 0 && ckpt_wall_on && MPI_Wtime() - ckpt_wall >= s->checkpoint.value};
+		int rc = step_x(d, t_stop, NULL, &x, size, rank, flags);
 		if (rc == DSMCP_QUIESCENT) {
 			status = RUN_QUIESCENT;
 			break;
@@ -512,7 +776,41 @@ int dsmcrun_run(const scene_t *s, int rank, int size, int frames, run_emit_fn em
 		if (due_snap && !done) {
 			if ((ret = emit_frame(d, s, rank, size, MPI_Wtime() - t0, emit, ctx, &fbad)) != RUN_OK)
 				goto frame_failed;
-			snap_steps = t.steps;
+			snap_events = t.moves;
+		}
+		/* output.checkpoint in time: after the step that reaches it, its record and frame (not at the end:
+		 * the run is complete) */
+		int taken = 0;
+		if (ckpt_time && !done && (double)sched.k_ckpt * s->checkpoint.value <= t.time) {
+			while ((double)sched.k_ckpt * s->checkpoint.value <= t.time)
+				sched.k_ckpt++;
+			sched.k_out = k_out, sched.k_snap = k_snap, sched.snap_events = snap_events;
+			sched.wall_before = MPI_Wtime() - t0;
+			if ((ret = take_checkpoint(d, s, rank, size, o, &sched, coll_sample, ctx, msg, msglen)) != RUN_OK)
+				goto cleanup;
+			ckpt_wall = MPI_Wtime();
+			taken = 1;
+		}
+		if (done || !(flags[0] || flags[1]))
+			continue;
+		if (o->checkpoints && !taken) {
+			/* the state between two steps, nothing sampled: the resumed run continues exactly */
+			sched.k_out = k_out, sched.k_snap = k_snap, sched.snap_events = snap_events;
+			sched.wall_before = MPI_Wtime() - t0;
+			if ((ret = take_checkpoint(d, s, rank, size, o, &sched, coll_sample, ctx, msg, msglen)) != RUN_OK)
+				goto cleanup;
+			ckpt_wall = MPI_Wtime();
+		}
+		if (flags[0]) {
+			status = RUN_INTERRUPTED;
+			if (o->checkpoints) {
+				record(d, s, RUN_SUMMARY, MPI_Wtime() - t0, &coll_sample, &rec);
+				rec.status = status;
+				(void)emit_all(rank, emit, ctx, &rec);   /* best effort: the checkpoint is what counts */
+				ret = RUN_STOPPED;
+				goto cleanup;
+			}
+			break;
 		}
 	}
 	record(d, s, RUN_PROGRESS, MPI_Wtime() - t0, &coll_sample, &rec);
@@ -523,7 +821,7 @@ int dsmcrun_run(const scene_t *s, int rank, int size, int frames, run_emit_fn em
 	if (frames) {
 		dsmcp_totals_t t;
 		dsmcp_totals(d, &t);
-		if (t.steps != snap_steps && (ret = emit_frame(d, s, rank, size, MPI_Wtime() - t0, emit, ctx, &fbad)) != RUN_OK)
+		if (t.moves != snap_events && (ret = emit_frame(d, s, rank, size, MPI_Wtime() - t0, emit, ctx, &fbad)) != RUN_OK)
 			goto frame_failed;
 	}
 	record(d, s, RUN_SUMMARY, MPI_Wtime() - t0, &coll_sample, &rec);

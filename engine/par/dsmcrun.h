@@ -4,6 +4,7 @@
 #include <signal.h>
 #include <stddef.h>
 #include <stdint.h>
+#include "io/checkpoint.h"
 #include "mc/dsmcp.h"
 #include "run.h"
 #include "scene.h"
@@ -22,12 +23,27 @@
  *   it), progress records with energy, temperature, pressure,
  *   compressibility, collision_rate and momentum reduced over the ranks,
  *   then a summary; rank 0 emits them (emit may be NULL elsewhere). The
- *   stop flag is read on rank 0 and broadcast every 64 steps and at output
- *   times. frames != 0 (--out): RUN_SNAPSHOT records of the whole state in
+ *   stop flag is read on rank 0 before each step and summed with the
+ *   step's own reduction, so every rank stops after the same step. frames != 0 (--out): RUN_SNAPSHOT records of the whole state in
  *   the scene's particle order, gathered to rank 0 (MPI_Gatherv: rank 0
  *   holds all particles, 3 copies, while it writes), at the first state,
  *   at the end of the step that reaches each output.snapshots instant and
- *   at the last state. No checkpoints (the caller refuses them).
+ *   at the last state.
+ * - Checkpoints (o->checkpoints, with --out): at the end of the step that
+ *   reaches each output.checkpoint time (steps are not cut for them, so
+ *   they do not change the run), after the wall-clock interval (rank 0's
+ *   clock, reduced with the stop flag), and on a stop request: every
+ *   rank's part gathered to rank 0 in the 1-rank order (MPI_Gatherv:
+ *   rank 0 holds the whole state once while o->checkpoint() writes it),
+ *   after that step's record and frame. A stop writes one, emits the
+ *   summary (status interrupted) and returns RUN_STOPPED.
+ * - Resume (o->resumed on every rank; rank 0 holds o->resume): rank 0
+ *   sends each rank the records and cells of its slab for this rank
+ *   count (MPI_Scatterv), the schedule goes on where it stood; the run is
+ *   bit for bit the uninterrupted one, whatever the rank counts before
+ *   and after.
+ * - particles.initial.from: rank 0's frame (s->init_pos, s->init_vel)
+ *   is broadcast to every rank, which builds dsmc_create()'s state from it.
  * - Bit-identity: the state and the integer and energy columns are those of
  *   any other rank count; pressure and momentum are sums of doubles over
  *   ranks (MPI_SUM) and may differ in the last bits between rank counts.
@@ -51,7 +67,18 @@ int dsmcrun_step(dsmcp_t *d, double t_stop, dsmcrun_stats_t *st);
  * with msg on failure (the same outcome on every rank). */
 dsmcp_t *dsmcrun_create(const scene_t *s, int rank, int size, char *msg, size_t msglen);
 
-/* The whole run; RUN_OK, RUN_EMIT (rank 0's emit failed: every rank
- * stops), RUN_ENOMEM or RUN_ESETUP with msg. */
-int dsmcrun_run(const scene_t *s, int rank, int size, int frames, run_emit_fn emit, void *ctx,
+typedef struct {
+	int frames;              /* every rank: frames (--out) */
+	int checkpoints;         /* every rank: checkpoints (--out) */
+	int resumed;             /* every rank: continue from a checkpoint (rank 0 holds it in resume) */
+	const ckpt_split_t *resume;   /* rank 0, with resumed */
+	/* rank 0, with checkpoints: make the outputs durable and write ck;
+	 * 0, or -1 (the reason is the emit context's) */
+	int (*checkpoint)(const ckpt_split_t *ck, void *ctx);
+} dsmcrun_opts_t;
+
+/* The whole run; RUN_OK, RUN_STOPPED (stopped with a checkpoint written),
+ * RUN_EMIT (rank 0's emit or checkpoint failed: every rank stops),
+ * RUN_ENOMEM or RUN_ESETUP with msg. */
+int dsmcrun_run(const scene_t *s, int rank, int size, const dsmcrun_opts_t *o, run_emit_fn emit, void *ctx,
                 const volatile sig_atomic_t *stop, char *msg, size_t msglen);

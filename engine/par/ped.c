@@ -3,8 +3,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <limits.h>
+#include <stdio.h>
+
 #include "par/decomp.h"
 #include "par/ped.h"
+#include "scene.h"
 
 /* Cell roles on a rank: not seen, ghost, own interior, own border (seen by
  * another rank), own guard (next to a border cell). Events touching
@@ -43,6 +47,7 @@ typedef struct {
 	int32_t free_head;
 	uint64_t collisions, tc_elastic, nlog, owned, events;
 	double lt, virial;
+	double dek, dekt;   /* since ped_mark(): sum of the collisions' kinetic energy changes, and of each times (t - tref) */
 } scal_t;
 
 struct msgbuf {
@@ -63,6 +68,7 @@ struct ped {
 	hent_t *heap, *heap_s;
 	int32_t *hpos, *hpos_s;
 	scal_t s, s_saved;
+	double tref;        /* ped_mark()'s time */
 	double err;
 	uint64_t events_done;
 	struct msgbuf *out;
@@ -354,6 +360,11 @@ static void collide(ped_t *pd, int32_t a, int32_t b, double t)
 			pj->v[k] += f * dr[k];
 		}
 		pd->s.virial -= 0.5 * (1.0 + e) * pd->p.mass * bb;
+		if (e != 1.0) {   /* the serial engine's energy loss of the pair (ed_impl.h) */
+			double de = -0.25 * (1.0 - e * e) * pd->p.mass * bb * bb / r2;
+			pd->s.dek += de;
+			pd->s.dekt += de * (t - pd->tref);
+		}
 	}
 	pi->count++;
 	pj->count++;
@@ -815,6 +826,11 @@ static void cell_of(const ped_t *pd, const double *x, int32_t *c)
 
 int ped_load(ped_t *pd, uint64_t n, const double *pos, const double *vel)
 {
+	return ped_load_at(pd, n, pos, vel, NULL, 0.0);
+}
+
+int ped_load_at(ped_t *pd, uint64_t n, const double *pos, const double *vel, const double *tlast, double t0)
+{
 	const int D = pd->D;
 	/* the particles of the rank's cells, stored in cell order (neighbours
 	 * close in memory), ties in id order: a counting sort over the cells */
@@ -863,8 +879,8 @@ int ped_load(ped_t *pd, uint64_t n, const double *pos, const double *vel)
 			p->r[a] = pos[k * (uint64_t)D + (uint64_t)a];
 			p->v[a] = vel[k * (uint64_t)D + (uint64_t)a];
 		}
-		p->t = 0.0;
-		p->tlast = -INFINITY;
+		p->t = t0;
+		p->tlast = tlast ? tlast[k] : -INFINITY;
 		p->tev = -INFINITY;
 		p->gid = (uint32_t)k;
 		memcpy(p->cc, c, sizeof p->cc);
@@ -875,6 +891,8 @@ int ped_load(ped_t *pd, uint64_t n, const double *pos, const double *vel)
 	for (size_t i = 0; i < pd->cap; i++)
 		if (pd->rec[i].own == 1)
 			predict(pd, (int32_t)i);
+	pd->tref = t0;
+	pd->s.lt = t0;
 	ped_save(pd);
 cleanup:
 	free(cnt);
@@ -914,6 +932,8 @@ void ped_totals(const ped_t *pd, ped_totals_t *out)
 	out->events = pd->s.events;
 	out->owned = pd->s.owned;
 	out->virial = pd->s.virial;
+	out->dekin = pd->s.dek;
+	out->dekin_t = pd->s.dekt;
 	for (size_t i = 0; i < pd->cap; i++) {
 		const rec_t *p = &pd->rec[i];
 		if (p->own != 1)
@@ -925,6 +945,22 @@ void ped_totals(const ped_t *pd, ped_totals_t *out)
 	}
 }
 
+void ped_mark(ped_t *pd, double t)
+{
+	pd->tref = t;
+	pd->s.virial = pd->s.dek = pd->s.dekt = 0.0;
+	pd->s_saved.virial = pd->s_saved.dek = pd->s_saved.dekt = 0.0;
+}
+
+size_t ped_memory(const ped_t *pd)
+{
+	size_t per = 2 * (sizeof *pd->rec + sizeof *pd->ev + sizeof *pd->heap + sizeof *pd->hpos);
+	size_t out = 0;
+	for (int r = 0; r < pd->p.ranks; r++)
+		out += pd->out[r].cap * sizeof(ped_msg_t);
+	return sizeof *pd + pd->cap * per + pd->ncells * (1 + 2 * sizeof *pd->head) + pd->logcap * sizeof(ped_coll_t) + out;
+}
+
 void ped_log_on(ped_t *pd)
 {
 	pd->logging = 1;
@@ -934,6 +970,14 @@ const ped_coll_t *ped_log(const ped_t *pd, size_t *n)
 {
 	*n = pd->s.nlog;
 	return pd->log;
+}
+
+void ped_owned_tlast(const ped_t *pd, double *tlast)
+{
+	size_t m = 0;
+	for (size_t i = 0; i < pd->cap; i++)
+		if (pd->rec[i].own == 1)
+			tlast[m++] = pd->rec[i].tlast;
 }
 
 void ped_owned(const ped_t *pd, double t, uint32_t *gid, double *pos, double *vel)
@@ -961,6 +1005,77 @@ void ped_owned(const ped_t *pd, double t, uint32_t *gid, double *pos, double *ve
 	}
 }
 
+/* ---- scenes ---------------------------------------------------------------- */
+
+int ped_scene_check(const scene_t *s, int out, char *msg, size_t msglen)
+{
+	const char *key = NULL, *why = NULL;
+	const unsigned ok_obs = SCENE_OBS_ENERGY | SCENE_OBS_PRESSURE | SCENE_OBS_COLLISION_RATE | SCENE_OBS_MOMENTUM;
+	char grid[160];
+	if (s->method != SCENE_METHOD_ED)
+		key = "method", why = "a split ed run needs method ed";
+	else if (scene_has_gravity(s))
+		key = "gravity", why = "gravity over several ranks is not supported yet";
+	else if (scene_has_walls(s))
+		key = "boundaries", why = "walls over several ranks are not supported yet (periodic box only)";
+	else if (s->n_obstacles > 0)
+		key = "obstacles", why = "obstacles over several ranks are not supported yet";
+	else if (scene_has_species(s))
+		key = "particles.species", why = "mixtures over several ranks are not supported yet";
+	else if (s->rough)
+		key = "collisions.rough", why = "rough particles over several ranks are not supported yet";
+	else if (s->drive != SCENE_DRIVE_NONE)
+		key = "driving", why = "driven systems over several ranks are not supported yet";
+	else if (s->restitution < 1.0 && !(s->tc > 0.0))
+		key = "collisions.tc", why = "an inelastic run over several ranks needs the TC model (tc > 0): an inelastic "
+		                             "collapse is not detected there yet";
+	else if (s->until.kind != SCENE_CLOCK_TIME)
+		key = "run.until", why = "over several ranks only a time (collision counts are not reached in order there)";
+	else if (s->every.kind != SCENE_CLOCK_TIME)
+		key = "output.every", why = "over several ranks only a time";
+	else if (out && s->snapshots.kind != SCENE_CLOCK_NONE && s->snapshots.kind != SCENE_CLOCK_TIME)
+		key = "output.snapshots", why = "over several ranks only a time";
+	else if (s->observables & ~ok_obs)
+		key = "output.observables", why = "over several ranks only kinetic_energy, temperature, pressure, "
+		                                  "compressibility, collision_rate and momentum (sums over the particles)";
+	else if (s->count > UINT32_MAX || (double)s->count * s->dim > (double)INT_MAX / 2)
+		key = "particles.count", why = "at most 2^30 / dimensions particles over several ranks";
+	if (!key) {
+		ped_params_t p = {.dim = s->dim, .sigma = 2.0 * s->radius};
+		for (int a = 0; a < 3; a++)
+			p.L[a] = a < s->dim ? s->box[a] : 1.0;
+		ped_grid(&p, s->count);
+		for (int a = 0; a < s->dim; a++)
+			if (p.nc[a] < 3) {
+				snprintf(grid, sizeof grid, "the split run needs at least 3 cells of one diameter along each axis; "
+				         "this box has %d along axis %d", p.nc[a], a);
+				key = "particles.count", why = grid;
+				break;
+			}
+	}
+	if (!key)
+		return 0;
+	if (msg && msglen)
+		snprintf(msg, msglen, "%s: %s", key, why);
+	return -1;
+}
+
+uint64_t ped_scene_bytes(const scene_t *s, int P)
+{
+	ped_params_t p = {.dim = s->dim, .sigma = 2.0 * s->radius};
+	for (int a = 0; a < 3; a++)
+		p.L[a] = a < s->dim ? s->box[a] : 1.0;
+	ped_grid(&p, s->count);
+	uint64_t ncells = 1;
+	for (int a = 0; a < s->dim; a++)
+		ncells *= (uint64_t)p.nc[a];
+	/* ped_create(): records, calendar entries, heap and heap positions, each with its saved copy; a role
+	 * byte and two list heads per cell; the outboxes (ped_memory()) */
+	const uint64_t per = 2 * (sizeof(rec_t) + sizeof(pev_t) + sizeof(hent_t) + sizeof(int32_t));
+	return sizeof(struct ped) + s->count * per + ncells * (1 + 2 * sizeof(int32_t)) +
+	       (uint64_t)P * (sizeof(struct msgbuf) + 16 * sizeof(ped_msg_t));
+}
+
 /* ---- drivers --------------------------------------------------------------- */
 
 void ped_sched_init(ped_sched_t *s, double t_end, double sync_dt)
@@ -970,6 +1085,12 @@ void ped_sched_init(ped_sched_t *s, double t_end, double sync_dt)
 	s->sync_dt = sync_dt;
 	s->barrier = sync_dt < t_end ? sync_dt : t_end;
 	s->st.sync_dt = sync_dt;
+}
+
+void ped_sched_next(ped_sched_t *s, double t0, double t_end)
+{
+	s->t_end = t_end;
+	s->barrier = t0 + s->sync_dt < t_end ? t0 + s->sync_dt : t_end;
 }
 
 int ped_sched(ped_sched_t *s, double E, double T)

@@ -43,7 +43,7 @@
  *   grid (O(cells), not O(N/P): a known limitation of this slice).
  */
 
-enum { PED_OK = 0, PED_ENOMEM = -1, PED_EINVAL = -2, PED_EFULL = -3, PED_ESTALL = -4 };
+enum { PED_OK = 0, PED_ENOMEM = -1, PED_EINVAL = -2, PED_EFULL = -3, PED_ESTALL = -4, PED_STOPPED = 1 };
 
 typedef struct {
 	int dim;            /* 2 or 3 */
@@ -85,6 +85,10 @@ void ped_destroy(ped_t *pd);
  * state (n particles, positions in the box, velocities; n*dim doubles each,
  * time 0) and save it as the first sync. */
 int ped_load(ped_t *pd, uint64_t n, const double *pos, const double *vel);
+/* The same with every particle's state at time t0 (all events before it
+ * done) and, when tlast is not NULL, its last collision time (TC model; n
+ * doubles, -INFINITY: none): a resumed run. */
+int ped_load_at(ped_t *pd, uint64_t n, const double *pos, const double *vel, const double *tlast, double t0);
 
 /* Round steps (see the contract). */
 int ped_inbox(ped_t *pd, const ped_msg_t *m, size_t n);   /* PED_OK or PED_EFULL */
@@ -104,9 +108,21 @@ void ped_restore(ped_t *pd);
  * owns. */
 typedef struct {
 	uint64_t collisions, tc_elastic, events, events_done, owned;
-	double ekin, mom[3], virial;
+	double ekin, mom[3];
+	/* since ped_mark() (the start otherwise), of the collisions this rank
+	 * made: the collision virial (sum of r_ij . J_ij, as the serial
+	 * engine's), the sum of the kinetic energy changes dE and of dE (t_c -
+	 * tref), tref the mark's time: the integral of the total E_kin over
+	 * [tref, t] is E_kin(tref) (t - tref) + sum_ranks (dekin (t - tref) - dekin_t) */
+	double virial, dekin, dekin_t;
 } ped_totals_t;
 void ped_totals(const ped_t *pd, ped_totals_t *out);
+/* Start a new interval at time t: the interval sums of ped_totals() to 0.
+ * Only right after a sync (ped_save(), or pedmpi_advance() returned), so that
+ * a rollback cannot bring back collisions from before the mark. */
+void ped_mark(ped_t *pd, double t);
+/* Bytes held by this rank's ped_t. */
+size_t ped_memory(const ped_t *pd);
 /* Collision log (committed and since-last-sync ones, in processing order),
  * on only with ped_log_on(). */
 void ped_log_on(ped_t *pd);
@@ -114,6 +130,21 @@ const ped_coll_t *ped_log(const ped_t *pd, size_t *n);
 /* Owned particles: ids and positions/velocities (at their own times moved to
  * time t) into caller arrays of ped_totals().owned entries. */
 void ped_owned(const ped_t *pd, double t, uint32_t *gid, double *pos, double *vel);
+/* Their last collision times (TC model; -INFINITY: none), in ped_owned()'s order. */
+void ped_owned_tlast(const ped_t *pd, double *tlast);
+
+/* A scene on the core (scene.h's scene_t; the engine program's split run,
+ * engine/par/edrun.h, and the daemon's budget, engine/budget.c):
+ * ped_scene_check() is 0 when the split run can run scene s (out: with
+ * --out), else -1 with "KEY: reason" in msg (msg may be NULL): the core's
+ * scope (periodic box, one species, smooth particles, constant restitution,
+ * inelastic with the TC model), time schedules, observables that are sums
+ * over the particles, at least 3 cells per axis. ped_scene_bytes(): bytes
+ * one rank's ped_t allocates for s over P ranks (capacity N: room for every
+ * particle on every rank). */
+struct scene;
+int ped_scene_check(const struct scene *s, int out, char *msg, size_t msglen);
+uint64_t ped_scene_bytes(const struct scene *s, int P);
 
 /* Driver statistics. */
 typedef struct {
@@ -130,6 +161,9 @@ typedef struct {
 	ped_stats_t st;
 } ped_sched_t;
 void ped_sched_init(ped_sched_t *s, double t_end, double sync_dt);
+/* Continue a schedule from a sync at t0 (every event before t0 done) to a
+ * new t_end; the sync interval and the statistics carry over. */
+void ped_sched_next(ped_sched_t *s, double t0, double t_end);
 int ped_sched(ped_sched_t *s, double E, double T);
 
 /* P ranks in one process (tests): runs pd[0..P-1] to t_end. force_every > 0

@@ -1,5 +1,6 @@
 /* The MPI driver of the parallel ED core (engine/par/ped): one ped_t per rank, rounds of message exchange and reductions over a communicator. */
 #include <math.h>
+#include <signal.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -14,15 +15,17 @@ typedef struct {
 	ped_msg_t m[SLOTS];
 } slot_t;
 
-int pedmpi_run(ped_t *pd, MPI_Comm comm, double t_end, double sync_dt, ped_stats_t *st)
+int pedmpi_advance(ped_t *pd, MPI_Comm comm, ped_sched_t *sp, double t0, double t_end,
+                   const volatile sig_atomic_t *stop, double *t_reached)
 {
 	int P, rank, rc = PED_OK, lrc = PED_OK;
 	MPI_Comm_size(comm, &P);
 	MPI_Comm_rank(comm, &rank);
-	ped_sched_t s;
-	ped_sched_init(&s, t_end, sync_dt);
+	ped_sched_t s = *sp;
+	ped_sched_next(&s, t0, t_end);
 	slot_t *sbuf = calloc((size_t)P, sizeof *sbuf), *rbuf = calloc((size_t)P, sizeof *rbuf);
-	double t_sync = 0.0;
+	double t_sync = t0;
+	*t_reached = t0;
 	int idle_rounds = 0, moved = 1, have_in = 0;
 	uint64_t messages = 0, bytes = 0;
 	if (!sbuf || !rbuf)
@@ -33,9 +36,10 @@ int pedmpi_run(ped_t *pd, MPI_Comm comm, double t_end, double sync_dt, ped_stats
 				lrc = ped_inbox(pd, rbuf[d].m, (size_t)rbuf[d].n);
 		have_in = 0;
 		double tb = lrc ? -INFINITY : ped_interior(pd, s.barrier);
-		/* min of: error time, next border time, -(failure), -(progress last round) */
-		double v[4] = {ped_error(pd), tb, lrc ? -1.0 : 0.0, moved ? -1.0 : 0.0};
-		MPI_Allreduce(MPI_IN_PLACE, v, 4, MPI_DOUBLE, MPI_MIN, comm);
+		/* min of: error time, next border time, -(failure), -(progress last round), -(stop asked on rank 0) */
+		double v[5] = {ped_error(pd), tb, lrc ? -1.0 : 0.0, moved ? -1.0 : 0.0,
+		               rank == 0 && stop && *stop ? -1.0 : 0.0};
+		MPI_Allreduce(MPI_IN_PLACE, v, 5, MPI_DOUBLE, MPI_MIN, comm);
 		if (v[2] < 0.0) {
 			rc = lrc ? lrc : PED_ENOMEM;
 			goto cleanup;
@@ -54,9 +58,14 @@ int pedmpi_run(ped_t *pd, MPI_Comm comm, double t_end, double sync_dt, ped_stats
 		}
 		if (act >= 2) {
 			t_sync = bprev;
+			ped_save(pd);
+			*t_reached = t_sync;
+			if (v[4] < 0.0) {   /* also at t_end: a run from stop to stop may never sync between */
+				rc = PED_STOPPED;
+				goto cleanup;
+			}
 			if (act == 3)
 				break;
-			ped_save(pd);
 			moved = 1;
 			continue;
 		}
@@ -90,8 +99,18 @@ int pedmpi_run(ped_t *pd, MPI_Comm comm, double t_end, double sync_dt, ped_stats
 cleanup:
 	free(sbuf);
 	free(rbuf);
-	s.st.messages = messages;
-	s.st.bytes = bytes;
+	s.st.messages += messages;
+	s.st.bytes += bytes;
+	*sp = s;
+	return rc;
+}
+
+int pedmpi_run(ped_t *pd, MPI_Comm comm, double t_end, double sync_dt, ped_stats_t *st)
+{
+	ped_sched_t s;
+	double t;
+	ped_sched_init(&s, t_end, sync_dt);
+	int rc = pedmpi_advance(pd, comm, &s, 0.0, t_end, NULL, &t);
 	if (st)
 		*st = s.st;
 	return rc;

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <mpi.h>
+#include <signal.h>
 
 #include "par/ped.h"
 
@@ -17,3 +18,16 @@
  * rollback counts.
  */
 int pedmpi_run(ped_t *pd, MPI_Comm comm, double t_end, double sync_dt, ped_stats_t *st);
+
+/* The same rounds from a sync at t0 (ped_load(), or an earlier call that
+ * returned PED_OK at t0) to t_end with the schedule *s (ped_sched_init()
+ * once for the run: its sync interval and statistics, messages and bytes of
+ * this rank included, carry over from call to call), so that a run can stop
+ * at output times without changing its collisions. stop (read on rank 0
+ * only, NULL elsewhere allowed) is reduced with every round: once set, the
+ * run ends at the next sync (t_end included) and returns PED_STOPPED on every
+ * rank. PED_OK and PED_STOPPED leave the state saved at *t_reached (every
+ * event before it done, none after; t_end on PED_OK); a negative code (the
+ * same on every rank) leaves it unusable. */
+int pedmpi_advance(ped_t *pd, MPI_Comm comm, ped_sched_t *s, double t0, double t_end,
+                   const volatile sig_atomic_t *stop, double *t_reached);

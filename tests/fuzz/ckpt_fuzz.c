@@ -1,4 +1,4 @@
-/* libFuzzer harness: restoring a run from a checkpoint (ckpt_read, ckpt_read_ensemble) and reopening a trajectory (h5md_open_append) on fuzzed HDF5 files. */
+/* libFuzzer harness: restoring a run from a checkpoint (ckpt_read, ckpt_read_ensemble, ckpt_read_split) and reopening a trajectory (h5md_open_append) on fuzzed HDF5 files. */
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -18,7 +18,8 @@
  * on tmpfs, as the engine finds it on --resume, and given to the code that
  * restores a run:
  * - selector bit 7 clear: the checkpoint reader for scene (selector & 0x7f)
- *   % NSCENES (ckpt_read(), or ckpt_read_ensemble() for the ensemble scene);
+ *   % NSCENES (ckpt_read(), ckpt_read_ensemble() for the ensemble scene,
+ *   ckpt_read_split() for the split scene);
  *   a file written for another of the scenes takes the "different scene"
  *   path (its stored scene parsed, its state checked, CKPT_ESCENE);
  * - bit 7 set: h5md_open_append() (the resume path of trajectory.h5) for
@@ -37,8 +38,11 @@ static const char *const scenes[] = {
 	"{\"method\":\"hsmc\",\"dimensions\":3,\"particles\":{\"count\":32,\"volume_fraction\":0.2},\"collisions\":{\"restitution\":0.9},\"run\":{\"seed\":4,\"until\":{\"time\":2}},\"output\":{\"every\":{\"time\":0.5},\"observables\":[\"kinetic_energy\",\"pressure\"],\"snapshots\":{\"every\":{\"time\":1}},\"checkpoint\":{\"every\":{\"time\":0.7}}},\"hsmc\":{\"cell_size\":2}}",
 	"{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":9,\"volume_fraction\":0.1,\"initial\":{\"positions\":\"random\"}},\"run\":{\"seed\":5,\"until\":{\"time\":3},\"replicas\":2},\"output\":{\"every\":{\"time\":0.5},\"observables\":[\"kinetic_energy\"],\"snapshots\":{\"every\":{\"time\":1}},\"checkpoint\":{\"every\":{\"time\":1.1}}}}",
 	"{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":4,\"volume_fraction\":0.1,\"initial\":{\"positions\":\"random\"}},\"run\":{\"seed\":6,\"until\":{\"time\":2}},\"output\":{\"every\":{\"time\":1},\"observables\":[\"kinetic_energy\"],\"checkpoint\":{\"every\":{\"time\":1.1}}}}",
+	/* split over ranks (ckpt_read_split(): written by mpirun -np 2, read whatever the rank count) */
+	"{\"method\":\"dsmc\",\"dimensions\":3,\"particles\":{\"count\":40,\"volume_fraction\":0.05,\"initial\":{\"positions\":\"random\"}},\"collisions\":{\"restitution\":0.9},\"run\":{\"seed\":7,\"until\":{\"time\":3}},\"output\":{\"every\":{\"time\":0.5},\"observables\":[\"kinetic_energy\",\"pressure\"],\"snapshots\":{\"every\":{\"time\":1}},\"checkpoint\":{\"every\":{\"time\":1.1}}}}",
 };
 #define NSCENES (sizeof scenes / sizeof scenes[0])
+#define SPLIT_SCENE 6   /* its checkpoints are a split run's */
 
 static scene_t parsed[NSCENES];
 static char dir[128], file[160];
@@ -109,6 +113,12 @@ static void restore(size_t k)
 				__builtin_trap();   /* states on success, none on failure */
 			free(blobs[r]);
 		}
+	} else if (k == SPLIT_SCENE) {
+		ckpt_split_t ck;
+		rc = ckpt_read_split(file, s, text, strlen(text), &ck, &out, msg, sizeof msg);
+		if ((rc == CKPT_OK) != (ck.state.pos != NULL))
+			__builtin_trap();   /* a state on success, none on failure */
+		dsmcp_saved_free(&ck.state);
 	} else {
 		run_opts_t opts = {.snapshots = 1, .checkpoints = 1};
 		run_t *run = NULL;
