@@ -10,7 +10,7 @@
 
 const char *const curves_families[] = {
 	"velocity_distribution", "pair_correlation", "structure_factor", "velocity_correlations", "clusters",
-	"impact_parameter", "fields", "density_spectrum", NULL,
+	"impact_parameter", "fields", "density_spectrum", "surface_profile", NULL,
 };
 
 int curves_known(const char *name)

@@ -577,7 +577,7 @@
   const pos = (v) => (v > 0 ? v : null);   // log scales: no zeros
   const SK_HISTORY = 4;
   let skHistory = [];
-  const CURVE_OBS = ['velocity_distribution', 'pair_correlation', 'structure_factor', 'clusters', 'impact_parameter', 'density_spectrum', 'fields'];
+  const CURVE_OBS = ['velocity_distribution', 'pair_correlation', 'structure_factor', 'clusters', 'impact_parameter', 'density_spectrum', 'surface_profile', 'fields'];
   // ---- fields (output.fields): a heat map of one quantity on the grid, 3D grids averaged over z ----
   let fieldsLast = null;
   function fieldColour(f) {   // a blue-green-yellow ramp (viridis-like) for f in [0, 1]
@@ -660,12 +660,13 @@
     const gs = tab('pair_correlation', 'species'), gc = tab('pair_correlation', 'contact');
     const gcols = gs ? Object.keys(gs.columns) : [];
     const ns = tab('clusters', ''), pb = tab('impact_parameter', ''), ds = tab('density_spectrum', '');
+    const sf = tab('surface_profile', '');
     if (last.fields) {
       fieldsLast = last.fields;
       $('fields').hidden = false;
       drawFields();
     }
-    if (!sp && !g && !sk && !ns && !pb && !ds) return;
+    if (!sp && !g && !sk && !ns && !pb && !ds && !sf) return;
     $('curves').hidden = false;
     if (!curvePlots.length) {
       curvePlots = [
@@ -675,6 +676,7 @@
         curvePlot($('plot-clusters'), 'n_s', true, true, [{ label: 'fit s^-τ', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }], 's'),
         curvePlot($('plot-impact'), 'P(b)', false, false, [{ label: 'molecular chaos', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }], 'b/σ'),
         curvePlot($('plot-dspec'), 'P(f)', true, true, [{ label: 'fit f^α', stroke: '#d2691e', dash: [6, 4], width: 1.5, points: { show: false } }], 'f'),
+        curvePlot($('plot-surface'), 'h(x)', false, false, [], 'x'),
       ];
     }
     const D = series.dim || (comp ? Object.keys(comp.columns).length : 2);
@@ -712,6 +714,7 @@
       const fit = ds.centres.map((f, k) => (Number.isFinite(a) && n && inr[k] ? Math.exp(mp + a * (Math.log(f) - mf)) : null));
       curvePlots[5].setData([ds.centres, P.map(pos), fit]);
     }
+    if (sf) curvePlots[6].setData([sf.centres, sf.columns.h]);   // empty bins are null: gaps
     const info = [];
     const any = CURVE_OBS.filter((n) => n !== 'fields').map((n) => last[n]).find((x) => x);
     info.push('sample ' + any.sample + ' at time ' + (+any.time.toPrecision(4)));

@@ -110,6 +110,7 @@ typedef struct {
 	double obstacle_impulse[SCENE_OBSTACLES_MAX][3];
 	uint64_t particles, wall_outflow[6];   /* present now (N without open walls); out per wall */
 	uint64_t wall_inflow[6], wall_rejected[6];   /* reservoir walls: in per wall, rejected entries */
+	uint64_t source_inserted, source_skipped;    /* particles.source: inserted, skipped (totals) */
 	double rotational_energy;
 	int n_species;                         /* ed mixtures: kinetic energy and count per species */
 	double species_ekin[SCENE_SPECIES_MAX];
@@ -213,6 +214,7 @@ static void eng_sample(run_t *rc, smp_t *o)
 		o->com_height = sm.com_height, o->potential_energy = sm.potential_energy;
 		o->particles = sm.particles;
 		memcpy(o->wall_outflow, sm.wall_outflow, sizeof(o->wall_outflow));
+		o->source_inserted = sm.source_inserted, o->source_skipped = sm.source_skipped;
 		mc_species(o, &sm);
 	}
 }
@@ -428,6 +430,8 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 	memcpy(r->wall_outflow, sm.wall_outflow, sizeof(r->wall_outflow));
 	memcpy(r->wall_inflow, sm.wall_inflow, sizeof(r->wall_inflow));
 	memcpy(r->wall_rejected, sm.wall_rejected, sizeof(r->wall_rejected));
+	r->source = s->src_count > 0;
+	r->source_inserted = sm.source_inserted, r->source_skipped = sm.source_skipped;
 	r->temperature = 2.0 * sm.kinetic_energy / (s->dim * np);
 	r->n_species = sm.n_species;
 	for (int k = 0; k < sm.n_species; k++)

@@ -80,6 +80,10 @@ typedef struct {
 	 * through each wall w and entries rejected there (totals). */
 	uint64_t wall_inflow[6], wall_rejected[6];
 	unsigned reservoirs;         /* bit w: wall w is a reservoir */
+	/* particles.source (dsmc/hsmc, with SCENE_OBS_OUTFLOW; single runs): particles inserted so far and
+	 * insertions skipped (beyond the far wall), totals; source = 0 without one. */
+	int source;
+	uint64_t source_inserted, source_skipped;
 	/* Rough particles (SCENE_OBS_ROTATION): rotational energy I/2 sum w^2
 	 * and rotational temperature 2 E_rot / (D_r N), D_r = 1 (2D) or 3
 	 * (3D) rotational degrees of freedom, now. */

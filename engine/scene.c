@@ -104,6 +104,7 @@ static const struct { const char *name; unsigned bit; } observables[] = {
 	{ "fields", SCENE_OBS_FIELDS },
 	{ "density_spectrum", SCENE_OBS_DSPEC },
 	{ "flux", SCENE_OBS_FLUX },
+	{ "surface_profile", SCENE_OBS_SURFACE },
 };
 #define N_OBSERVABLES (sizeof observables / sizeof observables[0])
 
@@ -265,6 +266,16 @@ static int parse_correction(ctx_t *c, const char *path, json_t *v, void *dst, co
 static int parse_contact(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
 {
 	int i, ret = match(c, path, v, contact_names, 2, &i);
+	if (ret == 0)
+		*(int *)dst = i;
+	return ret;
+}
+
+/* hsmc.cell_partners: "full" (0) or "any" (1). */
+static int parse_partners(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	static const char *const names[] = { "full", "any" };
+	int i, ret = match(c, path, v, names, 2, &i);
 	if (ret == 0)
 		*(int *)dst = i;
 	return ret;
@@ -945,6 +956,81 @@ static int check_structure(ctx_t *c, json_t *v, scene_t *s)
 
 static int check_boundaries(ctx_t *c, json_t *v, scene_t *s);
 
+/* Gravity's axis when gravity has exactly one non-zero component, else -1. */
+static int gravity_axis(const scene_t *s)
+{
+	int g = -1, n = 0;
+	for (int a = 0; a < s->dim; a++)
+		if (s->gravity[a] != 0)
+			g = a, n++;
+	return n == 1 ? g : -1;
+}
+
+/* particles.source (docs/scene.md): dsmc/hsmc only, one species; gravity along one walled axis (the
+ * particles are put above the top of the pile, on the floor gravity points to); the insertion column inside
+ * the box. Resolves src_axis and src_position. */
+static int check_source(ctx_t *c, scene_t *s)
+{
+	if (s->src_count == 0)
+		return 0;
+	if (s->method != SCENE_METHOD_DSMC && s->method != SCENE_METHOD_HSMC)
+		return fail(c, "particles.source", "method \"%s\" does not support a source (only \"dsmc\" and \"hsmc\" do)",
+		            method_names[s->method]);
+	if (scene_has_species(s))
+		return fail(c, "particles.source", "takes one species (particles.species is not supported with it yet)");
+	if (scene_has_reservoir(s))
+		return fail(c, "particles.source", "not with \"reservoir\" or \"dispenser\" walls");
+	int g = gravity_axis(s);
+	if (g < 0 || !s->boundary[g].walled)
+		return fail(c, "particles.source", "needs gravity along exactly one axis, and walls on that axis (particles "
+		            "are put above the top of the pile, which rests on the floor gravity points to)");
+	if ((double)s->count + (double)s->src_count > (double)COUNT_MAX)
+		return fail(c, "particles.source.count", "%llu plus particles.count %llu is more than %lld particles",
+		            (unsigned long long)s->src_count, (unsigned long long)s->count, (long long)COUNT_MAX);
+	s->src_axis = g;
+	for (int a = 0, i = 0; a < 3; a++) {
+		s->src_position[a] = 0.0;
+		if (a >= s->dim || a == g)
+			continue;
+		double x = s->src_pos_raw[i], lo = 0.0, hi = s->box[a];
+		if (s->boundary[a].walled)
+			lo += s->radius, hi -= s->radius;   /* the contact planes */
+		if (!(x - s->src_spread >= lo && x + s->src_spread <= hi)) {
+			char sub[PATHLEN];
+			snprintf(sub, sizeof sub, "particles.source.position[%d]", i);
+			return fail(c, sub, "%s plus or minus spread %s leaves [%s, %s], the centres' range along %s", num(x).s,
+			            num(s->src_spread).s, num(lo).s, num(hi).s, axis_names[a]);
+		}
+		s->src_position[a] = x;
+		i++;
+	}
+	return 0;
+}
+
+/* output.surface_profile (engine/observe/surface.h): needs gravity along one walled axis (heights along
+ * -gravity); bins along an axis across it (default: the first), default one bin per diameter. */
+static int check_surface(ctx_t *c, json_t *v, scene_t *s)
+{
+	json_t *out = json_object_get(v, "output"), *d = json_object_get(out, "surface_profile");
+	if (d && !(s->observables & SCENE_OBS_SURFACE))
+		return fail(c, "output.surface_profile", "settings of an observable not asked for: add \"surface_profile\" "
+		            "to output.observables");
+	if (!(s->observables & SCENE_OBS_SURFACE))
+		return 0;
+	int g = gravity_axis(s);
+	if (g < 0 || !s->boundary[g].walled)
+		return fail(c, "output.observables", "\"surface_profile\" needs gravity along exactly one axis, and walls on "
+		            "that axis (heights are measured from the floor along -gravity)");
+	if (!json_object_get(d, "axis"))
+		s->surf_axis = g == 0 ? 1 : 0;
+	else if (s->surf_axis >= s->dim || s->surf_axis == g)
+		return fail(c, "output.surface_profile.axis", "\"%s\" must be an axis across gravity within the %dD scene",
+		            axis_names[s->surf_axis], s->dim);
+	if (!json_object_get(d, "bins"))
+		s->surf_bins = (int)fmax(2.0, fmin(100000.0, floor(s->box[s->surf_axis] / (2 * s->radius))));
+	return 0;
+}
+
 /* output.fields (engine/observe/fields.h): with the "fields" observable only (check_structure) and then
  * required; one cell count per axis, at most FIELDS_MAX_CELLS in all; an exposure looks back from each
  * snapshot time, so it needs snapshots on a time schedule no shorter than itself. */
@@ -1167,6 +1253,12 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 		return ret;
 
 	ret = check_boundaries(c, v, s);
+	if (ret)
+		return ret;
+	ret = check_source(c, s);
+	if (ret)
+		return ret;
+	ret = check_surface(c, v, s);
 	if (ret)
 		return ret;
 	ret = check_rough_scene(c, v, s);
@@ -1731,8 +1823,8 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 			return fail(c, path, "\"outflow\" needs an \"open\" wall");
 		/* the virial pressure assumes a fixed particle set in the box */
 		if (!strcmp(name, "pressure") && scene_has_open_walls(s))
-			return fail(c, path, "\"pressure\" is not available with an \"open\" wall (particles leave); "
-			            "use \"wall_force\"");
+			return fail(c, path, "\"pressure\" is not available with an \"open\" wall%s (the particle set "
+			            "changes); use \"wall_force\"", s->src_count ? " or a particles.source" : "");
 		if (!strcmp(name, "wall_force") && !walls)
 			return fail(c, path, "\"wall_force\" needs walls (boundaries)");
 		if (!strcmp(name, "center_of_mass_height") || !strcmp(name, "potential_energy")) {
@@ -1923,6 +2015,42 @@ static const struct object initial_obj = {
 	.check = check_initial,
 };
 
+/* particles.source.position: the D - 1 coordinates across gravity (axis order, gravity's axis left out;
+ * which axis that is is known only after gravity: check_source()). */
+static int parse_src_position(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	double *x = dst;
+	const int n = c->s->dim - 1;
+	if (!json_is_array(v))
+		return fail(c, path, "must be an array, got %s", type_name(v));
+	if (json_array_size(v) != (size_t)n)
+		return fail(c, path, "must have %d component%s (the coordinates across gravity), got %zu", n, n > 1 ? "s" : "",
+		            json_array_size(v));
+	for (int i = 0; i < n; i++) {
+		char sub[PATHLEN];
+		snprintf(sub, sizeof sub, "%s[%d]", path, i);
+		int ret = get_number(c, sub, json_array_get(v, i), &R_ANY, &x[i]);
+		if (ret)
+			return ret;
+	}
+	return 0;
+}
+
+static const struct irange R_SRC_COUNT = { 1, COUNT_MAX };
+
+static const struct object source_obj = {
+	.fields = (const struct field[]){
+		{ "count", parse_integer, offsetof(scene_t, src_count), &R_SRC_COUNT, true },
+		{ "rate", parse_number, offsetof(scene_t, src_rate), &R_POS, true },
+		{ "position", parse_src_position, offsetof(scene_t, src_pos_raw), NULL, true },
+		{ "spread", parse_number, offsetof(scene_t, src_spread), &R_NONNEG, false },
+		{ "height", parse_number, offsetof(scene_t, src_height), &R_POS, true },
+		{ "velocity", parse_vector, offsetof(scene_t, src_velocity), NULL, false },
+		{ "temperature", parse_number, offsetof(scene_t, src_temperature), &R_NONNEG, false },
+		{ .name = NULL },
+	},
+};
+
 static const struct object particles_obj = {
 	.fields = (const struct field[]){
 		{ "count", parse_integer, offsetof(scene_t, count), &R_COUNT, false },
@@ -1933,6 +2061,7 @@ static const struct object particles_obj = {
 		{ "volume_fraction", parse_number, offsetof(scene_t, volume_fraction), &R_POS, false },
 		{ "box", parse_box, offsetof(scene_t, box), NULL, false },
 		{ "initial", parse_object, 0, &initial_obj, false },
+		{ "source", parse_object, 0, &source_obj, false },
 		{ .name = NULL },
 	},
 	.check = check_particles,
@@ -2127,6 +2256,14 @@ static const struct object dspec_obj = {
 	},
 };
 
+static const struct object surface_obj = {
+	.fields = (const struct field[]){
+		{ "bins", parse_bins, offsetof(scene_t, surf_bins), &R_BINS, false },
+		{ "axis", parse_dspec_axis, offsetof(scene_t, surf_axis), NULL, false },
+		{ .name = NULL },
+	},
+};
+
 static const struct object output_obj = {
 	.fields = (const struct field[]){
 		{ "every", parse_object, offsetof(scene_t, every), &when_obj, false },
@@ -2138,6 +2275,7 @@ static const struct object output_obj = {
 		{ "impact_parameter", parse_object, 0, &impact_obj, false },
 		{ "fields", parse_object, 0, &fields_obj, false },
 		{ "density_spectrum", parse_object, 0, &dspec_obj, false },
+		{ "surface_profile", parse_object, 0, &surface_obj, false },
 		{ "snapshots", parse_object, 0, &snapshots_obj, false },
 		{ "checkpoint", parse_object, 0, &checkpoint_obj, false },
 		{ .name = NULL },
@@ -2294,6 +2432,7 @@ static const struct object hsmc_obj = {
 	.fields = (const struct field[]){
 		MC_FIELDS,
 		{ "max_volume_fraction", parse_number, offsetof(scene_t, mc_max_volume_fraction), &R_POS, false },
+		{ "cell_partners", parse_partners, offsetof(scene_t, mc_cell_any), NULL, false },
 		{ .name = NULL },
 	},
 	.check = check_mc,
@@ -2435,7 +2574,7 @@ int scene_has_open_walls(const scene_t *s)
 			                              s->boundary[a].wall[k].type == SCENE_WALL_RESERVOIR ||
 			                              s->boundary[a].wall[k].type == SCENE_WALL_DISPENSER))
 				return 1;
-	return 0;
+	return s->src_count > 0;   /* a source: particles enter */
 }
 
 int scene_has_reservoir(const scene_t *s)
@@ -2469,6 +2608,8 @@ int scene_has_filter(const scene_t *s)
 
 uint64_t scene_slots(const scene_t *s)
 {
+	if (s->src_count > 0)
+		return s->count + s->src_count;   /* row = id: the initial particles, then the source's in order */
 	return scene_has_reservoir(s) && s->capacity > s->count ? s->capacity : s->count;
 }
 

@@ -63,6 +63,7 @@ enum {
 	SCENE_OBS_FIELDS = 1u << 15,        /* fields: density, velocity, temperature (spin) per grid cell at snapshot times */
 	SCENE_OBS_DSPEC = 1u << 24,         /* density_spectrum: slice counts along an axis, P(f) and its slope at snapshot times */
 	SCENE_OBS_FLUX = 1u << 25,          /* flux: sum of v along gravity / volume in the progress stream */
+	SCENE_OBS_SURFACE = 1u << 26,       /* surface_profile: h(x), the highest centre per bin across gravity, at snapshot times */
 };
 
 /* Wall kinds (boundaries.AXIS.lower/upper.type; method ed only). Every wall
@@ -198,6 +199,18 @@ typedef struct scene {
 	double temperature;            /* initial T >= 0, default 1 (of the velocities about the mean flow) */
 	double flow[3];                /* initial mean velocity (a stream; method ed), default 0 */
 	double relax_cpp;              /* elastic pre-run, collisions per particle (default 0) */
+	/* particles.source (dsmc/hsmc; docs/scene.md): src_count particles inserted one at a time, the k-th
+	 * (k = 1 .. src_count) at time k / src_rate, its centre src_height above the highest centre present
+	 * along -gravity (the floor's contact plane when none is), across gravity at src_position (the
+	 * gravity axis's entry 0) plus uniform noise in [-src_spread, src_spread] per axis, velocity
+	 * src_velocity + a Maxwellian at src_temperature. src_axis: gravity's axis (resolved by the parser).
+	 * The particles get the ids count .. count + src_count - 1 in insertion order (rows of the frames:
+	 * scene_slots()); one that would lie beyond the upper contact plane is not inserted (counted). */
+	uint64_t src_count;            /* 0: no source */
+	double src_rate, src_height, src_spread, src_temperature;
+	double src_position[3], src_velocity[3];
+	double src_pos_raw[2];         /* parsed: the D - 1 coordinates across gravity, in axis order */
+	int src_axis;
 	/* particles.initial.region: centres placed so that every particle lies
 	 * in [region_lo, region_hi] (scene coordinates, per axis; default the
 	 * box); checked and placed by engine/place.h */
@@ -278,6 +291,9 @@ typedef struct scene {
 	 * over frequencies in [dspec_fit[0], dspec_fit[1]] (default: all) */
 	int dspec_slices, dspec_axis, dspec_m;
 	double dspec_interval, dspec_fit[2];
+	/* surface_profile (output.surface_profile, engine/observe/surface.h): surf_bins bins along surf_axis
+	 * (default: the first axis across gravity), height along -gravity */
+	int surf_bins, surf_axis;
 	scene_when_t snapshots;        /* trajectory frames (time or cpp); NONE = first and last only */
 	int compression;               /* deflate level 0..9 of the HDF5 output, default 0 */
 	scene_when_t checkpoint;       /* checkpoint interval (simulated time or wall seconds); NONE = none */
@@ -296,6 +312,8 @@ typedef struct scene {
 	scene_mc_correction_t mc_correction; /* default: none (dsmc), cba (hsmc) */
 	double mc_max_volume_fraction; /* hsmc: cells at or above are full; 0 = default */
 	int mc_local_chi;              /* contact_value: 0 = "global" (mean volume fraction), 1 = "local" (per cell) */
+	int mc_cell_any;               /* hsmc.cell_partners: 0 = "full" (a full cell collides with full neighbours only),
+	                                * 1 = "any" (with any neighbour holding particles) */
 	/* impact_c: the impact parameter drawn from P(b)/P_chaos = a / (1 - c b^2) (b in diameters; P_chaos = 1 in
 	 * 2D, 2b in 3D) with c(tau) linear in the collisions per particle tau between the points (tau_k, c_k),
 	 * constant beyond them: seed 000's "HSMC corrected" (sec. 3.6, c taken from an ed run). 0 points: molecular
@@ -340,7 +358,8 @@ double scene_close_packing(int dim);
 int scene_has_walls(const scene_t *s);
 int scene_has_obstacles(const scene_t *s);
 /* Any wall of type "open" or "reservoir" (particles leave through it), or
- * "dispenser" (particles enter through it): the particle set is not fixed. */
+ * "dispenser" (particles enter through it), or a particles.source (dsmc/hsmc):
+ * the particle set is not fixed. */
 int scene_has_open_walls(const scene_t *s);
 /* Any wall of type "reservoir" or "dispenser" (particles enter; ed only). Such
  * scenes have capacity particle slots, count of them filled at the start:
@@ -349,6 +368,8 @@ int scene_has_reservoir(const scene_t *s);
 /* Any wall of type "dispenser"; any "open" wall with a filter. */
 int scene_has_dispenser(const scene_t *s);
 int scene_has_filter(const scene_t *s);
+/* Rows of the per-particle arrays of the run and its output: particles.capacity with a reservoir or
+ * dispenser, particles.count + particles.source.count with a source (row = particle id), else count. */
 uint64_t scene_slots(const scene_t *s);
 int scene_has_gravity(const scene_t *s);
 /* What feeds the mechanical energy of a scene with a periodic axis (thermal, moving or vibrating walls,

@@ -48,7 +48,8 @@ for p in prog:
     # structure observables: a2 and the contact values in progress records, curves only in observables.jsonl
     key = {"velocity_distribution": "a2", "pair_correlation": "g_contact_pairs", "mean_square_displacement": "msd"}
     missing = (base | {key.get(o, o) for o in obs
-                       if o not in ("clusters", "structure_factor", "velocity_correlations", "fields", "density_spectrum")}) - set(p)
+                       if o not in ("clusters", "structure_factor", "velocity_correlations", "fields", "density_spectrum",
+                                     "surface_profile")}) - set(p)
     assert not missing, missing
     if "clusters" in obs and "replicas" not in p:   # ensembles: histogram totals over replicas
         c = p["clusters"]

@@ -31,6 +31,17 @@ b=$(api GET "/api/v1/jobs/$id/observables?name=pair_correlation&after=1&limit=2"
 ok $([ "$(field "$b" '[s["sample"] for s in d["samples"]]')" = "[2, 3]" ] && [ "$(field "$b" 'd["truncated"]')" = True ]; echo $?) \
 	"after=1&limit=2: samples 2, 3, truncated (more follow)"
 
+# surface_profile (issue 13, the heap): an hsmc job with a particles.source; the last profile counts the particles
+# present (2 + 24 inserted by t = 25: the k-th at k / rate, k / rate < 25).
+SC2='{"method":"hsmc","dimensions":2,"particles":{"count":2,"box":[30,20],"initial":{"positions":"random","temperature":0},"source":{"count":40,"rate":1,"position":[15],"height":3}},"collisions":{"restitution":0.9},"boundaries":{"y":{"type":"walls","lower":{"type":"specular","restitution":0.5},"upper":{"type":"specular"}}},"gravity":[0,-10],"run":{"seed":3,"until":{"time":25}},"output":{"every":{"time":5},"observables":["kinetic_energy","outflow","surface_profile"],"surface_profile":{"bins":15},"snapshots":{"every":{"time":12.5}}},"hsmc":{"time_step":0.01}}'
+id2=$(field "$(post /api/v1/jobs -d "$SC2")" 'd["id"]')
+wait_state "$id2" succeeded 60 || true
+b=$(api GET "/api/v1/jobs/$id2/observables?name=surface_profile&last=1" -H "$A")
+ok $([ "$(code)" = 200 ] && [ "$(field "$b" 'd["samples"][0]["tables"][0]["x"]')" = x ] &&
+	[ "$(field "$b" 'len(d["samples"][0]["tables"][0]["columns"]["h"])')" = 15 ] &&
+	[ "$(field "$b" 'sum(d["samples"][0]["tables"][0]["columns"]["n"])')" = 26 ]; echo $?) \
+	"name=surface_profile: the last h(x) of a job with a source, 15 bins holding its 26 particles: $(code) $(echo "$b" | head -c 120)"
+
 # errors: 400 with a JSON body naming the parameter
 errck() {   # QUERY WORD
 	b=$(api GET "/api/v1/jobs/$id/observables$1" -H "$A")

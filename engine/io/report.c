@@ -161,6 +161,10 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 				first = 0;
 			}
 		put(&o, "}");
+		if (r->source && r->replicas <= 1) {   /* particles.source: inserted and skipped (totals) */
+			u64(&o, "inserted", r->source_inserted);
+			u64(&o, "insert_skipped", r->source_skipped);
+		}
 		if (r->reservoirs) {   /* reservoir walls: entries made and rejected per wall (totals) */
 			const uint64_t *cnt[2] = { r->wall_inflow, r->wall_rejected };
 			static const char *const key[2] = { "inflow", "inflow_rejected" };

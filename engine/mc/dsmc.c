@@ -54,6 +54,7 @@ struct dsmc {
 	size_t ncells;
 	double h[3], inv_h[3], vcell;
 	uint32_t nfull;                /* hsmc: a cell with >= nfull particles is full */
+	int cell_any;                  /* hsmc.cell_partners "any": a full cell's partner may be any non-empty neighbour */
 
 	/* particles: AoS, stride 2D doubles: x[D] then v[D], in cell order (sorted in place) */
 	double *p;
@@ -147,6 +148,16 @@ struct dsmc {
 	double *pcount;                /* dsmc_count_pairs(): collisions per pair of species, or NULL */
 	double msp[SCENE_SPECIES_MAX];
 	double pe[SCENE_SPECIES_MAX][SCENE_SPECIES_MAX];
+	/* particles.source (scene.h; src = 0 without): n = n0 + src_total records, the ones not inserted yet
+	 * wait after the na present ones (as the ones that left through an open wall), at rest, with their
+	 * ids n0 + k. src_k: insertions due so far (made, or skipped because the particle would lie beyond
+	 * the far wall: src_rej of them); the next is due at (src_k + 1) / src_rate. src_ax: gravity's axis,
+	 * src_sg = +1 when gravity points to -src_ax (the floor is the lower wall), else -1. */
+	int src, src_ax;
+	double src_sg;
+	uint32_t n0;
+	uint64_t src_total, src_k, src_rej;
+	double src_rate, src_h, src_spread, src_sv, src_x[3], src_v[3];
 	void (*step)(struct dsmc *, double);   /* chosen at load: dimension and periodic or bounded */
 };
 
@@ -492,7 +503,7 @@ static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int
 				if (nb == c)
 					continue;
 				uint32_t nn = d->start[nb + 1] - d->start[nb];
-				if ((M ? nn < 2 || !cell_full(d, nb, M) : nn < d->nfull) || d->stamp[nb] == mark)
+				if ((d->cell_any ? nn == 0 : M ? nn < 2 || !cell_full(d, nb, M) : nn < d->nfull) || d->stamp[nb] == mark)
 					continue;
 				double mn = cell_momentum(d, d->start[nb], nn, ub, D, M);
 				double w = sgn * (ua[a] - ub[a]);   /* approach speed along the face normal a -> b */
@@ -520,8 +531,10 @@ static ALWAYS_INLINE void cell_collisions(struct dsmc *d, const int D, const int
 		ua1[best_axis] -= best_sign * J / ma;
 		ub1[best_axis] += best_sign * J / mb;
 		double lost = 0.5 * (1 - d->e * d->e) * mu * best_w * best_w;
-		cell_return(d, d->start[c], na, ua, ua1, lost * ma / (ma + mb), D, M, ma);
-		cell_return(d, d->start[best], nb_n, best_u, ub1, lost * mb / (ma + mb), D, M, mb);
+		/* a lone particle has no thermal motion to take its share (cell_partners "any"): the full cell takes it all */
+		const int lone = nb_n < 2;
+		cell_return(d, d->start[c], na, ua, ua1, lone ? lost : lost * ma / (ma + mb), D, M, ma);
+		cell_return(d, d->start[best], nb_n, best_u, ub1, lone ? 0.0 : lost * mb / (ma + mb), D, M, mb);
 		d->stamp[c] = d->stamp[best] = mark;
 		d->cell_collisions++;
 	}
@@ -1794,7 +1807,7 @@ static void initial_sort(struct dsmc *d)
 {
 	const int D = d->dim, S = 2 * D;
 	memset(d->cnt, 0, (d->ncells + 1) * sizeof(uint32_t));
-	for (uint32_t k = 0; k < d->n; k++) {
+	for (uint32_t k = 0; k < d->na; k++) {   /* a source's records wait after the na present ones */
 		uint32_t c = cell_of(d, &d->p[(size_t)k * S], D);
 		d->cell[k] = c;
 		d->cnt[c]++;
@@ -1840,9 +1853,82 @@ int dsmc_advance(dsmc_t *d, double t_stop, uint64_t max_collisions, uint64_t max
 	return dsmc_advance_soft(d, t_stop, INFINITY, max_collisions, max_steps);
 }
 
+/* Time of the next insertion of the source (INFINITY: none left, or none during the elastic pre-run). */
+static double source_next(const struct dsmc *d)
+{
+	return d->src && !d->relaxing && d->src_k < d->src_total ? (double)(d->src_k + 1) / d->src_rate : INFINITY;
+}
+
+/* The source's insertion due now (scene.h, particles.source): its centre src_h above the highest centre
+ * present along -g (the floor's contact plane when none is), across gravity at src_x plus uniform noise
+ * in [-spread, spread] (periodic axes wrapped), velocity src_v plus a Maxwellian of variance T / m per
+ * component. Its record (id n0 + src_k, waiting after the present ones) goes to the end of its cell's
+ * records, the records after it one place on: the cell offsets stay those of a sorted state. A particle
+ * that would lie beyond the far wall's contact plane is not inserted (src_rej). Random numbers from the
+ * engine's stream, at a fixed point of the step sequence (between steps). */
+static void source_insert(struct dsmc *d)
+{
+	const int D = d->dim, S = 2 * D, g = d->src_ax;
+	const uint32_t want = d->n0 + (uint32_t)d->src_k;
+	d->src_k++;
+	double x[3], v[3], top = -INFINITY, sg = d->src_sg;
+	for (uint32_t k = 0; k < d->na; k++)
+		top = fmax(top, sg * d->p[(size_t)k * S + g]);
+	if (!(top > -INFINITY))
+		top = sg > 0 ? d->lo[g] : -d->hi[g];   /* the floor's contact plane */
+	for (int a = 0; a < D; a++) {
+		if (a == g) {
+			x[a] = sg * (top + d->src_h);
+			continue;
+		}
+		double u = d->src_spread > 0 ? (2 * rng_uniform(&d->rng) - 1) * d->src_spread : 0.0;
+		x[a] = d->src_x[a] + d->org[a] + u;
+		if (!d->walled[a])
+			x[a] = wrap(x[a], d->L[a]);
+	}
+	for (int a = 0; a < D; a++)
+		v[a] = d->src_v[a] + (d->src_sv > 0 ? d->src_sv * rng_gauss(&d->rng) : 0.0);
+	if (!(x[g] >= d->lo[g] && x[g] <= d->hi[g])) {
+		d->src_rej++;
+		return;
+	}
+	/* its record: to index na (absent records are interchangeable), then into its cell */
+	uint32_t k = d->na;
+	while (k < d->n && d->id[k] != want)
+		k++;
+	if (k >= d->n)
+		return;   /* cannot happen: the ids n0 + j, j >= src_k, wait there */
+	double rec[6];
+	memcpy(rec, &d->p[(size_t)k * S], S * sizeof(double));
+	memcpy(&d->p[(size_t)k * S], &d->p[(size_t)d->na * S], S * sizeof(double));
+	d->id[k] = d->id[d->na];
+	const size_t c = cell_of(d, x, D);
+	const uint32_t pos = d->start[c + 1], j = d->na;
+	memmove(&d->p[(size_t)(pos + 1) * S], &d->p[(size_t)pos * S], (size_t)(j - pos) * S * sizeof(double));
+	memmove(&d->id[pos + 1], &d->id[pos], (size_t)(j - pos) * sizeof(uint32_t));
+	for (int a = 0; a < D; a++)
+		rec[a] = x[a], rec[D + a] = v[a];
+	memcpy(&d->p[(size_t)pos * S], rec, S * sizeof(double));
+	d->id[pos] = want;
+	for (size_t q = c + 1; q <= d->ncells; q++)
+		d->start[q]++;
+	d->na++;
+	double v2 = 0;
+	for (int a = 0; a < D; a++)
+		v2 += v[a] * v[a];
+	d->ekin_est += 0.5 * d->mass * v2;
+}
+
 int dsmc_advance_soft(dsmc_t *d, double t_stop, double t_soft, uint64_t max_collisions, uint64_t max_steps)
 {
 	for (uint64_t k = 0; k < max_steps && d->t < t_stop && d->t < t_soft && d->collisions < max_collisions; k++) {
+		/* the source: insertions due now; steps land on the next one (as on t_stop) */
+		double t_land = t_stop;
+		if (d->src) {
+			while (source_next(d) <= d->t)
+				source_insert(d);
+			t_land = fmin(t_stop, source_next(d));
+		}
 		double dt = d->dt_fixed;
 		if (dt <= 0) {
 			double T = 2 * d->ekin_est / (d->dim * (double)(d->na ? d->na : 1));   /* present particles */
@@ -1850,15 +1936,15 @@ int dsmc_advance_soft(dsmc_t *d, double t_stop, double t_soft, uint64_t max_coll
 			if (d->gnorm > 0 && !(dt <= d->dt_grav))
 				dt = d->dt_grav;
 		}
-		if (!isfinite(dt) && !isfinite(t_stop))
+		if (!isfinite(dt) && !isfinite(t_land))
 			return DSMC_QUIESCENT;
 		int last = 0;
-		if (!(d->t + dt < t_stop) || (t_stop - d->t - dt) < 1e-12 * dt) {
-			dt = t_stop - d->t;
+		if (!(d->t + dt < t_land) || (t_land - d->t - dt) < 1e-12 * dt) {
+			dt = t_land - d->t;
 			last = 1;
 		}
 		d->step(d, dt);
-		d->t = last ? t_stop : d->t + dt;
+		d->t = last ? t_land : d->t + dt;
 	}
 	return DSMC_OK;
 }
@@ -2004,7 +2090,24 @@ static int layout(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
 		return DSMC_EINVAL;
 	}
 	d->dim = s->dim;
-	d->n = d->na = (uint32_t)s->count;
+	d->n = d->na = d->n0 = (uint32_t)s->count;
+	if (s->src_count > 0) {   /* records for the source's particles, waiting after the present ones */
+		if (s->count + s->src_count > INT32_MAX) {
+			set_msg(msg, msglen, "particles.source.count: %.0f particles in all are too many", (double)(s->count + s->src_count));
+			return DSMC_EINVAL;
+		}
+		d->n = (uint32_t)(s->count + s->src_count);
+		d->src = 1;
+		d->src_total = s->src_count;
+		d->src_rate = s->src_rate;
+		d->src_h = s->src_height;
+		d->src_spread = s->src_spread;
+		d->src_sv = sqrt(s->src_temperature / s->mass);
+		d->src_ax = s->src_axis;
+		d->src_sg = s->gravity[s->src_axis] < 0 ? 1.0 : -1.0;
+		for (int a = 0; a < 3; a++)
+			d->src_x[a] = s->src_position[a], d->src_v[a] = a < s->dim ? s->src_velocity[a] : 0.0;
+	}
 	d->hsmc = pr.hsmc;
 	d->cba = pr.correction == SCENE_MC_CBA;
 	d->corr = pr.correction != SCENE_MC_NONE;
@@ -2050,6 +2153,7 @@ static int layout(struct dsmc *d, const scene_t *s, char *msg, size_t msglen)
 	}
 	d->ncells = (size_t)ncell;
 	d->nfull = (uint32_t)ceil(pr.max_volume_fraction * d->vcell / d->vp - 1e-9);
+	d->cell_any = d->hsmc && s->mc_cell_any;
 	d->vfull = pr.max_volume_fraction * d->vcell;   /* mixtures */
 	if (d->nfull < 2)
 		d->nfull = 2;
@@ -2359,6 +2463,9 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 	const size_t S = 2 * (size_t)d->dim;
 
 	rng_init(&d->rng, s->seed, stream);
+	/* a source's records wait after the initial particles: placement and velocities see those only */
+	const uint32_t nslots = d->n;
+	d->n = d->n0;
 	/* positions: given (a region, place.h, or an earlier run's frame), or placed */
 	if (s->init_pos) {
 		for (uint32_t i = 0; i < d->n; i++)
@@ -2443,6 +2550,14 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 	for (uint32_t i = 0; i < d->n && !s->init_vel && !d->mix; i++)
 		for (int a = 0; a < d->dim; a++)
 			d->p[i * S + d->dim + a] *= scale;
+	d->n = nslots;
+	for (uint32_t i = d->n0; i < d->n; i++) {   /* the source's, not inserted yet: at rest, inside the box */
+		d->id[i] = i;
+		for (int a = 0; a < d->dim; a++) {
+			d->p[i * S + a] = d->walled[a] ? d->lo[a] : 0.0;
+			d->p[i * S + d->dim + a] = 0.0;
+		}
+	}
 	initial_sort(d);
 	d->ekin_est = ekin_exact(d, NULL);
 	/* The carried remainders start from their stationary distribution,
@@ -2456,7 +2571,7 @@ dsmc_t *dsmc_create(const scene_t *s, uint64_t stream, int *err, char *msg, size
 		double e = d->e;
 		d->e = 1;
 		d->relaxing = 1;   /* open walls reflect */
-		uint64_t target = (uint64_t)ceil(s->relax_cpp * d->n / 2.0);
+		uint64_t target = (uint64_t)ceil(s->relax_cpp * d->na / 2.0);
 		(void)dsmc_advance(d, INFINITY, target, UINT64_MAX);   /* QUIESCENT at T = 0: nothing to relax */
 		d->e = e;
 		d->relaxing = 0;
@@ -2522,6 +2637,8 @@ static void walls_out(const struct dsmc *d, dsmc_sample_t *out)
 	out->obstacle_collisions = d->obst_collisions;
 	out->rested = d->rested;
 	out->particles = d->na;
+	out->source_inserted = d->src_k - d->src_rej;
+	out->source_skipped = d->src_rej;
 	memcpy(out->wall_outflow, d->wout, sizeof out->wall_outflow);
 	memcpy(out->wall_hits, d->wall_hits, sizeof out->wall_hits);
 	out->com_height = out->potential_energy = NAN;
@@ -2636,7 +2753,8 @@ void dsmc_totals(const dsmc_t *d, dsmc_sample_t *out)
  * estimate and the interval accumulators. Not stored: the sort scratch
  * cell, cnt (rewritten before they are read in every step) and v_max
  * (recomputed per cell and step from the velocities). */
-enum { F_SCALAR, F_PART, F_ID, F_START, F_REM, F_STAMP, F_RNG, F_WALL, F_WHITS, F_WIMP, F_PRESENT, F_WOUT, F_OBST, F_OIMP };
+enum { F_SCALAR, F_PART, F_ID, F_START, F_REM, F_STAMP, F_RNG, F_WALL, F_WHITS, F_WIMP, F_PRESENT, F_WOUT, F_OBST, F_OIMP,
+       F_SRC };
 typedef struct {
 	const char *name;
 	ed_type_t type;
@@ -2675,6 +2793,8 @@ static const dfield_t dfields[] = {
 	/* scenes with obstacles only */
 	{ "obstacle_collisions", ED_T_U64, F_OBST, offsetof(struct dsmc, obst_collisions) },
 	{ "obstacle_impulse", ED_T_F64, F_OIMP, 0 },
+	/* scenes with a source only: insertions due so far, skipped ones (present: above) */
+	{ "source", ED_T_U64, F_SRC, 0 },
 };
 #define N_DFIELDS (sizeof dfields / sizeof dfields[0])
 
@@ -2690,7 +2810,8 @@ static size_t dfield_count(const struct dsmc *d, const dfield_t *f)
 	case F_WALL: return d->has_walls ? 1 : 0;
 	case F_WHITS: return d->has_walls ? 6 : 0;
 	case F_WIMP: return d->has_walls ? 18 : 0;
-	case F_PRESENT: return d->open ? 1 : 0;
+	case F_PRESENT: return d->open || d->src ? 1 : 0;
+	case F_SRC: return d->src ? 2 : 0;
 	case F_WOUT: return d->open ? 6 : 0;
 	case F_OBST: return d->nobst ? 1 : 0;
 	case F_OIMP: return 3 * (size_t)d->nobst;
@@ -2701,8 +2822,8 @@ static size_t dfield_count(const struct dsmc *d, const dfield_t *f)
 /* Fields a scene's engine has (stamp: hsmc; wall state: scenes with walls). */
 static int dfield_present(const struct dsmc *d, const dfield_t *f)
 {
-	return f->kind == F_STAMP ? d->hsmc : f->kind >= F_OBST ? d->nobst > 0 : f->kind >= F_PRESENT ? d->open
-	       : f->kind >= F_WALL ? d->has_walls : 1;
+	return f->kind == F_STAMP ? d->hsmc : f->kind == F_SRC ? d->src : f->kind >= F_OBST ? d->nobst > 0
+	       : f->kind == F_PRESENT ? d->open || d->src : f->kind >= F_PRESENT ? d->open : f->kind >= F_WALL ? d->has_walls : 1;
 }
 
 static const dfield_t *dfield_find(const char *name)
@@ -2744,6 +2865,7 @@ int dsmc_field_get(const dsmc_t *d, const char *name, void *buf)
 	case F_PRESENT: *(uint64_t *)buf = d->na; break;
 	case F_WOUT: memcpy(buf, d->wout, sizeof d->wout); break;
 	case F_OIMP: memcpy(buf, d->obst_impulse, count * sizeof(double)); break;
+	case F_SRC: ((uint64_t *)buf)[0] = d->src_k, ((uint64_t *)buf)[1] = d->src_rej; break;
 	case F_REM:
 		for (size_t c = 0; c < count; c++)
 			((double *)buf)[c] = d->rem[c];   /* float -> double -> float is exact */
@@ -2773,6 +2895,7 @@ int dsmc_field_set(dsmc_t *d, const char *name, ed_type_t type, size_t count, co
 		break;
 	case F_WOUT: memcpy(d->wout, buf, sizeof d->wout); break;
 	case F_OIMP: memcpy(d->obst_impulse, buf, count * sizeof(double)); break;
+	case F_SRC: d->src_k = ((const uint64_t *)buf)[0], d->src_rej = ((const uint64_t *)buf)[1]; break;
 	case F_REM:
 		for (size_t c = 0; c < count; c++) {
 			double r = ((const double *)buf)[c];
@@ -2790,7 +2913,8 @@ int dsmc_restore_finish(dsmc_t *d, char *msg, size_t msglen)
 {
 	const int D = d->dim, S = 2 * D;
 	const char *why = NULL;
-	if (d->start[0] != 0 || d->start[d->ncells] != d->na || d->na > d->n || (!d->open && d->na != d->n))
+	if (d->start[0] != 0 || d->start[d->ncells] != d->na || d->na > d->n || (!d->open && !d->src && d->na != d->n) ||
+	    (d->src && (d->src_k > d->src_total || d->src_rej > d->src_k || d->na > d->n0 + d->src_k - d->src_rej)))
 		why = "cell offsets do not cover the particles present";
 	for (size_t c = 0; !why && c < d->ncells; c++)
 		if (d->start[c + 1] < d->start[c])

@@ -21,7 +21,11 @@
  *   nothing more), open (a particle that reaches one leaves: its record
  *   goes after the particles present, dsmc_state() gives NaN for it,
  *   energies and heights are over the particles present; ed's semantics,
- *   docs/scene.md). Mixtures (particles.species, dsmc and hsmc): each
+ *   docs/scene.md). A source (particles.source): n = count + source count
+ *   records, those not inserted yet wait after the present ones (at rest,
+ *   NaN in dsmc_state()); each insertion is due at k / rate, steps land on
+ *   it, and it is made between steps (source_insert(): above the highest
+ *   centre present, into its cell's records); ids count + k - 1 in order. Mixtures (particles.species, dsmc and hsmc): each
  *   particle's own radius for its wall and obstacle contacts, its own mass
  *   for impulses and a thermal wall's or no_slip obstacle's re-emission
  *   (sqrt(T / m_s)); walls of every kind; with correction enskog or cba each
@@ -147,6 +151,9 @@ typedef struct {
 	/* Open walls: particles present now (N without open walls) and the
 	 * number that left through each wall, totals (as ed_sample_t). */
 	uint64_t particles, wall_outflow[6];
+	/* particles.source: particles inserted so far, and insertions skipped (the particle would
+	 * have been beyond the far wall), totals; 0 without a source. */
+	uint64_t source_inserted, source_skipped;
 	/* Scenes with gravity g: centre-of-mass height along -g (scene
 	 * coordinates) and potential energy -m sum g.r, now. NAN without gravity. */
 	double com_height, potential_energy;

@@ -9,6 +9,7 @@
 #include "observe/dspec.h"
 #include "observe/fgrid.h"
 #include "observe/fields.h"
+#include "observe/surface.h"
 #include "observe/gofr.h"
 #include "observe/sofk.h"
 #include "observe/tables.h"
@@ -205,6 +206,10 @@ obs_t *obs_create(const scene_t *s, int layout_only)
 			for (int b = 0; b < t->nb; b++)
 				centres[b] = (b + 1) * df;
 			continue;
+		} else if (!strcmp(t->x, "x")) {
+			/* surface_profile: equal bins of the box edge along its axis */
+			for (int b = 0; b <= t->nb; b++)
+				edges[b] = s->box[s->surf_axis] * b / t->nb;
 		} else if (!strcmp(t->x, "k")) {
 			fgrid_axis(o->grid, edges, centres, NULL);
 			continue;
@@ -507,6 +512,15 @@ const obs_curves_t *obs_curves(obs_t *o, clusters_t *cl, size_t n, const double 
 		c->fields_samples = fields_result(o->fields, s->mass, t->val[1], t->val[0], tu->val, tt->val[0],
 		                                  tw ? tw->val : NULL);
 		fields_reset(o->fields);
+	}
+	if ((t = find(o, "surface_profile", ""))) {
+		/* heights from the floor gravity points to (the parser's rule: gravity along one walled axis) */
+		int g = 0;
+		for (int a = 0; a < D; a++)
+			if (s->gravity[a] != 0)
+				g = a;
+		surface_profile(D, n, pos, s->surf_axis, s->box[s->surf_axis], t->nb, g, s->gravity[g] < 0 ? 1 : -1,
+		                s->box[g], t->val[0], t->val[1]);
 	}
 	if ((t = find(o, "density_spectrum", "")) && o->dspec)
 		c->dspec_samples = dspec_result(o->dspec, t->val[0], &c->dspec_alpha, &c->dspec_alpha_se);

@@ -86,7 +86,7 @@ typedef struct obs obs_t;
 
 /* The observables of scene s that make curves (what obs_create() lays out). */
 #define OBS_CURVE_BITS (SCENE_OBS_VDIST | SCENE_OBS_GOFR | SCENE_OBS_SOFK | SCENE_OBS_VCORR | SCENE_OBS_CLUSTERS | \
-                        SCENE_OBS_IMPACT | SCENE_OBS_FIELDS | SCENE_OBS_DSPEC)
+                        SCENE_OBS_IMPACT | SCENE_OBS_FIELDS | SCENE_OBS_DSPEC | SCENE_OBS_SURFACE)
 unsigned obs_curve_bits(const scene_t *s);
 
 /* Workspaces for scene s. layout_only: only the curve description (axes, zeroed values), no

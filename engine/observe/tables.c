@@ -99,6 +99,10 @@ void tables_layout(obs_curves_t *c, const scene_t *s, int J)
 		static const char *const pcols[] = {"P", NULL};
 		table(c, "density_spectrum", "", "f", "t0-1", dspec_bins(s->dspec_m), pcols);
 	}
+	if (bits & SCENE_OBS_SURFACE) {
+		static const char *const hcols[] = {"h", "n", NULL};
+		table(c, "surface_profile", "", "x", "l0", s->surf_bins, hcols);
+	}
 }
 
 /* Shells of width dk from dk/2 up to the smallest axis's Nyquist wave number kny (at least one). */

@@ -1,0 +1,183 @@
+#!/bin/sh
+# The heap of seed 000 (issue 13 experiment 3, anchor A10; TAP): particles.source through the engine program (hsmc):
+# insertion schedule and counts, the three table boundary conditions (wide table, finite table with open edges,
+# box), the surface_profile observable against the particle counts, determinism and bit-identical resume; then the
+# published shape of presets/heap-2d.json: a straight central slope not locked to the lattice slopes 1/2, 1/3.
+set -u
+: "${SRCDIR:=$(cd "$(dirname "$0")/.." && pwd)}"
+: "${ENGINE:=$SRCDIR/engine/granular-engine}"
+PY=/usr/bin/python3
+tmp=$(mktemp -d "${TMPDIR:-/tmp}/heap_test.XXXXXX")
+trap '[ -n "${KEEP:-}" ] || rm -rf "$tmp"' EXIT
+n=0; failed=0
+ok() { n=$((n + 1)); if [ "$1" = 0 ]; then echo "ok $n - $2"; else echo "not ok $n - $2"; failed=$((failed + 1)); fi; }
+run() { "$ENGINE" run "$1" --out "$2" >"$2.log" 2>&1; }
+
+# A small pile: 300 particles poured at 2 per time unit, 3 diameters above the top, onto a frictional floor of a
+# 60 x 30 box (cells of 2 diameters). SIDES: the side walls.
+scene() {   # NAME SIDES EXTRA_OUTPUT
+	cat >"$tmp/$1.json" <<JSON
+{"method":"hsmc","dimensions":2,
+ "particles":{"count":2,"box":[60,30],"initial":{"positions":"random","temperature":0},
+   "source":{"count":300,"rate":2,"position":[30],"spread":1,"height":3,"temperature":0.01}},
+ "collisions":{"restitution":0.9},
+ "boundaries":{"x":{"type":"walls","lower":$2,"upper":$2},
+   "y":{"type":"walls","lower":{"type":"moving","velocity":[0,0],"tangential_restitution":0,"restitution":0.5},
+        "upper":{"type":"specular"}}},
+ "gravity":[0,-10],"run":{"seed":7,"until":{"time":200}},
+ "output":{"every":{"time":12.5},"observables":["kinetic_energy","center_of_mass_height","outflow","surface_profile"],
+   "surface_profile":{"bins":30},"snapshots":{"every":{"time":50}}$3},
+ "hsmc":{"time_step":0.01,"cell_size":2,"correction":"none"}}
+JSON
+}
+SPEC='{"type":"specular"}'
+scene box "$SPEC" ',"checkpoint":{"every":{"time":70}}'
+scene table '{"type":"open"}' ''
+
+# 1. The box: the insertions on schedule (the k-th at time k / rate: a record at time t counts those with
+# k / rate < t), each made or skipped, the particles made all present; the profile's bins hold them all, heights
+# inside the box. At 2 per time unit the seed's rule (3 diameters above the highest centre, falling particles
+# included) outruns the fall (0.77 time units from 3 diameters at g = 10): the insertion point climbs to the lid,
+# where insertions are skipped, so skips must occur here.
+run "$tmp/box.json" "$tmp/box"
+ok $? "box: the run completes"
+"$PY" - "$tmp/box" <<'PY' >"$tmp/box.out" 2>&1
+import json, math, sys
+d = sys.argv[1]
+prog = [json.loads(l) for l in open(d + "/progress.jsonl") if '"progress"' in l]
+bad = [p["time"] for p in prog if p["inserted"] + p["insert_skipped"] != min(300, max(0, math.ceil(p["time"] * 2 - 1e-9) - 1))
+       or p["particles_present"] != 2 + p["inserted"]]
+curves = [json.loads(l) for l in open(d + "/observables.jsonl")]
+ppt = {p["time"]: p["particles_present"] for p in prog}
+badc = []
+for c in curves:
+    t = c["tables"][0]
+    h = [x for x in t["columns"]["h"] if x is not None]
+    if sum(t["columns"]["n"]) != ppt.get(c["time"]) or any(not (0.5 - 1e-9 <= x <= 29.5 + 1e-9) for x in h):
+        badc.append(c["time"])
+last = prog[-1]
+good = not bad and not badc and last["inserted"] + last["insert_skipped"] == 300 and last["insert_skipped"] > 0 and len(curves) == 5
+print("%d records off schedule at %s, profiles off at %s; %d inserted, %d skipped by t = %g" % (good, bad[:3], badc[:3],
+      last["inserted"], last["insert_skipped"], last["time"]))
+PY
+read -r good rest <"$tmp/box.out"
+ok $([ "$good" = 1 ]; echo $?) "box: insertions on schedule, all present, the profile holds them: $rest"
+
+# 2. Determinism: the same scene again gives the same records (wall-clock figures aside).
+strip() { sed -e 's/"wall_seconds":[^,}]*//' -e 's/"[a-z]*_per_second":[^,}]*//g' "$1"; }
+run "$tmp/box.json" "$tmp/box2"
+strip "$tmp/box/progress.jsonl" >"$tmp/a"; strip "$tmp/box2/progress.jsonl" >"$tmp/b"
+cmp -s "$tmp/a" "$tmp/b" && cmp -s "$tmp/box/observables.jsonl" "$tmp/box2/observables.jsonl"
+ok $? "box: a second run gives the same progress and profiles"
+
+# 3. Resume from each checkpoint (t = 70 and 140): the same progress lines and profiles as the uninterrupted run
+# (the source's state and the records waiting to be inserted are in the checkpoint).
+for which in checkpoint.prev.h5 checkpoint.h5; do
+	rm -rf "$tmp/res"; cp -r "$tmp/box" "$tmp/res"
+	"$ENGINE" run "$tmp/box.json" --resume "$tmp/res/$which" --out "$tmp/res" >"$tmp/res.log" 2>&1
+	rc=$?
+	strip "$tmp/res/progress.jsonl" >"$tmp/b"
+	cmp -s "$tmp/a" "$tmp/b" && cmp -s "$tmp/box/observables.jsonl" "$tmp/res/observables.jsonl"
+	ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "box: resume from $which gives the uninterrupted run's records (exit $rc)"
+done
+
+# 4. The finite table: particles that reach an edge leave there; inserted = present + out, and some leave.
+run "$tmp/table.json" "$tmp/table"
+ok $? "finite table: the run completes"
+"$PY" - "$tmp/table" <<'PY' >"$tmp/table.out" 2>&1
+import json, sys
+prog = [json.loads(l) for l in open(sys.argv[1] + "/progress.jsonl") if '"progress"' in l]
+bad = [p["time"] for p in prog if p["particles_present"] + sum(p["outflow"].values()) != 2 + p["inserted"]]
+out = sum(prog[-1]["outflow"].values())
+print("%d unbalanced at %s; %d of %d left over the edges" % (not bad and out > 0, bad[:3], out, prog[-1]["inserted"] + 2))
+PY
+read -r good rest <"$tmp/table.out"
+ok $([ "$good" = 1 ]; echo $?) "finite table: present + fallen off = poured: $rest"
+
+# 5. 3D, a vibrating floor (the engine's coordinates shifted by its amplitude), two replicas: every replica makes
+# the insertions due (59 by t = 60: k / rate < 60), the ensemble's particles_present is their total, and the mean
+# profile over the replicas counts the particles present per replica.
+cat >"$tmp/s3.json" <<'JSON'
+{"method":"hsmc","dimensions":3,"particles":{"count":2,"box":[20,20,20],"initial":{"positions":"random","temperature":0},
+ "source":{"count":100,"rate":1,"position":[10,10],"spread":2,"height":3}},
+ "collisions":{"restitution":0.9},
+ "boundaries":{"z":{"type":"walls","lower":{"type":"vibrating","amplitude":0.2,"frequency":1,"restitution":0.5},
+   "upper":{"type":"specular"}}},
+ "gravity":[0,0,-10],"run":{"seed":2,"until":{"time":60},"replicas":2},
+ "output":{"every":{"time":10},"observables":["kinetic_energy","center_of_mass_height","outflow","surface_profile"],
+   "snapshots":{"every":{"time":30}}},
+ "hsmc":{"time_step":0.01}}
+JSON
+run "$tmp/s3.json" "$tmp/s3"
+rc=$?
+"$PY" - "$tmp/s3" <<'PY' >"$tmp/s3.out" 2>&1
+import json, sys
+prog = [json.loads(l) for l in open(sys.argv[1] + "/progress.jsonl") if '"progress"' in l][-1]
+c = [json.loads(l) for l in open(sys.argv[1] + "/observables.jsonl")][-1]
+n = sum(c["tables"][0]["columns"]["n"])
+print("%d present %d in 2 replicas, profile %g per replica at t = %g" % (prog["particles_present"] == 122 and n == 61,
+      prog["particles_present"], n, c["time"]))
+PY
+read -r good rest <"$tmp/s3.out"
+ok $([ $rc = 0 ] && [ "$good" = 1 ]; echo $?) "3D, vibrating floor, 2 replicas: $rest"
+
+# 6. The published shape (seed 000 sec. 3.5, anchor A10), on presets/heap-2d.json (2000 particles poured at one per
+# time unit onto a 200-wide table, r = 0.9, then 500 time units of rest; the seed's N = 30500 scaled down to run in
+# well under a minute). h(x) = the highest centre per bin of 2 diameters (one cell). The seed fits a straight line
+# to the central part of each side: here the bins between 25% and 75% of the apex height h_m, on each side of the
+# apex. A straight central slope means: at least 5 bins per side, the slope known to 10% (its least-squares
+# standard error), residuals no larger than the staircase the cells make of a straight surface (cells 2 high: a
+# uniform rounding error of standard deviation 2 / sqrt(12) = 0.58, so at most 1.5 x 0.58 = 0.87 rms), and the two
+# sides' slopes equal within 3 combined standard errors (a symmetric heap). No lock-in: the slope more than 3
+# standard errors from the lattice slopes 1/2 and 1/3 (the seed's Fig. 3.27 finds none). Our hsmc does not give
+# this heap yet (docs/engine.md, "Heaps"): a tower two or three cells wide on a flat bed with the default
+# cell_partners "full", a flat mound with "any"; the checks are TODO (they report the measured figures) until it does.
+run "$SRCDIR/presets/heap-2d.json" "$tmp/preset"
+ok $? "presets/heap-2d.json: the run completes ($(grep -o '"inserted":[0-9]*' "$tmp/preset/progress.jsonl" | tail -n 1))"
+"$PY" - "$tmp/preset" <<'PY' >"$tmp/preset.out" 2>&1
+import json, math, sys
+d = sys.argv[1]
+S = [json.loads(l) for l in open(d + "/observables.jsonl")][-1]
+t = S["tables"][0]
+pts = [(x, y) for x, y in zip(t["centres"], t["columns"]["h"]) if y is not None]
+hm = max(y for _, y in pts)
+xa = sum(x for x, y in pts if y == hm) / sum(1 for _, y in pts if y == hm)
+lo, hi = 0.5 + 0.25 * (hm - 0.5), 0.5 + 0.75 * (hm - 0.5)
+def fit(sel):
+    n = len(sel)
+    if n < 3:
+        return None
+    mx = sum(x for x, _ in sel) / n; my = sum(y for _, y in sel) / n
+    sxx = sum((x - mx) ** 2 for x, _ in sel)
+    b = sum((x - mx) * (y - my) for x, y in sel) / sxx
+    rss = sum((y - my - b * (x - mx)) ** 2 for x, y in sel)
+    rms = math.sqrt(rss / (n - 2)) if n > 2 else float("nan")
+    return n, b, rms / math.sqrt(sxx), rms
+sides = [fit([(x, y) for x, y in pts if (x - xa) * s > 0 and lo <= y <= hi]) for s in (-1, 1)]
+desc = "apex h_m = %.1f at x = %.1f; " % (hm, xa) + "; ".join(
+    "%s side: %s" % (name, "%d bins" % 0 if f is None else "slope %.3f +- %.3f, rms %.2f over %d bins" % (abs(f[1]), f[2], f[3], f[0]))
+    for name, f in zip(("left", "right"), sides))
+straight = all(f is not None and f[0] >= 5 and f[2] < 0.1 * abs(f[1]) and f[3] <= 0.87 for f in sides)
+if straight:
+    m1, m2 = abs(sides[0][1]), abs(sides[1][1])
+    straight = abs(m1 - m2) < 3 * math.hypot(sides[0][2], sides[1][2])
+lock = None
+if straight:
+    m = (abs(sides[0][1]) + abs(sides[1][1])) / 2
+    se = math.hypot(sides[0][2], sides[1][2]) / 2
+    lock = abs(m - 0.5) > 3 * se and abs(m - 1 / 3) > 3 * se
+print("%d %d %s" % (straight, 1 if lock else 0, desc))
+PY
+read -r straight unlocked rest <"$tmp/preset.out"
+n=$((n + 1))
+if [ "$straight" = 1 ]; then echo "ok $n - heap: a straight, symmetric central slope: $rest # TODO hsmc heap (docs/engine.md)"
+else echo "not ok $n - heap: a straight, symmetric central slope: $rest # TODO hsmc does not form the seed's heap yet (docs/engine.md)"; fi
+n=$((n + 1))
+if [ "$unlocked" = 1 ]; then echo "ok $n - heap: the slope is not locked to 1/2 or 1/3 # TODO hsmc heap (docs/engine.md)"
+else echo "not ok $n - heap: the slope is not locked to 1/2 or 1/3 (needs a straight slope first) # TODO hsmc does not form the seed's heap yet"; fi
+# The tail against seed 000 eq. (3.17), x = (h_m - h)/m + (l/r) ln(h_m/h), needs the straight slope m and a tail many
+# layers long (the seed: N = 30500); not feasible at this size.
+n=$((n + 1)); echo "ok $n # SKIP the tail against eq. (3.17): needs a straight central slope and a larger heap (docs/engine.md)"
+
+echo "1..$n"
+[ $failed -eq 0 ]
