@@ -267,6 +267,11 @@ struct ed {
 	 * wrapped (do_cross, nl_rebuild, resync: a wrap, not every event, tests it); NULL otherwise */
 	int img_on;
 	int32_t *img;
+	/* Filters under gravity (the FILTG kernels; derived, not state: frozen_tally() after a restore):
+	 * frozen particles present per wall, in all, and the sum of their (constant) velocities. Last in
+	 * the struct: the other kernels' field offsets stay as they were. */
+	uint64_t nfzw[6], nfz;
+	double fzv[3];
 #ifdef ED_TRACE
 	ed_trace_fn trace;        /* bench-only build (ed.h, "Event trace"): called before each event */
 	void *trace_ctx;
@@ -735,6 +740,35 @@ static void trace_emit(struct ed *ed, int kind, uint32_t i, int32_t x, double t)
 #define ED_TRACE_EVENT(ed, kind, i, x, t) ((void)0)
 #endif
 
+/* Filters under gravity: particles frozen at wall w present changed by
+ * dn; their count and velocity sum follow (the sum from the counts, so it
+ * is the same numbers however it was reached: a restored run goes on bit
+ * for bit). */
+static void frozen_count(struct ed *ed, int w, int dn)
+{
+	ed->nfzw[w] += (uint64_t)(int64_t)dn;
+	ed->nfz = 0;
+	for (int a = 0; a < 3; a++)
+		ed->fzv[a] = 0.0;
+	for (int k = 0; k < 6; k++) {
+		ed->nfz += ed->nfzw[k];
+		for (int a = 0; a < 3; a++)
+			ed->fzv[a] += (double)ed->nfzw[k] * ed->fu[k][a];
+	}
+}
+
+/* The frozen particles present, counted afresh from frozen[] (start of the
+ * production run, restore). */
+static void frozen_tally(struct ed *ed)
+{
+	memset(ed->nfzw, 0, sizeof ed->nfzw);
+	if (ed->frozen)
+		for (uint32_t i = 0; i < ed->n; i++)
+			if (ed->frozen[i] && !ed->gone[i])
+				ed->nfzw[ed->frozen[i] - 1]++;
+	frozen_count(ed, 0, 0);
+}
+
 /* Loops over the D axes, unrolled (GCC does not at -O2 by itself; the
  * per-candidate arithmetic is the hot loop of the engine). */
 #define FOR_AXES(a) _Pragma("GCC unroll 3") for (int a = 0; a < D; a++)
@@ -759,6 +793,27 @@ static void trace_emit(struct ed *ed, int kind, uint32_t i, int32_t x, double t)
 #undef SPEC
 #undef ROUGH
 
+/* Filters under gravity (_2gf, _3gf; rough _2grf, _3grf below): the
+ * gravity variant whose frozen particles fly straight (FILTG in
+ * ed_impl.h), chosen at load only for a scene with both. Without heuristic
+ * inlining, like the rough variants, so that the kernels above keep theirs. */
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC push_options
+#pragma GCC optimize ("no-inline-functions")
+#endif
+#define SPEC 0
+#define ROUGH 0
+#define WALLS 1
+#define GRAV 1
+#define FILTG 1
+#define VARIANT gf
+#include "ed_inst.h"
+#undef SPEC
+#undef ROUGH
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC pop_options
+#endif
+
 /* Rough particles: the same three variants with the rough collision rule
  * (_2dr, _3dr periodic; _2wr, _3wr walls; _2gr, _3gr gravity). Compiled
  * without GCC's heuristic inlining of functions not declared inline: this
@@ -782,6 +837,11 @@ static void trace_emit(struct ed *ed, int kind, uint32_t i, int32_t x, double t)
 #define WALLS 1
 #define GRAV 1
 #define VARIANT gr
+#include "ed_inst.h"
+#define WALLS 1
+#define GRAV 1
+#define FILTG 1
+#define VARIANT grf
 #include "ed_inst.h"
 #undef SPEC
 #undef ROUGH
@@ -893,6 +953,12 @@ static const ed_ops_t ed_ops_rough[2][3] = {
 	{ { OPS_COMMON(3dr), OPS_NL(3dr) }, { OPS_COMMON(3wr), .observe = observe_3wr, .enter = enter_3wr, .enter_layer = enter_layer_3wr },
 	  { OPS_COMMON(3gr), .observe = observe_3gr, .energy_to = energy_to_3gr, .enter = enter_3gr, .enter_layer = enter_layer_3gr } },
 };
+
+/* Filters under gravity, smooth and rough (one species): in place of the gravity column above. */
+#define OPS_FILTG(x) { OPS_COMMON(x), .observe = observe_##x, .energy_to = energy_to_##x, .enter = enter_##x, \
+		.enter_layer = enter_layer_##x }
+static const ed_ops_t ed_ops_filtg[2] = { OPS_FILTG(2gf), OPS_FILTG(3gf) };
+static const ed_ops_t ed_ops_filtg_rough[2] = { OPS_FILTG(2grf), OPS_FILTG(3grf) };
 
 #define DISPATCH(ed, fn, ...) ((ed)->ops->fn(__VA_ARGS__))
 
@@ -2161,6 +2227,8 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 		ed->nsp = s->n_species;   /* tables: setup_species() in ed_alloc() */
 		ed->mixture = 1;
 		ed->ops = ed->rough ? &ed_ops_species_rough[ed->dim - 2][ed->variant] : &ed_ops_species[ed->dim - 2][ed->variant];
+	} else if (ed->variant == 2 && scene_has_filter(s)) {   /* filters under gravity (scene.c: one species) */
+		ed->ops = ed->rough ? &ed_ops_filtg_rough[ed->dim - 2] : &ed_ops_filtg[ed->dim - 2];
 	}
 	if (ed->rough) {
 		ed->rbeta = s->rough_beta;
@@ -3053,6 +3121,7 @@ static void stream_start(struct ed *ed)
 			}
 		}
 		(void)pos;
+		frozen_tally(ed);
 		double mom[3];
 		ed->ekin_cur = DISPATCH(ed, ekin, ed, mom);
 		for (int j = 0; j < 3; j++)
@@ -3175,7 +3244,8 @@ int ed_unwrapped(const ed_t *ed, double *pos)
 		double *out = pos + (size_t)ed->id[i] * D;
 		for (int a = 0; a < D; a++) {
 			/* the engine's position (never folded between wraps) plus the edges it was wrapped by */
-			double x = r[a] + v[a] * dt + (grav ? 0.5 * ed->g[a] * dt * dt : 0.0);
+			const int fall = grav && !(ed->frozen && ed->frozen[i]);   /* frozen by a filter: straight */
+			double x = r[a] + v[a] * dt + (fall ? 0.5 * ed->g[a] * dt * dt : 0.0);
 			if (!walls || ed->periodic[a])
 				x += ed->L[a] * (double)ed->img[(size_t)ed->id[i] * D + a];
 			else
@@ -3760,6 +3830,7 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 		if (ed->disp >> w & 1)
 			ed->wall[w].pu = ed->wall[w].pspeed;
 	ed->filt_on = ed->nfilt > 0;
+	frozen_tally(ed);   /* filters under gravity: the frozen particles present and their velocity sum */
 	/* The occupancy bitmap from the cell heads. */
 	memset(ed->occ, 0, (ed->ncells + 63) / 64 * sizeof(uint64_t));
 	for (size_t c = 0; c < ed->ncells; c++)

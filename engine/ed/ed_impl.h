@@ -12,14 +12,41 @@
  * from the particles' radii ed->prad, restitution and masses from the pair
  * tables by ed->spc; any variant, smooth or ROUGH) replaces ed->sigma2, ed->e
  * and ed->mass in predictions, collisions and energies; without it they are
- * the one species' constants.
+ * the one species' constants. FILTG (with GRAV, one species: filters under
+ * gravity) lets frozen particles (ed->frozen) fly straight at their filter's
+ * velocity while the others fall: their flights, boundary times and energy
+ * skip g, and a pair of a frozen and a regular particle is predicted as a
+ * particle meeting a moving obstacle under gravity (obstacle_time_grav in
+ * the frozen one's frame). Without it none of this is compiled.
  */
+#if FILTG && (SPEC || !GRAV)
+#error "FILTG is for the one-species gravity variants"
+#endif
+
+/* Whether particle i flies straight under gravity (frozen by a filter):
+ * constant 0 without FILTG, so the tests below fold away. */
+static inline int FN(fz)(const struct ed *ed, uint32_t i)
+{
+#if FILTG
+	return ed->frozen[i] != 0;
+#else
+	(void)ed;
+	(void)i;
+	return 0;
+#endif
+}
 
 /* Flight of particle p to time t (lazy: only when the particle is touched). */
 static inline void FN(advance)(const struct ed *ed, P_T *p, double t)
 {
 	double dt = t - p->t;
 #if GRAV
+	if (FN(fz)(ed, (uint32_t)(p - (const P_T *)ed->p))) {   /* frozen (FILTG): straight */
+		FOR_AXES(a)
+			p->r[a] += p->v[a] * dt;
+		p->t = t;
+		return;
+	}
 	const double hdt = 0.5 * dt * dt;
 	FOR_AXES(a) {
 		p->r[a] += p->v[a] * dt + ed->g[a] * hdt;
@@ -138,7 +165,7 @@ static inline double FN(wall_time)(const struct ed *ed, const P_T *p, double rad
 	const wall_t *W = &ed->wall[w];
 	const int a = w >> 1;
 	const double s = (w & 1) ? -1.0 : 1.0;
-	const double gam = GRAV ? s * ed->g[a] : 0.0;
+	const double gam = GRAV && !FN(fz)(ed, (uint32_t)(p - (const P_T *)ed->p)) ? s * ed->g[a] : 0.0;
 	double d = s * (p->r[a] - W->rest) - rad;
 	if (W->A == 0.0)   /* a dispenser's piston moves at pu (0 for every other wall: the same numbers) */
 		return walltime_plane(d - W->pu * (p->t - W->pt0), s * p->v[a] - W->pu, gam);
@@ -168,6 +195,8 @@ static inline double FN(obst_time)(const struct ed *ed, const P_T *p, double S, 
 	double x[D];
 	FN(obst_rel)(ed, p, k, x);
 #if GRAV
+	if (FN(fz)(ed, (uint32_t)(p - (const P_T *)ed->p)))
+		return obstacle_time_free(x, p->v, D, S);
 	return obstacle_time_grav(x, p->v, ed->g, D, S, horizon);
 #else
 	(void)horizon;
@@ -199,7 +228,7 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
 	double best = INFINITY;
 	int code = -1;
 	FOR_AXES(a) {
-		const double x = p->r[a], v = p->v[a], g = GRAV ? ed->g[a] : 0.0;
+		const double x = p->r[a], v = p->v[a], g = GRAV && !FN(fz)(ed, i) ? ed->g[a] : 0.0;
 		const int32_t c = e->cc[a], n = ed->nc[a];
 		if (c > 0 || ed->periodic[a]) {
 			double dt = walltime_plane(x - c * ed->cw[a], v, g);
@@ -243,7 +272,7 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
 			const double s = (w & 1) ? -1.0 : 1.0;
 			if (s * (e->cc[a] - (ed->fcell[w] - 1)) > 0.0)
 				continue;   /* not in a cell of the plane or beyond it */
-			double dt = walltime_plane(s * (p->r[a] - ed->fplane[w]), s * p->v[a], 0.0);
+			double dt = walltime_plane(s * (p->r[a] - ed->fplane[w]), s * p->v[a], GRAV ? s * ed->g[a] : 0.0);
 			if (dt < best)
 				best = dt, code = ED_FILT0 + w;
 		}
@@ -259,10 +288,56 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
  * list near the box edge). The lower bound dt >= c/(-2b) rejects most
  * candidates without a square root. Always inlined: it is the inner loop
  * of every scan (GCC's -O2 heuristics otherwise may not). */
+#if FILTG
+/* try_pair() for a pair with a frozen particle (fz_i: i is): both frozen
+ * never meet (one velocity per filter, and collide_frozen() leaves such a
+ * pair alone); a regular one meets the frozen one as a particle meets an
+ * obstacle moving straight at the filter's velocity, the relative motion
+ * under gravity a quartic (obstacle_time_grav: bracketed roots on convex
+ * and concave pieces, no contact missed or given twice). */
+static void FN(try_frozen)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, const double *vi, double t,
+                           int minimg, int fz_i, double *horizon, int32_t *found)
+{
+	const int fz_j = ed->frozen[j] != 0;
+	if (fz_i && fz_j)
+		return;
+	const double dtj = t - pj->t, hj = 0.5 * dtj * dtj;
+	double x[D], u[D];
+	FOR_AXES(a) {
+		double vj = pj->v[a], rj = pj->r[a] + pj->v[a] * dtj;
+		if (!fz_j) {
+			vj += ed->g[a] * dtj;
+			rj += ed->g[a] * hj;
+		}
+		double d = ri[a] - rj;
+		if (minimg) {
+			if (d > ed->halfL[a]) d -= ed->L[a];
+			else if (d < -ed->halfL[a]) d += ed->L[a];
+		}
+		/* the regular particle relative to the frozen one */
+		x[a] = fz_i ? -d : d;
+		u[a] = fz_i ? vj - vi[a] : vi[a] - vj;
+	}
+	const double dt = obstacle_time_grav(x, u, ed->g, D, ed->sigma, *horizon);
+	if (dt < *horizon) {
+		*horizon = dt;
+		*found = j;
+	}
+}
+#endif
+
 static inline __attribute__((always_inline)) void
 FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, const double *vi, double t, int minimg,
-             double rad_i, double *horizon, int32_t *found)
+             int fz_i, double rad_i, double *horizon, int32_t *found)
 {
+#if FILTG
+	if (fz_i | ed->frozen[j]) {
+		FN(try_frozen)(ed, pj, j, ri, vi, t, minimg, fz_i, horizon, found);
+		return;
+	}
+#else
+	(void)fz_i;
+#endif
 	double dtj = t - pj->t, dr[D], dv[D], b, r2;
 #if GRAV
 	/* j's position and velocity now; the relative motion is then free
@@ -339,7 +414,7 @@ FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, co
  * image while receding in the other). Try every image on those axes; the
  * raw difference lies in (-L, L), so shifts of -L, 0, +L cover them all. */
 static void FN(try_images)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri,
-                           const double *vi, double t, double rad_i, double *horizon, int32_t *found)
+                           const double *vi, double t, int fz_i, double rad_i, double *horizon, int32_t *found)
 {
 	int k[3] = {0, 0, 0}, lo[3] = {0, 0, 0}, hi[3] = {0, 0, 0};
 	FOR_AXES(a)
@@ -351,7 +426,7 @@ static void FN(try_images)(const struct ed *ed, const P_T *pj, int32_t j, const 
 				double rk[D];
 				FOR_AXES(a)
 					rk[a] = ri[a] + k[a] * ed->L[a];
-				FN(try_pair)(ed, pj, j, rk, vi, t, 0, rad_i, horizon, found);
+				FN(try_pair)(ed, pj, j, rk, vi, t, 0, fz_i, rad_i, horizon, found);
 			}
 }
 
@@ -427,6 +502,7 @@ FN(scan_impl)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[
 	double horizon = e->t_coll - t;
 	int32_t found = -1;
 	const double rad_i = SPEC ? ed->prad[i] : 0.0;
+	const int fz_i = FN(fz)(ed, i);
 	/* First the non-empty cells, with their first particles' records
 	 * requested at once (in a large system each is a cache miss, and the
 	 * tests below would let only one or two be under way at a time); then
@@ -456,9 +532,9 @@ FN(scan_impl)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[
 			if ((uint32_t)j == i)
 				continue;
 			if (minimg)
-				FN(try_images)(ed, &P[j], j, ri, vi, t, rad_i, &horizon, &found);
+				FN(try_images)(ed, &P[j], j, ri, vi, t, fz_i, rad_i, &horizon, &found);
 			else
-				FN(try_pair)(ed, &P[j], j, ri, vi, t, 0, rad_i, &horizon, &found);
+				FN(try_pair)(ed, &P[j], j, ri, vi, t, 0, fz_i, rad_i, &horizon, &found);
 		}
 	}
 	/* Only a partner found by this scan gets its counter recorded: a kept
@@ -555,10 +631,10 @@ static void FN(scan_nl)(struct ed *ed, uint32_t i)
 	const double rad_i = SPEC ? ed->prad[i] : 0.0;
 	if (edge)
 		for (int k = 0; k < m; k++)
-			FN(try_pair)(ed, &P[nb[k]], nb[k], ri, vi, t, 1, rad_i, &horizon, &found);
+			FN(try_pair)(ed, &P[nb[k]], nb[k], ri, vi, t, 1, 0, rad_i, &horizon, &found);
 	else
 		for (int k = 0; k < m; k++)
-			FN(try_pair)(ed, &P[nb[k]], nb[k], ri, vi, t, 0, rad_i, &horizon, &found);
+			FN(try_pair)(ed, &P[nb[k]], nb[k], ri, vi, t, 0, 0, rad_i, &horizon, &found);
 	e->partner = found;
 	if (found >= 0) {
 		e->t_coll = t + horizon;
@@ -755,11 +831,15 @@ static inline void FN(energy_to)(struct ed *ed, double t)
 	/* mixtures: psum holds sum (m_i / m) v_i (m the mean mass), n the mass present over m */
 	const double dt = t - ed->t_mark, m = ed->mass, n = (ed->mix->mtot - ed->mix->mgone) / m;
 #else
-	const double dt = t - ed->t_mark, m = ed->mass, n = (double)(ed->n - ed->n_gone);
+	const double dt = t - ed->t_mark, m = ed->mass, n = (double)(ed->n - ed->n_gone - FILTG * ed->nfz);
 #endif
 	double gp = 0.0, g2 = 0.0;
 	FOR_AXES(a) {
+#if FILTG
+		gp += ed->g[a] * (ed->psum[a] - ed->fzv[a]);   /* frozen particles: constant velocities (fzv their sum) */
+#else
 		gp += ed->g[a] * ed->psum[a];
+#endif
 		g2 += ed->g[a] * ed->g[a];
 	}
 	ed->ekin_int += dt * (ed->ekin_cur + dt * (0.5 * m * gp + dt * m * n * g2 / 6.0));
@@ -919,6 +999,10 @@ static void FN(leave)(struct ed *ed, uint32_t i, int w, double t)
 	FN(cell_remove)(ed, i);
 	ed->gone[i] = 1;
 	ed->n_gone++;
+#if FILTG
+	if (ed->frozen[i])
+		frozen_count(ed, ed->frozen[i] - 1, -1);
+#endif
 	if (ed->frozen)
 		ed->frozen[i] = 0;
 	ed->wout[w]++;
@@ -1089,6 +1173,9 @@ static void FN(do_filter)(struct ed *ed, uint32_t i, double t)
 	if (freeze) {
 		ed->frozen[i] = (uint8_t)(1 + w);
 		ed->nfrozen[w]++;
+#if FILTG
+		frozen_count(ed, w, 1);
+#endif
 	} else {
 		/* turned back: on the plane's inner side (rounding may leave it a hair beyond) */
 		const int a = w >> 1;
@@ -1465,7 +1552,7 @@ static void FN(state)(const struct ed *ed, double *pos, double *vel)
 			continue;
 		}
 		FOR_AXES(a) {
-			const double g = GRAV ? ed->g[a] : 0.0;
+			const double g = GRAV && !FN(fz)(ed, i) ? ed->g[a] : 0.0;
 			if (pos) {
 				double x = P[i].r[a] + P[i].v[a] * dt + 0.5 * g * dt * dt;
 				if (ed->periodic[a]) {
@@ -1505,7 +1592,7 @@ static double FN(ekin)(const struct ed *ed, double mom[3])
 		}
 #else
 		FOR_AXES(a) {
-			const double v = P[i].v[a] + (GRAV ? ed->g[a] * dt : 0.0);
+			const double v = P[i].v[a] + (GRAV && !FN(fz)(ed, i) ? ed->g[a] * dt : 0.0);
 			s += v * v;
 			mom[a] += v;
 		}
@@ -1542,7 +1629,7 @@ static void FN(observe)(const struct ed *ed, double *height, double *epot)
 			sum[a] += m * (P[i].r[a] + P[i].v[a] * dt + (GRAV ? 0.5 * ed->g[a] * dt * dt : 0.0) - ed->org[a]);
 #else
 		FOR_AXES(a)
-			sum[a] += P[i].r[a] + P[i].v[a] * dt + (GRAV ? 0.5 * ed->g[a] * dt * dt : 0.0) - ed->org[a];
+			sum[a] += P[i].r[a] + P[i].v[a] * dt + (GRAV && !FN(fz)(ed, i) ? 0.5 * ed->g[a] * dt * dt : 0.0) - ed->org[a];
 #endif
 	}
 	double gr = 0.0;
@@ -1610,6 +1697,8 @@ static inline double FN(pos_now)(const struct ed *ed, const P_T *p, int a)
 {
 	const double dt = ed->t - p->t;
 #if GRAV
+	if (FN(fz)(ed, (uint32_t)(p - (const P_T *)ed->p)))
+		return p->r[a] + p->v[a] * dt;
 	return p->r[a] + p->v[a] * dt + 0.5 * ed->g[a] * dt * dt;
 #else
 	return p->r[a] + p->v[a] * dt;

@@ -1,11 +1,14 @@
 /* Instantiates ed_impl.h for 2D and 3D with the feature switches SPEC, ROUGH, WALLS, GRAV the includer has set. */
 /*
- * Contract: the includer defines SPEC, ROUGH, WALLS, GRAV (0 or 1) and
+ * Contract: the includer defines SPEC, ROUGH, WALLS, GRAV (0 or 1), FILTG (optional, 0 if not defined) and
  * VARIANT, the suffix letters of this variant's kernels (d, w, g, dr, ws,
  * ...): the kernels come out as name_2VARIANT and name_3VARIANT. Include it
- * once per variant; it undefines WALLS, GRAV and VARIANT (set anew for the
+ * once per variant; it undefines WALLS, GRAV, FILTG and VARIANT (set anew for the
  * next variant) and leaves SPEC and ROUGH (set per group of variants).
  */
+#ifndef FILTG
+#define FILTG 0   /* filters under gravity (frozen particles fly straight): only the variants that set it */
+#endif
 #define ED_CAT_(a, b) a##b
 #define ED_CAT(a, b) ED_CAT_(a, b)
 
@@ -30,3 +33,4 @@
 #undef WALLS
 #undef GRAV
 #undef VARIANT
+#undef FILTG
