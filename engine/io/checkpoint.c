@@ -413,12 +413,55 @@ static int same_scene(const char *a, size_t alen, const char *b, size_t blen)
 	return same;
 }
 
+/* The opening every checkpoint read shares: the file is there (else
+ * CKPT_EMISSING or CKPT_EIO, msg set, nothing open), its whole-file digest
+ * holds (verify_file()), it is HDF5 of this format with a stored digest
+ * (*want) and scene (*text, *tlen; the caller frees). CKPT_ECORRUPT with
+ * why set for a damaged file; *f is then open or invalid as far as it got
+ * (the caller closes it). */
+static int open_header(const char *path, hid_t *f, uint64_t *want, char **text, size_t *tlen, char *why,
+                       size_t whylen, char *msg, size_t msglen)
+{
+	uint64_t fmt = 0;
+	if (access(path, R_OK) != 0)
+		return h5u_fail(msg, msglen, errno == ENOENT ? CKPT_EMISSING : CKPT_EIO, "%s: %s", path, strerror(errno));
+	if (verify_file(path, why, whylen))
+		return CKPT_ECORRUPT;
+	*f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+	if (*f < 0) {
+		snprintf(why, whylen, "not a readable HDF5 file (truncated or damaged)");
+		return CKPT_ECORRUPT;
+	}
+	if (h5u_read_attr_u64(*f, "format_version", &fmt) || fmt != FORMAT_VERSION ||
+	    h5u_read_attr_u64(*f, "digest", want) || !(*text = read_string(*f, "scene", tlen))) {
+		snprintf(why, whylen, "not a granular-engine checkpoint of format %d", FORMAT_VERSION);
+		return CKPT_ECORRUPT;
+	}
+	return CKPT_OK;
+}
+
+/* A stored scene (text, tlen) against the caller's: 0 the same; 1 another
+ * one, parsed into *stored (another scene's checkpoint, CKPT_ESCENE, or a
+ * damaged one, CKPT_ECORRUPT: the file is read against its own scene and
+ * the digest decides); -1 not a valid scene (damaged, why set). */
+static int stored_scene(const char *text, size_t tlen, const char *scene_text, size_t len, scene_t *stored,
+                        char *why, size_t whylen)
+{
+	if (same_scene(text, tlen, scene_text, len))
+		return 0;
+	if (scene_parse(text, tlen, stored, NULL, 0) != SCENE_OK) {
+		snprintf(why, whylen, "its stored scene is not a valid scene (damaged)");
+		return -1;
+	}
+	return 1;
+}
+
 int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t len,
               const run_opts_t *opts, run_t **run_out, ckpt_output_t *out, char *msg, size_t msglen)
 {
 	ed_field_t fields[CKPT_MAX_FIELDS];
 	int ret = CKPT_ECORRUPT, err = 0;
-	uint64_t h = 0, want = 0, fmt = 0;
+	uint64_t h = 0, want = 0;
 	char *text = NULL, why[256] = "";
 	size_t tlen = 0;
 	void *buf = NULL;
@@ -430,33 +473,18 @@ int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t
 
 	*run_out = NULL;
 	h5u_quiet();
-	if (access(path, R_OK) != 0)
-		return h5u_fail(msg, msglen, errno == ENOENT ? CKPT_EMISSING : CKPT_EIO, "%s: %s", path, strerror(errno));
-	if (verify_file(path, why, sizeof why))
+	int oc = open_header(path, &f, &want, &text, &tlen, why, sizeof why, msg, msglen);
+	if (oc == CKPT_ECORRUPT)
 		goto corrupt;
-	f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
-	if (f < 0) {
-		snprintf(why, sizeof why, "not a readable HDF5 file (truncated or damaged)");
+	if (oc != CKPT_OK)
+		return oc;
+	/* another scene's checkpoint (CKPT_ESCENE: the caller must not fall
+	 * back) or a damaged one (CKPT_ECORRUPT: the caller falls back to the
+	 * previous checkpoint): stored_scene() */
+	if ((differs = stored_scene(text, tlen, scene_text, len, &stored, why, sizeof why)) < 0)
 		goto corrupt;
-	}
-	if (h5u_read_attr_u64(f, "format_version", &fmt) || fmt != FORMAT_VERSION ||
-	    h5u_read_attr_u64(f, "digest", &want) || !(text = read_string(f, "scene", &tlen))) {
-		snprintf(why, sizeof why, "not a granular-engine checkpoint of format %d", FORMAT_VERSION);
-		goto corrupt;
-	}
-	/* A stored scene that differs from the given one is either another
-	 * scene's checkpoint (CKPT_ESCENE: the caller must not fall back) or a
-	 * damaged one (CKPT_ECORRUPT: the caller falls back to the previous
-	 * checkpoint): the file is read against its own scene and the digest
-	 * decides. */
-	if (!same_scene(text, tlen, scene_text, len)) {
-		if (scene_parse(text, tlen, &stored, NULL, 0) != SCENE_OK) {
-			snprintf(why, sizeof why, "its stored scene is not a valid scene (damaged)");
-			goto corrupt;
-		}
-		differs = 1;
+	if (differs)
 		s = &stored;
-	}
 	dig(&h, text, tlen);
 	run = run_create_blank(s, opts, &err, why, sizeof why);
 	if (!run && err != RUN_ENOMEM && differs) {
@@ -669,7 +697,7 @@ int ckpt_read_ensemble(const char *path, const scene_t *s, const char *scene_tex
                        char *msg, size_t msglen)
 {
 	int ret = CKPT_ECORRUPT, R = (int)s->replicas;
-	uint64_t h = 0, want = 0, fmt = 0, reps = 0;
+	uint64_t h = 0, want = 0, reps = 0;
 	char *text = NULL, why[256] = "", gname[64];
 	size_t tlen = 0;
 	hid_t f = H5I_INVALID_HID, g = H5I_INVALID_HID;
@@ -677,20 +705,11 @@ int ckpt_read_ensemble(const char *path, const scene_t *s, const char *scene_tex
 	for (int r = 0; r < R; r++)
 		blobs[r] = NULL, lens[r] = 0;
 	h5u_quiet();
-	if (access(path, R_OK) != 0)
-		return h5u_fail(msg, msglen, errno == ENOENT ? CKPT_EMISSING : CKPT_EIO, "%s: %s", path, strerror(errno));
-	if (verify_file(path, why, sizeof why))
+	int oc = open_header(path, &f, &want, &text, &tlen, why, sizeof why, msg, msglen);
+	if (oc == CKPT_ECORRUPT)
 		goto corrupt;
-	f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
-	if (f < 0) {
-		snprintf(why, sizeof why, "not a readable HDF5 file (truncated or damaged)");
-		goto corrupt;
-	}
-	if (h5u_read_attr_u64(f, "format_version", &fmt) || fmt != FORMAT_VERSION ||
-	    h5u_read_attr_u64(f, "digest", &want) || !(text = read_string(f, "scene", &tlen))) {
-		snprintf(why, sizeof why, "not a granular-engine checkpoint of format %d", FORMAT_VERSION);
-		goto corrupt;
-	}
+	if (oc != CKPT_OK)
+		return oc;
 	/* A stored scene that differs: another scene's checkpoint (CKPT_ESCENE)
 	 * or a damaged one (CKPT_ECORRUPT, the caller falls back): the digest,
 	 * over the file's own replicas, decides. */
@@ -871,7 +890,7 @@ int ckpt_read_split(const char *path, const scene_t *s, const char *scene_text, 
                     ckpt_output_t *out, char *msg, size_t msglen)
 {
 	int ret = CKPT_ECORRUPT, differs = 0;
-	uint64_t h = 0, want = 0, fmt = 0, counters[SN_N], c0, c1, ncells;
+	uint64_t h = 0, want = 0, counters[SN_N], c0, c1, ncells;
 	double clock[SC_N];
 	char *text = NULL, why[256] = "";
 	size_t tlen = 0;
@@ -881,29 +900,16 @@ int ckpt_read_split(const char *path, const scene_t *s, const char *scene_text, 
 
 	memset(ck, 0, sizeof *ck);
 	h5u_quiet();
-	if (access(path, R_OK) != 0)
-		return h5u_fail(msg, msglen, errno == ENOENT ? CKPT_EMISSING : CKPT_EIO, "%s: %s", path, strerror(errno));
-	if (verify_file(path, why, sizeof why))
+	int oc = open_header(path, &f, &want, &text, &tlen, why, sizeof why, msg, msglen);
+	if (oc == CKPT_ECORRUPT)
 		goto corrupt;
-	f = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
-	if (f < 0) {
-		snprintf(why, sizeof why, "not a readable HDF5 file (truncated or damaged)");
-		goto corrupt;
-	}
-	if (h5u_read_attr_u64(f, "format_version", &fmt) || fmt != FORMAT_VERSION ||
-	    h5u_read_attr_u64(f, "digest", &want) || !(text = read_string(f, "scene", &tlen))) {
-		snprintf(why, sizeof why, "not a granular-engine checkpoint of format %d", FORMAT_VERSION);
-		goto corrupt;
-	}
+	if (oc != CKPT_OK)
+		return oc;
 	/* another scene's file (CKPT_ESCENE) or a damaged one (CKPT_ECORRUPT): the digest decides (ckpt_read()) */
-	if (!same_scene(text, tlen, scene_text, len)) {
-		if (scene_parse(text, tlen, &stored, NULL, 0) != SCENE_OK) {
-			snprintf(why, sizeof why, "its stored scene is not a valid scene (damaged)");
-			goto corrupt;
-		}
-		differs = 1;
+	if ((differs = stored_scene(text, tlen, scene_text, len, &stored, why, sizeof why)) < 0)
+		goto corrupt;
+	if (differs)
 		s = &stored;
-	}
 	dig(&h, text, tlen);
 	if (dsmcp_cells_of(s, 0, 1, &c0, &c1, &ncells, NULL, 0) != DSMCP_OK) {
 		snprintf(why, sizeof why, "its scene cannot run split over ranks (damaged or for another method)");
