@@ -11,7 +11,7 @@ DOCDIR/tradeoff-bounded.png (error against cost per scene, the front drawn as a 
 includes the table in docs/tradeoff.md.
 
 - Gravity box: 100 inelastic disks (e = 0.9, d = 0.001 m) fall in a 0.02 x 0.04 m box (presets/
-  gravity-box-2d.json) to t = 0.5 s. Observable: the centre-of-mass height h(t) at 10 times 0.05 .. 0.5 s.
+  gravity-box-2d.json) to t = 0.5 s; also soft-sphere MD (method md, frictionless, no TC) at two stiffnesses. Observable: the centre-of-mass height h(t) at 10 times 0.05 .. 0.5 s.
   Error: relative RMS over those times of (mean h_MC / mean h_ED - 1).
 - Vibrated bed: 56 disks (e = 0.9) on a floor vibrating at 100 Hz (presets/vibrated-bed-2d.json, r_w = 1) at
   V = 2 pi f A = 0.1, 0.3 and 1.2 m/s (below and above where the seed finds DSMC failing, 0.6 m/s; the seed's
@@ -86,6 +86,8 @@ def scene_for(base, method, mc, seed, until, every, observables):
     s["method"] = method
     s.pop("hsmc", None)
     s.pop("dsmc", None)
+    if method == "md":   # soft spheres: no TC (no collapse to guard against)
+        s.get("collisions", {}).pop("tc", None)
     if method != "ed":
         s[method] = mc
     s["run"] = {"seed": seed, "until": {"time": until}}
@@ -122,21 +124,31 @@ times = [0.05 * (k + 1) for k in range(10)]
 
 
 def heights(prog):
-    by_t = {round(r["time"], 9): r["center_of_mass_height"] for r in prog}
-    return [by_t[round(t, 9)] for t in times]
+    """h at each of times: the first record at or after it (md records come at the end of the step that
+    reaches an output time, a step of ~1e-6 s here; the other methods land on it)."""
+    prog = sorted(prog, key=lambda r: r["time"])
+    return [next(r["center_of_mass_height"] for r in prog if r["time"] >= t - 1e-12) for t in times]
 
 
 ed_vals, ed_cost, _ = measure(gb, "ed", None, 0.5, 0.05, heights)
 ed_mean = [mean_se([v[k] for v in ed_vals]) for k in range(len(times))]
 ref_se = math.sqrt(sum((se / m) ** 2 for m, se in ed_mean) / len(times))
 rows = [{"method": "ed", "setting": "reference (%d seeds)" % SEEDS, "cost": ed_cost, "err": ref_se, "warn": False,
-         "detail": "late h %.3g mm" % (1e3 * sum(m for m, _ in ed_mean[-3:]) / 3)}]
+         "detail": "late h %.3g mm" % (1e3 * sum(m for m, _ in ed_mean[-3:]) / 3), "curve": [m for m, _ in ed_mean]}]
 for method, corr, label, mc in variants(gb.get("hsmc", {})):
     vals, cost, warn = measure(gb, method, mc, 0.5, 0.05, heights)
     mean = [mean_se([v[k] for v in vals])[0] for k in range(len(times))]
     err = math.sqrt(sum((m / e[0] - 1) ** 2 for m, e in zip(mean, ed_mean)) / len(times))
     rows.append({"method": "%s/%s" % (method, corr), "setting": label, "cost": cost, "err": err, "warn": warn,
-                 "detail": "late h %.3g mm" % (1e3 * sum(mean[-3:]) / 3)})
+                 "detail": "late h %.3g mm" % (1e3 * sum(mean[-3:]) / 3), "curve": mean})
+# soft-sphere MD (issue 18: the seed's fourth method in A12), frictionless, at its default stiffness (a head-on
+# impact at the default impact speed overlaps 1% of a diameter) and a softer one (5%)
+for label, md in (("default (overlap 0.01)", {}), ("overlap 0.05", {"max_overlap": 0.05})):
+    vals, cost, warn = measure(gb, "md", md, 0.5, 0.05, heights)
+    mean = [mean_se([v[k] for v in vals])[0] for k in range(len(times))]
+    err = math.sqrt(sum((m / e[0] - 1) ** 2 for m, e in zip(mean, ed_mean)) / len(times))
+    rows.append({"method": "md", "setting": label, "cost": cost, "err": err, "warn": warn,
+                 "detail": "late h %.3g mm" % (1e3 * sum(mean[-3:]) / 3), "curve": mean})
 pareto(rows)
 scenes.append(("Gravity box (seed 000 A12): centre-of-mass height h(t), t = 0.05 .. 0.5 s", "gravity box", rows))
 
@@ -187,19 +199,21 @@ with open(md, "w") as fh:
             fh.write("| %s | %s | %.3g | %.3g | %s | %s | %s |\n" % (r["method"], r["setting"], r["cost"], r["err"],
                      "yes" if r["front"] else "", "yes" if r["warn"] else "", r["detail"]))
         fh.write("\n")
+        if rows is scenes[0][2]:
+            fh.write("![gravity box: h(t) per method](tradeoff-gravity-box.png)\n\n")
 try:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, len(scenes), figsize=(5 * len(scenes), 4.6))
-    colour = {"ed": "black", "dsmc/none": "tab:red", "dsmc/enskog": "tab:orange", "dsmc/cba": "tab:purple",
+    colour = {"ed": "black", "md": "tab:green", "dsmc/none": "tab:red", "dsmc/enskog": "tab:orange", "dsmc/cba": "tab:purple",
               "hsmc/cba": "tab:blue"}
     for ax, (_, short, rows) in zip(axes, scenes):
         for r in rows:
             ax.scatter(r["cost"], max(r["err"], 1e-4), color=colour[r["method"]], marker="*" if r["method"] == "ed" else "o",
                        s=90 if r["method"] == "ed" else 30, label=r["method"])
         front = sorted((r for r in rows if r["front"]), key=lambda r: r["cost"])
-        ax.step([r["cost"] for r in front], [max(r["err"], 1e-4) for r in front], where="post", color="green",
+        ax.step([r["cost"] for r in front], [max(r["err"], 1e-4) for r in front], where="post", color="grey",
                 alpha=0.6, label="Pareto front")
         ax.set_xscale("log")
         ax.set_yscale("log")
@@ -214,6 +228,19 @@ try:
     axes[0].set_ylabel("error against ED (ED star: its own SE)")
     fig.tight_layout()
     fig.savefig(png, dpi=100)
+    # seed 000 Figs 2.6/2.7: h(t) of the gravity box, each method at its scene's setting, MD at its default
+    fig, ax = plt.subplots(figsize=(6, 4.2))
+    for r in scenes[0][2]:
+        if r["method"] == "ed" or r["setting"].startswith("scene's (") or r["setting"].startswith("default"):
+            ax.plot(times, [1e3 * h for h in r["curve"]], marker="o", ms=3,
+                    color=colour[r["method"]], lw=2.5 if r["method"] == "ed" else 1.2, label=r["method"])
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("centre-of-mass height (mm)")
+    ax.set_title("gravity box (seed 000 A12), mean of %d seeds" % SEEDS)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(DOCDIR, "tradeoff-gravity-box.png"), dpi=100)
 except ImportError:
     print("matplotlib missing (apt-get install python3-matplotlib): no plot", file=sys.stderr)
 print("wrote", md, "in %.0f s" % (time.time() - t_start), file=sys.stderr)
