@@ -2903,6 +2903,51 @@ static int inlet_enter(struct ed *ed, int w)
  * (an obstacle reaching into the layer, or a pair closer than (1 - 1e-9)
  * sigma) is not placed and counted as rejected. */
 
+/* The start of a recharge at dispenser wall w (dispense() and
+ * dispense_mix(): the same draws in the same order): the piston jumps back
+ * and every particle in its reach (the wall's zone) gets its events anew;
+ * then which template (returned), shifted along each periodic transverse
+ * axis and mirrored or not along each (not across a field), and the one of
+ * its n particles left out (*skip, UINT32_MAX for none) so that the
+ * layer's mean count is eta h W / v_p. */
+static int layer_begin(struct ed *ed, int w, uint32_t n, double shift[3], double lo[3], double wid[3], int mirror[3],
+                       uint32_t *skip)
+{
+	const int a = w >> 1, D = ed->dim;
+	ed->wall[w].pt0 = ed->t;
+	for (uint32_t i = 0; i < ed->n; i++) {
+		if (ed->gone[i])
+			continue;
+		const int32_t c = ed->ev[i].cc[a];
+		if ((w & 1) ? c >= ed->nc[a] - ed->nzone[w] : c < ed->nzone[w]) {
+			DISPATCH(ed, set_cross, ed, i);
+			cal_update(ed, i, ev_time(ed, i));
+		}
+	}
+	int q = (int)(rng_uniform(&ed->irng) * ed->ntpl);
+	if (q >= ed->ntpl)
+		q = ed->ntpl - 1;
+	for (int b = 0; b < 3; b++) {
+		shift[b] = lo[b] = wid[b] = 0.0;
+		mirror[b] = 0;
+	}
+	for (int b = 0; b < D; b++) {
+		if (b == a)
+			continue;
+		shift[b] = ed->periodic[b] ? rng_uniform(&ed->irng) * ed->L[b] : 0.0;
+		mirror[b] = rng_uniform(&ed->irng) < 0.5 && ed->g[b] == 0.0;
+		lo[b] = ed->periodic[b] ? 0.0 : ed->wall[2 * b].rest;
+		wid[b] = ed->periodic[b] ? ed->L[b] : ed->wall[2 * b + 1].rest - lo[b];
+	}
+	*skip = UINT32_MAX;
+	if (rng_uniform(&ed->irng) >= ed->tpl_frac[w]) {
+		*skip = (uint32_t)(rng_uniform(&ed->irng) * n);
+		if (*skip >= n)
+			*skip = n - 1;
+	}
+	return q;
+}
+
 /* The recharge due now at dispenser wall w. ED_FULL (nothing changed)
  * when the free slots cannot take a whole layer. */
 static int dispense_mix(struct ed *ed, int w);
@@ -2917,38 +2962,10 @@ static int dispense(struct ed *ed, int w)
 	wall_t *W = &ed->wall[w];
 	const int a = w >> 1, D = ed->dim;
 	const double sg = (w & 1) ? -1.0 : 1.0, sv = ed->disp_s[w];
-	/* the piston jumps back; every particle in its reach (the wall's zone) anew */
-	W->pt0 = ed->t;
-	for (uint32_t i = 0; i < ed->n; i++) {
-		if (ed->gone[i])
-			continue;
-		const int32_t c = ed->ev[i].cc[a];
-		if ((w & 1) ? c >= ed->nc[a] - ed->nzone[w] : c < ed->nzone[w]) {
-			DISPATCH(ed, set_cross, ed, i);
-			cal_update(ed, i, ev_time(ed, i));
-		}
-	}
-	/* which template, shifted along each periodic transverse axis, mirrored or not along each */
-	int q = (int)(rng_uniform(&ed->irng) * ed->ntpl);
-	if (q >= ed->ntpl)
-		q = ed->ntpl - 1;
-	double shift[3] = {0.0, 0.0, 0.0}, lo[3] = {0.0, 0.0, 0.0}, wid[3] = {0.0, 0.0, 0.0};
-	int mirror[3] = {0, 0, 0};
-	for (int b = 0; b < D; b++) {
-		if (b == a)
-			continue;
-		shift[b] = ed->periodic[b] ? rng_uniform(&ed->irng) * ed->L[b] : 0.0;
-		mirror[b] = rng_uniform(&ed->irng) < 0.5 && ed->g[b] == 0.0;   /* not across a field */
-		lo[b] = ed->periodic[b] ? 0.0 : ed->wall[2 * b].rest;
-		wid[b] = ed->periodic[b] ? ed->L[b] : ed->wall[2 * b + 1].rest - lo[b];
-	}
-	/* the layer's count: tpl_n, or one fewer (a random one left out), so that the mean is eta h W / v_p */
-	uint32_t skip = UINT32_MAX;
-	if (rng_uniform(&ed->irng) >= ed->tpl_frac[w]) {
-		skip = (uint32_t)(rng_uniform(&ed->irng) * n);
-		if (skip >= n)
-			skip = n - 1;
-	}
+	double shift[3], lo[3], wid[3];
+	int mirror[3];
+	uint32_t skip;
+	const int q = layer_begin(ed, w, n, shift, lo, wid, mirror, &skip);
 	const double *tp = ed->tpl + ed->tpl_off[w] + (size_t)q * n * D;
 	for (uint32_t k = 0; k < n; k++) {
 		if (k == skip)
@@ -3007,35 +3024,10 @@ static int dispense_mix(struct ed *ed, int w)
 	wall_t *W = &ed->wall[w];
 	const int a = w >> 1, D = ed->dim;
 	const double sg = (w & 1) ? -1.0 : 1.0;
-	W->pt0 = ed->t;
-	for (uint32_t i = 0; i < ed->n; i++) {
-		if (ed->gone[i])
-			continue;
-		const int32_t c = ed->ev[i].cc[a];
-		if ((w & 1) ? c >= ed->nc[a] - ed->nzone[w] : c < ed->nzone[w]) {
-			DISPATCH(ed, set_cross, ed, i);
-			cal_update(ed, i, ev_time(ed, i));
-		}
-	}
-	int q = (int)(rng_uniform(&ed->irng) * ed->ntpl);
-	if (q >= ed->ntpl)
-		q = ed->ntpl - 1;
-	double shift[3] = {0.0, 0.0, 0.0}, lo[3] = {0.0, 0.0, 0.0}, wid[3] = {0.0, 0.0, 0.0};
-	int mirror[3] = {0, 0, 0};
-	for (int b = 0; b < D; b++) {
-		if (b == a)
-			continue;
-		shift[b] = ed->periodic[b] ? rng_uniform(&ed->irng) * ed->L[b] : 0.0;
-		mirror[b] = rng_uniform(&ed->irng) < 0.5 && ed->g[b] == 0.0;
-		lo[b] = ed->periodic[b] ? 0.0 : ed->wall[2 * b].rest;
-		wid[b] = ed->periodic[b] ? ed->L[b] : ed->wall[2 * b + 1].rest - lo[b];
-	}
-	uint32_t skip = UINT32_MAX;
-	if (rng_uniform(&ed->irng) >= ed->tpl_frac[w]) {
-		skip = (uint32_t)(rng_uniform(&ed->irng) * n);
-		if (skip >= n)
-			skip = n - 1;
-	}
+	double shift[3], lo[3], wid[3];
+	int mirror[3];
+	uint32_t skip;
+	const int q = layer_begin(ed, w, n, shift, lo, wid, mirror, &skip);
 	const double *tp = ed->tpl + ed->tpl_off[w] + (size_t)q * n * D;
 	const uint8_t *ts = x->tsp + ed->tpl_off[w] / (size_t)D + (size_t)q * n;
 	for (uint32_t k = 0; k < n; k++) {
