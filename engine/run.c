@@ -783,6 +783,18 @@ static int md_build(run_t *r, uint64_t stream, int blank, char *msg, size_t msgl
 		pr.periodic[a] = a < s->dim ? !s->boundary[a].walled : 1;
 		pr.gravity[a] = a < s->dim ? s->gravity[a] : 0.0;
 	}
+	for (int a = 0; a < s->dim; a++)   /* moving and vibrating walls (check_md() allows no other kind) */
+		for (int k = 0; k < 2 && s->boundary[a].walled; k++) {
+			const scene_wall_t *w = &s->boundary[a].wall[k];
+			if (w->type == SCENE_WALL_MOVING)
+				for (int b = 0; b < s->dim; b++)
+					pr.wall_velocity[2 * a + k][b] = w->velocity[b];
+			if (w->type == SCENE_WALL_VIBRATING) {
+				pr.wall_amplitude[2 * a + k] = w->amplitude;
+				pr.wall_frequency[2 * a + k] = w->frequency;
+				pr.wall_phase[2 * a + k] = w->phase;
+			}
+		}
 	if (s->md_law)
 		pr.young = s->md_stiffness;
 	else if (s->md_contact_time > 0)

@@ -705,7 +705,7 @@ void scene_md_placement(const scene_t *s, scene_t *p)
 	}
 }
 
-/* Method md: what this slice supports (one species, specular walls, gravity, restitution, friction; time
+/* Method md: what this slice supports (one species, specular, moving and vibrating walls, gravity, restitution, friction; time
  * clocks; energy, momentum, centre-of-mass height and potential energy); everything else refused by name.
  * Resolves the md object's defaults. */
 static int check_md(ctx_t *c, json_t *v, scene_t *s)
@@ -752,10 +752,11 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 			json_t *wj = json_object_get(json_object_get(json_object_get(v, "boundaries"), axis_names[a]),
 						     k ? "upper" : "lower");
 			snprintf(path, sizeof path, "boundaries.%s.%s.type", axis_names[a], k ? "upper" : "lower");
-			if (w->type != SCENE_WALL_SPECULAR)
-				return fail(c, path, "method \"md\" supports \"specular\" (flat) walls only yet");
-			static const char *const wkeys[] = { "restitution", "coverage" };
-			for (size_t q = 0; q < 2; q++)
+			if (w->type != SCENE_WALL_SPECULAR && w->type != SCENE_WALL_MOVING && w->type != SCENE_WALL_VIBRATING)
+				return fail(c, path, "method \"md\" supports \"specular\", \"moving\" and \"vibrating\" "
+					    "(flat) walls only yet");
+			static const char *const wkeys[] = { "restitution", "coverage", "tangential_restitution" };
+			for (size_t q = 0; q < sizeof wkeys / sizeof wkeys[0]; q++)
 				if (json_object_get(wj, wkeys[q])) {
 					snprintf(path, sizeof path, "boundaries.%s.%s.%s", axis_names[a], k ? "upper" : "lower",
 						 wkeys[q]);

@@ -81,10 +81,24 @@ cat >"$tmp/2d-hertz.json" <<'JSON'
  "md": {"force_law": "hertz", "friction": 0.3}}
 JSON
 
+# 2D frictional disks on a vibrating floor under a lid that moves along x (the walls' motion is a function
+# of the step count, which the checkpoint holds)
+cat >"$tmp/2d-vibro.json" <<'JSON'
+{"method": "md", "dimensions": 2,
+ "particles": {"count": 150, "volume_fraction": 0.3, "initial": {"temperature": 1}},
+ "boundaries": {"y": {"type": "walls", "lower": {"type": "vibrating", "amplitude": 0.5, "frequency": 2, "phase": 0.3},
+   "upper": {"type": "moving", "velocity": [2, 0]}}},
+ "collisions": {"restitution": 0.7}, "gravity": [0, -10],
+ "run": {"seed": 3, "until": {"time": 3}},
+ "output": {"every": {"time": 0.2}, "observables": ["kinetic_energy", "momentum", "center_of_mass_height", "wall_force"],
+   "snapshots": {"every": {"time": 0.5}}, "checkpoint": {"every": {"time": 1.1}}},
+ "md": {"friction": 0.4}}
+JSON
+
 ref() { "$ENGINE" run "$tmp/$1.json" --out "$tmp/$1.ref" >/dev/null 2>"$tmp/$1.ref.err"; }
 
 # (a) checkpoint at a simulated time, resume: identical to the uninterrupted run (frames, records, summary).
-for s in 3d-bed 2d-hertz; do
+for s in 3d-bed 2d-hertz 2d-vibro; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

@@ -380,6 +380,137 @@ static void test_incline(void)
 	}
 }
 
+/*
+ * A disk/sphere set down at rest on a floor that moves along x at V (a
+ * conveyor belt; gravity along -y, static overlap g/k_n so the normal
+ * force balances gravity from the start). It slides with a = mu g (the
+ * dashpot alone exceeds the Coulomb bound from the first step) until its
+ * contact point moves with the belt, then rolls at a constant speed. The
+ * friction acts in the floor plane, so the angular momentum about a line in
+ * that plane, m v l - I w_z (l = R - delta the lever arm), is conserved
+ * (velocity Verlet conserves it to rounding: each kick changes m v by F dt
+ * and I w_z by l F dt), and it starts at 0; rolling on the belt, v + l w_z =
+ * V. So v_final = V q_e/(1 + q_e), q_e = I/(m l^2), whatever the spring's
+ * transient in between (a stuck spring with a deflection would still push:
+ * the end state has it relaxed). Returns the mean acceleration over [t1,
+ * t2] in the sliding phase, the final speed and contact-point speed at t3.
+ */
+static int belt(int dim, double V, double mu, double *acc, double *vf, double *vc)
+{
+	const double g = 10.0, R = 0.5, kn = 1e5, dstat = g / kn;
+	double x[3] = {1.0, R - dstat, dim == 3 ? 1.0 : 0.0};
+	md_params_t p = {0};
+	p.dim = dim;
+	p.n = 1;
+	p.radius = R;
+	p.mass = 1.0;
+	p.box[0] = p.box[1] = p.box[2] = 4.0;
+	p.periodic[0] = p.periodic[2] = 1;
+	p.gravity[1] = -g;
+	p.wall_velocity[2][0] = V;   /* wall 2: the lower wall of axis y */
+	p.law = MD_LAW_LINEAR;
+	p.restitution = 0.5;
+	p.kn = kn;
+	p.mu = mu;
+	p.x = x;
+	int err;
+	md_t *md = md_create(&p, &err);
+	if (!md)
+		return err;
+	const double *X = md_velocities(md), *W = md_spins(md);
+	double t1 = 0.01, t2 = 0.05, t3 = 1.0;
+	err = md_step(md, (long)llround(t1 / md_dt(md)));
+	double v1 = X[0], s1 = md_time(md);
+	if (!err)
+		err = md_step(md, (long)llround((t2 - t1) / md_dt(md)));
+	*acc = (X[0] - v1) / (md_time(md) - s1);
+	if (!err)
+		err = md_step(md, (long)llround((t3 - t2) / md_dt(md)));
+	*vf = X[0];
+	*vc = X[0] + W[2] * (R - dstat);
+	md_destroy(md);
+	return err;
+}
+
+static void test_belt(void)
+{
+	const double g = 10.0, R = 0.5, V = 1.0, mu = 0.3, l = R - g / 1e5;
+	for (int dim = 2; dim <= 3; dim++) {
+		double q = dim == 3 ? 0.4 : 0.5, qe = q * R * R / (l * l), v_th = V * qe / (1.0 + qe);
+		double a = NAN, vf = NAN, vc = NAN;
+		int rc = belt(dim, V, mu, &a, &vf, &vc);
+		diag("%dD belt: a %.9f (mu g %.9f), v_final %.12f theory %.12f, contact point %.12f", dim, a, mu * g, vf,
+			v_th, vc);
+		/* sliding: constant forces, integrated exactly by velocity Verlet (bound 1e-9 as the incline); the end:
+		 * at t3 the tangential spring's oscillation (e = 0.5, ~1000 of its periods after the stick) is gone, and
+		 * the conservation above holds to rounding: bound 1e-9 */
+		ok(rc == 0 && fabs(a / (mu * g) - 1.0) < 1e-9 && fabs(vf / v_th - 1.0) < 1e-9 && fabs(vc - V) < 1e-9,
+			"%dD conveyor belt (moving wall, V = %g, mu = %g): slides at mu g = %.6f (%.6f), then rolls at "
+			"V q/(1+q) = %.9f (%.9f) with its contact point at V (%.9f)", dim, V, mu, mu * g, a, v_th, vf, vc);
+	}
+}
+
+/*
+ * A particle resting on a floor vibrating as A sin(2 pi f t + phase) along
+ * y (gravity -y), started at the floor's lowest point (phase -pi/2, floor
+ * at rest) in static contact under the load m (g + A w^2) of that instant.
+ * It leaves the floor when the floor's downward acceleration exceeds g: at
+ * the first phase with sin = 1/Gamma, Gamma = A w^2 / g, if Gamma > 1, and
+ * never if Gamma < 1. Returns the floor's phase at the first step without
+ * contact (NAN: none within `periods`).
+ */
+static int vibrated(double Gamma, double periods, double *phase_off)
+{
+	const double g = 10.0, R = 0.5, kn = 1e7, f = 5.0, w = 2.0 * PI * f, A = Gamma * g / (w * w);
+	double x[3] = {1.0, R - A - (g + A * w * w) / kn, 0.0};
+	md_params_t p = {0};
+	p.dim = 2;
+	p.n = 1;
+	p.radius = R;
+	p.mass = 1.0;
+	p.box[0] = p.box[1] = 4.0;
+	p.periodic[0] = 1;
+	p.gravity[1] = -g;
+	p.wall_amplitude[2] = A;
+	p.wall_frequency[2] = f;
+	p.wall_phase[2] = -0.5 * PI;
+	p.law = MD_LAW_LINEAR;
+	p.restitution = 0.5;
+	p.kn = kn;
+	p.x = x;
+	int err;
+	md_t *md = md_create(&p, &err);
+	if (!md)
+		return err;
+	*phase_off = NAN;
+	long steps = (long)(periods / f / md_dt(md));
+	for (long s = 0; s < steps && !err; s++) {
+		err = md_step(md, 1);
+		if (md_contact_count(md) == 0) {
+			*phase_off = w * md_time(md) - 0.5 * PI;
+			break;
+		}
+	}
+	md_destroy(md);
+	return err;
+}
+
+static void test_vibrated_floor(void)
+{
+	/* Gamma < 1: held for 20 periods */
+	double ph = 0.0;
+	int rc = vibrated(0.8, 20.0, &ph);
+	ok(rc == 0 && isnan(ph), "vibrating floor, Gamma = 0.8: the particle stays in contact for 20 periods%s",
+		isnan(ph) ? "" : " (left it)");
+	/* Gamma = 2: leaves at phase asin(1/2). The soft contact lags the rigid rule: the quasi-static overlap
+	 * m (g + a_floor)/k_n reaches 0 late by the dashpot's delay, phase ~2 beta w/w_n (w/w_n = 0.01 with k_n =
+	 * 1e7: 0.004 rad), and the step resolves w dt (6e-4 rad): bound 0.02 rad, 4 times their sum */
+	rc = vibrated(2.0, 2.0, &ph);
+	diag("vibrating floor, Gamma = 2: leaves at phase %.5f, theory asin(1/2) = %.5f", ph, asin(0.5));
+	ok(rc == 0 && fabs(ph - asin(0.5)) < 0.02, "vibrating floor, Gamma = 2: the particle takes off at phase %.4f "
+		"(the floor's downward acceleration reaches g at asin(1/Gamma) = %.4f)", ph, asin(0.5));
+}
+
 /* Periodic frictional gas: total momentum is conserved to rounding. */
 static void test_momentum(void)
 {
@@ -788,12 +919,14 @@ static void test_state(void)
 
 int main(void)
 {
-	plan(41);
+	plan(45);
 	test_linear_collision();
 	test_linear_elastic();
 	test_hertz_collision();
 	test_energy();
 	test_incline();
+	test_belt();
+	test_vibrated_floor();
 	test_momentum();
 	test_oblique();
 	test_bed_at_rest();

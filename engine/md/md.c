@@ -38,6 +38,8 @@ struct md {
 	double wf[6][3];         /* force on each wall w = 2 axis + side at the last force pass */
 	double wimp[6][3];       /* momentum given to each wall since the last md_wall_reset() */
 	long wsteps;             /* steps at the last md_wall_reset() */
+	int wmoving;             /* some wall moves or vibrates (wv, wamp, womega, wphase) */
+	double wv[6][3], wamp[6], womega[6], wphase[6];
 };
 
 static inline double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
@@ -300,8 +302,9 @@ static inline int contact(md_t *md, const int law, const int friction, int i, in
 	return MD_OK;
 }
 
-/* Forces and torques at the current positions; dth is the time since the last pass (spring increments). */
-static inline int forces_impl(md_t *md, double dth, const int law, const int friction)
+/* Forces and torques at the current positions (time t); dth is the time since the last pass (spring
+ * increments), tv the time of the velocities (t - dt/2 in a step: the walls' velocities are taken then). */
+static inline int forces_impl(md_t *md, double dth, double t, double tv, const int law, const int friction)
 {
 	const int n = md->n;
 	int rc = MD_OK;
@@ -349,13 +352,26 @@ static inline int forces_impl(md_t *md, double dth, const int law, const int fri
 			md->f[3 * j + a] -= fc[a];
 		}
 	}
+	/* the walls' displacements along their inward normals and velocities (0 for fixed walls: then the
+	 * same bits as without the terms) */
+	double off[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0}, wvel[6][3] = {{0.0}};
+	if (md->wmoving)
+		for (int w = 0; w < 6; w++) {
+			memcpy(wvel[w], md->wv[w], sizeof wvel[w]);
+			if (md->wamp[w] > 0.0) {
+				off[w] = md->wamp[w] * sin(md->womega[w] * t + md->wphase[w]);
+				wvel[w][w / 2] += (w % 2 ? -1.0 : 1.0) * md->wamp[w] * md->womega[w] *
+						  cos(md->womega[w] * tv + md->wphase[w]);
+			}
+		}
 	for (int i = 0; i < n; i++)
 		for (int a = 0; a < md->dim; a++) {
 			if (md->periodic[a])
 				continue;
 			double ri = md->r[i], xa = md->x[3 * i + a];
 			for (int side = 0; side < 2; side++) {
-				double delta = side ? ri - (md->L[a] - xa) : ri - xa;
+				const int wl = 2 * a + side;
+				double delta = side ? ri - ((md->L[a] - off[wl]) - xa) : ri - (xa - off[wl]);
 				if (delta <= 0.0)
 					continue;
 				double nv[3] = {0.0, 0.0, 0.0}, wxn[3], vrel[3], fc[3];
@@ -363,7 +379,7 @@ static inline int forces_impl(md_t *md, double dth, const int law, const int fri
 				double li = ri - delta; /* centre to the contact point on the wall plane */
 				cross3(md->w + 3 * i, nv, wxn);
 				for (int b = 0; b < 3; b++)
-					vrel[b] = md->v[3 * i + b] + (friction ? li * wxn[b] : 0.0);
+					vrel[b] = (md->v[3 * i + b] + (friction ? li * wxn[b] : 0.0)) - wvel[wl][b];
 				int e = contact(md, law, friction, i, -1 - (2 * a + side), nv, delta, md->m[i], ri, vrel, li, 0.0,
 					dth, fc, md->t + 3 * i, NULL);
 				if (e)
@@ -377,11 +393,12 @@ static inline int forces_impl(md_t *md, double dth, const int law, const int fri
 	return rc;
 }
 
-static int forces(md_t *md, double dth)
+static int forces(md_t *md, double dth, double t, double tv)
 {
 	if (md->law == MD_LAW_LINEAR)
-		return md->friction ? forces_impl(md, dth, MD_LAW_LINEAR, 1) : forces_impl(md, dth, MD_LAW_LINEAR, 0);
-	return md->friction ? forces_impl(md, dth, MD_LAW_HERTZ, 1) : forces_impl(md, dth, MD_LAW_HERTZ, 0);
+		return md->friction ? forces_impl(md, dth, t, tv, MD_LAW_LINEAR, 1) :
+				      forces_impl(md, dth, t, tv, MD_LAW_LINEAR, 0);
+	return md->friction ? forces_impl(md, dth, t, tv, MD_LAW_HERTZ, 1) : forces_impl(md, dth, t, tv, MD_LAW_HERTZ, 0);
 }
 
 void md_destroy(md_t *md)
@@ -434,6 +451,30 @@ md_t *md_create(const md_params_t *p, int *err)
 		md->L[a] = a < p->dim ? p->box[a] : 1.0;
 		md->g[a] = a < p->dim ? p->gravity[a] : 0.0;
 	}
+	/* moving and vibrating walls: only on walled axes, tangential velocities, finite vibrations */
+	rc = MD_E_PARAM;
+	for (int w = 0; w < 6; w++) {
+		const int a = w / 2, walls = a < p->dim && !md->periodic[a];
+		double A = p->wall_amplitude[w], f = p->wall_frequency[w], ph = p->wall_phase[w];
+		if (!(A >= 0.0) || !isfinite(A) || !isfinite(f) || !isfinite(ph) || (A > 0.0 && !(f > 0.0)))
+			goto cleanup;
+		if (!walls && (A > 0.0 || f != 0.0 || ph != 0.0))
+			goto cleanup;
+		for (int b = 0; b < 3; b++) {
+			double u = p->wall_velocity[w][b];
+			if (!isfinite(u) || (u != 0.0 && (!walls || b == a || b >= p->dim)))
+				goto cleanup;
+			md->wv[w][b] = u;
+			md->wmoving |= u != 0.0;
+		}
+		if (A > 0.0) {
+			md->wamp[w] = A;
+			md->womega[w] = 2.0 * MD_PI * f;
+			md->wphase[w] = ph;
+			md->wmoving = 1;
+		}
+	}
+	rc = MD_E_NOMEM;
 	/* one block for the double arrays: x v w f t xref (3n each), r m im iI (n each) */
 	md->x = calloc((size_t)n * 22, sizeof(double));
 	md->next = calloc((size_t)n, sizeof(int));
@@ -533,7 +574,7 @@ md_t *md_create(const md_params_t *p, int *err)
 	rc = rebuild(md);
 	if (rc)
 		goto cleanup;
-	rc = forces(md, 0.0);
+	rc = forces(md, 0.0, 0.0, 0.0);
 cleanup:
 	if (err)
 		*err = rc;
@@ -573,7 +614,8 @@ int md_step(md_t *md, long nsteps)
 			for (int w = 0; w < 6; w++)
 				for (int a = 0; a < 3; a++)
 					md->wimp[w][a] += h * md->wf[w][a];
-		int rc = forces(md, dt);
+		/* positions at the end of the step, velocities half a step before */
+		int rc = forces(md, dt, (double)(md->steps + 1) * dt, ((double)md->steps + 0.5) * dt);
 		if (md->walled)
 			for (int w = 0; w < 6; w++)
 				for (int a = 0; a < 3; a++)

@@ -101,6 +101,17 @@ typedef struct {
 	double box[3];           /* edges; box[2] ignored in 2D */
 	int periodic[3];         /* 1 periodic, 0 flat walls at 0 and box[a] */
 	double gravity[3];       /* acceleration; gravity[2] must be 0 in 2D */
+	/* Walls w = 2 axis + side (side 0 at 0, 1 at box[axis]); all zero on periodic axes. A wall is a contact
+	 * partner moving with velocity wall_velocity[w] (tangential: its component along the axis must be 0;
+	 * a moving wall drags the particles through the dashpot and friction) plus, when wall_amplitude[w] > 0,
+	 * a vibration: the plane is displaced along its inward normal by A sin(2 pi f t + phase) (A =
+	 * wall_amplitude, f = wall_frequency > 0, phase = wall_phase), and its normal velocity is the
+	 * derivative. The overlap uses the plane at the positions' time, the dashpot and the tangential
+	 * spring the wall's velocity at the half-step velocities' time (velocity Verlet). */
+	double wall_velocity[6][3];
+	double wall_amplitude[6];
+	double wall_frequency[6];
+	double wall_phase[6];
 	md_law_t law;
 	double restitution;      /* e in (0, 1] */
 	double kn;               /* linear: normal stiffness (force/length), or 0 ... */
