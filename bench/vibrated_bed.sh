@@ -2,7 +2,9 @@
 # Vibrated bed (seed 000 A11): H(V) - H(0) against V = 2 pi f A for ed, dsmc and hsmc from presets/vibrated-bed-2d.json, and the log-log fit of the exponent alpha.
 # usage: bench/vibrated_bed.sh [ENGINE]   (default engine/granular-engine; prints a markdown report)
 # Settings (environment): VS="0.2 0.4 ..." (m/s; V = 0 is always run for H(0)), T_END (s, default 4),
-# T_SKIP (s, default 1: the transient left out), SEEDS (default 2), METHODS (default "ed dsmc hsmc"),
+# T_SKIP (s, default 1: the transient left out), SEEDS (default 2), METHODS (default "ed dsmc hsmc"; "md" too,
+# with RW = r and ALL_WALLS=1 only: its walls have the particles' force law; MD='{...}' its md settings,
+# default frictionless), ALL_WALLS=1 (side walls and lid with r_w too; default: elastic, as the preset),
 # RW (floor restitution r_w, default 1; the preset's particles have r = 0.9), VMIN (fit over V >= VMIN,
 # default 0.6 m/s). H is the time mean of center_of_mass_height over [T_SKIP, T_END] (outputs every 0.01 s);
 # its standard error comes from 10 block means per run, pooled over the seeds; alpha is the weighted
@@ -21,6 +23,7 @@ VS = [float(v) for v in env("VS", "0.2 0.4 0.6 0.8 1.2 1.6 2.0").split()]
 T_END, T_SKIP = float(env("T_END", "4")), float(env("T_SKIP", "1"))
 SEEDS, METHODS = int(env("SEEDS", "2")), env("METHODS", "ed dsmc hsmc").split()
 RW, VMIN = float(env("RW", "1")), float(env("VMIN", "0.6"))
+ALLW = env("ALL_WALLS", "0") == "1"
 base = json.load(open(preset))
 f = base["boundaries"]["y"]["lower"]["frequency"]
 mc = base.get("hsmc", {})
@@ -34,6 +37,19 @@ def run(method, V, seed):
     lw = s["boundaries"]["y"]["lower"]
     lw["amplitude"] = V / (2 * math.pi * f)
     lw["restitution"] = RW
+    if ALLW:
+        # side walls and lid with r_w too (the preset's are elastic)
+        for ax, side in (("x", "lower"), ("x", "upper"), ("y", "upper")):
+            s["boundaries"][ax][side]["restitution"] = RW
+    if method == "md":
+        # soft disks (issue 18): no TC, and every wall is a contact partner with the particles' law and
+        # restitution, so md runs with RW = r and ALL_WALLS=1 only; frictionless, as the hard disks
+        s["collisions"].pop("tc", None)
+        if RW != s["collisions"]["restitution"] or not ALLW:
+            return [], "md needs RW = r and ALL_WALLS=1"
+        for ax, side in (("x", "lower"), ("x", "upper"), ("y", "lower"), ("y", "upper")):
+            s["boundaries"][ax][side].pop("restitution", None)
+        s["md"] = json.loads(env("MD", '{"friction": 0}'))
     s["run"] = {"seed": seed, "until": {"time": T_END}}
     s["output"] = {"every": {"time": 0.01}, "observables": ["center_of_mass_height"]}
     with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as fh:
@@ -84,8 +100,9 @@ def fit(pts):
         se *= math.sqrt(chi2 / dof)
     return al, se, chi2, dof
 
-print("Vibrated bed, %s: f = %g Hz, r_w = %g, r = %g, N = %d, T_END = %g s, T_SKIP = %g s, %d seed(s)" %
-      (os.path.basename(preset), f, RW, base["collisions"]["restitution"], base["particles"]["count"], T_END, T_SKIP, SEEDS))
+print("Vibrated bed, %s: f = %g Hz, r_w = %g (%s), r = %g, N = %d, T_END = %g s, T_SKIP = %g s, %d seed(s)" %
+      (os.path.basename(preset), f, RW, "every wall" if ALLW else "floor; side walls and lid elastic",
+       base["collisions"]["restitution"], base["particles"]["count"], T_END, T_SKIP, SEEDS))
 print()
 res = {}
 for m in METHODS:
