@@ -59,6 +59,7 @@ struct run {
 	ed_t *ed;
 	dsmc_t *mc;
 	md_t *md;                /* method md (soft spheres), else NULL */
+	double *md_radii, *md_masses; /* md mixtures: each particle's radius and mass (scene order), else NULL */
 	uint64_t md_steps;       /* md: velocity-Verlet steps taken (the events of its records) */
 	int md_err;              /* md: the core's error code when a step failed */
 	uint64_t md_kend;        /* md: the steps to run.until.time (dt = until / md_kend, md_build()) */
@@ -145,7 +146,42 @@ static void md_totals(const run_t *rc, smp_t *o)
 {
 	const scene_t *s = &rc->s;
 	const double *x = md_positions(rc->md), *v = md_velocities(rc->md);
-	double sum[3] = {0, 0, 0}, v2 = 0.0, g2 = 0.0;
+	double g2 = 0.0, gr = 0.0;
+	for (int a = 0; a < s->dim; a++)
+		g2 += s->gravity[a] * s->gravity[a];
+	o->time = md_clock(rc);
+	o->events = rc->md_steps;
+	o->particles = s->count;
+	md_energy_t en;
+	md_energy(rc->md, &en);
+	o->rotational_energy = en.rotational;
+	if (rc->md_masses) {   /* mixtures: each particle's mass; species in blocks of rows (scene order) */
+		double mg = 0.0, mtot = 0.0, ek = 0.0;
+		o->n_species = s->n_species;
+		for (uint64_t i = 0, k = 0, end = s->species[0].count; i < s->count; i++) {
+			while (i >= end)
+				end += s->species[++k].count;
+			const double m = rc->md_masses[i];
+			double v2 = 0.0;
+			for (int a = 0; a < s->dim; a++) {
+				double xa = x[i * 3 + a];
+				if (!s->boundary[a].walled)
+					xa -= s->box[a] * floor(xa / s->box[a]);
+				mg += m * s->gravity[a] * xa;
+				o->momentum[a] += m * v[i * 3 + a];
+				v2 += v[i * 3 + a] * v[i * 3 + a];
+			}
+			o->species_ekin[k] += 0.5 * m * v2;
+			o->species_count[k]++;
+			ek += 0.5 * m * v2;
+			mtot += m;
+		}
+		o->kinetic_energy = ek;
+		o->com_height = g2 > 0.0 ? -mg / (sqrt(g2) * mtot) : NAN;   /* mass-weighted, as ed's */
+		o->potential_energy = -mg + en.elastic;
+		return;
+	}
+	double sum[3] = {0, 0, 0}, v2 = 0.0;
 	for (uint64_t i = 0; i < s->count; i++)
 		for (int a = 0; a < s->dim; a++) {
 			double xa = x[i * 3 + a];
@@ -155,20 +191,11 @@ static void md_totals(const run_t *rc, smp_t *o)
 			o->momentum[a] += s->mass * v[i * 3 + a];
 			v2 += v[i * 3 + a] * v[i * 3 + a];
 		}
-	double gr = 0.0;
-	for (int a = 0; a < s->dim; a++) {
+	for (int a = 0; a < s->dim; a++)
 		gr += s->gravity[a] * sum[a];
-		g2 += s->gravity[a] * s->gravity[a];
-	}
-	o->time = md_clock(rc);
-	o->events = rc->md_steps;
 	o->kinetic_energy = 0.5 * s->mass * v2;
-	o->particles = s->count;
 	o->com_height = g2 > 0.0 ? -gr / (sqrt(g2) * (double)s->count) : NAN;
-	md_energy_t en;
-	md_energy(rc->md, &en);
 	o->potential_energy = -s->mass * gr + en.elastic;   /* gravity's and the contacts' springs' */
-	o->rotational_energy = en.rotational;
 }
 
 static void eng_sample(run_t *rc, smp_t *o)
@@ -744,7 +771,11 @@ static int md_build(run_t *r, uint64_t stream, int blank, char *msg, size_t msgl
 	int ret = -1, e = 0;
 	double *pos = malloc(n * s->dim * sizeof(double)), *x = calloc(n * 3, sizeof(double));
 	double *v = calloc(n * 3, sizeof(double));
-	if (!pos || !x || !v) {
+	if (scene_has_species(s)) {
+		r->md_radii = malloc(n * sizeof(double));
+		r->md_masses = malloc(n * sizeof(double));
+	}
+	if (!pos || !x || !v || (scene_has_species(s) && (!r->md_radii || !r->md_masses))) {
 		if (msg && msglen)
 			snprintf(msg, msglen, "out of memory");
 		goto cleanup;
@@ -760,20 +791,35 @@ static int md_build(run_t *r, uint64_t stream, int blank, char *msg, size_t msgl
 	}
 	rng_t rng;
 	rng_init(&rng, s->seed, stream);
-	const double sd = sqrt(s->temperature / s->mass);
-	double mean[3] = {0, 0, 0};
-	for (size_t i = 0; i < n && !blank; i++)
+	if (r->md_radii) {   /* mixtures: each row's radius (scene_species_radii()) and its species' mass */
+		scene_species_radii(s, r->md_radii);
+		for (size_t i = 0, k = 0, end = s->species[0].count; i < n; i++) {
+			while (i >= end)
+				end += s->species[++k].count;
+			r->md_masses[i] = s->species[k].mass;
+		}
+	}
+	double mean[3] = {0, 0, 0}, msum = 0.0;
+	for (size_t i = 0; i < n && !blank; i++) {
+		const double m = r->md_masses ? r->md_masses[i] : s->mass, sd = sqrt(s->temperature / m);
 		for (int a = 0; a < s->dim; a++) {
 			x[i * 3 + a] = pos[i * s->dim + a];
 			v[i * 3 + a] = sd * rng_gauss(&rng);
-			mean[a] += v[i * 3 + a] / (double)n;
+			/* one species: the mean velocity; mixtures: the centre of mass's (mass-weighted) */
+			mean[a] += r->md_masses ? m * v[i * 3 + a] : v[i * 3 + a] / (double)n;
 		}
+		msum += m;
+	}
+	if (r->md_masses)
+		for (int a = 0; a < s->dim; a++)
+			mean[a] /= msum;
 	if (!scene_has_walls(s))
 		for (size_t i = 0; i < n; i++)
 			for (int a = 0; a < s->dim; a++)
 				v[i * 3 + a] -= mean[a];
 	md_params_t pr = {
-		.dim = s->dim, .n = (int)n, .radius = s->radius, .mass = s->mass,
+		.dim = s->dim, .n = (int)n, .radius = s->radius, .mass = s->mass, .radii = r->md_radii,
+		.masses = r->md_masses,
 		.law = s->md_law ? MD_LAW_HERTZ : MD_LAW_LINEAR, .restitution = s->restitution,
 		.v_ref = s->md_impact_speed, .mu = s->md_friction, .kt_ratio = s->md_tangential_ratio,
 		.dt_steps = 1.0 / s->md_time_step, .x = NULL, .v = v,
@@ -1064,6 +1110,8 @@ void run_destroy(run_t *r)
 	ed_destroy(r->ed);
 	dsmc_destroy(r->mc);
 	md_destroy(r->md);
+	free(r->md_radii);
+	free(r->md_masses);
 	md_in_free(r);
 	free(r);
 }

@@ -705,7 +705,7 @@ void scene_md_placement(const scene_t *s, scene_t *p)
 	}
 }
 
-/* Method md: what this slice supports (one species, specular, moving and vibrating walls, gravity, restitution, friction; time
+/* Method md: what this slice supports (species of one restitution, specular, moving and vibrating walls, gravity, friction; time
  * clocks; energy, momentum, centre-of-mass height and potential energy); everything else refused by name.
  * Resolves the md object's defaults. */
 static int check_md(ctx_t *c, json_t *v, scene_t *s)
@@ -715,7 +715,7 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 	json_t *par = json_object_get(v, "particles"), *ini = json_object_get(par, "initial");
 	json_t *col = json_object_get(v, "collisions"), *out = json_object_get(v, "output");
 	static const struct { const char *obj, *key; } refused[] = {
-		{ "particles", "species" }, { "particles", "capacity" }, { "initial", "velocity" },
+		{ "particles", "capacity" }, { "initial", "velocity" },
 		{ "initial", "rotational_temperature" }, { "initial", "relax" }, { "initial", "from" },
 		{ "collisions", "tc" }, { "collisions", "rough" }, { "collisions", "restitution_pairs" },
 		{ "", "obstacles" }, { "", "driving" }, { "", "ed" }, { "run", "max_events" },
@@ -788,11 +788,19 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 			return fail(c, path, "not computed by method \"md\" yet");
 		}
 	/* defaults: the reference impact speed from the thermal speed and the fall through the box */
+	/* mixtures: the lightest particle is the fastest at a temperature, the heaviest and smallest overlaps the
+	 * most at a speed (scene_t.mass is the mean, .radius the largest) */
+	double m_lo = s->mass, m_hi = s->mass, r_lo = s->radius;
+	for (int k = 0; k < s->n_species; k++) {
+		m_lo = fmin(m_lo, s->species[k].mass);
+		m_hi = fmax(m_hi, s->species[k].mass);
+		r_lo = fmin(r_lo, s->species[k].radius_lo > 0 ? s->species[k].radius_lo : s->species[k].radius);
+	}
 	if (s->md_impact_speed == 0) {
 		double fall = 0.0;
 		for (int a = 0; a < s->dim; a++)
 			fall += fabs(s->gravity[a]) * s->box[a];
-		s->md_impact_speed = fmax(4.0 * sqrt(s->temperature / s->mass), sqrt(2.0 * fall));
+		s->md_impact_speed = fmax(4.0 * sqrt(s->temperature / m_lo), sqrt(2.0 * fall));
 		if (!(s->md_impact_speed > 0))
 			return fail(c, "md.impact_speed", "required when the temperature is 0 and there is no gravity (it "
 				    "sets the stiffness and the time step)");
@@ -806,9 +814,9 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 	if (s->md_stiffness == 0 && s->md_contact_time == 0) {
 		/* the stiffness at which a head-on elastic impact on a wall at impact_speed overlaps max_overlap
 		 * diameters: linear m v^2 = k delta^2; hertz m v^2 / 2 = 8/15 E* sqrt(R) delta^(5/2) */
-		double v2 = s->md_impact_speed * s->md_impact_speed, d = s->md_max_overlap * 2.0 * s->radius;
-		s->md_stiffness = s->md_law == 0 ? s->mass * v2 / (d * d)
-						 : 15.0 * s->mass * v2 / (16.0 * sqrt(s->radius) * pow(d, 2.5));
+		double v2 = s->md_impact_speed * s->md_impact_speed, d = s->md_max_overlap * 2.0 * r_lo;
+		s->md_stiffness = s->md_law == 0 ? m_hi * v2 / (d * d)
+						 : 15.0 * m_hi * v2 / (16.0 * sqrt(r_lo) * pow(d, 2.5));
 	}
 	return 0;
 }
@@ -829,12 +837,13 @@ static int check_species_scene(ctx_t *c, json_t *v, scene_t *s)
 	const char *what = s->n_species > 1 ? "more than one particle species" : "polydisperse particles";
 	/* dsmc, hsmc: periodic boxes, walls of every kind, gravity and obstacles (each particle's own radius and
 	 * mass; each pair's contact value chi_ij); the local contact value is refused by dsmc_plan() */
-	if (s->method != SCENE_METHOD_ED && s->method != SCENE_METHOD_DSMC && s->method != SCENE_METHOD_HSMC)
+	if (s->method != SCENE_METHOD_ED && s->method != SCENE_METHOD_DSMC && s->method != SCENE_METHOD_HSMC &&
+	    s->method != SCENE_METHOD_MD)
 		return fail(c, "particles.species", "method \"%s\" simulates one species of one radius only; use method "
-			    "\"ed\", \"dsmc\" or \"hsmc\" for %s", method_names[s->method], what);
+			    "\"ed\", \"dsmc\", \"hsmc\" or \"md\" for %s", method_names[s->method], what);
 	/* ed: particles.initial.region and .from (place.c, frame.c), run.replicas and collisions.rough work with
-	 * mixtures; dsmc mixtures not yet (untested there) */
-	if (s->method != SCENE_METHOD_ED) {
+	 * mixtures; md places as ed (region) and runs replicas; dsmc mixtures not yet (untested there) */
+	if (s->method != SCENE_METHOD_ED && s->method != SCENE_METHOD_MD) {
 		json_t *col = json_object_get(v, "collisions");
 		if (json_object_get(col, "rough"))
 			return fail(c, "collisions.rough", "rough particles: not supported yet with %s (particles.species) "

@@ -160,7 +160,7 @@ typedef struct {
 	double value;        /* time, collisions per particle (2C/N), or wall-clock seconds */
 } scene_when_t;
 
-/* Particle species (particles.species; method ed only beyond one): a scene
+/* Particle species (particles.species; methods ed, dsmc, hsmc and md beyond one): a scene
  * without the key has one species from particles.count/radius/mass. */
 #define SCENE_NAME_MAX 32
 #define SCENE_FROM_EACH (-2)

@@ -95,10 +95,23 @@ cat >"$tmp/2d-vibro.json" <<'JSON'
  "md": {"friction": 0.4}}
 JSON
 
+# a frictional mixture under gravity, one species polydisperse (radii and masses come from the scene)
+cat >"$tmp/2d-mix.json" <<'JSON'
+{"method": "md", "dimensions": 2,
+ "particles": {"species": [{"count": 100, "radius": 0.5, "mass": 1}, {"count": 60, "radius_range": [0.6, 0.9], "mass": 3}],
+   "volume_fraction": 0.3, "initial": {"temperature": 1}},
+ "boundaries": {"y": {"type": "walls", "lower": {"type": "specular"}, "upper": {"type": "specular"}}},
+ "collisions": {"restitution": 0.8}, "gravity": [0, -10],
+ "run": {"seed": 4, "until": {"time": 3}},
+ "output": {"every": {"time": 0.2}, "observables": ["kinetic_energy", "temperature", "momentum", "center_of_mass_height", "wall_force"],
+   "snapshots": {"every": {"time": 0.5}}, "checkpoint": {"every": {"time": 1.1}}},
+ "md": {"friction": 0.3}}
+JSON
+
 ref() { "$ENGINE" run "$tmp/$1.json" --out "$tmp/$1.ref" >/dev/null 2>"$tmp/$1.ref.err"; }
 
 # (a) checkpoint at a simulated time, resume: identical to the uninterrupted run (frames, records, summary).
-for s in 3d-bed 2d-hertz 2d-vibro; do
+for s in 3d-bed 2d-hertz 2d-vibro 2d-mix; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

@@ -176,6 +176,65 @@ print(("ok" if abs(mean - ideal) > tol else "not ok") + " - and not the ideal ga
       % (ideal, abs(mean - ideal) / tol))
 PYEOF
 report "$tmp/press.res"
+# ---- (c2) a binary mixture: wall pressure against the mixture's equation of state, equipartition -------------
+# 400 disks d = 1, m = 1 and 150 disks d = 1.4, m = 2 (particles.species), frictionless elastic Hertz contacts,
+# walls in y, periodic in x, box 200 x 30, as (c). Pressure: the virial route with the mixture's contact values
+# (2D, Jenkins and Mancini's, Henderson's generalised, as docs/engine.md "Species in DSMC": chi_ij = 1/(1-nu) +
+# 9/8 nu d_ij M_1 / ((1-nu)^2 M_2), d_ij = s_i s_j / (s_i + s_j), M_k = sum_s n_s s_s^k, nu = pi/4 M_2), Z = 1 +
+# pi/2 sum_ij n_i x_j s_ij^2 chi_ij, with each species' n_s over its centres' accessible area L_x (L_y - s_s);
+# tolerance 4 standard errors of the block means plus 0.6%, as (c). Equipartition (an elastic mixture shares
+# the kinetic energy equally, whatever the masses): T_A - T_B over the same blocks, each record's T_s less the
+# drift m_s u_x^2 / D of the conserved x momentum (u_x = P_x / M), within 5 standard errors of its block means.
+# A run that gave every particle the mean mass would put T_B/T_A at 2 m_B/(m_A + m_B) in the records.
+cat >"$tmp/mix.json" <<'JSON'
+{"method": "md", "dimensions": 2,
+ "particles": {"species": [{"name": "A", "count": 400, "radius": 0.5, "mass": 1}, {"name": "B", "count": 150, "radius": 0.7, "mass": 2}],
+   "box": [200, 30], "initial": {"temperature": 1}},
+ "boundaries": {"y": {"type": "walls", "lower": {"type": "specular"}, "upper": {"type": "specular"}}},
+ "collisions": {"restitution": 1},
+ "run": {"seed": 5, "until": {"time": 400}},
+ "output": {"every": {"time": 10}, "observables": ["kinetic_energy", "temperature", "momentum", "wall_force"]},
+ "md": {"force_law": "hertz", "time_step": 0.04}}
+JSON
+"$ENGINE" run "$tmp/mix.json" >"$tmp/mix.out" 2>"$tmp/mix.err"
+ok $? "binary mixture between walls: run completes $(head -c 200 "$tmp/mix.err")"
+"$PY" - "$tmp/mix.out" >"$tmp/mix.res" <<'PYEOF'
+import json, math, sys
+recs = [json.loads(l) for l in open(sys.argv[1]) if '"progress"' in l][4:]
+Lx, Ly = 200.0, 30.0
+sp = [(400, 1.0, 1.0), (150, 1.4, 2.0)]   # count, diameter, mass
+M = sum(c * m for c, s, m in sp)
+def stats(xs):
+    K = len(xs); mean = sum(xs) / K
+    return mean, math.sqrt(sum((x - mean) ** 2 for x in xs) / (K - 1) / K), K
+p, se, K = stats([0.5 * (w[0]["pressure"] + w[1]["pressure"]) for w in (r["wall_force"] for r in recs)])
+T = sum(r["temperature"] for r in recs) / K
+n = [c / (Lx * (Ly - s)) for c, s, m in sp]
+ntot = sum(n)
+x = [ni / ntot for ni in n]
+M1 = sum(ni * s for ni, (c, s, m) in zip(n, sp)); M2 = sum(ni * s * s for ni, (c, s, m) in zip(n, sp))
+nu = math.pi / 4 * M2
+Z = 1.0
+for i, (ci, si, mi) in enumerate(sp):
+    for j, (cj, sj, mj) in enumerate(sp):
+        sij, dij = 0.5 * (si + sj), si * sj / (si + sj)
+        chi = 1 / (1 - nu) + 9 / 8 * nu * dij * M1 / ((1 - nu) ** 2 * M2)
+        Z += math.pi / 2 * ntot * x[i] * x[j] * sij * sij * chi
+theory = ntot * T * Z
+tol = 4 * se + 6e-3 * theory
+print(("ok" if abs(p - theory) < tol else "not ok") + " - mixture wall pressure %.5g +- %.2g (%d blocks), theory n T Z = %.5g "
+      "(Z = %.4f, eta = %.4f), tolerance %.2g; ideal gas n T = %.5g" % (p, se, K, theory, Z, nu, tol, ntot * T))
+d = []
+for r in recs:
+    u = r["momentum"][0] / M
+    d.append((r["temperature_species"][0] - sp[0][2] * u * u / 2) - (r["temperature_species"][1] - sp[1][2] * u * u / 2))
+dm, dse, _ = stats(d)
+TA = sum(r["temperature_species"][0] for r in recs) / K
+TB = sum(r["temperature_species"][1] for r in recs) / K
+print(("ok" if abs(dm) < 5 * dse and dse < 0.02 * T else "not ok") + " - mixture equipartition: T_A - T_B = %.2g +- %.2g "
+      "(T_A = %.4f, T_B = %.4f; mean-mass dynamics would give T_B/T_A = %.3f)" % (dm, dse, TA, TB, 2 * 2.0 / 3.0))
+PYEOF
+report "$tmp/mix.res"
 # a time step above t_c/20 runs with a warning on the first record (md.time_step 0.04 above: none)
 sed 's/"time_step": 0.04/"time_step": 0.1/; s/"until": {"time": 400}/"until": {"time": 1}/' "$tmp/press.json" >"$tmp/warn.json"
 "$ENGINE" run "$tmp/warn.json" >"$tmp/warn.out" 2>/dev/null
