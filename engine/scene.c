@@ -342,6 +342,14 @@ static int parse_wall_type(ctx_t *c, const char *path, json_t *v, void *dst, con
 	return ret;
 }
 
+/* A reservoir's gas: "ideal" (SCENE_GAS_IDEAL) or "hard_spheres". */
+static int parse_gas(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	static const char *const names[] = { "ideal", "hard_spheres" };
+	(void)arg;
+	return match(c, path, v, names, 2, (int *)dst);
+}
+
 static int parse_axis_kind(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
 {
 	int i, ret = match(c, path, v, axis_kinds, 2, &i);
@@ -1321,6 +1329,7 @@ static const struct {
 	  1u << SCENE_WALL_DISPENSER, 1u << SCENE_WALL_MOVING | 1u << SCENE_WALL_DISPENSER },
 	{ "volume_fraction", 1u << SCENE_WALL_RESERVOIR | 1u << SCENE_WALL_DISPENSER,
 	  1u << SCENE_WALL_RESERVOIR | 1u << SCENE_WALL_DISPENSER },
+	{ "gas", 1u << SCENE_WALL_RESERVOIR, 0 },
 	{ "thickness", 1u << SCENE_WALL_DISPENSER, 0 },
 	{ "composition", 1u << SCENE_WALL_DISPENSER, 0 },
 	{ "filter", 1u << SCENE_WALL_OPEN, 0 },
@@ -1408,6 +1417,7 @@ static const struct object wall_obj = {
 		{ "frequency", parse_number, offsetof(scene_wall_t, frequency), &R_POS, false },
 		{ "phase", parse_number, offsetof(scene_wall_t, phase), &R_ANY, false },
 		{ "volume_fraction", parse_number, offsetof(scene_wall_t, volume_fraction), &R_POS, false },
+		{ "gas", parse_gas, offsetof(scene_wall_t, gas), NULL, false },
 		{ "thickness", parse_number, offsetof(scene_wall_t, thickness), &R_POS, false },
 		{ "composition", parse_composition, offsetof(scene_wall_t, n_composition), NULL, false },
 		{ "filter", parse_object, offsetof(scene_wall_t, filter), &filter_obj, false },
@@ -1600,6 +1610,16 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 			if (w->volume_fraction >= cp) {
 				snprintf(path, sizeof path, "boundaries.%s.%s.volume_fraction", axis_names[a], k ? "upper" : "lower");
 				return fail(c, path, "%s is at or above the close-packing limit %.4f", num(w->volume_fraction).s, cp);
+			}
+			/* a hard-sphere reservoir gas: its activity comes from the fluid's equation of state
+			 * (Henderson, Carnahan-Starling), not valid beyond freezing (2D: the hexatic phase from
+			 * about 0.70; 3D: 0.494) */
+			const double freeze = s->dim == 2 ? 0.69 : 0.494;
+			if (w->type == SCENE_WALL_RESERVOIR && w->gas == SCENE_GAS_HARD_SPHERES && w->volume_fraction > freeze) {
+				snprintf(path, sizeof path, "boundaries.%s.%s.volume_fraction", axis_names[a], k ? "upper" : "lower");
+				return fail(c, path, "%s is above %.3g, the fluid's limit in %dD: a reservoir with gas "
+				            "\"hard_spheres\" is a fluid (its equation of state)", num(w->volume_fraction).s,
+				            freeze, s->dim);
 			}
 			nmax = fmax(nmax, w->volume_fraction / (w->type == SCENE_WALL_DISPENSER && s->n_species > 0 ?
 			                                        scene_dispenser_volume(s, w) : vp));

@@ -96,6 +96,9 @@ typedef struct {
 	double temperature;        /* > 0: seed 001's turn-back at the plane at this temperature; 0: none */
 } scene_filter_t;
 
+/* The gas of a reservoir wall (key "gas"). */
+enum { SCENE_GAS_IDEAL = 0, SCENE_GAS_HARD_SPHERES = 1 };
+
 typedef struct {
 	scene_wall_type_t type;
 	double restitution;        /* r_w in [0, 1], default 1 (moving: or from coverage, seed 000 3.9) */
@@ -109,6 +112,9 @@ typedef struct {
 	double phase;              /* vibrating: radians, default 0 */
 	double volume_fraction;    /* reservoir: eta of the reservoir gas in (0, close packing); number density
 	                            * eta / (particle volume) */
+	int gas;                   /* reservoir: SCENE_GAS_IDEAL (default: entries at the ideal-gas flux of
+	                            * volume_fraction) or SCENE_GAS_HARD_SPHERES (a gas of the box's particles
+	                            * at volume_fraction: entries at its activity, so the box holds it) */
 	double coverage;           /* moving, instead of restitution: r_w = 1 - (1 - restitution) coverage (seed 000
 	                            * 3.9, line coverage rho_l); -1 when not given */
 	double thickness;          /* dispenser: layer thickness (length), > one diameter; 0: default 2 diameters */

@@ -1567,6 +1567,23 @@ static void setup_walls(struct ed *ed, const scene_t *s)
 	rng_init(&ed->wrng, s->seed, s->stream | (1ull << 62));
 }
 
+/* exp(beta mu_ex) of the hard-disk (dim 2) or hard-sphere (dim 3) fluid at
+ * volume fraction eta: the ratio of activity to number density, the inverse
+ * of Widom's insertion probability. From the equation of state by
+ * beta mu_ex = int_0^eta (Z - 1) / x dx + Z - 1: Henderson in 2D, Z = (1 +
+ * eta^2/8) / (1 - eta)^2, gives (9/8) eta / (1 - eta) - (7/8) ln(1 - eta) +
+ * Z - 1; Carnahan-Starling in 3D gives (8 eta - 9 eta^2 + 3 eta^3) / (1 -
+ * eta)^3. Both 4 eta (2D), 8 eta (3D) at low density (2 B_2 n). */
+static double hs_activity(int dim, double eta)
+{
+	const double q = 1.0 - eta;
+	if (dim == 2) {
+		const double z = (1.0 + eta * eta / 8.0) / (q * q);
+		return exp(1.125 * eta / q - 0.875 * log(q) + z - 1.0);
+	}
+	return exp((8.0 * eta - 9.0 * eta * eta + 3.0 * eta * eta * eta) / (q * q * q));
+}
+
 /* Reservoir walls from the scene (after setup_walls()): each one's entry
  * rate and velocity parameters. The reservoir is an ideal gas of number
  * density n = eta / v_p (v_p the particle volume) moving with velocity U
@@ -1575,7 +1592,9 @@ static void setup_walls(struct ed *ed, const scene_t *s)
  * (seed 001, eq. 3.15)
  *     F_+ = n / (2 sqrt(pi c)) f(sqrt(c) a),  f(t) = exp(-t^2) + sqrt(pi) t erfc(-t),
  * which is n sqrt(T / (2 pi m)) at a = 0; entries per unit time are F_+
- * times the face area (the box's cross-section). Other walls: rate 0. */
+ * times the face area (the box's cross-section). Other walls: rate 0. A
+ * reservoir of gas "hard_spheres" enters at n exp(beta mu_ex(eta)) instead
+ * of n: the activity of the hard-sphere gas at eta. */
 static void setup_inlet(struct ed *ed, const scene_t *s)
 {
 	const double pi = 3.14159265358979323846;
@@ -1591,7 +1610,10 @@ static void setup_inlet(struct ed *ed, const scene_t *s)
 			const int w = 2 * a + k;
 			if (!s->boundary[a].walled || sw->type != SCENE_WALL_RESERVOIR)
 				continue;
-			const double n = sw->volume_fraction / vp, c = s->mass / (2.0 * sw->temperature);
+			/* gas "hard_spheres": the reservoir is a hard-sphere gas at volume_fraction, whose
+			 * activity exp(beta mu_ex) n enters as an ideal gas's density (docs/engine.md) */
+			const double act = sw->gas == SCENE_GAS_HARD_SPHERES ? hs_activity(s->dim, sw->volume_fraction) : 1.0;
+			const double n = act * sw->volume_fraction / vp, c = s->mass / (2.0 * sw->temperature);
 			const double ua = (k ? -1.0 : 1.0) * sw->velocity[a], t = sqrt(c) * ua;
 			const double f = exp(-t * t) + sqrt(pi) * t * erfc(-t);
 			double area = 1.0;
