@@ -398,14 +398,14 @@ void scene_species_radii(const scene_t *s, double *r);
 /* Species and radius of every row (particle slot) of a mixture, in scene
  * order (scene_slots() entries each; either pointer may be NULL): rows
  * 0 .. count - 1 as scene_species_radii() (species in blocks), then the
- * empty slots of a dispenser scene (capacity > count) in one block per
+ * empty slots of a dispenser or reservoir scene (capacity > count) in one block per
  * species, block k holding floor(spare C_k / count) - floor(spare C_(k-1) /
  * count) rows (spare = capacity - count, C_k the counts of species 0 .. k
  * summed: the scene's number fractions), each of its species' radius (a
  * slot's species never changes: frames keep time-independent species).
  * Pure. */
 void scene_row_species(const scene_t *s, uint8_t *sp, double *r);
-/* A dispenser wall's species fractions (n_species entries: its
+/* A dispenser's or reservoir's species fractions (n_species entries: its
  * composition, or the scene's count_k / count) and the mean particle
  * volume at them (scene_particle_volume() without a composition). */
 void scene_dispenser_fractions(const scene_t *s, const scene_wall_t *w, double *x);

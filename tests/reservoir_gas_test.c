@@ -1,4 +1,4 @@
-/* Tests of a reservoir wall's gas ("gas": "hard_spheres" against the default "ideal"): the density the box holds at rest and in a stream, 2D and 3D, against the requested volume fraction. */
+/* Tests of a reservoir wall's gas ("gas": "hard_spheres" against the default "ideal": the density the box holds at rest and in a stream, 2D and 3D; a mixture's entries, composition and temperatures) against theory. */
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -158,6 +158,162 @@ static void run_case(const case_t *c)
 	   c->name, mi, si, mi / n, want, c->stream ? " (not tested in a stream)" : "", ui);
 }
 
+/* A reservoir of a binary mixture (2D, ideal gas at rest, T = 1): species
+ * A (radius 0.5, mass 1) and B (radius 0.3, mass 0.25), composition 0.6 :
+ * 0.4, number density n = eta / v with v = sum_k x_k pi a_k^2; upper wall
+ * specular, y periodic. */
+static const double MIX_A[2] = { 0.5, 0.3 }, MIX_M[2] = { 1.0, 0.25 }, MIX_X[2] = { 0.6, 0.4 };
+
+static ed_t *mix_engine(double eta, double lx, double ly, int count, unsigned seed, scene_t *sc)
+{
+	char json[1024];
+	snprintf(json, sizeof json, "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":["
+	         "{\"name\":\"A\",\"count\":%d,\"radius\":%g,\"mass\":%g},{\"name\":\"B\",\"count\":%d,\"radius\":%g,"
+	         "\"mass\":%g}],\"box\":[%g,%g],\"initial\":{\"positions\":\"random\",\"temperature\":1}},"
+	         "\"boundaries\":{\"x\":{\"type\":\"walls\",\"lower\":{\"type\":\"reservoir\",\"volume_fraction\":%g,"
+	         "\"temperature\":1,\"composition\":[%g,%g]},\"upper\":{\"type\":\"specular\"}}},"
+	         "\"run\":{\"seed\":%u,\"until\":{\"time\":1}}}",
+	         count, MIX_A[0], MIX_M[0], count, MIX_A[1], MIX_M[1], lx, ly, eta, MIX_X[0], MIX_X[1], seed);
+	return make(json, sc);
+}
+
+static double mix_density(double eta)
+{
+	return eta / (MIX_X[0] * M_PI * MIX_A[0] * MIX_A[0] + MIX_X[1] * M_PI * MIX_A[1] * MIX_A[1]);
+}
+
+/* Entries per species: each species enters as its own Poisson stream of
+ * rate F_k L_y = n x_k sqrt(T / (2 pi m_k)) L_y (the one-sided flux at
+ * rest at its mass), less the rejected fraction f_k = sum_j n x_j pi (a_k +
+ * a_j)^2 / 2 (a half disk of exclusion at the face; first order, below 0.5%
+ * here, its error O(eta^2) ~ 1e-5). Entries are counted by the new ids that
+ * appear in the rows of each species, sampled every 0.5 time units: a
+ * particle enters moving away from the face and would have to collide and
+ * come back within 0.5 to be missed (mean free time ~ 300 here). Each count
+ * within 4 sqrt(expected) of the expectation; the ratio B / A is about
+ * (x_B / x_A) sqrt(m_A / m_B) = 4/3. */
+static void test_mix_entries(void)
+{
+	const double eta = 0.002, ly = 400.0, t_end = 20000.0, dt = 0.5;
+	scene_t sc;
+	ed_t *ed = mix_engine(eta, 40.0, ly, 5, 35, &sc);
+	if (!ed) {
+		ok(0, "mixture entries: setup");
+		ok(0, "mixture entries: species B");
+		return;
+	}
+	const uint32_t N = ed_slots(ed);
+	int64_t *ids = malloc(sizeof(int64_t) * N), *last = malloc(sizeof(int64_t) * N);
+	uint8_t *sp = malloc(N);
+	scene_row_species(&sc, sp, NULL);
+	for (uint32_t r = 0; r < N; r++)
+		last[r] = -1;
+	double made[2] = { 0.0, 0.0 };
+	int good = 1;
+	for (long k = 1; k * dt <= t_end && good; k++) {
+		good = ed_advance(ed, k * dt, UINT64_MAX, UINT64_MAX) == ED_OK && ed_labels(ed, ids) == ED_OK;
+		for (uint32_t r = 0; r < N && good; r++) {
+			if (ids[r] >= (int64_t)sc.count && ids[r] != last[r])
+				made[sp[r]] += 1.0;
+			last[r] = ids[r];
+		}
+	}
+	const double n = mix_density(eta);
+	for (int q = 0; q < 2; q++) {
+		double f = 0.0;
+		for (int j = 0; j < 2; j++)
+			f += n * MIX_X[j] * M_PI * (MIX_A[q] + MIX_A[j]) * (MIX_A[q] + MIX_A[j]) / 2.0;
+		const double want = n * MIX_X[q] * sqrt(1.0 / (2.0 * M_PI * MIX_M[q])) * ly * t_end * (1.0 - f);
+		ok(good && fabs(made[q] - want) < 4.0 * sqrt(want),
+		   "mixture entries, species %c (mass %g): %.0f made in t = %g, expected %.1f (rejected fraction %.4f), "
+		   "tolerance 4 sqrt = %.1f", 'A' + q, MIX_M[q], made[q], t_end, want, f, 4.0 * sqrt(want));
+	}
+	free(ids);
+	free(last);
+	free(sp);
+	ed_destroy(ed);
+}
+
+/* Composition and temperature per species of the particles present in the
+ * bulk (centres more than 4 from both walls), K blocks of S snapshots. The
+ * box is in grand-canonical equilibrium with activities z_k = n x_k (the
+ * argument of docs/engine.md, species by species): n_k = z_k
+ * exp(-beta mu_k), to first order beta mu_k = sum_j n_j pi (a_k + a_j)^2
+ * (second virial coefficients of the mixture; solved by iteration; the
+ * O(eta^2) remainder ~ 0.1% of the fraction here), so the bulk's fraction
+ * of B is above x_B = 0.4. Fraction and T_k = m_k <v^2> / 2 each within 5
+ * standard errors of the K block means (blocks of 500: several diffusion
+ * times of the 32-wide slab). */
+static void test_mix_bulk(void)
+{
+	enum { K = 80, S = 50 };
+	const double eta = 0.02, lx = 40.0, ly = 300.0, tb = 500.0, t0 = 400.0, margin = 4.0;
+	const double n = mix_density(eta);
+	scene_t sc;
+	ed_t *ed = mix_engine(eta, lx, ly, (int)(0.5 * n * lx * ly), 36, &sc);
+	if (!ed) {
+		ok(0, "mixture bulk: setup");
+		ok(0, "mixture bulk: temperature A");
+		ok(0, "mixture bulk: temperature B");
+		return;
+	}
+	const uint32_t N = ed_slots(ed);
+	double *pos = malloc(sizeof(double) * 2 * N), *vel = malloc(sizeof(double) * 2 * N);
+	uint8_t *sp = malloc(N);
+	scene_row_species(&sc, sp, NULL);
+	double yb[K], tk[2][K];
+	int good = ed_advance(ed, t0, UINT64_MAX, UINT64_MAX) == ED_OK;
+	for (int k = 0; k < K && good; k++) {
+		double cnt[2] = { 0, 0 }, e[2] = { 0, 0 };
+		for (int j = 1; j <= S && good; j++) {
+			good = ed_advance(ed, t0 + k * tb + j * tb / S, UINT64_MAX, UINT64_MAX) == ED_OK;
+			ed_state(ed, pos, vel);
+			for (uint32_t r = 0; r < N; r++) {
+				const double x = pos[2 * r];
+				if (isnan(x) || x < MIX_A[sp[r]] + margin || x > lx - MIX_A[sp[r]] - margin)
+					continue;
+				cnt[sp[r]] += 1.0;
+				e[sp[r]] += 0.5 * MIX_M[sp[r]] * (vel[2 * r] * vel[2 * r] + vel[2 * r + 1] * vel[2 * r + 1]);
+			}
+		}
+		yb[k] = cnt[1] / (cnt[0] + cnt[1]);
+		for (int q = 0; q < 2; q++)
+			tk[q][k] = e[q] / cnt[q];   /* T = E / N in 2D */
+	}
+	/* the theory's densities: n_k = z_k exp(-sum_j n_j pi (a_k + a_j)^2) */
+	double nk[2] = { n * MIX_X[0], n * MIX_X[1] };
+	for (int it = 0; it < 200; it++) {
+		double nn[2];
+		for (int q = 0; q < 2; q++) {
+			double mu = 0.0;
+			for (int j = 0; j < 2; j++)
+				mu += nk[j] * M_PI * (MIX_A[q] + MIX_A[j]) * (MIX_A[q] + MIX_A[j]);
+			nn[q] = n * MIX_X[q] * exp(-mu);
+		}
+		nk[0] = nn[0], nk[1] = nn[1];
+	}
+	const double want = nk[1] / (nk[0] + nk[1]);
+	double m, se;
+	if (!good) {
+		diag("mixture bulk: the run failed");
+		m = se = NAN;
+	} else {
+		mean_se(yb, K, &m, &se);
+	}
+	ok(good && fabs(m - want) < 5.0 * se, "mixture bulk: fraction of B %.5f +- %.5f (%d blocks of %g), theory %.5f "
+	   "(reservoir's 0.4)", m, se, K, tb, want);
+	for (int q = 0; q < 2; q++) {
+		double mt = NAN, st = NAN;
+		if (good)
+			mean_se(tk[q], K, &mt, &st);
+		ok(good && fabs(mt - 1.0) < 5.0 * st, "mixture bulk: T_%c = %.5f +- %.5f, T_res = 1", 'A' + q, mt, st);
+	}
+	free(pos);
+	free(vel);
+	free(sp);
+	ed_destroy(ed);
+}
+
 int main(void)
 {
 	/* blocks: at rest 2D eta 0.04, the slab 22 wide, D ~ 4: L^2 / D ~ 120 < tb = 200; eta 0.15, slab 16 wide, D ~
@@ -170,8 +326,10 @@ int main(void)
 		{ "stream, 2D, eta 0.04, U 0.05, kT 0.02", 2, 0.04, { 100, 50, 0 }, 0.05, 0.02, 1, 20.0, 4000.0, 2000.0, 40, 40, 34 },
 	};
 	const int nc = (int)(sizeof cases / sizeof cases[0]);
-	plan(2 * nc);
+	plan(2 * nc + 5);
 	for (int k = 0; k < nc; k++)
 		run_case(&cases[k]);
+	test_mix_entries();
+	test_mix_bulk();
 	return tap_failed ? 1 : 0;
 }
