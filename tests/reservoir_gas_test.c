@@ -314,6 +314,44 @@ static void test_mix_bulk(void)
 	ed_destroy(ed);
 }
 
+/* A mixture's slots: with 4 spare rows (split by the scene's fractions)
+ * and a reservoir feeding both species, the run stops with ED_FULL once an
+ * entering particle finds no free row of its species: then every row of
+ * some species holds a particle, ids are unique, and nothing overlaps. */
+static void test_mix_full(void)
+{
+	const char *json = "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":["
+	                   "{\"name\":\"A\",\"count\":6,\"radius\":0.5,\"mass\":1},{\"name\":\"B\",\"count\":6,\"radius\":0.3,"
+	                   "\"mass\":0.25}],\"capacity\":16,\"box\":[20,20],\"initial\":{\"positions\":\"random\",\"temperature\":1}},"
+	                   "\"boundaries\":{\"x\":{\"type\":\"walls\",\"lower\":{\"type\":\"reservoir\",\"volume_fraction\":0.05,"
+	                   "\"temperature\":1},\"upper\":{\"type\":\"specular\"}}},\"run\":{\"seed\":37,\"until\":{\"time\":1}}}";
+	scene_t sc;
+	ed_t *ed = make(json, &sc);
+	if (!ed) {
+		ok(0, "mixture full: setup");
+		return;
+	}
+	const uint32_t N = ed_slots(ed);
+	int64_t ids[16];
+	uint8_t sp[16];
+	double pos[32], vel[32];
+	const int rc = ed_advance(ed, 1000.0, UINT64_MAX, UINT64_MAX);
+	int filled[2] = { 1, 1 }, dup = 0;
+	if (N == 16 && ed_labels(ed, ids) == ED_OK) {
+		scene_row_species(&sc, sp, NULL);
+		ed_state(ed, pos, vel);
+		for (uint32_t r = 0; r < N; r++) {
+			filled[sp[r]] &= ids[r] >= 0 && !isnan(pos[2 * r]);
+			for (uint32_t q = 0; q < r; q++)
+				dup |= ids[r] >= 0 && ids[q] == ids[r];
+		}
+	}
+	ok(N == 16 && rc == ED_FULL && ed_time(ed) < 1000.0 && (filled[0] || filled[1]) && !dup && ed_min_gap(ed) > -1e-9,
+	   "mixture full: ED_FULL at t = %.3f, every row of species %s taken, ids unique, min gap %.3g",
+	   ed_time(ed), filled[0] ? "A" : filled[1] ? "B" : "(none)", ed_min_gap(ed));
+	ed_destroy(ed);
+}
+
 int main(void)
 {
 	/* blocks: at rest 2D eta 0.04, the slab 22 wide, D ~ 4: L^2 / D ~ 120 < tb = 200; eta 0.15, slab 16 wide, D ~
@@ -326,10 +364,11 @@ int main(void)
 		{ "stream, 2D, eta 0.04, U 0.05, kT 0.02", 2, 0.04, { 100, 50, 0 }, 0.05, 0.02, 1, 20.0, 4000.0, 2000.0, 40, 40, 34 },
 	};
 	const int nc = (int)(sizeof cases / sizeof cases[0]);
-	plan(2 * nc + 5);
+	plan(2 * nc + 6);
 	for (int k = 0; k < nc; k++)
 		run_case(&cases[k]);
 	test_mix_entries();
 	test_mix_bulk();
+	test_mix_full();
 	return tap_failed ? 1 : 0;
 }
