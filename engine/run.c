@@ -1519,10 +1519,11 @@ static int advance(run_t *r, double t_stop, double t_soft, uint64_t c_stop, int 
 		r->status = RUN_COLLAPSED;
 		done = 1;
 	}
-	if (adv == 3 && scene_has_species(&r->s)) {   /* a mixture's dispenser: one species' rows are taken */
+	if (adv == 3 && scene_has_species(&r->s)) {   /* a mixture's dispenser or reservoir: one species' rows are taken */
 		snprintf(r->collapse, sizeof(r->collapse), "particles.capacity: the %llu particle slots cannot take a "
-		         "dispenser's layer at time %.9g (the free rows of some species, which keep their species, are "
-		         "fewer than a layer may hold of it); raise particles.capacity", (unsigned long long)scene_slots(&r->s),
+		         "dispenser's layer or a reservoir's entry at time %.9g (the free rows of some species, which keep "
+		         "their species, are fewer than a layer may hold of it, or none is left for the entering particle's "
+		         "species); raise particles.capacity", (unsigned long long)scene_slots(&r->s),
 		         *t);
 		r->status = RUN_FULL;
 		done = 1;

@@ -342,6 +342,14 @@ static int parse_wall_type(ctx_t *c, const char *path, json_t *v, void *dst, con
 	return ret;
 }
 
+/* A reservoir's gas: "ideal" (SCENE_GAS_IDEAL) or "hard_spheres". */
+static int parse_gas(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	static const char *const names[] = { "ideal", "hard_spheres" };
+	(void)arg;
+	return match(c, path, v, names, 2, (int *)dst);
+}
+
 static int parse_axis_kind(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
 {
 	int i, ret = match(c, path, v, axis_kinds, 2, &i);
@@ -1331,8 +1339,9 @@ static const struct {
 	  1u << SCENE_WALL_DISPENSER, 1u << SCENE_WALL_MOVING | 1u << SCENE_WALL_DISPENSER },
 	{ "volume_fraction", 1u << SCENE_WALL_RESERVOIR | 1u << SCENE_WALL_DISPENSER,
 	  1u << SCENE_WALL_RESERVOIR | 1u << SCENE_WALL_DISPENSER },
+	{ "gas", 1u << SCENE_WALL_RESERVOIR, 0 },
 	{ "thickness", 1u << SCENE_WALL_DISPENSER, 0 },
-	{ "composition", 1u << SCENE_WALL_DISPENSER, 0 },
+	{ "composition", 1u << SCENE_WALL_DISPENSER | 1u << SCENE_WALL_RESERVOIR, 0 },
 	{ "filter", 1u << SCENE_WALL_OPEN, 0 },
 	{ "tangential_restitution", 1u << SCENE_WALL_MOVING, 0 },
 	{ "coverage", 1u << SCENE_WALL_MOVING, 0 },
@@ -1418,6 +1427,7 @@ static const struct object wall_obj = {
 		{ "frequency", parse_number, offsetof(scene_wall_t, frequency), &R_POS, false },
 		{ "phase", parse_number, offsetof(scene_wall_t, phase), &R_ANY, false },
 		{ "volume_fraction", parse_number, offsetof(scene_wall_t, volume_fraction), &R_POS, false },
+		{ "gas", parse_gas, offsetof(scene_wall_t, gas), NULL, false },
 		{ "thickness", parse_number, offsetof(scene_wall_t, thickness), &R_POS, false },
 		{ "composition", parse_composition, offsetof(scene_wall_t, n_composition), NULL, false },
 		{ "filter", parse_object, offsetof(scene_wall_t, filter), &filter_obj, false },
@@ -1611,17 +1621,39 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 				snprintf(path, sizeof path, "boundaries.%s.%s.volume_fraction", axis_names[a], k ? "upper" : "lower");
 				return fail(c, path, "%s is at or above the close-packing limit %.4f", num(w->volume_fraction).s, cp);
 			}
+			/* a hard-sphere reservoir gas: its activity comes from the fluid's equation of state
+			 * (Henderson, Carnahan-Starling), not valid beyond freezing (2D: the hexatic phase from
+			 * about 0.70; 3D: 0.494) */
+			const double freeze = s->dim == 2 ? 0.69 : 0.494;
+			if (w->type == SCENE_WALL_RESERVOIR && w->gas == SCENE_GAS_HARD_SPHERES && w->volume_fraction > freeze) {
+				snprintf(path, sizeof path, "boundaries.%s.%s.volume_fraction", axis_names[a], k ? "upper" : "lower");
+				return fail(c, path, "%s is above %.3g, the fluid's limit in %dD: a reservoir with gas "
+				            "\"hard_spheres\" is a fluid (its equation of state)", num(w->volume_fraction).s,
+				            freeze, s->dim);
+			}
 			nmax = fmax(nmax, w->volume_fraction / (w->type == SCENE_WALL_DISPENSER && s->n_species > 0 ?
 			                                        scene_dispenser_volume(s, w) : vp));
-			if (w->type == SCENE_WALL_RESERVOIR && scene_has_species(s))
-				return fail(c, path, "\"%s\" walls take one species of smooth particles (particles.species "
-				            "is not supported with them yet; a \"dispenser\" takes species)", wn);
+			if (w->type == SCENE_WALL_RESERVOIR && w->gas == SCENE_GAS_HARD_SPHERES && scene_has_species(s)) {
+				snprintf(path, sizeof path, "boundaries.%s.%s.gas", axis_names[a], k ? "upper" : "lower");
+				return fail(c, path, "\"hard_spheres\" takes one species (the activity of a mixture is not "
+				            "implemented); a mixture's reservoir is an ideal gas (\"ideal\")");
+			}
+			if (w->type == SCENE_WALL_RESERVOIR && w->n_composition) {
+				snprintf(path, sizeof path, "boundaries.%s.%s.composition", axis_names[a], k ? "upper" : "lower");
+				if (s->n_species < 2)
+					return fail(c, path, "needs particles.species with two or more species (the weights are "
+					            "per species)");
+				if (w->n_composition != s->n_species)
+					return fail(c, path, "has %d weights for %d species (one per species, in the order of "
+					            "particles.species)", w->n_composition, s->n_species);
+			}
 			for (int q = 0; q < s->n_species; q++)
 				if (s->species[q].radius_hi > 0) {
 					snprintf(path, sizeof path, "particles.species[%d].radius_range", q);
-					return fail(c, path, "a scene with a \"dispenser\" wall takes species of one radius each "
-					            "(its layers are placed from templates of fixed radii; polydisperse species "
-					            "are not supported with it)");
+					return fail(c, path, "a scene with a \"%s\" wall takes species of one radius each "
+					            "(%s; polydisperse species are not supported with it)", wn,
+					            w->type == SCENE_WALL_DISPENSER ? "its layers are placed from templates of fixed radii"
+					                                             : "each entering particle takes a slot of its species");
 				}
 		}
 	/* default: room for twice the larger of the initial count and what the
@@ -2677,16 +2709,22 @@ double scene_dispenser_volume(const scene_t *s, const scene_wall_t *w)
 }
 
 /* The fractions in which the empty slots are split among the species: the
- * scene's (NULL: exact integer split) unless a dispenser has a
- * composition, then the dispensers' mean weighted by their particle rates
- * (eta U_n A / v_p: what enters per unit time). */
+ * scene's (NULL: exact integer split) unless a dispenser or a reservoir has
+ * a composition. Dispensers only: the dispensers' mean weighted by their
+ * particle rates (eta U_n A / v_p: what enters per unit time). With a
+ * reservoir's composition: the mean over the dispensers and reservoirs
+ * weighted by their number densities eta / v_p (what the box holds of each
+ * species when it is filled from that wall). */
 static int spare_fractions(const scene_t *s, double *y)
 {
-	int any = 0;
+	int any = 0, res = 0;
 	for (int a = 0; a < s->dim; a++)
-		for (int e = 0; e < 2; e++)
-			any |= s->boundary[a].walled && s->boundary[a].wall[e].type == SCENE_WALL_DISPENSER &&
-			       s->boundary[a].wall[e].n_composition > 0;
+		for (int e = 0; e < 2; e++) {
+			const scene_wall_t *w = &s->boundary[a].wall[e];
+			const int in = s->boundary[a].walled && w->n_composition > 0;
+			any |= in && (w->type == SCENE_WALL_DISPENSER || w->type == SCENE_WALL_RESERVOIR);
+			res |= in && w->type == SCENE_WALL_RESERVOIR;
+		}
 	if (!any)
 		return 0;
 	double tot = 0.0, x[SCENE_SPECIES_MAX];
@@ -2695,13 +2733,14 @@ static int spare_fractions(const scene_t *s, double *y)
 	for (int a = 0; a < s->dim; a++)
 		for (int e = 0; e < 2; e++) {
 			const scene_wall_t *w = &s->boundary[a].wall[e];
-			if (!s->boundary[a].walled || w->type != SCENE_WALL_DISPENSER)
+			if (!s->boundary[a].walled || (w->type != SCENE_WALL_DISPENSER && (!res || w->type != SCENE_WALL_RESERVOIR)))
 				continue;
 			double area = 1.0;
 			for (int b = 0; b < s->dim; b++)
 				if (b != a)
 					area *= s->box[b];
-			const double rate = w->volume_fraction * fabs(w->velocity[a]) * area / scene_dispenser_volume(s, w);
+			const double rate = res ? w->volume_fraction / scene_dispenser_volume(s, w)
+			                        : w->volume_fraction * fabs(w->velocity[a]) * area / scene_dispenser_volume(s, w);
 			scene_dispenser_fractions(s, w, x);
 			for (int k = 0; k < s->n_species; k++) {
 				y[k] += rate * x[k];

@@ -96,6 +96,9 @@ typedef struct {
 	double temperature;        /* > 0: seed 001's turn-back at the plane at this temperature; 0: none */
 } scene_filter_t;
 
+/* The gas of a reservoir wall (key "gas"). */
+enum { SCENE_GAS_IDEAL = 0, SCENE_GAS_HARD_SPHERES = 1 };
+
 typedef struct {
 	scene_wall_type_t type;
 	double restitution;        /* r_w in [0, 1], default 1 (moving: or from coverage, seed 000 3.9) */
@@ -109,6 +112,9 @@ typedef struct {
 	double phase;              /* vibrating: radians, default 0 */
 	double volume_fraction;    /* reservoir: eta of the reservoir gas in (0, close packing); number density
 	                            * eta / (particle volume) */
+	int gas;                   /* reservoir: SCENE_GAS_IDEAL (default: entries at the ideal-gas flux of
+	                            * volume_fraction) or SCENE_GAS_HARD_SPHERES (a gas of the box's particles
+	                            * at volume_fraction: entries at its activity, so the box holds it) */
 	double coverage;           /* moving, instead of restitution: r_w = 1 - (1 - restitution) coverage (seed 000
 	                            * 3.9, line coverage rho_l); -1 when not given */
 	double thickness;          /* dispenser: layer thickness (length), > one diameter; 0: default 2 diameters */
@@ -392,14 +398,14 @@ void scene_species_radii(const scene_t *s, double *r);
 /* Species and radius of every row (particle slot) of a mixture, in scene
  * order (scene_slots() entries each; either pointer may be NULL): rows
  * 0 .. count - 1 as scene_species_radii() (species in blocks), then the
- * empty slots of a dispenser scene (capacity > count) in one block per
+ * empty slots of a dispenser or reservoir scene (capacity > count) in one block per
  * species, block k holding floor(spare C_k / count) - floor(spare C_(k-1) /
  * count) rows (spare = capacity - count, C_k the counts of species 0 .. k
  * summed: the scene's number fractions), each of its species' radius (a
  * slot's species never changes: frames keep time-independent species).
  * Pure. */
 void scene_row_species(const scene_t *s, uint8_t *sp, double *r);
-/* A dispenser wall's species fractions (n_species entries: its
+/* A dispenser's or reservoir's species fractions (n_species entries: its
  * composition, or the scene's count_k / count) and the mean particle
  * volume at them (scene_particle_volume() without a composition). */
 void scene_dispenser_fractions(const scene_t *s, const scene_wall_t *w, double *x);

@@ -140,6 +140,31 @@ cat >"$tmp/2d-reservoir-rough.json" <<'JSON'
  "output":{"every":{"time":3},"observables":["kinetic_energy","rotational_temperature","outflow","velocity_distribution"],
    "snapshots":{"every":{"time":20}},"checkpoint":{"every":{"time":13}}}}
 JSON
+# A dense hard-sphere reservoir gas ("gas": "hard_spheres", 3D): its entry rate is set at load from the
+# scene (no state of its own); the timers, stream, slots and ids resume as with the ideal gas.
+cat >"$tmp/3d-reservoir-dense.json" <<'JSON'
+{"method":"ed","dimensions":3,"particles":{"count":300,"box":[16,10,10],
+   "initial":{"positions":"random","temperature":1,"velocity":[0.2,0,0]}},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"reservoir","volume_fraction":0.15,"velocity":[0.2,0,0],"temperature":1,
+     "gas":"hard_spheres"},
+   "upper":{"type":"reservoir","volume_fraction":0.15,"velocity":[0.2,0,0],"temperature":1,"gas":"hard_spheres"}}},
+ "run":{"seed":49,"until":{"time":40}},
+ "output":{"every":{"time":2},"observables":["kinetic_energy","outflow"],
+   "snapshots":{"every":{"time":10}},"checkpoint":{"every":{"time":9}}}}
+JSON
+# A reservoir of a rough binary mixture: each species' slots on its own stack, the species drawn per entry
+# from the entry stream, spins per species.
+cat >"$tmp/2d-reservoir-mixture.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"species":[{"name":"A","count":150,"radius":0.5,"mass":1},
+   {"name":"B","count":100,"radius":0.3,"mass":0.25}],"box":[60,40],"initial":{"positions":"random","temperature":0.5}},
+ "collisions":{"restitution":0.95,"tc":0.0001,"rough":{"tangential_restitution":0.5}},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"reservoir","volume_fraction":0.05,"velocity":[0.3,0],"temperature":0.5,
+     "composition":[1,2]},
+   "upper":{"type":"reservoir","volume_fraction":0.04,"velocity":[0.3,0],"temperature":0.5}}},
+ "run":{"seed":50,"until":{"time":60}},
+ "output":{"every":{"time":3},"observables":["kinetic_energy","temperature","rotational_temperature","outflow"],
+   "snapshots":{"every":{"time":20}},"checkpoint":{"every":{"time":13}}}}
+JSON
 # Dispenser and filter (seed 001's dense stream): the piston's recharge
 # time, the frozen flags and counts, slots and ids are state too.
 cat >"$tmp/2d-dispenser-filter.json" <<'JSON'
@@ -407,7 +432,7 @@ ref() { # uninterrupted reference run of scene $1 into $tmp/$1.ref
 for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gravity 3d-walls 2d-obstacles-open 3d-rough-drive \
 	2d-rough-noise 2d-hsmc-walls 2d-dsmc-vib 2d-hsmc-open 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute \
 	2d-mixture-walls 2d-dsmc-mixture-walls 2d-dsmc-mixture-vib 2d-hsmc-mixture 2d-hsmc-mixture-walls 2d-reservoir \
-	2d-reservoir-rough 2d-dispenser-filter 3d-dispenser-filter 2d-dispenser-rough 2d-dispenser-gravity 2d-filter-gravity \
+	2d-reservoir-rough 3d-reservoir-dense 2d-reservoir-mixture 2d-dispenser-filter 3d-dispenser-filter 2d-dispenser-rough 2d-dispenser-gravity 2d-filter-gravity \
 	2d-dispenser-mixture; do
 	ref $s
 	rc=$?

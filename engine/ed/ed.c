@@ -238,6 +238,8 @@ struct ed {
 	double in_rate[6];        /* entries per unit time: F_+ times the face area */
 	double in_a[6], in_s[6];  /* mean inward normal velocity U_n; thermal speed sqrt(T / m) */
 	double in_u[6][3];        /* the reservoir's velocity */
+	double in_cum[6][SCENE_SPECIES_MAX];   /* mixtures: species k's share of wall w's rate, cumulative */
+	double in_sk[6][SCENE_SPECIES_MAX];    /* mixtures: species k's thermal speed sqrt(T / m_k) */
 	/* Seed 001's open stream (walls variant; frozen NULL, nfilt 0 and no
 	 * dispenser without). Filters: frozen[i] = 1 + w once particle i has
 	 * crossed the filter plane of wall w (fplane, internal coordinate) going
@@ -1567,6 +1569,23 @@ static void setup_walls(struct ed *ed, const scene_t *s)
 	rng_init(&ed->wrng, s->seed, s->stream | (1ull << 62));
 }
 
+/* exp(beta mu_ex) of the hard-disk (dim 2) or hard-sphere (dim 3) fluid at
+ * volume fraction eta: the ratio of activity to number density, the inverse
+ * of Widom's insertion probability. From the equation of state by
+ * beta mu_ex = int_0^eta (Z - 1) / x dx + Z - 1: Henderson in 2D, Z = (1 +
+ * eta^2/8) / (1 - eta)^2, gives (9/8) eta / (1 - eta) - (7/8) ln(1 - eta) +
+ * Z - 1; Carnahan-Starling in 3D gives (8 eta - 9 eta^2 + 3 eta^3) / (1 -
+ * eta)^3. Both 4 eta (2D), 8 eta (3D) at low density (2 B_2 n). */
+static double hs_activity(int dim, double eta)
+{
+	const double q = 1.0 - eta;
+	if (dim == 2) {
+		const double z = (1.0 + eta * eta / 8.0) / (q * q);
+		return exp(1.125 * eta / q - 0.875 * log(q) + z - 1.0);
+	}
+	return exp((8.0 * eta - 9.0 * eta * eta + 3.0 * eta * eta * eta) / (q * q * q));
+}
+
 /* Reservoir walls from the scene (after setup_walls()): each one's entry
  * rate and velocity parameters. The reservoir is an ideal gas of number
  * density n = eta / v_p (v_p the particle volume) moving with velocity U
@@ -1575,7 +1594,9 @@ static void setup_walls(struct ed *ed, const scene_t *s)
  * (seed 001, eq. 3.15)
  *     F_+ = n / (2 sqrt(pi c)) f(sqrt(c) a),  f(t) = exp(-t^2) + sqrt(pi) t erfc(-t),
  * which is n sqrt(T / (2 pi m)) at a = 0; entries per unit time are F_+
- * times the face area (the box's cross-section). Other walls: rate 0. */
+ * times the face area (the box's cross-section). Other walls: rate 0. A
+ * reservoir of gas "hard_spheres" enters at n exp(beta mu_ex(eta)) instead
+ * of n: the activity of the hard-sphere gas at eta. */
 static void setup_inlet(struct ed *ed, const scene_t *s)
 {
 	const double pi = 3.14159265358979323846;
@@ -1591,7 +1612,10 @@ static void setup_inlet(struct ed *ed, const scene_t *s)
 			const int w = 2 * a + k;
 			if (!s->boundary[a].walled || sw->type != SCENE_WALL_RESERVOIR)
 				continue;
-			const double n = sw->volume_fraction / vp, c = s->mass / (2.0 * sw->temperature);
+			/* gas "hard_spheres": the reservoir is a hard-sphere gas at volume_fraction, whose
+			 * activity exp(beta mu_ex) n enters as an ideal gas's density (docs/engine.md) */
+			const double act = sw->gas == SCENE_GAS_HARD_SPHERES ? hs_activity(s->dim, sw->volume_fraction) : 1.0;
+			const double n = act * sw->volume_fraction / vp, c = s->mass / (2.0 * sw->temperature);
 			const double ua = (k ? -1.0 : 1.0) * sw->velocity[a], t = sqrt(c) * ua;
 			const double f = exp(-t * t) + sqrt(pi) * t * erfc(-t);
 			double area = 1.0;
@@ -1599,6 +1623,26 @@ static void setup_inlet(struct ed *ed, const scene_t *s)
 				if (j != a)
 					area *= s->box[j];
 			ed->in_rate[w] = n / (2.0 * sqrt(pi * c)) * f * area;
+			if (scene_has_species(s)) {
+				/* a mixture (ideal: act is 1): species k at density x_k eta / v (v the mean
+				 * particle volume at the fractions x), F_+ at its mass; independent Poisson
+				 * streams, superposed: one of rate sum_k F_k, species k with probability F_k / sum */
+				double x[SCENE_SPECIES_MAX], rk[SCENE_SPECIES_MAX], tot = 0.0;
+				scene_dispenser_fractions(s, sw, x);
+				const double nt = sw->volume_fraction / scene_dispenser_volume(s, sw);
+				for (int q = 0; q < s->n_species; q++) {
+					const double cq = s->species[q].mass / (2.0 * sw->temperature), tq = sqrt(cq) * ua;
+					const double fq = exp(-tq * tq) + sqrt(pi) * tq * erfc(-tq);
+					rk[q] = nt * x[q] / (2.0 * sqrt(pi * cq)) * fq * area;
+					tot += rk[q];
+					ed->in_sk[w][q] = sqrt(sw->temperature / s->species[q].mass);
+				}
+				double cum = 0.0;
+				for (int q = 0; q < s->n_species; q++)
+					ed->in_cum[w][q] = (cum += rk[q]) / tot;
+				ed->in_cum[w][s->n_species - 1] = 1.0;
+				ed->in_rate[w] = tot;
+			}
 			ed->in_a[w] = ua;
 			ed->in_s[w] = sqrt(sw->temperature / s->mass);
 			for (int j = 0; j < 3; j++)
@@ -2179,18 +2223,11 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 			        (double)s->capacity, 0);
 			return ED_EINVAL;
 		}
-		int res = 0;   /* a "reservoir" wall (dispensers take species: dispense_mix()) */
-		for (int a = 0; a < s->dim; a++)
-			for (int k = 0; k < 2; k++)
-				res |= s->boundary[a].walled && s->boundary[a].wall[k].type == SCENE_WALL_RESERVOIR;
-		if (scene_has_species(s) && res) {   /* rough particles enter with spins (inlet_enter()) */
-			set_msg(msg, msglen, "boundaries: \"reservoir\" walls take one species%.0s%.0s", 0, 0);
-			return ED_EINVAL;
-		}
+		/* mixtures: each slot has its species (dispense_mix(), inlet_enter_mix()) */
 		for (int k = 0; k < s->n_species && scene_has_species(s); k++)
 			if (s->species[k].radius_hi > 0) {
-				set_msg(msg, msglen, "particles.species[%.0f].radius_range: not with a \"dispenser\" wall%.0s",
-				        (double)k, 0);
+				set_msg(msg, msglen, "particles.species[%.0f].radius_range: not with a \"dispenser\" or "
+				        "\"reservoir\" wall%.0s", (double)k, 0);
 				return ED_EINVAL;
 			}
 		ed->n = (uint32_t)s->capacity;   /* slots; n_init of them filled at the start */
@@ -2839,8 +2876,12 @@ static double inlet_normal(rng_t *g, double a, double s)
  * inside the wall, the flux-weighted normal velocity and Maxwellian
  * tangential ones about the reservoir's; made or rejected; the next entry
  * time drawn. ED_FULL (nothing changed) when no slot is free. */
+static int inlet_enter_mix(struct ed *ed, int w);
+
 static int inlet_enter(struct ed *ed, int w)
 {
+	if (ed->mix)
+		return inlet_enter_mix(ed, w);
 	if (ed->n_gone == 0)
 		return ED_FULL;
 	const int a = w >> 1, D = ed->dim;
@@ -2886,6 +2927,63 @@ static int inlet_enter(struct ed *ed, int w)
 	return ED_OK;
 }
 
+
+/* inlet_enter() for a mixture: first the species (one uniform: species k
+ * with probability F_k / sum F, in_cum), then as inlet_enter() at its
+ * thermal speed sqrt(T / m_k) and radius a_k (centre a_k inside the wall; a
+ * walled side axis: a_k clear of its walls); the particle takes a free slot
+ * of its species (its stack). ED_FULL (nothing changed: the stream put
+ * back) when that species has no free slot. */
+static int inlet_enter_mix(struct ed *ed, int w)
+{
+	struct ed_mix *x = ed->mix;
+	const rng_t g0 = ed->irng;
+	const double u = rng_uniform(&ed->irng);
+	int sp = 0;
+	while (sp < ed->nsp - 1 && !(u < ed->in_cum[w][sp]))
+		sp++;
+	if (x->fs_n[sp] == 0) {
+		ed->irng = g0;
+		return ED_FULL;
+	}
+	const uint32_t i = ed->freei[x->fs_off[sp] + x->fs_n[sp] - 1];
+	const int a = w >> 1, D = ed->dim;
+	const double sg = (w & 1) ? -1.0 : 1.0, s = ed->in_sk[w][sp], rad = ed->prad[i];
+	double r[3] = {0.0, 0.0, 0.0}, v[3] = {0.0, 0.0, 0.0};
+	int clash = 0;
+	for (int k = 0; k < D; k++) {
+		if (k == a)
+			continue;
+		const double lo = ed->periodic[k] ? 0.0 : ed->wall[2 * k].rest;
+		const double hi = ed->periodic[k] ? ed->L[k] : ed->wall[2 * k + 1].rest;
+		r[k] = lo + rng_uniform(&ed->irng) * (hi - lo);
+		if (!ed->periodic[k] && (r[k] < ed->plo[k] - ed->radius + rad || r[k] > ed->phi[k] + ed->radius - rad))
+			clash = 1;
+		v[k] = ed->in_u[w][k] + s * rng_gauss(&ed->irng);
+	}
+	r[a] = ed->wall[w].rest + sg * rad;
+	v[a] = sg * inlet_normal(&ed->irng, ed->in_a[w], s);
+	if (!clash)
+		clash = ed->ops->enter(ed, i, r, v);
+	if (clash) {
+		ed->in_count[6 + w]++;
+	} else {
+		x->fs_n[sp]--;
+		ed->label[ed->id[i]] = (int64_t)ed->in_count[12]++;
+		ed->in_count[w]++;
+		if (ed->rough) {   /* T / I_k = s^2 / (q a_k^2), as dispense_mix() */
+			const int nk = D == 2 ? 1 : 3;
+			const double sw = s / sqrt(ed->rq * rad * rad);
+			for (int c = 0; c < nk; c++)
+				ed->spin[(size_t)i * nk + c] = sw * rng_gauss(&ed->irng);
+		}
+		DISPATCH(ed, set_cross, ed, i);
+		DISPATCH(ed, scan_full, ed, i);
+		cal_update(ed, i, ev_time(ed, i));
+	}
+	ed->in_next[w] += inlet_wait(ed, w);
+	return ED_OK;
+}
 
 /* ---- dispenser (seed 001 inlet) ---------------------------------------
  *
