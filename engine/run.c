@@ -201,9 +201,12 @@ static void md_totals(const run_t *rc, smp_t *o)
 static void eng_sample(run_t *rc, smp_t *o)
 {
 	memset(o, 0, sizeof(*o));
-	if (rc->md) {   /* the walls' impulses over the interval since the last sample */
+	if (rc->md) {   /* the walls' impulses and the virial over the interval since the last sample */
 		md_totals(rc, o);
 		md_walls(rc->md, o->wall_impulse, &o->interval);
+		double kin;
+		md_virial(rc->md, &o->virial, &kin);
+		o->ekin_time_integral = 0.5 * kin;
 		md_wall_reset(rc->md);
 	} else if (rc->ed) {
 		ed_sample_t sm;
@@ -822,7 +825,7 @@ static int md_build(run_t *r, uint64_t stream, int blank, char *msg, size_t msgl
 		.masses = r->md_masses,
 		.law = s->md_law ? MD_LAW_HERTZ : MD_LAW_LINEAR, .restitution = s->restitution,
 		.v_ref = s->md_impact_speed, .mu = s->md_friction, .kt_ratio = s->md_tangential_ratio,
-		.dt_steps = 1.0 / s->md_time_step, .x = NULL, .v = v,
+		.dt_steps = 1.0 / s->md_time_step, .x = NULL, .v = v, .virial = (s->observables & SCENE_OBS_PRESSURE) != 0,
 	};
 	for (int a = 0; a < 3; a++) {
 		pr.box[a] = a < s->dim ? s->box[a] : 1.0;
@@ -1138,7 +1141,8 @@ static size_t impact_count(const run_t *r)
 
 /* md's state fields (md.h, md_state_t), in the order a restore reads them: "springs_held" before the
  * springs, whose count is its sum. */
-enum { MDF_X, MDF_V, MDF_W, MDF_F, MDF_T, MDF_XREF, MDF_HELD, MDF_PARTNER, MDF_XI, MDF_WALLS, MDF_COUNTERS, MDF_N };
+enum { MDF_X, MDF_V, MDF_W, MDF_F, MDF_T, MDF_XREF, MDF_HELD, MDF_PARTNER, MDF_XI, MDF_WALLS, MDF_COUNTERS, MDF_VIRIAL,
+       MDF_N };
 static const struct {
 	const char *name;
 	ed_type_t type;
@@ -1148,20 +1152,28 @@ static const struct {
 	[MDF_HELD] = {"springs_held", ED_T_I32}, [MDF_PARTNER] = {"spring_partner", ED_T_I32},
 	[MDF_XI] = {"spring", ED_T_F64}, [MDF_WALLS] = {"walls", ED_T_F64},   /* wall_force, then wall_impulse */
 	[MDF_COUNTERS] = {"counters", ED_T_U64},   /* steps, rebuilds, contacts, wall_steps */
+	[MDF_VIRIAL] = {"virial", ED_T_F64},       /* md_state_t.virial: only with pressure or compressibility */
 };
+
+/* The md fields a run has: "virial" only when it integrates the pressure (the layout of other scenes as
+ * before). */
+static int md_has_field(const run_t *r, int k)
+{
+	return k != MDF_VIRIAL || (r->s.observables & SCENE_OBS_PRESSURE);
+}
 
 static size_t md_field_count(const run_t *r, int k, size_t springs)
 {
 	size_t n = r->s.count;
 	return k <= MDF_XREF ? 3 * n : k == MDF_HELD ? n : k == MDF_PARTNER ? springs : k == MDF_XI ? 3 * springs :
-	       k == MDF_WALLS ? 36 : 4;
+	       k == MDF_WALLS ? 36 : 4;   /* counters, virial */
 }
 
 static int md_field_find(const char *name)
 {
 	for (int k = 0; k < MDF_N; k++)
 		if (!strcmp(name, md_fields[k].name))
-			return k;
+			return k;   /* a field the run does not have: md_field_set() refuses it */
 	return -1;
 }
 
@@ -1179,10 +1191,14 @@ static int md_field_get(const run_t *r, const char *name, void *buf)
 	case MDF_HELD: st.held = buf; break;
 	case MDF_PARTNER: st.partner = buf; break;
 	case MDF_XI: st.xi = buf; break;
-	case MDF_WALLS: case MDF_COUNTERS: break;
+	case MDF_WALLS: case MDF_COUNTERS: case MDF_VIRIAL: break;
 	default: return RUN_ERESTORE;
 	}
+	if (!md_has_field(r, k))
+		return RUN_ERESTORE;
 	md_state_get(r->md, &st);
+	if (k == MDF_VIRIAL)
+		memcpy(buf, st.virial, sizeof st.virial);
 	if (k == MDF_COUNTERS)
 		memcpy(buf, (uint64_t[4]){st.steps, st.rebuilds, st.contacts, st.wall_steps}, 4 * sizeof(uint64_t));
 	if (k == MDF_WALLS) {
@@ -1196,7 +1212,7 @@ static int md_field_set(run_t *r, const char *name, ed_type_t type, size_t count
 {
 	int k = md_field_find(name);
 	md_state_t *in = &r->md_in;
-	if (k < 0 || !in->held || type != md_fields[k].type || (r->md_got >> k & 1u))
+	if (k < 0 || !md_has_field(r, k) || !in->held || type != md_fields[k].type || (r->md_got >> k & 1u))
 		return RUN_ERESTORE;
 	if (k == MDF_PARTNER || k == MDF_XI) {   /* after springs_held, whose sum they must match */
 		if (!(r->md_got >> MDF_HELD & 1u) || count != md_field_count(r, k, in->springs))
@@ -1226,6 +1242,8 @@ static int md_field_set(run_t *r, const char *name, ed_type_t type, size_t count
 		} else if (k == MDF_WALLS) {
 			memcpy(in->wall_force, buf, sizeof in->wall_force);
 			memcpy(in->wall_impulse, (const double *)buf + 18, sizeof in->wall_impulse);
+		} else if (k == MDF_VIRIAL) {
+			memcpy(in->virial, buf, sizeof in->virial);
 		} else {
 			const uint64_t *c = buf;
 			in->steps = c[0], in->rebuilds = c[1], in->contacts = c[2], in->wall_steps = c[3];
@@ -1238,7 +1256,10 @@ static int md_field_set(run_t *r, const char *name, ed_type_t type, size_t count
 static int md_restore(run_t *r, char *msg, size_t msglen)
 {
 	int ret = RUN_ERESTORE;
-	if (r->md_got != (1u << MDF_N) - 1u) {
+	unsigned want = 0;
+	for (int k = 0; k < MDF_N; k++)
+		want |= md_has_field(r, k) ? 1u << k : 0u;
+	if (r->md_got != want) {
 		snprintf(msg, msglen, "md state fields missing");
 		goto cleanup;
 	}
@@ -1263,9 +1284,9 @@ int run_fields(const run_t *r, ed_field_t *out, int max)
 	int n = 0;
 	if (r->md) {
 		size_t springs = md_springs(r->md);
-		for (int k = 0; k < MDF_N; k++, n++)
-			if (n < max)
-				out[n] = (ed_field_t){md_fields[k].name, md_fields[k].type, md_field_count(r, k, springs)};
+		for (int k = 0; k < MDF_N; k++)
+			if (md_has_field(r, k) && n++ < max)
+				out[n - 1] = (ed_field_t){md_fields[k].name, md_fields[k].type, md_field_count(r, k, springs)};
 	} else
 		n = r->ed ? ed_fields(r->ed, out, max) : dsmc_fields(r->mc, out, max);
 	if (r->msd && n++ < max)

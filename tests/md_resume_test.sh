@@ -108,10 +108,21 @@ cat >"$tmp/2d-mix.json" <<'JSON'
  "md": {"friction": 0.3}}
 JSON
 
+# a periodic frictional gas with the virial pressure (its interval integrals are state: field "virial")
+cat >"$tmp/3d-press.json" <<'JSON'
+{"method": "md", "dimensions": 3,
+ "particles": {"count": 200, "volume_fraction": 0.25, "initial": {"temperature": 1}},
+ "collisions": {"restitution": 0.9},
+ "run": {"seed": 6, "until": {"time": 3}},
+ "output": {"every": {"time": 0.4}, "observables": ["kinetic_energy", "pressure", "compressibility"],
+   "snapshots": {"every": {"time": 1}}, "checkpoint": {"every": {"time": 1.1}}},
+ "md": {"friction": 0.3}}
+JSON
+
 ref() { "$ENGINE" run "$tmp/$1.json" --out "$tmp/$1.ref" >/dev/null 2>"$tmp/$1.ref.err"; }
 
 # (a) checkpoint at a simulated time, resume: identical to the uninterrupted run (frames, records, summary).
-for s in 3d-bed 2d-hertz 2d-vibro 2d-mix; do
+for s in 3d-bed 2d-hertz 2d-vibro 2d-mix 3d-press; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

@@ -40,9 +40,21 @@ struct md {
 	long wsteps;             /* steps at the last md_wall_reset() */
 	int wmoving;             /* some wall moves or vibrates (wv, wamp, womega, wphase) */
 	double wv[6][3], wamp[6], womega[6], wphase[6];
+	int track;               /* params.virial: vir, kin and their integrals */
+	double vir, kin;         /* pair virial at the last force pass, sum m v^2 at the last full step */
+	double virint, kinint;   /* their integrals since the last md_wall_reset() */
 };
 
 static inline double dot3(const double *a, const double *b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+/* sum m v^2 now */
+static double mv2(const md_t *md)
+{
+	double k = 0.0;
+	for (int i = 0; i < md->n; i++)
+		k += md->m[i] * dot3(md->v + 3 * i, md->v + 3 * i);
+	return k;
+}
 
 static inline void cross3(const double *a, const double *b, double *c)
 {
@@ -321,6 +333,7 @@ static inline int forces_impl(md_t *md, double dth, double t, double tv, const i
 			md->t[3 * i + a] = 0.0;
 		}
 	md->ncontacts = 0;
+	double vir = 0.0;
 	if (md->walled)
 		memset(md->wf, 0, sizeof md->wf);
 	for (size_t p = 0; p < md->np; p++) {
@@ -351,7 +364,9 @@ static inline int forces_impl(md_t *md, double dth, double t, double tv, const i
 			md->f[3 * i + a] += fc[a];
 			md->f[3 * j + a] -= fc[a];
 		}
+		vir -= dot3(d, fc);   /* r_ij . f_ij with r_ij = -d: the friction force is normal to d */
 	}
+	md->vir = vir;
 	/* the walls' displacements along their inward normals and velocities (0 for fixed walls: then the
 	 * same bits as without the terms) */
 	double off[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0}, wvel[6][3] = {{0.0}};
@@ -474,6 +489,7 @@ md_t *md_create(const md_params_t *p, int *err)
 			md->wmoving = 1;
 		}
 	}
+	md->track = p->virial != 0;
 	rc = MD_E_NOMEM;
 	/* one block for the double arrays: x v w f t xref (3n each), r m im iI (n each) */
 	md->x = calloc((size_t)n * 22, sizeof(double));
@@ -575,6 +591,7 @@ md_t *md_create(const md_params_t *p, int *err)
 	if (rc)
 		goto cleanup;
 	rc = forces(md, 0.0, 0.0, 0.0);
+	md->kin = md->track ? mv2(md) : 0.0;
 cleanup:
 	if (err)
 		*err = rc;
@@ -614,6 +631,10 @@ int md_step(md_t *md, long nsteps)
 			for (int w = 0; w < 6; w++)
 				for (int a = 0; a < 3; a++)
 					md->wimp[w][a] += h * md->wf[w][a];
+		if (md->track) {   /* the trapezoid over the step, as the impulses */
+			md->virint += h * md->vir;
+			md->kinint += h * md->kin;
+		}
 		/* positions at the end of the step, velocities half a step before */
 		int rc = forces(md, dt, (double)(md->steps + 1) * dt, ((double)md->steps + 0.5) * dt);
 		if (md->walled)
@@ -628,6 +649,11 @@ int md_step(md_t *md, long nsteps)
 				v[a] += hm * f[a];
 				w[a] += hI * t[a];
 			}
+		}
+		if (md->track) {
+			md->kin = mv2(md);
+			md->virint += h * md->vir;
+			md->kinint += h * md->kin;
 		}
 		md->steps++;
 		if (rc)
@@ -653,10 +679,17 @@ void md_walls(const md_t *md, double impulse[6][3], double *interval)
 	*interval = (double)(md->steps - md->wsteps) * md->dt;
 }
 
+void md_virial(const md_t *md, double *vir, double *kin)
+{
+	*vir = md->virint;
+	*kin = md->kinint;
+}
+
 void md_wall_reset(md_t *md)
 {
 	memset(md->wimp, 0, sizeof md->wimp);
 	md->wsteps = md->steps;
+	md->virint = md->kinint = 0.0;
 }
 
 size_t md_memory(const md_t *md)
@@ -697,6 +730,10 @@ void md_state_get(const md_t *md, md_state_t *st)
 	memcpy(st->wall_force, md->wf, sizeof md->wf);
 	memcpy(st->wall_impulse, md->wimp, sizeof md->wimp);
 	st->wall_steps = (uint64_t)md->wsteps;
+	if (md->track)
+		st->virial[0] = md->vir, st->virial[1] = md->kin, st->virial[2] = md->virint, st->virial[3] = md->kinint;
+	else
+		memset(st->virial, 0, sizeof st->virial);
 	st->steps = (uint64_t)md->steps;
 	st->rebuilds = (uint64_t)md->rebuilds;
 	st->contacts = md->ncontacts;
@@ -753,9 +790,14 @@ int md_state_set(md_t *md, const md_state_t *st)
 			if (!isfinite(f) || !isfinite(m) || ((w / 2 >= D || md->periodic[w / 2]) && (f != 0.0 || m != 0.0)))
 				return MD_E_PARAM;
 		}
+	for (int k = 0; k < 4; k++)
+		if (!isfinite(st->virial[k]) || (!md->track && st->virial[k] != 0.0))
+			return MD_E_PARAM;
 	memcpy(md->wf, st->wall_force, sizeof md->wf);
 	memcpy(md->wimp, st->wall_impulse, sizeof md->wimp);
 	md->wsteps = (long)st->wall_steps;
+	if (md->track)
+		md->vir = st->virial[0], md->kin = st->virial[1], md->virint = st->virial[2], md->kinint = st->virial[3];
 	for (int k = 0; k < 6; k++)
 		memcpy(dst[k], src[k], (size_t)n * 3 * sizeof(double));
 	q = 0;

@@ -112,6 +112,7 @@ typedef struct {
 	double wall_amplitude[6];
 	double wall_frequency[6];
 	double wall_phase[6];
+	int virial;              /* nonzero: integrate the pair virial and sum m v^2 over time (md_virial()) */
 	md_law_t law;
 	double restitution;      /* e in (0, 1] */
 	double kn;               /* linear: normal stiffness (force/length), or 0 ... */
@@ -173,6 +174,8 @@ typedef struct {
 	double wall_force[6][3];     /* md_walls(): the walls' forces at the last force pass, */
 	double wall_impulse[6][3];   /* their impulses since the last md_wall_reset() */
 	uint64_t wall_steps;         /* and the step count then */
+	double virial[4];            /* md_virial() (params.virial; else 0): W and sum m v^2 at the last pass and
+	                              * step, and their integrals since the last md_wall_reset() */
 } md_state_t;
 
 /* Walls: the momentum the particles gave to each wall w = 2 axis + side (side 0 at 0, 1 at box[axis])
@@ -180,6 +183,12 @@ typedef struct {
  * step gives dt/2 (F(t) + F(t + dt)), so the impulses and gravity's account exactly for the particles'
  * change of momentum; *interval is the time since then (steps times dt). Zero for periodic axes. */
 void md_walls(const md_t *md, double impulse[6][3], double *interval);
+/* With params.virial: the time integrals, since the last md_wall_reset() (or md_create()), of the pair virial
+ * W = sum over contacts of r_ij . f_ij (r_ij from j to i, f_ij the force on i: > 0 for repulsion) and of
+ * sum m v^2, by the trapezoid of velocity Verlet's steps (W at each force pass, v at each full step), so the
+ * mean pressure over the interval of md_walls() is (kin + vir) / (D V interval) in a periodic box. Else 0. */
+void md_virial(const md_t *md, double *vir, double *kin);
+/* Starts a new interval of md_walls() and md_virial(). */
 void md_wall_reset(md_t *md);
 
 /* Bytes the system holds now (its arrays, the pair list's capacity, the cell heads). */
