@@ -1606,13 +1606,6 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 			if (w->type == SCENE_WALL_RESERVOIR && scene_has_species(s))
 				return fail(c, path, "\"%s\" walls take one species of smooth particles (particles.species "
 				            "is not supported with them yet; a \"dispenser\" takes species)", wn);
-			for (int q = 0; q < s->n_species; q++)
-				if (s->species[q].radius_hi > 0) {
-					snprintf(path, sizeof path, "particles.species[%d].radius_range", q);
-					return fail(c, path, "a scene with a \"dispenser\" wall takes species of one radius each "
-					            "(its layers are placed from templates of fixed radii; polydisperse species "
-					            "are not supported with it)");
-				}
 		}
 	/* default: room for twice the larger of the initial count and what the
 	 * box holds at the densest reservoir's density, plus 64 */
@@ -2718,6 +2711,8 @@ void scene_row_species(const scene_t *s, uint8_t *sp, double *r)
 	double y[SCENE_SPECIES_MAX], Y = 0.0;
 	const int comp = s->n_species > 0 && spare_fractions(s, y);
 	uint64_t prev = 0;
+	rng_t rng;   /* the empty rows of a polydisperse species: radii of a stream of their own */
+	rng_init(&rng, s->seed, s->stream | (1ull << 60) | (1ull << 57));
 	for (int k = 0; k < s->n_species; k++) {
 		uint64_t lo = spare * c / n;
 		c += s->species[k].count;
@@ -2735,7 +2730,8 @@ void scene_row_species(const scene_t *s, uint8_t *sp, double *r)
 			if (sp)
 				sp[i] = (uint8_t)k;
 			if (r)
-				r[i] = s->species[k].radius;
+				r[i] = s->species[k].radius_hi > 0 ? s->species[k].radius_lo + (s->species[k].radius_hi -
+				       s->species[k].radius_lo) * rng_uniform(&rng) : s->species[k].radius;
 		}
 	}
 }

@@ -302,6 +302,7 @@ struct ed_mix {
 	uint32_t tmax[6][SCENE_SPECIES_MAX];
 	double fback[6][SCENE_SPECIES_MAX], fsv[6][SCENE_SPECIES_MAX];
 	double dsv[6][SCENE_SPECIES_MAX];   /* a dispenser's layer thermal speed sqrt(T / m_k) */
+	unsigned poly;            /* bit k: species k is polydisperse (a layer particle takes a free slot at random) */
 };
 
 static inline bool hless(const hent_t *a, const hent_t *b)
@@ -1789,6 +1790,9 @@ static void setup_stream_species(struct ed *ed, const scene_t *s)
 		rows[x->rsp[r]]++;
 	for (int k = 0, o = 0; k < ed->nsp; o += (int)rows[k], k++)
 		x->fs_off[k] = (uint32_t)o;
+	x->poly = 0;
+	for (int k = 0; k < ed->nsp; k++)
+		x->poly |= (unsigned)(s->species[k].radius_hi > 0) << k;
 	for (int a = 0; a < s->dim; a++) {
 		if (!s->boundary[a].walled)
 			continue;
@@ -2187,12 +2191,6 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 			set_msg(msg, msglen, "boundaries: \"reservoir\" walls take one species%.0s%.0s", 0, 0);
 			return ED_EINVAL;
 		}
-		for (int k = 0; k < s->n_species && scene_has_species(s); k++)
-			if (s->species[k].radius_hi > 0) {
-				set_msg(msg, msglen, "particles.species[%.0f].radius_range: not with a \"dispenser\" wall%.0s",
-				        (double)k, 0);
-				return ED_EINVAL;
-			}
 		ed->n = (uint32_t)s->capacity;   /* slots; n_init of them filled at the start */
 	}
 	ed->sigma = 2.0 * s->radius;
@@ -2335,6 +2333,8 @@ static int build_templates_mix(struct ed *ed, const scene_t *s, int w, char *msg
 			if (cnt[k]) {
 				t->species[m] = s->species[k];
 				t->species[m].count = cnt[k];
+				/* a polydisperse species: sites of its largest radius (any slot of it fits one) */
+				t->species[m].radius_lo = t->species[m].radius_hi = 0.0;
 				map[m++] = (uint8_t)k;
 				rmax = fmax(rmax, s->species[k].radius);
 				msum += (double)cnt[k] * s->species[k].mass;
@@ -3050,7 +3050,16 @@ static int dispense_mix(struct ed *ed, int w)
 		}
 		for (int j = 0; j < D; j++)
 			v[j] = ed->disp_u[w][j] + sv * rng_gauss(&ed->irng);
-		const uint32_t i = ed->freei[x->fs_off[sp] + x->fs_n[sp] - 1];
+		uint32_t *top = ed->freei + x->fs_off[sp] + x->fs_n[sp] - 1;
+		if (x->poly >> sp & 1) {   /* polydisperse: a free slot of the species at random (its radius) */
+			uint32_t j = (uint32_t)(rng_uniform(&ed->irng) * x->fs_n[sp]);
+			if (j >= x->fs_n[sp])
+				j = x->fs_n[sp] - 1;
+			uint32_t *o = ed->freei + x->fs_off[sp] + j, y = *o;
+			*o = *top;
+			*top = y;
+		}
+		const uint32_t i = *top;
 		if (ed->ops->enter_layer(ed, i, r, v)) {
 			ed->in_count[6 + w]++;
 			continue;
