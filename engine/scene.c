@@ -1675,10 +1675,6 @@ static int check_streams(ctx_t *c, const scene_t *s)
 				if (s->method != SCENE_METHOD_ED)
 					return fail(c, path, "method \"%s\" does not support filters (only \"ed\" does)",
 					            method_names[s->method]);
-				/* under gravity frozen particles fly straight while the others fall (the ed kernels with
-				 * FILTG): one species */
-				if (scene_has_gravity(s) && scene_has_species(s))
-					return fail(c, path, "filters with gravity are not supported for mixtures (species) yet");
 				snprintf(path, sizeof path, "boundaries.%s.%s.filter.distance", axis_names[a], end);
 				if (!(f->distance > s->radius))
 					return fail(c, path, "%s must exceed the particle radius %s (seed 001: the plane lies more than a "

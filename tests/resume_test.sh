@@ -228,6 +228,20 @@ cat >"$tmp/2d-filter-gravity.json" <<'JSON'
  "output":{"every":{"time":10},"observables":["kinetic_energy","potential_energy","outflow","wall_force"],
    "snapshots":{"every":{"time":50}},"checkpoint":{"every":{"time":37}}}}
 JSON
+# A mixture's filter in a field (the FILTG species kernels): the frozen
+# counts per species and the mass present are rebuilt from the flags.
+cat >"$tmp/2d-filter-gravity-mixture.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"species":[{"name":"A","count":150,"radius":0.5,"mass":1},
+   {"name":"B","count":60,"radius":0.35,"mass":0.5}],"box":[30,20],
+   "initial":{"positions":"lattice","temperature":0.02,"velocity":[0.1,0]}},"gravity":[0.01,-0.004],
+ "collisions":{"restitution":0.9,"tc":0.05,"restitution_pairs":[{"a":"A","b":"B","restitution":0.8}]},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.3,"velocity":[0.1,0],"temperature":0.02},
+   "upper":{"type":"open","filter":{"distance":4,"velocity":[0.1,0],"temperature":0.02}}},
+   "y":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"specular"}}},
+ "run":{"seed":60,"until":{"time":200}},
+ "output":{"every":{"time":10},"observables":["kinetic_energy","potential_energy","outflow","wall_force"],
+   "snapshots":{"every":{"time":50}},"checkpoint":{"every":{"time":37}}}}
+JSON
 # Rough particles (spins, angular_velocity frames) and driving (kick times,
 # the thermostat's random stream and local means) are state too.
 cat >"$tmp/3d-rough-drive.json" <<'JSON'
@@ -422,7 +436,7 @@ for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gr
 	2d-rough-noise 2d-hsmc-walls 2d-dsmc-vib 2d-hsmc-open 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute \
 	2d-mixture-walls 2d-dsmc-mixture-walls 2d-dsmc-mixture-vib 2d-hsmc-mixture 2d-hsmc-mixture-walls 2d-reservoir \
 	2d-reservoir-rough 2d-dispenser-filter 3d-dispenser-filter 2d-dispenser-rough 2d-dispenser-gravity 2d-filter-gravity \
-	2d-dispenser-mixture 2d-dispenser-poly; do
+	2d-dispenser-mixture 2d-dispenser-poly 2d-filter-gravity-mixture; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

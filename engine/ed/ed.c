@@ -272,6 +272,10 @@ struct ed {
 	 * the struct: the other kernels' field offsets stay as they were. */
 	uint64_t nfzw[6], nfz;
 	double fzv[3];
+	/* mixtures (the FILTG species kernels): the frozen particles present per wall and species, and
+	 * their mass over the mean mass (fzv then sums (m_k / m) U: psum's weighting) */
+	uint64_t nfzk[6][SCENE_SPECIES_MAX];
+	double nfzm;
 #ifdef ED_TRACE
 	ed_trace_fn trace;        /* bench-only build (ed.h, "Event trace"): called before each event */
 	void *trace_ctx;
@@ -287,7 +291,10 @@ struct ed_mix {
 	double e[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX], w[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX];
 	double mu[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX];
 	double *rscene;
-	double mtot, mgone;       /* total mass; mass of the particles that left (open walls; rebuilt on restore) */
+	/* the particles present per species and their mass (mix_present(): from the counts, so the same
+	 * numbers however they were reached; rebuilt on restore) */
+	uint64_t npres[SCENE_SPECIES_MAX];
+	double mpres;
 	/* Dispensers (scene_row_species()): rsp[row] the species of each row
 	 * (slot) in scene order, fixed; rscene covers the slots too. The free
 	 * slots form one stack per species: species k's fs_n[k] entries at
@@ -745,12 +752,25 @@ static void trace_emit(struct ed *ed, int kind, uint32_t i, int32_t x, double t)
  * dn; their count and velocity sum follow (the sum from the counts, so it
  * is the same numbers however it was reached: a restored run goes on bit
  * for bit). */
-static void frozen_count(struct ed *ed, int w, int dn)
+static void frozen_count(struct ed *ed, int w, int sp, int dn)
 {
 	ed->nfzw[w] += (uint64_t)(int64_t)dn;
 	ed->nfz = 0;
 	for (int a = 0; a < 3; a++)
 		ed->fzv[a] = 0.0;
+	if (ed->mixture) {   /* mixtures: each species' count weighted by m_k / m */
+		ed->nfzk[w][sp] += (uint64_t)(int64_t)dn;
+		ed->nfzm = 0.0;
+		for (int k = 0; k < 6; k++)
+			for (int q = 0; q < ed->nsp; q++) {
+				const double mk = (double)ed->nfzk[k][q] * (ed->mix->m[q] / ed->mass);
+				ed->nfz += ed->nfzk[k][q];
+				ed->nfzm += mk;
+				for (int a = 0; a < 3; a++)
+					ed->fzv[a] += mk * ed->fu[k][a];
+			}
+		return;
+	}
 	for (int k = 0; k < 6; k++) {
 		ed->nfz += ed->nfzw[k];
 		for (int a = 0; a < 3; a++)
@@ -763,11 +783,27 @@ static void frozen_count(struct ed *ed, int w, int dn)
 static void frozen_tally(struct ed *ed)
 {
 	memset(ed->nfzw, 0, sizeof ed->nfzw);
+	memset(ed->nfzk, 0, sizeof ed->nfzk);
 	if (ed->frozen)
 		for (uint32_t i = 0; i < ed->n; i++)
-			if (ed->frozen[i] && !ed->gone[i])
+			if (ed->frozen[i] && !ed->gone[i]) {
 				ed->nfzw[ed->frozen[i] - 1]++;
-	frozen_count(ed, 0, 0);
+				if (ed->mixture)
+					ed->nfzk[ed->frozen[i] - 1][ed->spc[i]]++;
+			}
+	frozen_count(ed, 0, 0, 0);
+}
+
+/* Mixtures: the particles of species sp present changed by dn (sp < 0:
+ * none); the mass present follows from the counts. */
+static void mix_present(struct ed *ed, int sp, int dn)
+{
+	struct ed_mix *x = ed->mix;
+	if (sp >= 0)
+		x->npres[sp] += (uint64_t)(int64_t)dn;
+	x->mpres = 0.0;
+	for (int k = 0; k < ed->nsp; k++)
+		x->mpres += (double)x->npres[k] * x->m[k];
 }
 
 /* Loops over the D axes, unrolled (GCC does not at -O2 by itself; the
@@ -873,6 +909,11 @@ static void frozen_tally(struct ed *ed)
 #define GRAV 1
 #define VARIANT gs
 #include "ed_inst.h"
+#define WALLS 1
+#define GRAV 1
+#define FILTG 1
+#define VARIANT gsf
+#include "ed_inst.h"
 #undef ROUGH
 /* Rough mixtures: the three variants (_2dsr, _3dsr periodic; _2wsr, _3wsr
  * walls and obstacles; _2gsr, _3gsr gravity) with the rough rule for
@@ -889,6 +930,11 @@ static void frozen_tally(struct ed *ed)
 #define WALLS 1
 #define GRAV 1
 #define VARIANT gsr
+#include "ed_inst.h"
+#define WALLS 1
+#define GRAV 1
+#define FILTG 1
+#define VARIANT gsrf
 #include "ed_inst.h"
 #undef SPEC
 #undef ROUGH
@@ -960,6 +1006,9 @@ static const ed_ops_t ed_ops_rough[2][3] = {
 		.enter_layer = enter_layer_##x }
 static const ed_ops_t ed_ops_filtg[2] = { OPS_FILTG(2gf), OPS_FILTG(3gf) };
 static const ed_ops_t ed_ops_filtg_rough[2] = { OPS_FILTG(2grf), OPS_FILTG(3grf) };
+/* ... and mixtures (each frozen/regular pair its own contact distance, masses and restitution) */
+static const ed_ops_t ed_ops_filtg_species[2] = { OPS_FILTG(2gsf), OPS_FILTG(3gsf) };
+static const ed_ops_t ed_ops_filtg_species_rough[2] = { OPS_FILTG(2gsrf), OPS_FILTG(3gsrf) };
 
 #define DISPATCH(ed, fn, ...) ((ed)->ops->fn(__VA_ARGS__))
 
@@ -1763,9 +1812,10 @@ static void setup_species(struct ed *ed, const scene_t *s)
 	ed->mix->first[0] = 0;
 	for (int a = 0; a < ns; a++) {
 		ed->mix->m[a] = s->species[a].mass;
-		ed->mix->mtot += (double)s->species[a].count * s->species[a].mass;
+		ed->mix->npres[a] = s->species[a].count;
 		ed->mix->first[a + 1] = ed->mix->first[a] + (uint32_t)s->species[a].count;
 	}
+	mix_present(ed, -1, 0);
 	for (int a = 0; a < ns; a++)
 		for (int b = 0; b < ns; b++) {
 			const int q = a * ns + b;
@@ -2225,7 +2275,9 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 		ed->nsp = s->n_species;   /* tables: setup_species() in ed_alloc() */
 		ed->mixture = 1;
 		ed->ops = ed->rough ? &ed_ops_species_rough[ed->dim - 2][ed->variant] : &ed_ops_species[ed->dim - 2][ed->variant];
-	} else if (ed->variant == 2 && scene_has_filter(s)) {   /* filters under gravity (scene.c: one species) */
+		if (ed->variant == 2 && scene_has_filter(s))   /* filters under gravity with species */
+			ed->ops = ed->rough ? &ed_ops_filtg_species_rough[ed->dim - 2] : &ed_ops_filtg_species[ed->dim - 2];
+	} else if (ed->variant == 2 && scene_has_filter(s)) {   /* filters under gravity (one species) */
 		ed->ops = ed->rough ? &ed_ops_filtg_rough[ed->dim - 2] : &ed_ops_filtg[ed->dim - 2];
 	}
 	if (ed->rough) {
@@ -3799,10 +3851,11 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 				why = "bad particle ids";
 	}
 	if (!why && ed->gone && ed->mix) {   /* the mass that left (species from the scene indices) */
-		ed->mix->mgone = 0.0;
+		memset(ed->mix->npres, 0, sizeof ed->mix->npres);
 		for (uint32_t i = 0; i < n; i++)
-			if (ed->gone[i])
-				ed->mix->mgone += ed->mix->m[ed->mix->rsp[ed->id[i]]];
+			if (!ed->gone[i])
+				ed->mix->npres[ed->mix->rsp[ed->id[i]]]++;
+		mix_present(ed, -1, 0);
 	}
 	if (!why && (!(ed->cal_w > 0.0) || !isfinite(ed->cal_iw = 1.0 / ed->cal_w)))
 		why = "bad calendar width";
