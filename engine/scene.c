@@ -1624,7 +1624,6 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 static int check_streams(ctx_t *c, const scene_t *s)
 {
 	char path[PATHLEN];
-	int dispensers = 0;   /* 1 + the axis of the dispenser walls seen (0: none) */
 	for (int a = 0; a < s->dim; a++) {
 		const scene_boundary_t *b = &s->boundary[a];
 		if (!b->walled)
@@ -1635,11 +1634,6 @@ static int check_streams(ctx_t *c, const scene_t *s)
 			const double sg = k ? -1.0 : 1.0;   /* inward normal along the axis */
 			if (w->type == SCENE_WALL_DISPENSER) {
 				snprintf(path, sizeof path, "boundaries.%s.%s", axis_names[a], end);
-				if (dispensers && dispensers != 1 + a)
-					return fail(c, path, "\"dispenser\" walls on two axes (boundaries.%s and .%s): several dispensers "
-					            "must face each other on one axis (a layer would be placed behind the other axis' "
-					            "piston)", axis_names[dispensers - 1], axis_names[a]);
-				dispensers = 1 + a;
 				if (w->n_composition) {
 					snprintf(path, sizeof path, "boundaries.%s.%s.composition", axis_names[a], end);
 					if (s->n_species < 2)

@@ -276,6 +276,10 @@ struct ed {
 	 * their mass over the mean mass (fzv then sums (m_k / m) U: psum's weighting) */
 	uint64_t nfzk[6][SCENE_SPECIES_MAX];
 	double nfzm;
+	/* dispensers on several axes: per dispenser wall w the bit set of the other axes' dispenser walls
+	 * (a layer particle behind one of their pistons is not placed: layer_behind()); 0 for all with
+	 * dispensers on one axis only */
+	int dclip[6];
 #ifdef ED_TRACE
 	ed_trace_fn trace;        /* bench-only build (ed.h, "Event trace"): called before each event */
 	void *trace_ctx;
@@ -2113,6 +2117,8 @@ static int setup_stream(struct ed *ed, const scene_t *s, char *msg, size_t msgle
 			}
 		}
 	}
+	for (int w = 0; w < 6; w++)
+		ed->dclip[w] = (ed->disp >> w & 1) ? ed->disp & ~(3 << (w & ~1)) : 0;
 	size_t off = 0;
 	for (int w = 0; w < 6; w++) {
 		ed->tpl_off[w] = off;
@@ -3000,6 +3006,24 @@ static int layer_begin(struct ed *ed, int w, uint32_t n, double shift[3], double
 	return q;
 }
 
+/* Dispensers on several axes: whether a layer particle of wall w at r
+ * (internal coordinates) would lie less than the largest radius ahead of
+ * the piston of another axis' dispenser (behind it, or touching it): it
+ * is then not placed (the corner the other piston has swept is that
+ * dispenser's to fill). 0 at once without (dclip[w] = 0). */
+static int layer_behind(const struct ed *ed, int w, const double *r)
+{
+	for (int v = 0; ed->dclip[w] >> v; v++) {
+		if (!(ed->dclip[w] >> v & 1))
+			continue;
+		const wall_t *P = &ed->wall[v];
+		const double sg = (v & 1) ? -1.0 : 1.0;
+		if (sg * (r[v >> 1] - P->rest) - P->pu * (ed->t - P->pt0) < 0.5 * ed->sigma * (1.0 - 1e-9))
+			return 1;
+	}
+	return 0;
+}
+
 /* The recharge due now at dispenser wall w. ED_FULL (nothing changed)
  * when the free slots cannot take a whole layer. */
 static int dispense_mix(struct ed *ed, int w);
@@ -3035,6 +3059,8 @@ static int dispense(struct ed *ed, int w)
 				y -= wid[b];
 			r[b] = lo[b] + y;
 		}
+		if (ed->dclip[w] && layer_behind(ed, w, r))
+			continue;
 		for (int j = 0; j < D; j++)
 			v[j] = ed->disp_u[w][j] + sv * rng_gauss(&ed->irng);
 		const uint32_t i = ed->freei[ed->n_gone - 1];
@@ -3100,6 +3126,8 @@ static int dispense_mix(struct ed *ed, int w)
 				y -= wid[b];
 			r[b] = lo[b] + y;
 		}
+		if (ed->dclip[w] && layer_behind(ed, w, r))
+			continue;
 		for (int j = 0; j < D; j++)
 			v[j] = ed->disp_u[w][j] + sv * rng_gauss(&ed->irng);
 		uint32_t *top = ed->freei + x->fs_off[sp] + x->fs_n[sp] - 1;
