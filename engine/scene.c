@@ -1654,13 +1654,12 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 					return fail(c, path, "has %d weights for %d species (one per species, in the order of "
 					            "particles.species)", w->n_composition, s->n_species);
 			}
-			for (int q = 0; q < s->n_species; q++)
+			for (int q = 0; q < s->n_species && w->type == SCENE_WALL_RESERVOIR; q++)
 				if (s->species[q].radius_hi > 0) {
 					snprintf(path, sizeof path, "particles.species[%d].radius_range", q);
 					return fail(c, path, "a scene with a \"%s\" wall takes species of one radius each "
-					            "(%s; polydisperse species are not supported with it)", wn,
-					            w->type == SCENE_WALL_DISPENSER ? "its layers are placed from templates of fixed radii"
-					                                             : "each entering particle takes a slot of its species");
+					            "(each entering particle takes a slot of its species; polydisperse species "
+					            "are not supported with it)", wn);
 				}
 		}
 	/* default: room for twice the larger of the initial count and what the
@@ -1680,7 +1679,6 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 static int check_streams(ctx_t *c, const scene_t *s)
 {
 	char path[PATHLEN];
-	int dispensers = 0;   /* 1 + the axis of the dispenser walls seen (0: none) */
 	for (int a = 0; a < s->dim; a++) {
 		const scene_boundary_t *b = &s->boundary[a];
 		if (!b->walled)
@@ -1691,11 +1689,6 @@ static int check_streams(ctx_t *c, const scene_t *s)
 			const double sg = k ? -1.0 : 1.0;   /* inward normal along the axis */
 			if (w->type == SCENE_WALL_DISPENSER) {
 				snprintf(path, sizeof path, "boundaries.%s.%s", axis_names[a], end);
-				if (dispensers && dispensers != 1 + a)
-					return fail(c, path, "\"dispenser\" walls on two axes (boundaries.%s and .%s): several dispensers "
-					            "must face each other on one axis (a layer would be placed behind the other axis' "
-					            "piston)", axis_names[dispensers - 1], axis_names[a]);
-				dispensers = 1 + a;
 				if (w->n_composition) {
 					snprintf(path, sizeof path, "boundaries.%s.%s.composition", axis_names[a], end);
 					if (s->n_species < 2)
@@ -1731,10 +1724,6 @@ static int check_streams(ctx_t *c, const scene_t *s)
 				if (s->method != SCENE_METHOD_ED)
 					return fail(c, path, "method \"%s\" does not support filters (only \"ed\" does)",
 					            method_names[s->method]);
-				/* under gravity frozen particles fly straight while the others fall (the ed kernels with
-				 * FILTG): one species */
-				if (scene_has_gravity(s) && scene_has_species(s))
-					return fail(c, path, "filters with gravity are not supported for mixtures (species) yet");
 				snprintf(path, sizeof path, "boundaries.%s.%s.filter.distance", axis_names[a], end);
 				if (!(f->distance > s->radius))
 					return fail(c, path, "%s must exceed the particle radius %s (seed 001: the plane lies more than a "
@@ -2774,6 +2763,8 @@ void scene_row_species(const scene_t *s, uint8_t *sp, double *r)
 	double y[SCENE_SPECIES_MAX], Y = 0.0;
 	const int comp = s->n_species > 0 && spare_fractions(s, y);
 	uint64_t prev = 0;
+	rng_t rng;   /* the empty rows of a polydisperse species: radii of a stream of their own */
+	rng_init(&rng, s->seed, s->stream | (1ull << 60) | (1ull << 57));
 	for (int k = 0; k < s->n_species; k++) {
 		uint64_t lo = spare * c / n;
 		c += s->species[k].count;
@@ -2791,7 +2782,8 @@ void scene_row_species(const scene_t *s, uint8_t *sp, double *r)
 			if (sp)
 				sp[i] = (uint8_t)k;
 			if (r)
-				r[i] = s->species[k].radius;
+				r[i] = s->species[k].radius_hi > 0 ? s->species[k].radius_lo + (s->species[k].radius_hi -
+				       s->species[k].radius_lo) * rng_uniform(&rng) : s->species[k].radius;
 		}
 	}
 }

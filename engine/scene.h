@@ -402,7 +402,9 @@ void scene_species_radii(const scene_t *s, double *r);
  * species, block k holding floor(spare C_k / count) - floor(spare C_(k-1) /
  * count) rows (spare = capacity - count, C_k the counts of species 0 .. k
  * summed: the scene's number fractions), each of its species' radius (a
- * slot's species never changes: frames keep time-independent species).
+ * polydisperse species: uniform draws in its radius_range from the seed,
+ * a stream of their own; a slot's species and radius never change: frames
+ * keep time-independent species and diameters).
  * Pure. */
 void scene_row_species(const scene_t *s, uint8_t *sp, double *r);
 /* A dispenser's or reservoir's species fractions (n_species entries: its

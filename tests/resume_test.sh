@@ -203,6 +203,20 @@ cat >"$tmp/2d-dispenser-mixture.json" <<'JSON'
  "output":{"every":{"time":6},"observables":["kinetic_energy","temperature","outflow","wall_force"],
    "snapshots":{"every":{"time":40}},"checkpoint":{"every":{"time":27}}}}
 JSON
+# A polydisperse species from a dispenser: its empty rows' radii fixed at
+# load (H5MD diameter time-independent), a layer particle takes a free row of
+# its species at random (the order of the per-species free stacks is state).
+cat >"$tmp/2d-dispenser-poly.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"species":[{"name":"A","count":300,"radius":0.5,"mass":1},
+   {"name":"B","count":130,"radius_range":[0.3,0.4],"mass":0.5}],"box":[30,20],
+   "initial":{"positions":"lattice","temperature":0.02,"velocity":[0.1,0]}},
+ "collisions":{"restitution":0.97,"tc":0.05,"restitution_pairs":[{"a":"A","b":"B","restitution":0.9}]},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.55,"velocity":[0.1,0],"temperature":0.02},
+   "upper":{"type":"open","filter":{"distance":3,"velocity":[0.1,0],"temperature":0.02}}}},
+ "run":{"seed":59,"until":{"time":120}},
+ "output":{"every":{"time":6},"observables":["kinetic_energy","temperature","outflow","wall_force"],
+   "snapshots":{"every":{"time":40}},"checkpoint":{"every":{"time":27}}}}
+JSON
 # Rough particles from a dispenser: the layers' spins are state too.
 cat >"$tmp/2d-dispenser-rough.json" <<'JSON'
 {"method":"ed","dimensions":2,"particles":{"count":300,"box":[40,20],
@@ -236,6 +250,34 @@ cat >"$tmp/2d-filter-gravity.json" <<'JSON'
    "upper":{"type":"open","filter":{"distance":4,"velocity":[0.1,0],"temperature":0.02}}},
    "y":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"specular"}}},
  "run":{"seed":58,"until":{"time":200}},
+ "output":{"every":{"time":10},"observables":["kinetic_energy","potential_energy","outflow","wall_force"],
+   "snapshots":{"every":{"time":50}},"checkpoint":{"every":{"time":37}}}}
+JSON
+# Dispensers on two axes (out of phase): each layer leaves out what lies
+# behind the other axis' piston (its position from the state's piston times).
+cat >"$tmp/2d-dispensers-two-axes.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":300,"radius":0.5,"box":[40,40],
+   "initial":{"positions":"random","temperature":0.02}},
+ "collisions":{"restitution":0.95,"tc":0.05},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.5,"velocity":[0.1,0],"temperature":0.02},
+   "upper":{"type":"open"}},
+   "y":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.4,"velocity":[0,0.1],"temperature":0.02,"thickness":3},
+   "upper":{"type":"open"}}},
+ "run":{"seed":61,"until":{"time":200}},
+ "output":{"every":{"time":10},"observables":["kinetic_energy","outflow","wall_force"],
+   "snapshots":{"every":{"time":50}},"checkpoint":{"every":{"time":37}}}}
+JSON
+# A mixture's filter in a field (the FILTG species kernels): the frozen
+# counts per species and the mass present are rebuilt from the flags.
+cat >"$tmp/2d-filter-gravity-mixture.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"species":[{"name":"A","count":150,"radius":0.5,"mass":1},
+   {"name":"B","count":60,"radius":0.35,"mass":0.5}],"box":[30,20],
+   "initial":{"positions":"lattice","temperature":0.02,"velocity":[0.1,0]}},"gravity":[0.01,-0.004],
+ "collisions":{"restitution":0.9,"tc":0.05,"restitution_pairs":[{"a":"A","b":"B","restitution":0.8}]},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.3,"velocity":[0.1,0],"temperature":0.02},
+   "upper":{"type":"open","filter":{"distance":4,"velocity":[0.1,0],"temperature":0.02}}},
+   "y":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"specular"}}},
+ "run":{"seed":60,"until":{"time":200}},
  "output":{"every":{"time":10},"observables":["kinetic_energy","potential_energy","outflow","wall_force"],
    "snapshots":{"every":{"time":50}},"checkpoint":{"every":{"time":37}}}}
 JSON
@@ -433,7 +475,8 @@ for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gr
 	2d-rough-noise 2d-hsmc-walls 2d-dsmc-vib 2d-hsmc-open 3d-dsmc-pipe 2d-mixture-dense 3d-mixture-dilute \
 	2d-mixture-walls 2d-dsmc-mixture-walls 2d-dsmc-mixture-vib 2d-hsmc-mixture 2d-hsmc-mixture-walls 2d-reservoir \
 	2d-reservoir-rough 3d-reservoir-dense 2d-reservoir-mixture 2d-dispenser-filter 3d-dispenser-filter 2d-dispenser-rough 2d-dispenser-gravity 2d-filter-gravity \
-	2d-dispenser-mixture; do
+	2d-dispenser-mixture 2d-dispenser-poly 2d-filter-gravity-mixture \
+	2d-dispensers-two-axes; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

@@ -451,13 +451,162 @@ static void test_holds_3d(void)
 	ed_destroy(ed);
 }
 
+/* Test 6, a polydisperse species in the stream: A (radius 0.5, mass 1)
+ * and B with radii uniform in [0.3, 0.4] (mass 0.5), A:B = 315:135, in a
+ * 2D channel 30 x 20 at eta = 0.5, T = 0.02, U = 0.1 with dispenser and
+ * filter (the scene of test 1 otherwise). Every slot keeps the radius
+ * scene_row_species() gives it (the initial rows' draws, the empty rows'
+ * draws of their own); a layer's B particle takes a free B slot at
+ * random. After one transit (L / U = 300), over t in [300, 3300] in 10
+ * blocks of one transit, in four slices of x in [6, 22): the volume
+ * fraction (each disk's own area) and B's mean radius and radius variance
+ * (over the B disks present in the slice through the block). Tolerances,
+ * 5 standard errors: for eta those of the blocks (taken as independent as
+ * in test 1) and, in quadrature, the scatter of the target itself (the
+ * layers' B disks are drawn from the M_B slots of B, whose radii are M_B
+ * independent draws: their mean area differs from E[pi r^2] by sd(pi r^2)
+ * / sqrt(M_B), which moves eta by x_B eta sd / (sqrt(M_B) v_p)); for B's
+ * mean radius mu = 0.35 and variance w^2 / 12 (w = 0.1) likewise the
+ * blocks' SE and the slots' sampling error, sigma / sqrt(M_B) for the
+ * mean and w^2 / sqrt(180 M_B) for the variance (var of a sample variance:
+ * (mu_4 - sigma^4) / M, mu_4 = w^4 / 80 for a uniform law). Then the same
+ * scene copied through its state fields goes on bit for bit (the random
+ * slot choice draws from the checkpointed stream and free stacks). */
+static void test_polydisperse(void)
+{
+	const uint64_t na = 315, nb = 135;
+	const double eta = 0.5, lo = 0.3, hi = 0.4, w = hi - lo, L = 30.0;
+	char json[4096];
+	snprintf(json, sizeof json,
+	         "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"species\":["
+	         "{\"name\":\"A\",\"count\":%llu,\"radius\":%.17g,\"mass\":%.17g},"
+	         "{\"name\":\"B\",\"count\":%llu,\"radius_range\":[%.17g,%.17g],\"mass\":%.17g}],\"box\":[%.17g,20],"
+	         "\"initial\":{\"positions\":\"lattice\",\"temperature\":0.02,\"velocity\":[0.1,0],"
+	         "\"relax\":{\"collisions_per_particle\":20}}},"
+	         "\"boundaries\":{\"x\":{\"type\":\"walls\","
+	         "\"lower\":{\"type\":\"dispenser\",\"volume_fraction\":%.17g,\"velocity\":[0.1,0],\"temperature\":0.02},"
+	         "\"upper\":{\"type\":\"open\",\"filter\":{\"distance\":4,\"velocity\":[0.1,0],\"temperature\":0.02}}}},"
+	         "\"run\":{\"seed\":7,\"until\":{\"time\":1}}}",
+	         (unsigned long long)na, RA, MA, (unsigned long long)nb, lo, hi, MB, L, eta);
+	scene_t sc;
+	ed_t *ed = make(json, &sc);
+	const size_t N = ed ? ed_slots(ed) : 0;
+	uint8_t *sp = N ? malloc(N) : NULL;
+	double *rad = N ? malloc(N * sizeof(double)) : NULL, *pos = N ? malloc(N * 2 * sizeof(double)) : NULL;
+	double *vel = N ? malloc(N * 2 * sizeof(double)) : NULL;
+	enum { NS = 4, NBK = 10 };
+	const double x0 = 6.0, x1 = 22.0, wsl = (x1 - x0) / NS, dt = 2.0, t0 = 300.0, tb = 300.0;
+	double e[NS][NBK], mr[NS][NBK], vr[NS][NBK], gap = INFINITY;
+	int run_ok = ed && sp && rad && pos && vel;
+	if (run_ok)
+		scene_row_species(&sc, sp, rad);
+	/* the slots: B's rows, their radii in [lo, hi] */
+	size_t mb = 0, out_of_range = 0;
+	for (size_t i = 0; run_ok && i < N; i++)
+		if (sp[i] == 1) {
+			mb++;
+			out_of_range += !(rad[i] >= lo && rad[i] <= hi);
+		} else {
+			out_of_range += rad[i] != RA;
+		}
+	const int per = (int)llround(tb / dt);
+	for (int b = 0; run_ok && b < NBK; b++) {
+		double vol[NS] = {0}, c[NS] = {0}, s1[NS] = {0}, s2[NS] = {0};
+		for (int f = 0; f < per && run_ok; f++) {
+			if (ed_advance(ed, t0 + b * tb + (f + 1) * dt, UINT64_MAX, UINT64_MAX) != ED_OK) {
+				run_ok = 0;
+				break;
+			}
+			ed_state(ed, pos, vel);
+			for (size_t i = 0; i < N; i++) {
+				const double x = pos[2 * i];
+				if (isnan(x) || x < x0 || x >= x1)
+					continue;
+				int k = (int)((x - x0) / wsl);
+				if (k >= NS)
+					k = NS - 1;
+				vol[k] += M_PI * rad[i] * rad[i];
+				if (sp[i] == 1) {
+					c[k] += 1.0;
+					s1[k] += rad[i];
+					s2[k] += rad[i] * rad[i];
+				}
+			}
+		}
+		const double g = run_ok ? ed_min_gap(ed) : 0.0;
+		if (g < gap)
+			gap = g;
+		for (int k = 0; k < NS; k++) {
+			e[k][b] = vol[k] / per / (wsl * 20.0);
+			mr[k][b] = s1[k] / c[k];
+			vr[k][b] = s2[k] / c[k] - mr[k][b] * mr[k][b];
+		}
+	}
+	if (!run_ok) {
+		ok(0, "polydisperse dispenser: run");
+		ok(0, "polydisperse dispenser: radius distribution");
+		ok(0, "polydisperse dispenser: checkpoint");
+		goto done;
+	}
+	const double xb = (double)nb / (double)(na + nb), er2 = (hi * hi * hi - lo * lo * lo) / (3.0 * w);
+	const double er4 = (pow(hi, 5) - pow(lo, 5)) / (5.0 * w), sd_a = M_PI * sqrt(er4 - er2 * er2);
+	const double vp = (1.0 - xb) * M_PI * RA * RA + xb * M_PI * er2, mu = 0.5 * (lo + hi), var = w * w / 12.0;
+	const double pe = xb * eta * sd_a / (sqrt((double)mb) * vp);   /* the slots' sampling error of eta */
+	const double pm = sqrt(var / (double)mb), pv = w * w / sqrt(180.0 * (double)mb);
+	int good_eta = 1, good_m = 1, good_v = 1;
+	for (int k = 0; k < NS; k++) {
+		double me, se, mm, sm, mv, sv;
+		mean_se(e[k], NBK, &me, &se);
+		mean_se(mr[k], NBK, &mm, &sm);
+		mean_se(vr[k], NBK, &mv, &sv);
+		diag("polydisperse slice %d: eta %.4f +- %.4f (+- %.4f slots), B radius mean %.5f +- %.5f (+- %.5f), "
+		     "variance %.3g +- %.2g (+- %.2g)", k, me, se, pe, mm, sm, pm, mv, sv, pv);
+		good_eta &= fabs(me - eta) < 5.0 * hypot(se, pe);
+		good_m &= fabs(mm - mu) < 5.0 * hypot(sm, pm);
+		good_v &= fabs(mv - var) < 5.0 * hypot(sv, pv);
+	}
+	ed_sample_t sm;
+	ed_sample(ed, &sm);
+	ok(good_eta && gap > -1e-9 && sm.wall_rejected[0] == 0 && sm.wall_inflow[0] > 3000 && out_of_range == 0,
+	   "polydisperse dispenser at eta 0.5: volume fraction holds in each of 4 slices (within 5 SE), no overlap "
+	   "(min gap %.2g), %llu in, none rejected (%llu), slot radii in their ranges (%zu not; %zu B slots)", gap,
+	   (unsigned long long)sm.wall_inflow[0], (unsigned long long)sm.wall_rejected[0], out_of_range, mb);
+	ok(good_m && good_v, "polydisperse dispenser: B's radii keep their law along the channel (mean %.3f, variance "
+	   "%.3g within 5 SE in each slice)", mu, var);
+	{
+		ed_t *a, *b;
+		if (!checkpoint_pair(json, &sc, 13.0, 55.0, &a, &b)) {
+			ok(0, "polydisperse dispenser checkpoint: restore");
+			goto done;
+		}
+		ed_advance(a, 200.0, UINT64_MAX, UINT64_MAX);
+		ed_advance(b, 200.0, UINT64_MAX, UINT64_MAX);
+		ed_sample_t sa, sb;
+		ed_sample(a, &sa);
+		ed_sample(b, &sb);
+		ok(sa.events == sb.events && sa.wall_inflow[0] == sb.wall_inflow[0] && sa.wall_inflow[0] > 0 &&
+		   same_slots(a, b) && sa.ekin_time_integral == sb.ekin_time_integral,
+		   "polydisperse dispenser checkpoint: restored run identical bit for bit after %llu events (%llu in)",
+		   (unsigned long long)sa.events, (unsigned long long)sa.wall_inflow[0]);
+		ed_destroy(a);
+		ed_destroy(b);
+	}
+done:
+	free(sp);
+	free(rad);
+	free(pos);
+	free(vel);
+	ed_destroy(ed);
+}
+
 int main(void)
 {
-	plan(12);
+	plan(15);
 	test_holds();
 	test_checkpoint();
 	test_3d();
 	test_composition();
 	test_holds_3d();
+	test_polydisperse();
 	return done_testing();
 }

@@ -274,6 +274,14 @@ struct ed {
 	 * the struct: the other kernels' field offsets stay as they were. */
 	uint64_t nfzw[6], nfz;
 	double fzv[3];
+	/* mixtures (the FILTG species kernels): the frozen particles present per wall and species, and
+	 * their mass over the mean mass (fzv then sums (m_k / m) U: psum's weighting) */
+	uint64_t nfzk[6][SCENE_SPECIES_MAX];
+	double nfzm;
+	/* dispensers on several axes: per dispenser wall w the bit set of the other axes' dispenser walls
+	 * (a layer particle behind one of their pistons is not placed: layer_behind()); 0 for all with
+	 * dispensers on one axis only */
+	int dclip[6];
 #ifdef ED_TRACE
 	ed_trace_fn trace;        /* bench-only build (ed.h, "Event trace"): called before each event */
 	void *trace_ctx;
@@ -289,7 +297,10 @@ struct ed_mix {
 	double e[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX], w[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX];
 	double mu[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX];
 	double *rscene;
-	double mtot, mgone;       /* total mass; mass of the particles that left (open walls; rebuilt on restore) */
+	/* the particles present per species and their mass (mix_present(): from the counts, so the same
+	 * numbers however they were reached; rebuilt on restore) */
+	uint64_t npres[SCENE_SPECIES_MAX];
+	double mpres;
 	/* Dispensers (scene_row_species()): rsp[row] the species of each row
 	 * (slot) in scene order, fixed; rscene covers the slots too. The free
 	 * slots form one stack per species: species k's fs_n[k] entries at
@@ -304,6 +315,7 @@ struct ed_mix {
 	uint32_t tmax[6][SCENE_SPECIES_MAX];
 	double fback[6][SCENE_SPECIES_MAX], fsv[6][SCENE_SPECIES_MAX];
 	double dsv[6][SCENE_SPECIES_MAX];   /* a dispenser's layer thermal speed sqrt(T / m_k) */
+	unsigned poly;            /* bit k: species k is polydisperse (a layer particle takes a free slot at random) */
 };
 
 static inline bool hless(const hent_t *a, const hent_t *b)
@@ -746,12 +758,25 @@ static void trace_emit(struct ed *ed, int kind, uint32_t i, int32_t x, double t)
  * dn; their count and velocity sum follow (the sum from the counts, so it
  * is the same numbers however it was reached: a restored run goes on bit
  * for bit). */
-static void frozen_count(struct ed *ed, int w, int dn)
+static void frozen_count(struct ed *ed, int w, int sp, int dn)
 {
 	ed->nfzw[w] += (uint64_t)(int64_t)dn;
 	ed->nfz = 0;
 	for (int a = 0; a < 3; a++)
 		ed->fzv[a] = 0.0;
+	if (ed->mixture) {   /* mixtures: each species' count weighted by m_k / m */
+		ed->nfzk[w][sp] += (uint64_t)(int64_t)dn;
+		ed->nfzm = 0.0;
+		for (int k = 0; k < 6; k++)
+			for (int q = 0; q < ed->nsp; q++) {
+				const double mk = (double)ed->nfzk[k][q] * (ed->mix->m[q] / ed->mass);
+				ed->nfz += ed->nfzk[k][q];
+				ed->nfzm += mk;
+				for (int a = 0; a < 3; a++)
+					ed->fzv[a] += mk * ed->fu[k][a];
+			}
+		return;
+	}
 	for (int k = 0; k < 6; k++) {
 		ed->nfz += ed->nfzw[k];
 		for (int a = 0; a < 3; a++)
@@ -764,11 +789,27 @@ static void frozen_count(struct ed *ed, int w, int dn)
 static void frozen_tally(struct ed *ed)
 {
 	memset(ed->nfzw, 0, sizeof ed->nfzw);
+	memset(ed->nfzk, 0, sizeof ed->nfzk);
 	if (ed->frozen)
 		for (uint32_t i = 0; i < ed->n; i++)
-			if (ed->frozen[i] && !ed->gone[i])
+			if (ed->frozen[i] && !ed->gone[i]) {
 				ed->nfzw[ed->frozen[i] - 1]++;
-	frozen_count(ed, 0, 0);
+				if (ed->mixture)
+					ed->nfzk[ed->frozen[i] - 1][ed->spc[i]]++;
+			}
+	frozen_count(ed, 0, 0, 0);
+}
+
+/* Mixtures: the particles of species sp present changed by dn (sp < 0:
+ * none); the mass present follows from the counts. */
+static void mix_present(struct ed *ed, int sp, int dn)
+{
+	struct ed_mix *x = ed->mix;
+	if (sp >= 0)
+		x->npres[sp] += (uint64_t)(int64_t)dn;
+	x->mpres = 0.0;
+	for (int k = 0; k < ed->nsp; k++)
+		x->mpres += (double)x->npres[k] * x->m[k];
 }
 
 /* Loops over the D axes, unrolled (GCC does not at -O2 by itself; the
@@ -874,6 +915,11 @@ static void frozen_tally(struct ed *ed)
 #define GRAV 1
 #define VARIANT gs
 #include "ed_inst.h"
+#define WALLS 1
+#define GRAV 1
+#define FILTG 1
+#define VARIANT gsf
+#include "ed_inst.h"
 #undef ROUGH
 /* Rough mixtures: the three variants (_2dsr, _3dsr periodic; _2wsr, _3wsr
  * walls and obstacles; _2gsr, _3gsr gravity) with the rough rule for
@@ -890,6 +936,11 @@ static void frozen_tally(struct ed *ed)
 #define WALLS 1
 #define GRAV 1
 #define VARIANT gsr
+#include "ed_inst.h"
+#define WALLS 1
+#define GRAV 1
+#define FILTG 1
+#define VARIANT gsrf
 #include "ed_inst.h"
 #undef SPEC
 #undef ROUGH
@@ -961,6 +1012,9 @@ static const ed_ops_t ed_ops_rough[2][3] = {
 		.enter_layer = enter_layer_##x }
 static const ed_ops_t ed_ops_filtg[2] = { OPS_FILTG(2gf), OPS_FILTG(3gf) };
 static const ed_ops_t ed_ops_filtg_rough[2] = { OPS_FILTG(2grf), OPS_FILTG(3grf) };
+/* ... and mixtures (each frozen/regular pair its own contact distance, masses and restitution) */
+static const ed_ops_t ed_ops_filtg_species[2] = { OPS_FILTG(2gsf), OPS_FILTG(3gsf) };
+static const ed_ops_t ed_ops_filtg_species_rough[2] = { OPS_FILTG(2gsrf), OPS_FILTG(3gsrf) };
 
 #define DISPATCH(ed, fn, ...) ((ed)->ops->fn(__VA_ARGS__))
 
@@ -1806,9 +1860,10 @@ static void setup_species(struct ed *ed, const scene_t *s)
 	ed->mix->first[0] = 0;
 	for (int a = 0; a < ns; a++) {
 		ed->mix->m[a] = s->species[a].mass;
-		ed->mix->mtot += (double)s->species[a].count * s->species[a].mass;
+		ed->mix->npres[a] = s->species[a].count;
 		ed->mix->first[a + 1] = ed->mix->first[a] + (uint32_t)s->species[a].count;
 	}
+	mix_present(ed, -1, 0);
 	for (int a = 0; a < ns; a++)
 		for (int b = 0; b < ns; b++) {
 			const int q = a * ns + b;
@@ -1833,6 +1888,9 @@ static void setup_stream_species(struct ed *ed, const scene_t *s)
 		rows[x->rsp[r]]++;
 	for (int k = 0, o = 0; k < ed->nsp; o += (int)rows[k], k++)
 		x->fs_off[k] = (uint32_t)o;
+	x->poly = 0;
+	for (int k = 0; k < ed->nsp; k++)
+		x->poly |= (unsigned)(s->species[k].radius_hi > 0) << k;
 	for (int a = 0; a < s->dim; a++) {
 		if (!s->boundary[a].walled)
 			continue;
@@ -2103,6 +2161,8 @@ static int setup_stream(struct ed *ed, const scene_t *s, char *msg, size_t msgle
 			}
 		}
 	}
+	for (int w = 0; w < 6; w++)
+		ed->dclip[w] = (ed->disp >> w & 1) ? ed->disp & ~(3 << (w & ~1)) : 0;
 	size_t off = 0;
 	for (int w = 0; w < 6; w++) {
 		ed->tpl_off[w] = off;
@@ -2223,11 +2283,16 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 			        (double)s->capacity, 0);
 			return ED_EINVAL;
 		}
-		/* mixtures: each slot has its species (dispense_mix(), inlet_enter_mix()) */
-		for (int k = 0; k < s->n_species && scene_has_species(s); k++)
+		int res = 0;   /* a "reservoir" wall (dispensers take polydisperse species: dispense_mix()) */
+		for (int a = 0; a < s->dim; a++)
+			for (int k = 0; k < 2; k++)
+				res |= s->boundary[a].walled && s->boundary[a].wall[k].type == SCENE_WALL_RESERVOIR;
+		/* mixtures: each slot has its species (dispense_mix(), inlet_enter_mix()); a reservoir's entering
+		 * particle takes a slot of its species' one radius */
+		for (int k = 0; k < s->n_species && scene_has_species(s) && res; k++)
 			if (s->species[k].radius_hi > 0) {
-				set_msg(msg, msglen, "particles.species[%.0f].radius_range: not with a \"dispenser\" or "
-				        "\"reservoir\" wall%.0s", (double)k, 0);
+				set_msg(msg, msglen, "particles.species[%.0f].radius_range: not with a \"reservoir\" wall%.0s",
+				        (double)k, 0);
 				return ED_EINVAL;
 			}
 		ed->n = (uint32_t)s->capacity;   /* slots; n_init of them filled at the start */
@@ -2264,7 +2329,9 @@ static int geometry(struct ed *ed, const scene_t *s, char *msg, size_t msglen)
 		ed->nsp = s->n_species;   /* tables: setup_species() in ed_alloc() */
 		ed->mixture = 1;
 		ed->ops = ed->rough ? &ed_ops_species_rough[ed->dim - 2][ed->variant] : &ed_ops_species[ed->dim - 2][ed->variant];
-	} else if (ed->variant == 2 && scene_has_filter(s)) {   /* filters under gravity (scene.c: one species) */
+		if (ed->variant == 2 && scene_has_filter(s))   /* filters under gravity with species */
+			ed->ops = ed->rough ? &ed_ops_filtg_species_rough[ed->dim - 2] : &ed_ops_filtg_species[ed->dim - 2];
+	} else if (ed->variant == 2 && scene_has_filter(s)) {   /* filters under gravity (one species) */
 		ed->ops = ed->rough ? &ed_ops_filtg_rough[ed->dim - 2] : &ed_ops_filtg[ed->dim - 2];
 	}
 	if (ed->rough) {
@@ -2372,6 +2439,8 @@ static int build_templates_mix(struct ed *ed, const scene_t *s, int w, char *msg
 			if (cnt[k]) {
 				t->species[m] = s->species[k];
 				t->species[m].count = cnt[k];
+				/* a polydisperse species: sites of its largest radius (any slot of it fits one) */
+				t->species[m].radius_lo = t->species[m].radius_hi = 0.0;
 				map[m++] = (uint8_t)k;
 				rmax = fmax(rmax, s->species[k].radius);
 				msum += (double)cnt[k] * s->species[k].mass;
@@ -3046,6 +3115,24 @@ static int layer_begin(struct ed *ed, int w, uint32_t n, double shift[3], double
 	return q;
 }
 
+/* Dispensers on several axes: whether a layer particle of wall w at r
+ * (internal coordinates) would lie less than the largest radius ahead of
+ * the piston of another axis' dispenser (behind it, or touching it): it
+ * is then not placed (the corner the other piston has swept is that
+ * dispenser's to fill). 0 at once without (dclip[w] = 0). */
+static int layer_behind(const struct ed *ed, int w, const double *r)
+{
+	for (int v = 0; ed->dclip[w] >> v; v++) {
+		if (!(ed->dclip[w] >> v & 1))
+			continue;
+		const wall_t *P = &ed->wall[v];
+		const double sg = (v & 1) ? -1.0 : 1.0;
+		if (sg * (r[v >> 1] - P->rest) - P->pu * (ed->t - P->pt0) < 0.5 * ed->sigma * (1.0 - 1e-9))
+			return 1;
+	}
+	return 0;
+}
+
 /* The recharge due now at dispenser wall w. ED_FULL (nothing changed)
  * when the free slots cannot take a whole layer. */
 static int dispense_mix(struct ed *ed, int w);
@@ -3081,6 +3168,8 @@ static int dispense(struct ed *ed, int w)
 				y -= wid[b];
 			r[b] = lo[b] + y;
 		}
+		if (ed->dclip[w] && layer_behind(ed, w, r))
+			continue;
 		for (int j = 0; j < D; j++)
 			v[j] = ed->disp_u[w][j] + sv * rng_gauss(&ed->irng);
 		const uint32_t i = ed->freei[ed->n_gone - 1];
@@ -3146,9 +3235,20 @@ static int dispense_mix(struct ed *ed, int w)
 				y -= wid[b];
 			r[b] = lo[b] + y;
 		}
+		if (ed->dclip[w] && layer_behind(ed, w, r))
+			continue;
 		for (int j = 0; j < D; j++)
 			v[j] = ed->disp_u[w][j] + sv * rng_gauss(&ed->irng);
-		const uint32_t i = ed->freei[x->fs_off[sp] + x->fs_n[sp] - 1];
+		uint32_t *top = ed->freei + x->fs_off[sp] + x->fs_n[sp] - 1;
+		if (x->poly >> sp & 1) {   /* polydisperse: a free slot of the species at random (its radius) */
+			uint32_t j = (uint32_t)(rng_uniform(&ed->irng) * x->fs_n[sp]);
+			if (j >= x->fs_n[sp])
+				j = x->fs_n[sp] - 1;
+			uint32_t *o = ed->freei + x->fs_off[sp] + j, y = *o;
+			*o = *top;
+			*top = y;
+		}
+		const uint32_t i = *top;
 		if (ed->ops->enter_layer(ed, i, r, v)) {
 			ed->in_count[6 + w]++;
 			continue;
@@ -3888,10 +3988,11 @@ int ed_restore_finish(ed_t *ed, char *msg, size_t msglen)
 				why = "bad particle ids";
 	}
 	if (!why && ed->gone && ed->mix) {   /* the mass that left (species from the scene indices) */
-		ed->mix->mgone = 0.0;
+		memset(ed->mix->npres, 0, sizeof ed->mix->npres);
 		for (uint32_t i = 0; i < n; i++)
-			if (ed->gone[i])
-				ed->mix->mgone += ed->mix->m[ed->mix->rsp[ed->id[i]]];
+			if (!ed->gone[i])
+				ed->mix->npres[ed->mix->rsp[ed->id[i]]]++;
+		mix_present(ed, -1, 0);
 	}
 	if (!why && (!(ed->cal_w > 0.0) || !isfinite(ed->cal_iw = 1.0 / ed->cal_w)))
 		why = "bad calendar width";

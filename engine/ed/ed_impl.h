@@ -12,15 +12,15 @@
  * from the particles' radii ed->prad, restitution and masses from the pair
  * tables by ed->spc; any variant, smooth or ROUGH) replaces ed->sigma2, ed->e
  * and ed->mass in predictions, collisions and energies; without it they are
- * the one species' constants. FILTG (with GRAV, one species: filters under
- * gravity) lets frozen particles (ed->frozen) fly straight at their filter's
+ * the one species' constants. FILTG (with GRAV, one species or SPEC:
+ * filters under gravity) lets frozen particles (ed->frozen) fly straight at their filter's
  * velocity while the others fall: their flights, boundary times and energy
  * skip g, and a pair of a frozen and a regular particle is predicted as a
  * particle meeting a moving obstacle under gravity (obstacle_time_grav in
  * the frozen one's frame). Without it none of this is compiled.
  */
-#if FILTG && (SPEC || !GRAV)
-#error "FILTG is for the one-species gravity variants"
+#if FILTG && !GRAV
+#error "FILTG is for the gravity variants"
 #endif
 
 /* Whether particle i flies straight under gravity (frozen by a filter):
@@ -296,8 +296,14 @@ static void FN(set_cross)(struct ed *ed, uint32_t i)
  * under gravity a quartic (obstacle_time_grav: bracketed roots on convex
  * and concave pieces, no contact missed or given twice). */
 static void FN(try_frozen)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, const double *vi, double t,
-                           int minimg, int fz_i, double *horizon, int32_t *found)
+                           int minimg, int fz_i, double rad_i, double *horizon, int32_t *found)
 {
+#if SPEC
+	const double sig = rad_i + ed->prad[j];   /* the pair's contact distance */
+#else
+	const double sig = ed->sigma;
+	(void)rad_i;
+#endif
 	const int fz_j = ed->frozen[j] != 0;
 	if (fz_i && fz_j)
 		return;
@@ -318,7 +324,7 @@ static void FN(try_frozen)(const struct ed *ed, const P_T *pj, int32_t j, const 
 		x[a] = fz_i ? -d : d;
 		u[a] = fz_i ? vj - vi[a] : vi[a] - vj;
 	}
-	const double dt = obstacle_time_grav(x, u, ed->g, D, ed->sigma, *horizon);
+	const double dt = obstacle_time_grav(x, u, ed->g, D, sig, *horizon);
 	if (dt < *horizon) {
 		*horizon = dt;
 		*found = j;
@@ -332,7 +338,7 @@ FN(try_pair)(const struct ed *ed, const P_T *pj, int32_t j, const double *ri, co
 {
 #if FILTG
 	if (fz_i | ed->frozen[j]) {
-		FN(try_frozen)(ed, pj, j, ri, vi, t, minimg, fz_i, horizon, found);
+		FN(try_frozen)(ed, pj, j, ri, vi, t, minimg, fz_i, rad_i, horizon, found);
 		return;
 	}
 #else
@@ -828,8 +834,9 @@ static inline void FN(energy_to)(struct ed *ed, double t)
 {
 #if GRAV
 #if SPEC
-	/* mixtures: psum holds sum (m_i / m) v_i (m the mean mass), n the mass present over m */
-	const double dt = t - ed->t_mark, m = ed->mass, n = (ed->mix->mtot - ed->mix->mgone) / m;
+	/* mixtures: psum holds sum (m_i / m) v_i (m the mean mass), n the mass present over m (FILTG: less
+	 * the frozen particles', nfzm) */
+	const double dt = t - ed->t_mark, m = ed->mass, n = ed->mix->mpres / m - FILTG * ed->nfzm;
 #else
 	const double dt = t - ed->t_mark, m = ed->mass, n = (double)(ed->n - ed->n_gone - FILTG * ed->nfz);
 #endif
@@ -988,7 +995,7 @@ static void FN(leave)(struct ed *ed, uint32_t i, int w, double t)
 	}
 	(void)mw;
 #if SPEC
-	ed->mix->mgone += m;
+	mix_present(ed, ed->spc[i], -1);
 #endif
 	ed->ekin_cur -= 0.5 * m * v2;
 #if ROUGH
@@ -1001,7 +1008,7 @@ static void FN(leave)(struct ed *ed, uint32_t i, int w, double t)
 	ed->n_gone++;
 #if FILTG
 	if (ed->frozen[i])
-		frozen_count(ed, ed->frozen[i] - 1, -1);
+		frozen_count(ed, ed->frozen[i] - 1, SPEC ? ed->spc[i] : 0, -1);
 #endif
 	if (ed->frozen)
 		ed->frozen[i] = 0;
@@ -1174,7 +1181,7 @@ static void FN(do_filter)(struct ed *ed, uint32_t i, double t)
 		ed->frozen[i] = (uint8_t)(1 + w);
 		ed->nfrozen[w]++;
 #if FILTG
-		frozen_count(ed, w, 1);
+		frozen_count(ed, w, SPEC ? ed->spc[i] : 0, 1);
 #endif
 	} else {
 		/* turned back: on the plane's inner side (rounding may leave it a hair beyond) */
@@ -1586,7 +1593,7 @@ static double FN(ekin)(const struct ed *ed, double mom[3])
 #if SPEC
 		const double m = FN(mass)(ed, i);
 		FOR_AXES(a) {
-			const double v = P[i].v[a] + (GRAV ? ed->g[a] * dt : 0.0);
+			const double v = P[i].v[a] + (GRAV && !FN(fz)(ed, i) ? ed->g[a] * dt : 0.0);
 			s += m * v * v;
 			mom[a] += m * v;
 		}
@@ -1626,7 +1633,8 @@ static void FN(observe)(const struct ed *ed, double *height, double *epot)
 		const double m = FN(mass)(ed, i);
 		mp += m;
 		FOR_AXES(a)
-			sum[a] += m * (P[i].r[a] + P[i].v[a] * dt + (GRAV ? 0.5 * ed->g[a] * dt * dt : 0.0) - ed->org[a]);
+			sum[a] += m * (P[i].r[a] + P[i].v[a] * dt + (GRAV && !FN(fz)(ed, i) ? 0.5 * ed->g[a] * dt * dt : 0.0) -
+			               ed->org[a]);
 #else
 		FOR_AXES(a)
 			sum[a] += P[i].r[a] + P[i].v[a] * dt + (GRAV && !FN(fz)(ed, i) ? 0.5 * ed->g[a] * dt * dt : 0.0) - ed->org[a];
@@ -1973,7 +1981,7 @@ static int FN(enter_s2)(struct ed *ed, uint32_t i, const double *r, const double
 	p->t = ed->t;
 	ed->ekin_cur += 0.5 * m * v2;
 #if SPEC
-	ed->mix->mgone -= m;
+	mix_present(ed, ed->spc[i], 1);
 #endif
 	ed->gone[i] = 0;
 	ed->n_gone--;
