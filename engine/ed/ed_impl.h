@@ -445,11 +445,10 @@ static void FN(try_images)(const struct ed *ed, const P_T *pj, int32_t j, const 
  * empty cells: most cells of a dilute system are empty, so the walk
  * itself is much of the cost. */
 static inline __attribute__((always_inline)) void
-FN(scan_impl)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[3], int use_occ)
+FN(scan_impl)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[3], int use_occ, int minimg)
 {
 	const P_T *restrict P = ed->p;
 	ev_t *e = &ed->ev[i];
-	const int minimg = ed->minimg;
 	const int32_t *restrict head = ed->head;
 	const uint64_t *restrict occ = ed->occ;
 	int32_t cell[3][3] = {{0}};   /* per axis: contribution to the cell index */
@@ -558,15 +557,62 @@ FN(scan_impl)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[
 static void FN(scan)(struct ed *ed, uint32_t i, const int *const offs[3], const int no[3])
 {
 	if (ed->ncells > OCC_MIN_CELLS)
-		FN(scan_impl)(ed, i, offs, no, 1);
+		FN(scan_impl)(ed, i, offs, no, 1, ed->minimg);
 	else
-		FN(scan_impl)(ed, i, offs, no, 0);
+		FN(scan_impl)(ed, i, offs, no, 0, ed->minimg);
 }
+
+#if !WALLS
+/* Periodic grids of >= 3 cells a side (no minimum image): the stencil's
+ * offsets and counts are constants here (the 3^D block, or the new layer
+ * after a crossing), so the cell walk is unrolled; the same cells in the
+ * same order as scan(), hence the same partner. */
+static const int FN(off3)[3] = {-1, 0, 1};
+
+static void FN(scan_block)(struct ed *ed, uint32_t i)
+{
+	const int *const offs[3] = {FN(off3), FN(off3), FN(off3)};
+	const int no[3] = {3, 3, 3};
+	if (ed->ncells > OCC_MIN_CELLS)
+		FN(scan_impl)(ed, i, offs, no, 1, 0);
+	else
+		FN(scan_impl)(ed, i, offs, no, 0, 0);
+}
+
+/* The layer of cells newly adjacent after a crossing on axis a (dir: +-1). */
+static void FN(scan_layer)(struct ed *ed, uint32_t i, int a, int dir)
+{
+	const int *const f = &FN(off3)[dir > 0 ? 2 : 0];
+	const int occ = ed->ncells > OCC_MIN_CELLS;
+	if (a == 0) {
+		const int *const offs[3] = {f, FN(off3), FN(off3)};
+		const int no[3] = {1, 3, 3};
+		if (occ) FN(scan_impl)(ed, i, offs, no, 1, 0);
+		else FN(scan_impl)(ed, i, offs, no, 0, 0);
+	} else if (a == 1) {
+		const int *const offs[3] = {FN(off3), f, FN(off3)};
+		const int no[3] = {3, 1, 3};
+		if (occ) FN(scan_impl)(ed, i, offs, no, 1, 0);
+		else FN(scan_impl)(ed, i, offs, no, 0, 0);
+	} else {
+		const int *const offs[3] = {FN(off3), FN(off3), f};
+		const int no[3] = {3, 3, 1};
+		if (occ) FN(scan_impl)(ed, i, offs, no, 1, 0);
+		else FN(scan_impl)(ed, i, offs, no, 0, 0);
+	}
+}
+#endif
 
 static void FN(scan_full)(struct ed *ed, uint32_t i)
 {
 	ed->ev[i].t_coll = INFINITY;
 	ed->ev[i].partner = -1;
+#if !WALLS
+	if (!ed->minimg) {
+		FN(scan_block)(ed, i);
+		return;
+	}
+#endif
 	const int *offs[3] = {ed->off[0], ed->off[1], ed->off[2]};
 	FN(scan)(ed, i, offs, ed->no);
 }
@@ -813,6 +859,13 @@ static void FN(do_cross)(struct ed *ed, uint32_t i, double t)
 	}
 	FN(cell_insert)(ed, i);
 	FN(set_cross)(ed, i);
+#if !WALLS
+	if (!ed->minimg) {
+		FN(scan_layer)(ed, i, a, dir);
+		FN(schedule)(ed, i);
+		return;
+	}
+#endif
 	if (ed->nc[a] >= 3) {
 		const int *offs[3] = {ed->off[0], ed->off[1], ed->off[2]};
 		int no[3] = {ed->no[0], ed->no[1], ed->no[2]};
