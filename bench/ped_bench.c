@@ -13,7 +13,9 @@
 #include "scene.h"
 
 /*
- * Usage: ped_bench serial|par DIM N PHI E T_END [SYNC_DT]
+ * Usage: ped_bench serial|par DIM N PHI E T_END [SYNC_DT [WINDOW]]
+ * (WINDOW: the first optimistic window, ped.h; default ped_sched_init()'s,
+ * 0: border events in global time order)
  * serial: the serial engine (ed_create, ed_advance to T_END), one process.
  * par: under mpirun -np P: rank 0 builds the same initial state with
  * ed_create and broadcasts it; every rank loads its share and pedmpi_run()
@@ -31,13 +33,13 @@ static double now(void)
 int main(int argc, char **argv)
 {
 	if (argc < 7) {
-		fprintf(stderr, "usage: %s serial|par DIM N PHI E T_END [SYNC_DT]\n", argv[0]);
+		fprintf(stderr, "usage: %s serial|par DIM N PHI E T_END [SYNC_DT [WINDOW]]\n", argv[0]);
 		return 2;
 	}
 	int par = !strcmp(argv[1], "par"), dim = atoi(argv[2]);
 	long n = atol(argv[3]);
 	double phi = atof(argv[4]), e = atof(argv[5]), t_end = atof(argv[6]);
-	double sync_dt = argc > 7 ? atof(argv[7]) : 0.05;
+	double sync_dt = argc > 7 ? atof(argv[7]) : 0.05, window = argc > 8 ? atof(argv[8]) : -1.0;
 	char json[512], err[256];
 	snprintf(json, sizeof json,
 	         "{\"method\":\"ed\",\"dimensions\":%d,\"particles\":{\"count\":%ld,\"volume_fraction\":%g},"
@@ -97,7 +99,7 @@ int main(int argc, char **argv)
 	ped_stats_t st;
 	MPI_Barrier(MPI_COMM_WORLD);
 	double t0 = now();
-	rc = pedmpi_run(pd, MPI_COMM_WORLD, t_end, sync_dt, &st);
+	rc = pedmpi_run(pd, MPI_COMM_WORLD, t_end, sync_dt, window, &st);
 	double wall = now() - t0;
 	ped_totals_t tt;
 	ped_totals(pd, &tt);

@@ -103,7 +103,7 @@ typedef struct {
 	int rc;
 } prun_t;
 
-static void prun(const setup_t *S, int P, double sync_dt, int force_every, prun_t *out)
+static void prun(const setup_t *S, int P, double sync_dt, double window, int force_every, prun_t *out)
 {
 	memset(out, 0, sizeof *out);
 	ped_params_t p = S->p;
@@ -124,7 +124,7 @@ static void prun(const setup_t *S, int P, double sync_dt, int force_every, prun_
 		ped_totals(pd[r], &tt);
 		out->ekin0 += tt.ekin;
 	}
-	out->rc = ped_sim_run(pd, P, S->t_end, sync_dt, force_every, &out->st);
+	out->rc = ped_sim_run(pd, P, S->t_end, sync_dt, window, force_every, &out->st);
 	for (int r = 0; r < P; r++) {
 		size_t n;
 		const ped_coll_t *c = ped_log(pd[r], &n);
@@ -183,7 +183,7 @@ static void against_serial(int dim, long n, double phi, double e, double tc, dou
 	for (size_t q = 0; q < sizeof Ps / sizeof *Ps; q++) {
 		int P = Ps[q];
 		prun_t R;
-		prun(&S, P, S.t_end / 16, 0, &R);
+		prun(&S, P, S.t_end / 16, -1.0, 0, &R);
 		double maxdt;
 		size_t bad = 0;
 		int same = R.rc == PED_OK && same_sequence(&S.serial, &R.log, &maxdt, &bad);
@@ -204,25 +204,52 @@ static void against_serial(int dim, long n, double phi, double e, double tc, dou
 		}
 		ok(R.owned == S.n, "%dD P=%d: every particle owned by exactly one rank at the end (%llu)", dim, P,
 		   (unsigned long long)R.owned);
-		diag("P=%d: rounds %llu syncs %llu rollbacks %llu messages %llu", P, (unsigned long long)R.st.rounds,
-		     (unsigned long long)R.st.syncs, (unsigned long long)R.st.rollbacks, (unsigned long long)R.st.messages);
+		diag("P=%d: rounds %llu syncs %llu rollbacks %llu messages %llu window %.3g", P, (unsigned long long)R.st.rounds,
+		     (unsigned long long)R.st.syncs, (unsigned long long)R.st.rollbacks, (unsigned long long)R.st.messages,
+		     R.st.window);
 		if (P == 4) {
 			prun_t R2, R3;
-			prun(&S, P, S.t_end / 16, 0, &R2);
+			prun(&S, P, S.t_end / 16, -1.0, 0, &R2);
 			ok(R2.rc == PED_OK && R2.log.n == R.log.n && !memcmp(R2.log.c, R.log.c, R.log.n * sizeof *R.log.c),
 			   "%dD P=4: a second run is identical bit for bit", dim);
-			prun(&S, P, S.t_end / 16, 5, &R3);
+			prun(&S, P, S.t_end / 16, -1.0, 5, &R3);
 			ok(R3.rc == PED_OK && R3.st.rollbacks > 10 && R3.log.n == R.log.n &&
 			       !memcmp(R3.log.c, R.log.c, R.log.n * sizeof *R.log.c),
 			   "%dD P=4: with %llu forced rollbacks (barrier halfway to the next border event) identical bit for bit",
 			   dim, (unsigned long long)R3.st.rollbacks);
 			prun_t R4;
-			prun(&S, P, S.t_end / 3, 0, &R4);
+			prun(&S, P, S.t_end / 3, -1.0, 0, &R4);
 			ok(R4.rc == PED_OK && R4.log.n == R.log.n && !memcmp(R4.log.c, R.log.c, R.log.n * sizeof *R.log.c),
 			   "%dD P=4: another sync interval gives the same run bit for bit", dim);
+			/* window 0: border events in global time order, one border
+			 * event time per round (the scheme before the optimistic
+			 * window); window infinite: every rank runs all its events to
+			 * the barrier in every round, border ones included, and only
+			 * the causality checks and rollbacks keep the run exact */
+			prun_t R5, R6;
+			prun(&S, P, S.t_end / 16, 0.0, 0, &R5);
+			ok(R5.rc == PED_OK && R5.log.n == R.log.n && !memcmp(R5.log.c, R.log.c, R.log.n * sizeof *R.log.c),
+			   "%dD P=4: border events in global time order (window 0) give the same run bit for bit", dim);
+			prun(&S, P, S.t_end / 16, INFINITY, 0, &R6);
+			ok(R6.rc == PED_OK && R6.log.n == R.log.n && !memcmp(R6.log.c, R.log.c, R.log.n * sizeof *R.log.c),
+			   "%dD P=4: fully optimistic (infinite window, %llu rollbacks) the same run bit for bit", dim,
+			   (unsigned long long)R6.st.rollbacks);
+			if (R6.rc != PED_OK || R6.log.n != R.log.n || memcmp(R6.log.c, R.log.c, R.log.n * sizeof *R.log.c)) {
+				double md;
+				size_t b6;
+				same_sequence(&S.serial, &R6.log, &md, &b6);
+				diag("rc %d, %zu collisions, first difference from serial at %zu", R6.rc, R6.log.n, b6);
+				for (size_t k = b6 >= 3 ? b6 - 3 : 0; k < b6 + 3 && k < S.serial.n && k < R6.log.n; k++)
+					diag("  %zu: serial %.17g %u %u   parallel %.17g %u %u", k, S.serial.c[k].t, S.serial.c[k].i, S.serial.c[k].j,
+					     R6.log.c[k].t, R6.log.c[k].i, R6.log.c[k].j);
+			}
+			ok(R.st.rounds < R5.st.rounds, "%dD P=4: the optimistic window needs fewer global rounds (%llu) than "
+			   "global time order (%llu)", dim, (unsigned long long)R.st.rounds, (unsigned long long)R5.st.rounds);
 			free(R2.log.c);
 			free(R3.log.c);
 			free(R4.log.c);
+			free(R5.log.c);
+			free(R6.log.c);
 		}
 		if (e == 1.0)
 			ok(fabs(R.ekin1 - R.ekin0) <= 1e-12 * R.ekin0 && fabs(R.mom1[0]) + fabs(R.mom1[1]) + fabs(R.mom1[2]) < 1e-9,

@@ -47,6 +47,7 @@ typedef struct {
 	int32_t free_head;
 	uint64_t collisions, tc_elastic, nlog, owned, events;
 	double lt, virial;
+	double tmax;        /* the latest event time of any own particle (tev), -INFINITY: none */
 	double dek, dekt;   /* since ped_mark(): sum of the collisions' kinetic energy changes, and of each times (t - tref) */
 } scal_t;
 
@@ -76,6 +77,7 @@ struct ped {
 	ped_coll_t *log;
 	size_t logcap;
 	int oom;
+	int *nb, nnb;       /* ranks owning a cell within two cells of an own cell: the only ones sent to */
 };
 
 /* ---- cells ---------------------------------------------------------------- */
@@ -504,6 +506,24 @@ static void do_cross(ped_t *pd, int32_t i, double t)
 		send(pd, i, oc, p->count, t);
 }
 
+/* Particle i changed at time t: an own particle around it that already had
+ * a later event (processed before this one, out of time order) may have met
+ * its new course: causality error. Only needed when some own particle has a
+ * later event at all (t < tmax); in time order it never has. */
+static void later_around(ped_t *pd, int32_t i, double t)
+{
+	if (!(t < pd->s.tmax))
+		return;
+	int32_t cells[27][3];
+	int m = around(pd, pd->rec[i].cc, cells);
+	for (int c = 0; c < m; c++)
+		for (int32_t q = pd->head[cidx(pd, cells[c])]; q >= 0; q = pd->rec[q].next)
+			if (q != i && pd->rec[q].own == 1 && pd->rec[q].tev > t) {
+				flag(pd, t);
+				return;
+			}
+}
+
 /* Carry out own particle i's next event at time t (classified as cls). */
 static void process(ped_t *pd, int32_t i, double t, int cls)
 {
@@ -513,6 +533,9 @@ static void process(ped_t *pd, int32_t i, double t, int cls)
 	pd->s.lt = t;
 	if (e->t_cross < e->t_coll) {
 		do_cross(pd, i, t);
+		later_around(pd, i, t);
+		if (t > pd->s.tmax)
+			pd->s.tmax = t;
 		return;
 	}
 	int32_t j = e->partner;
@@ -526,6 +549,10 @@ static void process(ped_t *pd, int32_t i, double t, int cls)
 	if (pd->rec[i].tev > t || pd->rec[j].tev > t)
 		flag(pd, t);
 	collide(pd, i, j, t);
+	later_around(pd, i, t);
+	later_around(pd, j, t);
+	if (t > pd->s.tmax)
+		pd->s.tmax = t;
 	if (pd->rec[j].own == 1) {
 		predict(pd, i);
 		predict(pd, j);
@@ -544,36 +571,28 @@ static void process(ped_t *pd, int32_t i, double t, int cls)
 	}
 }
 
-double ped_interior(ped_t *pd, double barrier)
+double ped_run(ped_t *pd, double horizon, double barrier, uint64_t *done)
 {
+	uint64_t n = 0;
+	double next = INFINITY;
 	while (pd->s.hn > 0) {
 		int32_t i = pd->heap[0].i;
 		double t = pd->heap[0].key;
 		if (!(t < barrier))
-			return INFINITY;
+			break;
 		int cls = classify(pd, i);
 		if (cls == 2)
-			return INFINITY;   /* waits for the partner's owner (its time for the pair may differ by rounding) */
-		if (cls)
-			return t;
-		process(pd, i, t, 0);
+			break;   /* waits for the partner's owner, which processes the collision and sends the result */
+		if (cls == 1 && t > horizon) {
+			next = t;   /* a border event beyond the horizon */
+			break;
+		}
+		process(pd, i, t, cls);
+		n++;
 	}
-	return INFINITY;
-}
-
-int ped_border(ped_t *pd, double T)
-{
-	if (pd->s.hn == 0)
-		return 0;
-	int32_t i = pd->heap[0].i;
-	double t = pd->heap[0].key;
-	if (t > T)
-		return 0;
-	int cls = classify(pd, i);
-	if (cls == 2)
-		return 0;
-	process(pd, i, t, cls);
-	return 1;
+	if (done)
+		*done = n;
+	return next;
 }
 
 double ped_error(const ped_t *pd)
@@ -603,6 +622,19 @@ static int apply(ped_t *pd, const ped_msg_t *m)
 			flag(pd, m->tu < pd->rec[k].tev ? m->tu : pd->rec[k].tev);
 		if (pd->rec[k].tev > m->tu)
 			flag(pd, m->tu);
+		/* another rank changed an own particle at tu (a collision it made)
+		 * while the particle still has a valid collision of its own before
+		 * tu, not yet processed here: the sender used a state that was not
+		 * the particle's at tu (possible once border events run ahead of
+		 * global time order). The pair the sender processed is no longer
+		 * valid here: the sender's own particle came first in its messages
+		 * (process()), so its count has changed; a pending crossing does not
+		 * change the course. */
+		const pev_t *e = &pd->ev[k];
+		int32_t j = e->partner;
+		if (pd->rec[k].own == 1 && pd->hpos[k] >= 0 && e->t_coll < m->tu && j >= 0 && pd->rec[j].own >= 0 &&
+		    pd->rec[j].gid == e->pgid && pd->rec[j].count == e->pcount)
+			flag(pd, e->t_coll);
 	}
 	int nr = pd->role[cidx(pd, m->cc)];
 	if (nr == R_FOREIGN) {
@@ -648,6 +680,8 @@ static int apply(ped_t *pd, const ped_msg_t *m)
 			p->own = 1;
 			pd->s.owned++;
 		}
+		if (p->tev > pd->s.tmax)
+			pd->s.tmax = p->tev;
 		predict(pd, k);
 	} else {
 		if (p->own == 1) {   /* ours moved into another rank's cell by someone else: inconsistent */
@@ -669,6 +703,12 @@ int ped_inbox(ped_t *pd, const ped_msg_t *m, size_t n)
 			return rc;
 	}
 	return pd->oom ? PED_ENOMEM : PED_OK;
+}
+
+int ped_neighbours(const ped_t *pd, const int **ranks)
+{
+	*ranks = pd->nb;
+	return pd->nnb;
 }
 
 const ped_msg_t *ped_outbox(const ped_t *pd, int dest, size_t *n)
@@ -722,6 +762,7 @@ void ped_destroy(ped_t *pd)
 			free(pd->out[r].m);
 	free(pd->out);
 	free(pd->log);
+	free(pd->nb);
 	free(pd);
 }
 
@@ -802,6 +843,33 @@ ped_t *ped_create(const ped_params_t *p, int rank, size_t capacity, int *err)
 			if (pd->role[cidx(pd, nb[q])] == R_BORDER)
 				pd->role[k] = R_GUARD;
 	}
+	/* the ranks a send() may address: owners of the cells around the own and
+	 * ghost cells (a changed ghost's cell, or a crossing's new cell, is at
+	 * most one cell from an own one) */
+	char *seen = calloc((size_t)p->ranks, 1);
+	if (!seen || !(pd->nb = malloc((size_t)p->ranks * sizeof *pd->nb))) {
+		free(seen);
+		ped_destroy(pd);
+		return NULL;
+	}
+	for (size_t k = 0; k < pd->ncells; k++) {
+		if (pd->role[k] != R_GHOST)
+			continue;
+		c[0] = (int32_t)(k % (size_t)pd->p.nc[0]);
+		c[1] = (int32_t)(k / (size_t)pd->p.nc[0] % (size_t)pd->p.nc[1]);
+		c[2] = (int32_t)(k / ((size_t)pd->p.nc[0] * (size_t)pd->p.nc[1]));
+		int32_t nb[27][3];
+		int m = around(pd, c, nb);
+		for (int q = 0; q < m; q++) {
+			int o = decomp_owner(pd->dc, nb[q]);
+			if (o != rank && o >= 0 && !seen[o])
+				seen[o] = 1;
+		}
+	}
+	for (int r = 0; r < p->ranks; r++)
+		if (seen[r])
+			pd->nb[pd->nnb++] = r;
+	free(seen);
 	for (size_t k = 0; k < pd->ncells; k++)
 		pd->head[k] = -1;
 	for (size_t k = 0; k < capacity; k++) {
@@ -893,6 +961,7 @@ int ped_load_at(ped_t *pd, uint64_t n, const double *pos, const double *vel, con
 			predict(pd, (int32_t)i);
 	pd->tref = t0;
 	pd->s.lt = t0;
+	pd->s.tmax = -INFINITY;
 	ped_save(pd);
 cleanup:
 	free(cnt);
@@ -958,7 +1027,8 @@ size_t ped_memory(const ped_t *pd)
 	size_t out = 0;
 	for (int r = 0; r < pd->p.ranks; r++)
 		out += pd->out[r].cap * sizeof(ped_msg_t);
-	return sizeof *pd + pd->cap * per + pd->ncells * (1 + 2 * sizeof *pd->head) + pd->logcap * sizeof(ped_coll_t) + out;
+	return sizeof *pd + pd->cap * per + pd->ncells * (1 + 2 * sizeof *pd->head) + pd->logcap * sizeof(ped_coll_t) + out +
+	       (size_t)pd->p.ranks * sizeof *pd->nb;
 }
 
 void ped_log_on(ped_t *pd)
@@ -1073,7 +1143,7 @@ uint64_t ped_scene_bytes(const scene_t *s, int P)
 	 * byte and two list heads per cell; the outboxes (ped_memory()) */
 	const uint64_t per = 2 * (sizeof(rec_t) + sizeof(pev_t) + sizeof(hent_t) + sizeof(int32_t));
 	return sizeof(struct ped) + s->count * per + ncells * (1 + 2 * sizeof(int32_t)) +
-	       (uint64_t)P * (sizeof(struct msgbuf) + 16 * sizeof(ped_msg_t));
+	       (uint64_t)P * (sizeof(struct msgbuf) + 16 * sizeof(ped_msg_t) + sizeof(int));
 }
 
 /* ---- drivers --------------------------------------------------------------- */
@@ -1083,45 +1153,70 @@ void ped_sched_init(ped_sched_t *s, double t_end, double sync_dt)
 	memset(s, 0, sizeof *s);
 	s->t_end = t_end;
 	s->sync_dt = sync_dt;
+	s->window = sync_dt * PED_WINDOW;
 	s->barrier = sync_dt < t_end ? sync_dt : t_end;
+	s->horizon = s->window;
 	s->st.sync_dt = sync_dt;
+	s->st.window = s->window;
 }
 
 void ped_sched_next(ped_sched_t *s, double t0, double t_end)
 {
 	s->t_end = t_end;
+	s->t_sync = t0;
+	s->cons = 0;
 	s->barrier = t0 + s->sync_dt < t_end ? t0 + s->sync_dt : t_end;
+	s->horizon = t0 + s->window;
 }
 
-int ped_sched(ped_sched_t *s, double E, double T)
+int ped_sched(ped_sched_t *s, double E, double T, int quiet)
 {
 	s->st.rounds++;
 	if (E < INFINITY) {
 		s->st.rollbacks++;
-		s->barrier = E;
+		if (E > s->t_sync) {
+			s->barrier = E;
+		} else {
+			/* an error at the sync itself: run this section again with
+			 * border events in global time order only (window 0) */
+			if (s->cons)
+				return -1;
+			s->cons = 1;
+		}
 		s->sync_dt *= 0.5;
+		s->window *= 0.5;
 		s->st.sync_dt = s->sync_dt;
+		s->st.window = s->window;
+		s->horizon = s->t_sync + (s->cons ? 0.0 : s->window);
 		return 1;
 	}
-	if (T == INFINITY) {
+	if (T == INFINITY && quiet) {
 		s->st.syncs++;
+		s->t_sync = s->barrier;
+		s->cons = 0;
 		if (s->barrier >= s->t_end)
 			return 3;
 		s->sync_dt *= 1.1;
+		s->window *= 1.1;
 		s->st.sync_dt = s->sync_dt;
+		s->st.window = s->window;
 		s->barrier = s->barrier + s->sync_dt < s->t_end ? s->barrier + s->sync_dt : s->t_end;
+		s->horizon = s->t_sync + s->window;
 		return 2;
 	}
+	s->horizon = T + (s->cons ? 0.0 : s->window);
 	return 0;
 }
 
-
-int ped_sim_run(ped_t **pd, int P, double t_end, double sync_dt, int force_every, ped_stats_t *st)
+int ped_sim_run(ped_t **pd, int P, double t_end, double sync_dt, double window, int force_every, ped_stats_t *st)
 {
 	ped_sched_t s;
 	ped_sched_init(&s, t_end, sync_dt);
+	if (window >= 0.0) {
+		s.window = s.st.window = window;
+		s.horizon = window;
+	}
 	struct msgbuf *in = calloc((size_t)P, sizeof *in);
-	double t_sync = 0.0;
 	int rc = PED_OK;
 	if (!in)
 		return PED_ENOMEM;
@@ -1133,43 +1228,29 @@ int ped_sim_run(ped_t **pd, int P, double t_end, double sync_dt, int force_every
 				goto cleanup;
 		}
 		double E = INFINITY, T = INFINITY;
+		uint64_t done = 0;
 		for (int r = 0; r < P; r++) {
-			double tb = ped_interior(pd[r], s.barrier);
+			uint64_t n;
+			double tb = ped_run(pd[r], s.horizon, s.barrier, &n);
 			T = tb < T ? tb : T;
+			done += n;
 		}
-		for (int r = 0; r < P; r++) {
-			double e = ped_error(pd[r]);
-			E = e < E ? e : E;
-		}
-		if (force_every > 0 && E == INFINITY && T < INFINITY && T > t_sync && (s.st.rounds + 1) % (uint64_t)force_every == 0)
-			E = t_sync + 0.5 * (T - t_sync);
-		double bprev = s.barrier;
-		int act = ped_sched(&s, E, T);
-		if (act == 1) {
-			if (!(E > t_sync)) {
-				rc = PED_ESTALL;   /* an error at the sync itself: no progress possible */
-				goto cleanup;
-			}
-			for (int r = 0; r < P; r++)
-				ped_restore(pd[r]);
-			continue;
-		}
-		if (act >= 2) {
-			t_sync = bprev;
-			if (act == 3)
-				break;
-			for (int r = 0; r < P; r++)
-				ped_save(pd[r]);
-			continue;
-		}
-		int any = 0;
-		for (int r = 0; r < P; r++)
-			any |= ped_border(pd[r], T);
+		/* the changed particles, to the inboxes of the next round (the
+		 * neighbour exchange of pedmpi.c) */
 		size_t nmsg = 0;
 		for (int r = 0; r < P; r++) {
+			const int *nb;
+			int nn = ped_neighbours(pd[r], &nb);
 			for (int d = 0; d < P; d++) {
 				size_t n;
 				const ped_msg_t *m = ped_outbox(pd[r], d, &n);
+				int isnb = 0;
+				for (int q = 0; q < nn; q++)
+					isnb |= nb[q] == d;
+				if (n && !isnb) {
+					rc = PED_EINVAL;   /* cannot happen: send() addresses neighbours only */
+					goto cleanup;
+				}
 				for (size_t k = 0; k < n; k++) {
 					struct msgbuf *b = &in[d];
 					if (b->n == b->cap) {
@@ -1189,8 +1270,35 @@ int ped_sim_run(ped_t **pd, int P, double t_end, double sync_dt, int force_every
 			ped_outbox_clear(pd[r]);
 		}
 		s.st.messages += nmsg;
-		if (!any && nmsg == 0) {
-			rc = PED_ESTALL;
+		for (int r = 0; r < P; r++) {
+			double e = ped_error(pd[r]);
+			E = e < E ? e : E;
+		}
+		if (force_every > 0 && E == INFINITY && T < INFINITY && T > s.t_sync && (s.st.rounds + 1) % (uint64_t)force_every == 0)
+			E = s.t_sync + 0.5 * (T - s.t_sync);
+		double hprev = s.horizon;
+		int act = ped_sched(&s, E, T, nmsg == 0);
+
+		if (act < 0) {
+			rc = PED_ESTALL;   /* errors at the sync itself even in global time order: no progress possible */
+			goto cleanup;
+		}
+		if (act == 1) {
+			for (int r = 0; r < P; r++) {
+				ped_restore(pd[r]);
+				in[r].n = 0;
+			}
+			continue;
+		}
+		if (act >= 2) {
+			if (act == 3)
+				break;
+			for (int r = 0; r < P; r++)
+				ped_save(pd[r]);
+			continue;
+		}
+		if (!done && nmsg == 0 && T <= hprev) {
+			rc = PED_ESTALL;   /* nothing moved anywhere though the next event was within reach: it never will */
 			goto cleanup;
 		}
 	}
