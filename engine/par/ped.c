@@ -17,6 +17,7 @@ enum { R_FOREIGN = 0, R_GHOST = 1, R_INNER = 2, R_BORDER = 3, R_GUARD = 4 };
 
 typedef struct {
 	double r[3], v[3], t, tlast, tev;   /* position at t, velocity, TC time, last event */
+	double tloc;                        /* its last event processed by this rank (-INFINITY: none) */
 	uint64_t count;                     /* collisions of this particle */
 	uint32_t gid;
 	int32_t cc[3];
@@ -371,6 +372,7 @@ static void collide(ped_t *pd, int32_t a, int32_t b, double t)
 	pi->count++;
 	pj->count++;
 	pi->tev = pj->tev = t;
+	pi->tloc = pj->tloc = t;
 	pd->s.collisions++;
 	if (pd->logging) {
 		if (pd->s.nlog == pd->logcap) {
@@ -492,6 +494,7 @@ static void do_cross(ped_t *pd, int32_t i, double t)
 		p->r[a] += pd->p.L[a];
 	}
 	p->tev = t;
+	p->tloc = t;
 	cell_insert(pd, i);
 	if (pd->role[cidx(pd, p->cc)] >= R_INNER) {
 		predict(pd, i);
@@ -506,7 +509,16 @@ static void do_cross(ped_t *pd, int32_t i, double t)
 		send(pd, i, oc, p->count, t);
 }
 
-/* Particle i changed at time t: an own particle around it that already had
+/* Whether record q had an event after t that matters here: an own
+ * particle's last event (whoever made it), or the last event this rank
+ * made of a ghost (a collision with an own particle of lower id, or a
+ * crossing that took an own particle to another rank). */
+static int later(const rec_t *q, double t)
+{
+	return q->own == 1 ? q->tev > t : (q->own == 0 && q->tloc > t);
+}
+
+/* Particle i changed at time t: a particle around it that already had
  * a later event (processed before this one, out of time order) may have met
  * its new course: causality error. Only needed when some own particle has a
  * later event at all (t < tmax); in time order it never has. */
@@ -518,7 +530,7 @@ static void later_around(ped_t *pd, int32_t i, double t)
 	int m = around(pd, pd->rec[i].cc, cells);
 	for (int c = 0; c < m; c++)
 		for (int32_t q = pd->head[cidx(pd, cells[c])]; q >= 0; q = pd->rec[q].next)
-			if (q != i && pd->rec[q].own == 1 && pd->rec[q].tev > t) {
+			if (q != i && later(&pd->rec[q], t)) {
 				flag(pd, t);
 				return;
 			}
@@ -581,10 +593,19 @@ double ped_run(ped_t *pd, double horizon, double barrier, uint64_t *done)
 		if (!(t < barrier))
 			break;
 		int cls = classify(pd, i);
-		if (cls == 2)
-			break;   /* waits for the partner's owner, which processes the collision and sends the result */
 		if (cls == 1 && t > horizon) {
 			next = t;   /* a border event beyond the horizon */
+			break;
+		}
+		if (cls == 2) {
+			/* a collision with a ghost of lower id, which its owner
+			 * processes and sends, at its own time for the pair, which may
+			 * differ by rounding: ped_sched()'s horizon has a slack of
+			 * PED_SLACK. So close to the barrier the owner's time may lie
+			 * beyond it: then it is not a time to wait for (the pair comes
+			 * after the sync). */
+			if (t + PED_SLACK * fabs(t) < barrier)
+				next = t;
 			break;
 		}
 		process(pd, i, t, cls);
@@ -658,6 +679,7 @@ static int apply(ped_t *pd, const ped_msg_t *m)
 		k = pd->s.free_head;
 		pd->s.free_head = pd->rec[k].next;
 		pd->rec[k].own = 0;
+		pd->rec[k].tloc = -INFINITY;
 		pd->hpos[k] = -1;
 	} else {
 		cell_remove(pd, k);
@@ -668,12 +690,12 @@ static int apply(ped_t *pd, const ped_msg_t *m)
 	p->t = m->t, p->tlast = m->tlast, p->tev = m->tev, p->count = m->count, p->gid = m->gid;
 	memcpy(p->cc, m->cc, sizeof p->cc);
 	cell_insert(pd, k);
-	/* a neighbour that already had an event after the change may have met it */
+	/* a neighbour that already had an event after the change (later()) may have met it */
 	int32_t cells[27][3];
 	int n = around(pd, p->cc, cells);
 	for (int c = 0; c < n; c++)
 		for (int32_t q = pd->head[cidx(pd, cells[c])]; q >= 0; q = pd->rec[q].next)
-			if (q != k && pd->rec[q].own == 1 && pd->rec[q].tev > m->tu)
+			if (q != k && later(&pd->rec[q], m->tu))
 				flag(pd, m->tu);
 	if (nr >= R_INNER) {
 		if (p->own != 1) {
@@ -949,7 +971,7 @@ int ped_load_at(ped_t *pd, uint64_t n, const double *pos, const double *vel, con
 		}
 		p->t = t0;
 		p->tlast = tlast ? tlast[k] : -INFINITY;
-		p->tev = -INFINITY;
+		p->tev = p->tloc = -INFINITY;
 		p->gid = (uint32_t)k;
 		memcpy(p->cc, c, sizeof p->cc);
 		p->own = pd->role[cidx(pd, c)] >= R_INNER;
@@ -1204,7 +1226,7 @@ int ped_sched(ped_sched_t *s, double E, double T, int quiet)
 		s->horizon = s->t_sync + s->window;
 		return 2;
 	}
-	s->horizon = T + (s->cons ? 0.0 : s->window);
+	s->horizon = T + (s->cons ? 0.0 : s->window) + PED_SLACK * fabs(T);
 	return 0;
 }
 

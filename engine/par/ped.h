@@ -166,6 +166,10 @@ typedef struct {
 /* The optimistic window at the start, as a fraction of the first sync
  * interval (ped_sched_init()). */
 #define PED_WINDOW (1.0 / 32.0)
+/* Relative slack of the horizon beyond T + window: two ranks' times for one
+ * pair of particles may differ by rounding, and the rank waiting for the
+ * other reports its own (ped_run()). */
+#define PED_SLACK 1e-12
 
 /* Driver decision shared by the in-process and MPI drivers: after the
  * reduction of a round (E = min error time, T = min next event time, quiet =
