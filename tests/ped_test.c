@@ -241,8 +241,12 @@ static void against_serial(int dim, long n, double phi, double e, double tc, dou
 			int same6 = R6.rc == PED_OK && same_sequence(&R.log, &R6.log, &d6, &b6);
 			ok(same6 && d6 <= 1e-12, "%dD P=4: fully optimistic (infinite window, %llu rollbacks) the same collisions, times "
 			   "within %.2g of the default run", dim, (unsigned long long)R6.st.rollbacks, same6 ? d6 : -1.0);
-			if (!same6)
+			if (!same6) {
 				diag("rc %d, %zu collisions, first difference at %zu", R6.rc, R6.log.n, b6);
+				for (size_t k = b6 >= 3 ? b6 - 3 : 0; k < b6 + 3 && k < R.log.n && k < R6.log.n; k++)
+					diag("  %zu: default %.17g %u %u   optimistic %.17g %u %u", k, R.log.c[k].t, R.log.c[k].i, R.log.c[k].j,
+					     R6.log.c[k].t, R6.log.c[k].i, R6.log.c[k].j);
+			}
 			ok(R.st.rounds < R5.st.rounds, "%dD P=4: the optimistic window needs fewer global rounds (%llu) than "
 			   "global time order (%llu)", dim, (unsigned long long)R.st.rounds, (unsigned long long)R5.st.rounds);
 			free(R2.log.c);

@@ -699,6 +699,27 @@ static int32_t find(const ped_t *pd, const int32_t *c, uint32_t gid)
 	return -1;
 }
 
+/* A valid pending collision of own particle k before t, in k's calendar
+ * entry or in an own neighbour's (the pair is kept by whichever predicted it
+ * last): flagged at its time. */
+static void pending_before(ped_t *pd, int32_t k, double t)
+{
+	const pev_t *e = &pd->ev[k];
+	int32_t j = e->partner;
+	if (pd->hpos[k] >= 0 && e->t_coll < t && j >= 0 && pd->rec[j].own >= 0 && pd->rec[j].gid == e->pgid &&
+	    pd->rec[j].count == e->pcount)
+		flag(pd, e->t_coll);
+	int32_t cells[27][3];
+	int n = around(pd, pd->rec[k].cc, cells);
+	for (int c = 0; c < n; c++)
+		for (int32_t q = pd->head[cidx(pd, cells[c])]; q >= 0; q = pd->rec[q].next) {
+			const pev_t *f = &pd->ev[q];
+			if (q != k && pd->rec[q].own == 1 && pd->hpos[q] >= 0 && f->partner == k && f->t_coll < t &&
+			    f->pgid == pd->rec[k].gid && f->pcount == pd->rec[k].count)
+				flag(pd, f->t_coll);
+		}
+}
+
 static int apply(ped_t *pd, const ped_msg_t *m)
 {
 	int fresh = 0;
@@ -711,18 +732,15 @@ static int apply(ped_t *pd, const ped_msg_t *m)
 		if (pd->rec[k].tev > m->tu)
 			flag(pd, m->tu);
 		/* another rank changed an own particle at tu (a collision it made)
-		 * while the particle still has a valid collision of its own before
-		 * tu, not yet processed here: the sender used a state that was not
+		 * while the particle still has a valid collision before tu, not yet
+		 * processed here (pending_before()): the sender used a state that was not
 		 * the particle's at tu (possible once border events run ahead of
 		 * global time order). The pair the sender processed is no longer
 		 * valid here: the sender's own particle came first in its messages
 		 * (process()), so its count has changed; a pending crossing does not
 		 * change the course. */
-		const pev_t *e = &pd->ev[k];
-		int32_t j = e->partner;
-		if (pd->rec[k].own == 1 && pd->hpos[k] >= 0 && e->t_coll < m->tu && j >= 0 && pd->rec[j].own >= 0 &&
-		    pd->rec[j].gid == e->pgid && pd->rec[j].count == e->pcount)
-			flag(pd, e->t_coll);
+		if (pd->rec[k].own == 1)
+			pending_before(pd, k, m->tu);
 	}
 	int nr = pd->role[cidx(pd, m->cc)];
 	if (nr == R_FOREIGN) {
