@@ -40,9 +40,20 @@
  *   counter does not match the receiver's copy.
  * - Exactness: the committed collisions are those of the serial engine from
  *   the same initial state (times to rounding: pair times are computed from
- *   the pair's later reference time, the lower id first). For one rank
- *   count a run is bit for bit reproducible, and independent of where the
- *   syncs and rollbacks fall.
+ *   the pair's later reference time, the lower id first, and again from the
+ *   two records when processed). For one rank count and one schedule (sync
+ *   interval, window, stops) a run is bit for bit reproducible; the
+ *   committed collisions do not depend on where syncs and rollbacks fall,
+ *   their times may differ in the last bits (a rank that runs ahead may take
+ *   a pair's time from a ghost whose cell crossing, the same course from a
+ *   later reference point, has not arrived yet).
+ *   More causality errors, once border events run ahead of global time order:
+ *   a message changes an own particle (a collision another rank made) that
+ *   still has a valid pending collision before the change, in its calendar
+ *   entry or a neighbour's; an event processed out of time order changes a
+ *   particle next to one whose course since then already had an event (own
+ *   particles: their courses since the change are checked for contact; ghosts
+ *   this rank moved or collided: any such event counts).
  * - Memory per rank: particles of its cells and ghosts (fixed capacity),
  *   one saved copy, and a per-cell role byte and head index over the whole
  *   grid (O(cells), not O(N/P): a known limitation of this slice).
