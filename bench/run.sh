@@ -159,6 +159,11 @@ tpd=$(mktemp)
 	echo
 	sh "$src/bench/ped_bench.sh" "$build" 2 1000000 0.3 0.5
 	sh "$src/bench/ped_bench.sh" "$build" 3 1000000 0.25 0.2
+	echo "Rounds, messages and rollbacks, border events in global time order against the optimistic window"
+	echo "(bench/ped_counts.sh: the ranks simulated in one process, counts only)."
+	echo
+	sh "$src/bench/ped_counts.sh" "$build" 2 100000 0.3 1
+	sh "$src/bench/ped_counts.sh" "$build" 3 100000 0.25 0.6
 } >"$tpd"
 
 {

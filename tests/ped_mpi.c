@@ -47,12 +47,12 @@ static void check(int dim, long n, double phi, double e, double tc, double t_end
 		ped_load(sim[r], (uint64_t)n, pos, vel);
 	}
 	ped_stats_t s1, s2;
-	int rs = ped_sim_run(sim, P, t_end, t_end / 16, 0, &s1);
+	int rs = ped_sim_run(sim, P, t_end, t_end / 16, -1.0, 0, &s1);
 	if (!(mine = ped_create(&p, rank, (size_t)n, &rc)))
 		goto done;
 	ped_log_on(mine);
 	ped_load(mine, (uint64_t)n, pos, vel);
-	int rm = pedmpi_run(mine, MPI_COMM_WORLD, t_end, t_end / 16, &s2);
+	int rm = pedmpi_run(mine, MPI_COMM_WORLD, t_end, t_end / 16, -1.0, &s2);
 	ped_totals_t ta, tb;
 	ped_totals(sim[rank], &ta);
 	ped_totals(mine, &tb);

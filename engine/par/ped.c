@@ -17,6 +17,9 @@ enum { R_FOREIGN = 0, R_GHOST = 1, R_INNER = 2, R_BORDER = 3, R_GUARD = 4 };
 
 typedef struct {
 	double r[3], v[3], t, tlast, tev;   /* position at t, velocity, TC time, last event */
+	double tloc;                        /* its last event processed by this rank (-INFINITY: none) */
+	double pv[3], tcol, pcol;           /* velocity before its last collision at tcol, the one before at pcol
+	                                     * (own particles; pcol INFINITY: history unknown) */
 	uint64_t count;                     /* collisions of this particle */
 	uint32_t gid;
 	int32_t cc[3];
@@ -47,6 +50,7 @@ typedef struct {
 	int32_t free_head;
 	uint64_t collisions, tc_elastic, nlog, owned, events;
 	double lt, virial;
+	double tmax;        /* the latest event time of any own particle (tev), -INFINITY: none */
 	double dek, dekt;   /* since ped_mark(): sum of the collisions' kinetic energy changes, and of each times (t - tref) */
 } scal_t;
 
@@ -76,6 +80,7 @@ struct ped {
 	ped_coll_t *log;
 	size_t logcap;
 	int oom;
+	int *nb, nnb;       /* ranks owning a cell within two cells of an own cell: the only ones sent to */
 };
 
 /* ---- cells ---------------------------------------------------------------- */
@@ -333,6 +338,10 @@ static void collide(ped_t *pd, int32_t a, int32_t b, double t)
 	}
 	advance(pi, t);
 	advance(pj, t);
+	memcpy(pi->pv, pi->v, sizeof pi->pv);
+	memcpy(pj->pv, pj->v, sizeof pj->pv);
+	pi->pcol = pi->tcol, pj->pcol = pj->tcol;
+	pi->tcol = pj->tcol = t;
 	double dr[3] = {0, 0, 0}, dv[3] = {0, 0, 0}, bb = 0.0, r2 = 0.0;
 	for (int k = 0; k < pd->D; k++) {
 		double x = pi->r[k] - pj->r[k];
@@ -369,6 +378,7 @@ static void collide(ped_t *pd, int32_t a, int32_t b, double t)
 	pi->count++;
 	pj->count++;
 	pi->tev = pj->tev = t;
+	pi->tloc = pj->tloc = t;
 	pd->s.collisions++;
 	if (pd->logging) {
 		if (pd->s.nlog == pd->logcap) {
@@ -490,6 +500,7 @@ static void do_cross(ped_t *pd, int32_t i, double t)
 		p->r[a] += pd->p.L[a];
 	}
 	p->tev = t;
+	p->tloc = t;
 	cell_insert(pd, i);
 	if (pd->role[cidx(pd, p->cc)] >= R_INNER) {
 		predict(pd, i);
@@ -504,6 +515,86 @@ static void do_cross(ped_t *pd, int32_t i, double t)
 		send(pd, i, oc, p->count, t);
 }
 
+/* Whether record q had an event after t that matters here: an own
+ * particle's last event (whoever made it), or the last event this rank
+ * made of a ghost (a collision with an own particle of lower id, or a
+ * crossing that took an own particle to another rank). */
+static int later(const rec_t *q, double t)
+{
+	return q->own == 1 ? q->tev > t : (q->own == 0 && q->tloc > t);
+}
+
+/* Earliest contact at or after t0 of two straight courses (position ra at
+ * time ta, velocity va; the same for b): t0 when they overlap approaching,
+ * INFINITY when none. */
+static double contact(const ped_t *pd, const double *ra, const double *va, double ta, const double *rb,
+                      const double *vb, double tb, double t0)
+{
+	double b = 0.0, r2 = 0.0, v2 = 0.0;
+	for (int a = 0; a < pd->D; a++) {
+		double x = (ra[a] + va[a] * (t0 - ta)) - (rb[a] + vb[a] * (t0 - tb));
+		if (x > pd->halfL[a])
+			x -= pd->p.L[a];
+		else if (x < -pd->halfL[a])
+			x += pd->p.L[a];
+		double dv = va[a] - vb[a];
+		b += x * dv;
+		r2 += x * x;
+		v2 += dv * dv;
+	}
+	if (b >= 0.0)
+		return INFINITY;
+	double c = r2 - pd->sigma2;
+	if (c <= 0.0)
+		return t0;
+	double disc = b * b - v2 * c;
+	if (disc <= 0.0)
+		return INFINITY;
+	return t0 + c / (-b + sqrt(disc));
+}
+
+/* Whether record q's history after t may have met particle k's course from
+ * t (k's record holds that course): q had an event after t (later()) and
+ * either its history since t is not known here (a ghost, or more than one
+ * collision since t, or a state received from another rank), or one of its
+ * at most two courses since t touches k's before q's last event. */
+static int met(const ped_t *pd, const rec_t *k, double t, const rec_t *q)
+{
+	if (!later(q, t))
+		return 0;
+	if (q->own != 1 || q->pcol > t)
+		return 1;
+	double s0 = q->tcol > t ? q->tcol : t;   /* the present course since s0 */
+	if (contact(pd, k->r, k->v, k->t, q->r, q->v, q->t, s0) < q->tev)
+		return 1;
+	if (q->tcol > t) {   /* the course before the collision at tcol, from t */
+		double rq[3];
+		for (int a = 0; a < 3; a++)
+			rq[a] = q->r[a] + q->v[a] * (q->tcol - q->t);
+		if (contact(pd, k->r, k->v, k->t, rq, q->pv, q->tcol, t) < q->tcol)
+			return 1;
+	}
+	return 0;
+}
+
+/* Particle i changed at time t: a particle around it that already had
+ * a later event (processed before this one, out of time order) may have met
+ * its new course: causality error. Only needed when some own particle has a
+ * later event at all (t < tmax); in time order it never has. */
+static void later_around(ped_t *pd, int32_t i, double t)
+{
+	if (!(t < pd->s.tmax))
+		return;
+	int32_t cells[27][3];
+	int m = around(pd, pd->rec[i].cc, cells);
+	for (int c = 0; c < m; c++)
+		for (int32_t q = pd->head[cidx(pd, cells[c])]; q >= 0; q = pd->rec[q].next)
+			if (q != i && met(pd, &pd->rec[i], t, &pd->rec[q])) {
+				flag(pd, t);
+				return;
+			}
+}
+
 /* Carry out own particle i's next event at time t (classified as cls). */
 static void process(ped_t *pd, int32_t i, double t, int cls)
 {
@@ -513,6 +604,9 @@ static void process(ped_t *pd, int32_t i, double t, int cls)
 	pd->s.lt = t;
 	if (e->t_cross < e->t_coll) {
 		do_cross(pd, i, t);
+		later_around(pd, i, t);
+		if (t > pd->s.tmax)
+			pd->s.tmax = t;
 		return;
 	}
 	int32_t j = e->partner;
@@ -521,11 +615,22 @@ static void process(ped_t *pd, int32_t i, double t, int cls)
 		schedule(pd, i);
 		return;
 	}
+	/* the pair's time afresh from the two particles' present records (their
+	 * last events), not the calendar's value, which depends on when the pair
+	 * was last predicted (the order in which changes arrived): the same bits
+	 * whatever the order of processing */
+	double tc = pair_time(pd, i, j);
+	if (tc < INFINITY)
+		t = tc;
 	/* a particle that already had a later event (an interior one run ahead
 	 * of this border event) has a wrong history: causality error */
 	if (pd->rec[i].tev > t || pd->rec[j].tev > t)
 		flag(pd, t);
 	collide(pd, i, j, t);
+	later_around(pd, i, t);
+	later_around(pd, j, t);
+	if (t > pd->s.tmax)
+		pd->s.tmax = t;
 	if (pd->rec[j].own == 1) {
 		predict(pd, i);
 		predict(pd, j);
@@ -544,36 +649,37 @@ static void process(ped_t *pd, int32_t i, double t, int cls)
 	}
 }
 
-double ped_interior(ped_t *pd, double barrier)
+double ped_run(ped_t *pd, double horizon, double barrier, uint64_t *done)
 {
+	uint64_t n = 0;
+	double next = INFINITY;
 	while (pd->s.hn > 0) {
 		int32_t i = pd->heap[0].i;
 		double t = pd->heap[0].key;
 		if (!(t < barrier))
-			return INFINITY;
+			break;
 		int cls = classify(pd, i);
-		if (cls == 2)
-			return INFINITY;   /* waits for the partner's owner (its time for the pair may differ by rounding) */
-		if (cls)
-			return t;
-		process(pd, i, t, 0);
+		if (cls == 1 && t > horizon) {
+			next = t;   /* a border event beyond the horizon */
+			break;
+		}
+		if (cls == 2) {
+			/* a collision with a ghost of lower id, which its owner
+			 * processes and sends, at its own time for the pair, which may
+			 * differ by rounding: ped_sched()'s horizon has a slack of
+			 * PED_SLACK. So close to the barrier the owner's time may lie
+			 * beyond it: then it is not a time to wait for (the pair comes
+			 * after the sync). */
+			if (t + PED_SLACK * fabs(t) < barrier)
+				next = t;
+			break;
+		}
+		process(pd, i, t, cls);
+		n++;
 	}
-	return INFINITY;
-}
-
-int ped_border(ped_t *pd, double T)
-{
-	if (pd->s.hn == 0)
-		return 0;
-	int32_t i = pd->heap[0].i;
-	double t = pd->heap[0].key;
-	if (t > T)
-		return 0;
-	int cls = classify(pd, i);
-	if (cls == 2)
-		return 0;
-	process(pd, i, t, cls);
-	return 1;
+	if (done)
+		*done = n;
+	return next;
 }
 
 double ped_error(const ped_t *pd)
@@ -593,8 +699,30 @@ static int32_t find(const ped_t *pd, const int32_t *c, uint32_t gid)
 	return -1;
 }
 
+/* A valid pending collision of own particle k before t, in k's calendar
+ * entry or in an own neighbour's (the pair is kept by whichever predicted it
+ * last): flagged at its time. */
+static void pending_before(ped_t *pd, int32_t k, double t)
+{
+	const pev_t *e = &pd->ev[k];
+	int32_t j = e->partner;
+	if (pd->hpos[k] >= 0 && e->t_coll < t && j >= 0 && pd->rec[j].own >= 0 && pd->rec[j].gid == e->pgid &&
+	    pd->rec[j].count == e->pcount)
+		flag(pd, e->t_coll);
+	int32_t cells[27][3];
+	int n = around(pd, pd->rec[k].cc, cells);
+	for (int c = 0; c < n; c++)
+		for (int32_t q = pd->head[cidx(pd, cells[c])]; q >= 0; q = pd->rec[q].next) {
+			const pev_t *f = &pd->ev[q];
+			if (q != k && pd->rec[q].own == 1 && pd->hpos[q] >= 0 && f->partner == k && f->t_coll < t &&
+			    f->pgid == pd->rec[k].gid && f->pcount == pd->rec[k].count)
+				flag(pd, f->t_coll);
+		}
+}
+
 static int apply(ped_t *pd, const ped_msg_t *m)
 {
+	int fresh = 0;
 	int32_t k = find(pd, m->oc, m->gid);
 	if (k < 0 && memcmp(m->oc, m->cc, sizeof m->cc))
 		k = find(pd, m->cc, m->gid);
@@ -603,6 +731,16 @@ static int apply(ped_t *pd, const ped_msg_t *m)
 			flag(pd, m->tu < pd->rec[k].tev ? m->tu : pd->rec[k].tev);
 		if (pd->rec[k].tev > m->tu)
 			flag(pd, m->tu);
+		/* another rank changed an own particle at tu (a collision it made)
+		 * while the particle still has a valid collision before tu, not yet
+		 * processed here (pending_before()): the sender used a state that was not
+		 * the particle's at tu (possible once border events run ahead of
+		 * global time order). The pair the sender processed is no longer
+		 * valid here: the sender's own particle came first in its messages
+		 * (process()), so its count has changed; a pending crossing does not
+		 * change the course. */
+		if (pd->rec[k].own == 1)
+			pending_before(pd, k, m->tu);
 	}
 	int nr = pd->role[cidx(pd, m->cc)];
 	if (nr == R_FOREIGN) {
@@ -626,28 +764,36 @@ static int apply(ped_t *pd, const ped_msg_t *m)
 		k = pd->s.free_head;
 		pd->s.free_head = pd->rec[k].next;
 		pd->rec[k].own = 0;
+		pd->rec[k].tloc = -INFINITY;
 		pd->hpos[k] = -1;
+		fresh = 1;
 	} else {
 		cell_remove(pd, k);
 	}
 	rec_t *p = &pd->rec[k];
 	memcpy(p->r, m->r, sizeof p->r);
 	memcpy(p->v, m->v, sizeof p->v);
+	if (fresh || p->count != m->count) {   /* a course whose history is not known here */
+		p->tcol = m->tev;
+		p->pcol = INFINITY;
+	}
 	p->t = m->t, p->tlast = m->tlast, p->tev = m->tev, p->count = m->count, p->gid = m->gid;
 	memcpy(p->cc, m->cc, sizeof p->cc);
 	cell_insert(pd, k);
-	/* a neighbour that already had an event after the change may have met it */
+	/* a neighbour that already had an event after the change (later()) may have met it */
 	int32_t cells[27][3];
 	int n = around(pd, p->cc, cells);
 	for (int c = 0; c < n; c++)
 		for (int32_t q = pd->head[cidx(pd, cells[c])]; q >= 0; q = pd->rec[q].next)
-			if (q != k && pd->rec[q].own == 1 && pd->rec[q].tev > m->tu)
+			if (q != k && met(pd, &pd->rec[k], m->tu, &pd->rec[q]))
 				flag(pd, m->tu);
 	if (nr >= R_INNER) {
 		if (p->own != 1) {
 			p->own = 1;
 			pd->s.owned++;
 		}
+		if (p->tev > pd->s.tmax)
+			pd->s.tmax = p->tev;
 		predict(pd, k);
 	} else {
 		if (p->own == 1) {   /* ours moved into another rank's cell by someone else: inconsistent */
@@ -669,6 +815,12 @@ int ped_inbox(ped_t *pd, const ped_msg_t *m, size_t n)
 			return rc;
 	}
 	return pd->oom ? PED_ENOMEM : PED_OK;
+}
+
+int ped_neighbours(const ped_t *pd, const int **ranks)
+{
+	*ranks = pd->nb;
+	return pd->nnb;
 }
 
 const ped_msg_t *ped_outbox(const ped_t *pd, int dest, size_t *n)
@@ -722,6 +874,7 @@ void ped_destroy(ped_t *pd)
 			free(pd->out[r].m);
 	free(pd->out);
 	free(pd->log);
+	free(pd->nb);
 	free(pd);
 }
 
@@ -802,6 +955,33 @@ ped_t *ped_create(const ped_params_t *p, int rank, size_t capacity, int *err)
 			if (pd->role[cidx(pd, nb[q])] == R_BORDER)
 				pd->role[k] = R_GUARD;
 	}
+	/* the ranks a send() may address: owners of the cells around the own and
+	 * ghost cells (a changed ghost's cell, or a crossing's new cell, is at
+	 * most one cell from an own one) */
+	char *seen = calloc((size_t)p->ranks, 1);
+	if (!seen || !(pd->nb = malloc((size_t)p->ranks * sizeof *pd->nb))) {
+		free(seen);
+		ped_destroy(pd);
+		return NULL;
+	}
+	for (size_t k = 0; k < pd->ncells; k++) {
+		if (pd->role[k] != R_GHOST)
+			continue;
+		c[0] = (int32_t)(k % (size_t)pd->p.nc[0]);
+		c[1] = (int32_t)(k / (size_t)pd->p.nc[0] % (size_t)pd->p.nc[1]);
+		c[2] = (int32_t)(k / ((size_t)pd->p.nc[0] * (size_t)pd->p.nc[1]));
+		int32_t nb[27][3];
+		int m = around(pd, c, nb);
+		for (int q = 0; q < m; q++) {
+			int o = decomp_owner(pd->dc, nb[q]);
+			if (o != rank && o >= 0 && !seen[o])
+				seen[o] = 1;
+		}
+	}
+	for (int r = 0; r < p->ranks; r++)
+		if (seen[r])
+			pd->nb[pd->nnb++] = r;
+	free(seen);
 	for (size_t k = 0; k < pd->ncells; k++)
 		pd->head[k] = -1;
 	for (size_t k = 0; k < capacity; k++) {
@@ -881,7 +1061,7 @@ int ped_load_at(ped_t *pd, uint64_t n, const double *pos, const double *vel, con
 		}
 		p->t = t0;
 		p->tlast = tlast ? tlast[k] : -INFINITY;
-		p->tev = -INFINITY;
+		p->tev = p->tloc = p->tcol = p->pcol = -INFINITY;
 		p->gid = (uint32_t)k;
 		memcpy(p->cc, c, sizeof p->cc);
 		p->own = pd->role[cidx(pd, c)] >= R_INNER;
@@ -893,6 +1073,7 @@ int ped_load_at(ped_t *pd, uint64_t n, const double *pos, const double *vel, con
 			predict(pd, (int32_t)i);
 	pd->tref = t0;
 	pd->s.lt = t0;
+	pd->s.tmax = -INFINITY;
 	ped_save(pd);
 cleanup:
 	free(cnt);
@@ -958,7 +1139,8 @@ size_t ped_memory(const ped_t *pd)
 	size_t out = 0;
 	for (int r = 0; r < pd->p.ranks; r++)
 		out += pd->out[r].cap * sizeof(ped_msg_t);
-	return sizeof *pd + pd->cap * per + pd->ncells * (1 + 2 * sizeof *pd->head) + pd->logcap * sizeof(ped_coll_t) + out;
+	return sizeof *pd + pd->cap * per + pd->ncells * (1 + 2 * sizeof *pd->head) + pd->logcap * sizeof(ped_coll_t) + out +
+	       (size_t)pd->p.ranks * sizeof *pd->nb;
 }
 
 void ped_log_on(ped_t *pd)
@@ -1073,7 +1255,7 @@ uint64_t ped_scene_bytes(const scene_t *s, int P)
 	 * byte and two list heads per cell; the outboxes (ped_memory()) */
 	const uint64_t per = 2 * (sizeof(rec_t) + sizeof(pev_t) + sizeof(hent_t) + sizeof(int32_t));
 	return sizeof(struct ped) + s->count * per + ncells * (1 + 2 * sizeof(int32_t)) +
-	       (uint64_t)P * (sizeof(struct msgbuf) + 16 * sizeof(ped_msg_t));
+	       (uint64_t)P * (sizeof(struct msgbuf) + 16 * sizeof(ped_msg_t) + sizeof(int));
 }
 
 /* ---- drivers --------------------------------------------------------------- */
@@ -1083,45 +1265,70 @@ void ped_sched_init(ped_sched_t *s, double t_end, double sync_dt)
 	memset(s, 0, sizeof *s);
 	s->t_end = t_end;
 	s->sync_dt = sync_dt;
+	s->window = sync_dt * PED_WINDOW;
 	s->barrier = sync_dt < t_end ? sync_dt : t_end;
+	s->horizon = s->window;
 	s->st.sync_dt = sync_dt;
+	s->st.window = s->window;
 }
 
 void ped_sched_next(ped_sched_t *s, double t0, double t_end)
 {
 	s->t_end = t_end;
+	s->t_sync = t0;
+	s->cons = 0;
 	s->barrier = t0 + s->sync_dt < t_end ? t0 + s->sync_dt : t_end;
+	s->horizon = t0 + s->window;
 }
 
-int ped_sched(ped_sched_t *s, double E, double T)
+int ped_sched(ped_sched_t *s, double E, double T, int quiet)
 {
 	s->st.rounds++;
 	if (E < INFINITY) {
 		s->st.rollbacks++;
-		s->barrier = E;
+		if (E > s->t_sync) {
+			s->barrier = E;
+		} else {
+			/* an error at the sync itself: run this section again with
+			 * border events in global time order only (window 0) */
+			if (s->cons)
+				return -1;
+			s->cons = 1;
+		}
 		s->sync_dt *= 0.5;
+		s->window *= 0.5;
 		s->st.sync_dt = s->sync_dt;
+		s->st.window = s->window;
+		s->horizon = s->t_sync + (s->cons ? 0.0 : s->window);
 		return 1;
 	}
-	if (T == INFINITY) {
+	if (T == INFINITY && quiet) {
 		s->st.syncs++;
+		s->t_sync = s->barrier;
+		s->cons = 0;
 		if (s->barrier >= s->t_end)
 			return 3;
 		s->sync_dt *= 1.1;
+		s->window *= 1.1;
 		s->st.sync_dt = s->sync_dt;
+		s->st.window = s->window;
 		s->barrier = s->barrier + s->sync_dt < s->t_end ? s->barrier + s->sync_dt : s->t_end;
+		s->horizon = s->t_sync + s->window;
 		return 2;
 	}
+	s->horizon = T + (s->cons ? 0.0 : s->window) + PED_SLACK * fabs(T);
 	return 0;
 }
 
-
-int ped_sim_run(ped_t **pd, int P, double t_end, double sync_dt, int force_every, ped_stats_t *st)
+int ped_sim_run(ped_t **pd, int P, double t_end, double sync_dt, double window, int force_every, ped_stats_t *st)
 {
 	ped_sched_t s;
 	ped_sched_init(&s, t_end, sync_dt);
+	if (window >= 0.0) {
+		s.window = s.st.window = window;
+		s.horizon = window;
+	}
 	struct msgbuf *in = calloc((size_t)P, sizeof *in);
-	double t_sync = 0.0;
 	int rc = PED_OK;
 	if (!in)
 		return PED_ENOMEM;
@@ -1133,43 +1340,29 @@ int ped_sim_run(ped_t **pd, int P, double t_end, double sync_dt, int force_every
 				goto cleanup;
 		}
 		double E = INFINITY, T = INFINITY;
+		uint64_t done = 0;
 		for (int r = 0; r < P; r++) {
-			double tb = ped_interior(pd[r], s.barrier);
+			uint64_t n;
+			double tb = ped_run(pd[r], s.horizon, s.barrier, &n);
 			T = tb < T ? tb : T;
+			done += n;
 		}
-		for (int r = 0; r < P; r++) {
-			double e = ped_error(pd[r]);
-			E = e < E ? e : E;
-		}
-		if (force_every > 0 && E == INFINITY && T < INFINITY && T > t_sync && (s.st.rounds + 1) % (uint64_t)force_every == 0)
-			E = t_sync + 0.5 * (T - t_sync);
-		double bprev = s.barrier;
-		int act = ped_sched(&s, E, T);
-		if (act == 1) {
-			if (!(E > t_sync)) {
-				rc = PED_ESTALL;   /* an error at the sync itself: no progress possible */
-				goto cleanup;
-			}
-			for (int r = 0; r < P; r++)
-				ped_restore(pd[r]);
-			continue;
-		}
-		if (act >= 2) {
-			t_sync = bprev;
-			if (act == 3)
-				break;
-			for (int r = 0; r < P; r++)
-				ped_save(pd[r]);
-			continue;
-		}
-		int any = 0;
-		for (int r = 0; r < P; r++)
-			any |= ped_border(pd[r], T);
+		/* the changed particles, to the inboxes of the next round (the
+		 * neighbour exchange of pedmpi.c) */
 		size_t nmsg = 0;
 		for (int r = 0; r < P; r++) {
+			const int *nb;
+			int nn = ped_neighbours(pd[r], &nb);
 			for (int d = 0; d < P; d++) {
 				size_t n;
 				const ped_msg_t *m = ped_outbox(pd[r], d, &n);
+				int isnb = 0;
+				for (int q = 0; q < nn; q++)
+					isnb |= nb[q] == d;
+				if (n && !isnb) {
+					rc = PED_EINVAL;   /* cannot happen: send() addresses neighbours only */
+					goto cleanup;
+				}
 				for (size_t k = 0; k < n; k++) {
 					struct msgbuf *b = &in[d];
 					if (b->n == b->cap) {
@@ -1189,8 +1382,35 @@ int ped_sim_run(ped_t **pd, int P, double t_end, double sync_dt, int force_every
 			ped_outbox_clear(pd[r]);
 		}
 		s.st.messages += nmsg;
-		if (!any && nmsg == 0) {
-			rc = PED_ESTALL;
+		for (int r = 0; r < P; r++) {
+			double e = ped_error(pd[r]);
+			E = e < E ? e : E;
+		}
+		if (force_every > 0 && E == INFINITY && T < INFINITY && T > s.t_sync && (s.st.rounds + 1) % (uint64_t)force_every == 0)
+			E = s.t_sync + 0.5 * (T - s.t_sync);
+		double hprev = s.horizon;
+		int act = ped_sched(&s, E, T, nmsg == 0);
+
+		if (act < 0) {
+			rc = PED_ESTALL;   /* errors at the sync itself even in global time order: no progress possible */
+			goto cleanup;
+		}
+		if (act == 1) {
+			for (int r = 0; r < P; r++) {
+				ped_restore(pd[r]);
+				in[r].n = 0;
+			}
+			continue;
+		}
+		if (act >= 2) {
+			if (act == 3)
+				break;
+			for (int r = 0; r < P; r++)
+				ped_save(pd[r]);
+			continue;
+		}
+		if (!done && nmsg == 0 && T <= hprev) {
+			rc = PED_ESTALL;   /* nothing moved anywhere though the next event was within reach: it never will */
 			goto cleanup;
 		}
 	}

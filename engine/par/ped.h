@@ -20,24 +20,40 @@
  *   border cell) or a ghost: a collision with a particle there, a crossing
  *   from or into such a cell. All others are interior.
  * - Round (the driver): (1) apply the messages of the previous round,
- *   (2) process interior events optimistically up to the own next border
- *   event or the barrier B, (3) global min of the error times and of the
- *   next border event times T, (4) on an error all ranks restore the state
- *   saved at the last sync and run again with the barrier at the error
- *   time; if T >= B every event before B is done: sync (save); otherwise the
- *   ranks whose next event lies at T process it (a collision of particles
- *   of two ranks only by the owner of the lower id, which sends the partner
- *   its new state; the other waits for it) and send the changed particles
- *   to every rank that sees their old or new cell or owns the new one.
+ *   (2) process the own events in local time order (ped_run()): interior
+ *   ones up to the barrier B, border ones up to the round's horizon H
+ *   (optimistically: other ranks may not have reached H), stopping at the
+ *   first border event beyond H or collision with a ghost of lower id (its
+ *   owner processes it and sends the partner's new state), (3) send the
+ *   changed particles to the neighbour ranks that see them (point to point),
+ *   (4) global min of the error times E and of the next unprocessed event
+ *   times T, and whether anything was sent. On an error all ranks restore
+ *   the state saved at the last sync and run again with the barrier at the
+ *   error time (window and sync interval halve); if T >= B and nothing was
+ *   sent every event before B is done: sync (save; both grow by 1.1);
+ *   otherwise the next horizon is H = T + W, W the optimistic window
+ *   (ped_sched_t). W = 0 is the exact global time order of border events
+ *   (one border event time per round).
  *   Causality errors: a border event meets a particle that already had a
  *   later event; a message changes a particle next to an own particle that
  *   already had an event after the message's time; a message's collision
  *   counter does not match the receiver's copy.
  * - Exactness: the committed collisions are those of the serial engine from
  *   the same initial state (times to rounding: pair times are computed from
- *   the pair's later reference time, the lower id first). For one rank
- *   count a run is bit for bit reproducible, and independent of where the
- *   syncs and rollbacks fall.
+ *   the pair's later reference time, the lower id first, and again from the
+ *   two records when processed). For one rank count and one schedule (sync
+ *   interval, window, stops) a run is bit for bit reproducible; the
+ *   committed collisions do not depend on where syncs and rollbacks fall,
+ *   their times may differ in the last bits (a rank that runs ahead may take
+ *   a pair's time from a ghost whose cell crossing, the same course from a
+ *   later reference point, has not arrived yet).
+ *   More causality errors, once border events run ahead of global time order:
+ *   a message changes an own particle (a collision another rank made) that
+ *   still has a valid pending collision before the change, in its calendar
+ *   entry or a neighbour's; an event processed out of time order changes a
+ *   particle next to one whose course since then already had an event (own
+ *   particles: their courses since the change are checked for contact; ghosts
+ *   this rank moved or collided: any such event counts).
  * - Memory per rank: particles of its cells and ghosts (fixed capacity),
  *   one saved copy, and a per-cell role byte and head index over the whole
  *   grid (O(cells), not O(N/P): a known limitation of this slice).
@@ -92,9 +108,14 @@ int ped_load_at(ped_t *pd, uint64_t n, const double *pos, const double *vel, con
 
 /* Round steps (see the contract). */
 int ped_inbox(ped_t *pd, const ped_msg_t *m, size_t n);   /* PED_OK or PED_EFULL */
-double ped_interior(ped_t *pd, double barrier);          /* next border event time, INFINITY if none before barrier */
+/* Process the own events before the barrier, border events only up to the
+ * horizon (included); returns the time of the next unprocessed event before
+ * the barrier (INFINITY: none) and in *done (may be NULL) how many it did. */
+double ped_run(ped_t *pd, double horizon, double barrier, uint64_t *done);
 double ped_error(const ped_t *pd);                        /* earliest causality error this section, INFINITY if none */
-int ped_border(ped_t *pd, double T);                      /* 1 if it processed an event at T */
+/* The ranks this rank may send to (owners of cells within two cells of its
+ * own; ascending): the neighbour exchange. Returns how many. */
+int ped_neighbours(const ped_t *pd, const int **ranks);
 const ped_msg_t *ped_outbox(const ped_t *pd, int dest, size_t *n);
 void ped_outbox_clear(ped_t *pd);
 void ped_save(ped_t *pd);
@@ -150,22 +171,40 @@ uint64_t ped_scene_bytes(const struct scene *s, int P);
 typedef struct {
 	uint64_t rounds, syncs, rollbacks, messages, bytes;
 	double sync_dt;        /* current sync interval */
+	double window;         /* current optimistic window */
 } ped_stats_t;
 
+/* The optimistic window at the start, as a fraction of the first sync
+ * interval (ped_sched_init()). */
+#define PED_WINDOW (1.0 / 32.0)
+/* Relative slack of the horizon beyond T + window: two ranks' times for one
+ * pair of particles may differ by rounding, and the rank waiting for the
+ * other reports its own (ped_run()). */
+#define PED_SLACK 1e-12
+
 /* Driver decision shared by the in-process and MPI drivers: after the
- * reduction of a round (E = min error time, T = min next border time),
- * returns 0: process border events at T; 1: rollback (barrier set to E);
- * 2: sync reached (save; barrier advanced); 3: done (t_end reached). */
+ * reduction of a round (E = min error time, T = min next event time, quiet =
+ * no rank sent anything this round), returns 0: next round with border
+ * events up to horizon; 1: rollback (restore; barrier set to E); 2: sync
+ * reached (save; barrier advanced); 3: done (t_end reached); -1: no progress
+ * possible (an error at the sync itself in a section already run in global
+ * time order). window: border events are processed up to T + window (0: in
+ * global time order); it and sync_dt halve at a rollback and grow by 1.1 at
+ * a sync. An error at the last sync itself runs the section again with
+ * window 0 (cons). */
 typedef struct {
 	double barrier, t_end, sync_dt;
+	double window, horizon, t_sync;
+	int cons;
 	ped_stats_t st;
 } ped_sched_t;
 void ped_sched_init(ped_sched_t *s, double t_end, double sync_dt);
 /* Continue a schedule from a sync at t0 (every event before t0 done) to a
- * new t_end; the sync interval and the statistics carry over. */
+ * new t_end; the sync interval, window and statistics carry over. */
 void ped_sched_next(ped_sched_t *s, double t0, double t_end);
-int ped_sched(ped_sched_t *s, double E, double T);
+int ped_sched(ped_sched_t *s, double E, double T, int quiet);
 
-/* P ranks in one process (tests): runs pd[0..P-1] to t_end. force_every > 0
+/* P ranks in one process (tests): runs pd[0..P-1] to t_end. window >= 0
+ * sets the first optimistic window (< 0: ped_sched_init()'s). force_every > 0
  * injects a rollback every force_every rounds (barrier halfway to T). */
-int ped_sim_run(ped_t **pd, int P, double t_end, double sync_dt, int force_every, ped_stats_t *st);
+int ped_sim_run(ped_t **pd, int P, double t_end, double sync_dt, double window, int force_every, ped_stats_t *st);

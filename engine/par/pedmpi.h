@@ -9,15 +9,18 @@
 /*
  * Contract: every rank of comm calls pedmpi_run() with its own ped_t (rank
  * and rank count of comm, loaded with ped_load()) and the same t_end and
- * sync_dt; it runs the rounds of ped.h's contract with one MPI_Allreduce
- * (error time, next border time, progress) and one fixed-size MPI_Alltoall
- * (the changed particles: at most two per rank and round) per round, exactly as ped_sim_run()
- * does in one process, so the run is the same bit for bit. Returns PED_OK
- * on every rank, or the same negative code on every rank. *st (may be NULL)
- * gets this rank's messages and bytes sent and the common round, sync and
- * rollback counts.
+ * sync_dt; it runs the rounds of ped.h's contract: in each round the changed
+ * particles go point to point to the neighbour ranks (ped_neighbours(): one
+ * message to each, empty ones included, MPI_Isend/MPI_Probe/MPI_Recv) and one
+ * MPI_Allreduce of six doubles (error time, next event time, failure, sent,
+ * progress, stop), exactly as ped_sim_run() does in one process, so the run
+ * is the same bit for bit. window >= 0 sets the first optimistic window
+ * (< 0: ped_sched_init()'s; 0: border events in global time order). Returns
+ * PED_OK on every rank, or the same negative code on every rank. *st (may be
+ * NULL) gets this rank's messages (non-empty ones) and bytes sent and the
+ * common round, sync and rollback counts.
  */
-int pedmpi_run(ped_t *pd, MPI_Comm comm, double t_end, double sync_dt, ped_stats_t *st);
+int pedmpi_run(ped_t *pd, MPI_Comm comm, double t_end, double sync_dt, double window, ped_stats_t *st);
 
 /* The same rounds from a sync at t0 (ped_load(), or an earlier call that
  * returned PED_OK at t0) to t_end with the schedule *s (ped_sched_init()
