@@ -240,9 +240,9 @@ report "$tmp/mix.res"
 # Z = (1 + eta^2/8) / (1 - eta)^2 = 2.064) and 3D at eta = 0.2 (Carnahan-Starling's Z = (1 + eta + eta^2 -
 # eta^3) / (1 - eta)^3 = 2.406), the records' compressibility P V / (N T) (kinetic + the contacts' pair virial,
 # integrated over each interval of 10 time units, the first 2 dropped). Tolerance: 4 standard errors of the block
-# means plus 1% of Z: the contacts' softness (thermal impacts overlap ~0.3% of d at the default stiffness)
-# shortens the effective diameter, and Z - 1 falls by about 3.4 times that relative change at these densities
-# (eta_eff ~ d^2 and the contact value's slope): 0.4-0.5% of Z, taken twice.
+# means plus 1.5% of Z for the contacts' softness, which shortens the effective diameter (thermal impacts
+# overlap ~0.3% of d at the default stiffness) and lowers Z: measured -1.06% (2D) and -0.76% (3D) here, and the
+# 2D gas with a 4 times smaller max_overlap gives 2.0637 +- 0.007 (t = 100) against Henderson's 2.0638.
 for dim in 2 3; do
 	eta=$([ $dim = 2 ] && echo 0.3 || echo 0.2)
 	cat >"$tmp/virial$dim.json" <<JSON
@@ -261,7 +261,7 @@ z = [r["compressibility"] for r in recs]
 K = len(z); mean = sum(z) / K
 se = math.sqrt(sum((x - mean) ** 2 for x in z) / (K - 1) / K)
 Z = (1 + eta * eta / 8) / (1 - eta) ** 2 if D == 2 else (1 + eta + eta ** 2 - eta ** 3) / (1 - eta) ** 3
-tol = 4 * se + 0.01 * Z
+tol = 4 * se + 0.015 * Z
 name = "Henderson" if D == 2 else "Carnahan-Starling"
 print(("ok" if abs(mean - Z) < tol else "not ok") + " - %dD virial compressibility %.4f +- %.4f (%d blocks) against %s's %.4f "
       "at eta %g, tolerance %.3f" % (D, mean, se, K, name, Z, eta, tol))
