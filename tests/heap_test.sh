@@ -15,7 +15,7 @@ run() { "$ENGINE" run "$1" --out "$2" >"$2.log" 2>&1; }
 
 # A small pile: 300 particles poured at 2 per time unit, 3 diameters above the top, onto a frictional floor of a
 # 60 x 30 box (cells of 2 diameters). SIDES: the side walls.
-scene() {   # NAME SIDES EXTRA_OUTPUT
+scene() {   # NAME SIDES EXTRA_OUTPUT [EXTRA_HSMC]
 	cat >"$tmp/$1.json" <<JSON
 {"method":"hsmc","dimensions":2,
  "particles":{"count":2,"box":[60,30],"initial":{"positions":"random","temperature":0},
@@ -27,12 +27,13 @@ scene() {   # NAME SIDES EXTRA_OUTPUT
  "gravity":[0,-10],"run":{"seed":7,"until":{"time":200}},
  "output":{"every":{"time":12.5},"observables":["kinetic_energy","center_of_mass_height","outflow","surface_profile"],
    "surface_profile":{"bins":30},"snapshots":{"every":{"time":50}}$3},
- "hsmc":{"time_step":0.01,"cell_size":2,"correction":"none"}}
+ "hsmc":{"time_step":0.01,"cell_size":2,"correction":"none"${4:-}}}
 JSON
 }
 SPEC='{"type":"specular"}'
 scene box "$SPEC" ',"checkpoint":{"every":{"time":70}}'
 scene table '{"type":"open"}' ''
+scene opts "$SPEC" ',"checkpoint":{"every":{"time":70}}' ',"entry":"linear","rejected_moves":"collide","lattice":"shifted"'
 
 # 1. The box: the insertions on schedule (the k-th at time k / rate: a record at time t counts those with
 # k / rate < t), each made or skipped, the particles made all present; the profile's bins hold them all, heights
@@ -81,6 +82,21 @@ for which in checkpoint.prev.h5 checkpoint.h5; do
 	ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "box: resume from $which gives the uninterrupted run's records (exit $rc)"
 done
 
+# 3b. The excluded-volume options (hsmc.entry "linear", rejected_moves "collide", lattice "shifted": random numbers
+# drawn in the moves, velocities of other records changed there): the same records run twice and after a resume.
+run "$tmp/opts.json" "$tmp/opts"
+rc=$?
+run "$tmp/opts.json" "$tmp/opts2"
+strip "$tmp/opts/progress.jsonl" >"$tmp/a"; strip "$tmp/opts2/progress.jsonl" >"$tmp/b"
+cmp -s "$tmp/a" "$tmp/b" && cmp -s "$tmp/opts/observables.jsonl" "$tmp/opts2/observables.jsonl"
+ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "box, entry linear, rejected_moves collide, lattice shifted: a second run gives the same records"
+rm -rf "$tmp/res"; cp -r "$tmp/opts" "$tmp/res"
+"$ENGINE" run "$tmp/opts.json" --resume "$tmp/res/checkpoint.h5" --out "$tmp/res" >"$tmp/res.log" 2>&1
+rc=$?
+strip "$tmp/res/progress.jsonl" >"$tmp/b"
+cmp -s "$tmp/a" "$tmp/b" && cmp -s "$tmp/opts/observables.jsonl" "$tmp/res/observables.jsonl"
+ok $(( rc == 0 && $? == 0 ? 0 : 1 )) "box with the options: resume from checkpoint.h5 gives the uninterrupted run's records (exit $rc)"
+
 # 4. The finite table: particles that reach an edge leave there; inserted = present + out, and some leave.
 run "$tmp/table.json" "$tmp/table"
 ok $? "finite table: the run completes"
@@ -120,6 +136,35 @@ print("%d present %d in 2 replicas, profile %g per replica at t = %g" % (prog["p
 PY
 read -r good rest <"$tmp/s3.out"
 ok $([ $rc = 0 ] && [ "$good" = 1 ]; echo $?) "3D, vibrating floor, 2 replicas: $rest"
+
+# 5b. A bed at rest under gravity (600 disks dropped from random positions, T = 1, into a 40 x 40 box with elastic
+# specular walls, so that only the particles dissipate; r = 0.9, step 0.01, correction none): it must come to rest,
+# its kinetic energy decaying towards 0. With rejected_moves "keep" (the seed's rule: a refused move keeps its
+# velocity) it does not: velocities pressed against full cells stay frozen, E_kin 600 -> 115 at t = 200, a plateau
+# (docs/engine.md). With "collide" each refused move is an inelastic collision with a particle of the full cell:
+# measured E_kin(200) / E_kin(0) = 2.05e-4 .. 2.25e-4 over seeds 1-5, still falling (0.165 -> 0.123 from t = 100
+# to 200 at seed 5). Checks: E_kin(200) below 1e-3 E_kin(0) (4x the largest measured, 190x below keep's plateau)
+# and falling from t = 100 to t = 200.
+cat >"$tmp/bed.json" <<'JSON'
+{"method":"hsmc","dimensions":2,
+ "particles":{"count":600,"box":[40,40],"initial":{"positions":"random","temperature":1}},
+ "collisions":{"restitution":0.9},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"specular"}},
+               "y":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"specular"}}},
+ "gravity":[0,-10],"run":{"seed":5,"until":{"time":200}},
+ "output":{"every":{"time":20},"observables":["kinetic_energy","center_of_mass_height"]},
+ "hsmc":{"time_step":0.01,"cell_size":2,"correction":"none","rejected_moves":"collide"}}
+JSON
+run "$tmp/bed.json" "$tmp/bed"
+rc=$?
+"$PY" - "$tmp/bed" <<'PY' >"$tmp/bed.out" 2>&1
+import json, sys
+e = {p["time"]: p["kinetic_energy"] for p in map(json.loads, open(sys.argv[1] + "/progress.jsonl")) if p.get("type") == "progress"}
+print("%d E_kin %.4g at t = 0, %.4g at 100, %.4g at 200 (ratio %.3g)" % (e[200] < 1e-3 * e[0] and e[200] < e[100],
+      e[0], e[100], e[200], e[200] / e[0]))
+PY
+read -r good rest <"$tmp/bed.out"
+ok $([ $rc = 0 ] && [ "$good" = 1 ]; echo $?) "bed at rest, rejected_moves collide: the kinetic energy decays: $rest"
 
 # 6. The published shape (seed 000 sec. 3.5, anchor A10), on presets/heap-2d.json (2000 particles poured at one per
 # time unit onto a 200-wide table, r = 0.9, then 500 time units of rest; the seed's N = 30500 scaled down to run in

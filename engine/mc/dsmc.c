@@ -55,6 +55,20 @@ struct dsmc {
 	double h[3], inv_h[3], vcell;
 	uint32_t nfull;                /* hsmc: a cell with >= nfull particles is full */
 	int cell_any;                  /* hsmc.cell_partners "any": a full cell's partner may be any non-empty neighbour */
+	/* hsmc in bounded scenes (move_bounded(); scene.h mc_entry, mc_reject, mc_lattice; all 0 by default): xopt =
+	 * any of them. entry_lin: a move into another cell is accepted with probability 1 - nu / nu_cap instead of the
+	 * step at full; rej_coll: a refused move is a binary collision along the face normal with a random particle
+	 * of the refusing cell; shift: the excluded volume is counted on a lattice of the same edges displaced by
+	 * soff (uniform in [0, h) per axis, drawn at each step's start), snc[a] = nc[a] cells along a periodic axis,
+	 * nc[a] + 1 along a walled one (the end cells clipped by the box), sncells in all; per shifted cell at the
+	 * step's start: socc the volume of its particles, scap nu_cap times its volume inside the box, sidx its
+	 * records (from sstart[c] to sstart[c + 1]; a function of the records and soff: no checkpoint field). */
+	int xopt, entry_lin, rej_coll, shift;
+	int snc[3];
+	size_t sncells;
+	double soff[3];
+	double *socc, *scap;
+	uint32_t *sidx, *sstart;
 
 	/* particles: AoS, stride 2D doubles: x[D] then v[D], in cell order (sorted in place) */
 	double *p;
@@ -77,6 +91,7 @@ struct dsmc {
 	rng_t rng;
 	double t;
 	uint64_t steps, collisions, candidates, vmax_raised, cell_collisions, rejected;
+	uint64_t refused_collisions;   /* hsmc.rejected_moves "collide": refused moves that were collisions (total) */
 	double ekin_est;               /* E_kin now, up to rounding (for the adaptive step) */
 	double e_loss;                 /* energy dissipated in the current step's collisions */
 
@@ -1026,6 +1041,188 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 #undef MASS
 }
 
+/* ---- hsmc's excluded-volume options (bounded scenes, move_bounded()) ------------ */
+
+/* The shifted lattice's coordinate along axis a of a centre at y. */
+static ALWAYS_INLINE int scoord(const struct dsmc *d, double y, int a)
+{
+	y += d->soff[a];
+	if (!d->walled[a] && y >= d->L[a])
+		y -= d->L[a];
+	int i = (int)(y * d->inv_h[a]);
+	return i < 0 ? 0 : i >= d->snc[a] ? d->snc[a] - 1 : i;
+}
+
+static ALWAYS_INLINE size_t scell_of(const struct dsmc *d, const double *x, const int D)
+{
+	size_t c = 0;
+	for (int a = D - 1; a >= 0; a--)
+		c = c * (size_t)d->snc[a] + (size_t)scoord(d, x[a], a);
+	return c;
+}
+
+/* hsmc.lattice "shifted", at a step's start: a new displacement of the lattice, each shifted cell's capacity
+ * (nu_cap times its volume inside the box), the volume of its particles and the list of its records; each
+ * record's shifted cell goes to d->cell (scratch until move_bounded() writes the record's new cell there). */
+static void shift_lattice(struct dsmc *d, const int D, const int M)
+{
+	const int S = 2 * D;
+	const double kv = D == 2 ? PI : 4.0 / 3.0 * PI;
+	for (int a = 0; a < D; a++)
+		d->soff[a] = d->h[a] * rng_uniform(&d->rng);
+	for (size_t c = 0; c < d->sncells; c++) {
+		size_t q = c;
+		double v = d->nu_cap;
+		for (int a = 0; a < D; a++) {
+			int i = (int)(q % (size_t)d->snc[a]);
+			q /= (size_t)d->snc[a];
+			if (d->walled[a]) {
+				double lo = fmax(0.0, i * d->h[a] - d->soff[a]), hi = fmin(d->L[a], (i + 1) * d->h[a] - d->soff[a]);
+				v *= hi > lo ? hi - lo : 0.0;
+			} else {
+				v *= d->h[a];
+			}
+		}
+		d->scap[c] = v;
+		d->socc[c] = 0;
+		d->sstart[c] = 0;
+	}
+	d->sstart[d->sncells] = 0;
+	for (uint32_t k = 0; k < d->na; k++) {
+		size_t c = scell_of(d, &d->p[(size_t)k * S], D);
+		double vk = d->vp;
+		if (M) {
+			double r = d->rad[d->id[k]];
+			vk = kv * (D == 2 ? r * r : r * r * r);
+		}
+		d->cell[k] = (uint32_t)c;
+		d->socc[c] += vk;
+		d->sstart[c]++;
+	}
+	uint32_t acc = 0;   /* sstart[c]: the end of cell c's list, then (filled backwards) its start */
+	for (size_t c = 0; c < d->sncells; c++) {
+		acc += d->sstart[c];
+		d->sstart[c] = acc;
+	}
+	d->sstart[d->sncells] = acc;
+	for (uint32_t k = d->na; k-- > 0;)
+		d->sidx[--d->sstart[d->cell[k]]] = k;
+}
+
+/* hsmc with an excluded-volume option (xopt): whether the move of record k from x (cell c of the sort) to xn
+ * (cell cn) is refused; *tc: the refusing cell (the shifted lattice's with shift, else the sort's). The rule:
+ * the target cell (another cell than the start's) holds the volume occ of its capacity cap (nu_cap times its
+ * volume); "step": refused at occ >= cap; "linear": accepted with probability 1 - occ / cap (seed 000's p(nu),
+ * 1 in an empty cell, 0 at nu_cap). Random numbers from the engine's stream (the moves run in a fixed order). */
+static ALWAYS_INLINE int refused(struct dsmc *d, uint32_t k, size_t c, size_t cn, const double *xn, size_t *tc,
+                                 const int D, const int M)
+{
+	double occ, cap;
+	if (d->shift) {
+		/* every move, also one within a cell: the lattice moves under the particles, so a test of the moves
+		 * across its faces alone would let a particle at rest on a full cell creep into it (a move of dx
+		 * crosses a face of the new lattice with probability dx / h only): the target cell's volume without
+		 * the particle's own */
+		size_t sn = scell_of(d, xn, D);
+		occ = d->socc[sn];
+		if (sn == d->cell[k]) {
+			double r = M ? d->rad[d->id[k]] : 0;
+			occ -= M ? (D == 2 ? PI * r * r : 4.0 / 3.0 * PI * r * r * r) : d->vp;
+			if (occ < 1e-9 * d->vp)
+				occ = 0;
+		}
+		cap = d->scap[sn];
+		*tc = sn;
+		if (!d->entry_lin)
+			return occ > 0 && occ >= cap - 1e-9 * d->vp;
+	} else {
+		if (cn == c)
+			return 0;
+		*tc = cn;
+		if (!d->entry_lin)
+			return cell_full(d, cn, M);
+		occ = M ? d->vocc[cn] : (double)(d->start[cn + 1] - d->start[cn]) * d->vp;
+		cap = d->vfull;
+	}
+	if (occ <= 0)
+		return 0;
+	double pin = cap > 0 ? 1 - occ / cap : 0;
+	return pin <= 0 || rng_uniform(&d->rng) >= pin;
+}
+
+/* hsmc.rejected_moves "collide": record k (velocity v, at x, refused by cell tc on its way to xn) is stopped
+ * across the faces it would cross (the axes whose cell coordinate changes; all axes for a move within its own
+ * shifted cell) and collides with a random particle j of the refusing cell along their normal (the sum of
+ * those axes' unit vectors, normalised; within its own cell: along the displacement): when they approach,
+ * J = (1 + e) mu w along it, w the normal relative velocity, mu the pair's reduced mass (the particles' own
+ * masses, not the cell's); the pair's momentum is conserved and (1 - e^2) mu w^2 / 2 dissipated. When j has
+ * flown already this step (j < k), its kinetic energy change goes to *ekfix (in move_bounded()'s units of ek).
+ * Returns the mask of the stopped axes (move_bounded() keeps the flight along the others). */
+static ALWAYS_INLINE unsigned refused_collide(struct dsmc *d, uint32_t k, double *v, const double *x,
+                                              const double *xn, size_t tc, double *ekfix, const int D, const int M)
+{
+	const int S = 2 * D;
+	const int own = d->shift && tc == d->cell[k];   /* a move within its own (shifted) cell: k is on the list */
+	double nrm[3] = {0, 0, 0}, n2 = 0;
+	unsigned stop = 0;
+	if (own) {   /* no face crossed: along the displacement */
+		stop = (1u << D) - 1;
+		for (int a = 0; a < D; a++) {
+			double dx = xn[a] - x[a];
+			if (!d->walled[a])
+				dx -= d->L[a] * floor(dx / d->L[a] + 0.5);
+			nrm[a] = dx;
+			n2 += dx * dx;
+		}
+	} else {
+		for (int a = 0; a < D; a++) {
+			int i0 = d->shift ? scoord(d, x[a], a) : (int)(x[a] * d->inv_h[a]);
+			int i1 = d->shift ? scoord(d, xn[a], a) : (int)(xn[a] * d->inv_h[a]);
+			int n = d->shift ? d->snc[a] : d->nc[a];
+			i0 = i0 >= n ? n - 1 : i0;
+			i1 = i1 >= n ? n - 1 : i1;
+			int di = i1 - i0;
+			if (!d->walled[a] && (di > 1 || di < -1))   /* across the periodic seam */
+				di = di > 0 ? -1 : 1;
+			if (di)
+				stop |= 1u << a;
+			nrm[a] = di;
+			n2 += (double)di * di;
+		}
+	}
+	uint32_t b = d->shift ? d->sstart[tc] : d->start[tc];
+	uint32_t nb = (d->shift ? d->sstart[tc + 1] : d->start[tc + 1]) - b;
+	if (nb <= (uint32_t)own || n2 == 0)
+		return stop ? stop : (1u << D) - 1;
+	uint32_t q = nb - own > 1 ? (uint32_t)(rng_uniform(&d->rng) * (nb - own)) : 0;
+	if (q >= nb - own)
+		q = nb - own - 1;
+	uint32_t j = d->shift ? d->sidx[b + q] : b + q;
+	if (own && j == k)
+		j = d->sidx[b + nb - 1];   /* the others: the list without k (k's slot takes the last one's) */
+	double *vj = &d->p[(size_t)j * S + D], w = 0, inv = 1 / sqrt(n2);
+	for (int a = 0; a < D; a++) {
+		nrm[a] *= inv;
+		w += (v[a] - vj[a]) * nrm[a];
+	}
+	if (w <= 0)
+		return stop;
+	const double mi = rec_mass(d, k, M), mj = rec_mass(d, j, M);
+	const double e = d->relaxing ? 1.0 : M ? d->pe[d->spc[d->id[k]]][d->spc[d->id[j]]] : d->e;
+	const double J = (1 + e) * mi * mj / (mi + mj) * w;
+	double before = 0, after = 0;
+	for (int a = 0; a < D; a++) {
+		before += vj[a] * vj[a];
+		vj[a] += J / mj * nrm[a];
+		after += vj[a] * vj[a];
+		v[a] -= J / mi * nrm[a];
+	}
+	if (j < k)
+		*ekfix += M ? mj * (after - before) : after - before;
+	d->refused_collisions++;
+	return stop;
+}
+
 /* move() for bounded scenes: the exact flight() of each particle; hsmc
  * rejects moves into full cells as move() does (the particle keeps its
  * position and velocity: no acceleration that step, seed 000 sec. 2.3.2).
@@ -1039,9 +1236,11 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
                                          const int M)
 {
 	const int S = 2 * D;
-	double ek = 0, integ = 0;
+	double ek = 0, integ = 0, ekfix = 0;
 	flight_log_t lg;
 	memset(&lg, 0, sizeof lg);
+	if (d->shift)
+		shift_lattice(d, D, M);
 	memset(d->cnt, 0, (d->ncells + 1) * sizeof(uint32_t));
 	if (V)
 		for (int a = 0; a < D; a++)
@@ -1079,10 +1278,29 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 				}
 			}
 			/* stays first: a particle that left has cn = ncells, whose start[cn + 1] does not exist */
-			if (d->hsmc && stays && cn != c && cell_full(d, cn, M)) {
+			size_t tc = 0;
+			if (d->hsmc && stays && (d->xopt ? refused(d, k, c, cn, xn, &tc, D, M) : cn != c && cell_full(d, cn, M))) {
 				d->rejected++;
 				cn = (uint32_t)c;
-				double v2 = 0;   /* unchanged velocity over the step */
+				unsigned stop = (1u << D) - 1;
+				if (d->rej_coll)
+					stop = refused_collide(d, k, v, x, xn, tc, &ekfix, D, M);
+				if (stop != (1u << D) - 1) {
+					/* "collide": the flight goes on along the axes not stopped (its walls and gravity; the
+					 * axes of a flight without obstacles are independent) */
+					for (int a = 0; a < D; a++)
+						if (!(stop >> a & 1))
+							x[a] = xn[a], v[a] = vn[a];
+					cn = cell_of(d, x, D);
+					for (int w = 0; w < 2 * D; w++)
+						if ((lg.touched >> w & 1) && !(stop >> (w >> 1) & 1)) {
+							d->wall_hits[w] += lg.hits[w];
+							d->wall_collisions += lg.hits[w];
+							for (int b = 0; b < D; b++)
+								d->wall_impulse[w][b] += lg.imp[w][b];
+						}
+				}
+				double v2 = 0;   /* unchanged velocity over the step (but for "collide") */
 				for (int a = 0; a < D; a++)
 					v2 += v[a] * v[a];
 				in = v2 * dt;
@@ -1128,6 +1346,7 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 			d->cnt[cn]++;
 		}
 	}
+	ek += ekfix;
 	if (M) {
 		*ekint += 0.5 * integ;
 		return 0.5 * ek;
@@ -2328,6 +2547,25 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 		goto fail;
 	}
 	size_t S = 2 * (size_t)d->dim;
+	if (d->hsmc && d->bounded) {
+		d->entry_lin = s->mc_entry;
+		d->rej_coll = s->mc_reject;
+		d->shift = s->mc_lattice;
+		d->xopt = d->entry_lin || d->rej_coll || d->shift;
+	}
+	if (d->shift) {
+		d->sncells = 1;
+		for (int a = 0; a < d->dim; a++) {
+			d->snc[a] = d->nc[a] + (d->walled[a] ? 1 : 0);
+			d->sncells *= (size_t)d->snc[a];
+		}
+		d->socc = malloc(d->sncells * sizeof(double));
+		d->scap = malloc(d->sncells * sizeof(double));
+		d->sstart = malloc((d->sncells + 1) * sizeof(uint32_t));
+		d->sidx = malloc((size_t)d->n * sizeof(uint32_t) + 1);
+		if (!d->socc || !d->scap || !d->sstart || !d->sidx)
+			goto fail;
+	}
 	d->p = malloc(d->n * S * sizeof(double));
 	d->cell = malloc(d->n * sizeof(uint32_t));
 	d->start = calloc(d->ncells + 1, sizeof(uint32_t));
@@ -2622,6 +2860,10 @@ void dsmc_destroy(dsmc_t *d)
 	free(d->vring);
 	free(d->mixa);
 	free(d->vocc);
+	free(d->socc);
+	free(d->scap);
+	free(d->sstart);
+	free(d->sidx);
 	free(d->vfac);
 	free(d->spc);
 	free(d->rad);
