@@ -281,7 +281,7 @@ static int parse_partners(ctx_t *c, const char *path, json_t *v, void *dst, cons
 	return ret;
 }
 
-/* hsmc.entry, hsmc.rejected_moves, hsmc.lattice: each a choice of two names (0 or 1). */
+/* hsmc.entry, hsmc.rejected_moves: each a choice of two names (0 or 1). */
 static int parse_entry(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
 {
 	static const char *const names[] = { "step", "linear" };
@@ -294,15 +294,6 @@ static int parse_entry(ctx_t *c, const char *path, json_t *v, void *dst, const v
 static int parse_rejected(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
 {
 	static const char *const names[] = { "keep", "collide" };
-	int i, ret = match(c, path, v, names, 2, &i);
-	if (ret == 0)
-		*(int *)dst = i;
-	return ret;
-}
-
-static int parse_lattice(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
-{
-	static const char *const names[] = { "fixed", "shifted" };
 	int i, ret = match(c, path, v, names, 2, &i);
 	if (ret == 0)
 		*(int *)dst = i;
@@ -2441,9 +2432,9 @@ static int check_mc(ctx_t *c, const char *path, json_t *v, void *base)
 	}
 	/* the excluded-volume options live in the bounded step (move_bounded()) */
 	if (!scene_has_walls(s) && !scene_has_gravity(s)) {
-		static const char *const key[] = { "entry", "rejected_moves", "lattice" };
-		const int set[] = { s->mc_entry, s->mc_reject, s->mc_lattice };
-		for (int k = 0; k < 3; k++)
+		static const char *const key[] = { "entry", "rejected_moves" };
+		const int set[] = { s->mc_entry, s->mc_reject };
+		for (int k = 0; k < 2; k++)
 			if (set[k] && json_object_get(v, key[k])) {
 				char sub[PATHLEN];
 				snprintf(sub, sizeof sub, "%s.%s", path, key[k]);
@@ -2476,7 +2467,6 @@ static const struct object hsmc_obj = {
 		{ "cell_partners", parse_partners, offsetof(scene_t, mc_cell_any), NULL, false },
 		{ "entry", parse_entry, offsetof(scene_t, mc_entry), NULL, false },
 		{ "rejected_moves", parse_rejected, offsetof(scene_t, mc_reject), NULL, false },
-		{ "lattice", parse_lattice, offsetof(scene_t, mc_lattice), NULL, false },
 		{ .name = NULL },
 	},
 	.check = check_mc,

@@ -319,8 +319,6 @@ typedef struct scene {
 	                                * probability 1 - nu / max_volume_fraction, nu the target cell's volume fraction) */
 	int mc_reject;                 /* hsmc.rejected_moves: 0 = "keep" (velocity kept), 1 = "collide" (a binary
 	                                * collision along the face normal with a random particle of the refusing cell) */
-	int mc_lattice;                /* hsmc.lattice: 0 = "fixed", 1 = "shifted" (the excluded-volume lattice shifted
-	                                * by a uniform random displacement each step) */
 	/* impact_c: the impact parameter drawn from P(b)/P_chaos = a / (1 - c b^2) (b in diameters; P_chaos = 1 in
 	 * 2D, 2b in 3D) with c(tau) linear in the collisions per particle tau between the points (tau_k, c_k),
 	 * constant beyond them: seed 000's "HSMC corrected" (sec. 3.6, c taken from an ed run). 0 points: molecular

@@ -55,20 +55,11 @@ struct dsmc {
 	double h[3], inv_h[3], vcell;
 	uint32_t nfull;                /* hsmc: a cell with >= nfull particles is full */
 	int cell_any;                  /* hsmc.cell_partners "any": a full cell's partner may be any non-empty neighbour */
-	/* hsmc in bounded scenes (move_bounded(); scene.h mc_entry, mc_reject, mc_lattice; all 0 by default): xopt =
-	 * any of them. entry_lin: a move into another cell is accepted with probability 1 - nu / nu_cap instead of the
-	 * step at full; rej_coll: a refused move is a binary collision along the face normal with a random particle
-	 * of the refusing cell; shift: the excluded volume is counted on a lattice of the same edges displaced by
-	 * soff (uniform in [0, h) per axis, drawn at each step's start), snc[a] = nc[a] cells along a periodic axis,
-	 * nc[a] + 1 along a walled one (the end cells clipped by the box), sncells in all; per shifted cell at the
-	 * step's start: socc the volume of its particles, scap nu_cap times its volume inside the box, sidx its
-	 * records (from sstart[c] to sstart[c + 1]; a function of the records and soff: no checkpoint field). */
-	int xopt, entry_lin, rej_coll, shift;
-	int snc[3];
-	size_t sncells;
-	double soff[3];
-	double *socc, *scap;
-	uint32_t *sidx, *sstart;
+	/* hsmc in bounded scenes (move_bounded(); scene.h mc_entry, mc_reject; both 0 by default): xopt = either.
+	 * entry_lin: a move into another cell is accepted with probability 1 - nu / nu_cap instead of the step at
+	 * full; rej_coll: a refused move is a binary collision along the face normal with a random particle of the
+	 * refusing cell, the flight going on along the other axes. */
+	int xopt, entry_lin, rej_coll;
 
 	/* particles: AoS, stride 2D doubles: x[D] then v[D], in cell order (sorted in place) */
 	double *p;
@@ -1043,74 +1034,8 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 
 /* ---- hsmc's excluded-volume options (bounded scenes, move_bounded()) ------------ */
 
-/* The shifted lattice's coordinate along axis a of a centre at y. */
-static ALWAYS_INLINE int scoord(const struct dsmc *d, double y, int a)
-{
-	y += d->soff[a];
-	if (!d->walled[a] && y >= d->L[a])
-		y -= d->L[a];
-	int i = (int)(y * d->inv_h[a]);
-	return i < 0 ? 0 : i >= d->snc[a] ? d->snc[a] - 1 : i;
-}
-
-static ALWAYS_INLINE size_t scell_of(const struct dsmc *d, const double *x, const int D)
-{
-	size_t c = 0;
-	for (int a = D - 1; a >= 0; a--)
-		c = c * (size_t)d->snc[a] + (size_t)scoord(d, x[a], a);
-	return c;
-}
-
-/* hsmc.lattice "shifted", at a step's start: a new displacement of the lattice, each shifted cell's capacity
- * (nu_cap times its volume inside the box), the volume of its particles and the list of its records; each
- * record's shifted cell goes to d->cell (scratch until move_bounded() writes the record's new cell there). */
-static void shift_lattice(struct dsmc *d, const int D, const int M)
-{
-	const int S = 2 * D;
-	const double kv = D == 2 ? PI : 4.0 / 3.0 * PI;
-	for (int a = 0; a < D; a++)
-		d->soff[a] = d->h[a] * rng_uniform(&d->rng);
-	for (size_t c = 0; c < d->sncells; c++) {
-		size_t q = c;
-		double v = d->nu_cap;
-		for (int a = 0; a < D; a++) {
-			int i = (int)(q % (size_t)d->snc[a]);
-			q /= (size_t)d->snc[a];
-			if (d->walled[a]) {
-				double lo = fmax(0.0, i * d->h[a] - d->soff[a]), hi = fmin(d->L[a], (i + 1) * d->h[a] - d->soff[a]);
-				v *= hi > lo ? hi - lo : 0.0;
-			} else {
-				v *= d->h[a];
-			}
-		}
-		d->scap[c] = v;
-		d->socc[c] = 0;
-		d->sstart[c] = 0;
-	}
-	d->sstart[d->sncells] = 0;
-	for (uint32_t k = 0; k < d->na; k++) {
-		size_t c = scell_of(d, &d->p[(size_t)k * S], D);
-		double vk = d->vp;
-		if (M) {
-			double r = d->rad[d->id[k]];
-			vk = kv * (D == 2 ? r * r : r * r * r);
-		}
-		d->cell[k] = (uint32_t)c;
-		d->socc[c] += vk;
-		d->sstart[c]++;
-	}
-	uint32_t acc = 0;   /* sstart[c]: the end of cell c's list, then (filled backwards) its start */
-	for (size_t c = 0; c < d->sncells; c++) {
-		acc += d->sstart[c];
-		d->sstart[c] = acc;
-	}
-	d->sstart[d->sncells] = acc;
-	for (uint32_t k = d->na; k-- > 0;)
-		d->sidx[--d->sstart[d->cell[k]]] = k;
-}
-
-/* hsmc with an excluded-volume option (xopt): whether the move of record k from x (cell c of the sort) to xn
- * (cell cn) is refused; *tc: the refusing cell (the shifted lattice's with shift, else the sort's). The rule:
+/* hsmc with an excluded-volume option (xopt): whether the move of record k from cell c of the sort to xn
+ * (cell cn) is refused; *tc: the refusing cell. The rule:
  * the target cell (another cell than the start's) holds the volume occ of its capacity cap (nu_cap times its
  * volume); "step": refused at occ >= cap; "linear": accepted with probability 1 - occ / cap (seed 000's p(nu),
  * 1 in an empty cell, 0 at nu_cap). Random numbers from the engine's stream (the moves run in a fixed order). */
@@ -1118,32 +1043,13 @@ static ALWAYS_INLINE int refused(struct dsmc *d, uint32_t k, size_t c, size_t cn
                                  const int D, const int M)
 {
 	double occ, cap;
-	if (d->shift) {
-		/* every move, also one within a cell: the lattice moves under the particles, so a test of the moves
-		 * across its faces alone would let a particle at rest on a full cell creep into it (a move of dx
-		 * crosses a face of the new lattice with probability dx / h only): the target cell's volume without
-		 * the particle's own */
-		size_t sn = scell_of(d, xn, D);
-		occ = d->socc[sn];
-		if (sn == d->cell[k]) {
-			double r = M ? d->rad[d->id[k]] : 0;
-			occ -= M ? (D == 2 ? PI * r * r : 4.0 / 3.0 * PI * r * r * r) : d->vp;
-			if (occ < 1e-9 * d->vp)
-				occ = 0;
-		}
-		cap = d->scap[sn];
-		*tc = sn;
-		if (!d->entry_lin)
-			return occ > 0 && occ >= cap - 1e-9 * d->vp;
-	} else {
-		if (cn == c)
-			return 0;
-		*tc = cn;
-		if (!d->entry_lin)
-			return cell_full(d, cn, M);
-		occ = M ? d->vocc[cn] : (double)(d->start[cn + 1] - d->start[cn]) * d->vp;
-		cap = d->vfull;
-	}
+	if (cn == c)
+		return 0;
+	*tc = cn;
+	if (!d->entry_lin)
+		return cell_full(d, cn, M);
+	occ = M ? d->vocc[cn] : (double)(d->start[cn + 1] - d->start[cn]) * d->vp;
+	cap = d->vfull;
 	if (occ <= 0)
 		return 0;
 	double pin = cap > 0 ? 1 - occ / cap : 0;
@@ -1151,55 +1057,37 @@ static ALWAYS_INLINE int refused(struct dsmc *d, uint32_t k, size_t c, size_t cn
 }
 
 /* hsmc.rejected_moves "collide": record k (velocity v, at x, refused by cell tc on its way to xn) is stopped
- * across the faces it would cross (the axes whose cell coordinate changes; all axes for a move within its own
- * shifted cell) and collides with a random particle j of the refusing cell along their normal (the sum of
- * those axes' unit vectors, normalised; within its own cell: along the displacement): when they approach,
- * J = (1 + e) mu w along it, w the normal relative velocity, mu the pair's reduced mass (the particles' own
- * masses, not the cell's); the pair's momentum is conserved and (1 - e^2) mu w^2 / 2 dissipated. When j has
- * flown already this step (j < k), its kinetic energy change goes to *ekfix (in move_bounded()'s units of ek).
- * Returns the mask of the stopped axes (move_bounded() keeps the flight along the others). */
+ * across the faces it would cross (the axes whose cell coordinate changes) and collides with a random particle
+ * j of the refusing cell along their normal (the sum of those axes' unit vectors, normalised): when they
+ * approach, J = (1 + e) mu w along it, w the normal relative velocity, mu the pair's reduced mass (the
+ * particles' own masses, not the cell's); the pair's momentum is conserved and (1 - e^2) mu w^2 / 2 dissipated.
+ * When j has flown already this step (j < k), its kinetic energy change goes to *ekfix (in move_bounded()'s
+ * units of ek). Returns the mask of the stopped axes (move_bounded() keeps the flight along the others). */
 static ALWAYS_INLINE unsigned refused_collide(struct dsmc *d, uint32_t k, double *v, const double *x,
                                               const double *xn, size_t tc, double *ekfix, const int D, const int M)
 {
 	const int S = 2 * D;
-	const int own = d->shift && tc == d->cell[k];   /* a move within its own (shifted) cell: k is on the list */
 	double nrm[3] = {0, 0, 0}, n2 = 0;
 	unsigned stop = 0;
-	if (own) {   /* no face crossed: along the displacement */
-		stop = (1u << D) - 1;
-		for (int a = 0; a < D; a++) {
-			double dx = xn[a] - x[a];
-			if (!d->walled[a])
-				dx -= d->L[a] * floor(dx / d->L[a] + 0.5);
-			nrm[a] = dx;
-			n2 += dx * dx;
-		}
-	} else {
-		for (int a = 0; a < D; a++) {
-			int i0 = d->shift ? scoord(d, x[a], a) : (int)(x[a] * d->inv_h[a]);
-			int i1 = d->shift ? scoord(d, xn[a], a) : (int)(xn[a] * d->inv_h[a]);
-			int n = d->shift ? d->snc[a] : d->nc[a];
-			i0 = i0 >= n ? n - 1 : i0;
-			i1 = i1 >= n ? n - 1 : i1;
-			int di = i1 - i0;
-			if (!d->walled[a] && (di > 1 || di < -1))   /* across the periodic seam */
-				di = di > 0 ? -1 : 1;
-			if (di)
-				stop |= 1u << a;
-			nrm[a] = di;
-			n2 += (double)di * di;
-		}
+	for (int a = 0; a < D; a++) {
+		int i0 = (int)(x[a] * d->inv_h[a]), i1 = (int)(xn[a] * d->inv_h[a]);
+		i0 = i0 >= d->nc[a] ? d->nc[a] - 1 : i0;
+		i1 = i1 >= d->nc[a] ? d->nc[a] - 1 : i1;
+		int di = i1 - i0;
+		if (!d->walled[a] && (di > 1 || di < -1))   /* across the periodic seam */
+			di = di > 0 ? -1 : 1;
+		if (di)
+			stop |= 1u << a;
+		nrm[a] = di;
+		n2 += (double)di * di;
 	}
-	uint32_t b = d->shift ? d->sstart[tc] : d->start[tc];
-	uint32_t nb = (d->shift ? d->sstart[tc + 1] : d->start[tc + 1]) - b;
-	if (nb <= (uint32_t)own || n2 == 0)
+	const uint32_t b = d->start[tc], nb = d->start[tc + 1] - b;
+	if (nb == 0 || n2 == 0)
 		return stop ? stop : (1u << D) - 1;
-	uint32_t q = nb - own > 1 ? (uint32_t)(rng_uniform(&d->rng) * (nb - own)) : 0;
-	if (q >= nb - own)
-		q = nb - own - 1;
-	uint32_t j = d->shift ? d->sidx[b + q] : b + q;
-	if (own && j == k)
-		j = d->sidx[b + nb - 1];   /* the others: the list without k (k's slot takes the last one's) */
+	uint32_t q = nb > 1 ? (uint32_t)(rng_uniform(&d->rng) * nb) : 0;
+	if (q >= nb)
+		q = nb - 1;
+	const uint32_t j = b + q;
 	double *vj = &d->p[(size_t)j * S + D], w = 0, inv = 1 / sqrt(n2);
 	for (int a = 0; a < D; a++) {
 		nrm[a] *= inv;
@@ -1239,8 +1127,6 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 	double ek = 0, integ = 0, ekfix = 0;
 	flight_log_t lg;
 	memset(&lg, 0, sizeof lg);
-	if (d->shift)
-		shift_lattice(d, D, M);
 	memset(d->cnt, 0, (d->ncells + 1) * sizeof(uint32_t));
 	if (V)
 		for (int a = 0; a < D; a++)
@@ -2550,21 +2436,7 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 	if (d->hsmc && d->bounded) {
 		d->entry_lin = s->mc_entry;
 		d->rej_coll = s->mc_reject;
-		d->shift = s->mc_lattice;
-		d->xopt = d->entry_lin || d->rej_coll || d->shift;
-	}
-	if (d->shift) {
-		d->sncells = 1;
-		for (int a = 0; a < d->dim; a++) {
-			d->snc[a] = d->nc[a] + (d->walled[a] ? 1 : 0);
-			d->sncells *= (size_t)d->snc[a];
-		}
-		d->socc = malloc(d->sncells * sizeof(double));
-		d->scap = malloc(d->sncells * sizeof(double));
-		d->sstart = malloc((d->sncells + 1) * sizeof(uint32_t));
-		d->sidx = malloc((size_t)d->n * sizeof(uint32_t) + 1);
-		if (!d->socc || !d->scap || !d->sstart || !d->sidx)
-			goto fail;
+		d->xopt = d->entry_lin || d->rej_coll;
 	}
 	d->p = malloc(d->n * S * sizeof(double));
 	d->cell = malloc(d->n * sizeof(uint32_t));
@@ -2860,10 +2732,6 @@ void dsmc_destroy(dsmc_t *d)
 	free(d->vring);
 	free(d->mixa);
 	free(d->vocc);
-	free(d->socc);
-	free(d->scap);
-	free(d->sstart);
-	free(d->sidx);
 	free(d->vfac);
 	free(d->spc);
 	free(d->rad);
