@@ -167,6 +167,36 @@ PY
 read -r good rest <"$tmp/bed.out"
 ok $([ $rc = 0 ] && [ "$good" = 1 ]; echo $?) "bed at rest, rejected_moves collide: the kinetic energy decays: $rest"
 
+# 5c. rejected_moves "collide" conserves what a collision conserves: 1500 disks (nu = 0.74) at T = 1 between two
+# specular walls across y, x periodic, no gravity, r = 1: every refused move is an elastic collision of two
+# particles, so the kinetic energy stays 1500 and the momentum along x 0, to round-off (relative 1e-9: the sums of
+# 1500 terms in double precision are good to ~1e-13), over 50 time units with tens of thousands of refused moves
+# (more than 10 per particle required, so that the rule is exercised).
+cat >"$tmp/el.json" <<'JSON'
+{"method":"hsmc","dimensions":2,
+ "particles":{"count":1500,"box":[40,40],"initial":{"positions":"random","temperature":1}},
+ "collisions":{"restitution":1},
+ "boundaries":{"y":{"type":"walls","lower":{"type":"specular"},"upper":{"type":"specular"}}},
+ "run":{"seed":3,"until":{"time":50}},
+ "output":{"every":{"time":10},"observables":["kinetic_energy","momentum"]},
+ "hsmc":{"time_step":0.01,"cell_size":2,"correction":"none","rejected_moves":"collide"}}
+JSON
+"$ENGINE" run "$tmp/el.json" >"$tmp/el.jsonl" 2>"$tmp/el.log"
+rc=$?
+"$PY" - "$tmp/el.jsonl" <<'PY' >"$tmp/el.out" 2>&1
+import json, sys
+recs = [json.loads(l) for l in open(sys.argv[1])]
+prog = [p for p in recs if p.get("type") == "progress"]
+e0 = prog[0]["kinetic_energy"]
+de = max(abs(p["kinetic_energy"] - e0) for p in prog) / e0
+px = max(abs(p["momentum"][0]) for p in prog)
+rej = recs[-1]["rejected_moves"]
+print("%d E_kin within %.2g relative, |p_x| <= %.2g, %d refused moves" % (de < 1e-9 and px < 1e-9 * e0 and rej > 10 * 1500,
+      de, px, rej))
+PY
+read -r good rest <"$tmp/el.out"
+ok $([ $rc = 0 ] && [ "$good" = 1 ]; echo $?) "elastic, rejected_moves collide: energy and momentum conserved: $rest"
+
 # 6. The published shape (seed 000 sec. 3.5, anchor A10), on presets/heap-2d.json (2000 particles poured at one per
 # time unit onto a 200-wide table, r = 0.9, then 500 time units of rest; hsmc.entry "linear" and rejected_moves
 # "collide"; the seed's N = 30500 scaled down to run in well under a minute). h(x) = the highest centre per bin of 2
