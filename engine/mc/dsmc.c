@@ -58,7 +58,7 @@ struct dsmc {
 	/* hsmc in bounded scenes (move_bounded(); scene.h mc_entry, mc_reject; both 0 by default): xopt = either.
 	 * entry_lin: a move into another cell is accepted with probability 1 - nu / nu_cap instead of the step at
 	 * full; rej_coll: a refused move is a binary collision along the face normal with a random particle of the
-	 * refusing cell, the flight going on along the other axes. */
+	 * refusing cell, the flight going on along the other axes (without obstacles). */
 	int xopt, entry_lin, rej_coll;
 
 	/* particles: AoS, stride 2D doubles: x[D] then v[D], in cell order (sorted in place) */
@@ -82,7 +82,6 @@ struct dsmc {
 	rng_t rng;
 	double t;
 	uint64_t steps, collisions, candidates, vmax_raised, cell_collisions, rejected;
-	uint64_t refused_collisions;   /* hsmc.rejected_moves "collide": refused moves that were collisions (total) */
 	double ekin_est;               /* E_kin now, up to rounding (for the adaptive step) */
 	double e_loss;                 /* energy dissipated in the current step's collisions */
 
@@ -1107,7 +1106,6 @@ static ALWAYS_INLINE unsigned refused_collide(struct dsmc *d, uint32_t k, double
 	}
 	if (j < k)
 		*ekfix += M ? mj * (after - before) : after - before;
-	d->refused_collisions++;
 	return stop;
 }
 
@@ -1171,9 +1169,10 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 				unsigned stop = (1u << D) - 1;
 				if (d->rej_coll)
 					stop = refused_collide(d, k, v, x, xn, tc, &ekfix, D, M);
-				if (stop != (1u << D) - 1) {
+				if (stop != (1u << D) - 1 && !d->nobst) {
 					/* "collide": the flight goes on along the axes not stopped (its walls and gravity; the
-					 * axes of a flight without obstacles are independent) */
+					 * axes of a flight without obstacles are independent; with obstacles the whole move
+					 * stops, as a part of it could end inside one) */
 					for (int a = 0; a < D; a++)
 						if (!(stop >> a & 1))
 							x[a] = xn[a], v[a] = vn[a];
