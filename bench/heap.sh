@@ -3,7 +3,7 @@
 # at the last snapshot fitted per side as tests/heap_test.sh fits it (bins between 25% and 75% of the apex height).
 # usage: bench/heap.sh [ENGINE]   (default engine/granular-engine; prints a markdown table)
 # VARIANTS (environment): semicolon-separated JSON objects of "dotted.key": value changes to the preset; default:
-# the preset, correction none, cell_partners any.
+# the preset, then with entry "step", rejected_moves "keep" and both (the seed's rules).
 set -eu
 here=$(cd "$(dirname "$0")/.." && pwd)
 engine=${1:-$here/engine/granular-engine}
@@ -11,7 +11,8 @@ exec /usr/bin/python3 - "$engine" "$here/presets/heap-2d.json" <<'PY'
 import json, math, os, subprocess, sys, tempfile, time
 
 engine, preset = sys.argv[1], sys.argv[2]
-variants = os.environ.get("VARIANTS", '{}; {"hsmc.correction": "none"}; {"hsmc.cell_partners": "any"}')
+variants = os.environ.get("VARIANTS", '{}; {"hsmc.entry": "step"}; {"hsmc.rejected_moves": "keep"}; '
+                          '{"hsmc.entry": "step", "hsmc.rejected_moves": "keep"}')
 variants = [json.loads(v) for v in variants.split(";") if v.strip()]
 
 def fit(sel):

@@ -48,9 +48,9 @@ static const struct { const char *name, *description; } descriptions[] = {
 	                                          "U=0.1 from a dispenser, filter outlet, 200 x 100: a dense front builds "
 	                                          "up before the obstacle (bench/front_bench)"},
 	{.name = "heap-2d", .description = "Heap (seed 000 A10, scaled down): 2000 disks poured one per time unit, "
-	                                   "4 diameters above the top, onto a 200-wide frictional table, r=0.9, hsmc; "
-	                                   "surface_profile h(x) (tests/heap_test.sh; hsmc does not form the seed's "
-	                                   "straight slope yet, docs/engine.md)"},
+	                                   "4 diameters above the top, onto a 200-wide frictional table, r=0.9, hsmc (entry linear, "
+	                                   "rejected_moves collide): a straight symmetric slope of 0.27; "
+	                                   "surface_profile h(x) (tests/heap_test.sh, docs/engine.md)"},
 };
 
 static const size_t npresets = sizeof(presets_embedded) / sizeof(presets_embedded[0]);

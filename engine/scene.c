@@ -281,6 +281,25 @@ static int parse_partners(ctx_t *c, const char *path, json_t *v, void *dst, cons
 	return ret;
 }
 
+/* hsmc.entry, hsmc.rejected_moves: each a choice of two names (0 or 1). */
+static int parse_entry(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	static const char *const names[] = { "step", "linear" };
+	int i, ret = match(c, path, v, names, 2, &i);
+	if (ret == 0)
+		*(int *)dst = i;
+	return ret;
+}
+
+static int parse_rejected(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	static const char *const names[] = { "keep", "collide" };
+	int i, ret = match(c, path, v, names, 2, &i);
+	if (ret == 0)
+		*(int *)dst = i;
+	return ret;
+}
+
 static int parse_version(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
 {
 	if (!json_is_integer(v) || json_integer_value(v) != 1)
@@ -2449,6 +2468,17 @@ static int check_mc(ctx_t *c, const char *path, json_t *v, void *base)
 			    scene_has_species(s) ? "particles.species" : scene_has_obstacles(s) ? "obstacles" :
 			    scene_has_gravity(s) ? "gravity" : "walls");
 	}
+	/* the excluded-volume options live in the bounded step (move_bounded()) */
+	if (!scene_has_walls(s) && !scene_has_gravity(s)) {
+		static const char *const key[] = { "entry", "rejected_moves" };
+		const int set[] = { s->mc_entry, s->mc_reject };
+		for (int k = 0; k < 2; k++)
+			if (set[k] && json_object_get(v, key[k])) {
+				char sub[PATHLEN];
+				snprintf(sub, sizeof sub, "%s.%s", path, key[k]);
+				return fail(c, sub, "only with walls or gravity (the periodic box's step has the default rule)");
+			}
+	}
 	return 0;
 }
 
@@ -2473,6 +2503,8 @@ static const struct object hsmc_obj = {
 		MC_FIELDS,
 		{ "max_volume_fraction", parse_number, offsetof(scene_t, mc_max_volume_fraction), &R_POS, false },
 		{ "cell_partners", parse_partners, offsetof(scene_t, mc_cell_any), NULL, false },
+		{ "entry", parse_entry, offsetof(scene_t, mc_entry), NULL, false },
+		{ "rejected_moves", parse_rejected, offsetof(scene_t, mc_reject), NULL, false },
 		{ .name = NULL },
 	},
 	.check = check_mc,

@@ -320,6 +320,11 @@ typedef struct scene {
 	int mc_local_chi;              /* contact_value: 0 = "global" (mean volume fraction), 1 = "local" (per cell) */
 	int mc_cell_any;               /* hsmc.cell_partners: 0 = "full" (a full cell collides with full neighbours only),
 	                                * 1 = "any" (with any neighbour holding particles) */
+	/* hsmc, walls or gravity only (move_bounded()): the excluded-volume rule of a move into another cell */
+	int mc_entry;                  /* hsmc.entry: 0 = "step" (refused into a full cell), 1 = "linear" (accepted with
+	                                * probability 1 - nu / max_volume_fraction, nu the target cell's volume fraction) */
+	int mc_reject;                 /* hsmc.rejected_moves: 0 = "keep" (velocity kept), 1 = "collide" (a binary
+	                                * collision along the face normal with a random particle of the refusing cell) */
 	/* impact_c: the impact parameter drawn from P(b)/P_chaos = a / (1 - c b^2) (b in diameters; P_chaos = 1 in
 	 * 2D, 2b in 3D) with c(tau) linear in the collisions per particle tau between the points (tau_k, c_k),
 	 * constant beyond them: seed 000's "HSMC corrected" (sec. 3.6, c taken from an ed run). 0 points: molecular

@@ -55,6 +55,11 @@ struct dsmc {
 	double h[3], inv_h[3], vcell;
 	uint32_t nfull;                /* hsmc: a cell with >= nfull particles is full */
 	int cell_any;                  /* hsmc.cell_partners "any": a full cell's partner may be any non-empty neighbour */
+	/* hsmc in bounded scenes (move_bounded(); scene.h mc_entry, mc_reject; both 0 by default): xopt = either.
+	 * entry_lin: a move into another cell is accepted with probability 1 - nu / nu_cap instead of the step at
+	 * full; rej_coll: a refused move is a binary collision along the face normal with a random particle of the
+	 * refusing cell, the flight going on along the other axes (without obstacles). */
+	int xopt, entry_lin, rej_coll;
 
 	/* particles: AoS, stride 2D doubles: x[D] then v[D], in cell order (sorted in place) */
 	double *p;
@@ -1026,6 +1031,84 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 #undef MASS
 }
 
+/* ---- hsmc's excluded-volume options (bounded scenes, move_bounded()) ------------ */
+
+/* hsmc with an excluded-volume option (xopt): whether the move of record k from cell c of the sort to xn
+ * (cell cn) is refused; *tc: the refusing cell. The rule:
+ * the target cell (another cell than the start's) holds the volume occ of its capacity cap (nu_cap times its
+ * volume); "step": refused at occ >= cap; "linear": accepted with probability 1 - occ / cap (seed 000's p(nu),
+ * 1 in an empty cell, 0 at nu_cap). Random numbers from the engine's stream (the moves run in a fixed order). */
+static ALWAYS_INLINE int refused(struct dsmc *d, uint32_t k, size_t c, size_t cn, const double *xn, size_t *tc,
+                                 const int D, const int M)
+{
+	double occ, cap;
+	if (cn == c)
+		return 0;
+	*tc = cn;
+	if (!d->entry_lin)
+		return cell_full(d, cn, M);
+	occ = M ? d->vocc[cn] : (double)(d->start[cn + 1] - d->start[cn]) * d->vp;
+	cap = d->vfull;
+	if (occ <= 0)
+		return 0;
+	double pin = cap > 0 ? 1 - occ / cap : 0;
+	return pin <= 0 || rng_uniform(&d->rng) >= pin;
+}
+
+/* hsmc.rejected_moves "collide": record k (velocity v, at x, refused by cell tc on its way to xn) is stopped
+ * across the faces it would cross (the axes whose cell coordinate changes) and collides with a random particle
+ * j of the refusing cell along their normal (the sum of those axes' unit vectors, normalised): when they
+ * approach, J = (1 + e) mu w along it, w the normal relative velocity, mu the pair's reduced mass (the
+ * particles' own masses, not the cell's); the pair's momentum is conserved and (1 - e^2) mu w^2 / 2 dissipated.
+ * When j has flown already this step (j < k), its kinetic energy change goes to *ekfix (in move_bounded()'s
+ * units of ek). Returns the mask of the stopped axes (move_bounded() keeps the flight along the others). */
+static ALWAYS_INLINE unsigned refused_collide(struct dsmc *d, uint32_t k, double *v, const double *x,
+                                              const double *xn, size_t tc, double *ekfix, const int D, const int M)
+{
+	const int S = 2 * D;
+	double nrm[3] = {0, 0, 0}, n2 = 0;
+	unsigned stop = 0;
+	for (int a = 0; a < D; a++) {
+		int i0 = (int)(x[a] * d->inv_h[a]), i1 = (int)(xn[a] * d->inv_h[a]);
+		i0 = i0 >= d->nc[a] ? d->nc[a] - 1 : i0;
+		i1 = i1 >= d->nc[a] ? d->nc[a] - 1 : i1;
+		int di = i1 - i0;
+		if (!d->walled[a] && (di > 1 || di < -1))   /* across the periodic seam */
+			di = di > 0 ? -1 : 1;
+		if (di)
+			stop |= 1u << a;
+		nrm[a] = di;
+		n2 += (double)di * di;
+	}
+	const uint32_t b = d->start[tc], nb = d->start[tc + 1] - b;
+	if (nb == 0 || n2 == 0)
+		return stop ? stop : (1u << D) - 1;
+	uint32_t q = nb > 1 ? (uint32_t)(rng_uniform(&d->rng) * nb) : 0;
+	if (q >= nb)
+		q = nb - 1;
+	const uint32_t j = b + q;
+	double *vj = &d->p[(size_t)j * S + D], w = 0, inv = 1 / sqrt(n2);
+	for (int a = 0; a < D; a++) {
+		nrm[a] *= inv;
+		w += (v[a] - vj[a]) * nrm[a];
+	}
+	if (w <= 0)
+		return stop;
+	const double mi = rec_mass(d, k, M), mj = rec_mass(d, j, M);
+	const double e = d->relaxing ? 1.0 : M ? d->pe[d->spc[d->id[k]]][d->spc[d->id[j]]] : d->e;
+	const double J = (1 + e) * mi * mj / (mi + mj) * w;
+	double before = 0, after = 0;
+	for (int a = 0; a < D; a++) {
+		before += vj[a] * vj[a];
+		vj[a] += J / mj * nrm[a];
+		after += vj[a] * vj[a];
+		v[a] -= J / mi * nrm[a];
+	}
+	if (j < k)
+		*ekfix += M ? mj * (after - before) : after - before;
+	return stop;
+}
+
 /* move() for bounded scenes: the exact flight() of each particle; hsmc
  * rejects moves into full cells as move() does (the particle keeps its
  * position and velocity: no acceleration that step, seed 000 sec. 2.3.2).
@@ -1039,7 +1122,7 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
                                          const int M)
 {
 	const int S = 2 * D;
-	double ek = 0, integ = 0;
+	double ek = 0, integ = 0, ekfix = 0;
 	flight_log_t lg;
 	memset(&lg, 0, sizeof lg);
 	memset(d->cnt, 0, (d->ncells + 1) * sizeof(uint32_t));
@@ -1079,10 +1162,30 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 				}
 			}
 			/* stays first: a particle that left has cn = ncells, whose start[cn + 1] does not exist */
-			if (d->hsmc && stays && cn != c && cell_full(d, cn, M)) {
+			size_t tc = 0;
+			if (d->hsmc && stays && (d->xopt ? refused(d, k, c, cn, xn, &tc, D, M) : cn != c && cell_full(d, cn, M))) {
 				d->rejected++;
 				cn = (uint32_t)c;
-				double v2 = 0;   /* unchanged velocity over the step */
+				unsigned stop = (1u << D) - 1;
+				if (d->rej_coll)
+					stop = refused_collide(d, k, v, x, xn, tc, &ekfix, D, M);
+				if (stop != (1u << D) - 1 && !d->nobst) {
+					/* "collide": the flight goes on along the axes not stopped (its walls and gravity; the
+					 * axes of a flight without obstacles are independent; with obstacles the whole move
+					 * stops, as a part of it could end inside one) */
+					for (int a = 0; a < D; a++)
+						if (!(stop >> a & 1))
+							x[a] = xn[a], v[a] = vn[a];
+					cn = cell_of(d, x, D);
+					for (int w = 0; w < 2 * D; w++)
+						if ((lg.touched >> w & 1) && !(stop >> (w >> 1) & 1)) {
+							d->wall_hits[w] += lg.hits[w];
+							d->wall_collisions += lg.hits[w];
+							for (int b = 0; b < D; b++)
+								d->wall_impulse[w][b] += lg.imp[w][b];
+						}
+				}
+				double v2 = 0;   /* unchanged velocity over the step (but for "collide") */
 				for (int a = 0; a < D; a++)
 					v2 += v[a] * v[a];
 				in = v2 * dt;
@@ -1128,6 +1231,7 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 			d->cnt[cn]++;
 		}
 	}
+	ek += ekfix;
 	if (M) {
 		*ekint += 0.5 * integ;
 		return 0.5 * ek;
@@ -2328,6 +2432,11 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 		goto fail;
 	}
 	size_t S = 2 * (size_t)d->dim;
+	if (d->hsmc && d->bounded) {
+		d->entry_lin = s->mc_entry;
+		d->rej_coll = s->mc_reject;
+		d->xopt = d->entry_lin || d->rej_coll;
+	}
 	d->p = malloc(d->n * S * sizeof(double));
 	d->cell = malloc(d->n * sizeof(uint32_t));
 	d->start = calloc(d->ncells + 1, sizeof(uint32_t));
