@@ -1810,9 +1810,12 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 		 * energy (engine/observe/msd.h), which must not grow; ed counts the periodic images crossed when
 		 * something feeds energy (scene_msd_images()); walled axes need no unwrapping */
 		if (!strcmp(name, "mean_square_displacement")) {
-			if (scene_has_open_walls(s))
-				return fail(c, path, "\"mean_square_displacement\" is not available with an \"open\" wall yet "
-				            "(it needs a fixed particle set)");
+			/* varying particle sets: over the particles present at the origin and since (observe/msd.h);
+			 * particles that enter feed energy: exact image counts (ed) */
+			if (s->src_count && s->method != SCENE_METHOD_ED)
+				return fail(c, path, "\"mean_square_displacement\" with a particles.source (inserted particles "
+				            "feed energy: no speed bound for following particles across periodic images) is not "
+				            "available in method \"%s\" yet", s->method == SCENE_METHOD_HSMC ? "hsmc" : "dsmc");
 			const char *feed = scene_energy_feed(s);
 			if (feed && s->method != SCENE_METHOD_ED)
 				return fail(c, path, "\"mean_square_displacement\" with a periodic axis and %s (it feeds energy: "
@@ -2565,7 +2568,8 @@ const char *scene_energy_feed(const scene_t *s)
 
 int scene_msd_images(const scene_t *s)
 {
-	return (s->observables & SCENE_OBS_MSD) && s->method == SCENE_METHOD_ED && scene_energy_feed(s) != NULL;
+	return (s->observables & SCENE_OBS_MSD) && s->method == SCENE_METHOD_ED &&
+	       (scene_energy_feed(s) != NULL || scene_has_open_walls(s));
 }
 
 int scene_has_open_walls(const scene_t *s)

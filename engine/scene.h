@@ -377,8 +377,9 @@ int scene_has_gravity(const scene_t *s);
  * speed bound by which mean_square_displacement follows particles across periodic images (observe/msd.h)
  * holds only without it. Method ed then counts the images crossed instead (scene_msd_images()). */
 const char *scene_energy_feed(const scene_t *s);
-/* mean_square_displacement in method ed with a periodic axis and an energy feed: the engine counts each
- * particle's periodic images (ed_unwrapped()), exactly, with no speed bound. */
+/* mean_square_displacement in method ed with a periodic axis and an energy feed, or with a varying particle
+ * set (scene_has_open_walls(): entries feed energy): the engine counts each particle's periodic images
+ * (ed_unwrapped()), exactly, with no speed bound. */
 int scene_msd_images(const scene_t *s);
 
 /* A mixture: more than one particle species, or polydisperse radii
