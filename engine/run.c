@@ -342,8 +342,11 @@ static void msd_follow(run_t *rc)
 	smp_t sm;
 	eng_totals(rc, &sm);
 	double e = sm.kinetic_energy;
-	if (rc->ed && scene_msd_images(s)) {   /* the engine counted the images: exact, no bound (msd_exact()) */
-		ed_unwrapped(rc->ed, rc->pos);
+	if ((rc->ed || rc->mc) && scene_msd_images(s)) {   /* the engine counted the images: exact, no bound */
+		if (rc->ed)
+			ed_unwrapped(rc->ed, rc->pos);
+		else
+			dsmc_unwrapped(rc->mc, rc->pos);
 		if (rc->st.started)
 			msd_update(rc->msd, sm.time, rc->pos, 0.0);
 		else
