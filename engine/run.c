@@ -450,8 +450,15 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 		double t_avg = 2.0 * sm.ekin_time_integral / (s->dim * np * sm.interval);
 		double vol = scene_box_volume(s);
 		r->have_interval = 1;
-		r->pressure = ((double)s->count * t_avg + sm.virial / (s->dim * sm.interval)) / vol;
-		r->compressibility = t_avg > 0.0 ? r->pressure * vol / ((double)s->count * t_avg) : NAN;
+		if (rc->varying) {
+			/* particles come and go: the kinetic part from the exact integral of E_kin over the particles
+			 * present (no fixed N), Z = 1 + virial / (2 int E_kin dt): docs/output.md */
+			r->pressure = (2.0 * sm.ekin_time_integral + sm.virial) / (s->dim * sm.interval * vol);
+			r->compressibility = sm.ekin_time_integral > 0.0 ? 1.0 + sm.virial / (2.0 * sm.ekin_time_integral) : NAN;
+		} else {
+			r->pressure = ((double)s->count * t_avg + sm.virial / (s->dim * sm.interval)) / vol;
+			r->compressibility = t_avg > 0.0 ? r->pressure * vol / ((double)s->count * t_avg) : NAN;
+		}
 		r->collision_rate = 2.0 * (double)sm.interval_collisions / ((double)s->count * sm.interval);
 	}
 	r->wall_collisions = sm.wall_collisions;

@@ -1788,7 +1788,7 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 	/* Observables that need what the scene has. */
 	json_t *obs = json_object_get(json_object_get(v, "output"), "observables");
 	if (!obs && scene_has_open_walls(s))
-		s->observables &= ~(unsigned)SCENE_OBS_PRESSURE;   /* default set: no virial pressure with outflow */
+		s->observables &= ~(unsigned)SCENE_OBS_PRESSURE;   /* default set: no pressure with outflow (asked for: over the particles present) */
 	size_t i;
 	json_t *o;
 	json_array_foreach(obs, i, o) {
@@ -1822,10 +1822,6 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 			return fail(c, path, "\"obstacle_force\" needs obstacles");
 		if (!strcmp(name, "outflow") && !scene_has_open_walls(s))
 			return fail(c, path, "\"outflow\" needs an \"open\" wall");
-		/* the virial pressure assumes a fixed particle set in the box */
-		if (!strcmp(name, "pressure") && scene_has_open_walls(s))
-			return fail(c, path, "\"pressure\" is not available with an \"open\" wall%s (the particle set "
-			            "changes); use \"wall_force\"", s->src_count ? " or a particles.source" : "");
 		if (!strcmp(name, "wall_force") && !walls)
 			return fail(c, path, "\"wall_force\" needs walls (boundaries)");
 		if (!strcmp(name, "center_of_mass_height") || !strcmp(name, "potential_energy")) {

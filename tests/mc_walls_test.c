@@ -475,7 +475,7 @@ static void test_refusals(void)
 	} bad[] = {
 		{ "{\"method\":\"dsmc\",\"dimensions\":2,\"particles\":{\"count\":100,\"volume_fraction\":0.1},"
 		  "\"run\":{\"until\":{\"time\":5}},\"boundaries\":{\"y\":{\"type\":\"walls\",\"lower\":{\"type\":\"specular\"},"
-		  "\"upper\":{\"type\":\"open\"}}},\"output\":{\"observables\":[\"pressure\"]}}", "output.observables[0]: " },
+		  "\"upper\":{\"type\":\"specular\"}}},\"output\":{\"observables\":[\"outflow\"]}}", "output.observables[0]: " },
 	};
 	for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
 		scene_t sc;
