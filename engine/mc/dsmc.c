@@ -696,34 +696,7 @@ typedef struct {
 	/* obstacle k: bit 6 + k of touched */
 	uint32_t ohits[SCENE_OBSTACLES_MAX];
 	double oimp[SCENE_OBSTACLES_MAX][3];
-	int wrapped;                   /* the flight wrapped the particle across periodic edges: wrap[a] edges */
-	int32_t wrap[3];
 } flight_log_t;
-
-/* x folded into [0, L) on a periodic axis at the end of a flight; a wrap (not every flight) logs the edges
- * crossed for the image counts (committed with the move: img_commit()). */
-static ALWAYS_INLINE double wrap_log(double x, double L, flight_log_t *lg, int a)
-{
-	double y = wrap(x, L);
-	if (y != x) {
-		lg->wrap[a] += (int32_t)nearbyint((x - y) / L);
-		lg->wrapped = 1;
-	}
-	return y;
-}
-
-/* The wraps of a flight: added to particle id's image counts when the move is committed and images are
- * followed (d->img), then cleared. */
-static ALWAYS_INLINE void img_commit(struct dsmc *d, flight_log_t *lg, uint32_t id, const int D, int commit)
-{
-	if (!lg->wrapped)
-		return;
-	if (commit && d->img)
-		for (int a = 0; a < D; a++)
-			d->img[(size_t)id * D + a] += lg->wrap[a];
-	lg->wrapped = 0;
-	lg->wrap[0] = lg->wrap[1] = lg->wrap[2] = 0;
-}
 
 /* After a particle's rebound off fixed wall w (axis a): vn its normal speed
  * away from the wall (<= 0: it does not leave it), hits the hits before this
@@ -775,7 +748,7 @@ static ALWAYS_INLINE void obst_rel(const struct dsmc *d, const double *x, int k,
  * new velocity). With obstacles a segment is at most oreach / (|v| + |g|
  * left) long (it travels less than oreach along any axis), so the nearest
  * image of each obstacle is the only one in reach. x, v are updated in place
- * (periodic axes wrapped). Returns the integral of |v|^2 over the flight
+ * (periodic axes left unfolded: move_bounded() folds them). Returns the integral of |v|^2 over the flight
  * (exact: |v + g t|^2 is a quadratic in t).
  * M = 1 (mixtures, chosen at load): the particle of species sp and radius
  * sigma/2 + dr (dr <= 0: sigma is the largest diameter) touches a wall when
@@ -884,9 +857,7 @@ static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double 
 		if (!(left > 0))
 			break;
 	}
-	for (int a = 0; a < D; a++)
-		if (!d->walled[a])
-			x[a] = wrap_log(x[a], d->L[a], lg, a);
+	/* (periodic axes: the caller folds x, move_bounded()) */
 	return integ;
 #undef LO
 #undef HI
@@ -1039,10 +1010,8 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 			break;
 	}
 	for (int a = 0; a < D; a++) {
-		if (!d->walled[a]) {
-			x[a] = wrap_log(x[a], d->L[a], lg, a);
+		if (!d->walled[a])   /* the caller folds it (move_bounded()) */
 			continue;
-		}
 		/* inside the walls where they are now (rounding of the roots) */
 		const double clo = M ? d->cur_lo[a] + dr : d->cur_lo[a], chi = M ? d->cur_hi[a] - dr : d->cur_hi[a];
 		if (x[a] < clo)
@@ -1092,6 +1061,17 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 				m = d->msp[sp];
 			}
 			double in = V ? flight_vib(d, xn, vn, dt, d->t, &lg, D, M, sp, dr) : flight(d, xn, vn, dt, &lg, D, M, sp, dr);
+			/* periodic axes folded into the box; a fold (not every move) is logged for the image counts
+			 * (d->img), added when the move is committed */
+			int folded = 0;
+			int32_t fold[3] = {0, 0, 0};
+			for (int a = 0; a < D; a++)
+				if (!d->walled[a] && (xn[a] >= d->L[a] || xn[a] < 0)) {
+					double y = wrap(xn[a], d->L[a]);
+					fold[a] = (int32_t)nearbyint((xn[a] - y) / d->L[a]);
+					folded = 1;
+					xn[a] = y;
+				}
 			uint32_t cn = cell_of(d, xn, D);
 			int stays = 1;
 			if (V) {
@@ -1116,11 +1096,12 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 					v2 += v[a] * v[a];
 				in = v2 * dt;
 				ek += M ? m * v2 : v2;
-				img_commit(d, &lg, d->id[k], D, 0);   /* it stays where it was */
 				if (lg.touched)
 					memset(&lg, 0, sizeof lg);
 			} else {
-				img_commit(d, &lg, d->id[k], D, 1);
+				if (folded && d->img)
+					for (int a = 0; a < D; a++)
+						d->img[(size_t)d->id[k] * D + a] += fold[a];
 				if (M) {
 					double v2 = 0;
 					for (int a = 0; a < D; a++) {
