@@ -372,12 +372,17 @@ static void msd_follow(run_t *rc)
 	smp_t sm;
 	eng_totals(rc, &sm);
 	double e = sm.kinetic_energy;
-	if (rc->ed && scene_msd_images(s)) {   /* the engine counted the images: exact, no bound (msd_exact()) */
-		ed_unwrapped(rc->ed, rc->pos);
+	if ((rc->ed || rc->mc) && scene_msd_images(s)) {   /* the engine counted the images: exact, no bound */
+		if (rc->ed)
+			ed_unwrapped(rc->ed, rc->pos);
+		else
+			dsmc_unwrapped(rc->mc, rc->pos);
 		if (rc->st.started)
 			msd_update(rc->msd, sm.time, rc->pos, 0.0);
 		else
 			msd_origin(rc->msd, sm.time, rc->pos, 0.0);
+		if (rc->ids && ed_labels(rc->ed, rc->ids) == ED_OK)   /* reservoir slots: refilled ones drop out */
+			msd_ids(rc->msd, rc->ids);
 		return;
 	}
 	if (scene_has_gravity(s)) {
@@ -388,14 +393,16 @@ static void msd_follow(run_t *rc)
 			for (int k = 0; k < s->n_species; k++) {
 				double v2 = 0.0;
 				for (size_t j = off * s->dim; j < (off + s->species[k].count) * s->dim; j++)
-					v2 += rc->vel[j] * rc->vel[j];
+					if (isfinite(rc->vel[j]))   /* (absent rows of a varying set: NaN) */
+						v2 += rc->vel[j] * rc->vel[j];
 				e += 0.5 * s->species[k].mass * v2;
 				off += s->species[k].count;
 			}
 		} else {
 			double v2 = 0.0;
-			for (size_t k = 0; k < s->count * (size_t)s->dim; k++)
-				v2 += rc->vel[k] * rc->vel[k];
+			for (size_t k = 0; k < scene_slots(s) * (size_t)s->dim; k++)
+				if (isfinite(rc->vel[k]))   /* (absent rows of a varying set: NaN) */
+					v2 += rc->vel[k] * rc->vel[k];
 			e = 0.5 * s->mass * v2;
 		}
 	} else {
@@ -473,8 +480,15 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 		double t_avg = 2.0 * sm.ekin_time_integral / (s->dim * np * sm.interval);
 		double vol = scene_box_volume(s);
 		r->have_interval = 1;
-		r->pressure = ((double)s->count * t_avg + sm.virial / (s->dim * sm.interval)) / vol;
-		r->compressibility = t_avg > 0.0 ? r->pressure * vol / ((double)s->count * t_avg) : NAN;
+		if (rc->varying) {
+			/* particles come and go: the kinetic part from the exact integral of E_kin over the particles
+			 * present (no fixed N), Z = 1 + virial / (2 int E_kin dt): docs/output.md */
+			r->pressure = (2.0 * sm.ekin_time_integral + sm.virial) / (s->dim * sm.interval * vol);
+			r->compressibility = sm.ekin_time_integral > 0.0 ? 1.0 + sm.virial / (2.0 * sm.ekin_time_integral) : NAN;
+		} else {
+			r->pressure = ((double)s->count * t_avg + sm.virial / (s->dim * sm.interval)) / vol;
+			r->compressibility = t_avg > 0.0 ? r->pressure * vol / ((double)s->count * t_avg) : NAN;
+		}
 		r->collision_rate = 2.0 * (double)sm.interval_collisions / ((double)s->count * sm.interval);
 	}
 	r->wall_collisions = sm.wall_collisions;
@@ -523,7 +537,7 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 			return RUN_ENOMEM;
 	}
 	r->obs.a2 = r->obs.a3 = r->obs.g_pairs = r->obs.g_pairs_se = r->obs.g_rate = r->obs.g_pressure = NAN;
-	r->obs.msd = r->obs.msd_se = r->obs.diffusion = r->obs.msd_walled = NAN;
+	r->obs.msd = r->obs.msd_se = r->obs.diffusion = r->obs.msd_walled = r->obs.msd_count = NAN;
 	r->obs.flux = r->obs.flux_se = NAN;
 	if (s->observables & SCENE_OBS_FLUX)
 		flux_compute(s, rows, rc->vel, &r->obs.flux, &r->obs.flux_se);
@@ -539,8 +553,11 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 		double m = dp == s->dim ? r->obs.msd : msd_value_axes(rc->msd, 0);
 		if (dp < s->dim)
 			r->obs.msd_walled = msd_value_axes(rc->msd, 1);
+		/* varying sets: the growth over the interval of the particles present at both ends */
+		double dm = rc->varying ? msd_interval(rc->msd) : m - rc->msd_prev;
+		r->obs.msd_count = rc->varying ? (double)msd_count(rc->msd) : NAN;
 		if (rc->st.started && dt > 0.0 && dp > 0)
-			r->obs.diffusion = (m - rc->msd_prev) / (2.0 * dp * dt);
+			r->obs.diffusion = dm / (2.0 * dp * dt);
 		rc->msd_prev = m;
 		rc->msd_tprev = sm.time;
 	}
@@ -960,11 +977,15 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 	if (s->observables & SCENE_OBS_MSD) {
 		/* ed stops exactly at the time asked for: 0.45 edges is strict; dsmc/hsmc stop at the end of the
 		 * step that reaches it: a quarter edge leaves room for that step */
-		r->msd = msd_create(s->dim, s->count, s->box, s->mass, r->ed ? 0.45 : 0.25);
+		r->msd = msd_create(s->dim, scene_slots(s), s->box, s->mass, r->ed ? 0.45 : 0.25);
 		if (!r->msd)
 			goto nomem;
 		if (scene_msd_images(s))
 			msd_exact(r->msd);
+		/* open, reservoir or dispenser walls, a source: over the particles present at the origin and still
+		 * there (observe/msd.h); ed's reservoir and dispenser slots take new particles: their labels */
+		if (scene_has_open_walls(s) && msd_varying(r->msd, r->ed && scene_has_reservoir(s)) != 0)
+			goto nomem;
 		/* mixtures: the lightest particle bounds the speed, the heaviest the potential energy, the smallest
 		 * the lowest contact plane */
 		double rmin = s->radius;
@@ -1028,7 +1049,7 @@ static run_t *create(const scene_t *s, uint64_t stream, const run_opts_t *opts, 
 		if (!r->vel)
 			goto nomem;
 	}
-	if (r->opts.snapshots && r->ed && scene_has_reservoir(s)) {
+	if ((r->opts.snapshots || (s->observables & SCENE_OBS_MSD)) && r->ed && scene_has_reservoir(s)) {
 		r->ids = malloc(scene_slots(s) * sizeof(int64_t));
 		if (!r->ids)
 			goto nomem;

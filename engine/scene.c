@@ -1845,7 +1845,7 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 	/* Observables that need what the scene has. */
 	json_t *obs = json_object_get(json_object_get(v, "output"), "observables");
 	if (!obs && scene_has_open_walls(s))
-		s->observables &= ~(unsigned)SCENE_OBS_PRESSURE;   /* default set: no virial pressure with outflow */
+		s->observables &= ~(unsigned)SCENE_OBS_PRESSURE;   /* default set: no pressure with outflow (asked for: over the particles present) */
 	size_t i;
 	json_t *o;
 	json_array_foreach(obs, i, o) {
@@ -1863,27 +1863,22 @@ static int check_boundaries(ctx_t *c, json_t *v, scene_t *s)
 			if (!periodic_axes && !strcmp(name, periodic_only[k]))
 				return fail(c, path, "\"%s\" needs a periodic axis (its wave vectors run along the periodic "
 				            "axes only); every axis has walls", name);
-		/* unwrapped displacements along periodic axes: dsmc/hsmc rely on a speed bound from the mechanical
-		 * energy (engine/observe/msd.h), which must not grow; ed counts the periodic images crossed when
-		 * something feeds energy (scene_msd_images()); walled axes need no unwrapping */
+		/* unwrapped displacements along periodic axes: a speed bound from the mechanical energy
+		 * (engine/observe/msd.h), which must not grow; ed, dsmc and hsmc count the periodic images crossed
+		 * instead when something feeds energy or particles enter (scene_msd_images()); walled axes need no
+		 * unwrapping. Varying particle sets: over the particles present at the origin and since. */
 		if (!strcmp(name, "mean_square_displacement")) {
-			if (scene_has_open_walls(s))
-				return fail(c, path, "\"mean_square_displacement\" is not available with an \"open\" wall yet "
-				            "(it needs a fixed particle set)");
 			const char *feed = scene_energy_feed(s);
-			if (feed && s->method != SCENE_METHOD_ED)
+			if (feed && s->method != SCENE_METHOD_ED && s->method != SCENE_METHOD_DSMC &&
+			    s->method != SCENE_METHOD_HSMC)
 				return fail(c, path, "\"mean_square_displacement\" with a periodic axis and %s (it feeds energy: "
 				            "no speed bound for following particles across periodic images) needs method "
-				            "\"ed\", which counts the images crossed", feed);
+				            "\"ed\", \"dsmc\" or \"hsmc\", which count the images crossed", feed);
 		}
 		if (!strcmp(name, "obstacle_force") && !obst)
 			return fail(c, path, "\"obstacle_force\" needs obstacles");
 		if (!strcmp(name, "outflow") && !scene_has_open_walls(s))
 			return fail(c, path, "\"outflow\" needs an \"open\" wall");
-		/* the virial pressure assumes a fixed particle set in the box */
-		if (!strcmp(name, "pressure") && scene_has_open_walls(s))
-			return fail(c, path, "\"pressure\" is not available with an \"open\" wall%s (the particle set "
-			            "changes); use \"wall_force\"", s->src_count ? " or a particles.source" : "");
 		if (!strcmp(name, "wall_force") && !walls)
 			return fail(c, path, "\"wall_force\" needs walls (boundaries)");
 		if (!strcmp(name, "center_of_mass_height") || !strcmp(name, "potential_energy")) {
@@ -2635,7 +2630,13 @@ const char *scene_energy_feed(const scene_t *s)
 
 int scene_msd_images(const scene_t *s)
 {
-	return (s->observables & SCENE_OBS_MSD) && s->method == SCENE_METHOD_ED && scene_energy_feed(s) != NULL;
+	if (!(s->observables & SCENE_OBS_MSD))
+		return 0;
+	if (s->method == SCENE_METHOD_ED)
+		return scene_energy_feed(s) != NULL || scene_has_open_walls(s);
+	if (s->method == SCENE_METHOD_DSMC || s->method == SCENE_METHOD_HSMC)   /* open walls alone: the bound */
+		return scene_energy_feed(s) != NULL || s->src_count > 0;
+	return 0;
 }
 
 int scene_has_open_walls(const scene_t *s)

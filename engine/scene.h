@@ -386,10 +386,12 @@ int scene_has_gravity(const scene_t *s);
 /* What feeds the mechanical energy of a scene with a periodic axis (thermal, moving or vibrating walls,
  * driving, no_slip obstacles, gravity along a periodic axis) as a short name for messages, or NULL: the
  * speed bound by which mean_square_displacement follows particles across periodic images (observe/msd.h)
- * holds only without it. Method ed then counts the images crossed instead (scene_msd_images()). */
+ * holds only without it. The engines then count the images crossed instead (scene_msd_images()). */
 const char *scene_energy_feed(const scene_t *s);
-/* mean_square_displacement in method ed with a periodic axis and an energy feed: the engine counts each
- * particle's periodic images (ed_unwrapped()), exactly, with no speed bound. */
+/* mean_square_displacement with a periodic axis and an energy feed (methods ed, dsmc, hsmc), in ed with a
+ * varying particle set (scene_has_open_walls(): entries feed energy), in dsmc/hsmc with a particles.source:
+ * the engine counts each particle's periodic images (ed_unwrapped(), dsmc_unwrapped()), exactly, with no
+ * speed bound. */
 int scene_msd_images(const scene_t *s);
 
 /* A mixture: more than one particle species, or polydisperse radii

@@ -1,5 +1,6 @@
 /* Tests for engine/observe/msd.c: ballistic particles followed across many periodic images, the update bound, the checkpoint state. */
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -179,13 +180,65 @@ static void test_gravity(void)
 	msd_destroy(m);
 }
 
+/*
+ * A varying particle set (msd_varying()): 4 labelled rows in 1D-like 2D motion, exact mode. Row 1 leaves
+ * (NaN) at the first update, row 2's slot is refilled by another particle (new label) at the second, row 3
+ * is empty at the origin and filled later: the members are row 0 throughout and row 2 until its refill. The mean, the count, the interval growth of the same members and the state round trip with NaN
+ * origin rows are checked exactly.
+ */
+static void test_varying(void)
+{
+	const double box[2] = {10.0, 10.0};
+	msd_t *m = msd_create(2, 4, box, 1.0, 0.45);
+	msd_exact(m);
+	int rc = msd_varying(m, 1);
+	double p0[8] = {1, 1, 2, 2, 3, 3, NAN, NAN};
+	int64_t id0[4] = {0, 1, 2, -1};
+	msd_origin(m, 0.0, p0, 0.0);
+	msd_ids(m, id0);
+	ok(rc == 0 && msd_count(m) == 3 && msd_value(m, NULL) == 0.0, "varying set: 3 members at the origin (one row empty)");
+	/* t = 1: row 0 moved by (3, 4), row 1 gone, row 2 moved by (1, 0), row 3 entered */
+	double p1[8] = {4, 5, NAN, NAN, 4, 3, 7, 7};
+	int64_t id1[4] = {0, -1, 2, 5};
+	msd_update(m, 1.0, p1, 0.0);
+	msd_ids(m, id1);
+	double se, v1 = msd_value(m, &se), g1 = msd_interval(m);
+	ok(msd_count(m) == 2 && v1 == 13.0 && g1 == 13.0, "t = 1: members 0 and 2, MSD (25 + 1) / 2 = %g, interval growth %g", v1, g1);
+	/* t = 2: row 0 at (3, 5) from its origin (9 + 25 = 34), row 2 refilled by id 6 */
+	double p2[8] = {4, 6, NAN, NAN, 0, 0, 8, 8};
+	int64_t id2[4] = {0, -1, 6, 5};
+	msd_update(m, 2.0, p2, 0.0);
+	msd_ids(m, id2);
+	size_t k = msd_state_size(m);
+	double *st = malloc(k * sizeof(double));
+	msd_state_get(m, st);
+	double v2 = msd_value(m, NULL), g2 = msd_interval(m);
+	ok(msd_count(m) == 1 && v2 == 34.0 && g2 == 9.0, "t = 2: the refilled slot dropped: MSD %g of row 0, growth of the same "
+	   "particle %g (34 - 25)", v2, g2);
+	msd_t *c = msd_create(2, 4, box, 1.0, 0.45);
+	msd_exact(c);
+	msd_varying(c, 1);
+	ok(msd_state_set(c, st) == 0 && msd_count(c) == 1 && msd_value(c, NULL) == 34.0 && msd_interval(c) == 9.0,
+	   "state of %zu doubles with NaN origin rows restores the members, labels and last squared displacements", k);
+	/* a refilled slot after the restore is still told by its label */
+	double p3[8] = {4, 6, NAN, NAN, 0, 0, 8, 8};
+	int64_t id3[4] = {7, -1, 6, 5};
+	msd_update(c, 3.0, p3, 0.0);
+	msd_ids(c, id3);
+	ok(msd_count(c) == 0 && isnan(msd_value(c, NULL)) && isnan(msd_interval(c)), "no member left: NaN");
+	free(st);
+	msd_destroy(m);
+	msd_destroy(c);
+}
+
 int main(void)
 {
-	plan(15);
+	plan(20);
 	test_ballistic(2);
 	test_ballistic(3);
 	test_too_rare();
 	test_walls();
 	test_gravity();
+	test_varying();
 	return done_testing();
 }

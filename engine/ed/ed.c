@@ -3432,6 +3432,11 @@ int ed_unwrapped(const ed_t *ed, double *pos)
 		}
 		const double dt = ed->t - t;
 		double *out = pos + (size_t)ed->id[i] * D;
+		if (ed->gone && ed->gone[i]) {   /* left through an open wall, or an empty slot: NaN (as ed_state()) */
+			for (int a = 0; a < D; a++)
+				out[a] = NAN;
+			continue;
+		}
 		for (int a = 0; a < D; a++) {
 			/* the engine's position (never folded between wraps) plus the edges it was wrapped by */
 			const int fall = grav && !(ed->frozen && ed->frozen[i]);   /* frozen by a filter: straight */

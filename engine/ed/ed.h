@@ -154,7 +154,8 @@ void ed_state(const ed_t *ed, double *pos, double *vel);
 /* Scenes where the engine follows periodic images (scene_msd_images(): mean_square_displacement with
  * something that feeds energy): positions at the current time as N*D doubles in particle order, NOT folded:
  * on periodic axes the engine's position plus the box edges it was wrapped by (exact: counted at each
- * wrap), on walled axes as ed_state(). ED_EINVAL (nothing written) in other scenes. O(N). */
+ * wrap), on walled axes as ed_state(). NaN rows for particles gone (open walls) and empty slots.
+ * ED_EINVAL (nothing written) in other scenes. O(N). */
 int ed_unwrapped(const ed_t *ed, double *pos);
 /* Rough particles: spin components per particle (1 in 2D: about z; 3 in
  * 3D), 0 for smooth ones; ed_spins() writes N * ed_spin_dim() angular

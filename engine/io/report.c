@@ -222,6 +222,8 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 		num_se(&o, r, "diffusion", r->obs.diffusion, r->se.diffusion);
 		if (r->replicas <= 1 && !isnan(r->obs.msd_walled))   /* scenes with walls */
 			num(&o, "msd_walled", r->obs.msd_walled);
+		if (r->replicas <= 1 && !isnan(r->obs.msd_count))   /* varying particle sets */
+			num(&o, "msd_count", r->obs.msd_count);
 	}
 	if (r->kind == RUN_PROGRESS && (r->have & SCENE_OBS_FLUX)) {
 		/* single runs: the standard error over particles of the instantaneous sum; ensembles: over replicas */

@@ -64,6 +64,8 @@ struct dsmc {
 	/* particles: AoS, stride 2D doubles: x[D] then v[D], in cell order (sorted in place) */
 	double *p;
 	uint32_t *id;                  /* particle identity (creation index) of each record */
+	int32_t *img;                  /* scene_msd_images(): periodic images each particle crossed, img[id * D + a]
+	                                * (counted where a flight or a CBA offset wraps it), or NULL */
 	uint32_t *cell;                /* new cell of each particle, then its sort destination (one step) */
 	uint32_t *start, *cnt;         /* ncells + 1 each; start: sorted offsets of p; cnt: counts, cursors */
 	/* sort scratch (see sort()): ring of ring_n records waiting for their slot
@@ -751,7 +753,7 @@ static ALWAYS_INLINE void obst_rel(const struct dsmc *d, const double *x, int k,
  * new velocity). With obstacles a segment is at most oreach / (|v| + |g|
  * left) long (it travels less than oreach along any axis), so the nearest
  * image of each obstacle is the only one in reach. x, v are updated in place
- * (periodic axes wrapped). Returns the integral of |v|^2 over the flight
+ * (periodic axes left unfolded: move_bounded() folds them). Returns the integral of |v|^2 over the flight
  * (exact: |v + g t|^2 is a quadratic in t).
  * M = 1 (mixtures, chosen at load): the particle of species sp and radius
  * sigma/2 + dr (dr <= 0: sigma is the largest diameter) touches a wall when
@@ -860,9 +862,7 @@ static ALWAYS_INLINE double flight(struct dsmc *d, double *x, double *v, double 
 		if (!(left > 0))
 			break;
 	}
-	for (int a = 0; a < D; a++)
-		if (!d->walled[a])
-			x[a] = wrap(x[a], d->L[a]);
+	/* (periodic axes: the caller folds x, move_bounded()) */
 	return integ;
 #undef LO
 #undef HI
@@ -1015,10 +1015,8 @@ static ALWAYS_INLINE double flight_vib(struct dsmc *d, double *x, double *v, dou
 			break;
 	}
 	for (int a = 0; a < D; a++) {
-		if (!d->walled[a]) {
-			x[a] = wrap(x[a], d->L[a]);
+		if (!d->walled[a])   /* the caller folds it (move_bounded()) */
 			continue;
-		}
 		/* inside the walls where they are now (rounding of the roots) */
 		const double clo = M ? d->cur_lo[a] + dr : d->cur_lo[a], chi = M ? d->cur_hi[a] - dr : d->cur_hi[a];
 		if (x[a] < clo)
@@ -1146,6 +1144,17 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 				m = d->msp[sp];
 			}
 			double in = V ? flight_vib(d, xn, vn, dt, d->t, &lg, D, M, sp, dr) : flight(d, xn, vn, dt, &lg, D, M, sp, dr);
+			/* periodic axes folded into the box; a fold (not every move) is logged for the image counts
+			 * (d->img), added when the move is committed */
+			int folded = 0;
+			int32_t fold[3] = {0, 0, 0};
+			for (int a = 0; a < D; a++)
+				if (!d->walled[a] && (xn[a] >= d->L[a] || xn[a] < 0)) {
+					double y = wrap(xn[a], d->L[a]);
+					fold[a] = (int32_t)nearbyint((xn[a] - y) / d->L[a]);
+					folded = 1;
+					xn[a] = y;
+				}
 			uint32_t cn = cell_of(d, xn, D);
 			int stays = 1;
 			if (V) {
@@ -1193,6 +1202,9 @@ static ALWAYS_INLINE double move_bounded(struct dsmc *d, double dt, double *ekin
 				if (lg.touched)
 					memset(&lg, 0, sizeof lg);
 			} else {
+				if (folded && d->img)
+					for (int a = 0; a < D; a++)
+						d->img[(size_t)d->id[k] * D + a] += fold[a];
 				if (M) {
 					double v2 = 0;
 					for (int a = 0; a < D; a++) {
@@ -1852,8 +1864,18 @@ static ALWAYS_INLINE void collide(struct dsmc *d, double dt, const int D, const 
 					sn[a] = sij * nrm[a];
 				if (!B || offset_fits(d, xi, xj, sn, D, (uint32_t)c, B, M))
 					for (int a = 0; a < D; a++) {
-						xi[a] = wrap(xi[a] + sn[a], d->L[a]);   /* walled axes: inside, wrap is the identity */
-						xj[a] = wrap(xj[a] - sn[a], d->L[a]);
+						double yi = wrap(xi[a] + sn[a], d->L[a]);   /* walled axes: inside, wrap is the identity */
+						double yj = wrap(xj[a] - sn[a], d->L[a]);
+						if (B && d->img) {   /* bounded scenes only (B = 0: no trace); at a wrap only */
+							if (yi != xi[a] + sn[a])
+								d->img[(size_t)d->id[(size_t)(xi - d->p) / (2 * D)] * D + a] +=
+									(int32_t)nearbyint((xi[a] + sn[a] - yi) / d->L[a]);
+							if (yj != xj[a] - sn[a])
+								d->img[(size_t)d->id[(size_t)(xj - d->p) / (2 * D)] * D + a] +=
+									(int32_t)nearbyint((xj[a] - sn[a] - yj) / d->L[a]);
+						}
+						xi[a] = yi;
+						xj[a] = yj;
 					}
 			}
 		}
@@ -2479,6 +2501,8 @@ static dsmc_t *alloc(const scene_t *s, int *err, char *msg, size_t msglen)
 			goto fail;
 	}
 	d->id = malloc(d->n * sizeof(uint32_t));
+	if (scene_msd_images(s) && !(d->img = calloc((size_t)d->n * (size_t)d->dim, sizeof(int32_t))))
+		goto fail;
 	ring_size(d);
 	/* zeroed: sort() copies ring slots whatever they hold (defined bytes) */
 	d->ringp = calloc((size_t)d->ring_n * S, sizeof(double));
@@ -2714,6 +2738,7 @@ void dsmc_destroy(dsmc_t *d)
 		return;
 	free(d->p);
 	free(d->id);
+	free(d->img);
 	free(d->ringp);
 	free(d->ringid);
 	free(d->overp);
@@ -2837,6 +2862,19 @@ void dsmc_state(const dsmc_t *d, double *pos, double *vel)
 	}
 }
 
+int dsmc_unwrapped(const dsmc_t *d, double *pos)
+{
+	if (!d->img || !pos)
+		return DSMC_EINVAL;
+	const int D = d->dim;
+	dsmc_state(d, pos, NULL);
+	for (uint32_t i = 0; i < d->n; i++)
+		for (int a = 0; a < D; a++)
+			if (!d->walled[a])   /* NaN rows (particles gone or not inserted yet) stay NaN */
+				pos[(size_t)i * D + a] += d->L[a] * (double)d->img[(size_t)i * D + a];
+	return DSMC_OK;
+}
+
 void dsmc_totals(const dsmc_t *d, dsmc_sample_t *out)
 {
 	memset(out, 0, sizeof(*out));
@@ -2863,7 +2901,7 @@ void dsmc_totals(const dsmc_t *d, dsmc_sample_t *out)
  * cell, cnt (rewritten before they are read in every step) and v_max
  * (recomputed per cell and step from the velocities). */
 enum { F_SCALAR, F_PART, F_ID, F_START, F_REM, F_STAMP, F_RNG, F_WALL, F_WHITS, F_WIMP, F_PRESENT, F_WOUT, F_OBST, F_OIMP,
-       F_SRC };
+       F_SRC, F_IMG };
 typedef struct {
 	const char *name;
 	ed_type_t type;
@@ -2904,6 +2942,8 @@ static const dfield_t dfields[] = {
 	{ "obstacle_impulse", ED_T_F64, F_OIMP, 0 },
 	/* scenes with a source only: insertions due so far, skipped ones (present: above) */
 	{ "source", ED_T_U64, F_SRC, 0 },
+	/* scene_msd_images() only: periodic image counts, by particle id */
+	{ "images", ED_T_I32, F_IMG, 0 },
 };
 #define N_DFIELDS (sizeof dfields / sizeof dfields[0])
 
@@ -2924,6 +2964,7 @@ static size_t dfield_count(const struct dsmc *d, const dfield_t *f)
 	case F_WOUT: return d->open ? 6 : 0;
 	case F_OBST: return d->nobst ? 1 : 0;
 	case F_OIMP: return 3 * (size_t)d->nobst;
+	case F_IMG: return d->img ? (size_t)d->n * (size_t)d->dim : 0;
 	default: return 1;
 	}
 }
@@ -2931,7 +2972,8 @@ static size_t dfield_count(const struct dsmc *d, const dfield_t *f)
 /* Fields a scene's engine has (stamp: hsmc; wall state: scenes with walls). */
 static int dfield_present(const struct dsmc *d, const dfield_t *f)
 {
-	return f->kind == F_STAMP ? d->hsmc : f->kind == F_SRC ? d->src : f->kind >= F_OBST ? d->nobst > 0
+	return f->kind == F_IMG ? d->img != NULL : f->kind == F_STAMP ? d->hsmc : f->kind == F_SRC ? d->src
+	       : f->kind >= F_OBST ? d->nobst > 0
 	       : f->kind == F_PRESENT ? d->open || d->src : f->kind >= F_PRESENT ? d->open : f->kind >= F_WALL ? d->has_walls : 1;
 }
 
@@ -2975,6 +3017,7 @@ int dsmc_field_get(const dsmc_t *d, const char *name, void *buf)
 	case F_WOUT: memcpy(buf, d->wout, sizeof d->wout); break;
 	case F_OIMP: memcpy(buf, d->obst_impulse, count * sizeof(double)); break;
 	case F_SRC: ((uint64_t *)buf)[0] = d->src_k, ((uint64_t *)buf)[1] = d->src_rej; break;
+	case F_IMG: memcpy(buf, d->img, count * sizeof(int32_t)); break;
 	case F_REM:
 		for (size_t c = 0; c < count; c++)
 			((double *)buf)[c] = d->rem[c];   /* float -> double -> float is exact */
@@ -3005,6 +3048,7 @@ int dsmc_field_set(dsmc_t *d, const char *name, ed_type_t type, size_t count, co
 	case F_WOUT: memcpy(d->wout, buf, sizeof d->wout); break;
 	case F_OIMP: memcpy(d->obst_impulse, buf, count * sizeof(double)); break;
 	case F_SRC: d->src_k = ((const uint64_t *)buf)[0], d->src_rej = ((const uint64_t *)buf)[1]; break;
+	case F_IMG: memcpy(d->img, buf, count * sizeof(int32_t)); break;
 	case F_REM:
 		for (size_t c = 0; c < count; c++) {
 			double r = ((const double *)buf)[c];

@@ -182,6 +182,12 @@ void dsmc_totals(const dsmc_t *d, dsmc_sample_t *out);
  * left through an open wall. Either pointer may be NULL. */
 void dsmc_state(const dsmc_t *d, double *pos, double *vel);
 
+/* Scenes where the engine follows periodic images (scene_msd_images(): mean_square_displacement with
+ * something that feeds energy, or a source): positions as dsmc_state() plus, on periodic axes, the box
+ * edges each particle was wrapped by (exact: counted at each wrap of a flight or a CBA offset, by particle
+ * id; NaN rows stay NaN). DSMC_EINVAL (nothing written) in other scenes. O(N). */
+int dsmc_unwrapped(const dsmc_t *d, double *pos);
+
 double dsmc_time(const dsmc_t *d);
 uint64_t dsmc_collisions(const dsmc_t *d);
 uint64_t dsmc_moves(const dsmc_t *d);

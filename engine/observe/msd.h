@@ -2,6 +2,7 @@
 #pragma once
 
 #include <stddef.h>
+#include <stdint.h>
 
 /*
  * Contract
@@ -27,7 +28,17 @@
  *   ensure).
  * - pos: N*D doubles in scene particle order, folded into [0, L). Times are
  *   the run's clock; units of the scene (diameter from the scene radius).
- * - No I/O, no globals; msd_create() allocates everything (2 N D doubles).
+ * - Varying particle sets (msd_varying(): open, reservoir or dispenser
+ *   walls, a source): rows of absent particles are NaN. The MSD at t is
+ *   over the members: the particles present at the origin and at every
+ *   update since (one that leaves is dropped for good; with labels, so is
+ *   one whose row holds another particle's label, a slot refilled between
+ *   updates). Particles that enter after the origin are never members. The
+ *   speed bound covers the members when the energy of the particles present
+ *   cannot grow (leaving only removes energy); entries feed energy: the
+ *   caller then passes exact unwrapped positions (msd_exact()).
+ * - No I/O, no globals; msd_create() allocates everything (2 N D doubles;
+ *   msd_varying(): N more, 2 N with labels).
  */
 
 typedef struct msd msd_t;
@@ -53,6 +64,14 @@ int msd_walls(msd_t *m, const int *walled, const double *gravity, double radius)
  * INFINITY, ekin is ignored, and gravity may point along a periodic axis. */
 void msd_exact(msd_t *m);
 
+/* Varying particle set, once after msd_create() (before msd_origin()): absent rows are NaN, and the mean
+ * is over the members (the contract). labelled: the caller gives each row's particle label by msd_ids()
+ * (slots reused by entering particles). 0, or -1 when out of memory or already set. */
+int msd_varying(msd_t *m, int labelled);
+/* Labelled varying sets: call right after each msd_origin() (records the members' labels; a row with a
+ * negative label is no member) and msd_update() (drops the members whose label changed). ids: N labels. */
+void msd_ids(msd_t *m, const int64_t *ids);
+
 /* The origin: positions at time t, with total kinetic energy ekin (the speed bound). */
 void msd_origin(msd_t *m, double t, const double *pos, double ekin);
 /* Follow the particles to pos at time t (t >= the previous update's). */
@@ -60,10 +79,17 @@ void msd_update(msd_t *m, double t, const double *pos, double ekin);
 /* Latest time of the next update (INFINITY when nothing moves). */
 double msd_due(const msd_t *m);
 
-/* Mean over particles of |r(t) - r(0)|^2 (length^2) at the last update, and
+/* Mean over particles (varying sets: the members) of |r(t) - r(0)|^2 (length^2) at the last update, and
  * its standard error (sample standard deviation / sqrt(N): particles taken
- * as independent) into *se (may be NULL). */
+ * as independent) into *se (may be NULL). NaN without members. */
 double msd_value(const msd_t *m, double *se);
+/* Particles the mean is over: N, or the members of a varying set. */
+size_t msd_count(const msd_t *m);
+/* Varying sets: the mean over the members now of the growth of their squared displacement along the
+ * periodic axes (every axis without walls) since the previous call (or the origin), the same particles at
+ * both ends; stores the present values for the next call. NaN without members, without a periodic axis or
+ * for a fixed set (there the difference of msd_value()s is the same). */
+double msd_interval(msd_t *m);
 /* Mean over particles of the squared displacement summed over the walled axes (walled != 0) or over the
  * periodic ones (walled == 0) at the last update; NaN when there is no such axis. */
 double msd_value_axes(const msd_t *m, int walled);
@@ -71,8 +97,9 @@ double msd_value_axes(const msd_t *m, int walled);
 double msd_time0(const msd_t *m);
 double msd_time(const msd_t *m);
 
-/* State for checkpoints: msd_state_size() doubles (origin, unwrapped positions, times, energy). */
+/* State for checkpoints: msd_state_size() doubles (origin, unwrapped positions, times, energy; varying
+ * sets: each row's squared displacement at the last msd_interval() and, labelled, its origin label). */
 size_t msd_state_size(const msd_t *m);
 void msd_state_get(const msd_t *m, double *v);
-/* 0, or -1 when a value is not finite. */
+/* 0, or -1 when a value is not finite (varying sets: NaN origin rows mark the particles not members). */
 int msd_state_set(msd_t *m, const double *v);

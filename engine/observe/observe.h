@@ -34,6 +34,8 @@ typedef struct {
 	double diffusion;         /* ... (MSD(t) - MSD(t_prev)) / (2 D (t - t_prev)) over the output interval; with
 	                           * walls over the periodic axes only (their MSD, D their number) */
 	double msd_walled;        /* ... with walls: the part of msd along the walled axes (NaN without walls) */
+	double msd_count;         /* ... varying particle sets (open, reservoir, dispenser walls, a source): the
+	                           * particles msd is over, those present at the origin and since (NaN otherwise) */
 	double flux, flux_se;     /* flux: sum_i v_i . g_hat / volume now (g_hat: gravity's direction, else the last
 	                           * axis), its standard error sqrt(N var(v . g_hat)) / volume over particles */
 } obs_scalars_t;

@@ -127,7 +127,7 @@ static int progress(er_t *E, run_record_t *r)
 	}
 	r->com_height = r->potential_energy = NAN;   /* no gravity (as ed_sample()) */
 	r->obs.a2 = r->obs.a3 = r->obs.g_pairs = r->obs.g_pairs_se = r->obs.g_rate = r->obs.g_pressure = NAN;
-	r->obs.msd = r->obs.msd_se = r->obs.diffusion = r->obs.msd_walled = NAN;
+	r->obs.msd = r->obs.msd_se = r->obs.diffusion = r->obs.msd_walled = r->obs.msd_count = NAN;
 	r->obs.flux = r->obs.flux_se = NAN;
 	ped_mark(E->pd, E->t);   /* right after a sync: pedmpi_advance() saved the state at E->t */
 	E->t_mark = E->t_ref = E->t;
