@@ -263,42 +263,18 @@ static int parse_correction(ctx_t *c, const char *path, json_t *v, void *dst, co
 	return ret;
 }
 
-static int parse_contact(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+/* A choice of two names (arg: the two, in index order), as an int 0 or 1: contact_value, hsmc.cell_partners,
+ * hsmc.entry, hsmc.rejected_moves. */
+static int parse_two(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
 {
-	int i, ret = match(c, path, v, contact_names, 2, &i);
+	int i, ret = match(c, path, v, (const char *const *)arg, 2, &i);
 	if (ret == 0)
 		*(int *)dst = i;
 	return ret;
 }
-
-/* hsmc.cell_partners: "full" (0) or "any" (1). */
-static int parse_partners(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
-{
-	static const char *const names[] = { "full", "any" };
-	int i, ret = match(c, path, v, names, 2, &i);
-	if (ret == 0)
-		*(int *)dst = i;
-	return ret;
-}
-
-/* hsmc.entry, hsmc.rejected_moves: each a choice of two names (0 or 1). */
-static int parse_entry(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
-{
-	static const char *const names[] = { "step", "linear" };
-	int i, ret = match(c, path, v, names, 2, &i);
-	if (ret == 0)
-		*(int *)dst = i;
-	return ret;
-}
-
-static int parse_rejected(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
-{
-	static const char *const names[] = { "keep", "collide" };
-	int i, ret = match(c, path, v, names, 2, &i);
-	if (ret == 0)
-		*(int *)dst = i;
-	return ret;
-}
+static const char *const partner_names[] = { "full", "any" };
+static const char *const entry_names[] = { "step", "linear" };
+static const char *const rejected_names[] = { "keep", "collide" };
 
 static int parse_version(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
 {
@@ -2482,7 +2458,7 @@ static int check_mc(ctx_t *c, const char *path, json_t *v, void *base)
 	{ "time_step", parse_number, offsetof(scene_t, mc_time_step), &R_POS, false }, \
 	{ "collisions_per_step", parse_number, offsetof(scene_t, mc_collisions_per_step), &R_POS, false }, \
 	{ "correction", parse_correction, offsetof(scene_t, mc_correction), NULL, false }, \
-	{ "contact_value", parse_contact, offsetof(scene_t, mc_local_chi), NULL, false }, \
+	{ "contact_value", parse_two, offsetof(scene_t, mc_local_chi), contact_names, false }, \
 	{ "impact_c", parse_impact, 0, NULL, false }
 
 static const struct object dsmc_obj = {
@@ -2497,9 +2473,9 @@ static const struct object hsmc_obj = {
 	.fields = (const struct field[]){
 		MC_FIELDS,
 		{ "max_volume_fraction", parse_number, offsetof(scene_t, mc_max_volume_fraction), &R_POS, false },
-		{ "cell_partners", parse_partners, offsetof(scene_t, mc_cell_any), NULL, false },
-		{ "entry", parse_entry, offsetof(scene_t, mc_entry), NULL, false },
-		{ "rejected_moves", parse_rejected, offsetof(scene_t, mc_reject), NULL, false },
+		{ "cell_partners", parse_two, offsetof(scene_t, mc_cell_any), partner_names, false },
+		{ "entry", parse_two, offsetof(scene_t, mc_entry), entry_names, false },
+		{ "rejected_moves", parse_two, offsetof(scene_t, mc_reject), rejected_names, false },
 		{ .name = NULL },
 	},
 	.check = check_mc,

@@ -2947,6 +2947,25 @@ static double inlet_normal(rng_t *g, double a, double s)
  * time drawn. ED_FULL (nothing changed) when no slot is free. */
 static int inlet_enter_mix(struct ed *ed, int w);
 
+/* An entry through reservoir wall w made (particle i placed, clear of the others): its label and counts;
+ * rough particles: the reservoir gas's spins, Maxwellian at its temperature T = m s^2, variance T / I per
+ * component (I = q m a^2, a the particle's radius: sw = s / sqrt(q a^2) the spins' spread, each caller's
+ * own arithmetic as before), drawn after the entry (times do not depend on spins: the predictions stay
+ * valid); then its events. */
+static void inlet_admit(struct ed *ed, uint32_t i, int w, double sw)
+{
+	ed->label[ed->id[i]] = (int64_t)ed->in_count[12]++;
+	ed->in_count[w]++;
+	if (ed->rough) {
+		const int k = ed->dim == 2 ? 1 : 3;
+		for (int c = 0; c < k; c++)
+			ed->spin[(size_t)i * k + c] = sw * rng_gauss(&ed->irng);
+	}
+	DISPATCH(ed, set_cross, ed, i);
+	DISPATCH(ed, scan_full, ed, i);
+	cal_update(ed, i, ev_time(ed, i));
+}
+
 static int inlet_enter(struct ed *ed, int w)
 {
 	if (ed->mix)
@@ -2977,20 +2996,7 @@ static int inlet_enter(struct ed *ed, int w)
 	if (clash) {
 		ed->in_count[6 + w]++;
 	} else {
-		ed->label[ed->id[i]] = (int64_t)ed->in_count[12]++;
-		ed->in_count[w]++;
-		if (ed->rough) {
-			/* rough particles: the reservoir gas's spins are Maxwellian at its temperature T = m s^2,
-			 * variance T / I per component (I = q m a^2), drawn after the entry (times do not depend on
-			 * spins: the predictions stay valid) */
-			const int k = D == 2 ? 1 : 3;
-			const double sw = s / sqrt(ed->rq * 0.25 * ed->sigma2);
-			for (int c = 0; c < k; c++)
-				ed->spin[(size_t)i * k + c] = sw * rng_gauss(&ed->irng);
-		}
-		DISPATCH(ed, set_cross, ed, i);
-		DISPATCH(ed, scan_full, ed, i);
-		cal_update(ed, i, ev_time(ed, i));
+		inlet_admit(ed, i, w, s / sqrt(ed->rq * 0.25 * ed->sigma2));
 	}
 	ed->in_next[w] += inlet_wait(ed, w);
 	return ED_OK;
@@ -3038,17 +3044,7 @@ static int inlet_enter_mix(struct ed *ed, int w)
 		ed->in_count[6 + w]++;
 	} else {
 		x->fs_n[sp]--;
-		ed->label[ed->id[i]] = (int64_t)ed->in_count[12]++;
-		ed->in_count[w]++;
-		if (ed->rough) {   /* T / I_k = s^2 / (q a_k^2), as dispense_mix() */
-			const int nk = D == 2 ? 1 : 3;
-			const double sw = s / sqrt(ed->rq * rad * rad);
-			for (int c = 0; c < nk; c++)
-				ed->spin[(size_t)i * nk + c] = sw * rng_gauss(&ed->irng);
-		}
-		DISPATCH(ed, set_cross, ed, i);
-		DISPATCH(ed, scan_full, ed, i);
-		cal_update(ed, i, ev_time(ed, i));
+		inlet_admit(ed, i, w, s / sqrt(ed->rq * rad * rad));
 	}
 	ed->in_next[w] += inlet_wait(ed, w);
 	return ED_OK;

@@ -90,6 +90,14 @@ static size_t cidx(const ped_t *pd, const int32_t *c)
 	return ((size_t)c[2] * (size_t)pd->p.nc[1] + (size_t)c[1]) * (size_t)pd->p.nc[0] + (size_t)c[0];
 }
 
+/* The cell coordinates of cell index k (cidx()'s inverse). */
+static void cell_coords(const ped_t *pd, size_t k, int32_t *c)
+{
+	c[0] = (int32_t)(k % (size_t)pd->p.nc[0]);
+	c[1] = (int32_t)(k / (size_t)pd->p.nc[0] % (size_t)pd->p.nc[1]);
+	c[2] = (int32_t)(k / ((size_t)pd->p.nc[0] * (size_t)pd->p.nc[1]));
+}
+
 static void cell_insert(ped_t *pd, int32_t i)
 {
 	size_t c = cidx(pd, pd->rec[i].cc);
@@ -946,9 +954,7 @@ ped_t *ped_create(const ped_params_t *p, int rank, size_t capacity, int *err)
 	for (size_t k = 0; k < pd->ncells; k++) {
 		if (pd->role[k] != R_INNER)
 			continue;
-		c[0] = (int32_t)(k % (size_t)pd->p.nc[0]);
-		c[1] = (int32_t)(k / (size_t)pd->p.nc[0] % (size_t)pd->p.nc[1]);
-		c[2] = (int32_t)(k / ((size_t)pd->p.nc[0] * (size_t)pd->p.nc[1]));
+		cell_coords(pd, k, c);
 		int32_t nb[27][3];
 		int m = around(pd, c, nb);
 		for (int q = 0; q < m; q++)
@@ -967,9 +973,7 @@ ped_t *ped_create(const ped_params_t *p, int rank, size_t capacity, int *err)
 	for (size_t k = 0; k < pd->ncells; k++) {
 		if (pd->role[k] != R_GHOST)
 			continue;
-		c[0] = (int32_t)(k % (size_t)pd->p.nc[0]);
-		c[1] = (int32_t)(k / (size_t)pd->p.nc[0] % (size_t)pd->p.nc[1]);
-		c[2] = (int32_t)(k / ((size_t)pd->p.nc[0] * (size_t)pd->p.nc[1]));
+		cell_coords(pd, k, c);
 		int32_t nb[27][3];
 		int m = around(pd, c, nb);
 		for (int q = 0; q < m; q++) {
