@@ -206,6 +206,7 @@ static void eng_sample(run_t *rc, smp_t *o)
 		md_walls(rc->md, o->wall_impulse, &o->interval);
 		double kin;
 		md_virial(rc->md, &o->virial, &kin);
+		md_obstacles(rc->md, o->obstacle_impulse);
 		o->ekin_time_integral = 0.5 * kin;
 		md_wall_reset(rc->md);
 	} else if (rc->ed) {
@@ -849,6 +850,12 @@ static int md_build(run_t *r, uint64_t stream, int blank, char *msg, size_t msgl
 		pr.periodic[a] = a < s->dim ? !s->boundary[a].walled : 1;
 		pr.gravity[a] = a < s->dim ? s->gravity[a] : 0.0;
 	}
+	pr.n_obstacles = s->n_obstacles;   /* contact partners (check_md(): no type-specific keys) */
+	for (int k = 0; k < s->n_obstacles; k++) {
+		pr.obstacle_radius[k] = s->obstacle[k].radius;
+		for (int a = 0; a < s->dim; a++)
+			pr.obstacle_center[k][a] = s->obstacle[k].center[a];
+	}
 	for (int a = 0; a < s->dim; a++)   /* moving and vibrating walls (check_md() allows no other kind) */
 		for (int k = 0; k < 2 && s->boundary[a].walled; k++) {
 			const scene_wall_t *w = &s->boundary[a].wall[k];
@@ -1163,7 +1170,7 @@ static size_t impact_count(const run_t *r)
 /* md's state fields (md.h, md_state_t), in the order a restore reads them: "springs_held" before the
  * springs, whose count is its sum. */
 enum { MDF_X, MDF_V, MDF_W, MDF_F, MDF_T, MDF_XREF, MDF_HELD, MDF_PARTNER, MDF_XI, MDF_WALLS, MDF_COUNTERS, MDF_VIRIAL,
-       MDF_N };
+       MDF_OBST, MDF_N };
 static const struct {
 	const char *name;
 	ed_type_t type;
@@ -1174,20 +1181,22 @@ static const struct {
 	[MDF_XI] = {"spring", ED_T_F64}, [MDF_WALLS] = {"walls", ED_T_F64},   /* wall_force, then wall_impulse */
 	[MDF_COUNTERS] = {"counters", ED_T_U64},   /* steps, rebuilds, contacts, wall_steps */
 	[MDF_VIRIAL] = {"virial", ED_T_F64},       /* md_state_t.virial: only with pressure or compressibility */
+	[MDF_OBST] = {"obstacles", ED_T_F64},      /* obstacle_force, then obstacle_impulse (n rows each): only with
+	                                            * obstacles */
 };
 
 /* The md fields a run has: "virial" only when it integrates the pressure (the layout of other scenes as
  * before). */
 static int md_has_field(const run_t *r, int k)
 {
-	return k != MDF_VIRIAL || (r->s.observables & SCENE_OBS_PRESSURE);
+	return k == MDF_VIRIAL ? (r->s.observables & SCENE_OBS_PRESSURE) != 0 : k == MDF_OBST ? r->s.n_obstacles > 0 : 1;
 }
 
 static size_t md_field_count(const run_t *r, int k, size_t springs)
 {
 	size_t n = r->s.count;
 	return k <= MDF_XREF ? 3 * n : k == MDF_HELD ? n : k == MDF_PARTNER ? springs : k == MDF_XI ? 3 * springs :
-	       k == MDF_WALLS ? 36 : 4;   /* counters, virial */
+	       k == MDF_WALLS ? 36 : k == MDF_OBST ? 6 * (size_t)r->s.n_obstacles : 4;   /* counters, virial */
 }
 
 static int md_field_find(const char *name)
@@ -1212,7 +1221,7 @@ static int md_field_get(const run_t *r, const char *name, void *buf)
 	case MDF_HELD: st.held = buf; break;
 	case MDF_PARTNER: st.partner = buf; break;
 	case MDF_XI: st.xi = buf; break;
-	case MDF_WALLS: case MDF_COUNTERS: case MDF_VIRIAL: break;
+	case MDF_WALLS: case MDF_COUNTERS: case MDF_VIRIAL: case MDF_OBST: break;
 	default: return RUN_ERESTORE;
 	}
 	if (!md_has_field(r, k))
@@ -1220,6 +1229,11 @@ static int md_field_get(const run_t *r, const char *name, void *buf)
 	md_state_get(r->md, &st);
 	if (k == MDF_VIRIAL)
 		memcpy(buf, st.virial, sizeof st.virial);
+	if (k == MDF_OBST) {
+		const size_t nb = 3 * (size_t)r->s.n_obstacles * sizeof(double);
+		memcpy(buf, st.obstacle_force, nb);
+		memcpy((char *)buf + nb, st.obstacle_impulse, nb);
+	}
 	if (k == MDF_COUNTERS)
 		memcpy(buf, (uint64_t[4]){st.steps, st.rebuilds, st.contacts, st.wall_steps}, 4 * sizeof(uint64_t));
 	if (k == MDF_WALLS) {
@@ -1265,6 +1279,10 @@ static int md_field_set(run_t *r, const char *name, ed_type_t type, size_t count
 			memcpy(in->wall_impulse, (const double *)buf + 18, sizeof in->wall_impulse);
 		} else if (k == MDF_VIRIAL) {
 			memcpy(in->virial, buf, sizeof in->virial);
+		} else if (k == MDF_OBST) {
+			const size_t nb = 3 * (size_t)r->s.n_obstacles * sizeof(double);
+			memcpy(in->obstacle_force, buf, nb);
+			memcpy(in->obstacle_impulse, (const char *)buf + nb, nb);
 		} else {
 			const uint64_t *c = buf;
 			in->steps = c[0], in->rebuilds = c[1], in->contacts = c[2], in->wall_steps = c[3];

@@ -721,7 +721,7 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 		{ "particles", "capacity" }, { "initial", "velocity" },
 		{ "initial", "rotational_temperature" }, { "initial", "relax" }, { "initial", "from" },
 		{ "collisions", "tc" }, { "collisions", "rough" }, { "collisions", "restitution_pairs" },
-		{ "", "obstacles" }, { "", "driving" }, { "", "ed" }, { "run", "max_events" },
+		{ "", "driving" }, { "", "ed" }, { "run", "max_events" },
 	};
 	for (size_t k = 0; k < sizeof refused / sizeof refused[0]; k++) {
 		const char *o = refused[k].obj;
@@ -767,8 +767,25 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 						    "particles' force law and collisions.restitution");
 				}
 		}
+	/* obstacles: fixed contact partners with the particles' law (md.h), so no rule of their own: type
+	 * "slip" (the only one without keys of its own), without restitution */
+	json_t *obj = json_object_get(v, "obstacles");
+	for (size_t q = 0; q < json_array_size(obj); q++) {
+		if (q < (size_t)s->n_obstacles && s->obstacle[q].type != SCENE_OBST_SLIP) {
+			snprintf(path, sizeof path, "obstacles[%zu].type", q);
+			return fail(c, path, "method \"md\" takes \"slip\" obstacles only: a fixed contact partner "
+				    "with the particles' force law, collisions.restitution and md.friction");
+		}
+		static const char *const okeys[] = { "restitution", "temperature", "accommodation" };
+		for (size_t k = 0; k < sizeof okeys / sizeof okeys[0]; k++)
+			if (json_object_get(json_array_get(obj, q), okeys[k])) {
+				snprintf(path, sizeof path, "obstacles[%zu].%s", q, okeys[k]);
+				return fail(c, path, "not with method \"md\": an obstacle is a fixed contact partner with the "
+					    "particles' force law, collisions.restitution and md.friction");
+			}
+	}
 	const unsigned md_obs = SCENE_OBS_ENERGY | SCENE_OBS_MOMENTUM | SCENE_OBS_COM_HEIGHT | SCENE_OBS_POTENTIAL |
-				SCENE_OBS_WALL_FORCE | SCENE_OBS_ROTATION | SCENE_OBS_PRESSURE;
+				SCENE_OBS_WALL_FORCE | SCENE_OBS_ROTATION | SCENE_OBS_PRESSURE | SCENE_OBS_OBSTACLE_FORCE;
 	json_t *obs = json_object_get(out, "observables");
 	if (!obs)
 		s->observables = SCENE_OBS_ENERGY | (scene_has_gravity(s) ? SCENE_OBS_COM_HEIGHT | SCENE_OBS_POTENTIAL : 0);
@@ -780,15 +797,16 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 				snprintf(path, sizeof path, "output.observables[%zu]", i);
 				return fail(c, path, "\"%s\" is not computed by method \"md\" yet (it has kinetic_energy, "
 					    "temperature, momentum, center_of_mass_height, potential_energy, wall_force, "
-					    "rotational_energy, rotational_temperature, pressure, compressibility)",
+					    "rotational_energy, rotational_temperature, pressure, compressibility, obstacle_force)",
 					    observables[k].name);
 			} else if (!strcmp(json_string_value(o), observables[k].name) &&
-				 (observables[k].bit & SCENE_OBS_PRESSURE) && scene_has_walls(s)) {
+				 (observables[k].bit & SCENE_OBS_PRESSURE) && (scene_has_walls(s) || s->n_obstacles > 0)) {
 				/* the pair virial gives the pressure of a periodic box; walls take part of the momentum
 				 * flux (their forces are wall_force) */
 				snprintf(path, sizeof path, "output.observables[%zu]", i);
-				return fail(c, path, "\"%s\" with method \"md\" is the virial pressure of a periodic box; "
-					    "with walls use \"wall_force\" (the pressure on each wall)", observables[k].name);
+				return fail(c, path, "\"%s\" with method \"md\" is the virial pressure of a periodic box "
+					    "without obstacles; with walls use \"wall_force\" (the pressure on each wall)",
+					    observables[k].name);
 			}
 	static const char *const outs[] = { "clusters", "velocity_distribution", "pair_correlation", "structure_factor",
 					    "impact_parameter", "fields", "density_spectrum" };

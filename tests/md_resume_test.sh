@@ -119,10 +119,23 @@ cat >"$tmp/3d-press.json" <<'JSON'
  "md": {"friction": 0.3}}
 JSON
 
+# frictional disks under gravity around two fixed obstacles (springs held with obstacles; their impulses are state)
+cat >"$tmp/2d-obst.json" <<'JSON'
+{"method": "md", "dimensions": 2,
+ "particles": {"count": 150, "box": [24, 24], "initial": {"temperature": 1}},
+ "boundaries": {"y": {"type": "walls", "lower": {"type": "specular"}, "upper": {"type": "specular"}}},
+ "obstacles": [{"center": [8, 6], "radius": 2, "type": "slip"}, {"center": [17, 4], "radius": 1.5, "type": "slip"}],
+ "collisions": {"restitution": 0.7}, "gravity": [0, -10],
+ "run": {"seed": 8, "until": {"time": 4.5}},
+ "output": {"every": {"time": 0.2}, "observables": ["kinetic_energy", "momentum", "obstacle_force", "wall_force"],
+   "snapshots": {"every": {"time": 0.5}}, "checkpoint": {"every": {"time": 2.1}}},
+ "md": {"friction": 0.5}}
+JSON
+
 ref() { "$ENGINE" run "$tmp/$1.json" --out "$tmp/$1.ref" >/dev/null 2>"$tmp/$1.ref.err"; }
 
 # (a) checkpoint at a simulated time, resume: identical to the uninterrupted run (frames, records, summary).
-for s in 3d-bed 2d-hertz 2d-vibro 2d-mix 3d-press; do
+for s in 3d-bed 2d-hertz 2d-vibro 2d-mix 3d-press 2d-obst; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

@@ -511,6 +511,53 @@ static void test_vibrated_floor(void)
 		"(the floor's downward acceleration reaches g at asin(1/Gamma) = %.4f)", ph, asin(0.5));
 }
 
+/*
+ * A disk / sphere (m = 1, R = 0.5) moving at v0 = 1 head-on into a fixed
+ * obstacle (R_o = 1) in a periodic box, frictionless linear law, e = 0.7,
+ * dt = t_c/1000 of the obstacle contact (m_eff = m): it leaves at e v0 (the
+ * linear law's restitution is exact; the steps resolve the contact's start
+ * and end to dt / t_c = 1e-3 of it: bound 2e-3), and the impulse the
+ * obstacle took (md_obstacles()) is m (v0 + v_out), to rounding (velocity
+ * Verlet's kicks are the trapezoid of the forces, as the walls').
+ */
+static void test_obstacle(void)
+{
+	for (int dim = 2; dim <= 3; dim++) {
+		const double e = 0.7, R = 0.5, Ro = 1.0, v0 = 1.0;
+		double x[3] = {2.0, 5.0, dim == 3 ? 5.0 : 0.0}, v[3] = {v0, 0.0, 0.0};
+		md_params_t p = {0};
+		p.dim = dim;
+		p.n = 1;
+		p.radius = R;
+		p.mass = 1.0;
+		p.box[0] = p.box[1] = p.box[2] = 10.0;
+		p.periodic[0] = p.periodic[1] = p.periodic[2] = 1;
+		p.law = MD_LAW_LINEAR;
+		p.restitution = e;
+		p.t_contact = 0.01 / sqrt(2.0);   /* of the reference pair (m/2): 0.01 for the obstacle */
+		p.dt_steps = 1000.0 / sqrt(2.0);
+		p.n_obstacles = 1;
+		p.obstacle_center[0][0] = 4.0, p.obstacle_center[0][1] = 5.0, p.obstacle_center[0][2] = dim == 3 ? 5.0 : 0.0;
+		p.obstacle_radius[0] = Ro;
+		p.x = x;
+		p.v = v;
+		int err;
+		md_t *md = md_create(&p, &err);
+		double imp[1][3] = {{NAN, NAN, NAN}}, vout = NAN;
+		if (md) {
+			err = md_step(md, (long)llround(1.0 / md_dt(md)));   /* the contact starts at t = 0.5 */
+			vout = -md_velocities(md)[0];
+			md_obstacles(md, imp);
+			md_destroy(md);
+		}
+		diag("%dD obstacle: v_out / v0 = %.6f (e = %g), impulse %.15f against m (v0 + v_out) %.15f", dim, vout / v0, e,
+			imp[0][0], v0 + vout);
+		ok(md && err == 0 && fabs(vout / v0 - e) < 2e-3 && fabs(imp[0][0] - (v0 + vout)) < 1e-12 &&
+			fabs(imp[0][1]) < 1e-15, "%dD head-on impact on a fixed obstacle: rebounds at %.5f v0 (e = %g), the "
+			"obstacle takes the momentum m (v0 + v_out) = %.6f (%.6f)", dim, vout / v0, e, v0 + vout, imp[0][0]);
+	}
+}
+
 /* Periodic frictional gas: total momentum is conserved to rounding. */
 static void test_momentum(void)
 {
@@ -919,7 +966,7 @@ static void test_state(void)
 
 int main(void)
 {
-	plan(45);
+	plan(47);
 	test_linear_collision();
 	test_linear_elastic();
 	test_hertz_collision();
@@ -927,6 +974,7 @@ int main(void)
 	test_incline();
 	test_belt();
 	test_vibrated_floor();
+	test_obstacle();
 	test_momentum();
 	test_oblique();
 	test_bed_at_rest();

@@ -40,6 +40,8 @@ struct md {
 	long wsteps;             /* steps at the last md_wall_reset() */
 	int wmoving;             /* some wall moves or vibrates (wv, wamp, womega, wphase) */
 	double wv[6][3], wamp[6], womega[6], wphase[6];
+	int nob;                 /* obstacles: centres, radii, forces at the last pass, impulses */
+	double oc[MD_OBSTACLES_MAX][3], orad[MD_OBSTACLES_MAX], of[MD_OBSTACLES_MAX][3], oimp[MD_OBSTACLES_MAX][3];
 	int track;               /* params.virial: vir, kin and their integrals */
 	double vir, kin;         /* pair virial at the last force pass, sum m v^2 at the last full step */
 	double virint, kinint;   /* their integrals since the last md_wall_reset() */
@@ -405,6 +407,35 @@ static inline int forces_impl(md_t *md, double dth, double t, double tv, const i
 					md->wf[2 * a + side][b] -= fc[b];
 			}
 		}
+	if (md->nob) {
+		memset(md->of, 0, sizeof md->of);
+		for (int i = 0; i < n; i++)
+			for (int k = 0; k < md->nob; k++) {
+				double d[3], r2 = 0.0, ri = md->r[i], sr = ri + md->orad[k];
+				for (int a = 0; a < 3; a++) {   /* from i to the obstacle, minimum image on periodic axes */
+					d[a] = md->oc[k][a] - md->x[3 * i + a];
+					if (md->periodic[a])
+						d[a] -= md->L[a] * floor(d[a] / md->L[a] + 0.5);
+					r2 += d[a] * d[a];
+				}
+				if (r2 >= sr * sr)
+					continue;
+				double dist = sqrt(r2), delta = sr - dist;
+				double nv[3] = {d[0] / dist, d[1] / dist, d[2] / dist}, wxn[3], vrel[3], fc[3];
+				double li = ri - 0.5 * delta;   /* mid-overlap, as pairs */
+				cross3(md->w + 3 * i, nv, wxn);
+				for (int b = 0; b < 3; b++)
+					vrel[b] = md->v[3 * i + b] + (friction ? li * wxn[b] : 0.0);
+				int e = contact(md, law, friction, i, -7 - k, nv, delta, md->m[i], ri * md->orad[k] / sr, vrel, li,
+					0.0, dth, fc, md->t + 3 * i, NULL);
+				if (e)
+					rc = e;
+				for (int b = 0; b < 3; b++) {
+					md->f[3 * i + b] += fc[b];
+					md->of[k][b] -= fc[b];
+				}
+			}
+	}
 	return rc;
 }
 
@@ -490,6 +521,21 @@ md_t *md_create(const md_params_t *p, int *err)
 		}
 	}
 	md->track = p->virial != 0;
+	/* obstacles: inside the box on walled axes, finite */
+	if (p->n_obstacles < 0 || p->n_obstacles > MD_OBSTACLES_MAX)
+		goto cleanup;
+	md->nob = p->n_obstacles;
+	for (int k = 0; k < md->nob; k++) {
+		if (!(p->obstacle_radius[k] > 0.0) || !isfinite(p->obstacle_radius[k]))
+			goto cleanup;
+		md->orad[k] = p->obstacle_radius[k];
+		for (int a = 0; a < 3; a++) {
+			double c = a < p->dim ? p->obstacle_center[k][a] : 0.0;
+			if (!isfinite(c) || (a < p->dim && !(c >= 0.0 && c <= md->L[a])))
+				goto cleanup;
+			md->oc[k][a] = c;
+		}
+	}
 	rc = MD_E_NOMEM;
 	/* one block for the double arrays: x v w f t xref (3n each), r m im iI (n each) */
 	md->x = calloc((size_t)n * 22, sizeof(double));
@@ -631,6 +677,9 @@ int md_step(md_t *md, long nsteps)
 			for (int w = 0; w < 6; w++)
 				for (int a = 0; a < 3; a++)
 					md->wimp[w][a] += h * md->wf[w][a];
+		for (int k = 0; k < md->nob; k++)
+			for (int a = 0; a < 3; a++)
+				md->oimp[k][a] += h * md->of[k][a];
 		if (md->track) {   /* the trapezoid over the step, as the impulses */
 			md->virint += h * md->vir;
 			md->kinint += h * md->kin;
@@ -641,6 +690,9 @@ int md_step(md_t *md, long nsteps)
 			for (int w = 0; w < 6; w++)
 				for (int a = 0; a < 3; a++)
 					md->wimp[w][a] += h * md->wf[w][a];
+		for (int k = 0; k < md->nob; k++)
+			for (int a = 0; a < 3; a++)
+				md->oimp[k][a] += h * md->of[k][a];
 		for (int i = 0; i < n; i++) {
 			double *v = md->v + 3 * i, *w = md->w + 3 * i;
 			const double *f = md->f + 3 * i, *t = md->t + 3 * i;
@@ -685,11 +737,17 @@ void md_virial(const md_t *md, double *vir, double *kin)
 	*kin = md->kinint;
 }
 
+void md_obstacles(const md_t *md, double impulse[][3])
+{
+	memcpy(impulse, md->oimp, (size_t)md->nob * sizeof md->oimp[0]);
+}
+
 void md_wall_reset(md_t *md)
 {
 	memset(md->wimp, 0, sizeof md->wimp);
 	md->wsteps = md->steps;
 	md->virint = md->kinint = 0.0;
+	memset(md->oimp, 0, sizeof md->oimp);
 }
 
 size_t md_memory(const md_t *md)
@@ -730,6 +788,8 @@ void md_state_get(const md_t *md, md_state_t *st)
 	memcpy(st->wall_force, md->wf, sizeof md->wf);
 	memcpy(st->wall_impulse, md->wimp, sizeof md->wimp);
 	st->wall_steps = (uint64_t)md->wsteps;
+	memcpy(st->obstacle_force, md->of, sizeof md->of);
+	memcpy(st->obstacle_impulse, md->oimp, sizeof md->oimp);
 	if (md->track)
 		st->virial[0] = md->vir, st->virial[1] = md->kin, st->virial[2] = md->virint, st->virial[3] = md->kinint;
 	else
@@ -770,7 +830,7 @@ int md_state_set(md_t *md, const md_state_t *st)
 		for (int k = 0; k < h; k++) {
 			int32_t p = st->partner[q + k];
 			int wall = -1 - p, a = wall / 2;
-			if (p >= 0 ? p <= i || p >= n : wall >= 2 * D || md->periodic[a])
+			if (p >= 0 ? p <= i || p >= n : wall >= 6 ? wall - 6 >= md->nob : wall >= 2 * D || md->periodic[a])
 				return MD_E_PARAM;
 			for (int l = 0; l < k; l++)
 				if (st->partner[q + l] == p)
@@ -793,6 +853,13 @@ int md_state_set(md_t *md, const md_state_t *st)
 	for (int k = 0; k < 4; k++)
 		if (!isfinite(st->virial[k]) || (!md->track && st->virial[k] != 0.0))
 			return MD_E_PARAM;
+	for (int k = 0; k < MD_OBSTACLES_MAX; k++)
+		for (int a = 0; a < 3; a++)
+			if (!isfinite(st->obstacle_force[k][a]) || !isfinite(st->obstacle_impulse[k][a]) ||
+			    (k >= md->nob && (st->obstacle_force[k][a] != 0.0 || st->obstacle_impulse[k][a] != 0.0)))
+				return MD_E_PARAM;
+	memcpy(md->of, st->obstacle_force, sizeof md->of);
+	memcpy(md->oimp, st->obstacle_impulse, sizeof md->oimp);
 	memcpy(md->wf, st->wall_force, sizeof md->wf);
 	memcpy(md->wimp, st->wall_impulse, sizeof md->wimp);
 	md->wsteps = (long)st->wall_steps;

@@ -80,6 +80,8 @@
 
 typedef struct md md_t;
 
+#define MD_OBSTACLES_MAX 16
+
 enum {
 	MD_OK = 0,
 	MD_E_NOMEM = -1,
@@ -113,6 +115,12 @@ typedef struct {
 	double wall_frequency[6];
 	double wall_phase[6];
 	int virial;              /* nonzero: integrate the pair virial and sum m v^2 over time (md_virial()) */
+	/* Fixed obstacles: disks (2D) / spheres (3D) of infinite mass, contact partners with the same law
+	 * (m_eff = m_i, R_eff = R_i R_o / (R_i + R_o), contact point mid-overlap, minimum image on periodic
+	 * axes; their springs have partner -1 - (6 + k)); their forces are summed (md_obstacles()). */
+	int n_obstacles;         /* 0 ... MD_OBSTACLES_MAX */
+	double obstacle_center[16][3];
+	double obstacle_radius[16];
 	md_law_t law;
 	double restitution;      /* e in (0, 1] */
 	double kn;               /* linear: normal stiffness (force/length), or 0 ... */
@@ -163,7 +171,7 @@ void md_energy(const md_t *md, md_energy_t *out);
 
 /* The dynamic state (see the contract). Arrays have 3n doubles (x ... xref), n (held), springs (partner)
  * and 3 springs (xi) entries; springs = sum of held. Partner: j > i for a pair (the lower index holds it),
- * -1 - (2 axis + side) for a wall (side 0 lower, 1 upper). */
+ * -1 - (2 axis + side) for a wall (side 0 lower, 1 upper), -1 - (6 + k) for obstacle k. */
 typedef struct {
 	double *x, *v, *w, *f, *t, *xref;
 	int32_t *held;
@@ -174,6 +182,8 @@ typedef struct {
 	double wall_force[6][3];     /* md_walls(): the walls' forces at the last force pass, */
 	double wall_impulse[6][3];   /* their impulses since the last md_wall_reset() */
 	uint64_t wall_steps;         /* and the step count then */
+	double obstacle_force[16][3];   /* md_obstacles(): their forces at the last force pass, */
+	double obstacle_impulse[16][3]; /* their impulses since the last md_wall_reset() (0 beyond n_obstacles) */
 	double virial[4];            /* md_virial() (params.virial; else 0): W and sum m v^2 at the last pass and
 	                              * step, and their integrals since the last md_wall_reset() */
 } md_state_t;
@@ -188,7 +198,10 @@ void md_walls(const md_t *md, double impulse[6][3], double *interval);
  * sum m v^2, by the trapezoid of velocity Verlet's steps (W at each force pass, v at each full step), so the
  * mean pressure over the interval of md_walls() is (kin + vir) / (D V interval) in a periodic box. Else 0. */
 void md_virial(const md_t *md, double *vir, double *kin);
-/* Starts a new interval of md_walls() and md_virial(). */
+/* The momentum the particles gave to each obstacle since the last md_wall_reset(), as md_walls() (the
+ * interval is md_walls()'s); n_obstacles rows. */
+void md_obstacles(const md_t *md, double impulse[][3]);
+/* Starts a new interval of md_walls(), md_obstacles() and md_virial(). */
 void md_wall_reset(md_t *md);
 
 /* Bytes the system holds now (its arrays, the pair list's capacity, the cell heads). */
