@@ -3129,6 +3129,32 @@ static int layer_behind(const struct ed *ed, int w, const double *r)
 	return 0;
 }
 
+/* Template particle k of a recharge's layer at dispenser wall w (tp: the template layer_begin() chose, with
+ * its shift, lo, wid, mirror and the particle it leaves out, skip): its position r (zero beyond D); 1 when
+ * it is not placed (skip, or behind another axis' piston: layer_behind()), else 0. */
+static int layer_site(const struct ed *ed, int w, const double *tp, uint32_t k, uint32_t skip, const double *shift,
+                      const double *lo, const double *wid, const int *mirror, double r[3])
+{
+	if (k == skip)
+		return 1;
+	const int a = w >> 1, D = ed->dim;
+	const double sg = (w & 1) ? -1.0 : 1.0;
+	r[0] = r[1] = r[2] = 0.0;
+	r[a] = ed->wall[w].rest + sg * tp[(size_t)D * k + a];
+	for (int b = 0; b < D; b++) {
+		if (b == a)
+			continue;
+		double y = tp[(size_t)D * k + b];
+		if (mirror[b])
+			y = wid[b] - y;
+		y += shift[b];
+		if (y >= wid[b])
+			y -= wid[b];
+		r[b] = lo[b] + y;
+	}
+	return ed->dclip[w] && layer_behind(ed, w, r);
+}
+
 /* The recharge due now at dispenser wall w. ED_FULL (nothing changed)
  * when the free slots cannot take a whole layer. */
 static int dispense_mix(struct ed *ed, int w);
@@ -3141,30 +3167,16 @@ static int dispense(struct ed *ed, int w)
 	if (ed->n_gone < n)
 		return ED_FULL;
 	wall_t *W = &ed->wall[w];
-	const int a = w >> 1, D = ed->dim;
-	const double sg = (w & 1) ? -1.0 : 1.0, sv = ed->disp_s[w];
+	const int D = ed->dim;
+	const double sv = ed->disp_s[w];
 	double shift[3], lo[3], wid[3];
 	int mirror[3];
 	uint32_t skip;
 	const int q = layer_begin(ed, w, n, shift, lo, wid, mirror, &skip);
 	const double *tp = ed->tpl + ed->tpl_off[w] + (size_t)q * n * D;
 	for (uint32_t k = 0; k < n; k++) {
-		if (k == skip)
-			continue;
-		double r[3] = {0.0, 0.0, 0.0}, v[3] = {0.0, 0.0, 0.0};
-		r[a] = W->rest + sg * tp[(size_t)D * k + a];
-		for (int b = 0; b < D; b++) {
-			if (b == a)
-				continue;
-			double y = tp[(size_t)D * k + b];
-			if (mirror[b])
-				y = wid[b] - y;
-			y += shift[b];
-			if (y >= wid[b])
-				y -= wid[b];
-			r[b] = lo[b] + y;
-		}
-		if (ed->dclip[w] && layer_behind(ed, w, r))
+		double r[3], v[3] = {0.0, 0.0, 0.0};
+		if (layer_site(ed, w, tp, k, skip, shift, lo, wid, mirror, r))
 			continue;
 		for (int j = 0; j < D; j++)
 			v[j] = ed->disp_u[w][j] + sv * rng_gauss(&ed->irng);
@@ -3205,8 +3217,7 @@ static int dispense_mix(struct ed *ed, int w)
 		if (x->fs_n[k] < x->tmax[w][k])
 			return ED_FULL;
 	wall_t *W = &ed->wall[w];
-	const int a = w >> 1, D = ed->dim;
-	const double sg = (w & 1) ? -1.0 : 1.0;
+	const int D = ed->dim;
 	double shift[3], lo[3], wid[3];
 	int mirror[3];
 	uint32_t skip;
@@ -3214,24 +3225,10 @@ static int dispense_mix(struct ed *ed, int w)
 	const double *tp = ed->tpl + ed->tpl_off[w] + (size_t)q * n * D;
 	const uint8_t *ts = x->tsp + ed->tpl_off[w] / (size_t)D + (size_t)q * n;
 	for (uint32_t k = 0; k < n; k++) {
-		if (k == skip)
-			continue;
 		const int sp = ts[k];
 		const double sv = x->dsv[w][sp];
-		double r[3] = {0.0, 0.0, 0.0}, v[3] = {0.0, 0.0, 0.0};
-		r[a] = W->rest + sg * tp[(size_t)D * k + a];
-		for (int b = 0; b < D; b++) {
-			if (b == a)
-				continue;
-			double y = tp[(size_t)D * k + b];
-			if (mirror[b])
-				y = wid[b] - y;
-			y += shift[b];
-			if (y >= wid[b])
-				y -= wid[b];
-			r[b] = lo[b] + y;
-		}
-		if (ed->dclip[w] && layer_behind(ed, w, r))
+		double r[3], v[3] = {0.0, 0.0, 0.0};
+		if (layer_site(ed, w, tp, k, skip, shift, lo, wid, mirror, r))
 			continue;
 		for (int j = 0; j < D; j++)
 			v[j] = ed->disp_u[w][j] + sv * rng_gauss(&ed->irng);
