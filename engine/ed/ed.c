@@ -2182,6 +2182,40 @@ static int ed_first_disp(const struct ed *ed)
 	return w;
 }
 
+/* The template scene of dispenser wall w's layers, common to one species and mixtures: the scene s as a
+ * strip h thick along the wall's axis holding n particles, elastic and specular all round, without
+ * obstacles, driving, TC or spins (positions only: the layers' spins are drawn at each recharge), at the
+ * dispenser's volume fraction and temperature, at rest; gravity: the strip in the same field, the
+ * template's normal coordinate counted from the piston (an upper wall's layer is flipped along the axis
+ * when placed: the field along it is flipped here). */
+static void layer_strip(const scene_t *s, scene_t *t, int w, uint32_t n, double h)
+{
+	const int a = w >> 1, D = s->dim;
+	memcpy(t, s, sizeof *t);
+	t->count = t->capacity = n;
+	t->box[a] = h;
+	t->volume_fraction = s->boundary[a].wall[w & 1].volume_fraction;
+	for (int k = 0; k < 2; k++) {
+		t->boundary[a].wall[k] = (scene_wall_t){ .type = SCENE_WALL_SPECULAR, .restitution = 1.0, .coverage = -1.0 };
+		for (int b = 0; b < D; b++)
+			if (b != a && t->boundary[b].walled)
+				t->boundary[b].wall[k] = (scene_wall_t){ .type = SCENE_WALL_SPECULAR, .restitution = 1.0,
+				                                         .coverage = -1.0 };
+	}
+	t->boundary[a].walled = 1;
+	t->n_obstacles = 0;
+	t->drive = SCENE_DRIVE_NONE;
+	t->tc = 0.0;
+	t->restitution = 1.0;
+	t->rough = 0;
+	t->init_spin = NULL;
+	t->temperature = s->boundary[a].wall[w & 1].temperature;
+	for (int k = 0; k < 3; k++) {
+		t->flow[k] = 0.0;
+		t->gravity[k] = k == a && (w & 1) ? -s->gravity[k] : s->gravity[k];
+	}
+}
+
 /* The dispenser's template layers: its starting layout (layer_layout)
  * equilibrated by an elastic run of its own, a strip of the layer's
  * thickness between two specular walls across the transverse axis of the
@@ -2205,32 +2239,7 @@ static int build_templates(struct ed *ed, const scene_t *s, int w, char *msg, si
 		layer_layout(ed, s, w, pos, &ed->tpl_n[w], NULL, 0);
 	else if ((rc = layer_layout3(ed, s, w, pos, &ed->tpl_n[w], msg, msglen)) != ED_OK)
 		goto done;
-	memcpy(t, s, sizeof *t);
-	t->count = t->capacity = n;
-	t->box[a] = h;
-	t->volume_fraction = s->boundary[a].wall[w & 1].volume_fraction;
-	for (int k = 0; k < 2; k++) {
-		t->boundary[a].wall[k] = (scene_wall_t){ .type = SCENE_WALL_SPECULAR, .restitution = 1.0, .coverage = -1.0 };
-		for (int b = 0; b < D; b++)
-			if (b != a && t->boundary[b].walled)
-				t->boundary[b].wall[k] = (scene_wall_t){ .type = SCENE_WALL_SPECULAR, .restitution = 1.0,
-				                                         .coverage = -1.0 };
-	}
-	t->boundary[a].walled = 1;
-	t->n_obstacles = 0;
-	t->drive = SCENE_DRIVE_NONE;
-	t->tc = 0.0;
-	t->restitution = 1.0;
-	t->rough = 0;   /* positions only: the layers' spins are drawn at each recharge */
-	t->init_spin = NULL;
-	t->temperature = s->boundary[a].wall[w & 1].temperature;
-	/* gravity: the strip in the same field, the template's normal coordinate
-	 * counted from the piston (an upper wall's layer is flipped along the
-	 * axis when placed: the field along it is flipped here) */
-	for (int k = 0; k < 3; k++) {
-		t->flow[k] = 0.0;
-		t->gravity[k] = k == a && (w & 1) ? -s->gravity[k] : s->gravity[k];
-	}
+	layer_strip(s, t, w, n, h);
 	t->init_pos = pos;
 	t->init_vel = NULL;
 	t->has_region = t->has_from = 0;
@@ -2408,29 +2417,7 @@ static int build_templates_mix(struct ed *ed, const scene_t *s, int w, char *msg
 			if (cnt[k] > x->tmax[w][k])
 				x->tmax[w][k] = cnt[k];
 		}
-		memcpy(t, s, sizeof *t);
-		t->count = t->capacity = n;
-		t->box[a] = h;
-		t->volume_fraction = s->boundary[a].wall[w & 1].volume_fraction;
-		for (int k = 0; k < 2; k++) {
-			t->boundary[a].wall[k] = (scene_wall_t){ .type = SCENE_WALL_SPECULAR, .restitution = 1.0, .coverage = -1.0 };
-			for (int b = 0; b < D; b++)
-				if (b != a && t->boundary[b].walled)
-					t->boundary[b].wall[k] = (scene_wall_t){ .type = SCENE_WALL_SPECULAR, .restitution = 1.0,
-					                                         .coverage = -1.0 };
-		}
-		t->boundary[a].walled = 1;
-		t->n_obstacles = 0;
-		t->drive = SCENE_DRIVE_NONE;
-		t->tc = 0.0;
-		t->restitution = 1.0;
-		t->rough = 0;
-		t->init_spin = NULL;
-		t->temperature = s->boundary[a].wall[w & 1].temperature;
-		for (int k = 0; k < 3; k++) {
-			t->flow[k] = 0.0;
-			t->gravity[k] = k == a && (w & 1) ? -s->gravity[k] : s->gravity[k];
-		}
+		layer_strip(s, t, w, n, h);
 		/* the species present in this template, in index order */
 		uint8_t map[SCENE_SPECIES_MAX];
 		int m = 0;
