@@ -30,17 +30,21 @@ static const char *const dsp_names[DSP_MAX] = {"density_spectrum_samples", "dens
  * -3 = one per species (mixtures). */
 typedef struct {
 	const char *path;       /* under /observables */
-	unsigned need;          /* SCENE_OBS_* bit; 0 = always */
+	uint64_t need;          /* SCENE_OBS_* bit (32 bits) and NEED_* flags (above them); 0 = always */
 	int i64;                /* integer series */
 	int cols;
 	const char *unit;       /* NULL: dimensionless count, no unit attribute */
 	void (*get)(const run_record_t *r, void *out);
 } obs_def_t;
 
-#define NEED_TC 0x80000000u   /* only with the TC model */
-#define NEED_SE 0x40000000u   /* flag: only in ensembles (standard error of the mean over the replicas) */
-#define NEED_MIX 0x20000000u  /* flag: only for mixtures (two or more particles.species) */
-#define NEED_RES 0x10000000u  /* flag: only with a reservoir wall */
+/* flags above the 32 bits of the SCENE_OBS_* values (scene_t.observables is an unsigned) */
+#define NEED_TC (1ull << 32)     /* only with the TC model */
+#define NEED_SE (1ull << 33)     /* flag: only in ensembles (standard error of the mean over the replicas) */
+#define NEED_MIX (1ull << 34)    /* flag: only for mixtures (two or more particles.species) */
+#define NEED_RES (1ull << 35)    /* flag: only with a reservoir wall */
+#define NEED_WALLED (1ull << 36) /* flag: only single runs with a walled axis */
+#define NEED_VARY (1ull << 37)   /* flag: only single runs with a varying particle set (scene_has_open_walls()) */
+#define NEED_FLAGS (NEED_SE | NEED_MIX | NEED_RES | NEED_WALLED | NEED_VARY)
 
 static void g_coll(const run_record_t *r, void *o) { *(int64_t *)o = (int64_t)r->collisions; }
 static void g_ekin(const run_record_t *r, void *o) { *(double *)o = r->kinetic_energy / (double)r->n; }
@@ -111,6 +115,8 @@ static void g_gpairs(const run_record_t *r, void *o) { *(double *)o = r->obs.g_p
 static void g_grate(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->obs.g_rate : NAN; }
 static void g_gpres(const run_record_t *r, void *o) { *(double *)o = r->have_interval ? r->obs.g_pressure : NAN; }
 static void g_msd(const run_record_t *r, void *o) { *(double *)o = r->obs.msd; }
+static void g_msd_walled(const run_record_t *r, void *o) { *(double *)o = r->obs.msd_walled; }
+static void g_msd_count(const run_record_t *r, void *o) { *(double *)o = r->obs.msd_count; }
 static void g_wpres_se(const run_record_t *r, void *o)
 {
 	for (int w = 0; w < 6; w++)
@@ -180,6 +186,8 @@ static const obs_def_t obs_defs[] = {
 	{ "g_contact_pressure", SCENE_OBS_GOFR, 0, 0, "1", g_gpres },
 	{ "mean_square_displacement", SCENE_OBS_MSD, 0, 0, "l0+2", g_msd },
 	{ "diffusion_coefficient", SCENE_OBS_MSD, 0, 0, "l0+2 t0-1", g_diff },
+	{ "mean_square_displacement_walled", NEED_WALLED | SCENE_OBS_MSD, 0, 0, "l0+2", g_msd_walled },
+	{ "mean_square_displacement_count", NEED_VARY | SCENE_OBS_MSD, 0, 0, "1", g_msd_count },
 	{ "flux", SCENE_OBS_FLUX, 0, 0, "flux", g_flux },
 	{ "flux_error", SCENE_OBS_FLUX, 0, 0, "flux", g_flux_err },
 	/* ensembles: NAME_se beside NAME, as KEY_se in the progress stream */
@@ -267,7 +275,14 @@ static void group_name(const h5md_t *h, int k, char *buf, size_t len)
 
 static int def_wanted(const obs_def_t *d, const scene_t *s)
 {
-	unsigned need = d->need & ~(NEED_SE | NEED_MIX | NEED_RES);
+	uint64_t need = d->need & ~NEED_FLAGS;
+	int walled = 0;
+	for (int a = 0; a < s->dim; a++)
+		walled |= s->boundary[a].walled;
+	if ((d->need & NEED_WALLED) && (!walled || s->replicas > 1))
+		return 0;
+	if ((d->need & NEED_VARY) && (!scene_has_open_walls(s) || s->replicas > 1))
+		return 0;
 	if ((d->need & NEED_RES) && !scene_has_reservoir(s))
 		return 0;
 	if ((d->need & NEED_SE) && s->replicas <= 1)
