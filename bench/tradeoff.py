@@ -3,17 +3,22 @@
 
 usage: tradeoff.py ENGINE DOCDIR [--model MODEL.json] [--quick] [--rows ROWS.json] [--refit ROWS.json]
                    [--baseline OLD_ENGINE]
+       tradeoff.py ENGINE DOCDIR --md MODEL.json
 Runs granular-engine on generated scenes, writes DOCDIR/tradeoff.md, DOCDIR/tradeoff.png and (with --model)
 the advice model that the build embeds (data/advice-model.json; format in docs/tradeoff-notes.md), then checks
 the model on held-out scenes with `ENGINE advise --model`. --rows keeps the measurements (per output time);
 --refit reads them instead of running (the fit and the held-out predictions only). --baseline: also show the
 held-out predictions of another engine's built-in model (the model before a change).
+--md: soft-sphere MD (method md, its default stiffness and step) against ed on the model's cooling grid: adds
+cost.md and the error variant "md" to MODEL.json in place (the rest of the model is kept) and writes
+DOCDIR/tradeoff-md.md. Both methods start from the same random placement (no relax: md has none), so the
+error is md's dynamics only.
 Error = relative RMS of T(t)/T_ED(t) - 1 over the output times; the ED reference is itself an ensemble of
 replicas, so its own relative standard error is shown next to it. Cost = the engine's own production
 wall_seconds (set-up and the elastic pre-run excluded; one rank, so replicas run one after another) per
 replica, unit simulated time and particle.
 """
-import json, math, os, platform, subprocess, sys, tempfile, time
+import json, math, os, platform, resource, subprocess, sys, tempfile, time
 
 args = [a for a in sys.argv[1:] if not a.startswith("--")]
 QUICK = "--quick" in sys.argv
@@ -22,9 +27,10 @@ def opt(name):
 
 
 MODEL, ROWS, REFIT, BASELINE = opt("--model"), opt("--rows"), opt("--refit"), opt("--baseline")
+MD_MODEL = opt("--md")
 DENSITY_AXIS = opt("--density-axis") or "contact_value"     # or volume_fraction: plain bilinear in nu
 BASELINE_NOTE = "bilinear in (nu, lambda), no dependence on the run length: every run as if to Haff time 2"
-args = [a for a in args if a not in (MODEL, ROWS, REFIT, BASELINE, DENSITY_AXIS)]
+args = [a for a in args if a not in (MODEL, ROWS, REFIT, BASELINE, DENSITY_AXIS, MD_MODEL)]
 ENGINE, DOCDIR = args[0], args[1]
 R = 4                      # replicas per point (ED and MC alike)
 K = 10                     # output times
@@ -139,6 +145,124 @@ def rel_err(prog, tref):
     return rms(devs(prog, tref))
 
 
+def lsq2(xs, ys, ws):
+    """Least squares y = p0 x0 + p1 x1 with weights, both >= 0 (the smaller one set to 0 if negative)."""
+    def solve(cols):
+        if len(cols) == 1:
+            k = cols[0]
+            num = sum(w * x[k] * y for x, y, w in zip(xs, ys, ws))
+            den = sum(w * x[k] * x[k] for x, w in zip(xs, ws))
+            p = [0.0, 0.0]
+            p[k] = max(num / den, 0.0) if den > 0 else 0.0
+            return p
+        a = [[sum(w * x[i] * x[j] for x, w in zip(xs, ws)) for j in (0, 1)] for i in (0, 1)]
+        b = [sum(w * x[i] * y for x, y, w in zip(xs, ys, ws)) for i in (0, 1)]
+        det = a[0][0] * a[1][1] - a[0][1] * a[1][0]
+        if det == 0:
+            return None
+        return [(b[0] * a[1][1] - b[1] * a[0][1]) / det, (a[0][0] * b[1] - a[1][0] * b[0]) / det]
+    p = solve([0, 1])
+    if p is None or min(p) < 0:
+        cands = [solve([0]), solve([1])]
+        def sse(q):
+            return sum(w * (q[0] * x[0] + q[1] * x[1] - y) ** 2 for x, y, w in zip(xs, ys, ws))
+        p = min(cands, key=sse)
+    return p
+
+
+def round_sig(o):
+    if isinstance(o, float):
+        return float("%.4g" % o)
+    if isinstance(o, dict):
+        return {k: round_sig(v) for k, v in o.items()}
+    if isinstance(o, list):
+        return [round_sig(v) for v in o]
+    return o
+
+
+def curves(p, var):
+    """bias(tau_k), spread(tau_k) of one measured row: over the output times up to the k-th (the error of a run
+    that stops there, as the RMS over its outputs), measured error^2 = bias^2 + SE_MC^2 + SE_ref^2; bias made
+    non-decreasing (a longer run cannot have a smaller bias than the part it starts with); spread = SE x
+    sqrt(N x replicas)."""
+    bias, spread, b = [], [], 0.0
+    for k in range(1, len(p["dev"]) + 1):
+        ms_dev = sum(d * d for d in p["dev"][:k]) / k
+        ms_se = sum(x * x for x in p["ses"][:k]) / k
+        ms_ref = sum(x * x for x in p["ref_ses"][:k]) / k
+        if var != "ed":
+            b = max(b, math.sqrt(max(0.0, ms_dev - ms_se - ms_ref)))
+        bias.append(b)
+        spread.append(math.sqrt(ms_se) * math.sqrt(p["c"]["n"] * R))
+    return bias, spread
+
+
+MD_N = 200 if QUICK else 2000   # md's cost per step hardly depends on N (cell lists); its bias does not at all
+if MD_MODEL:
+    model = json.load(open(MD_MODEL))
+    model["cost"]["md"] = {}
+    table = []
+    for dim in (2, 3):
+        grid = model["error"][str(dim)]
+        mdrows = {}
+        for nu in grid["volume_fraction"]:
+            for lam in grid["lambda"]:
+                e = math.sqrt(1 - lam)
+                c = dict(name="%dD nu=%g e=%.3g" % (dim, nu, e), dim=dim, nu=nu, e=e,
+                         t_end=cooling_t_end(dim, nu, e, TAU_END), n=MD_N, kind="cooling")
+                rsc = case_scene(c, "ed", None)
+                rsc["particles"]["initial"] = {"positions": "random"}
+                msc = case_scene(c, "md", None)
+                del msc["particles"]["initial"]["relax"]
+                ref, _ = run(rsc)
+                # cost: the CPU time of the md process (user + system; placement included, a few per cent of
+                # the shortest run), not its wall time: the machine is shared
+                ru0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+                prog, summ = run(msc)
+                ru1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+                cpu = ru1.ru_utime + ru1.ru_stime - ru0.ru_utime - ru0.ru_stime
+                tref = [p["temperature"] for p in ref[1:]]
+                row = dict(c=c, dev=devs(prog, tref), ses=ses(prog), ref_ses=ses(ref), wall=cpu,
+                           psteps=summ["events"] * MD_N, err=rel_err(prog, tref), se=rel_se(prog), ref_se=rel_se(ref))
+                mdrows[(nu, lam)] = row
+                table.append(row)
+                print(c["name"], "md", row["wall"], row["psteps"], row["err"], file=sys.stderr)
+        sel = list(mdrows.values())
+        xs = [(r["psteps"], r["psteps"] * r["c"]["nu"]) for r in sel]
+        a, b = lsq2(xs, [r["wall"] for r in sel], [1 / r["wall"] ** 2 for r in sel])
+        model["cost"]["md"][str(dim)] = {"per_particle_step": a, "per_particle_step_density": b}
+        cb = [[curves(mdrows[(nu, lam)], "md") for lam in grid["lambda"]] for nu in grid["volume_fraction"]]
+        grid["variants"]["md"] = {"bias": [[x[0] for x in r] for r in cb], "spread": [[x[1] for x in r] for r in cb]}
+    model["generated"]["md"] = {"by": "bench/tradeoff.py --md", "date": time.strftime("%Y-%m-%d", time.gmtime()),
+                                "particles": MD_N, "replicas": R}
+    model = round_sig(model)
+    with open(MD_MODEL, "w") as f:
+        json.dump(model, f, indent=1)
+        f.write("\n")
+    with open(os.path.join(DOCDIR, "tradeoff-md.md"), "w") as f:
+        f.write("# Soft-sphere MD against ed on the cooling grid (issue 18)\n\n"
+                "Generated by `bench/tradeoff.py ENGINE docs --md data/advice-model.json` (in `make bench`), %s.\n"
+                "Homogeneous cooling of N = %d particles, %d replicas, to Haff time %g, %d output times, on the\n"
+                "advice model's grid; md at its defaults (linear law, max_overlap 0.01 at 4 sqrt(T/m), step t_c/50, no\n"
+                "friction), ed (TC below e = 0.8) from the same random placement (no relax: md has none). Error =\n"
+                "relative RMS over the output times of T_md/T_ed - 1, next to the standard errors of both ensembles\n"
+                "(the relative SE of T, RMS over the output times): an error within about sqrt(md SE^2 + ed SE^2) is\n"
+                "no measured bias. Cost = the md process's CPU seconds (user + system, placement included) per\n"
+                "particle-step; the fit a + b nu per D is `cost.md` of the model, the bias and spread curves over the\n"
+                "Haff time its `md` variant (the same definitions as the other variants: tradeoff.md).\n\n"
+                % (time.strftime("%Y-%m-%d", time.gmtime()), MD_N, R, TAU_END, K))
+        f.write("| case | md error (rel. RMS of T/T_ed - 1) | md SE | ed SE | md CPU s | particle-steps | s per particle-step |\n"
+                "|---|---|---|---|---|---|---|\n")
+        for r in table:
+            f.write("| %s | %.3g | %.2g | %.2g | %.3g | %.3g | %.3g |\n" % (r["c"]["name"], r["err"], r["se"], r["ref_se"],
+                    r["wall"], r["psteps"], r["wall"] / r["psteps"]))
+        for dim in (2, 3):
+            c = model["cost"]["md"][str(dim)]
+            f.write("\nCost fit %dD: %.3g + %.3g nu s per particle-step.\n" % (dim, c["per_particle_step"],
+                    c["per_particle_step_density"]))
+    sys.exit(0)
+
+
 # ---- the table ------------------------------------------------------------------------------
 # Every row keeps its per-output-time series (dev: T/T_ED - 1, se: its relative SE, ref_ses: the reference's),
 # from which the model's growth with the Haff time is fitted.
@@ -172,54 +296,12 @@ for c in ([] if REFIT else cases()):
 
 
 # ---- the model ------------------------------------------------------------------------------
-def lsq2(xs, ys, ws):
-    """Least squares y = p0 x0 + p1 x1 with weights, both >= 0 (the smaller one set to 0 if negative)."""
-    def solve(cols):
-        if len(cols) == 1:
-            k = cols[0]
-            num = sum(w * x[k] * y for x, y, w in zip(xs, ys, ws))
-            den = sum(w * x[k] * x[k] for x, w in zip(xs, ws))
-            p = [0.0, 0.0]
-            p[k] = max(num / den, 0.0) if den > 0 else 0.0
-            return p
-        a = [[sum(w * x[i] * x[j] for x, w in zip(xs, ws)) for j in (0, 1)] for i in (0, 1)]
-        b = [sum(w * x[i] * y for x, y, w in zip(xs, ys, ws)) for i in (0, 1)]
-        det = a[0][0] * a[1][1] - a[0][1] * a[1][0]
-        if det == 0:
-            return None
-        return [(b[0] * a[1][1] - b[1] * a[0][1]) / det, (a[0][0] * b[1] - a[1][0] * b[0]) / det]
-    p = solve([0, 1])
-    if p is None or min(p) < 0:
-        cands = [solve([0]), solve([1])]
-        def sse(q):
-            return sum(w * (q[0] * x[0] + q[1] * x[1] - y) ** 2 for x, y, w in zip(xs, ys, ws))
-        p = min(cands, key=sse)
-    return p
-
-
 def fit_rms(rowsel, pred):
     r = [pred(x) / x["wall"] - 1 for x in rowsel]
     return math.sqrt(sum(v * v for v in r) / len(r)) if r else float("nan")
 
 
 cool = [r for r in rows if r["c"]["kind"] == "cooling"]
-def curves(p, var):
-    """bias(tau_k), spread(tau_k) of one measured row: over the output times up to the k-th (the error of a run
-    that stops there, as the RMS over its outputs), measured error^2 = bias^2 + SE_MC^2 + SE_ref^2; bias made
-    non-decreasing (a longer run cannot have a smaller bias than the part it starts with); spread = SE x
-    sqrt(N x replicas)."""
-    bias, spread, b = [], [], 0.0
-    for k in range(1, len(p["dev"]) + 1):
-        ms_dev = sum(d * d for d in p["dev"][:k]) / k
-        ms_se = sum(x * x for x in p["ses"][:k]) / k
-        ms_ref = sum(x * x for x in p["ref_ses"][:k]) / k
-        if var != "ed":
-            b = max(b, math.sqrt(max(0.0, ms_dev - ms_se - ms_ref)))
-        bias.append(b)
-        spread.append(math.sqrt(ms_se) * math.sqrt(p["c"]["n"] * R))
-    return bias, spread
-
-
 model = {"format": "granulard-advice-model", "version": 2,
          "generated": {"by": "bench/tradeoff.py%s" % (" --quick" if QUICK else ""),
                        "date": time.strftime("%Y-%m-%d", time.gmtime()),
@@ -266,16 +348,6 @@ for dim in (2, 3):
             p = clu[0]
             grid["clustering"][var] = math.sqrt(max(0.0, p["err"] ** 2 - p["se"] ** 2 - p["ref_se"] ** 2))
     model["error"][str(dim)] = grid
-
-
-def round_sig(o):
-    if isinstance(o, float):
-        return float("%.4g" % o)
-    if isinstance(o, dict):
-        return {k: round_sig(v) for k, v in o.items()}
-    if isinstance(o, list):
-        return [round_sig(v) for v in o]
-    return o
 
 
 model = round_sig(model)

@@ -7,6 +7,7 @@
 
 #include "advice.h"
 #include "mc/dsmc.h"
+#include "md/md.h"
 #include "engine/advice_model_json.h"   /* generated from data/advice-model.json: advice_model_text[] */
 
 #define GRID_MAX 8
@@ -25,6 +26,8 @@ typedef struct {
 typedef struct {
 	double ed_a, ed_b;                   /* ed: s per collision = a + b / (nu chi) */
 	double mc_move[2], mc_coll[2];       /* [0] dsmc, [1] hsmc */
+	int has_md;                          /* cost.md.D given (optional: models before md lack it) */
+	double md_step, md_step_nu;          /* md: s per particle-step = md_step + md_step_nu nu */
 	int nnu, nlam, ntau;
 	double nu[GRID_MAX], lam[GRID_MAX], tau[TAU_MAX];
 	double xnu[GRID_MAX];                /* the density coordinate of each grid volume fraction */
@@ -180,6 +183,16 @@ static int parse_dim(pctx_t *c, json_t *root, int dim, dimmodel_t *d, int contac
 		snprintf(path, sizeof path, "cost.%s.%s", mc[k], dk);
 		if (num_at(c, o, path, "per_move", 0, &d->mc_move[k]) || num_at(c, o, path, "per_collision", 0, &d->mc_coll[k]))
 			return -1;
+	}
+	json_t *md = json_object_get(cost, "md");
+	if (md) {   /* optional (bench/tradeoff.py --md adds it) */
+		if (!(o = obj_at(c, md, "cost.md", dk)))
+			return -1;
+		snprintf(path, sizeof path, "cost.md.%s", dk);
+		if (num_at(c, o, path, "per_particle_step", 0, &d->md_step) ||
+		    num_at(c, o, path, "per_particle_step_density", 0, &d->md_step_nu))
+			return -1;
+		d->has_md = 1;
 	}
 	snprintf(path, sizeof path, "error.%s", dk);
 	if (!(o = obj_at(c, err, "error", dk)))
@@ -404,6 +417,54 @@ static int bed_forms(const scene_t *s)
 	return 0;
 }
 
+/* md's step for scene s as the run computes it (run.c: the core's reference contact time, from the lightest
+ * mass and the largest radius, over md.time_step): a core of one particle per species without positions
+ * (memory only). 0, or -1 when the core refuses the settings. */
+static int md_step_of(const scene_t *s, double *dt)
+{
+	double radii[SCENE_SPECIES_MAX], masses[SCENE_SPECIES_MAX];
+	const int ns = s->n_species > 0 ? s->n_species : 1;
+	for (int k = 0; k < ns; k++) {
+		radii[k] = s->n_species > 0 ? s->species[k].radius : s->radius;
+		masses[k] = s->n_species > 0 ? s->species[k].mass : s->mass;
+	}
+	md_params_t p = {
+		.dim = s->dim, .n = ns, .radius = s->radius, .mass = s->mass, .radii = radii, .masses = masses,
+		.law = s->md_law ? MD_LAW_HERTZ : MD_LAW_LINEAR, .restitution = s->restitution,
+		.v_ref = s->md_impact_speed, .dt_steps = s->md_time_step > 0 ? 1.0 / s->md_time_step : 0,
+	};
+	for (int a = 0; a < 3; a++) {
+		p.box[a] = a < s->dim ? s->box[a] : 1.0;
+		p.periodic[a] = a < s->dim ? !s->boundary[a].walled : 1;
+	}
+	if (s->md_law)
+		p.young = s->md_stiffness;
+	else if (s->md_contact_time > 0)
+		p.t_contact = s->md_contact_time;
+	else
+		p.kn = s->md_stiffness;
+	md_t *md = md_create(&p, NULL);
+	if (!md)
+		return -1;
+	*dt = md_dt(md);
+	md_destroy(md);
+	return 0;
+}
+
+/* The md settings the model's md error was measured with (bench/tradeoff.py --md): one species, the linear
+ * law at the default stiffness (max_overlap 0.01 at the default impact speed, scene.c), the step t_c / 50,
+ * no friction. */
+static int md_default_settings(const scene_t *s)
+{
+	double fall = 0.0;
+	for (int a = 0; a < s->dim; a++)
+		fall += fabs(s->gravity[a]) * s->box[a];
+	const double v = fmax(4.0 * sqrt(s->temperature / s->mass), sqrt(2.0 * fall)), d = 0.02 * s->radius;
+	const double k = s->mass * v * v / (d * d);
+	return s->n_species == 0 && s->md_law == 0 && s->md_contact_time == 0 && fabs(s->md_stiffness - k) <= 1e-9 * k &&
+	       fabs(s->md_time_step - 1.0 / 50.0) <= 1e-12 && s->md_friction == 0;
+}
+
 /* One candidate's estimate (correction: resolved, 0 for ed). The scene's own
  * method and correction is estimated with its settings, the others at the
  * defaults with that correction. */
@@ -427,6 +488,17 @@ static int estimate_one(const advice_model_t *m, const scene_t *s, scene_method_
 	if (method == SCENE_METHOD_ED) {
 		snprintf(e->variant, sizeof e->variant, "ed");
 		e->cell_size = s->ed_cell_size;
+	} else if (method == SCENE_METHOD_MD) {   /* only the scene's own method (candidates()) */
+		snprintf(e->variant, sizeof e->variant, "md");
+		if (md_step_of(s, &e->time_step) != 0) {
+			snprintf(err, errlen, "md: the time step cannot be computed for this scene");
+			return ADVICE_ESCENE;
+		}
+		if (!md_default_settings(s)) {
+			e->extrapolated |= ADVICE_X_SETTINGS;
+			note(e, "md error measured for one species at the default stiffness and step (linear law, max_overlap "
+			     "0.01, time_step 1/50, no friction)");
+		}
 	} else {
 		scene_t c = *s;
 		dsmc_params_t p;
@@ -472,6 +544,13 @@ static int estimate_one(const advice_model_t *m, const scene_t *s, scene_method_
 		double per = d->ed_a + d->ed_b / (nu * chi_hs);
 		e->cpu_seconds = e->collisions * per;
 		e->setup_cpu_seconds = R * N / 2 * s->relax_cpp * per;
+	} else if (method == SCENE_METHOD_MD) {
+		/* the run's steps: run.until.time over dt, rounded up (run.c); moves = particle-steps */
+		steps = isfinite(t_end) ? ceil(t_end / e->time_step) : INFINITY;
+		e->moves = R * N * steps;
+		e->cpu_seconds = d->has_md ? e->moves * (d->md_step + d->md_step_nu * nu) : NAN;
+		if (!d->has_md)
+			note(e, "the model has no md cost (bench/tradeoff.py --md adds it)");
 	} else {
 		const int k = method == SCENE_METHOD_HSMC;
 		double out = outputs(s, t_end, cpp);
@@ -518,7 +597,7 @@ static int estimate_one(const advice_model_t *m, const scene_t *s, scene_method_
 		note(e, "no measured error for %s", e->variant);
 		return ADVICE_OK;
 	}
-	e->bias = method == SCENE_METHOD_ED ? 0 : interp(m, d, v->bias, D, nu, lam, tau, 1, &x);
+	e->bias = method == SCENE_METHOD_ED ? 0 : interp(m, d, v->bias, D, nu, lam, tau, 1, &x);   /* md: soft contacts */
 	double spread = interp(m, d, v->spread, D, nu, lam, tau, 0, &x);
 	e->statistical = spread / sqrt(N * R);
 	const double tau_max = d->tau[d->ntau - 1];
@@ -614,6 +693,10 @@ static int candidates(const dimmodel_t *d, const scene_t *s, scene_method_t meth
 				meth[n] = mc[k], corr[n++] = c;
 		}
 	}
+	/* md: for md scenes only (its stiffness and step are resolved by the scene parser for them; "auto"
+	 * chooses among the hard-sphere methods) */
+	if (s->method == SCENE_METHOD_MD && n < ADVICE_MAX_ESTIMATES)
+		meth[n] = SCENE_METHOD_MD, corr[n++] = 0;
 	return n;
 }
 
@@ -725,6 +808,8 @@ static json_t *notes_array(const char *notes)
 
 static json_t *settings_json(const advice_estimate_t *e)
 {
+	if (e->method == SCENE_METHOD_MD)
+		return json_pack("{s:o}", "time_step", jnum(e->time_step));
 	if (e->method == SCENE_METHOD_ED)
 		return json_pack("{s:o}", "cell_size", e->cell_size > 0 ? json_real(e->cell_size) : json_string("automatic"));
 	json_t *o = json_pack("{s:s, s:o}", "correction", corr_names[e->correction], "cell_size", jnum(e->cell_size));

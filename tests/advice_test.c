@@ -12,14 +12,15 @@
  * formulas in advice.h rather than from a bench run. 2D grid nu {0.05, 0.4},
  * lambda {0.19, 0.75}, Haff time {0.1, 2}; 3D the same numbers. Curves
  * [tau 0.1, tau 2]: dsmc/none's bias grows with density only (0.1 -> 0.3),
- * hsmc/cba's with the Haff time only (0.02 -> 0.04), the rest are flat. */
+ * hsmc/cba's with the Haff time only (0.02 -> 0.04), the rest are flat (md's bias 0.005). */
 #define FLAT(v) "[[[" v "," v "],[" v "," v "]],[[" v "," v "],[" v "," v "]]]"
 #define DIMMODEL(D) \
 	"\"" #D "\": {\"volume_fraction\": [0.05, 0.4], \"lambda\": [0.19, 0.75], \"haff_time\": [0.1, 2], \"variants\": {" \
 	"\"ed\": {\"bias\": " FLAT("0") ", \"spread\": " FLAT("1") "}," \
 	"\"dsmc/none\": {\"bias\": [[[0.1,0.1],[0.1,0.1]],[[0.3,0.3],[0.3,0.3]]], \"spread\": " FLAT("1") "}," \
 	"\"dsmc/enskog\": {\"bias\": " FLAT("0.01") ", \"spread\": " FLAT("1") "}," \
-	"\"hsmc/cba\": {\"bias\": [[[0.02,0.04],[0.02,0.04]],[[0.02,0.04],[0.02,0.04]]], \"spread\": " FLAT("1") "}}," \
+	"\"hsmc/cba\": {\"bias\": [[[0.02,0.04],[0.02,0.04]],[[0.02,0.04],[0.02,0.04]]], \"spread\": " FLAT("1") "}," \
+	"\"md\": {\"bias\": " FLAT("0.005") ", \"spread\": " FLAT("1") "}}," \
 	"\"clustering\": {\"dsmc/none\": 0.3, \"hsmc/cba\": 0.2}}"
 #define COST(D) \
 	"\"" #D "\": {\"per_move\": 1e-8, \"per_collision\": 1e-7}"
@@ -30,7 +31,9 @@ static const char *const MODEL =
 	" \"particles_measured\": 10000,"
 	" \"cost\": {\"ed\": {\"2\": {\"per_collision\": 1e-6, \"per_collision_dilute\": 1e-7},"
 	"                     \"3\": {\"per_collision\": 2e-6, \"per_collision_dilute\": 0}},"
-	"          \"dsmc\": {" COST(2) ", " COST(3) "}, \"hsmc\": {" HCOST(2) ", " HCOST(3) "}},"
+	"          \"dsmc\": {" COST(2) ", " COST(3) "}, \"hsmc\": {" HCOST(2) ", " HCOST(3) "},"
+	"          \"md\": {\"2\": {\"per_particle_step\": 3e-8, \"per_particle_step_density\": 1e-8},"
+	"                  \"3\": {\"per_particle_step\": 4e-8, \"per_particle_step_density\": 2e-8}}},"
 	" \"error\": {" DIMMODEL(2) ", " DIMMODEL(3) "}}";
 
 static advice_model_t *model(void)
@@ -105,6 +108,8 @@ static void model_errors(void)
 		{"[[[0.02,0.04],[0.02,0.04]],[[0.02,0.04],[0.02,0.04]]]", "[[[0.02,0.04],[0.02,0.04]],[[0.02,0.04],[0.02]]]",
 		 "error.2.variants.hsmc/cba.bias"},
 		{"\"particles_measured\": 10000,", "\"particles_measured\": 10000, \"density_axis\": \"nu\",", "density_axis"},
+		{"\"per_particle_step\": 3e-8", "\"per_particle_stp\": 3e-8", "cost.md.2.per_particle_step"},
+		{"\"per_particle_step_density\": 2e-8", "\"per_particle_step_density\": -2e-8", "cost.md.3.per_particle_step_density"},
 	};
 	for (size_t i = 0; i < sizeof edits / sizeof edits[0]; i++) {
 		char buf[8192];
@@ -482,6 +487,55 @@ static void bounded(const advice_model_t *m)
 	   "walls without gravity: dsmc not refused but not trusted, ed chosen: %s", a.reason);
 }
 
+/* md (issue 18): a candidate of md scenes only; its step is the core's (checked against the linear law's
+ * contact time at the default stiffness, computed here from the scene: docs/md.md), its work R N steps
+ * particle-steps at (a + b nu) s each, its error the model's md variant; non-default md settings flagged. */
+static void md_estimates(const advice_model_t *m)
+{
+	static const char *const MD = "{\"method\":\"%s\",\"dimensions\":2,\"particles\":{\"count\":1000,"
+		"\"volume_fraction\":0.2},\"collisions\":{\"restitution\":0.9},%s\"run\":{\"until\":{\"time\":2},\"replicas\":2}}";
+	scene_t s;
+	advice_t a;
+	if (scene(&s, MD, "md", "") || estimate(m, &s, &a)) {
+		ok(0, "md scene estimated");
+		return;
+	}
+	const advice_estimate_t *e = est(&a, "md");
+	const double v = 4 * sqrt(s.temperature / s.mass), d = 0.02 * s.radius, kn = s.mass * v * v / (d * d);
+	const double pi = 3.14159265358979323846, le = log(0.9), beta = -le / sqrt(pi * pi + le * le);
+	const double dt = pi / sqrt(kn / (s.mass / 2) * (1 - beta * beta)) / 50, steps = ceil(2 / dt);
+	ok(e && fabs(e->time_step / dt - 1) < 1e-12 && e->moves == 2 * 1000 * steps &&
+	   fabs(e->cpu_seconds / (e->moves * (3e-8 + 1e-8 * 0.2)) - 1) < 1e-12,
+	   "md: step %.6g (contact time / 50: %.6g), %.6g particle-steps, %.6g CPU s", e ? e->time_step : NAN, dt,
+	   e ? e->moves : NAN, e ? e->cpu_seconds : NAN);
+	ok(e && fabs(e->bias - 0.005) < 1e-15 && fabs(e->statistical - 1 / sqrt(2000.0)) < 1e-15 &&
+	   !(e->extrapolated & ADVICE_X_SETTINGS) && a.est[0].method == SCENE_METHOD_ED,
+	   "md: bias %.3g from the md variant, statistical %.4g, default settings not flagged, ed listed first",
+	   e ? e->bias : NAN, e ? e->statistical : NAN);
+	if (!scene(&s, MD, "md", "\"md\":{\"friction\":0.5},") && !estimate(m, &s, &a)) {
+		e = est(&a, "md");
+		ok(e && (e->extrapolated & ADVICE_X_SETTINGS) && strstr(e->notes, "default stiffness"),
+		   "md with friction: error flagged as measured at other settings (%s)", e ? e->notes : "none");
+	} else
+		ok(0, "md scene with friction estimated");
+	if (!scene(&s, MD, "ed", "") && !estimate(m, &s, &a))
+		ok(!est(&a, "md"), "no md estimate for an ed scene (%d estimates)", a.n);
+	else
+		ok(0, "ed scene estimated");
+	/* a model without md costs (before bench/tradeoff.py --md): cost unknown, said so */
+	char buf[8192], err[256];
+	const char *at = strstr(MODEL, ",          \"md\": {"), *end = at ? strstr(at, "}}},") : NULL;
+	snprintf(buf, sizeof buf, "%.*s%s", at ? (int)(at - MODEL) : 0, MODEL, end ? end + 2 : "");
+	advice_model_t *m2 = advice_model_create(buf, strlen(buf), err, sizeof err);
+	if (m2 && !scene(&s, MD, "md", "") && !estimate(m2, &s, &a)) {
+		e = est(&a, "md");
+		ok(e && isnan(e->cpu_seconds) && strstr(e->notes, "no md cost"), "model without md costs: cost NaN (%s)",
+		   e ? e->notes : "none");
+	} else
+		ok(0, "model without md costs parses: %s", m2 ? "" : err);
+	advice_model_destroy(m2);
+}
+
 int main(void)
 {
 	advice_model_t *m = model();
@@ -496,6 +550,7 @@ int main(void)
 		resolve(m);
 		determinism(m);
 		bounded(m);
+		md_estimates(m);
 	}
 	advice_model_destroy(m);
 	plan(tap_n);
