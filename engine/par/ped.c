@@ -1454,10 +1454,15 @@ uint64_t ped_scene_bytes(const scene_t *s, int P)
 	for (int a = 0; a < s->dim; a++)
 		ncells *= (uint64_t)p.nc[a];
 	/* ped_create(): records, calendar entries, heap and heap positions, each with its saved copy; a role
-	 * byte and two list heads per cell; the outboxes (ped_memory()) */
+	 * byte, two list heads and an event count per cell; the outboxes (ped_memory()) */
 	const uint64_t per = 2 * (sizeof(rec_t) + sizeof(pev_t) + sizeof(hent_t) + sizeof(int32_t));
-	return sizeof(struct ped) + s->count * per + ncells * (1 + 3 * sizeof(int32_t)) +
-	       (uint64_t)P * (sizeof(struct msgbuf) + 16 * sizeof(ped_msg_t) + sizeof(int));
+	uint64_t b = sizeof(struct ped) + s->count * per + ncells * (1 + 3 * sizeof(int32_t)) +
+	             (uint64_t)P * (sizeof(struct msgbuf) + 16 * sizeof(ped_msg_t) + sizeof(int));
+	/* run.balance: a rebalance's cost array over the Z space (at most 2^D ids per cell) and the moved
+	 * records, sent and received (at most every particle, the capacity) */
+	if (s->balance)
+		b += ncells * ((uint64_t)1 << s->dim) * sizeof(double) + 2 * s->count * sizeof(ped_msg_t);
+	return b;
 }
 
 /* ---- drivers --------------------------------------------------------------- */
@@ -1542,6 +1547,9 @@ static int sim_balance(ped_t **pd, int P, uint64_t n, ped_stats_t *st)
 	for (int r = 0; r < P; r++)
 		ped_window_cost(pd[r], cost);
 	rc = ped_balance_bounds(pd[0], cost, newb);
+	if (rc == 0)   /* judged: within the hysteresis */
+		for (int r = 0; r < P; r++)
+			ped_window_reset(pd[r]);
 	if (rc <= 0)
 		goto cleanup;
 	for (int r = 0; r < P; r++)
@@ -1673,12 +1681,15 @@ int ped_sim_run_bal(ped_t **pd, int P, uint64_t npart, double t_end, double sync
 			continue;
 		}
 		if (act >= 2) {
-			if (act == 3)
+			if (act == 3 && !balance)
 				break;
 			for (int r = 0; r < P; r++)
 				ped_save(pd[r]);
+			/* also at t_end, as the MPI driver */
 			if (balance && P > 1 && (rc = sim_balance(pd, P, npart, &s.st)) != PED_OK)
 				goto cleanup;
+			if (act == 3)
+				break;
 			continue;
 		}
 		if (!done && nmsg == 0 && T <= hprev) {
