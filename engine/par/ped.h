@@ -54,6 +54,10 @@
  *   particle next to one whose course since then already had an event (own
  *   particles: their courses since the change are checked for contact; ghosts
  *   this rank moved or collided: any such event counts).
+ * - Load balancing (off unless the driver's ped_sched_t.balance is set):
+ *   at a global sync the bounds may change and the particles move to their
+ *   new owners with their records unchanged (see "Load balancing at a
+ *   global sync" below).
  * - Memory per rank: particles of its cells and ghosts (fixed capacity),
  *   one saved copy, and a per-cell role byte and head index over the whole
  *   grid (O(cells), not O(N/P): a known limitation of this slice).
