@@ -233,6 +233,34 @@ static json_t *attempts_of(jobq_t *q, int64_t id)
 	return a;
 }
 
+/* A split ed run's load (engine records with "ranks": one system over several MPI
+ * ranks, docs/daemon.md): the fields of the job's newest stored record, with
+ * its time; null when that record has none (not a split run, or no record
+ * yet). One row read: the newest record of a split run always has them. */
+static json_t *split_of(jobq_t *q, int64_t id)
+{
+	static const char *const keys[] = {"ranks", "rank_events", "rank_particles", "rollbacks", "syncs",
+	                                   "sync_interval", "rebalances", "time"};
+	sqlite3_stmt *st = NULL;
+	json_t *out = NULL, *r = NULL;
+	if (sqlite3_prepare_v2(q->db, "SELECT record FROM progress WHERE job_id=? ORDER BY seq DESC LIMIT 1", -1, &st,
+	                       NULL) != SQLITE_OK)
+		return json_null();
+	sqlite3_bind_int64(st, 1, id);
+	if (sqlite3_step(st) == SQLITE_ROW)
+		r = json_loads((const char *)sqlite3_column_text(st, 0), 0, NULL);
+	sqlite3_finalize(st);
+	if (json_is_integer(json_object_get(r, "ranks"))) {
+		out = json_object();
+		for (size_t k = 0; k < sizeof keys / sizeof *keys; k++) {
+			json_t *v = json_object_get(r, keys[k]);
+			json_object_set(out, keys[k], v ? v : json_null());
+		}
+	}
+	json_decref(r);
+	return out ? out : json_null();
+}
+
 /* Job by id, locked by the caller. JOBQ_ENOTFOUND when absent. */
 static int load_job(jobq_t *q, int64_t id, int with_scene, json_t **out)
 {
@@ -246,6 +274,7 @@ static int load_job(jobq_t *q, int64_t id, int with_scene, json_t **out)
 	if (rc == SQLITE_ROW) {
 		*out = job_from_row(st, with_scene);
 		json_object_set_new(*out, "attempts", attempts_of(q, id));
+		json_object_set_new(*out, "split", split_of(q, id));
 		ret = JOBQ_OK;
 	} else if (rc != SQLITE_DONE) {
 		ret = JOBQ_EDB;

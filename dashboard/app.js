@@ -246,6 +246,24 @@
     ].concat(j.cancel_requested && !TERMINAL.has(j.state) ? [['cancel', 'requested: the job is stopping']] : []));
     if (j.advice !== undefined) renderJobAdvice(j);
     if (j.attempts !== undefined) renderAttempts(j.attempts);
+    if (j.split !== undefined) renderSplit(j.split);
+  }
+  // A split ed run (docs/daemon.md, "Split runs"): each rank's events processed (rolled-back ones included) and
+  // particles owned, with the rollbacks, syncs, sync interval and rebalances; from the job or its newest record.
+  function renderSplit(sp) {
+    const box = $('job-split');
+    if (!sp || !Number.isFinite(sp.ranks)) { box.hidden = true; return; }
+    const ev = sp.rank_events || [], np = sp.rank_particles || [];
+    const total = ev.reduce((a, b) => a + b, 0), mean = ev.length ? total / ev.length : 0;
+    const imb = mean > 0 ? Math.max(...ev) / mean : NaN;
+    $('job-split-info').textContent = plural(sp.ranks, 'rank') + (Number.isFinite(sp.time) ? ' at t = ' + sp.time.toPrecision(5) : '') +
+      ': rollbacks ' + si(sp.rollbacks) + ', syncs ' + si(sp.syncs) + ', sync interval ' +
+      (Number.isFinite(sp.sync_interval) ? sp.sync_interval.toPrecision(3) : '-') + ', rebalances ' + si(sp.rebalances) +
+      (Number.isFinite(imb) ? ', busiest / mean events ' + imb.toFixed(3) : '');
+    $('job-ranks').tBodies[0].replaceChildren(...ev.map((e, r) => el('tr', { 'data-rank': r }, el('td', {}, r),
+      el('td', {}, si(e)), el('td', {}, total > 0 ? (100 * e / total).toFixed(1) + '%' : '-'), el('td', {}, np[r] != null ? si(np[r]) : '-'))));
+    $('job-ranks').hidden = !ev.length;
+    box.hidden = false;
   }
   function renderAttempts(list) {
     $('job-attempts').tBodies[0].replaceChildren(...list.map((a) => {
@@ -557,6 +575,7 @@
         series.recs.push(rec);
         series.rate.push(rec.collision_rate ?? null);
         series.cl.push(rec.clusters ? rec.clusters.largest_fraction : null);
+        if (Number.isFinite(rec.ranks)) renderSplit(rec);
       }
       drawPlots();
       if (!series.sceneP) series.sceneP = loadScene(id);   // once per job (retried after a failure)
@@ -739,6 +758,7 @@
     $('job-info').replaceChildren();
     clearErrors('job-msg');
     renderJobAdvice({});
+    renderSplit(null);
     $('haff').textContent = '';
     for (const t of ['job-attempts', 'job-files']) { $(t).tBodies[0].replaceChildren(); $(t).hidden = true; }
     $('job-attempts-none').hidden = true; $('job-files-none').hidden = true;

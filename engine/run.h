@@ -94,6 +94,15 @@ typedef struct {
 	int n_species;
 	double temperature_species[SCENE_SPECIES_MAX];
 	const char *warning;         /* dsmc/hsmc validity warning (first record only), or NULL */
+	/* One ed system split over ranks > 1 MPI ranks (engine/par/edrun.c; 0
+	 * otherwise): each rank's events processed (rolled-back ones included:
+	 * its work) and particles owned now, for ranks <= RUN_RANKS_MAX only
+	 * (NULL above; owned by the run, valid during emit()); the rollbacks,
+	 * syncs and load-balancing rebalances so far and the sync interval now. */
+	int ranks;
+	const uint64_t *rank_events, *rank_particles;
+	uint64_t rollbacks, syncs, rebalances;
+	double sync_interval;
 	/* dsmc/hsmc diagnostics (totals; printed in the summary when non-zero) */
 	uint64_t vmax_raised, cell_collisions, rejected_moves;
 	/* Ensembles (run.replicas > 1): the observables above are means over the
@@ -129,6 +138,9 @@ typedef struct {
 	 * taken with the snapshots; owned by the run, valid during emit() */
 	const obs_curves_t *curves;
 } run_record_t;
+
+/* The most ranks whose per-rank loads a record carries (REPORT_MAX holds them). */
+#define RUN_RANKS_MAX 128
 
 /* Called for each record; a non-zero return stops the run (RUN_EMIT). */
 typedef int (*run_emit_fn)(const run_record_t *rec, void *ctx);

@@ -345,6 +345,14 @@ static int parse_gas(ctx_t *c, const char *path, json_t *v, void *dst, const voi
 	return match(c, path, v, names, 2, (int *)dst);
 }
 
+/* run.balance: "off" (0) or "events" (1). */
+static int parse_balance(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
+{
+	static const char *const names[] = { "off", "events" };
+	(void)arg;
+	return match(c, path, v, names, 2, (int *)dst);
+}
+
 static int parse_axis_kind(ctx_t *c, const char *path, json_t *v, void *dst, const void *arg)
 {
 	int i, ret = match(c, path, v, axis_kinds, 2, &i);
@@ -1282,6 +1290,12 @@ static int check_scene(ctx_t *c, const char *path, json_t *v, void *base)
 	if (s->has_from && s->replicas > 1 && s->from_replica != SCENE_FROM_EACH)
 		return fail(c, "particles.initial.from", "with run.replicas > 1 every replica would start from the same "
 		            "frame; use \"replica\": \"each\" (replica r from replica r of an ensemble's trajectory)");
+	if (s->balance && s->method != SCENE_METHOD_ED)
+		return fail(c, "run.balance", "\"events\" balances one ed system split over MPI ranks; method \"%s\" has no "
+		            "such run (use \"off\")", method_names[s->method]);
+	if (s->balance && s->replicas > 1)
+		return fail(c, "run.balance", "\"events\" needs run.replicas 1 (one system split over the ranks); an ensemble "
+		            "runs each replica whole on one rank");
 	if (s->has_from && s->replicas == 1 && s->from_replica == SCENE_FROM_EACH)
 		return fail(c, "particles.initial.from.replica", "\"each\" needs run.replicas > 1 (replica r from replica "
 		            "r); a single run names one replica by its index");
@@ -2154,6 +2168,7 @@ static const struct object run_obj = {
 		{ "seed", parse_integer, offsetof(scene_t, seed), &R_SEED, false },
 		{ "until", parse_object, offsetof(scene_t, until), &when_obj, true },
 		{ "replicas", parse_integer, offsetof(scene_t, replicas), &R_REPLICAS, false },
+		{ "balance", parse_balance, offsetof(scene_t, balance), NULL, false },
 		{ .name = NULL },
 	},
 };

@@ -310,6 +310,8 @@ typedef struct scene {
 	/* ensembles */
 	uint64_t replicas;             /* independent runs (seed streams 0..replicas-1), default 1 */
 	uint64_t stream;               /* not from JSON: the replica's random stream, set by the run driver */
+	int balance;                   /* run.balance: 0 "off" (default), 1 "events": a split ed run moves cells
+	                                * between ranks at syncs (engine/par/ped.h, docs/parallel.md) */
 
 	/* dsmc / hsmc method tuning ("dsmc" or "hsmc" object; 0 = default) */
 	double mc_cell_size;           /* minimum cell edge in diameters, 0 = from the mean free path */

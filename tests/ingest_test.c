@@ -167,6 +167,42 @@ int main(void)
 	ingest_destroy(g);
 	ingest_destroy(NULL);
 	ok(1, "destroy with pending records and destroy(NULL) (leaks show under ASan)");
+
+	/* A split ed run's record (engine/io/report.c: ranks > 1) at the most ranks it lists (RUN_RANKS_MAX 128),
+	 * counts of 16 digits, fed in pieces of 1000 bytes at the scheduler's line limit (64 KiB): accepted whole as
+	 * a progress record, every per-rank count and the rollbacks, syncs, sync interval and rebalances intact. */
+	{
+		static char srec[16384];
+		size_t m = 0;
+		m += (size_t)snprintf(srec + m, sizeof srec - m, "{\"type\":\"progress\",\"time\":5,\"ranks\":128");
+		for (int w = 0; w < 2; w++) {
+			m += (size_t)snprintf(srec + m, sizeof srec - m, ",\"%s\":[", w ? "rank_particles" : "rank_events");
+			for (int k = 0; k < 128; k++)
+				m += (size_t)snprintf(srec + m, sizeof srec - m, "%s%lld", k ? "," : "", 1000000000000000LL * (w + 1) + k);
+			m += (size_t)snprintf(srec + m, sizeof srec - m, "]");
+		}
+		m += (size_t)snprintf(srec + m, sizeof srec - m, ",\"rollbacks\":17,\"syncs\":230,\"sync_interval\":0.0275,"
+		                      "\"rebalances\":3,\"wall_seconds\":1.5}\n");
+		chat_t c3 = {0};
+		ingest_t *k = make(10.0, 5.0, 0.25, 64, 1 << 16, &c3);
+		for (size_t off = 0; off < m; off += 1000)
+			ingest_feed(k, srec + off, m - off < 1000 ? m - off : 1000, 0.0);
+		n = ingest_batch(k, &rs, NULL);
+		int intact = n == 1 && rs[0].is_progress && strlen(rs[0].line) == m - 1;
+		for (int w = 0; w < 2 && intact; w++) {
+			json_t *a = json_object_get(rs[0].r, w ? "rank_particles" : "rank_events");
+			intact = json_array_size(a) == 128;
+			for (int q = 0; q < 128 && intact; q++)
+				intact = json_integer_value(json_array_get(a, (size_t)q)) == 1000000000000000LL * (w + 1) + q;
+		}
+		ok(intact && json_integer_value(json_object_get(rs[0].r, "rollbacks")) == 17 &&
+		       json_integer_value(json_object_get(rs[0].r, "syncs")) == 230 &&
+		       json_real_value(json_object_get(rs[0].r, "sync_interval")) == 0.0275 &&
+		       json_integer_value(json_object_get(rs[0].r, "rebalances")) == 3 && c3.lines == 0,
+		   "a split run's record of 128 ranks (%zu bytes) in pieces: accepted whole, per-rank counts and load fields intact",
+		   m);
+		ingest_destroy(k);
+	}
 	plan(tap_n);
 	return done_testing();
 }

@@ -9,6 +9,7 @@
 #include "ed/ed.h"
 #include "par/ped.h"
 #include "par/pedmpi.h"
+#include "place.h"
 #include "scene.h"
 
 /* Prints "ok - ..." / "not ok - ..." lines on rank 0 (tests/tap_lib.sh report()). */
@@ -20,20 +21,37 @@ static int same_log(const ped_t *a, const ped_t *b)
 	return na == nb && (na == 0 || !memcmp(la, lb, na * sizeof *la));
 }
 
-static void check(int dim, long n, double phi, double e, double tc, double t_end, int rank, int P)
+/* step > 0: the particles placed in the lower fraction step of the last axis (a density step) and the run load
+ * balanced (ped.h: ped_sim_run_bal(), the sched's balance over MPI). */
+static void check(int dim, long n, double phi, double e, double tc, double t_end, int rank, int P, double step)
 {
-	char json[512], err[256];
+	char json[768], err[256], init[200] = "";
+	if (step > 0.0)
+		snprintf(init, sizeof init, ",\"initial\":{\"positions\":\"random\"}");
 	snprintf(json, sizeof json,
-	         "{\"method\":\"ed\",\"dimensions\":%d,\"particles\":{\"count\":%ld,\"volume_fraction\":%g},"
+	         "{\"method\":\"ed\",\"dimensions\":%d,\"particles\":{\"count\":%ld,\"volume_fraction\":%g%s},"
 	         "\"collisions\":{\"restitution\":%g,\"tc\":%g},\"run\":{\"until\":{\"time\":1}}}",
-	         dim, n, phi, e, tc);
+	         dim, n, phi, init, e, tc);
 	scene_t sc;
 	int rc = -1, good = 0;
 	ped_t **sim = calloc((size_t)P, sizeof *sim), *mine = NULL;
 	double *pos = malloc((size_t)n * (size_t)dim * sizeof(double)), *vel = malloc((size_t)n * (size_t)dim * sizeof(double));
 	ed_t *ed = NULL;
-	if (!sim || !pos || !vel || scene_parse(json, strlen(json), &sc, err, sizeof err) != SCENE_OK ||
-	    !(ed = ed_create(&sc, &rc, err, sizeof err)))
+	double *placed = NULL;
+	if (!sim || !pos || !vel || scene_parse(json, strlen(json), &sc, err, sizeof err) != SCENE_OK)
+		goto done;
+	if (step > 0.0) {   /* particles.initial.region's lower part of the box, placed as run_create() does */
+		sc.has_region = 1;
+		for (int a = 0; a < 3; a++) {
+			sc.region_lo[a] = 0.0;
+			sc.region_hi[a] = a + 1 == dim ? step * sc.box[a] : sc.box[a];
+		}
+		if (!(placed = malloc((size_t)n * (size_t)dim * sizeof(double))) ||
+		    place_region(&sc, sc.stream, placed, err, sizeof err) != PLACE_OK)
+			goto done;
+		sc.init_pos = placed;
+	}
+	if (!(ed = ed_create(&sc, &rc, err, sizeof err)))
 		goto done;
 	ed_state(ed, pos, vel);   /* every rank builds the same state from the scene */
 	ped_params_t p = {.dim = dim, .sigma = 2.0 * sc.radius, .mass = sc.mass, .e = e, .tc = tc, .ranks = P};
@@ -47,17 +65,23 @@ static void check(int dim, long n, double phi, double e, double tc, double t_end
 		ped_load(sim[r], (uint64_t)n, pos, vel);
 	}
 	ped_stats_t s1, s2;
-	int rs = ped_sim_run(sim, P, t_end, t_end / 16, -1.0, 0, &s1);
+	int rs = ped_sim_run_bal(sim, P, (uint64_t)n, t_end, t_end / 16, -1.0, 0, step > 0.0, &s1);
 	if (!(mine = ped_create(&p, rank, (size_t)n, &rc)))
 		goto done;
 	ped_log_on(mine);
 	ped_load(mine, (uint64_t)n, pos, vel);
-	int rm = pedmpi_run(mine, MPI_COMM_WORLD, t_end, t_end / 16, -1.0, &s2);
+	ped_sched_t sched;
+	double reached;
+	ped_sched_init(&sched, t_end, t_end / 16);
+	sched.balance = step > 0.0;
+	int rm = pedmpi_advance(mine, MPI_COMM_WORLD, &sched, 0.0, t_end, NULL, &reached);
+	s2 = sched.st;
 	ped_totals_t ta, tb;
 	ped_totals(sim[rank], &ta);
 	ped_totals(mine, &tb);
 	good = rs == PED_OK && rm == PED_OK && same_log(sim[rank], mine) && ta.collisions > 0 && ta.ekin == tb.ekin &&
-	       ta.owned == tb.owned && ta.events == tb.events && s1.rounds == s2.rounds && s1.rollbacks == s2.rollbacks;
+	       ta.owned == tb.owned && ta.events == tb.events && s1.rounds == s2.rounds && s1.rollbacks == s2.rollbacks &&
+	       s1.rebalances == s2.rebalances && (step > 0.0) == (s2.rebalances > 0);
 done:
 	{
 		int all;
@@ -70,9 +94,10 @@ done:
 		}
 		MPI_Reduce(&c, &call, 1, MPI_UINT64_T, MPI_SUM, 0, MPI_COMM_WORLD);
 		if (rank == 0)
-			printf("%s - %dD N=%ld e=%g: %d MPI ranks run the in-process simulation of %d ranks bit for bit "
+			printf("%s - %dD N=%ld e=%g%s: %d MPI ranks run the in-process simulation of %d ranks bit for bit "
 			       "(%llu collisions, %.1f per particle)\n",
-			       all ? "ok" : "not ok", dim, n, e, P, P, (unsigned long long)call, 2.0 * (double)call / (double)n);
+			       all ? "ok" : "not ok", dim, n, e, step > 0.0 ? " density step, balanced" : "", P, P,
+			       (unsigned long long)call, 2.0 * (double)call / (double)n);
 	}
 	for (int r = 0; r < P; r++)
 		ped_destroy(sim ? sim[r] : NULL);
@@ -80,6 +105,7 @@ done:
 	free(sim);
 	free(pos);
 	free(vel);
+	free(placed);
 	ed_destroy(ed);
 }
 
@@ -96,8 +122,10 @@ int main(int argc, char **argv)
 	int rank, P;
 	MPI_Comm_rank(MPI_COMM_WORLD, &rank);
 	MPI_Comm_size(MPI_COMM_WORLD, &P);
-	check(2, 1500, 0.3, 0.9, 1e-3, 3.0, rank, P);
-	check(3, 1500, 0.25, 1.0, 0.0, 1.0, rank, P);
+	check(2, 1500, 0.3, 0.9, 1e-3, 3.0, rank, P, 0.0);
+	check(3, 1500, 0.25, 1.0, 0.0, 1.0, rank, P, 0.0);
+	check(2, 1500, 0.15, 1.0, 0.0, 3.0, rank, P, 0.4);
+	check(3, 1500, 0.1, 0.8, 1e-3, 2.0, rank, P, 0.4);
 	MPI_Finalize();
 	return 0;
 }

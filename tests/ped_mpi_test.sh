@@ -1,7 +1,7 @@
 #!/bin/sh
 # The parallel ED core over real MPI ranks (TAP): mpirun -np 2, 4, 8 (oversubscribed) runs exactly the rounds,
 # collisions and final state of the same ranks simulated in one process, which tests/ped_test compares with
-# the serial engine.
+# the serial engine; also with load balancing (a density step: the same rebalances, moves and collisions).
 set -u
 : "${SRCDIR:=$(cd "$(dirname "$0")/.." && pwd)}"
 : "${BUILDDIR:=$SRCDIR}"

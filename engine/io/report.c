@@ -111,6 +111,22 @@ int report_format(const run_record_t *r, char *buf, size_t len)
 	}
 	if (r->elastic_by_tc)
 		u64(&o, "elastic_by_tc", r->elastic_by_tc);
+	if (r->ranks > 0) {   /* a split ed run over several ranks */
+		put(&o, ",\"ranks\":%d", r->ranks);
+		if (r->rank_events && r->rank_particles) {
+			for (int w = 0; w < 2; w++) {
+				const uint64_t *x = w ? r->rank_particles : r->rank_events;
+				put(&o, ",\"%s\":[", w ? "rank_particles" : "rank_events");
+				for (int k = 0; k < r->ranks; k++)
+					put(&o, "%s%llu", k ? "," : "", (unsigned long long)x[k]);
+				put(&o, "]");
+			}
+		}
+		u64(&o, "rollbacks", r->rollbacks);
+		u64(&o, "syncs", r->syncs);
+		num(&o, "sync_interval", r->sync_interval);
+		u64(&o, "rebalances", r->rebalances);
+	}
 	if (r->have & SCENE_OBS_WALL_FORCE) {
 		static const char *const axis[3] = { "x", "y", "z" };
 		u64(&o, "wall_collisions", r->wall_collisions);

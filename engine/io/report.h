@@ -10,7 +10,7 @@
  * non-finite values are written as null. REPORT_MAX bytes always suffice. */
 int report_format(const run_record_t *rec, char *buf, size_t len);
 
-#define REPORT_MAX 4096
+#define REPORT_MAX 12288   /* 4096 and two arrays of RUN_RANKS_MAX 20-digit counts */
 
 /* The curves of a RUN_CURVES record (rec->curves) as JSON lines, one per observable family, into buf
  * (format: docs/output.md, observables.jsonl); sample: the index of this sample in the run (0, 1, ...).

@@ -31,6 +31,8 @@ typedef struct {
 	uint64_t coll_base, tc_base, ev_base;   /* totals before this process (a resumed run) */
 	double t0, wall_before;     /* MPI_Wtime() at the start of this process's part; wall seconds before it */
 	run_record_t last;          /* the last progress record (the summary's base) */
+	const ped_sched_t *sched;   /* the core's schedule: rollbacks, syncs, sync interval, rebalances */
+	uint64_t *rank_ev, *rank_n; /* every rank's events processed and particles owned (records, size > 1) */
 } er_t;
 
 /* A checkpoint's state (rank 0 reads or writes it; broadcast as plain data). */
@@ -50,14 +52,14 @@ static int reduce(er_t *E, sums_t *out)
 {
 	ped_totals_t tt;
 	ped_totals(E->pd, &tt);
-	double w[10];
-	uint64_t u[3] = {tt.collisions, tt.tc_elastic, tt.events};
+	double w[12];
+	uint64_t u[5] = {tt.collisions, tt.tc_elastic, tt.events, tt.events_done, tt.owned};
 	w[0] = tt.ekin;
 	for (int a = 0; a < 3; a++)
 		w[1 + a] = tt.mom[a];
 	w[4] = tt.virial;
 	w[5] = tt.dekin * (E->t - E->t_ref) - tt.dekin_t;
-	memcpy(&w[6], u, sizeof u);   /* 3 words of 8 bytes */
+	memcpy(&w[6], u, sizeof u);   /* 5 words of 8 bytes */
 	double *all = malloc((size_t)E->size * sizeof w);
 	int bad = all == NULL;
 	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
@@ -68,7 +70,7 @@ static int reduce(er_t *E, sums_t *out)
 	MPI_Allgather(w, (int)sizeof w, MPI_BYTE, all, (int)sizeof w, MPI_BYTE, MPI_COMM_WORLD);
 	memset(out, 0, sizeof *out);
 	for (int r = 0; r < E->size; r++) {
-		const double *x = &all[(size_t)r * 10];
+		const double *x = &all[(size_t)r * 12];
 		out->ekin += x[0];
 		for (int a = 0; a < 3; a++)
 			out->mom[a] += x[1 + a];
@@ -78,6 +80,10 @@ static int reduce(er_t *E, sums_t *out)
 		out->collisions += u[0];
 		out->tc_elastic += u[1];
 		out->events += u[2];
+		if (E->rank_ev) {
+			E->rank_ev[r] = u[3];
+			E->rank_n[r] = u[4];
+		}
 	}
 	free(all);
 	out->collisions += E->coll_base;
@@ -87,6 +93,20 @@ static int reduce(er_t *E, sums_t *out)
 	out->eint_part += E->eint_base + E->e_ref * (E->t - E->t_ref);
 	out->virial += E->vir_base;
 	return RUN_OK;
+}
+
+/* The split run's load fields of a record (size > 1; reduce() just filled the per-rank arrays). */
+static void split_fields(const er_t *E, run_record_t *r)
+{
+	if (E->size < 2)
+		return;
+	r->ranks = E->size;
+	r->rank_events = E->rank_ev;
+	r->rank_particles = E->rank_n;
+	r->rollbacks = E->sched->st.rollbacks;
+	r->syncs = E->sched->st.syncs;
+	r->rebalances = E->sched->st.rebalances;
+	r->sync_interval = E->sched->sync_dt;
 }
 
 /* A progress record of the present state (collective), as run.c's sample()
@@ -129,6 +149,7 @@ static int progress(er_t *E, run_record_t *r)
 	r->obs.a2 = r->obs.a3 = r->obs.g_pairs = r->obs.g_pairs_se = r->obs.g_rate = r->obs.g_pressure = NAN;
 	r->obs.msd = r->obs.msd_se = r->obs.diffusion = r->obs.msd_walled = r->obs.msd_count = NAN;
 	r->obs.flux = r->obs.flux_se = NAN;
+	split_fields(E, r);
 	ped_mark(E->pd, E->t);   /* right after a sync: pedmpi_advance() saved the state at E->t */
 	E->t_mark = E->t_ref = E->t;
 	E->e_ref = sm.ekin;
@@ -506,6 +527,7 @@ static int summary(er_t *E, run_status_t status, int now, run_emit_fn emit, void
 		for (int a = 0; a < 3; a++)
 			sum.momentum[a] = a < s->dim ? sm.mom[a] : 0.0;
 		sum.elastic_by_tc = sm.tc_elastic;
+		split_fields(E, &sum);
 	}
 	sum.kind = RUN_SUMMARY;
 	sum.dim = s->dim;
@@ -551,6 +573,18 @@ int edrun_run(const scene_t *s, int rank, int size, const edrun_opts_t *o, run_e
 	double sync_dt = f > 0.0 && isfinite(1.0 / f) ? 1.0 / f : (every > 0.0 ? every : t_until);
 	ped_sched_t sched;
 	ped_sched_init(&sched, t_until, sync_dt);
+	sched.balance = s->balance;   /* run.balance "events": load balancing at syncs */
+	E.sched = &sched;
+	if (size > 1 && size <= RUN_RANKS_MAX) {
+		E.rank_ev = calloc((size_t)size, sizeof *E.rank_ev);
+		E.rank_n = calloc((size_t)size, sizeof *E.rank_n);
+		int bad = !E.rank_ev || !E.rank_n;
+		MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+		if (bad) {
+			ret = RUN_ENOMEM;
+			goto cleanup;
+		}
+	}
 	/* the schedule (run.c's run_state_t: indices of the next output, snapshot and checkpoint) */
 	run_state_t st = {.started = 1, .k_out = 1, .k_snap = 1, .k_ckpt = 1, .snap_events = UINT64_MAX};
 	if (o->resumed)
@@ -641,5 +675,7 @@ cleanup:
 	if (ret == RUN_ENOMEM && msg && msglen && !msg[0])
 		snprintf(msg, msglen, "run: out of memory");
 	ped_destroy(E.pd);
+	free(E.rank_ev);
+	free(E.rank_n);
 	return ret;
 }

@@ -81,6 +81,8 @@ struct ped {
 	size_t logcap;
 	int oom;
 	int *nb, nnb;       /* ranks owning a cell within two cells of an own cell: the only ones sent to */
+	uint32_t *cev;      /* events processed per cell (rolled-back ones included) since the balance window's start */
+	uint64_t win0;      /* events_done at the window's start */
 };
 
 /* ---- cells ---------------------------------------------------------------- */
@@ -608,6 +610,7 @@ static void process(ped_t *pd, int32_t i, double t, int cls)
 {
 	pev_t *e = &pd->ev[i];
 	pd->events_done++;
+	pd->cev[cidx(pd, pd->rec[i].cc)]++;
 	pd->s.events++;
 	pd->s.lt = t;
 	if (e->t_cross < e->t_coll) {
@@ -883,7 +886,64 @@ void ped_destroy(ped_t *pd)
 	free(pd->out);
 	free(pd->log);
 	free(pd->nb);
+	free(pd->cev);
 	free(pd);
+}
+
+/* The cell roles and the neighbour ranks of the decomposition's present
+ * bounds (ped_create(), ped_migrate_in()). */
+static int build_roles(ped_t *pd)
+{
+	const int rank = pd->rank;
+	decomp_rank_t v;
+	memset(pd->role, 0, pd->ncells);
+	if (decomp_rank_build(pd->dc, rank, &v) != DECOMP_OK)
+		return PED_ENOMEM;
+	int32_t c[3];
+	for (size_t k = 0; k < v.ncells; k++)
+		if (decomp_cell(pd->dc, v.cells[k], c))
+			pd->role[cidx(pd, c)] = R_INNER;
+	for (size_t k = 0; k < v.nborder; k++)
+		if (decomp_cell(pd->dc, v.border[k], c))
+			pd->role[cidx(pd, c)] = R_BORDER;
+	for (size_t k = 0; k < v.nghost; k++)
+		if (decomp_cell(pd->dc, v.ghost[k], c))
+			pd->role[cidx(pd, c)] = R_GHOST;
+	decomp_rank_free(&v);
+	for (size_t k = 0; k < pd->ncells; k++) {
+		if (pd->role[k] != R_INNER)
+			continue;
+		cell_coords(pd, k, c);
+		int32_t nb[27][3];
+		int m = around(pd, c, nb);
+		for (int q = 0; q < m; q++)
+			if (pd->role[cidx(pd, nb[q])] == R_BORDER)
+				pd->role[k] = R_GUARD;
+	}
+	/* the ranks a send() may address: owners of the cells around the own and
+	 * ghost cells (a changed ghost's cell, or a crossing's new cell, is at
+	 * most one cell from an own one) */
+	char *seen = calloc((size_t)pd->p.ranks, 1);
+	if (!seen)
+		return PED_ENOMEM;
+	for (size_t k = 0; k < pd->ncells; k++) {
+		if (pd->role[k] != R_GHOST)
+			continue;
+		cell_coords(pd, k, c);
+		int32_t nb[27][3];
+		int m = around(pd, c, nb);
+		for (int q = 0; q < m; q++) {
+			int o = decomp_owner(pd->dc, nb[q]);
+			if (o != rank && o >= 0 && !seen[o])
+				seen[o] = 1;
+		}
+	}
+	pd->nnb = 0;
+	for (int r = 0; r < pd->p.ranks; r++)
+		if (seen[r])
+			pd->nb[pd->nnb++] = r;
+	free(seen);
+	return PED_OK;
 }
 
 ped_t *ped_create(const ped_params_t *p, int rank, size_t capacity, int *err)
@@ -935,57 +995,11 @@ ped_t *ped_create(const ped_params_t *p, int rank, size_t capacity, int *err)
 		ped_destroy(pd);
 		return NULL;
 	}
-	decomp_rank_t v;
-	if (decomp_rank_build(pd->dc, rank, &v) != DECOMP_OK) {
+	if (!(pd->nb = malloc((size_t)p->ranks * sizeof *pd->nb)) || !(pd->cev = calloc(pd->ncells, sizeof *pd->cev)) ||
+	    build_roles(pd) != PED_OK) {
 		ped_destroy(pd);
 		return NULL;
 	}
-	int32_t c[3];
-	for (size_t k = 0; k < v.ncells; k++)
-		if (decomp_cell(pd->dc, v.cells[k], c))
-			pd->role[cidx(pd, c)] = R_INNER;
-	for (size_t k = 0; k < v.nborder; k++)
-		if (decomp_cell(pd->dc, v.border[k], c))
-			pd->role[cidx(pd, c)] = R_BORDER;
-	for (size_t k = 0; k < v.nghost; k++)
-		if (decomp_cell(pd->dc, v.ghost[k], c))
-			pd->role[cidx(pd, c)] = R_GHOST;
-	decomp_rank_free(&v);
-	for (size_t k = 0; k < pd->ncells; k++) {
-		if (pd->role[k] != R_INNER)
-			continue;
-		cell_coords(pd, k, c);
-		int32_t nb[27][3];
-		int m = around(pd, c, nb);
-		for (int q = 0; q < m; q++)
-			if (pd->role[cidx(pd, nb[q])] == R_BORDER)
-				pd->role[k] = R_GUARD;
-	}
-	/* the ranks a send() may address: owners of the cells around the own and
-	 * ghost cells (a changed ghost's cell, or a crossing's new cell, is at
-	 * most one cell from an own one) */
-	char *seen = calloc((size_t)p->ranks, 1);
-	if (!seen || !(pd->nb = malloc((size_t)p->ranks * sizeof *pd->nb))) {
-		free(seen);
-		ped_destroy(pd);
-		return NULL;
-	}
-	for (size_t k = 0; k < pd->ncells; k++) {
-		if (pd->role[k] != R_GHOST)
-			continue;
-		cell_coords(pd, k, c);
-		int32_t nb[27][3];
-		int m = around(pd, c, nb);
-		for (int q = 0; q < m; q++) {
-			int o = decomp_owner(pd->dc, nb[q]);
-			if (o != rank && o >= 0 && !seen[o])
-				seen[o] = 1;
-		}
-	}
-	for (int r = 0; r < p->ranks; r++)
-		if (seen[r])
-			pd->nb[pd->nnb++] = r;
-	free(seen);
 	for (size_t k = 0; k < pd->ncells; k++)
 		pd->head[k] = -1;
 	for (size_t k = 0; k < capacity; k++) {
@@ -1143,7 +1157,7 @@ size_t ped_memory(const ped_t *pd)
 	size_t out = 0;
 	for (int r = 0; r < pd->p.ranks; r++)
 		out += pd->out[r].cap * sizeof(ped_msg_t);
-	return sizeof *pd + pd->cap * per + pd->ncells * (1 + 2 * sizeof *pd->head) + pd->logcap * sizeof(ped_coll_t) + out +
+	return sizeof *pd + pd->cap * per + pd->ncells * (1 + 2 * sizeof *pd->head + sizeof *pd->cev) + pd->logcap * sizeof(ped_coll_t) + out +
 	       (size_t)pd->p.ranks * sizeof *pd->nb;
 }
 
@@ -1189,6 +1203,190 @@ void ped_owned(const ped_t *pd, double t, uint32_t *gid, double *pos, double *ve
 		}
 		m++;
 	}
+}
+
+/* ---- load balancing at a sync ----------------------------------------------- */
+
+uint64_t ped_window_events(const ped_t *pd)
+{
+	return pd->events_done - pd->win0;
+}
+
+void ped_window_cost(const ped_t *pd, double *cost)
+{
+	for (size_t k = 0; k < pd->ncells; k++) {
+		if (pd->role[k] < R_INNER || !pd->cev[k])
+			continue;
+		int32_t c[3];
+		cell_coords(pd, k, c);
+		cost[decomp_morton(pd->dc, c)] += (double)pd->cev[k];
+	}
+}
+
+void ped_window_reset(ped_t *pd)
+{
+	memset(pd->cev, 0, pd->ncells * sizeof *pd->cev);
+	pd->win0 = pd->events_done;
+}
+
+uint64_t ped_zsize(const ped_t *pd)
+{
+	return decomp_zsize(pd->dc);
+}
+
+const uint64_t *ped_bounds(const ped_t *pd)
+{
+	return decomp_bounds(pd->dc);
+}
+
+int ped_balance_due(const uint64_t *events, int P, uint64_t n, double *imbalance)
+{
+	double sum = 0.0, max = 0.0;
+	for (int r = 0; r < P; r++) {
+		sum += (double)events[r];
+		if ((double)events[r] > max)
+			max = (double)events[r];
+	}
+	double mean = sum / P;
+	*imbalance = mean > 0.0 ? max / mean : 1.0;
+	if (P < 2 || !(mean > 0.0))
+		return 0;
+	/* beyond the Poisson noise of the busiest of P counts of mean m, and
+	 * saving at least one prediction per own particle, the rebuild's cost */
+	return *imbalance > 1.0 + sqrt(2.0 * log((double)P) / mean) && max - mean >= (double)n / P;
+}
+
+int ped_balance_bounds(const ped_t *pd, const double *cost, uint64_t *newb)
+{
+	int P = pd->p.ranks, periodic[3] = {1, 1, 1}, err, rc = 0;
+	decomp_t *d = decomp_create(pd->D, pd->p.nc, periodic, P, &err);
+	if (!d)
+		return err == DECOMP_EINVAL ? PED_EINVAL : PED_ENOMEM;
+	const uint64_t *old = decomp_bounds(pd->dc);
+	if (decomp_set_bounds(d, old) != DECOMP_OK || decomp_balance_prefix_keep(d, cost, PED_BALANCE_TOL) != DECOMP_OK) {
+		rc = PED_ENOMEM;
+		goto cleanup;
+	}
+	memcpy(newb, decomp_bounds(d), ((size_t)P + 1) * sizeof *newb);
+	for (int r = 0; r <= P; r++)
+		rc |= newb[r] != old[r];
+cleanup:
+	decomp_destroy(d);
+	return rc;
+}
+
+int ped_migrate_out(ped_t *pd, const uint64_t *newb)
+{
+	const int P = pd->p.ranks;
+	if (decomp_set_bounds(pd->dc, newb) != DECOMP_OK)
+		return PED_EINVAL;
+	ped_outbox_clear(pd);
+	char *mark = malloc((size_t)P);
+	if (!mark)
+		return PED_ENOMEM;
+	for (size_t i = 0; i < pd->cap; i++) {
+		const rec_t *p = &pd->rec[i];
+		if (p->own != 1)
+			continue;
+		ped_msg_t m;
+		memset(&m, 0, sizeof m);
+		memcpy(m.r, p->r, sizeof m.r);
+		memcpy(m.v, p->v, sizeof m.v);
+		m.t = p->t, m.tlast = p->tlast, m.tev = p->tev, m.tu = p->t;
+		m.count = m.pre_count = p->count, m.gid = p->gid;
+		memcpy(m.cc, p->cc, sizeof m.cc);
+		memcpy(m.oc, p->cc, sizeof m.oc);
+		int owner = decomp_owner(pd->dc, p->cc);
+		memset(mark, 0, (size_t)P);
+		int32_t cells[27][3];
+		int n = around(pd, p->cc, cells);
+		for (int k = 0; k < n; k++) {
+			int o = decomp_owner(pd->dc, cells[k]);
+			if (mark[o])
+				continue;
+			mark[o] = 1;
+			m.apply = o == owner && o != pd->rank;   /* it changes owner */
+			push(pd, o, &m);
+		}
+	}
+	free(mark);
+	return pd->oom ? PED_ENOMEM : PED_OK;
+}
+
+typedef struct {
+	uint64_t cell;
+	uint32_t gid;
+	uint32_t k;
+} mkey_t;
+
+static int mkey_cmp(const void *a, const void *b)
+{
+	const mkey_t *x = a, *y = b;
+	if (x->cell != y->cell)
+		return x->cell < y->cell ? -1 : 1;
+	return x->gid < y->gid ? -1 : (x->gid > y->gid);
+}
+
+int ped_migrate_in(ped_t *pd, const ped_msg_t *m, size_t n, uint64_t *moved_in)
+{
+	int rc = build_roles(pd);
+	mkey_t *key = NULL;
+	*moved_in = 0;
+	if (rc != PED_OK)
+		return rc;
+	if (n > pd->cap)
+		return PED_EFULL;
+	key = malloc((n ? n : 1) * sizeof *key);
+	if (!key)
+		return PED_ENOMEM;
+	for (size_t k = 0; k < pd->ncells; k++)
+		pd->head[k] = -1;
+	for (size_t k = 0; k < pd->cap; k++) {
+		pd->rec[k].own = -1;
+		pd->rec[k].next = k + 1 < pd->cap ? (int32_t)(k + 1) : -1;
+		pd->hpos[k] = -1;
+	}
+	pd->s.free_head = 0;
+	pd->s.hn = 0;
+	pd->s.owned = 0;
+	pd->s.tmax = -INFINITY;
+	/* stored in cell order, ties in id order, as ped_load_at() */
+	for (size_t q = 0; q < n; q++) {
+		key[q] = (mkey_t){.cell = cidx(pd, m[q].cc), .gid = m[q].gid, .k = (uint32_t)q};
+		if (pd->role[key[q].cell] == R_FOREIGN) {
+			rc = PED_EINVAL;   /* cannot happen: ped_migrate_out() sends to the ranks that see the cell */
+			goto cleanup;
+		}
+	}
+	qsort(key, n, sizeof *key, mkey_cmp);
+	for (size_t q = 0; q < n; q++) {
+		const ped_msg_t *x = &m[key[q].k];
+		int32_t i = pd->s.free_head;
+		pd->s.free_head = pd->rec[i].next;
+		rec_t *p = &pd->rec[i];
+		memset(p, 0, sizeof *p);
+		memcpy(p->r, x->r, sizeof p->r);
+		memcpy(p->v, x->v, sizeof p->v);
+		/* every event of every particle lies before the sync, every later one
+		 * after it: the histories before it (tloc, tcol, pcol) matter no more */
+		p->t = x->t, p->tlast = x->tlast, p->tev = x->tev;
+		p->tloc = p->tcol = p->pcol = -INFINITY;
+		p->count = x->count, p->gid = x->gid;
+		memcpy(p->cc, x->cc, sizeof p->cc);
+		p->own = pd->role[key[q].cell] >= R_INNER;
+		pd->s.owned += (uint64_t)p->own;
+		*moved_in += (uint64_t)(p->own && x->apply);
+		cell_insert(pd, i);
+	}
+	for (size_t i = 0; i < pd->cap; i++)
+		if (pd->rec[i].own == 1)
+			predict(pd, (int32_t)i);
+	ped_outbox_clear(pd);
+	ped_save(pd);
+	rc = pd->oom ? PED_ENOMEM : PED_OK;
+cleanup:
+	free(key);
+	return rc;
 }
 
 /* ---- scenes ---------------------------------------------------------------- */
@@ -1256,10 +1454,15 @@ uint64_t ped_scene_bytes(const scene_t *s, int P)
 	for (int a = 0; a < s->dim; a++)
 		ncells *= (uint64_t)p.nc[a];
 	/* ped_create(): records, calendar entries, heap and heap positions, each with its saved copy; a role
-	 * byte and two list heads per cell; the outboxes (ped_memory()) */
+	 * byte, two list heads and an event count per cell; the outboxes (ped_memory()) */
 	const uint64_t per = 2 * (sizeof(rec_t) + sizeof(pev_t) + sizeof(hent_t) + sizeof(int32_t));
-	return sizeof(struct ped) + s->count * per + ncells * (1 + 2 * sizeof(int32_t)) +
-	       (uint64_t)P * (sizeof(struct msgbuf) + 16 * sizeof(ped_msg_t) + sizeof(int));
+	uint64_t b = sizeof(struct ped) + s->count * per + ncells * (1 + 3 * sizeof(int32_t)) +
+	             (uint64_t)P * (sizeof(struct msgbuf) + 16 * sizeof(ped_msg_t) + sizeof(int));
+	/* run.balance: a rebalance's cost array over the Z space (at most 2^D ids per cell) and the moved
+	 * records, sent and received (at most every particle, the capacity) */
+	if (s->balance)
+		b += ncells * ((uint64_t)1 << s->dim) * sizeof(double) + 2 * s->count * sizeof(ped_msg_t);
+	return b;
 }
 
 /* ---- drivers --------------------------------------------------------------- */
@@ -1324,7 +1527,78 @@ int ped_sched(ped_sched_t *s, double E, double T, int quiet)
 	return 0;
 }
 
+/* A rebalance of P ranks in one process (the MPI driver's balance(), pedmpi.c). */
+static int sim_balance(ped_t **pd, int P, uint64_t n, ped_stats_t *st)
+{
+	uint64_t *ev = malloc((size_t)P * sizeof *ev), *newb = malloc(((size_t)P + 1) * sizeof *newb);
+	double *cost = NULL, imb;
+	struct msgbuf *in = calloc((size_t)P, sizeof *in);
+	int rc = PED_ENOMEM;
+	if (!ev || !newb || !in)
+		goto cleanup;
+	for (int r = 0; r < P; r++)
+		ev[r] = ped_window_events(pd[r]);
+	if (!ped_balance_due(ev, P, n, &imb)) {
+		rc = PED_OK;
+		goto cleanup;
+	}
+	if (!(cost = calloc(ped_zsize(pd[0]), sizeof *cost)))
+		goto cleanup;
+	for (int r = 0; r < P; r++)
+		ped_window_cost(pd[r], cost);
+	rc = ped_balance_bounds(pd[0], cost, newb);
+	if (rc == 0)   /* judged: within the hysteresis */
+		for (int r = 0; r < P; r++)
+			ped_window_reset(pd[r]);
+	if (rc <= 0)
+		goto cleanup;
+	for (int r = 0; r < P; r++)
+		if ((rc = ped_migrate_out(pd[r], newb)) != PED_OK)
+			goto cleanup;
+	for (int d = 0; d < P; d++)
+		for (int r = 0; r < P; r++) {
+			size_t k;
+			const ped_msg_t *m = ped_outbox(pd[r], d, &k);
+			if (in[d].n + k > in[d].cap) {
+				size_t nc = 2 * (in[d].n + k);
+				ped_msg_t *x = realloc(in[d].m, nc * sizeof *x);
+				if (!x) {
+					rc = PED_ENOMEM;
+					goto cleanup;
+				}
+				in[d].m = x, in[d].cap = nc;
+			}
+			if (k)
+				memcpy(in[d].m + in[d].n, m, k * sizeof *m);
+			in[d].n += k;
+		}
+	for (int r = 0; r < P; r++) {
+		uint64_t moved;
+		if ((rc = ped_migrate_in(pd[r], in[r].m, in[r].n, &moved)) != PED_OK)
+			goto cleanup;
+		st->migrated += moved;
+		ped_window_reset(pd[r]);
+	}
+	st->rebalances++;
+	rc = PED_OK;
+cleanup:
+	if (in)
+		for (int r = 0; r < P; r++)
+			free(in[r].m);
+	free(in);
+	free(ev);
+	free(newb);
+	free(cost);
+	return rc;
+}
+
 int ped_sim_run(ped_t **pd, int P, double t_end, double sync_dt, double window, int force_every, ped_stats_t *st)
+{
+	return ped_sim_run_bal(pd, P, 0, t_end, sync_dt, window, force_every, 0, st);
+}
+
+int ped_sim_run_bal(ped_t **pd, int P, uint64_t npart, double t_end, double sync_dt, double window, int force_every,
+                    int balance, ped_stats_t *st)
 {
 	ped_sched_t s;
 	ped_sched_init(&s, t_end, sync_dt);
@@ -1407,10 +1681,15 @@ int ped_sim_run(ped_t **pd, int P, double t_end, double sync_dt, double window, 
 			continue;
 		}
 		if (act >= 2) {
-			if (act == 3)
+			if (act == 3 && !balance)
 				break;
 			for (int r = 0; r < P; r++)
 				ped_save(pd[r]);
+			/* also at t_end, as the MPI driver */
+			if (balance && P > 1 && (rc = sim_balance(pd, P, npart, &s.st)) != PED_OK)
+				goto cleanup;
+			if (act == 3)
+				break;
 			continue;
 		}
 		if (!done && nmsg == 0 && T <= hprev) {

@@ -54,6 +54,10 @@
  *   particle next to one whose course since then already had an event (own
  *   particles: their courses since the change are checked for contact; ghosts
  *   this rank moved or collided: any such event counts).
+ * - Load balancing (off unless the driver's ped_sched_t.balance is set):
+ *   at a global sync the bounds may change and the particles move to their
+ *   new owners with their records unchanged (see "Load balancing at a
+ *   global sync" below).
  * - Memory per rank: particles of its cells and ghosts (fixed capacity),
  *   one saved copy, and a per-cell role byte and head index over the whole
  *   grid (O(cells), not O(N/P): a known limitation of this slice).
@@ -172,7 +176,47 @@ typedef struct {
 	uint64_t rounds, syncs, rollbacks, messages, bytes;
 	double sync_dt;        /* current sync interval */
 	double window;         /* current optimistic window */
+	uint64_t rebalances;   /* load balancing (ped_sched_t.balance): rebalances made */
+	uint64_t migrated;     /* particles that changed owner in them (this rank's arrivals; summed by ped_sim_run()) */
 } ped_stats_t;
+
+/* Load balancing at a global sync (docs/parallel.md "Load balancing at run
+ * time"). The core counts the events it processes (rolled-back ones
+ * included: the work done) per cell since the window's start
+ * (ped_window_reset(): at the load and after each rebalance). At a sync the
+ * driver gathers every rank's ped_window_events(); when ped_balance_due()
+ * says so, it sums every rank's ped_window_cost() over the Z space
+ * (ped_zsize() entries, zeroed by the caller), computes new bounds with
+ * ped_balance_bounds() (decomp_balance_prefix_keep() with tolerance
+ * PED_BALANCE_TOL, the same on every rank) and, when they changed, moves the
+ * particles: ped_migrate_out() on every rank (installs the new bounds and
+ * fills the outboxes with each own particle for every rank that owns or sees
+ * its cell under them, itself included; the rank's state is unusable until
+ * ped_migrate_in()), the outboxes exchanged (all to all), ped_migrate_in()
+ * on every rank with everything it received: the rank's particles rebuilt
+ * with their records unchanged (position, velocity, own time, TC time,
+ * collision counter), predicted afresh, the state saved as the sync.
+ * Everything is a function of the state at the sync and of the event counts,
+ * so a run at one rank count stays reproducible bit for bit; the committed
+ * collisions are the serial engine's as with any decomposition (times to
+ * rounding). */
+#define PED_BALANCE_TOL 1.0
+uint64_t ped_window_events(const ped_t *pd);
+void ped_window_cost(const ped_t *pd, double *cost);   /* adds this rank's cells' counts at their Z ids */
+void ped_window_reset(ped_t *pd);
+uint64_t ped_zsize(const ped_t *pd);
+const uint64_t *ped_bounds(const ped_t *pd);           /* the P + 1 bounds in use */
+/* 1 when the busiest rank's window events exceed the mean by more than the
+ * Poisson noise of the busiest of P counts (max / mean > 1 + sqrt(2 ln P /
+ * mean)) and by at least n / P events (n particles: the rebuild costs about
+ * one prediction per own particle); *imbalance = max / mean (1 when idle). */
+int ped_balance_due(const uint64_t *events, int P, uint64_t n, double *imbalance);
+/* New bounds into newb[P + 1]: 1 if they differ from the present ones, 0 if
+ * not, a negative PED_ code on failure. */
+int ped_balance_bounds(const ped_t *pd, const double *cost, uint64_t *newb);
+int ped_migrate_out(ped_t *pd, const uint64_t *newb);
+/* *moved_in: the particles that came to own here from another rank. */
+int ped_migrate_in(ped_t *pd, const ped_msg_t *m, size_t n, uint64_t *moved_in);
 
 /* The optimistic window at the start, as a fraction of the first sync
  * interval (ped_sched_init()). */
@@ -196,6 +240,7 @@ typedef struct {
 	double barrier, t_end, sync_dt;
 	double window, horizon, t_sync;
 	int cons;
+	int balance;         /* 1: load balancing at syncs (set after ped_sched_init(); off by default) */
 	ped_stats_t st;
 } ped_sched_t;
 void ped_sched_init(ped_sched_t *s, double t_end, double sync_dt);
@@ -208,3 +253,7 @@ int ped_sched(ped_sched_t *s, double E, double T, int quiet);
  * sets the first optimistic window (< 0: ped_sched_init()'s). force_every > 0
  * injects a rollback every force_every rounds (barrier halfway to T). */
 int ped_sim_run(ped_t **pd, int P, double t_end, double sync_dt, double window, int force_every, ped_stats_t *st);
+/* The same with load balancing at the syncs when balance != 0, as the MPI
+ * driver does it (ped_sim_run() is this with balance 0). n: the particles. */
+int ped_sim_run_bal(ped_t **pd, int P, uint64_t n, double t_end, double sync_dt, double window, int force_every,
+                    int balance, ped_stats_t *st);

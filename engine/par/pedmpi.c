@@ -54,6 +54,120 @@ static int exchange(ped_t *pd, MPI_Comm comm, const int *nb, int nn, rbuf_t *in,
 	return rc;
 }
 
+/* Load balancing at a sync (ped.h, "Load balancing at a global sync"):
+ * collective; the same decision and bounds on every rank. */
+static int balance(ped_t *pd, MPI_Comm comm, int P, ped_stats_t *st)
+{
+	ped_totals_t tt;
+	ped_totals(pd, &tt);
+	uint64_t mine[2] = {ped_window_events(pd), tt.owned}, n = 0, *all = malloc(2 * (size_t)P * sizeof *all),
+	         *ev = malloc((size_t)P * sizeof *ev), *newb = malloc(((size_t)P + 1) * sizeof *newb);
+	double *cost = NULL, imb;
+	int *cnt = malloc(4 * (size_t)P * sizeof *cnt), rc = PED_OK, bad;
+	ped_msg_t *in = NULL;
+	MPI_Datatype mt = MPI_DATATYPE_NULL;
+	bad = !all || !ev || !newb || !cnt;
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+	if (bad) {
+		rc = PED_ENOMEM;
+		goto cleanup;
+	}
+	MPI_Allgather(mine, 2, MPI_UINT64_T, all, 2, MPI_UINT64_T, comm);
+	for (int r = 0; r < P; r++) {
+		ev[r] = all[2 * r];
+		n += all[2 * r + 1];
+	}
+	uint64_t zs = ped_zsize(pd);
+	if (!ped_balance_due(ev, P, n, &imb) || zs > (uint64_t)INT32_MAX)
+		goto cleanup;
+	cost = calloc(zs, sizeof *cost);
+	bad = !cost;
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+	if (bad) {
+		rc = PED_ENOMEM;
+		goto cleanup;
+	}
+	/* one rank holds each cell's count: the sum is exact */
+	ped_window_cost(pd, cost);
+	MPI_Allreduce(MPI_IN_PLACE, cost, (int)zs, MPI_DOUBLE, MPI_SUM, comm);
+	int changed = ped_balance_bounds(pd, cost, newb);
+	bad = changed < 0;
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+	if (bad) {
+		rc = PED_ENOMEM;
+		goto cleanup;
+	}
+	if (!changed) {
+		ped_window_reset(pd);   /* judged: within the hysteresis */
+		goto cleanup;
+	}
+	bad = ped_migrate_out(pd, newb) != PED_OK;
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+	if (bad) {
+		rc = PED_ENOMEM;
+		goto cleanup;
+	}
+	/* all to all: counts, then the particles (one MPI type per particle record) */
+	int *scnt = cnt, *sdis = cnt + P, *rcnt = cnt + 2 * P, *rdis = cnt + 3 * P;
+	const ped_msg_t *sbase = NULL;
+	size_t stot = 0;
+	ped_msg_t *sendbuf = NULL;
+	for (int d = 0; d < P; d++) {
+		size_t k;
+		ped_outbox(pd, d, &k);
+		scnt[d] = (int)k;
+		sdis[d] = (int)stot;
+		stot += k;
+	}
+	sendbuf = malloc((stot ? stot : 1) * sizeof *sendbuf);
+	if (sendbuf)
+		for (int d = 0; d < P; d++) {
+			size_t k;
+			sbase = ped_outbox(pd, d, &k);
+			if (k)
+				memcpy(sendbuf + sdis[d], sbase, k * sizeof *sendbuf);
+		}
+	MPI_Alltoall(scnt, 1, MPI_INT, rcnt, 1, MPI_INT, comm);
+	size_t rtot = 0;
+	for (int r = 0; r < P; r++) {
+		rdis[r] = (int)rtot;
+		rtot += (size_t)rcnt[r];
+	}
+	in = malloc((rtot ? rtot : 1) * sizeof *in);
+	bad = !in || !sendbuf || stot > (size_t)INT32_MAX || rtot > (size_t)INT32_MAX;
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+	if (bad) {
+		free(sendbuf);
+		rc = PED_ENOMEM;
+		goto cleanup;
+	}
+	MPI_Type_contiguous((int)sizeof(ped_msg_t), MPI_BYTE, &mt);
+	MPI_Type_commit(&mt);
+	MPI_Alltoallv(sendbuf, scnt, sdis, mt, in, rcnt, rdis, mt, comm);
+	free(sendbuf);
+	st->bytes += stot * sizeof(ped_msg_t);
+	uint64_t moved = 0;
+	bad = ped_migrate_in(pd, in, rtot, &moved) != PED_OK;
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+	if (bad) {
+		rc = PED_ENOMEM;
+		goto cleanup;
+	}
+	ped_window_reset(pd);
+	st->rebalances++;
+	st->migrated += moved;
+cleanup:
+	if (mt != MPI_DATATYPE_NULL)
+		MPI_Type_free(&mt);
+	free(in);
+	free(cost);
+	free(cnt);
+	free(newb);
+	free(ev);
+	free(all);
+	return rc;
+}
+
 int pedmpi_advance(ped_t *pd, MPI_Comm comm, ped_sched_t *sp, double t0, double t_end,
                    const volatile sig_atomic_t *stop, double *t_reached)
 {
@@ -126,6 +240,26 @@ int pedmpi_advance(ped_t *pd, MPI_Comm comm, ped_sched_t *sp, double t0, double 
 			if (v[5] < 0.0) {   /* also at t_end: a run from stop to stop may never sync between */
 				rc = PED_STOPPED;
 				goto cleanup;
+			}
+			if (s.balance && P > 1) {   /* also at t_end: a run from stop to stop may never sync between */
+				if ((rc = balance(pd, comm, P, &s.st)) != PED_OK)
+					goto cleanup;
+				if (act == 3)
+					break;
+				/* new neighbours: new receive buffers (empty at a sync) */
+				for (int q = 0; q < nn; q++)
+					free(in[q].m);
+				free(in);
+				free(req);
+				nn = ped_neighbours(pd, &nb);
+				in = calloc((size_t)nn + 1, sizeof *in);
+				req = calloc((size_t)nn + 1, sizeof *req);
+				bad = !in || !req;
+				MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, comm);
+				if (bad) {
+					rc = PED_ENOMEM;
+					goto cleanup;
+				}
 			}
 			if (act == 3)
 				break;

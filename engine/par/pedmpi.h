@@ -31,6 +31,10 @@ int pedmpi_run(ped_t *pd, MPI_Comm comm, double t_end, double sync_dt, double wi
  * run ends at the next sync (t_end included) and returns PED_STOPPED on every
  * rank. PED_OK and PED_STOPPED leave the state saved at *t_reached (every
  * event before it done, none after; t_end on PED_OK); a negative code (the
- * same on every rank) leaves it unusable. */
+ * same on every rank) leaves it unusable. With s->balance set, every sync
+ * (t_end included, not a stop) also balances the load as ped.h's "Load
+ * balancing at a global sync" says: MPI_Allgather of the window's events,
+ * when due an MPI_Allreduce of the per-cell costs and an MPI_Alltoallv of
+ * the moved particles; the neighbour exchange then follows the new bounds. */
 int pedmpi_advance(ped_t *pd, MPI_Comm comm, ped_sched_t *s, double t0, double t_end,
                    const volatile sig_atomic_t *stop, double *t_reached);
