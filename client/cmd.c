@@ -419,6 +419,10 @@ cleanup:
 static void settings_text(const json_t *e, char *buf, size_t n)
 {
 	const json_t *st = json_object_get(e, "settings");
+	if (!strcmp(str(e, "method", ""), "md")) {   /* md scenes: the step of the run */
+		snprintf(buf, n, "step %s", FMT_NUM(num(st, "time_step"), "%.3g"));
+		return;
+	}
 	if (!strcmp(str(e, "method", ""), "ed")) {
 		double c = num(st, "cell_size");
 		if (isfinite(c))

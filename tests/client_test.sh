@@ -207,6 +207,11 @@ ok $([ $RC = 0 ] && grep -q ' x 1 replica, 1 rank;' "$tmp/out"; echo $?) "advise
 ctl advise --preset cooling-2d --json
 ok $([ $RC = 0 ] && jsonok 'd["choice"] is None and d["target"] is None and all(e["meets_target"] is None for e in d["estimates"])'; echo $?) \
 	"advise --preset on a concrete scene: estimates without a target"
+# an md scene: md's own row last, with its step and CPU seconds (the model's cost.md)
+echo '{"method":"md","dimensions":2,"particles":{"count":500,"volume_fraction":0.3},"collisions":{"restitution":0.9},"run":{"until":{"time":1}}}' >"$tmp/md.json"
+ctl advise "$tmp/md.json"
+ok $([ $RC = 0 ] && tail -n +3 "$tmp/out" | grep -v '^  ' | tail -n 1 | grep -q '^md *step [0-9.e-]* *[0-9.e+-]*s '; echo $?) \
+	"advise on an md scene: md's row last with its step and cost ($(grep '^md ' "$tmp/out" | tr -s ' ' | cut -c1-60))"
 # on a bed under gravity (the gravity-box preset, made auto): ed chosen, dsmc refused with the reason
 "$PY" -c 'import json, sys
 s = json.load(open(sys.argv[1])); s["method"] = "auto"; s.pop("hsmc"); s["accuracy"] = {"temperature": 0.05}
