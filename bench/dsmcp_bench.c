@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "mc/dsmc.h"
 #include "mc/dsmcp.h"
@@ -24,7 +25,8 @@
  * from how the shared cores were handed out); the largest peak resident
  * memory of a rank (set-up included) and rank 0's dsmcp_memory() per
  * particle it holds.
- * "serial" (one rank): dsmc.c's own step (dsmc_advance) on the same gas,
+ * "serial" (one rank): dsmc.c's own step (dsmc_advance) on the same gas
+ * (its CPU seconds per step and peak resident memory too),
  * for the ratio to the decomposed path. "hsmc": method hsmc at volume
  * fraction 0.5, cells of 2 diameters (full cells, cell-cell collisions).
  */
@@ -76,11 +78,16 @@ int main(int argc, char **argv)
 			MPI_Abort(MPI_COMM_WORLD, 1);
 		}
 		dsmc_advance(d, INFINITY, UINT64_MAX, 2);
+		struct timespec c0, c1;
+		clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &c0);
 		double t0 = MPI_Wtime();
 		dsmc_advance(d, INFINITY, UINT64_MAX, (uint64_t)steps);
 		double sec = (MPI_Wtime() - t0) / steps;
+		clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &c1);
+		double cpu = ((double)(c1.tv_sec - c0.tv_sec) + 1e-9 * (double)(c1.tv_nsec - c0.tv_nsec)) / steps;
 		printf("{\"mode\":\"serial\",\"method\":\"%s\",\"dim\":%d,\"N\":%.0f,\"ranks\":1,\"steps\":%d,\"s_per_step\":%.6g,"
-		       "\"moves_per_s\":%.4g}\n", hsmc ? "hsmc" : "dsmc", dim, N, steps, sec, N / sec);
+		       "\"moves_per_s\":%.4g,\"cpu_s_per_step\":%.6g,\"peak_rss_bytes_max\":%.0f}\n", hsmc ? "hsmc" : "dsmc", dim, N,
+		       steps, sec, N / sec, cpu, peak_rss());
 		dsmc_destroy(d);
 		MPI_Finalize();
 		return 0;

@@ -24,17 +24,17 @@ struct dsmcp {
 	uint64_t key;                  /* (seed, stream) mixed: base of the cell keys */
 	double escale;                 /* fixed-point scale of the energy sums (a power of two) */
 
-	/* own particles: AoS x[D] v[D], identities (56 B a particle in 3D), and the records that change cell
-	 * in a step, kept aside while the sort runs (sort_cells_d()) */
+	/* own particles: AoS x[D] v[D], identities, cells (56 B a particle in 3D); the sort's ring and
+	 * overflow list (sort_cells_d()) */
 	size_t nl, cap;
 	double *p;
 	uint32_t *id;                  /* identities (N < 2^32, dsmcp_check()) */
-	uint32_t *cell;                /* local cell (cell - c0) of each record, | MOVED if it changed cell;
-	                                * the sort's destinations */
-	double *mv;                    /* movers' records */
-	uint32_t *mvx;                 /* movers' identity and destination */
-	size_t mv_cap;
-	uint32_t *start, *cnt;         /* own cells + 1 */
+	uint32_t *cell;                /* local cell (cell - c0) of each record, then its sort destination;
+	                                * UINT32_MAX: a migrant (dsmcp_move()) */
+	double *ringp, *overp;         /* ring: records waiting for their slot j at j % ring_n; overflow: far movers */
+	uint32_t *ringid, *overid, *overdst;
+	size_t ring_cap, over_cap;
+	uint32_t *start;               /* own cells + 1: offsets of the sorted records (the sort's cursors while it runs) */
 	float *rem;                    /* NTC remainder per own cell */
 	/* migrants */
 	double *out;
@@ -134,18 +134,15 @@ int dsmcp_check(const scene_t *s, char *msg, size_t msglen)
 	return DSMCP_EINVAL;
 }
 
-/* cell[] flag: the record is not in the cell it was sorted into at the last step (dsmcp_move()), or
- * arrived from another rank */
-#define MOVED 0x80000000u
-
 /* Room for cap particles. */
 static int reserve(struct dsmcp *d, size_t cap)
 {
 	if (cap <= d->cap)
 		return DSMCP_OK;
-	/* a margin of 1/16: the arrivals of a step are a small fraction (0.2 % of N per step in 3D at 2 ranks) */
+	/* a margin of 1/16: the arrivals of a step are a small fraction (0.2 % of N per step in 3D at 2 ranks);
+	 * pages never written are not resident */
 	cap = cap + cap / 16 + 64;
-	if (cap >= MOVED)   /* local indices and cells below the flag bit */
+	if (cap >= UINT32_MAX)   /* local indices and destinations below the migrant mark */
 		return DSMCP_ENOMEM;
 	const size_t S = 2 * (size_t)d->dim;
 	double *p = realloc(d->p, cap * S * sizeof(double));
@@ -172,8 +169,8 @@ static double limbs_energy(const struct dsmcp *d, const uint64_t *limb)
 }
 
 /* Move every record k to dest[k] (a permutation) along its cycles, each record once: in place, but
- * cycles jump through the whole array (measured 2.5x the step's CPU time as the sort of every step;
- * used for the set-up's sort, and when the movers' room cannot be had). */
+ * cycles jump through the whole array (2.5x the step's CPU time as the sort of every step); used for
+ * the set-up's sort (records in identity order), and when the overflow list cannot be had. */
 static void permute_cycles(struct dsmcp *d, const int S)
 {
 	double *restrict p = d->p;
@@ -202,104 +199,133 @@ static void permute_cycles(struct dsmcp *d, const int S)
 	}
 }
 
+/* The ring's length for nl records: 1.25 planes of records (a move along the last axis lands about one
+ * plane ahead; the arrivals from the lower rank shift the own records by a few more) + 512, as dsmc.c's
+ * ring_size(); at most nl. DSMCP_ENOMEM if the room cannot be had. */
+static int ring_fit(struct dsmcp *d, const int S, size_t *W)
+{
+	const size_t nown = d->c1 - d->c0;
+	double w = 1.25 * (double)d->nl * (double)d->plane / (double)(nown ? nown : 1) + 512;
+	size_t want = w < (double)d->nl ? (size_t)w : d->nl;
+	want = want ? want : 1;
+	if (want > d->ring_cap) {
+		size_t cap = want + want / 8;
+		double *rp = realloc(d->ringp, cap * S * sizeof(double));
+		if (rp)
+			d->ringp = rp;
+		uint32_t *ri = realloc(d->ringid, cap * sizeof(uint32_t));
+		if (ri)
+			d->ringid = ri;
+		if (!rp || !ri)
+			return DSMCP_ENOMEM;
+		/* defined bytes: the pass copies ring slots whatever they hold (stale copies are overwritten) */
+		memset(&d->ringp[d->ring_cap * S], 0, (cap - d->ring_cap) * S * sizeof(double));
+		memset(&d->ringid[d->ring_cap], 0, (cap - d->ring_cap) * sizeof(uint32_t));
+		d->ring_cap = cap;
+	}
+	*W = want;
+	return DSMCP_OK;
+}
+
+/* Room for nf far movers in the overflow list. */
+static int over_fit(struct dsmcp *d, const int S, size_t nf)
+{
+	if (nf <= d->over_cap)
+		return DSMCP_OK;
+	size_t cap = nf + nf / 4 + 128;
+	double *op = realloc(d->overp, cap * S * sizeof(double));
+	if (op)
+		d->overp = op;
+	uint32_t *oi = realloc(d->overid, cap * sizeof(uint32_t));
+	if (oi)
+		d->overid = oi;
+	uint32_t *od = realloc(d->overdst, cap * sizeof(uint32_t));
+	if (od)
+		d->overdst = od;
+	if (!op || !oi || !od)
+		return DSMCP_ENOMEM;
+	d->over_cap = cap;
+	return DSMCP_OK;
+}
+
 /* Stable counting sort of the own records into cells: the 1-rank order (see dsmcp.h, dsmcp_arrive()),
- * without a second copy of the records. Each record's destination (its cell's next slot, the records
- * taken in the stable order) replaces its cell. The records that stayed in their cell ("stayers": not
- * MOVED) keep their relative order and their destinations increase with their index (a cell's stayers
- * come after the records arriving from lower cells and before those from higher ones); the others
- * ("movers", about 29 % of the records per step with cells of one mean free path and steps of
- * 0.2 mean free times in 3D) are copied aside and the stayers shifted to their destinations in place
- * (below), then the movers written to theirs. Sequential passes but the movers' writes.
- * full (the set-up: records in identity order): every record moves, permute_cycles(). */
+ * in place (dsmc.c's sort()). Each record's destination (its cell's next slot, the records taken in
+ * the stable order over the three segments below) replaces its cell; the cell offsets go to start
+ * (its entries serve as the cursors, then are shifted back by one cell). The permutation is then
+ * applied reading the records once, in index order: slot r is written as soon as its own record has
+ * been read; a record going back (destination <= r) is written at once, one going forward waits in a
+ * ring of W slots indexed by destination (a move to the next cell plane lands about one plane of
+ * records ahead), the few going W or more ahead (the periodic wrap across the last axis on one rank)
+ * in an overflow list written at the end. The memory traffic of a copy, without a second copy of the
+ * records: the resident memory is the records' and a ring of ~1.25 planes.
+ * full (the set-up: records in identity order, every record far): permute_cycles(). */
 static ALWAYS_INLINE void sort_cells_d(struct dsmcp *d, const int D, int full)
 {
 	const int S = 2 * D;
 	const size_t nown = d->c1 - d->c0;
-	memset(d->cnt, 0, (nown + 1) * sizeof(uint32_t));
+	uint32_t *restrict start = d->start, *restrict dest = d->cell;
+	memset(start, 0, (nown + 1) * sizeof(uint32_t));
 	for (size_t k = 0; k < d->nl; k++)
-		d->cnt[d->cell[k] & ~MOVED]++;
+		start[dest[k]]++;
 	uint32_t acc = 0;
 	for (size_t c = 0; c < nown; c++) {
-		uint32_t k = d->cnt[c];
-		d->start[c] = d->cnt[c] = acc;
+		uint32_t k = start[c];
+		start[c] = acc;   /* cursor of cell c */
 		acc += k;
 	}
-	d->start[nown] = acc;
+	size_t W = 0;
+	const int ring = !full && ring_fit(d, S, &W) == DSMCP_OK;
 	/* stable over the 1-rank order: arrivals from lower ranks (lower cells),
 	 * the own survivors, arrivals from higher ranks (dsmcp_arrive()) */
 	const size_t seg[3][2] = {{d->nown_nl, d->nown_nl + d->nlow}, {0, d->nown_nl}, {d->nown_nl + d->nlow, d->nl}};
-	uint32_t *restrict dest = d->cell;
-	/* the movers: flagged, or out of order (a record displaced by CBA, whose position is not in the
-	 * cell it was sorted into); counted here for the own records, taken in index order (the arrivals,
-	 * after them, are all movers) */
-	size_t m = d->nl - d->nown_nl, ns = 0;
-	uint32_t last = 0;
+	size_t nfar = 0;
 	for (int g = 0; g < 3; g++)
 		for (size_t k = seg[g][0]; k < seg[g][1]; k++) {
-			uint32_t c = dest[k];
-			uint32_t j = (d->cnt[c & ~MOVED]++) | (full ? 0 : c & MOVED);
+			uint32_t j = start[dest[k]]++;
 			dest[k] = j;
-			if (g == 1) {
-				if ((j & MOVED) || (ns > 0 && j <= last)) {
-					dest[k] = j | MOVED;
-					m++;
-				} else {
-					last = j;
-					ns++;
-				}
-			}
+			nfar += j > k && j - k >= W;
 		}
+	/* start[c] is now the end of cell c: the offsets one cell on */
+	memmove(start + 1, start, nown * sizeof(uint32_t));
+	start[0] = 0;
 	const size_t nl = d->nl;
 	d->nown_nl = nl;
 	d->nlow = 0;
-	if (!full && m > d->mv_cap) {
-		size_t cap = m + m / 8 + 64;
-		double *mv = realloc(d->mv, cap * S * sizeof(double));
-		if (mv)
-			d->mv = mv;
-		uint32_t *mvx = realloc(d->mvx, cap * 2 * sizeof(uint32_t));
-		if (mvx)
-			d->mvx = mvx;
-		if (mv && mvx)
-			d->mv_cap = cap;
-	}
-	if (full || m > d->mv_cap) {
-		for (size_t k = 0; k < nl; k++)
-			dest[k] &= ~MOVED;
+	if (!ring || over_fit(d, S, nfar) != DSMCP_OK) {
 		permute_cycles(d, S);
 		return;
 	}
-	/* The stayers' destinations increase with their index, so a stayer at k bound for j < k finds
-	 * there a mover already copied aside or a stayer already moved (one before it, bound further
-	 * left), and one bound for j > k, taken from the back, a hole or a stayer already moved on:
-	 * the movers aside and the left moves in one pass forward, the right moves in one backward,
-	 * then the movers to their places. Each stayer moves at most once. */
-	double *restrict p = d->p, *restrict mv = d->mv;
-	uint32_t *restrict id = d->id, *restrict mvx = d->mvx;
-	size_t nm = 0;
-	for (size_t k = 0; k < nl; k++) {
-		uint32_t j = dest[k];
-		if (j & MOVED) {
-			memcpy(&mv[nm * S], &p[k * S], S * sizeof(double));
-			mvx[2 * nm] = id[k];
-			mvx[2 * nm + 1] = j & ~MOVED;
-			nm++;
-		} else if (j < k) {
-			memcpy(&p[(size_t)j * S], &p[k * S], S * sizeof(double));
-			id[j] = id[k];
+	double *restrict p = d->p, *restrict rp = d->ringp, *restrict op = d->overp;
+	uint32_t *restrict id = d->id, *restrict rid = d->ringid, *restrict oid = d->overid, *restrict odst = d->overdst;
+	size_t no = 0;
+	/* No data-dependent branch but the rare far mover's: ring slot r % W is copied to slot r whatever it
+	 * holds; when it is not slot r's record (stale), that record is written over it later in this pass
+	 * (record r itself, just below; a record read later that goes back; or an overflow record, at the
+	 * end). */
+	for (size_t r = 0, w = 0; r < nl; r++, w = w + 1 == W ? 0 : w + 1) {   /* w = r % W */
+		double rec[6];
+		memcpy(rec, &p[r * S], S * sizeof(double));
+		uint32_t rid0 = id[r];
+		size_t j = dest[r];
+		memcpy(&p[r * S], &rp[w * S], S * sizeof(double));
+		id[r] = rid[w];
+		if (j > r && j - r >= W) {   /* far forward: the overflow list */
+			memcpy(&op[no * S], rec, S * sizeof(double));
+			oid[no] = rid0;
+			odst[no++] = (uint32_t)j;
+			continue;
 		}
+		size_t wj = w + (j - r);   /* j % W when 0 < j - r < W (unused otherwise) */
+		wj = wj >= W ? wj - W : wj;
+		const int back = j <= r;
+		double *to = back ? &p[j * S] : &rp[wj * S];
+		uint32_t *ti = back ? &id[j] : &rid[wj];
+		memcpy(to, rec, S * sizeof(double));
+		*ti = rid0;
 	}
-	for (size_t k = nl; k-- > 0;) {
-		uint32_t j = dest[k];
-		if (!(j & MOVED) && j > k) {
-			memcpy(&p[(size_t)j * S], &p[k * S], S * sizeof(double));
-			id[j] = id[k];
-		}
-	}
-	for (size_t i = 0; i < nm; i++) {
-		uint32_t j = mvx[2 * i + 1];
-		memcpy(&p[(size_t)j * S], &mv[i * S], S * sizeof(double));
-		id[j] = mvx[2 * i];
+	for (size_t o = 0; o < no; o++) {
+		memcpy(&p[(size_t)odst[o] * S], &op[o * S], S * sizeof(double));
+		id[odst[o]] = oid[o];
 	}
 }
 
@@ -442,11 +468,10 @@ static struct dsmcp *make(const scene_t *s, const dsmc_geom_t *g, uint64_t strea
 
 	nown = d->c1 - d->c0;
 	d->start = calloc(nown + 1, sizeof(uint32_t));
-	d->cnt = calloc(nown + 1, sizeof(uint32_t));
 	d->rem = malloc((nown ? nown : 1) * sizeof(float));
 	d->out_cnt = calloc((size_t)ranks, sizeof(size_t));
 	d->out_pos = calloc((size_t)ranks, sizeof(size_t));
-	if (!d->start || !d->cnt || !d->rem || !d->out_cnt || !d->out_pos)
+	if (!d->start || !d->rem || !d->out_cnt || !d->out_pos)
 		goto fail;
 	if (d->hsmc) {
 		const size_t ncells = d->plane * (size_t)nz;
@@ -555,10 +580,12 @@ void dsmcp_destroy(dsmcp_t *d)
 	free(d->p);
 	free(d->id);
 	free(d->cell);
-	free(d->mv);
-	free(d->mvx);
+	free(d->ringp);
+	free(d->ringid);
+	free(d->overp);
+	free(d->overid);
+	free(d->overdst);
 	free(d->start);
-	free(d->cnt);
 	free(d->rem);
 	free(d->out);
 	free(d->out_cnt);
@@ -610,13 +637,12 @@ static ALWAYS_INLINE int move_d(dsmcp_t *d, double dt, const int D)
 	size_t cur = 0;   /* hsmc: the own cell of record k (records in cell order) */
 	for (size_t k = 0; k < nl; k++) {
 		double *x = &p[k * S], *v = x + D;
-		size_t c = 0, was;   /* the new cell; the cell of the position before the flight (MOVED) */
+		size_t c = 0;   /* the new cell */
 		if (d->hsmc) {
 			/* a move into another cell full at the start of the step is rejected */
 			double y[3];
 			while (k >= d->start[cur + 1])
 				cur++;
-			was = c0 + cur;
 			for (int a = D - 1; a >= 0; a--) {
 				y[a] = wrap(x[a] + v[a] * dt, L[a]);
 				int ix = (int)(y[a] * ih[a]);
@@ -631,11 +657,7 @@ static ALWAYS_INLINE int move_d(dsmcp_t *d, double dt, const int D)
 					x[a] = y[a];
 			}
 		} else {
-			was = 0;
 			for (int a = D - 1; a >= 0; a--) {
-				int iw = (int)(x[a] * ih[a]);
-				iw = iw >= ncl[a] ? ncl[a] - 1 : iw;
-				was = was * (size_t)ncl[a] + (size_t)iw;
 				double y = wrap(x[a] + v[a] * dt, L[a]);
 				x[a] = y;
 				int ix = (int)(y * ih[a]);
@@ -644,7 +666,7 @@ static ALWAYS_INLINE int move_d(dsmcp_t *d, double dt, const int D)
 			}
 		}
 		if (c >= c0 && c < c1) {
-			cell[k] = (uint32_t)(c - c0) | (c != was ? MOVED : 0);   /* MOVED: for sort_cells_d() */
+			cell[k] = (uint32_t)(c - c0);
 		} else {
 			cell[k] = UINT32_MAX;
 			d->out_cnt[d->owner[c / d->plane]]++;
@@ -715,7 +737,7 @@ int dsmcp_arrive(dsmcp_t *d, const double *rec, size_t n, size_t nlow)
 			return DSMCP_EINVAL;
 		memcpy(&d->p[d->nl * S], r, S * sizeof(double));
 		d->id[d->nl] = (uint32_t)r[S];
-		d->cell[d->nl++] = (uint32_t)(c - d->c0) | MOVED;
+		d->cell[d->nl++] = (uint32_t)(c - d->c0);
 	}
 	return DSMCP_OK;
 }
@@ -1150,9 +1172,12 @@ int dsmcp_dim(const dsmcp_t *d) { return d->dim; }
 size_t dsmcp_memory(const dsmcp_t *d)
 {
 	const size_t S = 2 * (size_t)d->dim, nown = d->c1 - d->c0;
-	return sizeof *d + d->cap * (S * sizeof(double) + 2 * sizeof(uint32_t)) + d->mv_cap * (S * sizeof(double) + 2 * sizeof(uint32_t)) +
-	       (nown + 1) * 2 * sizeof(uint32_t) + nown * sizeof(float) + d->out_cap * (S + 1) * sizeof(double) +
-	       (size_t)d->nc[d->dim - 1] * sizeof(int);
+	const size_t ncells = d->plane * (size_t)d->nc[d->dim - 1];
+	return sizeof *d + d->cap * (S * sizeof(double) + 2 * sizeof(uint32_t)) +
+	       d->ring_cap * (S * sizeof(double) + sizeof(uint32_t)) + d->over_cap * (S * sizeof(double) + 2 * sizeof(uint32_t)) +
+	       (nown + 1) * sizeof(uint32_t) + nown * sizeof(float) + d->out_cap * (S + 1) * sizeof(double) +
+	       (size_t)d->nc[d->dim - 1] * sizeof(int) +
+	       (d->hsmc ? ncells * ((1 + (size_t)d->dim) * sizeof(double) + sizeof(uint32_t)) : 0) + d->ev_cap * DSMCP_HS_EVENT * sizeof(double);
 }
 
 /* ---- checkpoints ------------------------------------------------------------------ */
