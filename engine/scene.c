@@ -1653,11 +1653,6 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 			}
 			nmax = fmax(nmax, w->volume_fraction / (w->type == SCENE_WALL_DISPENSER && s->n_species > 0 ?
 			                                        scene_dispenser_volume(s, w) : vp));
-			if (w->type == SCENE_WALL_RESERVOIR && w->gas == SCENE_GAS_HARD_SPHERES && scene_has_species(s)) {
-				snprintf(path, sizeof path, "boundaries.%s.%s.gas", axis_names[a], k ? "upper" : "lower");
-				return fail(c, path, "\"hard_spheres\" takes one species (the activity of a mixture is not "
-				            "implemented); a mixture's reservoir is an ideal gas (\"ideal\")");
-			}
 			if (w->type == SCENE_WALL_RESERVOIR && w->n_composition) {
 				snprintf(path, sizeof path, "boundaries.%s.%s.composition", axis_names[a], k ? "upper" : "lower");
 				if (s->n_species < 2)
