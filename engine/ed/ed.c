@@ -1702,7 +1702,8 @@ static void hs_mix_activity(int dim, int nq, const double *n, const double *a, d
  * which is n sqrt(T / (2 pi m)) at a = 0; entries per unit time are F_+
  * times the face area (the box's cross-section). Other walls: rate 0. A
  * reservoir of gas "hard_spheres" enters at n exp(beta mu_ex(eta)) instead
- * of n: the activity of the hard-sphere gas at eta. */
+ * of n: the activity of the hard-sphere gas at eta; a mixture's species k
+ * at n_k exp(beta mu_ex,k) (hs_mix_activity()). */
 static void setup_inlet(struct ed *ed, const scene_t *s)
 {
 	const double pi = 3.14159265358979323846;
