@@ -1667,11 +1667,6 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 			}
 			nmax = fmax(nmax, w->volume_fraction / (w->type == SCENE_WALL_DISPENSER && s->n_species > 0 ?
 			                                        scene_dispenser_volume(s, w) : vp));
-			if (w->type == SCENE_WALL_RESERVOIR && w->gas == SCENE_GAS_HARD_SPHERES && scene_has_species(s)) {
-				snprintf(path, sizeof path, "boundaries.%s.%s.gas", axis_names[a], k ? "upper" : "lower");
-				return fail(c, path, "\"hard_spheres\" takes one species (the activity of a mixture is not "
-				            "implemented); a mixture's reservoir is an ideal gas (\"ideal\")");
-			}
 			if (w->type == SCENE_WALL_RESERVOIR && w->n_composition) {
 				snprintf(path, sizeof path, "boundaries.%s.%s.composition", axis_names[a], k ? "upper" : "lower");
 				if (s->n_species < 2)
@@ -1684,9 +1679,12 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 			for (int q = 0; q < s->n_species && w->type == SCENE_WALL_RESERVOIR; q++)
 				if (s->species[q].radius_hi > 0) {
 					snprintf(path, sizeof path, "particles.species[%d].radius_range", q);
-					return fail(c, path, "a scene with a \"%s\" wall takes species of one radius each "
-					            "(each entering particle takes a slot of its species; polydisperse species "
-					            "are not supported with it)", wn);
+					return fail(c, path, "a scene with a \"%s\" wall takes species of one radius each: an "
+					            "entering particle takes a free slot of its species and a slot keeps its radius, "
+					            "so the radii entering would not follow the reservoir's distribution%s; give "
+					            "each species one radius (a \"dispenser\" wall takes polydisperse species)", wn,
+					            w->gas == SCENE_GAS_HARD_SPHERES ? " (with gas \"hard_spheres\" weighted by "
+					            "exp(beta mu_ex) of each radius)" : "");
 				}
 		}
 	/* default: room for twice the larger of the initial count and what the

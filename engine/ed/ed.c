@@ -1640,6 +1640,58 @@ static double hs_activity(int dim, double eta)
 	return exp((8.0 * eta - 9.0 * eta * eta + 3.0 * eta * eta * eta) / (q * q * q));
 }
 
+/* exp(beta mu_ex,k) of each species k of an additive hard-disk (dim 2) or
+ * hard-sphere (dim 3) mixture of nq species, number densities n[k], radii
+ * a[k] (diameters s_k = 2 a_k): the activities of a mixture, into act[nq].
+ * Each is the derivative d(beta f_ex)/dn_k of an excess free energy density
+ * f_ex(n_1 .. n_nq), so the set is thermodynamically consistent.
+ * 3D: Boublik-Mansoori-Carnahan-Starling-Leland, with xi_m = (pi/6) sum_j
+ * n_j s_j^m, L = ln(1 - xi_3), q = 1 - xi_3:
+ *     (pi/6) beta f_ex = (xi_2^3 / xi_3^2 - xi_0) L + 3 xi_1 xi_2 / q + xi_2^3 / (xi_3 q^2),
+ *     beta mu_ex,k = sum_m s_k^m d[(pi/6) beta f_ex] / d xi_m.
+ * 2D: Santos, Yuste and Lopez de Haro's mapping onto the one-component
+ * Henderson fluid (Mol. Phys. 96, 1 (1999)), Z = 1/(1 - eta) + (<s>^2 /
+ * <s^2>) [Z_H(eta) - 1/(1 - eta)] at fixed composition, integrated over
+ * density: with t_m = sum_j n_j s_j^m, eta = (pi/4) t_2,
+ *     beta f_ex = -t_0 ln(1 - eta) + (t_1^2 / t_2) G(eta),
+ *     G = A_H + ln(1 - eta) = (9/8) eta / (1 - eta) + (1/8) ln(1 - eta),
+ * A_H the Henderson fluid's beta f_ex per particle. For one species both
+ * reduce to hs_activity()'s Carnahan-Starling and Henderson (the one-species
+ * path keeps hs_activity()). */
+static void hs_mix_activity(int dim, int nq, const double *n, const double *a, double *act)
+{
+	if (dim == 2) {
+		const double pi = 3.14159265358979323846;
+		double t0 = 0.0, t1 = 0.0, t2 = 0.0;
+		for (int k = 0; k < nq; k++) {
+			const double s = 2.0 * a[k];
+			t0 += n[k], t1 += n[k] * s, t2 += n[k] * s * s;
+		}
+		const double eta = 0.25 * pi * t2, q = 1.0 - eta, L = log1p(-eta);
+		const double g = 1.125 * eta / q + 0.125 * L, dg = (1.0 + eta / 8.0) / (q * q);
+		for (int k = 0; k < nq; k++) {
+			const double s = 2.0 * a[k], u = t1 * s / t2;
+			act[k] = exp(-L + t0 / q * 0.25 * pi * s * s + (2.0 * u - u * u) * g + t1 * t1 / t2 * dg * 0.25 * pi * s * s);
+		}
+		return;
+	}
+	const double c = 3.14159265358979323846 / 6.0;
+	double x0 = 0.0, x1 = 0.0, x2 = 0.0, x3 = 0.0;
+	for (int k = 0; k < nq; k++) {
+		const double s = 2.0 * a[k];
+		x0 += c * n[k], x1 += c * n[k] * s, x2 += c * n[k] * s * s, x3 += c * n[k] * s * s * s;
+	}
+	const double q = 1.0 - x3, L = log1p(-x3), r = x2 / x3;
+	const double d0 = -L, d1 = 3.0 * x2 / q;
+	const double d2 = 3.0 * r * r * L + 3.0 * x1 / q + 3.0 * x2 * r / (q * q);
+	const double d3 = -2.0 * r * r * r * L - (x2 * r * r - x0) / q + 3.0 * x1 * x2 / (q * q)
+	                  - x2 * r * r / (q * q) + 2.0 * x2 * x2 * r / (q * q * q);
+	for (int k = 0; k < nq; k++) {
+		const double s = 2.0 * a[k];
+		act[k] = exp(d0 + s * (d1 + s * (d2 + s * d3)));
+	}
+}
+
 /* Reservoir walls from the scene (after setup_walls()): each one's entry
  * rate and velocity parameters. The reservoir is an ideal gas of number
  * density n = eta / v_p (v_p the particle volume) moving with velocity U
@@ -1650,7 +1702,8 @@ static double hs_activity(int dim, double eta)
  * which is n sqrt(T / (2 pi m)) at a = 0; entries per unit time are F_+
  * times the face area (the box's cross-section). Other walls: rate 0. A
  * reservoir of gas "hard_spheres" enters at n exp(beta mu_ex(eta)) instead
- * of n: the activity of the hard-sphere gas at eta. */
+ * of n: the activity of the hard-sphere gas at eta; a mixture's species k
+ * at n_k exp(beta mu_ex,k) (hs_mix_activity()). */
 static void setup_inlet(struct ed *ed, const scene_t *s)
 {
 	const double pi = 3.14159265358979323846;
@@ -1678,16 +1731,26 @@ static void setup_inlet(struct ed *ed, const scene_t *s)
 					area *= s->box[j];
 			ed->in_rate[w] = n / (2.0 * sqrt(pi * c)) * f * area;
 			if (scene_has_species(s)) {
-				/* a mixture (ideal: act is 1): species k at density x_k eta / v (v the mean
+				/* a mixture (ideal: actq is 1): species k at density x_k eta / v (v the mean
 				 * particle volume at the fractions x), F_+ at its mass; independent Poisson
 				 * streams, superposed: one of rate sum_k F_k, species k with probability F_k / sum */
 				double x[SCENE_SPECIES_MAX], rk[SCENE_SPECIES_MAX], tot = 0.0;
+				double nq[SCENE_SPECIES_MAX], aq[SCENE_SPECIES_MAX], actq[SCENE_SPECIES_MAX];
 				scene_dispenser_fractions(s, sw, x);
 				const double nt = sw->volume_fraction / scene_dispenser_volume(s, sw);
 				for (int q = 0; q < s->n_species; q++) {
+					nq[q] = nt * x[q];
+					aq[q] = s->species[q].radius;
+					actq[q] = 1.0;
+				}
+				/* gas "hard_spheres": species k enters at its activity n_k exp(beta mu_ex,k) of the
+				 * mixture at the densities n_k (hs_mix_activity(): BMCSL in 3D, SYH-Henderson in 2D) */
+				if (sw->gas == SCENE_GAS_HARD_SPHERES)
+					hs_mix_activity(s->dim, s->n_species, nq, aq, actq);
+				for (int q = 0; q < s->n_species; q++) {
 					const double cq = s->species[q].mass / (2.0 * sw->temperature), tq = sqrt(cq) * ua;
 					const double fq = exp(-tq * tq) + sqrt(pi) * tq * erfc(-tq);
-					rk[q] = nt * x[q] / (2.0 * sqrt(pi * cq)) * fq * area;
+					rk[q] = actq[q] * nt * x[q] / (2.0 * sqrt(pi * cq)) * fq * area;
 					tot += rk[q];
 					ed->in_sk[w][q] = sqrt(sw->temperature / s->species[q].mass);
 				}
