@@ -193,9 +193,72 @@ static void test_two_axes_3d(void)
 	   "3D two-axis stream: the slices' eta over 3 seeds %.4f within 1.5%% of 0.3 (systematic, see the comment)", m);
 }
 
+/* Test 2, a filter next to another axis' dispenser (2D, 30 x 30, eta 0.4, T 0.02): x lower a dispenser
+ * at U = (0.1, 0) with a filter 4 from x upper freezing at (0.1, 0); y lower a dispenser at (0, 0.1), y
+ * upper a plain open wall. The y piston sweeps the x filter's frozen strip: a frozen particle it catches
+ * leaves through the filter's wall (before, the kick gave it a velocity of its own and the next frozen
+ * particle it met stalled the run at t = 0: 10^7 events without the clock moving), and the y layers'
+ * particles beyond the x filter plane are placed frozen (before, a regular particle there was put back
+ * onto the plane at once, into overlaps). Over t in [0, 300] at most 10^6 events (the run needs about
+ * 5 10^4): the clock reaches 300; at 30 frames every particle beyond the plane (x > 26) moves at (0.1, 0)
+ * exactly (the y layers' particles there included: regular ones would move at their thermal speeds), some
+ * particles left through the filter's wall; no overlap, none rejected. */
+static void test_filter_piston(void)
+{
+	const char *json = "{\"method\":\"ed\",\"dimensions\":2,\"particles\":{\"count\":300,\"radius\":0.5,\"box\":[30,30],"
+	                   "\"capacity\":3000,\"initial\":{\"positions\":\"random\",\"temperature\":0.02}},"
+	                   "\"boundaries\":{\"x\":{\"type\":\"walls\","
+	                   "\"lower\":{\"type\":\"dispenser\",\"volume_fraction\":0.4,\"velocity\":[0.1,0],\"temperature\":0.02},"
+	                   "\"upper\":{\"type\":\"open\",\"filter\":{\"distance\":4,\"velocity\":[0.1,0],\"temperature\":0.02}}},"
+	                   "\"y\":{\"type\":\"walls\","
+	                   "\"lower\":{\"type\":\"dispenser\",\"volume_fraction\":0.4,\"velocity\":[0,0.1],\"temperature\":0.02},"
+	                   "\"upper\":{\"type\":\"open\"}}},"
+	                   "\"run\":{\"seed\":63,\"until\":{\"time\":1}}}";
+	scene_t sc;
+	ed_t *ed = make(json, &sc);
+	if (!ed) {
+		ok(0, "filter next to another axis' dispenser: setup");
+		return;
+	}
+	const size_t N = ed_slots(ed);
+	double *pos = malloc(N * 2 * sizeof(double)), *vel = malloc(N * 2 * sizeof(double));
+	size_t beyond = 0, moving = 0, low = 0;
+	double gap = INFINITY;
+	int rc = ED_OK;
+	for (int f = 1; f <= 30 && pos && vel && rc == ED_OK; f++) {
+		rc = ed_advance(ed, 10.0 * f, UINT64_MAX, 1000000);
+		if (ed_time(ed) != 10.0 * f)
+			rc = -1;
+		ed_state(ed, pos, vel);
+		for (size_t i = 0; i < N; i++) {
+			if (isnan(pos[2 * i]) || pos[2 * i] <= 26.0)
+				continue;
+			beyond++;
+			moving += vel[2 * i] != 0.1 || vel[2 * i + 1] != 0.0;
+			low += pos[2 * i + 1] < 3.0;
+		}
+		const double g = ed_min_gap(ed);
+		if (g < gap)
+			gap = g;
+	}
+	ed_sample_t sm;
+	ed_totals(ed, &sm);
+	ok(rc == ED_OK && beyond > 300 && moving == 0 && gap > -1e-9 && sm.wall_rejected[0] == 0 &&
+	   sm.wall_rejected[2] == 0 && sm.wall_outflow[1] > 0,
+	   "filter next to another axis' dispenser: the run reaches t = 300 (%llu events); over 30 frames %zu "
+	   "particles beyond the plane, %zu not at (0.1, 0) (%zu at y < 3); min gap %.2g, %llu + %llu "
+	   "rejected, %llu out at x", (unsigned long long)sm.events, beyond, moving, low, gap,
+	   (unsigned long long)sm.wall_rejected[0], (unsigned long long)sm.wall_rejected[2],
+	   (unsigned long long)sm.wall_outflow[1]);
+	free(pos);
+	free(vel);
+	ed_destroy(ed);
+}
+
 int main(void)
 {
-	plan(7);
+	plan(8);
 	test_two_axes_3d();
+	test_filter_piston();
 	return done_testing();
 }
