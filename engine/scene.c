@@ -1698,6 +1698,19 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 	return 0;
 }
 
+/* Whether a dispenser's layers or a filter's frozen particles may move at v
+ * along axis j (not their own): periodic, at rest along it, or a stream
+ * along it that way (the wall they move away from a dispenser, the wall
+ * they move towards open): they never run into a wall of j. */
+static int stream_along(const scene_t *s, int j, double v)
+{
+	const scene_boundary_t *b = &s->boundary[j];
+	if (!b->walled || v == 0)
+		return 1;
+	const int up = v > 0 ? 0 : 1;   /* the wall upstream */
+	return b->wall[up].type == SCENE_WALL_DISPENSER && b->wall[1 - up].type == SCENE_WALL_OPEN;
+}
+
 /* Seed 001's open stream (method ed): dispenser walls (the piston and its
  * layers) and the filters of open walls: where they fit, what they move
  * with, what they are not combined with yet (docs/scene.md). */
@@ -1729,10 +1742,11 @@ static int check_streams(ctx_t *c, const scene_t *s)
 					            ">= 0, got %s", num(sg * w->velocity[a]).s);
 				}
 				for (int j = 0; j < s->dim; j++)
-					if (j != a && s->boundary[j].walled && w->velocity[j] != 0) {
+					if (j != a && !stream_along(s, j, w->velocity[j])) {
 						snprintf(path, sizeof path, "boundaries.%s.%s.velocity[%d]", axis_names[a], end, j);
-						return fail(c, path, "must be 0 along the walled axis %s (the layers would drift into its walls)",
-						            axis_names[j]);
+						return fail(c, path, "must be 0 along the walled axis %s (the layers would drift into its walls) "
+						            "unless %s is a stream that way (a dispenser upstream, an open wall downstream)",
+						            axis_names[j], axis_names[j]);
 					}
 				const double h = w->thickness > 0 ? w->thickness : 4 * s->radius;
 				snprintf(path, sizeof path, "boundaries.%s.%s.thickness", axis_names[a], end);
@@ -1762,10 +1776,27 @@ static int check_streams(ctx_t *c, const scene_t *s)
 					            ">= 0, got %s", num(-sg * f->velocity[a]).s);
 				}
 				for (int j = 0; j < s->dim; j++)
-					if (j != a && s->boundary[j].walled && f->velocity[j] != 0) {
+					if (j != a && !stream_along(s, j, f->velocity[j])) {
 						snprintf(path, sizeof path, "boundaries.%s.%s.filter.velocity[%d]", axis_names[a], end, j);
 						return fail(c, path, "must be 0 along the walled axis %s (frozen particles would run into its "
-						            "walls)", axis_names[j]);
+						            "walls) unless %s is a stream that way (a dispenser upstream, an open wall "
+						            "downstream)", axis_names[j], axis_names[j]);
+					}
+				/* frozen particles never meet one another: every filter on another axis moves its frozen
+				 * particles at the same velocity (filters facing each other on one axis freeze on opposite
+				 * sides of the box) */
+				for (int b2 = 0; b2 < a; b2++)
+					for (int k2 = 0; k2 < 2 && s->boundary[b2].walled; k2++) {
+						const scene_wall_t *o = &s->boundary[b2].wall[k2];
+						if (o->type != SCENE_WALL_OPEN || !o->filter.on)
+							continue;
+						for (int j = 0; j < s->dim; j++)
+							if (o->filter.velocity[j] != f->velocity[j]) {
+								snprintf(path, sizeof path, "boundaries.%s.%s.filter.velocity", axis_names[a], end);
+								return fail(c, path, "differs from the filter of boundaries.%s.%s: filters on two axes "
+								            "must freeze at one velocity (frozen particles never meet)",
+								            axis_names[b2], k2 ? "upper" : "lower");
+							}
 					}
 				/* the plane, and no obstacle beyond it (frozen particles do not meet obstacles) */
 				const double plane = k ? s->box[a] - f->distance : f->distance;

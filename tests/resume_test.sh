@@ -267,6 +267,32 @@ cat >"$tmp/2d-dispensers-two-axes.json" <<'JSON'
  "output":{"every":{"time":10},"observables":["kinetic_energy","outflow","wall_force"],
    "snapshots":{"every":{"time":50}},"checkpoint":{"every":{"time":37}}}}
 JSON
+# Dispensers and filters on two axes: a diagonal stream (velocity along the other stream axis), layer
+# particles beyond the other axis' filter plane placed frozen; and (2D) a filter's frozen particles caught
+# by the other axis' piston leave through its wall.
+cat >"$tmp/3d-dispensers-two-axes-filters.json" <<'JSON'
+{"method":"ed","dimensions":3,"particles":{"count":700,"radius":0.5,"box":[16,16,5],"capacity":3000,
+   "initial":{"positions":"random","temperature":0.02,"velocity":[0.1,0.1,0]}},
+ "collisions":{"restitution":0.95,"tc":0.05},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.3,"velocity":[0.1,0.1,0],"temperature":0.02},
+   "upper":{"type":"open","filter":{"distance":3,"velocity":[0.1,0.1,0],"temperature":0.02}}},
+   "y":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.3,"velocity":[0.1,0.1,0],"temperature":0.02},
+   "upper":{"type":"open","filter":{"distance":3,"velocity":[0.1,0.1,0],"temperature":0.02}}}},
+ "run":{"seed":62,"until":{"time":200}},
+ "output":{"every":{"time":10},"observables":["kinetic_energy","outflow","wall_force"],
+   "snapshots":{"every":{"time":50}},"checkpoint":{"every":{"time":37}}}}
+JSON
+cat >"$tmp/2d-filter-piston.json" <<'JSON'
+{"method":"ed","dimensions":2,"particles":{"count":300,"radius":0.5,"box":[30,30],"capacity":3000,
+   "initial":{"positions":"random","temperature":0.02}},
+ "boundaries":{"x":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.4,"velocity":[0.1,0],"temperature":0.02},
+   "upper":{"type":"open","filter":{"distance":4,"velocity":[0.1,0],"temperature":0.02}}},
+   "y":{"type":"walls","lower":{"type":"dispenser","volume_fraction":0.4,"velocity":[0,0.1],"temperature":0.02},
+   "upper":{"type":"open"}}},
+ "run":{"seed":63,"until":{"time":200}},
+ "output":{"every":{"time":10},"observables":["kinetic_energy","outflow","wall_force"],
+   "snapshots":{"every":{"time":50}},"checkpoint":{"every":{"time":37}}}}
+JSON
 # A mixture's filter in a field (the FILTG species kernels): the frozen
 # counts per species and the mass present are rebuilt from the flags.
 cat >"$tmp/2d-filter-gravity-mixture.json" <<'JSON'
@@ -476,7 +502,7 @@ for s in 2d-dilute 2d-dense-tc 3d-dilute-tc 3d-dense 2d-dsmc 3d-hsmc 2d-walls-gr
 	2d-mixture-walls 2d-dsmc-mixture-walls 2d-dsmc-mixture-vib 2d-hsmc-mixture 2d-hsmc-mixture-walls 2d-reservoir \
 	2d-reservoir-rough 3d-reservoir-dense 2d-reservoir-mixture 2d-dispenser-filter 3d-dispenser-filter 2d-dispenser-rough 2d-dispenser-gravity 2d-filter-gravity \
 	2d-dispenser-mixture 2d-dispenser-poly 2d-filter-gravity-mixture \
-	2d-dispensers-two-axes; do
+	2d-dispensers-two-axes 3d-dispensers-two-axes-filters 2d-filter-piston; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

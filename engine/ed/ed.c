@@ -282,6 +282,9 @@ struct ed {
 	 * (a layer particle behind one of their pistons is not placed: layer_behind()); 0 for all with
 	 * dispensers on one axis only */
 	int dclip[6];
+	/* per dispenser wall w the bit set of the other axes' filter walls (a layer particle beyond one of
+	 * their planes is placed frozen: layer_frozen()); 0 for all without such a pair */
+	int fclip[6];
 #ifdef ED_TRACE
 	ed_trace_fn trace;        /* bench-only build (ed.h, "Event trace"): called before each event */
 	void *trace_ctx;
@@ -2224,8 +2227,13 @@ static int setup_stream(struct ed *ed, const scene_t *s, char *msg, size_t msgle
 			}
 		}
 	}
+	int filt = 0;
 	for (int w = 0; w < 6; w++)
+		filt |= (ed->fcell[w] != 0) << w;
+	for (int w = 0; w < 6; w++) {
 		ed->dclip[w] = (ed->disp >> w & 1) ? ed->disp & ~(3 << (w & ~1)) : 0;
+		ed->fclip[w] = (ed->disp >> w & 1) ? filt & ~(3 << (w & ~1)) : 0;
+	}
 	size_t off = 0;
 	for (int w = 0; w < 6; w++) {
 		ed->tpl_off[w] = off;
@@ -3179,6 +3187,34 @@ static int layer_behind(const struct ed *ed, int w, const double *r)
 	return 0;
 }
 
+/* Dispensers with a filter on another axis: the filter wall (1 + its index) beyond whose plane a layer
+ * particle of wall w at r lies, else 0. It is placed frozen there (at the filter's velocity, as the
+ * particles beyond a plane at the start of the production run): a regular particle beyond the plane would
+ * meet the plane at once from the wrong side. */
+static int layer_frozen(const struct ed *ed, int w, const double *r)
+{
+	for (int v = 0; ed->fclip[w] >> v; v++) {
+		if (!(ed->fclip[w] >> v & 1))
+			continue;
+		const double sg = (v & 1) ? -1.0 : 1.0;
+		if (sg * (r[v >> 1] - ed->fplane[v]) <= 0.0)
+			return 1 + v;
+	}
+	return 0;
+}
+
+/* A layer particle i just placed beyond the plane of filter wall fz - 1 (layer_frozen()): frozen, its
+ * velocity v the filter's (set by the caller before the placement), no spin. */
+static void layer_freeze(struct ed *ed, uint32_t i, int fz)
+{
+	const int D = ed->dim;
+	ed->frozen[i] = (uint8_t)fz;
+	ed->nfrozen[fz - 1]++;
+	frozen_count(ed, fz - 1, ed->mixture ? ed->spc[i] : 0, 1);
+	if (ed->spin)
+		memset(ed->spin + (size_t)i * (D == 2 ? 1 : 3), 0, (D == 2 ? 1 : 3) * sizeof(double));
+}
+
 /* Template particle k of a recharge's layer at dispenser wall w (tp: the template layer_begin() chose, with
  * its shift, lo, wid, mirror and the particle it leaves out, skip): its position r (zero beyond D); 1 when
  * it is not placed (skip, or behind another axis' piston: layer_behind()), else 0. */
@@ -3230,6 +3266,9 @@ static int dispense(struct ed *ed, int w)
 			continue;
 		for (int j = 0; j < D; j++)
 			v[j] = ed->disp_u[w][j] + sv * rng_gauss(&ed->irng);
+		const int fz = ed->fclip[w] ? layer_frozen(ed, w, r) : 0;
+		for (int j = 0; fz && j < D; j++)
+			v[j] = ed->fu[fz - 1][j];
 		const uint32_t i = ed->freei[ed->n_gone - 1];
 		if (ed->ops->enter_layer(ed, i, r, v)) {
 			ed->in_count[6 + w]++;
@@ -3246,6 +3285,8 @@ static int dispense(struct ed *ed, int w)
 			for (int c = 0; c < nk; c++)
 				ed->spin[(size_t)i * nk + c] = swv * rng_gauss(&ed->irng);
 		}
+		if (fz)
+			layer_freeze(ed, i, fz);
 		DISPATCH(ed, set_cross, ed, i);
 		DISPATCH(ed, scan_full, ed, i);
 		cal_update(ed, i, ev_time(ed, i));
@@ -3282,6 +3323,9 @@ static int dispense_mix(struct ed *ed, int w)
 			continue;
 		for (int j = 0; j < D; j++)
 			v[j] = ed->disp_u[w][j] + sv * rng_gauss(&ed->irng);
+		const int fz = ed->fclip[w] ? layer_frozen(ed, w, r) : 0;
+		for (int j = 0; fz && j < D; j++)
+			v[j] = ed->fu[fz - 1][j];
 		uint32_t *top = ed->freei + x->fs_off[sp] + x->fs_n[sp] - 1;
 		if (x->poly >> sp & 1) {   /* polydisperse: a free slot of the species at random (its radius) */
 			uint32_t j = (uint32_t)(rng_uniform(&ed->irng) * x->fs_n[sp]);
@@ -3305,6 +3349,8 @@ static int dispense_mix(struct ed *ed, int w)
 			for (int c = 0; c < nk; c++)
 				ed->spin[(size_t)i * nk + c] = swv * rng_gauss(&ed->irng);
 		}
+		if (fz)
+			layer_freeze(ed, i, fz);
 		DISPATCH(ed, set_cross, ed, i);
 		DISPATCH(ed, scan_full, ed, i);
 		cal_update(ed, i, ev_time(ed, i));

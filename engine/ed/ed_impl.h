@@ -1097,6 +1097,13 @@ static void FN(do_wall)(struct ed *ed, uint32_t i, double t)
 		FN(leave)(ed, i, w, t);
 		return;
 	}
+	if (W->pu != 0.0 && ed->frozen && ed->frozen[i]) {
+		/* a frozen particle (outside the stream, infinite mass) that another axis' piston catches
+		 * leaves through its filter's wall: a kick would give it a velocity of its own, and frozen
+		 * particles must never meet (the layers refill the room, frozen where beyond the plane) */
+		FN(leave)(ed, i, ed->frozen[i] - 1, t);
+		return;
+	}
 	FN(advance)(ed, p, t);
 	FN(energy_to)(ed, t);
 	int elastic = 0;
