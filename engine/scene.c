@@ -679,6 +679,9 @@ static int check_md_obj(ctx_t *c, const char *path, json_t *v, void *base)
 			    "the impact speed); give stiffness (the effective modulus E*) or max_overlap");
 	if (n && json_object_get(v, "max_overlap"))
 		return fail(c, "md.max_overlap", "sets the stiffness: not with stiffness or contact_time");
+	if (s->md_rolling > 0 && !(s->md_friction > 0))
+		return fail(c, "md.rolling_friction", "needs md.friction > 0 (a frictionless particle does not roll; the "
+			    "rolling spring lives with the tangential one)");
 	return 0;
 }
 
@@ -692,6 +695,7 @@ static const struct object md_obj = {
 		{ "time_step", parse_number, offsetof(scene_t, md_time_step), &R_MD_STEP, false },
 		{ "friction", parse_number, offsetof(scene_t, md_friction), &R_NONNEG, false },
 		{ "tangential_stiffness", parse_number, offsetof(scene_t, md_tangential_ratio), &R_POS, false },
+		{ "rolling_friction", parse_number, offsetof(scene_t, md_rolling), &R_NONNEG, false },
 		{ .name = NULL },
 	},
 	.check = check_md_obj,
@@ -708,9 +712,9 @@ void scene_md_placement(const scene_t *s, scene_t *p)
 	}
 }
 
-/* Method md: what this slice supports (species of one restitution, specular, moving and vibrating walls, gravity, friction; time
- * clocks; energy, momentum, centre-of-mass height and potential energy); everything else refused by name.
- * Resolves the md object's defaults. */
+/* Method md: what this slice supports (species, a restitution per pair, specular, moving and vibrating walls,
+ * gravity, friction, rolling resistance; time clocks; energy, momentum, centre-of-mass height and potential
+ * energy); everything else refused by name. Resolves the md object's defaults. */
 static int check_md(ctx_t *c, json_t *v, scene_t *s)
 {
 	if (s->method != SCENE_METHOD_MD)
@@ -720,7 +724,7 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 	static const struct { const char *obj, *key; } refused[] = {
 		{ "particles", "capacity" }, { "initial", "velocity" },
 		{ "initial", "rotational_temperature" }, { "initial", "relax" }, { "initial", "from" },
-		{ "collisions", "tc" }, { "collisions", "rough" }, { "collisions", "restitution_pairs" },
+		{ "collisions", "tc" }, { "collisions", "rough" },
 		{ "", "driving" }, { "", "ed" }, { "run", "max_events" },
 	};
 	for (size_t k = 0; k < sizeof refused / sizeof refused[0]; k++) {
@@ -737,6 +741,11 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 	if (s->restitution <= 0)
 		return fail(c, "collisions.restitution", "must be > 0 with method \"md\" (the damping of a contact is "
 			    "derived from it)");
+	for (int a = 0; a < s->n_species; a++)   /* given pairs (the others take restitution, > 0) */
+		for (int b = a; b < s->n_species; b++)
+			if (s->restitution_pair[a][b] == 0)
+				return fail(c, "collisions.restitution_pairs", "0 for (%s, %s): must be > 0 with method \"md\" "
+					    "(the damping of a contact is derived from it)", s->species[a].name, s->species[b].name);
 	/* clocks: simulated time only (md has contacts, not countable collisions) */
 	static const struct { const char *key; size_t off; } clocks[] = {
 		{ "run.until", offsetof(scene_t, until) }, { "output.every", offsetof(scene_t, every) },
