@@ -794,7 +794,7 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 			}
 	}
 	const unsigned md_obs = SCENE_OBS_ENERGY | SCENE_OBS_MOMENTUM | SCENE_OBS_COM_HEIGHT | SCENE_OBS_POTENTIAL |
-				SCENE_OBS_WALL_FORCE | SCENE_OBS_ROTATION | SCENE_OBS_PRESSURE | SCENE_OBS_OBSTACLE_FORCE;
+				SCENE_OBS_WALL_FORCE | SCENE_OBS_ROTATION | SCENE_OBS_PRESSURE | SCENE_OBS_OBSTACLE_FORCE | SCENE_OBS_SURFACE;
 	json_t *obs = json_object_get(out, "observables");
 	if (!obs)
 		s->observables = SCENE_OBS_ENERGY | (scene_has_gravity(s) ? SCENE_OBS_COM_HEIGHT | SCENE_OBS_POTENTIAL : 0);
@@ -806,7 +806,8 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 				snprintf(path, sizeof path, "output.observables[%zu]", i);
 				return fail(c, path, "\"%s\" is not computed by method \"md\" yet (it has kinetic_energy, "
 					    "temperature, momentum, center_of_mass_height, potential_energy, wall_force, "
-					    "rotational_energy, rotational_temperature, pressure, compressibility, obstacle_force)",
+					    "rotational_energy, rotational_temperature, pressure, compressibility, obstacle_force, "
+					    "surface_profile)",
 					    observables[k].name);
 			} else if (!strcmp(json_string_value(o), observables[k].name) &&
 				 (observables[k].bit & SCENE_OBS_PRESSURE) && (scene_has_walls(s) || s->n_obstacles > 0)) {
