@@ -31,6 +31,7 @@ struct md {
 	int rolling;             /* mu_r > 0: rolling springs rold/rnew, 3 per slot, swapped with hold/hnew */
 	double mu_r;
 	double *rold, *rnew;
+	double *iroll;           /* 1 / (I_i + m_i R_i^2): the rolling inertia about the contact point, inverse */
 	double dt, tc, skin, rmax;
 	md_pair_t *pairs;
 	size_t np, capp;
@@ -456,7 +457,7 @@ static inline __attribute__((always_inline)) int forces_impl(md_t *md, double dt
 		if (rolling) {
 			for (int a = 0; a < 3; a++)
 				wr[a] = md->w[3 * i + a] - md->w[3 * j + a];
-			ir = 1.0 / (1.0 / (1.0 / md->iI[i] + md->m[i] * ri * ri) + 1.0 / (1.0 / md->iI[j] + md->m[j] * rj * rj));
+			ir = 1.0 / (md->iroll[i] + md->iroll[j]);
 		}
 		int e = contact(md, law, friction, rolling, i, j, nv, sr - dist, meff, reff, dmp, vrel, wr, ir, li, lj, dth,
 			fc, md->t + 3 * i, md->t + 3 * j);
@@ -497,7 +498,7 @@ static inline __attribute__((always_inline)) int forces_impl(md_t *md, double dt
 				cross3(md->w + 3 * i, nv, wxn);
 				for (int b = 0; b < 3; b++)
 					vrel[b] = (md->v[3 * i + b] + (friction ? li * wxn[b] : 0.0)) - wvel[wl][b];
-				double ir = rolling ? 1.0 / md->iI[i] + md->m[i] * ri * ri : 0.0;
+				double ir = rolling ? 1.0 / md->iroll[i] : 0.0;
 				int e = contact(md, law, friction, rolling, i, -1 - (2 * a + side), nv, delta, md->m[i], ri, damp0,
 					vrel, md->w + 3 * i, ir, li, 0.0, dth, fc, md->t + 3 * i, NULL);
 				if (e)
@@ -527,7 +528,7 @@ static inline __attribute__((always_inline)) int forces_impl(md_t *md, double dt
 				cross3(md->w + 3 * i, nv, wxn);
 				for (int b = 0; b < 3; b++)
 					vrel[b] = md->v[3 * i + b] + (friction ? li * wxn[b] : 0.0);
-				double ir = rolling ? 1.0 / md->iI[i] + md->m[i] * ri * ri : 0.0;
+				double ir = rolling ? 1.0 / md->iroll[i] : 0.0;
 				int e = contact(md, law, friction, rolling, i, -7 - k, nv, delta, md->m[i], ri * md->orad[k] / sr,
 					damp0, vrel, md->w + 3 * i, ir, li, 0.0, dth, fc, md->t + 3 * i, NULL);
 				if (e)
@@ -573,6 +574,7 @@ void md_destroy(md_t *md)
 	free(md->sp);
 	free(md->rold);
 	free(md->rnew);
+	free(md->iroll);
 	free(md);
 }
 
@@ -684,7 +686,8 @@ md_t *md_create(const md_params_t *p, int *err)
 	if (md->pairwise && !(md->sp = malloc((size_t)n * sizeof(int))))
 		goto cleanup;
 	if (md->rolling && (!(md->rold = calloc((size_t)n * md->slots * 3, sizeof(double))) ||
-			    !(md->rnew = calloc((size_t)n * md->slots * 3, sizeof(double)))))
+			    !(md->rnew = calloc((size_t)n * md->slots * 3, sizeof(double))) ||
+			    !(md->iroll = calloc((size_t)n, sizeof(double)))))
 		goto cleanup;
 	if (md->pairwise)
 		memcpy(md->sp, p->species, (size_t)n * sizeof(int));
@@ -709,6 +712,8 @@ md_t *md_create(const md_params_t *p, int *err)
 		md->m[i] = m;
 		md->im[i] = 1.0 / m;
 		md->iI[i] = 1.0 / ((p->dim == 2 ? 0.5 : 0.4) * m * r * r);
+		if (md->rolling)
+			md->iroll[i] = 1.0 / ((p->dim == 2 ? 0.5 : 0.4) * m * r * r + m * r * r);
 		if (r > md->rmax)
 			md->rmax = r;
 		if (m < mmin)
@@ -894,7 +899,7 @@ size_t md_memory(const md_t *md)
 	return sizeof(*md) + (size_t)md->n * (22 * sizeof(double) + 3 * sizeof(int)) +
 	       2 * (size_t)md->n * md->slots * sizeof(md_slot_t) + md->capp * sizeof(md_pair_t) + md->ncell * sizeof(int) +
 	       (md->pairwise ? (size_t)md->n * sizeof(int) : 0) +
-	       (md->rolling ? 6 * (size_t)md->n * md->slots * sizeof(double) : 0);
+	       (md->rolling ? (6 * (size_t)md->n * md->slots + (size_t)md->n) * sizeof(double) : 0);
 }
 
 size_t md_springs(const md_t *md)
