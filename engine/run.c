@@ -857,8 +857,8 @@ static int md_build(run_t *r, uint64_t stream, int blank, char *msg, size_t msgl
 		.dim = s->dim, .n = (int)n, .radius = s->radius, .mass = s->mass, .radii = r->md_radii,
 		.masses = r->md_masses,
 		.law = s->md_law ? MD_LAW_HERTZ : MD_LAW_LINEAR, .restitution = s->restitution,
-		.v_ref = s->md_impact_speed, .mu = s->md_friction, .kt_ratio = s->md_tangential_ratio, .mu_r = s->md_rolling,
-		.n_species = pairwise ? s->n_species : 0, .species = sp, .restitution_pair = pairwise ? epair : NULL,
+		.v_ref = s->md_impact_speed, .mu = s->md_friction, .kt_ratio = s->md_tangential_ratio,
+		.mu_r = s->md_rolling, .n_species = pairwise ? s->n_species : 0, .species = sp, .restitution_pair = pairwise ? epair : NULL,
 		.dt_steps = 1.0 / s->md_time_step, .x = NULL, .v = v, .virial = (s->observables & SCENE_OBS_PRESSURE) != 0,
 	};
 	for (int a = 0; a < 3; a++) {
