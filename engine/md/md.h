@@ -90,8 +90,9 @@
  *   first half-kick uses them), the Verlet list's reference positions (the
  *   positions of its last build, wrapped into the box), the tangential
  *   springs held (per particle: their number, then each one's partner and
- *   spring vector, in slot order; with mu_r > 0 each one's rolling spring), the step, build and contact counters and
- *   the walls' forces and impulses (md_walls()).
+ *   spring vector, in slot order; with mu_r > 0 each one's rolling
+ *   spring), the step, build and contact counters and the walls' forces
+ *   and impulses (md_walls()).
  *   The pair list is not state: md_state_set() builds it again from the
  *   reference positions, which is what the last build computed. A system
  *   given a state taken from another (same parameters) continues with the
@@ -143,7 +144,7 @@ typedef struct {
 	double obstacle_center[16][3];
 	double obstacle_radius[16];
 	md_law_t law;
-	double restitution;      /* e in (0, 1]: every pair's, and the walls' and obstacles' */
+	double restitution;      /* e in (0, 1]: the walls' and obstacles', and every pair's without restitution_pair */
 	/* Restitution per pair of species (optional): species[i] in [0, n_species) for each particle and
 	 * restitution_pair[a * n_species + b] (symmetric, each in (0, 1]) the e of the pairs (a, b), from which
 	 * their damping is derived as from restitution (contract); walls and obstacles keep restitution.
@@ -199,8 +200,9 @@ long md_rebuilds(const md_t *md);
 void md_energy(const md_t *md, md_energy_t *out);
 
 /* The dynamic state (see the contract). Arrays have 3n doubles (x ... xref), n (held), springs (partner)
- * and 3 springs (xi, and mr with mu_r > 0) entries; springs = sum of held. Partner: j > i for a pair (the lower index holds it),
- * -1 - (2 axis + side) for a wall (side 0 lower, 1 upper), -1 - (6 + k) for obstacle k. */
+ * and 3 springs (xi, and mr with mu_r > 0) entries; springs = sum of held. Partner: j > i for a pair (the
+ * lower index holds it), -1 - (2 axis + side) for a wall (side 0 lower, 1 upper), -1 - (6 + k) for obstacle
+ * k. */
 typedef struct {
 	double *x, *v, *w, *f, *t, *xref;
 	int32_t *held;
@@ -241,11 +243,11 @@ size_t md_memory(const md_t *md);
 size_t md_springs(const md_t *md);
 /* Copies the state into the non-NULL arrays of st and sets its springs and counters. */
 void md_state_get(const md_t *md, md_state_t *st);
-/* Sets the whole state (every array required; mr with mu_r > 0) and rebuilds the pair list from xref. MD_OK; MD_E_PARAM
- * when it cannot be a state of this system (non-finite values, a reference position outside the box on a
- * periodic axis, held out of [0, max_contacts], a partner out of range, twice in one particle's slots, or
- * a wall on a periodic axis, springs not the sum of held); MD_E_NOMEM. The state is unusable after an
- * error. */
+/* Sets the whole state (every array required; mr with mu_r > 0) and rebuilds the pair list from xref.
+ * MD_OK; MD_E_PARAM when it cannot be a state of this system (non-finite values, a reference position
+ * outside the box on a periodic axis, held out of [0, max_contacts], a partner out of range, twice in one
+ * particle's slots, or a wall on a periodic axis, springs not the sum of held, in 2D a rolling spring off
+ * the z axis); MD_E_NOMEM. The state is unusable after an error. */
 int md_state_set(md_t *md, const md_state_t *st);
 
 const char *md_strerror(int code);
