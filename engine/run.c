@@ -792,6 +792,19 @@ static int md_build(run_t *r, uint64_t stream, int blank, char *msg, size_t msgl
 	int ret = -1, e = 0;
 	double *pos = malloc(n * s->dim * sizeof(double)), *x = calloc(n * 3, sizeof(double));
 	double *v = calloc(n * 3, sizeof(double));
+	int *sp = NULL;
+	double epair[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX];
+	int pairwise = 0;   /* collisions.restitution_pairs with a pair other than collisions.restitution */
+	for (int a = 0; a < s->n_species; a++)
+		for (int b = 0; b < s->n_species; b++) {
+			epair[a * s->n_species + b] = s->restitution_pair[a][b];
+			pairwise |= s->n_species > 1 && s->restitution_pair[a][b] != s->restitution;
+		}
+	if (pairwise && !(sp = malloc(n * sizeof(int)))) {
+		if (msg && msglen)
+			snprintf(msg, msglen, "out of memory");
+		goto cleanup;
+	}
 	if (scene_has_species(s)) {
 		r->md_radii = malloc(n * sizeof(double));
 		r->md_masses = malloc(n * sizeof(double));
@@ -818,6 +831,8 @@ static int md_build(run_t *r, uint64_t stream, int blank, char *msg, size_t msgl
 			while (i >= end)
 				end += s->species[++k].count;
 			r->md_masses[i] = s->species[k].mass;
+			if (sp)
+				sp[i] = (int)k;
 		}
 	}
 	double mean[3] = {0, 0, 0}, msum = 0.0;
@@ -843,6 +858,7 @@ static int md_build(run_t *r, uint64_t stream, int blank, char *msg, size_t msgl
 		.masses = r->md_masses,
 		.law = s->md_law ? MD_LAW_HERTZ : MD_LAW_LINEAR, .restitution = s->restitution,
 		.v_ref = s->md_impact_speed, .mu = s->md_friction, .kt_ratio = s->md_tangential_ratio,
+		.mu_r = s->md_rolling, .n_species = pairwise ? s->n_species : 0, .species = sp, .restitution_pair = pairwise ? epair : NULL,
 		.dt_steps = 1.0 / s->md_time_step, .x = NULL, .v = v, .virial = (s->observables & SCENE_OBS_PRESSURE) != 0,
 	};
 	for (int a = 0; a < 3; a++) {
@@ -912,6 +928,7 @@ cleanup:
 	free(pos);
 	free(x);
 	free(v);
+	free(sp);
 	return ret;
 }
 
@@ -1108,6 +1125,7 @@ static void md_in_free(run_t *r)
 	free(r->md_in.held);
 	free(r->md_in.partner);
 	free(r->md_in.xi);
+	free(r->md_in.mr);
 	memset(&r->md_in, 0, sizeof r->md_in);
 }
 
@@ -1170,7 +1188,7 @@ static size_t impact_count(const run_t *r)
 /* md's state fields (md.h, md_state_t), in the order a restore reads them: "springs_held" before the
  * springs, whose count is its sum. */
 enum { MDF_X, MDF_V, MDF_W, MDF_F, MDF_T, MDF_XREF, MDF_HELD, MDF_PARTNER, MDF_XI, MDF_WALLS, MDF_COUNTERS, MDF_VIRIAL,
-       MDF_OBST, MDF_N };
+       MDF_OBST, MDF_ROLL, MDF_N };
 static const struct {
 	const char *name;
 	ed_type_t type;
@@ -1183,19 +1201,22 @@ static const struct {
 	[MDF_VIRIAL] = {"virial", ED_T_F64},       /* md_state_t.virial: only with pressure or compressibility */
 	[MDF_OBST] = {"obstacles", ED_T_F64},      /* obstacle_force, then obstacle_impulse (n rows each): only with
 	                                            * obstacles */
+	[MDF_ROLL] = {"rolling_spring", ED_T_F64}, /* md_state_t.mr, one per spring: only with md.rolling_friction */
 };
 
 /* The md fields a run has: "virial" only when it integrates the pressure (the layout of other scenes as
  * before). */
 static int md_has_field(const run_t *r, int k)
 {
-	return k == MDF_VIRIAL ? (r->s.observables & SCENE_OBS_PRESSURE) != 0 : k == MDF_OBST ? r->s.n_obstacles > 0 : 1;
+	return k == MDF_VIRIAL ? (r->s.observables & SCENE_OBS_PRESSURE) != 0 : k == MDF_OBST ? r->s.n_obstacles > 0 :
+	       k == MDF_ROLL ? r->s.md_rolling > 0 : 1;
 }
 
 static size_t md_field_count(const run_t *r, int k, size_t springs)
 {
 	size_t n = r->s.count;
-	return k <= MDF_XREF ? 3 * n : k == MDF_HELD ? n : k == MDF_PARTNER ? springs : k == MDF_XI ? 3 * springs :
+	return k <= MDF_XREF ? 3 * n : k == MDF_HELD ? n : k == MDF_PARTNER ? springs :
+	       k == MDF_XI || k == MDF_ROLL ? 3 * springs :
 	       k == MDF_WALLS ? 36 : k == MDF_OBST ? 6 * (size_t)r->s.n_obstacles : 4;   /* counters, virial */
 }
 
@@ -1221,6 +1242,7 @@ static int md_field_get(const run_t *r, const char *name, void *buf)
 	case MDF_HELD: st.held = buf; break;
 	case MDF_PARTNER: st.partner = buf; break;
 	case MDF_XI: st.xi = buf; break;
+	case MDF_ROLL: st.mr = buf; break;
 	case MDF_WALLS: case MDF_COUNTERS: case MDF_VIRIAL: case MDF_OBST: break;
 	default: return RUN_ERESTORE;
 	}
@@ -1249,7 +1271,7 @@ static int md_field_set(run_t *r, const char *name, ed_type_t type, size_t count
 	md_state_t *in = &r->md_in;
 	if (k < 0 || !md_has_field(r, k) || !in->held || type != md_fields[k].type || (r->md_got >> k & 1u))
 		return RUN_ERESTORE;
-	if (k == MDF_PARTNER || k == MDF_XI) {   /* after springs_held, whose sum they must match */
+	if (k == MDF_PARTNER || k == MDF_XI || k == MDF_ROLL) {   /* after springs_held, whose sum they must match */
 		if (!(r->md_got >> MDF_HELD & 1u) || count != md_field_count(r, k, in->springs))
 			return RUN_ERESTORE;
 		void *p = malloc(count ? count * ed_type_size(type) : 1);
@@ -1258,8 +1280,10 @@ static int md_field_set(run_t *r, const char *name, ed_type_t type, size_t count
 		memcpy(p, buf, count * ed_type_size(type));
 		if (k == MDF_PARTNER)
 			in->partner = p;
-		else
+		else if (k == MDF_XI)
 			in->xi = p;
+		else
+			in->mr = p;
 	} else {
 		if (count != md_field_count(r, k, 0))
 			return RUN_ERESTORE;

@@ -687,6 +687,9 @@ static int check_md_obj(ctx_t *c, const char *path, json_t *v, void *base)
 			    "the impact speed); give stiffness (the effective modulus E*) or max_overlap");
 	if (n && json_object_get(v, "max_overlap"))
 		return fail(c, "md.max_overlap", "sets the stiffness: not with stiffness or contact_time");
+	if (s->md_rolling > 0 && !(s->md_friction > 0))
+		return fail(c, "md.rolling_friction", "needs md.friction > 0 (a frictionless particle does not roll; the "
+			    "rolling spring lives with the tangential one)");
 	return 0;
 }
 
@@ -700,6 +703,7 @@ static const struct object md_obj = {
 		{ "time_step", parse_number, offsetof(scene_t, md_time_step), &R_MD_STEP, false },
 		{ "friction", parse_number, offsetof(scene_t, md_friction), &R_NONNEG, false },
 		{ "tangential_stiffness", parse_number, offsetof(scene_t, md_tangential_ratio), &R_POS, false },
+		{ "rolling_friction", parse_number, offsetof(scene_t, md_rolling), &R_NONNEG, false },
 		{ .name = NULL },
 	},
 	.check = check_md_obj,
@@ -716,9 +720,9 @@ void scene_md_placement(const scene_t *s, scene_t *p)
 	}
 }
 
-/* Method md: what this slice supports (species of one restitution, specular, moving and vibrating walls, gravity, friction; time
- * clocks; energy, momentum, centre-of-mass height and potential energy); everything else refused by name.
- * Resolves the md object's defaults. */
+/* Method md: what this slice supports (species, a restitution per pair, specular, moving and vibrating walls,
+ * gravity, friction, rolling resistance; time clocks; energy, momentum, centre-of-mass height and potential
+ * energy); everything else refused by name. Resolves the md object's defaults. */
 static int check_md(ctx_t *c, json_t *v, scene_t *s)
 {
 	if (s->method != SCENE_METHOD_MD)
@@ -728,7 +732,7 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 	static const struct { const char *obj, *key; } refused[] = {
 		{ "particles", "capacity" }, { "initial", "velocity" },
 		{ "initial", "rotational_temperature" }, { "initial", "relax" }, { "initial", "from" },
-		{ "collisions", "tc" }, { "collisions", "rough" }, { "collisions", "restitution_pairs" },
+		{ "collisions", "tc" }, { "collisions", "rough" },
 		{ "", "driving" }, { "", "ed" }, { "run", "max_events" },
 	};
 	for (size_t k = 0; k < sizeof refused / sizeof refused[0]; k++) {
@@ -745,6 +749,11 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 	if (s->restitution <= 0)
 		return fail(c, "collisions.restitution", "must be > 0 with method \"md\" (the damping of a contact is "
 			    "derived from it)");
+	for (int a = 0; a < s->n_species; a++)   /* given pairs (the others take restitution, > 0) */
+		for (int b = a; b < s->n_species; b++)
+			if (s->restitution_pair[a][b] == 0)
+				return fail(c, "collisions.restitution_pairs", "0 for (%s, %s): must be > 0 with method \"md\" "
+					    "(the damping of a contact is derived from it)", s->species[a].name, s->species[b].name);
 	/* clocks: simulated time only (md has contacts, not countable collisions) */
 	static const struct { const char *key; size_t off; } clocks[] = {
 		{ "run.until", offsetof(scene_t, until) }, { "output.every", offsetof(scene_t, every) },
@@ -793,7 +802,7 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 			}
 	}
 	const unsigned md_obs = SCENE_OBS_ENERGY | SCENE_OBS_MOMENTUM | SCENE_OBS_COM_HEIGHT | SCENE_OBS_POTENTIAL |
-				SCENE_OBS_WALL_FORCE | SCENE_OBS_ROTATION | SCENE_OBS_PRESSURE | SCENE_OBS_OBSTACLE_FORCE;
+				SCENE_OBS_WALL_FORCE | SCENE_OBS_ROTATION | SCENE_OBS_PRESSURE | SCENE_OBS_OBSTACLE_FORCE | SCENE_OBS_SURFACE;
 	json_t *obs = json_object_get(out, "observables");
 	if (!obs)
 		s->observables = SCENE_OBS_ENERGY | (scene_has_gravity(s) ? SCENE_OBS_COM_HEIGHT | SCENE_OBS_POTENTIAL : 0);
@@ -805,7 +814,8 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 				snprintf(path, sizeof path, "output.observables[%zu]", i);
 				return fail(c, path, "\"%s\" is not computed by method \"md\" yet (it has kinetic_energy, "
 					    "temperature, momentum, center_of_mass_height, potential_energy, wall_force, "
-					    "rotational_energy, rotational_temperature, pressure, compressibility, obstacle_force)",
+					    "rotational_energy, rotational_temperature, pressure, compressibility, obstacle_force, "
+					    "surface_profile)",
 					    observables[k].name);
 			} else if (!strcmp(json_string_value(o), observables[k].name) &&
 				 (observables[k].bit & SCENE_OBS_PRESSURE) && (scene_has_walls(s) || s->n_obstacles > 0)) {

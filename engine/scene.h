@@ -341,6 +341,7 @@ typedef struct scene {
 	int md_law;
 	double md_stiffness, md_contact_time, md_impact_speed, md_max_overlap, md_time_step;
 	double md_friction, md_tangential_ratio;
+	double md_rolling;             /* md.rolling_friction: mu_r of the EPSD rolling resistance (md.h), 0 none */
 
 	/* method "auto" only (required there): target for the expected relative
 	 * RMS error of T(t) against exact hard-sphere dynamics, in (0, 1] */

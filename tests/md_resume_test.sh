@@ -132,10 +132,35 @@ cat >"$tmp/2d-obst.json" <<'JSON'
  "md": {"friction": 0.5}}
 JSON
 
+# rolling resistance (its rolling springs are state: field "rolling_spring") and a restitution per pair of species,
+# 2D disks and 3D spheres under gravity
+cat >"$tmp/2d-roll.json" <<'JSON'
+{"method": "md", "dimensions": 2,
+ "particles": {"species": [{"name": "a", "count": 100, "radius": 0.5, "mass": 1}, {"name": "b", "count": 60, "radius": 0.7, "mass": 2}],
+   "volume_fraction": 0.3, "initial": {"temperature": 1}},
+ "boundaries": {"y": {"type": "walls", "lower": {"type": "specular"}, "upper": {"type": "specular"}}},
+ "collisions": {"restitution": 0.8, "restitution_pairs": [{"a": "a", "b": "b", "restitution": 0.4}, {"a": "b", "b": "b", "restitution": 0.6}]},
+ "gravity": [0, -10],
+ "run": {"seed": 9, "until": {"time": 3}},
+ "output": {"every": {"time": 0.2}, "observables": ["kinetic_energy", "temperature", "momentum", "rotational_energy", "wall_force"],
+   "snapshots": {"every": {"time": 0.5}}, "checkpoint": {"every": {"time": 1.1}}},
+ "md": {"friction": 0.5, "rolling_friction": 0.3}}
+JSON
+cat >"$tmp/3d-roll.json" <<'JSON'
+{"method": "md", "dimensions": 3,
+ "particles": {"count": 200, "volume_fraction": 0.2, "initial": {"temperature": 1}},
+ "boundaries": {"z": {"type": "walls", "lower": {"type": "specular"}, "upper": {"type": "specular"}}},
+ "collisions": {"restitution": 0.5}, "gravity": [0, 0, -5],
+ "run": {"seed": 10, "until": {"time": 3}},
+ "output": {"every": {"time": 0.25}, "observables": ["kinetic_energy", "momentum", "rotational_energy", "wall_force"],
+   "snapshots": {"every": {"time": 1}}, "checkpoint": {"every": {"time": 1.1}}},
+ "md": {"force_law": "hertz", "friction": 0.5, "rolling_friction": 0.2}}
+JSON
+
 ref() { "$ENGINE" run "$tmp/$1.json" --out "$tmp/$1.ref" >/dev/null 2>"$tmp/$1.ref.err"; }
 
 # (a) checkpoint at a simulated time, resume: identical to the uninterrupted run (frames, records, summary).
-for s in 3d-bed 2d-hertz 2d-vibro 2d-mix 3d-press 2d-obst; do
+for s in 3d-bed 2d-hertz 2d-vibro 2d-mix 3d-press 2d-obst 2d-roll 3d-roll; do
 	ref $s
 	rc=$?
 	for which in checkpoint.prev.h5 checkpoint.h5; do

@@ -184,6 +184,224 @@ static void test_hertz_collision(void)
 	}
 }
 
+/*
+ * Restitution per pair of species: species A (R 0.5, m 1) and B (R 0.7, m 2.5), e_AA 0.9, e_AB 0.6,
+ * e_BB 0.3, params.restitution 0.5 (walls; no wall is touched here). Head-on collision of an isolated pair
+ * of species (sa, sb) at approach speed 2 (no gravity) with a fixed step dt; e = separation speed /
+ * approach speed after the contact.
+ */
+static const double pair_R[2] = {0.5, 0.7}, pair_M[2] = {1.0, 2.5}, pair_E[4] = {0.9, 0.6, 0.6, 0.3};
+
+static int collide_pair(md_law_t law, int sa, int sb, double dt, double *e_out)
+{
+	int sp[2] = {sa, sb}, err;
+	double r[2] = {pair_R[sa], pair_R[sb]}, m[2] = {pair_M[sa], pair_M[sb]};
+	double x[6] = {5.0 - r[0] - 0.05, 5.0, 5.0, 5.0 + r[1] + 0.05, 5.0, 5.0}, v[6] = {1.0, 0, 0, -1.0, 0, 0};
+	md_params_t p = {0};
+	p.dim = 3;
+	p.n = 2;
+	p.radii = r;
+	p.masses = m;
+	p.box[0] = p.box[1] = p.box[2] = 10.0;
+	p.law = law;
+	p.restitution = 0.5;
+	p.kn = 1e4;
+	p.young = 1e4;
+	p.n_species = 2;
+	p.species = sp;
+	p.restitution_pair = pair_E;
+	p.dt = dt;
+	p.x = x;
+	p.v = v;
+	md_t *md = md_create(&p, &err);
+	if (!md)
+		return err;
+	const double *X = md_positions(md), *V = md_velocities(md);
+	int touched = 0;
+	for (long s = 0; s < 10000000; s++) {
+		if ((err = md_step(md, 1)))
+			break;
+		double gap = X[3] - X[0] - (r[0] + r[1]);
+		if (gap < 0.0)
+			touched = 1;
+		else if (touched)
+			break;
+	}
+	*e_out = (V[3] - V[0]) / 2.0;
+	md_destroy(md);
+	return err;
+}
+
+static void test_pair_restitution(void)
+{
+	const double kn = 1e4;
+	for (int sa = 0; sa < 2; sa++)
+		for (int sb = sa; sb < 2; sb++) {
+			/* linear: each pair's own beta(e_ab) and m_eff; t_c of that pair. The measured e errs to first
+			 * order in dt (the dashpot sees the half-step velocity; test_linear_collision): halving dt from
+			 * t_c/200 halves the error (ratio 2 +- 0.3) and Richardson's 2 E(dt/2) - E(dt) is within a
+			 * quarter of the error at t_c/400 of e_ab. */
+			double e = pair_E[2 * sa + sb], meff = pair_M[sa] * pair_M[sb] / (pair_M[sa] + pair_M[sb]);
+			double le = log(e), beta = -le / sqrt(PI * PI + le * le), tc = PI / sqrt(kn / meff * (1.0 - beta * beta));
+			double e1 = 0.0, e2 = 0.0;
+			int rc = collide_pair(MD_LAW_LINEAR, sa, sb, tc / 200.0, &e1);
+			rc |= collide_pair(MD_LAW_LINEAR, sa, sb, tc / 400.0, &e2);
+			double ratio = (e1 - e) / (e2 - e), ex = 2.0 * e2 - e1;
+			ok(rc == 0 && fabs(ratio - 2.0) < 0.3 && fabs(ex - e) < 0.25 * fabs(e2 - e),
+			   "linear, pair %c%c: e %.6f at t_c/400, extrapolated %.7f = e_%c%c %.1f (first order: ratio %.3f)",
+			   'A' + sa, 'A' + sb, e2, ex, 'A' + sa, 'A' + sb, e, ratio);
+			/* hertz: the pair's alpha(e_ab) (the engine's bisection, read from a one-species probe with
+			 * restitution e_ab, with its dimensionless contact time tau); the bound of test_hertz_collision,
+			 * alpha (tau/N)^(5/4), at N = 100 steps per contact of this pair (its m_eff and R_eff) */
+			double x1[3] = {1, 1, 1}, alpha = 0.0, tau = 0.0;
+			md_params_t q = {0};
+			q.dim = 3;
+			q.n = 1;
+			q.radius = 0.5;
+			q.mass = 1.0;
+			q.box[0] = q.box[1] = q.box[2] = 3.0;
+			q.law = MD_LAW_HERTZ;
+			q.restitution = e;
+			q.young = 1e4;
+			q.v_ref = 1.0;
+			q.x = x1;
+			int err;
+			md_t *m1 = md_create(&q, &err);
+			if (m1) {
+				alpha = md_hertz_alpha(m1);
+				tau = md_contact_time(m1) / pow(0.5 / (4.0 / 3.0 * 1e4 * sqrt(0.25)), 0.4);
+			}
+			md_destroy(m1);
+			double reff = pair_R[sa] * pair_R[sb] / (pair_R[sa] + pair_R[sb]), kh = 4.0 / 3.0 * 1e4 * sqrt(reff);
+			double eh = 0.0, bound = alpha * pow(tau / 100.0, 1.25);
+			rc = collide_pair(MD_LAW_HERTZ, sa, sb, tau / 100.0 * pow(meff / kh, 0.4) * pow(2.0, -0.2), &eh);
+			ok(m1 && rc == 0 && fabs(eh - e) < bound, "hertz, pair %c%c: e %.6f = e_%c%c %.1f within alpha (tau/N)^(5/4) "
+			   "= %.1e (alpha %.4f, N = 100)", 'A' + sa, 'A' + sb, eh, 'A' + sa, 'A' + sb, e, bound, alpha);
+		}
+	/* the reference contact time that sets the default dt: the shortest, of the pair with the largest e (AA,
+	 * 0.9), between the two lightest particles (m_ref = 1/2) */
+	double x[6] = {2, 2, 2, 4, 2, 2}, r[2] = {0.5, 0.7}, m[2] = {1.0, 2.5};
+	int sp[2] = {0, 1}, err;
+	md_params_t p = {0};
+	p.dim = 3;
+	p.n = 2;
+	p.radii = r;
+	p.masses = m;
+	p.box[0] = p.box[1] = p.box[2] = 10.0;
+	p.restitution = 0.5;
+	p.kn = kn;
+	p.n_species = 2;
+	p.species = sp;
+	p.restitution_pair = pair_E;
+	p.x = x;
+	md_t *md = md_create(&p, &err);
+	double le = log(0.9), beta = -le / sqrt(PI * PI + le * le), tc = PI / sqrt(kn / 0.5 * (1.0 - beta * beta));
+	ok(md && fabs(md_contact_time(md) / tc - 1.0) < 1e-14, "restitution per pair: reference t_c %.8g = that of e 0.9 "
+	   "(%.8g)", md ? md_contact_time(md) : 0.0, tc);
+	md_destroy(md);
+	/* refusals: an asymmetric matrix, e = 0, a species out of range, rolling resistance without friction */
+	double bad[4] = {0.9, 0.6, 0.5, 0.3};
+	int refused = 0;
+	p.restitution_pair = bad;
+	refused += (md = md_create(&p, &err)) == NULL && err == MD_E_PARAM;
+	md_destroy(md);
+	bad[2] = 0.6;
+	bad[3] = 0.0;
+	refused += (md = md_create(&p, &err)) == NULL && err == MD_E_PARAM;
+	md_destroy(md);
+	p.restitution_pair = pair_E;
+	sp[1] = 2;
+	refused += (md = md_create(&p, &err)) == NULL && err == MD_E_PARAM;
+	md_destroy(md);
+	sp[1] = 1;
+	p.mu_r = 0.1;
+	refused += (md = md_create(&p, &err)) == NULL && err == MD_E_PARAM;
+	md_destroy(md);
+	p.mu = 0.5;
+	p.mu_r = -0.1;
+	refused += (md = md_create(&p, &err)) == NULL && err == MD_E_PARAM;
+	md_destroy(md);
+	ok(refused == 5, "refused: an asymmetric matrix, e = 0, a species out of range, mu_r without mu, mu_r < 0 (%d of 5)",
+	   refused);
+}
+
+/*
+ * Rolling resistance (EPSD): a disk (2D) / sphere (3D) of R = 0.5, m = 1 set rolling without slipping at
+ * v0 = 1 on a floor (g = 1, k_n = 1e5, mu = 0.5, e = 0.5), at the static overlap delta = m g / k_n so that
+ * f_n = m g. Fully mobilised, the rolling torque is mu_r R f_n (R_eff = R against a wall) and rolling
+ * without slipping about the contact point (lever arm l = R - delta) gives a = mu_r R m g l / (I + m l^2).
+ * Returns the deceleration between t = 1 and 3, the speed v1 at t = 1 and the distance from there to t = 30,
+ * x at t = 30 and 40, v at t = 40. (The start is not steady: the tangential spring, 0 at t = 0, has to take
+ * up the force m a of the steady roll; its damped transient, over by t = 1, costs the disk a little speed.)
+ */
+static int roll(int dim, double mu_r, double *acc, double *a_th, double *v1, double *travel, double *x30, double *x40,
+	double *v40)
+{
+	const double R = 0.5, m = 1.0, g = 1.0, kn = 1e5, v0 = 1.0, delta = m * g / kn, l = R - delta;
+	double x[3] = {5.0, R - delta, dim == 3 ? 5.0 : 0.0}, v[3] = {v0, 0, 0}, w[3] = {0, 0, -v0 / l};
+	md_params_t p = {0};
+	p.dim = dim;
+	p.n = 1;
+	p.radius = R;
+	p.mass = m;
+	p.box[0] = 60.0;
+	p.box[1] = p.box[2] = 10.0;
+	p.gravity[1] = -g;
+	p.restitution = 0.5;
+	p.kn = kn;
+	p.mu = 0.5;
+	p.mu_r = mu_r;
+	p.x = x;
+	p.v = v;
+	p.w = w;
+	int err;
+	md_t *md = md_create(&p, &err);
+	if (!md)
+		return err;
+	double I = (dim == 2 ? 0.5 : 0.4) * m * R * R;
+	*a_th = mu_r * R * m * g * l / (I + m * l * l);
+	const double dt = md_dt(md), *X = md_positions(md), *V = md_velocities(md);
+	err = md_step(md, llround(1.0 / dt));
+	double t1 = md_time(md), x1 = X[0];
+	*v1 = V[0];
+	if (!err)
+		err = md_step(md, llround(3.0 / dt) - llround(1.0 / dt));
+	*acc = (*v1 - V[0]) / (md_time(md) - t1);
+	if (!err)
+		err = md_step(md, llround(30.0 / dt) - llround(3.0 / dt));
+	*x30 = X[0];
+	*travel = X[0] - x1;
+	if (!err)
+		err = md_step(md, llround(40.0 / dt) - llround(30.0 / dt));
+	*x40 = X[0];
+	*v40 = V[0];
+	md_destroy(md);
+	return err;
+}
+
+static void test_rolling(void)
+{
+	for (int dim = 2; dim <= 3; dim++) {
+		const double mu_r = 0.1, R = 0.5, kn = 1e5, delta = 1.0 / kn, l = R - delta;
+		double acc, ath, v1, travel, x30, x40, v40;
+		int rc = roll(dim, mu_r, &acc, &ath, &v1, &travel, &x30, &x40, &v40);
+		/* constant torque and force: velocity Verlet integrates a constant acceleration exactly; the
+		 * tangential spring's start-up transient has decayed (its damping ratio 0.2 at e = 0.5, contact time
+		 * 0.01) long before t = 1, so the deceleration is the analytic one to rounding (bound 1e-9) */
+		ok(rc == 0 && fabs(acc / ath - 1.0) < 1e-9, "rolling %dD, mu_r 0.1: deceleration %.12f = mu_r R m g l / (I + m l^2) "
+		   "= %.12f", dim, acc, ath);
+		/* stopped v1^2 / (2 a) after t = 1, give or take the rolling spring's angle at the limit, mu_r R m g / k_r
+		 * (k_r = 2.25 k_n mu_r^2 R^2), times l, and the tangential spring's stretch m a / k_t it releases */
+		double kr = 2.25 * kn * mu_r * mu_r * R * R, tol = 2.0 * (l * mu_r * R / kr + ath / (2.0 / 7.0 * kn));
+		ok(rc == 0 && fabs(travel - v1 * v1 / (2.0 * ath)) < tol && fabs(x40 - x30) < 1e-9 && fabs(v40) < 1e-9,
+		   "rolling %dD: stops %.7f after t = 1 (v1^2 / 2a = %.7f, tolerance %.1e) and stays: moved %.1e from t = 30 "
+		   "to 40, v %.1e", dim, travel, v1 * v1 / (2.0 * ath), tol, x40 - x30, v40);
+		rc = roll(dim, 0.0, &acc, &ath, &v1, &travel, &x30, &x40, &v40);
+		ok(rc == 0 && fabs(v40 - 1.0) < 1e-9, "without rolling resistance the %s rolls on at v0: v %.12f at t = 40",
+		   dim == 2 ? "disk" : "sphere", v40);
+	}
+}
+
 static void test_linear_elastic(void)
 {
 	const double kn = 1e4, meff = 0.5;
@@ -617,34 +835,37 @@ static void angmom(const md_t *md, const double *m, const double *I, double *L)
 
 static void test_oblique(void)
 {
-	double r[2] = {0.5, 0.3}, m[2] = {1.0, 0.4}, I[2];
-	double x[6] = {4.0, 5.0, 5.0, 4.9, 5.5, 5.2}, v[6] = {1.0, 0.0, 0.1, -1.0, -0.2, 0.0}, w[6] = {0, 3, -2, 5, 0, 1};
-	for (int i = 0; i < 2; i++)
-		I[i] = 0.4 * m[i] * r[i] * r[i];
-	md_params_t p = {0};
-	p.dim = 3;
-	p.n = 2;
-	p.radii = r;
-	p.masses = m;
-	p.box[0] = p.box[1] = p.box[2] = 10.0;
-	p.law = MD_LAW_HERTZ;
-	p.restitution = 0.6;
-	p.young = 1e5;
-	p.v_ref = 2.0;
-	p.mu = 0.4;
-	p.x = x;
-	p.v = v;
-	p.w = w;
-	int err;
-	md_t *md = md_create(&p, &err);
-	double L0[3], L1[3], Lmag = 0.0, dL = 0.0;
-	angmom(md, m, I, L0);
-	md_energy_t e0, e1;
-	md_energy(md, &e0);
-	long touched = 0;
-	for (int s = 0; s < 4000 && !err; s++) {
-		err = md_step(md, 1);
-		touched += (long)md_contact_count(md);
+	/* roll 1: with rolling resistance (mu_r 0.3), whose torques on the two are opposite */
+	for (int roll = 0; roll < 2; roll++) {
+		double r[2] = {0.5, 0.3}, m[2] = {1.0, 0.4}, I[2];
+		double x[6] = {4.0, 5.0, 5.0, 4.9, 5.5, 5.2}, v[6] = {1.0, 0.0, 0.1, -1.0, -0.2, 0.0}, w[6] = {0, 3, -2, 5, 0, 1};
+		for (int i = 0; i < 2; i++)
+			I[i] = 0.4 * m[i] * r[i] * r[i];
+		md_params_t p = {0};
+		p.dim = 3;
+		p.n = 2;
+		p.radii = r;
+		p.masses = m;
+		p.box[0] = p.box[1] = p.box[2] = 10.0;
+		p.law = MD_LAW_HERTZ;
+		p.restitution = 0.6;
+		p.young = 1e5;
+		p.v_ref = 2.0;
+		p.mu = 0.4;
+		p.mu_r = roll ? 0.3 : 0.0;
+		p.x = x;
+		p.v = v;
+		p.w = w;
+		int err;
+		md_t *md = md_create(&p, &err);
+		double L0[3], L1[3], Lmag = 0.0, dL = 0.0;
+		angmom(md, m, I, L0);
+		md_energy_t e0, e1;
+		md_energy(md, &e0);
+		long touched = 0;
+		for (int s = 0; s < 4000 && !err; s++) {
+			err = md_step(md, 1);
+			touched += (long)md_contact_count(md);
 	}
 	angmom(md, m, I, L1);
 	md_energy(md, &e1);
@@ -655,11 +876,12 @@ static void test_oblique(void)
 	/* rounding only: a random walk of ~10 roundings of |x||p| ~ 5 per step over 4000 steps,
 	 * sqrt(4000) * 10 * 1.1e-16 * 5 ~ 4e-13: bound 5e-12 |L|. With lever arms R_i, R_j instead the
 	 * error would be delta * F_t * t_c, orders of magnitude larger. */
-	ok(err == 0 && touched > 10 && dL < 5e-12 * Lmag, "oblique frictional impact (%ld steps in contact): |dL| = %.2e of |L| %.2f",
-		touched, dL, Lmag);
+	ok(err == 0 && touched > 10 && dL < 5e-12 * Lmag, "oblique frictional impact%s (%ld steps in contact): |dL| = %.2e "
+	   "of |L| %.2f", roll ? " with rolling resistance" : "", touched, dL, Lmag);
 	double k0 = e0.kinetic + e0.rotational, k1 = e1.kinetic + e1.rotational;
 	ok(k1 < k0 && e1.elastic == 0.0, "and loses energy: %.4f -> %.4f, no contact left", k0, k1);
 	md_destroy(md);
+	}
 }
 
 /*
@@ -823,6 +1045,7 @@ static md_state_t state_take(const md_t *md, int n)
 	st.held = malloc((size_t)n * sizeof(int32_t));
 	st.partner = malloc((k + 1) * sizeof(int32_t));
 	st.xi = malloc(3 * (k + 1) * sizeof(double));
+	st.mr = calloc(3 * (k + 1), sizeof(double));   /* written with rolling resistance only */
 	md_state_get(md, &st);
 	return st;
 }
@@ -833,6 +1056,7 @@ static void state_free(md_state_t *st)
 	free(st->held);
 	free(st->partner);
 	free(st->xi);
+	free(st->mr);
 }
 
 static int state_same(const md_state_t *a, const md_state_t *b, int n)
@@ -843,7 +1067,8 @@ static int state_same(const md_state_t *a, const md_state_t *b, int n)
 	       !memcmp(a->wall_impulse, b->wall_impulse, sizeof a->wall_impulse) && !memcmp(a->x, b->x, 18 * (size_t)n * sizeof(double)) &&
 	       !memcmp(a->held, b->held, (size_t)n * sizeof(int32_t)) &&
 	       !memcmp(a->partner, b->partner, a->springs * sizeof(int32_t)) &&
-	       !memcmp(a->xi, b->xi, 3 * a->springs * sizeof(double));
+	       !memcmp(a->xi, b->xi, 3 * a->springs * sizeof(double)) &&
+	       !memcmp(a->mr, b->mr, 3 * a->springs * sizeof(double));
 }
 
 /*
@@ -857,7 +1082,13 @@ static void test_state(void)
 	const int nx = 6, nz = 6, n = 216;
 	const double a = 1.05;
 	static double x[3 * 216], v[3 * 216];
-	for (int law = 0; law < 2; law++) {
+	static int sp[216];
+	const double epair[4] = {0.9, 0.4, 0.4, 0.2};
+	for (int i = 0; i < n; i++)
+		sp[i] = i % 2;
+	/* law 2: linear with rolling resistance and a restitution per pair of two species (their springs and rolling
+	 * springs in the state) */
+	for (int law = 0; law < 3; law++) {
 		rng_state = 4242;
 		for (int i = 0; i < n; i++) {
 			int c[3] = {i % nx, i / (nx * nz), (i / nx) % nz};
@@ -876,8 +1107,14 @@ static void test_state(void)
 		p.box[2] = nz * a;
 		p.periodic[0] = p.periodic[2] = 1;
 		p.gravity[1] = -1.0;
-		p.law = law ? MD_LAW_HERTZ : MD_LAW_LINEAR;
+		p.law = law == 1 ? MD_LAW_HERTZ : MD_LAW_LINEAR;
 		p.restitution = 0.3;
+		if (law == 2) {
+			p.mu_r = 0.2;
+			p.n_species = 2;
+			p.species = sp;
+			p.restitution_pair = epair;
+		}
 		p.kn = 1e4;
 		p.young = 1e4;
 		p.v_ref = 5.0;
@@ -932,10 +1169,26 @@ static void test_state(void)
 			sb = state_take(B, n);
 			same = state_same(&sa, &sb, n);
 		}
-		ok(A && B && !err && !e2 && s0.springs > 0 && same,
-			"%s: state at t = 6 (%zu springs, %llu rebuilds) set into a blank system: same bits as the original "
-			"after %ld more steps (%zu springs)", law ? "hertz" : "linear", s0.springs,
+		double mrmax = 0.0;
+		for (size_t q = 0; q < 3 * s0.springs; q++)
+			mrmax = fmax(mrmax, fabs(s0.mr[q]));
+		ok(A && B && !err && !e2 && s0.springs > 0 && same && (law < 2 ? mrmax == 0.0 : mrmax > 0.0),
+			"%s: state at t = 6 (%zu springs, %llu rebuilds, largest rolling spring %.3g) set into a blank system: "
+			"same bits as the original after %ld more steps (%zu springs)",
+			law == 1 ? "hertz" : law ? "linear, rolling, restitution per pair" : "linear", s0.springs, mrmax,
 			(unsigned long long)s0.rebuilds, half, sa.springs);
+		if (law == 2 && B && s0.springs > 0) {   /* refusals: a rolling spring not finite, or none given */
+			double keep = s0.mr[0];
+			s0.mr[0] = NAN;
+			int bad = md_state_set(B, &s0);
+			s0.mr[0] = keep;
+			double *mr = s0.mr;
+			s0.mr = NULL;
+			int bad2 = md_state_set(B, &s0);
+			s0.mr = mr;
+			ok(bad == MD_E_PARAM && bad2 == MD_E_PARAM && md_state_set(B, &s0) == MD_OK,
+			   "rolling springs: a non-finite one or none at all refused (%d %d), the good state taken", bad, bad2);
+		}
 		if (law == 0 && B && s0.springs > 1) {
 			/* refusals: a partner twice, a wall on a periodic axis, a reference outside the periodic box */
 			int i = 0, q = 0, bad[3];
@@ -966,10 +1219,12 @@ static void test_state(void)
 
 int main(void)
 {
-	plan(47);
+	plan(65);
 	test_linear_collision();
 	test_linear_elastic();
 	test_hertz_collision();
+	test_pair_restitution();
+	test_rolling();
 	test_energy();
 	test_incline();
 	test_belt();

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #define MD_PI 3.14159265358979323846
+#define MD_ETA_R 0.3   /* rolling dashpot's damping ratio (Ai et al. 2011) */
 
 typedef struct {
 	int i, j;
@@ -24,6 +25,13 @@ struct md {
 	double *x, *v, *w, *f, *t, *xref;
 	double *r, *m, *im, *iI;
 	double e, beta, kn, young, alpha, mu, ktr, sqrt_ktr;
+	int pairwise, ns;        /* restitution per pair of species: species of each particle, damp[a * ns + b] the */
+	int *sp;                 /* pair's beta (linear) or alpha (hertz) */
+	double damp[MD_SPECIES_MAX * MD_SPECIES_MAX];
+	int rolling;             /* mu_r > 0: rolling springs rold/rnew, 3 per slot, swapped with hold/hnew */
+	double mu_r;
+	double *rold, *rnew;
+	double *iroll;           /* 1 / (I_i + m_i R_i^2): the rolling inertia about the contact point, inverse */
 	double dt, tc, skin, rmax;
 	md_pair_t *pairs;
 	size_t np, capp;
@@ -65,6 +73,23 @@ static inline void cross3(const double *a, const double *b, double *c)
 	c[2] = a[0] * b[1] - a[1] * b[0];
 }
 
+/* A spring held from the last pass rotated into the tangent plane of normal n, its length kept. */
+static inline void tangent_keep(double *x, const double *n)
+{
+	double l2 = dot3(x, x);
+	if (l2 > 0.0) {
+		double xn = dot3(x, n);
+		for (int a = 0; a < 3; a++)
+			x[a] -= xn * n[a];
+		double p2 = dot3(x, x);
+		if (p2 > 0.0) {
+			double sc = sqrt(l2 / p2);
+			for (int a = 0; a < 3; a++)
+				x[a] *= sc;
+		}
+	}
+}
+
 /*
  * Hertz with Tsuji damping in units of the impact: X'' = -X^(3/2) - alpha
  * X^(1/4) X', X(0) = 0, X'(0) = 1, RK4 with step h; returns e = -X' when X
@@ -100,6 +125,30 @@ static double hertz_restitution(double alpha, double *tau)
 	}
 	*tau = INFINITY;
 	return 0.0;
+}
+
+/* alpha(e) of the hertz law by bisection: e(alpha) decreases from 1 at alpha = 0. */
+static double hertz_alpha(double e)
+{
+	double lo = 0.0, hi = 1.0, tau;
+	if (!(e < 1.0))
+		return 0.0;
+	while (hertz_restitution(hi, &tau) > e && hi < 1e3)
+		hi *= 2.0;
+	for (int it = 0; it < 60 && hi - lo > 1e-12 * hi; it++) {
+		double mid = 0.5 * (lo + hi);
+		if (hertz_restitution(mid, &tau) > e)
+			lo = mid;
+		else
+			hi = mid;
+	}
+	return 0.5 * (lo + hi);
+}
+
+static double restitution_beta(double e)
+{
+	double le = log(e);
+	return -le / sqrt(MD_PI * MD_PI + le * le);
 }
 
 const char *md_strerror(int code)
@@ -235,29 +284,36 @@ static int rebuild(md_t *md)
 
 /*
  * One contact: i against partner (j >= 0 or a wall code), normal n from i to
- * the partner, overlap delta, relative contact velocity vrel (of i's
- * surface relative to the partner's), lever arms li, lj from the centres to
- * the contact point. Returns the force on i in fc (on j: -fc) and adds the
+ * the partner, overlap delta, damping coefficient damp (beta for the linear
+ * law, alpha for hertz), relative contact velocity vrel (of i's surface
+ * relative to the partner's), lever arms li, lj from the centres to the
+ * contact point; rolling: the relative spin wr (w_i - w_j) and the pair's
+ * rolling inertia ir. Returns the force on i in fc (on j: -fc) and adds the
  * torques about each centre to ti and tj (tj NULL for a wall).
  */
-static inline int contact(md_t *md, const int law, const int friction, int i, int partner, const double *n,
-	double delta, double meff, double reff, const double *vrel, double li, double lj, double dth, double *fc,
-	double *ti, double *tj)
+static inline __attribute__((always_inline)) int contact(md_t *md, const int law, const int friction,
+	const int rolling, int i, int partner, const double *n, double delta, double meff, double reff, double damp,
+	const double *vrel, const double *wr, double ir, double li, double lj, double dth, double *fc, double *ti,
+	double *tj)
 {
 	double vn = dot3(vrel, n);
-	double fn, eta, kt = 0.0;
+	double fn, eta, kt = 0.0, kN = 0.0;
 	if (law == MD_LAW_LINEAR) {
-		eta = 2.0 * md->beta * sqrt(md->kn * meff);
+		eta = 2.0 * damp * sqrt(md->kn * meff);
 		fn = md->kn * delta + eta * vn;
 		if (friction)
 			kt = md->ktr * md->kn;
+		if (rolling)
+			kN = md->kn;
 	} else {
 		double sd = sqrt(delta);
 		double kh = 4.0 / 3.0 * md->young * sqrt(reff);
-		eta = md->alpha * sqrt(meff * kh) * sqrt(sd);
+		eta = damp * sqrt(meff * kh) * sqrt(sd);
 		fn = kh * delta * sd + eta * vn;
 		if (friction)
 			kt = md->ktr * 1.5 * kh * sd;
+		if (rolling)
+			kN = 1.5 * kh * sd;
 	}
 	for (int a = 0; a < 3; a++)
 		fc[a] = -fn * n[a];
@@ -266,8 +322,10 @@ static inline int contact(md_t *md, const int law, const int friction, int i, in
 		return MD_OK;
 	double xi[3] = {0.0, 0.0, 0.0};
 	const md_slot_t *old = md->hold + (size_t)i * md->slots;
+	int ko = -1;
 	for (int k = 0; k < md->nold[i]; k++)
 		if (old[k].partner == partner) {
+			ko = k;
 			memcpy(xi, old[k].xi, sizeof(xi));
 			double l2 = dot3(xi, xi);
 			if (l2 > 0.0) {
@@ -308,8 +366,37 @@ static inline int contact(md_t *md, const int law, const int friction, int i, in
 		if (tj)
 			tj[a] += lj * tq[a];
 	}
+	double mr[3] = {0.0, 0.0, 0.0};
+	if (rolling) {   /* EPSD (md.h): spring cut at mu_r R_eff f_n, dashpot below the cut */
+		if (ko >= 0) {
+			memcpy(mr, md->rold + 3 * ((size_t)i * md->slots + ko), sizeof(mr));
+			tangent_keep(mr, n);
+		}
+		double kr = 2.25 * kN * md->mu_r * md->mu_r * reff * reff, wrn = dot3(wr, n), wt[3], tr[3];
+		for (int a = 0; a < 3; a++) {
+			wt[a] = wr[a] - wrn * n[a];
+			mr[a] -= kr * wt[a] * dth;
+		}
+		double mlim = md->mu_r * reff * (fn > 0.0 ? fn : 0.0), m2 = dot3(mr, mr);
+		if (m2 > mlim * mlim) {
+			double sc = mlim / sqrt(m2);
+			for (int a = 0; a < 3; a++)
+				tr[a] = mr[a] *= sc;
+		} else {
+			double cr = 2.0 * MD_ETA_R * sqrt(ir * kr);
+			for (int a = 0; a < 3; a++)
+				tr[a] = mr[a] - cr * wt[a];
+		}
+		for (int a = 0; a < 3; a++) {
+			ti[a] += tr[a];
+			if (tj)
+				tj[a] -= tr[a];
+		}
+	}
 	if (md->nnew[i] >= md->slots)
 		return MD_E_CONTACTS;
+	if (rolling)
+		memcpy(md->rnew + 3 * ((size_t)i * md->slots + md->nnew[i]), mr, sizeof(mr));
 	md_slot_t *s = md->hnew + (size_t)i * md->slots + md->nnew[i]++;
 	s->partner = partner;
 	memcpy(s->xi, xi, sizeof(xi));
@@ -318,13 +405,20 @@ static inline int contact(md_t *md, const int law, const int friction, int i, in
 
 /* Forces and torques at the current positions (time t); dth is the time since the last pass (spring
  * increments), tv the time of the velocities (t - dt/2 in a step: the walls' velocities are taken then). */
-static inline int forces_impl(md_t *md, double dth, double t, double tv, const int law, const int friction)
+static inline __attribute__((always_inline)) int forces_impl(md_t *md, double dth, double t, double tv,
+	const int law, const int friction, const int pairwise, const int rolling)
 {
 	const int n = md->n;
 	int rc = MD_OK;
+	const double damp0 = law == MD_LAW_LINEAR ? md->beta : md->alpha;   /* walls, obstacles, one restitution */
 	md_slot_t *hs = md->hold;
 	md->hold = md->hnew;
 	md->hnew = hs;
+	if (rolling) {
+		double *rs = md->rold;
+		md->rold = md->rnew;
+		md->rnew = rs;
+	}
 	int *ns = md->nold;
 	md->nold = md->nnew;
 	md->nnew = ns;
@@ -358,8 +452,15 @@ static inline int forces_impl(md_t *md, double dth, double t, double tv, const i
 			vrel[a] = md->v[3 * i + a] - md->v[3 * j + a] + (friction ? wxn[a] : 0.0);
 		double meff = md->m[i] * md->m[j] / (md->m[i] + md->m[j]);
 		double reff = ri * rj / sr;
-		int e = contact(md, law, friction, i, j, nv, sr - dist, meff, reff, vrel, li, lj, dth, fc, md->t + 3 * i,
-			md->t + 3 * j);
+		double dmp = pairwise ? md->damp[md->sp[i] * md->ns + md->sp[j]] : damp0;
+		double wr[3] = {0.0, 0.0, 0.0}, ir = 0.0;
+		if (rolling) {
+			for (int a = 0; a < 3; a++)
+				wr[a] = md->w[3 * i + a] - md->w[3 * j + a];
+			ir = 1.0 / (md->iroll[i] + md->iroll[j]);
+		}
+		int e = contact(md, law, friction, rolling, i, j, nv, sr - dist, meff, reff, dmp, vrel, wr, ir, li, lj, dth,
+			fc, md->t + 3 * i, md->t + 3 * j);
 		if (e)
 			rc = e;
 		for (int a = 0; a < 3; a++) {
@@ -397,8 +498,9 @@ static inline int forces_impl(md_t *md, double dth, double t, double tv, const i
 				cross3(md->w + 3 * i, nv, wxn);
 				for (int b = 0; b < 3; b++)
 					vrel[b] = (md->v[3 * i + b] + (friction ? li * wxn[b] : 0.0)) - wvel[wl][b];
-				int e = contact(md, law, friction, i, -1 - (2 * a + side), nv, delta, md->m[i], ri, vrel, li, 0.0,
-					dth, fc, md->t + 3 * i, NULL);
+				double ir = rolling ? 1.0 / md->iroll[i] : 0.0;
+				int e = contact(md, law, friction, rolling, i, -1 - (2 * a + side), nv, delta, md->m[i], ri, damp0,
+					vrel, md->w + 3 * i, ir, li, 0.0, dth, fc, md->t + 3 * i, NULL);
 				if (e)
 					rc = e;
 				for (int b = 0; b < 3; b++)
@@ -426,8 +528,9 @@ static inline int forces_impl(md_t *md, double dth, double t, double tv, const i
 				cross3(md->w + 3 * i, nv, wxn);
 				for (int b = 0; b < 3; b++)
 					vrel[b] = md->v[3 * i + b] + (friction ? li * wxn[b] : 0.0);
-				int e = contact(md, law, friction, i, -7 - k, nv, delta, md->m[i], ri * md->orad[k] / sr, vrel, li,
-					0.0, dth, fc, md->t + 3 * i, NULL);
+				double ir = rolling ? 1.0 / md->iroll[i] : 0.0;
+				int e = contact(md, law, friction, rolling, i, -7 - k, nv, delta, md->m[i], ri * md->orad[k] / sr,
+					damp0, vrel, md->w + 3 * i, ir, li, 0.0, dth, fc, md->t + 3 * i, NULL);
 				if (e)
 					rc = e;
 				for (int b = 0; b < 3; b++) {
@@ -439,12 +542,21 @@ static inline int forces_impl(md_t *md, double dth, double t, double tv, const i
 	return rc;
 }
 
+/* The force pass specialised at create (law, friction, restitution per pair, rolling): no test of them per
+ * contact. */
+static inline __attribute__((always_inline)) int forces_law(md_t *md, double dth, double t, double tv, const int law)
+{
+	if (!md->friction)
+		return md->pairwise ? forces_impl(md, dth, t, tv, law, 0, 1, 0) : forces_impl(md, dth, t, tv, law, 0, 0, 0);
+	if (!md->rolling)
+		return md->pairwise ? forces_impl(md, dth, t, tv, law, 1, 1, 0) : forces_impl(md, dth, t, tv, law, 1, 0, 0);
+	return md->pairwise ? forces_impl(md, dth, t, tv, law, 1, 1, 1) : forces_impl(md, dth, t, tv, law, 1, 0, 1);
+}
+
 static int forces(md_t *md, double dth, double t, double tv)
 {
-	if (md->law == MD_LAW_LINEAR)
-		return md->friction ? forces_impl(md, dth, t, tv, MD_LAW_LINEAR, 1) :
-				      forces_impl(md, dth, t, tv, MD_LAW_LINEAR, 0);
-	return md->friction ? forces_impl(md, dth, t, tv, MD_LAW_HERTZ, 1) : forces_impl(md, dth, t, tv, MD_LAW_HERTZ, 0);
+	return md->law == MD_LAW_LINEAR ? forces_law(md, dth, t, tv, MD_LAW_LINEAR) :
+					  forces_law(md, dth, t, tv, MD_LAW_HERTZ);
 }
 
 void md_destroy(md_t *md)
@@ -459,6 +571,10 @@ void md_destroy(md_t *md)
 	free(md->hnew);
 	free(md->nold);
 	free(md->nnew);
+	free(md->sp);
+	free(md->rold);
+	free(md->rnew);
+	free(md->iroll);
 	free(md);
 }
 
@@ -471,6 +587,23 @@ md_t *md_create(const md_params_t *p, int *err)
 	if (!(p->restitution > 0.0 && p->restitution <= 1.0) || !(p->mu >= 0.0) || !(p->kt_ratio >= 0.0) ||
 		!(p->dt >= 0.0) || !(p->dt_steps >= 0.0) || !(p->skin >= 0.0) || p->max_contacts < 0)
 		goto cleanup;
+	/* rolling resistance acts in the tangential springs' slots: with friction only */
+	if (!(p->mu_r >= 0.0) || !isfinite(p->mu_r) || (p->mu_r > 0.0 && !(p->mu > 0.0)))
+		goto cleanup;
+	if (p->restitution_pair) {
+		const int ns = p->n_species;
+		if (ns < 1 || ns > MD_SPECIES_MAX || !p->species)
+			goto cleanup;
+		for (int a = 0; a < ns; a++)
+			for (int b = 0; b < ns; b++) {
+				double e = p->restitution_pair[a * ns + b];
+				if (!(e > 0.0 && e <= 1.0) || e != p->restitution_pair[b * ns + a])
+					goto cleanup;
+			}
+		for (int i = 0; i < p->n; i++)
+			if (p->species[i] < 0 || p->species[i] >= ns)
+				goto cleanup;
+	}
 	if (p->law != MD_LAW_LINEAR && p->law != MD_LAW_HERTZ)
 		goto cleanup;
 	for (int a = 0; a < p->dim; a++)
@@ -488,6 +621,10 @@ md_t *md_create(const md_params_t *p, int *err)
 	md->law = p->law;
 	md->mu = p->mu;
 	md->friction = p->mu > 0.0;
+	md->rolling = p->mu_r > 0.0;
+	md->mu_r = p->mu_r;
+	md->pairwise = p->restitution_pair != NULL;
+	md->ns = md->pairwise ? p->n_species : 0;
 	md->ktr = p->kt_ratio > 0.0 ? p->kt_ratio : 2.0 / 7.0;
 	md->sqrt_ktr = sqrt(md->ktr);
 	md->slots = p->max_contacts > 0 ? p->max_contacts : (p->dim == 2 ? 8 : 12);
@@ -546,6 +683,14 @@ md_t *md_create(const md_params_t *p, int *err)
 	md->nnew = calloc((size_t)n, sizeof(int));
 	if (!md->x || !md->next || !md->hold || !md->hnew || !md->nold || !md->nnew)
 		goto cleanup;
+	if (md->pairwise && !(md->sp = malloc((size_t)n * sizeof(int))))
+		goto cleanup;
+	if (md->rolling && (!(md->rold = calloc((size_t)n * md->slots * 3, sizeof(double))) ||
+			    !(md->rnew = calloc((size_t)n * md->slots * 3, sizeof(double))) ||
+			    !(md->iroll = calloc((size_t)n, sizeof(double)))))
+		goto cleanup;
+	if (md->pairwise)
+		memcpy(md->sp, p->species, (size_t)n * sizeof(int));
 	md->v = md->x + 3 * (size_t)n;
 	md->w = md->v + 3 * (size_t)n;
 	md->f = md->w + 3 * (size_t)n;
@@ -567,6 +712,8 @@ md_t *md_create(const md_params_t *p, int *err)
 		md->m[i] = m;
 		md->im[i] = 1.0 / m;
 		md->iI[i] = 1.0 / ((p->dim == 2 ? 0.5 : 0.4) * m * r * r);
+		if (md->rolling)
+			md->iroll[i] = 1.0 / ((p->dim == 2 ? 0.5 : 0.4) * m * r * r + m * r * r);
 		if (r > md->rmax)
 			md->rmax = r;
 		if (m < mmin)
@@ -586,6 +733,14 @@ md_t *md_create(const md_params_t *p, int *err)
 	md->e = e;
 	md->beta = -le / sqrt(MD_PI * MD_PI + le * le);
 	double mref = 0.5 * mmin;
+	/* restitution per pair: each pair's damping; the shortest contact time (the largest e) sets dt */
+	double emax = e;
+	for (int a = 0; a < md->ns; a++)
+		for (int b = 0; b < md->ns; b++) {
+			double eab = p->restitution_pair[a * md->ns + b];
+			md->damp[a * md->ns + b] = p->law == MD_LAW_LINEAR ? restitution_beta(eab) : hertz_alpha(eab);
+			emax = fmax(emax, eab);
+		}
 	if (p->law == MD_LAW_LINEAR) {
 		if (p->kn > 0.0)
 			md->kn = p->kn;
@@ -595,26 +750,15 @@ md_t *md_create(const md_params_t *p, int *err)
 			goto cleanup;
 		if (!isfinite(md->kn))
 			goto cleanup;
-		md->tc = MD_PI / sqrt(md->kn / mref * (1.0 - md->beta * md->beta));
+		double bref = emax > e ? restitution_beta(emax) : md->beta;
+		md->tc = MD_PI / sqrt(md->kn / mref * (1.0 - bref * bref));
 	} else {
 		if (!(p->young > 0.0) || !isfinite(p->young))
 			goto cleanup;
 		md->young = p->young;
-		/* alpha(e) by bisection: e(alpha) decreases from 1 at alpha = 0 */
-		double lo = 0.0, hi = 1.0, tau;
-		if (e < 1.0) {
-			while (hertz_restitution(hi, &tau) > e && hi < 1e3)
-				hi *= 2.0;
-			for (int it = 0; it < 60 && hi - lo > 1e-12 * hi; it++) {
-				double mid = 0.5 * (lo + hi);
-				if (hertz_restitution(mid, &tau) > e)
-					lo = mid;
-				else
-					hi = mid;
-			}
-			md->alpha = 0.5 * (lo + hi);
-		}
-		hertz_restitution(md->alpha, &tau);
+		double tau;
+		md->alpha = hertz_alpha(e);
+		hertz_restitution(emax > e ? hertz_alpha(emax) : md->alpha, &tau);
 		if (p->dt <= 0.0 && (!(p->v_ref > 0.0) || !isfinite(p->v_ref)))
 			goto cleanup;
 		if (p->v_ref > 0.0 && isfinite(p->v_ref)) {
@@ -753,7 +897,9 @@ void md_wall_reset(md_t *md)
 size_t md_memory(const md_t *md)
 {
 	return sizeof(*md) + (size_t)md->n * (22 * sizeof(double) + 3 * sizeof(int)) +
-	       2 * (size_t)md->n * md->slots * sizeof(md_slot_t) + md->capp * sizeof(md_pair_t) + md->ncell * sizeof(int);
+	       2 * (size_t)md->n * md->slots * sizeof(md_slot_t) + md->capp * sizeof(md_pair_t) + md->ncell * sizeof(int) +
+	       (md->pairwise ? (size_t)md->n * sizeof(int) : 0) +
+	       (md->rolling ? (6 * (size_t)md->n * md->slots + (size_t)md->n) * sizeof(double) : 0);
 }
 
 size_t md_springs(const md_t *md)
@@ -782,6 +928,8 @@ void md_state_get(const md_t *md, md_state_t *st)
 				st->partner[q] = sl[k].partner;
 			if (st->xi)
 				memcpy(st->xi + 3 * q, sl[k].xi, sizeof(sl[k].xi));
+			if (st->mr && md->rolling)
+				memcpy(st->mr + 3 * q, md->rnew + 3 * ((size_t)i * md->slots + k), 3 * sizeof(double));
 		}
 	}
 	st->springs = q;
@@ -807,7 +955,8 @@ int md_state_set(md_t *md, const md_state_t *st)
 	for (int k = 0; k < 6; k++)
 		if (!src[k])
 			return MD_E_PARAM;
-	if (!st->held || (st->springs && (!st->partner || !st->xi)) || st->steps > (uint64_t)1 << 62 ||
+	if (!st->held || (st->springs && (!st->partner || !st->xi || (md->rolling && !st->mr))) ||
+	    st->steps > (uint64_t)1 << 62 ||
 	    st->rebuilds < 1 || st->rebuilds > st->steps + 1)
 		return MD_E_PARAM;
 	for (size_t q = 0; q < (size_t)n * 3; q++) {
@@ -837,6 +986,10 @@ int md_state_set(md_t *md, const md_state_t *st)
 					return MD_E_PARAM;
 			for (int b = 0; b < 3; b++)
 				if (!isfinite(st->xi[3 * (q + k) + b]) || (D == 2 && b == 2 && st->xi[3 * (q + k) + b] != 0.0))
+					return MD_E_PARAM;
+			/* rolling springs: torques, about z in 2D */
+			for (int b = 0; b < 3 && md->rolling; b++)
+				if (!isfinite(st->mr[3 * (q + k) + b]) || (D == 2 && b < 2 && st->mr[3 * (q + k) + b] != 0.0))
 					return MD_E_PARAM;
 		}
 		q += (size_t)h;
@@ -875,6 +1028,8 @@ int md_state_set(md_t *md, const md_state_t *st)
 		for (int k = 0; k < md->nnew[i]; k++, q++) {
 			sl[k].partner = st->partner[q];
 			memcpy(sl[k].xi, st->xi + 3 * q, sizeof(sl[k].xi));
+			if (md->rolling)
+				memcpy(md->rnew + 3 * ((size_t)i * md->slots + k), st->mr + 3 * q, 3 * sizeof(double));
 		}
 	}
 	md->steps = (long)st->steps;
@@ -883,23 +1038,30 @@ int md_state_set(md_t *md, const md_state_t *st)
 	return build_pairs(md);
 }
 
-/* Elastic energy of one contact: normal potential and the tangential spring of its slot (if any). */
+/* Elastic energy of one contact: normal potential and the tangential (and rolling) spring of its slot (if
+ * any). */
 static double contact_energy(const md_t *md, int i, int partner, double delta, double reff)
 {
-	double en, kt;
+	double en, kt, kN;
 	if (md->law == MD_LAW_LINEAR) {
 		en = 0.5 * md->kn * delta * delta;
 		kt = md->ktr * md->kn;
+		kN = md->kn;
 	} else {
 		double kh = 4.0 / 3.0 * md->young * sqrt(reff), sd = sqrt(delta);
 		en = 0.4 * kh * delta * delta * sd;
 		kt = md->ktr * 1.5 * kh * sd;
+		kN = 1.5 * kh * sd;
 	}
 	if (md->friction) {
 		const md_slot_t *s = md->hnew + (size_t)i * md->slots;
 		for (int k = 0; k < md->nnew[i]; k++)
 			if (s[k].partner == partner) {
 				en += 0.5 * kt * dot3(s[k].xi, s[k].xi);
+				if (md->rolling) {
+					const double *mr = md->rnew + 3 * ((size_t)i * md->slots + k);
+					en += 0.5 * dot3(mr, mr) / (2.25 * kN * md->mu_r * md->mu_r * reff * reff);
+				}
 				break;
 			}
 	}

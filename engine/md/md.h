@@ -48,6 +48,26 @@
  *   lower index; walls by the particle); more contacts -> MD_E_CONTACTS.
  *   mu = 0: no tangential force and no spin change (the code path has no
  *   friction terms; chosen at create).
+ * - Restitution per pair of species (params.restitution_pair): each pair's
+ *   damping from its own e by the rules above (linear beta(e_ab), hertz
+ *   alpha(e_ab) by the same bisection), with its own m_eff; walls and
+ *   obstacles with params.restitution. The reference contact time (below)
+ *   is then the shortest over the pairs' and the walls' restitutions. Chosen
+ *   at create: without it the pair loop has no species look-up.
+ * - Rolling resistance, when mu_r > 0 (the elastic-plastic spring-dashpot
+ *   model, EPSD, "model type C" of Ai, Chen, Rotter & Ooi, Powder Technol.
+ *   206 (2011) 269): a rolling spring M per contact (in the slot of the
+ *   tangential spring, rotated into the tangent plane as xi), the relative
+ *   rolling rotation w_r = (w_i - w_j) minus its normal component (wall,
+ *   obstacle: w_j = 0); M -= k_r w_r dt, k_r = 2.25 k_N mu_r^2 R_eff^2
+ *   (k_N = k_n, hertz 3/2 k_h sqrt(delta)); if |M| > mu_r R_eff max(f_n, 0)
+ *   it is cut to that bound (full mobilisation, no damping), else a dashpot
+ *   -C_r w_r is added, C_r = 2 eta_r sqrt(I_r k_r), eta_r = 0.3 (Ai et al.),
+ *   I_r = 1 / (1/(I_i + m_i R_i^2) + 1/(I_j + m_j R_j^2)) (wall: I_i +
+ *   m_i R_i^2). Torque +M on i, -M on j (angular momentum conserved). A
+ *   disk/sphere rolling on a floor then decelerates at a = mu_r R f_n l /
+ *   (I + m l^2) (l = R - delta the lever arm) and stops. mu_r = 0: no
+ *   rolling code in the force loop (chosen at create).
  * - Moments of inertia: disk m R^2 / 2 (2D), sphere 2/5 m R^2 (3D).
  * - Time step: dt = params.dt if > 0, else t_c / dt_steps (default 50), t_c
  *   the contact time of the stiffest reference pair: the two lightest
@@ -70,8 +90,9 @@
  *   first half-kick uses them), the Verlet list's reference positions (the
  *   positions of its last build, wrapped into the box), the tangential
  *   springs held (per particle: their number, then each one's partner and
- *   spring vector, in slot order), the step, build and contact counters and
- *   the walls' forces and impulses (md_walls()).
+ *   spring vector, in slot order; with mu_r > 0 each one's rolling
+ *   spring), the step, build and contact counters and the walls' forces
+ *   and impulses (md_walls()).
  *   The pair list is not state: md_state_set() builds it again from the
  *   reference positions, which is what the last build computed. A system
  *   given a state taken from another (same parameters) continues with the
@@ -81,6 +102,7 @@
 typedef struct md md_t;
 
 #define MD_OBSTACLES_MAX 16
+#define MD_SPECIES_MAX 16
 
 enum {
 	MD_OK = 0,
@@ -122,13 +144,21 @@ typedef struct {
 	double obstacle_center[16][3];
 	double obstacle_radius[16];
 	md_law_t law;
-	double restitution;      /* e in (0, 1] */
+	double restitution;      /* e in (0, 1]: the walls' and obstacles', and every pair's without restitution_pair */
+	/* Restitution per pair of species (optional): species[i] in [0, n_species) for each particle and
+	 * restitution_pair[a * n_species + b] (symmetric, each in (0, 1]) the e of the pairs (a, b), from which
+	 * their damping is derived as from restitution (contract); walls and obstacles keep restitution.
+	 * restitution_pair NULL: restitution for every pair (species then unused). */
+	int n_species;           /* 1 ... MD_SPECIES_MAX when restitution_pair is given */
+	const int *species;
+	const double *restitution_pair;
 	double kn;               /* linear: normal stiffness (force/length), or 0 ... */
 	double t_contact;        /* ... linear: contact time of the reference pair instead */
 	double young;            /* hertz: E*, f = 4/3 E* sqrt(R_eff) delta^(3/2) */
 	double v_ref;            /* hertz: impact speed that sets t_c (for dt) */
 	double mu;               /* Coulomb friction coefficient, >= 0 */
 	double kt_ratio;         /* k_t / k_n; 0 -> 2/7 */
+	double mu_r;             /* rolling resistance coefficient (EPSD, contract), >= 0; > 0 needs mu > 0 */
 	double dt;               /* > 0: fixed step; 0 -> t_c / dt_steps */
 	double dt_steps;         /* 0 -> 50 */
 	double skin;             /* Verlet skin; 0 -> 0.2 R_max */
@@ -170,14 +200,16 @@ long md_rebuilds(const md_t *md);
 void md_energy(const md_t *md, md_energy_t *out);
 
 /* The dynamic state (see the contract). Arrays have 3n doubles (x ... xref), n (held), springs (partner)
- * and 3 springs (xi) entries; springs = sum of held. Partner: j > i for a pair (the lower index holds it),
- * -1 - (2 axis + side) for a wall (side 0 lower, 1 upper), -1 - (6 + k) for obstacle k. */
+ * and 3 springs (xi, and mr with mu_r > 0) entries; springs = sum of held. Partner: j > i for a pair (the
+ * lower index holds it), -1 - (2 axis + side) for a wall (side 0 lower, 1 upper), -1 - (6 + k) for obstacle
+ * k. */
 typedef struct {
 	double *x, *v, *w, *f, *t, *xref;
 	int32_t *held;
 	size_t springs;
 	int32_t *partner;
 	double *xi;
+	double *mr;              /* 3 springs: the rolling springs (params.mu_r > 0; else unused, may be NULL) */
 	uint64_t steps, rebuilds, contacts;
 	double wall_force[6][3];     /* md_walls(): the walls' forces at the last force pass, */
 	double wall_impulse[6][3];   /* their impulses since the last md_wall_reset() */
@@ -211,11 +243,11 @@ size_t md_memory(const md_t *md);
 size_t md_springs(const md_t *md);
 /* Copies the state into the non-NULL arrays of st and sets its springs and counters. */
 void md_state_get(const md_t *md, md_state_t *st);
-/* Sets the whole state (every array required) and rebuilds the pair list from xref. MD_OK; MD_E_PARAM
- * when it cannot be a state of this system (non-finite values, a reference position outside the box on a
- * periodic axis, held out of [0, max_contacts], a partner out of range, twice in one particle's slots, or
- * a wall on a periodic axis, springs not the sum of held); MD_E_NOMEM. The state is unusable after an
- * error. */
+/* Sets the whole state (every array required; mr with mu_r > 0) and rebuilds the pair list from xref.
+ * MD_OK; MD_E_PARAM when it cannot be a state of this system (non-finite values, a reference position
+ * outside the box on a periodic axis, held out of [0, max_contacts], a partner out of range, twice in one
+ * particle's slots, or a wall on a periodic axis, springs not the sum of held, in 2D a rolling spring off
+ * the z axis); MD_E_NOMEM. The state is unusable after an error. */
 int md_state_set(md_t *md, const md_state_t *st);
 
 const char *md_strerror(int code);
