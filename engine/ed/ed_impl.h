@@ -724,7 +724,7 @@ static int FN(scan_two_impl)(struct ed *ed, uint32_t i, uint32_t j)
 }
 
 /* Only on grids of more than OCC_MIN_CELLS cells (with the occupancy bitmap), where the cells' heads and
- * records are cache misses: there reading the shared cells once pays (measured: +4% at N = 10^5 and
+ * records are cache misses: there reading the shared cells once pays (measured: +3-4% at N = 10^5 and
  * 10^6, volume fraction 0.1); on smaller grids, all in cache, the two scans of scan_full() were as fast
  * or faster (0.98). Returns 0 where it did nothing. */
 static int FN(scan_two)(struct ed *ed, uint32_t i, uint32_t j)
