@@ -601,6 +601,138 @@ static void FN(scan_layer)(struct ed *ed, uint32_t i, int a, int dir)
 		else FN(scan_impl)(ed, i, offs, no, 0, 0);
 	}
 }
+
+/* After a collision of i and j (periodic grid of >= 3 cells a side, both synchronised at time t, no
+ * stored predictions: scan_full's start): both new predictions from one walk over the union of their
+ * 3^D blocks, whose cells neighbour each other (a contact pair's cells differ by at most one on each
+ * axis). The union is walked in the order of the offsets from i's cell, so each particle meets its own
+ * cells in the order of its own scan_block() and, with the same strict test per candidate, finds the
+ * same partner: bit-identical to two scan_full() calls. A cell of both blocks is read once. Returns 0
+ * (nothing done) when the cells are further apart (a position a rounding error outside its cell). */
+static int FN(scan_two_impl)(struct ed *ed, uint32_t i, uint32_t j)
+{
+	const P_T *restrict P = ed->p;
+	ev_t *ei = &ed->ev[i], *ej = &ed->ev[j];
+	const int32_t *restrict head = ed->head;
+	const uint64_t *restrict occ = ed->occ;
+	int32_t cell[3][4] = {{0}};    /* per axis and union offset: contribution to the cell index */
+	double shi[3][4] = {{0.0}};    /* periodic shift seen from i's cell, from j's */
+	double shj[3][4] = {{0.0}};
+	uint8_t in[3][4] = {{0}};      /* bit 0: in i's block, bit 1: in j's */
+	int no[3] = {1, 1, 1};
+	int32_t stride = 1;
+	for (int a = 0; a < D; a++) {
+		const int32_t n = ed->nc[a], ci = ei->cc[a], cj = ej->cc[a];
+		int32_t d = cj - ci;
+		if (d == n - 1) d = -1;
+		else if (d == 1 - n) d = 1;
+		if (d < -1 || d > 1)
+			return 0;
+		const int lo = d < 0 ? -2 : -1;
+		no[a] = 3 + (d != 0);
+		for (int k = 0; k < no[a]; k++) {
+			const int o = lo + k;
+			int32_t c = ci + o;
+			double s = 0.0;
+			if (c < 0) c += n, s = -ed->L[a];
+			else if (c >= n) c -= n, s = ed->L[a];
+			cell[a][k] = c * stride;
+			shi[a][k] = s;
+			int32_t c2 = cj + (o - d);
+			double s2 = 0.0;
+			if (c2 < 0) s2 = -ed->L[a];
+			else if (c2 >= n) s2 = ed->L[a];
+			shj[a][k] = s2;
+			in[a][k] = (uint8_t)((o >= -1 && o <= 1) | ((o - d >= -1 && o - d <= 1) << 1));
+		}
+		stride *= n;
+	}
+	ei->t_coll = INFINITY;
+	ei->partner = -1;
+	ej->t_coll = INFINITY;
+	ej->partner = -1;
+	const double ti = P[i].t, tj = P[j].t;
+	double r0i[D], vi[D], r0j[D], vj[D];
+	FOR_AXES(a) {
+		r0i[a] = P[i].r[a];
+		vi[a] = P[i].v[a];
+		r0j[a] = P[j].r[a];
+		vj[a] = P[j].v[a];
+	}
+	double hi = INFINITY, hj = INFINITY;
+	int32_t fi = -1, fj = -1;
+	const double rad_i = SPEC ? ed->prad[i] : 0.0, rad_j = SPEC ? ed->prad[j] : 0.0;
+	struct { int32_t j; uint8_t k[3]; uint8_t in; } occd[64];
+	int m = 0;
+	const int nz = D == 3 ? no[2] : 1;
+	for (int kz = 0; kz < nz; kz++)
+		for (int ky = 0; ky < no[1]; ky++) {
+			const int32_t row = cell[2][kz] + cell[1][ky];
+			const int inzy = in[1][ky] & (D == 3 ? in[2][kz] : 3);
+			if (!inzy)
+				continue;
+			for (int kx = 0; kx < no[0]; kx++) {
+				const int inx = inzy & in[0][kx];
+				if (!inx)
+					continue;
+				const int32_t c = row + cell[0][kx];
+				if (!((occ[c >> 6] >> (c & 63)) & 1))
+					continue;     /* empty: its head need not be read */
+				int32_t q = head[c];
+				__builtin_prefetch(&P[q]);
+				occd[m].j = q;
+				occd[m].k[0] = (uint8_t)kx, occd[m].k[1] = (uint8_t)ky, occd[m].k[2] = (uint8_t)kz;
+				occd[m].in = (uint8_t)inx;
+				m += q >= 0;
+			}
+		}
+	for (int q = 0; q < m; q++) {
+		double ri[D], rj[D];
+		FOR_AXES(a) {
+			ri[a] = r0i[a] - shi[a][occd[q].k[a]];
+			rj[a] = r0j[a] - shj[a][occd[q].k[a]];
+		}
+		const int w = occd[q].in;
+		if (w == 3) {
+			for (int32_t k = occd[q].j; k >= 0; k = P[k].next) {
+				if ((uint32_t)k != i)
+					FN(try_pair)(ed, &P[k], k, ri, vi, ti, 0, 0, rad_i, &hi, &fi);
+				if ((uint32_t)k != j)
+					FN(try_pair)(ed, &P[k], k, rj, vj, tj, 0, 0, rad_j, &hj, &fj);
+			}
+		} else if (w == 1) {
+			for (int32_t k = occd[q].j; k >= 0; k = P[k].next)
+				if ((uint32_t)k != i)
+					FN(try_pair)(ed, &P[k], k, ri, vi, ti, 0, 0, rad_i, &hi, &fi);
+		} else {
+			for (int32_t k = occd[q].j; k >= 0; k = P[k].next)
+				if ((uint32_t)k != j)
+					FN(try_pair)(ed, &P[k], k, rj, vj, tj, 0, 0, rad_j, &hj, &fj);
+		}
+	}
+	if (fi >= 0) {
+		ei->t_coll = ti + hi;
+		ei->partner = fi;
+		ei->pcount = P[fi].count;
+	}
+	if (fj >= 0) {
+		ej->t_coll = tj + hj;
+		ej->partner = fj;
+		ej->pcount = P[fj].count;
+	}
+	return 1;
+}
+
+/* Only on grids of more than OCC_MIN_CELLS cells (with the occupancy bitmap), where the cells' heads and
+ * records are cache misses: there reading the shared cells once pays (measured: +3-4% at N = 10^5 and
+ * 10^6, volume fraction 0.1); on smaller grids, all in cache, the two scans of scan_full() were as fast
+ * or faster (0.98). Returns 0 where it did nothing. */
+static int FN(scan_two)(struct ed *ed, uint32_t i, uint32_t j)
+{
+	if (ed->ncells > OCC_MIN_CELLS)
+		return FN(scan_two_impl)(ed, i, j);
+	return 0;
+}
 #endif
 
 static void FN(scan_full)(struct ed *ed, uint32_t i)
@@ -1462,9 +1594,14 @@ static void FN(step)(struct ed *ed)
 		return;
 	}
 	FN(set_cross)(ed, i);
+	FN(set_cross)(ed, j);
+	if (!ed->minimg && FN(scan_two)(ed, i, j)) {
+		FN(schedule)(ed, i);
+		FN(schedule)(ed, j);
+		return;
+	}
 	FN(scan_full)(ed, i);
 	FN(schedule)(ed, i);
-	FN(set_cross)(ed, j);
 	FN(scan_full)(ed, j);
 	FN(schedule)(ed, j);
 }
