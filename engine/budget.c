@@ -7,6 +7,7 @@
 #include "budget.h"
 #include "ed/ed.h"
 #include "mc/dsmc.h"
+#include "md/md.h"
 #include "observe/clusters.h"
 #include "observe/tables.h"
 #include "par/ensemble.h"
@@ -111,6 +112,23 @@ int budget_estimate(const scene_t *s, int ranks, budget_t *out, char *err, size_
 		if (ed_plan(s, &p, msg, sizeof msg) != ED_OK)
 			goto refused;
 		engine = p.memory, state = p.state, largest = p.largest, cells = p.cells;
+		chi = dsmc_contact_value(s->dim, s->volume_fraction);
+	} else if (s->method == SCENE_METHOD_MD) {
+		/* the core's arrays (md_plan(): every contact slot held in the state), and run.c's set-up copies of
+		 * positions and velocities (3 n doubles each, freed after md_create) */
+		static const double unequal = 0.5;   /* any value: md_plan() asks only whether pairs differ */
+		md_params_t mp = {.dim = s->dim, .n = s->count > INT32_MAX ? 0 : (int)s->count, .radius = s->radius,
+		                  .mass = s->mass, .mu_r = s->md_rolling, .restitution_pair = scene_has_species(s) ? &unequal : NULL};
+		for (int a = 0; a < s->dim; a++)
+			mp.box[a] = s->box[a], mp.periodic[a] = !s->boundary[a].walled;
+		md_plan_t p;
+		if (md_plan(&mp, s->volume_fraction, &p) != MD_OK) {
+			snprintf(msg, sizeof msg, "particles.count: %llu particles: more than md holds (2^31 - 1)",
+			         (unsigned long long)s->count);
+			goto refused;
+		}
+		engine = p.memory + 6 * (uint64_t)s->count * (uint64_t)s->dim * sizeof(double);
+		state = p.state, largest = p.largest, cells = p.cells;
 		chi = dsmc_contact_value(s->dim, s->volume_fraction);
 	} else {
 		dsmc_plan_t p;

@@ -155,6 +155,47 @@ static void test_memory(void)
 	}
 }
 
+/* md (issue 18): md_plan()'s memory against the real core's md_memory() (the run's summary memory_bytes, less
+ * the observables' workspace, none here). The
+ * per-particle arrays are counted exactly, so the two differ by the pair list only: md_plan() sizes it from
+ * the expected pairs (twice the ideal gas's count within the cut-off), the core doubles its capacity as it
+ * finds more; the estimate must hold the real list (est >= real) and may exceed it by at most that list's
+ * doubling and the factor 2 of the estimate (est <= real + 4 x the real list, bounded here by 4 x real). RSS is
+ * not the measure: the contact slots are calloc'ed and touched only as contacts form. */
+static void test_md(void)
+{
+	static const struct { const char *name, *json; } cases[] = {
+		{"md 3D, nu 0.3", "{\"method\":\"md\",\"dimensions\":3,\"particles\":{\"count\":20000,\"volume_fraction\":0.3},"
+		                  "\"run\":{\"until\":{\"time\":0.001}}}"},
+		{"md 2D, nu 0.6, friction, rolling", "{\"method\":\"md\",\"dimensions\":2,\"particles\":{\"count\":20000,"
+		                  "\"volume_fraction\":0.6},\"md\":{\"friction\":0.5,\"rolling_friction\":0.1},"
+		                  "\"run\":{\"until\":{\"time\":0.001}}}"},
+		{"md 3D, nu 0.05", "{\"method\":\"md\",\"dimensions\":3,\"particles\":{\"count\":20000,\"volume_fraction\":0.05},"
+		                  "\"run\":{\"until\":{\"time\":0.001}}}"},
+	};
+	for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+		scene_t s;
+		budget_t b;
+		int e;
+		char msg[256];
+		if (parse(cases[i].json, &s) || budget_estimate(&s, 1, &b, NULL, 0)) {
+			ok(0, "%s: budget", cases[i].name);
+			continue;
+		}
+		run_opts_t opts = {0};
+		run_t *r = run_create(&s, &opts, &e, msg, sizeof msg);
+		run_record_t sum;
+		memset(&sum, 0, sizeof sum);
+		if (r)
+			run_summary_record(r, &sum);
+		run_destroy(r);
+		const double setup = 6.0 * (double)s.count * s.dim * sizeof(double);
+		const double est = (double)b.engine - setup, real = (double)sum.memory_bytes;
+		ok(r && est >= real && est <= 4 * real, "%s: md_plan %.2f MiB, the core holds %.2f MiB (%+.1f%%)%s%s",
+		   cases[i].name, est / 1048576.0, real / 1048576.0, 100 * (est / real - 1), r ? "" : ": ", r ? "" : msg);
+	}
+}
+
 /* Checkpoint data: the plans' state bytes against the engines' real fields.
  * Exact where every count follows from the scene; ed's neighbour lists are
  * estimated at their mean length (number density x the list ball): within
@@ -436,6 +477,7 @@ static void test_big(void)
 int main(void)
 {
 	test_memory();
+	test_md();
 	test_state();
 	test_counts();
 	test_curves();

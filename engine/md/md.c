@@ -894,12 +894,55 @@ void md_wall_reset(md_t *md)
 	memset(md->oimp, 0, sizeof md->oimp);
 }
 
+/* The per-particle arrays md_create() allocates (md_memory(), md_plan()). */
+static size_t arrays_bytes(size_t n, size_t slots, int pairwise, int rolling)
+{
+	return n * (22 * sizeof(double) + 3 * sizeof(int)) + 2 * n * slots * sizeof(md_slot_t) +
+	       (pairwise ? n * sizeof(int) : 0) + (rolling ? (6 * n * slots + n) * sizeof(double) : 0);
+}
+
 size_t md_memory(const md_t *md)
 {
-	return sizeof(*md) + (size_t)md->n * (22 * sizeof(double) + 3 * sizeof(int)) +
-	       2 * (size_t)md->n * md->slots * sizeof(md_slot_t) + md->capp * sizeof(md_pair_t) + md->ncell * sizeof(int) +
-	       (md->pairwise ? (size_t)md->n * sizeof(int) : 0) +
-	       (md->rolling ? (6 * (size_t)md->n * md->slots + (size_t)md->n) * sizeof(double) : 0);
+	return sizeof(*md) + arrays_bytes((size_t)md->n, (size_t)md->slots, md->pairwise, md->rolling) +
+	       md->capp * sizeof(md_pair_t) + md->ncell * sizeof(int);
+}
+
+int md_plan(const md_params_t *p, double volume_fraction, md_plan_t *out)
+{
+	memset(out, 0, sizeof(*out));
+	if (p->n < 1 || (p->dim != 2 && p->dim != 3))
+		return MD_E_PARAM;
+	double rmax = p->radius;
+	for (int i = 0; p->radii && i < p->n; i++)
+		rmax = fmax(rmax, p->radii[i]);
+	if (!(rmax > 0.0))
+		return MD_E_PARAM;
+	const size_t n = (size_t)p->n, slots = (size_t)(p->max_contacts > 0 ? p->max_contacts : (p->dim == 2 ? 8 : 12));
+	const double rc = 2.0 * rmax + (p->skin > 0.0 ? p->skin : 0.2 * rmax);
+	size_t ncell = 1;
+	for (int a = 0; a < p->dim; a++) {   /* as the cell pass of the list build */
+		if (!(p->box[a] > 0.0))
+			return MD_E_PARAM;
+		double nc = floor(p->box[a] / rc);
+		nc = nc < 1 ? 1 : (p->periodic[a] && nc < 3) ? 1 : nc > 1024 ? 1024 : nc;
+		ncell *= (size_t)nc;
+	}
+	/* pairs within rc of a particle: the volume fraction times (rc / R)^D, halved (each pair once), twice
+	 * that for g(r)'s contact peak */
+	const double pairs = (double)n * fmax(volume_fraction, 0.0) * pow(rc / rmax, p->dim);
+	size_t cap = 1024;
+	while ((double)cap < pairs)
+		cap *= 2;
+	const int rolling = p->mu_r > 0.0, pairwise = p->restitution_pair != NULL;
+	out->cells = ncell;
+	out->memory = sizeof(md_t) + arrays_bytes(n, slots, pairwise, rolling) + cap * sizeof(md_pair_t) +
+	              ncell * sizeof(int);
+	/* md_state_t: x, v, w, f, t, xref (3 n each), held (n), partner, xi (3), mr (3, rolling) per spring */
+	const size_t springs = n * slots;
+	out->state = 18 * n * sizeof(double) + n * sizeof(int) + springs * (sizeof(int) + 3 * sizeof(double)) +
+	             (rolling ? 3 * springs * sizeof(double) : 0);
+	out->largest = 3 * (springs > n ? springs : n) * sizeof(double);
+	return MD_OK;
 }
 
 size_t md_springs(const md_t *md)

@@ -239,6 +239,17 @@ void md_wall_reset(md_t *md);
 /* Bytes the system holds now (its arrays, the pair list's capacity, the cell heads). */
 size_t md_memory(const md_t *md);
 
+/* What a system of params p would hold, without creating it (admission budgets; pure, no allocation):
+ * memory = md_memory()'s arrays and cell heads for p, and a pair list of the pairs expected within the
+ * list's cut-off 2 R_max + skin at volume_fraction (twice the ideal gas's count, for the contact peak of
+ * g(r)), rounded up to the list's doubling; state = the bytes of md_state_t with every contact slot held
+ * (an upper bound of a checkpoint's state fields); largest = its largest field. MD_OK or MD_E_PARAM (p->n
+ * < 1, dim not 2 or 3, a radius or an edge not positive). */
+typedef struct {
+	size_t memory, state, largest, cells;
+} md_plan_t;
+int md_plan(const md_params_t *p, double volume_fraction, md_plan_t *out);
+
 /* Springs held now (the partner and xi counts of md_state_get()). */
 size_t md_springs(const md_t *md);
 /* Copies the state into the non-NULL arrays of st and sets its springs and counters. */
