@@ -418,20 +418,28 @@ static int bed_forms(const scene_t *s)
 }
 
 /* md's step for scene s as the run computes it (run.c: the core's reference contact time, from the lightest
- * mass and the largest radius, over md.time_step): a core of one particle per species without positions
- * (memory only). 0, or -1 when the core refuses the settings. */
+ * mass, the largest radius and the largest restitution of the pairs, over md.time_step): a core of one
+ * particle per species without positions (memory only). 0, or -1 when the core refuses the settings. */
 static int md_step_of(const scene_t *s, double *dt)
 {
-	double radii[SCENE_SPECIES_MAX], masses[SCENE_SPECIES_MAX];
+	double radii[SCENE_SPECIES_MAX], masses[SCENE_SPECIES_MAX], epair[SCENE_SPECIES_MAX * SCENE_SPECIES_MAX];
+	int sp[SCENE_SPECIES_MAX], pairwise = 0;
 	const int ns = s->n_species > 0 ? s->n_species : 1;
 	for (int k = 0; k < ns; k++) {
 		radii[k] = s->n_species > 0 ? s->species[k].radius : s->radius;
 		masses[k] = s->n_species > 0 ? s->species[k].mass : s->mass;
+		sp[k] = k;
+		for (int b = 0; b < s->n_species; b++) {   /* run.c's rule: pairs only when one differs */
+			epair[k * s->n_species + b] = s->restitution_pair[k][b];
+			pairwise |= s->n_species > 1 && s->restitution_pair[k][b] != s->restitution;
+		}
 	}
 	md_params_t p = {
 		.dim = s->dim, .n = ns, .radius = s->radius, .mass = s->mass, .radii = radii, .masses = masses,
 		.law = s->md_law ? MD_LAW_HERTZ : MD_LAW_LINEAR, .restitution = s->restitution,
 		.v_ref = s->md_impact_speed, .dt_steps = s->md_time_step > 0 ? 1.0 / s->md_time_step : 0,
+		.n_species = pairwise ? s->n_species : 0, .species = pairwise ? sp : NULL,
+		.restitution_pair = pairwise ? epair : NULL,
 	};
 	for (int a = 0; a < 3; a++) {
 		p.box[a] = a < s->dim ? s->box[a] : 1.0;
@@ -462,7 +470,7 @@ static int md_default_settings(const scene_t *s)
 	const double v = fmax(4.0 * sqrt(s->temperature / s->mass), sqrt(2.0 * fall)), d = 0.02 * s->radius;
 	const double k = s->mass * v * v / (d * d);
 	return s->n_species == 0 && s->md_law == 0 && s->md_contact_time == 0 && fabs(s->md_stiffness - k) <= 1e-9 * k &&
-	       fabs(s->md_time_step - 1.0 / 50.0) <= 1e-12 && s->md_friction == 0;
+	       fabs(s->md_time_step - 1.0 / 50.0) <= 1e-12 && s->md_friction == 0 && s->md_rolling == 0;
 }
 
 /* One candidate's estimate (correction: resolved, 0 for ed). The scene's own
@@ -497,7 +505,7 @@ static int estimate_one(const advice_model_t *m, const scene_t *s, scene_method_
 		if (!md_default_settings(s)) {
 			e->extrapolated |= ADVICE_X_SETTINGS;
 			note(e, "md error measured for one species at the default stiffness and step (linear law, max_overlap "
-			     "0.01, time_step 1/50, no friction)");
+			     "0.01, time_step 1/50, no friction or rolling resistance)");
 		}
 	} else {
 		scene_t c = *s;

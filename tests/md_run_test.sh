@@ -369,5 +369,22 @@ print(("ok" if r0 < 0.9 else "not ok") + " - without restitution_pairs the same 
 PYEOF
 report "$tmp/pairs.res"
 
+# ---- advise: md's estimate takes the run's step (issue 18) ------------------------------------------------
+# `advise` predicts md's work as N x ceil(t / dt) particle-steps, dt the core's step for the scene (the shortest
+# contact time over the pairs' restitutions); the run's own step count (summary events) must give the same.
+cat >"$tmp/adv.json" <<'JSON'
+{"method":"md","dimensions":2,"particles":{"species":[{"name":"a","count":200,"radius":0.5,"mass":1},
+ {"name":"b","count":100,"radius":0.7,"mass":2.5}],"box":[40,40]},"collisions":{"restitution":0.5,
+ "restitution_pairs":[{"a":"a","b":"a","restitution":0.9},{"a":"a","b":"b","restitution":0.6},{"a":"b","b":"b","restitution":0.3}]},
+ "run":{"until":{"time":0.5}}}
+JSON
+"$ENGINE" advise "$tmp/adv.json" >"$tmp/adv.est" 2>"$tmp/adv.err" && "$ENGINE" run "$tmp/adv.json" >"$tmp/adv.out" 2>>"$tmp/adv.err"
+rc=$?
+res=$("$PY" -c 'import json, sys
+e = [x for x in json.load(open(sys.argv[1]))["estimates"] if x["method"] == "md"][0]
+s = [json.loads(l) for l in open(sys.argv[2])][-1]
+print(int(e["moves"]) == 300 * s["events"], int(e["moves"]), 300 * s["events"])' "$tmp/adv.est" "$tmp/adv.out" 2>&1)
+ok $([ $rc = 0 ] && [ "${res%% *}" = True ]; echo $?) "advise: md's particle-steps equal the run's (300 x steps) with restitution per pair: $res $(head -c 200 "$tmp/adv.err")"
+
 echo "1..$n"
 [ "$failed" = 0 ]
