@@ -134,6 +134,22 @@ int dsmcp_check(const scene_t *s, char *msg, size_t msglen)
 	return DSMCP_EINVAL;
 }
 
+/* Records of cap rows: S doubles (position, velocity), an id and a cell or destination each. Each array
+ * that grows is kept even when another fails (the old ones stay valid); -1 when any failed. */
+static int grow_records(double **p, uint32_t **a, uint32_t **b, size_t cap, size_t S)
+{
+	double *np = realloc(*p, cap * S * sizeof(double));
+	if (np)
+		*p = np;
+	uint32_t *na = realloc(*a, cap * sizeof(uint32_t));
+	if (na)
+		*a = na;
+	uint32_t *nb = realloc(*b, cap * sizeof(uint32_t));
+	if (nb)
+		*b = nb;
+	return np && na && nb ? 0 : -1;
+}
+
 /* Room for cap particles. */
 static int reserve(struct dsmcp *d, size_t cap)
 {
@@ -144,17 +160,7 @@ static int reserve(struct dsmcp *d, size_t cap)
 	cap = cap + cap / 16 + 64;
 	if (cap >= UINT32_MAX)   /* local indices and destinations below the migrant mark */
 		return DSMCP_ENOMEM;
-	const size_t S = 2 * (size_t)d->dim;
-	double *p = realloc(d->p, cap * S * sizeof(double));
-	if (p)
-		d->p = p;
-	uint32_t *id = realloc(d->id, cap * sizeof(uint32_t));
-	if (id)
-		d->id = id;
-	uint32_t *cell = realloc(d->cell, cap * sizeof(uint32_t));
-	if (cell)
-		d->cell = cell;
-	if (!p || !id || !cell)
+	if (grow_records(&d->p, &d->id, &d->cell, cap, 2 * (size_t)d->dim))
 		return DSMCP_ENOMEM;
 	d->cap = cap;
 	return DSMCP_OK;
@@ -233,16 +239,7 @@ static int over_fit(struct dsmcp *d, const int S, size_t nf)
 	if (nf <= d->over_cap)
 		return DSMCP_OK;
 	size_t cap = nf + nf / 4 + 128;
-	double *op = realloc(d->overp, cap * S * sizeof(double));
-	if (op)
-		d->overp = op;
-	uint32_t *oi = realloc(d->overid, cap * sizeof(uint32_t));
-	if (oi)
-		d->overid = oi;
-	uint32_t *od = realloc(d->overdst, cap * sizeof(uint32_t));
-	if (od)
-		d->overdst = od;
-	if (!op || !oi || !od)
+	if (grow_records(&d->overp, &d->overid, &d->overdst, cap, (size_t)S))
 		return DSMCP_ENOMEM;
 	d->over_cap = cap;
 	return DSMCP_OK;
