@@ -43,11 +43,7 @@ def block(x, b=5):
     return mu, math.sqrt(sum((v - mu) ** 2 for v in m) / (k - 1) / k)
 def check(cond, text):
     print(('ok' if cond else 'not ok') + ' - %dD: ' % D + text)
-# a2, a3: the equilibrium distribution is Maxwellian (finite-N corrections O(1/(D N)) ~ 1e-4, below the errors):
-# 0 within 4 block standard errors
-for k in ('a2', 'a3'):
-    m, se = block([p[k] for p in late])
-    check(abs(m) < 4 * se, '%s = %.5f +- %.5f (%d records) is 0 within 4 se' % (k, m, se, len(late)))
+# (a2 and a3 of one run fluctuate slowly, with the box's heat modes: their test is (b), over replicas)
 # the contact values md does not have are null, the histogram's is there from the first relaxed record on
 check(all(p.get('g_contact_rate') is None and p.get('g_contact_pressure') is None for p in prog),
       'g_contact_rate and g_contact_pressure are null in every record')
@@ -107,7 +103,34 @@ PYEOF
 	report "$tmp/gas$dim.res"
 done
 
-# ---- (b) MSD against the frames, H5MD series, the same trajectory without the observables -------------------
+# ---- (b) a2, a3 over independent replicas ------------------------------------------------------------------
+# The equilibrium velocity distribution is Maxwellian: a2 = a3 = 0 (finite-N corrections O(1/(D N)) ~ 1e-4,
+# below the errors). One run's records are not independent samples of a2 (the local temperature's slow heat
+# modes; tests/observe_test.sh finds the same for ed), so the error comes from 8 replicas of the gas of (a) at
+# t = 6 (past the relaxation of the velocities from the Maxwellian start, ~30 collision times): the ensemble's
+# a2_se; Student t with 7 degrees of freedom, |t| < 5 (p = 0.0016).
+for dim in 2 3; do
+	eta=$([ $dim = 2 ] && echo 0.3 || echo 0.2)
+	cat >"$tmp/ens$dim.json" <<JSON
+{"method": "md", "dimensions": $dim, "particles": {"count": 2000, "volume_fraction": $eta, "initial": {"temperature": 1}},
+ "collisions": {"restitution": 1}, "run": {"seed": 12, "replicas": 8, "until": {"time": 6}},
+ "output": {"every": {"time": 6}, "observables": ["kinetic_energy", "velocity_distribution"]},
+ "md": {"force_law": "hertz", "time_step": 0.04}}
+JSON
+	"$ENGINE" run "$tmp/ens$dim.json" >"$tmp/ens$dim.out" 2>"$tmp/ens$dim.err"
+	ok $? "${dim}D md ensemble of 8 replicas with velocity_distribution: run completes $(head -c 200 "$tmp/ens$dim.err")"
+	"$PY" - "$tmp/ens$dim.out" $dim >"$tmp/ens$dim.res" 2>&1 <<'PYEOF' || echo "not ok - ${dim}D a2 check: $(tail -1 "$tmp/ens$dim.res")" >>"$tmp/ens$dim.res"
+import json, sys
+last = [json.loads(l) for l in open(sys.argv[1]) if '"progress"' in l][-1]
+for k in ('a2', 'a3'):
+    m, se = last[k], last[k + '_se']
+    print(('ok' if last['replicas'] == 8 and abs(m) < 5 * se else 'not ok') +
+          ' - %sD: %s = %.5f +- %.5f over %d replicas at t = %g is 0 within 5 se' % (sys.argv[2], k, m, se, last['replicas'], last['time']))
+PYEOF
+	report "$tmp/ens$dim.res"
+done
+
+# ---- (c) MSD against the frames, H5MD series, the same trajectory without the observables -------------------
 # 2D, N = 500, frames every 0.05 (no particle moves a tenth of the box between two: the frames unwrap exactly by
 # the minimum image); the records' msd equals the frames' mean squared displacement from t = 0 (rounding only).
 cat >"$tmp/f.json" <<'JSON'
@@ -163,5 +186,27 @@ for s in sonine_a2 sonine_a3 g_contact_pairs; do
 	h5dump -d "/observables/$s/value" -y -w 0 "$tmp/f/trajectory.h5" >/dev/null 2>&1
 	ok $? "trajectory.h5 has observables/$s"
 done
+
+# ---- (d) exact resume ----------------------------------------------------------------------------------------
+# An inelastic frictional gas (the MSD's bound then takes the spins and the contacts' energy) with the structure
+# observables, checkpoint at t = 2 of 4: the run resumed from it (a torn line left at the end of
+# observables.jsonl) rewrites progress.jsonl (wall-clock fields aside) and observables.jsonl as the uninterrupted
+# run wrote them, msd and the curves included.
+cat >"$tmp/ck.json" <<'JSON'
+{"method": "md", "dimensions": 2, "particles": {"count": 500, "volume_fraction": 0.3, "initial": {"temperature": 1}},
+ "collisions": {"restitution": 0.9}, "run": {"seed": 5, "until": {"time": 4}},
+ "output": {"every": {"time": 0.5}, "observables": ["kinetic_energy", "velocity_distribution", "pair_correlation",
+   "structure_factor", "mean_square_displacement"], "snapshots": {"every": {"time": 1}}, "checkpoint": {"every": {"time": 2}}},
+ "md": {"force_law": "hertz", "friction": 0.3, "time_step": 0.04}}
+JSON
+"$ENGINE" run "$tmp/ck.json" --out "$tmp/full" >/dev/null 2>&1
+cp -r "$tmp/full" "$tmp/part"
+printf '{"name":"velocity_distribution","sample":9,"ti' >>"$tmp/part/observables.jsonl"
+"$ENGINE" run "$tmp/ck.json" --out "$tmp/part" --resume "$tmp/part/checkpoint.h5" >/dev/null 2>"$tmp/ck.err"
+rc=$?
+strip() { sed 's/"wall_seconds":[^,}]*//; s/"events_per_second":[^,}]*//; s/"collisions_per_second":[^,}]*//' "$1"; }
+[ $rc = 0 ] && [ "$(strip "$tmp/full/progress.jsonl")" = "$(strip "$tmp/part/progress.jsonl")" ] &&
+	cmp -s "$tmp/full/observables.jsonl" "$tmp/part/observables.jsonl" && grep -q '"msd":[0-9]' "$tmp/part/progress.jsonl"
+ok $? "md resumed at t = 2 of 4: progress.jsonl and observables.jsonl equal the uninterrupted run's (rc $rc, $(wc -l <"$tmp/full/observables.jsonl") curves)"
 echo "1..$n"
 [ "$failed" = 0 ]
