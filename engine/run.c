@@ -411,6 +411,12 @@ static void msd_follow(run_t *rc)
 	}
 	if (s->rough && isfinite(sm.rotational_energy))
 		e += sm.rotational_energy;
+	if (rc->md) {   /* soft contacts store energy that they give back: the bound takes the conserved energy
+			 * (kinetic + rotational, friction turns spin into translation, + the contacts' elastic) */
+		md_energy_t en;
+		md_energy(rc->md, &en);
+		e += en.rotational + en.elastic;
+	}
 	if (rc->st.started)
 		msd_update(rc->msd, sm.time, rc->pos, e);
 	else
@@ -565,7 +571,9 @@ static int sample(run_t *rc, run_record_t *r, run_kind_t kind)
 	if (rc->obs && (s->observables & (SCENE_OBS_VDIST | SCENE_OBS_GOFR))) {
 		if (obs_scalars(rc->obs, rows, rc->pos, rc->vel, &r->obs) != 0)
 			return RUN_ENOMEM;
-		if (r->have_interval && (s->observables & SCENE_OBS_GOFR)) {
+		/* md: no collisions are counted and the contacts' virial is not a hard-sphere collision virial, so
+		 * g_rate and g_pressure stay NaN (docs/md.md, "Structure observables") */
+		if (r->have_interval && (s->observables & SCENE_OBS_GOFR) && !rc->md) {
 			double t_avg = 2.0 * sm.ekin_time_integral / (s->dim * (double)s->count * sm.interval);
 			obs_interval(rc->obs, r->collision_rate, r->compressibility, t_avg, &r->obs);
 		}

@@ -802,7 +802,8 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 			}
 	}
 	const unsigned md_obs = SCENE_OBS_ENERGY | SCENE_OBS_MOMENTUM | SCENE_OBS_COM_HEIGHT | SCENE_OBS_POTENTIAL |
-				SCENE_OBS_WALL_FORCE | SCENE_OBS_ROTATION | SCENE_OBS_PRESSURE | SCENE_OBS_OBSTACLE_FORCE | SCENE_OBS_SURFACE;
+				SCENE_OBS_WALL_FORCE | SCENE_OBS_ROTATION | SCENE_OBS_PRESSURE | SCENE_OBS_OBSTACLE_FORCE | SCENE_OBS_SURFACE |
+				SCENE_OBS_VDIST | SCENE_OBS_GOFR | SCENE_OBS_SOFK | SCENE_OBS_MSD;
 	json_t *obs = json_object_get(out, "observables");
 	if (!obs)
 		s->observables = SCENE_OBS_ENERGY | (scene_has_gravity(s) ? SCENE_OBS_COM_HEIGHT | SCENE_OBS_POTENTIAL : 0);
@@ -815,7 +816,8 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 				return fail(c, path, "\"%s\" is not computed by method \"md\" yet (it has kinetic_energy, "
 					    "temperature, momentum, center_of_mass_height, potential_energy, wall_force, "
 					    "rotational_energy, rotational_temperature, pressure, compressibility, obstacle_force, "
-					    "surface_profile)",
+					    "surface_profile, velocity_distribution, pair_correlation, structure_factor, "
+					    "mean_square_displacement)",
 					    observables[k].name);
 			} else if (!strcmp(json_string_value(o), observables[k].name) &&
 				 (observables[k].bit & SCENE_OBS_PRESSURE) && (scene_has_walls(s) || s->n_obstacles > 0)) {
@@ -826,8 +828,7 @@ static int check_md(ctx_t *c, json_t *v, scene_t *s)
 					    "without obstacles; with walls use \"wall_force\" (the pressure on each wall)",
 					    observables[k].name);
 			}
-	static const char *const outs[] = { "clusters", "velocity_distribution", "pair_correlation", "structure_factor",
-					    "impact_parameter", "fields", "density_spectrum" };
+	static const char *const outs[] = { "clusters", "impact_parameter", "fields", "density_spectrum" };
 	for (size_t k = 0; k < sizeof outs / sizeof outs[0]; k++)
 		if (json_object_get(out, outs[k])) {
 			snprintf(path, sizeof path, "output.%s", outs[k]);
