@@ -1828,6 +1828,7 @@ int ped_image_load(ped_t *pd, const unsigned char *buf, size_t len)
 	}
 	pd->s = s;
 	pd->s.hn = 0;
+	pd->s.nlog = 0;   /* the collision log (ped_log_on(), tests) is not in the image: it starts again here */
 	for (uint64_t q = 0; q < h.nheld; q++) {
 		img_rec_t x;
 		if (img_get(&r, end, &x, sizeof x) || x.slot >= pd->cap || x.rec.own < 0 || pd->rec[x.slot].own >= 0)
