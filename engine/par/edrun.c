@@ -403,7 +403,8 @@ static int from_serial(run_t *r, const scene_t *s, double *pos, double *vel, dou
 
 /* Every rank's core state gathered to rank 0 as one blob: magic, P, then per
  * rank its length and bytes (er_img_t, then ped_image_write()). Collective;
- * *out (rank 0, malloc'd) NULL on failure. RUN_OK or RUN_ENOMEM (every rank). */
+ * *out (rank 0, malloc'd) stays NULL on failure and when the image exceeds
+ * MPI's int counts (then RUN_OK: no image). RUN_OK or RUN_ENOMEM (every rank). */
 static int gather_image(er_t *E, unsigned char **out, size_t *outlen)
 {
 	const int P = E->size;
@@ -413,10 +414,15 @@ static int gather_image(er_t *E, unsigned char **out, size_t *outlen)
 	h.t = E->t, h.t_mark = E->t_mark, h.t_ref = E->t_ref, h.e_ref = E->e_ref, h.eint_base = E->eint_base,
 	h.vir_base = E->vir_base, h.sched = *E->sched;
 	size_t il = ped_image_size(E->pd), len = sizeof h + il;
-	unsigned char *mine = malloc(len);
-	unsigned char *all = NULL;
+	unsigned char *mine = NULL, *all = NULL;
 	int *cnt = NULL, *dis = NULL, ret = RUN_OK;
-	int bad = !mine || len > INT32_MAX;
+	/* a part beyond MPI's int counts (about 10^7 particles on one rank): no image, the serial layout only */
+	int big = len > INT32_MAX;
+	MPI_Allreduce(MPI_IN_PLACE, &big, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (big)
+		goto cleanup;
+	mine = malloc(len);
+	int bad = !mine;
 	if (!bad) {
 		memcpy(mine, &h, sizeof h);
 		ped_image_write(E->pd, mine + sizeof h);
@@ -437,14 +443,16 @@ static int gather_image(er_t *E, unsigned char **out, size_t *outlen)
 	if (E->rank == 0) {
 		for (int r = 0; r < P; r++)
 			tot += (size_t)cnt[r];
-		all = malloc(tot);
-		bad = !all || tot - head > INT32_MAX;
+		big = tot - head > INT32_MAX;
+		all = big ? NULL : malloc(tot);
+		bad = !big && !all;
 		for (int r = 0, o = 0; !bad && r < P; o += cnt[r], r++)
 			dis[r] = o;
 	}
-	MPI_Bcast(&bad, 1, MPI_INT, 0, MPI_COMM_WORLD);
-	if (bad) {
-		ret = RUN_ENOMEM;
+	int flags[2] = {bad, big};
+	MPI_Bcast(flags, 2, MPI_INT, 0, MPI_COMM_WORLD);
+	if (flags[0] || flags[1]) {
+		ret = flags[0] ? RUN_ENOMEM : RUN_OK;
 		goto cleanup;
 	}
 	MPI_Gatherv(mine, n, MPI_BYTE, all ? all + head : NULL, cnt, dis, MPI_BYTE, 0, MPI_COMM_WORLD);
