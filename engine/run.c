@@ -55,6 +55,8 @@ static uint64_t cpp_to_collisions(double cpp, uint64_t n)
 /* One replica: the engine state (ed or dsmc/hsmc) and the schedules. */
 struct run {
 	scene_t s;               /* copy, with the replica's stream */
+	unsigned char *extra;    /* run_extra_set(): opaque bytes a checkpoint carries (split ed runs), or NULL */
+	size_t extra_len;
 	run_opts_t opts;
 	ed_t *ed;
 	dsmc_t *mc;
@@ -1155,6 +1157,7 @@ void run_destroy(run_t *r)
 {
 	if (!r)
 		return;
+	free(r->extra);
 	free(r->placed);
 	clusters_destroy(r->cl);
 	free(r->radii);
@@ -1834,4 +1837,23 @@ const char *run_status_name(run_status_t st)
 		[RUN_FULL] = "full",
 	};
 	return (unsigned)st < sizeof(names) / sizeof(names[0]) ? names[st] : "unknown";
+}
+
+int run_extra_set(run_t *r, const void *buf, size_t len)
+{
+	unsigned char *x = malloc(len ? len : 1);
+	if (!x)
+		return RUN_ENOMEM;
+	if (len)
+		memcpy(x, buf, len);
+	free(r->extra);
+	r->extra = x;
+	r->extra_len = len;
+	return RUN_OK;
+}
+
+const void *run_extra(const run_t *r, size_t *len)
+{
+	*len = r->extra ? r->extra_len : 0;
+	return r->extra;
 }

@@ -206,6 +206,12 @@ const char *run_engine_name(const run_t *r);
 int run_fields(const run_t *r, ed_field_t *out, int max);
 int run_field_get(const run_t *r, const char *name, void *buf);
 int run_field_set(run_t *r, const char *name, ed_type_t type, size_t count, const void *buf);
+/* Opaque bytes a checkpoint stores beside the fields (/ped/image) and a
+ * restored run gives back: a split ed run's per-rank core state (edrun.c).
+ * The engines never read them. set: RUN_OK or RUN_ENOMEM (copied); get: NULL
+ * when none. */
+int run_extra_set(run_t *r, const void *buf, size_t len);
+const void *run_extra(const run_t *r, size_t *len);
 /* Simulated time, events (ed) or particle moves (dsmc) and collisions now; changes nothing. */
 void run_totals(const run_t *r, double *time, uint64_t *events, uint64_t *collisions);
 void run_get_state(const run_t *r, run_state_t *st);

@@ -128,5 +128,53 @@ for P in 2 4; do
 	ok $(( rc1 == 0 && rc2 == 0 && same == 0 ? 0 : 1 )) "homogeneous elastic gas, mpirun -np $P: no rebalance ($rb), the same records as balance off"
 done
 
+# 5. Checkpoints of a balanced run: the cooling gas of 2 at 2 ranks with output.checkpoint every 0.9 (after its
+#    first rebalance; the checkpoint holds the core's own state and bounds, /ped/image), resumed at t = 0.9 under
+#    mpirun -np 2: the uninterrupted run's records byte for byte (wall-clock, speed and memory columns aside; the
+#    bounds matter: rank_particles and rank_events at every record) and its final state; resumed under mpirun -np 4
+#    and serially (the serial layout: the collisions of the serial run): the serial run's records as in 1.
+sed 's/"output":{"every":{"time":0.2}}/"output":{"every":{"time":0.2},"checkpoint":{"every":{"time":0.9}}}/' \
+	"$tmp/in.json" >"$tmp/ck.json"
+stripm() { strip "$1" | sed 's/"memory_bytes":[^,}]*//'; }
+mpirun --oversubscribe -np 2 "$ENGINE" run "$tmp/ck.json" --out "$tmp/ck.2" >/dev/null 2>"$tmp/ck.err"; rc=$?
+rb=$("$PY" -c 'import json,sys
+R = [json.loads(l) for l in open(sys.argv[1])]
+print(max(r.get("rebalances", 0) for r in R if r["time"] <= 0.9))' "$tmp/ck.2/progress.jsonl" 2>/dev/null)
+ok $(( rc == 0 && ${rb:-0} >= 1 ? 0 : 1 )) "balanced mpirun -np 2 with checkpoints: exit $rc, $rb rebalances before the checkpoint at 0.9"
+for how in 2 4 s; do
+	rm -rf "$tmp/ckr"; cp -r "$tmp/ck.2" "$tmp/ckr"
+	if [ $how = s ]; then
+		"$ENGINE" run "$tmp/ck.json" --out "$tmp/ckr" --resume "$tmp/ckr/checkpoint.prev.h5" >/dev/null 2>"$tmp/ck.err"
+	else
+		mpirun --oversubscribe -np $how "$ENGINE" run "$tmp/ck.json" --out "$tmp/ckr" --resume "$tmp/ckr/checkpoint.prev.h5" \
+			>/dev/null 2>"$tmp/ck.err"
+	fi
+	rc=$?
+	if [ $how = 2 ]; then
+		stripm "$tmp/ck.2/progress.jsonl" >"$tmp/x1"; stripm "$tmp/ckr/progress.jsonl" >"$tmp/x2"
+		cmp -s "$tmp/x1" "$tmp/x2"; same=$?
+		[ "$(wc -l <"$tmp/x1")" -gt 10 ] || same=1
+		if command -v h5diff >/dev/null 2>&1; then
+			h5diff -q "$tmp/ck.2/trajectory.h5" "$tmp/ckr/trajectory.h5" >/dev/null 2>&1 || same=1
+		fi
+		ok $(( rc == 0 && same == 0 ? 0 : 1 )) "balanced checkpoint resumed under mpirun -np 2: the uninterrupted run bit for bit (exit $rc) $(diff "$tmp/x1" "$tmp/x2" | head -n 2 | cut -c 1-300) $(head -c 200 "$tmp/ck.err")"
+	else
+		# against the serial run's records as in 1 (the same times and collision counts, energy and pressure to 1e-9)
+		"$PY" - "$tmp/in.s.out" "$tmp/ckr/progress.jsonl" >"$tmp/r" 2>&1 <<'PY'
+import json, sys
+S, R = ([json.loads(l) for l in open(f)] for f in sys.argv[1:3])
+assert len(S) == len(R) > 4, (len(S), len(R))
+for x, y in zip(S, R):
+    for k in ("type", "time", "collisions", "status"):
+        assert x.get(k) == y.get(k), (k, x.get(k), y.get(k))
+    for k in ("kinetic_energy", "pressure"):
+        assert x.get(k) is None or abs(x[k] - y[k]) <= 1e-9 * abs(x[k]), (k, x["time"], x[k], y[k])
+print("the serial run's %d records" % len(S))
+PY
+		sr=$?
+		ok $(( rc == 0 && sr == 0 ? 0 : 1 )) "balanced checkpoint resumed by $how (exit $rc): $(tail -n 1 "$tmp/r" | cut -c 1-200) $(head -c 200 "$tmp/ck.err")"
+	fi
+done
+
 echo "1..$n"
 [ "$failed" = 0 ]

@@ -388,8 +388,77 @@ static void balanced(int dim, long n, double phi, double e, double tc, double cp
 	free(S.placed);
 }
 
+/* The core's image (ped_image_write(), a checkpoint's /ped/image): P ranks
+ * run (balanced) to t1, each rank's image loaded into a fresh ped_t, which
+ * writes the same bytes again; then both sets run on to t_end: every rank
+ * logs the same collisions after t1, bit for bit (pairs and times), and ends
+ * with the same totals. A load into the wrong rank is refused. */
+static void image_round_trip(int dim, long n, double phi, double e, double tc, double cpp, int P)
+{
+	setup_t S;
+	if (!ok(setup(&S, dim, n, phi, e, tc, cpp) == 0, "%dD N=%ld image: serial reference run", dim, n))
+		return;
+	ped_params_t p = S.p;
+	p.ranks = P;
+	ped_t *A[8] = {0}, *B[8] = {0};
+	int err = 0, good = 1, same_img = 1, refused = 1;
+	ped_stats_t st;
+	double t1 = 0.5 * S.t_end;
+	for (int r = 0; r < P && good; r++) {
+		A[r] = ped_create(&p, r, (size_t)S.n, &err);
+		good = A[r] && ped_load(A[r], S.n, S.pos, S.vel) == PED_OK;
+	}
+	good = good && ped_sim_run_bal(A, P, S.n, t1, t1 / 8, -1.0, 0, 1, &st) == PED_OK;
+	for (int r = 0; r < P && good; r++) {
+		size_t len = ped_image_size(A[r]);
+		unsigned char *x = malloc(len), *y = malloc(len);
+		B[r] = ped_create(&p, r, (size_t)S.n, &err);
+		good = x && y && B[r] && ped_image_write(A[r], x) == len && ped_image_load(B[r], x, len) == PED_OK;
+		if (good) {
+			same_img &= ped_image_size(B[r]) == len && ped_image_write(B[r], y) == len && !memcmp(x, y, len);
+			ped_log_on(A[r]);   /* the collisions after t1 (the log is not in the image) */
+			ped_log_on(B[r]);
+			ped_t *W = ped_create(&p, (r + 1) % P, (size_t)S.n, &err);
+			refused &= W && ped_image_load(W, x, len) == PED_EINVAL;
+			ped_destroy(W);
+		}
+		free(x);
+		free(y);
+	}
+	ok(good && same_img, "%dD N=%ld P=%d (%llu rebalances before t1): each rank's image loads and writes the same bytes",
+	   dim, n, P, (unsigned long long)st.rebalances);
+	ok(good && refused, "%dD N=%ld P=%d: another rank's image is refused (PED_EINVAL)", dim, n, P);
+	ped_stats_t sa, sb;
+	int ra = good ? ped_sim_run_bal(A, P, S.n, S.t_end, t1 / 8, -1.0, 0, 1, &sa) : -99;
+	int rb = good ? ped_sim_run_bal(B, P, S.n, S.t_end, t1 / 8, -1.0, 0, 1, &sb) : -99;
+	int same = ra == PED_OK && rb == PED_OK;
+	size_t after = 0;
+	for (int r = 0; r < P && same; r++) {
+		size_t na, nb;
+		const ped_coll_t *ca = ped_log(A[r], &na), *cb = ped_log(B[r], &nb);
+		ped_totals_t ta, tb;
+		ped_totals(A[r], &ta);
+		ped_totals(B[r], &tb);
+		same = na == nb && !memcmp(ca, cb, nb * sizeof *cb) && ta.collisions == tb.collisions &&
+		       ta.events == tb.events && ta.owned == tb.owned && ta.ekin == tb.ekin;
+		after += nb;
+	}
+	ok(same && after > 0, "%dD N=%ld P=%d: from the loaded images, the same %zu collisions after t1 bit for bit and the same "
+	   "totals", dim, n, P, after);
+	for (int r = 0; r < P; r++) {
+		ped_destroy(A[r]);
+		ped_destroy(B[r]);
+	}
+	free(S.serial.c);
+	free(S.pos);
+	free(S.vel);
+	free(S.placed);
+}
+
 int main(void)
 {
+	image_round_trip(2, 3000, 0.15, 0.8, 1e-3, 6.0, 4);
+	image_round_trip(3, 1500, 0.25, 1.0, 0.0, 4.0, 2);
 	balanced(2, 3000, 0.15, 1.0, 0.0, 6.0);
 	balanced(2, 3000, 0.15, 0.8, 1e-3, 6.0);
 	against_serial(2, 1500, 0.3, 0.9, 1e-3, 8.0);

@@ -379,6 +379,15 @@ int ckpt_write(const char *dir, run_t *run, const char *scene_text, size_t len,
 			goto io;
 	}
 	H5Gclose(g);
+	g = H5I_INVALID_HID;
+	size_t xlen = 0;
+	const void *x = run_extra(run, &xlen);
+	if (x) {   /* a split ed run's core state (edrun.c), after the fields in the digest */
+		if ((g = h5u_group(f, "ped")) < 0 || write_field(g, "image", ED_T_U8, xlen, x, &h))
+			goto io;
+		H5Gclose(g);
+		g = H5I_INVALID_HID;
+	}
 	run_get_state(run, &st);
 	if ((g = h5u_group(f, "run")) < 0 || write_rfields(g, sched_fields, N_RUN_FIELDS, &st, &h))
 		goto io;
@@ -529,6 +538,37 @@ int ckpt_read(const char *path, const scene_t *s, const char *scene_text, size_t
 		sp = d = H5I_INVALID_HID;
 	}
 	H5Gclose(g);
+	g = H5I_INVALID_HID;
+	if (H5Lexists(f, "ped", H5P_DEFAULT) > 0) {
+		/* optional: a split ed run's core state (written by split runs only;
+		 * a run at another rank count, or serial, ignores it) */
+		hssize_t count;
+		if ((g = H5Gopen2(f, "ped", H5P_DEFAULT)) < 0 || (d = H5Dopen2(g, "image", H5P_DEFAULT)) < 0 ||
+		    (sp = H5Dget_space(d)) < 0 || (count = H5Sget_simple_extent_npoints(sp)) < 0) {
+			snprintf(why, sizeof why, "ped image unreadable");
+			goto corrupt;
+		}
+		buf = malloc(count ? (size_t)count : 1);
+		if (!buf) {
+			ret = h5u_fail(msg, msglen, CKPT_ENOMEM, "%s: out of memory", path);
+			goto cleanup;
+		}
+		if (count && H5Dread(d, mem_type(ED_T_U8), H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) {
+			snprintf(why, sizeof why, "ped image unreadable");
+			goto corrupt;
+		}
+		dig_field(&h, "image", ED_T_U8, (size_t)count, buf);
+		if (run_extra_set(run, buf, (size_t)count) != RUN_OK) {
+			ret = h5u_fail(msg, msglen, CKPT_ENOMEM, "%s: out of memory", path);
+			goto cleanup;
+		}
+		free(buf);
+		buf = NULL;
+		H5Sclose(sp);
+		H5Dclose(d);
+		H5Gclose(g);
+		sp = d = g = H5I_INVALID_HID;
+	}
 	memset(&st, 0, sizeof st);
 	if ((g = H5Gopen2(f, "run", H5P_DEFAULT)) < 0 || read_rfields(g, sched_fields, N_RUN_FIELDS, &st, &h)) {
 		snprintf(why, sizeof why, "run state missing");

@@ -18,6 +18,14 @@ typedef struct {
 	double virial, eint_part;   /* over [t_mark, t]: the collision virial and the integral of E_kin dt */
 } sums_t;
 
+/* What a rank's part of the image holds besides ped_image_write(): the
+ * driver's interval bookkeeping and the schedule (the same on every rank). */
+typedef struct {
+	uint64_t coll_base, tc_base, ev_base, coll_mark;
+	double t, t_mark, t_ref, e_ref, eint_base, vir_base;
+	ped_sched_t sched;
+} er_img_t;
+
 /* The run's state besides the core. */
 typedef struct {
 	const scene_t *s;
@@ -32,6 +40,9 @@ typedef struct {
 	double t0, wall_before;     /* MPI_Wtime() at the start of this process's part; wall seconds before it */
 	run_record_t last;          /* the last progress record (the summary's base) */
 	const ped_sched_t *sched;   /* the core's schedule: rollbacks, syncs, sync interval, rebalances */
+	int from_image;             /* resumed from the core's own state (same rank count): img_sched holds its schedule */
+	ped_sched_t img_sched;
+	er_img_t img;               /* rank's image header when from_image */
 	uint64_t *rank_ev, *rank_n; /* every rank's events processed and particles owned (records, size > 1) */
 } er_t;
 
@@ -385,6 +396,106 @@ static int from_serial(run_t *r, const scene_t *s, double *pos, double *vel, dou
 	return 0;
 }
 
+/* ---- the core's own state beside the serial layout (same rank count) ----- */
+
+#define IMG_MAGIC 0x31454d4944455000ULL   /* "\0PEDIME1" */
+
+
+/* Every rank's core state gathered to rank 0 as one blob: magic, P, then per
+ * rank its length and bytes (er_img_t, then ped_image_write()). Collective;
+ * *out (rank 0, malloc'd) stays NULL on failure and when the image exceeds
+ * MPI's int counts (then RUN_OK: no image). RUN_OK or RUN_ENOMEM (every rank). */
+static int gather_image(er_t *E, unsigned char **out, size_t *outlen)
+{
+	const int P = E->size;
+	er_img_t h;
+	memset(&h, 0, sizeof h);
+	h.coll_base = E->coll_base, h.tc_base = E->tc_base, h.ev_base = E->ev_base, h.coll_mark = E->coll_mark;
+	h.t = E->t, h.t_mark = E->t_mark, h.t_ref = E->t_ref, h.e_ref = E->e_ref, h.eint_base = E->eint_base,
+	h.vir_base = E->vir_base, h.sched = *E->sched;
+	size_t il = ped_image_size(E->pd), len = sizeof h + il;
+	unsigned char *mine = NULL, *all = NULL;
+	int *cnt = NULL, *dis = NULL, ret = RUN_OK;
+	/* a part beyond MPI's int counts (about 10^7 particles on one rank): no image, the serial layout only */
+	int big = len > INT32_MAX;
+	MPI_Allreduce(MPI_IN_PLACE, &big, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (big)
+		goto cleanup;
+	mine = malloc(len);
+	int bad = !mine;
+	if (!bad) {
+		memcpy(mine, &h, sizeof h);
+		ped_image_write(E->pd, mine + sizeof h);
+	}
+	int n = bad ? 0 : (int)len;
+	if (E->rank == 0) {
+		cnt = malloc(2 * (size_t)P * sizeof *cnt);
+		bad = bad || !cnt;
+		dis = cnt ? cnt + P : NULL;
+	}
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (bad) {
+		ret = RUN_ENOMEM;
+		goto cleanup;
+	}
+	MPI_Gather(&n, 1, MPI_INT, cnt, 1, MPI_INT, 0, MPI_COMM_WORLD);
+	size_t head = 2 * sizeof(uint64_t) + (size_t)P * sizeof(uint64_t), tot = head;
+	if (E->rank == 0) {
+		for (int r = 0; r < P; r++)
+			tot += (size_t)cnt[r];
+		big = tot - head > INT32_MAX;
+		all = big ? NULL : malloc(tot);
+		bad = !big && !all;
+		for (int r = 0, o = 0; !bad && r < P; o += cnt[r], r++)
+			dis[r] = o;
+	}
+	int flags[2] = {bad, big};
+	MPI_Bcast(flags, 2, MPI_INT, 0, MPI_COMM_WORLD);
+	if (flags[0] || flags[1]) {
+		ret = flags[0] ? RUN_ENOMEM : RUN_OK;
+		goto cleanup;
+	}
+	MPI_Gatherv(mine, n, MPI_BYTE, all ? all + head : NULL, cnt, dis, MPI_BYTE, 0, MPI_COMM_WORLD);
+	if (E->rank == 0) {
+		uint64_t u[2] = {IMG_MAGIC, (uint64_t)P};
+		memcpy(all, u, sizeof u);
+		for (int r = 0; r < P; r++) {
+			uint64_t l = (uint64_t)cnt[r];
+			memcpy(all + sizeof u + (size_t)r * sizeof l, &l, sizeof l);
+		}
+		*out = all, *outlen = tot;
+		all = NULL;
+	}
+cleanup:
+	free(mine);
+	free(all);
+	free(cnt);
+	return ret;
+}
+
+/* Rank 0: whether blob (len bytes) is an image of P ranks; rank r's part in
+ * parts[r] (offset), lens[r]. */
+static int image_parts(const unsigned char *blob, size_t len, int P, size_t *off, size_t *lens)
+{
+	uint64_t u[2];
+	size_t head = 2 * sizeof(uint64_t) + (size_t)P * sizeof(uint64_t);
+	if (!blob || len < sizeof u)
+		return 0;
+	memcpy(u, blob, sizeof u);
+	if (u[0] != IMG_MAGIC || u[1] != (uint64_t)P || len < head)
+		return 0;
+	size_t o = head;
+	for (int r = 0; r < P; r++) {
+		uint64_t l;
+		memcpy(&l, blob + sizeof u + (size_t)r * sizeof l, sizeof l);
+		if (l < sizeof(er_img_t) || l > len - o || l > INT32_MAX)
+			return 0;
+		off[r] = o, lens[r] = (size_t)l;
+		o += (size_t)l;
+	}
+	return o == len;
+}
+
 /* A checkpoint of the present state in the serial layout, written by rank 0
  * through o->save (collective). RUN_OK, RUN_ENOMEM, RUN_EMIT (save failed). */
 static int write_ckpt(er_t *E, const edrun_opts_t *o, const run_state_t *st, char *msg, size_t msglen)
@@ -394,6 +505,16 @@ static int write_ckpt(er_t *E, const edrun_opts_t *o, const run_state_t *st, cha
 	int ret = reduce(E, &sm);
 	if (ret != RUN_OK || (ret = gather(E, &pos, &vel, &tlast)) != RUN_OK)
 		return ret;
+	/* over P > 1 ranks also the core's own state (/ped/image), which a run at
+	 * the same rank count resumes bit for bit */
+	unsigned char *img = NULL;
+	size_t imglen = 0;
+	if (E->size > 1 && (ret = gather_image(E, &img, &imglen)) != RUN_OK) {
+		free(pos);
+		free(vel);
+		free(tlast);
+		return ret;
+	}
 	int failed = 0;
 	if (E->rank == 0) {
 		ckst_t c = {.t = E->t, .t_mark = E->t_mark, .eint = sm.eint_part, .virial = sm.virial,
@@ -401,14 +522,68 @@ static int write_ckpt(er_t *E, const edrun_opts_t *o, const run_state_t *st, cha
 		            .coll_mark = E->coll_mark, .st = *st};
 		c.st.wall_before = E->wall_before + MPI_Wtime() - E->t0;
 		run_t *r = as_serial(E->s, pos, vel, tlast, &c, msg, msglen);
-		failed = !r ? 1 : (o->save && o->save(r, o->save_ctx) != 0) ? 2 : 0;
+		failed = !r || (img && run_extra_set(r, img, imglen) != RUN_OK) ? 1
+		         : (o->save && o->save(r, o->save_ctx) != 0) ? 2 : 0;
 		run_destroy(r);
 	}
 	MPI_Bcast(&failed, 1, MPI_INT, 0, MPI_COMM_WORLD);
+	free(img);
 	free(pos);
 	free(vel);
 	free(tlast);
 	return failed == 1 ? RUN_ENOMEM : failed == 2 ? RUN_EMIT : RUN_OK;
+}
+
+/* Resume from the checkpoint's core image when it is one of this rank
+ * count at time t0 (rank 0 decides and scatters the parts). Collective.
+ * 1 loaded on every rank (E->from_image, E->img set), 0 no image (pd
+ * untouched), -1 some rank failed (pd must be rebuilt). */
+static int load_image(er_t *E, const edrun_opts_t *o, ped_t *pd, double t0)
+{
+	const int P = E->size;
+	size_t *off = NULL, *lens = NULL, blen = 0;
+	const unsigned char *blob = NULL;
+	int *cnt = NULL, *dis = NULL, ok = 0, n = 0, ret = 0;
+	unsigned char *mine = NULL;
+	if (E->rank == 0) {
+		off = malloc((size_t)P * sizeof *off);
+		lens = malloc((size_t)P * sizeof *lens);
+		cnt = malloc(2 * (size_t)P * sizeof *cnt);
+		blob = o->resume ? run_extra(o->resume, &blen) : NULL;
+		ok = off && lens && cnt && image_parts(blob, blen, P, off, lens);
+		dis = cnt ? cnt + P : NULL;
+		for (int r = 0; ok && r < P; r++)
+			cnt[r] = (int)lens[r];
+		for (int r = 0; ok && r < P; r++) {
+			if (off[r] - off[0] > INT32_MAX)
+				ok = 0;
+			else
+				dis[r] = (int)(off[r] - off[0]);
+		}
+	}
+	MPI_Bcast(&ok, 1, MPI_INT, 0, MPI_COMM_WORLD);
+	if (!ok)
+		goto cleanup;
+	MPI_Scatter(cnt, 1, MPI_INT, &n, 1, MPI_INT, 0, MPI_COMM_WORLD);
+	mine = malloc(n > 0 ? (size_t)n : 1);
+	int bad = !mine;
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	if (bad) {
+		ret = -1;
+		goto cleanup;
+	}
+	MPI_Scatterv(E->rank == 0 ? blob + off[0] : NULL, cnt, dis, MPI_BYTE, mine, n, MPI_BYTE, 0, MPI_COMM_WORLD);
+	memcpy(&E->img, mine, sizeof E->img);
+	bad = E->img.t != t0 || ped_image_load(pd, mine + sizeof E->img, (size_t)n - sizeof E->img) != PED_OK;
+	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+	ret = bad ? -1 : 1;
+	E->from_image = ret == 1;
+cleanup:
+	free(mine);
+	free(off);
+	free(lens);
+	free(cnt);
+	return ret;
 }
 
 /* Rank 0 builds the serial run's initial state (or takes a resumed run's)
@@ -462,7 +637,18 @@ static ped_t *setup(er_t *E, const edrun_opts_t *o, ckst_t *c, int *err, char *m
 	ped_grid(&p, s->count);
 	int perr = PED_OK;
 	pd = ped_create(&p, rank, (size_t)s->count, &perr);
-	if (pd)
+	/* a checkpoint of a split run at this rank count holds the core's own
+	 * state: load it (bit for bit the uninterrupted run); otherwise, or if
+	 * any rank cannot, the serial state at the checkpoint time */
+	int use_img = 0;
+	if (pd && o->resumed && E->size > 1)
+		use_img = load_image(E, o, pd, c->t);
+	if (use_img < 0) {   /* a rank's load failed half-way: start again from a fresh core */
+		ped_destroy(pd);
+		pd = ped_create(&p, rank, (size_t)s->count, &perr);
+		use_img = 0;
+	}
+	if (pd && !use_img)
 		perr = ped_load_at(pd, s->count, pos, vel, tlast, c->t);
 	bad = perr != PED_OK;
 	MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
@@ -489,6 +675,12 @@ static ped_t *setup(er_t *E, const edrun_opts_t *o, ckst_t *c, int *err, char *m
 		E->tc_base = c->tc_elastic;
 		E->ev_base = c->events;
 		E->wall_before = c->wall_before;
+	}
+	if (E->from_image) {   /* the interval bookkeeping of the uninterrupted run */
+		E->t_mark = E->img.t_mark, E->t_ref = E->img.t_ref, E->e_ref = E->img.e_ref;
+		E->eint_base = E->img.eint_base, E->vir_base = E->img.vir_base, E->coll_mark = E->img.coll_mark;
+		E->coll_base = E->img.coll_base, E->tc_base = E->img.tc_base, E->ev_base = E->img.ev_base;
+		E->img_sched = E->img.sched;
 	}
 cleanup:
 	free(pos);
@@ -574,6 +766,10 @@ int edrun_run(const scene_t *s, int rank, int size, const edrun_opts_t *o, run_e
 	ped_sched_t sched;
 	ped_sched_init(&sched, t_until, sync_dt);
 	sched.balance = s->balance;   /* run.balance "events": load balancing at syncs */
+	if (E.from_image) {           /* the uninterrupted run's schedule: interval, window, statistics */
+		sched = E.img_sched;
+		sched.balance = s->balance;
+	}
 	E.sched = &sched;
 	if (size > 1 && size <= RUN_RANKS_MAX) {
 		E.rank_ev = calloc((size_t)size, sizeof *E.rank_ev);

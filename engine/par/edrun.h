@@ -44,7 +44,11 @@
  *   engine fresh from positions and velocities with its clock's epoch at the
  *   checkpoint time; counters, TC times, the interval accumulators and the
  *   schedule set as fields), so that a serial run or a split run at any rank
- *   count resumes it; after a stop the summary has the totals now
+ *   count resumes it; over P > 1 ranks the run also carries (run_extra_set())
+ *   every rank's core state (ped_image_write()) and the driver's interval
+ *   bookkeeping and schedule, from which o->resumed at the same rank count
+ *   continues bit for bit (other rank counts: the serial state);
+ *   after a stop the summary has the totals now
  *   (status interrupted) and RUN_STOPPED is returned, as run_go().
  *   Without o->checkpoints, *stop (rank 0's, reduced with every round of the
  *   core) ends the run at the core's next sync with a last progress record

@@ -1705,3 +1705,154 @@ cleanup:
 		*st = s.st;
 	return rc;
 }
+
+/* ---- the core's own state for a checkpoint (same rank count) ---------------- */
+
+#define PED_IMAGE_MAGIC 0x31474d4944455000ULL   /* "\0PEDIMG1" */
+
+typedef struct {
+	uint64_t magic, rank, ranks, cap, ncells, nheld, nfree;
+} img_head_t;
+
+typedef struct {
+	uint32_t slot;
+	int32_t queued;     /* in the calendar */
+	rec_t rec;
+	pev_t ev;
+} img_rec_t;
+
+static void img_put(unsigned char **w, const void *x, size_t n)
+{
+	if (*w)
+		memcpy(*w, x, n);
+	if (*w)
+		*w += n;
+}
+
+/* Writes the image to buf (NULL: only counts); returns its size. */
+static size_t image_emit(const ped_t *pd, unsigned char *buf)
+{
+	const int P = pd->p.ranks;
+	img_head_t h = {.magic = PED_IMAGE_MAGIC, .rank = (uint64_t)pd->rank, .ranks = (uint64_t)P,
+	                .cap = pd->cap, .ncells = pd->ncells};
+	size_t seen = 0;
+	for (size_t i = 0; i < pd->cap; i++)
+		h.nheld += pd->rec[i].own >= 0;
+	for (size_t k = 0; k < pd->ncells; k++)
+		seen += pd->role[k] != R_FOREIGN;
+	h.nfree = pd->cap - h.nheld;
+	size_t size = sizeof h + (size_t)(P + 1) * sizeof(uint64_t) + sizeof pd->s + sizeof pd->tref +
+	              2 * sizeof(uint64_t) + seen * (sizeof(int32_t) + sizeof(uint32_t)) + h.nheld * sizeof(img_rec_t) +
+	              h.nfree * sizeof(uint32_t);
+	if (!buf)
+		return size;
+	unsigned char *w = buf;
+	img_put(&w, &h, sizeof h);
+	img_put(&w, decomp_bounds(pd->dc), (size_t)(P + 1) * sizeof(uint64_t));
+	img_put(&w, &pd->s, sizeof pd->s);
+	img_put(&w, &pd->tref, sizeof pd->tref);
+	img_put(&w, &pd->events_done, sizeof pd->events_done);
+	img_put(&w, &pd->win0, sizeof pd->win0);
+	for (size_t k = 0; k < pd->ncells; k++)
+		if (pd->role[k] != R_FOREIGN) {
+			img_put(&w, &pd->head[k], sizeof pd->head[k]);
+			img_put(&w, &pd->cev[k], sizeof pd->cev[k]);
+		}
+	for (size_t i = 0; i < pd->cap; i++)
+		if (pd->rec[i].own >= 0) {
+			img_rec_t x;
+			memset(&x, 0, sizeof x);
+			x.slot = (uint32_t)i;
+			x.queued = pd->hpos[i] >= 0;
+			x.rec = pd->rec[i];
+			x.ev = pd->ev[i];
+			img_put(&w, &x, sizeof x);
+		}
+	for (int32_t f = pd->s.free_head; f >= 0; f = pd->rec[f].next) {
+		uint32_t u = (uint32_t)f;
+		img_put(&w, &u, sizeof u);
+	}
+	return size;
+}
+
+size_t ped_image_size(const ped_t *pd)
+{
+	return image_emit(pd, NULL);
+}
+
+size_t ped_image_write(const ped_t *pd, unsigned char *buf)
+{
+	return image_emit(pd, buf);
+}
+
+static int img_get(const unsigned char **r, const unsigned char *end, void *x, size_t n)
+{
+	if ((size_t)(end - *r) < n)
+		return -1;
+	memcpy(x, *r, n);
+	*r += n;
+	return 0;
+}
+
+int ped_image_load(ped_t *pd, const unsigned char *buf, size_t len)
+{
+	const int P = pd->p.ranks;
+	const unsigned char *r = buf, *end = buf + len;
+	img_head_t h;
+	uint64_t *b = malloc((size_t)(P + 1) * sizeof *b);
+	int rc = PED_EINVAL;
+	if (!b)
+		return PED_ENOMEM;
+	if (img_get(&r, end, &h, sizeof h) || h.magic != PED_IMAGE_MAGIC || h.rank != (uint64_t)pd->rank ||
+	    h.ranks != (uint64_t)P || h.cap != pd->cap || h.ncells != pd->ncells || h.nheld + h.nfree != pd->cap ||
+	    img_get(&r, end, b, (size_t)(P + 1) * sizeof *b) || decomp_set_bounds(pd->dc, b) != DECOMP_OK)
+		goto cleanup;
+	if ((rc = build_roles(pd)) != PED_OK)
+		goto cleanup;
+	rc = PED_EINVAL;
+	scal_t s;
+	if (img_get(&r, end, &s, sizeof s) || img_get(&r, end, &pd->tref, sizeof pd->tref) ||
+	    img_get(&r, end, &pd->events_done, sizeof pd->events_done) || img_get(&r, end, &pd->win0, sizeof pd->win0))
+		goto cleanup;
+	for (size_t k = 0; k < pd->ncells; k++) {
+		pd->head[k] = -1;
+		pd->cev[k] = 0;
+		if (pd->role[k] != R_FOREIGN &&
+		    (img_get(&r, end, &pd->head[k], sizeof pd->head[k]) || img_get(&r, end, &pd->cev[k], sizeof pd->cev[k])))
+			goto cleanup;
+	}
+	for (size_t i = 0; i < pd->cap; i++) {
+		pd->rec[i].own = -1;
+		pd->rec[i].next = -1;
+		pd->hpos[i] = -1;
+	}
+	pd->s = s;
+	pd->s.hn = 0;
+	pd->s.nlog = 0;   /* the collision log (ped_log_on(), tests) is not in the image: it starts again here */
+	for (uint64_t q = 0; q < h.nheld; q++) {
+		img_rec_t x;
+		if (img_get(&r, end, &x, sizeof x) || x.slot >= pd->cap || x.rec.own < 0 || pd->rec[x.slot].own >= 0)
+			goto cleanup;
+		pd->rec[x.slot] = x.rec;
+		pd->ev[x.slot] = x.ev;
+		if (x.queued && x.rec.own == 1)
+			schedule(pd, (int32_t)x.slot);
+	}
+	int32_t *link = &pd->s.free_head;
+	for (uint64_t q = 0; q < h.nfree; q++) {
+		uint32_t u;
+		if (img_get(&r, end, &u, sizeof u) || u >= pd->cap || pd->rec[u].own >= 0)
+			goto cleanup;
+		*link = (int32_t)u;
+		link = &pd->rec[u].next;
+	}
+	*link = -1;
+	if (r != end || pd->s.hn != s.hn)
+		goto cleanup;
+	ped_outbox_clear(pd);
+	ped_save(pd);
+	rc = PED_OK;
+cleanup:
+	free(b);
+	return rc;
+}

@@ -110,6 +110,17 @@ int ped_load(ped_t *pd, uint64_t n, const double *pos, const double *vel);
  * doubles, -INFINITY: none): a resumed run. */
 int ped_load_at(ped_t *pd, uint64_t n, const double *pos, const double *vel, const double *tlast, double t0);
 
+/* The rank's whole core state at a sync (particle records and their slots,
+ * cell lists, calendar entries, counters, bounds, the balance window), as
+ * plain bytes for a checkpoint: ped_image_load() into a fresh ped_t of the
+ * same scene, rank and rank count continues bit for bit as the saved one
+ * would (instead of ped_load_at()). Native byte order. Returns the size;
+ * load: PED_OK, PED_EINVAL (not this rank's image of this system),
+ * PED_ENOMEM. */
+size_t ped_image_size(const ped_t *pd);
+size_t ped_image_write(const ped_t *pd, unsigned char *buf);
+int ped_image_load(ped_t *pd, const unsigned char *buf, size_t len);
+
 /* Round steps (see the contract). */
 int ped_inbox(ped_t *pd, const ped_msg_t *m, size_t n);   /* PED_OK or PED_EFULL */
 /* Process the own events before the barrier, border events only up to the
