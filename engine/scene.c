@@ -1640,6 +1640,22 @@ static int check_obstacles(ctx_t *c, const scene_t *s)
 /* Reservoir walls (method ed): what the inlet supports, and the particle
  * slots (particles.capacity, docs/scene.md). Without a reservoir the
  * capacity is the count and the key is refused. */
+/* A wall's optional composition (boundaries.AXIS.END.composition of reservoir and dispenser walls): one
+ * weight per species of a mixture. 0 or SCENE_EINVAL naming the key. */
+static int check_composition(ctx_t *c, const scene_t *s, const scene_wall_t *w, int a, const char *end)
+{
+	char path[PATHLEN];
+	if (!w->n_composition)
+		return 0;
+	snprintf(path, sizeof path, "boundaries.%s.%s.composition", axis_names[a], end);
+	if (s->n_species < 2)
+		return fail(c, path, "needs particles.species with two or more species (the weights are per species)");
+	if (w->n_composition != s->n_species)
+		return fail(c, path, "has %d weights for %d species (one per species, in the order of "
+		            "particles.species)", w->n_composition, s->n_species);
+	return 0;
+}
+
 static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 {
 	char path[PATHLEN];
@@ -1678,15 +1694,9 @@ static int check_reservoirs(ctx_t *c, json_t *v, scene_t *s)
 			}
 			nmax = fmax(nmax, w->volume_fraction / (w->type == SCENE_WALL_DISPENSER && s->n_species > 0 ?
 			                                        scene_dispenser_volume(s, w) : vp));
-			if (w->type == SCENE_WALL_RESERVOIR && w->n_composition) {
-				snprintf(path, sizeof path, "boundaries.%s.%s.composition", axis_names[a], k ? "upper" : "lower");
-				if (s->n_species < 2)
-					return fail(c, path, "needs particles.species with two or more species (the weights are "
-					            "per species)");
-				if (w->n_composition != s->n_species)
-					return fail(c, path, "has %d weights for %d species (one per species, in the order of "
-					            "particles.species)", w->n_composition, s->n_species);
-			}
+			int rc = w->type == SCENE_WALL_RESERVOIR ? check_composition(c, s, w, a, k ? "upper" : "lower") : 0;
+			if (rc)
+				return rc;
 			for (int q = 0; q < s->n_species && w->type == SCENE_WALL_RESERVOIR; q++)
 				if (s->species[q].radius_hi > 0) {
 					snprintf(path, sizeof path, "particles.species[%d].radius_range", q);
@@ -1738,15 +1748,9 @@ static int check_streams(ctx_t *c, const scene_t *s)
 			const double sg = k ? -1.0 : 1.0;   /* inward normal along the axis */
 			if (w->type == SCENE_WALL_DISPENSER) {
 				snprintf(path, sizeof path, "boundaries.%s.%s", axis_names[a], end);
-				if (w->n_composition) {
-					snprintf(path, sizeof path, "boundaries.%s.%s.composition", axis_names[a], end);
-					if (s->n_species < 2)
-						return fail(c, path, "needs particles.species with two or more species (the weights are "
-						            "per species)");
-					if (w->n_composition != s->n_species)
-						return fail(c, path, "has %d weights for %d species (one per species, in the order of "
-						            "particles.species)", w->n_composition, s->n_species);
-				}
+				int rc = check_composition(c, s, w, a, end);
+				if (rc)
+					return rc;
 				if (!(sg * w->velocity[a] >= 0)) {
 					snprintf(path, sizeof path, "boundaries.%s.%s.velocity[%d]", axis_names[a], end, a);
 					return fail(c, path, "the piston moves into the box: the component along the inward normal must be "

@@ -3024,30 +3024,42 @@ static void inlet_admit(struct ed *ed, uint32_t i, int w, double sw)
 	cal_update(ed, i, ev_time(ed, i));
 }
 
+/* An entering particle's centre r and velocity v at wall w (thermal speed s, radius rad): uniform over the
+ * wall's face along the side axes (the scene's box there, internal: + org), a radius inside the wall along
+ * its axis, Maxwellian along the face about the stream velocity and flux-weighted along the normal. A walled
+ * side axis takes only centres a radius clear of its walls (plo/phi, the one-species radius; a mixture's
+ * particle, mixed, its own radius rad): 1 (a clash) for one that is not, else 0. */
+static int inlet_draw(struct ed *ed, int w, double s, double rad, int mixed, double r[3], double v[3])
+{
+	const int a = w >> 1, D = ed->dim;
+	const double sg = (w & 1) ? -1.0 : 1.0;
+	int clash = 0;
+	for (int k = 0; k < D; k++) {
+		if (k == a)
+			continue;
+		const double lo = ed->periodic[k] ? 0.0 : ed->wall[2 * k].rest;
+		const double hi = ed->periodic[k] ? ed->L[k] : ed->wall[2 * k + 1].rest;
+		r[k] = lo + rng_uniform(&ed->irng) * (hi - lo);
+		const double plo = mixed ? ed->plo[k] - ed->radius + rad : ed->plo[k];
+		const double phi = mixed ? ed->phi[k] + ed->radius - rad : ed->phi[k];
+		if (!ed->periodic[k] && (r[k] < plo || r[k] > phi))
+			clash = 1;
+		v[k] = ed->in_u[w][k] + s * rng_gauss(&ed->irng);
+	}
+	r[a] = ed->wall[w].rest + sg * rad;
+	v[a] = sg * inlet_normal(&ed->irng, ed->in_a[w], s);
+	return clash;
+}
+
 static int inlet_enter(struct ed *ed, int w)
 {
 	if (ed->mix)
 		return inlet_enter_mix(ed, w);
 	if (ed->n_gone == 0)
 		return ED_FULL;
-	const int a = w >> 1, D = ed->dim;
-	const double sg = (w & 1) ? -1.0 : 1.0, s = ed->in_s[w];
+	const double s = ed->in_s[w];
 	double r[3] = {0.0, 0.0, 0.0}, v[3] = {0.0, 0.0, 0.0};
-	int clash = 0;
-	for (int k = 0; k < D; k++) {
-		if (k == a)
-			continue;
-		/* the scene's box on this axis (internal: + org); a walled side
-		 * axis: only centres a radius clear of its walls */
-		const double lo = ed->periodic[k] ? 0.0 : ed->wall[2 * k].rest;
-		const double hi = ed->periodic[k] ? ed->L[k] : ed->wall[2 * k + 1].rest;
-		r[k] = lo + rng_uniform(&ed->irng) * (hi - lo);
-		if (!ed->periodic[k] && (r[k] < ed->plo[k] || r[k] > ed->phi[k]))
-			clash = 1;
-		v[k] = ed->in_u[w][k] + s * rng_gauss(&ed->irng);
-	}
-	r[a] = ed->wall[w].rest + sg * ed->radius;
-	v[a] = sg * inlet_normal(&ed->irng, ed->in_a[w], s);
+	int clash = inlet_draw(ed, w, s, ed->radius, 0, r, v);
 	const uint32_t i = ed->freei[ed->n_gone - 1];
 	if (!clash)
 		clash = ed->ops->enter(ed, i, r, v);
@@ -3059,7 +3071,6 @@ static int inlet_enter(struct ed *ed, int w)
 	ed->in_next[w] += inlet_wait(ed, w);
 	return ED_OK;
 }
-
 
 /* inlet_enter() for a mixture: first the species (one uniform: species k
  * with probability F_k / sum F, in_cum), then as inlet_enter() at its
@@ -3080,22 +3091,9 @@ static int inlet_enter_mix(struct ed *ed, int w)
 		return ED_FULL;
 	}
 	const uint32_t i = ed->freei[x->fs_off[sp] + x->fs_n[sp] - 1];
-	const int a = w >> 1, D = ed->dim;
-	const double sg = (w & 1) ? -1.0 : 1.0, s = ed->in_sk[w][sp], rad = ed->prad[i];
+	const double s = ed->in_sk[w][sp], rad = ed->prad[i];
 	double r[3] = {0.0, 0.0, 0.0}, v[3] = {0.0, 0.0, 0.0};
-	int clash = 0;
-	for (int k = 0; k < D; k++) {
-		if (k == a)
-			continue;
-		const double lo = ed->periodic[k] ? 0.0 : ed->wall[2 * k].rest;
-		const double hi = ed->periodic[k] ? ed->L[k] : ed->wall[2 * k + 1].rest;
-		r[k] = lo + rng_uniform(&ed->irng) * (hi - lo);
-		if (!ed->periodic[k] && (r[k] < ed->plo[k] - ed->radius + rad || r[k] > ed->phi[k] + ed->radius - rad))
-			clash = 1;
-		v[k] = ed->in_u[w][k] + s * rng_gauss(&ed->irng);
-	}
-	r[a] = ed->wall[w].rest + sg * rad;
-	v[a] = sg * inlet_normal(&ed->irng, ed->in_a[w], s);
+	int clash = inlet_draw(ed, w, s, rad, 1, r, v);
 	if (!clash)
 		clash = ed->ops->enter(ed, i, r, v);
 	if (clash) {
